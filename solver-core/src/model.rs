@@ -1,0 +1,58 @@
+//! What a model is: the residual `F(x, ẋ, t) = 0` of Eq. 12 and a little metadata.
+//!
+//! A new model is one small implementation of [`DaeModel`]: the residual, its two
+//! partial derivatives (the exact Jacobian), which rows are algebraic (they get the
+//! scaling ρ of Sec. 3.1.1), where the inputs `u` sit in `x`, the consistent state
+//! at rest, and the output `z`. The schemes never look inside a model.
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::error::Result;
+use crate::scalar::Real;
+
+/// The partial derivatives `∂F/∂x` and `∂F/∂ẋ` of a model's residual.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Partials<T: Real, const N: usize> {
+    /// `∂F/∂x`.
+    pub dx: SMatrix<T, N, N>,
+    /// `∂F/∂ẋ` (singular for a DAE).
+    pub dxdot: SMatrix<T, N, N>,
+}
+
+/// A DAE `F(x, ẋ, t) = 0` (Eq. 12) with `N` unknowns, `NU` of them inputs.
+///
+/// `x` holds every unknown: positions, velocities, reaction forces and the inputs.
+pub trait DaeModel<T: Real, const N: usize, const NU: usize> {
+    /// Names of the unknowns, in order (for reports and CSV headers).
+    const UNKNOWNS: [&'static str; N];
+    /// `true` for the algebraic rows of `F` (no `ẋ` in them): scaled by `ρ = h^-p`.
+    const ALGEBRAIC: [bool; N];
+    /// Position in `x` of each input `u_i`.
+    const INPUTS: [usize; NU];
+    /// Smallest trajectory smoothness n for which the inputs are continuous.
+    const MIN_SMOOTHNESS: usize;
+
+    /// Everything the residual needs that depends on `t` only (the desired output
+    /// and its derivatives). Computed once per stage, reused by every Newton iteration.
+    type Sample: Copy;
+
+    /// Evaluates the time-dependent part at `t`.
+    fn sample(&self, t: T) -> Self::Sample;
+
+    /// The residual `F(x, ẋ, t)`.
+    fn residual(&self, x: &SVector<T, N>, xdot: &SVector<T, N>, s: &Self::Sample) -> SVector<T, N>;
+
+    /// The exact partial derivatives of the residual.
+    fn partials(&self, x: &SVector<T, N>, xdot: &SVector<T, N>, s: &Self::Sample) -> Partials<T, N>;
+
+    /// The consistent state at rest at time `t` (`ẋ = 0`), where the trajectory rests.
+    fn rest_state(&self, t: T) -> Result<SVector<T, N>>;
+
+    /// The system output `z` (Eq. 3) for state `x`.
+    fn output(&self, x: &SVector<T, N>, s: &Self::Sample) -> SVector<T, NU>;
+
+    /// The inputs `u` picked out of `x`.
+    fn inputs(x: &SVector<T, N>) -> SVector<T, NU> {
+        SVector::<T, NU>::from_fn(|i, _| Self::INPUTS.get(i).and_then(|&j| x.get(j)).copied().unwrap_or_else(T::zero))
+    }
+}

@@ -1,0 +1,185 @@
+//! BDF k = 1..6 (Eq. 16, Tab. 2); k = 1 is the implicit Euler.
+//!
+//! Each step solves `F(x_n, (1/h) Σ_{i=0..k} α_i x_{n−i}, t_n) = 0` for `x_n`.
+//!
+//! ## Start-up
+//!
+//! BDF needs the k values before the first step, consistent of order k + 1
+//! (Brenan et al., ref. [16]). The inverse model starts at rest: the desired
+//! output rests before its move, so the exact solution is the constant rest state
+//! for all earlier times, and the history is filled with it — exact, hence
+//! consistent of any order. A start time at which the trajectory moves is refused
+//! ([`Error::NotAtRest`](crate::Error::NotAtRest)) rather than started with a wrong history.
+
+use core::marker::PhantomData;
+
+use heapless::HistoryBuf;
+use nalgebra::{Const, DimMin, SMatrix, SVector};
+
+use crate::error::{Error, Result};
+use crate::model::DaeModel;
+use crate::newton::{row_scaling, Newton, StepSystem};
+use crate::scalar::{c, to_f64, Real};
+use crate::schemes::{SolverSettings, StepReport};
+
+/// Largest supported k (BDF is not zero-stable beyond 6).
+pub const MAX_K: usize = 6;
+
+/// `α_0 … α_k` of Tab. 2, one row per k.
+#[rustfmt::skip]
+pub const ALPHA: [[f64; MAX_K + 1]; MAX_K] = [
+    [1.0,           -1.0, 0.0,        0.0,         0.0,        0.0,        0.0],
+    [3.0 / 2.0,     -2.0, 1.0 / 2.0,  0.0,         0.0,        0.0,        0.0],
+    [11.0 / 6.0,    -3.0, 3.0 / 2.0,  -1.0 / 3.0,  0.0,        0.0,        0.0],
+    [25.0 / 12.0,   -4.0, 3.0,        -4.0 / 3.0,  1.0 / 4.0,  0.0,        0.0],
+    [137.0 / 60.0,  -5.0, 5.0,        -10.0 / 3.0, 5.0 / 4.0,  -1.0 / 5.0, 0.0],
+    [49.0 / 20.0,   -6.0, 15.0 / 2.0, -20.0 / 3.0, 15.0 / 4.0, -6.0 / 5.0, 1.0 / 6.0],
+];
+
+/// The k-step BDF integrator for a model `M` with `N` unknowns and `NU` inputs.
+#[derive(Debug, Clone)]
+pub struct Bdf<T: Real, M, const N: usize, const NU: usize> {
+    k: usize,
+    h: T,
+    t0: T,
+    steps: u64,
+    /// `α_0 … α_k` in T.
+    alpha: [T; MAX_K + 1],
+    /// Predictor: the polynomial through the last k values, extrapolated to `t_n`.
+    predictor: [T; MAX_K],
+    scale: SVector<T, N>,
+    /// `x_{n−1}, x_{n−2}, …` (newest last).
+    history: HistoryBuf<SVector<T, N>, MAX_K>,
+    newton: Newton<T, N>,
+    model: PhantomData<fn() -> M>,
+}
+
+impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> Bdf<T, M, N, NU>
+where
+    Const<N>: DimMin<Const<N>, Output = Const<N>>,
+{
+    /// A k-step BDF starting at rest at `t0`.
+    pub fn new(model: &M, settings: &SolverSettings, k: usize, t0: T) -> Result<Self> {
+        settings.validate()?;
+        let row = k.checked_sub(1).and_then(|r| ALPHA.get(r)).ok_or(Error::InvalidSetting { name: "bdf_k", value: k as f64 })?;
+        let h = c::<T>(settings.h);
+        let x0 = model.rest_state(t0)?;
+        let mut predictor = [T::zero(); MAX_K];
+        for (i, p) in predictor.iter_mut().take(k).enumerate() {
+            // Extrapolation through k equidistant points: (−1)^(i) C(k, i+1).
+            let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+            *p = c(sign * binomial(k, i + 1));
+        }
+        Ok(Self {
+            k,
+            h,
+            t0,
+            steps: 0,
+            alpha: row.map(c),
+            predictor,
+            scale: row_scaling(&M::ALGEBRAIC, h, settings.scaling_power),
+            history: HistoryBuf::new_with(x0),
+            newton: Newton::new(settings.jacobian, settings.newton)?,
+            model: PhantomData,
+        })
+    }
+
+    /// The number of steps k.
+    #[must_use]
+    pub fn k(&self) -> usize {
+        self.k
+    }
+
+    /// Time of the newest solution value.
+    #[must_use]
+    pub fn time(&self) -> T {
+        self.t0 + c::<T>(self.steps as f64) * self.h
+    }
+
+    /// The newest solution value.
+    #[must_use]
+    pub fn state(&self) -> SVector<T, N> {
+        self.history.recent().copied().unwrap_or_else(SVector::zeros)
+    }
+
+    /// Advances one step. On error the integrator stays where it was.
+    pub fn step(&mut self, model: &M) -> Result<StepReport<T, N, NU>> {
+        let t = self.t0 + c::<T>((self.steps + 1) as f64) * self.h;
+        let mut past = SVector::<T, N>::zeros();
+        let mut guess = SVector::<T, N>::zeros();
+        let newest_first = self.history.oldest_ordered().rev().take(self.k);
+        for ((x, a), p) in newest_first.zip(self.alpha.iter().skip(1)).zip(self.predictor.iter()) {
+            past += x * *a;
+            guess += x * *p;
+        }
+        let system = BdfSystem {
+            model,
+            sample: model.sample(t),
+            past,
+            alpha0: self.alpha.first().copied().unwrap_or_else(T::one),
+            inv_h: T::one() / self.h,
+            scale: &self.scale,
+            t: to_f64(t),
+        };
+        let (x, stats) = self.newton.solve(&system, guess)?;
+        self.history.write(x);
+        self.steps += 1;
+        Ok(StepReport { t, u: M::inputs(&x), x, stats })
+    }
+}
+
+/// One BDF step's system: `G(ξ) = S·F(ξ, (α_0 ξ + Σ α_i x_{n−i})/h, t_n)`.
+struct BdfSystem<'a, T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> {
+    model: &'a M,
+    sample: M::Sample,
+    past: SVector<T, N>,
+    alpha0: T,
+    inv_h: T,
+    scale: &'a SVector<T, N>,
+    t: f64,
+}
+
+impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> StepSystem<T, N> for BdfSystem<'_, T, M, N, NU> {
+    fn residual(&self, xi: &SVector<T, N>) -> SVector<T, N> {
+        let xdot = (xi * self.alpha0 + self.past) * self.inv_h;
+        self.model.residual(xi, &xdot, &self.sample).component_mul(self.scale)
+    }
+
+    fn jacobian(&self, xi: &SVector<T, N>) -> SMatrix<T, N, N> {
+        let xdot = (xi * self.alpha0 + self.past) * self.inv_h;
+        let p = self.model.partials(xi, &xdot, &self.sample);
+        let mut j = p.dx + p.dxdot * (self.alpha0 * self.inv_h);
+        scale_rows(&mut j, self.scale);
+        j
+    }
+
+    fn time(&self) -> f64 {
+        self.t
+    }
+}
+
+/// Multiplies row i of `m` by `scale[i]`.
+pub(crate) fn scale_rows<T: Real, const R: usize, const C: usize>(m: &mut SMatrix<T, R, C>, scale: &SVector<T, R>) {
+    for (mut row, s) in m.row_iter_mut().zip(scale.iter()) {
+        row *= *s;
+    }
+}
+
+fn binomial(n: usize, k: usize) -> f64 {
+    (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Consistency: Σ α_i = 0 and Σ α_i·(−i) = 1 (exact for constants and lines).
+    #[test]
+    fn coefficients_are_consistent() {
+        for row in ALPHA {
+            let sum: f64 = row.iter().sum();
+            let first: f64 = row.iter().enumerate().map(|(i, a)| -(i as f64) * a).sum();
+            assert!(sum.abs() < 1e-14 && (first - 1.0).abs() < 1e-14, "{row:?}");
+        }
+    }
+}

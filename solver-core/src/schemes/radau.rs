@@ -1,0 +1,231 @@
+//! The 3-stage Radau IIA scheme of order 5 (Eqs. 13–15, Tab. 1).
+//!
+//! Each step solves, for the stage derivatives `X'_1, X'_2, X'_3`,
+//! `F(x_{n−1} + h Σ_j a_ij X'_j, X'_i, t_{n−1} + c_i h) = 0` (i = 1, 2, 3) — a system of
+//! size `S = 3N` — and sets `x_n = x_{n−1} + h Σ_i b_i X'_i` (Eq. 14). For index-3
+//! problems the algebraic variables (here: the inputs) converge with order
+//! `s − 1 = 2` (Hairer, Lubich & Roche, ref. [17]).
+//!
+//! Tab. 1 as printed has `a_21 = (296 − 169√6)/1800`; the row sum must equal `c_2`,
+//! which holds for `(296 + 169√6)/1800`, the value of Hairer & Wanner used here
+//! (the test `simplifying_conditions_hold` checks it).
+
+use core::marker::PhantomData;
+
+use nalgebra::{Const, DimMin, SMatrix, SVector};
+
+use crate::error::Result;
+use crate::model::DaeModel;
+use crate::newton::{row_scaling, weighted_norm, Newton, StepSystem};
+use crate::scalar::{c, to_f64, Real};
+use crate::schemes::bdf::scale_rows;
+use crate::schemes::{SolverSettings, StepReport};
+
+const SQRT6: f64 = 2.449_489_742_783_178;
+
+/// Nodes `c_i` of Tab. 1.
+pub const C: [f64; 3] = [(4.0 - SQRT6) / 10.0, (4.0 + SQRT6) / 10.0, 1.0];
+
+/// Coefficients `a_ij` of Tab. 1 (with `a_21` corrected, see the module docs).
+#[rustfmt::skip]
+pub const A: [[f64; 3]; 3] = [
+    [(88.0 - 7.0 * SQRT6) / 360.0,     (296.0 - 169.0 * SQRT6) / 1800.0, (-2.0 + 3.0 * SQRT6) / 225.0],
+    [(296.0 + 169.0 * SQRT6) / 1800.0, (88.0 + 7.0 * SQRT6) / 360.0,     (-2.0 - 3.0 * SQRT6) / 225.0],
+    [(16.0 - SQRT6) / 36.0,            (16.0 + SQRT6) / 36.0,            1.0 / 9.0],
+];
+
+/// Weights `b_i` (= the last row of A: the scheme is stiffly accurate).
+pub const B: [f64; 3] = A[2];
+
+/// The Radau IIA integrator; `S` must be `3 * N` (checked at compile time).
+#[derive(Debug, Clone)]
+pub struct Radau<T: Real, M, const N: usize, const NU: usize, const S: usize> {
+    h: T,
+    t0: T,
+    steps: u64,
+    x: SVector<T, N>,
+    /// The last step's stage derivatives, the start of the next step's guess.
+    stage_derivatives: SVector<T, S>,
+    ha: [[T; 3]; 3],
+    hb: [T; 3],
+    /// `E[j][i] = L_i(1 + c_j)`: the last step's collocation polynomial of `x'`,
+    /// extrapolated to this step's nodes, as Newton's initial guess.
+    extrapolation: [[T; 3]; 3],
+    scale: SVector<T, N>,
+    newton: Newton<T, S>,
+    model: PhantomData<fn() -> M>,
+}
+
+impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize> Radau<T, M, N, NU, S>
+where
+    Const<S>: DimMin<Const<S>, Output = Const<S>>,
+{
+    const STAGE_SYSTEM_IS_3N: () = assert!(S == 3 * N, "Radau IIA: S must equal 3 * N");
+
+    /// A Radau IIA integrator starting at rest at `t0`.
+    pub fn new(model: &M, settings: &SolverSettings, t0: T) -> Result<Self> {
+        let () = Self::STAGE_SYSTEM_IS_3N;
+        settings.validate()?;
+        let h = c::<T>(settings.h);
+        let x = model.rest_state(t0)?;
+        let mut extrapolation = [[T::zero(); 3]; 3];
+        for (row, cj) in extrapolation.iter_mut().zip(C) {
+            for (i, e) in row.iter_mut().enumerate() {
+                *e = c(lagrange(i, 1.0 + cj));
+            }
+        }
+        Ok(Self {
+            h,
+            t0,
+            steps: 0,
+            x,
+            stage_derivatives: SVector::zeros(),
+            ha: A.map(|row| row.map(|a| h * c::<T>(a))),
+            hb: B.map(|b| h * c::<T>(b)),
+            extrapolation,
+            scale: row_scaling(&M::ALGEBRAIC, h, settings.scaling_power),
+            newton: Newton::new(settings.jacobian, settings.newton)?,
+            model: PhantomData,
+        })
+    }
+
+    /// Time of the current solution value.
+    #[must_use]
+    pub fn time(&self) -> T {
+        self.t0 + c::<T>(self.steps as f64) * self.h
+    }
+
+    /// The current solution value.
+    #[must_use]
+    pub fn state(&self) -> SVector<T, N> {
+        self.x
+    }
+
+    /// Advances one step. On error the integrator stays where it was.
+    pub fn step(&mut self, model: &M) -> Result<StepReport<T, N, NU>> {
+        let t_prev = self.time();
+        let samples = C.map(|ci| model.sample(t_prev + c::<T>(ci) * self.h));
+        let mut guess = SVector::<T, S>::zeros();
+        for (j, weights) in self.extrapolation.iter().enumerate() {
+            let mut g = SVector::<T, N>::zeros();
+            for (i, w) in weights.iter().enumerate() {
+                g += self.stage_derivatives.fixed_rows::<N>(i * N) * *w;
+            }
+            guess.fixed_rows_mut::<N>(j * N).copy_from(&g);
+        }
+        let t = self.t0 + c::<T>((self.steps + 1) as f64) * self.h;
+        let system = RadauSystem { model, samples, x0: self.x, ha: &self.ha, scale: &self.scale, t: to_f64(t) };
+        let (xi, stats) = self.newton.solve(&system, guess)?;
+        // Eq. 14.
+        let mut x = self.x;
+        for (i, hb) in self.hb.iter().enumerate() {
+            x += xi.fixed_rows::<N>(i * N) * *hb;
+        }
+        self.x = x;
+        self.stage_derivatives = xi;
+        self.steps += 1;
+        Ok(StepReport { t, u: M::inputs(&x), x, stats })
+    }
+}
+
+/// The Lagrange basis polynomial `L_i` on the nodes `C`, at `tau`.
+fn lagrange(i: usize, tau: f64) -> f64 {
+    let ci = C.get(i).copied().unwrap_or(0.0);
+    C.iter().enumerate().filter(|&(m, _)| m != i).fold(1.0, |acc, (_, cm)| acc * (tau - cm) / (ci - cm))
+}
+
+/// One Radau step's system of size 3N (Eq. 13), unknowns the stage derivatives.
+struct RadauSystem<'a, T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> {
+    model: &'a M,
+    samples: [M::Sample; 3],
+    x0: SVector<T, N>,
+    ha: &'a [[T; 3]; 3],
+    scale: &'a SVector<T, N>,
+    t: f64,
+}
+
+impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> RadauSystem<'_, T, M, N, NU> {
+    /// Stage value `X_i = x_{n−1} + h Σ_j a_ij X'_j` and derivative `X'_i`.
+    fn stage<const S: usize>(&self, i: usize, xi: &SVector<T, S>) -> (SVector<T, N>, SVector<T, N>) {
+        let mut x = self.x0;
+        if let Some(row) = self.ha.get(i) {
+            for (j, a) in row.iter().enumerate() {
+                x += xi.fixed_rows::<N>(j * N) * *a;
+            }
+        }
+        (x, xi.fixed_rows::<N>(i * N).into_owned())
+    }
+}
+
+impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize> StepSystem<T, S>
+    for RadauSystem<'_, T, M, N, NU>
+{
+    fn residual(&self, xi: &SVector<T, S>) -> SVector<T, S> {
+        let mut g = SVector::<T, S>::zeros();
+        for (i, sample) in self.samples.iter().enumerate() {
+            let (x, xdot) = self.stage(i, xi);
+            let f = self.model.residual(&x, &xdot, sample).component_mul(self.scale);
+            g.fixed_rows_mut::<N>(i * N).copy_from(&f);
+        }
+        g
+    }
+
+    /// `∂G_i/∂X'_j = S (h a_ij ∂F/∂x + δ_ij ∂F/∂ẋ)` at stage i.
+    fn jacobian(&self, xi: &SVector<T, S>) -> SMatrix<T, S, S> {
+        let mut jac = SMatrix::<T, S, S>::zeros();
+        for (i, (sample, row)) in self.samples.iter().zip(self.ha.iter()).enumerate() {
+            let (x, xdot) = self.stage(i, xi);
+            let p = self.model.partials(&x, &xdot, sample);
+            for (j, a) in row.iter().enumerate() {
+                let mut block = p.dx * *a;
+                if i == j {
+                    block += p.dxdot;
+                }
+                scale_rows(&mut block, self.scale);
+                jac.fixed_view_mut::<N, N>(i * N, j * N).copy_from(&block);
+            }
+        }
+        jac
+    }
+
+    fn time(&self) -> f64 {
+        self.t
+    }
+
+    /// Measured on the stage values: `δX_i = h Σ_j a_ij η_j`, relative to `X_i`.
+    /// (The unknowns are derivatives, whose rounding floor is 1/h larger.)
+    fn increment_norm(&self, eta: &SVector<T, S>, xi: &SVector<T, S>, rtol: f64, atol: f64) -> f64 {
+        (0..3)
+            .map(|i| {
+                let (x, _) = self.stage(i, xi);
+                let mut delta = SVector::<T, N>::zeros();
+                if let Some(row) = self.ha.get(i) {
+                    for (j, a) in row.iter().enumerate() {
+                        delta += eta.fixed_rows::<N>(j * N) * *a;
+                    }
+                }
+                weighted_norm(&delta, &x, rtol, atol)
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// C(3): Σ_j a_ij c_j^(q−1) = c_i^q / q for q = 1, 2, 3; B(5): Σ b_i c_i^(q−1) = 1/q.
+    #[test]
+    fn simplifying_conditions_hold() {
+        for (row, ci) in A.iter().zip(C) {
+            for q in 1..=3 {
+                let lhs: f64 = row.iter().zip(C).map(|(a, cj)| a * cj.powi(q - 1)).sum();
+                assert!((lhs - ci.powi(q) / f64::from(q)).abs() < 1e-14, "C({q}) row {row:?}");
+            }
+        }
+        for q in 1..=5 {
+            let lhs: f64 = B.iter().zip(C).map(|(b, ci)| b * ci.powi(q - 1)).sum();
+            assert!((lhs - 1.0 / f64::from(q)).abs() < 1e-14, "B({q})");
+        }
+    }
+}

@@ -1,0 +1,286 @@
+//! Desired output trajectories `z_d(t)` (the right-hand side of the servo-constraints, Eq. 10/28/34).
+//!
+//! The paper drives both examples with "a four times continuously differentiable
+//! polynomial which smoothly merges into a constant final position". Here that is
+//! the *smooth step* of degree `2n+1`: it goes from 0 to 1 with derivatives 1..n
+//! vanishing at both ends, so the paper's polynomial is `n = 4` (degree 9). Before
+//! the move and after it the output rests.
+//!
+//! Why `n` matters: an index-3 inverse model differentiates the output three
+//! times, and the crane's input needs `z_d⁗`. At the ends of the move the
+//! `(n+1)`-th derivative jumps, which limits every scheme to a low order there
+//! (O(h) for n = 4). A smoother step moves that limit; it is a scene setting.
+//!
+//! Numerics: the value is summed in Bernstein form (all terms positive) and the
+//! derivatives from `S'(τ) = K·τⁿ(1−τ)ⁿ` by Leibniz' rule. Both avoid the large
+//! alternating monomial coefficients that cost digits at high n.
+
+use nalgebra::SVector;
+
+use crate::error::{check_positive, Error, Result};
+use crate::scalar::{c, to_f64, Real};
+
+/// Highest smoothness n supported (degree 2n+1 = 25).
+pub const MAX_SMOOTHNESS: usize = 12;
+const MAX_DEGREE: usize = 2 * MAX_SMOOTHNESS + 1;
+
+/// A desired output trajectory with as many derivatives as the models and references need.
+pub trait Trajectory<T: Real, const NZ: usize> {
+    /// `z_d(t)` and its first `D − 1` time derivatives: element `j` is `d^j z_d / dt^j`.
+    fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, NZ>; D];
+
+    /// The interval `[start, end]` outside of which the trajectory rests.
+    fn active_span(&self) -> (T, T);
+
+    /// Smoothness n: derivatives 1..=n are continuous everywhere (they vanish at the ends).
+    fn smoothness(&self) -> usize;
+}
+
+/// Refuses a time at which the trajectory moves: consistent initial values "at
+/// rest" (and BDF's rest history) only hold where the output rests.
+pub fn ensure_at_rest<T: Real, const NZ: usize, Z: Trajectory<T, NZ>>(z: &Z, t: T) -> Result<()> {
+    let (start, end) = z.active_span();
+    if t <= start || t >= end {
+        Ok(())
+    } else {
+        Err(Error::NotAtRest { t: to_f64(t) })
+    }
+}
+
+/// The unit smooth step `S_n(τ)` of degree `2n+1` on `τ ∈ [0, 1]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SmoothStep {
+    n: usize,
+}
+
+impl SmoothStep {
+    /// A step whose derivatives 1..=n vanish at both ends (`n = 4`: the paper's C4 polynomial).
+    pub fn new(n: usize) -> Result<Self> {
+        if n == 0 || n > MAX_SMOOTHNESS {
+            return Err(Error::ParameterOutOfRange {
+                name: "smoothness",
+                value: n as f64,
+                min: 1.0,
+                max: MAX_SMOOTHNESS as f64,
+            });
+        }
+        Ok(Self { n })
+    }
+
+    /// Smoothness n.
+    #[must_use]
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
+    /// Polynomial degree `2n + 1`.
+    #[must_use]
+    pub fn degree(&self) -> usize {
+        2 * self.n + 1
+    }
+
+    /// `S_n(τ)` and its first `D − 1` derivatives with respect to τ.
+    /// Before the step (τ ≤ 0) it is 0 at rest, after it (τ ≥ 1) 1 at rest.
+    #[must_use]
+    pub fn eval<T: Real, const D: usize>(&self, tau: T) -> [T; D] {
+        let mut out = [T::zero(); D];
+        if tau <= T::zero() {
+            return out;
+        }
+        if tau >= T::one() {
+            if let Some(v) = out.first_mut() {
+                *v = T::one();
+            }
+            return out;
+        }
+        let n = self.n;
+        let degree = self.degree();
+        // Powers τ^i and (1−τ)^i for i = 0..=degree.
+        let s = T::one() - tau;
+        let mut pt = [T::one(); MAX_DEGREE + 1];
+        let mut ps = [T::one(); MAX_DEGREE + 1];
+        for i in 1..=degree {
+            if let (Some(&prev_t), Some(&prev_s)) = (pt.get(i - 1), ps.get(i - 1)) {
+                if let (Some(cur_t), Some(cur_s)) = (pt.get_mut(i), ps.get_mut(i)) {
+                    *cur_t = prev_t * tau;
+                    *cur_s = prev_s * s;
+                }
+            }
+        }
+        let pow = |p: &[T; MAX_DEGREE + 1], i: usize| p.get(i).copied().unwrap_or_else(T::zero);
+
+        for (order, slot) in out.iter_mut().enumerate() {
+            *slot = if order == 0 {
+                // Bernstein form: P(Binomial(2n+1, τ) ≥ n+1).
+                (n + 1..=degree).fold(T::zero(), |acc, k| {
+                    acc + c::<T>(binomial(degree, k)) * pow(&pt, k) * pow(&ps, degree - k)
+                })
+            } else {
+                // S^(order) = K · d^(order−1)/dτ^(order−1) [τⁿ (1−τ)ⁿ],  K = (2n+1)·C(2n, n).
+                let m = order - 1;
+                let k_factor = (degree as f64) * binomial(2 * n, n);
+                let mut acc = T::zero();
+                for i in 0..=m {
+                    let j = m - i; // derivatives falling on (1−τ)ⁿ
+                    if i > n || j > n {
+                        continue;
+                    }
+                    let sign = if j % 2 == 0 { 1.0 } else { -1.0 };
+                    let coeff = sign * binomial(m, i) * falling(n, i) * falling(n, j);
+                    acc += c::<T>(coeff) * pow(&pt, n - i) * pow(&ps, n - j);
+                }
+                c::<T>(k_factor) * acc
+            };
+        }
+        out
+    }
+}
+
+/// Binomial coefficient as f64 (exact for the sizes used here, ≤ C(25, 12)).
+fn binomial(n: usize, k: usize) -> f64 {
+    if k > n {
+        return 0.0;
+    }
+    let k = k.min(n - k);
+    let mut r: u64 = 1;
+    for i in 0..k as u64 {
+        r = r * (n as u64 - i) / (i + 1);
+    }
+    r as f64
+}
+
+/// Falling factorial n·(n−1)·…·(n−i+1).
+fn falling(n: usize, i: usize) -> f64 {
+    (0..i).fold(1.0, |acc, j| acc * (n - j) as f64)
+}
+
+/// A rest-to-rest move of every output axis along the same smooth step:
+/// `z_d(t) = start + (end − start)·S_n((t − t_start)/duration)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointToPoint<T: Real, const NZ: usize> {
+    start: SVector<T, NZ>,
+    end: SVector<T, NZ>,
+    t_start: T,
+    duration: T,
+    step: SmoothStep,
+}
+
+impl<T: Real, const NZ: usize> PointToPoint<T, NZ> {
+    /// A move from `start` to `end` that begins at `t_start` and lasts `duration` seconds.
+    pub fn new(
+        start: SVector<T, NZ>,
+        end: SVector<T, NZ>,
+        t_start: T,
+        duration: T,
+        smoothness: usize,
+    ) -> Result<Self> {
+        for (value, name) in start.iter().map(|v| (v, "trajectory start")).chain(end.iter().map(|v| (v, "trajectory end"))) {
+            let v = to_f64(*value);
+            if !v.is_finite() {
+                return Err(Error::NonFiniteParameter { name, value: v });
+            }
+        }
+        let ts = to_f64(t_start);
+        if !ts.is_finite() {
+            return Err(Error::NonFiniteParameter { name: "trajectory t_start", value: ts });
+        }
+        check_positive("trajectory duration", to_f64(duration))?;
+        Ok(Self { start, end, t_start, duration, step: SmoothStep::new(smoothness)? })
+    }
+
+    /// Start position.
+    #[must_use]
+    pub fn start(&self) -> SVector<T, NZ> {
+        self.start
+    }
+
+    /// End position.
+    #[must_use]
+    pub fn end(&self) -> SVector<T, NZ> {
+        self.end
+    }
+
+    /// Time at which the move begins.
+    #[must_use]
+    pub fn t_start(&self) -> T {
+        self.t_start
+    }
+
+    /// Duration of the move.
+    #[must_use]
+    pub fn duration(&self) -> T {
+        self.duration
+    }
+}
+
+impl<T: Real, const NZ: usize> Trajectory<T, NZ> for PointToPoint<T, NZ> {
+    fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, NZ>; D] {
+        let tau = (t - self.t_start) / self.duration;
+        let s: [T; D] = self.step.eval(tau);
+        let delta = self.end - self.start;
+        let inv_t = T::one() / self.duration;
+        let mut scale = T::one();
+        let mut out = [SVector::<T, NZ>::zeros(); D];
+        for (order, (slot, sj)) in out.iter_mut().zip(s.iter()).enumerate() {
+            *slot = if order == 0 { self.start + delta * *sj } else { delta * (*sj * scale) };
+            scale *= inv_t;
+        }
+        out
+    }
+
+    fn active_span(&self) -> (T, T) {
+        (self.t_start, self.t_start + self.duration)
+    }
+
+    fn smoothness(&self) -> usize {
+        self.step.n()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::indexing_slicing, clippy::unwrap_used)]
+    use super::*;
+
+    #[test]
+    fn paper_polynomial_is_degree_nine_with_four_vanishing_derivatives() {
+        let s = SmoothStep::new(4).unwrap();
+        assert_eq!(s.degree(), 9);
+        for tau in [1e-12_f64, 1.0 - 1e-12] {
+            let d: [f64; 6] = s.eval(tau);
+            for (j, v) in d.iter().enumerate().skip(1).take(4) {
+                assert!(v.abs() < 1e-6, "derivative {j} at {tau} = {v}");
+            }
+        }
+        let mid: [f64; 1] = s.eval(0.5);
+        assert!((mid[0] - 0.5).abs() < 1e-15);
+    }
+
+    #[test]
+    fn derivatives_match_finite_differences() {
+        for n in [1, 4, 8, 12] {
+            let s = SmoothStep::new(n).unwrap();
+            for &tau in &[0.13_f64, 0.5, 0.77] {
+                let eps = 1e-6;
+                let a: [f64; 6] = s.eval(tau - eps);
+                let b: [f64; 6] = s.eval(tau + eps);
+                let m: [f64; 6] = s.eval(tau);
+                for j in 0..5 {
+                    let fd = (b[j] - a[j]) / (2.0 * eps);
+                    let scale = 1.0 + m[j + 1].abs();
+                    assert!((fd - m[j + 1]).abs() < 1e-5 * scale, "n={n} τ={tau} order {j}: {fd} vs {}", m[j + 1]);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn rejects_bad_smoothness_and_duration() {
+        assert!(SmoothStep::new(0).is_err());
+        assert!(SmoothStep::new(MAX_SMOOTHNESS + 1).is_err());
+        let a = SVector::<f64, 1>::new(0.0);
+        assert!(PointToPoint::new(a, a, 0.0, 0.0, 4).is_err());
+        assert!(PointToPoint::new(a, a, 0.0, f64::NAN, 4).is_err());
+        assert!(PointToPoint::new(SVector::<f64, 1>::new(f64::INFINITY), a, 0.0, 1.0, 4).is_err());
+    }
+}
