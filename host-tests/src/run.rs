@@ -141,5 +141,8 @@ pub fn emax(t: &[f64], errors: &[f64], a: f64, b: f64) -> Emax {
             .map(|(_, e)| *e)
             .fold(0.0, f64::max)
     };
-    Emax { global: pick(false), interior: pick(true) }
+    Emax {
+        global: pick(false),
+        interior: pick(true),
+    }
 }

@@ -161,7 +161,12 @@ pub(crate) fn check_range(name: &'static str, value: f64, min: f64, max: f64) ->
         return Err(Error::NonFiniteParameter { name, value });
     }
     if value < min || value > max {
-        return Err(Error::ParameterOutOfRange { name, value, min, max });
+        return Err(Error::ParameterOutOfRange {
+            name,
+            value,
+            min,
+            max,
+        });
     }
     Ok(())
 }
@@ -172,7 +177,12 @@ pub(crate) fn check_positive(name: &'static str, value: f64) -> Result<()> {
         return Err(Error::NonFiniteParameter { name, value });
     }
     if value <= 0.0 {
-        return Err(Error::ParameterOutOfRange { name, value, min: f64::MIN_POSITIVE, max: f64::INFINITY });
+        return Err(Error::ParameterOutOfRange {
+            name,
+            value,
+            min: f64::MIN_POSITIVE,
+            max: f64::INFINITY,
+        });
     }
     Ok(())
 }

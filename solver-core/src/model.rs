@@ -43,7 +43,8 @@ pub trait DaeModel<T: Real, const N: usize, const NU: usize> {
     fn residual(&self, x: &SVector<T, N>, xdot: &SVector<T, N>, s: &Self::Sample) -> SVector<T, N>;
 
     /// The exact partial derivatives of the residual.
-    fn partials(&self, x: &SVector<T, N>, xdot: &SVector<T, N>, s: &Self::Sample) -> Partials<T, N>;
+    fn partials(&self, x: &SVector<T, N>, xdot: &SVector<T, N>, s: &Self::Sample)
+        -> Partials<T, N>;
 
     /// The consistent state at rest at time `t` (`ẋ = 0`), where the trajectory rests.
     fn rest_state(&self, t: T) -> Result<SVector<T, N>>;
@@ -53,6 +54,12 @@ pub trait DaeModel<T: Real, const N: usize, const NU: usize> {
 
     /// The inputs `u` picked out of `x`.
     fn inputs(x: &SVector<T, N>) -> SVector<T, NU> {
-        SVector::<T, NU>::from_fn(|i, _| Self::INPUTS.get(i).and_then(|&j| x.get(j)).copied().unwrap_or_else(T::zero))
+        SVector::<T, NU>::from_fn(|i, _| {
+            Self::INPUTS
+                .get(i)
+                .and_then(|&j| x.get(j))
+                .copied()
+                .unwrap_or_else(T::zero)
+        })
     }
 }

@@ -103,7 +103,10 @@ impl NewtonSettings {
     /// Refuses settings Newton cannot work with.
     pub fn validate(&self) -> Result<()> {
         if self.max_iterations == 0 {
-            return Err(Error::InvalidSetting { name: "max_iterations", value: 0.0 });
+            return Err(Error::InvalidSetting {
+                name: "max_iterations",
+                value: 0.0,
+            });
         }
         for (name, value) in [
             ("rtol", self.rtol),
@@ -157,8 +160,17 @@ pub(crate) trait StepSystem<T: Real, const M: usize> {
 }
 
 /// `max_i |δ_i| / (atol + rtol·|v_i|)`.
-pub(crate) fn weighted_norm<T: Real, const M: usize>(delta: &SVector<T, M>, v: &SVector<T, M>, rtol: f64, atol: f64) -> f64 {
-    delta.iter().zip(v.iter()).map(|(d, x)| to_f64(d.abs()) / (atol + rtol * to_f64(x.abs()))).fold(0.0, f64::max)
+pub(crate) fn weighted_norm<T: Real, const M: usize>(
+    delta: &SVector<T, M>,
+    v: &SVector<T, M>,
+    rtol: f64,
+    atol: f64,
+) -> f64 {
+    delta
+        .iter()
+        .zip(v.iter())
+        .map(|(d, x)| to_f64(d.abs()) / (atol + rtol * to_f64(x.abs())))
+        .fold(0.0, f64::max)
 }
 
 /// Newton's method with a Jacobian mode and, for Broyden, the approximation it carries.
@@ -179,10 +191,22 @@ where
     /// A solver for systems of size `M`.
     pub fn new(mode: JacobianMode, settings: NewtonSettings) -> Result<Self> {
         settings.validate()?;
-        if let JacobianMode::Broyden { reinit_every: Some(0) } = mode {
-            return Err(Error::InvalidSetting { name: "reinit_every", value: 0.0 });
+        if let JacobianMode::Broyden {
+            reinit_every: Some(0),
+        } = mode
+        {
+            return Err(Error::InvalidSetting {
+                name: "reinit_every",
+                value: 0.0,
+            });
         }
-        Ok(Self { mode, settings, inverse: SMatrix::zeros(), has_inverse: false, steps_since_init: 0 })
+        Ok(Self {
+            mode,
+            settings,
+            inverse: SMatrix::zeros(),
+            has_inverse: false,
+            steps_since_init: 0,
+        })
     }
 
     /// The Jacobian mode.
@@ -200,7 +224,9 @@ where
         let mut stats = NewtonStats::default();
         let g = evaluate(sys, &xi, &mut stats)?;
         let JacobianMode::Broyden { reinit_every } = self.mode else {
-            return self.iterate(sys, xi, g, &mut stats, true).map(|x| (x, stats));
+            return self
+                .iterate(sys, xi, g, &mut stats, true)
+                .map(|x| (x, stats));
         };
         let due = !self.has_inverse || reinit_every.is_some_and(|n| self.steps_since_init >= n);
         if due {
@@ -212,7 +238,8 @@ where
                 // The carried approximation was too far off: start the step afresh once.
                 self.reinitialise(sys, &xi, &g, &mut stats)?;
                 self.steps_since_init = 1;
-                self.iterate(sys, xi, g, &mut stats, true).map(|x| (x, stats))
+                self.iterate(sys, xi, g, &mut stats, true)
+                    .map(|x| (x, stats))
             }
             other => other.map(|x| (x, stats)),
         }
@@ -234,7 +261,10 @@ where
             residual: max_abs(g),
         })?;
         if !self.inverse.iter().all(|v| to_f64(*v).is_finite()) {
-            return Err(Error::NonFinite { t: sys.time(), iterations: stats.iterations });
+            return Err(Error::NonFinite {
+                t: sys.time(),
+                iterations: stats.iterations,
+            });
         }
         self.has_inverse = true;
         self.steps_since_init = 0;
@@ -277,7 +307,10 @@ where
             stats.iterations = first + it;
             let increment = sys.increment_norm(&eta, &xi, self.settings.rtol, self.settings.atol);
             if !increment.is_finite() {
-                return Err(Error::NonFinite { t, iterations: stats.iterations });
+                return Err(Error::NonFinite {
+                    t,
+                    iterations: stats.iterations,
+                });
             }
             let g_new = evaluate(sys, &xi, stats)?;
             stats.residual_norm = max_abs(&g_new);
@@ -293,7 +326,11 @@ where
                     stats.converged = true;
                     return Ok(xi);
                 }
-                stalled = if theta >= self.settings.stall_ratio { stalled + 1 } else { 0 };
+                stalled = if theta >= self.settings.stall_ratio {
+                    stalled + 1
+                } else {
+                    0
+                };
             }
             if stalled >= 1 && fresh_matrix && increment <= self.settings.stall_limit {
                 // A current Newton matrix and still no contraction: rounding noise.
@@ -329,7 +366,13 @@ where
 
     /// Eq. 19, `J̃₊ = J̃ + G(ξ₊) ηᵀ / ‖η‖²`, applied to `J̃⁻¹` by Sherman–Morrison:
     /// `H₊ = H − (H G₊)(ηᵀ H) / (‖η‖² + ηᵀ H G₊)`.
-    fn broyden_update(&mut self, g_new: &SVector<T, M>, eta: &SVector<T, M>, stats: &NewtonStats, t: f64) -> Result<()> {
+    fn broyden_update(
+        &mut self,
+        g_new: &SVector<T, M>,
+        eta: &SVector<T, M>,
+        stats: &NewtonStats,
+        t: f64,
+    ) -> Result<()> {
         let hg = self.inverse * g_new;
         let eta_h = eta.transpose() * self.inverse;
         let eta2 = eta.norm_squared();
@@ -337,7 +380,11 @@ where
         // A vanishing (or NaN) denominator means the updated J̃ is singular.
         let margin = to_f64(denom.abs()) - to_f64(eta2) * to_f64(T::default_epsilon());
         if margin.is_nan() || margin <= 0.0 {
-            return Err(Error::SingularJacobian { t, iterations: stats.iterations, residual: max_abs(g_new) });
+            return Err(Error::SingularJacobian {
+                t,
+                iterations: stats.iterations,
+                residual: max_abs(g_new),
+            });
         }
         self.inverse -= (hg * eta_h) / denom;
         Ok(())
@@ -355,7 +402,10 @@ fn evaluate<T: Real, const M: usize, S: StepSystem<T, M>>(
     if g.iter().all(|v| to_f64(*v).is_finite()) {
         Ok(g)
     } else {
-        Err(Error::NonFinite { t: sys.time(), iterations: stats.iterations })
+        Err(Error::NonFinite {
+            t: sys.time(),
+            iterations: stats.iterations,
+        })
     }
 }
 
@@ -403,7 +453,11 @@ where
     if lu.solve_mut(&mut eta) {
         Ok(eta)
     } else {
-        Err(Error::SingularJacobian { t, iterations: stats.iterations, residual: max_abs(g) })
+        Err(Error::SingularJacobian {
+            t,
+            iterations: stats.iterations,
+            residual: max_abs(g),
+        })
     }
 }
 
@@ -413,9 +467,19 @@ pub(crate) fn max_abs<T: Real, const M: usize>(v: &SVector<T, M>) -> f64 {
 }
 
 /// Scales the algebraic rows by `ρ = h^-p` (Sec. 3.1.1) and leaves the rest at 1.
-pub(crate) fn row_scaling<T: Real, const N: usize>(algebraic: &[bool; N], h: T, power: u32) -> SVector<T, N> {
+pub(crate) fn row_scaling<T: Real, const N: usize>(
+    algebraic: &[bool; N],
+    h: T,
+    power: u32,
+) -> SVector<T, N> {
     let rho = T::one() / h.powi(power as i32);
-    SVector::<T, N>::from_fn(|i, _| if algebraic.get(i).copied().unwrap_or(false) { rho } else { T::one() })
+    SVector::<T, N>::from_fn(|i, _| {
+        if algebraic.get(i).copied().unwrap_or(false) {
+            rho
+        } else {
+            T::one()
+        }
+    })
 }
 
 #[cfg(test)]
@@ -439,9 +503,15 @@ mod tests {
 
     #[test]
     fn every_mode_finds_the_root() {
-        for mode in [JacobianMode::Exact, JacobianMode::FiniteDifference, JacobianMode::Broyden { reinit_every: None }] {
+        for mode in [
+            JacobianMode::Exact,
+            JacobianMode::FiniteDifference,
+            JacobianMode::Broyden { reinit_every: None },
+        ] {
             let mut newton = Newton::<f64, 2>::new(mode, NewtonSettings::default()).unwrap();
-            let (xi, stats) = newton.solve(&Toy, SVector::<f64, 2>::new(1.0, 1.0)).unwrap();
+            let (xi, stats) = newton
+                .solve(&Toy, SVector::<f64, 2>::new(1.0, 1.0))
+                .unwrap();
             assert!((xi[0] - 2f64.sqrt()).abs() < 1e-9, "{mode:?}: {xi}");
             assert!((xi[1] - 3.0 / 2f64.sqrt()).abs() < 1e-9, "{mode:?}: {xi}");
             assert!(stats.converged);
@@ -450,17 +520,28 @@ mod tests {
 
     #[test]
     fn iteration_cap_is_a_typed_error() {
-        let settings = NewtonSettings { max_iterations: 2, ..NewtonSettings::default() };
+        let settings = NewtonSettings {
+            max_iterations: 2,
+            ..NewtonSettings::default()
+        };
         let mut newton = Newton::<f64, 2>::new(JacobianMode::Exact, settings).unwrap();
-        let err = newton.solve(&Toy, SVector::<f64, 2>::new(10.0, 10.0)).unwrap_err();
-        assert!(matches!(err, Error::NewtonNotConverged { iterations: 2, .. }), "{err:?}");
+        let err = newton
+            .solve(&Toy, SVector::<f64, 2>::new(10.0, 10.0))
+            .unwrap_err();
+        assert!(
+            matches!(err, Error::NewtonNotConverged { iterations: 2, .. }),
+            "{err:?}"
+        );
     }
 
     #[test]
     fn singular_matrix_is_a_typed_error() {
-        let mut newton = Newton::<f64, 2>::new(JacobianMode::Exact, NewtonSettings::default()).unwrap();
+        let mut newton =
+            Newton::<f64, 2>::new(JacobianMode::Exact, NewtonSettings::default()).unwrap();
         // At ξ0 = 0 the exact Jacobian has a zero column.
-        let err = newton.solve(&Toy, SVector::<f64, 2>::new(0.0, 1.0)).unwrap_err();
+        let err = newton
+            .solve(&Toy, SVector::<f64, 2>::new(0.0, 1.0))
+            .unwrap_err();
         assert!(matches!(err, Error::SingularJacobian { .. }), "{err:?}");
     }
 }

@@ -174,7 +174,11 @@ impl<T: Real, const NZ: usize> PointToPoint<T, NZ> {
         duration: T,
         smoothness: usize,
     ) -> Result<Self> {
-        for (value, name) in start.iter().map(|v| (v, "trajectory start")).chain(end.iter().map(|v| (v, "trajectory end"))) {
+        for (value, name) in start
+            .iter()
+            .map(|v| (v, "trajectory start"))
+            .chain(end.iter().map(|v| (v, "trajectory end")))
+        {
             let v = to_f64(*value);
             if !v.is_finite() {
                 return Err(Error::NonFiniteParameter { name, value: v });
@@ -182,10 +186,19 @@ impl<T: Real, const NZ: usize> PointToPoint<T, NZ> {
         }
         let ts = to_f64(t_start);
         if !ts.is_finite() {
-            return Err(Error::NonFiniteParameter { name: "trajectory t_start", value: ts });
+            return Err(Error::NonFiniteParameter {
+                name: "trajectory t_start",
+                value: ts,
+            });
         }
         check_positive("trajectory duration", to_f64(duration))?;
-        Ok(Self { start, end, t_start, duration, step: SmoothStep::new(smoothness)? })
+        Ok(Self {
+            start,
+            end,
+            t_start,
+            duration,
+            step: SmoothStep::new(smoothness)?,
+        })
     }
 
     /// Start position.
@@ -222,7 +235,11 @@ impl<T: Real, const NZ: usize> Trajectory<T, NZ> for PointToPoint<T, NZ> {
         let mut scale = T::one();
         let mut out = [SVector::<T, NZ>::zeros(); D];
         for (order, (slot, sj)) in out.iter_mut().zip(s.iter()).enumerate() {
-            *slot = if order == 0 { self.start + delta * *sj } else { delta * (*sj * scale) };
+            *slot = if order == 0 {
+                self.start + delta * *sj
+            } else {
+                delta * (*sj * scale)
+            };
             scale *= inv_t;
         }
         out
@@ -268,7 +285,11 @@ mod tests {
                 for j in 0..5 {
                     let fd = (b[j] - a[j]) / (2.0 * eps);
                     let scale = 1.0 + m[j + 1].abs();
-                    assert!((fd - m[j + 1]).abs() < 1e-5 * scale, "n={n} τ={tau} order {j}: {fd} vs {}", m[j + 1]);
+                    assert!(
+                        (fd - m[j + 1]).abs() < 1e-5 * scale,
+                        "n={n} τ={tau} order {j}: {fd} vs {}",
+                        m[j + 1]
+                    );
                 }
             }
         }

@@ -26,7 +26,12 @@ pub struct Workspace {
 
 impl Workspace {
     /// The laboratory crane's workspace of Sec. 3.1.5.
-    pub const PAPER: Self = Self { x_min: 10.0, x_max: 23.0, l_min: 3.0, l_max: 9.0 };
+    pub const PAPER: Self = Self {
+        x_min: 10.0,
+        x_max: 23.0,
+        l_min: 3.0,
+        l_max: 9.0,
+    };
 }
 
 /// Crane parameters (Tab. 3) and the limits within which the inverse model is regular.
@@ -94,7 +99,11 @@ pub struct FlatConfiguration<T> {
 
 /// Position-level flat inverse (see [`FlatConfiguration`]). Singular when `z̈_C = g`.
 #[must_use]
-pub fn flat_configuration<T: Real>(g: T, z: &SVector<T, 2>, zdd: &SVector<T, 2>) -> FlatConfiguration<T> {
+pub fn flat_configuration<T: Real>(
+    g: T,
+    z: &SVector<T, 2>,
+    zdd: &SVector<T, 2>,
+) -> FlatConfiguration<T> {
     let [xc, zc]: [T; 2] = (*z).into();
     let [xcdd, zcdd]: [T; 2] = (*zdd).into();
     let two = c::<T>(2.0);
@@ -102,7 +111,12 @@ pub fn flat_configuration<T: Real>(g: T, z: &SVector<T, 2>, zdd: &SVector<T, 2>)
     let x = xc - xcdd / (two * lambda);
     let dx = xc - x;
     let l = (zc * zc + dx * dx).sqrt();
-    FlatConfiguration { x, l, lambda, phi: dx.atan2(zc) }
+    FlatConfiguration {
+        x,
+        l,
+        lambda,
+        phi: dx.atan2(zc),
+    }
 }
 
 /// Samples taken along a move when checking it against the crane's limits.
@@ -125,17 +139,34 @@ pub fn check_trajectory<T: Real, Z: Trajectory<T, 2>>(p: &CraneParams, z: &Z) ->
         let [_, zcdd]: [T; 2] = zdd.into();
         let (zc, acc) = (to_f64(zc), to_f64(zcdd));
         if zc.is_nan() || zc <= 0.0 {
-            return Err(Error::OutsideWorkspace { t: tf, coordinate: "z_C", value: zc, min: 0.0, max: f64::INFINITY });
+            return Err(Error::OutsideWorkspace {
+                t: tf,
+                coordinate: "z_C",
+                value: zc,
+                min: 0.0,
+                max: f64::INFINITY,
+            });
         }
         if acc.is_nan() || acc > limit {
-            return Err(Error::RopeSlack { t: tf, vertical_acceleration: acc, limit });
+            return Err(Error::RopeSlack {
+                t: tf,
+                vertical_acceleration: acc,
+                limit,
+            });
         }
         let conf = flat_configuration(g, &zd, &zdd);
-        for (coordinate, value, min, max) in
-            [("x", to_f64(conf.x), w.x_min, w.x_max), ("l", to_f64(conf.l), w.l_min, w.l_max)]
-        {
+        for (coordinate, value, min, max) in [
+            ("x", to_f64(conf.x), w.x_min, w.x_max),
+            ("l", to_f64(conf.l), w.l_min, w.l_max),
+        ] {
             if !(min..=max).contains(&value) {
-                return Err(Error::OutsideWorkspace { t: tf, coordinate, value, min, max });
+                return Err(Error::OutsideWorkspace {
+                    t: tf,
+                    coordinate,
+                    value,
+                    min,
+                    max,
+                });
             }
         }
     }

@@ -69,10 +69,19 @@ impl<T: Real, Z: Trajectory<T, 2>> CraneProj<T, Z> {
         params.validate()?;
         let required = <Self as DaeModel<T, N, 2>>::MIN_SMOOTHNESS;
         if trajectory.smoothness() < required {
-            return Err(Error::TrajectoryTooRough { smoothness: trajectory.smoothness(), required });
+            return Err(Error::TrajectoryTooRough {
+                smoothness: trajectory.smoothness(),
+                required,
+            });
         }
         check_trajectory(&params, &trajectory)?;
-        Ok(Self { params, g: c(params.g), tau1: c(params.tau1), tau2: c(params.tau2), trajectory })
+        Ok(Self {
+            params,
+            g: c(params.g),
+            tau1: c(params.tau1),
+            tau2: c(params.tau2),
+            trajectory,
+        })
     }
 
     /// The parameters.
@@ -118,7 +127,12 @@ impl<T: Real, Z: Trajectory<T, 2>> DaeModel<T, N, 2> for CraneProj<T, Z> {
         ])
     }
 
-    fn partials(&self, x: &SVector<T, N>, _xdot: &SVector<T, N>, s: &Self::Sample) -> Partials<T, N> {
+    fn partials(
+        &self,
+        x: &SVector<T, N>,
+        _xdot: &SVector<T, N>,
+        s: &Self::Sample,
+    ) -> Partials<T, N> {
         let [_, l, phi, _, _, _, _, _]: [T; N] = (*x).into();
         let [_, _, [xcdd, zcdd]] = s.map(<[T; 2]>::from);
         let (sin, cos) = phi.sin_cos();
@@ -137,7 +151,10 @@ impl<T: Real, Z: Trajectory<T, 2>> DaeModel<T, N, 2> for CraneProj<T, Z> {
             o,      cos,  -l * sin,    o,    o,    o,    o,    o,
         ]);
         let diagonal = SVector::<T, N>::from([one, one, one, self.tau1, self.tau2, o, o, o]);
-        Partials { dx: dfdx, dxdot: SMatrix::<T, N, N>::from_diagonal(&diagonal) }
+        Partials {
+            dx: dfdx,
+            dxdot: SMatrix::<T, N, N>::from_diagonal(&diagonal),
+        }
     }
 
     fn rest_state(&self, t: T) -> Result<SVector<T, N>> {

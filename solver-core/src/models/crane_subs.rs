@@ -49,10 +49,19 @@ impl<T: Real, Z: Trajectory<T, 2>> CraneSubs<T, Z> {
         params.validate()?;
         let required = <Self as DaeModel<T, N, 2>>::MIN_SMOOTHNESS;
         if trajectory.smoothness() < required {
-            return Err(Error::TrajectoryTooRough { smoothness: trajectory.smoothness(), required });
+            return Err(Error::TrajectoryTooRough {
+                smoothness: trajectory.smoothness(),
+                required,
+            });
         }
         check_trajectory(&params, &trajectory)?;
-        Ok(Self { params, g: c(params.g), tau1: c(params.tau1), tau2: c(params.tau2), trajectory })
+        Ok(Self {
+            params,
+            g: c(params.g),
+            tau1: c(params.tau1),
+            tau2: c(params.tau2),
+            trajectory,
+        })
     }
 
     /// The parameters.
@@ -99,7 +108,12 @@ impl<T: Real, Z: Trajectory<T, 2>> DaeModel<T, N, 2> for CraneSubs<T, Z> {
         ])
     }
 
-    fn partials(&self, x: &SVector<T, N>, _xdot: &SVector<T, N>, s: &Self::Sample) -> Partials<T, N> {
+    fn partials(
+        &self,
+        x: &SVector<T, N>,
+        _xdot: &SVector<T, N>,
+        s: &Self::Sample,
+    ) -> Partials<T, N> {
         let [xt, l, _, _, lambda, _, _]: [T; N] = (*x).into();
         let [[xc, zc], _, _] = s.map(<[T; 2]>::from);
         let (one, two) = (T::one(), c::<T>(2.0));
@@ -116,8 +130,13 @@ impl<T: Real, Z: Trajectory<T, 2>> DaeModel<T, N, 2> for CraneSubs<T, Z> {
             o,            o,         o,    o,    -two * zc,    o,    o,
             -two * dx,    -two * l,  o,    o,    o,            o,    o,
         ]);
-        let dfdxdot = SMatrix::<T, N, N>::from_diagonal(&SVector::<T, N>::from([one, one, self.tau1, self.tau2, o, o, o]));
-        Partials { dx: dfdx, dxdot: dfdxdot }
+        let dfdxdot = SMatrix::<T, N, N>::from_diagonal(&SVector::<T, N>::from([
+            one, one, self.tau1, self.tau2, o, o, o,
+        ]));
+        Partials {
+            dx: dfdx,
+            dxdot: dfdxdot,
+        }
     }
 
     fn rest_state(&self, t: T) -> Result<SVector<T, N>> {

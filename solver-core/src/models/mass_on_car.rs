@@ -43,7 +43,13 @@ pub struct MassOnCarParams {
 
 impl MassOnCarParams {
     /// Tab. 4 with α = 15° and d = 0 (the configuration of Figs. 11–13).
-    pub const PAPER: Self = Self { m1: 1.0, m2: 1.0, k: 5.0, d: 0.0, alpha: 15.0 * core::f64::consts::PI / 180.0 };
+    pub const PAPER: Self = Self {
+        m1: 1.0,
+        m2: 1.0,
+        k: 5.0,
+        d: 0.0,
+        alpha: 15.0 * core::f64::consts::PI / 180.0,
+    };
 
     /// Refuses non-finite or non-physical values (masses or k ≤ 0, d < 0, α ∉ (0°, 90°)).
     pub fn validate(&self) -> Result<()> {
@@ -84,7 +90,10 @@ impl<T: Real, Z: Trajectory<T, 1>> MassOnCar<T, Z> {
         params.validate()?;
         let required = <Self as DaeModel<T, N, 1>>::MIN_SMOOTHNESS;
         if trajectory.smoothness() < required {
-            return Err(Error::TrajectoryTooRough { smoothness: trajectory.smoothness(), required });
+            return Err(Error::TrajectoryTooRough {
+                smoothness: trajectory.smoothness(),
+                required,
+            });
         }
         let cos = c::<T>(params.alpha).cos();
         let m2 = c::<T>(params.m2);
@@ -128,7 +137,12 @@ impl<T: Real, Z: Trajectory<T, 1>> DaeModel<T, N, 1> for MassOnCar<T, Z> {
         z
     }
 
-    fn residual(&self, x: &SVector<T, N>, xdot: &SVector<T, N>, zd: &Self::Sample) -> SVector<T, N> {
+    fn residual(
+        &self,
+        x: &SVector<T, N>,
+        xdot: &SVector<T, N>,
+        zd: &Self::Sample,
+    ) -> SVector<T, N> {
         let [xc, s, vx, vs, f]: [T; N] = (*x).into();
         let [xc_dot, s_dot, vx_dot, vs_dot, _]: [T; N] = (*xdot).into();
         SVector::<T, N>::from([
@@ -140,7 +154,12 @@ impl<T: Real, Z: Trajectory<T, 1>> DaeModel<T, N, 1> for MassOnCar<T, Z> {
         ])
     }
 
-    fn partials(&self, _x: &SVector<T, N>, _xdot: &SVector<T, N>, _zd: &Self::Sample) -> Partials<T, N> {
+    fn partials(
+        &self,
+        _x: &SVector<T, N>,
+        _xdot: &SVector<T, N>,
+        _zd: &Self::Sample,
+    ) -> Partials<T, N> {
         let (one, o) = (T::one(), T::zero());
         #[rustfmt::skip]
         let dfdx = SMatrix::<T, N, N>::from_row_slice(&[
@@ -159,7 +178,10 @@ impl<T: Real, Z: Trajectory<T, 1>> DaeModel<T, N, 1> for MassOnCar<T, Z> {
             o,   o,   self.m2_cos, self.m2,     o,
             o,   o,   o,           o,           o,
         ]);
-        Partials { dx: dfdx, dxdot: dfdxdot }
+        Partials {
+            dx: dfdx,
+            dxdot: dfdxdot,
+        }
     }
 
     fn rest_state(&self, t: T) -> Result<SVector<T, N>> {

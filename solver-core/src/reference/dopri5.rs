@@ -46,7 +46,11 @@ pub struct Dopri5Settings {
 impl Default for Dopri5Settings {
     /// Tight: the reference must be far more accurate than any scheme it judges.
     fn default() -> Self {
-        Self { rtol: 1e-12, atol: 1e-14, max_steps: 1_000_000 }
+        Self {
+            rtol: 1e-12,
+            atol: 1e-14,
+            max_steps: 1_000_000,
+        }
     }
 }
 
@@ -69,7 +73,14 @@ impl<const D: usize> Dopri5<D> {
     /// Starts at `(t, y)` with a first trial step `h`.
     #[must_use]
     pub fn new(t: f64, y: SVector<f64, D>, h: f64, settings: Dopri5Settings) -> Self {
-        Self { t, y, h, settings, accepted: 0, rejected: 0 }
+        Self {
+            t,
+            y,
+            h,
+            settings,
+            accepted: 0,
+            rejected: 0,
+        }
     }
 
     /// Integrates `ẏ = f(t, y)` up to exactly `t_end`.
@@ -81,7 +92,10 @@ impl<const D: usize> Dopri5<D> {
         let mut k0 = f(self.t, &self.y);
         while self.t < t_end {
             if budget == 0 || self.h.is_nan() || self.h <= 1e-14 * self.t.abs().max(1.0) {
-                return Err(Error::ReferenceFailed { t: self.t, h: self.h });
+                return Err(Error::ReferenceFailed {
+                    t: self.t,
+                    h: self.h,
+                });
             }
             budget -= 1;
             let h = self.h.min(t_end - self.t);
@@ -104,18 +118,37 @@ impl<const D: usize> Dopri5<D> {
             }
             let mut err_sq = 0.0;
             for i in 0..D {
-                let e: f64 = E.iter().zip(k.iter()).map(|(e, kj)| e * kj.get(i).copied().unwrap_or(0.0)).sum::<f64>() * h;
-                let (a, b) = (self.y.get(i).copied().unwrap_or(0.0), y_new.get(i).copied().unwrap_or(0.0));
+                let e: f64 = E
+                    .iter()
+                    .zip(k.iter())
+                    .map(|(e, kj)| e * kj.get(i).copied().unwrap_or(0.0))
+                    .sum::<f64>()
+                    * h;
+                let (a, b) = (
+                    self.y.get(i).copied().unwrap_or(0.0),
+                    y_new.get(i).copied().unwrap_or(0.0),
+                );
                 let scale = self.settings.atol + self.settings.rtol * a.abs().max(b.abs());
                 err_sq += (e / scale) * (e / scale);
             }
             let err = libm::sqrt(err_sq / D as f64);
             if !err.is_finite() {
-                return Err(Error::NonFinite { t: self.t, iterations: self.accepted });
+                return Err(Error::NonFinite {
+                    t: self.t,
+                    iterations: self.accepted,
+                });
             }
-            let factor = if err == 0.0 { 5.0 } else { (0.9 * libm::pow(err, -0.2)).clamp(0.2, 5.0) };
+            let factor = if err == 0.0 {
+                5.0
+            } else {
+                (0.9 * libm::pow(err, -0.2)).clamp(0.2, 5.0)
+            };
             if err <= 1.0 {
-                self.t = if h == t_end - self.t { t_end } else { self.t + h };
+                self.t = if h == t_end - self.t {
+                    t_end
+                } else {
+                    self.t + h
+                };
                 self.y = y_new;
                 k0 = k.last().copied().unwrap_or(k0);
                 self.accepted += 1;
@@ -139,12 +172,22 @@ mod tests {
     #[test]
     fn harmonic_oscillator_to_tolerance() {
         let omega = 3.0;
-        let mut f = |_t: f64, y: &SVector<f64, 2>| SVector::<f64, 2>::new(y[1], -omega * omega * y[0]);
-        let mut ode = Dopri5::new(0.0, SVector::<f64, 2>::new(1.0, 0.0), 1e-3, Dopri5Settings::default());
+        let mut f =
+            |_t: f64, y: &SVector<f64, 2>| SVector::<f64, 2>::new(y[1], -omega * omega * y[0]);
+        let mut ode = Dopri5::new(
+            0.0,
+            SVector::<f64, 2>::new(1.0, 0.0),
+            1e-3,
+            Dopri5Settings::default(),
+        );
         for i in 1..=100 {
             let t = 0.2 * f64::from(i);
             let y = ode.advance_to(t, &mut f).unwrap();
-            assert!((y[0] - libm::cos(omega * t)).abs() < 1e-10, "t = {t}: {}", y[0]);
+            assert!(
+                (y[0] - libm::cos(omega * t)).abs() < 1e-10,
+                "t = {t}: {}",
+                y[0]
+            );
         }
     }
 }

@@ -47,14 +47,17 @@ impl FlatState {
     #[must_use]
     pub fn proj(&self) -> SVector<f64, 8> {
         let [u1, u2] = self.u;
-        SVector::from([self.x, self.l, self.phi, self.vx, self.vl, self.vphi, u1, u2])
+        SVector::from([
+            self.x, self.l, self.phi, self.vx, self.vl, self.vphi, u1, u2,
+        ])
     }
 }
 
 /// `u_flat(t)` and the state that goes with it.
 #[must_use]
 pub fn flat_inverse<Z: Trajectory<f64, 2>>(p: &CraneParams, z: &Z, t: f64) -> FlatState {
-    let [[xc, zc], [xc1, zc1], [xc2, zc2], [xc3, zc3], [xc4, zc4]] = z.derivatives::<5>(t).map(<[f64; 2]>::from);
+    let [[xc, zc], [xc1, zc1], [xc2, zc2], [xc3, zc3], [xc4, zc4]] =
+        z.derivatives::<5>(t).map(<[f64; 2]>::from);
     let (xc, zc) = (Jet::new(xc, xc1, xc2), Jet::new(zc, zc1, zc2));
     let (xcdd, zcdd) = (Jet::new(xc2, xc3, xc4), Jet::new(zc2, zc3, zc4));
     let g = Jet::constant(p.g);

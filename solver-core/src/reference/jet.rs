@@ -27,7 +27,11 @@ impl Jet {
     /// A constant.
     #[must_use]
     pub const fn constant(v: f64) -> Self {
-        Self { v, d1: 0.0, d2: 0.0 }
+        Self {
+            v,
+            d1: 0.0,
+            d2: 0.0,
+        }
     }
 
     /// `√f`: `r' = f'/(2r)`, `r'' = (f'' − 2 r'²)/(2r)`.
@@ -35,7 +39,11 @@ impl Jet {
     pub fn sqrt(self) -> Self {
         let r = libm::sqrt(self.v);
         let d1 = self.d1 / (2.0 * r);
-        Self { v: r, d1, d2: (self.d2 - 2.0 * d1 * d1) / (2.0 * r) }
+        Self {
+            v: r,
+            d1,
+            d2: (self.d2 - 2.0 * d1 * d1) / (2.0 * r),
+        }
     }
 }
 
@@ -63,7 +71,11 @@ impl Neg for Jet {
 impl Mul for Jet {
     type Output = Self;
     fn mul(self, o: Self) -> Self {
-        Self::new(self.v * o.v, self.d1 * o.v + self.v * o.d1, self.d2 * o.v + 2.0 * self.d1 * o.d1 + self.v * o.d2)
+        Self::new(
+            self.v * o.v,
+            self.d1 * o.v + self.v * o.d1,
+            self.d2 * o.v + 2.0 * self.d1 * o.d1 + self.v * o.d2,
+        )
     }
 }
 

@@ -39,7 +39,12 @@ pub struct MassOnCarReference<Z> {
 
 impl<Z: Trajectory<f64, 1>> MassOnCarReference<Z> {
     /// Starts at rest (`s = ṡ = 0`) at `t0`, where the trajectory must rest.
-    pub fn new(p: MassOnCarParams, trajectory: Z, t0: f64, settings: Dopri5Settings) -> Result<Self> {
+    pub fn new(
+        p: MassOnCarParams,
+        trajectory: Z,
+        t0: f64,
+        settings: Dopri5Settings,
+    ) -> Result<Self> {
         p.validate()?;
         ensure_at_rest(&trajectory, t0)?;
         let sin = libm::sin(p.alpha);
@@ -58,7 +63,10 @@ impl<Z: Trajectory<f64, 1>> MassOnCarReference<Z> {
         let mut rhs = |t: f64, y: &SVector<f64, 2>| {
             let [s, sdot]: [f64; 2] = (*y).into();
             let [_, _, [zdd]] = z.derivatives::<3>(t).map(<[f64; 1]>::from);
-            SVector::<f64, 2>::new(sdot, -(p.d * sdot + p.k * s + zdd * p.m2 * cos) / (p.m2 * sin2))
+            SVector::<f64, 2>::new(
+                sdot,
+                -(p.d * sdot + p.k * s + zdd * p.m2 * cos) / (p.m2 * sin2),
+            )
         };
         let [s, sdot]: [f64; 2] = self.ode.advance_to(t, &mut rhs)?.into();
         let [_, _, [zdd]] = self.trajectory.derivatives::<3>(t).map(<[f64; 1]>::from);

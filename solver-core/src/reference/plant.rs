@@ -34,7 +34,11 @@ pub fn crane_output(y: &SVector<f64, 6>) -> SVector<f64, 2> {
 
 /// Eqs. 31–32 solved for `ẏ, v̇`: state `[x, s, ẋ, ṡ]`, input `[F]`.
 #[must_use]
-pub fn mass_on_car_rhs(p: &MassOnCarParams, y: &SVector<f64, 4>, u: &SVector<f64, 1>) -> SVector<f64, 4> {
+pub fn mass_on_car_rhs(
+    p: &MassOnCarParams,
+    y: &SVector<f64, 4>,
+    u: &SVector<f64, 1>,
+) -> SVector<f64, 4> {
     let [_, s, vx, vs]: [f64; 4] = (*y).into();
     let [f]: [f64; 1] = (*u).into();
     let cos = libm::cos(p.alpha);
@@ -86,8 +90,16 @@ impl<'a, const NU: usize> SampledInput<'a, NU> {
         let s = pos - i as f64;
         let nodes = [-1.0, 0.0, 1.0, 2.0];
         let mut u = SVector::zeros();
-        for (k, (node, sample)) in nodes.iter().zip(self.samples.iter().skip(i - 1)).enumerate() {
-            let w = nodes.iter().enumerate().filter(|&(m, _)| m != k).fold(1.0, |acc, (_, nm)| acc * (s - nm) / (node - nm));
+        for (k, (node, sample)) in nodes
+            .iter()
+            .zip(self.samples.iter().skip(i - 1))
+            .enumerate()
+        {
+            let w = nodes
+                .iter()
+                .enumerate()
+                .filter(|&(m, _)| m != k)
+                .fold(1.0, |acc, (_, nm)| acc * (s - nm) / (node - nm));
             u += sample * w;
         }
         u
@@ -102,7 +114,16 @@ pub fn simulate<const D: usize, const NU: usize>(
     input: &SampledInput<'_, NU>,
     mut each: impl FnMut(usize, f64, &SVector<f64, D>),
 ) -> Result<()> {
-    let mut ode = Dopri5::new(input.t0, y0, input.h / 4.0, Dopri5Settings { rtol: 1e-11, atol: 1e-13, max_steps: 100_000 });
+    let mut ode = Dopri5::new(
+        input.t0,
+        y0,
+        input.h / 4.0,
+        Dopri5Settings {
+            rtol: 1e-11,
+            atol: 1e-13,
+            max_steps: 100_000,
+        },
+    );
     each(0, input.t0, &y0);
     let mut f = |t: f64, y: &SVector<f64, D>| rhs(y, &input.at(t));
     for n in 1..input.samples.len() {

@@ -61,7 +61,13 @@ where
     /// A k-step BDF starting at rest at `t0`.
     pub fn new(model: &M, settings: &SolverSettings, k: usize, t0: T) -> Result<Self> {
         settings.validate()?;
-        let row = k.checked_sub(1).and_then(|r| ALPHA.get(r)).ok_or(Error::InvalidSetting { name: "bdf_k", value: k as f64 })?;
+        let row = k
+            .checked_sub(1)
+            .and_then(|r| ALPHA.get(r))
+            .ok_or(Error::InvalidSetting {
+                name: "bdf_k",
+                value: k as f64,
+            })?;
         let h = c::<T>(settings.h);
         let x0 = model.rest_state(t0)?;
         let mut predictor = [T::zero(); MAX_K];
@@ -99,22 +105,34 @@ where
     /// The newest solution value.
     #[must_use]
     pub fn state(&self) -> SVector<T, N> {
-        self.history.recent().copied().unwrap_or_else(SVector::zeros)
+        self.history
+            .recent()
+            .copied()
+            .unwrap_or_else(SVector::zeros)
     }
 
     /// Advances one step. On error the integrator stays where it was.
     pub fn step(&mut self, model: &M) -> Result<StepReport<T, N, NU>> {
         let t = self.t0 + c::<T>((self.steps + 1) as f64) * self.h;
+        // Eq. 16 in differences against the newest value x_{n−1} (Σ α_i = 0):
+        // ẋ = (α_0 (ξ − x_{n−1}) + Σ_{i≥2} α_i (x_{n−i} − x_{n−1}))/h. Exact for a
+        // resting history, and it spares the index-3 step the rounding of Σ α_i x_{n−i}.
+        let anchor = self.state();
         let mut past = SVector::<T, N>::zeros();
-        let mut guess = SVector::<T, N>::zeros();
+        let mut guess = anchor;
         let newest_first = self.history.oldest_ordered().rev().take(self.k);
-        for ((x, a), p) in newest_first.zip(self.alpha.iter().skip(1)).zip(self.predictor.iter()) {
-            past += x * *a;
-            guess += x * *p;
+        for ((x, a), p) in newest_first
+            .zip(self.alpha.iter().skip(1))
+            .zip(self.predictor.iter())
+        {
+            let d = x - anchor;
+            past += d * *a;
+            guess += d * *p;
         }
         let system = BdfSystem {
             model,
             sample: model.sample(t),
+            anchor,
             past,
             alpha0: self.alpha.first().copied().unwrap_or_else(T::one),
             inv_h: T::one() / self.h,
@@ -124,14 +142,23 @@ where
         let (x, stats) = self.newton.solve(&system, guess)?;
         self.history.write(x);
         self.steps += 1;
-        Ok(StepReport { t, u: M::inputs(&x), x, stats })
+        Ok(StepReport {
+            t,
+            u: M::inputs(&x),
+            x,
+            stats,
+        })
     }
 }
 
-/// One BDF step's system: `G(ξ) = S·F(ξ, (α_0 ξ + Σ α_i x_{n−i})/h, t_n)`.
+/// One BDF step's system: `G(ξ) = S·F(ξ, (α_0 ξ + Σ α_i x_{n−i})/h, t_n)`, with the
+/// derivative evaluated in the difference form of [`Bdf::step`].
 struct BdfSystem<'a, T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> {
     model: &'a M,
     sample: M::Sample,
+    /// `x_{n−1}`.
+    anchor: SVector<T, N>,
+    /// `Σ_{i≥2} α_i (x_{n−i} − x_{n−1})`.
     past: SVector<T, N>,
     alpha0: T,
     inv_h: T,
@@ -139,14 +166,18 @@ struct BdfSystem<'a, T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: u
     t: f64,
 }
 
-impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> StepSystem<T, N> for BdfSystem<'_, T, M, N, NU> {
+impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> StepSystem<T, N>
+    for BdfSystem<'_, T, M, N, NU>
+{
     fn residual(&self, xi: &SVector<T, N>) -> SVector<T, N> {
-        let xdot = (xi * self.alpha0 + self.past) * self.inv_h;
-        self.model.residual(xi, &xdot, &self.sample).component_mul(self.scale)
+        let xdot = ((xi - self.anchor) * self.alpha0 + self.past) * self.inv_h;
+        self.model
+            .residual(xi, &xdot, &self.sample)
+            .component_mul(self.scale)
     }
 
     fn jacobian(&self, xi: &SVector<T, N>) -> SMatrix<T, N, N> {
-        let xdot = (xi * self.alpha0 + self.past) * self.inv_h;
+        let xdot = ((xi - self.anchor) * self.alpha0 + self.past) * self.inv_h;
         let p = self.model.partials(xi, &xdot, &self.sample);
         let mut j = p.dx + p.dxdot * (self.alpha0 * self.inv_h);
         scale_rows(&mut j, self.scale);
@@ -159,7 +190,10 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> StepSystem
 }
 
 /// Multiplies row i of `m` by `scale[i]`.
-pub(crate) fn scale_rows<T: Real, const R: usize, const C: usize>(m: &mut SMatrix<T, R, C>, scale: &SVector<T, R>) {
+pub(crate) fn scale_rows<T: Real, const R: usize, const C: usize>(
+    m: &mut SMatrix<T, R, C>,
+    scale: &SVector<T, R>,
+) {
     for (mut row, s) in m.row_iter_mut().zip(scale.iter()) {
         row *= *s;
     }

@@ -33,7 +33,12 @@ impl SolverSettings {
     /// The paper's test-bench choice: h = 10 ms, ρ = 1/h², 20 Newton iterations.
     #[must_use]
     pub fn paper(jacobian: JacobianMode) -> Self {
-        Self { h: 0.01, jacobian, scaling_power: 2, newton: NewtonSettings::default() }
+        Self {
+            h: 0.01,
+            jacobian,
+            scaling_power: 2,
+            newton: NewtonSettings::default(),
+        }
     }
 
     /// Refuses a non-finite or non-positive step and unsupported settings.
@@ -42,7 +47,10 @@ impl SolverSettings {
             return Err(Error::InvalidStepSize { h: self.h });
         }
         if self.scaling_power > 3 {
-            return Err(Error::InvalidSetting { name: "scaling_power", value: f64::from(self.scaling_power) });
+            return Err(Error::InvalidSetting {
+                name: "scaling_power",
+                value: f64::from(self.scaling_power),
+            });
         }
         self.newton.validate()
     }

@@ -56,7 +56,8 @@ pub struct Radau<T: Real, M, const N: usize, const NU: usize, const S: usize> {
     model: PhantomData<fn() -> M>,
 }
 
-impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize> Radau<T, M, N, NU, S>
+impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize>
+    Radau<T, M, N, NU, S>
 where
     Const<S>: DimMin<Const<S>, Output = Const<S>>,
 {
@@ -114,7 +115,14 @@ where
             guess.fixed_rows_mut::<N>(j * N).copy_from(&g);
         }
         let t = self.t0 + c::<T>((self.steps + 1) as f64) * self.h;
-        let system = RadauSystem { model, samples, x0: self.x, ha: &self.ha, scale: &self.scale, t: to_f64(t) };
+        let system = RadauSystem {
+            model,
+            samples,
+            x0: self.x,
+            ha: &self.ha,
+            scale: &self.scale,
+            t: to_f64(t),
+        };
         let (xi, stats) = self.newton.solve(&system, guess)?;
         // Eq. 14.
         let mut x = self.x;
@@ -124,14 +132,22 @@ where
         self.x = x;
         self.stage_derivatives = xi;
         self.steps += 1;
-        Ok(StepReport { t, u: M::inputs(&x), x, stats })
+        Ok(StepReport {
+            t,
+            u: M::inputs(&x),
+            x,
+            stats,
+        })
     }
 }
 
 /// The Lagrange basis polynomial `L_i` on the nodes `C`, at `tau`.
 fn lagrange(i: usize, tau: f64) -> f64 {
     let ci = C.get(i).copied().unwrap_or(0.0);
-    C.iter().enumerate().filter(|&(m, _)| m != i).fold(1.0, |acc, (_, cm)| acc * (tau - cm) / (ci - cm))
+    C.iter()
+        .enumerate()
+        .filter(|&(m, _)| m != i)
+        .fold(1.0, |acc, (_, cm)| acc * (tau - cm) / (ci - cm))
 }
 
 /// One Radau step's system of size 3N (Eq. 13), unknowns the stage derivatives.
@@ -146,7 +162,11 @@ struct RadauSystem<'a, T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU:
 
 impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> RadauSystem<'_, T, M, N, NU> {
     /// Stage value `X_i = x_{n−1} + h Σ_j a_ij X'_j` and derivative `X'_i`.
-    fn stage<const S: usize>(&self, i: usize, xi: &SVector<T, S>) -> (SVector<T, N>, SVector<T, N>) {
+    fn stage<const S: usize>(
+        &self,
+        i: usize,
+        xi: &SVector<T, S>,
+    ) -> (SVector<T, N>, SVector<T, N>) {
         let mut x = self.x0;
         if let Some(row) = self.ha.get(i) {
             for (j, a) in row.iter().enumerate() {
@@ -157,14 +177,17 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> RadauSyste
     }
 }
 
-impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize> StepSystem<T, S>
-    for RadauSystem<'_, T, M, N, NU>
+impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize>
+    StepSystem<T, S> for RadauSystem<'_, T, M, N, NU>
 {
     fn residual(&self, xi: &SVector<T, S>) -> SVector<T, S> {
         let mut g = SVector::<T, S>::zeros();
         for (i, sample) in self.samples.iter().enumerate() {
             let (x, xdot) = self.stage(i, xi);
-            let f = self.model.residual(&x, &xdot, sample).component_mul(self.scale);
+            let f = self
+                .model
+                .residual(&x, &xdot, sample)
+                .component_mul(self.scale);
             g.fixed_rows_mut::<N>(i * N).copy_from(&f);
         }
         g
@@ -220,7 +243,10 @@ mod tests {
         for (row, ci) in A.iter().zip(C) {
             for q in 1..=3 {
                 let lhs: f64 = row.iter().zip(C).map(|(a, cj)| a * cj.powi(q - 1)).sum();
-                assert!((lhs - ci.powi(q) / f64::from(q)).abs() < 1e-14, "C({q}) row {row:?}");
+                assert!(
+                    (lhs - ci.powi(q) / f64::from(q)).abs() < 1e-14,
+                    "C({q}) row {row:?}"
+                );
             }
         }
         for q in 1..=5 {

@@ -1,0 +1,104 @@
+//! Each model's analytic partials (the "exact" Jacobian mode) against central
+//! differences of its residual, at random states and times inside the move.
+
+use host_tests::scenes::{crane_trajectory, mass_on_car_trajectory};
+use nalgebra::SVector;
+use proptest::prelude::*;
+use solver_core::models::crane::CraneParams;
+use solver_core::models::crane_proj::CraneProj;
+use solver_core::models::crane_subs::CraneSubs;
+use solver_core::models::mass_on_car::{MassOnCar, MassOnCarParams};
+use solver_core::DaeModel;
+
+/// Max relative difference between the analytic partials and central differences.
+fn mismatch<M: DaeModel<f64, N, NU>, const N: usize, const NU: usize>(
+    m: &M,
+    x: SVector<f64, N>,
+    xdot: SVector<f64, N>,
+    t: f64,
+) -> f64 {
+    let s = m.sample(t);
+    let p = m.partials(&x, &xdot, &s);
+    let mut worst = 0.0_f64;
+    for j in 0..N {
+        let eps = 1e-6 * (1.0 + x[j].abs());
+        let mut e = SVector::<f64, N>::zeros();
+        e[j] = eps;
+        let dfdx =
+            (m.residual(&(x + e), &xdot, &s) - m.residual(&(x - e), &xdot, &s)) / (2.0 * eps);
+        let dfdxdot =
+            (m.residual(&x, &(xdot + e), &s) - m.residual(&x, &(xdot - e), &s)) / (2.0 * eps);
+        for i in 0..N {
+            worst = worst.max((dfdx[i] - p.dx[(i, j)]).abs() / (1.0 + p.dx[(i, j)].abs()));
+            worst = worst.max((dfdxdot[i] - p.dxdot[(i, j)]).abs() / (1.0 + p.dxdot[(i, j)].abs()));
+        }
+    }
+    worst
+}
+
+fn vector<const N: usize>(values: Vec<f64>) -> SVector<f64, N> {
+    SVector::from_iterator(values)
+}
+
+proptest! {
+    #[test]
+    fn crane_subs_partials_are_exact(x in prop::collection::vec(-2.0..2.0f64, 7), xd in prop::collection::vec(-2.0..2.0f64, 7), t in 1.0..9.0f64) {
+        let m = CraneSubs::new(CraneParams::PAPER, crane_trajectory(4)).unwrap();
+        let mut x = vector::<7>(x);
+        x[0] += 15.0; // a trolley and rope inside the workspace
+        x[1] += 6.0;
+        prop_assert!(mismatch(&m, x, vector(xd), t) < 1e-7);
+    }
+
+    #[test]
+    fn crane_proj_partials_are_exact(x in prop::collection::vec(-1.0..1.0f64, 8), xd in prop::collection::vec(-2.0..2.0f64, 8), t in 1.0..9.0f64) {
+        let m = CraneProj::new(CraneParams::PAPER, crane_trajectory(4)).unwrap();
+        let mut x = vector::<8>(x);
+        x[0] += 15.0;
+        x[1] += 6.0;
+        prop_assert!(mismatch(&m, x, vector(xd), t) < 1e-7);
+    }
+
+    #[test]
+    fn mass_on_car_partials_are_exact(x in prop::collection::vec(-2.0..2.0f64, 5), xd in prop::collection::vec(-2.0..2.0f64, 5), t in 0.0..20.0f64, alpha in 1.0..89.0f64, d in 0.0..1.0f64) {
+        let p = MassOnCarParams { alpha: alpha.to_radians(), d, ..MassOnCarParams::PAPER };
+        let m = MassOnCar::new(p, mass_on_car_trajectory(4)).unwrap();
+        prop_assert!(mismatch(&m, vector(x), vector(xd), t) < 1e-7);
+    }
+}
+
+#[test]
+fn rest_states_are_consistent() {
+    // F(x_rest, 0, t) = 0 exactly at rest, before and after the move.
+    let zero7 = SVector::<f64, 7>::zeros();
+    let subs = CraneSubs::new(CraneParams::PAPER, crane_trajectory(4)).unwrap();
+    let proj = CraneProj::new(CraneParams::PAPER, crane_trajectory(4)).unwrap();
+    let car = MassOnCar::new(MassOnCarParams::PAPER, mass_on_car_trajectory(4)).unwrap();
+    for t in [0.0, 9.5] {
+        assert!(
+            subs.residual(&subs.rest_state(t).unwrap(), &zero7, &subs.sample(t))
+                .amax()
+                < 1e-14
+        );
+        assert!(
+            proj.residual(
+                &proj.rest_state(t).unwrap(),
+                &SVector::zeros(),
+                &proj.sample(t)
+            )
+            .amax()
+                < 1e-14
+        );
+    }
+    for t in [0.0, 7.0] {
+        assert!(
+            car.residual(
+                &car.rest_state(t).unwrap(),
+                &SVector::zeros(),
+                &car.sample(t)
+            )
+            .amax()
+                < 1e-14
+        );
+    }
+}
