@@ -1,0 +1,471 @@
+//! Scene files. A scene is one model with its parameters, one desired trajectory
+//! and the solver settings — everything a run (on the host or in the firmware) needs.
+//!
+//! ```toml
+//! name = "paper-crane-bdf4"
+//! description = "…"
+//!
+//! [model]
+//! kind = "crane-subs"        # crane-subs | crane-proj | mass-on-car
+//! tau1 = 0.03                # optional parameters; the paper's values by default
+//!
+//! [trajectory]
+//! start = [12.0, 8.0]        # one value per output axis: [x_C, z_C] m, or [z] m
+//! end = [20.0, 4.0]
+//! t_start = 1.0              # s
+//! duration = 8.0             # s
+//! smoothness = 4             # n: degree 2n + 1, derivatives 1..n vanish at the ends
+//! t_end = 10.0               # s, total simulated time
+//!
+//! [solver]
+//! scheme = "bdf"             # bdf | radau
+//! k = 4                      # bdf only, 1..6
+//! h = 0.01                   # s
+//! jacobian = "exact"         # fd | broyden | exact
+//! reinit_every = 10          # broyden only; omit for continuous updating (J̃)
+//! rho_power = 2              # algebraic rows scaled by h^-p, p in 0..3
+//! max_iterations = 20
+//! scalar = "f64"             # f64 | f32
+//! ```
+//!
+//! A malformed or physically impossible scene is refused with a [`SceneError`]
+//! that names the field and the reason.
+
+use std::fmt;
+use std::path::Path;
+
+use nalgebra::SVector;
+use serde::Deserialize;
+use solver_core::models::crane::{CraneParams, Workspace};
+use solver_core::models::crane_proj::CraneProj;
+use solver_core::models::crane_subs::CraneSubs;
+use solver_core::models::mass_on_car::{MassOnCar, MassOnCarParams};
+use solver_core::trajectory::PointToPoint;
+use solver_core::{Error, JacobianMode, NewtonSettings, SolverSettings};
+
+/// Why a scene was refused: the field (dotted path) and the reason.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SceneError {
+    /// The offending field, e.g. `solver.h` (empty when the file as a whole is unreadable).
+    pub field: String,
+    /// What is wrong with it.
+    pub reason: String,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.field.is_empty() {
+            write!(f, "{}", self.reason)
+        } else {
+            write!(f, "field `{}`: {}", self.field, self.reason)
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+fn refuse(field: &str, reason: impl Into<String>) -> SceneError {
+    SceneError {
+        field: field.to_string(),
+        reason: reason.into(),
+    }
+}
+
+/// A scene as read from its file.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Short name (used for file names of results).
+    pub name: String,
+    /// What the scene is for.
+    #[serde(default)]
+    pub description: String,
+    /// The model and its parameters.
+    pub model: ModelSpec,
+    /// The desired output trajectory.
+    pub trajectory: TrajectorySpec,
+    /// How to solve.
+    pub solver: SolverSpec,
+}
+
+/// Which model, with optional parameters (the paper's values by default).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum ModelSpec {
+    /// Crane, redundant coordinates with the servo-constraints substituted.
+    CraneSubs(CraneSpec),
+    /// Crane, minimal coordinates projected after Blajer.
+    CraneProj(CraneSpec),
+    /// Mass-on-car with internal dynamics.
+    MassOnCar(MassOnCarSpec),
+}
+
+/// Crane parameters (Tab. 3) and workspace (Sec. 3.1.5).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+#[allow(missing_docs)]
+pub struct CraneSpec {
+    pub m: f64,
+    pub g: f64,
+    pub tau1: f64,
+    pub tau2: f64,
+    pub x_min: f64,
+    pub x_max: f64,
+    pub l_min: f64,
+    pub l_max: f64,
+    pub min_tension_fraction: f64,
+}
+
+impl Default for CraneSpec {
+    fn default() -> Self {
+        let p = CraneParams::PAPER;
+        let w = p.workspace;
+        Self {
+            m: p.m,
+            g: p.g,
+            tau1: p.tau1,
+            tau2: p.tau2,
+            x_min: w.x_min,
+            x_max: w.x_max,
+            l_min: w.l_min,
+            l_max: w.l_max,
+            min_tension_fraction: p.min_tension_fraction,
+        }
+    }
+}
+
+impl CraneSpec {
+    /// The solver-core parameters.
+    pub fn params(&self) -> CraneParams {
+        CraneParams {
+            m: self.m,
+            g: self.g,
+            tau1: self.tau1,
+            tau2: self.tau2,
+            workspace: Workspace {
+                x_min: self.x_min,
+                x_max: self.x_max,
+                l_min: self.l_min,
+                l_max: self.l_max,
+            },
+            min_tension_fraction: self.min_tension_fraction,
+        }
+    }
+}
+
+/// Mass-on-car parameters (Tab. 4) with the angle in degrees.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+#[allow(missing_docs)]
+pub struct MassOnCarSpec {
+    pub m1: f64,
+    pub m2: f64,
+    pub k: f64,
+    pub d: f64,
+    pub alpha_deg: f64,
+}
+
+impl Default for MassOnCarSpec {
+    fn default() -> Self {
+        let p = MassOnCarParams::PAPER;
+        Self {
+            m1: p.m1,
+            m2: p.m2,
+            k: p.k,
+            d: p.d,
+            alpha_deg: p.alpha.to_degrees(),
+        }
+    }
+}
+
+impl MassOnCarSpec {
+    /// The solver-core parameters.
+    pub fn params(&self) -> MassOnCarParams {
+        MassOnCarParams {
+            m1: self.m1,
+            m2: self.m2,
+            k: self.k,
+            d: self.d,
+            alpha: self.alpha_deg.to_radians(),
+        }
+    }
+}
+
+/// A point-to-point move.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[allow(missing_docs)]
+pub struct TrajectorySpec {
+    pub start: Vec<f64>,
+    pub end: Vec<f64>,
+    pub t_start: f64,
+    pub duration: f64,
+    pub smoothness: usize,
+    pub t_end: f64,
+}
+
+/// Integrator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SchemeSpec {
+    /// BDF with `k` steps.
+    Bdf,
+    /// 3-stage Radau IIA.
+    Radau,
+}
+
+/// Jacobian mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JacobianSpec {
+    /// Finite differences every iteration (J).
+    Fd,
+    /// Broyden (J̃, J̃_N with `reinit_every = N`).
+    Broyden,
+    /// Exact partials.
+    Exact,
+}
+
+/// Scalar type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ScalarSpec {
+    /// Double precision (default).
+    F64,
+    /// Single precision.
+    F32,
+}
+
+/// Solver settings.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[allow(missing_docs)]
+pub struct SolverSpec {
+    pub scheme: SchemeSpec,
+    #[serde(default = "default_k")]
+    pub k: usize,
+    pub h: f64,
+    pub jacobian: JacobianSpec,
+    #[serde(default)]
+    pub reinit_every: Option<u32>,
+    #[serde(default = "default_rho")]
+    pub rho_power: u32,
+    #[serde(default = "default_iterations")]
+    pub max_iterations: u32,
+    #[serde(default = "default_scalar")]
+    pub scalar: ScalarSpec,
+}
+
+fn default_k() -> usize {
+    4
+}
+fn default_rho() -> u32 {
+    2
+}
+fn default_iterations() -> u32 {
+    20
+}
+fn default_scalar() -> ScalarSpec {
+    ScalarSpec::F64
+}
+
+impl Scene {
+    /// Reads and checks a scene file.
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| refuse("", format!("cannot read {}: {e}", path.display())))?;
+        Self::parse(&text)
+    }
+
+    /// Parses and checks a scene from TOML text.
+    pub fn parse(text: &str) -> Result<Self, SceneError> {
+        let scene: Scene = toml::from_str(text).map_err(|e| {
+            // toml names the key path in its message; keep its first line as the reason.
+            let message = e.message().to_string();
+            let field = e.span().map(|s| key_at(text, s.start)).unwrap_or_default();
+            refuse(&field, message)
+        })?;
+        scene.check()?;
+        Ok(scene)
+    }
+
+    /// Number of output axes the model needs.
+    pub fn outputs(&self) -> usize {
+        match self.model {
+            ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) => 2,
+            ModelSpec::MassOnCar(_) => 1,
+        }
+    }
+
+    /// Number of steps of the run.
+    pub fn steps(&self) -> usize {
+        ((self.trajectory.t_end) / self.solver.h).round() as usize
+    }
+
+    /// The solver-core settings.
+    pub fn settings(&self) -> SolverSettings {
+        let s = &self.solver;
+        let jacobian = match s.jacobian {
+            JacobianSpec::Fd => JacobianMode::FiniteDifference,
+            JacobianSpec::Exact => JacobianMode::Exact,
+            JacobianSpec::Broyden => JacobianMode::Broyden {
+                reinit_every: s.reinit_every,
+            },
+        };
+        let newton = match s.scalar {
+            ScalarSpec::F64 => NewtonSettings::for_scalar::<f64>(),
+            ScalarSpec::F32 => NewtonSettings::for_scalar::<f32>(),
+        };
+        SolverSettings {
+            h: s.h,
+            jacobian,
+            scaling_power: s.rho_power,
+            newton: NewtonSettings {
+                max_iterations: s.max_iterations,
+                ..newton
+            },
+        }
+    }
+
+    /// The crane trajectory (two axes).
+    pub fn trajectory2(&self) -> Result<PointToPoint<f64, 2>, SceneError> {
+        self.trajectory_n::<2>()
+    }
+
+    /// The mass-on-car trajectory (one axis).
+    pub fn trajectory1(&self) -> Result<PointToPoint<f64, 1>, SceneError> {
+        self.trajectory_n::<1>()
+    }
+
+    fn trajectory_n<const NZ: usize>(&self) -> Result<PointToPoint<f64, NZ>, SceneError> {
+        let t = &self.trajectory;
+        for (field, v) in [("trajectory.start", &t.start), ("trajectory.end", &t.end)] {
+            if v.len() != NZ {
+                return Err(refuse(
+                    field,
+                    format!("needs {NZ} values (one per output axis), has {}", v.len()),
+                ));
+            }
+        }
+        PointToPoint::new(
+            SVector::from_column_slice(&t.start),
+            SVector::from_column_slice(&t.end),
+            t.t_start,
+            t.duration,
+            t.smoothness,
+        )
+        .map_err(|e| self.field_of(e))
+    }
+
+    /// Every check that does not need a run: types, ranges, and the model built
+    /// from its parameters and trajectory (rope slack, workspace, smoothness).
+    fn check(&self) -> Result<(), SceneError> {
+        let t = &self.trajectory;
+        if !(t.t_end.is_finite() && t.t_end > 0.0) {
+            return Err(refuse(
+                "trajectory.t_end",
+                format!("must be finite and > 0 (got {})", t.t_end),
+            ));
+        }
+        if t.t_start < 0.0 {
+            return Err(refuse(
+                "trajectory.t_start",
+                "must be ≥ 0: the run starts at rest at t = 0",
+            ));
+        }
+        let s = &self.solver;
+        if s.scheme == SchemeSpec::Bdf && !(1..=6).contains(&s.k) {
+            return Err(refuse(
+                "solver.k",
+                format!("BDF needs k in 1..=6 (got {})", s.k),
+            ));
+        }
+        if s.reinit_every.is_some() && s.jacobian != JacobianSpec::Broyden {
+            return Err(refuse(
+                "solver.reinit_every",
+                "only applies to jacobian = \"broyden\"",
+            ));
+        }
+        if s.reinit_every == Some(0) {
+            return Err(refuse(
+                "solver.reinit_every",
+                "must be ≥ 1 (omit it for continuous updating)",
+            ));
+        }
+        self.settings().validate().map_err(|e| self.field_of(e))?;
+        if self.steps() == 0 {
+            return Err(refuse(
+                "solver.h",
+                "longer than the whole run (trajectory.t_end)",
+            ));
+        }
+        match &self.model {
+            ModelSpec::CraneSubs(c) => CraneSubs::new(c.params(), self.trajectory2()?).map(|_| ()),
+            ModelSpec::CraneProj(c) => CraneProj::new(c.params(), self.trajectory2()?).map(|_| ()),
+            ModelSpec::MassOnCar(m) => MassOnCar::new(m.params(), self.trajectory1()?).map(|_| ()),
+        }
+        .map_err(|e| self.field_of(e))
+    }
+
+    /// Maps a solver-core error to the scene field it comes from.
+    pub fn field_of(&self, e: Error) -> SceneError {
+        let field = match e {
+            Error::InvalidStepSize { .. } => "solver.h".to_string(),
+            Error::InvalidSetting { name, .. } => match name {
+                "scaling_power" => "solver.rho_power".to_string(),
+                "bdf_k" => "solver.k".to_string(),
+                "reinit_every" | "max_iterations" => format!("solver.{name}"),
+                other => format!("solver.{other}"),
+            },
+            Error::NonFiniteParameter { name, .. } | Error::ParameterOutOfRange { name, .. } => {
+                match name {
+                    "alpha" => "model.alpha_deg".to_string(),
+                    "smoothness" => "trajectory.smoothness".to_string(),
+                    "trajectory start" => "trajectory.start".to_string(),
+                    "trajectory end" => "trajectory.end".to_string(),
+                    "trajectory t_start" => "trajectory.t_start".to_string(),
+                    "trajectory duration" => "trajectory.duration".to_string(),
+                    other => format!("model.{other}"),
+                }
+            }
+            Error::TrajectoryTooRough { .. } => "trajectory.smoothness".to_string(),
+            Error::RopeSlack { .. } | Error::OutsideWorkspace { .. } => "trajectory".to_string(),
+            _ => String::new(),
+        };
+        refuse(&field, e.to_string())
+    }
+}
+
+/// The dotted key on the line that holds byte `pos` (best effort, for messages):
+/// `table.key` for a `key = value` line, `table` for a `[table]` header.
+fn key_at(text: &str, pos: usize) -> String {
+    let line_start = text
+        .get(..pos)
+        .and_then(|b| b.rfind('\n'))
+        .map_or(0, |i| i + 1);
+    let line = text
+        .get(line_start..)
+        .and_then(|r| r.lines().next())
+        .unwrap_or("")
+        .trim();
+    let header = |l: &str| {
+        l.strip_prefix('[')
+            .and_then(|r| r.strip_suffix(']'))
+            .map(str::to_string)
+    };
+    if let Some(table) = header(line) {
+        return table;
+    }
+    let table = text
+        .get(..line_start)
+        .unwrap_or("")
+        .lines()
+        .rev()
+        .find_map(|l| header(l.trim()))
+        .unwrap_or_default();
+    match line.split_once('=').map(|(k, _)| k.trim()) {
+        Some(k) if table.is_empty() => k.to_string(),
+        Some(k) => format!("{table}.{k}"),
+        None => table,
+    }
+}

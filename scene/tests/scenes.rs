@@ -1,0 +1,120 @@
+//! The shipped scenes load; broken ones are refused naming the field and the reason.
+
+use std::path::PathBuf;
+
+use scene::Scene;
+
+fn scenes_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes")
+}
+
+const PAPER: &str = include_str!("../../scenes/paper-crane.toml");
+
+#[test]
+fn every_shipped_scene_loads() {
+    let mut n = 0;
+    for entry in std::fs::read_dir(scenes_dir()).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            Scene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            n += 1;
+        }
+    }
+    assert!(n >= 4, "only {n} scenes");
+}
+
+/// The paper scene with one line replaced.
+fn with(old: &str, new: &str) -> String {
+    assert!(PAPER.contains(old), "{old}");
+    PAPER.replacen(old, new, 1)
+}
+
+fn refused(text: &str) -> (String, String) {
+    let e = Scene::parse(text).unwrap_err();
+    (e.field, e.reason)
+}
+
+#[test]
+fn broken_scenes_name_the_field() {
+    let cases = [
+        (with("h = 0.01", "h = -0.01"), "solver.h", "step size"),
+        (with("h = 0.01", "h = \"fast\""), "solver.h", "invalid type"),
+        (with("k = 4", "k = 9"), "solver.k", "1..=6"),
+        (
+            with("rho_power = 2", "rho_power = 5"),
+            "solver.rho_power",
+            "not supported",
+        ),
+        (
+            with("jacobian = \"exact\"", "jacobian = \"magic\""),
+            "solver.jacobian",
+            "unknown variant",
+        ),
+        (
+            with("max_iterations = 20", "max_iterations = 0"),
+            "solver.max_iterations",
+            "not supported",
+        ),
+        (
+            with("duration = 8.0", "duration = 0.0"),
+            "trajectory.duration",
+            "outside",
+        ),
+        (
+            with("smoothness = 4", "smoothness = 3"),
+            "trajectory.smoothness",
+            "needs n >= 4",
+        ),
+        (
+            with("start = [12.0, 8.0]", "start = [12.0]"),
+            "trajectory.start",
+            "needs 2 values",
+        ),
+        (
+            with("start = [12.0, 8.0]", "start = [12.0, 10.0]"),
+            "trajectory",
+            "outside the workspace",
+        ),
+        (
+            with("start = [12.0, 8.0]", "start = [15.0, 3.0]")
+                .replace("end = [20.0, 4.0]", "end = [15.0, 9.0]")
+                .replace("duration = 8.0", "duration = 1.2"),
+            "trajectory",
+            "slack",
+        ),
+        (
+            with("kind = \"crane-subs\"", "kind = \"crane-subs\"\ntau1 = 0.0"),
+            "model.tau1",
+            "outside",
+        ),
+        (
+            with("kind = \"crane-subs\"", "kind = \"crane-subs\"\nmass = 3.0"),
+            "model",
+            "unknown field",
+        ),
+        (
+            with("t_end = 10.0", "t_end = nan"),
+            "trajectory.t_end",
+            "finite",
+        ),
+    ];
+    for (text, field, reason) in cases {
+        let (f, r) = refused(&text);
+        assert_eq!(f, field, "reason: {r}");
+        assert!(r.contains(reason), "{field}: `{r}` does not say `{reason}`");
+    }
+}
+
+#[test]
+fn mass_on_car_angle_is_checked_in_degrees() {
+    let text = std::fs::read_to_string(scenes_dir().join("mass-on-car.toml")).unwrap();
+    let (f, r) = refused(&text.replace("alpha_deg = 15.0", "alpha_deg = 90.0"));
+    assert_eq!(f, "model.alpha_deg", "{r}");
+}
+
+#[test]
+fn garbage_is_refused_not_a_panic() {
+    for text in ["", "name = 3", "[[[", "name = \"x\"\n[model]\nkind = 1"] {
+        assert!(Scene::parse(text).is_err());
+    }
+}
