@@ -1,5 +1,7 @@
 //! The std side: runs of solver-core over whole trajectories and the measures the
 //! paper uses on them (Eq. 29's `e_max`), shared by the tests and the study CLI.
 
+pub mod dbc;
+pub mod firmware;
 pub mod run;
 pub mod scenes;

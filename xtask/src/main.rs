@@ -1,18 +1,36 @@
 //! `cargo xtask <command>`: everything that is not plain `cargo test`.
 //!
-//! * `test` — the whole test suite: formatting, lints, host tests, and the
-//!   `no_std` build of solver-core for the drive MCU (a `std` slip fails here).
+//! * `run` — the main job: the firmware in QEMU on the default scene (and the Radau
+//!   scene), its decoded CAN log, and instructions per step per scheme.
+//! * `test` — the whole test suite: formatting, lints, host tests, the `no_std` build
+//!   of solver-core, both firmware boards, and the QEMU checks.
+//! * `qemu [--overwrite-expected]` — the QEMU checks alone: golden output, the host's
+//!   computation of the same scene, committed baselines (±10 %).
+//! * `qemu-bench` — instructions per step, flash, RAM and stack against the targets.
+//! * `flash` — builds the STM32H743 firmware and runs it with `probe-rs run`.
 
 use std::process::{Command, ExitCode};
 
+mod defmt_log;
+mod firmware;
+mod qemu;
 mod setup;
+
+use firmware::Board;
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    let flag = |f: &str| args.iter().any(|a| a == f);
     let result = match args.first().map(String::as_str) {
+        Some("run") => main_job(),
         Some("test") => test(),
+        Some("qemu") => qemu_checks(flag("--overwrite-expected")),
+        Some("qemu-bench") => qemu_bench(),
+        Some("flash") => flash(),
         _ => {
-            eprintln!("usage: cargo xtask test");
+            eprintln!(
+                "usage: cargo xtask run | test | qemu [--overwrite-expected] | qemu-bench | flash"
+            );
             return ExitCode::from(2);
         }
     };
@@ -45,13 +63,71 @@ fn describe(cmd: &Command) -> String {
         .join(" ")
 }
 
-fn cargo() -> Command {
+/// The cargo that runs xtask.
+pub fn cargo() -> Command {
     Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+}
+
+/// The main job: the default scene's decoded log, then the cost table of both scenes.
+fn main_job() -> Result<(), String> {
+    let runs = qemu::SCENES
+        .iter()
+        .map(|s| qemu::measure(s))
+        .collect::<Result<Vec<_>, _>>()?;
+    let dbc = host_tests::dbc::Dbc::crane()?;
+    if let Some(default) = runs.first() {
+        println!("== {} (QEMU mps2-an500): decoded log", qemu::SCENES[0]);
+        for line in firmware::readable_log(&default.lines, &dbc) {
+            println!("{line}");
+        }
+    }
+    print!("{}", qemu::table(&runs));
+    match runs.iter().find(|m| !m.success) {
+        Some(m) => Err(format!(
+            "{}: the firmware ended in a fault or panic (see the log above)",
+            m.scene.name
+        )),
+        None => Ok(()),
+    }
+}
+
+fn qemu_checks(overwrite: bool) -> Result<(), String> {
+    for scene in qemu::SCENES {
+        let m = qemu::measure(scene)?;
+        qemu::check(&m, overwrite)?;
+    }
+    Ok(())
+}
+
+fn qemu_bench() -> Result<(), String> {
+    let runs = qemu::SCENES
+        .iter()
+        .map(|s| qemu::measure(s))
+        .collect::<Result<Vec<_>, _>>()?;
+    print!("{}", qemu::table(&runs));
+    Ok(())
+}
+
+fn flash() -> Result<(), String> {
+    let elf = firmware::build(Board::Stm32h743, &firmware::root().join(qemu::SCENES[0]))?;
+    run(Command::new("probe-rs")
+        .args(["run", "--chip", "STM32H743ZITx"])
+        .arg(&elf))
+    .map_err(|e| {
+        format!("{e}\n(probe-rs comes with `cargo install probe-rs-tools --locked`, see README.md)")
+    })
 }
 
 fn test() -> Result<(), String> {
     setup::ensure_target()?;
     run(cargo().args(["fmt", "--all", "--", "--check"]))?;
+    run(cargo().args([
+        "fmt",
+        "--manifest-path",
+        "firmware/Cargo.toml",
+        "--",
+        "--check",
+    ]))?;
     run(cargo().args([
         "clippy",
         "--workspace",
@@ -70,6 +146,12 @@ fn test() -> Result<(), String> {
         "--target",
         setup::TARGET,
     ]))?;
+    for board in [Board::Qemu, Board::Stm32h743] {
+        firmware::clippy(board)?;
+    }
+    // The real drive controller: CI can build it, not run it.
+    firmware::build(Board::Stm32h743, &firmware::root().join(qemu::SCENES[0]))?;
+    qemu_checks(false)?;
     eprintln!("xtask test: all checks passed");
     Ok(())
 }

@@ -1,5 +1,5 @@
 //! Installs what a fresh machine lacks: the Rust target (through rustup and the
-//! pinned toolchain) and, for the QEMU runs, qemu-system-arm from Debian's packages.
+//! pinned toolchain) and qemu-system-arm from Debian's packages.
 
 use std::process::Command;
 
@@ -21,4 +21,48 @@ pub fn ensure_target() -> Result<(), String> {
         return Ok(());
     }
     run(Command::new("rustup").args(["target", "add", TARGET]))
+}
+
+/// qemu-system-arm from Debian's packages, if it is not on the PATH.
+pub fn ensure_qemu() -> Result<(), String> {
+    if Command::new("qemu-system-arm")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+    {
+        return Ok(());
+    }
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0");
+    let apt = |args: &[&str]| {
+        let mut cmd = if root {
+            Command::new("apt-get")
+        } else {
+            Command::new("sudo")
+        };
+        if !root {
+            cmd.arg("apt-get");
+        }
+        cmd.env("DEBIAN_FRONTEND", "noninteractive").args(args);
+        run(&mut cmd)
+    };
+    if apt(&[
+        "install",
+        "-y",
+        "--no-install-recommends",
+        "qemu-system-arm",
+    ])
+    .is_err()
+    {
+        apt(&["update"])?;
+        apt(&[
+            "install",
+            "-y",
+            "--no-install-recommends",
+            "qemu-system-arm",
+        ])?;
+    }
+    Ok(())
 }

@@ -1,0 +1,31 @@
+//! The firmware's portable logic, tested on the host.
+//!
+//! * [`canopen`] — the frames of a CiA 301 manager driving two CiA 402 drives;
+//! * [`units`] — m/s to drive units through the one set-point choke point;
+//! * [`cia402`] — the drive state machine (enable sequence, quick stop, fault);
+//! * [`feedforward`] — the inverse model behind a one-step-per-cycle trait;
+//! * [`controller`] — the 100 Hz cycle with injected time.
+//!
+//! The boards (QEMU, STM32H743) only move frames and call [`Controller::tick`].
+
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+#![deny(missing_docs)]
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
+pub mod canopen;
+pub mod cia402;
+pub mod controller;
+pub mod feedforward;
+pub mod frame;
+pub mod units;
+pub mod virtual_bus;
+
+pub use controller::{Command, Config, Controller, Counters, Cycle, Fault, Mode};
+pub use feedforward::{Feedforward, FeedforwardStep, InverseModel};
+pub use frame::CanFrame;

@@ -1,0 +1,229 @@
+//! QEMU `mps2-an500`: a Cortex-M7 with double-precision FPU, no CAN controller.
+//!
+//! * CAN: transmitted frames go to the log (decoded on the host against the DBC);
+//!   received frames come from the scripted virtual bus compiled into this build.
+//! * Cost: QEMU runs with `-icount shift=7`, so virtual time is driven by the
+//!   instruction count (one instruction = 128 ns). The CMSDK APB timer 1 at
+//!   0x4000_1000 counts down at 25 MHz: 3.2 ticks per instruction, identical on every
+//!   run. These are **QEMU instructions, not Cortex-M7 cycles**.
+//! * Exit: semihosting `exit` with a real exit code (panic and HardFault fail).
+//!
+//! This module holds the board's `unsafe`: the device module RTIC needs (interrupt
+//! numbers and the vector table), volatile access to the timer, and stack painting.
+#![allow(unsafe_code)]
+
+use controller::virtual_bus::Script;
+use controller::CanFrame;
+use heapless::Deque;
+
+/// Core clock of the MPS2 board, Hz (SysTick and the APB timers run on it).
+pub const SYSCLK_HZ: u32 = 25_000_000;
+
+/// The minimal device module RTIC needs for mps2-an500 (CMSDK interrupt lines 0–3).
+pub mod pac {
+    /// Priority bits the NVIC implements (the top 3 are used).
+    pub const NVIC_PRIO_BITS: u8 = 3;
+
+    /// External interrupts: the CMSDK UART lines, unused by the firmware and so free
+    /// for RTIC's software-task dispatchers.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    #[allow(non_camel_case_types, missing_docs, dead_code)]
+    #[repr(u16)]
+    pub enum Interrupt {
+        UARTRX0 = 0,
+        UARTTX0 = 1,
+        UARTRX1 = 2,
+        UARTTX1 = 3,
+    }
+    pub use Interrupt as interrupt;
+
+    // SAFETY: `number` returns the interrupt's position in the vector table below,
+    // which is what the NVIC expects.
+    unsafe impl cortex_m::interrupt::InterruptNumber for Interrupt {
+        fn number(self) -> u16 {
+            self as u16
+        }
+    }
+
+    /// The board's peripherals as RTIC hands them to `init` (none are modelled here).
+    pub struct Peripherals {}
+
+    impl Peripherals {
+        /// RTIC takes the peripherals once, before `init`.
+        ///
+        /// # Safety
+        /// Nothing is owned: there are no peripheral singletons to duplicate.
+        pub unsafe fn steal() -> Self {
+            Self {}
+        }
+    }
+
+    extern "C" {
+        fn UARTRX0();
+        fn UARTTX0();
+        fn UARTRX1();
+        fn UARTTX1();
+    }
+
+    /// A vector table entry.
+    pub union Vector {
+        handler: unsafe extern "C" fn(),
+        _reserved: usize,
+    }
+
+    /// The device-specific part of the vector table (cortex-m-rt's `device` feature
+    /// expects it); handlers default to `DefaultHandler` through `qemu/device.x`.
+    #[link_section = ".vector_table.interrupts"]
+    #[no_mangle]
+    pub static __INTERRUPTS: [Vector; 4] = [
+        Vector { handler: UARTRX0 },
+        Vector { handler: UARTTX0 },
+        Vector { handler: UARTRX1 },
+        Vector { handler: UARTTX1 },
+    ];
+}
+
+const TIMER1: usize = 0x4000_1000;
+const CTRL: usize = 0x0;
+const VALUE: usize = 0x4;
+const RELOAD: usize = 0x8;
+
+/// Pattern written over the unused stack at boot.
+const PAINT: u32 = 0xCCCC_CCCC;
+
+extern "C" {
+    static mut _stack_end: u32;
+    static mut _stack_start: u32;
+}
+
+/// The QEMU board.
+pub struct Board {
+    script: Script,
+    /// Frames due this cycle, in script order.
+    rx: Deque<CanFrame, 32>,
+    /// End of the last receive window, ms.
+    rx_until: Option<u32>,
+}
+
+impl Board {
+    /// Paints the stack, starts the instruction counter and the virtual bus.
+    pub fn init(script: Script) -> Self {
+        paint_stack();
+        // SAFETY: TIMER1 is the CMSDK APB timer of the MPS2 memory map, owned by this
+        // board only; word writes to its RELOAD, VALUE and CTRL registers.
+        unsafe {
+            core::ptr::write_volatile((TIMER1 + RELOAD) as *mut u32, u32::MAX);
+            core::ptr::write_volatile((TIMER1 + VALUE) as *mut u32, u32::MAX);
+            core::ptr::write_volatile((TIMER1 + CTRL) as *mut u32, 1);
+        }
+        Self {
+            script,
+            rx: Deque::new(),
+            rx_until: None,
+        }
+    }
+
+    /// The free-running cost counter, in QEMU instructions (scaled from timer ticks).
+    pub fn instructions(&self) -> u64 {
+        // SAFETY: a volatile word read of the timer's VALUE register (see `init`).
+        let ticks = u32::MAX - unsafe { core::ptr::read_volatile((TIMER1 + VALUE) as *const u32) };
+        // 25 MHz timer, 128 ns per instruction: 3.2 ticks per instruction.
+        u64::from(ticks) * 10 / 32
+    }
+
+    /// Next frame received by `now_ms`, from the scripted bus.
+    pub fn receive(&mut self, now_ms: u32) -> Option<CanFrame> {
+        if self.rx.is_empty() && self.rx_until.is_none_or(|t| t < now_ms) {
+            let after = self.rx_until.unwrap_or(0);
+            for frame in self.script.due(after, now_ms) {
+                if self.rx.push_back(frame).is_err() {
+                    defmt::warn!(
+                        "virtual bus: receive queue full, frame {=u16:#05x} dropped",
+                        frame.id()
+                    );
+                }
+            }
+            self.rx_until = Some(now_ms);
+        }
+        self.rx.pop_front()
+    }
+
+    /// "Transmits" a frame: logs it for the host to decode.
+    pub fn transmit(&mut self, now_ms: u32, frame: &CanFrame) -> Result<(), TxError> {
+        defmt::info!(
+            "tx {=u32} {=u16:#05x} {=[u8]:02x}",
+            now_ms,
+            frame.id(),
+            frame.data()
+        );
+        Ok(())
+    }
+
+    /// Nothing to feed under QEMU.
+    pub fn feed_watchdog(&mut self) {}
+
+    /// Deepest stack use since boot, bytes (stack painting).
+    pub fn stack_high_water(&self) -> u32 {
+        let (bottom, top) = stack_bounds();
+        let mut p = bottom;
+        // SAFETY: reads of the stack region between the linker's _stack_end and
+        // _stack_start, word-aligned, below the current stack pointer or used stack.
+        while p < top && unsafe { core::ptr::read_volatile(p as *const u32) } == PAINT {
+            p += 4;
+        }
+        (top - p) as u32
+    }
+}
+
+/// A transmit failure (none under QEMU; the STM32 board has real ones).
+#[derive(Debug, Clone, Copy, defmt::Format)]
+pub enum TxError {}
+
+fn stack_bounds() -> (usize, usize) {
+    // Only the addresses of the linker symbols are taken.
+    (
+        core::ptr::addr_of!(_stack_end) as usize,
+        core::ptr::addr_of!(_stack_start) as usize,
+    )
+}
+
+/// Fills the unused stack (below the current stack pointer, with a margin) with `PAINT`.
+fn paint_stack() {
+    let (bottom, _) = stack_bounds();
+    let sp = cortex_m::register::msp::read() as usize - 64;
+    let mut p = bottom;
+    while p < sp {
+        // SAFETY: word writes to the unused part of the stack, below the live frames.
+        unsafe { core::ptr::write_volatile(p as *mut u32, PAINT) };
+        p += 4;
+    }
+}
+
+/// Ends the QEMU run with an exit code.
+pub fn finish(success: bool) -> ! {
+    use cortex_m_semihosting::debug;
+    debug::exit(if success {
+        debug::EXIT_SUCCESS
+    } else {
+        debug::EXIT_FAILURE
+    });
+    #[allow(clippy::empty_loop)]
+    loop {}
+}
+
+/// Idle: a busy loop (with `wfi` and `-icount` the SysTick monotonic runs slow).
+pub fn idle() {
+    core::hint::spin_loop();
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    defmt::error!("panic: {}", defmt::Display2Format(info));
+    finish(false)
+}
+
+#[cortex_m_rt::exception]
+unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    defmt::error!("HardFault at pc {=u32:#010x}", frame.pc());
+    finish(false)
+}

@@ -1,0 +1,99 @@
+//! The encoder against the DBC file that documents the frames (`can/crane.dbc`):
+//! what the controller sends is what a CAN tool reading the DBC will see.
+
+use controller::canopen::{self, Drive, NmtCommand, NmtState, CONTROLLER_NODE};
+use controller::cia402::controlword;
+use controller::units::{DriveLimits, SetpointGate, UNITS_PER_M_PER_S};
+use controller::CanFrame;
+use host_tests::dbc::Dbc;
+use proptest::prelude::*;
+
+fn decode(frame: &CanFrame) -> host_tests::dbc::Decoded {
+    Dbc::crane()
+        .unwrap()
+        .decode(frame.id(), frame.data())
+        .unwrap()
+}
+
+#[test]
+fn dbc_parses_and_covers_every_frame() {
+    let dbc = Dbc::crane().unwrap();
+    assert_eq!(dbc.messages(), 12);
+    let frames = [
+        canopen::nmt(NmtCommand::Start, 0),
+        canopen::sync(),
+        canopen::heartbeat(CONTROLLER_NODE, NmtState::Operational),
+        canopen::heartbeat(1, NmtState::Operational),
+        canopen::heartbeat(2, NmtState::BootUp),
+        canopen::rpdo1(Drive::Trolley, 0x000F, controller::units::Setpoint::ZERO),
+        canopen::rpdo1(Drive::Winch, 0x000F, controller::units::Setpoint::ZERO),
+        canopen::tpdo1(Drive::Trolley, 0x0237, 0),
+        canopen::tpdo1(Drive::Winch, 0x0237, 0),
+        canopen::emcy(CONTROLLER_NODE, 0x6100, 0x01, [1, 2, 3, 4, 5]),
+        canopen::emcy(1, 0x2310, 0x03, [0; 5]),
+        canopen::emcy(2, 0x2310, 0x03, [0; 5]),
+    ];
+    for f in frames {
+        dbc.decode(f.id(), f.data())
+            .unwrap_or_else(|e| panic!("{f:?}: {e}"));
+    }
+}
+
+#[test]
+fn nmt_and_heartbeat_decode_to_their_fields() {
+    let nmt = decode(&canopen::nmt(NmtCommand::Start, 0));
+    assert_eq!(
+        (nmt.message.as_str(), nmt.get("command"), nmt.get("node")),
+        ("NMT", Some(1.0), Some(0.0))
+    );
+    let hb = decode(&canopen::heartbeat(CONTROLLER_NODE, NmtState::Operational));
+    assert_eq!(
+        (hb.message.as_str(), hb.get("nmt_state")),
+        ("Heartbeat_Controller", Some(5.0))
+    );
+    assert_eq!(decode(&canopen::sync()).message, "SYNC");
+}
+
+#[test]
+fn emcy_fields() {
+    let e = decode(&canopen::emcy(
+        CONTROLLER_NODE,
+        0x6100,
+        0x81,
+        [0xAA, 0, 0, 0, 0],
+    ));
+    assert_eq!(
+        (
+            e.get("error_code"),
+            e.get("error_register"),
+            e.get("manufacturer")
+        ),
+        (Some(24832.0), Some(129.0), Some(170.0))
+    );
+}
+
+proptest! {
+    /// Any admissible set point: the DBC reads back the controlword and the velocity in m/s.
+    #[test]
+    fn rpdo_round_trips_through_the_dbc(v in -3.0..3.0f64, cw in prop::sample::select(vec![controlword::SHUTDOWN, controlword::SWITCH_ON, controlword::ENABLE_OPERATION, controlword::QUICK_STOP])) {
+        let limits = DriveLimits { trolley: controller::units::AxisLimits { max_velocity: 3.0, max_acceleration: 1e9 }, ..DriveLimits::LAB };
+        let mut gate = SetpointGate::new(limits, 0.01);
+        let sp = gate.admit(Drive::Trolley, v).unwrap();
+        let d = decode(&canopen::rpdo1(Drive::Trolley, cw, sp));
+        prop_assert_eq!(d.message.as_str(), "RPDO1_Trolley");
+        prop_assert_eq!(d.get("controlword"), Some(f64::from(cw)));
+        let back = d.get("target_velocity").unwrap();
+        prop_assert!((back - v).abs() <= 0.5 / UNITS_PER_M_PER_S + 1e-12, "{} -> {}", v, back);
+    }
+
+    /// TPDOs the drives send decode the same through the DBC and through the controller.
+    #[test]
+    fn tpdo_agrees_with_the_dbc(sw in any::<u16>(), vel in any::<i32>(), winch in any::<bool>()) {
+        let drive = if winch { Drive::Winch } else { Drive::Trolley };
+        let f = canopen::tpdo1(drive, sw, vel);
+        let d = decode(&f);
+        prop_assert_eq!(d.get("statusword"), Some(f64::from(sw)));
+        prop_assert!((d.get("velocity_actual").unwrap() - f64::from(vel) / UNITS_PER_M_PER_S).abs() < 1e-9);
+        prop_assert_eq!(canopen::decode(&f), Ok(canopen::Incoming::Status { drive, statusword: sw, velocity: vel }));
+    }
+}

@@ -1,0 +1,26 @@
+//! Decoding the firmware's defmt log (semihosting output under QEMU) with the ELF's table.
+
+use defmt_decoder::{DecodeError, Table};
+
+/// Decodes a complete defmt byte stream into one text line per log message.
+pub fn decode(elf: &[u8], bytes: &[u8]) -> Result<Vec<String>, String> {
+    let table = Table::parse(elf)
+        .map_err(|e| format!("defmt table: {e}"))?
+        .ok_or("the ELF has no defmt table (was it built with defmt?)")?;
+    let mut decoder = table.new_stream_decoder();
+    decoder.received(bytes);
+    let mut lines = Vec::new();
+    loop {
+        match decoder.decode() {
+            Ok(frame) => lines.push(frame.display_message().to_string()),
+            Err(DecodeError::UnexpectedEof) => break,
+            Err(DecodeError::Malformed) => {
+                return Err(format!(
+                    "malformed defmt frame after {} messages",
+                    lines.len()
+                ))
+            }
+        }
+    }
+    Ok(lines)
+}

@@ -1,0 +1,230 @@
+//! Building the firmware for a scene, running it under QEMU, and reading its log.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use host_tests::dbc::Dbc;
+
+use crate::{cargo, defmt_log, run, setup};
+
+/// The boards the firmware builds for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Board {
+    /// QEMU mps2-an500.
+    Qemu,
+    /// The STM32H743 drive controller.
+    Stm32h743,
+}
+
+impl Board {
+    fn feature(self) -> &'static str {
+        match self {
+            Board::Qemu => "qemu",
+            Board::Stm32h743 => "stm32h743",
+        }
+    }
+}
+
+/// The repository root (xtask runs from anywhere inside it).
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_default()
+}
+
+/// Builds the release firmware for `board` and `scene`; returns the ELF's path.
+pub fn build(board: Board, scene: &Path) -> Result<PathBuf, String> {
+    setup::ensure_target()?;
+    let name = scene
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("scene");
+    let target_dir = root()
+        .join("target/firmware")
+        .join(format!("{}-{name}", board.feature()));
+    run(cargo()
+        .current_dir(root())
+        .env("SCENE", scene)
+        .env("DEFMT_LOG", "info")
+        .args([
+            "build",
+            "--release",
+            "--quiet",
+            "--manifest-path",
+            "firmware/Cargo.toml",
+            "--features",
+            board.feature(),
+        ])
+        .args(["--target", setup::TARGET, "--target-dir"])
+        .arg(&target_dir))?;
+    Ok(target_dir.join(setup::TARGET).join("release/firmware"))
+}
+
+/// Clippy on the firmware for `board`.
+pub fn clippy(board: Board) -> Result<(), String> {
+    let target_dir = root()
+        .join("target/firmware")
+        .join(format!("{}-clippy", board.feature()));
+    run(cargo()
+        .current_dir(root())
+        .env("DEFMT_LOG", "info")
+        .args([
+            "clippy",
+            "--release",
+            "--quiet",
+            "--manifest-path",
+            "firmware/Cargo.toml",
+            "--features",
+            board.feature(),
+        ])
+        .args(["--target", setup::TARGET, "--target-dir"])
+        .arg(&target_dir)
+        .args(["--", "-D", "warnings"]))
+}
+
+/// What a QEMU run printed.
+pub struct QemuRun {
+    /// The decoded log, one line per message.
+    pub lines: Vec<String>,
+    /// Whether the firmware exited with success.
+    pub success: bool,
+}
+
+/// QEMU's command line: mps2-an500 (Cortex-M7, DP FPU), semihosting for the log and
+/// the exit code, and `-icount shift=7` so that virtual time follows the instruction count.
+pub fn qemu_command(elf: &Path) -> Command {
+    let mut cmd = Command::new("qemu-system-arm");
+    cmd.args([
+        "-M",
+        "mps2-an500",
+        "-nographic",
+        "-monitor",
+        "none",
+        "-serial",
+        "none",
+    ])
+    .args(["-semihosting-config", "enable=on,target=native"])
+    .args(["-icount", "shift=7,align=off,sleep=off"])
+    .arg("-kernel")
+    .arg(elf);
+    cmd
+}
+
+/// Runs the firmware under QEMU (killed after `limit`) and decodes its log.
+pub fn run_qemu(elf: &Path, limit: Duration) -> Result<QemuRun, String> {
+    setup::ensure_qemu()?;
+    let elf_bytes = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let out_path = elf.with_extension("defmt");
+    let out =
+        std::fs::File::create(&out_path).map_err(|e| format!("{}: {e}", out_path.display()))?;
+    let mut child = qemu_command(elf)
+        .stdout(out)
+        .stderr(Stdio::inherit())
+        .spawn()
+        .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().map_err(|e| e.to_string())? {
+            break status;
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err(format!("QEMU did not finish within {} s", limit.as_secs()));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let bytes = std::fs::read(&out_path).map_err(|e| e.to_string())?;
+    let lines = defmt_log::decode(&elf_bytes, &bytes)?;
+    Ok(QemuRun {
+        lines,
+        success: status.success(),
+    })
+}
+
+/// A transmitted frame from the log.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Tx {
+    /// Time of the cycle, ms.
+    pub now_ms: u32,
+    /// COB-ID.
+    pub id: u16,
+    /// Data.
+    pub data: Vec<u8>,
+}
+
+/// Parses `tx <ms> <id> [bytes]` lines.
+pub fn parse_tx(line: &str) -> Option<Tx> {
+    let rest = line.strip_prefix("tx ")?;
+    let (ms, rest) = rest.split_once(' ')?;
+    let (id, rest) = rest.split_once(' ')?;
+    let bytes = rest.trim().trim_start_matches('[').trim_end_matches(']');
+    let data = if bytes.is_empty() {
+        Vec::new()
+    } else {
+        bytes
+            .split(',')
+            .map(|b| u8::from_str_radix(b.trim().trim_start_matches("0x"), 16).ok())
+            .collect::<Option<Vec<u8>>>()?
+    };
+    Some(Tx {
+        now_ms: ms.parse().ok()?,
+        id: u16::from_str_radix(id.trim_start_matches("0x"), 16).ok()?,
+        data,
+    })
+}
+
+/// Per-step cost from `cost <cycle> <instructions> <iterations>` lines.
+pub fn parse_cost(line: &str) -> Option<(u32, u64, u32)> {
+    let mut it = line.strip_prefix("cost ")?.split(' ');
+    Some((
+        it.next()?.parse().ok()?,
+        it.next()?.parse().ok()?,
+        it.next()?.parse().ok()?,
+    ))
+}
+
+/// The log for people and for the golden file: frames decoded against the DBC,
+/// everything else as printed, without the per-step cost lines (those are baselines).
+pub fn readable_log(lines: &[String], dbc: &Dbc) -> Vec<String> {
+    lines
+        .iter()
+        .filter(|l| !l.starts_with("cost ") && !l.starts_with("done: "))
+        .map(|l| match parse_tx(l) {
+            Some(tx) => match dbc.decode(tx.id, &tx.data) {
+                Ok(d) => format!("{:>6} ms  {d}", tx.now_ms),
+                Err(e) => format!("{:>6} ms  undecodable frame {:#05x}: {e}", tx.now_ms, tx.id),
+            },
+            None => l.clone(),
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log_lines_parse() {
+        assert_eq!(
+            parse_tx("tx 1230 0x201 [0f, 00, 40, 42, 0f, 00]"),
+            Some(Tx {
+                now_ms: 1230,
+                id: 0x201,
+                data: vec![0x0f, 0, 0x40, 0x42, 0x0f, 0]
+            })
+        );
+        assert_eq!(
+            parse_tx("tx 0 0x080 []"),
+            Some(Tx {
+                now_ms: 0,
+                id: 0x80,
+                data: vec![]
+            })
+        );
+        assert_eq!(parse_cost("cost 12 4567 2"), Some((12, 4567, 2)));
+        assert_eq!(parse_tx("cost 1 2 3"), None);
+    }
+}

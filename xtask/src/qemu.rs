@@ -1,0 +1,327 @@
+//! The QEMU checks: golden output, the host's computation of the same scene,
+//! committed baselines (instructions per step, flash, RAM, stack), and the table.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use controller::canopen::cob;
+use controller::virtual_bus::HEALTHY;
+use host_tests::dbc::Dbc;
+use host_tests::firmware::controller_reference;
+use object::{Object, ObjectSection};
+use scene::Scene;
+
+use crate::firmware::{self, parse_cost, parse_tx, readable_log, root, Board};
+
+/// The scenes the firmware is checked on: the default (BDF4) and the paper's Radau J̃10.
+pub const SCENES: [&str; 2] = ["scenes/paper-crane.toml", "scenes/paper-crane-radau.toml"];
+
+/// Wall-clock limit for one QEMU run.
+const QEMU_LIMIT: Duration = Duration::from_secs(600);
+
+/// A finished QEMU run of one scene with everything measured about it.
+pub struct Measured {
+    /// The scene.
+    pub scene: Scene,
+    /// Its file.
+    pub path: PathBuf,
+    /// The decoded log.
+    pub lines: Vec<String>,
+    /// Whether the firmware exited with success.
+    pub success: bool,
+    /// Instructions per step, one per cycle.
+    pub costs: Vec<u64>,
+    /// Flash and static RAM, bytes.
+    pub sizes: Sizes,
+    /// Stack high-water mark from stack painting, bytes.
+    pub stack: u64,
+}
+
+/// Builds and runs `scene` on the QEMU board.
+pub fn measure(scene: &str) -> Result<Measured, String> {
+    let path = root().join(scene);
+    let parsed = Scene::load(&path).map_err(|e| format!("{scene}: {e}"))?;
+    let elf = firmware::build(Board::Qemu, &path)?;
+    let run = firmware::run_qemu(&elf, QEMU_LIMIT)?;
+    let costs = run
+        .lines
+        .iter()
+        .filter_map(|l| parse_cost(l))
+        .map(|(_, c, _)| c)
+        .collect();
+    let stack = run
+        .lines
+        .iter()
+        .find_map(|l| {
+            l.split("stack ")
+                .nth(1)
+                .and_then(|r| r.split(' ').next())
+                .and_then(|n| n.parse().ok())
+        })
+        .ok_or_else(|| format!("{scene}: no stack report in the log (did the run finish?)"))?;
+    Ok(Measured {
+        scene: parsed,
+        path,
+        lines: run.lines,
+        success: run.success,
+        costs,
+        sizes: sizes(&elf)?,
+        stack,
+    })
+}
+
+/// Flash and static RAM of an ELF.
+#[derive(Debug, Clone, Copy)]
+pub struct Sizes {
+    /// Code, constants, vector table and the initial values of `.data`.
+    pub flash: u64,
+    /// `.data`, `.bss` and `.uninit`.
+    pub ram: u64,
+}
+
+/// Reads the section sizes of an ELF.
+pub fn sizes(elf: &Path) -> Result<Sizes, String> {
+    let bytes = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let file = object::File::parse(&*bytes).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let (mut flash, mut ram) = (0, 0);
+    for section in file.sections() {
+        let size = section.size();
+        match section.name().unwrap_or("") {
+            ".vector_table" | ".text" | ".rodata" => flash += size,
+            ".data" => {
+                flash += size;
+                ram += size;
+            }
+            ".bss" | ".uninit" => ram += size,
+            _ => {}
+        }
+    }
+    Ok(Sizes { flash, ram })
+}
+
+impl Measured {
+    fn stem(&self) -> String {
+        self.path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("scene")
+            .to_string()
+    }
+
+    /// (min, mean, max) instructions per step.
+    pub fn cost_summary(&self) -> (u64, u64, u64) {
+        let n = self.costs.len().max(1) as u64;
+        let min = self.costs.iter().copied().min().unwrap_or(0);
+        let max = self.costs.iter().copied().max().unwrap_or(0);
+        (min, self.costs.iter().sum::<u64>() / n, max)
+    }
+
+    fn baseline_values(&self) -> BTreeMap<&'static str, u64> {
+        let (_, mean, max) = self.cost_summary();
+        BTreeMap::from([
+            ("flash_bytes", self.sizes.flash),
+            ("instructions_per_step_max", max),
+            ("instructions_per_step_mean", mean),
+            ("stack_bytes", self.stack),
+            ("static_ram_bytes", self.sizes.ram),
+        ])
+    }
+}
+
+/// Checks a run against the golden log, the host's set points and the baselines;
+/// `overwrite` refreshes the committed files instead.
+pub fn check(m: &Measured, overwrite: bool) -> Result<(), String> {
+    if !m.success {
+        return Err(format!(
+            "{}: the firmware did not exit with success",
+            m.stem()
+        ));
+    }
+    if m.costs.len() != m.scene.steps() {
+        return Err(format!(
+            "{}: {} cycles logged, the scene has {}",
+            m.stem(),
+            m.costs.len(),
+            m.scene.steps()
+        ));
+    }
+    compare_with_host(m)?;
+    let dbc = Dbc::crane()?;
+    let log = readable_log(&m.lines, &dbc).join("\n") + "\n";
+    let golden = root()
+        .join("firmware/expected")
+        .join(format!("{}.run", m.stem()));
+    let baseline = root()
+        .join("firmware/baselines")
+        .join(format!("{}.qemu", m.stem()));
+    if overwrite {
+        write(&golden, &log)?;
+        write(&baseline, &baseline_text(&m.baseline_values()))?;
+        eprintln!("refreshed {} and {}", golden.display(), baseline.display());
+        return Ok(());
+    }
+    let expected = std::fs::read_to_string(&golden).map_err(|e| {
+        format!(
+            "{}: {e} (create it with `cargo xtask qemu --overwrite-expected`)",
+            golden.display()
+        )
+    })?;
+    if expected != log {
+        let first = expected
+            .lines()
+            .zip(log.lines())
+            .position(|(a, b)| a != b)
+            .unwrap_or(expected.lines().count().min(log.lines().count()));
+        return Err(format!(
+            "{}: QEMU output differs from {} at line {}:\n  expected: {}\n  got:      {}\n(refresh deliberately with `cargo xtask qemu --overwrite-expected`)",
+            m.stem(),
+            golden.display(),
+            first + 1,
+            expected.lines().nth(first).unwrap_or("<end>"),
+            log.lines().nth(first).unwrap_or("<end>")
+        ));
+    }
+    check_baseline(&baseline, &m.baseline_values())
+}
+
+/// The firmware computes what the tests proved: every frame equals the host's run of
+/// the same scene on the same scripted bus; set points may differ by one drive unit (1 µm/s).
+fn compare_with_host(m: &Measured) -> Result<(), String> {
+    let reference = controller_reference(&m.scene, &HEALTHY)?;
+    let expected: Vec<(u32, u16, Vec<u8>)> = reference
+        .iter()
+        .flat_map(|c| {
+            c.frames
+                .iter()
+                .map(move |f| (c.now_ms, f.id(), f.data().to_vec()))
+        })
+        .collect();
+    let got: Vec<(u32, u16, Vec<u8>)> = m
+        .lines
+        .iter()
+        .filter_map(|l| parse_tx(l))
+        .map(|t| (t.now_ms, t.id, t.data))
+        .collect();
+    if expected.len() != got.len() {
+        return Err(format!(
+            "{}: QEMU sent {} frames, the host computes {}",
+            m.stem(),
+            got.len(),
+            expected.len()
+        ));
+    }
+    let mut worst = 0i64;
+    for ((t0, id0, d0), (t1, id1, d1)) in expected.iter().zip(&got) {
+        let rpdo = (cob::RPDO1 + 1..=cob::RPDO1 + 2).contains(id0);
+        let same_frame = t0 == t1 && id0 == id1 && d0.len() == d1.len();
+        if rpdo && same_frame && d0.get(..2) == d1.get(..2) {
+            let v = |d: &[u8]| i64::from(i32::from_le_bytes([d[2], d[3], d[4], d[5]]));
+            let diff = (v(d0) - v(d1)).abs();
+            worst = worst.max(diff);
+            if diff <= 1 {
+                continue;
+            }
+        }
+        if !(same_frame && d0 == d1) {
+            return Err(format!(
+                "{}: at {t1} ms QEMU sent {id1:#05x} {d1:02x?}, the host computes {id0:#05x} {d0:02x?} at {t0} ms",
+                m.stem()
+            ));
+        }
+    }
+    eprintln!(
+        "{}: {} frames equal to the host's computation (set points within {worst} µm/s)",
+        m.stem(),
+        got.len()
+    );
+    Ok(())
+}
+
+fn baseline_text(values: &BTreeMap<&str, u64>) -> String {
+    let mut text = String::from(
+        "# QEMU mps2-an500, -icount shift=7: instructions are QEMU instructions, not Cortex-M7 cycles.\n\
+         # A regression of more than 10 % fails `cargo xtask test`; refresh with `cargo xtask qemu --overwrite-expected`.\n",
+    );
+    for (k, v) in values {
+        text += &format!("{k} = {v}\n");
+    }
+    text
+}
+
+fn check_baseline(path: &Path, values: &BTreeMap<&str, u64>) -> Result<(), String> {
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        format!(
+            "{}: {e} (create it with `cargo xtask qemu --overwrite-expected`)",
+            path.display()
+        )
+    })?;
+    let committed: BTreeMap<String, u64> = text
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .filter_map(|l| {
+            l.split_once('=')
+                .and_then(|(k, v)| Some((k.trim().to_string(), v.trim().parse().ok()?)))
+        })
+        .collect();
+    let mut failures = Vec::new();
+    for (key, &now) in values {
+        let Some(&base) = committed.get(*key) else {
+            failures.push(format!("{key}: no baseline"));
+            continue;
+        };
+        let limit = base + base / 10;
+        if now > limit {
+            failures.push(format!(
+                "{key}: {now} exceeds the baseline {base} by more than 10 %"
+            ));
+        }
+    }
+    if failures.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("{}:\n  {}", path.display(), failures.join("\n  ")))
+    }
+}
+
+fn write(path: &Path, text: &str) -> Result<(), String> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
+    }
+    std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// The table of the paper's Fig. 8(d)/(e): instructions per 100 Hz step per scheme.
+pub fn table(runs: &[Measured]) -> String {
+    let mut out = String::from(
+        "\nInstructions per 100 Hz step under QEMU mps2-an500 (-icount shift=7): QEMU instructions, not Cortex-M7 cycles.\n\n\
+         | scene | solver | min | mean | max | target (max) | flash | static RAM | stack | RAM + stack |\n\
+         |---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for m in runs {
+        let (min, mean, max) = m.cost_summary();
+        let solver = m
+            .lines
+            .iter()
+            .find_map(|l| {
+                l.split(": ")
+                    .nth(1)
+                    .map(|s| s.split(',').next().unwrap_or(s).to_string())
+            })
+            .unwrap_or_default();
+        let target = if m.scene.solver.scheme == scene::SchemeSpec::Radau {
+            "60,000"
+        } else {
+            "10,000"
+        };
+        out += &format!(
+            "| {} | {solver} | {min} | {mean} | {max} | {target} | {:.1} KiB | {:.1} KiB | {:.1} KiB | {:.1} KiB |\n",
+            m.stem(),
+            m.sizes.flash as f64 / 1024.0,
+            m.sizes.ram as f64 / 1024.0,
+            m.stack as f64 / 1024.0,
+            (m.sizes.ram + m.stack) as f64 / 1024.0
+        );
+    }
+    out + "\nTargets: flash ≤ 128 KiB, static RAM + stack ≤ 32 KiB.\n"
+}
