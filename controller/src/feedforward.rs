@@ -1,6 +1,5 @@
 //! The inverse model as the controller sees it: one step per cycle, two velocities out.
 
-use nalgebra::{Const, DimMin};
 use solver_core::scalar::to_f64;
 use solver_core::{Bdf, DaeModel, Error, NewtonStats, Radau, Real};
 
@@ -39,9 +38,8 @@ fn report<T: Real>(t: T, u: nalgebra::SVector<T, 2>, stats: NewtonStats) -> Feed
     }
 }
 
-impl<T: Real, M: DaeModel<T, N, 2>, const N: usize> Feedforward for InverseModel<M, Bdf<T, M, N, 2>>
-where
-    Const<N>: DimMin<Const<N>, Output = Const<N>>,
+impl<T: Real, M: DaeModel<T, N, 2>, const N: usize> Feedforward
+    for InverseModel<M, Bdf<T, M, N, 2>>
 {
     fn step(&mut self) -> Result<FeedforwardStep, Error> {
         self.integrator
@@ -52,8 +50,6 @@ where
 
 impl<T: Real, M: DaeModel<T, N, 2>, const N: usize, const S: usize> Feedforward
     for InverseModel<M, Radau<T, M, N, 2, S>>
-where
-    Const<S>: DimMin<Const<S>, Output = Const<S>>,
 {
     fn step(&mut self) -> Result<FeedforwardStep, Error> {
         self.integrator

@@ -1,6 +1,6 @@
 //! Whole-trajectory runs of a scheme on a model, and the errors the paper measures.
 
-use nalgebra::{Const, DimMin, SVector};
+use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
 use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::scalar::{c, to_f64};
@@ -60,8 +60,6 @@ pub fn run<T, M, const N: usize, const NU: usize, const S: usize>(
 where
     T: Real,
     M: DaeModel<T, N, NU>,
-    Const<N>: DimMin<Const<N>, Output = Const<N>>,
-    Const<S>: DimMin<Const<S>, Output = Const<S>>,
 {
     let steps = ((t_end - t0) / settings.h).round() as usize;
     let x0 = model.rest_state(c(t0))?;

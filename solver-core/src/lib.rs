@@ -26,6 +26,7 @@
 )]
 
 pub mod error;
+mod linalg;
 pub mod model;
 pub mod models;
 pub mod newton;

@@ -35,9 +35,10 @@
 //! simplified Newton on it (unless `broyden_refresh` is off, as in the paper).
 //! Anything else within `max_iterations` is an [`Error::NewtonNotConverged`].
 
-use nalgebra::{Const, DimMin, SMatrix, SVector};
+use nalgebra::{SMatrix, SVector};
 
 use crate::error::{Error, Result};
+use crate::linalg::{self, Pivots};
 use crate::scalar::{to_f64, Real};
 
 /// How the Newton matrix is obtained.
@@ -147,8 +148,8 @@ pub struct NewtonStats {
 pub(crate) trait StepSystem<T: Real, const M: usize> {
     /// `G(ξ)`.
     fn residual(&self, xi: &SVector<T, M>) -> SVector<T, M>;
-    /// `∂G/∂ξ` from the model's exact partials.
-    fn jacobian(&self, xi: &SVector<T, M>) -> SMatrix<T, M, M>;
+    /// Writes `∂G/∂ξ` from the model's exact partials into `out`.
+    fn jacobian_into(&self, xi: &SVector<T, M>, out: &mut SMatrix<T, M, M>);
     /// Time of the step (for error context).
     fn time(&self) -> f64;
     /// The weighted max-norm `max_i |δ_i| / (atol + rtol·|v_i|)` of the change `δ`
@@ -178,16 +179,15 @@ pub(crate) fn weighted_norm<T: Real, const M: usize>(
 pub struct Newton<T: Real, const M: usize> {
     mode: JacobianMode,
     settings: NewtonSettings,
-    /// Broyden: `J̃⁻¹`, carried from step to step.
-    inverse: SMatrix<T, M, M>,
+    /// The one matrix Newton owns: J and then its LU factors (J, exact), or `J̃⁻¹`
+    /// carried from step to step (Broyden). Kept here, not on the stack.
+    matrix: SMatrix<T, M, M>,
+    pivots: Pivots<M>,
     has_inverse: bool,
     steps_since_init: u32,
 }
 
-impl<T: Real, const M: usize> Newton<T, M>
-where
-    Const<M>: DimMin<Const<M>, Output = Const<M>>,
-{
+impl<T: Real, const M: usize> Newton<T, M> {
     /// A solver for systems of size `M`.
     pub fn new(mode: JacobianMode, settings: NewtonSettings) -> Result<Self> {
         settings.validate()?;
@@ -203,7 +203,8 @@ where
         Ok(Self {
             mode,
             settings,
-            inverse: SMatrix::zeros(),
+            matrix: SMatrix::zeros(),
+            pivots: [0; M],
             has_inverse: false,
             steps_since_init: 0,
         })
@@ -253,17 +254,14 @@ where
         g: &SVector<T, M>,
         stats: &mut NewtonStats,
     ) -> Result<()> {
-        let j = finite_difference_jacobian(sys, xi, g, stats);
+        finite_difference_jacobian(sys, xi, g, stats, &mut self.matrix);
         stats.factorizations += 1;
-        self.inverse = j.try_inverse().ok_or(Error::SingularJacobian {
-            t: sys.time(),
-            iterations: stats.iterations,
-            residual: max_abs(g),
-        })?;
-        if !self.inverse.iter().all(|v| to_f64(*v).is_finite()) {
-            return Err(Error::NonFinite {
+        self.has_inverse = false;
+        if !linalg::invert(&mut self.matrix) {
+            return Err(Error::SingularJacobian {
                 t: sys.time(),
                 iterations: stats.iterations,
+                residual: max_abs(g),
             });
         }
         self.has_inverse = true;
@@ -291,14 +289,15 @@ where
         let first = stats.iterations;
         for it in 1..=self.settings.max_iterations {
             let eta = match self.mode {
-                JacobianMode::Broyden { .. } => -(self.inverse * g),
+                JacobianMode::Broyden { .. } => -(self.matrix * g),
                 JacobianMode::FiniteDifference => {
-                    let j = finite_difference_jacobian(sys, &xi, &g, stats);
-                    solve_linear(j, &g, stats, t)?
+                    finite_difference_jacobian(sys, &xi, &g, stats, &mut self.matrix);
+                    self.solve_linear(&g, stats, t)?
                 }
                 JacobianMode::Exact => {
                     stats.jacobian_evals += 1;
-                    solve_linear(sys.jacobian(&xi), &g, stats, t)?
+                    sys.jacobian_into(&xi, &mut self.matrix);
+                    self.solve_linear(&g, stats, t)?
                 }
             };
             // J and the exact Jacobian are recomputed every iteration.
@@ -364,6 +363,26 @@ where
         })
     }
 
+    /// Solves `J η = −g` with the LU factors of `self.matrix` (which holds J).
+    fn solve_linear(
+        &mut self,
+        g: &SVector<T, M>,
+        stats: &mut NewtonStats,
+        t: f64,
+    ) -> Result<SVector<T, M>> {
+        stats.factorizations += 1;
+        if !linalg::factor(&mut self.matrix, &mut self.pivots) {
+            return Err(Error::SingularJacobian {
+                t,
+                iterations: stats.iterations,
+                residual: max_abs(g),
+            });
+        }
+        let mut eta = -g;
+        linalg::solve(&self.matrix, &self.pivots, &mut eta);
+        Ok(eta)
+    }
+
     /// Eq. 19, `J̃₊ = J̃ + G(ξ₊) ηᵀ / ‖η‖²`, applied to `J̃⁻¹` by Sherman–Morrison:
     /// `H₊ = H − (H G₊)(ηᵀ H) / (‖η‖² + ηᵀ H G₊)`.
     fn broyden_update(
@@ -373,8 +392,9 @@ where
         stats: &NewtonStats,
         t: f64,
     ) -> Result<()> {
-        let hg = self.inverse * g_new;
-        let eta_h = eta.transpose() * self.inverse;
+        let hg = self.matrix * g_new;
+        // (ηᵀ H)ᵀ = Hᵀ η, as a column for the rank-one update below.
+        let h_t_eta = self.matrix.tr_mul(eta);
         let eta2 = eta.norm_squared();
         let denom = eta2 + eta.dot(&hg);
         // A vanishing (or NaN) denominator means the updated J̃ is singular.
@@ -386,7 +406,8 @@ where
                 residual: max_abs(g_new),
             });
         }
-        self.inverse -= (hg * eta_h) / denom;
+        // In place, one multiply-add per element (no temporary matrix, no divisions).
+        self.matrix.ger(-T::one() / denom, &hg, &h_t_eta, T::one());
         Ok(())
     }
 }
@@ -409,15 +430,15 @@ fn evaluate<T: Real, const M: usize, S: StepSystem<T, M>>(
     }
 }
 
-/// Forward differences, one column per unknown (`M` residual evaluations).
+/// Forward differences into `j`, one column per unknown (`M` residual evaluations).
 fn finite_difference_jacobian<T: Real, const M: usize, S: StepSystem<T, M>>(
     sys: &S,
     xi: &SVector<T, M>,
     g: &SVector<T, M>,
     stats: &mut NewtonStats,
-) -> SMatrix<T, M, M> {
+    j: &mut SMatrix<T, M, M>,
+) {
     let sqrt_eps = T::default_epsilon().sqrt();
-    let mut j = SMatrix::<T, M, M>::zeros();
     let mut probe = *xi;
     for (col, mut column) in j.column_iter_mut().enumerate() {
         let Some(&x0) = xi.get(col) else { continue };
@@ -434,31 +455,6 @@ fn finite_difference_jacobian<T: Real, const M: usize, S: StepSystem<T, M>>(
     }
     stats.residual_evals += M as u32;
     stats.jacobian_evals += 1;
-    j
-}
-
-/// Solves `J η = −g` by LU with partial pivoting.
-fn solve_linear<T: Real, const M: usize>(
-    j: SMatrix<T, M, M>,
-    g: &SVector<T, M>,
-    stats: &mut NewtonStats,
-    t: f64,
-) -> Result<SVector<T, M>>
-where
-    Const<M>: DimMin<Const<M>, Output = Const<M>>,
-{
-    stats.factorizations += 1;
-    let lu = j.lu();
-    let mut eta = -g;
-    if lu.solve_mut(&mut eta) {
-        Ok(eta)
-    } else {
-        Err(Error::SingularJacobian {
-            t,
-            iterations: stats.iterations,
-            residual: max_abs(g),
-        })
-    }
 }
 
 /// Max-norm as f64.
@@ -493,8 +489,8 @@ mod tests {
         fn residual(&self, xi: &SVector<f64, 2>) -> SVector<f64, 2> {
             SVector::<f64, 2>::new(xi[0] * xi[0] - 2.0, xi[0] * xi[1] - 3.0)
         }
-        fn jacobian(&self, xi: &SVector<f64, 2>) -> SMatrix<f64, 2, 2> {
-            SMatrix::<f64, 2, 2>::new(2.0 * xi[0], 0.0, xi[1], xi[0])
+        fn jacobian_into(&self, xi: &SVector<f64, 2>, out: &mut SMatrix<f64, 2, 2>) {
+            *out = SMatrix::<f64, 2, 2>::new(2.0 * xi[0], 0.0, xi[1], xi[0]);
         }
         fn time(&self) -> f64 {
             0.0

@@ -47,10 +47,19 @@ pub fn ensure_at_rest<T: Real, const NZ: usize, Z: Trajectory<T, NZ>>(z: &Z, t: 
     }
 }
 
+/// Derivative orders whose coefficients are tabulated (the models need 2, the flat
+/// reference 4); higher orders are computed on the fly.
+const TABULATED_ORDERS: usize = 6;
+
 /// The unit smooth step `S_n(τ)` of degree `2n+1` on `τ ∈ [0, 1]`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SmoothStep {
     n: usize,
+    /// `C(2n+1, k)` for `k = n+1..=2n+1`: the Bernstein weights of the value.
+    value: [f64; MAX_SMOOTHNESS + 1],
+    /// Row `m`: the coefficients of `d^m/dτ^m [K τⁿ(1−τ)ⁿ]` (order `m + 1` of `S`),
+    /// term `i` multiplying `τ^(n−i) (1−τ)^(n−m+i)`.
+    derivative: [[f64; TABULATED_ORDERS]; TABULATED_ORDERS],
 }
 
 impl SmoothStep {
@@ -64,7 +73,22 @@ impl SmoothStep {
                 max: MAX_SMOOTHNESS as f64,
             });
         }
-        Ok(Self { n })
+        let degree = 2 * n + 1;
+        let mut value = [0.0; MAX_SMOOTHNESS + 1];
+        for (j, v) in value.iter_mut().enumerate().take(n + 1) {
+            *v = binomial(degree, n + 1 + j);
+        }
+        let mut derivative = [[0.0; TABULATED_ORDERS]; TABULATED_ORDERS];
+        for (m, row) in derivative.iter_mut().enumerate() {
+            for (i, c) in row.iter_mut().enumerate().take(m + 1) {
+                *c = derivative_coefficient(n, m, i);
+            }
+        }
+        Ok(Self {
+            n,
+            value,
+            derivative,
+        })
     }
 
     /// Smoothness n.
@@ -99,41 +123,56 @@ impl SmoothStep {
         let s = T::one() - tau;
         let mut pt = [T::one(); MAX_DEGREE + 1];
         let mut ps = [T::one(); MAX_DEGREE + 1];
-        for i in 1..=degree {
-            if let (Some(&prev_t), Some(&prev_s)) = (pt.get(i - 1), ps.get(i - 1)) {
-                if let (Some(cur_t), Some(cur_s)) = (pt.get_mut(i), ps.get_mut(i)) {
-                    *cur_t = prev_t * tau;
-                    *cur_s = prev_s * s;
-                }
-            }
+        let (mut a, mut b) = (T::one(), T::one());
+        for (x, y) in pt.iter_mut().zip(ps.iter_mut()).take(degree + 1).skip(1) {
+            a *= tau;
+            b *= s;
+            *x = a;
+            *y = b;
         }
         let pow = |p: &[T; MAX_DEGREE + 1], i: usize| p.get(i).copied().unwrap_or_else(T::zero);
 
         for (order, slot) in out.iter_mut().enumerate() {
             *slot = if order == 0 {
                 // Bernstein form: P(Binomial(2n+1, τ) ≥ n+1).
-                (n + 1..=degree).fold(T::zero(), |acc, k| {
-                    acc + c::<T>(binomial(degree, k)) * pow(&pt, k) * pow(&ps, degree - k)
-                })
+                self.value
+                    .iter()
+                    .take(n + 1)
+                    .enumerate()
+                    .fold(T::zero(), |acc, (j, w)| {
+                        let k = n + 1 + j;
+                        acc + c::<T>(*w) * pow(&pt, k) * pow(&ps, degree - k)
+                    })
             } else {
-                // S^(order) = K · d^(order−1)/dτ^(order−1) [τⁿ (1−τ)ⁿ],  K = (2n+1)·C(2n, n).
                 let m = order - 1;
-                let k_factor = (degree as f64) * binomial(2 * n, n);
-                let mut acc = T::zero();
-                for i in 0..=m {
-                    let j = m - i; // derivatives falling on (1−τ)ⁿ
+                let row = self.derivative.get(m);
+                (0..=m).fold(T::zero(), |acc, i| {
+                    let j = m - i;
                     if i > n || j > n {
-                        continue;
+                        return acc;
                     }
-                    let sign = if j % 2 == 0 { 1.0 } else { -1.0 };
-                    let coeff = sign * binomial(m, i) * falling(n, i) * falling(n, j);
-                    acc += c::<T>(coeff) * pow(&pt, n - i) * pow(&ps, n - j);
-                }
-                c::<T>(k_factor) * acc
+                    let coeff = row
+                        .and_then(|r| r.get(i))
+                        .copied()
+                        .unwrap_or_else(|| derivative_coefficient(n, m, i));
+                    acc + c::<T>(coeff) * pow(&pt, n - i) * pow(&ps, n - j)
+                })
             };
         }
         out
     }
+}
+
+/// `S^(m+1) = K · d^m/dτ^m [τⁿ (1−τ)ⁿ]` with `K = (2n+1)·C(2n, n)`, by Leibniz' rule:
+/// the coefficient of `τ^(n−i) (1−τ)^(n−j)`, `j = m − i`.
+fn derivative_coefficient(n: usize, m: usize, i: usize) -> f64 {
+    let j = m - i;
+    if i > n || j > n {
+        return 0.0;
+    }
+    let k = (2 * n + 1) as f64 * binomial(2 * n, n);
+    let sign = if j.is_multiple_of(2) { 1.0 } else { -1.0 };
+    k * sign * binomial(m, i) * falling(n, i) * falling(n, j)
 }
 
 /// Binomial coefficient as f64 (exact for the sizes used here, ≤ C(25, 12)).

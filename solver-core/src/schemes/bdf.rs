@@ -14,7 +14,7 @@
 use core::marker::PhantomData;
 
 use heapless::HistoryBuf;
-use nalgebra::{Const, DimMin, SMatrix, SVector};
+use nalgebra::{SMatrix, SVector};
 
 use crate::error::{Error, Result};
 use crate::model::DaeModel;
@@ -54,10 +54,7 @@ pub struct Bdf<T: Real, M, const N: usize, const NU: usize> {
     model: PhantomData<fn() -> M>,
 }
 
-impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> Bdf<T, M, N, NU>
-where
-    Const<N>: DimMin<Const<N>, Output = Const<N>>,
-{
+impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> Bdf<T, M, N, NU> {
     /// A k-step BDF starting at rest at `t0`.
     pub fn new(model: &M, settings: &SolverSettings, k: usize, t0: T) -> Result<Self> {
         settings.validate()?;
@@ -176,12 +173,11 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> StepSystem
             .component_mul(self.scale)
     }
 
-    fn jacobian(&self, xi: &SVector<T, N>) -> SMatrix<T, N, N> {
+    fn jacobian_into(&self, xi: &SVector<T, N>, out: &mut SMatrix<T, N, N>) {
         let xdot = ((xi - self.anchor) * self.alpha0 + self.past) * self.inv_h;
         let p = self.model.partials(xi, &xdot, &self.sample);
-        let mut j = p.dx + p.dxdot * (self.alpha0 * self.inv_h);
-        scale_rows(&mut j, self.scale);
-        j
+        *out = p.dx + p.dxdot * (self.alpha0 * self.inv_h);
+        scale_rows(out, self.scale);
     }
 
     fn time(&self) -> f64 {

@@ -12,7 +12,7 @@
 
 use core::marker::PhantomData;
 
-use nalgebra::{Const, DimMin, SMatrix, SVector};
+use nalgebra::{SMatrix, SVector};
 
 use crate::error::Result;
 use crate::model::DaeModel;
@@ -58,8 +58,6 @@ pub struct Radau<T: Real, M, const N: usize, const NU: usize, const S: usize> {
 
 impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize>
     Radau<T, M, N, NU, S>
-where
-    Const<S>: DimMin<Const<S>, Output = Const<S>>,
 {
     const STAGE_SYSTEM_IS_3N: () = assert!(S == 3 * N, "Radau IIA: S must equal 3 * N");
 
@@ -194,8 +192,7 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
     }
 
     /// `∂G_i/∂X'_j = S (h a_ij ∂F/∂x + δ_ij ∂F/∂ẋ)` at stage i.
-    fn jacobian(&self, xi: &SVector<T, S>) -> SMatrix<T, S, S> {
-        let mut jac = SMatrix::<T, S, S>::zeros();
+    fn jacobian_into(&self, xi: &SVector<T, S>, jac: &mut SMatrix<T, S, S>) {
         for (i, (sample, row)) in self.samples.iter().zip(self.ha.iter()).enumerate() {
             let (x, xdot) = self.stage(i, xi);
             let p = self.model.partials(&x, &xdot, sample);
@@ -208,7 +205,6 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
                 jac.fixed_view_mut::<N, N>(i * N, j * N).copy_from(&block);
             }
         }
-        jac
     }
 
     fn time(&self) -> f64 {
