@@ -106,8 +106,16 @@ mod app {
                     defmt::warn!("transmit failed: {}", e);
                 }
             }
-            let iterations = out.step.map_or(0, |s| s.stats.iterations);
-            defmt::info!("cost {=u32} {=u64} {=u32}", cycle, cost, iterations);
+            let (iterations, jacobians) = out
+                .step
+                .map_or((0, 0), |s| (s.stats.iterations, s.stats.jacobian_evals));
+            defmt::info!(
+                "cost {=u32} {=u64} {=u32} {=u32}",
+                cycle,
+                cost,
+                iterations,
+                jacobians
+            );
             (min, max, sum) = (min.min(cost), max.max(cost), sum + cost);
             board.feed_watchdog();
             next += scene::PERIOD_MS.millis();

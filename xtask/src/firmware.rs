@@ -176,14 +176,28 @@ pub fn parse_tx(line: &str) -> Option<Tx> {
     })
 }
 
-/// Per-step cost from `cost <cycle> <instructions> <iterations>` lines.
-pub fn parse_cost(line: &str) -> Option<(u32, u64, u32)> {
+/// One step's cost from a `cost <cycle> <instructions> <iterations> <jacobians>` line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StepCost {
+    /// Cycle number.
+    pub cycle: u32,
+    /// QEMU instructions of the whole 100 Hz step.
+    pub instructions: u64,
+    /// Newton iterations.
+    pub iterations: u32,
+    /// Jacobians formed (Broyden: re-initialisations).
+    pub jacobians: u32,
+}
+
+/// Parses a cost line.
+pub fn parse_cost(line: &str) -> Option<StepCost> {
     let mut it = line.strip_prefix("cost ")?.split(' ');
-    Some((
-        it.next()?.parse().ok()?,
-        it.next()?.parse().ok()?,
-        it.next()?.parse().ok()?,
-    ))
+    Some(StepCost {
+        cycle: it.next()?.parse().ok()?,
+        instructions: it.next()?.parse().ok()?,
+        iterations: it.next()?.parse().ok()?,
+        jacobians: it.next()?.parse().ok()?,
+    })
 }
 
 /// The log for people and for the golden file: frames decoded against the DBC,
@@ -224,7 +238,15 @@ mod tests {
                 data: vec![]
             })
         );
-        assert_eq!(parse_cost("cost 12 4567 2"), Some((12, 4567, 2)));
+        assert_eq!(
+            parse_cost("cost 12 4567 2 1"),
+            Some(StepCost {
+                cycle: 12,
+                instructions: 4567,
+                iterations: 2,
+                jacobians: 1
+            })
+        );
         assert_eq!(parse_tx("cost 1 2 3"), None);
     }
 }

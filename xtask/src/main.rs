@@ -105,6 +105,7 @@ fn qemu_bench() -> Result<(), String> {
         .map(|s| qemu::measure(s))
         .collect::<Result<Vec<_>, _>>()?;
     print!("{}", qemu::table(&runs));
+    print!("{}", qemu::worst_steps(&runs, 8));
     Ok(())
 }
 

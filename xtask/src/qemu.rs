@@ -12,7 +12,7 @@ use host_tests::firmware::controller_reference;
 use object::{Object, ObjectSection};
 use scene::Scene;
 
-use crate::firmware::{self, parse_cost, parse_tx, readable_log, root, Board};
+use crate::firmware::{self, parse_cost, parse_tx, readable_log, root, Board, StepCost};
 
 /// The scenes the firmware is checked on: the default (BDF4) and the paper's Radau J̃10.
 pub const SCENES: [&str; 2] = ["scenes/paper-crane.toml", "scenes/paper-crane-radau.toml"];
@@ -32,6 +32,8 @@ pub struct Measured {
     pub success: bool,
     /// Instructions per step, one per cycle.
     pub costs: Vec<u64>,
+    /// Everything logged about each step's cost.
+    pub steps: Vec<StepCost>,
     /// Flash and static RAM, bytes.
     pub sizes: Sizes,
     /// Stack high-water mark from stack painting, bytes.
@@ -44,12 +46,8 @@ pub fn measure(scene: &str) -> Result<Measured, String> {
     let parsed = Scene::load(&path).map_err(|e| format!("{scene}: {e}"))?;
     let elf = firmware::build(Board::Qemu, &path)?;
     let run = firmware::run_qemu(&elf, QEMU_LIMIT)?;
-    let costs = run
-        .lines
-        .iter()
-        .filter_map(|l| parse_cost(l))
-        .map(|(_, c, _)| c)
-        .collect();
+    let steps: Vec<StepCost> = run.lines.iter().filter_map(|l| parse_cost(l)).collect();
+    let costs = steps.iter().map(|c| c.instructions).collect();
     let stack = run
         .lines
         .iter()
@@ -66,6 +64,7 @@ pub fn measure(scene: &str) -> Result<Measured, String> {
         lines: run.lines,
         success: run.success,
         costs,
+        steps,
         sizes: sizes(&elf)?,
         stack,
     })
@@ -324,4 +323,43 @@ pub fn table(runs: &[Measured]) -> String {
         );
     }
     out + "\nTargets: flash ≤ 128 KiB, static RAM + stack ≤ 32 KiB.\n"
+}
+
+/// What dominates the worst case: steps split by the Jacobians they formed, and the
+/// most expensive steps of each run.
+pub fn worst_steps(runs: &[Measured], count: usize) -> String {
+    let mut out = String::new();
+    for m in runs {
+        let h_ms = m.scene.solver.h * 1000.0;
+        out += &format!(
+            "\n{}: steps by Jacobians formed (QEMU instructions)\n",
+            m.stem()
+        );
+        let most = m.steps.iter().map(|s| s.jacobians).max().unwrap_or(0);
+        for j in 0..=most {
+            let group: Vec<&StepCost> = m.steps.iter().filter(|s| s.jacobians == j).collect();
+            if group.is_empty() {
+                continue;
+            }
+            let n = group.len() as u64;
+            let mean = group.iter().map(|s| s.instructions).sum::<u64>() / n;
+            let max = group.iter().map(|s| s.instructions).max().unwrap_or(0);
+            let iterations =
+                group.iter().map(|s| u64::from(s.iterations)).sum::<u64>() as f64 / n as f64;
+            out += &format!("  {j} Jacobians: {n:>4} steps, mean {mean:>7}, max {max:>7}, {iterations:.1} Newton iterations on average\n");
+        }
+        let mut order: Vec<&StepCost> = m.steps.iter().collect();
+        order.sort_by_key(|s| std::cmp::Reverse(s.instructions));
+        out += &format!("{}: the {count} most expensive steps\n", m.stem());
+        for s in order.iter().take(count) {
+            out += &format!(
+                "  t = {:>7.0} ms: {:>7} instructions, {:>2} Newton iterations, {} Jacobians\n",
+                f64::from(s.cycle) * h_ms,
+                s.instructions,
+                s.iterations,
+                s.jacobians
+            );
+        }
+    }
+    out
 }
