@@ -46,7 +46,7 @@ fn row<const N: usize, const NU: usize>(
     };
     writeln!(
         out,
-        "{label:<22} steps {:5} | iter {:5} max {:2} | res {:6} | jac {:5} | lu {:5} | floor {:4} | e_max {:.3e} interior {:.3e} | {}",
+        "{label:<22} steps {:5} | iter {:5} max {:2} | res {:6} | jac {:5} | lu {:5} | floor {:4} | skip {:3} | e_max {:.3e} interior {:.3e} | {}",
         trace.steps(),
         sum(|s| s.iterations),
         trace.stats.iter().map(|s| s.iterations).max().unwrap_or(0),
@@ -54,6 +54,7 @@ fn row<const N: usize, const NU: usize>(
         sum(|s| s.jacobian_evals),
         sum(|s| s.factorizations),
         trace.stats.iter().filter(|s| s.at_rounding_floor).count(),
+        sum(|s| s.broyden_skipped),
         e_global,
         e_interior,
         trace.failure.map_or("ok".to_string(), |e| e.to_string()),
