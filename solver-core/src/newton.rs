@@ -95,7 +95,7 @@ impl NewtonSettings {
             rtol: tol,
             atol: tol,
             stall_ratio: 0.5,
-            stall_limit: 1e4,
+            stall_limit: 1e6,
             accept_unconverged: false,
             broyden_refresh: true,
         }
