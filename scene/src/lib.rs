@@ -285,7 +285,7 @@ impl Scene {
             let field = e.span().map(|s| key_at(text, s.start)).unwrap_or_default();
             refuse(&field, message)
         })?;
-        scene.check()?;
+        scene.validate()?;
         Ok(scene)
     }
 
@@ -295,6 +295,16 @@ impl Scene {
             ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) => 2,
             ModelSpec::MassOnCar(_) => 1,
         }
+    }
+
+    /// The interior of the move, `[t_start + T/8, t_start + 7T/8]`: away from its
+    /// ends, where the trajectory's (n+1)-th derivative jumps and limits every scheme.
+    pub fn interior(&self) -> (f64, f64) {
+        let t = &self.trajectory;
+        (
+            t.t_start + t.duration / 8.0,
+            t.t_start + 7.0 * t.duration / 8.0,
+        )
     }
 
     /// Number of steps of the run.
@@ -359,7 +369,8 @@ impl Scene {
 
     /// Every check that does not need a run: types, ranges, and the model built
     /// from its parameters and trajectory (rope slack, workspace, smoothness).
-    fn check(&self) -> Result<(), SceneError> {
+    /// Call it again after changing a scene's fields.
+    pub fn validate(&self) -> Result<(), SceneError> {
         let t = &self.trajectory;
         if !(t.t_end.is_finite() && t.t_end > 0.0) {
             return Err(refuse(

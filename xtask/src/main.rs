@@ -8,6 +8,8 @@
 //!   computation of the same scene, committed baselines (±10 %).
 //! * `qemu-bench` — instructions per step, flash, RAM and stack against the targets.
 //! * `flash` — builds the STM32H743 firmware and runs it with `probe-rs run`.
+//! * `study …` — the speed/accuracy studies (`run`, `sweep`, `paper`, `extremes`).
+//! * `bench` — criterion benchmarks of one step and whole runs on the host.
 
 use std::process::{Command, ExitCode};
 
@@ -27,9 +29,24 @@ fn main() -> ExitCode {
         Some("qemu") => qemu_checks(flag("--overwrite-expected")),
         Some("qemu-bench") => qemu_bench(),
         Some("flash") => flash(),
+        Some("study") => run(cargo()
+            .args([
+                "run",
+                "--release",
+                "--quiet",
+                "-p",
+                "host-tests",
+                "--bin",
+                "study",
+                "--",
+            ])
+            .args(args.iter().skip(1))),
+        Some("bench") => run(cargo()
+            .args(["bench", "-p", "host-tests", "--bench", "step"])
+            .args(args.iter().skip(1))),
         _ => {
             eprintln!(
-                "usage: cargo xtask run | test | qemu [--overwrite-expected] | qemu-bench | flash"
+                "usage: cargo xtask run | test | qemu [--overwrite-expected] | qemu-bench | flash | study … | bench"
             );
             return ExitCode::from(2);
         }

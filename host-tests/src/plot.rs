@@ -1,0 +1,253 @@
+//! SVG figures with plotters (its SVG backend needs no system fonts).
+
+use std::path::Path;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use crate::study::Outcome;
+
+/// One curve: a name and its points (points with a non-finite or, on a log axis,
+/// non-positive coordinate are left out).
+pub struct Series {
+    /// Legend text.
+    pub name: String,
+    /// `(x, y)` points.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Axis scaling.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scale {
+    /// Linear.
+    Linear,
+    /// Logarithmic (base 10).
+    Log,
+}
+
+/// A chart's labels and axes.
+pub struct Chart<'a> {
+    /// Title.
+    pub title: &'a str,
+    /// x-axis label.
+    pub x_label: &'a str,
+    /// y-axis label.
+    pub y_label: &'a str,
+    /// x scaling.
+    pub x_scale: Scale,
+    /// y scaling.
+    pub y_scale: Scale,
+}
+
+const COLORS: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(23, 190, 207),
+    RGBColor(127, 127, 127),
+];
+
+fn keep(scale: Scale, v: f64) -> bool {
+    v.is_finite() && (scale == Scale::Linear || v > 0.0)
+}
+
+fn range(values: impl Iterator<Item = f64>, scale: Scale) -> (f64, f64) {
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    if !lo.is_finite() {
+        return if scale == Scale::Log {
+            (1e-12, 1.0)
+        } else {
+            (0.0, 1.0)
+        };
+    }
+    match scale {
+        Scale::Log => (lo / 2.0, hi * 2.0),
+        Scale::Linear => {
+            let pad = ((hi - lo) * 0.05).max(1e-12);
+            (lo - pad, hi + pad)
+        }
+    }
+}
+
+/// Draws one chart into an area.
+pub fn draw(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    chart: &Chart<'_>,
+    series: &[Series],
+) -> Result<(), String> {
+    let e = |e: &dyn std::fmt::Display| e.to_string();
+    let points = |s: &Series| {
+        s.points
+            .iter()
+            .copied()
+            .filter(|(x, y)| keep(chart.x_scale, *x) && keep(chart.y_scale, *y))
+            .collect::<Vec<_>>()
+    };
+    let all: Vec<(f64, f64)> = series.iter().flat_map(points).collect();
+    let (x0, x1) = range(all.iter().map(|p| p.0), chart.x_scale);
+    let (y0, y1) = range(all.iter().map(|p| p.1), chart.y_scale);
+    let mut builder = ChartBuilder::on(area);
+    builder
+        .caption(chart.title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70);
+    macro_rules! plot {
+        ($ctx:expr) => {{
+            let mut ctx = $ctx.map_err(|x| e(&x))?;
+            let tick = |scale: Scale, v: f64| match scale {
+                Scale::Log => format!("{v:.0e}"),
+                Scale::Linear if v == 0.0 => "0".to_string(),
+                Scale::Linear if v.abs() < 1e-2 || v.abs() >= 1e4 => format!("{v:.1e}"),
+                Scale::Linear => format!("{v:.3}")
+                    .trim_end_matches('0')
+                    .trim_end_matches('.')
+                    .to_string(),
+            };
+            ctx.configure_mesh()
+                .x_desc(chart.x_label)
+                .y_desc(chart.y_label)
+                .x_label_formatter(&|v| tick(chart.x_scale, *v))
+                .y_label_formatter(&|v| tick(chart.y_scale, *v))
+                .draw()
+                .map_err(|x| e(&x))?;
+            for (i, s) in series.iter().enumerate() {
+                let color = COLORS[i % COLORS.len()];
+                let pts = points(s);
+                if pts.is_empty() {
+                    continue;
+                }
+                ctx.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
+                    .map_err(|x| e(&x))?
+                    .label(s.name.as_str())
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                    });
+                if pts.len() <= 40 {
+                    ctx.draw_series(pts.iter().map(|p| Circle::new(*p, 3, color.filled())))
+                        .map_err(|x| e(&x))?;
+                }
+            }
+            ctx.configure_series_labels()
+                .position(SeriesLabelPosition::LowerRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .draw()
+                .map_err(|x| e(&x))?;
+        }};
+    }
+    match (chart.x_scale, chart.y_scale) {
+        (Scale::Log, Scale::Log) => {
+            plot!(builder.build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale()))
+        }
+        (Scale::Log, Scale::Linear) => {
+            plot!(builder.build_cartesian_2d((x0..x1).log_scale(), y0..y1))
+        }
+        (Scale::Linear, Scale::Log) => {
+            plot!(builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale()))
+        }
+        (Scale::Linear, Scale::Linear) => plot!(builder.build_cartesian_2d(x0..x1, y0..y1)),
+    }
+    Ok(())
+}
+
+/// One or more charts side by side (or stacked) in one SVG file.
+pub fn figure(
+    path: &Path,
+    panels: &[(Chart<'_>, Vec<Series>)],
+    stacked: bool,
+) -> Result<(), String> {
+    let n = panels.len().max(1) as u32;
+    let size = if stacked {
+        (900, 320 * n)
+    } else {
+        (560 * n, 440)
+    };
+    let root = SVGBackend::new(path, size).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let areas = if stacked {
+        root.split_evenly((n as usize, 1))
+    } else {
+        root.split_evenly((1, n as usize))
+    };
+    for (area, (chart, series)) in areas.iter().zip(panels) {
+        draw(area, chart, series)?;
+    }
+    root.present().map_err(|e| e.to_string())
+}
+
+/// The colour of an outcome in heat maps.
+pub fn outcome_color(o: Option<Outcome>) -> RGBColor {
+    match o {
+        Some(Outcome::Ok) => RGBColor(46, 160, 67),
+        Some(Outcome::Inaccurate) => RGBColor(240, 200, 40),
+        Some(Outcome::NewtonFailure) => RGBColor(214, 39, 40),
+        Some(Outcome::NonFinite) => RGBColor(120, 0, 120),
+        Some(Outcome::Refused) => RGBColor(160, 160, 160),
+        Some(Outcome::Panic) => BLACK,
+        None => WHITE,
+    }
+}
+
+/// A grid of outcomes: one row per configuration, one column per step size.
+pub fn heat_map(
+    path: &Path,
+    title: &str,
+    rows: &[String],
+    columns: &[String],
+    cells: &[Vec<Option<Outcome>>],
+) -> Result<(), String> {
+    let e = |e: &dyn std::fmt::Display| e.to_string();
+    let (cw, ch, left, top) = (70i32, 16i32, 230i32, 60i32);
+    let width = (left + cw * columns.len() as i32 + 20).max(700) as u32;
+    let height = (top + ch * rows.len() as i32 + 70) as u32;
+    let root = SVGBackend::new(path, (width, height)).into_drawing_area();
+    root.fill(&WHITE).map_err(|x| e(&x))?;
+    let text = |s: &str, x: i32, y: i32, size: u32| {
+        Text::new(s.to_string(), (x, y), ("sans-serif", size).into_font())
+    };
+    root.draw(&text(title, 10, 10, 18)).map_err(|x| e(&x))?;
+    for (j, c) in columns.iter().enumerate() {
+        root.draw(&text(c, left + cw * j as i32 + 6, top - 18, 12))
+            .map_err(|x| e(&x))?;
+    }
+    for (i, (r, row)) in rows.iter().zip(cells).enumerate() {
+        let y = top + ch * i as i32;
+        root.draw(&text(r, 10, y + 2, 11)).map_err(|x| e(&x))?;
+        for (j, cell) in row.iter().enumerate() {
+            let x = left + cw * j as i32;
+            root.draw(&Rectangle::new(
+                [(x, y), (x + cw - 2, y + ch - 2)],
+                outcome_color(*cell).filled(),
+            ))
+            .map_err(|x| e(&x))?;
+        }
+    }
+    let legend_y = top + ch * rows.len() as i32 + 20;
+    for (k, o) in [
+        Outcome::Ok,
+        Outcome::Inaccurate,
+        Outcome::NewtonFailure,
+        Outcome::NonFinite,
+        Outcome::Refused,
+        Outcome::Panic,
+    ]
+    .iter()
+    .enumerate()
+    {
+        let x = 10 + 130 * k as i32;
+        root.draw(&Rectangle::new(
+            [(x, legend_y), (x + 14, legend_y + 14)],
+            outcome_color(Some(*o)).filled(),
+        ))
+        .map_err(|x| e(&x))?;
+        root.draw(&text(o.as_str(), x + 20, legend_y + 1, 12))
+            .map_err(|x| e(&x))?;
+    }
+    root.present().map_err(|x| e(&x))
+}

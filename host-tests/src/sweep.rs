@@ -1,0 +1,200 @@
+//! Sweeps: a scene varied along axes (`--vary h=0.02|0.01,rho=2|3,scalar=f32|f64`),
+//! the cross product run, one CSV row per configuration.
+
+use scene::{CraneSpec, JacobianSpec, ModelSpec, ScalarSpec, Scene, SchemeSpec};
+
+use crate::study::{jacobian_label, scheme_label, RunResult};
+
+/// One axis of a sweep: a key and its values.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Axis {
+    /// `h`, `rho`, `k`, `scheme`, `jacobian`, `formulation` or `scalar`.
+    pub key: String,
+    /// The values, as written.
+    pub values: Vec<String>,
+}
+
+/// The keys a sweep can vary.
+pub const KEYS: [&str; 7] = [
+    "h",
+    "rho",
+    "k",
+    "scheme",
+    "jacobian",
+    "formulation",
+    "scalar",
+];
+
+/// Parses `key=v1|v2|…,key=…` (several `--vary` options may be given).
+pub fn parse_vary(spec: &str) -> Result<Vec<Axis>, String> {
+    spec.split(',')
+        .filter(|part| !part.trim().is_empty())
+        .map(|part| {
+            let (key, values) = part
+                .split_once('=')
+                .ok_or_else(|| format!("`{part}`: expected key=value|value…"))?;
+            let key = key.trim().to_string();
+            if !KEYS.contains(&key.as_str()) {
+                return Err(format!(
+                    "`{key}` cannot be varied (one of {})",
+                    KEYS.join(", ")
+                ));
+            }
+            let values: Vec<String> = values
+                .split('|')
+                .map(|v| v.trim().to_string())
+                .filter(|v| !v.is_empty())
+                .collect();
+            if values.is_empty() {
+                return Err(format!("`{key}` has no values"));
+            }
+            Ok(Axis { key, values })
+        })
+        .collect()
+}
+
+/// The scene with one setting changed (not yet validated).
+pub fn apply(scene: &Scene, key: &str, value: &str) -> Result<Scene, String> {
+    let mut s = scene.clone();
+    let bad = |what: &str| format!("{key}={value}: {what}");
+    match key {
+        "h" => s.solver.h = value.parse().map_err(|_| bad("not a number"))?,
+        "rho" => s.solver.rho_power = value.parse().map_err(|_| bad("not 0, 1, 2 or 3"))?,
+        "k" => {
+            s.solver.k = value.parse().map_err(|_| bad("not an integer"))?;
+            s.solver.scheme = SchemeSpec::Bdf;
+        }
+        "scheme" => {
+            s.solver.scheme = match value {
+                "radau" => SchemeSpec::Radau,
+                "bdf" => SchemeSpec::Bdf,
+                v => match v.strip_prefix("bdf").and_then(|k| k.parse().ok()) {
+                    Some(k) => {
+                        s.solver.k = k;
+                        SchemeSpec::Bdf
+                    }
+                    None => return Err(bad("expected radau, bdf or bdfK")),
+                },
+            }
+        }
+        "jacobian" => {
+            let (mode, reinit) = match value {
+                "j" | "fd" => (JacobianSpec::Fd, None),
+                "exact" => (JacobianSpec::Exact, None),
+                "jt" | "broyden" => (JacobianSpec::Broyden, None),
+                v => match v.strip_prefix("jt").and_then(|n| n.parse::<u32>().ok()) {
+                    Some(n) => (JacobianSpec::Broyden, Some(n)),
+                    None => return Err(bad("expected j, exact, jt or jtN")),
+                },
+            };
+            s.solver.jacobian = mode;
+            s.solver.reinit_every = reinit;
+        }
+        "formulation" => {
+            let crane = match &s.model {
+                ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) => *c,
+                ModelSpec::MassOnCar(_) => return Err(bad("only the crane has formulations")),
+            };
+            s.model = match value {
+                "subs" => ModelSpec::CraneSubs(crane),
+                "proj" => ModelSpec::CraneProj(crane),
+                _ => return Err(bad("expected subs or proj")),
+            };
+        }
+        "scalar" => {
+            s.solver.scalar = match value {
+                "f64" => ScalarSpec::F64,
+                "f32" => ScalarSpec::F32,
+                _ => return Err(bad("expected f32 or f64")),
+            }
+        }
+        _ => return Err(format!("`{key}` cannot be varied")),
+    }
+    Ok(s)
+}
+
+/// A configuration of a sweep: the settings applied, and the scene they made.
+pub type Configuration = (Vec<(String, String)>, Scene);
+
+/// Every combination of the axes' values, with the settings that made it.
+pub fn cross(scene: &Scene, axes: &[Axis]) -> Result<Vec<Configuration>, String> {
+    let mut out = vec![(Vec::new(), scene.clone())];
+    for axis in axes {
+        let mut next = Vec::with_capacity(out.len() * axis.values.len());
+        for (settings, s) in &out {
+            for v in &axis.values {
+                let mut settings = settings.clone();
+                settings.push((axis.key.clone(), v.clone()));
+                next.push((settings, apply(s, &axis.key, v)?));
+            }
+        }
+        out = next;
+    }
+    Ok(out)
+}
+
+/// The CSV columns of a sweep (documented in docs/RESULTS.md; a test pins them).
+pub const CSV_HEADER: &str = "scene,formulation,scheme,jacobian,h,rho,scalar,steps,e_max,e_max_interior,iterations_mean,iterations_max,residual_evals_per_step,jacobian_evals,floor_steps,ns_per_step,outcome,failure";
+
+/// `subs`, `proj` or `mass-on-car`.
+pub fn formulation_label(scene: &Scene) -> &'static str {
+    match scene.model {
+        ModelSpec::CraneSubs(_) => "subs",
+        ModelSpec::CraneProj(_) => "proj",
+        ModelSpec::MassOnCar(_) => "mass-on-car",
+    }
+}
+
+/// One configuration's CSV row.
+pub fn csv_row(scene: &Scene, r: &RunResult) -> String {
+    let s = &scene.solver;
+    let scalar = match s.scalar {
+        ScalarSpec::F64 => "f64",
+        ScalarSpec::F32 => "f32",
+    };
+    let failure = r.failure.as_deref().unwrap_or("").replace(['"', ','], ";");
+    format!(
+        "{},{},{},{},{},{},{},{},{:.4e},{:.4e},{:.3},{},{:.2},{},{},{:.1},{},\"{}\"",
+        scene.name,
+        formulation_label(scene),
+        scheme_label(scene),
+        jacobian_label(scene),
+        s.h,
+        s.rho_power,
+        scalar,
+        r.steps,
+        r.e_global,
+        r.e_interior,
+        r.iterations_mean,
+        r.iterations_max,
+        r.residual_evals_per_step,
+        r.jacobian_evals,
+        r.floor_steps,
+        r.ns_per_step,
+        r.outcome.as_str(),
+        failure
+    )
+}
+
+/// A crane spec, whatever the formulation (for scenes built in code).
+pub fn crane_spec(scene: &Scene) -> Option<CraneSpec> {
+    match scene.model {
+        ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) => Some(c),
+        ModelSpec::MassOnCar(_) => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vary_specs_parse() {
+        let axes = parse_vary("h=0.02|0.01,rho=2|3,scalar=f32|f64").unwrap();
+        assert_eq!(axes.len(), 3);
+        assert_eq!(axes[0].values, vec!["0.02", "0.01"]);
+        assert!(parse_vary("speed=3").is_err());
+        assert!(parse_vary("h=").is_err());
+        assert!(parse_vary("h").is_err());
+    }
+}
