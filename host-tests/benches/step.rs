@@ -9,29 +9,14 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use host_tests::run::JACOBIAN_MODES;
 use host_tests::scenes::{crane_trajectory, mass_on_car_trajectory};
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane_subs::CraneSubs;
 use solver_core::models::mass_on_car::{MassOnCar, MassOnCarParams};
 use solver_core::{Bdf, DaeModel, JacobianMode, Radau, SolverSettings};
 
-const MODES: [(&str, JacobianMode); 5] = [
-    ("J", JacobianMode::FiniteDifference),
-    ("Jt", JacobianMode::Broyden { reinit_every: None }),
-    (
-        "Jt10",
-        JacobianMode::Broyden {
-            reinit_every: Some(10),
-        },
-    ),
-    (
-        "Jt50",
-        JacobianMode::Broyden {
-            reinit_every: Some(50),
-        },
-    ),
-    ("exact", JacobianMode::Exact),
-];
+const MODES: [(&str, JacobianMode); 5] = JACOBIAN_MODES;
 
 /// Benchmarks one step of BDF4 and Radau in every mode, starting at `t_mid`.
 fn one_step<M, const N: usize, const NU: usize, const S: usize>(

@@ -5,7 +5,26 @@ use solver_core::models::crane::CraneParams;
 use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::scalar::{c, to_f64};
 use solver_core::trajectory::Trajectory;
-use solver_core::{Bdf, DaeModel, Error, NewtonStats, Radau, Real, SolverSettings};
+use solver_core::{Bdf, DaeModel, Error, JacobianMode, NewtonStats, Radau, Real, SolverSettings};
+
+/// The paper's Jacobian modes (J, J̃, J̃₁₀, J̃₅₀) and the exact one, with short labels.
+pub const JACOBIAN_MODES: [(&str, JacobianMode); 5] = [
+    ("J", JacobianMode::FiniteDifference),
+    ("Jt", JacobianMode::Broyden { reinit_every: None }),
+    (
+        "Jt10",
+        JacobianMode::Broyden {
+            reinit_every: Some(10),
+        },
+    ),
+    (
+        "Jt50",
+        JacobianMode::Broyden {
+            reinit_every: Some(50),
+        },
+    ),
+    ("exact", JacobianMode::Exact),
+];
 
 /// Which integrator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -5,7 +5,7 @@
 
 use std::fmt::Write;
 
-use host_tests::run::{crane_input_errors, emax, run, Scheme, Trace};
+use host_tests::run::{crane_input_errors, emax, run, Scheme, Trace, JACOBIAN_MODES};
 use host_tests::scenes::{
     crane_trajectory, mass_on_car_trajectory, CRANE_T_END, MASS_ON_CAR_T_END,
 };
@@ -16,23 +16,7 @@ use solver_core::reference::dopri5::Dopri5Settings;
 use solver_core::reference::mass_on_car::MassOnCarReference;
 use solver_core::{JacobianMode, SolverSettings};
 
-const MODES: [(&str, JacobianMode); 5] = [
-    ("J", JacobianMode::FiniteDifference),
-    ("Jt", JacobianMode::Broyden { reinit_every: None }),
-    (
-        "Jt10",
-        JacobianMode::Broyden {
-            reinit_every: Some(10),
-        },
-    ),
-    (
-        "Jt50",
-        JacobianMode::Broyden {
-            reinit_every: Some(50),
-        },
-    ),
-    ("exact", JacobianMode::Exact),
-];
+const MODES: [(&str, JacobianMode); 5] = JACOBIAN_MODES;
 
 fn row<const N: usize, const NU: usize>(
     out: &mut String,

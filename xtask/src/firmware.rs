@@ -34,6 +34,30 @@ pub fn root() -> PathBuf {
         .unwrap_or_default()
 }
 
+/// `cargo <subcommand>` on the firmware for `board`, release, for the drive's target,
+/// in its own target directory `target/firmware/<board>-<name>` (scenes do not
+/// invalidate each other's builds).
+fn firmware_cargo(subcommand: &str, board: Board, name: &str) -> (Command, PathBuf) {
+    let target_dir = root()
+        .join("target/firmware")
+        .join(format!("{}-{name}", board.feature()));
+    let mut cmd = cargo();
+    cmd.current_dir(root())
+        .env("DEFMT_LOG", "info")
+        .args([
+            subcommand,
+            "--release",
+            "--quiet",
+            "--manifest-path",
+            "firmware/Cargo.toml",
+            "--features",
+            board.feature(),
+        ])
+        .args(["--target", setup::TARGET, "--target-dir"])
+        .arg(&target_dir);
+    (cmd, target_dir)
+}
+
 /// Builds the release firmware for `board` and `scene`; returns the ELF's path.
 pub fn build(board: Board, scene: &Path) -> Result<PathBuf, String> {
     setup::ensure_target()?;
@@ -41,47 +65,15 @@ pub fn build(board: Board, scene: &Path) -> Result<PathBuf, String> {
         .file_stem()
         .and_then(|s| s.to_str())
         .unwrap_or("scene");
-    let target_dir = root()
-        .join("target/firmware")
-        .join(format!("{}-{name}", board.feature()));
-    run(cargo()
-        .current_dir(root())
-        .env("SCENE", scene)
-        .env("DEFMT_LOG", "info")
-        .args([
-            "build",
-            "--release",
-            "--quiet",
-            "--manifest-path",
-            "firmware/Cargo.toml",
-            "--features",
-            board.feature(),
-        ])
-        .args(["--target", setup::TARGET, "--target-dir"])
-        .arg(&target_dir))?;
+    let (mut cmd, target_dir) = firmware_cargo("build", board, name);
+    run(cmd.env("SCENE", scene))?;
     Ok(target_dir.join(setup::TARGET).join("release/firmware"))
 }
 
 /// Clippy on the firmware for `board`.
 pub fn clippy(board: Board) -> Result<(), String> {
-    let target_dir = root()
-        .join("target/firmware")
-        .join(format!("{}-clippy", board.feature()));
-    run(cargo()
-        .current_dir(root())
-        .env("DEFMT_LOG", "info")
-        .args([
-            "clippy",
-            "--release",
-            "--quiet",
-            "--manifest-path",
-            "firmware/Cargo.toml",
-            "--features",
-            board.feature(),
-        ])
-        .args(["--target", setup::TARGET, "--target-dir"])
-        .arg(&target_dir)
-        .args(["--", "-D", "warnings"]))
+    let (mut cmd, _) = firmware_cargo("clippy", board, "clippy");
+    run(cmd.args(["--", "-D", "warnings"]))
 }
 
 /// What a QEMU run printed.
