@@ -23,7 +23,7 @@ mod app {
     use controller::{Config, Controller, Mode};
     use rtic_monotonics::systick::prelude::*;
 
-    use crate::board::{self, Board};
+    use crate::board::{self, Board, CanPort};
     use crate::scene;
 
     rtic_monotonics::systick_monotonic!(Mono, 1_000);

@@ -76,12 +76,12 @@ fn configurations(quick: bool) -> Vec<Vec<(&'static str, String)>> {
     let schemes: &[&str] = if quick {
         &["bdf4", "radau"]
     } else {
-        &["bdf1", "bdf2", "bdf4", "bdf6", "radau"]
+        &["bdf1", "bdf2", "bdf3", "bdf4", "bdf5", "bdf6", "radau"]
     };
     let jacobians: &[&str] = if quick {
         &["exact"]
     } else {
-        &["j", "jt10", "exact"]
+        &["j", "jt", "jt10", "jt50", "exact"]
     };
     let rhos: &[&str] = if quick { &["2"] } else { &["0", "1", "2", "3"] };
     let mut out = Vec::new();

@@ -131,8 +131,27 @@ impl Board {
         u64::from(ticks) * 10 / 32
     }
 
+    /// Nothing to feed under QEMU.
+    pub fn feed_watchdog(&mut self) {}
+
+    /// Deepest stack use since boot, bytes (stack painting).
+    pub fn stack_high_water(&self) -> u32 {
+        let (bottom, top) = stack_bounds();
+        let mut p = bottom;
+        // SAFETY: reads of the stack region between the linker's _stack_end and
+        // _stack_start, word-aligned, below the current stack pointer or used stack.
+        while p < top && unsafe { core::ptr::read_volatile(p as *const u32) } == PAINT {
+            p += 4;
+        }
+        (top - p) as u32
+    }
+}
+
+impl super::CanPort for Board {
+    type TxError = TxError;
+
     /// Next frame received by `now_ms`, from the scripted bus.
-    pub fn receive(&mut self, now_ms: u32) -> Option<CanFrame> {
+    fn receive(&mut self, now_ms: u32) -> Option<CanFrame> {
         if self.rx.is_empty() && self.rx_until.is_none_or(|t| t < now_ms) {
             let after = self.rx_until.unwrap_or(0);
             for frame in self.script.due(after, now_ms) {
@@ -149,7 +168,7 @@ impl Board {
     }
 
     /// "Transmits" a frame: logs it for the host to decode.
-    pub fn transmit(&mut self, now_ms: u32, frame: &CanFrame) -> Result<(), TxError> {
+    fn transmit(&mut self, now_ms: u32, frame: &CanFrame) -> Result<(), TxError> {
         defmt::info!(
             "tx {=u32} {=u16:#05x} {=[u8]:02x}",
             now_ms,
@@ -157,21 +176,6 @@ impl Board {
             frame.data()
         );
         Ok(())
-    }
-
-    /// Nothing to feed under QEMU.
-    pub fn feed_watchdog(&mut self) {}
-
-    /// Deepest stack use since boot, bytes (stack painting).
-    pub fn stack_high_water(&self) -> u32 {
-        let (bottom, top) = stack_bounds();
-        let mut p = bottom;
-        // SAFETY: reads of the stack region between the linker's _stack_end and
-        // _stack_start, word-aligned, below the current stack pointer or used stack.
-        while p < top && unsafe { core::ptr::read_volatile(p as *const u32) } == PAINT {
-            p += 4;
-        }
-        (top - p) as u32
     }
 }
 

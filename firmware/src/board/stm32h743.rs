@@ -91,8 +91,22 @@ impl Board {
         u64::from(cortex_m::peripheral::DWT::cycle_count())
     }
 
+    /// Feeds the IWDG: only the 100 Hz task calls this, after a completed cycle.
+    pub fn feed_watchdog(&mut self) {
+        self.watchdog.feed();
+    }
+
+    /// Stack painting is measured under QEMU; on the board the linker guards the stack.
+    pub fn stack_high_water(&self) -> u32 {
+        0
+    }
+}
+
+impl super::CanPort for Board {
+    type TxError = TxError;
+
     /// Next received frame, if any (extended and remote frames are not CANopen's and are skipped).
-    pub fn receive(&mut self, _now_ms: u32) -> Option<CanFrame> {
+    fn receive(&mut self, _now_ms: u32) -> Option<CanFrame> {
         let mut buffer = [0u8; 8];
         loop {
             let info = match self.can.receive0(&mut buffer) {
@@ -113,7 +127,7 @@ impl Board {
     }
 
     /// Hands a frame to the CAN controller.
-    pub fn transmit(&mut self, _now_ms: u32, frame: &CanFrame) -> Result<(), TxError> {
+    fn transmit(&mut self, _now_ms: u32, frame: &CanFrame) -> Result<(), TxError> {
         let Some(id) = StandardId::new(frame.id()) else {
             return Err(TxError::QueueFull);
         };
@@ -129,16 +143,6 @@ impl Board {
             Ok(Some(())) => Err(TxError::Displaced),
             Err(_) => Err(TxError::QueueFull),
         }
-    }
-
-    /// Feeds the IWDG: only the 100 Hz task calls this, after a completed cycle.
-    pub fn feed_watchdog(&mut self) {
-        self.watchdog.feed();
-    }
-
-    /// Stack painting is measured under QEMU; on the board the linker guards the stack.
-    pub fn stack_high_water(&self) -> u32 {
-        0
     }
 }
 
