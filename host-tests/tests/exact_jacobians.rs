@@ -102,3 +102,19 @@ fn rest_states_are_consistent() {
         );
     }
 }
+
+#[test]
+fn flat_inverse_rates_are_the_derivatives_of_its_inputs() {
+    use solver_core::reference::flat_crane::flat_inverse;
+    let (p, z) = (CraneParams::PAPER, crane_trajectory(4));
+    let eps = 1e-5;
+    // Inside the move: at its ends z's 5th derivative, hence u̇, jumps.
+    for i in 0..80 {
+        let t = 1.05 + 0.1 * f64::from(i);
+        let (a, b, m) = (flat_inverse(&p, &z, t - eps), flat_inverse(&p, &z, t + eps), flat_inverse(&p, &z, t));
+        for k in 0..2 {
+            let fd = (b.u[k] - a.u[k]) / (2.0 * eps);
+            assert!((fd - m.u_dot[k]).abs() < 1e-6 * (1.0 + fd.abs()), "t = {t}, input {k}: {fd} vs {}", m.u_dot[k]);
+        }
+    }
+}

@@ -30,6 +30,7 @@ mod linalg;
 pub mod model;
 pub mod models;
 pub mod newton;
+pub mod plan;
 pub mod reference;
 pub mod scalar;
 pub mod schemes;

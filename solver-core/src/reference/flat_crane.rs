@@ -1,6 +1,6 @@
 //! The crane's exact inverse: it is differentially flat in the load position.
 //!
-//! Given `z_d = [x_C, z_C]` and its derivatives up to order 4, the load's
+//! Given `z_d = [x_C, z_C]` and its derivatives up to order 4 (5 for `u̇`), the load's
 //! equations of motion fix the rope force per unit mass `λ = (z̈_C − g)/(2 z_C)`
 //! and the trolley `x = x_C − ẍ_C z_C/(z̈_C − g)` (rows 3–4 of Eq. 25), the rope
 //! constraint Eq. 26 fixes `l`, and the actuator rows of Eq. 25 give the inputs
@@ -33,6 +33,8 @@ pub struct FlatState {
     pub vphi: f64,
     /// `u_flat = [u1, u2]`: trolley and winch velocity set points, m/s.
     pub u: [f64; 2],
+    /// `u̇_flat`: the set points' rates, m/s² (what the drives' acceleration limits bound).
+    pub u_dot: [f64; 2],
 }
 
 impl FlatState {
@@ -56,10 +58,10 @@ impl FlatState {
 /// `u_flat(t)` and the state that goes with it.
 #[must_use]
 pub fn flat_inverse<Z: Trajectory<f64, 2>>(p: &CraneParams, z: &Z, t: f64) -> FlatState {
-    let [[xc, zc], [xc1, zc1], [xc2, zc2], [xc3, zc3], [xc4, zc4]] =
-        z.derivatives::<5>(t).map(<[f64; 2]>::from);
-    let (xc, zc) = (Jet::new(xc, xc1, xc2), Jet::new(zc, zc1, zc2));
-    let (xcdd, zcdd) = (Jet::new(xc2, xc3, xc4), Jet::new(zc2, zc3, zc4));
+    let [[xc, zc], [xc1, zc1], [xc2, zc2], [xc3, zc3], [xc4, zc4], [xc5, zc5]] =
+        z.derivatives::<6>(t).map(<[f64; 2]>::from);
+    let (xc, zc) = (Jet::new(xc, xc1, xc2, xc3), Jet::new(zc, zc1, zc2, zc3));
+    let (xcdd, zcdd) = (Jet::new(xc2, xc3, xc4, xc5), Jet::new(zc2, zc3, zc4, zc5));
     let g = Jet::constant(p.g);
     let x = xc - xcdd * zc / (zcdd - g);
     let dx = xc - x;
@@ -74,5 +76,6 @@ pub fn flat_inverse<Z: Trajectory<f64, 2>>(p: &CraneParams, z: &Z, t: f64) -> Fl
         phi: libm::atan2(dx.v, zc.v),
         vphi: (dx.d1 * zc.v - dx.v * zc.d1) / r2,
         u: [p.tau1 * x.d2 + x.d1, p.tau2 * l.d2 + l.d1],
+        u_dot: [p.tau1 * x.d3 + x.d2, p.tau2 * l.d3 + l.d2],
     }
 }

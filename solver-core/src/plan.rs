@@ -1,0 +1,475 @@
+//! Trajectories that change while the inverse model runs (moves on command, a stop).
+//!
+//! A [`Plan`] is the desired output over time: at rest, then a move, possibly another
+//! move queued behind it, or a stop. It implements [`Trajectory`], so a model driven by
+//! a plan needs nothing new. Replanning only ever changes the future: a move is
+//! appended at or after the end of what is planned, a stop starts at a time that has not
+//! been stepped yet and continues the current trajectory with all derivatives 0..=n.
+//! BDF's history and Radau's last step therefore stay valid, and the inputs — which
+//! contain `z_d⁗` — stay continuous across every change.
+//!
+//! The stop is a two-point Hermite polynomial of degree 2n+1 ([`Hermite`]): its value
+//! and first n derivatives match the current trajectory at the start, and it ends at
+//! rest. It is constructed in Bernstein form — the first and last n+1 Bernstein
+//! coefficients follow from the end derivatives by triangular recursions — and
+//! evaluated by Horner's rule on its monomial coefficients in `τ ∈ [0, 1]`.
+
+use nalgebra::SVector;
+
+use crate::error::{check_positive, Error, Result};
+use crate::scalar::{c, to_f64, Real};
+use crate::trajectory::{PointToPoint, Trajectory, MAX_SMOOTHNESS};
+
+const MAX_COEFFS: usize = 2 * MAX_SMOOTHNESS + 2;
+
+/// A polynomial segment per output axis on `[t_start, t_start + duration]`, at rest after it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hermite<T: Real, const NZ: usize> {
+    t_start: T,
+    duration: T,
+    n: usize,
+    /// Monomial coefficients in τ, per axis: `p(τ) = Σ c_k τ^k`.
+    coeffs: [[T; MAX_COEFFS]; NZ],
+    end: SVector<T, NZ>,
+}
+
+fn binomial(n: usize, k: usize) -> f64 {
+    (0..k.min(n)).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
+}
+
+fn falling(m: usize, j: usize) -> f64 {
+    (0..j).fold(1.0, |acc, i| acc * (m - i) as f64)
+}
+
+impl<T: Real, const NZ: usize> Hermite<T, NZ> {
+    /// The segment that starts at `t_start` with the derivatives `start[j] = z^(j)`,
+    /// `j = 0..=n`, and comes to rest at `end` (all derivatives zero) after `duration`.
+    pub fn new(
+        t_start: T,
+        duration: T,
+        start: &[SVector<T, NZ>],
+        end: SVector<T, NZ>,
+    ) -> Result<Self> {
+        let n = start.len().saturating_sub(1);
+        if n == 0 || n > MAX_SMOOTHNESS {
+            return Err(Error::ParameterOutOfRange {
+                name: "smoothness",
+                value: n as f64,
+                min: 1.0,
+                max: MAX_SMOOTHNESS as f64,
+            });
+        }
+        check_positive("segment duration", to_f64(duration))?;
+        let ts = to_f64(t_start);
+        if !ts.is_finite() {
+            return Err(Error::NonFiniteParameter {
+                name: "segment t_start",
+                value: ts,
+            });
+        }
+        let m = 2 * n + 1;
+        let big_t = to_f64(duration);
+        let mut coeffs = [[T::zero(); MAX_COEFFS]; NZ];
+        for (axis, out) in coeffs.iter_mut().enumerate() {
+            // Derivatives with respect to τ: z^(j) · T^j.
+            let mut d = [0.0; MAX_SMOOTHNESS + 1];
+            let mut t_power = 1.0;
+            for (j, dj) in d.iter_mut().enumerate().take(n + 1) {
+                let v = start
+                    .get(j)
+                    .and_then(|s| s.get(axis))
+                    .map_or(f64::NAN, |v| to_f64(*v));
+                *dj = v * t_power;
+                t_power *= big_t;
+            }
+            let e = end.get(axis).map_or(f64::NAN, |v| to_f64(*v));
+            if d.iter()
+                .take(n + 1)
+                .chain([e].iter())
+                .any(|v| !v.is_finite())
+            {
+                return Err(Error::NonFiniteParameter {
+                    name: "segment boundary",
+                    value: f64::NAN,
+                });
+            }
+            let sign = |k: usize| if k.is_multiple_of(2) { 1.0 } else { -1.0 };
+            // Bernstein coefficients: p^(j)(0) = m!/(m−j)! Σ_i (−1)^(j−i) C(j,i) β_i, solved for β_j;
+            // at τ = 1 all derivatives vanish, so the last n+1 coefficients equal the end value.
+            let mut beta = [e; MAX_COEFFS];
+            for (j, dj) in d.iter().enumerate().take(n + 1) {
+                let lower: f64 = beta
+                    .iter()
+                    .take(j)
+                    .enumerate()
+                    .map(|(i, b)| sign(j - i) * binomial(j, i) * b)
+                    .sum();
+                if let Some(b) = beta.get_mut(j) {
+                    *b = dj / falling(m, j) - lower;
+                }
+            }
+            // Bernstein → monomial: c_k = C(m,k) Σ_{i≤k} (−1)^(k−i) C(k,i) β_i.
+            for (k, ck) in out.iter_mut().enumerate().take(m + 1) {
+                let s: f64 = beta
+                    .iter()
+                    .take(k + 1)
+                    .enumerate()
+                    .map(|(i, b)| sign(k - i) * binomial(k, i) * b)
+                    .sum();
+                *ck = c(binomial(m, k) * s);
+            }
+        }
+        Ok(Self {
+            t_start,
+            duration,
+            n,
+            coeffs,
+            end,
+        })
+    }
+
+    /// Where the segment comes to rest.
+    #[must_use]
+    pub fn end(&self) -> SVector<T, NZ> {
+        self.end
+    }
+
+    /// The time at which it comes to rest.
+    #[must_use]
+    pub fn t_end(&self) -> T {
+        self.t_start + self.duration
+    }
+}
+
+impl<T: Real, const NZ: usize> Trajectory<T, NZ> for Hermite<T, NZ> {
+    fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, NZ>; D] {
+        let mut out = [SVector::<T, NZ>::zeros(); D];
+        let tau = (t - self.t_start) / self.duration;
+        if tau >= T::one() {
+            if let Some(v) = out.first_mut() {
+                *v = self.end;
+            }
+            return out;
+        }
+        // Before its start a segment is only ever asked at its start (τ = 0).
+        let tau = tau.max(T::zero());
+        let m = 2 * self.n + 1;
+        let inv_t = T::one() / self.duration;
+        for (axis, coeffs) in self.coeffs.iter().enumerate() {
+            let mut scale = T::one();
+            for (j, slot) in out.iter_mut().enumerate() {
+                // Horner on the j-th derivative's coefficients c_k · k!/(k−j)!.
+                let mut acc = T::zero();
+                for k in (j..=m).rev() {
+                    let ck = coeffs.get(k).copied().unwrap_or_else(T::zero);
+                    acc = acc * tau + ck * c::<T>(falling(k, j));
+                }
+                if let Some(v) = slot.get_mut(axis) {
+                    *v = acc * scale;
+                }
+                scale *= inv_t;
+            }
+        }
+        out
+    }
+
+    fn active_span(&self) -> (T, T) {
+        (self.t_start, self.t_end())
+    }
+
+    fn smoothness(&self) -> usize {
+        self.n
+    }
+}
+
+/// One piece of a plan. (A stop carries its polynomial's coefficients and is larger
+/// than a move; without a heap there is nothing to box into, and a plan holds one.)
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[allow(clippy::large_enum_variant)]
+pub enum Segment<T: Real, const NZ: usize> {
+    /// A rest-to-rest move.
+    Move(PointToPoint<T, NZ>),
+    /// A stop from motion.
+    Stop(Hermite<T, NZ>),
+}
+
+impl<T: Real, const NZ: usize> Segment<T, NZ> {
+    fn span(&self) -> (T, T) {
+        match self {
+            Segment::Move(m) => m.active_span(),
+            Segment::Stop(s) => s.active_span(),
+        }
+    }
+
+    fn end(&self) -> SVector<T, NZ> {
+        match self {
+            Segment::Move(m) => m.end(),
+            Segment::Stop(s) => s.end(),
+        }
+    }
+
+    fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, NZ>; D] {
+        match self {
+            Segment::Move(m) => m.derivatives(t),
+            Segment::Stop(s) => s.derivatives(t),
+        }
+    }
+}
+
+/// The desired output over time: rest, the active segment, and one move queued behind it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Plan<T: Real, const NZ: usize> {
+    rest: SVector<T, NZ>,
+    smoothness: usize,
+    active: Option<Segment<T, NZ>>,
+    queued: Option<PointToPoint<T, NZ>>,
+}
+
+impl<T: Real, const NZ: usize> Plan<T, NZ> {
+    /// At rest at `position`; moves will have smoothness `n`.
+    pub fn at_rest(position: SVector<T, NZ>, smoothness: usize) -> Result<Self> {
+        if smoothness == 0 || smoothness > MAX_SMOOTHNESS {
+            return Err(Error::ParameterOutOfRange {
+                name: "smoothness",
+                value: smoothness as f64,
+                min: 1.0,
+                max: MAX_SMOOTHNESS as f64,
+            });
+        }
+        if position.iter().any(|v| !to_f64(*v).is_finite()) {
+            return Err(Error::NonFiniteParameter {
+                name: "rest position",
+                value: f64::NAN,
+            });
+        }
+        Ok(Self {
+            rest: position,
+            smoothness,
+            active: None,
+            queued: None,
+        })
+    }
+
+    /// Where the plan ends at rest (after everything planned).
+    #[must_use]
+    pub fn final_position(&self) -> SVector<T, NZ> {
+        self.queued
+            .map(|q| q.end())
+            .or_else(|| self.active.map(|a| a.end()))
+            .unwrap_or(self.rest)
+    }
+
+    /// When everything planned has finished.
+    #[must_use]
+    pub fn end_time(&self) -> Option<T> {
+        self.queued
+            .map(|q| q.active_span().1)
+            .or_else(|| self.active.map(|a| a.span().1))
+    }
+
+    /// Whether a move is active at `t` (or a stop is running).
+    #[must_use]
+    pub fn is_moving(&self, t: T) -> bool {
+        self.active.is_some_and(|a| t < a.span().1) || self.queued.is_some()
+    }
+
+    /// Whether a move is queued behind the active one.
+    #[must_use]
+    pub fn has_queued(&self) -> bool {
+        self.queued.is_some()
+    }
+
+    /// The active segment, if any.
+    #[must_use]
+    pub fn active(&self) -> Option<&Segment<T, NZ>> {
+        self.active.as_ref()
+    }
+
+    /// Forgets segments that have finished by `t` (the queued move becomes active).
+    pub fn retire(&mut self, t: T) {
+        if let Some(a) = self.active {
+            if t >= a.span().1 {
+                self.rest = a.end();
+                self.active = self.queued.take().map(Segment::Move);
+                if let Some(next) = self.active {
+                    if t >= next.span().1 {
+                        self.rest = next.end();
+                        self.active = None;
+                    }
+                }
+            }
+        }
+    }
+
+    /// A candidate move from where the plan ends to `target`, starting no earlier than
+    /// `earliest` and after everything planned; not yet part of the plan.
+    pub fn candidate(
+        &self,
+        target: SVector<T, NZ>,
+        earliest: T,
+        duration: T,
+    ) -> Result<PointToPoint<T, NZ>> {
+        let start = self
+            .end_time()
+            .map_or(earliest, |e| if e > earliest { e } else { earliest });
+        PointToPoint::new(
+            self.final_position(),
+            target,
+            start,
+            duration,
+            self.smoothness,
+        )
+    }
+
+    /// Appends a move built by [`Plan::candidate`]: active if nothing is, else queued.
+    /// Refuses a second queued move, or one that does not start where and after the plan ends.
+    pub fn push(&mut self, next: PointToPoint<T, NZ>) -> Result<()> {
+        let fits = next.start() == self.final_position()
+            && self.end_time().is_none_or(|e| next.t_start() >= e);
+        if !fits || self.queued.is_some() {
+            return Err(Error::InvalidSetting {
+                name: "plan",
+                value: to_f64(next.t_start()),
+            });
+        }
+        if self.active.is_some() {
+            self.queued = Some(next);
+        } else {
+            self.active = Some(Segment::Move(next));
+        }
+        Ok(())
+    }
+
+    /// A stop that takes over at `t` (not yet stepped) and comes to rest after `duration`,
+    /// as far as its motion at `t` carries it: the end is `z(t) + ż(t)·duration/2` (what a
+    /// uniform deceleration covers). The queued move is dropped. Not yet part of the plan.
+    pub fn stop_candidate(&self, t: T, duration: T) -> Result<Hermite<T, NZ>> {
+        let start: [SVector<T, NZ>; MAX_SMOOTHNESS + 1] = self.derivatives(t);
+        let n = self.smoothness;
+        let [z, zd, ..] = start;
+        let end = z + zd * (duration * c::<T>(0.5));
+        Hermite::new(t, duration, start.get(..=n).unwrap_or(&start), end)
+    }
+
+    /// Replaces everything planned from the stop's start on by the stop.
+    pub fn apply_stop(&mut self, stop: Hermite<T, NZ>) {
+        self.queued = None;
+        self.active = Some(Segment::Stop(stop));
+    }
+}
+
+impl<T: Real, const NZ: usize> Trajectory<T, NZ> for Plan<T, NZ> {
+    fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, NZ>; D] {
+        let mut rest = [SVector::<T, NZ>::zeros(); D];
+        if let Some(v) = rest.first_mut() {
+            *v = self.rest;
+        }
+        match (self.active, self.queued) {
+            (Some(a), q) => {
+                let (start, end) = a.span();
+                if t < start {
+                    rest
+                } else if t <= end || q.is_none() {
+                    a.derivatives(t)
+                } else if let Some(q) = q {
+                    q.derivatives(t)
+                } else {
+                    rest
+                }
+            }
+            (None, _) => rest,
+        }
+    }
+
+    fn active_span(&self) -> (T, T) {
+        match (self.active, self.end_time()) {
+            (Some(a), Some(end)) => (a.span().0, end),
+            _ => (T::zero(), T::zero()),
+        }
+    }
+
+    fn smoothness(&self) -> usize {
+        self.smoothness
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+    use super::*;
+
+    type V = SVector<f64, 1>;
+
+    #[test]
+    fn hermite_matches_its_boundary_conditions() {
+        let start = [
+            V::new(1.0),
+            V::new(0.7),
+            V::new(-0.3),
+            V::new(0.2),
+            V::new(-0.1),
+        ];
+        let h = Hermite::new(2.0, 3.0, &start, V::new(2.5)).unwrap();
+        let d0: [V; 6] = h.derivatives(2.0);
+        for j in 0..5 {
+            assert!(
+                (d0[j][0] - start[j][0]).abs() < 1e-12,
+                "order {j} at the start: {}",
+                d0[j][0]
+            );
+        }
+        let d1: [V; 6] = h.derivatives(5.0 - 1e-12);
+        assert!((d1[0][0] - 2.5).abs() < 1e-9);
+        for (j, d) in d1.iter().enumerate().skip(1).take(4) {
+            assert!(d[0].abs() < 1e-6, "order {j} at the end: {}", d[0]);
+        }
+        let after: [V; 3] = h.derivatives(9.0);
+        assert_eq!((after[0][0], after[1][0]), (2.5, 0.0));
+    }
+
+    #[test]
+    fn hermite_from_rest_to_rest_is_the_smooth_step() {
+        let p = PointToPoint::new(V::new(0.0), V::new(1.0), 0.0, 2.0, 4).unwrap();
+        let h = Hermite::new(0.0, 2.0, &[V::new(0.0); 5], V::new(1.0)).unwrap();
+        for t in [0.1, 0.7, 1.0, 1.5, 1.9] {
+            let (a, b): ([V; 5], [V; 5]) = (p.derivatives(t), h.derivatives(t));
+            for j in 0..5 {
+                assert!(
+                    (a[j][0] - b[j][0]).abs() < 1e-10 * (1.0 + a[j][0].abs()),
+                    "t {t} order {j}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn plan_queues_one_move_and_stops_smoothly() {
+        let mut plan = Plan::at_rest(V::new(0.0), 4).unwrap();
+        let a = plan.candidate(V::new(1.0), 1.0, 2.0).unwrap();
+        plan.push(a).unwrap();
+        let b = plan.candidate(V::new(3.0), 0.0, 2.0).unwrap();
+        assert_eq!(b.t_start(), 3.0, "queued behind the active move");
+        plan.push(b).unwrap();
+        assert!(
+            plan.push(plan.candidate(V::new(4.0), 0.0, 1.0).unwrap())
+                .is_err(),
+            "one queued move at most"
+        );
+        let z: [V; 1] = plan.derivatives(4.0);
+        assert!(z[0][0] > 1.0 && z[0][0] < 3.0, "in the second move");
+        // Stop at 3.5 s, inside the second move: continuous to order 4.
+        let before: [V; 5] = plan.derivatives(3.5);
+        let stop = plan.stop_candidate(3.5, 1.0).unwrap();
+        plan.apply_stop(stop);
+        let after: [V; 5] = plan.derivatives(3.5);
+        for j in 0..5 {
+            assert!(
+                (before[j][0] - after[j][0]).abs() < 1e-9 * (1.0 + before[j][0].abs()),
+                "order {j}"
+            );
+        }
+        plan.retire(10.0);
+        assert!(!plan.is_moving(10.0));
+        assert!((plan.final_position()[0] - stop.end()[0]).abs() < 1e-15);
+    }
+}
