@@ -212,6 +212,12 @@ impl<T: Real, const M: usize> Newton<T, M> {
         })
     }
 
+    /// Forgets Broyden's carried approximation (the next step re-initialises it).
+    pub fn forget(&mut self) {
+        self.has_inverse = false;
+        self.steps_since_init = 0;
+    }
+
     /// The Jacobian mode.
     #[must_use]
     pub fn mode(&self) -> JacobianMode {

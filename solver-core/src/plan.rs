@@ -194,7 +194,8 @@ pub enum Segment<T: Real, const NZ: usize> {
 }
 
 impl<T: Real, const NZ: usize> Segment<T, NZ> {
-    fn span(&self) -> (T, T) {
+    /// Start and end time of the segment's motion.
+    pub fn span(&self) -> (T, T) {
         match self {
             Segment::Move(m) => m.active_span(),
             Segment::Stop(s) => s.active_span(),
@@ -248,6 +249,12 @@ impl<T: Real, const NZ: usize> Plan<T, NZ> {
             active: None,
             queued: None,
         })
+    }
+
+    /// The smoothness `n` of the moves and stops this plan builds.
+    #[must_use]
+    pub fn planned_smoothness(&self) -> usize {
+        self.smoothness
     }
 
     /// Where the plan ends at rest (after everything planned).
@@ -351,6 +358,11 @@ impl<T: Real, const NZ: usize> Plan<T, NZ> {
         Hermite::new(t, duration, start.get(..=n).unwrap_or(&start), end)
     }
 
+    /// Drops the queued move, if any.
+    pub fn drop_queued(&mut self) {
+        self.queued = None;
+    }
+
     /// Replaces everything planned from the stop's start on by the stop.
     pub fn apply_stop(&mut self, stop: Hermite<T, NZ>) {
         self.queued = None;
@@ -388,8 +400,15 @@ impl<T: Real, const NZ: usize> Trajectory<T, NZ> for Plan<T, NZ> {
         }
     }
 
+    /// The least smoothness of anything planned: a move pushed with a smaller `n` than
+    /// the plan's own (the scene's first move) lowers it while it is planned.
     fn smoothness(&self) -> usize {
-        self.smoothness
+        let active = self.active.map_or(self.smoothness, |a| match a {
+            Segment::Move(m) => m.smoothness(),
+            Segment::Stop(s) => s.smoothness(),
+        });
+        let queued = self.queued.map_or(self.smoothness, |q| q.smoothness());
+        self.smoothness.min(active).min(queued)
     }
 }
 

@@ -120,6 +120,15 @@ impl<T: Real, Z: Trajectory<T, 1>> MassOnCar<T, Z> {
     pub fn trajectory(&self) -> &Z {
         &self.trajectory
     }
+
+    /// The desired output, to change in place (a move appended, a stop) while the
+    /// model runs. The model does not check the change: whoever makes it must check
+    /// the new part first (for the crane, `controller::planner` checks every candidate
+    /// segment against the workspace, the rope tension and the drive limits), and only
+    /// change what has not been stepped yet.
+    pub fn trajectory_mut(&mut self) -> &mut Z {
+        &mut self.trajectory
+    }
 }
 
 impl<T: Real, Z: Trajectory<T, 1>> DaeModel<T, N, 1> for MassOnCar<T, Z> {

@@ -87,6 +87,17 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> Bdf<T, M, 
         })
     }
 
+    /// Starts again at rest at `t0` (after a halt), with the same settings; the model's
+    /// trajectory must rest at `t0`.
+    pub fn restart(&mut self, model: &M, t0: T) -> Result<()> {
+        let x0 = model.rest_state(t0)?;
+        self.history = HistoryBuf::new_with(x0);
+        self.t0 = t0;
+        self.steps = 0;
+        self.newton.forget();
+        Ok(())
+    }
+
     /// The number of steps k.
     #[must_use]
     pub fn k(&self) -> usize {

@@ -88,6 +88,17 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
         })
     }
 
+    /// Starts again at rest at `t0` (after a halt), with the same settings; the model's
+    /// trajectory must rest at `t0`.
+    pub fn restart(&mut self, model: &M, t0: T) -> Result<()> {
+        self.x = model.rest_state(t0)?;
+        self.stage_derivatives = SVector::zeros();
+        self.t0 = t0;
+        self.steps = 0;
+        self.newton.forget();
+        Ok(())
+    }
+
     /// Time of the current solution value.
     #[must_use]
     pub fn time(&self) -> T {
