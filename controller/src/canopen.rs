@@ -14,6 +14,7 @@
 //! All multi-byte values are little endian (CiA 301). Velocities are in the drives'
 //! units of 1 µm/s (see [`crate::units`]).
 
+use crate::commands::{self, CommandError, Request};
 use crate::frame::CanFrame;
 use crate::units::Setpoint;
 
@@ -176,7 +177,7 @@ pub fn emcy(node: u8, code: u16, register: u8, info: [u8; 5]) -> CanFrame {
 }
 
 /// What the controller understands off the bus.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Incoming {
     /// A heartbeat.
@@ -195,6 +196,8 @@ pub enum Incoming {
         /// Velocity actual value (0x606C), µm/s.
         velocity: i32,
     },
+    /// A request from the supervisor.
+    Command(Request),
     /// A drive's emergency message.
     Emergency {
         /// Which drive.
@@ -223,6 +226,8 @@ pub enum DecodeError {
     },
     /// A heartbeat with a state byte CiA 301 does not define.
     BadState(u8),
+    /// A malformed command frame.
+    Command(CommandError),
 }
 
 /// Decodes a received frame.
@@ -241,6 +246,11 @@ pub fn decode(frame: &CanFrame) -> Result<Incoming, DecodeError> {
             })
         }
     };
+    if id == commands::COMMAND_ID {
+        return commands::decode_request(data)
+            .map(Incoming::Command)
+            .map_err(DecodeError::Command);
+    }
     match (id & 0x780, Drive::from_node(node)) {
         (cob::HEARTBEAT, _) if node != 0 => {
             length(1)?;

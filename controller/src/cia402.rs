@@ -67,13 +67,15 @@ impl DriveState {
 
     /// The controlword that moves a healthy drive one step towards *operation enabled*
     /// (and keeps it there); `None` in a fault, which needs a deliberate reset.
+    /// *Quick stop active* is left by *disable voltage* (transition 12), the way back to
+    /// *switch on disabled*.
     #[must_use]
     pub fn enable_command(self) -> Option<u16> {
         match self {
-            Self::NotReadyToSwitchOn
-            | Self::SwitchOnDisabled
-            | Self::Unknown
-            | Self::QuickStopActive => Some(controlword::SHUTDOWN),
+            Self::QuickStopActive => Some(controlword::DISABLE_VOLTAGE),
+            Self::NotReadyToSwitchOn | Self::SwitchOnDisabled | Self::Unknown => {
+                Some(controlword::SHUTDOWN)
+            }
             Self::ReadyToSwitchOn => Some(controlword::SWITCH_ON),
             Self::SwitchedOn | Self::OperationEnabled => Some(controlword::ENABLE_OPERATION),
             Self::FaultReactionActive | Self::Fault => None,
@@ -128,6 +130,10 @@ mod tests {
         assert_eq!(
             DriveState::OperationEnabled.enable_command(),
             Some(controlword::ENABLE_OPERATION)
+        );
+        assert_eq!(
+            DriveState::QuickStopActive.enable_command(),
+            Some(controlword::DISABLE_VOLTAGE)
         );
         assert_eq!(DriveState::Fault.enable_command(), None);
     }

@@ -1,51 +1,64 @@
-//! The 100 Hz cycle: one inverse-model step, two set points, the frames that carry them.
+//! The 100 Hz cycle: requests, one inverse-model step, two set points, the frames
+//! that carry them, and the reaction to every fault (docs/COMMANDS.md).
 //!
-//! Time is injected (`now_ms` on every call), so the whole schedule — NMT start,
-//! SYNC every cycle, the controller's heartbeat, the drives' heartbeat timeouts — is
-//! tested on the host. The firmware's only job is to call [`Controller::tick`] every
-//! 10 ms, feed received frames to [`Controller::on_frame`] and transmit what comes out.
-//!
-//! Seams: commands enter through [`Controller::enqueue`] and are taken at the start
-//! of a cycle; the supervisor state ([`Mode`]) is consulted before any set point is
-//! made. Any fault moves to [`Mode::Stopping`]: both drives ramp to standstill within
-//! their acceleration limits, then get *quick stop* ([`Mode::Stopped`]).
+//! Time is injected (`now_ms` on every call), so the schedule — NMT start, SYNC every
+//! cycle, heartbeat and status every 100 ms, the drives' heartbeat timeouts — and every
+//! reaction is tested on the host. The firmware's only job is to call
+//! [`Controller::tick`] every 10 ms, feed received frames to [`Controller::on_frame`],
+//! transmit what comes out, and report each cycle's cost and each failed transmission.
 
 use heapless::{Deque, Vec};
 use solver_core::Error;
 
 use crate::canopen::{self, Drive, Incoming, NmtCommand, NmtState, CONTROLLER_NODE};
 use crate::cia402::{controlword, DriveState, STATUS_FAULT};
-use crate::feedforward::{Feedforward, FeedforwardStep};
+use crate::commands::{status_frame, Answer, Reject, Request, Status};
+use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
 use crate::frame::CanFrame;
-use crate::units::{DriveLimits, Setpoint, SetpointError, SetpointGate};
+use crate::planner::Planner;
+use crate::units::{DriveLimits, Setpoint, SetpointError, SetpointGate, UNITS_PER_M_PER_S};
 
-/// Timing and limits.
+/// Timing, limits and the thresholds of the fault reactions.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Config {
-    /// Drive limits enforced at the choke point.
+    /// Drive limits enforced at the choke point and by the planner.
     pub limits: DriveLimits,
     /// Cycle time, ms (the solver's h).
     pub period_ms: u32,
-    /// Period of the controller's own heartbeat, ms.
+    /// Period of the controller's heartbeat and status, ms.
     pub heartbeat_period_ms: u32,
     /// A drive whose heartbeat is older than this is lost, ms.
     pub heartbeat_timeout_ms: u32,
     /// Each drive's first heartbeat must arrive within this time after start, ms.
     pub boot_timeout_ms: u32,
+    /// A cycle costing more than this (core cycles; QEMU instructions) missed its deadline:
+    /// 10 ms at 400 MHz.
+    pub cycle_budget: u64,
+    /// A second deadline miss within this many cycles stops the crane.
+    pub deadline_window: u32,
+    /// This many cycles in a row with a failed RPDO: set points cannot be delivered.
+    pub undeliverable_cycles: u32,
+    /// Cycles of *fault reset* sent after a reset before a drive still in fault counts
+    /// as a new fault.
+    pub fault_reset_cycles: u8,
 }
 
 impl Config {
-    /// 100 Hz, heartbeats every 100 ms, drives lost after 300 ms (1 s at boot).
+    /// 100 Hz on a 400 MHz Cortex-M7, heartbeats every 100 ms, drives lost after 300 ms.
     pub const DEFAULT: Self = Self {
         limits: DriveLimits::LAB,
         period_ms: 10,
         heartbeat_period_ms: 100,
         heartbeat_timeout_ms: 300,
         boot_timeout_ms: 1000,
+        cycle_budget: 4_000_000,
+        deadline_window: 100,
+        undeliverable_cycles: 3,
+        fault_reset_cycles: 10,
     };
 }
 
-/// Why the controller stopped.
+/// Why the controller left *ready* (status byte 4, EMCY's first manufacturer byte).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Fault {
@@ -53,34 +66,114 @@ pub enum Fault {
     Solver(#[cfg_attr(feature = "defmt", defmt(Debug2Format))] Error),
     /// The choke point refused the model's set point.
     Setpoint(SetpointError),
-    /// The model asked for motion of a drive that is not enabled.
-    DriveNotReady(Drive),
     /// A drive reported a fault (statusword bit 3 or an EMCY).
     DriveFault(Drive),
     /// A drive's heartbeat stopped.
     HeartbeatLost(Drive),
-    /// A stop was requested.
-    StopRequested,
+    /// A second deadline miss within the window.
+    Deadline,
+    /// Set points could not be delivered for several cycles.
+    Undeliverable,
+    /// The model asked for motion of a drive that is not enabled.
+    DriveNotReady(Drive),
+}
+
+/// How a fault is met (docs/COMMANDS.md), mildest first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Reaction {
+    Controlled,
+    Quick,
+    Halt,
+}
+
+impl Fault {
+    /// The fault byte of the status frame and of the EMCY.
+    #[must_use]
+    pub fn code(&self) -> u8 {
+        match self {
+            Fault::Solver(_) => 1,
+            Fault::Setpoint(_) => 2,
+            Fault::DriveFault(_) => 3,
+            Fault::HeartbeatLost(_) => 4,
+            Fault::Deadline => 5,
+            Fault::Undeliverable => 6,
+            Fault::DriveNotReady(_) => 7,
+        }
+    }
+
+    /// The CiA 301 error code of the EMCY.
+    #[must_use]
+    pub fn emcy_code(&self) -> u16 {
+        match self {
+            Fault::Solver(_) => 0x6100,
+            Fault::Setpoint(_) => 0xFF03,
+            Fault::DriveFault(_) => 0xFF02,
+            Fault::HeartbeatLost(_) => 0x8130,
+            Fault::Deadline => 0xFF01,
+            Fault::Undeliverable => 0x8140,
+            Fault::DriveNotReady(_) => 0xFF04,
+        }
+    }
+
+    /// The node concerned (a drive) or 0.
+    fn node(&self) -> u8 {
+        match self {
+            Fault::DriveFault(d) | Fault::HeartbeatLost(d) | Fault::DriveNotReady(d) => d.node(),
+            Fault::Setpoint(
+                SetpointError::NonFinite { drive }
+                | SetpointError::OverSpeed { drive, .. }
+                | SetpointError::OverAcceleration { drive, .. },
+            ) => drive.node(),
+            _ => 0,
+        }
+    }
+
+    fn reaction(&self) -> Reaction {
+        match self {
+            Fault::DriveFault(_) | Fault::HeartbeatLost(_) => Reaction::Quick,
+            Fault::Undeliverable => Reaction::Halt,
+            _ => Reaction::Controlled,
+        }
+    }
 }
 
 /// The supervisor state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Mode {
-    /// Following the inverse model.
-    Running,
-    /// Ramping both drives to standstill after a fault.
+    /// Walking the drives through the CiA 402 enable sequence; moves are refused.
+    Enabling,
+    /// Following the plan; moves are accepted.
+    Ready,
+    /// Controlled stop: ramping both drives to standstill.
     Stopping(Fault),
-    /// At standstill, drives held by quick stop.
-    Stopped(Fault),
+    /// Quick stop: both drives braking on their own ramps.
+    QuickStop(Fault),
+    /// At standstill, drives held by quick stop, waiting for a reset.
+    Halted(Fault),
 }
 
-/// Requests from a supervisor (PLC/HMI); the next issue adds moves.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Command {
-    /// Bring the load to rest and hold.
-    Stop,
+impl Mode {
+    /// The mode byte of the status frame.
+    #[must_use]
+    pub fn code(&self) -> u8 {
+        match self {
+            Mode::Enabling => 0,
+            Mode::Ready => 1,
+            Mode::Stopping(_) => 2,
+            Mode::QuickStop(_) => 3,
+            Mode::Halted(_) => 4,
+        }
+    }
+
+    /// The fault that left *ready*, if any.
+    #[must_use]
+    pub fn fault(&self) -> Option<Fault> {
+        match *self {
+            Mode::Stopping(f) | Mode::QuickStop(f) | Mode::Halted(f) => Some(f),
+            _ => None,
+        }
+    }
 }
 
 /// What the controller knows of one drive.
@@ -88,11 +181,10 @@ pub enum Command {
 struct DriveLink {
     state: DriveState,
     velocity: i32,
-    nmt: Option<NmtState>,
-    last_heartbeat_ms: Option<u32>,
+    last_heartbeat_ms: Option<u64>,
 }
 
-/// Running totals for diagnostics.
+/// Running totals, reported in the status frame and the logs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Counters {
@@ -100,14 +192,18 @@ pub struct Counters {
     pub cycles: u32,
     /// Frames received and understood.
     pub frames_received: u32,
-    /// Frames received and ignored (unknown, malformed, out of range).
+    /// Frames ignored: malformed, unknown, out of range, or requests beyond the queue.
     pub frames_ignored: u32,
     /// Frames handed out for transmission.
     pub frames_sent: u32,
-    /// Commands refused because the queue was full.
-    pub commands_dropped: u32,
-    /// Frames that did not fit a cycle's buffer (at most 6 of 8 are used: must stay 0).
+    /// Frames that did not fit a cycle's buffer (at most 7 of 8 are used: must stay 0).
     pub frames_lost: u32,
+    /// Cycles that missed their deadline.
+    pub deadline_misses: u32,
+    /// Frames the board failed to transmit.
+    pub tx_failures: u32,
+    /// Requests answered.
+    pub requests: u32,
 }
 
 /// Everything one cycle produced.
@@ -129,29 +225,59 @@ pub struct Controller<F> {
     feedforward: F,
     config: Config,
     gate: SetpointGate,
+    planner: Planner,
     drives: [DriveLink; 2],
     mode: Mode,
-    commands: Deque<Command, 4>,
+    requests: Deque<Request, 4>,
     counters: Counters,
+    /// The last answer: request id, answer, reason.
+    answer: (u8, Answer, Option<Reject>),
+    /// An answer was given this cycle: send the status at once.
+    answered: bool,
+    last_miss_cycle: Option<u32>,
+    rpdo_failed: bool,
+    failed_cycles: u32,
+    emcy: Option<CanFrame>,
+    /// Trolley position and rope length when the controller left *ready*, plus the
+    /// travel the drives reported since: where the load hangs at the reset.
+    drive_positions: [f64; 2],
+    /// Cycles of *fault reset* still to send after a reset.
+    resetting: u8,
+    now_ms: u64,
+    /// The first cycle has not run yet (NMT start and boot-up are due).
+    starting: bool,
 }
 
-impl<F: Feedforward> Controller<F> {
-    /// A controller that will follow `feedforward`, starting with the drives at standstill.
-    pub fn new(feedforward: F, config: Config) -> Self {
+impl<F: Feedforward + Replan> Controller<F> {
+    /// A controller that follows `feedforward` and checks moves with `planner`; it starts
+    /// by enabling the drives.
+    pub fn new(feedforward: F, planner: Planner, config: Config) -> Self {
         let link = DriveLink {
             state: DriveState::Unknown,
             velocity: 0,
-            nmt: None,
             last_heartbeat_ms: None,
         };
+        let position = feedforward.plan().final_position().into();
+        let period = f64::from(config.period_ms) / 1000.0;
         Self {
             feedforward,
             config,
-            gate: SetpointGate::new(config.limits, f64::from(config.period_ms) / 1000.0),
+            gate: SetpointGate::new(config.limits, period),
+            planner,
             drives: [link; 2],
-            mode: Mode::Running,
-            commands: Deque::new(),
+            mode: Mode::Enabling,
+            requests: Deque::new(),
             counters: Counters::default(),
+            answer: (0, Answer::None, None),
+            answered: false,
+            last_miss_cycle: None,
+            rpdo_failed: false,
+            failed_cycles: 0,
+            emcy: None,
+            drive_positions: position,
+            resetting: 0,
+            now_ms: 0,
+            starting: true,
         }
     }
 
@@ -173,30 +299,35 @@ impl<F: Feedforward> Controller<F> {
         self.link(drive).state
     }
 
-    /// Queues a command for the next cycle; a full queue refuses it (and counts).
-    pub fn enqueue(&mut self, command: Command) -> Result<(), Command> {
-        self.commands
-            .push_back(command)
-            .inspect_err(|_| self.counters.commands_dropped += 1)
+    /// The inverse model (and its plan).
+    #[must_use]
+    pub fn feedforward(&self) -> &F {
+        &self.feedforward
+    }
+
+    /// The inverse model, to inject a fault (tests, the QEMU scenarios).
+    pub fn feedforward_mut(&mut self) -> &mut F {
+        &mut self.feedforward
+    }
+
+    /// The last answer given: request id, answer, reason.
+    #[must_use]
+    pub fn last_answer(&self) -> (u8, Answer, Option<Reject>) {
+        self.answer
     }
 
     /// Takes one received frame. Frames it does not understand are ignored and counted:
     /// they never change a set point.
-    pub fn on_frame(&mut self, frame: &CanFrame, now_ms: u32) {
+    pub fn on_frame(&mut self, frame: &CanFrame, now_ms: u64) {
         let Ok(incoming) = canopen::decode(frame) else {
-            self.counters.frames_ignored += 1;
+            self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(1);
             return;
         };
-        self.counters.frames_received += 1;
+        self.counters.frames_received = self.counters.frames_received.saturating_add(1);
         match incoming {
-            Incoming::Heartbeat { node, state } => {
-                if let Some(link) = Drive::ALL
-                    .into_iter()
-                    .find(|d| d.node() == node)
-                    .map(|d| self.link_mut(d))
-                {
-                    link.nmt = Some(state);
-                    link.last_heartbeat_ms = Some(now_ms);
+            Incoming::Heartbeat { node, .. } => {
+                if let Some(d) = Drive::ALL.into_iter().find(|d| d.node() == node) {
+                    self.link_mut(d).last_heartbeat_ms = Some(now_ms);
                 }
             }
             Incoming::Status {
@@ -204,6 +335,13 @@ impl<F: Feedforward> Controller<F> {
                 statusword,
                 velocity,
             } => {
+                let period = f64::from(self.config.period_ms) / 1000.0;
+                if self.mode.fault().is_some() {
+                    // One TPDO per cycle, answering the SYNC: travel over one period.
+                    if let Some(p) = self.drive_positions.get_mut(drive.index()) {
+                        *p += f64::from(velocity) / UNITS_PER_M_PER_S * period;
+                    }
+                }
                 let link = self.link_mut(drive);
                 link.state = DriveState::from_statusword(statusword);
                 link.velocity = velocity;
@@ -216,33 +354,81 @@ impl<F: Feedforward> Controller<F> {
                     self.fault(Fault::DriveFault(drive));
                 }
             }
+            Incoming::Command(request) => {
+                if self.requests.push_back(request).is_err() {
+                    // More requests in one cycle than the queue holds: ignored and counted.
+                    self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(1);
+                }
+            }
         }
     }
 
-    /// One cycle at time `now_ms` (the start of the cycle).
-    pub fn tick(&mut self, now_ms: u32) -> Cycle {
+    /// Reports what the last cycle cost (core cycles; QEMU instructions). A cycle over
+    /// the budget missed its deadline; a second miss within the window stops the crane.
+    pub fn record_cost(&mut self, cost: u64) {
+        if cost <= self.config.cycle_budget {
+            return;
+        }
+        let cycle = self.counters.cycles;
+        self.counters.deadline_misses = self.counters.deadline_misses.saturating_add(1);
+        if self
+            .last_miss_cycle
+            .is_some_and(|last| cycle.wrapping_sub(last) <= self.config.deadline_window)
+        {
+            self.fault(Fault::Deadline);
+        }
+        self.last_miss_cycle = Some(cycle);
+    }
+
+    /// Reports a frame the board could not transmit (bus-off, full transmit queue). Set
+    /// points are not repeated (the next cycle sends fresh ones); an EMCY is sent again
+    /// next cycle unless a newer one replaces it, so no fault goes unannounced.
+    pub fn transmit_failed(&mut self, frame: &CanFrame) {
+        self.counters.tx_failures = self.counters.tx_failures.saturating_add(1);
+        let id = frame.id();
+        if Drive::ALL
+            .iter()
+            .any(|d| id == canopen::cob::RPDO1 + u16::from(d.node()))
+        {
+            self.rpdo_failed = true;
+        }
+        if id == canopen::cob::EMCY + u16::from(CONTROLLER_NODE) && self.emcy.is_none() {
+            self.emcy = Some(*frame);
+        }
+    }
+
+    /// One cycle at time `now_ms` (the start of the cycle; the model has been stepped to it).
+    pub fn tick(&mut self, now_ms: u64) -> Cycle {
+        self.now_ms = now_ms;
         let mut frames = Vec::new();
-        let first = self.counters.cycles == 0;
+        let first = core::mem::take(&mut self.starting);
         if first {
-            push(
+            self.push(&mut frames, canopen::nmt(NmtCommand::Start, 0));
+            self.push(
                 &mut frames,
-                &mut self.counters,
-                canopen::nmt(NmtCommand::Start, 0),
-            );
-            push(
-                &mut frames,
-                &mut self.counters,
                 canopen::heartbeat(CONTROLLER_NODE, NmtState::BootUp),
             );
         }
-        if let Some(Command::Stop) = self.commands.pop_front() {
-            self.fault(Fault::StopRequested);
-        }
+        self.supervise_delivery();
         self.supervise_heartbeats(now_ms);
+        if let Some(request) = self.requests.pop_front() {
+            self.handle(request);
+        }
+        if self.mode == Mode::Enabling
+            && self.resetting == 0
+            && Drive::ALL
+                .iter()
+                .all(|d| self.link(*d).state == DriveState::OperationEnabled)
+        {
+            self.mode = Mode::Ready;
+        }
 
-        let step = if self.mode == Mode::Running {
+        let step = if matches!(self.mode, Mode::Enabling | Mode::Ready) {
             match self.feedforward.step() {
-                Ok(step) => Some(step),
+                Ok(step) => {
+                    self.feedforward.plan_mut().retire(step.t);
+                    Some(step)
+                }
                 Err(e) => {
                     self.fault(Fault::Solver(e));
                     None
@@ -257,28 +443,32 @@ impl<F: Feedforward> Controller<F> {
             if let Some(slot) = setpoints.get_mut(drive.index()) {
                 *slot = setpoint;
             }
-            push(
-                &mut frames,
-                &mut self.counters,
-                canopen::rpdo1(drive, command, setpoint),
-            );
+            self.push(&mut frames, canopen::rpdo1(drive, command, setpoint));
         }
-        if let Mode::Stopping(fault) = self.mode {
+        self.resetting = self.resetting.saturating_sub(1);
+        if let Mode::Stopping(f) | Mode::QuickStop(f) = self.mode {
             if self.gate.at_standstill() {
-                self.mode = Mode::Stopped(fault);
+                self.mode = Mode::Halted(f);
             }
         }
-        push(&mut frames, &mut self.counters, canopen::sync());
-        let heartbeat_cycles = (self.config.heartbeat_period_ms / self.config.period_ms).max(1);
-        if !first && self.counters.cycles.is_multiple_of(heartbeat_cycles) {
-            push(
+        if let Some(emcy) = self.emcy.take() {
+            self.push(&mut frames, emcy);
+        }
+        self.push(&mut frames, canopen::sync());
+        let periodic = (self.config.heartbeat_period_ms / self.config.period_ms).max(1);
+        let beat = !first && self.counters.cycles.is_multiple_of(periodic);
+        if beat {
+            self.push(
                 &mut frames,
-                &mut self.counters,
                 canopen::heartbeat(CONTROLLER_NODE, NmtState::Operational),
             );
         }
+        if beat || self.answered {
+            let status = self.status();
+            self.push(&mut frames, status_frame(&status));
+            self.answered = false;
+        }
         self.counters.cycles = self.counters.cycles.wrapping_add(1);
-        self.counters.frames_sent = self.counters.frames_sent.wrapping_add(frames.len() as u32);
         Cycle {
             frames,
             setpoints,
@@ -287,20 +477,115 @@ impl<F: Feedforward> Controller<F> {
         }
     }
 
+    /// The status frame's contents now.
+    #[must_use]
+    pub fn status(&self) -> Status {
+        let (last_id, answer, reason) = self.answer;
+        Status {
+            last_id,
+            answer,
+            reason,
+            mode: self.mode.code(),
+            fault: self.mode.fault().map_or(0, |f| f.code()),
+            ignored: self.counters.frames_ignored,
+            deadline_misses: self.counters.deadline_misses,
+            tx_failures: self.counters.tx_failures,
+        }
+    }
+
+    fn now_s(&self) -> f64 {
+        // Exact below 2^53 ms (285,000 years).
+        self.now_ms as f64 / 1000.0
+    }
+
+    /// Answers one request (docs/COMMANDS.md).
+    fn handle(&mut self, request: Request) {
+        let now = self.now_s();
+        let answer = match request {
+            Request::Move {
+                target, duration, ..
+            } => {
+                let plan = *self.feedforward.plan();
+                if self.mode != Mode::Ready {
+                    Err(Reject::NotReady)
+                } else if plan.has_queued() {
+                    Err(Reject::Busy)
+                } else {
+                    let moving = plan.is_moving(now);
+                    self.planner
+                        .plan_move(&plan, target, duration, now)
+                        .and_then(|m| {
+                            self.feedforward
+                                .plan_mut()
+                                .push(m)
+                                .map_err(|_| Reject::Busy)?;
+                            Ok(if moving {
+                                Answer::Queued
+                            } else {
+                                Answer::Accepted
+                            })
+                        })
+                }
+            }
+            Request::Stop { .. } => {
+                // The queued move is dropped; the running one is replaced by a quicker
+                // smooth stop if one fits the limits, else it is the stop.
+                if self.mode == Mode::Ready && self.feedforward.plan().is_moving(now) {
+                    let plan = self.feedforward.plan_mut();
+                    plan.drop_queued();
+                    if let Some(stop) = self.planner.plan_stop(plan, now) {
+                        plan.apply_stop(stop);
+                    }
+                }
+                Ok(Answer::Accepted)
+            }
+            Request::Reset { .. } => match self.mode {
+                Mode::Halted(_) => self.reset().map(|()| Answer::Accepted),
+                Mode::Stopping(_) | Mode::QuickStop(_) => Err(Reject::NotReady),
+                Mode::Enabling | Mode::Ready => Ok(Answer::Accepted),
+            },
+        };
+        self.answer = match answer {
+            Ok(a) => (request.id(), a, None),
+            Err(r) => (request.id(), Answer::Rejected, Some(r)),
+        };
+        self.answered = true;
+        self.counters.requests = self.counters.requests.saturating_add(1);
+    }
+
+    /// Leaves *halted*: fault reset to the drives, the model restarted at rest where the
+    /// load hangs now (below the trolley, where the drives stopped), the enable sequence,
+    /// EMCY 0x0000.
+    fn reset(&mut self) -> Result<(), Reject> {
+        self.feedforward
+            .restart_at_rest(self.drive_positions, self.now_s())
+            .map_err(|_| Reject::Invalid)?;
+        self.resetting = self.config.fault_reset_cycles;
+        self.last_miss_cycle = None;
+        self.failed_cycles = 0;
+        self.mode = Mode::Enabling;
+        self.emcy = Some(canopen::emcy(CONTROLLER_NODE, 0x0000, 0, [0; 5]));
+        Ok(())
+    }
+
     /// Controlword and set point for one drive this cycle.
     fn command_for(&mut self, drive: Drive, step: Option<&FeedforwardStep>) -> (u16, Setpoint) {
         let state = self.link(drive).state;
         match self.mode {
-            Mode::Running => {
-                let Some(command) = state.enable_command() else {
-                    self.fault(Fault::DriveFault(drive));
-                    return (controlword::QUICK_STOP, self.gate.ramp_to_zero(drive));
-                };
+            Mode::Enabling | Mode::Ready => {
                 let wanted = step
                     .and_then(|s| s.u.get(drive.index()).copied())
                     .unwrap_or(0.0);
+                let Some(command) = state.enable_command() else {
+                    // A drive in fault: after a reset, send fault reset; otherwise it is a fault.
+                    if self.resetting > 0 {
+                        return (controlword::FAULT_RESET, self.gate.ramp_to_zero(drive));
+                    }
+                    self.fault(Fault::DriveFault(drive));
+                    return (controlword::QUICK_STOP, self.gate.ramp_to_zero(drive));
+                };
                 if state != DriveState::OperationEnabled {
-                    if wanted != 0.0 {
+                    if libm::round(wanted * UNITS_PER_M_PER_S) != 0.0 {
                         self.fault(Fault::DriveNotReady(drive));
                     }
                     return (command, self.gate.ramp_to_zero(drive));
@@ -309,20 +594,22 @@ impl<F: Feedforward> Controller<F> {
                     Ok(setpoint) => (command, setpoint),
                     Err(e) => {
                         self.fault(Fault::Setpoint(e));
-                        (command, self.gate.ramp_to_zero(drive))
+                        (controlword::ENABLE_OPERATION, self.gate.ramp_to_zero(drive))
                     }
                 }
             }
             Mode::Stopping(_) => (controlword::ENABLE_OPERATION, self.gate.ramp_to_zero(drive)),
-            Mode::Stopped(_) => (controlword::QUICK_STOP, self.gate.ramp_to_zero(drive)),
+            Mode::QuickStop(_) | Mode::Halted(_) => {
+                (controlword::QUICK_STOP, self.gate.ramp_to_zero(drive))
+            }
         }
     }
 
-    fn supervise_heartbeats(&mut self, now_ms: u32) {
+    fn supervise_heartbeats(&mut self, now_ms: u64) {
         for drive in Drive::ALL {
             let lost = match self.link(drive).last_heartbeat_ms {
-                None => now_ms > self.config.boot_timeout_ms,
-                Some(t) => now_ms.wrapping_sub(t) > self.config.heartbeat_timeout_ms,
+                None => now_ms > u64::from(self.config.boot_timeout_ms),
+                Some(t) => now_ms.saturating_sub(t) > u64::from(self.config.heartbeat_timeout_ms),
             };
             if lost {
                 self.fault(Fault::HeartbeatLost(drive));
@@ -330,10 +617,60 @@ impl<F: Feedforward> Controller<F> {
         }
     }
 
-    /// Enters the controlled stop; the first fault is the one remembered.
+    /// Three cycles in a row with a failed RPDO: the set points are not getting through.
+    fn supervise_delivery(&mut self) {
+        self.failed_cycles = if self.rpdo_failed {
+            self.failed_cycles + 1
+        } else {
+            0
+        };
+        self.rpdo_failed = false;
+        if self.failed_cycles >= self.config.undeliverable_cycles {
+            self.fault(Fault::Undeliverable);
+        }
+    }
+
+    /// Meets a fault: the first one leaves *ready*; a later, more severe one escalates.
     fn fault(&mut self, fault: Fault) {
-        if self.mode == Mode::Running {
-            self.mode = Mode::Stopping(fault);
+        let current = match self.mode {
+            Mode::Enabling | Mode::Ready => None,
+            Mode::Stopping(_) => Some(Reaction::Controlled),
+            Mode::QuickStop(_) => Some(Reaction::Quick),
+            Mode::Halted(_) => Some(Reaction::Halt),
+        };
+        let reaction = fault.reaction();
+        if current.is_some_and(|c| c >= reaction) {
+            return;
+        }
+        if current.is_none() {
+            self.drive_positions = self
+                .planner
+                .drive_positions(self.feedforward.plan(), self.now_s());
+        }
+        self.mode = match reaction {
+            Reaction::Controlled => Mode::Stopping(fault),
+            Reaction::Quick => Mode::QuickStop(fault),
+            Reaction::Halt => Mode::Halted(fault),
+        };
+        let register = 0x01
+            | if matches!(fault, Fault::HeartbeatLost(_) | Fault::Undeliverable) {
+                0x10
+            } else {
+                0x80
+            };
+        self.emcy = Some(canopen::emcy(
+            CONTROLLER_NODE,
+            fault.emcy_code(),
+            register,
+            [fault.code(), fault.node(), 0, 0, 0],
+        ));
+    }
+
+    fn push(&mut self, frames: &mut Vec<CanFrame, 8>, frame: CanFrame) {
+        if frames.push(frame).is_err() {
+            self.counters.frames_lost = self.counters.frames_lost.saturating_add(1);
+        } else {
+            self.counters.frames_sent = self.counters.frames_sent.wrapping_add(1);
         }
     }
 
@@ -351,13 +688,5 @@ impl<F: Feedforward> Controller<F> {
             Drive::Trolley => trolley,
             Drive::Winch => winch,
         }
-    }
-}
-
-/// Appends a frame; a cycle makes at most six (NMT, boot-up, 2 RPDOs, SYNC,
-/// heartbeat), so eight always fit — a loss would show in [`Counters::frames_lost`].
-fn push(frames: &mut Vec<CanFrame, 8>, counters: &mut Counters, frame: CanFrame) {
-    if frames.push(frame).is_err() {
-        counters.frames_lost += 1;
     }
 }

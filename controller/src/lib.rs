@@ -3,8 +3,10 @@
 //! * [`canopen`] — the frames of a CiA 301 manager driving two CiA 402 drives;
 //! * [`units`] — m/s to drive units through the one set-point choke point;
 //! * [`cia402`] — the drive state machine (enable sequence, quick stop, fault);
-//! * [`feedforward`] — the inverse model behind a one-step-per-cycle trait;
-//! * [`controller`] — the 100 Hz cycle with injected time.
+//! * [`feedforward`] — the inverse model behind a one-step-per-cycle trait, with its plan;
+//! * [`commands`] — move, stop and reset requests, and the status answer;
+//! * [`planner`] — the checks a move or a stop passes before it is accepted;
+//! * [`controller`] — the 100 Hz cycle and the reaction to every fault, with injected time.
 //!
 //! The boards (QEMU, STM32H743) only move frames and call [`Controller::tick`].
 
@@ -20,12 +22,14 @@
 
 pub mod canopen;
 pub mod cia402;
+pub mod commands;
 pub mod controller;
 pub mod feedforward;
 pub mod frame;
+pub mod planner;
 pub mod units;
 pub mod virtual_bus;
 
-pub use controller::{Command, Config, Controller, Counters, Cycle, Fault, Mode};
-pub use feedforward::{Feedforward, FeedforwardStep, InverseModel};
+pub use controller::{Config, Controller, Counters, Cycle, Fault, Mode};
+pub use feedforward::{Feedforward, FeedforwardStep, Injectable, InverseModel, Replan};
 pub use frame::CanFrame;

@@ -1,8 +1,19 @@
-//! A scripted CAN bus: timed frames the drives "send", compiled into the QEMU build
-//! and replayed identically by the host reference, so received traffic is exercised
-//! in QEMU and both sides see the same bus.
+//! A virtual CAN bus: two simulated CiA 402 drives that answer the controller, plus a
+//! scenario of timed actions (supervisor requests, garbage, a drive fault, a silenced
+//! drive, an injected solver failure). Compiled into the QEMU build and replayed
+//! identically by the host reference, so both see the same bus.
+//!
+//! The drives are deliberately simple: they walk the CiA 402 state machine on the
+//! controlwords they receive, answer every SYNC with a TPDO (statusword and the target
+//! velocity as actual velocity), and send a heartbeat every 100 ms from 5 ms on.
 
-use crate::canopen::{cob, Drive, NmtState};
+use heapless::Deque;
+
+use crate::canopen::{self, cob, Drive, NmtState};
+use crate::cia402::{controlword, DriveState};
+use crate::commands::{request_frame, Request};
+use crate::controller::{Controller, Cycle};
+use crate::feedforward::{Feedforward, Injectable, Replan};
 use crate::frame::CanFrame;
 
 /// A frame as `const` data.
@@ -27,170 +38,486 @@ impl RawFrame {
     }
 }
 
-/// When a scripted frame appears.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Event {
-    /// Once, at `at_ms`.
-    Once {
-        /// Time, ms.
-        at_ms: u32,
-        /// The frame.
-        frame: RawFrame,
+/// What happens at a scenario's event.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Action {
+    /// The supervisor sends a request.
+    Request(Request),
+    /// A frame appears on the bus (garbage, malformed, foreign).
+    Frame(RawFrame),
+    /// `count` frames of garbage appear.
+    Storm {
+        /// How many.
+        count: u8,
     },
-    /// At `from_ms`, `from_ms + period_ms`, … while before `until_ms`.
-    Every {
-        /// First time, ms.
-        from_ms: u32,
-        /// Period, ms.
-        period_ms: u32,
-        /// End (exclusive), ms.
-        until_ms: u32,
-        /// The frame.
-        frame: RawFrame,
+    /// The drive goes to *fault* (statusword bit 3) and sends an EMCY.
+    DriveFault(Drive),
+    /// The drive falls silent (no heartbeat, no TPDO).
+    Silence(Drive),
+    /// The drive drops to *switch on disabled* without a fault (safe torque off).
+    DropOut(Drive),
+    /// The inverse model's next step fails (the firmware's solver-fault injection).
+    SolverFailure,
+    /// The controller's transmissions fail for `cycles` cycles (bus-off, then recovery).
+    BusOff {
+        /// How long, in cycles.
+        cycles: u8,
     },
 }
 
-impl Event {
-    /// How often the event occurs in `(after_ms, up_to_ms]`.
-    fn occurrences(&self, after_ms: u32, up_to_ms: u32) -> usize {
-        match *self {
-            Event::Once { at_ms, .. } => usize::from(at_ms > after_ms && at_ms <= up_to_ms),
-            Event::Every {
-                from_ms,
-                period_ms,
-                until_ms,
-                ..
-            } => {
-                let period = u64::from(period_ms.max(1));
-                let last = u64::from(up_to_ms.min(until_ms.saturating_sub(1)));
-                let (from, after) = (u64::from(from_ms), u64::from(after_ms));
-                // Occurrences from_ms + j·period with after < t ≤ last.
-                let up_to = |t: u64| if t < from { 0 } else { (t - from) / period + 1 };
-                up_to(last).saturating_sub(up_to(after)) as usize
+/// An action at a time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Event {
+    /// Time, ms.
+    pub at_ms: u32,
+    /// What happens.
+    pub action: Action,
+}
+
+/// A named scenario: its events and how long it runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scenario {
+    /// Name (the QEMU command line selects it).
+    pub name: &'static str,
+    /// What the end state should be, for the logs.
+    pub expect: &'static str,
+    /// Events in time order.
+    pub events: &'static [Event],
+    /// Cycles to run; 0 runs the scene's own time.
+    pub cycles: u32,
+}
+
+/// One simulated CiA 402 drive.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DriveSim {
+    drive: Drive,
+    state: DriveState,
+    velocity: i32,
+    silent: bool,
+}
+
+impl DriveSim {
+    /// A drive that has just booted (switch on disabled).
+    #[must_use]
+    pub fn new(drive: Drive) -> Self {
+        Self {
+            drive,
+            state: DriveState::SwitchOnDisabled,
+            velocity: 0,
+            silent: false,
+        }
+    }
+
+    /// Its CiA 402 state.
+    #[must_use]
+    pub fn state(&self) -> DriveState {
+        self.state
+    }
+
+    fn statusword(&self) -> u16 {
+        match self.state {
+            DriveState::ReadyToSwitchOn => 0x0231,
+            DriveState::SwitchedOn => 0x0233,
+            DriveState::OperationEnabled => 0x0237,
+            DriveState::QuickStopActive => 0x0217,
+            DriveState::FaultReactionActive | DriveState::Fault => 0x0218,
+            _ => 0x0250,
+        }
+    }
+
+    /// Applies an RPDO addressed to this drive: the CiA 402 transitions (numbers of
+    /// CiA 402 Fig. 3) for the controlwords the controller sends, anything else ignored.
+    /// In *quick stop active* the drive brakes on its own ramp ([`QUICK_STOP_DECELERATION`]).
+    fn command(&mut self, cw: u16, target: i32) {
+        use controlword::*;
+        use DriveState::*;
+        self.state = match (self.state, cw) {
+            (Fault, FAULT_RESET) => SwitchOnDisabled, // 15
+            (Fault, _) => Fault,
+            (OperationEnabled, QUICK_STOP) => QuickStopActive, // 11
+            (QuickStopActive, QUICK_STOP) => QuickStopActive,
+            (_, DISABLE_VOLTAGE | QUICK_STOP) => SwitchOnDisabled, // 7, 9, 10, 12
+            (QuickStopActive, _) => QuickStopActive,
+            (SwitchOnDisabled | SwitchedOn | OperationEnabled, SHUTDOWN) => ReadyToSwitchOn, // 2, 6, 8
+            (ReadyToSwitchOn, SWITCH_ON) => SwitchedOn,                                      // 3
+            (OperationEnabled, SWITCH_ON) => SwitchedOn,                                     // 5
+            (SwitchedOn | OperationEnabled, ENABLE_OPERATION) => OperationEnabled,           // 4
+            (state, _) => state,
+        };
+        self.velocity = match self.state {
+            OperationEnabled => target,
+            QuickStopActive => {
+                let step = QUICK_STOP_DECELERATION_UNITS_PER_CYCLE;
+                self.velocity - self.velocity.clamp(-step, step)
+            }
+            _ => 0,
+        };
+    }
+}
+
+/// The simulated drives' quick-stop deceleration, m/s² (twice the lab limit).
+pub const QUICK_STOP_DECELERATION: f64 = 6.0;
+/// The same per 10 ms cycle, in drive units.
+const QUICK_STOP_DECELERATION_UNITS_PER_CYCLE: i32 = 60_000;
+
+/// The bus: two drives, a scenario, and what is waiting to be received.
+#[derive(Debug, Clone)]
+pub struct VirtualBus {
+    drives: [DriveSim; 2],
+    scenario: Scenario,
+    next_event: usize,
+    inbox: Deque<CanFrame, 32>,
+    injected: Deque<CanFrame, 32>,
+    solver_failure: bool,
+    bus_off_cycles: u8,
+    noise: u32,
+}
+
+/// A frame the virtual bus refused (bus-off).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BusOff;
+
+impl VirtualBus {
+    /// Two freshly booted drives and the scenario.
+    #[must_use]
+    pub fn new(scenario: Scenario) -> Self {
+        Self {
+            drives: [DriveSim::new(Drive::Trolley), DriveSim::new(Drive::Winch)],
+            scenario,
+            next_event: 0,
+            inbox: Deque::new(),
+            injected: Deque::new(),
+            solver_failure: false,
+            bus_off_cycles: 0,
+            noise: 0x9E37_79B9,
+        }
+    }
+
+    /// The scenario.
+    #[must_use]
+    pub fn scenario(&self) -> &Scenario {
+        &self.scenario
+    }
+
+    /// A simulated drive.
+    #[must_use]
+    pub fn drive(&self, drive: Drive) -> &DriveSim {
+        let [t, w] = &self.drives;
+        match drive {
+            Drive::Trolley => t,
+            Drive::Winch => w,
+        }
+    }
+
+    fn drive_mut(&mut self, drive: Drive) -> &mut DriveSim {
+        let [t, w] = &mut self.drives;
+        match drive {
+            Drive::Trolley => t,
+            Drive::Winch => w,
+        }
+    }
+
+    /// Whether the scenario asked for the next solver step to fail (asked once).
+    pub fn take_solver_failure(&mut self) -> bool {
+        core::mem::take(&mut self.solver_failure)
+    }
+
+    fn deliver(&mut self, frame: CanFrame) {
+        // 32 frames per cycle are far more than any scenario sends; a loss would show as a
+        // missing frame in the QEMU/host comparison.
+        let _ = self.inbox.push_back(frame);
+    }
+
+    /// The controller transmits `frame`: the drives react (and answer a SYNC). While the
+    /// bus is off nothing is delivered; the SYNC, always a cycle's last frame but for
+    /// the heartbeat and status, counts the bus-off cycles down.
+    pub fn transmit(&mut self, frame: &CanFrame) -> Result<(), BusOff> {
+        let id = frame.id();
+        if self.bus_off_cycles > 0 {
+            if id == cob::SYNC {
+                self.bus_off_cycles -= 1;
+            }
+            return Err(BusOff);
+        }
+        for drive in Drive::ALL {
+            if id == cob::RPDO1 + u16::from(drive.node()) {
+                if let [c0, c1, v0, v1, v2, v3] = *frame.data() {
+                    self.drive_mut(drive).command(
+                        u16::from_le_bytes([c0, c1]),
+                        i32::from_le_bytes([v0, v1, v2, v3]),
+                    );
+                }
             }
         }
+        if id == cob::SYNC {
+            for drive in Drive::ALL {
+                let d = *self.drive(drive);
+                if !d.silent {
+                    self.deliver(canopen::tpdo1(drive, d.statusword(), d.velocity));
+                }
+            }
+        }
+        Ok(())
     }
 
-    fn frame(&self) -> RawFrame {
-        match *self {
-            Event::Once { frame, .. } | Event::Every { frame, .. } => frame,
+    /// Everything that appears on the bus in `(after_ms, up_to_ms]`: the scenario's
+    /// events and the drives' heartbeats, then the TPDOs answering the last SYNC.
+    pub fn receive_until(
+        &mut self,
+        after_ms: u32,
+        up_to_ms: u32,
+    ) -> impl Iterator<Item = CanFrame> + '_ {
+        let mut fresh: Deque<CanFrame, 32> = Deque::new();
+        while let Some(e) = self.scenario.events.get(self.next_event).copied() {
+            if e.at_ms > up_to_ms {
+                break;
+            }
+            self.next_event += 1;
+            self.apply(e.action, &mut fresh);
+        }
+        while let Some(f) = self.injected.pop_front() {
+            let _ = fresh.push_back(f);
+        }
+        // Heartbeats every 100 ms from 5 ms on.
+        let beats = |t: u32| if t < 5 { 0 } else { (t - 5) / 100 + 1 };
+        let due = beats(up_to_ms).saturating_sub(beats(after_ms));
+        for _ in 0..due.min(1) {
+            for drive in Drive::ALL {
+                if !self.drive(drive).silent {
+                    let _ =
+                        fresh.push_back(canopen::heartbeat(drive.node(), NmtState::Operational));
+                }
+            }
+        }
+        while let Some(f) = self.inbox.pop_front() {
+            let _ = fresh.push_back(f);
+        }
+        core::iter::from_fn(move || fresh.pop_front())
+    }
+
+    /// Makes `action` happen now (tests and the soak run); frames it puts on the bus
+    /// are received in the next cycle, after the scenario's.
+    pub fn inject(&mut self, action: Action) {
+        let mut frames = Deque::new();
+        self.apply(action, &mut frames);
+        while let Some(f) = frames.pop_front() {
+            let _ = self.injected.push_back(f);
         }
     }
-}
 
-/// A scripted bus.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Script {
-    /// Name, for logs.
-    pub name: &'static str,
-    /// The events, delivered in this order within a window.
-    pub events: &'static [Event],
-}
+    fn apply(&mut self, action: Action, fresh: &mut Deque<CanFrame, 32>) {
+        match action {
+            Action::Request(r) => {
+                let _ = fresh.push_back(request_frame(&r));
+            }
+            Action::Frame(raw) => {
+                let _ = fresh.push_back(raw.frame());
+            }
+            Action::Storm { count } => {
+                for _ in 0..count {
+                    let f = self.garbage();
+                    let _ = fresh.push_back(f);
+                }
+            }
+            Action::DriveFault(drive) => {
+                self.drive_mut(drive).state = DriveState::Fault;
+                let _ = fresh.push_back(canopen::emcy(drive.node(), 0x2310, 0x03, [0; 5]));
+            }
+            Action::Silence(drive) => self.drive_mut(drive).silent = true,
+            Action::DropOut(drive) => self.drive_mut(drive).state = DriveState::SwitchOnDisabled,
+            Action::SolverFailure => self.solver_failure = true,
+            Action::BusOff { cycles } => self.bus_off_cycles = cycles,
+        }
+    }
 
-impl Script {
-    /// The frames that appear in `(after_ms, up_to_ms]`, in script order.
-    pub fn due(&self, after_ms: u32, up_to_ms: u32) -> impl Iterator<Item = CanFrame> + '_ {
-        self.events.iter().flat_map(move |e| {
-            core::iter::repeat_n(e.frame().frame(), e.occurrences(after_ms, up_to_ms))
-        })
+    /// A pseudo-random frame: unknown ids, wrong lengths, malformed commands, foreign TPDOs.
+    fn garbage(&mut self) -> CanFrame {
+        self.noise ^= self.noise << 13;
+        self.noise ^= self.noise >> 17;
+        self.noise ^= self.noise << 5;
+        let n = self.noise;
+        let bytes = n.to_le_bytes();
+        let kind = n % 5;
+        let data = [
+            bytes[0], bytes[1], bytes[2], bytes[3], bytes[1], bytes[0], bytes[3], bytes[2],
+        ];
+        let len = ((n >> 8) % 9) as usize;
+        let id = match kind {
+            0 => 0x210,                                 // a command, mostly malformed
+            1 => (0x181 + (n >> 12) % 2) as u16,        // a drive TPDO of a wrong length
+            2 => 0x555,                                 // unknown
+            3 => (0x700 + 0x40 + (n >> 12) % 8) as u16, // a foreign node's heartbeat
+            _ => 0x7FF,                                 // unknown
+        };
+        let len = if kind == 0 && len == 8 {
+            7
+        } else if kind == 1 && len == 6 {
+            5
+        } else {
+            len
+        };
+        CanFrame::fixed(id, data.get(..len).unwrap_or(&[]))
     }
 }
 
-const fn raw(id: u16, len: u8, data: [u8; 8]) -> RawFrame {
-    RawFrame { id, len, data }
+/// One cycle of the firmware's loop on the virtual bus — what `firmware/src/main.rs`
+/// does with the QEMU board, but for counting instructions: the frames that appeared
+/// since `after_ms`, the scenario's solver failure if one is due, the tick, and the
+/// transmission (a refused frame is reported to the controller).
+pub fn run_cycle<F: Feedforward + Replan>(
+    controller: &mut Controller<Injectable<F>>,
+    bus: &mut VirtualBus,
+    after_ms: u32,
+    now_ms: u32,
+) -> Cycle {
+    for frame in bus.receive_until(after_ms, now_ms) {
+        controller.on_frame(&frame, u64::from(now_ms));
+    }
+    if bus.take_solver_failure() {
+        controller.feedforward_mut().fail_next_step();
+    }
+    let out = controller.tick(u64::from(now_ms));
+    for frame in &out.frames {
+        if bus.transmit(frame).is_err() {
+            controller.transmit_failed(frame);
+        }
+    }
+    out
 }
 
-const fn heartbeat(drive: Drive) -> RawFrame {
-    raw(
-        cob::HEARTBEAT + drive.node() as u16,
-        1,
-        [NmtState::Operational as u8, 0, 0, 0, 0, 0, 0, 0],
-    )
+const fn move_to(id: u8, x: f64, z: f64, duration: f64) -> Action {
+    Action::Request(Request::Move {
+        id,
+        target: [x, z],
+        duration: if duration > 0.0 { Some(duration) } else { None },
+    })
 }
 
-const fn status(drive: Drive, statusword: u16) -> RawFrame {
-    let [s0, s1] = statusword.to_le_bytes();
-    raw(
-        cob::TPDO1 + drive.node() as u16,
-        6,
-        [s0, s1, 0, 0, 0, 0, 0, 0],
-    )
+const fn at(at_ms: u32, action: Action) -> Event {
+    Event { at_ms, action }
 }
 
-/// Forever, for a script's periodic events.
-pub const FOREVER: u32 = u32::MAX;
-
-/// Two healthy drives: heartbeats every 100 ms, and a TPDO after every SYNC walking
-/// the CiA 402 enable sequence (switch on disabled → ready → switched on → enabled).
-pub const HEALTHY: Script = Script {
+/// The paper's move and nothing else: healthy drives.
+pub const HEALTHY: Scenario = Scenario {
     name: "healthy",
-    events: &[
-        Event::Every {
-            from_ms: 5,
-            period_ms: 100,
-            until_ms: FOREVER,
-            frame: heartbeat(Drive::Trolley),
-        },
-        Event::Every {
-            from_ms: 5,
-            period_ms: 100,
-            until_ms: FOREVER,
-            frame: heartbeat(Drive::Winch),
-        },
-        Event::Once {
-            at_ms: 5,
-            frame: status(Drive::Trolley, 0x0250),
-        },
-        Event::Once {
-            at_ms: 5,
-            frame: status(Drive::Winch, 0x0250),
-        },
-        Event::Once {
-            at_ms: 15,
-            frame: status(Drive::Trolley, 0x0231),
-        },
-        Event::Once {
-            at_ms: 15,
-            frame: status(Drive::Winch, 0x0231),
-        },
-        Event::Once {
-            at_ms: 25,
-            frame: status(Drive::Trolley, 0x0233),
-        },
-        Event::Once {
-            at_ms: 25,
-            frame: status(Drive::Winch, 0x0233),
-        },
-        Event::Every {
-            from_ms: 35,
-            period_ms: 10,
-            until_ms: FOREVER,
-            frame: status(Drive::Trolley, 0x0237),
-        },
-        Event::Every {
-            from_ms: 35,
-            period_ms: 10,
-            until_ms: FOREVER,
-            frame: status(Drive::Winch, 0x0237),
-        },
-    ],
+    expect: "ready, at rest at (20, 4)",
+    events: &[],
+    cycles: 0,
 };
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+/// Two moves requested back to back after the paper's move: the first starts at once,
+/// the second (as fast as the limits allow) is queued behind it.
+pub const TWO_MOVES: Scenario = Scenario {
+    name: "two-moves",
+    expect: "ready, at rest at (15, 6); answers: 1 accepted, 2 queued",
+    events: &[
+        at(9_500, move_to(1, 16.0, 5.0, 6.0)),
+        at(9_600, move_to(2, 15.0, 6.0, 0.0)),
+    ],
+    cycles: 2_000,
+};
 
-    #[test]
-    fn periodic_and_single_events_fall_in_their_windows() {
-        let count = |a, b| HEALTHY.due(a, b).count();
-        assert_eq!(
-            count(0, 10),
-            4,
-            "both heartbeats and both first statuswords at 5 ms"
-        );
-        assert_eq!(count(10, 20), 2);
-        assert_eq!(count(30, 40), 2, "first enabled statuswords at 35 ms");
-        assert_eq!(count(100, 110), 4, "heartbeats at 105 ms and two TPDOs");
-        assert_eq!(count(0, 1000), 20 + 6 + 2 * 97);
-    }
+/// Every rejection reason once: a move before the drives are enabled (not ready), one
+/// queued behind the paper's move and one more (busy), then, from (18, 5), one request
+/// per remaining reason and a valid move as fast as the limits allow.
+pub const REJECTIONS: Scenario = Scenario {
+    name: "rejections",
+    expect: "ready, at rest at (16, 6); reasons 2, 1, 3, 4, 5, 6, 7, 8, 9, 10 given once each",
+    events: &[
+        at(0, move_to(1, 14.0, 6.0, 4.0)), // 2 not ready: the drives are being enabled
+        at(500, move_to(2, 18.0, 5.0, 4.0)), // queued behind the paper's move: 9 s to 13 s
+        at(600, move_to(3, 14.0, 6.0, 4.0)), // 1 busy: a move is already queued
+        at(13_100, move_to(4, 0.0, 5.0, 8.0)), // 3 invalid: x = 0
+        at(13_200, move_to(5, 24.0, 5.0, 8.0)), // 4 trolley workspace
+        at(13_300, move_to(6, 18.0, 10.0, 8.0)), // 5 rope workspace
+        at(13_400, move_to(7, 18.0, 6.5, 1.0)), // 6 slack rope
+        at(13_500, move_to(8, 17.0, 5.0, 1.5)), // 7 trolley velocity
+        at(13_600, move_to(9, 18.0, 7.0, 2.5)), // 8 winch velocity
+        at(13_700, move_to(10, 18.5, 5.0, 2.5)), // 9 trolley acceleration
+        at(13_800, move_to(11, 18.0, 5.4, 1.0)), // 10 winch acceleration
+        at(13_900, move_to(12, 16.0, 6.0, 0.0)), // accepted, as fast as the limits allow
+    ],
+    cycles: 1_900,
+};
+
+/// A storm of malformed and unknown frames during the move: ignored, counted, no effect.
+pub const STORM: Scenario = Scenario {
+    name: "storm",
+    expect: "ready, at rest at (20, 4); 100 frames ignored, set points as in healthy",
+    events: &[
+        at(2_000, Action::Storm { count: 20 }),
+        at(3_000, Action::Storm { count: 20 }),
+        at(4_000, Action::Storm { count: 20 }),
+        at(5_000, Action::Storm { count: 20 }),
+        at(6_000, Action::Storm { count: 20 }),
+    ],
+    cycles: 0,
+};
+
+/// The winch drive faults in the middle of the move: quick stop, halted; then a reset.
+pub const DRIVE_FAULT: Scenario = Scenario {
+    name: "drive-fault",
+    expect: "ready, at rest; the winch's fault at 5 s: quick stop, halted, reset at 8 s",
+    events: &[
+        at(5_000, Action::DriveFault(Drive::Winch)),
+        at(8_000, Action::Request(Request::Reset { id: 1 })),
+    ],
+    cycles: 1_000,
+};
+
+/// The inverse model fails in the middle of the move: controlled stop, halted.
+pub const NEWTON_FAILURE: Scenario = Scenario {
+    name: "newton-failure",
+    expect: "halted after the solver's failure at 5 s and a controlled stop",
+    events: &[at(5_000, Action::SolverFailure)],
+    cycles: 0,
+};
+
+/// The trolley drive falls silent in the middle of the move: quick stop, halted.
+pub const LOST_HEARTBEAT: Scenario = Scenario {
+    name: "lost-heartbeat",
+    expect: "halted after the trolley's heartbeat stopped at 4 s",
+    events: &[at(4_000, Action::Silence(Drive::Trolley))],
+    cycles: 0,
+};
+
+/// A stop request in the middle of the move: the load comes to rest smoothly, a
+/// second before the move would have ended.
+pub const STOP: Scenario = Scenario {
+    name: "stop",
+    expect: "ready, at rest short of (20, 4) after a smooth stop from 4 s to 8 s",
+    events: &[at(4_000, Action::Request(Request::Stop { id: 1 }))],
+    cycles: 0,
+};
+
+/// The bus goes off twice in the middle of the move: for 2 cycles (counted, the move
+/// goes on), then for 5 (the set points cannot be delivered: halted).
+pub const BUS_OFF: Scenario = Scenario {
+    name: "bus-off",
+    expect: "halted after the second bus-off at 6 s; 2 + 3 cycles of failed transmissions",
+    events: &[
+        at(3_000, Action::BusOff { cycles: 2 }),
+        at(6_000, Action::BusOff { cycles: 5 }),
+    ],
+    cycles: 0,
+};
+
+/// Every scenario, by name.
+pub const SCENARIOS: [Scenario; 9] = [
+    HEALTHY,
+    TWO_MOVES,
+    REJECTIONS,
+    STORM,
+    DRIVE_FAULT,
+    NEWTON_FAILURE,
+    LOST_HEARTBEAT,
+    STOP,
+    BUS_OFF,
+];
+
+/// The scenario of this name.
+#[must_use]
+pub fn scenario(name: &str) -> Option<Scenario> {
+    SCENARIOS.into_iter().find(|s| s.name == name)
 }

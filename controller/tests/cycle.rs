@@ -1,70 +1,29 @@
-//! The 100 Hz cycle with injected time and a scripted inverse model: the NMT/SYNC/
-//! heartbeat schedule, the CiA 402 enable sequence, set points through the choke
-//! point, and the controlled stop on every fault.
+//! The 100 Hz cycle with injected time, frame by frame: the NMT/SYNC/heartbeat
+//! schedule, the CiA 402 enable sequence, set points that carry the model's inputs
+//! through the choke point, and the reaction to each fault that the scenarios
+//! (tests/scenarios.rs) do not reach: deadline misses, a refused set point, a drive
+//! that drops out of operation, drives that never boot, malformed commands.
 
-use controller::canopen::{self, cob, Drive, NmtState};
-use controller::cia402::{controlword, DriveState};
+mod common;
+
+use common::*;
+use controller::canopen::{self, Drive, NmtState};
+use controller::cia402::controlword as cw;
+use controller::commands::{request_frame, Request};
 use controller::units::{SetpointError, UNITS_PER_M_PER_S};
-use controller::{
-    CanFrame, Command, Config, Controller, Fault, Feedforward, FeedforwardStep, Mode,
-};
-use solver_core::{Error, NewtonStats};
-
-/// Plays back a list of inputs, then fails with a Newton error.
-struct Script {
-    u: Vec<[f64; 2]>,
-    next: usize,
-}
-
-impl Feedforward for Script {
-    fn step(&mut self) -> Result<FeedforwardStep, Error> {
-        let u = *self.u.get(self.next).ok_or(Error::NewtonNotConverged {
-            t: 9.0,
-            iterations: 20,
-            residual: 1.0,
-            increment: 2.0,
-        })?;
-        self.next += 1;
-        Ok(FeedforwardStep {
-            t: self.next as f64 * 0.01,
-            u,
-            stats: NewtonStats::default(),
-        })
-    }
-}
-
-fn controller(u: Vec<[f64; 2]>) -> Controller<Script> {
-    Controller::new(Script { u, next: 0 }, Config::DEFAULT)
-}
-
-/// Both drives enabled and alive at `now_ms`.
-fn drives_ready(c: &mut Controller<Script>, now_ms: u32) {
-    for d in Drive::ALL {
-        c.on_frame(&canopen::heartbeat(d.node(), NmtState::Operational), now_ms);
-        c.on_frame(&canopen::tpdo1(d, 0x0237, 0), now_ms);
-    }
-}
+use controller::virtual_bus::{Action, HEALTHY};
+use controller::{CanFrame, Config, Fault, Mode, Replan};
+use nalgebra::SVector;
+use solver_core::trajectory::PointToPoint;
 
 fn ids(frames: &[CanFrame]) -> Vec<u16> {
     frames.iter().map(CanFrame::id).collect()
 }
 
-fn rpdo(frames: &[CanFrame], drive: Drive) -> (u16, i32) {
-    let f = frames
-        .iter()
-        .find(|f| f.id() == cob::RPDO1 + u16::from(drive.node()))
-        .expect("an RPDO per drive");
-    let d = f.data();
-    (
-        u16::from_le_bytes([d[0], d[1]]),
-        i32::from_le_bytes([d[2], d[3], d[4], d[5]]),
-    )
-}
-
 #[test]
-fn schedule_nmt_first_then_pdos_sync_and_a_heartbeat_every_100_ms() {
-    let mut c = controller(vec![[0.0; 2]; 100]);
-    let first = c.tick(0);
+fn schedule_nmt_first_then_pdos_sync_and_a_heartbeat_with_status_every_100_ms() {
+    let mut rig = Rig::new(HEALTHY, true);
+    let first = rig.cycle();
     assert_eq!(ids(&first.frames), vec![0x000, 0x710, 0x201, 0x202, 0x080]);
     assert_eq!(
         first.frames[0].data(),
@@ -72,12 +31,11 @@ fn schedule_nmt_first_then_pdos_sync_and_a_heartbeat_every_100_ms() {
         "NMT start, all nodes"
     );
     assert_eq!(first.frames[1].data(), &[0x00], "boot-up");
-    drives_ready(&mut c, 5);
     for cycle in 1..=30u32 {
-        let out = c.tick(cycle * 10);
+        let out = rig.cycle();
         let mut expected = vec![0x201, 0x202, 0x080];
         if cycle % 10 == 0 {
-            expected.push(0x710);
+            expected.extend([0x710, 0x190]);
         }
         assert_eq!(ids(&out.frames), expected, "cycle {cycle}");
     }
@@ -85,235 +43,239 @@ fn schedule_nmt_first_then_pdos_sync_and_a_heartbeat_every_100_ms() {
 
 #[test]
 fn drives_are_walked_to_operation_enabled() {
-    let mut c = controller(vec![[0.0; 2]; 100]);
-    let mut now = 0;
-    let mut words = vec![];
-    for status in [0x0250u16, 0x0231, 0x0233, 0x0237] {
-        for d in Drive::ALL {
-            c.on_frame(&canopen::heartbeat(d.node(), NmtState::Operational), now);
-            c.on_frame(&canopen::tpdo1(d, status, 0), now);
-        }
-        let out = c.tick(now);
-        words.push(rpdo(&out.frames, Drive::Winch).0);
-        now += 10;
-    }
-    assert_eq!(
-        words,
-        vec![
-            controlword::SHUTDOWN,
-            controlword::SWITCH_ON,
-            controlword::ENABLE_OPERATION,
-            controlword::ENABLE_OPERATION
-        ]
-    );
-    assert_eq!(c.drive_state(Drive::Trolley), DriveState::OperationEnabled);
+    let mut rig = Rig::new(HEALTHY, true);
+    let words: Vec<[u16; 2]> = rig
+        .run(5)
+        .iter()
+        .map(|c| Drive::ALL.map(|d| rpdo(&c.frames, d).0))
+        .collect();
+    // Cycle 0 knows no state yet and sends *shutdown*; the drives answer its SYNC with
+    // *ready to switch on*, and each following cycle takes the next step.
+    let expected = [
+        cw::SHUTDOWN,
+        cw::SWITCH_ON,
+        cw::ENABLE_OPERATION,
+        cw::ENABLE_OPERATION,
+        cw::ENABLE_OPERATION,
+    ];
+    assert_eq!(words, expected.map(|w| [w, w]).to_vec());
+    assert_eq!(rig.c.mode(), Mode::Ready);
 }
 
 #[test]
 fn set_points_carry_the_model_inputs_in_drive_units() {
-    let u: Vec<[f64; 2]> = (0..50)
-        .map(|i| [0.01 * i as f64, -0.005 * i as f64])
-        .collect();
-    let mut c = controller(u.clone());
-    drives_ready(&mut c, 0);
-    for (i, want) in u.iter().enumerate() {
-        let now = i as u32 * 10;
-        c.on_frame(&canopen::heartbeat(1, NmtState::Operational), now);
-        c.on_frame(&canopen::heartbeat(2, NmtState::Operational), now);
-        let out = c.tick(now);
-        assert_eq!(out.mode, Mode::Running);
+    let mut rig = Rig::new(HEALTHY, true);
+    let mut moving = 0;
+    for out in rig.run(1000) {
+        let step = out.step.expect("a step every cycle while ready");
         for d in Drive::ALL {
-            let (cw, v) = rpdo(&out.frames, d);
-            assert_eq!(cw, controlword::ENABLE_OPERATION);
-            assert_eq!(v, (want[d.index()] * UNITS_PER_M_PER_S).round() as i32);
-        }
-    }
-}
-
-/// Runs until the mode leaves `Running`, then checks the ramp: within the acceleration
-/// limit every cycle, ending at zero with quick stop.
-fn assert_controlled_stop(c: &mut Controller<Script>, mut now: u32, fault: Fault) {
-    let limits = Config::DEFAULT.limits;
-    let first = c.tick(now);
-    let mut last = first.setpoints.map(|s| s.units());
-    assert_eq!(
-        c.mode(),
-        Mode::Stopping(fault),
-        "moving drives ramp down first"
-    );
-    let mut stopped = false;
-    for _ in 0..400 {
-        now += 10;
-        for d in Drive::ALL {
-            c.on_frame(&canopen::heartbeat(d.node(), NmtState::Operational), now);
-        }
-        let out = c.tick(now);
-        for d in Drive::ALL {
-            let (cw, v) = rpdo(&out.frames, d);
-            let dv = f64::from(v - last[d.index()]) / UNITS_PER_M_PER_S;
-            assert!(
-                dv.abs() <= limits.of(d).max_acceleration * 0.01 + 1e-6,
-                "{d:?} jumps by {dv} m/s"
-            );
-            last[d.index()] = v;
-            if out.mode == Mode::Stopped(fault) {
-                // The cycle that reaches standstill still asks for operation at velocity 0 ...
-                assert_eq!((cw, v), (controlword::ENABLE_OPERATION, 0), "{d:?}");
+            let (word, v) = rpdo(&out.frames, d);
+            if out.mode == Mode::Ready {
+                assert_eq!(word, cw::ENABLE_OPERATION);
             }
-        }
-        if out.mode == Mode::Stopped(fault) {
-            stopped = true;
-            break;
+            assert_eq!(v, (step.u[d.index()] * UNITS_PER_M_PER_S).round() as i32);
+            moving += usize::from(v != 0);
         }
     }
-    assert!(stopped, "never reached standstill");
-    // ... and from the next cycle on the drives are held by quick stop.
-    for _ in 0..3 {
-        now += 10;
-        let out = c.tick(now);
-        assert_eq!(out.mode, Mode::Stopped(fault));
-        for d in Drive::ALL {
-            assert_eq!(rpdo(&out.frames, d), (controlword::QUICK_STOP, 0), "{d:?}");
-        }
-    }
-}
-
-fn moving(c: &mut Controller<Script>, cycles: u32) -> u32 {
-    drives_ready(c, 0);
-    for i in 0..cycles {
-        for d in Drive::ALL {
-            c.on_frame(&canopen::heartbeat(d.node(), NmtState::Operational), i * 10);
-        }
-        c.tick(i * 10);
-    }
-    cycles * 10
-}
-
-fn ramp_up(n: usize) -> Vec<[f64; 2]> {
-    (0..n)
-        .map(|i| [(0.02 * i as f64).min(2.5), (0.01 * i as f64).min(1.5)])
-        .collect()
-}
-
-#[test]
-fn newton_failure_ramps_down_then_quick_stops() {
-    let mut c = controller(ramp_up(150));
-    let now = moving(&mut c, 150);
-    assert_controlled_stop(
-        &mut c,
-        now,
-        Fault::Solver(Error::NewtonNotConverged {
-            t: 9.0,
-            iterations: 20,
-            residual: 1.0,
-            increment: 2.0,
-        }),
+    assert!(
+        moving > 1000,
+        "the paper's move: {moving} non-zero set points"
     );
 }
 
 #[test]
-fn drive_fault_statusword_stops() {
-    let mut c = controller(ramp_up(400));
-    let now = moving(&mut c, 100);
-    c.on_frame(&canopen::tpdo1(Drive::Winch, 0x0218, 0), now);
-    assert_controlled_stop(&mut c, now, Fault::DriveFault(Drive::Winch));
+fn one_deadline_miss_is_counted_a_second_within_the_window_stops() {
+    let budget = Config::DEFAULT.cycle_budget;
+    let mut rig = Rig::new(HEALTHY, true);
+    rig.run(300);
+    rig.c.record_cost(budget + 1);
+    rig.run(101); // beyond the 100-cycle window
+    rig.c.record_cost(budget + 1);
+    let out = rig.run(50);
+    assert_eq!(
+        rig.c.mode(),
+        Mode::Ready,
+        "two misses 101 cycles apart: counted only"
+    );
+    assert_eq!(status(&out[9].frames).unwrap()[6], 2, "reported");
+    rig.c.record_cost(budget);
+    rig.run(10);
+    rig.c.record_cost(budget + 1);
+    let out = rig.cycle();
+    assert_eq!(out.mode, Mode::Stopping(Fault::Deadline));
+    assert_eq!(emcy(&out.frames), Some((0xFF01, 0x81, 5, 0)));
+    assert_eq!(rig.c.counters().deadline_misses, 3);
 }
 
 #[test]
-fn lost_heartbeat_stops() {
-    let mut c = controller(ramp_up(400));
-    let mut now = moving(&mut c, 100);
-    // Only the trolley keeps beating.
-    for _ in 0..31 {
-        c.on_frame(&canopen::heartbeat(1, NmtState::Operational), now);
-        c.tick(now);
-        now += 10;
-        if c.mode() != Mode::Running {
-            break;
-        }
-    }
-    assert_eq!(c.mode(), Mode::Stopping(Fault::HeartbeatLost(Drive::Winch)));
+fn a_set_point_beyond_the_limits_is_refused_at_the_choke_point() {
+    // A move the planner would refuse (8 m in 2 s), pushed behind its back.
+    let mut rig = Rig::new(HEALTHY, false);
+    rig.ready();
+    let plan = rig.c.feedforward_mut().plan_mut();
+    let fast =
+        PointToPoint::new(SVector::from(HOME), SVector::from([20.0, 8.0]), 0.5, 2.0, 4).unwrap();
+    plan.push(fast).unwrap();
+    let out = rig.until(200, |c| c.mode != Mode::Ready);
+    let last = out.last().unwrap();
+    // Refused at the move's first step: nothing had been sent yet, so there is nothing
+    // to ramp down and the controlled stop is at standstill at once.
+    let Mode::Halted(Fault::Setpoint(SetpointError::OverAcceleration {
+        drive,
+        value,
+        limit,
+    })) = last.mode
+    else {
+        panic!("{:?}", last.mode)
+    };
+    assert_eq!(drive, Drive::Trolley);
+    assert!(value > limit);
+    assert_eq!(emcy(&last.frames), Some((0xFF03, 0x81, 2, 1)));
+    // The refused value never left: every set point sent was zero.
+    assert!(out.iter().all(|c| c.setpoints.map(|s| s.units()) == [0, 0]));
+    let (word, _) = rpdo(&last.frames, Drive::Trolley);
+    assert_eq!(
+        word,
+        cw::ENABLE_OPERATION,
+        "the halt's quick stop follows from the next cycle"
+    );
+    assert_eq!(
+        rpdo(&rig.cycle().frames, Drive::Trolley),
+        (cw::QUICK_STOP, 0)
+    );
 }
 
 #[test]
-fn drives_that_never_beat_are_lost_after_the_boot_timeout() {
-    let mut c = controller(vec![[0.0; 2]; 200]);
+fn a_drive_that_leaves_operation_while_moving_stops_the_crane() {
+    let mut rig = Rig::new(HEALTHY, true);
+    rig.run(300);
+    // The winch drops to *switch on disabled* (say, its safe torque off input) without a
+    // fault in the middle of the move; the controller sees it in the next TPDO.
+    rig.bus.inject(Action::DropOut(Drive::Winch));
+    rig.cycle();
+    let out = rig.cycle();
+    assert_eq!(out.mode, Mode::Stopping(Fault::DriveNotReady(Drive::Winch)));
+    assert_eq!(emcy(&out.frames), Some((0xFF04, 0x81, 7, 2)));
+}
+
+#[test]
+fn drives_that_never_boot_are_lost_after_the_boot_timeout() {
+    // No bus at all: the controller alone, ticked.
+    let mut c = Rig::new(HEALTHY, false).c;
     for i in 0..=100 {
         c.tick(i * 10);
     }
-    assert_eq!(c.mode(), Mode::Running, "within the 1 s boot timeout");
-    // At standstill there is nothing to ramp: straight to quick stop.
-    c.tick(1010);
+    assert_eq!(c.mode(), Mode::Enabling, "within the 1 s boot timeout");
+    let out = c.tick(1010);
     assert!(
-        matches!(c.mode(), Mode::Stopped(Fault::HeartbeatLost(_))),
+        matches!(out.mode, Mode::Halted(Fault::HeartbeatLost(Drive::Trolley))),
         "{:?}",
-        c.mode()
+        out.mode
     );
+    assert_eq!(emcy(&out.frames), Some((0x8130, 0x11, 4, 1)));
 }
 
 #[test]
-fn model_beyond_the_drive_limit_is_refused_at_the_choke_point() {
-    let mut u = ramp_up(200);
-    u[150] = [f64::NAN, 0.0];
-    let mut c = controller(u);
-    let now = moving(&mut c, 150);
-    assert_controlled_stop(
-        &mut c,
-        now,
-        Fault::Setpoint(SetpointError::NonFinite {
-            drive: Drive::Trolley,
-        }),
-    );
-}
-
-#[test]
-fn motion_asked_of_a_disabled_drive_stops() {
-    let mut c = controller(vec![[0.1, 0.0]; 10]);
-    for d in Drive::ALL {
-        c.on_frame(&canopen::heartbeat(d.node(), NmtState::Operational), 0);
-    }
-    let out = c.tick(0);
-    assert_eq!(
-        c.mode(),
-        Mode::Stopped(Fault::DriveNotReady(Drive::Trolley))
-    );
-    assert_eq!(out.setpoints, [controller::units::Setpoint::ZERO; 2]);
-}
-
-#[test]
-fn stop_command_brings_the_load_to_rest() {
-    let mut c = controller(ramp_up(400));
-    let now = moving(&mut c, 120);
-    c.enqueue(Command::Stop).unwrap();
-    assert_controlled_stop(&mut c, now, Fault::StopRequested);
-}
-
-#[test]
-fn garbage_frames_are_counted_and_change_nothing() {
-    let u = ramp_up(60);
-    let (mut clean, mut noisy) = (controller(u.clone()), controller(u));
-    drives_ready(&mut clean, 0);
-    drives_ready(&mut noisy, 0);
+fn malformed_commands_are_ignored_counted_and_change_nothing() {
     let garbage = [
-        CanFrame::new(0x181, &[1, 2, 3]).unwrap(),
-        CanFrame::new(0x701, &[0x99]).unwrap(),
-        CanFrame::new(0x555, &[0; 8]).unwrap(),
-        CanFrame::new(0x202, &[0xFF; 6]).unwrap(),
+        CanFrame::new(0x210, &[1, 1, 0x20, 0x4E]).unwrap(), // short move
+        CanFrame::new(0x210, &[2, 9, 0, 0, 0, 0, 0, 0]).unwrap(), // unknown command
+        CanFrame::new(0x210, &[3, 2, 0, 0, 0, 0, 1, 0]).unwrap(), // stop with a duration
+        CanFrame::new(0x210, &[4, 3, 0xFF, 0, 0, 0, 0, 0]).unwrap(), // reset with a target
+        CanFrame::new(0x181, &[0x37, 0x02]).unwrap(),       // short TPDO
+        CanFrame::new(0x555, &[0; 8]).unwrap(),             // unknown id
     ];
-    for i in 0..60u32 {
-        for d in Drive::ALL {
-            clean.on_frame(&canopen::heartbeat(d.node(), NmtState::Operational), i * 10);
-            noisy.on_frame(&canopen::heartbeat(d.node(), NmtState::Operational), i * 10);
+    let (mut clean, mut noisy) = (Rig::new(HEALTHY, true), Rig::new(HEALTHY, true));
+    for i in 0..400 {
+        if i % 40 == 7 {
+            for g in &garbage {
+                noisy.c.on_frame(g, noisy.now.into());
+            }
         }
-        for g in &garbage {
-            noisy.on_frame(g, i * 10);
-        }
-        assert_eq!(
-            clean.tick(i * 10).frames,
-            noisy.tick(i * 10).frames,
-            "cycle {i}"
+        let (a, b) = (clean.cycle(), noisy.cycle());
+        assert_eq!(a.setpoints, b.setpoints, "cycle {i}");
+        assert_eq!(a.mode, b.mode, "cycle {i}");
+    }
+    assert_eq!(noisy.c.counters().frames_ignored, 10 * 6);
+    assert_eq!(noisy.c.counters().requests, 0, "none of them was answered");
+}
+
+#[test]
+fn a_reset_is_refused_while_stopping_and_accepted_when_halted() {
+    let mut rig = Rig::new(HEALTHY, true);
+    rig.run(500);
+    rig.c.feedforward_mut().fail_next_step();
+    rig.cycle();
+    rig.c
+        .on_frame(&request_frame(&Request::Reset { id: 5 }), rig.now.into());
+    let out = rig.cycle();
+    assert!(matches!(out.mode, Mode::Stopping(_)));
+    assert_eq!(
+        status(&out.frames).unwrap()[..3],
+        [5, 3, 2],
+        "rejected: not ready"
+    );
+    rig.until(200, |c| matches!(c.mode, Mode::Halted(_)));
+    rig.c
+        .on_frame(&request_frame(&Request::Reset { id: 6 }), rig.now.into());
+    let out = rig.cycle();
+    assert_eq!(out.mode, Mode::Enabling);
+    assert_eq!(status(&out.frames).unwrap()[..3], [6, 1, 0]);
+    assert_eq!(emcy(&out.frames), Some((0, 0, 0, 0)), "error reset");
+    rig.until(20, |c| c.mode == Mode::Ready);
+}
+
+#[test]
+fn a_stop_drops_the_queued_move() {
+    let mut rig = Rig::new(HEALTHY, true);
+    rig.run(200);
+    let next = Request::Move {
+        id: 1,
+        target: [15.0, 6.0],
+        duration: Some(6.0),
+    };
+    rig.c.on_frame(&request_frame(&next), rig.now.into());
+    let out = rig.cycle();
+    assert_eq!(status(&out.frames).unwrap()[..3], [1, 2, 0], "queued");
+    rig.run(100);
+    rig.c
+        .on_frame(&request_frame(&Request::Stop { id: 2 }), rig.now.into());
+    let out = rig.cycle();
+    assert_eq!(status(&out.frames).unwrap()[..3], [2, 1, 0]);
+    let rest = rig.run(1500);
+    assert!(rest.iter().all(|c| c.mode == Mode::Ready));
+    let end = rig.c.feedforward().plan().final_position();
+    assert!(
+        end[0] < 20.0 && (end[1] - 6.0).abs() > 0.5,
+        "stopped on the way, not at the queued target: {end:?}"
+    );
+    assert_within_limits(&rest, &mut out.setpoints.map(|s| s.units()));
+}
+
+#[test]
+fn a_stop_at_rest_is_accepted_and_changes_nothing() {
+    let mut rig = Rig::new(HEALTHY, false);
+    rig.ready();
+    rig.c
+        .on_frame(&request_frame(&Request::Stop { id: 9 }), rig.now.into());
+    let out = rig.cycle();
+    assert_eq!(status(&out.frames).unwrap()[..3], [9, 1, 0]);
+    assert_eq!(
+        rig.c.feedforward().plan().final_position(),
+        SVector::from(HOME)
+    );
+    assert_eq!(out.setpoints.map(|s| s.units()), [0, 0]);
+}
+
+#[test]
+fn a_drive_heartbeat_alone_keeps_it_alive() {
+    let mut rig = Rig::new(HEALTHY, true);
+    rig.ready();
+    for d in Drive::ALL {
+        rig.c.on_frame(
+            &canopen::heartbeat(d.node(), NmtState::Operational),
+            rig.now.into(),
         );
     }
-    assert_eq!(noisy.counters().frames_ignored, 60 * 4);
-    assert_eq!(noisy.mode(), Mode::Running);
+    assert_eq!(rig.cycle().mode, Mode::Ready);
 }

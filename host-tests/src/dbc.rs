@@ -18,6 +18,8 @@ pub struct Signal {
     pub value: f64,
     /// Unit.
     pub unit: String,
+    /// The DBC's name for the value (`VAL_`), if it has one.
+    pub label: Option<String>,
 }
 
 /// One decoded frame.
@@ -52,6 +54,9 @@ impl fmt::Display for Decoded {
                 write!(f, " {}={}{unit}", s.name, s.value as i64)?;
             } else {
                 write!(f, " {}={:.6}{unit}", s.name, s.value)?;
+            }
+            if let Some(label) = &s.label {
+                write!(f, "({label})")?;
             }
         }
         Ok(())
@@ -124,10 +129,16 @@ impl Dbc {
                         (((raw << shift) as i64) >> shift) as f64
                     }
                 };
+                let label = self
+                    .0
+                    .value_descriptions_for_signal(message.id, &s.name)
+                    .and_then(|d| d.iter().find(|v| v.id as f64 == raw))
+                    .map(|v| v.description.clone());
                 Ok(Signal {
                     name: s.name.clone(),
                     value: raw * s.factor + s.offset,
                     unit: s.unit.clone(),
+                    label,
                 })
             })
             .collect::<Result<Vec<_>, String>>()?;

@@ -1,21 +1,21 @@
 //! The firmware's cycle, run on the host: the same controller, the same scene, the
-//! same scripted bus. The QEMU run must send exactly these set points.
+//! same virtual bus and scenario. The QEMU run must send exactly these frames.
 
 use controller::units::Setpoint;
-use controller::virtual_bus::Script;
-use controller::{CanFrame, Config, Controller, Feedforward, InverseModel, Mode};
-use scene::{ModelSpec, ScalarSpec, Scene, SchemeSpec};
+use controller::virtual_bus::{run_cycle, Scenario, VirtualBus};
+use controller::{CanFrame, Controller, Feedforward, Injectable, InverseModel, Mode, Replan};
+use scene::firmware::{firmware_scene, FirmwareScene};
+use scene::{ModelSpec, Scene, SchemeSpec};
 use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
-use solver_core::trajectory::PointToPoint;
-use solver_core::{Bdf, Radau, Real};
+use solver_core::{Bdf, Radau};
 
 /// One cycle as the firmware runs it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReferenceCycle {
     /// Time of the cycle, ms.
     pub now_ms: u32,
-    /// Frames sent.
+    /// Frames sent (including those the bus refused).
     pub frames: Vec<CanFrame>,
     /// `[trolley, winch]` set points, drive units.
     pub setpoints: [Setpoint; 2],
@@ -23,75 +23,81 @@ pub struct ReferenceCycle {
     pub mode: Mode,
 }
 
-/// Runs the firmware's loop for a crane scene on `script`: every cycle the frames due
-/// since the last one, then the tick.
-pub fn controller_reference(scene: &Scene, script: &Script) -> Result<Vec<ReferenceCycle>, String> {
-    match scene.solver.scalar {
-        ScalarSpec::F64 => reference_in::<f64>(scene, script),
-        ScalarSpec::F32 => reference_in::<f32>(scene, script),
-    }
-}
-
-fn reference_in<T: Real>(scene: &Scene, script: &Script) -> Result<Vec<ReferenceCycle>, String> {
-    let tr = scene.trajectory2().map_err(|e| e.to_string())?;
-    let trajectory = PointToPoint::<T, 2>::new(
-        tr.start().map(nalgebra::convert),
-        tr.end().map(nalgebra::convert),
-        nalgebra::convert(tr.t_start()),
-        nalgebra::convert(tr.duration()),
-        scene.trajectory.smoothness,
-    )
-    .map_err(|e| e.to_string())?;
+/// Runs the firmware's loop for a crane scene on the virtual bus with `scenario`.
+pub fn controller_reference(
+    scene: &Scene,
+    scenario: &Scenario,
+) -> Result<Vec<ReferenceCycle>, String> {
+    let f = firmware_scene(scene)?;
     let settings = scene.settings();
     let err = |e: solver_core::Error| e.to_string();
-    let t0 = T::zero();
+    let cycles = if scenario.cycles == 0 {
+        f.cycles
+    } else {
+        scenario.cycles
+    };
     match (&scene.model, scene.solver.scheme) {
-        (ModelSpec::CraneSubs(c), SchemeSpec::Bdf) => {
-            let model = CraneSubs::new(c.params(), trajectory).map_err(err)?;
+        (ModelSpec::CraneSubs(_), SchemeSpec::Bdf) => {
+            let model = CraneSubs::new(f.params, f.plan).map_err(err)?;
             let integrator =
-                Bdf::<T, _, 7, 2>::new(&model, &settings, scene.solver.k, t0).map_err(err)?;
-            Ok(cycles(InverseModel { model, integrator }, scene, script))
+                Bdf::<f64, _, 7, 2>::new(&model, &settings, scene.solver.k, 0.0).map_err(err)?;
+            Ok(run(
+                Injectable::new(InverseModel { model, integrator }),
+                &f,
+                scenario,
+                cycles,
+            ))
         }
-        (ModelSpec::CraneSubs(c), SchemeSpec::Radau) => {
-            let model = CraneSubs::new(c.params(), trajectory).map_err(err)?;
-            let integrator = Radau::<T, _, 7, 2, 21>::new(&model, &settings, t0).map_err(err)?;
-            Ok(cycles(InverseModel { model, integrator }, scene, script))
+        (ModelSpec::CraneSubs(_), SchemeSpec::Radau) => {
+            let model = CraneSubs::new(f.params, f.plan).map_err(err)?;
+            let integrator = Radau::<f64, _, 7, 2, 21>::new(&model, &settings, 0.0).map_err(err)?;
+            Ok(run(
+                Injectable::new(InverseModel { model, integrator }),
+                &f,
+                scenario,
+                cycles,
+            ))
         }
-        (ModelSpec::CraneProj(c), SchemeSpec::Bdf) => {
-            let model = CraneProj::new(c.params(), trajectory).map_err(err)?;
+        (ModelSpec::CraneProj(_), SchemeSpec::Bdf) => {
+            let model = CraneProj::new(f.params, f.plan).map_err(err)?;
             let integrator =
-                Bdf::<T, _, 8, 2>::new(&model, &settings, scene.solver.k, t0).map_err(err)?;
-            Ok(cycles(InverseModel { model, integrator }, scene, script))
+                Bdf::<f64, _, 8, 2>::new(&model, &settings, scene.solver.k, 0.0).map_err(err)?;
+            Ok(run(
+                Injectable::new(InverseModel { model, integrator }),
+                &f,
+                scenario,
+                cycles,
+            ))
         }
-        (ModelSpec::CraneProj(c), SchemeSpec::Radau) => {
-            let model = CraneProj::new(c.params(), trajectory).map_err(err)?;
-            let integrator = Radau::<T, _, 8, 2, 24>::new(&model, &settings, t0).map_err(err)?;
-            Ok(cycles(InverseModel { model, integrator }, scene, script))
+        (ModelSpec::CraneProj(_), SchemeSpec::Radau) => {
+            let model = CraneProj::new(f.params, f.plan).map_err(err)?;
+            let integrator = Radau::<f64, _, 8, 2, 24>::new(&model, &settings, 0.0).map_err(err)?;
+            Ok(run(
+                Injectable::new(InverseModel { model, integrator }),
+                &f,
+                scenario,
+                cycles,
+            ))
         }
-        (ModelSpec::MassOnCar(_), _) => {
-            Err("the firmware drives a crane; this scene is the mass-on-car".into())
-        }
+        (ModelSpec::MassOnCar(_), _) => Err("the firmware drives a crane".into()),
     }
 }
 
-fn cycles<F: Feedforward>(feedforward: F, scene: &Scene, script: &Script) -> Vec<ReferenceCycle> {
-    let period_ms = (scene.solver.h * 1000.0).round() as u32;
-    let mut controller = Controller::new(
-        feedforward,
-        Config {
-            period_ms,
-            ..Config::DEFAULT
-        },
-    );
-    let mut last = 0;
-    (0..scene.steps() as u32)
+fn run<F: Feedforward + Replan>(
+    feedforward: Injectable<F>,
+    f: &FirmwareScene,
+    scenario: &Scenario,
+    cycles: u32,
+) -> Vec<ReferenceCycle> {
+    let mut controller = Controller::new(feedforward, f.planner, f.config);
+    let mut bus = VirtualBus::new(*scenario);
+    let period_ms = f.config.period_ms;
+    let mut after = 0;
+    (0..cycles)
         .map(|cycle| {
             let now_ms = cycle * period_ms;
-            for frame in script.due(last, now_ms) {
-                controller.on_frame(&frame, now_ms);
-            }
-            last = now_ms;
-            let out = controller.tick(now_ms);
+            let out = run_cycle(&mut controller, &mut bus, after, now_ms);
+            after = now_ms;
             ReferenceCycle {
                 now_ms,
                 frames: out.frames.to_vec(),

@@ -3,6 +3,9 @@
 
 use controller::canopen::{self, Drive, NmtCommand, NmtState, CONTROLLER_NODE};
 use controller::cia402::controlword;
+use controller::commands::{
+    decode_request, request_frame, status_frame, Answer, Reject, Request, Status,
+};
 use controller::units::{DriveLimits, SetpointGate, UNITS_PER_M_PER_S};
 use controller::CanFrame;
 use host_tests::dbc::Dbc;
@@ -18,7 +21,7 @@ fn decode(frame: &CanFrame) -> host_tests::dbc::Decoded {
 #[test]
 fn dbc_parses_and_covers_every_frame() {
     let dbc = Dbc::crane().unwrap();
-    assert_eq!(dbc.messages(), 12);
+    assert_eq!(dbc.messages(), 14);
     let frames = [
         canopen::nmt(NmtCommand::Start, 0),
         canopen::sync(),
@@ -32,6 +35,17 @@ fn dbc_parses_and_covers_every_frame() {
         canopen::emcy(CONTROLLER_NODE, 0x6100, 0x01, [1, 2, 3, 4, 5]),
         canopen::emcy(1, 0x2310, 0x03, [0; 5]),
         canopen::emcy(2, 0x2310, 0x03, [0; 5]),
+        request_frame(&Request::Stop { id: 1 }),
+        status_frame(&Status {
+            last_id: 1,
+            answer: Answer::Accepted,
+            reason: None,
+            mode: 1,
+            fault: 0,
+            ignored: 0,
+            deadline_misses: 0,
+            tx_failures: 0,
+        }),
     ];
     for f in frames {
         dbc.decode(f.id(), f.data())
@@ -66,10 +80,50 @@ fn emcy_fields() {
         (
             e.get("error_code"),
             e.get("error_register"),
-            e.get("manufacturer")
+            e.get("fault"),
+            e.get("node")
         ),
-        (Some(24832.0), Some(129.0), Some(170.0))
+        (Some(24832.0), Some(129.0), Some(170.0), Some(0.0))
     );
+    let drive = decode(&canopen::emcy(2, 0x2310, 0x03, [0xAA, 0, 0, 0, 0]));
+    assert_eq!(drive.get("manufacturer"), Some(170.0));
+}
+
+#[test]
+fn status_names_its_answer_reason_mode_and_fault() {
+    let s = decode(&status_frame(&Status {
+        last_id: 7,
+        answer: Answer::Rejected,
+        reason: Some(Reject::WinchAcceleration),
+        mode: 4,
+        fault: 6,
+        ignored: 300,
+        deadline_misses: 2,
+        tx_failures: 1,
+    }));
+    assert_eq!(
+        s.to_string(),
+        "Status_Controller last_id=7 answer=3(Rejected) reason=10(WinchAcceleration) mode=4(Halted) \
+         fault=6(Undeliverable) ignored=255 deadline_misses=2 tx_failures=1"
+    );
+}
+
+proptest! {
+    /// Any move request: the DBC reads back what the controller decodes.
+    #[test]
+    fn commands_agree_with_the_dbc(id in any::<u8>(), x in 0.0..65.0f64, z in 0.0..65.0f64, d in prop::option::of(0.01..655.0f64)) {
+        let f = request_frame(&Request::Move { id, target: [x, z], duration: d });
+        let dbc = decode(&f);
+        let Ok(Request::Move { id: i, target: [dx, dz], duration }) = decode_request(f.data()) else {
+            return Err(TestCaseError::fail("a move request decodes"));
+        };
+        prop_assert_eq!(dbc.get("request_id"), Some(f64::from(i)));
+        prop_assert_eq!(dbc.get("command"), Some(1.0));
+        prop_assert!((dbc.get("target_x").unwrap() - dx).abs() < 1e-9);
+        prop_assert!((dbc.get("target_z").unwrap() - dz).abs() < 1e-9);
+        prop_assert!((dbc.get("duration").unwrap() - duration.unwrap_or(0.0)).abs() < 1e-9);
+        prop_assert!((dx - x).abs() <= 0.0005 + 1e-12 && (dz - z).abs() <= 0.0005 + 1e-12);
+    }
 }
 
 proptest! {

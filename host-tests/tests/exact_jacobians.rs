@@ -111,10 +111,18 @@ fn flat_inverse_rates_are_the_derivatives_of_its_inputs() {
     // Inside the move: at its ends z's 5th derivative, hence u̇, jumps.
     for i in 0..80 {
         let t = 1.05 + 0.1 * f64::from(i);
-        let (a, b, m) = (flat_inverse(&p, &z, t - eps), flat_inverse(&p, &z, t + eps), flat_inverse(&p, &z, t));
+        let (a, b, m) = (
+            flat_inverse(&p, &z, t - eps),
+            flat_inverse(&p, &z, t + eps),
+            flat_inverse(&p, &z, t),
+        );
         for k in 0..2 {
             let fd = (b.u[k] - a.u[k]) / (2.0 * eps);
-            assert!((fd - m.u_dot[k]).abs() < 1e-6 * (1.0 + fd.abs()), "t = {t}, input {k}: {fd} vs {}", m.u_dot[k]);
+            assert!(
+                (fd - m.u_dot[k]).abs() < 1e-6 * (1.0 + fd.abs()),
+                "t = {t}, input {k}: {fd} vs {}",
+                m.u_dot[k]
+            );
         }
     }
 }

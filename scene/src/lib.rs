@@ -31,6 +31,8 @@
 //! A malformed or physically impossible scene is refused with a [`SceneError`]
 //! that names the field and the reason.
 
+pub mod firmware;
+
 use std::fmt;
 use std::path::Path;
 

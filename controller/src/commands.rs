@@ -1,0 +1,235 @@
+//! Requests from the supervisor (PLC/HMI) and the controller's status answer.
+//! The layout is specified in docs/COMMANDS.md and documented for CAN tools in
+//! `can/crane.dbc`.
+
+use crate::canopen::{cob, CONTROLLER_NODE};
+use crate::frame::CanFrame;
+
+/// COB-ID of command frames (RPDO1 of the controller).
+pub const COMMAND_ID: u16 = cob::RPDO1 + CONTROLLER_NODE as u16;
+/// COB-ID of status frames (TPDO1 of the controller).
+pub const STATUS_ID: u16 = cob::TPDO1 + CONTROLLER_NODE as u16;
+
+/// A decoded request.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Request {
+    /// Move the load to `target` (`[x_C, z_C]`, m) in `duration` seconds
+    /// (`None`: as fast as the limits allow).
+    Move {
+        /// Request id.
+        id: u8,
+        /// Target load position, m.
+        target: [f64; 2],
+        /// Duration, s.
+        duration: Option<f64>,
+    },
+    /// Bring the load to rest smoothly.
+    Stop {
+        /// Request id.
+        id: u8,
+    },
+    /// Leave *halted*: fault reset, enable the drives again.
+    Reset {
+        /// Request id.
+        id: u8,
+    },
+}
+
+impl Request {
+    /// The request id.
+    #[must_use]
+    pub fn id(&self) -> u8 {
+        match *self {
+            Request::Move { id, .. } | Request::Stop { id } | Request::Reset { id } => id,
+        }
+    }
+}
+
+/// Why a command frame is malformed (it is then ignored and counted).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CommandError {
+    /// Not 8 bytes.
+    Length(u8),
+    /// A command byte other than 1, 2, 3.
+    UnknownCommand(u8),
+    /// Non-zero bytes where *stop* and *reset* require zeros.
+    TrailingBytes,
+}
+
+/// Decodes a command frame's 8 bytes.
+pub fn decode_request(data: &[u8]) -> Result<Request, CommandError> {
+    let [id, command, x0, x1, z0, z1, d0, d1] = *data else {
+        return Err(CommandError::Length(data.len() as u8));
+    };
+    match command {
+        1 => {
+            let mm = |a, b| f64::from(u16::from_le_bytes([a, b])) / 1000.0;
+            let ticks = u16::from_le_bytes([d0, d1]);
+            let duration = (ticks != 0).then(|| f64::from(ticks) / 100.0);
+            Ok(Request::Move {
+                id,
+                target: [mm(x0, x1), mm(z0, z1)],
+                duration,
+            })
+        }
+        2 | 3 if [x0, x1, z0, z1, d0, d1] != [0; 6] => Err(CommandError::TrailingBytes),
+        2 => Ok(Request::Stop { id }),
+        3 => Ok(Request::Reset { id }),
+        other => Err(CommandError::UnknownCommand(other)),
+    }
+}
+
+/// A command frame (for the supervisor's side, the tests and the virtual bus).
+/// Targets are rounded to millimetres and clamped to the field's range.
+#[must_use]
+pub fn request_frame(request: &Request) -> CanFrame {
+    let mm =
+        |m: f64| (libm::round(m * 1000.0).clamp(0.0, f64::from(u16::MAX)) as u16).to_le_bytes();
+    let data = match *request {
+        Request::Move {
+            id,
+            target: [x, z],
+            duration,
+        } => {
+            let [x0, x1] = mm(x);
+            let [z0, z1] = mm(z);
+            let ticks: u16 = duration.map_or(0, |d| {
+                libm::round(d * 100.0).clamp(1.0, f64::from(u16::MAX)) as u16
+            });
+            let [d0, d1] = ticks.to_le_bytes();
+            [id, 1, x0, x1, z0, z1, d0, d1]
+        }
+        Request::Stop { id } => [id, 2, 0, 0, 0, 0, 0, 0],
+        Request::Reset { id } => [id, 3, 0, 0, 0, 0, 0, 0],
+    };
+    CanFrame::fixed(COMMAND_ID, &data)
+}
+
+/// The answer to a request.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum Answer {
+    /// No request answered yet.
+    None = 0,
+    /// Accepted; starts now.
+    Accepted = 1,
+    /// Accepted; starts after the running move.
+    Queued = 2,
+    /// Rejected; see the reason.
+    Rejected = 3,
+}
+
+/// Why a request was rejected (docs/COMMANDS.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum Reject {
+    /// A move is already queued.
+    Busy = 1,
+    /// Drives not enabled, or stopping/halted.
+    NotReady = 2,
+    /// Zero or non-finite target, or a duration out of range.
+    Invalid = 3,
+    /// The trolley would leave its workspace.
+    TrolleyWorkspace = 4,
+    /// The rope would leave its length range (or the load rise above the rail).
+    RopeWorkspace = 5,
+    /// The load's downward acceleration would exceed half of g.
+    SlackRope = 6,
+    /// Trolley velocity above its limit.
+    TrolleyVelocity = 7,
+    /// Winch velocity above its limit.
+    WinchVelocity = 8,
+    /// Trolley acceleration above its limit.
+    TrolleyAcceleration = 9,
+    /// Winch acceleration above its limit.
+    WinchAcceleration = 10,
+}
+
+/// The status frame's contents.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Status {
+    /// Id of the last request answered.
+    pub last_id: u8,
+    /// Its answer.
+    pub answer: Answer,
+    /// The reason, if rejected.
+    pub reason: Option<Reject>,
+    /// The mode code (docs/COMMANDS.md).
+    pub mode: u8,
+    /// The fault code, 0 for none.
+    pub fault: u8,
+    /// Frames ignored.
+    pub ignored: u32,
+    /// Deadline misses.
+    pub deadline_misses: u32,
+    /// Transmit failures.
+    pub tx_failures: u32,
+}
+
+/// The status frame.
+#[must_use]
+pub fn status_frame(s: &Status) -> CanFrame {
+    let sat = |v: u32| v.min(255) as u8;
+    let data = [
+        s.last_id,
+        s.answer as u8,
+        s.reason.map_or(0, |r| r as u8),
+        s.mode,
+        s.fault,
+        sat(s.ignored),
+        sat(s.deadline_misses),
+        sat(s.tx_failures),
+    ];
+    CanFrame::fixed(STATUS_ID, &data)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    #[test]
+    fn requests_round_trip() {
+        let requests = [
+            Request::Move {
+                id: 7,
+                target: [20.0, 4.0],
+                duration: Some(8.0),
+            },
+            Request::Move {
+                id: 8,
+                target: [12.345, 8.765],
+                duration: None,
+            },
+            Request::Stop { id: 9 },
+            Request::Reset { id: 10 },
+        ];
+        for r in requests {
+            let f = request_frame(&r);
+            assert_eq!(f.id(), 0x210);
+            assert_eq!(decode_request(f.data()), Ok(r));
+        }
+    }
+
+    #[test]
+    fn malformed_commands_are_refused() {
+        assert_eq!(decode_request(&[1, 1, 0]), Err(CommandError::Length(3)));
+        assert_eq!(
+            decode_request(&[1, 9, 0, 0, 0, 0, 0, 0]),
+            Err(CommandError::UnknownCommand(9))
+        );
+        assert_eq!(
+            decode_request(&[1, 2, 0, 0, 0, 0, 1, 0]),
+            Err(CommandError::TrailingBytes)
+        );
+        assert_eq!(
+            decode_request(&[1, 3, 5, 0, 0, 0, 0, 0]),
+            Err(CommandError::TrailingBytes)
+        );
+    }
+}

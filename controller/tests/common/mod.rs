@@ -1,0 +1,205 @@
+//! The rig the controller's tests share: the paper's crane (Tab. 3) as a BDF4 inverse
+//! model with the exact Jacobian at h = 10 ms — the firmware's default scene — driven
+//! by a plan, behind the controller, on the virtual bus with its simulated drives.
+#![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
+
+use controller::canopen::Drive;
+use controller::planner::Planner;
+use controller::units::{DriveLimits, UNITS_PER_M_PER_S};
+use controller::virtual_bus::{run_cycle, Scenario, VirtualBus};
+use controller::{Config, Controller, Cycle, Injectable, InverseModel, Mode};
+use nalgebra::SVector;
+use solver_core::models::crane::CraneParams;
+use solver_core::models::crane_subs::CraneSubs;
+use solver_core::plan::Plan;
+use solver_core::trajectory::PointToPoint;
+use solver_core::{Bdf, JacobianMode, NewtonSettings, SolverSettings};
+
+pub type Model = CraneSubs<f64, Plan<f64, 2>>;
+pub type Ff = Injectable<InverseModel<Model, Bdf<f64, Model, 7, 2>>>;
+
+/// Where the crane rests when a test starts: the paper's start (x_C, z_C), m.
+pub const HOME: [f64; 2] = [12.0, 8.0];
+
+pub fn settings() -> SolverSettings {
+    SolverSettings {
+        h: 0.01,
+        jacobian: JacobianMode::Exact,
+        scaling_power: 2,
+        newton: NewtonSettings::for_scalar::<f64>(),
+    }
+}
+
+pub fn planner() -> Planner {
+    Planner::new(CraneParams::PAPER, DriveLimits::LAB)
+}
+
+/// The inverse model at rest at `home` from t = 0, with `first` (end, start, duration) planned.
+pub fn feedforward(home: [f64; 2], first: Option<([f64; 2], f64, f64)>) -> Ff {
+    let mut plan = controller::feedforward::command_plan(home, 4).unwrap();
+    if let Some((end, t_start, duration)) = first {
+        let m = PointToPoint::new(
+            SVector::from(home),
+            SVector::from(end),
+            t_start,
+            duration,
+            4,
+        )
+        .unwrap();
+        plan.push(m).unwrap();
+    }
+    let model = CraneSubs::new(CraneParams::PAPER, plan).unwrap();
+    let integrator = Bdf::new(&model, &settings(), 4, 0.0).unwrap();
+    Injectable::new(InverseModel { model, integrator })
+}
+
+/// The controller, the bus and the clock, advanced together as the firmware does.
+pub struct Rig {
+    pub c: Controller<Ff>,
+    pub bus: VirtualBus,
+    /// Time of the next cycle, ms.
+    pub now: u32,
+    after: u32,
+}
+
+impl Rig {
+    /// The paper's move planned from `HOME` (or nothing), on `scenario`.
+    pub fn new(scenario: Scenario, paper_move: bool) -> Self {
+        let first = paper_move.then_some(([20.0, 4.0], 1.0, 8.0));
+        Self::with(feedforward(HOME, first), scenario)
+    }
+
+    pub fn with(ff: Ff, scenario: Scenario) -> Self {
+        Self {
+            c: Controller::new(ff, planner(), Config::DEFAULT),
+            bus: VirtualBus::new(scenario),
+            now: 0,
+            after: 0,
+        }
+    }
+
+    /// One cycle.
+    pub fn cycle(&mut self) -> Cycle {
+        let out = run_cycle(&mut self.c, &mut self.bus, self.after, self.now);
+        self.after = self.now;
+        self.now += 10;
+        out
+    }
+
+    /// Cycles until `stop` holds for a cycle's output (at most `max`); all outputs.
+    pub fn until(&mut self, max: usize, mut stop: impl FnMut(&Cycle) -> bool) -> Vec<Cycle> {
+        let mut outs = Vec::new();
+        for _ in 0..max {
+            let out = self.cycle();
+            let done = stop(&out);
+            outs.push(out);
+            if done {
+                return outs;
+            }
+        }
+        panic!(
+            "condition not reached within {max} cycles; mode {:?}",
+            self.c.mode()
+        );
+    }
+
+    /// Runs `n` cycles.
+    pub fn run(&mut self, n: usize) -> Vec<Cycle> {
+        (0..n).map(|_| self.cycle()).collect()
+    }
+
+    /// Cycles until the drives are enabled and the controller is ready.
+    pub fn ready(&mut self) -> Vec<Cycle> {
+        self.until(20, |c| c.mode == Mode::Ready)
+    }
+
+    /// Trolley position and rope length in the model, m (the load's position at rest).
+    pub fn drives(&self) -> [f64; 2] {
+        let x = self.c.feedforward().inner.integrator.state();
+        [x[0], x[1]]
+    }
+}
+
+/// Every set point of `cycles` is finite and within the limits, and no consecutive pair
+/// changes faster than the acceleration limit allows (one drive unit of rounding).
+pub fn assert_within_limits(cycles: &[Cycle], last: &mut [i32; 2]) {
+    let limits = DriveLimits::LAB;
+    for (i, out) in cycles.iter().enumerate() {
+        for d in Drive::ALL {
+            let v = out.setpoints[d.index()].units();
+            let l = limits.of(d);
+            assert!(
+                f64::from(v.abs()) <= l.max_velocity * UNITS_PER_M_PER_S,
+                "cycle {i}: {d:?} at {v} units"
+            );
+            let dv = f64::from(v - last[d.index()]);
+            assert!(
+                dv.abs() <= l.max_acceleration * 0.01 * UNITS_PER_M_PER_S + 1.0,
+                "cycle {i}: {d:?} jumps by {dv} units"
+            );
+            last[d.index()] = v;
+        }
+    }
+}
+
+/// `(controlword, target velocity)` of a drive's RPDO in `frames`.
+pub fn rpdo(frames: &[controller::CanFrame], drive: Drive) -> (u16, i32) {
+    let id = controller::canopen::cob::RPDO1 + u16::from(drive.node());
+    let f = frames
+        .iter()
+        .find(|f| f.id() == id)
+        .expect("an RPDO per drive every cycle");
+    let d = f.data();
+    (
+        u16::from_le_bytes([d[0], d[1]]),
+        i32::from_le_bytes([d[2], d[3], d[4], d[5]]),
+    )
+}
+
+/// The controller's status frame in `frames`, if sent.
+pub fn status(frames: &[controller::CanFrame]) -> Option<[u8; 8]> {
+    frames
+        .iter()
+        .find(|f| f.id() == controller::commands::STATUS_ID)
+        .map(|f| f.data().try_into().unwrap())
+}
+
+/// The controller's EMCY in `frames`: (error code, register, fault byte, node byte).
+pub fn emcy(frames: &[controller::CanFrame]) -> Option<(u16, u8, u8, u8)> {
+    frames.iter().find(|f| f.id() == 0x090).map(|f| {
+        let d = f.data();
+        (u16::from_le_bytes([d[0], d[1]]), d[2], d[3], d[4])
+    })
+}
+
+/// The answers given, in order: (request id, answer, reason), from the status frames.
+pub fn answers(cycles: &[Cycle]) -> Vec<(u8, u8, u8)> {
+    let mut out: Vec<(u8, u8, u8)> = Vec::new();
+    for s in cycles.iter().filter_map(|c| status(&c.frames)) {
+        let a = (s[0], s[1], s[2]);
+        if a.1 != 0 && out.last() != Some(&a) {
+            out.push(a);
+        }
+    }
+    out
+}
+
+/// The modes the controller went through, with the time each began, ms.
+pub fn modes(cycles: &[Cycle]) -> Vec<(u32, Mode)> {
+    let mut out: Vec<(u32, Mode)> = Vec::new();
+    for (i, c) in cycles.iter().enumerate() {
+        if out.last().map(|(_, m)| *m) != Some(c.mode) {
+            out.push((i as u32 * 10, c.mode));
+        }
+    }
+    out
+}
+
+/// Every EMCY the controller sent, with its time, ms.
+pub fn emcys(cycles: &[Cycle]) -> Vec<(u32, (u16, u8, u8, u8))> {
+    cycles
+        .iter()
+        .enumerate()
+        .filter_map(|(i, c)| emcy(&c.frames).map(|e| (i as u32 * 10, e)))
+        .collect()
+}
