@@ -11,7 +11,8 @@ use std::fmt::Write as _;
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use scene::{JacobianSpec, ModelSpec, ScalarSpec, Scene, SchemeSpec};
+use scene::firmware::firmware_scene;
+use scene::{JacobianSpec, ModelSpec, Scene, SchemeSpec};
 
 fn main() {
     let manifest =
@@ -66,26 +67,24 @@ fn copy(from: &Path, to: &Path) {
 
 /// The Rust for one scene.
 fn generate(scene: &Scene) -> Result<String, String> {
-    let (crane, model, n) = match &scene.model {
-        ModelSpec::CraneSubs(c) => (c, "solver_core::models::crane_subs::CraneSubs", 7),
-        ModelSpec::CraneProj(c) => (c, "solver_core::models::crane_proj::CraneProj", 8),
+    // The checks and the setup the host's run of the firmware loop shares.
+    let setup = firmware_scene(scene)?;
+    let (model, n) = match &scene.model {
+        ModelSpec::CraneSubs(_) => ("solver_core::models::crane_subs::CraneSubs", 7),
+        ModelSpec::CraneProj(_) => ("solver_core::models::crane_proj::CraneProj", 8),
         ModelSpec::MassOnCar(_) => {
             return Err("the firmware drives a crane; this scene is the mass-on-car".into())
         }
     };
     let s = &scene.solver;
-    let t = match s.scalar {
-        ScalarSpec::F64 => "f64",
-        ScalarSpec::F32 => "f32",
-    };
     let (integrator, new, scheme) = match s.scheme {
         SchemeSpec::Bdf => (
-            format!("solver_core::Bdf<{t}, Model, {n}, 2>"),
+            format!("solver_core::Bdf<f64, Model, {n}, 2>"),
             format!("Integrator::new(&model, &SETTINGS, {}, 0.0)", s.k),
             format!("BDF{}", s.k),
         ),
         SchemeSpec::Radau => (
-            format!("solver_core::Radau<{t}, Model, {n}, 2, {}>", 3 * n),
+            format!("solver_core::Radau<f64, Model, {n}, 2, {}>", 3 * n),
             "Integrator::new(&model, &SETTINGS, 0.0)".to_string(),
             "Radau IIA".to_string(),
         ),
@@ -106,7 +105,7 @@ fn generate(scene: &Scene) -> Result<String, String> {
     };
     let tr = &scene.trajectory;
     let nw = settings.newton;
-    let p = crane.params();
+    let p = setup.params;
     let w = p.workspace;
     let mut c = String::new();
     let _ = writeln!(
@@ -122,15 +121,15 @@ fn generate(scene: &Scene) -> Result<String, String> {
     let _ = writeln!(c, "/// Scheme and Jacobian, for logs.\npub const SOLVER: &str = \"{scheme} {jacobian_label} h = {} s\";", s.h);
     let _ = writeln!(
         c,
-        "/// Cycles to run (the scene's whole time).\npub const CYCLES: u32 = {};",
-        scene.steps()
+        "/// Cycles the scene's move takes (to its `t_end`).\npub const CYCLES: u32 = {};",
+        setup.cycles
     );
     let _ = writeln!(
         c,
         "/// Cycle time, ms.\npub const PERIOD_MS: u32 = {};",
-        (s.h * 1000.0).round() as u32
+        setup.config.period_ms
     );
-    let _ = writeln!(c, "/// The crane model.\npub type Model = {model}<{t}, solver_core::trajectory::PointToPoint<{t}, 2>>;");
+    let _ = writeln!(c, "/// The crane model, driven by a plan that changes on command.\npub type Model = {model}<f64, solver_core::plan::Plan<f64, 2>>;");
     let _ = writeln!(
         c,
         "/// The integrator.\npub type Integrator = {integrator};"
@@ -143,24 +142,29 @@ fn generate(scene: &Scene) -> Result<String, String> {
     );
     let _ = writeln!(
         c,
+        "/// The planner of moves on command: this crane, the lab drives' limits.\npub const PLANNER: controller::planner::Planner = controller::planner::Planner::new(PARAMS, controller::units::DriveLimits::LAB);"
+    );
+    let _ = writeln!(
+        c,
         "/// Solver settings.\npub const SETTINGS: solver_core::SolverSettings = solver_core::SolverSettings {{ h: {:?}, jacobian: {jacobian}, scaling_power: {}, newton: solver_core::NewtonSettings {{ max_iterations: {}, rtol: {:?}, atol: {:?}, stall_ratio: {:?}, stall_limit: {:?}, accept_unconverged: false, broyden_refresh: true }} }};",
         settings.h, settings.scaling_power, nw.max_iterations, nw.rtol, nw.atol, nw.stall_ratio, nw.stall_limit
     );
-    let lit = |x: f64| format!("{x:?}_{t}");
     let v = |x: &[f64]| {
         let (a, b) = (
             x.first().copied().unwrap_or(0.0),
             x.get(1).copied().unwrap_or(0.0),
         );
-        format!("nalgebra::SVector::<{t}, 2>::new({}, {})", lit(a), lit(b))
+        format!("[{a:?}_f64, {b:?}_f64]")
     };
     let _ = writeln!(
         c,
-        "/// Builds the scene's inverse model at rest at t = 0.\npub fn inverse_model() -> Result<Feedforward, solver_core::Error> {{\n    let trajectory = solver_core::trajectory::PointToPoint::new({}, {}, {}, {}, {})?;\n    let model = Model::new(PARAMS, trajectory)?;\n    let integrator = {new}?;\n    Ok(controller::InverseModel {{ model, integrator }})\n}}",
+        "/// Builds the scene's inverse model at rest at t = 0, its move planned (checked\n/// against the planner's rules when the firmware was built).\npub fn inverse_model() -> Result<Feedforward, solver_core::Error> {{\n    let first = solver_core::trajectory::PointToPoint::new({}.into(), {}.into(), {:?}_f64, {:?}_f64, {})?;\n    let mut plan = controller::feedforward::command_plan({}, {})?;\n    plan.push(first)?;\n    let model = Model::new(PARAMS, plan)?;\n    let integrator = {new}?;\n    Ok(controller::InverseModel {{ model, integrator }})\n}}",
         v(&tr.start),
         v(&tr.end),
-        lit(tr.t_start),
-        lit(tr.duration),
+        tr.t_start,
+        tr.duration,
+        tr.smoothness,
+        v(&tr.start),
         tr.smoothness
     );
     Ok(c)

@@ -63,7 +63,7 @@ impl Config {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Fault {
     /// The inverse model failed (Newton, singular matrix, non-finite values).
-    Solver(#[cfg_attr(feature = "defmt", defmt(Debug2Format))] Error),
+    Solver(Error),
     /// The choke point refused the model's set point.
     Setpoint(SetpointError),
     /// A drive reported a fault (statusword bit 3 or an EMCY).

@@ -1,5 +1,6 @@
 //! The crane drive controller: every 10 ms one step of the inverse model, and the
-//! trolley and winch velocity set points over CANopen.
+//! trolley and winch velocity set points over CANopen; moves on command, and a
+//! defined reaction to every fault (docs/COMMANDS.md).
 //!
 //! The RTIC application is the same on every board; `board` is the only part that
 //! differs (QEMU for counting instructions, the STM32H743 drive controller). The
@@ -15,16 +16,21 @@ use defmt_rtt as _;
 #[cfg(feature = "qemu")]
 use defmt_semihosting as _;
 
+/// What the controller steps: under QEMU with the scenarios' solver-failure
+/// injection, on the drive controller the inverse model alone.
+#[cfg(feature = "qemu")]
+type Feedforward = controller::Injectable<scene::Feedforward>;
+#[cfg(feature = "stm32h743")]
+type Feedforward = scene::Feedforward;
+
 #[cfg_attr(feature = "qemu", rtic::app(device = crate::board::pac, dispatchers = [UARTRX0]))]
 #[cfg_attr(feature = "stm32h743", rtic::app(device = crate::board::pac, dispatchers = [SPI1]))]
 mod app {
-    #[cfg(feature = "qemu")]
-    use controller::virtual_bus::HEALTHY;
-    use controller::{Config, Controller, Mode};
+    use controller::{Config, Controller};
     use rtic_monotonics::systick::prelude::*;
 
     use crate::board::{self, Board, CanPort};
-    use crate::scene;
+    use crate::{scene, Feedforward};
 
     rtic_monotonics::systick_monotonic!(Mono, 1_000);
 
@@ -33,36 +39,56 @@ mod app {
 
     #[local]
     struct Local {
-        controller: Controller<scene::Feedforward>,
+        controller: Controller<Feedforward>,
         board: Board,
+        /// Cycles to run: under QEMU the scenario's (or the scene's), on the board forever.
+        cycles: Option<u32>,
     }
 
     #[init]
     fn init(cx: init::Context) -> (Shared, Local) {
         #[cfg(feature = "qemu")]
-        let board = Board::init(HEALTHY);
+        let (board, cycles) = {
+            let scenario = match board::scenario() {
+                Ok(s) => s,
+                Err(len) => {
+                    defmt::error!("unknown scenario (name of {=usize} bytes)", len);
+                    board::finish(false)
+                }
+            };
+            defmt::info!("scenario {=str}: {=str}", scenario.name, scenario.expect);
+            let cycles = if scenario.cycles == 0 {
+                scene::CYCLES
+            } else {
+                scenario.cycles
+            };
+            Mono::start(cx.core.SYST, board::SYSCLK_HZ);
+            (Board::init(scenario), Some(cycles))
+        };
         #[cfg(feature = "stm32h743")]
-        let board = {
+        let (board, cycles) = {
             let mut core = cx.core;
             let board = Board::init(cx.device, &mut core.DCB, &mut core.DWT);
             Mono::start(core.SYST, board::SYSCLK_HZ);
-            board
+            (board, None)
         };
-        #[cfg(feature = "qemu")]
-        Mono::start(cx.core.SYST, board::SYSCLK_HZ);
         defmt::info!(
-            "scene {=str}: {=str}, {=u32} cycles",
+            "scene {=str}: {=str}, its move {=u32} cycles",
             scene::NAME,
             scene::SOLVER,
             scene::CYCLES
         );
-        let feedforward = match scene::inverse_model() {
+        let model = match scene::inverse_model() {
             Ok(f) => f,
             Err(e) => {
-                defmt::error!("scene refused: {}", defmt::Debug2Format(&e));
+                defmt::error!("scene refused: {}", e);
                 board::finish(false)
             }
         };
+        #[cfg(feature = "qemu")]
+        let feedforward = controller::Injectable::new(model);
+        #[cfg(feature = "stm32h743")]
+        let feedforward = model;
         let config = Config {
             period_ms: scene::PERIOD_MS,
             ..Config::DEFAULT
@@ -74,8 +100,9 @@ mod app {
         (
             Shared {},
             Local {
-                controller: Controller::new(feedforward, config),
+                controller: Controller::new(feedforward, scene::PLANNER, config),
                 board,
+                cycles,
             },
         )
     }
@@ -87,52 +114,63 @@ mod app {
         }
     }
 
-    /// The 100 Hz cycle: received frames, one inverse-model step, transmit.
-    #[task(priority = 1, local = [controller, board])]
+    /// The 100 Hz cycle: received frames, one inverse-model step, transmit. The
+    /// watchdog is fed only here, after a completed cycle.
+    #[task(priority = 1, local = [controller, board, cycles])]
     async fn control(cx: control::Context) {
         let (controller, board) = (cx.local.controller, cx.local.board);
+        let cycles = *cx.local.cycles;
         let mut next = Mono::now();
-        let (mut min, mut max, mut sum) = (u64::MAX, 0, 0);
-        for cycle in 0..scene::CYCLES {
-            let now_ms = cycle * scene::PERIOD_MS;
+        let (mut min, mut max, mut sum) = (u64::MAX, 0u64, 0u64);
+        let mut cycle: u64 = 0;
+        while cycles.is_none_or(|n| cycle < u64::from(n)) {
+            let now_ms = cycle * u64::from(scene::PERIOD_MS);
+            board.service();
             while let Some(frame) = board.receive(now_ms) {
                 controller.on_frame(&frame, now_ms);
             }
+            #[cfg(feature = "qemu")]
+            if board.take_solver_failure() {
+                controller.feedforward_mut().fail_next_step();
+            }
             let start = board.instructions();
             let out = controller.tick(now_ms);
-            let cost = board.instructions() - start;
+            let cost = board.instructions().wrapping_sub(start);
+            controller.record_cost(cost);
             for frame in &out.frames {
                 if let Err(e) = board.transmit(now_ms, frame) {
-                    defmt::warn!("transmit failed: {}", e);
+                    defmt::warn!("tx failed {=u16:#05x}: {}", frame.id(), e);
+                    controller.transmit_failed(frame);
                 }
             }
             let (iterations, jacobians) = out
                 .step
                 .map_or((0, 0), |s| (s.stats.iterations, s.stats.jacobian_evals));
             defmt::info!(
-                "cost {=u32} {=u64} {=u32} {=u32}",
+                "cost {=u64} {=u64} {=u32} {=u32}",
                 cycle,
                 cost,
                 iterations,
                 jacobians
             );
-            (min, max, sum) = (min.min(cost), max.max(cost), sum + cost);
+            (min, max, sum) = (min.min(cost), max.max(cost), sum.wrapping_add(cost));
             board.feed_watchdog();
+            cycle += 1;
             next += scene::PERIOD_MS.millis();
             Mono::delay_until(next).await;
         }
         let counters = controller.counters();
         defmt::info!(
-            "done: {=u32} cycles, instructions per step min {=u64} mean {=u64} max {=u64}, stack {=u32} bytes, {}",
-            scene::CYCLES,
+            "done: {=u64} cycles, instructions per step min {=u64} mean {=u64} max {=u64}, stack {=u32} bytes, {}",
+            cycle,
             min,
-            sum / u64::from(scene::CYCLES.max(1)),
+            sum / cycle.max(1),
             max,
             board.stack_high_water(),
             counters
         );
         let mode = controller.mode();
         defmt::info!("mode {}", mode);
-        board::finish(mode == Mode::Running)
+        board::finish(true)
     }
 }

@@ -9,6 +9,7 @@ use core::fmt;
 
 /// Everything that can go wrong, from a bad parameter to a Newton failure.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[must_use]
 pub enum Error {
     /// The step size is not a finite positive number.

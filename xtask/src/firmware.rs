@@ -84,9 +84,10 @@ pub struct QemuRun {
     pub success: bool,
 }
 
-/// QEMU's command line: mps2-an500 (Cortex-M7, DP FPU), semihosting for the log and
-/// the exit code, and `-icount shift=7` so that virtual time follows the instruction count.
-pub fn qemu_command(elf: &Path) -> Command {
+/// QEMU's command line: mps2-an500 (Cortex-M7, DP FPU), semihosting for the log, the
+/// exit code and the virtual bus's scenario (the command line's second word), and
+/// `-icount shift=7` so that virtual time follows the instruction count.
+pub fn qemu_command(elf: &Path, scenario: &str) -> Command {
     let mut cmd = Command::new("qemu-system-arm");
     cmd.args([
         "-M",
@@ -97,21 +98,24 @@ pub fn qemu_command(elf: &Path) -> Command {
         "-serial",
         "none",
     ])
-    .args(["-semihosting-config", "enable=on,target=native"])
+    .arg("-semihosting-config")
+    .arg(format!(
+        "enable=on,target=native,arg=firmware,arg={scenario}"
+    ))
     .args(["-icount", "shift=7,align=off,sleep=off"])
     .arg("-kernel")
     .arg(elf);
     cmd
 }
 
-/// Runs the firmware under QEMU (killed after `limit`) and decodes its log.
-pub fn run_qemu(elf: &Path, limit: Duration) -> Result<QemuRun, String> {
+/// Runs the firmware under QEMU on `scenario` (killed after `limit`) and decodes its log.
+pub fn run_qemu(elf: &Path, scenario: &str, limit: Duration) -> Result<QemuRun, String> {
     setup::ensure_qemu()?;
     let elf_bytes = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
-    let out_path = elf.with_extension("defmt");
+    let out_path = elf.with_extension(format!("{scenario}.defmt"));
     let out =
         std::fs::File::create(&out_path).map_err(|e| format!("{}: {e}", out_path.display()))?;
-    let mut child = qemu_command(elf)
+    let mut child = qemu_command(elf, scenario)
         .stdout(out)
         .stderr(Stdio::inherit())
         .spawn()

@@ -108,9 +108,18 @@ fn main_job() -> Result<(), String> {
     }
 }
 
+/// Both scenes on the healthy bus, then the default scene through every scenario of
+/// the virtual bus (docs/COMMANDS.md).
 fn qemu_checks(overwrite: bool) -> Result<(), String> {
     for scene in qemu::SCENES {
         let m = qemu::measure(scene)?;
+        qemu::check(&m, overwrite)?;
+    }
+    for scenario in controller::virtual_bus::SCENARIOS
+        .into_iter()
+        .filter(|s| s.name != controller::virtual_bus::HEALTHY.name)
+    {
+        let m = qemu::measure_scenario(qemu::SCENARIO_SCENE, scenario)?;
         qemu::check(&m, overwrite)?;
     }
     Ok(())

@@ -1,12 +1,13 @@
-//! The QEMU checks: golden output, the host's computation of the same scene,
-//! committed baselines (instructions per step, flash, RAM, stack), and the table.
+//! The QEMU checks: golden output, the host's computation of the same scene on the
+//! same virtual bus and scenario, committed baselines (instructions per step, flash,
+//! RAM, stack), and the table.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use controller::canopen::cob;
-use controller::virtual_bus::HEALTHY;
+use controller::virtual_bus::{Scenario, HEALTHY};
 use host_tests::dbc::Dbc;
 use host_tests::firmware::controller_reference;
 use object::{Object, ObjectSection};
@@ -20,12 +21,17 @@ pub const SCENES: [&str; 2] = ["scenes/paper-crane.toml", "scenes/paper-crane-ra
 /// Wall-clock limit for one QEMU run.
 const QEMU_LIMIT: Duration = Duration::from_secs(600);
 
+/// The default scene, on which every scenario of the virtual bus runs.
+pub const SCENARIO_SCENE: &str = SCENES[0];
+
 /// A finished QEMU run of one scene with everything measured about it.
 pub struct Measured {
     /// The scene.
     pub scene: Scene,
     /// Its file.
     pub path: PathBuf,
+    /// The virtual bus's scenario.
+    pub scenario: Scenario,
     /// The decoded log.
     pub lines: Vec<String>,
     /// Whether the firmware exited with success.
@@ -40,12 +46,17 @@ pub struct Measured {
     pub stack: u64,
 }
 
-/// Builds and runs `scene` on the QEMU board.
+/// Builds and runs `scene` on the QEMU board with the healthy bus.
 pub fn measure(scene: &str) -> Result<Measured, String> {
+    measure_scenario(scene, HEALTHY)
+}
+
+/// Builds and runs `scene` on the QEMU board with `scenario` on the virtual bus.
+pub fn measure_scenario(scene: &str, scenario: Scenario) -> Result<Measured, String> {
     let path = root().join(scene);
     let parsed = Scene::load(&path).map_err(|e| format!("{scene}: {e}"))?;
     let elf = firmware::build(Board::Qemu, &path)?;
-    let run = firmware::run_qemu(&elf, QEMU_LIMIT)?;
+    let run = firmware::run_qemu(&elf, scenario.name, QEMU_LIMIT)?;
     let steps: Vec<StepCost> = run.lines.iter().filter_map(|l| parse_cost(l)).collect();
     let costs = steps.iter().map(|c| c.instructions).collect();
     let stack = run
@@ -61,6 +72,7 @@ pub fn measure(scene: &str) -> Result<Measured, String> {
     Ok(Measured {
         scene: parsed,
         path,
+        scenario,
         lines: run.lines,
         success: run.success,
         costs,
@@ -100,12 +112,28 @@ pub fn sizes(elf: &Path) -> Result<Sizes, String> {
 }
 
 impl Measured {
-    fn stem(&self) -> String {
-        self.path
+    /// `<scene>` for the healthy bus, `<scene>--<scenario>` otherwise: the name of the
+    /// golden log and the baseline.
+    pub fn stem(&self) -> String {
+        let scene = self
+            .path
             .file_stem()
             .and_then(|s| s.to_str())
-            .unwrap_or("scene")
-            .to_string()
+            .unwrap_or("scene");
+        if self.scenario.name == HEALTHY.name {
+            scene.to_string()
+        } else {
+            format!("{scene}--{}", self.scenario.name)
+        }
+    }
+
+    /// Cycles the run must log: the scenario's, or the scene's.
+    fn cycles(&self) -> usize {
+        if self.scenario.cycles == 0 {
+            self.scene.steps()
+        } else {
+            self.scenario.cycles as usize
+        }
     }
 
     /// (min, mean, max) instructions per step.
@@ -137,12 +165,12 @@ pub fn check(m: &Measured, overwrite: bool) -> Result<(), String> {
             m.stem()
         ));
     }
-    if m.costs.len() != m.scene.steps() {
+    if m.costs.len() != m.cycles() {
         return Err(format!(
-            "{}: {} cycles logged, the scene has {}",
+            "{}: {} cycles logged, the run has {}",
             m.stem(),
             m.costs.len(),
-            m.scene.steps()
+            m.cycles()
         ));
     }
     compare_with_host(m)?;
@@ -185,9 +213,10 @@ pub fn check(m: &Measured, overwrite: bool) -> Result<(), String> {
 }
 
 /// The firmware computes what the tests proved: every frame equals the host's run of
-/// the same scene on the same scripted bus; set points may differ by one drive unit (1 µm/s).
+/// the same scene on the same virtual bus and scenario; set points may differ by one
+/// drive unit (1 µm/s).
 fn compare_with_host(m: &Measured) -> Result<(), String> {
-    let reference = controller_reference(&m.scene, &HEALTHY)?;
+    let reference = controller_reference(&m.scene, &m.scenario)?;
     let expected: Vec<(u32, u16, Vec<u8>)> = reference
         .iter()
         .flat_map(|c| {
@@ -302,6 +331,7 @@ pub fn table(runs: &[Measured]) -> String {
         let solver = m
             .lines
             .iter()
+            .filter(|l| l.starts_with("scene "))
             .find_map(|l| {
                 l.split(": ")
                     .nth(1)

@@ -10,10 +10,14 @@ pub trait CanPort {
     type TxError: defmt::Format;
 
     /// Queues a frame for transmission (`now_ms`: the cycle's time, for logs).
-    fn transmit(&mut self, now_ms: u32, frame: &CanFrame) -> Result<(), Self::TxError>;
+    fn transmit(&mut self, now_ms: u64, frame: &CanFrame) -> Result<(), Self::TxError>;
 
     /// The next frame received up to `now_ms`, if any.
-    fn receive(&mut self, now_ms: u32) -> Option<CanFrame>;
+    fn receive(&mut self, now_ms: u64) -> Option<CanFrame>;
+
+    /// Once per cycle, before receiving: the controller's own housekeeping (on the
+    /// STM32H743, the bus-off recovery).
+    fn service(&mut self);
 }
 
 #[cfg(feature = "qemu")]

@@ -1,7 +1,9 @@
 //! QEMU `mps2-an500`: a Cortex-M7 with double-precision FPU, no CAN controller.
 //!
-//! * CAN: transmitted frames go to the log (decoded on the host against the DBC);
-//!   received frames come from the scripted virtual bus compiled into this build.
+//! * CAN: the virtual bus compiled into this build (`controller::virtual_bus`): two
+//!   simulated CiA 402 drives that answer the controller, and the scenario named on
+//!   QEMU's semihosting command line (default `healthy`). Every frame handed to the
+//!   bus is logged (decoded on the host against the DBC), and so is every refusal.
 //! * Cost: QEMU runs with `-icount shift=7`, so virtual time is driven by the
 //!   instruction count (one instruction = 128 ns). The CMSDK APB timer 1 at
 //!   0x4000_1000 counts down at 25 MHz: 3.2 ticks per instruction, identical on every
@@ -12,7 +14,7 @@
 //! numbers and the vector table), volatile access to the timer, and stack painting.
 #![allow(unsafe_code)]
 
-use controller::virtual_bus::Script;
+use controller::virtual_bus::{self, BusOff, Scenario, VirtualBus};
 use controller::CanFrame;
 use heapless::Deque;
 
@@ -98,16 +100,41 @@ extern "C" {
 
 /// The QEMU board.
 pub struct Board {
-    script: Script,
-    /// Frames due this cycle, in script order.
+    bus: VirtualBus,
+    /// Frames due this cycle, in bus order.
     rx: Deque<CanFrame, 32>,
     /// End of the last receive window, ms.
     rx_until: Option<u32>,
 }
 
+/// The scenario named on the semihosting command line (`… arg=firmware,arg=<name>`):
+/// `healthy` without one; `Err` with the name's length for an unknown one.
+pub fn scenario() -> Result<Scenario, usize> {
+    let mut buffer = [0u8; 64];
+    let mut block = [buffer.as_mut_ptr() as usize, buffer.len()];
+    // SAFETY: SYS_GET_CMDLINE writes at most `block[1]` bytes into `buffer` and the
+    // length into `block[1]`; both outlive the call.
+    let status = unsafe {
+        cortex_m_semihosting::syscall1(
+            cortex_m_semihosting::nr::GET_CMDLINE,
+            block.as_mut_ptr() as usize,
+        )
+    };
+    if status != 0 {
+        return Ok(virtual_bus::HEALTHY);
+    }
+    let line = buffer.get(..block[1].min(buffer.len())).unwrap_or(&[]);
+    let line = core::str::from_utf8(line).unwrap_or("");
+    let mut words = line.split_ascii_whitespace().skip(1);
+    match words.next() {
+        None => Ok(virtual_bus::HEALTHY),
+        Some(name) => virtual_bus::scenario(name).ok_or(name.len()),
+    }
+}
+
 impl Board {
     /// Paints the stack, starts the instruction counter and the virtual bus.
-    pub fn init(script: Script) -> Self {
+    pub fn init(scenario: Scenario) -> Self {
         paint_stack();
         // SAFETY: TIMER1 is the CMSDK APB timer of the MPS2 memory map, owned by this
         // board only; word writes to its RELOAD, VALUE and CTRL registers.
@@ -117,10 +144,15 @@ impl Board {
             core::ptr::write_volatile((TIMER1 + CTRL) as *mut u32, 1);
         }
         Self {
-            script,
+            bus: VirtualBus::new(scenario),
             rx: Deque::new(),
             rx_until: None,
         }
+    }
+
+    /// Whether the scenario makes the inverse model's next step fail.
+    pub fn take_solver_failure(&mut self) -> bool {
+        self.bus.take_solver_failure()
     }
 
     /// The free-running cost counter, in QEMU instructions (scaled from timer ticks).
@@ -148,13 +180,15 @@ impl Board {
 }
 
 impl super::CanPort for Board {
-    type TxError = TxError;
+    type TxError = BusOff;
 
-    /// Next frame received by `now_ms`, from the scripted bus.
-    fn receive(&mut self, now_ms: u32) -> Option<CanFrame> {
+    /// Next frame received by `now_ms`, from the virtual bus (whose scenarios are
+    /// short: times saturate at `u32::MAX` ms, 49 days).
+    fn receive(&mut self, now_ms: u64) -> Option<CanFrame> {
+        let now_ms = u32::try_from(now_ms).unwrap_or(u32::MAX);
         if self.rx.is_empty() && self.rx_until.is_none_or(|t| t < now_ms) {
             let after = self.rx_until.unwrap_or(0);
-            for frame in self.script.due(after, now_ms) {
+            for frame in self.bus.receive_until(after, now_ms) {
                 if self.rx.push_back(frame).is_err() {
                     defmt::warn!(
                         "virtual bus: receive queue full, frame {=u16:#05x} dropped",
@@ -167,21 +201,20 @@ impl super::CanPort for Board {
         self.rx.pop_front()
     }
 
-    /// "Transmits" a frame: logs it for the host to decode.
-    fn transmit(&mut self, now_ms: u32, frame: &CanFrame) -> Result<(), TxError> {
+    /// Transmits a frame on the virtual bus, and logs it for the host to decode.
+    fn transmit(&mut self, now_ms: u64, frame: &CanFrame) -> Result<(), BusOff> {
         defmt::info!(
-            "tx {=u32} {=u16:#05x} {=[u8]:02x}",
+            "tx {=u64} {=u16:#05x} {=[u8]:02x}",
             now_ms,
             frame.id(),
             frame.data()
         );
-        Ok(())
+        self.bus.transmit(frame)
     }
-}
 
-/// A transmit failure (none under QEMU; the STM32 board has real ones).
-#[derive(Debug, Clone, Copy, defmt::Format)]
-pub enum TxError {}
+    /// The virtual bus recovers from bus-off by itself.
+    fn service(&mut self) {}
+}
 
 fn stack_bounds() -> (usize, usize) {
     // Only the addresses of the linker symbols are taken.

@@ -4,7 +4,12 @@
 //!   from PLL1Q, prescaler 2, 40 tq per bit: 1 + 31 + 8, sample point 80 %), all
 //!   standard frames into RX FIFO 0. The `fdcan` driver has no embedded-can
 //!   implementation, so it sits behind the board's own `transmit`/`receive`.
-//! * Watchdog: IWDG, 100 ms, fed only by the 100 Hz task after a completed cycle.
+//! * Bus-off: the FDCAN stops (CCCR.INIT) and is restarted at the next cycle; the
+//!   controller rejoins after the 128 × 11 recessive bits ISO 11898-1 requires, which
+//!   the FDCAN waits for itself. Meanwhile every transmission fails, and the controller
+//!   halts after three cycles without set points (docs/COMMANDS.md).
+//! * Watchdog: IWDG, 100 ms, fed only by the 100 Hz task after a completed cycle; the
+//!   reset cause (RCC_RSR) is logged at boot.
 //! * Cost: DWT CYCCNT, in core cycles (the QEMU board counts instructions instead).
 //! * Logging: defmt over RTT (probe-rs).
 
@@ -29,7 +34,10 @@ pub const SYSCLK_HZ: u32 = 400_000_000;
 
 /// The drive controller board.
 pub struct Board {
-    can: FdCan<Can<FDCAN1>, NormalOperationMode>,
+    /// `None` only for the instant of a bus-off restart.
+    can: Option<FdCan<Can<FDCAN1>, NormalOperationMode>>,
+    /// Bus-off restarts since boot.
+    pub bus_off_restarts: u32,
     watchdog: IndependentWatchdog,
     /// Received frames lost to a full RX FIFO (reported, never silently dropped).
     pub rx_overruns: u32,
@@ -40,8 +48,11 @@ pub struct Board {
 pub enum TxError {
     /// All transmit buffers are busy (bus-off or a congested bus).
     QueueFull,
-    /// A pending frame of lower priority was displaced to make room.
+    /// A pending frame of lower priority was displaced to make room (that frame is
+    /// lost; it is reported as this one, which errs on the side of a failure).
     Displaced,
+    /// The FDCAN is off the bus (bus-off), waiting for its restart.
+    BusOff,
 }
 
 impl Board {
@@ -52,9 +63,11 @@ impl Board {
         dwt: &mut cortex_m::peripheral::DWT,
     ) -> Self {
         let pwrcfg = dp.PWR.constrain().freeze();
-        let ccdr = dp
-            .RCC
-            .constrain()
+        let mut rcc = dp.RCC.constrain();
+        // Read and cleared once: a watchdog reset here means the firmware hung.
+        let reason = rcc.get_reset_reason();
+        defmt::info!("reset cause: {}", defmt::Display2Format(&reason));
+        let ccdr = rcc
             .sys_ck(SYSCLK_HZ.Hz())
             .pll1_q_ck(80.MHz())
             .freeze(pwrcfg, &dp.SYSCFG);
@@ -80,7 +93,8 @@ impl Board {
         let mut watchdog = IndependentWatchdog::new(dp.IWDG);
         watchdog.start(100.millis());
         Self {
-            can,
+            can: Some(can),
+            bus_off_restarts: 0,
             watchdog,
             rx_overruns: 0,
         }
@@ -106,10 +120,11 @@ impl super::CanPort for Board {
     type TxError = TxError;
 
     /// Next received frame, if any (extended and remote frames are not CANopen's and are skipped).
-    fn receive(&mut self, _now_ms: u32) -> Option<CanFrame> {
+    fn receive(&mut self, _now_ms: u64) -> Option<CanFrame> {
         let mut buffer = [0u8; 8];
+        let can = self.can.as_mut()?;
         loop {
-            let info = match self.can.receive0(&mut buffer) {
+            let info = match can.receive0(&mut buffer) {
                 Ok(ReceiveOverrun::NoOverrun(info)) => info,
                 Ok(ReceiveOverrun::Overrun(info)) => {
                     self.rx_overruns = self.rx_overruns.wrapping_add(1);
@@ -127,7 +142,13 @@ impl super::CanPort for Board {
     }
 
     /// Hands a frame to the CAN controller.
-    fn transmit(&mut self, _now_ms: u32, frame: &CanFrame) -> Result<(), TxError> {
+    fn transmit(&mut self, _now_ms: u64, frame: &CanFrame) -> Result<(), TxError> {
+        let Some(can) = self.can.as_mut() else {
+            return Err(TxError::BusOff);
+        };
+        if can.get_protocol_status().bus_off_status {
+            return Err(TxError::BusOff);
+        }
         let Some(id) = StandardId::new(frame.id()) else {
             return Err(TxError::QueueFull);
         };
@@ -138,10 +159,26 @@ impl super::CanPort for Board {
             bit_rate_switching: false,
             marker: None,
         };
-        match self.can.transmit(header, frame.data()) {
+        match can.transmit(header, frame.data()) {
             Ok(None) => Ok(()),
             Ok(Some(())) => Err(TxError::Displaced),
             Err(_) => Err(TxError::QueueFull),
+        }
+    }
+
+    /// Restarts the FDCAN after a bus-off: leaving the initialisation state starts the
+    /// recovery sequence (RM0433, FDCAN bus-off recovery).
+    fn service(&mut self) {
+        let off = self
+            .can
+            .as_ref()
+            .is_some_and(|c| c.get_protocol_status().bus_off_status);
+        if off {
+            if let Some(can) = self.can.take() {
+                self.can = Some(can.into_config_mode().into_normal());
+                self.bus_off_restarts = self.bus_off_restarts.wrapping_add(1);
+                defmt::warn!("CAN bus-off: restart {=u32}", self.bus_off_restarts);
+            }
         }
     }
 }
@@ -166,8 +203,9 @@ const BIT_TIMING: NominalBitTiming = NominalBitTiming {
     },
 };
 
-/// On the board the run never ends; a finished scene holds the drives (quick stop
-/// was sent by the controller) and waits for the watchdog.
+/// On the board the control loop never ends; `finish` is reached only when the
+/// firmware cannot start (a scene it refuses). It stops transmitting — the drives
+/// lose the controller's heartbeat and brake on their own — and waits for the watchdog.
 pub fn finish(_success: bool) -> ! {
     loop {
         cortex_m::asm::wfi();
