@@ -15,7 +15,7 @@ use crate::cia402::{controlword, DriveState, STATUS_FAULT};
 use crate::commands::{status_frame, Answer, Reject, Request, Status};
 use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
 use crate::frame::CanFrame;
-use crate::planner::Planner;
+use crate::planner::{MoveSearch, Planner, SAMPLES_PER_CYCLE};
 use crate::units::{DriveLimits, Setpoint, SetpointError, SetpointGate, UNITS_PER_M_PER_S};
 
 /// Timing, limits and the thresholds of the fault reactions.
@@ -128,6 +128,22 @@ impl Fault {
         }
     }
 
+    /// The EMCY's third manufacturer byte: for a refused set point, why (1 non-finite,
+    /// 2 over speed, 3 over acceleration); for a solver failure, which (1 Newton did not
+    /// converge, 2 singular matrix, 3 non-finite value, 4 other); otherwise 0.
+    fn detail(&self) -> u8 {
+        match self {
+            Fault::Setpoint(SetpointError::NonFinite { .. }) => 1,
+            Fault::Setpoint(SetpointError::OverSpeed { .. }) => 2,
+            Fault::Setpoint(SetpointError::OverAcceleration { .. }) => 3,
+            Fault::Solver(Error::NewtonNotConverged { .. }) => 1,
+            Fault::Solver(Error::SingularJacobian { .. }) => 2,
+            Fault::Solver(Error::NonFinite { .. }) => 3,
+            Fault::Solver(_) => 4,
+            _ => 0,
+        }
+    }
+
     fn reaction(&self) -> Reaction {
         match self {
             Fault::DriveFault(_) | Fault::HeartbeatLost(_) => Reaction::Quick,
@@ -206,6 +222,14 @@ pub struct Counters {
     pub requests: u32,
 }
 
+/// A move request whose duration is being searched.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PendingMove {
+    id: u8,
+    target: [f64; 2],
+    search: MoveSearch,
+}
+
 /// Everything one cycle produced.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Cycle {
@@ -229,6 +253,8 @@ pub struct Controller<F> {
     drives: [DriveLink; 2],
     mode: Mode,
     requests: Deque<Request, 4>,
+    /// The move being planned, a share of its search per cycle.
+    pending: Option<PendingMove>,
     counters: Counters,
     /// The last answer: request id, answer, reason.
     answer: (u8, Answer, Option<Reject>),
@@ -267,6 +293,7 @@ impl<F: Feedforward + Replan> Controller<F> {
             drives: [link; 2],
             mode: Mode::Enabling,
             requests: Deque::new(),
+            pending: None,
             counters: Counters::default(),
             answer: (0, Answer::None, None),
             answered: false,
@@ -411,9 +438,13 @@ impl<F: Feedforward + Replan> Controller<F> {
         }
         self.supervise_delivery();
         self.supervise_heartbeats(now_ms);
-        if let Some(request) = self.requests.pop_front() {
-            self.handle(request);
+        // Requests are taken in order: the next one waits while a move is planned.
+        if self.pending.is_none() {
+            if let Some(request) = self.requests.pop_front() {
+                self.handle(request);
+            }
         }
+        self.plan_pending();
         if self.mode == Mode::Enabling
             && self.resetting == 0
             && Drive::ALL
@@ -498,33 +529,28 @@ impl<F: Feedforward + Replan> Controller<F> {
         self.now_ms as f64 / 1000.0
     }
 
-    /// Answers one request (docs/COMMANDS.md).
+    /// Takes one request (docs/COMMANDS.md): answers it, or starts planning a move.
     fn handle(&mut self, request: Request) {
         let now = self.now_s();
         let answer = match request {
             Request::Move {
-                target, duration, ..
+                id,
+                target,
+                duration,
             } => {
-                let plan = *self.feedforward.plan();
+                let plan = self.feedforward.plan();
                 if self.mode != Mode::Ready {
                     Err(Reject::NotReady)
                 } else if plan.has_queued() {
                     Err(Reject::Busy)
                 } else {
-                    let moving = plan.is_moving(now);
-                    self.planner
-                        .plan_move(&plan, target, duration, now)
-                        .and_then(|m| {
-                            self.feedforward
-                                .plan_mut()
-                                .push(m)
-                                .map_err(|_| Reject::Busy)?;
-                            Ok(if moving {
-                                Answer::Queued
-                            } else {
-                                Answer::Accepted
-                            })
-                        })
+                    match MoveSearch::new(plan, target, duration) {
+                        Ok(search) => {
+                            self.pending = Some(PendingMove { id, target, search });
+                            return;
+                        }
+                        Err(r) => Err(r),
+                    }
                 }
             }
             Request::Stop { .. } => {
@@ -545,9 +571,46 @@ impl<F: Feedforward + Replan> Controller<F> {
                 Mode::Enabling | Mode::Ready => Ok(Answer::Accepted),
             },
         };
+        self.give_answer(request.id(), answer);
+    }
+
+    /// Advances the move being planned by this cycle's share of samples; places it in
+    /// the plan and answers when its search is done. A fault meanwhile refuses it.
+    fn plan_pending(&mut self) {
+        let Some(mut pending) = self.pending.take() else {
+            return;
+        };
+        if self.mode != Mode::Ready {
+            self.give_answer(pending.id, Err(Reject::NotReady));
+            return;
+        }
+        let mut budget = SAMPLES_PER_CYCLE;
+        let Some(result) = pending.search.advance(&self.planner, &mut budget) else {
+            self.pending = Some(pending);
+            return;
+        };
+        let now = self.now_s();
+        let answer = result.and_then(|duration| {
+            let plan = self.feedforward.plan_mut();
+            let moving = plan.is_moving(now);
+            // The search checked the path on [0, T]; it is placed now or after the
+            // running move, which shifts it in time and changes nothing it checked.
+            plan.candidate(pending.target.into(), now, duration)
+                .and_then(|m| plan.push(m))
+                .map_err(|_| Reject::Busy)?;
+            Ok(if moving {
+                Answer::Queued
+            } else {
+                Answer::Accepted
+            })
+        });
+        self.give_answer(pending.id, answer);
+    }
+
+    fn give_answer(&mut self, id: u8, answer: Result<Answer, Reject>) {
         self.answer = match answer {
-            Ok(a) => (request.id(), a, None),
-            Err(r) => (request.id(), Answer::Rejected, Some(r)),
+            Ok(a) => (id, a, None),
+            Err(r) => (id, Answer::Rejected, Some(r)),
         };
         self.answered = true;
         self.counters.requests = self.counters.requests.saturating_add(1);
@@ -662,7 +725,7 @@ impl<F: Feedforward + Replan> Controller<F> {
             CONTROLLER_NODE,
             fault.emcy_code(),
             register,
-            [fault.code(), fault.node(), 0, 0, 0],
+            [fault.code(), fault.node(), fault.detail(), 0, 0],
         ));
     }
 

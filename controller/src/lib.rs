@@ -6,6 +6,8 @@
 //! * [`feedforward`] — the inverse model behind a one-step-per-cycle trait, with its plan;
 //! * [`commands`] — move, stop and reset requests, and the status answer;
 //! * [`planner`] — the checks a move or a stop passes before it is accepted;
+//! * [`virtual_bus`], [`traffic`] — simulated drives, scenarios and random traffic
+//!   for the QEMU runs and the host tests;
 //! * [`controller`] — the 100 Hz cycle and the reaction to every fault, with injected time.
 //!
 //! The boards (QEMU, STM32H743) only move frames and call [`Controller::tick`].
@@ -27,6 +29,7 @@ pub mod controller;
 pub mod feedforward;
 pub mod frame;
 pub mod planner;
+pub mod traffic;
 pub mod units;
 pub mod virtual_bus;
 

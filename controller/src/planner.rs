@@ -2,6 +2,10 @@
 //! (docs/COMMANDS.md): the crane's workspace, the rope's tension, and the drives'
 //! velocity and acceleration limits, evaluated with the exact flat inverse at
 //! [`SAMPLES`] + 1 points of the path.
+//!
+//! A move's search for its duration costs up to a dozen such checks; the controller
+//! runs it as a [`MoveSearch`], at most [`SAMPLES_PER_CYCLE`] samples per cycle, so that
+//! planning never takes a cycle past its deadline.
 
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
@@ -49,61 +53,68 @@ impl Planner {
         Self { params, limits }
     }
 
-    /// Checks the desired output on `[t0, t1]`; the highest-precedence violation, if any.
-    pub fn check<Z: Trajectory<f64, 2>>(&self, z: &Z, t0: f64, t1: f64) -> Result<(), Reject> {
+    /// The rules the desired output breaks at `t`: bit `i` set for `ORDER[i]`.
+    fn violations_at<Z: Trajectory<f64, 2>>(&self, z: &Z, t: f64) -> u8 {
         let p = &self.params;
         let w = &p.workspace;
-        let mut violated = [false; ORDER.len()];
-        let mut flag = |reason: Reject| {
-            if let Some(i) = ORDER.iter().position(|r| *r == reason) {
-                if let Some(v) = violated.get_mut(i) {
-                    *v = true;
-                }
-            }
+        let bit = |reason: Reject| {
+            ORDER
+                .iter()
+                .position(|r| *r == reason)
+                .map_or(0, |i| 1u8 << i)
         };
-        for i in 0..=SAMPLES {
-            let t = t0 + (t1 - t0) * i as f64 / SAMPLES as f64;
-            let [zd, _, zdd] = z.derivatives::<3>(t).map(<[f64; 2]>::from);
-            let [_, zc] = zd;
-            let [_, zcdd] = zdd;
-            if zc.is_nan() || zc <= 0.0 {
-                flag(Reject::RopeWorkspace);
-                continue;
-            }
-            if zcdd.is_nan() || zcdd > MAX_DOWN_ACCELERATION * p.g {
-                flag(Reject::SlackRope);
-                continue;
-            }
-            let f = flat_inverse(p, z, t);
-            if !(w.x_min..=w.x_max).contains(&f.x) {
-                flag(Reject::TrolleyWorkspace);
-            }
-            if !(w.l_min..=w.l_max).contains(&f.l) {
-                flag(Reject::RopeWorkspace);
-            }
-            let [u1, u2] = f.u;
-            let [a1, a2] = f.u_dot;
-            let (lt, lw) = (self.limits.trolley, self.limits.winch);
-            for (value, limit, reason) in [
-                (u1, lt.max_velocity, Reject::TrolleyVelocity),
-                (u2, lw.max_velocity, Reject::WinchVelocity),
-                (a1, lt.max_acceleration, Reject::TrolleyAcceleration),
-                (a2, lw.max_acceleration, Reject::WinchAcceleration),
-            ] {
-                if value.is_nan() || value.abs() > MARGIN * limit {
-                    flag(reason);
-                }
+        let [zd, _, zdd] = z.derivatives::<3>(t).map(<[f64; 2]>::from);
+        let [_, zc] = zd;
+        let [_, zcdd] = zdd;
+        if zc.is_nan() || zc <= 0.0 {
+            return bit(Reject::RopeWorkspace);
+        }
+        if zcdd.is_nan() || zcdd > MAX_DOWN_ACCELERATION * p.g {
+            return bit(Reject::SlackRope);
+        }
+        let f = flat_inverse(p, z, t);
+        let mut found = 0;
+        if !(w.x_min..=w.x_max).contains(&f.x) {
+            found |= bit(Reject::TrolleyWorkspace);
+        }
+        if !(w.l_min..=w.l_max).contains(&f.l) {
+            found |= bit(Reject::RopeWorkspace);
+        }
+        let [u1, u2] = f.u;
+        let [a1, a2] = f.u_dot;
+        let (lt, lw) = (self.limits.trolley, self.limits.winch);
+        for (value, limit, reason) in [
+            (u1, lt.max_velocity, Reject::TrolleyVelocity),
+            (u2, lw.max_velocity, Reject::WinchVelocity),
+            (a1, lt.max_acceleration, Reject::TrolleyAcceleration),
+            (a2, lw.max_acceleration, Reject::WinchAcceleration),
+        ] {
+            if value.is_nan() || value.abs() > MARGIN * limit {
+                found |= bit(reason);
             }
         }
-        match ORDER.iter().zip(violated).find(|(_, v)| *v) {
-            Some((reason, _)) => Err(*reason),
-            None => Ok(()),
-        }
+        found
+    }
+
+    /// Checks the desired output at [`SAMPLES`] + 1 points of `[t0, t1]`; the
+    /// highest-precedence violation, if any.
+    pub fn check<Z: Trajectory<f64, 2>>(&self, z: &Z, t0: f64, t1: f64) -> Result<(), Reject> {
+        let found = (0..=SAMPLES).fold(0, |acc, i| {
+            acc | self.violations_at(z, sample_time(t0, t1, i))
+        });
+        first_reason(found)
+    }
+
+    /// Whether the desired output passes every check at the same points as
+    /// [`Planner::check`], visited in a spread order and left at the first violation.
+    pub fn passes<Z: Trajectory<f64, 2>>(&self, z: &Z, t0: f64, t1: f64) -> bool {
+        (0..=SAMPLES).all(|k| self.violations_at(z, sample_time(t0, t1, spread(k))) == 0)
     }
 
     /// A checked move from where `plan` ends to `target` (m), starting no earlier than
-    /// `earliest`, taking `duration` seconds or, for `None`, the shortest duration (to
-    /// 10 ms) that passes every check.
+    /// `earliest`, taking `duration` seconds or, for `None`, the shortest duration that
+    /// passes every check — planned at once (the controller spreads the same search over
+    /// cycles with [`MoveSearch`]).
     pub fn plan_move(
         &self,
         plan: &Plan<f64, 2>,
@@ -111,39 +122,14 @@ impl Planner {
         duration: Option<f64>,
         earliest: f64,
     ) -> Result<PointToPoint<f64, 2>, Reject> {
-        let (shortest, longest) = DURATION_RANGE;
-        if target.iter().any(|v| !v.is_finite() || *v <= 0.0) {
-            return Err(Reject::Invalid);
-        }
-        let target = SVector::from(target);
-        let attempt = |d: f64| -> Result<PointToPoint<f64, 2>, Reject> {
-            let m = plan
-                .candidate(target, earliest, d)
-                .map_err(|_| Reject::Invalid)?;
-            let (t0, t1) = m.active_span();
-            self.check(&m, t0, t1).map(|()| m)
-        };
-        match duration {
-            Some(d) if !(shortest..=longest).contains(&d) => Err(Reject::Invalid),
-            Some(d) => attempt(d),
-            None => {
-                // A move that fails at the longest duration fails for a reason slowness
-                // cannot cure (the workspace, the target itself): report it.
-                let slow = attempt(longest)?;
-                if let Ok(m) = attempt(shortest) {
-                    return Ok(m);
-                }
-                // Geometric bisection: lo fails, hi passes.
-                let (mut lo, mut hi, mut best) = (shortest, longest, slow);
-                while hi / lo > 1.02 {
-                    let mid = libm::sqrt(lo * hi);
-                    match attempt(mid) {
-                        Ok(m) => (hi, best) = (mid, m),
-                        Err(_) => lo = mid,
-                    }
-                }
-                // Round up to the 10 ms grid; keep the checked candidate if rounding fails.
-                Ok(attempt(libm::ceil(hi * 100.0) / 100.0).unwrap_or(best))
+        let mut search = MoveSearch::new(plan, target, duration)?;
+        let mut budget = u32::MAX;
+        loop {
+            if let Some(result) = search.advance(self, &mut budget) {
+                let d = result?;
+                return plan
+                    .candidate(SVector::from(target), earliest, d)
+                    .map_err(|_| Reject::Invalid);
             }
         }
     }
@@ -159,16 +145,239 @@ impl Planner {
     /// A checked smooth stop taking over at `t`: the shortest of [`STOP_DURATIONS`] that
     /// passes every check and comes to rest before the running segment would. `None`
     /// when no stop beats the plan itself — the running segment, checked when it was
-    /// accepted, is then the quickest smooth way to rest.
+    /// accepted, is then the quickest smooth way to rest — or when the search would take
+    /// more than [`STOP_SAMPLES`] samples (the running segment again: a stop is answered
+    /// in the cycle it arrives, within the cycle's budget).
     #[must_use]
     pub fn plan_stop(&self, plan: &Plan<f64, 2>, t: f64) -> Option<Hermite<f64, 2>> {
         let (_, running_until) = plan.active()?.span();
-        STOP_DURATIONS
+        let mut budget = STOP_SAMPLES;
+        for d in STOP_DURATIONS
             .iter()
-            .take_while(|&&d| t + d < running_until)
-            .find_map(|&d| {
-                let stop = plan.stop_candidate(t, d).ok()?;
-                self.check(&stop, t, t + d).ok().map(|()| stop)
-            })
+            .copied()
+            .take_while(|&d| t + d < running_until)
+        {
+            let stop = plan.stop_candidate(t, d).ok()?;
+            let mut found = 0;
+            for k in 0..=SAMPLES {
+                budget = budget.checked_sub(1)?;
+                found |= self.violations_at(&stop, sample_time(t, t + d, spread(k)));
+                if found != 0 {
+                    break;
+                }
+            }
+            if found == 0 {
+                return Some(stop);
+            }
+        }
+        None
+    }
+}
+
+/// Time of sample `i` of `[t0, t1]`.
+fn sample_time(t0: f64, t1: f64, i: usize) -> f64 {
+    t0 + (t1 - t0) * i as f64 / SAMPLES as f64
+}
+
+/// The `k`-th sample of a spread visiting order: 37 and 101 are coprime, so this is a
+/// permutation of `0..=100` whose consecutive samples lie far apart (a violation
+/// anywhere on the path is met early).
+fn spread(k: usize) -> usize {
+    (k * 37) % (SAMPLES + 1)
+}
+
+/// The highest-precedence reason among the violated rules.
+fn first_reason(found: u8) -> Result<(), Reject> {
+    match ORDER
+        .iter()
+        .enumerate()
+        .find(|(i, _)| found & (1 << i) != 0)
+    {
+        Some((_, reason)) => Err(*reason),
+        None => Ok(()),
+    }
+}
+
+/// Path samples a stop's search may take (a stop is planned in the cycle it arrives).
+pub const STOP_SAMPLES: u32 = 2 * SAMPLES_PER_CYCLE;
+
+/// Path samples the controller evaluates per cycle at most while it plans a move
+/// (about 0.4 M instructions: a plan never costs a cycle its deadline).
+pub const SAMPLES_PER_CYCLE: u32 = 128;
+
+/// Where a move search stands.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    /// A given duration: every sample, every reason.
+    Given(f64),
+    /// As fast as possible: first the shortest duration.
+    Shortest,
+    /// Geometric bisection: `lo` fails, `hi` passes (or is the longest, untested).
+    Bisect { lo: f64, hi: f64, tested: bool },
+    /// `hi` rounded up to the 10 ms grid.
+    Round { hi: f64 },
+    /// Nothing passed: the reasons at the longest duration.
+    Reason,
+}
+
+/// One candidate path under check, resumable between cycles.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Check {
+    duration: f64,
+    next: usize,
+    found: u8,
+    /// Every sample and every reason (for the answer), or pass/fail only.
+    full: bool,
+}
+
+impl Check {
+    fn new(duration: f64, full: bool) -> Self {
+        Self {
+            duration,
+            next: 0,
+            found: 0,
+            full,
+        }
+    }
+}
+
+/// A move being planned: the search for its duration, spread over cycles.
+///
+/// The path is a rest-to-rest smooth step from where the plan ends, so its checks do
+/// not depend on when it starts: the search runs on `[0, T]` and the move is placed
+/// when the search is done.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MoveSearch {
+    start: SVector<f64, 2>,
+    target: SVector<f64, 2>,
+    smoothness: usize,
+    phase: Phase,
+    check: Check,
+}
+
+impl MoveSearch {
+    /// Starts planning a move from where `plan` ends to `target`; refuses an invalid
+    /// request at once.
+    pub fn new(
+        plan: &Plan<f64, 2>,
+        target: [f64; 2],
+        duration: Option<f64>,
+    ) -> Result<Self, Reject> {
+        let (shortest, longest) = DURATION_RANGE;
+        if target.iter().any(|v| !v.is_finite() || *v <= 0.0) {
+            return Err(Reject::Invalid);
+        }
+        let phase = match duration {
+            Some(d) if !(shortest..=longest).contains(&d) => return Err(Reject::Invalid),
+            Some(d) => Phase::Given(d),
+            None => Phase::Shortest,
+        };
+        let check = match phase {
+            Phase::Given(d) => Check::new(d, true),
+            _ => Check::new(shortest, false),
+        };
+        Ok(Self {
+            start: plan.final_position(),
+            target: SVector::from(target),
+            smoothness: plan.planned_smoothness(),
+            phase,
+            check,
+        })
+    }
+
+    /// Evaluates at most `budget` samples (and lowers it by as many); the chosen
+    /// duration or the reason once the search is done.
+    pub fn advance(&mut self, planner: &Planner, budget: &mut u32) -> Option<Result<f64, Reject>> {
+        loop {
+            let passed = self.run_check(planner, budget)?;
+            if let Some(done) = self.next_phase(passed) {
+                return Some(done);
+            }
+        }
+    }
+
+    /// Runs the current check within the budget: `None` if it is unfinished.
+    fn run_check(&mut self, planner: &Planner, budget: &mut u32) -> Option<Result<(), Reject>> {
+        let c = &mut self.check;
+        let Ok(path) = PointToPoint::new(self.start, self.target, 0.0, c.duration, self.smoothness)
+        else {
+            return Some(Err(Reject::Invalid));
+        };
+        while c.next <= SAMPLES {
+            if *budget == 0 {
+                return None;
+            }
+            *budget -= 1;
+            let i = if c.full { c.next } else { spread(c.next) };
+            c.found |= planner.violations_at(&path, sample_time(0.0, c.duration, i));
+            c.next += 1;
+            if !c.full && c.found != 0 {
+                break;
+            }
+        }
+        Some(first_reason(c.found))
+    }
+
+    /// The search's next step after a finished check: `Some` when the search is done.
+    fn next_phase(&mut self, passed: Result<(), Reject>) -> Option<Result<f64, Reject>> {
+        let (shortest, longest) = DURATION_RANGE;
+        let d = self.check.duration;
+        let (phase, next) = match (self.phase, passed) {
+            (Phase::Given(_), result) => return Some(result.map(|()| d)),
+            (Phase::Reason, result) => return Some(result.map(|()| d)),
+            (Phase::Shortest, Ok(())) => return Some(Ok(d)),
+            (Phase::Round { .. }, Ok(())) => return Some(Ok(d)),
+            (Phase::Round { hi }, Err(_)) => return Some(Ok(hi)),
+            (Phase::Shortest, Err(_)) => (
+                Phase::Bisect {
+                    lo: shortest,
+                    hi: longest,
+                    tested: false,
+                },
+                None,
+            ),
+            (Phase::Bisect { lo, hi, tested }, result) => {
+                let mid = d;
+                match result {
+                    Ok(()) => (
+                        Phase::Bisect {
+                            lo,
+                            hi: mid,
+                            tested: true,
+                        },
+                        None,
+                    ),
+                    Err(_) if mid >= longest => (Phase::Reason, Some(Check::new(longest, true))),
+                    Err(_) => (
+                        Phase::Bisect {
+                            lo: mid,
+                            hi,
+                            tested,
+                        },
+                        None,
+                    ),
+                }
+            }
+        };
+        self.phase = phase;
+        if let Some(check) = next {
+            self.check = check;
+            return None;
+        }
+        self.check = match self.phase {
+            Phase::Bisect { lo, hi, .. } if hi / lo > 1.02 => {
+                Check::new(libm::sqrt(lo * hi), false)
+            }
+            // Not yet known to pass: the longest itself.
+            Phase::Bisect {
+                hi, tested: false, ..
+            } => Check::new(hi, false),
+            Phase::Bisect { hi, .. } => {
+                self.phase = Phase::Round { hi };
+                Check::new((libm::ceil(hi * 100.0) / 100.0).min(longest), false)
+            }
+            _ => return Some(Err(Reject::Invalid)),
+        };
+        None
     }
 }

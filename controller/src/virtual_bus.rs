@@ -15,6 +15,7 @@ use crate::commands::{request_frame, Request};
 use crate::controller::{Controller, Cycle};
 use crate::feedforward::{Feedforward, Injectable, Replan};
 use crate::frame::CanFrame;
+use crate::traffic::Traffic;
 
 /// A frame as `const` data.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -56,6 +57,8 @@ pub enum Action {
     Silence(Drive),
     /// The drive drops to *switch on disabled* without a fault (safe torque off).
     DropOut(Drive),
+    /// A silent drive talks again.
+    Revive(Drive),
     /// The inverse model's next step fails (the firmware's solver-fault injection).
     SolverFailure,
     /// The controller's transmissions fail for `cycles` cycles (bus-off, then recovery).
@@ -85,6 +88,8 @@ pub struct Scenario {
     pub events: &'static [Event],
     /// Cycles to run; 0 runs the scene's own time.
     pub cycles: u32,
+    /// Random traffic from this seed on top of the events (the soak run).
+    pub random: Option<u32>,
 }
 
 /// One simulated CiA 402 drive.
@@ -168,6 +173,7 @@ pub struct VirtualBus {
     next_event: usize,
     inbox: Deque<CanFrame, 32>,
     injected: Deque<CanFrame, 32>,
+    traffic: Option<Traffic>,
     solver_failure: bool,
     bus_off_cycles: u8,
     noise: u32,
@@ -188,6 +194,7 @@ impl VirtualBus {
             next_event: 0,
             inbox: Deque::new(),
             injected: Deque::new(),
+            traffic: scenario.random.map(Traffic::new),
             solver_failure: false,
             bus_off_cycles: 0,
             noise: 0x9E37_79B9,
@@ -279,6 +286,10 @@ impl VirtualBus {
         while let Some(f) = self.injected.pop_front() {
             let _ = fresh.push_back(f);
         }
+        if let Some(mut traffic) = self.traffic.take() {
+            traffic.cycle(up_to_ms, |a| self.apply(a, &mut fresh));
+            self.traffic = Some(traffic);
+        }
         // Heartbeats every 100 ms from 5 ms on.
         let beats = |t: u32| if t < 5 { 0 } else { (t - 5) / 100 + 1 };
         let due = beats(up_to_ms).saturating_sub(beats(after_ms));
@@ -326,6 +337,7 @@ impl VirtualBus {
             }
             Action::Silence(drive) => self.drive_mut(drive).silent = true,
             Action::DropOut(drive) => self.drive_mut(drive).state = DriveState::SwitchOnDisabled,
+            Action::Revive(drive) => self.drive_mut(drive).silent = false,
             Action::SolverFailure => self.solver_failure = true,
             Action::BusOff { cycles } => self.bus_off_cycles = cycles,
         }
@@ -404,6 +416,7 @@ pub const HEALTHY: Scenario = Scenario {
     expect: "ready, at rest at (20, 4)",
     events: &[],
     cycles: 0,
+    random: None,
 };
 
 /// Two moves requested back to back after the paper's move: the first starts at once,
@@ -416,6 +429,7 @@ pub const TWO_MOVES: Scenario = Scenario {
         at(9_600, move_to(2, 15.0, 6.0, 0.0)),
     ],
     cycles: 2_000,
+    random: None,
 };
 
 /// Every rejection reason once: a move before the drives are enabled (not ready), one
@@ -439,6 +453,7 @@ pub const REJECTIONS: Scenario = Scenario {
         at(13_900, move_to(12, 16.0, 6.0, 0.0)), // accepted, as fast as the limits allow
     ],
     cycles: 1_900,
+    random: None,
 };
 
 /// A storm of malformed and unknown frames during the move: ignored, counted, no effect.
@@ -453,6 +468,7 @@ pub const STORM: Scenario = Scenario {
         at(6_000, Action::Storm { count: 20 }),
     ],
     cycles: 0,
+    random: None,
 };
 
 /// The winch drive faults in the middle of the move: quick stop, halted; then a reset.
@@ -464,6 +480,7 @@ pub const DRIVE_FAULT: Scenario = Scenario {
         at(8_000, Action::Request(Request::Reset { id: 1 })),
     ],
     cycles: 1_000,
+    random: None,
 };
 
 /// The inverse model fails in the middle of the move: controlled stop, halted.
@@ -472,6 +489,7 @@ pub const NEWTON_FAILURE: Scenario = Scenario {
     expect: "halted after the solver's failure at 5 s and a controlled stop",
     events: &[at(5_000, Action::SolverFailure)],
     cycles: 0,
+    random: None,
 };
 
 /// The trolley drive falls silent in the middle of the move: quick stop, halted.
@@ -480,6 +498,7 @@ pub const LOST_HEARTBEAT: Scenario = Scenario {
     expect: "halted after the trolley's heartbeat stopped at 4 s",
     events: &[at(4_000, Action::Silence(Drive::Trolley))],
     cycles: 0,
+    random: None,
 };
 
 /// A stop request in the middle of the move: the load comes to rest smoothly, a
@@ -489,6 +508,7 @@ pub const STOP: Scenario = Scenario {
     expect: "ready, at rest short of (20, 4) after a smooth stop from 4 s to 8 s",
     events: &[at(4_000, Action::Request(Request::Stop { id: 1 }))],
     cycles: 0,
+    random: None,
 };
 
 /// The bus goes off twice in the middle of the move: for 2 cycles (counted, the move
@@ -501,6 +521,7 @@ pub const BUS_OFF: Scenario = Scenario {
         at(6_000, Action::BusOff { cycles: 5 }),
     ],
     cycles: 0,
+    random: None,
 };
 
 /// Every scenario, by name.
@@ -516,8 +537,19 @@ pub const SCENARIOS: [Scenario; 9] = [
     BUS_OFF,
 ];
 
-/// The scenario of this name.
+/// The soak run: random valid and invalid requests, garbage and faults after the
+/// paper's move, for as many cycles as asked (`cargo xtask soak --minutes M`; one
+/// simulated minute by default).
+pub const SOAK: Scenario = Scenario {
+    name: "soak",
+    expect: "every set point finite and within the limits, whatever the traffic",
+    events: &[],
+    cycles: 6_000,
+    random: Some(0x5EED_C0DE),
+};
+
+/// The scenario of this name (the checked ones and the soak run).
 #[must_use]
 pub fn scenario(name: &str) -> Option<Scenario> {
-    SCENARIOS.into_iter().find(|s| s.name == name)
+    SCENARIOS.into_iter().chain([SOAK]).find(|s| s.name == name)
 }

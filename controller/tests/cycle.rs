@@ -131,6 +131,7 @@ fn a_set_point_beyond_the_limits_is_refused_at_the_choke_point() {
     assert_eq!(drive, Drive::Trolley);
     assert!(value > limit);
     assert_eq!(emcy(&last.frames), Some((0xFF03, 0x81, 2, 1)));
+    assert_eq!(emcy_detail(&last.frames), Some(3), "over acceleration");
     // The refused value never left: every set point sent was zero.
     assert!(out.iter().all(|c| c.setpoints.map(|s| s.units()) == [0, 0]));
     let (word, _) = rpdo(&last.frames, Drive::Trolley);

@@ -179,6 +179,11 @@ fn newton_failure_ramps_down_then_halts() {
     assert!(matches!(m[3], (_, Mode::Halted(f)) if f == fault), "{m:?}");
     assert_eq!(m.len(), 4);
     assert_eq!(emcys(&cycles), vec![(5_000, (0x6100, 0x81, 1, 0))]);
+    assert_eq!(
+        emcy_detail(&cycles[500].frames),
+        Some(1),
+        "Newton did not converge"
+    );
     assert_controlled_stop(&cycles, 500);
 }
 

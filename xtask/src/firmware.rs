@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use controller::virtual_bus::Scenario;
 use host_tests::dbc::Dbc;
 
 use crate::{cargo, defmt_log, run, setup};
@@ -85,9 +86,15 @@ pub struct QemuRun {
 }
 
 /// QEMU's command line: mps2-an500 (Cortex-M7, DP FPU), semihosting for the log, the
-/// exit code and the virtual bus's scenario (the command line's second word), and
-/// `-icount shift=7` so that virtual time follows the instruction count.
-pub fn qemu_command(elf: &Path, scenario: &str) -> Command {
+/// exit code and the virtual bus's scenario (the command line's words after the
+/// program's: its name and, if not 0, its cycles), and `-icount shift=7` so that
+/// virtual time follows the instruction count.
+pub fn qemu_command(elf: &Path, scenario: &Scenario) -> Command {
+    let cycles = if scenario.cycles == 0 {
+        String::new()
+    } else {
+        format!(",arg={}", scenario.cycles)
+    };
     let mut cmd = Command::new("qemu-system-arm");
     cmd.args([
         "-M",
@@ -100,7 +107,8 @@ pub fn qemu_command(elf: &Path, scenario: &str) -> Command {
     ])
     .arg("-semihosting-config")
     .arg(format!(
-        "enable=on,target=native,arg=firmware,arg={scenario}"
+        "enable=on,target=native,arg=firmware,arg={}{cycles}",
+        scenario.name
     ))
     .args(["-icount", "shift=7,align=off,sleep=off"])
     .arg("-kernel")
@@ -109,10 +117,10 @@ pub fn qemu_command(elf: &Path, scenario: &str) -> Command {
 }
 
 /// Runs the firmware under QEMU on `scenario` (killed after `limit`) and decodes its log.
-pub fn run_qemu(elf: &Path, scenario: &str, limit: Duration) -> Result<QemuRun, String> {
+pub fn run_qemu(elf: &Path, scenario: &Scenario, limit: Duration) -> Result<QemuRun, String> {
     setup::ensure_qemu()?;
     let elf_bytes = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
-    let out_path = elf.with_extension(format!("{scenario}.defmt"));
+    let out_path = elf.with_extension(format!("{}.defmt", scenario.name));
     let out =
         std::fs::File::create(&out_path).map_err(|e| format!("{}: {e}", out_path.display()))?;
     let mut child = qemu_command(elf, scenario)

@@ -7,6 +7,8 @@
 //! * `qemu [--overwrite-expected]` — the QEMU checks alone: golden output, the host's
 //!   computation of the same scene, committed baselines (±10 %).
 //! * `qemu-bench` — instructions per step, flash, RAM and stack against the targets.
+//! * `soak --minutes M` — the QEMU firmware through M simulated minutes of random
+//!   requests, garbage and faults; every set point checked against the limits.
 //! * `flash` — builds the STM32H743 firmware and runs it with `probe-rs run`.
 //! * `study …` — the speed/accuracy studies (`run`, `sweep`, `paper`, `extremes`).
 //! * `bench` — criterion benchmarks of one step and whole runs on the host.
@@ -17,6 +19,7 @@ mod defmt_log;
 mod firmware;
 mod qemu;
 mod setup;
+mod soak;
 
 use firmware::Board;
 
@@ -28,6 +31,17 @@ fn main() -> ExitCode {
         Some("test") => test(),
         Some("qemu") => qemu_checks(flag("--overwrite-expected")),
         Some("qemu-bench") => qemu_bench(),
+        Some("soak") => match args
+            .iter()
+            .position(|a| a == "--minutes")
+            .and_then(|i| args.get(i + 1))
+        {
+            Some(m) => m
+                .parse()
+                .map_err(|e| format!("--minutes {m}: {e}"))
+                .and_then(soak::soak),
+            None => Err("usage: cargo xtask soak --minutes M".into()),
+        },
         Some("flash") => flash(),
         Some("study") => run(cargo()
             .args([
@@ -46,7 +60,7 @@ fn main() -> ExitCode {
             .args(args.iter().skip(1))),
         _ => {
             eprintln!(
-                "usage: cargo xtask run | test | qemu [--overwrite-expected] | qemu-bench | flash | study … | bench"
+                "usage: cargo xtask run | test | qemu [--overwrite-expected] | qemu-bench | soak --minutes M | flash | study … | bench"
             );
             return ExitCode::from(2);
         }
@@ -179,6 +193,8 @@ fn test() -> Result<(), String> {
     // The real drive controller: CI can build it, not run it.
     firmware::build(Board::Stm32h743, &firmware::root().join(qemu::SCENES[0]))?;
     qemu_checks(false)?;
+    // A short soak: one simulated minute of random traffic, every set point checked.
+    soak::soak(1)?;
     eprintln!("xtask test: all checks passed");
     Ok(())
 }

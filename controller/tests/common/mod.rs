@@ -172,6 +172,12 @@ pub fn emcy(frames: &[controller::CanFrame]) -> Option<(u16, u8, u8, u8)> {
     })
 }
 
+/// The detail byte of the controller's EMCY in `frames` (why a set point was refused,
+/// which solver failure).
+pub fn emcy_detail(frames: &[controller::CanFrame]) -> Option<u8> {
+    frames.iter().find(|f| f.id() == 0x090).map(|f| f.data()[5])
+}
+
 /// The answers given, in order: (request id, answer, reason), from the status frames.
 pub fn answers(cycles: &[Cycle]) -> Vec<(u8, u8, u8)> {
     let mut out: Vec<(u8, u8, u8)> = Vec::new();

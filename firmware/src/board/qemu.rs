@@ -107,10 +107,11 @@ pub struct Board {
     rx_until: Option<u32>,
 }
 
-/// The scenario named on the semihosting command line (`… arg=firmware,arg=<name>`):
-/// `healthy` without one; `Err` with the name's length for an unknown one.
+/// The scenario named on the semihosting command line
+/// (`… arg=firmware,arg=<name>[,arg=<cycles>]`): `healthy` without one, its cycles
+/// replaced if a number follows; `Err` with the name's length for an unknown one.
 pub fn scenario() -> Result<Scenario, usize> {
-    let mut buffer = [0u8; 64];
+    let mut buffer = [0u8; 96];
     let mut block = [buffer.as_mut_ptr() as usize, buffer.len()];
     // SAFETY: SYS_GET_CMDLINE writes at most `block[1]` bytes into `buffer` and the
     // length into `block[1]`; both outlive the call.
@@ -126,10 +127,14 @@ pub fn scenario() -> Result<Scenario, usize> {
     let line = buffer.get(..block[1].min(buffer.len())).unwrap_or(&[]);
     let line = core::str::from_utf8(line).unwrap_or("");
     let mut words = line.split_ascii_whitespace().skip(1);
-    match words.next() {
-        None => Ok(virtual_bus::HEALTHY),
-        Some(name) => virtual_bus::scenario(name).ok_or(name.len()),
+    let mut scenario = match words.next() {
+        None => return Ok(virtual_bus::HEALTHY),
+        Some(name) => virtual_bus::scenario(name).ok_or(name.len())?,
+    };
+    if let Some(cycles) = words.next().and_then(|w| w.parse().ok()) {
+        scenario.cycles = cycles;
     }
+    Ok(scenario)
 }
 
 impl Board {
