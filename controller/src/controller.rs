@@ -244,7 +244,7 @@ pub struct Cycle {
 }
 
 /// The crane controller: CANopen manager of the trolley and winch drives.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct Controller<F> {
     feedforward: F,
     config: Config,
@@ -486,7 +486,12 @@ impl<F: Feedforward + Replan> Controller<F> {
             self.push(&mut frames, emcy);
         }
         self.push(&mut frames, canopen::sync());
-        let periodic = (self.config.heartbeat_period_ms / self.config.period_ms).max(1);
+        let periodic = self
+            .config
+            .heartbeat_period_ms
+            .checked_div(self.config.period_ms)
+            .unwrap_or(1)
+            .max(1);
         let beat = !first && self.counters.cycles.is_multiple_of(periodic);
         if beat {
             self.push(

@@ -84,7 +84,7 @@ pub(crate) fn solve<T: Real, const M: usize>(
     let d = lu.as_slice();
     let x = b.as_mut_slice();
     for (k, &p) in pivots.iter().enumerate() {
-        if p != k {
+        if p != k && k < x.len() && p < x.len() {
             x.swap(k, p);
         }
     }
@@ -173,7 +173,10 @@ pub(crate) fn invert<T: Real, const M: usize>(a: &mut SMatrix<T, M, M>) -> bool 
         let p = pivots.get(j).copied().unwrap_or(j);
         if p != j {
             for i in 0..M {
-                d.swap(j * M + i, p * M + i);
+                let (a, b) = (j * M + i, p * M + i);
+                if a < d.len() && b < d.len() {
+                    d.swap(a, b);
+                }
             }
         }
     }

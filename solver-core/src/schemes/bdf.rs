@@ -13,13 +13,13 @@
 
 use core::marker::PhantomData;
 
-use heapless::HistoryBuf;
 use nalgebra::{SMatrix, SVector};
 
 use crate::error::{Error, Result};
 use crate::model::DaeModel;
 use crate::newton::{row_scaling, Newton, StepSystem};
 use crate::scalar::{c, to_f64, Real};
+use crate::schemes::history::History;
 use crate::schemes::{SolverSettings, StepReport};
 
 /// Largest supported k (BDF is not zero-stable beyond 6).
@@ -48,8 +48,8 @@ pub struct Bdf<T: Real, M, const N: usize, const NU: usize> {
     /// Predictor: the polynomial through the last k values, extrapolated to `t_n`.
     predictor: [T; MAX_K],
     scale: SVector<T, N>,
-    /// `x_{n−1}, x_{n−2}, …` (newest last).
-    history: HistoryBuf<SVector<T, N>, MAX_K>,
+    /// `x_{n−1}, x_{n−2}, …`.
+    history: History<T, N, MAX_K>,
     newton: Newton<T, N>,
     model: PhantomData<fn() -> M>,
 }
@@ -81,7 +81,7 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> Bdf<T, M, 
             alpha: row.map(c),
             predictor,
             scale: row_scaling(&M::ALGEBRAIC, h, settings.scaling_power),
-            history: HistoryBuf::new_with(x0),
+            history: History::filled(x0),
             newton: Newton::new(settings.jacobian, settings.newton)?,
             model: PhantomData,
         })
@@ -91,7 +91,7 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> Bdf<T, M, 
     /// trajectory must rest at `t0`.
     pub fn restart(&mut self, model: &M, t0: T) -> Result<()> {
         let x0 = model.rest_state(t0)?;
-        self.history = HistoryBuf::new_with(x0);
+        self.history = History::filled(x0);
         self.t0 = t0;
         self.steps = 0;
         self.newton.forget();
@@ -113,10 +113,7 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> Bdf<T, M, 
     /// The newest solution value.
     #[must_use]
     pub fn state(&self) -> SVector<T, N> {
-        self.history
-            .recent()
-            .copied()
-            .unwrap_or_else(SVector::zeros)
+        self.history.newest()
     }
 
     /// Advances one step. On error the integrator stays where it was.
@@ -128,7 +125,7 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> Bdf<T, M, 
         let anchor = self.state();
         let mut past = SVector::<T, N>::zeros();
         let mut guess = anchor;
-        let newest_first = self.history.oldest_ordered().rev().take(self.k);
+        let newest_first = self.history.newest_first().take(self.k);
         for ((x, a), p) in newest_first
             .zip(self.alpha.iter().skip(1))
             .zip(self.predictor.iter())
@@ -148,7 +145,7 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> Bdf<T, M, 
             t: to_f64(t),
         };
         let (x, stats) = self.newton.solve(&system, guess)?;
-        self.history.write(x);
+        self.history.push(x);
         self.steps += 1;
         Ok(StepReport {
             t,

@@ -5,6 +5,7 @@
 //! step (so a caller may swap in a new trajectory between steps).
 
 pub mod bdf;
+mod history;
 pub mod radau;
 
 use nalgebra::SVector;

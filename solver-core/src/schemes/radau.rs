@@ -179,11 +179,17 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> RadauSyste
         let mut x = self.x0;
         if let Some(row) = self.ha.get(i) {
             for (j, a) in row.iter().enumerate() {
-                x += xi.fixed_rows::<N>(j * N) * *a;
+                x += block::<T, N, S>(xi, j) * *a;
             }
         }
-        (x, xi.fixed_rows::<N>(i * N).into_owned())
+        (x, block::<T, N, S>(xi, i))
     }
+}
+
+/// Block `j` of the stage vector, entries `j·N .. (j+1)·N` (checked access: there is
+/// nothing to panic about, for the firmware's link-time proof).
+fn block<T: Real, const N: usize, const S: usize>(xi: &SVector<T, S>, j: usize) -> SVector<T, N> {
+    SVector::from_fn(|r, _| xi.get(j * N + r).copied().unwrap_or_else(T::zero))
 }
 
 impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize>
@@ -231,7 +237,7 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
                 let mut delta = SVector::<T, N>::zeros();
                 if let Some(row) = self.ha.get(i) {
                     for (j, a) in row.iter().enumerate() {
-                        delta += eta.fixed_rows::<N>(j * N) * *a;
+                        delta += block::<T, N, S>(eta, j) * *a;
                     }
                 }
                 weighted_norm(&delta, &x, rtol, atol)

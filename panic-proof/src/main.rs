@@ -1,0 +1,138 @@
+//! Link-time proof that the firmware's portable logic cannot panic.
+//!
+//! `panic-never` is this binary's panic handler: it calls a symbol that does not exist,
+//! so the link fails if any panicking branch survives optimisation. The binary drives
+//! every entry point the firmware's 100 Hz task calls — `Controller::on_frame`,
+//! `tick`, `record_cost`, `transmit_failed` — for every model and scheme a scene can
+//! choose (crane *subs* and *proj*, BDF and Radau IIA, every Jacobian mode through the
+//! settings), with every input (frames, times, costs, settings, parameters, the first
+//! move) hidden behind `black_box`, so that nothing is proven for constants only.
+//! Built with the firmware's release profile for the drive's target:
+//! `cargo xtask panic-proof`. What it does not cover — the board, RTIC and defmt — is
+//! listed path by path in docs/PANICS.md.
+#![no_std]
+#![no_main]
+
+use core::hint::black_box;
+
+use controller::feedforward::command_plan;
+use controller::planner::Planner;
+use controller::units::DriveLimits;
+use controller::{CanFrame, Config, Controller, Feedforward, InverseModel, Replan};
+use cortex_m_rt::entry;
+use nalgebra::SVector;
+#[cfg(feature = "panic-never")]
+use panic_never as _;
+
+/// With `--no-default-features --features report`: a handler that links, so that the
+/// panicking branches can be listed (`cargo xtask panic-proof` does).
+#[cfg(not(feature = "panic-never"))]
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    loop {
+        black_box(());
+    }
+}
+use solver_core::models::crane::CraneParams;
+use solver_core::models::crane_proj::CraneProj;
+use solver_core::models::crane_subs::CraneSubs;
+use solver_core::plan::Plan;
+use solver_core::trajectory::PointToPoint;
+use solver_core::{Bdf, Error, JacobianMode, Radau, SolverSettings};
+
+type Subs = CraneSubs<f64, Plan<f64, 2>>;
+type Proj = CraneProj<f64, Plan<f64, 2>>;
+
+/// The first plan: rest, then a move, all from opaque inputs.
+fn plan() -> Result<Plan<f64, 2>, Error> {
+    let [x0, z0, x1, z1, t0, d]: [f64; 6] = black_box([12.0, 8.0, 20.0, 4.0, 1.0, 8.0]);
+    let n: usize = black_box(4);
+    let mut plan = command_plan([x0, z0], n)?;
+    plan.push(PointToPoint::new(
+        SVector::from([x0, z0]),
+        SVector::from([x1, z1]),
+        t0,
+        d,
+        n,
+    )?)?;
+    Ok(plan)
+}
+
+/// Runs the controller's entry points on opaque inputs, forever.
+fn run<F: Feedforward + Replan>(feedforward: F) -> ! {
+    let params: CraneParams = black_box(CraneParams::PAPER);
+    let limits: DriveLimits = black_box(DriveLimits::LAB);
+    let config: Config = black_box(Config::DEFAULT);
+    let mut controller = Controller::new(feedforward, Planner::new(params, limits), config);
+    loop {
+        let now: u64 = black_box(0);
+        let (id, len, data): (u16, usize, [u8; 8]) = black_box((0, 0, [0; 8]));
+        if let Ok(frame) = CanFrame::new(id, data.get(..len).unwrap_or(&[])) {
+            controller.on_frame(&frame, now);
+        }
+        let out = controller.tick(now);
+        controller.record_cost(black_box(0));
+        for frame in &out.frames {
+            if black_box(false) {
+                controller.transmit_failed(frame);
+            }
+            black_box(frame);
+        }
+        black_box(&out);
+    }
+}
+
+/// Where a refused setup ends.
+fn halt() -> ! {
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    let settings: SolverSettings = black_box(SolverSettings::paper(JacobianMode::Exact));
+    let k: usize = black_box(4);
+    let t0: f64 = black_box(0.0);
+    let choice: u8 = black_box(0);
+    let Ok(plan) = plan() else { halt() };
+    let params: CraneParams = black_box(CraneParams::PAPER);
+    match choice {
+        0 => {
+            let Ok(model) = Subs::new(params, plan) else {
+                halt()
+            };
+            let Ok(integrator) = Bdf::<f64, Subs, 7, 2>::new(&model, &settings, k, t0) else {
+                halt()
+            };
+            run(InverseModel { model, integrator })
+        }
+        1 => {
+            let Ok(model) = Subs::new(params, plan) else {
+                halt()
+            };
+            let Ok(integrator) = Radau::<f64, Subs, 7, 2, 21>::new(&model, &settings, t0) else {
+                halt()
+            };
+            run(InverseModel { model, integrator })
+        }
+        2 => {
+            let Ok(model) = Proj::new(params, plan) else {
+                halt()
+            };
+            let Ok(integrator) = Bdf::<f64, Proj, 8, 2>::new(&model, &settings, k, t0) else {
+                halt()
+            };
+            run(InverseModel { model, integrator })
+        }
+        _ => {
+            let Ok(model) = Proj::new(params, plan) else {
+                halt()
+            };
+            let Ok(integrator) = Radau::<f64, Proj, 8, 2, 24>::new(&model, &settings, t0) else {
+                halt()
+            };
+            run(InverseModel { model, integrator })
+        }
+    }
+}
