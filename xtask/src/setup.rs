@@ -66,3 +66,18 @@ pub fn ensure_qemu() -> Result<(), String> {
     }
     Ok(())
 }
+
+/// The cargo-fuzz version `cargo xtask fuzz` installs from crates.io.
+const CARGO_FUZZ: &str = "0.13.2";
+
+/// `cargo install cargo-fuzz` from crates.io, if `cargo fuzz` is missing.
+pub fn ensure_cargo_fuzz() -> Result<(), String> {
+    if crate::cargo()
+        .args(["fuzz", "--version"])
+        .output()
+        .is_ok_and(|o| o.status.success())
+    {
+        return Ok(());
+    }
+    run(crate::cargo().args(["install", "cargo-fuzz", "--locked", "--version", CARGO_FUZZ]))
+}

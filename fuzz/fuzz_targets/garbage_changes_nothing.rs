@@ -1,0 +1,48 @@
+//! Garbage in the middle of the paper's move: frames the decoder refuses change no set
+//! point and no mode — the controller fed them and its twin that never saw them send
+//! the same set points for the next cycles.
+#![no_main]
+
+use std::sync::LazyLock;
+
+use controller::canopen;
+use controller::CanFrame;
+use crane_fuzz::Rig;
+use libfuzzer_sys::fuzz_target;
+
+/// Drives enabled, the move under way (3 s).
+static MID_MOVE: LazyLock<Rig> = LazyLock::new(|| Rig::after(300));
+
+fuzz_target!(|frames: Vec<(u16, Vec<u8>)>| {
+    let base = &*MID_MOVE;
+    let mut noisy = Rig {
+        controller: base.controller.clone(),
+        bus: base.bus.clone(),
+        cycle: base.cycle,
+    };
+    let mut clean = Rig {
+        controller: base.controller.clone(),
+        bus: base.bus.clone(),
+        cycle: base.cycle,
+    };
+    let now = u64::from(noisy.now_ms());
+    let mut fed = 0;
+    for (id, data) in frames.iter().take(64) {
+        let Ok(frame) = CanFrame::new(id & 0x7FF, data) else {
+            continue;
+        };
+        if canopen::decode(&frame).is_err() {
+            noisy.controller.on_frame(&frame, now);
+            fed += 1;
+        }
+    }
+    assert_eq!(
+        noisy.controller.counters().frames_ignored,
+        clean.controller.counters().frames_ignored + fed
+    );
+    for _ in 0..3 {
+        let (a, b) = (clean.step(), noisy.step());
+        assert_eq!(a.setpoints, b.setpoints);
+        assert_eq!(a.mode, b.mode);
+    }
+});

@@ -1,0 +1,110 @@
+//! What the fuzz targets share: the firmware's default scene (the paper's crane, BDF4
+//! with the exact Jacobian at h = 10 ms) behind the controller, and checks of what the
+//! controller sends.
+
+use controller::canopen::{cob, Drive};
+use controller::feedforward::command_plan;
+use controller::planner::Planner;
+use controller::units::DriveLimits;
+use controller::virtual_bus::{run_cycle, Scenario, VirtualBus, HEALTHY};
+use controller::{CanFrame, Config, Controller, Injectable, InverseModel};
+use nalgebra::SVector;
+use solver_core::models::crane::CraneParams;
+use solver_core::models::crane_subs::CraneSubs;
+use solver_core::plan::Plan;
+use solver_core::trajectory::PointToPoint;
+use solver_core::{Bdf, JacobianMode, NewtonSettings, SolverSettings};
+
+/// The inverse model the firmware runs by default.
+pub type Model = CraneSubs<f64, Plan<f64, 2>>;
+/// Model, integrator and the solver-failure injection.
+pub type Feedforward = Injectable<InverseModel<Model, Bdf<f64, Model, 7, 2>>>;
+
+/// The planner with the lab drives' limits.
+pub const PLANNER: Planner = Planner::new(CraneParams::PAPER, DriveLimits::LAB);
+
+/// The paper's move (12, 8) → (20, 4) from 1 s to 9 s, or rest at (12, 8).
+pub fn feedforward(paper_move: bool) -> Feedforward {
+    let home = [12.0, 8.0];
+    let mut plan = command_plan(home, 4).expect("valid plan");
+    if paper_move {
+        let m = PointToPoint::new(SVector::from(home), SVector::from([20.0, 4.0]), 1.0, 8.0, 4)
+            .expect("the paper's move");
+        plan.push(m).expect("fits the plan");
+    }
+    let model = CraneSubs::new(CraneParams::PAPER, plan).expect("the paper's crane");
+    let settings = SolverSettings {
+        h: 0.01,
+        jacobian: JacobianMode::Exact,
+        scaling_power: 2,
+        newton: NewtonSettings::for_scalar::<f64>(),
+    };
+    let integrator = Bdf::new(&model, &settings, 4, 0.0).expect("BDF4");
+    Injectable::new(InverseModel { model, integrator })
+}
+
+/// The controller and its bus, advanced together as the firmware does.
+pub struct Rig {
+    /// The controller.
+    pub controller: Controller<Feedforward>,
+    /// The simulated drives.
+    pub bus: VirtualBus,
+    /// Cycles run.
+    pub cycle: u32,
+}
+
+impl Rig {
+    /// The controller with the paper's move planned, on `scenario`'s bus.
+    pub fn new(scenario: Scenario) -> Self {
+        Self {
+            controller: Controller::new(feedforward(true), PLANNER, Config::DEFAULT),
+            bus: VirtualBus::new(scenario),
+            cycle: 0,
+        }
+    }
+
+    /// The healthy rig after `cycles` cycles (drives enabled, the move under way).
+    pub fn after(cycles: u32) -> Self {
+        let mut rig = Self::new(HEALTHY);
+        for _ in 0..cycles {
+            rig.step();
+        }
+        rig
+    }
+
+    /// Time of the next cycle, ms.
+    pub fn now_ms(&self) -> u32 {
+        self.cycle * 10
+    }
+
+    /// One cycle; its set points, drive units.
+    pub fn step(&mut self) -> controller::Cycle {
+        let (now, after) = (self.now_ms(), self.now_ms().saturating_sub(10));
+        let out = run_cycle(&mut self.controller, &mut self.bus, after, now);
+        self.cycle += 1;
+        out
+    }
+}
+
+/// Panics unless every RPDO in `frames` is within the drive limits, and within the
+/// acceleration limit against `last` (updated).
+pub fn assert_admissible(frames: &[CanFrame], last: &mut [i64; 2]) {
+    let limits = DriveLimits::LAB;
+    for f in frames {
+        for d in Drive::ALL {
+            if f.id() == cob::RPDO1 + u16::from(d.node()) {
+                let b = f.data();
+                assert_eq!(b.len(), 6, "RPDO length");
+                let v = i64::from(i32::from_le_bytes([b[2], b[3], b[4], b[5]]));
+                let l = limits.of(d);
+                assert!(v.abs() as f64 <= l.max_velocity * 1e6, "{d:?} at {v}");
+                let step = (v - last[d.index()]).abs() as f64;
+                assert!(
+                    step <= l.max_acceleration * 0.01 * 1e6 + 1.0,
+                    "{d:?} jumps by {step}"
+                );
+                last[d.index()] = v;
+            }
+        }
+    }
+}
