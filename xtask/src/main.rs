@@ -9,6 +9,10 @@
 //! * `qemu-bench` — instructions per step, flash, RAM and stack against the targets.
 //! * `soak --minutes M` — the QEMU firmware through M simulated minutes of random
 //!   requests, garbage and faults; every set point checked against the limits.
+//! * `fuzz [--seconds N] [target …]` — cargo fuzz on the frame decoders, the command
+//!   validator and the controller (N seconds per target, 30 by default).
+//! * `panic-proof [--report]` — the link-time proof that the portable logic cannot
+//!   panic, and the firmware's remaining panic paths against docs/PANICS.md.
 //! * `flash` — builds the STM32H743 firmware and runs it with `probe-rs run`.
 //! * `study …` — the speed/accuracy studies (`run`, `sweep`, `paper`, `extremes`).
 //! * `bench` — criterion benchmarks of one step and whole runs on the host.
@@ -17,6 +21,8 @@ use std::process::{Command, ExitCode};
 
 mod defmt_log;
 mod firmware;
+mod fuzz;
+mod panics;
 mod qemu;
 mod setup;
 mod soak;
@@ -43,6 +49,24 @@ fn main() -> ExitCode {
             None => Err("usage: cargo xtask soak --minutes M".into()),
         },
         Some("flash") => flash(),
+        Some("panic-proof") if flag("--report") => panics::report(),
+        Some("panic-proof") => panics::panic_proof(),
+        Some("fuzz") => {
+            let seconds = args
+                .iter()
+                .position(|a| a == "--seconds")
+                .and_then(|i| args.get(i + 1))
+                .map_or(Ok(30), |s| {
+                    s.parse().map_err(|e| format!("--seconds {s}: {e}"))
+                });
+            let targets: Vec<String> = args
+                .iter()
+                .skip(1)
+                .filter(|a| !a.starts_with("--") && a.parse::<u64>().is_err())
+                .cloned()
+                .collect();
+            seconds.and_then(|s| fuzz::fuzz(s, &targets))
+        }
         Some("study") => run(cargo()
             .args([
                 "run",
@@ -60,7 +84,7 @@ fn main() -> ExitCode {
             .args(args.iter().skip(1))),
         _ => {
             eprintln!(
-                "usage: cargo xtask run | test | qemu [--overwrite-expected] | qemu-bench | soak --minutes M | flash | study … | bench"
+                "usage: cargo xtask run | test | qemu [--overwrite-expected] | qemu-bench | soak --minutes M | fuzz [--seconds N] [target …] | panic-proof [--report] | flash | study … | bench"
             );
             return ExitCode::from(2);
         }
@@ -195,6 +219,11 @@ fn test() -> Result<(), String> {
     qemu_checks(false)?;
     // A short soak: one simulated minute of random traffic, every set point checked.
     soak::soak(1)?;
+    panics::lint()?;
+    panics::panic_proof()?;
+    // A short fuzz: 20 s per target.
+    fuzz::lint()?;
+    fuzz::fuzz(20, &[])?;
     eprintln!("xtask test: all checks passed");
     Ok(())
 }

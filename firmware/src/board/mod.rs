@@ -14,10 +14,6 @@ pub trait CanPort {
 
     /// The next frame received up to `now_ms`, if any.
     fn receive(&mut self, now_ms: u64) -> Option<CanFrame>;
-
-    /// Once per cycle, before receiving: the controller's own housekeeping (on the
-    /// STM32H743, the bus-off recovery).
-    fn service(&mut self);
 }
 
 #[cfg(feature = "qemu")]

@@ -27,7 +27,9 @@ pub mod pac {
     pub const NVIC_PRIO_BITS: u8 = 3;
 
     /// External interrupts: the CMSDK UART lines, unused by the firmware and so free
-    /// for RTIC's software-task dispatchers.
+    /// for RTIC's software-task dispatchers. Line 3 (UART 1 TX) carries the name of the
+    /// STM32H743's CAN receive interrupt, so that the application binds the same task on
+    /// both boards; nothing raises it under QEMU.
     #[derive(Clone, Copy, Debug, PartialEq, Eq)]
     #[allow(non_camel_case_types, missing_docs, dead_code)]
     #[repr(u16)]
@@ -35,7 +37,7 @@ pub mod pac {
         UARTRX0 = 0,
         UARTTX0 = 1,
         UARTRX1 = 2,
-        UARTTX1 = 3,
+        FDCAN1_IT0 = 3,
     }
     pub use Interrupt as interrupt;
 
@@ -64,7 +66,7 @@ pub mod pac {
         fn UARTRX0();
         fn UARTTX0();
         fn UARTRX1();
-        fn UARTTX1();
+        fn FDCAN1_IT0();
     }
 
     /// A vector table entry.
@@ -81,7 +83,9 @@ pub mod pac {
         Vector { handler: UARTRX0 },
         Vector { handler: UARTTX0 },
         Vector { handler: UARTRX1 },
-        Vector { handler: UARTTX1 },
+        Vector {
+            handler: FDCAN1_IT0,
+        },
     ];
 }
 
@@ -96,6 +100,15 @@ const PAINT: u32 = 0xCCCC_CCCC;
 extern "C" {
     static mut _stack_end: u32;
     static mut _stack_start: u32;
+}
+
+/// The receive interrupt's side of the board: nothing under QEMU, where the virtual
+/// bus hands frames to the 100 Hz task directly.
+pub struct CanRx;
+
+impl CanRx {
+    /// Nothing to drain.
+    pub fn drain(&mut self) {}
 }
 
 /// The QEMU board.
@@ -160,12 +173,17 @@ impl Board {
         self.bus.take_solver_failure()
     }
 
-    /// The free-running cost counter, in QEMU instructions (scaled from timer ticks).
-    pub fn instructions(&self) -> u64 {
+    /// The free-running cost counter: timer ticks counting up (the timer counts down
+    /// and wraps every 172 s of virtual time).
+    pub fn counter(&self) -> u32 {
         // SAFETY: a volatile word read of the timer's VALUE register (see `init`).
-        let ticks = u32::MAX - unsafe { core::ptr::read_volatile((TIMER1 + VALUE) as *const u32) };
-        // 25 MHz timer, 128 ns per instruction: 3.2 ticks per instruction.
-        u64::from(ticks) * 10 / 32
+        u32::MAX - unsafe { core::ptr::read_volatile((TIMER1 + VALUE) as *const u32) }
+    }
+
+    /// QEMU instructions between two readings of [`Board::counter`], across a wrap:
+    /// 25 MHz timer, 128 ns per instruction, 3.2 ticks per instruction.
+    pub fn cost(&self, from: u32, to: u32) -> u64 {
+        u64::from(to.wrapping_sub(from)) * 10 / 32
     }
 
     /// Nothing to feed under QEMU.
@@ -216,9 +234,6 @@ impl super::CanPort for Board {
         );
         self.bus.transmit(frame)
     }
-
-    /// The virtual bus recovers from bus-off by itself.
-    fn service(&mut self) {}
 }
 
 fn stack_bounds() -> (usize, usize) {
