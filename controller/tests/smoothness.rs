@@ -78,9 +78,20 @@ const MOVES: [([f64; 2], [f64; 2], f64); 3] = [
 #[test]
 fn with_n_4_the_computed_accelerations_overshoot() {
     let (exact, bdf4) = peak_accelerations(MOVES[0].0, MOVES[0].1, MOVES[0].2, 4, 4);
+    println!(
+        "n = 4, BDF4, {:?} -> {:?} in {} s: peak |Δu/h| {bdf4:.3} m/s², exact {exact:.3} ({:+.1} %)",
+        MOVES[0].0,
+        MOVES[0].1,
+        MOVES[0].2,
+        100.0 * (bdf4 / exact - 1.0)
+    );
     assert!(bdf4 > 1.05 * exact, "BDF4: {bdf4} vs exact {exact}");
     for (home, target, duration) in MOVES {
         let (exact, bdf6) = peak_accelerations(home, target, duration, 4, 6);
+        println!(
+            "n = 4, BDF6, {home:?} -> {target:?} in {duration} s: peak {bdf6:.3} m/s², exact {exact:.3} (× {:.2})",
+            bdf6 / exact
+        );
         assert!(
             bdf6 > 1.5 * exact,
             "BDF6 {home:?} -> {target:?}: {bdf6} vs exact {exact}"
@@ -93,6 +104,15 @@ fn with_n_5_they_stay_within_half_a_percent() {
     for (home, target, duration) in MOVES {
         for k in 0..=6 {
             let (exact, computed) = peak_accelerations(home, target, duration, 5, k);
+            let scheme = if k == 0 {
+                "Radau J̃10".to_string()
+            } else {
+                format!("BDF{k}")
+            };
+            println!(
+                "n = 5, {scheme}, {home:?} -> {target:?}: {:+.2} %",
+                100.0 * (computed / exact - 1.0)
+            );
             assert!(
                 computed < 1.005 * exact,
                 "BDF{k} (0: Radau) {home:?} -> {target:?}: {computed} vs exact {exact}"
