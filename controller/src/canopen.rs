@@ -69,6 +69,24 @@ impl Drive {
         }
     }
 
+    /// This drive's element of a `[trolley, winch]` pair (no indexing: nothing to panic).
+    pub fn of<T>(self, pair: &[T; 2]) -> &T {
+        let [trolley, winch] = pair;
+        match self {
+            Drive::Trolley => trolley,
+            Drive::Winch => winch,
+        }
+    }
+
+    /// This drive's element of a `[trolley, winch]` pair, to change.
+    pub fn of_mut<T>(self, pair: &mut [T; 2]) -> &mut T {
+        let [trolley, winch] = pair;
+        match self {
+            Drive::Trolley => trolley,
+            Drive::Winch => winch,
+        }
+    }
+
     fn from_node(node: u8) -> Option<Drive> {
         Drive::ALL.into_iter().find(|d| d.node() == node)
     }

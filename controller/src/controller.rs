@@ -365,9 +365,8 @@ impl<F: Feedforward + Replan> Controller<F> {
                 let period = f64::from(self.config.period_ms) / 1000.0;
                 if self.mode.fault().is_some() {
                     // One TPDO per cycle, answering the SYNC: travel over one period.
-                    if let Some(p) = self.drive_positions.get_mut(drive.index()) {
-                        *p += f64::from(velocity) / UNITS_PER_M_PER_S * period;
-                    }
+                    *drive.of_mut(&mut self.drive_positions) +=
+                        f64::from(velocity) / UNITS_PER_M_PER_S * period;
                 }
                 let link = self.link_mut(drive);
                 link.state = DriveState::from_statusword(statusword);
@@ -471,9 +470,7 @@ impl<F: Feedforward + Replan> Controller<F> {
         let mut setpoints = [Setpoint::ZERO; 2];
         for drive in Drive::ALL {
             let (command, setpoint) = self.command_for(drive, step.as_ref());
-            if let Some(slot) = setpoints.get_mut(drive.index()) {
-                *slot = setpoint;
-            }
+            *drive.of_mut(&mut setpoints) = setpoint;
             self.push(&mut frames, canopen::rpdo1(drive, command, setpoint));
         }
         self.resetting = self.resetting.saturating_sub(1);
@@ -641,9 +638,7 @@ impl<F: Feedforward + Replan> Controller<F> {
         let state = self.link(drive).state;
         match self.mode {
             Mode::Enabling | Mode::Ready => {
-                let wanted = step
-                    .and_then(|s| s.u.get(drive.index()).copied())
-                    .unwrap_or(0.0);
+                let wanted = step.map(|s| *drive.of(&s.u)).unwrap_or(0.0);
                 let Some(command) = state.enable_command() else {
                     // A drive in fault: after a reset, send fault reset; otherwise it is a fault.
                     if self.resetting > 0 {
@@ -743,18 +738,10 @@ impl<F: Feedforward + Replan> Controller<F> {
     }
 
     fn link(&self, drive: Drive) -> &DriveLink {
-        let [trolley, winch] = &self.drives;
-        match drive {
-            Drive::Trolley => trolley,
-            Drive::Winch => winch,
-        }
+        drive.of(&self.drives)
     }
 
     fn link_mut(&mut self, drive: Drive) -> &mut DriveLink {
-        let [trolley, winch] = &mut self.drives;
-        match drive {
-            Drive::Trolley => trolley,
-            Drive::Winch => winch,
-        }
+        drive.of_mut(&mut self.drives)
     }
 }

@@ -1,11 +1,9 @@
 //! The inverse model as the controller sees it: one step per cycle, two velocities
 //! out, and a plan it can change while the model runs.
 
-use solver_core::models::crane_proj::CraneProj;
-use solver_core::models::crane_subs::CraneSubs;
 use solver_core::plan::Plan;
 use solver_core::scalar::to_f64;
-use solver_core::{Bdf, DaeModel, Error, NewtonStats, Radau, Real};
+use solver_core::{Bdf, DaeModel, Driven, Error, NewtonStats, Radau, Real};
 
 /// The least smoothness `n` of the moves and stops the controller plans.
 ///
@@ -97,32 +95,6 @@ impl<T: Real, M: DaeModel<T, N, 2>, const N: usize, const S: usize> Feedforward
     }
 }
 
-/// A crane model whose desired output is a [`Plan`].
-pub trait PlannedCrane {
-    /// The plan.
-    fn plan(&self) -> &Plan<f64, 2>;
-    /// The plan, to change.
-    fn plan_mut(&mut self) -> &mut Plan<f64, 2>;
-}
-
-impl PlannedCrane for CraneSubs<f64, Plan<f64, 2>> {
-    fn plan(&self) -> &Plan<f64, 2> {
-        self.trajectory()
-    }
-    fn plan_mut(&mut self) -> &mut Plan<f64, 2> {
-        self.trajectory_mut()
-    }
-}
-
-impl PlannedCrane for CraneProj<f64, Plan<f64, 2>> {
-    fn plan(&self) -> &Plan<f64, 2> {
-        self.trajectory()
-    }
-    fn plan_mut(&mut self) -> &mut Plan<f64, 2> {
-        self.trajectory_mut()
-    }
-}
-
 /// An integrator that can start again at rest.
 pub trait Restart<M> {
     /// Starts again at rest at `t0` (the model's trajectory must rest there).
@@ -141,16 +113,16 @@ impl<M: DaeModel<f64, N, 2>, const N: usize, const S: usize> Restart<M> for Rada
     }
 }
 
-impl<M: PlannedCrane, I: Restart<M>> Replan for InverseModel<M, I> {
+impl<M: Driven<Trajectory = Plan<f64, 2>>, I: Restart<M>> Replan for InverseModel<M, I> {
     fn plan(&self) -> &Plan<f64, 2> {
-        self.model.plan()
+        self.model.trajectory()
     }
     fn plan_mut(&mut self) -> &mut Plan<f64, 2> {
-        self.model.plan_mut()
+        self.model.trajectory_mut()
     }
     fn restart_at_rest(&mut self, position: [f64; 2], t: f64) -> Result<(), Error> {
-        let n = self.model.plan().planned_smoothness();
-        *self.model.plan_mut() = Plan::at_rest(position.into(), n)?;
+        let n = self.model.trajectory().planned_smoothness();
+        *self.model.trajectory_mut() = Plan::at_rest(position.into(), n)?;
         self.integrator.restart(&self.model, t)
     }
 }

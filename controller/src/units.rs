@@ -141,10 +141,7 @@ impl SetpointGate {
     /// The set point last admitted for `drive`.
     #[must_use]
     pub fn last(&self, drive: Drive) -> Setpoint {
-        self.last
-            .get(drive.index())
-            .copied()
-            .unwrap_or(Setpoint::ZERO)
+        *drive.of(&self.last)
     }
 
     /// Admits `velocity` (m/s) for `drive`, or says why not. Nothing changes on refusal.
@@ -171,9 +168,7 @@ impl SetpointGate {
         }
         // |units| ≤ max_velocity·1e6, far inside i32 for any plausible limit (< 2147 m/s).
         let setpoint = Setpoint(units as i32);
-        if let Some(slot) = self.last.get_mut(drive.index()) {
-            *slot = setpoint;
-        }
+        *drive.of_mut(&mut self.last) = setpoint;
         Ok(setpoint)
     }
 

@@ -210,19 +210,11 @@ impl VirtualBus {
     /// A simulated drive.
     #[must_use]
     pub fn drive(&self, drive: Drive) -> &DriveSim {
-        let [t, w] = &self.drives;
-        match drive {
-            Drive::Trolley => t,
-            Drive::Winch => w,
-        }
+        drive.of(&self.drives)
     }
 
     fn drive_mut(&mut self, drive: Drive) -> &mut DriveSim {
-        let [t, w] = &mut self.drives;
-        match drive {
-            Drive::Trolley => t,
-            Drive::Winch => w,
-        }
+        drive.of_mut(&mut self.drives)
     }
 
     /// Whether the scenario asked for the next solver step to fail (asked once).

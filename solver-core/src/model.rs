@@ -19,6 +19,21 @@ pub struct Partials<T: Real, const N: usize> {
     pub dxdot: SMatrix<T, N, N>,
 }
 
+/// A model driven by a desired output `Z` (the servo-constraints' right-hand side).
+pub trait Driven {
+    /// The desired output's type.
+    type Trajectory;
+
+    /// The desired output.
+    fn trajectory(&self) -> &Self::Trajectory;
+
+    /// The desired output, to change in place (a move appended, a stop) while the
+    /// model runs. The caller is responsible for what it changes: it must check a new
+    /// segment (the controller checks it against the workspace, the rope tension and
+    /// the drive limits), and only change what has not been stepped yet.
+    fn trajectory_mut(&mut self) -> &mut Self::Trajectory;
+}
+
 /// A DAE `F(x, ẋ, t) = 0` (Eq. 12) with `N` unknowns, `NU` of them inputs.
 ///
 /// `x` holds every unknown: positions, velocities, reaction forces and the inputs.

@@ -18,7 +18,7 @@ use nalgebra::SVector;
 
 use crate::error::{check_positive, Error, Result};
 use crate::scalar::{c, to_f64, Real};
-use crate::trajectory::{PointToPoint, Trajectory, MAX_SMOOTHNESS};
+use crate::trajectory::{check_smoothness, PointToPoint, Trajectory, MAX_SMOOTHNESS};
 
 const MAX_COEFFS: usize = 2 * MAX_SMOOTHNESS + 2;
 
@@ -51,14 +51,7 @@ impl<T: Real, const NZ: usize> Hermite<T, NZ> {
         end: SVector<T, NZ>,
     ) -> Result<Self> {
         let n = start.len().saturating_sub(1);
-        if n == 0 || n > MAX_SMOOTHNESS {
-            return Err(Error::ParameterOutOfRange {
-                name: "smoothness",
-                value: n as f64,
-                min: 1.0,
-                max: MAX_SMOOTHNESS as f64,
-            });
-        }
+        check_smoothness(n)?;
         check_positive("segment duration", to_f64(duration))?;
         let ts = to_f64(t_start);
         if !ts.is_finite() {
@@ -229,14 +222,7 @@ pub struct Plan<T: Real, const NZ: usize> {
 impl<T: Real, const NZ: usize> Plan<T, NZ> {
     /// At rest at `position`; moves will have smoothness `n`.
     pub fn at_rest(position: SVector<T, NZ>, smoothness: usize) -> Result<Self> {
-        if smoothness == 0 || smoothness > MAX_SMOOTHNESS {
-            return Err(Error::ParameterOutOfRange {
-                name: "smoothness",
-                value: smoothness as f64,
-                min: 1.0,
-                max: MAX_SMOOTHNESS as f64,
-            });
-        }
+        check_smoothness(smoothness)?;
         if position.iter().any(|v| !to_f64(*v).is_finite()) {
             return Err(Error::NonFiniteParameter {
                 name: "rest position",

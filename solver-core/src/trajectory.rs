@@ -65,14 +65,7 @@ pub struct SmoothStep {
 impl SmoothStep {
     /// A step whose derivatives 1..=n vanish at both ends (`n = 4`: the paper's C4 polynomial).
     pub fn new(n: usize) -> Result<Self> {
-        if n == 0 || n > MAX_SMOOTHNESS {
-            return Err(Error::ParameterOutOfRange {
-                name: "smoothness",
-                value: n as f64,
-                min: 1.0,
-                max: MAX_SMOOTHNESS as f64,
-            });
-        }
+        check_smoothness(n)?;
         let degree = 2 * n + 1;
         let mut value = [0.0; MAX_SMOOTHNESS + 1];
         for (j, v) in value.iter_mut().enumerate().take(n + 1) {
@@ -173,6 +166,19 @@ fn derivative_coefficient(n: usize, m: usize, i: usize) -> f64 {
     let k = (2 * n + 1) as f64 * binomial(2 * n, n);
     let sign = if j.is_multiple_of(2) { 1.0 } else { -1.0 };
     k * sign * binomial(m, i) * falling(n, i) * falling(n, j)
+}
+
+/// Refuses a smoothness outside `1..=MAX_SMOOTHNESS`.
+pub(crate) fn check_smoothness(n: usize) -> Result<()> {
+    if n == 0 || n > MAX_SMOOTHNESS {
+        return Err(Error::ParameterOutOfRange {
+            name: "smoothness",
+            value: n as f64,
+            min: 1.0,
+            max: MAX_SMOOTHNESS as f64,
+        });
+    }
+    Ok(())
 }
 
 /// Binomial coefficient as f64 (exact for the sizes used here, ≤ C(25, 12)).

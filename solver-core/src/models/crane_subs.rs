@@ -24,7 +24,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use crate::error::{Error, Result};
-use crate::model::{DaeModel, Partials};
+use crate::model::{DaeModel, Driven, Partials};
 use crate::models::crane::{check_trajectory, CraneParams};
 use crate::scalar::{c, Real};
 use crate::trajectory::{ensure_at_rest, Trajectory};
@@ -69,19 +69,16 @@ impl<T: Real, Z: Trajectory<T, 2>> CraneSubs<T, Z> {
     pub fn params(&self) -> &CraneParams {
         &self.params
     }
+}
 
-    /// The desired load trajectory.
-    #[must_use]
-    pub fn trajectory(&self) -> &Z {
+impl<T: Real, Z> Driven for CraneSubs<T, Z> {
+    type Trajectory = Z;
+
+    fn trajectory(&self) -> &Z {
         &self.trajectory
     }
 
-    /// The desired output, to change in place (a move appended, a stop) while the
-    /// model runs. The model does not check the change: whoever makes it must check
-    /// the new part first (for the crane, `controller::planner` checks every candidate
-    /// segment against the workspace, the rope tension and the drive limits), and only
-    /// change what has not been stepped yet.
-    pub fn trajectory_mut(&mut self) -> &mut Z {
+    fn trajectory_mut(&mut self) -> &mut Z {
         &mut self.trajectory
     }
 }

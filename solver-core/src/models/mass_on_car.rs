@@ -19,7 +19,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use crate::error::{check_positive, check_range, Error, Result};
-use crate::model::{DaeModel, Partials};
+use crate::model::{DaeModel, Driven, Partials};
 use crate::scalar::{c, Real};
 use crate::trajectory::{ensure_at_rest, Trajectory};
 
@@ -114,19 +114,16 @@ impl<T: Real, Z: Trajectory<T, 1>> MassOnCar<T, Z> {
     pub fn params(&self) -> &MassOnCarParams {
         &self.params
     }
+}
 
-    /// The desired output trajectory.
-    #[must_use]
-    pub fn trajectory(&self) -> &Z {
+impl<T: Real, Z> Driven for MassOnCar<T, Z> {
+    type Trajectory = Z;
+
+    fn trajectory(&self) -> &Z {
         &self.trajectory
     }
 
-    /// The desired output, to change in place (a move appended, a stop) while the
-    /// model runs. The model does not check the change: whoever makes it must check
-    /// the new part first (for the crane, `controller::planner` checks every candidate
-    /// segment against the workspace, the rope tension and the drive limits), and only
-    /// change what has not been stepped yet.
-    pub fn trajectory_mut(&mut self) -> &mut Z {
+    fn trajectory_mut(&mut self) -> &mut Z {
         &mut self.trajectory
     }
 }
