@@ -2,7 +2,7 @@
 //! out, and a plan it can change while the model runs.
 
 use solver_core::plan::Plan;
-use solver_core::scalar::to_f64;
+use solver_core::scalar::{c, to_f64};
 use solver_core::{Bdf, DaeModel, Driven, Error, NewtonStats, Radau, Real};
 
 /// The least smoothness `n` of the moves and stops the controller plans.
@@ -60,6 +60,17 @@ pub struct InverseModel<M, I> {
     pub integrator: I,
 }
 
+/// What the controller needs of a scheme: one step, the time reached, a restart at
+/// rest. (BDF and Radau IIA; the scalar is the scheme's own, the controller's f64.)
+pub trait Stepper<M> {
+    /// Advances one step. On error the integrator stays where it was.
+    fn step(&mut self, model: &M) -> Result<FeedforwardStep, Error>;
+    /// Time of the newest solution, s.
+    fn time(&self) -> f64;
+    /// Starts again at rest at `t0` (the model's trajectory must rest there).
+    fn restart(&mut self, model: &M, t0: f64) -> Result<(), Error>;
+}
+
 fn report<T: Real>(t: T, u: nalgebra::SVector<T, 2>, stats: NewtonStats) -> FeedforwardStep {
     let [u1, u2]: [T; 2] = u.into();
     FeedforwardStep {
@@ -69,51 +80,42 @@ fn report<T: Real>(t: T, u: nalgebra::SVector<T, 2>, stats: NewtonStats) -> Feed
     }
 }
 
-impl<T: Real, M: DaeModel<T, N, 2>, const N: usize> Feedforward
-    for InverseModel<M, Bdf<T, M, N, 2>>
-{
-    fn step(&mut self) -> Result<FeedforwardStep, Error> {
-        self.integrator
-            .step(&self.model)
-            .map(|r| report(r.t, r.u, r.stats))
+impl<T: Real, M: DaeModel<T, N, 2>, const N: usize> Stepper<M> for Bdf<T, M, N, 2> {
+    fn step(&mut self, model: &M) -> Result<FeedforwardStep, Error> {
+        Bdf::step(self, model).map(|r| report(r.t, r.u, r.stats))
     }
     fn time(&self) -> f64 {
-        to_f64(self.integrator.time())
+        to_f64(Bdf::time(self))
+    }
+    fn restart(&mut self, model: &M, t0: f64) -> Result<(), Error> {
+        Bdf::restart(self, model, c(t0))
     }
 }
 
-impl<T: Real, M: DaeModel<T, N, 2>, const N: usize, const S: usize> Feedforward
-    for InverseModel<M, Radau<T, M, N, 2, S>>
+impl<T: Real, M: DaeModel<T, N, 2>, const N: usize, const S: usize> Stepper<M>
+    for Radau<T, M, N, 2, S>
 {
-    fn step(&mut self) -> Result<FeedforwardStep, Error> {
-        self.integrator
-            .step(&self.model)
-            .map(|r| report(r.t, r.u, r.stats))
+    fn step(&mut self, model: &M) -> Result<FeedforwardStep, Error> {
+        Radau::step(self, model).map(|r| report(r.t, r.u, r.stats))
     }
     fn time(&self) -> f64 {
-        to_f64(self.integrator.time())
+        to_f64(Radau::time(self))
     }
-}
-
-/// An integrator that can start again at rest.
-pub trait Restart<M> {
-    /// Starts again at rest at `t0` (the model's trajectory must rest there).
-    fn restart(&mut self, model: &M, t0: f64) -> Result<(), Error>;
-}
-
-impl<M: DaeModel<f64, N, 2>, const N: usize> Restart<M> for Bdf<f64, M, N, 2> {
     fn restart(&mut self, model: &M, t0: f64) -> Result<(), Error> {
-        Bdf::restart(self, model, t0)
+        Radau::restart(self, model, c(t0))
     }
 }
 
-impl<M: DaeModel<f64, N, 2>, const N: usize, const S: usize> Restart<M> for Radau<f64, M, N, 2, S> {
-    fn restart(&mut self, model: &M, t0: f64) -> Result<(), Error> {
-        Radau::restart(self, model, t0)
+impl<M, I: Stepper<M>> Feedforward for InverseModel<M, I> {
+    fn step(&mut self) -> Result<FeedforwardStep, Error> {
+        self.integrator.step(&self.model)
+    }
+    fn time(&self) -> f64 {
+        self.integrator.time()
     }
 }
 
-impl<M: Driven<Trajectory = Plan<f64, 2>>, I: Restart<M>> Replan for InverseModel<M, I> {
+impl<M: Driven<Trajectory = Plan<f64, 2>>, I: Stepper<M>> Replan for InverseModel<M, I> {
     fn plan(&self) -> &Plan<f64, 2> {
         self.model.trajectory()
     }
