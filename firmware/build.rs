@@ -158,13 +158,13 @@ fn generate(scene: &Scene) -> Result<String, String> {
     };
     let _ = writeln!(
         c,
-        "/// Builds the scene's inverse model at rest at t = 0, its move planned (checked\n/// against the planner's rules when the firmware was built).\npub fn inverse_model() -> Result<Feedforward, solver_core::Error> {{\n    let first = solver_core::trajectory::PointToPoint::new({}.into(), {}.into(), {:?}_f64, {:?}_f64, {})?;\n    let mut plan = controller::feedforward::command_plan({}, {})?;\n    plan.push(first)?;\n    let model = Model::new(PARAMS, plan)?;\n    let integrator = {new}?;\n    Ok(controller::InverseModel {{ model, integrator }})\n}}",
+        "/// Builds the scene's inverse model at rest at t = 0, its move planned if\n/// `first_move` (checked against the planner's rules when the firmware was built).\npub fn inverse_model(first_move: bool) -> Result<Feedforward, solver_core::Error> {{\n    let mut plan = controller::feedforward::command_plan({}, {})?;\n    if first_move {{\n        plan.push(solver_core::trajectory::PointToPoint::new({}.into(), {}.into(), {:?}_f64, {:?}_f64, {})?)?;\n    }}\n    let model = Model::new(PARAMS, plan)?;\n    let integrator = {new}?;\n    Ok(controller::InverseModel {{ model, integrator }})\n}}",
+        v(&tr.start),
+        tr.smoothness,
         v(&tr.start),
         v(&tr.end),
         tr.t_start,
         tr.duration,
-        tr.smoothness,
-        v(&tr.start),
         tr.smoothness
     );
     Ok(c)

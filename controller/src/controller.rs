@@ -76,6 +76,8 @@ pub enum Fault {
     Undeliverable,
     /// The model asked for motion of a drive that is not enabled.
     DriveNotReady(Drive),
+    /// The controller was restarted by its watchdog: the 100 Hz task had stopped.
+    Watchdog,
 }
 
 /// How a fault is met (docs/COMMANDS.md), mildest first.
@@ -98,6 +100,7 @@ impl Fault {
             Fault::Deadline => 5,
             Fault::Undeliverable => 6,
             Fault::DriveNotReady(_) => 7,
+            Fault::Watchdog => 8,
         }
     }
 
@@ -112,6 +115,7 @@ impl Fault {
             Fault::Deadline => 0xFF01,
             Fault::Undeliverable => 0x8140,
             Fault::DriveNotReady(_) => 0xFF04,
+            Fault::Watchdog => 0x6010,
         }
     }
 
@@ -147,7 +151,7 @@ impl Fault {
     fn reaction(&self) -> Reaction {
         match self {
             Fault::DriveFault(_) | Fault::HeartbeatLost(_) => Reaction::Quick,
-            Fault::Undeliverable => Reaction::Halt,
+            Fault::Undeliverable | Fault::Watchdog => Reaction::Halt,
             _ => Reaction::Controlled,
         }
     }
@@ -306,6 +310,13 @@ impl<F: Feedforward + Replan> Controller<F> {
             now_ms: 0,
             starting: true,
         }
+    }
+
+    /// After a restart by the watchdog: halted, announced by an EMCY (CiA 301 0x6010,
+    /// software reset), until a supervisor's reset walks the drives through fault reset
+    /// and the enable sequence. Nothing moves on its own after a crash.
+    pub fn restarted_by_watchdog(&mut self) {
+        self.fault(Fault::Watchdog);
     }
 
     /// The supervisor state.

@@ -61,6 +61,8 @@ pub enum Action {
     Revive(Drive),
     /// The inverse model's next step fails (the firmware's solver-fault injection).
     SolverFailure,
+    /// The firmware hangs: its 100 Hz task stops (the watchdog's case).
+    Hang,
     /// The controller's transmissions fail for `cycles` cycles (bus-off, then recovery).
     BusOff {
         /// How long, in cycles.
@@ -90,6 +92,17 @@ pub struct Scenario {
     pub cycles: u32,
     /// Random traffic from this seed on top of the events (the soak run).
     pub random: Option<u32>,
+}
+
+impl Scenario {
+    /// When the scenario makes the firmware hang, ms.
+    #[must_use]
+    pub fn hang_at_ms(&self) -> Option<u32> {
+        self.events
+            .iter()
+            .find(|e| e.action == Action::Hang)
+            .map(|e| e.at_ms)
+    }
 }
 
 /// One simulated CiA 402 drive.
@@ -175,6 +188,8 @@ pub struct VirtualBus {
     injected: Deque<CanFrame, 32>,
     traffic: Option<Traffic>,
     solver_failure: bool,
+    hang: bool,
+    hangs: bool,
     bus_off_cycles: u8,
     noise: u32,
 }
@@ -196,6 +211,8 @@ impl VirtualBus {
             injected: Deque::new(),
             traffic: scenario.random.map(Traffic::new),
             solver_failure: false,
+            hang: false,
+            hangs: true,
             bus_off_cycles: 0,
             noise: 0x9E37_79B9,
         }
@@ -215,6 +232,19 @@ impl VirtualBus {
 
     fn drive_mut(&mut self, drive: Drive) -> &mut DriveSim {
         drive.of_mut(&mut self.drives)
+    }
+
+    /// The same bus after the watchdog restarted the firmware: the scenario's hang is
+    /// not repeated.
+    #[must_use]
+    pub fn without_hangs(mut self) -> Self {
+        self.hangs = false;
+        self
+    }
+
+    /// Whether the scenario makes the firmware hang now (asked once).
+    pub fn take_hang(&mut self) -> bool {
+        core::mem::take(&mut self.hang)
     }
 
     /// Whether the scenario asked for the next solver step to fail (asked once).
@@ -331,6 +361,7 @@ impl VirtualBus {
             Action::DropOut(drive) => self.drive_mut(drive).state = DriveState::SwitchOnDisabled,
             Action::Revive(drive) => self.drive_mut(drive).silent = false,
             Action::SolverFailure => self.solver_failure = true,
+            Action::Hang => self.hang = self.hangs,
             Action::BusOff { cycles } => self.bus_off_cycles = cycles,
         }
     }
@@ -367,16 +398,20 @@ impl VirtualBus {
 
 /// One cycle of the firmware's loop on the virtual bus — what `firmware/src/main.rs`
 /// does with the QEMU board, but for counting instructions: the frames that appeared
-/// since `after_ms`, the scenario's solver failure if one is due, the tick, and the
-/// transmission (a refused frame is reported to the controller).
+/// since `after_ms`, the scenario's hang or solver failure if one is due, the tick,
+/// and the transmission (a refused frame is reported to the controller). `None`: the
+/// firmware hangs here, and its watchdog takes over.
 pub fn run_cycle<F: Feedforward + Replan>(
     controller: &mut Controller<Injectable<F>>,
     bus: &mut VirtualBus,
     after_ms: u32,
     now_ms: u32,
-) -> Cycle {
+) -> Option<Cycle> {
     for frame in bus.receive_until(after_ms, now_ms) {
         controller.on_frame(&frame, u64::from(now_ms));
+    }
+    if bus.take_hang() {
+        return None;
     }
     if bus.take_solver_failure() {
         controller.feedforward_mut().fail_next_step();
@@ -387,7 +422,7 @@ pub fn run_cycle<F: Feedforward + Replan>(
             controller.transmit_failed(frame);
         }
     }
-    out
+    Some(out)
 }
 
 const fn move_to(id: u8, x: f64, z: f64, duration: f64) -> Action {
@@ -516,8 +551,22 @@ pub const BUS_OFF: Scenario = Scenario {
     random: None,
 };
 
+/// The firmware hangs in the middle of the move: the watchdog restarts it, it boots
+/// halted (reset cause logged, EMCY 0x6010) and a supervisor's reset enables it again.
+pub const HANG: Scenario = Scenario {
+    name: "hang",
+    expect:
+        "restarted by the watchdog after the hang at 5 s; halted, then ready after the reset at 1 s",
+    events: &[
+        at(1_000, Action::Request(Request::Reset { id: 1 })),
+        at(5_000, Action::Hang),
+    ],
+    cycles: 800,
+    random: None,
+};
+
 /// Every scenario, by name.
-pub const SCENARIOS: [Scenario; 9] = [
+pub const SCENARIOS: [Scenario; 10] = [
     HEALTHY,
     TWO_MOVES,
     REJECTIONS,
@@ -527,6 +576,7 @@ pub const SCENARIOS: [Scenario; 9] = [
     LOST_HEARTBEAT,
     STOP,
     BUS_OFF,
+    HANG,
 ];
 
 /// The soak run: random valid and invalid requests, garbage and faults after the

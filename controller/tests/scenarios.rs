@@ -275,6 +275,47 @@ fn assert_controlled_stop(cycles: &[controller::Cycle], from: usize) {
 }
 
 #[test]
+fn a_hang_restarts_the_controller_halted_until_a_reset() {
+    // First boot: the paper's move until the hang at 5 s stops the cycle.
+    let mut rig = Rig::new(virtual_bus::HANG, true);
+    let mut ran = 0;
+    while rig.try_cycle().is_some() {
+        ran += 1;
+    }
+    assert_eq!(ran, 500, "the 100 Hz task stopped at 5 s");
+    // Second boot, as the firmware comes up after the watchdog's reset: no scene move,
+    // halted, the hang not repeated.
+    let mut rig = Rig::with(feedforward(HOME, None), virtual_bus::HANG);
+    rig.bus = rig.bus.clone().without_hangs();
+    rig.c.restarted_by_watchdog();
+    let cycles = rig.run(virtual_bus::HANG.cycles as usize);
+    assert_within_limits(&cycles, &mut [0; 2]);
+    let m = modes(&cycles);
+    assert_eq!(
+        m[..2],
+        [(0, Mode::Halted(Fault::Watchdog)), (1_000, Mode::Enabling)],
+        "{m:?}"
+    );
+    assert!(matches!(m[2], (_, Mode::Ready)), "{m:?}");
+    assert_eq!(
+        emcys(&cycles),
+        vec![(0, (0x6010, 0x81, 8, 0)), (1_000, (0, 0, 0, 0))],
+        "software reset (watchdog), then the reset"
+    );
+    for c in &cycles[..100] {
+        for d in Drive::ALL {
+            assert_eq!(
+                rpdo(&c.frames, d),
+                (cw::QUICK_STOP, 0),
+                "nothing moves after a crash"
+            );
+        }
+    }
+    assert_eq!(answers(&cycles), vec![(1, 1, 0)]);
+    assert_at_rest(&rig, &cycles, HOME);
+}
+
+#[test]
 fn every_scenario_is_tested_here() {
     let names: Vec<_> = virtual_bus::SCENARIOS.iter().map(|s| s.name).collect();
     assert_eq!(
@@ -288,7 +329,8 @@ fn every_scenario_is_tested_here() {
             "newton-failure",
             "lost-heartbeat",
             "stop",
-            "bus-off"
+            "bus-off",
+            "hang"
         ]
     );
 }

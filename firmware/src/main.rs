@@ -49,7 +49,7 @@ mod app {
     #[init]
     fn init(cx: init::Context) -> (Shared, Local) {
         #[cfg(feature = "qemu")]
-        let (board, can_rx, cycles) = {
+        let (board, can_rx, restarted, cycles) = {
             let scenario = match board::scenario() {
                 Ok(s) => s,
                 Err(len) => {
@@ -64,14 +64,15 @@ mod app {
                 scenario.cycles
             };
             Mono::start(cx.core.SYST, board::SYSCLK_HZ);
-            (Board::init(scenario), board::CanRx, Some(cycles))
+            let (board, restarted) = Board::init(scenario);
+            (board, board::CanRx, restarted, Some(cycles))
         };
         #[cfg(feature = "stm32h743")]
-        let (board, can_rx, cycles) = {
+        let (board, can_rx, restarted, cycles) = {
             let mut core = cx.core;
-            let (board, can_rx) = Board::init(cx.device, &mut core.DCB, &mut core.DWT);
+            let (board, can_rx, restarted) = Board::init(cx.device, &mut core.DCB, &mut core.DWT);
             Mono::start(core.SYST, board::SYSCLK_HZ);
-            (board, can_rx, None)
+            (board, can_rx, restarted, None)
         };
         defmt::info!(
             "scene {=str}: {=str}, its move {=u32} cycles",
@@ -79,7 +80,9 @@ mod app {
             scene::SOLVER,
             scene::CYCLES
         );
-        let model = match scene::inverse_model() {
+        // After a watchdog reset nothing moves on its own: no scene move, and the
+        // controller boots halted until a supervisor's reset.
+        let model = match scene::inverse_model(!restarted) {
             Ok(f) => f,
             Err(e) => {
                 defmt::error!("scene refused: {}", e);
@@ -98,11 +101,15 @@ mod app {
             defmt::error!("control task already running");
             board::finish(false)
         }
+        let mut controller = Controller::new(feedforward, scene::PLANNER, config);
+        if restarted {
+            controller.restarted_by_watchdog();
+        }
         (
             Shared {},
             Local {
                 can_rx,
-                controller: Controller::new(feedforward, scene::PLANNER, config),
+                controller,
                 board,
                 cycles,
             },
@@ -139,6 +146,15 @@ mod app {
             let now_ms = cycle * u64::from(scene::PERIOD_MS);
             while let Some(frame) = board.receive(now_ms) {
                 controller.on_frame(&frame, now_ms);
+            }
+            #[cfg(feature = "qemu")]
+            if board.take_hang() {
+                defmt::warn!(
+                    "hang at {=u64} ms: the 100 Hz task stops checking in",
+                    now_ms
+                );
+                #[allow(clippy::empty_loop)]
+                loop {}
             }
             #[cfg(feature = "qemu")]
             if board.take_solver_failure() {

@@ -1,6 +1,7 @@
 //! The firmware's cycle, run on the host: the same controller, the same scene, the
 //! same virtual bus and scenario. The QEMU run must send exactly these frames.
 
+use controller::feedforward::command_plan;
 use controller::units::Setpoint;
 use controller::virtual_bus::{run_cycle, Scenario, VirtualBus};
 use controller::{CanFrame, Controller, Feedforward, Injectable, InverseModel, Mode, Replan};
@@ -8,6 +9,7 @@ use scene::firmware::{firmware_scene, FirmwareScene};
 use scene::{ModelSpec, Scene, SchemeSpec};
 use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
+use solver_core::plan::Plan;
 use solver_core::{Bdf, Radau};
 
 /// One cycle as the firmware runs it.
@@ -23,59 +25,83 @@ pub struct ReferenceCycle {
     pub mode: Mode,
 }
 
-/// Runs the firmware's loop for a crane scene on the virtual bus with `scenario`.
+/// Runs the firmware's loop for a crane scene on the virtual bus with `scenario`. A
+/// scenario that hangs the firmware continues as the firmware does after its watchdog
+/// restarted it: booted halted, without the scene's move, the hang not repeated.
 pub fn controller_reference(
     scene: &Scene,
     scenario: &Scenario,
 ) -> Result<Vec<ReferenceCycle>, String> {
     let f = firmware_scene(scene)?;
-    let settings = scene.settings();
-    let err = |e: solver_core::Error| e.to_string();
     let cycles = if scenario.cycles == 0 {
         f.cycles
     } else {
         scenario.cycles
     };
+    let mut run = boot(scene, &f, f.plan, false, VirtualBus::new(*scenario), cycles)?;
+    if scenario.hang_at_ms().is_some() {
+        let at_rest = command_plan(f.first_move.start().into(), scene.trajectory.smoothness)
+            .map_err(|e| e.to_string())?;
+        let bus = VirtualBus::new(*scenario).without_hangs();
+        run.extend(boot(scene, &f, at_rest, true, bus, cycles)?);
+    }
+    Ok(run)
+}
+
+/// One boot of the firmware with `plan`, until the cycles are done or it hangs.
+fn boot(
+    scene: &Scene,
+    f: &FirmwareScene,
+    plan: Plan<f64, 2>,
+    restarted: bool,
+    bus: VirtualBus,
+    cycles: u32,
+) -> Result<Vec<ReferenceCycle>, String> {
+    let settings = scene.settings();
+    let err = |e: solver_core::Error| e.to_string();
+    let k = scene.solver.k;
     match (&scene.model, scene.solver.scheme) {
         (ModelSpec::CraneSubs(_), SchemeSpec::Bdf) => {
-            let model = CraneSubs::new(f.params, f.plan).map_err(err)?;
-            let integrator =
-                Bdf::<f64, _, 7, 2>::new(&model, &settings, scene.solver.k, 0.0).map_err(err)?;
+            let model = CraneSubs::new(f.params, plan).map_err(err)?;
+            let integrator = Bdf::<f64, _, 7, 2>::new(&model, &settings, k, 0.0).map_err(err)?;
             Ok(run(
-                Injectable::new(InverseModel { model, integrator }),
-                &f,
-                scenario,
+                InverseModel { model, integrator },
+                f,
+                restarted,
+                bus,
                 cycles,
             ))
         }
         (ModelSpec::CraneSubs(_), SchemeSpec::Radau) => {
-            let model = CraneSubs::new(f.params, f.plan).map_err(err)?;
+            let model = CraneSubs::new(f.params, plan).map_err(err)?;
             let integrator = Radau::<f64, _, 7, 2, 21>::new(&model, &settings, 0.0).map_err(err)?;
             Ok(run(
-                Injectable::new(InverseModel { model, integrator }),
-                &f,
-                scenario,
+                InverseModel { model, integrator },
+                f,
+                restarted,
+                bus,
                 cycles,
             ))
         }
         (ModelSpec::CraneProj(_), SchemeSpec::Bdf) => {
-            let model = CraneProj::new(f.params, f.plan).map_err(err)?;
-            let integrator =
-                Bdf::<f64, _, 8, 2>::new(&model, &settings, scene.solver.k, 0.0).map_err(err)?;
+            let model = CraneProj::new(f.params, plan).map_err(err)?;
+            let integrator = Bdf::<f64, _, 8, 2>::new(&model, &settings, k, 0.0).map_err(err)?;
             Ok(run(
-                Injectable::new(InverseModel { model, integrator }),
-                &f,
-                scenario,
+                InverseModel { model, integrator },
+                f,
+                restarted,
+                bus,
                 cycles,
             ))
         }
         (ModelSpec::CraneProj(_), SchemeSpec::Radau) => {
-            let model = CraneProj::new(f.params, f.plan).map_err(err)?;
+            let model = CraneProj::new(f.params, plan).map_err(err)?;
             let integrator = Radau::<f64, _, 8, 2, 24>::new(&model, &settings, 0.0).map_err(err)?;
             Ok(run(
-                Injectable::new(InverseModel { model, integrator }),
-                &f,
-                scenario,
+                InverseModel { model, integrator },
+                f,
+                restarted,
+                bus,
                 cycles,
             ))
         }
@@ -84,26 +110,31 @@ pub fn controller_reference(
 }
 
 fn run<F: Feedforward + Replan>(
-    feedforward: Injectable<F>,
+    feedforward: F,
     f: &FirmwareScene,
-    scenario: &Scenario,
+    restarted: bool,
+    mut bus: VirtualBus,
     cycles: u32,
 ) -> Vec<ReferenceCycle> {
-    let mut controller = Controller::new(feedforward, f.planner, f.config);
-    let mut bus = VirtualBus::new(*scenario);
+    let mut controller = Controller::new(Injectable::new(feedforward), f.planner, f.config);
+    if restarted {
+        controller.restarted_by_watchdog();
+    }
     let period_ms = f.config.period_ms;
     let mut after = 0;
-    (0..cycles)
-        .map(|cycle| {
-            let now_ms = cycle * period_ms;
-            let out = run_cycle(&mut controller, &mut bus, after, now_ms);
-            after = now_ms;
-            ReferenceCycle {
-                now_ms,
-                frames: out.frames.to_vec(),
-                setpoints: out.setpoints,
-                mode: out.mode,
-            }
-        })
-        .collect()
+    let mut out = Vec::new();
+    for cycle in 0..cycles {
+        let now_ms = cycle * period_ms;
+        let Some(c) = run_cycle(&mut controller, &mut bus, after, now_ms) else {
+            break;
+        };
+        after = now_ms;
+        out.push(ReferenceCycle {
+            now_ms,
+            frames: c.frames.to_vec(),
+            setpoints: c.setpoints,
+            mode: c.mode,
+        });
+    }
+    out
 }

@@ -2,8 +2,8 @@
 //!
 //! `panic-never` is this binary's panic handler: it calls a symbol that does not exist,
 //! so the link fails if any panicking branch survives optimisation. The binary drives
-//! every entry point the firmware's 100 Hz task calls — `Controller::on_frame`,
-//! `tick`, `record_cost`, `transmit_failed` — for every model and scheme a scene can
+//! every entry point the firmware calls — `Controller::restarted_by_watchdog`,
+//! `on_frame`, `tick`, `record_cost`, `transmit_failed` — for every model and scheme a scene can
 //! choose (crane *subs* and *proj*, BDF and Radau IIA, every Jacobian mode through the
 //! settings), with every input (frames, times, costs, settings, parameters, the first
 //! move) hidden behind `black_box`, so that nothing is proven for constants only.
@@ -64,6 +64,9 @@ fn run<F: Feedforward + Replan>(feedforward: F) -> ! {
     let limits: DriveLimits = black_box(DriveLimits::LAB);
     let config: Config = black_box(Config::DEFAULT);
     let mut controller = Controller::new(feedforward, Planner::new(params, limits), config);
+    if black_box(false) {
+        controller.restarted_by_watchdog();
+    }
     loop {
         let now: u64 = black_box(0);
         let (id, len, data): (u16, usize, [u8; 8]) = black_box((0, 0, [0; 8]));

@@ -13,6 +13,7 @@
 //!   validator and the controller (N seconds per target, 30 by default).
 //! * `panic-proof [--report]` — the link-time proof that the portable logic cannot
 //!   panic, and the firmware's remaining panic paths against docs/PANICS.md.
+//! * `decode ELF LOG` — a raw defmt log decoded with its ELF (debugging QEMU runs).
 //! * `flash` — builds the STM32H743 firmware and runs it with `probe-rs run`.
 //! * `study …` — the speed/accuracy studies (`run`, `sweep`, `paper`, `extremes`).
 //! * `bench` — criterion benchmarks of one step and whole runs on the host.
@@ -49,6 +50,7 @@ fn main() -> ExitCode {
             None => Err("usage: cargo xtask soak --minutes M".into()),
         },
         Some("flash") => flash(),
+        Some("decode") if args.len() == 3 => decode_log(&args[1], &args[2]),
         Some("panic-proof") if flag("--report") => panics::report(),
         Some("panic-proof") => panics::panic_proof(),
         Some("fuzz") => {
@@ -144,6 +146,16 @@ fn main_job() -> Result<(), String> {
         )),
         None => Ok(()),
     }
+}
+
+/// Prints a raw defmt log (a QEMU run's `.defmt` file) decoded with its ELF.
+fn decode_log(elf: &str, log: &str) -> Result<(), String> {
+    let elf = std::fs::read(elf).map_err(|e| format!("{elf}: {e}"))?;
+    let bytes = std::fs::read(log).map_err(|e| format!("{log}: {e}"))?;
+    for line in defmt_log::decode(&elf, &bytes)? {
+        println!("{line}");
+    }
+    Ok(())
 }
 
 /// Both scenes on the healthy bus, then the default scene through every scenario of

@@ -129,13 +129,21 @@ impl Measured {
         }
     }
 
-    /// Cycles the run must log: the scenario's, or the scene's.
+    /// Cycles the run must log: the scenario's, or the scene's; a scenario that hangs
+    /// the firmware logs the cycles before the hang, then a whole run after the
+    /// watchdog's restart.
     fn cycles(&self) -> usize {
-        if self.scenario.cycles == 0 {
+        let run = if self.scenario.cycles == 0 {
             self.scene.steps()
         } else {
             self.scenario.cycles as usize
-        }
+        };
+        let period_ms = (self.scene.solver.h * 1000.0).round() as usize;
+        let before_hang = self
+            .scenario
+            .hang_at_ms()
+            .map_or(0, |ms| (ms as usize).div_ceil(period_ms.max(1)));
+        before_hang + run
     }
 
     /// (min, mean, max) instructions per step.

@@ -4,7 +4,7 @@ use controller::CanFrame;
 
 /// What the 100 Hz task needs from a CAN controller: the board's own small trait,
 /// because the STM32H743's `fdcan` driver has no embedded-can implementation and the
-/// QEMU board has no CAN controller at all (its port is the scripted virtual bus).
+/// QEMU board has no CAN controller at all (its port is the virtual bus).
 pub trait CanPort {
     /// Why a frame could not be handed to the controller.
     type TxError: defmt::Format;

@@ -8,6 +8,14 @@
 //!   instruction count (one instruction = 128 ns). The CMSDK APB timer 1 at
 //!   0x4000_1000 counts down at 25 MHz: 3.2 ticks per instruction, identical on every
 //!   run. These are **QEMU instructions, not Cortex-M7 cycles**.
+//! * Watchdog: the MPS2's CMSDK APB watchdog (0x4000_8000, 25 MHz), fed only by the
+//!   100 Hz task, as the STM32's IWDG. Its first timeout raises NMI, whose handler
+//!   notes the cause in RAM that survives the reset; the second resets the MCU (QEMU
+//!   reloads the image), and the next boot logs the cause. At 128 ns per instruction
+//!   QEMU's virtual CPU is about 50 times slower than the 400 MHz STM32, so the
+//!   IWDG's 100 ms become 1 s of virtual time (ten times the costliest cycle, a
+//!   planning one), counted from the first completed cycle (building the scene's model
+//!   takes most of a virtual second).
 //! * Exit: semihosting `exit` with a real exit code (panic and HardFault fail).
 //!
 //! This module holds the board's `unsafe`: the device module RTIC needs (interrupt
@@ -89,6 +97,21 @@ pub mod pac {
     ];
 }
 
+const WATCHDOG: usize = 0x4000_8000;
+const WDOG_LOAD: usize = 0x0;
+const WDOG_CONTROL: usize = 0x8;
+const WDOG_INTCLR: usize = 0xC;
+/// 1 s of the 25 MHz watchdog clock (see the module's notes).
+const WATCHDOG_TICKS: u32 = 25_000_000;
+
+/// Written by the NMI handler at the watchdog's first timeout, read at the next boot.
+const WATCHDOG_FIRED: u32 = 0x57D0_6F1D;
+
+/// Why the MCU last reset: `WATCHDOG_FIRED`, or anything else for a power-on. In
+/// `.uninit`, which neither the startup code nor QEMU's reset clears.
+#[link_section = ".uninit.reset_cause"]
+static mut RESET_CAUSE: core::mem::MaybeUninit<u32> = core::mem::MaybeUninit::uninit();
+
 const TIMER1: usize = 0x4000_1000;
 const CTRL: usize = 0x0;
 const VALUE: usize = 0x4;
@@ -118,6 +141,7 @@ pub struct Board {
     rx: Deque<CanFrame, 32>,
     /// End of the last receive window, ms.
     rx_until: Option<u32>,
+    watchdog_started: bool,
 }
 
 /// The scenario named on the semihosting command line
@@ -151,9 +175,20 @@ pub fn scenario() -> Result<Scenario, usize> {
 }
 
 impl Board {
-    /// Paints the stack, starts the instruction counter and the virtual bus.
-    pub fn init(scenario: Scenario) -> Self {
+    /// Paints the stack, starts the instruction counter and the virtual bus; whether
+    /// the watchdog caused this boot (then the scenario's hang is not repeated).
+    pub fn init(scenario: Scenario) -> (Self, bool) {
         paint_stack();
+        let cause = core::ptr::addr_of_mut!(RESET_CAUSE).cast::<u32>();
+        // SAFETY: `RESET_CAUSE` is a word in RAM written only here and by the NMI
+        // handler, which cannot run before the watchdog is started (first feed).
+        let restarted = unsafe { core::ptr::read_volatile(cause) } == WATCHDOG_FIRED;
+        // SAFETY: as above.
+        unsafe { core::ptr::write_volatile(cause, 0) };
+        defmt::info!(
+            "reset cause: {=str}",
+            if restarted { "watchdog" } else { "power-on" }
+        );
         // SAFETY: TIMER1 is the CMSDK APB timer of the MPS2 memory map, owned by this
         // board only; word writes to its RELOAD, VALUE and CTRL registers.
         unsafe {
@@ -161,11 +196,22 @@ impl Board {
             core::ptr::write_volatile((TIMER1 + VALUE) as *mut u32, u32::MAX);
             core::ptr::write_volatile((TIMER1 + CTRL) as *mut u32, 1);
         }
-        Self {
-            bus: VirtualBus::new(scenario),
-            rx: Deque::new(),
-            rx_until: None,
-        }
+        let bus = VirtualBus::new(scenario);
+        let bus = if restarted { bus.without_hangs() } else { bus };
+        (
+            Self {
+                bus,
+                rx: Deque::new(),
+                rx_until: None,
+                watchdog_started: false,
+            },
+            restarted,
+        )
+    }
+
+    /// Whether the scenario makes the firmware hang now.
+    pub fn take_hang(&mut self) -> bool {
+        self.bus.take_hang()
     }
 
     /// Whether the scenario makes the inverse model's next step fail.
@@ -186,8 +232,21 @@ impl Board {
         u64::from(to.wrapping_sub(from)) * 10 / 32
     }
 
-    /// Nothing to feed under QEMU.
-    pub fn feed_watchdog(&mut self) {}
+    /// Feeds the watchdog (clears its interrupt and reloads it): only the 100 Hz task
+    /// calls this, after a completed cycle.
+    pub fn feed_watchdog(&mut self) {
+        // SAFETY: the CMSDK watchdog of the MPS2 memory map, owned by this board only;
+        // word writes to LOAD and CONTROL (interrupt and reset enabled) once, then to
+        // INTCLR, which clears the interrupt and reloads the counter.
+        unsafe {
+            if !self.watchdog_started {
+                core::ptr::write_volatile((WATCHDOG + WDOG_LOAD) as *mut u32, WATCHDOG_TICKS);
+                core::ptr::write_volatile((WATCHDOG + WDOG_CONTROL) as *mut u32, 0b11);
+                self.watchdog_started = true;
+            }
+            core::ptr::write_volatile((WATCHDOG + WDOG_INTCLR) as *mut u32, 1);
+        }
+    }
 
     /// Deepest stack use since boot, bytes (stack painting).
     pub fn stack_high_water(&self) -> u32 {
@@ -280,6 +339,20 @@ pub fn idle() {
 fn panic(info: &core::panic::PanicInfo) -> ! {
     defmt::error!("panic: {}", defmt::Display2Format(info));
     finish(false)
+}
+
+/// The watchdog's first timeout: the 100 Hz task stopped checking in. Note it for the
+/// next boot (no logging here: an NMI may interrupt a log); the watchdog's second
+/// timeout resets the MCU.
+#[cortex_m_rt::exception]
+unsafe fn NonMaskableInt() {
+    // SAFETY: a word write to `RESET_CAUSE` (see `Board::init`).
+    unsafe {
+        core::ptr::write_volatile(
+            core::ptr::addr_of_mut!(RESET_CAUSE).cast::<u32>(),
+            WATCHDOG_FIRED,
+        )
+    };
 }
 
 #[cortex_m_rt::exception]

@@ -89,12 +89,17 @@ impl Board {
         dp: pac::Peripherals,
         dcb: &mut cortex_m::peripheral::DCB,
         dwt: &mut cortex_m::peripheral::DWT,
-    ) -> (Self, CanRx) {
+    ) -> (Self, CanRx, bool) {
         let pwrcfg = dp.PWR.constrain().freeze();
         let mut rcc = dp.RCC.constrain();
         // Read and cleared once: a watchdog reset here means the firmware hung.
         let reason = rcc.get_reset_reason();
         defmt::info!("reset cause: {}", defmt::Display2Format(&reason));
+        let restarted = matches!(
+            reason,
+            stm32h7xx_hal::rcc::ResetReason::IndependentWatchdogReset
+                | stm32h7xx_hal::rcc::ResetReason::GenericWatchdogReset
+        );
         let ccdr = rcc
             .sys_ck(SYSCLK_HZ.Hz())
             .pll1_q_ck(80.MHz())
@@ -147,6 +152,7 @@ impl Board {
                 fifo1,
                 queue: producer,
             },
+            restarted,
         )
     }
 
