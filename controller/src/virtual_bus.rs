@@ -12,7 +12,7 @@ use heapless::Deque;
 use crate::canopen::{self, cob, Drive, NmtState};
 use crate::cia402::{controlword, DriveState};
 use crate::commands::{request_frame, Request};
-use crate::controller::{Controller, Cycle};
+use crate::controller::{Controller, Cycle, Mode};
 use crate::feedforward::{Feedforward, Injectable, Replan};
 use crate::frame::CanFrame;
 use crate::traffic::Traffic;
@@ -92,6 +92,31 @@ pub struct Scenario {
     pub cycles: u32,
     /// Random traffic from this seed on top of the events (the soak run).
     pub random: Option<u32>,
+    /// The mode the run must end in (the QEMU firmware's exit code says whether it did).
+    pub ends: Ending,
+}
+
+/// The mode a scenario must end in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ending {
+    /// Ready.
+    Ready,
+    /// Halted, by the fault the scenario injects.
+    Halted,
+    /// Either (random traffic).
+    Either,
+}
+
+impl Ending {
+    /// Whether `mode` is an admissible end.
+    #[must_use]
+    pub fn admits(self, mode: Mode) -> bool {
+        match self {
+            Ending::Ready => mode == Mode::Ready,
+            Ending::Halted => matches!(mode, Mode::Halted(_)),
+            Ending::Either => true,
+        }
+    }
 }
 
 impl Scenario {
@@ -444,6 +469,7 @@ pub const HEALTHY: Scenario = Scenario {
     events: &[],
     cycles: 0,
     random: None,
+    ends: Ending::Ready,
 };
 
 /// Two moves requested back to back after the paper's move: the first starts at once,
@@ -457,6 +483,7 @@ pub const TWO_MOVES: Scenario = Scenario {
     ],
     cycles: 2_000,
     random: None,
+    ends: Ending::Ready,
 };
 
 /// Every rejection reason once: a move before the drives are enabled (not ready), one
@@ -481,6 +508,7 @@ pub const REJECTIONS: Scenario = Scenario {
     ],
     cycles: 1_900,
     random: None,
+    ends: Ending::Ready,
 };
 
 /// A storm of malformed and unknown frames during the move: ignored, counted, no effect.
@@ -496,6 +524,7 @@ pub const STORM: Scenario = Scenario {
     ],
     cycles: 0,
     random: None,
+    ends: Ending::Ready,
 };
 
 /// The winch drive faults in the middle of the move: quick stop, halted; then a reset.
@@ -508,6 +537,7 @@ pub const DRIVE_FAULT: Scenario = Scenario {
     ],
     cycles: 1_000,
     random: None,
+    ends: Ending::Ready,
 };
 
 /// The inverse model fails in the middle of the move: controlled stop, halted.
@@ -517,6 +547,7 @@ pub const NEWTON_FAILURE: Scenario = Scenario {
     events: &[at(5_000, Action::SolverFailure)],
     cycles: 0,
     random: None,
+    ends: Ending::Halted,
 };
 
 /// The trolley drive falls silent in the middle of the move: quick stop, halted.
@@ -526,6 +557,7 @@ pub const LOST_HEARTBEAT: Scenario = Scenario {
     events: &[at(4_000, Action::Silence(Drive::Trolley))],
     cycles: 0,
     random: None,
+    ends: Ending::Halted,
 };
 
 /// A stop request in the middle of the move: the load comes to rest smoothly, a
@@ -536,6 +568,7 @@ pub const STOP: Scenario = Scenario {
     events: &[at(4_000, Action::Request(Request::Stop { id: 1 }))],
     cycles: 0,
     random: None,
+    ends: Ending::Ready,
 };
 
 /// The bus goes off twice in the middle of the move: for 2 cycles (counted, the move
@@ -549,6 +582,7 @@ pub const BUS_OFF: Scenario = Scenario {
     ],
     cycles: 0,
     random: None,
+    ends: Ending::Halted,
 };
 
 /// The firmware hangs in the middle of the move: the watchdog restarts it, it boots
@@ -563,6 +597,7 @@ pub const HANG: Scenario = Scenario {
     ],
     cycles: 800,
     random: None,
+    ends: Ending::Ready,
 };
 
 /// Every scenario, by name.
@@ -588,6 +623,7 @@ pub const SOAK: Scenario = Scenario {
     events: &[],
     cycles: 6_000,
     random: Some(0x5EED_C0DE),
+    ends: Ending::Either,
 };
 
 /// The scenario of this name (the checked ones and the soak run).

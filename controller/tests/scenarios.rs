@@ -21,6 +21,12 @@ fn play(scenario: Scenario) -> (Rig, Vec<controller::Cycle>) {
     };
     let cycles = rig.run(n);
     assert_within_limits(&cycles, &mut [0; 2]);
+    assert!(
+        scenario.ends.admits(rig.c.mode()),
+        "{} ends {:?}",
+        scenario.name,
+        rig.c.mode()
+    );
     assert_eq!(
         rig.c.counters().frames_lost,
         0,
@@ -313,6 +319,7 @@ fn a_hang_restarts_the_controller_halted_until_a_reset() {
     }
     assert_eq!(answers(&cycles), vec![(1, 1, 0)]);
     assert_at_rest(&rig, &cycles, HOME);
+    assert!(virtual_bus::HANG.ends.admits(rig.c.mode()));
 }
 
 #[test]

@@ -44,12 +44,14 @@ mod app {
         board: Board,
         /// Cycles to run: under QEMU the scenario's (or the scene's), on the board forever.
         cycles: Option<u32>,
+        /// The mode the run must end in (QEMU's exit code).
+        ending: controller::virtual_bus::Ending,
     }
 
     #[init]
     fn init(cx: init::Context) -> (Shared, Local) {
         #[cfg(feature = "qemu")]
-        let (board, can_rx, restarted, cycles) = {
+        let (board, can_rx, restarted, cycles, ending) = {
             let scenario = match board::scenario() {
                 Ok(s) => s,
                 Err(len) => {
@@ -65,14 +67,15 @@ mod app {
             };
             Mono::start(cx.core.SYST, board::SYSCLK_HZ);
             let (board, restarted) = Board::init(scenario);
-            (board, board::CanRx, restarted, Some(cycles))
+            (board, board::CanRx, restarted, Some(cycles), scenario.ends)
         };
         #[cfg(feature = "stm32h743")]
-        let (board, can_rx, restarted, cycles) = {
+        let (board, can_rx, restarted, cycles, ending) = {
             let mut core = cx.core;
             let (board, can_rx, restarted) = Board::init(cx.device, &mut core.DCB, &mut core.DWT);
             Mono::start(core.SYST, board::SYSCLK_HZ);
-            (board, can_rx, restarted, None)
+            let ending = controller::virtual_bus::Ending::Either;
+            (board, can_rx, restarted, None, ending)
         };
         defmt::info!(
             "scene {=str}: {=str}, its move {=u32} cycles",
@@ -112,6 +115,7 @@ mod app {
                 controller,
                 board,
                 cycles,
+                ending,
             },
         )
     }
@@ -133,7 +137,7 @@ mod app {
 
     /// The 100 Hz cycle: received frames, one inverse-model step, transmit. The
     /// watchdog is fed only here, after a completed cycle.
-    #[task(priority = 1, local = [controller, board, cycles])]
+    #[task(priority = 1, local = [controller, board, cycles, ending])]
     async fn control(cx: control::Context) {
         let (controller, board) = (cx.local.controller, cx.local.board);
         let cycles = *cx.local.cycles;
@@ -210,6 +214,6 @@ mod app {
         );
         let mode = controller.mode();
         defmt::info!("mode {}", mode);
-        board::finish(true)
+        board::finish(cx.local.ending.admits(mode))
     }
 }
