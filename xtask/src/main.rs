@@ -129,6 +129,7 @@ pub fn cargo() -> Command {
 fn main_job() -> Result<(), String> {
     let runs = qemu::SCENES
         .iter()
+        .chain(&qemu::BENCH_ONLY_SCENES)
         .map(|s| qemu::measure(s))
         .collect::<Result<Vec<_>, _>>()?;
     let dbc = host_tests::dbc::Dbc::crane()?;
@@ -178,6 +179,7 @@ fn qemu_checks(overwrite: bool) -> Result<(), String> {
 fn qemu_bench() -> Result<(), String> {
     let runs = qemu::SCENES
         .iter()
+        .chain(&qemu::BENCH_ONLY_SCENES)
         .map(|s| qemu::measure(s))
         .collect::<Result<Vec<_>, _>>()?;
     print!("{}", qemu::table(&runs));
