@@ -129,7 +129,6 @@ pub fn cargo() -> Command {
 fn main_job() -> Result<(), String> {
     let runs = qemu::SCENES
         .iter()
-        .chain(&qemu::BENCH_ONLY_SCENES)
         .map(|s| qemu::measure(s))
         .collect::<Result<Vec<_>, _>>()?;
     let dbc = host_tests::dbc::Dbc::crane()?;
