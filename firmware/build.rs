@@ -142,7 +142,7 @@ fn generate(scene: &Scene) -> Result<String, String> {
     );
     let _ = writeln!(
         c,
-        "/// The planner of moves on command: this crane, the lab drives' limits.\npub const PLANNER: controller::planner::Planner = controller::planner::Planner::new(PARAMS, controller::units::DriveLimits::LAB);"
+        "/// The planner of moves on command: this crane, the lab drives' limits.\npub const PLANNER: controller::planner::Planner = controller::planner::Planner::new(PARAMS, controller::setpoint::DriveLimits::LAB);"
     );
     let _ = writeln!(
         c,

@@ -10,13 +10,14 @@
 use heapless::{Deque, Vec};
 use solver_core::Error;
 
-use crate::canopen::{self, Drive, Incoming, NmtCommand, NmtState, CONTROLLER_NODE};
+use crate::canopen::{self, Incoming, NmtCommand, NmtState, CONTROLLER_NODE};
 use crate::cia402::{controlword, DriveState, STATUS_FAULT};
 use crate::commands::{status_frame, Answer, Reject, Request, Status};
+use crate::drive::Drive;
 use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
 use crate::frame::CanFrame;
 use crate::planner::{MoveSearch, Planner, SAMPLES_PER_CYCLE};
-use crate::units::{DriveLimits, Setpoint, SetpointError, SetpointGate, UNITS_PER_M_PER_S};
+use crate::setpoint::{DriveLimits, Setpoint, SetpointError, SetpointGate, UNITS_PER_M_PER_S};
 
 /// Timing, limits and the thresholds of the fault reactions.
 #[derive(Debug, Clone, Copy, PartialEq)]

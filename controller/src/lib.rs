@@ -1,7 +1,8 @@
 //! The firmware's portable logic, tested on the host.
 //!
-//! * [`canopen`] — the frames of a CiA 301 manager driving two CiA 402 drives;
-//! * [`units`] — m/s to drive units through the one set-point choke point;
+//! * [`drive`] — the driven axes (trolley, winch);
+//! * [`canopen`] — CiA 301 by specification: frames, NMT, EMCY codes;
+//! * [`setpoint`] — m/s to drive units through the one set-point choke point;
 //! * [`cia402`] — the drive state machine (enable sequence, quick stop, fault);
 //! * [`feedforward`] — the inverse model behind a one-step-per-cycle trait, with its plan;
 //! * [`commands`] — move, stop and reset requests, and the status answer;
@@ -26,11 +27,12 @@ pub mod canopen;
 pub mod cia402;
 pub mod commands;
 pub mod controller;
+pub mod drive;
 pub mod feedforward;
 pub mod frame;
 pub mod planner;
+pub mod setpoint;
 pub mod traffic;
-pub mod units;
 pub mod virtual_bus;
 
 pub use controller::{Config, Controller, Counters, Cycle, Fault, Mode};

@@ -14,7 +14,7 @@ use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::trajectory::{PointToPoint, Trajectory};
 
 use crate::commands::Reject;
-use crate::units::DriveLimits;
+use crate::setpoint::DriveLimits;
 
 /// Points per checked path segment (plus its end).
 pub const SAMPLES: usize = 100;

@@ -9,10 +9,11 @@
 
 use heapless::Deque;
 
-use crate::canopen::{self, cob, Drive, NmtState};
+use crate::canopen::{self, cob, NmtState};
 use crate::cia402::{controlword, DriveState};
 use crate::commands::{request_frame, Request};
 use crate::controller::{Controller, Cycle, Mode};
+use crate::drive::Drive;
 use crate::feedforward::{Feedforward, Injectable, Replan};
 use crate::frame::CanFrame;
 use crate::traffic::Traffic;

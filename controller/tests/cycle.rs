@@ -7,10 +7,11 @@
 mod common;
 
 use common::*;
-use controller::canopen::{self, Drive, NmtState};
+use controller::canopen::{self, NmtState};
 use controller::cia402::controlword as cw;
 use controller::commands::{request_frame, Request};
-use controller::units::{SetpointError, UNITS_PER_M_PER_S};
+use controller::drive::Drive;
+use controller::setpoint::{SetpointError, UNITS_PER_M_PER_S};
 use controller::virtual_bus::{Action, HEALTHY};
 use controller::{CanFrame, Config, Fault, Mode, Replan};
 use nalgebra::SVector;

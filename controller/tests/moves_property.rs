@@ -17,7 +17,7 @@ mod common;
 use common::*;
 use controller::commands::{decode_request, request_frame, Reject, Request};
 use controller::planner::{DURATION_RANGE, MARGIN, MAX_DOWN_ACCELERATION, SAMPLES};
-use controller::units::{DriveLimits, UNITS_PER_M_PER_S};
+use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
 use controller::virtual_bus::HEALTHY;
 use controller::{Mode, Replan};
 use nalgebra::SVector;

@@ -5,8 +5,8 @@
 mod common;
 
 use common::*;
-use controller::canopen::Drive;
 use controller::cia402::controlword as cw;
+use controller::drive::Drive;
 use controller::virtual_bus::{self, Scenario};
 use controller::{Fault, Mode, Replan};
 use solver_core::Error;

@@ -1,7 +1,7 @@
 //! The choke point every set point passes: finite, within speed, within acceleration.
 
-use controller::canopen::Drive;
-use controller::units::{
+use controller::drive::Drive;
+use controller::setpoint::{
     AxisLimits, DriveLimits, Setpoint, SetpointError, SetpointGate, UNITS_PER_M_PER_S,
 };
 use proptest::prelude::*;

@@ -2,10 +2,11 @@
 //! with the exact Jacobian at h = 10 ms) behind the controller, and checks of what the
 //! controller sends.
 
-use controller::canopen::{cob, Drive};
+use controller::canopen::cob;
+use controller::drive::Drive;
 use controller::feedforward::command_plan;
 use controller::planner::Planner;
-use controller::units::DriveLimits;
+use controller::setpoint::DriveLimits;
 use controller::virtual_bus::{run_cycle, Scenario, VirtualBus, HEALTHY};
 use controller::{CanFrame, Config, Controller, Injectable, InverseModel};
 use nalgebra::SVector;

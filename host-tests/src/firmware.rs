@@ -2,7 +2,7 @@
 //! same virtual bus and scenario. The QEMU run must send exactly these frames.
 
 use controller::feedforward::command_plan;
-use controller::units::Setpoint;
+use controller::setpoint::Setpoint;
 use controller::virtual_bus::{run_cycle, Scenario, VirtualBus};
 use controller::{CanFrame, Controller, Feedforward, Injectable, InverseModel, Mode, Replan};
 use scene::firmware::{firmware_scene, FirmwareScene};

@@ -1,12 +1,13 @@
 //! The encoder against the DBC file that documents the frames (`can/crane.dbc`):
 //! what the controller sends is what a CAN tool reading the DBC will see.
 
-use controller::canopen::{self, Drive, NmtCommand, NmtState, CONTROLLER_NODE};
+use controller::canopen::{self, NmtCommand, NmtState, CONTROLLER_NODE};
 use controller::cia402::controlword;
 use controller::commands::{
     decode_request, request_frame, status_frame, Answer, Reject, Request, Status,
 };
-use controller::units::{DriveLimits, SetpointGate, UNITS_PER_M_PER_S};
+use controller::drive::Drive;
+use controller::setpoint::{DriveLimits, SetpointGate, UNITS_PER_M_PER_S};
 use controller::CanFrame;
 use host_tests::dbc::Dbc;
 use proptest::prelude::*;
@@ -28,8 +29,8 @@ fn dbc_parses_and_covers_every_frame() {
         canopen::heartbeat(CONTROLLER_NODE, NmtState::Operational),
         canopen::heartbeat(1, NmtState::Operational),
         canopen::heartbeat(2, NmtState::BootUp),
-        canopen::rpdo1(Drive::Trolley, 0x000F, controller::units::Setpoint::ZERO),
-        canopen::rpdo1(Drive::Winch, 0x000F, controller::units::Setpoint::ZERO),
+        canopen::rpdo1(Drive::Trolley, 0x000F, controller::setpoint::Setpoint::ZERO),
+        canopen::rpdo1(Drive::Winch, 0x000F, controller::setpoint::Setpoint::ZERO),
         canopen::tpdo1(Drive::Trolley, 0x0237, 0),
         canopen::tpdo1(Drive::Winch, 0x0237, 0),
         canopen::emcy(CONTROLLER_NODE, 0x6100, 0x01, [1, 2, 3, 4, 5]),
@@ -130,7 +131,7 @@ proptest! {
     /// Any admissible set point: the DBC reads back the controlword and the velocity in m/s.
     #[test]
     fn rpdo_round_trips_through_the_dbc(v in -3.0..3.0f64, cw in prop::sample::select(vec![controlword::SHUTDOWN, controlword::SWITCH_ON, controlword::ENABLE_OPERATION, controlword::QUICK_STOP])) {
-        let limits = DriveLimits { trolley: controller::units::AxisLimits { max_velocity: 3.0, max_acceleration: 1e9 }, ..DriveLimits::LAB };
+        let limits = DriveLimits { trolley: controller::setpoint::AxisLimits { max_velocity: 3.0, max_acceleration: 1e9 }, ..DriveLimits::LAB };
         let mut gate = SetpointGate::new(limits, 0.01);
         let sp = gate.admit(Drive::Trolley, v).unwrap();
         let d = decode(&canopen::rpdo1(Drive::Trolley, cw, sp));

@@ -17,7 +17,7 @@ use core::hint::black_box;
 
 use controller::feedforward::command_plan;
 use controller::planner::Planner;
-use controller::units::DriveLimits;
+use controller::setpoint::DriveLimits;
 use controller::{CanFrame, Config, Controller, Feedforward, InverseModel, Replan};
 use cortex_m_rt::entry;
 use nalgebra::SVector;

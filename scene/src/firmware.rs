@@ -5,7 +5,7 @@
 
 use controller::feedforward::command_plan;
 use controller::planner::Planner;
-use controller::units::DriveLimits;
+use controller::setpoint::DriveLimits;
 use controller::Config;
 use solver_core::models::crane::CraneParams;
 use solver_core::plan::Plan;

@@ -6,9 +6,10 @@
 
 use std::collections::BTreeMap;
 
-use controller::canopen::{cob, Drive};
+use controller::canopen::cob;
 use controller::commands::STATUS_ID;
-use controller::units::{DriveLimits, UNITS_PER_M_PER_S};
+use controller::drive::Drive;
+use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
 use controller::virtual_bus::{Scenario, SOAK};
 use controller::Config;
 

@@ -3,9 +3,9 @@
 //! by a plan, behind the controller, on the virtual bus with its simulated drives.
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
-use controller::canopen::Drive;
+use controller::drive::Drive;
 use controller::planner::Planner;
-use controller::units::{DriveLimits, UNITS_PER_M_PER_S};
+use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
 use controller::virtual_bus::{run_cycle, Scenario, VirtualBus};
 use controller::{Config, Controller, Cycle, Injectable, InverseModel, Mode};
 use nalgebra::SVector;

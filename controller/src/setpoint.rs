@@ -8,7 +8,7 @@
 //! beyond the drive's velocity limit, or one that changes faster than its
 //! acceleration limit cannot reach the bus.
 
-use crate::canopen::Drive;
+use crate::drive::Drive;
 
 /// Drive velocity units (0x60FF, 0x606C) per m/s.
 pub const UNITS_PER_M_PER_S: f64 = 1e6;

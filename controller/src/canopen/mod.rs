@@ -15,8 +15,9 @@
 //! units of 1 µm/s (see [`crate::units`]).
 
 use crate::commands::{self, CommandError, Request};
+use crate::drive::Drive;
 use crate::frame::CanFrame;
-use crate::units::Setpoint;
+use crate::setpoint::Setpoint;
 
 /// The controller's own node id (heartbeat 0x710, EMCY 0x090).
 pub const CONTROLLER_NODE: u8 = 0x10;
@@ -37,105 +38,10 @@ pub mod cob {
     pub const HEARTBEAT: u16 = 0x700;
 }
 
-/// The two driven axes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Drive {
-    /// Trolley drive, input u1.
-    Trolley,
-    /// Winch drive, input u2.
-    Winch,
-}
+pub mod emcy;
+pub mod nmt;
 
-impl Drive {
-    /// Both drives, in input order.
-    pub const ALL: [Drive; 2] = [Drive::Trolley, Drive::Winch];
-
-    /// CANopen node id.
-    #[must_use]
-    pub const fn node(self) -> u8 {
-        match self {
-            Drive::Trolley => 1,
-            Drive::Winch => 2,
-        }
-    }
-
-    /// Position in `[trolley, winch]` arrays.
-    #[must_use]
-    pub const fn index(self) -> usize {
-        match self {
-            Drive::Trolley => 0,
-            Drive::Winch => 1,
-        }
-    }
-
-    /// This drive's element of a `[trolley, winch]` pair (no indexing: nothing to panic).
-    pub fn of<T>(self, pair: &[T; 2]) -> &T {
-        let [trolley, winch] = pair;
-        match self {
-            Drive::Trolley => trolley,
-            Drive::Winch => winch,
-        }
-    }
-
-    /// This drive's element of a `[trolley, winch]` pair, to change.
-    pub fn of_mut<T>(self, pair: &mut [T; 2]) -> &mut T {
-        let [trolley, winch] = pair;
-        match self {
-            Drive::Trolley => trolley,
-            Drive::Winch => winch,
-        }
-    }
-
-    fn from_node(node: u8) -> Option<Drive> {
-        Drive::ALL.into_iter().find(|d| d.node() == node)
-    }
-}
-
-/// NMT commands (CiA 301).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
-pub enum NmtCommand {
-    /// Enter operational.
-    Start = 0x01,
-    /// Enter stopped.
-    Stop = 0x02,
-    /// Enter pre-operational.
-    PreOperational = 0x80,
-    /// Reset the application.
-    ResetNode = 0x81,
-    /// Reset communication.
-    ResetCommunication = 0x82,
-}
-
-/// NMT states as reported in heartbeats.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
-pub enum NmtState {
-    /// Just booted.
-    BootUp = 0x00,
-    /// Stopped.
-    Stopped = 0x04,
-    /// Operational: PDOs flow.
-    Operational = 0x05,
-    /// Pre-operational.
-    PreOperational = 0x7F,
-}
-
-impl NmtState {
-    fn from_byte(b: u8) -> Option<Self> {
-        [
-            Self::BootUp,
-            Self::Stopped,
-            Self::Operational,
-            Self::PreOperational,
-        ]
-        .into_iter()
-        .find(|s| *s as u8 == b)
-    }
-}
+pub use nmt::{NmtCommand, NmtState};
 
 fn frame(id: u16, data: &[u8]) -> CanFrame {
     CanFrame::fixed(id, data)

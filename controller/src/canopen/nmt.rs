@@ -1,0 +1,49 @@
+//! CiA 301 network management: the commands a manager sends and the states a
+//! heartbeat reports.
+
+/// NMT commands (CiA 301).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum NmtCommand {
+    /// Enter operational.
+    Start = 0x01,
+    /// Enter stopped.
+    Stop = 0x02,
+    /// Enter pre-operational.
+    PreOperational = 0x80,
+    /// Reset the application.
+    ResetNode = 0x81,
+    /// Reset communication.
+    ResetCommunication = 0x82,
+}
+
+/// NMT states as reported in heartbeats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum NmtState {
+    /// Just booted.
+    BootUp = 0x00,
+    /// Stopped.
+    Stopped = 0x04,
+    /// Operational: PDOs flow.
+    Operational = 0x05,
+    /// Pre-operational.
+    PreOperational = 0x7F,
+}
+
+impl NmtState {
+    /// The state a heartbeat byte names, if CiA 301 defines it.
+    #[must_use]
+    pub fn from_byte(b: u8) -> Option<Self> {
+        [
+            Self::BootUp,
+            Self::Stopped,
+            Self::Operational,
+            Self::PreOperational,
+        ]
+        .into_iter()
+        .find(|s| *s as u8 == b)
+    }
+}
