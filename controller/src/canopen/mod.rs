@@ -40,6 +40,7 @@ pub mod cob {
 
 pub mod emcy;
 pub mod nmt;
+pub mod sdo;
 
 pub use nmt::{NmtCommand, NmtState};
 
