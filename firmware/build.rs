@@ -158,6 +158,11 @@ fn generate(scene: &Scene) -> Result<String, String> {
     };
     let _ = writeln!(
         c,
+        "/// Where the scene's move starts: the crane rests there at power-up (the virtual bus's drives,\n/// so only the QEMU build reads it).\n#[cfg_attr(not(feature = \"qemu\"), allow(dead_code))]\npub const START: [f64; 2] = {};",
+        v(&tr.start)
+    );
+    let _ = writeln!(
+        c,
         "/// Builds the scene's inverse model at rest at t = 0, its move planned if\n/// `first_move` (checked against the planner's rules when the firmware was built).\npub fn inverse_model(first_move: bool) -> Result<Feedforward, solver_core::Error> {{\n    let mut plan = controller::feedforward::command_plan({}, {})?;\n    if first_move {{\n        plan.push(solver_core::trajectory::PointToPoint::new({}.into(), {}.into(), {:?}_f64, {:?}_f64, {})?)?;\n    }}\n    let model = Model::new(PARAMS, plan)?;\n    let integrator = {new}?;\n    Ok(controller::InverseModel {{ model, integrator }})\n}}",
         v(&tr.start),
         tr.smoothness,

@@ -29,8 +29,20 @@ pub enum DriveState {
     Unknown,
 }
 
-/// Statusword bit 3: fault.
-pub const STATUS_FAULT: u16 = 1 << 3;
+/// Statusword (0x6041) bits the controller reads besides the state (CiA 402 Tab. 30;
+/// bit 12 in cyclic synchronous modes).
+pub mod statusword {
+    /// Bit 3: fault.
+    pub const FAULT: u16 = 1 << 3;
+    /// Bit 7: warning.
+    pub const WARNING: u16 = 1 << 7;
+    /// Bit 9: remote — the controlword is processed (not under local control).
+    pub const REMOTE: u16 = 1 << 9;
+    /// Bit 11: internal limit active (the drive limits torque, speed or position).
+    pub const INTERNAL_LIMIT: u16 = 1 << 11;
+    /// Bit 12 in CSV: drive follows the command value (clear: the target is ignored).
+    pub const FOLLOWING: u16 = 1 << 12;
+}
 
 /// Controlword commands (CiA 402, Tab. 28).
 pub mod controlword {

@@ -1,62 +1,98 @@
 //! The 100 Hz cycle: requests, one inverse-model step, two set points, the frames
-//! that carry them, and the reaction to every fault (docs/COMMANDS.md).
+//! that carry them, the drives' commissioning and supervision, and the reaction to
+//! every fault (docs/COMMANDS.md, docs/COMMISSIONING.md).
 //!
-//! Time is injected (`now_ms` on every call), so the schedule — NMT start, SYNC every
-//! cycle, heartbeat and status every 100 ms, the drives' heartbeat timeouts — and every
-//! reaction is tested on the host. The firmware's only job is to call
-//! [`Controller::tick`] every 10 ms, feed received frames to [`Controller::on_frame`],
+//! Time is injected (`now_ms` on every call), so the schedule — commissioning, SYNC every
+//! cycle, heartbeat and status every 100 ms, the drives' heartbeat and TPDO timeouts —
+//! and every reaction is tested on the host. The firmware's only job is to call
+//! [`Controller::tick`] every cycle, feed received frames to [`Controller::on_frame`],
 //! transmit what comes out, and report each cycle's cost and each failed transmission.
 
 use heapless::{Deque, Vec};
 use solver_core::Error;
 
-use crate::canopen::{self, Incoming, NmtCommand, NmtState, CONTROLLER_NODE};
-use crate::cia402::{controlword, DriveState, STATUS_FAULT};
+use crate::canopen::emcy::{self, REGISTER_COMMUNICATION, REGISTER_GENERIC};
+use crate::canopen::sdo;
+use crate::canopen::{self, Incoming, NmtCommand, NmtState};
+use crate::cia402::{controlword, statusword, DriveState};
 use crate::commands::{status_frame, Answer, Reject, Request, Status};
+use crate::commissioning::{Commissioning, CommissioningError, DriveSetup, Phase, Progress};
 use crate::drive::Drive;
 use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
 use crate::frame::CanFrame;
+use crate::node::{Dictionary, Node, Role, Snapshot};
 use crate::planner::{MoveSearch, Planner, SAMPLES_PER_CYCLE};
 use crate::setpoint::{DriveLimits, Setpoint, SetpointError, SetpointGate, UNITS_PER_M_PER_S};
 
-/// Timing, limits and the thresholds of the fault reactions.
+/// Timing, limits, the drives' commissioning table and the thresholds of the fault
+/// reactions.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Config {
     /// Drive limits enforced at the choke point and by the planner.
     pub limits: DriveLimits,
-    /// Cycle time, ms (the solver's h).
+    /// Cycle time, ms (the solver's h): the one owner of the cycle period.
     pub period_ms: u32,
+    /// Core clock, Hz: a cycle's budget is one period of it ([`Config::cycle_budget`]).
+    pub core_hz: u64,
+    /// The controller's node id.
+    pub node: u8,
+    /// NMT manager or slave.
+    pub role: Role,
     /// Period of the controller's heartbeat and status, ms.
-    pub heartbeat_period_ms: u32,
+    pub heartbeat_period_ms: u16,
     /// A drive whose heartbeat is older than this is lost, ms.
     pub heartbeat_timeout_ms: u32,
-    /// Each drive's first heartbeat must arrive within this time after start, ms.
-    pub boot_timeout_ms: u32,
-    /// A cycle costing more than this (core cycles; QEMU instructions) missed its deadline:
-    /// 10 ms at 400 MHz.
-    pub cycle_budget: u64,
+    /// A started drive whose TPDOs are older than this is lost, ms.
+    pub tpdo_timeout_ms: u32,
+    /// An SDO server that has not answered within this fails the transfer, ms.
+    pub sdo_timeout_ms: u32,
+    /// What each drive is configured with (the commissioning file).
+    pub drives: [DriveSetup; 2],
+    /// A reset is refused while a drive reports a speed above this, drive units (µm/s).
+    pub standstill_units: i32,
     /// A second deadline miss within this many cycles stops the crane.
     pub deadline_window: u32,
     /// This many cycles in a row with a failed RPDO: set points cannot be delivered.
     pub undeliverable_cycles: u32,
-    /// Cycles of *fault reset* sent after a reset before a drive still in fault counts
-    /// as a new fault.
+    /// Cycles after a reset during which a drive in fault is sent the fault-reset
+    /// sequence (not yet a new fault): enough for a statusword that lags a few SYNCs.
     pub fault_reset_cycles: u8,
+    /// This many TPDOs in a row of an enabled drive in CSV that does not follow the set
+    /// point (statusword bit 12 clear) while it is asked to move: a fault.
+    pub not_following_tpdos: u8,
 }
 
 impl Config {
-    /// 100 Hz on a 400 MHz Cortex-M7, heartbeats every 100 ms, drives lost after 300 ms.
+    /// 100 Hz on a 400 MHz Cortex-M7, manager of the stock drives at nodes 1 and 2,
+    /// heartbeats every 100 ms, drives lost after 300 ms (TPDOs after 50 ms).
     pub const DEFAULT: Self = Self {
         limits: DriveLimits::LAB,
         period_ms: 10,
+        core_hz: 400_000_000,
+        node: 0x10,
+        role: Role::Manager,
         heartbeat_period_ms: 100,
         heartbeat_timeout_ms: 300,
-        boot_timeout_ms: 1000,
-        cycle_budget: 4_000_000,
+        tpdo_timeout_ms: 50,
+        sdo_timeout_ms: 100,
+        drives: [DriveSetup::TROLLEY, DriveSetup::WINCH],
+        standstill_units: 1_000,
         deadline_window: 100,
         undeliverable_cycles: 3,
-        fault_reset_cycles: 10,
+        fault_reset_cycles: 20,
+        not_following_tpdos: 3,
     };
+
+    /// A cycle costing more than this (core cycles; QEMU instructions) missed its
+    /// deadline: one period of the core clock.
+    #[must_use]
+    pub fn cycle_budget(&self) -> u64 {
+        self.core_hz / 1000 * u64::from(self.period_ms)
+    }
+
+    fn period_s(&self) -> f64 {
+        f64::from(self.period_ms) / 1000.0
+    }
 }
 
 /// Why the controller left *ready* (status byte 4, EMCY's first manufacturer byte).
@@ -67,7 +103,7 @@ pub enum Fault {
     Solver(Error),
     /// The choke point refused the model's set point.
     Setpoint(SetpointError),
-    /// A drive reported a fault (statusword bit 3 or an EMCY).
+    /// A drive reported a fault (statusword bit 3 or an EMCY classified as a fault).
     DriveFault(Drive),
     /// A drive's heartbeat stopped.
     HeartbeatLost(Drive),
@@ -79,6 +115,20 @@ pub enum Fault {
     DriveNotReady(Drive),
     /// The controller was restarted by its watchdog: the 100 Hz task had stopped.
     Watchdog,
+    /// A drive that should be operational reported boot-up, pre-operational or stopped
+    /// during a move (it rebooted or was switched by someone else).
+    DriveLeftOperational(Drive, NmtState),
+    /// A started drive's TPDOs stopped arriving.
+    TpdoTimeout(Drive),
+    /// A drive reports another mode of operation than the commissioned one, or does
+    /// not follow its set points.
+    DriveMode(Drive),
+    /// Commissioning a drive failed.
+    Commissioning(Drive, CommissioningError),
+    /// The controller was switched out of *operational* by its NMT master during a move.
+    NotOperational,
+    /// The supervisor's heartbeat stopped during a move (0x1016 of the controller).
+    SupervisorLost,
 }
 
 /// How a fault is met (docs/COMMANDS.md), mildest first.
@@ -102,6 +152,12 @@ impl Fault {
             Fault::Undeliverable => 6,
             Fault::DriveNotReady(_) => 7,
             Fault::Watchdog => 8,
+            Fault::DriveLeftOperational(..) => 9,
+            Fault::TpdoTimeout(_) => 10,
+            Fault::DriveMode(_) => 11,
+            Fault::Commissioning(..) => 12,
+            Fault::NotOperational => 13,
+            Fault::SupervisorLost => 14,
         }
     }
 
@@ -109,33 +165,46 @@ impl Fault {
     #[must_use]
     pub fn emcy_code(&self) -> u16 {
         match self {
-            Fault::Solver(_) => 0x6100,
-            Fault::Setpoint(_) => 0xFF03,
-            Fault::DriveFault(_) => 0xFF02,
-            Fault::HeartbeatLost(_) => 0x8130,
-            Fault::Deadline => 0xFF01,
-            Fault::Undeliverable => 0x8140,
-            Fault::DriveNotReady(_) => 0xFF04,
-            Fault::Watchdog => 0x6010,
+            Fault::Solver(_) => emcy::INTERNAL_SOFTWARE,
+            Fault::Setpoint(_) => emcy::SETPOINT_REFUSED,
+            Fault::DriveFault(_) => emcy::DRIVE_FAULT,
+            Fault::HeartbeatLost(_) | Fault::DriveLeftOperational(..) | Fault::SupervisorLost => {
+                emcy::HEARTBEAT
+            }
+            Fault::Deadline => emcy::DEADLINE,
+            Fault::Undeliverable | Fault::NotOperational => emcy::COMMUNICATION,
+            Fault::DriveNotReady(_) => emcy::DRIVE_NOT_READY,
+            Fault::Watchdog => emcy::SOFTWARE_RESET,
+            Fault::TpdoTimeout(_) => emcy::RPDO_TIMEOUT,
+            Fault::DriveMode(_) => emcy::DRIVE_MODE,
+            Fault::Commissioning(..) => emcy::COMMISSIONING,
         }
     }
 
-    /// The node concerned (a drive) or 0.
-    fn node(&self) -> u8 {
-        match self {
-            Fault::DriveFault(d) | Fault::HeartbeatLost(d) | Fault::DriveNotReady(d) => d.node(),
+    /// The drive concerned, if any.
+    #[must_use]
+    pub fn drive(&self) -> Option<Drive> {
+        match *self {
+            Fault::DriveFault(d)
+            | Fault::HeartbeatLost(d)
+            | Fault::DriveNotReady(d)
+            | Fault::DriveLeftOperational(d, _)
+            | Fault::TpdoTimeout(d)
+            | Fault::DriveMode(d)
+            | Fault::Commissioning(d, _) => Some(d),
             Fault::Setpoint(
                 SetpointError::NonFinite { drive }
                 | SetpointError::OverSpeed { drive, .. }
                 | SetpointError::OverAcceleration { drive, .. },
-            ) => drive.node(),
-            _ => 0,
+            ) => Some(drive),
+            _ => None,
         }
     }
 
     /// The EMCY's third manufacturer byte: for a refused set point, why (1 non-finite,
     /// 2 over speed, 3 over acceleration); for a solver failure, which (1 Newton did not
-    /// converge, 2 singular matrix, 3 non-finite value, 4 other); otherwise 0.
+    /// converge, 2 singular matrix, 3 non-finite value, 4 other); for a drive that left
+    /// *operational*, the NMT state it reported; otherwise 0.
     fn detail(&self) -> u8 {
         match self {
             Fault::Setpoint(SetpointError::NonFinite { .. }) => 1,
@@ -145,14 +214,19 @@ impl Fault {
             Fault::Solver(Error::SingularJacobian { .. }) => 2,
             Fault::Solver(Error::NonFinite { .. }) => 3,
             Fault::Solver(_) => 4,
+            Fault::DriveLeftOperational(_, state) => *state as u8,
             _ => 0,
         }
     }
 
     fn reaction(&self) -> Reaction {
         match self {
-            Fault::DriveFault(_) | Fault::HeartbeatLost(_) => Reaction::Quick,
-            Fault::Undeliverable | Fault::Watchdog => Reaction::Halt,
+            Fault::DriveFault(_)
+            | Fault::HeartbeatLost(_)
+            | Fault::DriveLeftOperational(..)
+            | Fault::TpdoTimeout(_)
+            | Fault::DriveMode(_) => Reaction::Quick,
+            Fault::Undeliverable | Fault::Watchdog | Fault::Commissioning(..) => Reaction::Halt,
             _ => Reaction::Controlled,
         }
     }
@@ -162,7 +236,8 @@ impl Fault {
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Mode {
-    /// Walking the drives through the CiA 402 enable sequence; moves are refused.
+    /// Commissioning the drives and walking them through the CiA 402 enable sequence;
+    /// moves are refused, nothing moves.
     Enabling,
     /// Following the plan; moves are accepted.
     Ready,
@@ -198,11 +273,66 @@ impl Mode {
 }
 
 /// What the controller knows of one drive.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 struct DriveLink {
+    commissioning: Commissioning,
+    /// NMT state from its last heartbeat or boot-up message.
+    nmt: Option<NmtState>,
+    last_heartbeat_ms: Option<u64>,
+    statusword: u16,
     state: DriveState,
     velocity: i32,
-    last_heartbeat_ms: Option<u64>,
+    position: Option<i32>,
+    mode_display: Option<i8>,
+    /// Last TPDO1; the clock starts when the drive is first seen operational.
+    last_tpdo_ms: Option<u64>,
+    last_position_ms: Option<u64>,
+    /// The next commissioning frame, answered to a response received between cycles.
+    outbox: Option<CanFrame>,
+    not_following: u8,
+}
+
+impl DriveLink {
+    fn new(commissioning: Commissioning) -> Self {
+        Self {
+            commissioning,
+            nmt: None,
+            last_heartbeat_ms: None,
+            statusword: 0,
+            state: DriveState::Unknown,
+            velocity: 0,
+            position: None,
+            mode_display: None,
+            last_tpdo_ms: None,
+            last_position_ms: None,
+            outbox: None,
+            not_following: 0,
+        }
+    }
+
+    /// Commissioned and started: it may be sent PDOs and is supervised.
+    fn linked(&self) -> bool {
+        self.commissioning.phase() == Phase::Done
+    }
+
+    /// Linked, operational and enabled under remote control: it may be asked to move.
+    fn ready(&self) -> bool {
+        self.linked()
+            && self.nmt == Some(NmtState::Operational)
+            && self.last_tpdo_ms.is_some()
+            && self.state == DriveState::OperationEnabled
+            && self.statusword & statusword::REMOTE != 0
+    }
+
+    /// Forgets what the drive reported (it rebooted): the TPDO values are stale.
+    fn forget_process_data(&mut self) {
+        self.state = DriveState::Unknown;
+        self.statusword = 0;
+        self.last_tpdo_ms = None;
+        self.last_position_ms = None;
+        self.mode_display = None;
+        self.not_following = 0;
+    }
 }
 
 /// Running totals, reported in the status frame and the logs.
@@ -213,11 +343,12 @@ pub struct Counters {
     pub cycles: u32,
     /// Frames received and understood.
     pub frames_received: u32,
-    /// Frames ignored: malformed, unknown, out of range, or requests beyond the queue.
+    /// Frames ignored: malformed, unknown, out of range, of an unknown node, or a
+    /// request beyond the queue's answers.
     pub frames_ignored: u32,
     /// Frames handed out for transmission.
     pub frames_sent: u32,
-    /// Frames that did not fit a cycle's buffer (at most 7 of 8 are used: must stay 0).
+    /// Frames that did not fit a cycle's buffer (must stay 0).
     pub frames_lost: u32,
     /// Cycles that missed their deadline.
     pub deadline_misses: u32,
@@ -225,6 +356,13 @@ pub struct Counters {
     pub tx_failures: u32,
     /// Requests answered.
     pub requests: u32,
+    /// Repeated requests (an id already answered or waiting): answered again, not acted on.
+    pub repeated_requests: u32,
+    /// Drive warnings: EMCYs classified as warnings, *internal limit active* (statusword
+    /// bit 11) and statusword bit 7 rising.
+    pub drive_warnings: u32,
+    /// Drives commissioned (counting each boot).
+    pub commissioned: u32,
 }
 
 /// A move request whose duration is being searched.
@@ -235,12 +373,16 @@ struct PendingMove {
     search: MoveSearch,
 }
 
+/// The most frames one cycle hands out.
+pub const MAX_FRAMES: usize = 16;
+
 /// Everything one cycle produced.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Cycle {
-    /// Frames to transmit, in order.
-    pub frames: Vec<CanFrame, 8>,
-    /// The set points sent, `[trolley, winch]`.
+    /// Frames to transmit, in order: commissioning and SDO answers, RPDOs, EMCY,
+    /// SYNC, heartbeat, status.
+    pub frames: Vec<CanFrame, MAX_FRAMES>,
+    /// The set points sent, `[trolley, winch]` (zero to a drive that is not linked).
     pub setpoints: [Setpoint; 2],
     /// The inverse-model step of this cycle, if one was taken.
     pub step: Option<FeedforwardStep>,
@@ -248,68 +390,99 @@ pub struct Cycle {
     pub mode: Mode,
 }
 
-/// The crane controller: CANopen manager of the trolley and winch drives.
+type AnswerRecord = (u8, Answer, Option<Reject>);
+
+/// The crane controller: a CANopen node, manager (or slave) of the trolley and winch drives.
 #[derive(Debug, Clone)]
 pub struct Controller<F> {
     feedforward: F,
     config: Config,
+    node: Node,
     gate: SetpointGate,
     planner: Planner,
     drives: [DriveLink; 2],
     mode: Mode,
+    /// Moves and resets, in order; stops are taken before them.
     requests: Deque<Request, 4>,
+    stops: Deque<u8, 4>,
     /// The move being planned, a share of its search per cycle.
     pending: Option<PendingMove>,
     counters: Counters,
     /// The last answer: request id, answer, reason.
-    answer: (u8, Answer, Option<Reject>),
-    /// An answer was given this cycle: send the status at once.
-    answered: bool,
+    answer: AnswerRecord,
+    /// Answers not yet sent in a status frame (one frame each).
+    unsent: Deque<AnswerRecord, 8>,
     last_miss_cycle: Option<u32>,
     rpdo_failed: bool,
     failed_cycles: u32,
-    emcy: Option<CanFrame>,
-    /// Trolley position and rope length when the controller left *ready*, plus the
-    /// travel the drives reported since: where the load hangs at the reset.
-    drive_positions: [f64; 2],
-    /// Cycles of *fault reset* still to send after a reset.
+    emcy: Deque<CanFrame, 4>,
+    /// The SDO server's answer to a request received between cycles.
+    sdo_answer: Option<CanFrame>,
+    /// The last commissioning failure (0x2002): node, index, sub, abort code, reason.
+    commissioning_failure: (u8, u16, u8, u32, u8),
+    /// Cycles of the fault-reset sequence still to send after a reset.
     resetting: u8,
+    last_supervisor_heartbeat_ms: Option<u64>,
     now_ms: u64,
-    /// The first cycle has not run yet (NMT start and boot-up are due).
+    /// The first cycle has not run yet (the boot-up message is due).
     starting: bool,
+    /// A boot-up message is due (first cycle, or an NMT reset of this node).
+    boot_up: bool,
 }
 
 impl<F: Feedforward + Replan> Controller<F> {
     /// A controller that follows `feedforward` and checks moves with `planner`; it starts
-    /// by enabling the drives.
+    /// by commissioning the drives and holds them at standstill until a move is asked.
     pub fn new(feedforward: F, planner: Planner, config: Config) -> Self {
-        let link = DriveLink {
-            state: DriveState::Unknown,
-            velocity: 0,
-            last_heartbeat_ms: None,
+        let period_ms = u8::try_from(config.period_ms).unwrap_or(u8::MAX);
+        let manager = config.role == Role::Manager;
+        let link = |setup: DriveSetup| {
+            DriveLink::new(Commissioning::new(
+                setup,
+                config.node,
+                period_ms,
+                manager,
+                config.sdo_timeout_ms,
+            ))
         };
-        let position = feedforward.plan().final_position().into();
-        let period = f64::from(config.period_ms) / 1000.0;
+        let [trolley, winch] = config.drives;
         Self {
             feedforward,
             config,
-            gate: SetpointGate::new(config.limits, period),
+            node: Node {
+                id: config.node,
+                role: config.role,
+                // A manager starts itself (CiA 302); a slave waits for its master.
+                state: if manager {
+                    NmtState::Operational
+                } else {
+                    NmtState::PreOperational
+                },
+                heartbeat_ms: config.heartbeat_period_ms,
+                supervisor: 0,
+                cycle_us: config.period_ms.saturating_mul(1000),
+            },
+            gate: SetpointGate::new(config.limits, config.period_s()),
             planner,
-            drives: [link; 2],
+            drives: [link(trolley), link(winch)],
             mode: Mode::Enabling,
             requests: Deque::new(),
+            stops: Deque::new(),
             pending: None,
             counters: Counters::default(),
             answer: (0, Answer::None, None),
-            answered: false,
+            unsent: Deque::new(),
             last_miss_cycle: None,
             rpdo_failed: false,
             failed_cycles: 0,
-            emcy: None,
-            drive_positions: position,
+            emcy: Deque::new(),
+            sdo_answer: None,
+            commissioning_failure: (0, 0, 0, 0, 0),
             resetting: 0,
+            last_supervisor_heartbeat_ms: None,
             now_ms: 0,
             starting: true,
+            boot_up: true,
         }
     }
 
@@ -326,16 +499,34 @@ impl<F: Feedforward + Replan> Controller<F> {
         self.mode
     }
 
+    /// The controller's own NMT state.
+    #[must_use]
+    pub fn nmt_state(&self) -> NmtState {
+        self.node.state
+    }
+
     /// Diagnostics.
     #[must_use]
     pub fn counters(&self) -> Counters {
         self.counters
     }
 
-    /// The state of a drive as last reported.
+    /// The CiA 402 state of a drive as last reported.
     #[must_use]
     pub fn drive_state(&self, drive: Drive) -> DriveState {
         self.link(drive).state
+    }
+
+    /// Where a drive's commissioning stands.
+    #[must_use]
+    pub fn commissioning(&self, drive: Drive) -> Phase {
+        self.link(drive).commissioning.phase()
+    }
+
+    /// A drive's identity (0x1018:1..=4) as read when it was commissioned.
+    #[must_use]
+    pub fn identity(&self, drive: Drive) -> [u32; 4] {
+        self.link(drive).commissioning.identity()
     }
 
     /// The inverse model (and its plan).
@@ -349,62 +540,298 @@ impl<F: Feedforward + Replan> Controller<F> {
         &mut self.feedforward
     }
 
+    /// The configuration.
+    #[must_use]
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+
     /// The last answer given: request id, answer, reason.
     #[must_use]
     pub fn last_answer(&self) -> (u8, Answer, Option<Reject>) {
         self.answer
     }
 
+    fn ignore(&mut self) {
+        self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(1);
+    }
+
+    fn drive_at(&self, node: u8) -> Option<Drive> {
+        Drive::ALL
+            .into_iter()
+            .find(|d| self.link(*d).commissioning.setup().node == node)
+    }
+
     /// Takes one received frame. Frames it does not understand are ignored and counted:
     /// they never change a set point.
     pub fn on_frame(&mut self, frame: &CanFrame, now_ms: u64) {
         let Ok(incoming) = canopen::decode(frame) else {
-            self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(1);
+            self.ignore();
             return;
         };
         self.counters.frames_received = self.counters.frames_received.saturating_add(1);
         match incoming {
-            Incoming::Heartbeat { node, .. } => {
-                if let Some(d) = Drive::ALL.into_iter().find(|d| d.node() == node) {
-                    self.link_mut(d).last_heartbeat_ms = Some(now_ms);
+            Incoming::Nmt { command, node } => {
+                if node == 0 || node == self.node.id {
+                    self.on_nmt(command);
+                }
+            }
+            Incoming::Heartbeat { node, state } => {
+                if let Some(drive) = self.drive_at(node) {
+                    self.on_heartbeat(drive, state, now_ms);
+                } else if self.supervisor_node() == Some(node) {
+                    self.last_supervisor_heartbeat_ms = Some(now_ms);
                 }
             }
             Incoming::Status {
-                drive,
+                node,
                 statusword,
                 velocity,
-            } => {
-                let period = f64::from(self.config.period_ms) / 1000.0;
-                if self.mode.fault().is_some() {
-                    // One TPDO per cycle, answering the SYNC: travel over one period.
-                    *drive.of_mut(&mut self.drive_positions) +=
-                        f64::from(velocity) / UNITS_PER_M_PER_S * period;
+            } => match self.drive_at(node) {
+                Some(drive) if self.link(drive).linked() => {
+                    self.on_status(drive, statusword, velocity, now_ms);
                 }
-                let link = self.link_mut(drive);
-                link.state = DriveState::from_statusword(statusword);
-                link.velocity = velocity;
-                if statusword & STATUS_FAULT != 0 {
-                    self.fault(Fault::DriveFault(drive));
+                // A drive being commissioned: its mapping is not confirmed yet.
+                Some(_) => {}
+                None => self.ignore(),
+            },
+            Incoming::Position {
+                node,
+                position,
+                mode,
+            } => match self.drive_at(node) {
+                Some(drive) if !self.link(drive).linked() => {}
+                Some(drive) => {
+                    let link = self.link_mut(drive);
+                    link.position = Some(position);
+                    link.mode_display = Some(mode);
+                    link.last_position_ms = Some(now_ms);
+                    if mode != link.commissioning.setup().mode.code() {
+                        self.fault(Fault::DriveMode(drive));
+                    }
+                }
+                None => self.ignore(),
+            },
+            Incoming::Emergency {
+                node,
+                code,
+                register,
+            } => match self.drive_at(node) {
+                Some(drive) => {
+                    if emcy::is_fault(code, register) {
+                        self.fault(Fault::DriveFault(drive));
+                    } else if code != emcy::NO_ERROR {
+                        self.warn();
+                    }
+                }
+                None => self.ignore(),
+            },
+            Incoming::SdoResponse { node, data } => {
+                let Some(drive) = self.drive_at(node) else {
+                    self.ignore();
+                    return;
+                };
+                match self
+                    .link_mut(drive)
+                    .commissioning
+                    .on_response(&data, now_ms)
+                {
+                    // The next request goes out with the next cycle.
+                    Some(progress) => {
+                        self.link_mut(drive).outbox = self.on_progress(drive, progress)
+                    }
+                    None => self.ignore(),
                 }
             }
-            Incoming::Emergency { drive, code, .. } => {
-                if code != 0 {
-                    self.fault(Fault::DriveFault(drive));
+            Incoming::SdoRequest { node, data } => {
+                if node != self.node.id {
+                    // Another server's traffic: not for us.
+                    return;
+                }
+                // CiA 301: SDO is served in pre-operational and operational, not stopped.
+                if self.node.state != NmtState::Stopped {
+                    let snapshot = self.snapshot();
+                    let mut od = Dictionary {
+                        node: &mut self.node,
+                        snapshot,
+                    };
+                    self.sdo_answer = sdo::serve(&mut od, self.config.node, &data);
                 }
             }
             Incoming::Command(request) => {
-                if self.requests.push_back(request).is_err() {
-                    // More requests in one cycle than the queue holds: ignored and counted.
-                    self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(1);
+                if self.node.state == NmtState::Operational {
+                    self.on_request(request);
+                } else {
+                    // PDOs are not processed outside *operational* (CiA 301).
+                    self.ignore();
                 }
             }
+        }
+    }
+
+    fn supervisor_node(&self) -> Option<u8> {
+        let node = ((self.node.supervisor >> 16) & 0x7F) as u8;
+        (node != 0 && self.node.supervisor & 0xFFFF != 0).then_some(node)
+    }
+
+    fn warn(&mut self) {
+        self.counters.drive_warnings = self.counters.drive_warnings.saturating_add(1);
+    }
+
+    /// An NMT command for this node (or all).
+    fn on_nmt(&mut self, command: NmtCommand) {
+        let state = match command {
+            NmtCommand::Start => NmtState::Operational,
+            NmtCommand::Stop => NmtState::Stopped,
+            NmtCommand::PreOperational => NmtState::PreOperational,
+            NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
+                // Communication parameters back to their defaults, a boot-up message,
+                // then pre-operational (a manager starts itself again next cycle).
+                self.node.heartbeat_ms = self.config.heartbeat_period_ms;
+                self.node.supervisor = 0;
+                self.boot_up = true;
+                NmtState::PreOperational
+            }
+        };
+        self.node.state = state;
+        if state != NmtState::Operational && self.moving() {
+            self.fault(Fault::NotOperational);
+        }
+    }
+
+    /// A drive's heartbeat or boot-up message.
+    fn on_heartbeat(&mut self, drive: Drive, state: NmtState, now_ms: u64) {
+        let link = self.link_mut(drive);
+        link.last_heartbeat_ms = Some(now_ms);
+        link.nmt = Some(state);
+        let phase = link.commissioning.phase();
+        match (state, phase) {
+            // Booted (again), or found pre-operational/stopped: commission it from the
+            // start. If it was linked, it lost its configuration and its enable state.
+            (NmtState::BootUp | NmtState::PreOperational | NmtState::Stopped, Phase::Done)
+            | (NmtState::BootUp, _) => {
+                if phase == Phase::Done {
+                    self.drive_left_operational(drive, state);
+                }
+                self.recommission(drive, now_ms);
+            }
+            (
+                NmtState::PreOperational | NmtState::Stopped | NmtState::Operational,
+                Phase::Absent,
+            ) => {
+                self.recommission(drive, now_ms);
+            }
+            (NmtState::Operational, Phase::Done) => {
+                // The TPDOs' clocks start when the drive is first seen operational.
+                let link = self.link_mut(drive);
+                if link.last_tpdo_ms.is_none() {
+                    link.last_tpdo_ms = Some(now_ms);
+                    link.last_position_ms = Some(now_ms);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn recommission(&mut self, drive: Drive, now_ms: u64) {
+        let link = self.link_mut(drive);
+        link.forget_process_data();
+        let frame = link.commissioning.begin(now_ms);
+        link.outbox = Some(frame);
+    }
+
+    /// A linked drive reported boot-up, pre-operational or stopped: a fault during a
+    /// move; at rest it is commissioned and enabled again, announced by an EMCY warning.
+    fn drive_left_operational(&mut self, drive: Drive, state: NmtState) {
+        if self.moving() {
+            self.fault(Fault::DriveLeftOperational(drive, state));
+            return;
+        }
+        if self.mode == Mode::Ready {
+            self.mode = Mode::Enabling;
+        }
+        let node = self.link(drive).commissioning.setup().node;
+        // A warning: error register without the generic bit (see emcy::is_fault).
+        self.send_emcy(canopen::emcy(
+            self.node.id,
+            emcy::HEARTBEAT,
+            REGISTER_COMMUNICATION,
+            [9, node, state as u8, 0, 0],
+        ));
+    }
+
+    fn on_status(&mut self, drive: Drive, sw: u16, velocity: i32, now_ms: u64) {
+        let limit_before = self.link(drive).statusword & statusword::INTERNAL_LIMIT;
+        let warning_before = self.link(drive).statusword & statusword::WARNING;
+        let moving = self.moving();
+        let asked = self.gate.last(drive) != Setpoint::ZERO;
+        let csv = self.link(drive).commissioning.setup().mode.code() == 9;
+        let not_following_limit = self.config.not_following_tpdos;
+        let link = self.link_mut(drive);
+        link.statusword = sw;
+        link.state = DriveState::from_statusword(sw);
+        link.velocity = velocity;
+        link.last_tpdo_ms = Some(now_ms);
+        // CSV: bit 12 set while the drive follows the target velocity.
+        let ignoring = csv
+            && link.state == DriveState::OperationEnabled
+            && sw & statusword::FOLLOWING == 0
+            && asked;
+        link.not_following = if ignoring {
+            link.not_following.saturating_add(1)
+        } else {
+            0
+        };
+        let not_following = link.not_following >= not_following_limit;
+        let remote_lost = sw & statusword::REMOTE == 0;
+        if (sw & statusword::INTERNAL_LIMIT != 0 && limit_before == 0)
+            || (sw & statusword::WARNING != 0 && warning_before == 0)
+        {
+            self.warn();
+        }
+        if sw & statusword::FAULT != 0 {
+            // During a reset's fault-reset sequence a fault statusword is expected (it
+            // may lag a few SYNCs); one still there when the sequence ends is a fault.
+            if self.resetting == 0 {
+                self.fault(Fault::DriveFault(drive));
+            }
+        } else if not_following || (moving && remote_lost) {
+            self.fault(Fault::DriveMode(drive));
+        }
+    }
+
+    /// A request off the bus: a repeated id is answered again, not acted on; a stop
+    /// goes before every waiting move; a request beyond the queue is rejected as busy.
+    fn on_request(&mut self, request: Request) {
+        let id = request.id();
+        let waiting = self.requests.iter().any(|r| r.id() == id)
+            || self.stops.iter().any(|s| *s == id)
+            || self.pending.is_some_and(|p| p.id == id);
+        if waiting {
+            self.counters.repeated_requests = self.counters.repeated_requests.saturating_add(1);
+            return;
+        }
+        if self.answer.1 != Answer::None && self.answer.0 == id {
+            // The supervisor did not see our answer: send it again.
+            self.counters.repeated_requests = self.counters.repeated_requests.saturating_add(1);
+            if self.unsent.push_back(self.answer).is_err() {
+                self.ignore();
+            }
+            return;
+        }
+        let queued = match request {
+            Request::Stop { id } => self.stops.push_back(id).is_ok(),
+            _ => self.requests.push_back(request).is_ok(),
+        };
+        if !queued {
+            self.give_answer(id, Err(Reject::Busy));
         }
     }
 
     /// Reports what the last cycle cost (core cycles; QEMU instructions). A cycle over
     /// the budget missed its deadline; a second miss within the window stops the crane.
     pub fn record_cost(&mut self, cost: u64) {
-        if cost <= self.config.cycle_budget {
+        if cost <= self.config.cycle_budget() {
             return;
         }
         let cycle = self.counters.cycles;
@@ -420,19 +847,29 @@ impl<F: Feedforward + Replan> Controller<F> {
 
     /// Reports a frame the board could not transmit (bus-off, full transmit queue). Set
     /// points are not repeated (the next cycle sends fresh ones); an EMCY is sent again
-    /// next cycle unless a newer one replaces it, so no fault goes unannounced.
+    /// next cycle, so no fault goes unannounced; a lost SDO request is left to the
+    /// transfer's timeout.
     pub fn transmit_failed(&mut self, frame: &CanFrame) {
         self.counters.tx_failures = self.counters.tx_failures.saturating_add(1);
         let id = frame.id();
-        if Drive::ALL
+        if self
+            .drives
             .iter()
-            .any(|d| id == canopen::cob::RPDO1 + u16::from(d.node()))
+            .any(|d| id == canopen::cob::RPDO1 + u16::from(d.commissioning.setup().node))
         {
             self.rpdo_failed = true;
         }
-        if id == canopen::cob::EMCY + u16::from(CONTROLLER_NODE) && self.emcy.is_none() {
-            self.emcy = Some(*frame);
+        if id == canopen::cob::EMCY + u16::from(self.node.id)
+            && self.emcy.push_front(*frame).is_err()
+        {
+            self.ignore();
         }
+    }
+
+    /// Whether the load is being moved (or the drives were last sent motion).
+    fn moving(&self) -> bool {
+        (self.mode == Mode::Ready && self.feedforward.plan().is_moving(self.now_s()))
+            || !self.gate.at_standstill()
     }
 
     /// One cycle at time `now_ms` (the start of the cycle; the model has been stepped to it).
@@ -440,30 +877,35 @@ impl<F: Feedforward + Replan> Controller<F> {
         self.now_ms = now_ms;
         let mut frames = Vec::new();
         let first = core::mem::take(&mut self.starting);
-        if first {
-            self.push(&mut frames, canopen::nmt(NmtCommand::Start, 0));
+        if core::mem::take(&mut self.boot_up) {
             self.push(
                 &mut frames,
-                canopen::heartbeat(CONTROLLER_NODE, NmtState::BootUp),
+                canopen::heartbeat(self.node.id, NmtState::BootUp),
             );
+        } else if self.node.role == Role::Manager && self.node.state == NmtState::PreOperational {
+            // A manager starts itself after a reset of its communication.
+            self.node.state = NmtState::Operational;
+        }
+        if let Some(answer) = self.sdo_answer.take() {
+            self.push(&mut frames, answer);
         }
         self.supervise_delivery();
-        self.supervise_heartbeats(now_ms);
-        // Requests are taken in order: the next one waits while a move is planned.
-        if self.pending.is_none() {
+        self.supervise_drives(now_ms);
+        self.commission(now_ms, &mut frames);
+        // Ready once every drive is: a reset's answer still shows *enabling*.
+        if self.mode == Mode::Enabling && self.drives_ready() {
+            self.mode = Mode::Ready;
+        }
+        // A stop goes first; then requests in order: the next one waits while a move
+        // is planned.
+        if let Some(id) = self.stops.pop_front() {
+            self.handle(Request::Stop { id });
+        } else if self.pending.is_none() {
             if let Some(request) = self.requests.pop_front() {
                 self.handle(request);
             }
         }
         self.plan_pending();
-        if self.mode == Mode::Enabling
-            && self.resetting == 0
-            && Drive::ALL
-                .iter()
-                .all(|d| self.link(*d).state == DriveState::OperationEnabled)
-        {
-            self.mode = Mode::Ready;
-        }
 
         let step = if matches!(self.mode, Mode::Enabling | Mode::Ready) {
             match self.feedforward.step() {
@@ -482,8 +924,12 @@ impl<F: Feedforward + Replan> Controller<F> {
         let mut setpoints = [Setpoint::ZERO; 2];
         for drive in Drive::ALL {
             let (command, setpoint) = self.command_for(drive, step.as_ref());
-            *drive.of_mut(&mut setpoints) = setpoint;
-            self.push(&mut frames, canopen::rpdo1(drive, command, setpoint));
+            // Only a commissioned drive gets PDOs: its mapping is known.
+            if self.link(drive).linked() {
+                *drive.of_mut(&mut setpoints) = setpoint;
+                let node = self.link(drive).commissioning.setup().node;
+                self.push(&mut frames, canopen::rpdo1(node, command, setpoint));
+            }
         }
         self.resetting = self.resetting.saturating_sub(1);
         if let Mode::Stopping(f) | Mode::QuickStop(f) = self.mode {
@@ -491,27 +937,35 @@ impl<F: Feedforward + Replan> Controller<F> {
                 self.mode = Mode::Halted(f);
             }
         }
-        if let Some(emcy) = self.emcy.take() {
+        while let Some(emcy) = self.emcy.pop_front() {
             self.push(&mut frames, emcy);
         }
         self.push(&mut frames, canopen::sync());
-        let periodic = self
-            .config
-            .heartbeat_period_ms
+        let periodic = u32::from(self.node.heartbeat_ms)
             .checked_div(self.config.period_ms)
-            .unwrap_or(1)
-            .max(1);
-        let beat = !first && self.counters.cycles.is_multiple_of(periodic);
+            .unwrap_or(0);
+        let beat = !first && periodic != 0 && self.counters.cycles.is_multiple_of(periodic);
         if beat {
             self.push(
                 &mut frames,
-                canopen::heartbeat(CONTROLLER_NODE, NmtState::Operational),
+                canopen::heartbeat(self.node.id, self.node.state),
             );
         }
-        if beat || self.answered {
-            let status = self.status();
-            self.push(&mut frames, status_frame(&status));
-            self.answered = false;
+        if self.node.state == NmtState::Operational {
+            // One status frame per answer (two per cycle at most), and every period.
+            let mut sent = 0;
+            while sent < 2 {
+                let Some(answer) = self.unsent.pop_front() else {
+                    break;
+                };
+                let status = self.status_with(answer);
+                self.push(&mut frames, status_frame(&status));
+                sent += 1;
+            }
+            if beat && sent == 0 {
+                let status = self.status();
+                self.push(&mut frames, status_frame(&status));
+            }
         }
         self.counters.cycles = self.counters.cycles.wrapping_add(1);
         Cycle {
@@ -522,10 +976,56 @@ impl<F: Feedforward + Replan> Controller<F> {
         }
     }
 
+    /// Commissioning of each drive: the frame answering a response received between
+    /// cycles, a due step, a timeout or a presence check — at most one frame per drive.
+    fn commission(&mut self, now_ms: u64, frames: &mut Vec<CanFrame, MAX_FRAMES>) {
+        for drive in Drive::ALL {
+            let link = self.link_mut(drive);
+            let frame = match link.outbox.take() {
+                Some(frame) => Some(frame),
+                None => match link.commissioning.poll(now_ms) {
+                    Some(progress) => self.on_progress(drive, progress),
+                    None => None,
+                },
+            };
+            if let Some(frame) = frame {
+                self.push(frames, frame);
+            }
+        }
+    }
+
+    /// What a commissioning step asks: the frame to send, if any, and the end of the
+    /// sequence (counted) or its failure (a fault).
+    fn on_progress(&mut self, drive: Drive, progress: Progress) -> Option<CanFrame> {
+        match progress {
+            Progress::Send(frame) => Some(frame),
+            Progress::Done => {
+                self.counters.commissioned = self.counters.commissioned.saturating_add(1);
+                None
+            }
+            Progress::Failed { error, abort } => {
+                let node = self.link(drive).commissioning.setup().node;
+                let object = error.object();
+                self.commissioning_failure = (
+                    node,
+                    object.index,
+                    object.sub,
+                    error.abort_code(),
+                    error.reason(),
+                );
+                self.fault(Fault::Commissioning(drive, error));
+                abort
+            }
+        }
+    }
+
     /// The status frame's contents now.
     #[must_use]
     pub fn status(&self) -> Status {
-        let (last_id, answer, reason) = self.answer;
+        self.status_with(self.answer)
+    }
+
+    fn status_with(&self, (last_id, answer, reason): AnswerRecord) -> Status {
         Status {
             last_id,
             answer,
@@ -538,9 +1038,32 @@ impl<F: Feedforward + Replan> Controller<F> {
         }
     }
 
+    fn snapshot(&self) -> Snapshot {
+        let commissioned = Drive::ALL
+            .iter()
+            .enumerate()
+            .filter(|(_, d)| self.link(**d).linked())
+            .fold(0u8, |bits, (i, _)| bits | (1 << i));
+        Snapshot {
+            status: self.status(),
+            error_register: if self.mode.fault().is_some() {
+                REGISTER_GENERIC
+            } else {
+                0
+            },
+            commissioning_failure: self.commissioning_failure,
+            commissioned,
+        }
+    }
+
     fn now_s(&self) -> f64 {
         // Exact below 2^53 ms (285,000 years).
         self.now_ms as f64 / 1000.0
+    }
+
+    /// Whether every drive may be asked to move.
+    fn drives_ready(&self) -> bool {
+        Drive::ALL.iter().all(|d| self.link(*d).ready())
     }
 
     /// Takes one request (docs/COMMANDS.md): answers it, or starts planning a move.
@@ -553,7 +1076,7 @@ impl<F: Feedforward + Replan> Controller<F> {
                 duration,
             } => {
                 let plan = self.feedforward.plan();
-                if self.mode != Mode::Ready {
+                if self.mode != Mode::Ready || !self.drives_ready() {
                     Err(Reject::NotReady)
                 } else if plan.has_queued() {
                     Err(Reject::Busy)
@@ -568,8 +1091,12 @@ impl<F: Feedforward + Replan> Controller<F> {
                 }
             }
             Request::Stop { .. } => {
-                // The queued move is dropped; the running one is replaced by a quicker
-                // smooth stop if one fits the limits, else it is the stop.
+                // The move being planned and the queued one are dropped; the running one
+                // is replaced by a quicker smooth stop if one fits the limits, else it is
+                // the stop.
+                if let Some(p) = self.pending.take() {
+                    self.give_answer(p.id, Err(Reject::NotReady));
+                }
                 if self.mode == Mode::Ready && self.feedforward.plan().is_moving(now) {
                     let plan = self.feedforward.plan_mut();
                     plan.drop_queued();
@@ -594,7 +1121,7 @@ impl<F: Feedforward + Replan> Controller<F> {
         let Some(mut pending) = self.pending.take() else {
             return;
         };
-        if self.mode != Mode::Ready {
+        if self.mode != Mode::Ready || !self.drives_ready() {
             self.give_answer(pending.id, Err(Reject::NotReady));
             return;
         }
@@ -626,40 +1153,88 @@ impl<F: Feedforward + Replan> Controller<F> {
             Ok(a) => (id, a, None),
             Err(r) => (id, Answer::Rejected, Some(r)),
         };
-        self.answered = true;
+        if self.unsent.push_back(self.answer).is_err() {
+            self.ignore();
+        }
         self.counters.requests = self.counters.requests.saturating_add(1);
     }
 
-    /// Leaves *halted*: fault reset to the drives, the model restarted at rest where the
-    /// load hangs now (below the trolley, where the drives stopped), the enable sequence,
-    /// EMCY 0x0000.
+    /// Where the load hangs, from the drives' position actual (0x6064): trolley position
+    /// and rope length. `None` if a drive's position is unknown or stale, or a drive
+    /// still moves.
+    fn measured_rest(&self) -> Option<[f64; 2]> {
+        let mut position = [0.0; 2];
+        for drive in Drive::ALL {
+            let link = self.link(drive);
+            let fresh = link.last_position_ms.is_some_and(|t| {
+                self.now_ms.saturating_sub(t) <= u64::from(self.config.tpdo_timeout_ms)
+            });
+            if !fresh || link.velocity.unsigned_abs() > self.config.standstill_units.unsigned_abs()
+            {
+                return None;
+            }
+            let setup = link.commissioning.setup();
+            *drive.of_mut(&mut position) =
+                setup.position_offset + setup.position_scale * f64::from(link.position?);
+        }
+        Some(position)
+    }
+
+    /// Leaves *halted*: the drives' measured position, the fault-reset sequence to a
+    /// faulted drive, a failed commissioning started again, the model restarted at rest
+    /// where the load hangs, the enable sequence, EMCY 0x0000. Refused while a drive
+    /// still moves or its position is not known.
     fn reset(&mut self) -> Result<(), Reject> {
+        let position = self.measured_rest().ok_or(Reject::NotReady)?;
         self.feedforward
-            .restart_at_rest(self.drive_positions, self.now_s())
+            .restart_at_rest(position, self.now_s())
             .map_err(|_| Reject::Invalid)?;
+        for drive in Drive::ALL {
+            if matches!(self.link(drive).commissioning.phase(), Phase::Failed(_)) {
+                self.recommission(drive, self.now_ms);
+            }
+        }
         self.resetting = self.config.fault_reset_cycles;
         self.last_miss_cycle = None;
         self.failed_cycles = 0;
         self.mode = Mode::Enabling;
-        self.emcy = Some(canopen::emcy(CONTROLLER_NODE, 0x0000, 0, [0; 5]));
+        self.send_emcy(canopen::emcy(self.node.id, emcy::NO_ERROR, 0, [0; 5]));
         Ok(())
+    }
+
+    /// The fault-reset sequence: controlword bit 7 high for three cycles, then low for one
+    /// (a rising edge every four cycles: the first against the halt's *quick stop*), so
+    /// that a drive that missed an edge, or whose statusword lags a few SYNCs, is reset
+    /// without a new fault.
+    fn fault_reset_command(&self) -> u16 {
+        let elapsed = self
+            .config
+            .fault_reset_cycles
+            .saturating_sub(self.resetting);
+        if elapsed % 4 == 3 {
+            controlword::DISABLE_VOLTAGE
+        } else {
+            controlword::FAULT_RESET
+        }
     }
 
     /// Controlword and set point for one drive this cycle.
     fn command_for(&mut self, drive: Drive, step: Option<&FeedforwardStep>) -> (u16, Setpoint) {
+        let ready = self.link(drive).ready();
         let state = self.link(drive).state;
         match self.mode {
             Mode::Enabling | Mode::Ready => {
                 let wanted = step.map(|s| *drive.of(&s.u)).unwrap_or(0.0);
                 let Some(command) = state.enable_command() else {
-                    // A drive in fault: after a reset, send fault reset; otherwise it is a fault.
+                    // A drive in fault: after a reset, the fault-reset sequence; otherwise
+                    // it is a fault.
                     if self.resetting > 0 {
-                        return (controlword::FAULT_RESET, self.gate.ramp_to_zero(drive));
+                        return (self.fault_reset_command(), self.gate.ramp_to_zero(drive));
                     }
                     self.fault(Fault::DriveFault(drive));
                     return (controlword::QUICK_STOP, self.gate.ramp_to_zero(drive));
                 };
-                if state != DriveState::OperationEnabled {
+                if !ready {
                     if libm::round(wanted * UNITS_PER_M_PER_S) != 0.0 {
                         self.fault(Fault::DriveNotReady(drive));
                     }
@@ -680,15 +1255,33 @@ impl<F: Feedforward + Replan> Controller<F> {
         }
     }
 
-    fn supervise_heartbeats(&mut self, now_ms: u64) {
+    /// Heartbeats of linked drives, their TPDOs' age, and the supervisor's heartbeat.
+    fn supervise_drives(&mut self, now_ms: u64) {
+        let late = |t: Option<u64>, limit: u32| {
+            t.is_some_and(|t| now_ms.saturating_sub(t) > u64::from(limit))
+        };
         for drive in Drive::ALL {
-            let lost = match self.link(drive).last_heartbeat_ms {
-                None => now_ms > u64::from(self.config.boot_timeout_ms),
-                Some(t) => now_ms.saturating_sub(t) > u64::from(self.config.heartbeat_timeout_ms),
-            };
-            if lost {
-                self.fault(Fault::HeartbeatLost(drive));
+            let link = self.link(drive);
+            if !link.linked() {
+                continue;
             }
+            if late(link.last_heartbeat_ms, self.config.heartbeat_timeout_ms) {
+                self.fault(Fault::HeartbeatLost(drive));
+            } else if late(link.last_tpdo_ms, self.config.tpdo_timeout_ms)
+                || late(link.last_position_ms, self.config.tpdo_timeout_ms)
+            {
+                self.fault(Fault::TpdoTimeout(drive));
+            }
+        }
+        // The supervisor, if watched (0x1016:1): lost during a move → controlled stop.
+        if self.supervisor_node().is_some()
+            && late(
+                self.last_supervisor_heartbeat_ms,
+                self.node.supervisor & 0xFFFF,
+            )
+            && self.moving()
+        {
+            self.fault(Fault::SupervisorLost);
         }
     }
 
@@ -705,6 +1298,15 @@ impl<F: Feedforward + Replan> Controller<F> {
         }
     }
 
+    fn send_emcy(&mut self, frame: CanFrame) {
+        if self.emcy.push_back(frame).is_err() {
+            // Four EMCYs in one cycle: the oldest is dropped, and counted.
+            let _ = self.emcy.pop_front();
+            let _ = self.emcy.push_back(frame);
+            self.ignore();
+        }
+    }
+
     /// Meets a fault: the first one leaves *ready*; a later, more severe one escalates.
     fn fault(&mut self, fault: Fault) {
         let current = match self.mode {
@@ -715,33 +1317,54 @@ impl<F: Feedforward + Replan> Controller<F> {
         };
         let reaction = fault.reaction();
         if current.is_some_and(|c| c >= reaction) {
+            // Already met as severely; a commissioning failure is still announced.
+            if let Fault::Commissioning(..) = fault {
+                self.send_emcy(self.emcy_of(fault));
+            }
             return;
-        }
-        if current.is_none() {
-            self.drive_positions = self
-                .planner
-                .drive_positions(self.feedforward.plan(), self.now_s());
         }
         self.mode = match reaction {
             Reaction::Controlled => Mode::Stopping(fault),
             Reaction::Quick => Mode::QuickStop(fault),
             Reaction::Halt => Mode::Halted(fault),
         };
-        let register = 0x01
-            | if matches!(fault, Fault::HeartbeatLost(_) | Fault::Undeliverable) {
-                0x10
-            } else {
-                0x80
-            };
-        self.emcy = Some(canopen::emcy(
-            CONTROLLER_NODE,
-            fault.emcy_code(),
-            register,
-            [fault.code(), fault.node(), fault.detail(), 0, 0],
-        ));
+        self.send_emcy(self.emcy_of(fault));
     }
 
-    fn push(&mut self, frames: &mut Vec<CanFrame, 8>, frame: CanFrame) {
+    /// The EMCY announcing `fault`: manufacturer bytes fault code, node, detail, and for a
+    /// commissioning failure the object's index (docs/COMMANDS.md).
+    fn emcy_of(&self, fault: Fault) -> CanFrame {
+        let node = fault
+            .drive()
+            .map_or(0, |d| self.link(d).commissioning.setup().node);
+        let register = REGISTER_GENERIC
+            | if matches!(
+                fault,
+                Fault::HeartbeatLost(_)
+                    | Fault::Undeliverable
+                    | Fault::TpdoTimeout(_)
+                    | Fault::DriveLeftOperational(..)
+                    | Fault::NotOperational
+                    | Fault::SupervisorLost
+            ) {
+                REGISTER_COMMUNICATION
+            } else {
+                emcy::REGISTER_MANUFACTURER
+            };
+        let info = match fault {
+            // The object in the same layout: the sub-index as the detail, the index in
+            // the last two bytes. The abort code does not fit an EMCY: it is in 0x2002:4.
+            Fault::Commissioning(_, error) => {
+                let object = error.object();
+                let [i0, i1] = object.index.to_le_bytes();
+                [fault.code(), node, object.sub, i0, i1]
+            }
+            _ => [fault.code(), node, fault.detail(), 0, 0],
+        };
+        canopen::emcy(self.node.id, fault.emcy_code(), register, info)
+    }
+
+    fn push(&mut self, frames: &mut Vec<CanFrame, MAX_FRAMES>, frame: CanFrame) {
         if frames.push(frame).is_err() {
             self.counters.frames_lost = self.counters.frames_lost.saturating_add(1);
         } else {

@@ -26,10 +26,12 @@
 pub mod canopen;
 pub mod cia402;
 pub mod commands;
+pub mod commissioning;
 pub mod controller;
 pub mod drive;
 pub mod feedforward;
 pub mod frame;
+pub mod node;
 pub mod planner;
 pub mod setpoint;
 pub mod traffic;

@@ -3,13 +3,16 @@
 //! drive, an injected solver failure). Compiled into the QEMU build and replayed
 //! identically by the host reference, so both see the same bus.
 //!
-//! The drives are deliberately simple: they walk the CiA 402 state machine on the
-//! controlwords they receive, answer every SYNC with a TPDO (statusword and the target
-//! velocity as actual velocity), and send a heartbeat every 100 ms from 5 ms on.
+//! The drives ([`DriveSim`]) behave like stock CiA 402 drives as far as the controller
+//! can tell: they boot pre-operational in another mode, are commissioned over SDO and
+//! started by NMT, walk the CiA 402 state machine on the controlwords they receive, take
+//! the target velocity as actual velocity, integrate it into their position, and answer
+//! every SYNC with their TPDOs. Quirks make one of them misbehave the ways real drives do.
 
-use heapless::Deque;
+use heapless::{Deque, LinearMap};
 
-use crate::canopen::{self, cob, NmtState};
+use crate::canopen::sdo::{self, abort, Object, ObjectDictionary, Value};
+use crate::canopen::{self, cob, NmtCommand, NmtState};
 use crate::cia402::{controlword, DriveState};
 use crate::commands::{request_frame, Request};
 use crate::controller::{Controller, Cycle, Mode};
@@ -60,6 +63,17 @@ pub enum Action {
     DropOut(Drive),
     /// A silent drive talks again.
     Revive(Drive),
+    /// The drive sends an EMCY warning (error register without the generic bit).
+    DriveWarning(Drive),
+    /// The drive loses power (silent, forgets everything).
+    PowerOff(Drive),
+    /// The drive is powered (again): it boots, sends its boot-up message, and waits
+    /// pre-operational in its boot configuration.
+    PowerOn(Drive),
+    /// Someone else (a service tool) sends the drive this NMT command.
+    Nmt(Drive, NmtCommand),
+    /// The drive behaves unlike a stock one from now on.
+    Quirk(Drive, Quirk),
     /// The inverse model's next step fails (the firmware's solver-fault injection).
     SolverFailure,
     /// The firmware hangs: its 100 Hz task stops (the watchdog's case).
@@ -131,24 +145,151 @@ impl Scenario {
     }
 }
 
-/// One simulated CiA 402 drive.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// A way a simulated drive differs from a well-behaved stock drive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Quirk {
+    /// It has no cyclic synchronous velocity mode: writing 0x6060 = 9 is aborted
+    /// (0x0609_0030).
+    RefusesCsv,
+    /// Its mode display 0x6061 shows this whatever 0x6060 says.
+    ReportsMode(i8),
+    /// Its TPDO statusword is this many SYNCs old.
+    StatusLag(u8),
+    /// It never answers SDO requests.
+    SdoMute,
+}
+
+/// One simulated CiA 402 drive: NMT slave (boot-up message, pre-operational until
+/// started), SDO server of a small object dictionary (the objects commissioning writes,
+/// read back as written), the CiA 402 state machine on its controlword, TPDO1
+/// (statusword, velocity actual) and TPDO2 (position actual, mode display) on every
+/// SYNC while operational, a heartbeat once 0x1017 is set. It boots in profile
+/// position mode (0x6060 = 1), as a drive left configured for another machine.
+#[derive(Debug, Clone, PartialEq)]
 pub struct DriveSim {
-    drive: Drive,
+    node: u8,
+    powered: bool,
+    nmt: NmtState,
+    boot_up_due: bool,
+    od: SimDictionary,
     state: DriveState,
     velocity: i32,
+    /// Position, nm (position actual is in µm).
+    position_nm: i64,
     silent: bool,
+    quirk: Option<Quirk>,
+    /// Statuswords of the last SYNCs, newest first (for a lagging TPDO).
+    history: [u16; 4],
+    next_heartbeat_ms: u32,
+}
+
+/// The objects a simulated drive holds: (index, sub) → (value, size).
+#[derive(Debug, Clone, PartialEq)]
+struct SimDictionary {
+    entries: LinearMap<(u16, u8), (u32, u8), 48>,
+    refuses_csv: bool,
+    reports_mode: Option<i8>,
+    node: u8,
+}
+
+impl SimDictionary {
+    fn new(node: u8) -> Self {
+        let mut entries = LinearMap::new();
+        // Profile position, left from another machine; heartbeat off (CiA 301 default).
+        let _ = entries.insert((0x6060, 0), (1, 1));
+        let _ = entries.insert((0x1017, 0), (0, 2));
+        Self {
+            entries,
+            refuses_csv: false,
+            reports_mode: None,
+            node,
+        }
+    }
+
+    fn get(&self, index: u16, sub: u8) -> u32 {
+        self.entries.get(&(index, sub)).map_or(0, |(v, _)| *v)
+    }
+
+    fn mode_display(&self) -> i8 {
+        self.reports_mode.unwrap_or(self.get(0x6060, 0) as u8 as i8)
+    }
+
+    /// Whether the drive accepts writes to `index:sub`.
+    fn writable(index: u16, sub: u8) -> bool {
+        matches!(
+            (index, sub),
+            (
+                0x6060 | 0x1017 | 0x605A | 0x6085 | 0x6080 | 0x60A9 | 0x6083 | 0x6084,
+                0
+            ) | (0x60C2, 1..=2)
+                | (0x1016, 1)
+                | (0x1400 | 0x1401 | 0x1800 | 0x1801, 1..=2)
+                | (0x1600 | 0x1601 | 0x1A00 | 0x1A01, 0..=8)
+        )
+    }
+}
+
+impl ObjectDictionary for SimDictionary {
+    fn read(&self, object: Object) -> Result<Value, u32> {
+        let word =
+            |v: u32, size: usize| -> Value { v.to_le_bytes().iter().copied().take(size).collect() };
+        match (object.index, object.sub) {
+            // CiA 402, servo drive (additional information 0x0002).
+            (0x1000, 0) => Ok(word(0x0002_0192, 4)),
+            (0x1018, 0) => Ok(word(4, 1)),
+            (0x1018, 1) => Ok(word(0x0000_0A1B, 4)),
+            (0x1018, 2) => Ok(word(0x0402_0000 | u32::from(self.node), 4)),
+            (0x1018, 3) => Ok(word(0x0001_0003, 4)),
+            (0x1018, 4) => Ok(word(1000 + u32::from(self.node), 4)),
+            (0x6061, 0) => Ok(word(u32::from(self.mode_display() as u8), 1)),
+            (index, sub) if SimDictionary::writable(index, sub) => {
+                let (v, size) = self.entries.get(&(index, sub)).copied().unwrap_or((0, 4));
+                Ok(word(v, usize::from(size)))
+            }
+            _ => Err(abort::NO_OBJECT),
+        }
+    }
+
+    fn write(&mut self, object: Object, data: &[u8]) -> Result<(), u32> {
+        let (index, sub) = (object.index, object.sub);
+        if !SimDictionary::writable(index, sub) {
+            return Err(match self.read(object) {
+                Ok(_) => abort::READ_ONLY,
+                Err(code) => code,
+            });
+        }
+        let mut word = [0u8; 4];
+        for (w, d) in word.iter_mut().zip(data) {
+            *w = *d;
+        }
+        let value = u32::from_le_bytes(word);
+        if (index, sub) == (0x6060, 0) && self.refuses_csv && value == 9 {
+            return Err(abort::INVALID_VALUE);
+        }
+        self.entries
+            .insert((index, sub), (value, data.len().min(4) as u8))
+            .map(|_| ())
+            .map_err(|_| abort::OUT_OF_MEMORY)
+    }
 }
 
 impl DriveSim {
-    /// A drive that has just booted (switch on disabled).
+    /// A drive at `node`, powered and about to send its boot-up message, at `position` m.
     #[must_use]
-    pub fn new(drive: Drive) -> Self {
+    pub fn new(node: u8, position: f64) -> Self {
         Self {
-            drive,
+            node,
+            powered: true,
+            nmt: NmtState::PreOperational,
+            boot_up_due: true,
+            od: SimDictionary::new(node),
             state: DriveState::SwitchOnDisabled,
             velocity: 0,
+            position_nm: libm::round(position * 1e9) as i64,
             silent: false,
+            quirk: None,
+            history: [0x0250; 4],
+            next_heartbeat_ms: 0,
         }
     }
 
@@ -158,10 +299,42 @@ impl DriveSim {
         self.state
     }
 
+    /// Its NMT state.
+    #[must_use]
+    pub fn nmt(&self) -> NmtState {
+        self.nmt
+    }
+
+    /// Its mode of operation (0x6060).
+    #[must_use]
+    pub fn mode(&self) -> i8 {
+        self.od.get(0x6060, 0) as u8 as i8
+    }
+
+    /// Position actual, m.
+    #[must_use]
+    pub fn position(&self) -> f64 {
+        self.position_nm as f64 * 1e-9
+    }
+
+    /// Velocity actual, drive units.
+    #[must_use]
+    pub fn velocity(&self) -> i32 {
+        self.velocity
+    }
+
+    /// A value of its object dictionary, as written.
+    #[must_use]
+    pub fn object(&self, index: u16, sub: u8) -> u32 {
+        self.od.get(index, sub)
+    }
+
     fn statusword(&self) -> u16 {
+        let csv = self.od.mode_display() == 9;
         match self.state {
             DriveState::ReadyToSwitchOn => 0x0231,
             DriveState::SwitchedOn => 0x0233,
+            DriveState::OperationEnabled if csv => 0x1237,
             DriveState::OperationEnabled => 0x0237,
             DriveState::QuickStopActive => 0x0217,
             DriveState::FaultReactionActive | DriveState::Fault => 0x0218,
@@ -169,9 +342,63 @@ impl DriveSim {
         }
     }
 
+    fn reported_statusword(&self) -> u16 {
+        let lag = match self.quirk {
+            Some(Quirk::StatusLag(n)) => usize::from(n),
+            _ => 0,
+        };
+        if lag == 0 {
+            self.statusword()
+        } else {
+            self.history
+                .get(lag.min(self.history.len()) - 1)
+                .copied()
+                .unwrap_or(0x0250)
+        }
+    }
+
+    fn quirk(&mut self, quirk: Quirk) {
+        self.quirk = Some(quirk);
+        match quirk {
+            Quirk::RefusesCsv => self.od.refuses_csv = true,
+            Quirk::ReportsMode(m) => self.od.reports_mode = Some(m),
+            Quirk::StatusLag(_) | Quirk::SdoMute => {}
+        }
+    }
+
+    /// Power-on or NMT reset: everything back to its boot values, boot-up message due.
+    fn reboot(&mut self) {
+        let quirk = self.quirk;
+        *self = Self {
+            position_nm: self.position_nm,
+            powered: true,
+            ..Self::new(self.node, 0.0)
+        };
+        if let Some(q) = quirk {
+            self.quirk(q);
+        }
+    }
+
+    fn on_nmt(&mut self, command: NmtCommand) {
+        self.nmt = match command {
+            NmtCommand::Start => NmtState::Operational,
+            NmtCommand::Stop => NmtState::Stopped,
+            NmtCommand::PreOperational => NmtState::PreOperational,
+            NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
+                self.reboot();
+                NmtState::PreOperational
+            }
+        };
+        if self.nmt != NmtState::Operational && self.state == DriveState::OperationEnabled {
+            // A drive that leaves operational loses its RPDOs: it stops (CiA 402 0x6007
+            // "abort connection option" quick stop).
+            self.state = DriveState::QuickStopActive;
+        }
+    }
+
     /// Applies an RPDO addressed to this drive: the CiA 402 transitions (numbers of
     /// CiA 402 Fig. 3) for the controlwords the controller sends, anything else ignored.
-    /// In *quick stop active* the drive brakes on its own ramp ([`QUICK_STOP_DECELERATION`]).
+    /// In *quick stop active* the drive brakes on its own quick-stop ramp (0x6085).
     fn command(&mut self, cw: u16, target: i32) {
         use controlword::*;
         use DriveState::*;
@@ -188,21 +415,39 @@ impl DriveSim {
             (SwitchedOn | OperationEnabled, ENABLE_OPERATION) => OperationEnabled,           // 4
             (state, _) => state,
         };
+        self.apply_target(target);
+    }
+
+    fn apply_target(&mut self, target: i32) {
+        use DriveState::*;
+        // In any mode but CSV or pv the target velocity means nothing (profile position
+        // waits for a target position): the drive stands.
+        let follows = matches!(self.od.mode_display(), 9 | 3);
         self.velocity = match self.state {
-            OperationEnabled => target,
+            OperationEnabled if follows => target,
             QuickStopActive => {
-                let step = QUICK_STOP_DECELERATION_UNITS_PER_CYCLE;
+                // The quick-stop deceleration 0x6085 (units/s) over one interpolation
+                // period 0x60C2 (ms): both as commissioned.
+                let per_cycle = u64::from(self.od.get(0x6085, 0))
+                    * u64::from(self.od.get(0x60C2, 1).max(1))
+                    / 1000;
+                let step = i32::try_from(per_cycle).unwrap_or(i32::MAX).max(1);
                 self.velocity - self.velocity.clamp(-step, step)
             }
             _ => 0,
         };
     }
-}
 
-/// The simulated drives' quick-stop deceleration, m/s² (twice the lab limit).
-pub const QUICK_STOP_DECELERATION: f64 = 6.0;
-/// The same per 10 ms cycle, in drive units.
-const QUICK_STOP_DECELERATION_UNITS_PER_CYCLE: i32 = 60_000;
+    /// SYNC: integrate the position over the interpolation period (0x60C2, ms) and
+    /// remember the statusword.
+    fn on_sync(&mut self) {
+        let period_ms = i64::from(self.od.get(0x60C2, 1).max(1));
+        // µm/s × ms = nm.
+        self.position_nm += i64::from(self.velocity) * period_ms;
+        let [a, b, c, _] = self.history;
+        self.history = [self.statusword(), a, b, c];
+    }
+}
 
 /// The bus: two drives, a scenario, and what is waiting to be received.
 #[derive(Debug, Clone)]
@@ -226,11 +471,17 @@ pub struct VirtualBus {
 pub struct BusOff;
 
 impl VirtualBus {
-    /// Two freshly booted drives and the scenario.
+    /// Two freshly powered drives (nodes 1 and 2, about to send their boot-up messages)
+    /// with the load resting at `start` (`[x_C, z_C]`: trolley position and rope
+    /// length), and the scenario.
     #[must_use]
-    pub fn new(scenario: Scenario) -> Self {
+    pub fn new(scenario: Scenario, start: [f64; 2]) -> Self {
+        let [x, l] = start;
         Self {
-            drives: [DriveSim::new(Drive::Trolley), DriveSim::new(Drive::Winch)],
+            drives: [
+                DriveSim::new(Drive::Trolley.node(), x),
+                DriveSim::new(Drive::Winch.node(), l),
+            ],
             scenario,
             next_event: 0,
             inbox: Deque::new(),
@@ -284,9 +535,9 @@ impl VirtualBus {
         let _ = self.inbox.push_back(frame);
     }
 
-    /// The controller transmits `frame`: the drives react (and answer a SYNC). While the
-    /// bus is off nothing is delivered; the SYNC, always a cycle's last frame but for
-    /// the heartbeat and status, counts the bus-off cycles down.
+    /// The controller transmits `frame`: the drives react (NMT, SDO, RPDO) and answer a
+    /// SYNC with their TPDOs. While the bus is off nothing is delivered; the SYNC, always
+    /// among a cycle's last frames, counts the bus-off cycles down.
     pub fn transmit(&mut self, frame: &CanFrame) -> Result<(), BusOff> {
         let id = frame.id();
         if self.bus_off_cycles > 0 {
@@ -295,21 +546,46 @@ impl VirtualBus {
             }
             return Err(BusOff);
         }
+        let data = frame.data();
         for drive in Drive::ALL {
-            if id == cob::RPDO1 + u16::from(drive.node()) {
-                if let [c0, c1, v0, v1, v2, v3] = *frame.data() {
+            let (powered, node, nmt) = {
+                let d = self.drive(drive);
+                (d.powered, d.node, d.nmt)
+            };
+            if !powered {
+                continue;
+            }
+            if id == cob::NMT {
+                if let [command, addressee] = *data {
+                    if addressee == 0 || addressee == node {
+                        if let Some(command) = NmtCommand::from_byte(command) {
+                            self.drive_mut(drive).on_nmt(command);
+                        }
+                    }
+                }
+            } else if id == sdo::REQUEST + u16::from(node) {
+                let d = self.drive_mut(drive);
+                if d.nmt != NmtState::Stopped && d.quirk != Some(Quirk::SdoMute) && !d.silent {
+                    if let Some(answer) = sdo::serve(&mut d.od, node, data) {
+                        self.deliver(answer);
+                    }
+                }
+            } else if id == cob::RPDO1 + u16::from(node) && nmt == NmtState::Operational {
+                if let [c0, c1, v0, v1, v2, v3] = *data {
                     self.drive_mut(drive).command(
                         u16::from_le_bytes([c0, c1]),
                         i32::from_le_bytes([v0, v1, v2, v3]),
                     );
                 }
-            }
-        }
-        if id == cob::SYNC {
-            for drive in Drive::ALL {
-                let d = *self.drive(drive);
-                if !d.silent {
-                    self.deliver(canopen::tpdo1(drive, d.statusword(), d.velocity));
+            } else if id == cob::SYNC {
+                let d = self.drive_mut(drive);
+                d.on_sync();
+                if d.nmt == NmtState::Operational && !d.silent {
+                    let status = canopen::tpdo1(node, d.reported_statusword(), d.velocity);
+                    let position =
+                        canopen::tpdo2(node, (d.position_nm / 1000) as i32, d.od.mode_display());
+                    self.deliver(status);
+                    self.deliver(position);
                 }
             }
         }
@@ -317,7 +593,8 @@ impl VirtualBus {
     }
 
     /// Everything that appears on the bus in `(after_ms, up_to_ms]`: the scenario's
-    /// events and the drives' heartbeats, then the TPDOs answering the last SYNC.
+    /// events, the drives' boot-up messages and heartbeats, then the answers to the
+    /// controller's last frames (SDO responses, the TPDOs answering the SYNC).
     pub fn receive_until(
         &mut self,
         after_ms: u32,
@@ -338,17 +615,24 @@ impl VirtualBus {
             traffic.cycle(up_to_ms, |a| self.apply(a, &mut fresh));
             self.traffic = Some(traffic);
         }
-        // Heartbeats every 100 ms from 5 ms on.
-        let beats = |t: u32| if t < 5 { 0 } else { (t - 5) / 100 + 1 };
-        let due = beats(up_to_ms).saturating_sub(beats(after_ms));
-        for _ in 0..due.min(1) {
-            for drive in Drive::ALL {
-                if !self.drive(drive).silent {
-                    let _ =
-                        fresh.push_back(canopen::heartbeat(drive.node(), NmtState::Operational));
-                }
+        for drive in Drive::ALL {
+            let d = self.drive_mut(drive);
+            if !d.powered || d.silent {
+                continue;
+            }
+            if core::mem::take(&mut d.boot_up_due) {
+                let _ = fresh.push_back(canopen::heartbeat(d.node, NmtState::BootUp));
+                d.next_heartbeat_ms = up_to_ms;
+            }
+            // Heartbeat every 0x1017 ms once it is set.
+            let period = d.od.get(0x1017, 0);
+            if period > 0 && up_to_ms >= d.next_heartbeat_ms {
+                let beat = canopen::heartbeat(d.node, d.nmt);
+                d.next_heartbeat_ms = up_to_ms.saturating_add(period);
+                let _ = fresh.push_back(beat);
             }
         }
+        let _ = after_ms;
         while let Some(f) = self.inbox.pop_front() {
             let _ = fresh.push_back(f);
         }
@@ -381,11 +665,27 @@ impl VirtualBus {
             }
             Action::DriveFault(drive) => {
                 self.drive_mut(drive).state = DriveState::Fault;
-                let _ = fresh.push_back(canopen::emcy(drive.node(), 0x2310, 0x03, [0; 5]));
+                let node = drive.node();
+                let _ = fresh.push_back(canopen::emcy(node, 0x2310, 0x03, [0; 5]));
+            }
+            Action::DriveWarning(drive) => {
+                // Temperature warning: error register without the generic bit.
+                let _ = fresh.push_back(canopen::emcy(drive.node(), 0x4210, 0x00, [0; 5]));
             }
             Action::Silence(drive) => self.drive_mut(drive).silent = true,
             Action::DropOut(drive) => self.drive_mut(drive).state = DriveState::SwitchOnDisabled,
             Action::Revive(drive) => self.drive_mut(drive).silent = false,
+            Action::PowerOff(drive) => {
+                let d = self.drive_mut(drive);
+                d.powered = false;
+                d.boot_up_due = false;
+                d.nmt = NmtState::Stopped;
+                d.state = DriveState::NotReadyToSwitchOn;
+                d.velocity = 0;
+            }
+            Action::PowerOn(drive) => self.drive_mut(drive).reboot(),
+            Action::Nmt(drive, command) => self.drive_mut(drive).on_nmt(command),
+            Action::Quirk(drive, quirk) => self.drive_mut(drive).quirk(quirk),
             Action::SolverFailure => self.solver_failure = true,
             Action::Hang => self.hang = self.hangs,
             Action::BusOff { cycles } => self.bus_off_cycles = cycles,
@@ -487,16 +787,16 @@ pub const TWO_MOVES: Scenario = Scenario {
     ends: Ending::Ready,
 };
 
-/// Every rejection reason once: a move before the drives are enabled (not ready), one
-/// queued behind the paper's move and one more (busy), then, from (18, 5), one request
+/// Every rejection reason once: a move while the drives are being commissioned (not
+/// ready), one queued behind the paper's move and one more (busy), then, from (18, 5), one request
 /// per remaining reason and a valid move as fast as the limits allow.
 pub const REJECTIONS: Scenario = Scenario {
     name: "rejections",
     expect: "ready, at rest at (16, 6); reasons 2, 1, 3, 4, 5, 6, 7, 8, 9, 10 given once each",
     events: &[
         at(0, move_to(1, 14.0, 6.0, 4.0)), // 2 not ready: the drives are being enabled
-        at(500, move_to(2, 18.0, 5.0, 4.0)), // queued behind the paper's move: 9 s to 13 s
-        at(600, move_to(3, 14.0, 6.0, 4.0)), // 1 busy: a move is already queued
+        at(800, move_to(2, 18.0, 5.0, 4.0)), // queued behind the paper's move: 9 s to 13 s
+        at(900, move_to(3, 14.0, 6.0, 4.0)), // 1 busy: a move is already queued
         at(13_100, move_to(4, 0.0, 5.0, 8.0)), // 3 invalid: x = 0
         at(13_200, move_to(5, 24.0, 5.0, 8.0)), // 4 trolley workspace
         at(13_300, move_to(6, 18.0, 10.0, 8.0)), // 5 rope workspace

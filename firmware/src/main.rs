@@ -83,9 +83,15 @@ mod app {
             scene::SOLVER,
             scene::CYCLES
         );
-        // After a watchdog reset nothing moves on its own: no scene move, and the
-        // controller boots halted until a supervisor's reset.
-        let model = match scene::inverse_model(!restarted) {
+        // No motion without a command: the scene's move is a demonstration that the QEMU
+        // runs ask for, never the drive controller's default; after a watchdog reset
+        // nothing moves on its own either, and the controller boots halted until a
+        // supervisor's reset.
+        #[cfg(feature = "qemu")]
+        let demonstration = !restarted;
+        #[cfg(feature = "stm32h743")]
+        let demonstration = false;
+        let model = match scene::inverse_model(demonstration) {
             Ok(f) => f,
             Err(e) => {
                 defmt::error!("scene refused: {}", e);

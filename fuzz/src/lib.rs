@@ -21,12 +21,15 @@ pub type Model = CraneSubs<f64, Plan<f64, 2>>;
 /// Model, integrator and the solver-failure injection.
 pub type Feedforward = Injectable<InverseModel<Model, Bdf<f64, Model, 7, 2>>>;
 
+/// Where the crane rests at power-up: the paper's start (x_C, z_C), m.
+pub const HOME: [f64; 2] = [12.0, 8.0];
+
 /// The planner with the lab drives' limits.
 pub const PLANNER: Planner = Planner::new(CraneParams::PAPER, DriveLimits::LAB);
 
 /// The paper's move (12, 8) → (20, 4) from 1 s to 9 s, or rest at (12, 8).
 pub fn feedforward(paper_move: bool) -> Feedforward {
-    let home = [12.0, 8.0];
+    let home = HOME;
     let mut plan = command_plan(home, 4).expect("valid plan");
     if paper_move {
         let m = PointToPoint::new(SVector::from(home), SVector::from([20.0, 4.0]), 1.0, 8.0, 4)
@@ -59,7 +62,7 @@ impl Rig {
     pub fn new(scenario: Scenario) -> Self {
         Self {
             controller: Controller::new(feedforward(true), PLANNER, Config::DEFAULT),
-            bus: VirtualBus::new(scenario),
+            bus: VirtualBus::new(scenario, HOME),
             cycle: 0,
         }
     }

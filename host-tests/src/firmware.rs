@@ -38,11 +38,20 @@ pub fn controller_reference(
     } else {
         scenario.cycles
     };
-    let mut run = boot(scene, &f, f.plan, false, VirtualBus::new(*scenario), cycles)?;
+    // The simulated crane rests where the scene's move starts.
+    let start: [f64; 2] = f.first_move.start().into();
+    let mut run = boot(
+        scene,
+        &f,
+        f.plan,
+        false,
+        VirtualBus::new(*scenario, start),
+        cycles,
+    )?;
     if scenario.hang_at_ms().is_some() {
         let at_rest = command_plan(f.first_move.start().into(), scene.trajectory.smoothness)
             .map_err(|e| e.to_string())?;
-        let bus = VirtualBus::new(*scenario).without_hangs();
+        let bus = VirtualBus::new(*scenario, start).without_hangs();
         run.extend(boot(scene, &f, at_rest, true, bus, cycles)?);
     }
     Ok(run)

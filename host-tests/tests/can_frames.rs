@@ -1,7 +1,7 @@
 //! The encoder against the DBC file that documents the frames (`can/crane.dbc`):
 //! what the controller sends is what a CAN tool reading the DBC will see.
 
-use controller::canopen::{self, NmtCommand, NmtState, CONTROLLER_NODE};
+use controller::canopen::{self, nmt, NmtCommand, NmtState, CONTROLLER_NODE};
 use controller::cia402::controlword;
 use controller::commands::{
     decode_request, request_frame, status_frame, Answer, Reject, Request, Status,
@@ -22,20 +22,36 @@ fn decode(frame: &CanFrame) -> host_tests::dbc::Decoded {
 #[test]
 fn dbc_parses_and_covers_every_frame() {
     let dbc = Dbc::crane().unwrap();
-    assert_eq!(dbc.messages(), 14);
+    assert_eq!(dbc.messages(), 22);
     let frames = [
-        canopen::nmt(NmtCommand::Start, 0),
+        nmt::command(NmtCommand::Start, 0),
         canopen::sync(),
         canopen::heartbeat(CONTROLLER_NODE, NmtState::Operational),
         canopen::heartbeat(1, NmtState::Operational),
         canopen::heartbeat(2, NmtState::BootUp),
-        canopen::rpdo1(Drive::Trolley, 0x000F, controller::setpoint::Setpoint::ZERO),
-        canopen::rpdo1(Drive::Winch, 0x000F, controller::setpoint::Setpoint::ZERO),
-        canopen::tpdo1(Drive::Trolley, 0x0237, 0),
-        canopen::tpdo1(Drive::Winch, 0x0237, 0),
+        canopen::rpdo1(
+            Drive::Trolley.node(),
+            0x000F,
+            controller::setpoint::Setpoint::ZERO,
+        ),
+        canopen::rpdo1(
+            Drive::Winch.node(),
+            0x000F,
+            controller::setpoint::Setpoint::ZERO,
+        ),
+        canopen::tpdo1(Drive::Trolley.node(), 0x0237, 0),
+        canopen::tpdo1(Drive::Winch.node(), 0x0237, 0),
         canopen::emcy(CONTROLLER_NODE, 0x6100, 0x01, [1, 2, 3, 4, 5]),
         canopen::emcy(1, 0x2310, 0x03, [0; 5]),
         canopen::emcy(2, 0x2310, 0x03, [0; 5]),
+        canopen::tpdo2(1, 12_000_000, 9),
+        canopen::tpdo2(2, 8_000_000, 9),
+        CanFrame::new(0x601, &[0x40, 0, 0x10, 0, 0, 0, 0, 0]).unwrap(),
+        CanFrame::new(0x602, &[0x2F, 0x60, 0x60, 0, 9, 0, 0, 0]).unwrap(),
+        CanFrame::new(0x581, &[0x43, 0, 0x10, 0, 0x92, 1, 2, 0]).unwrap(),
+        CanFrame::new(0x582, &[0x80, 0x60, 0x60, 0, 0x30, 0, 9, 6]).unwrap(),
+        CanFrame::new(0x610, &[0x40, 0x18, 0x10, 1, 0, 0, 0, 0]).unwrap(),
+        CanFrame::new(0x590, &[0x43, 0x18, 0x10, 1, 0, 0, 0, 0]).unwrap(),
         request_frame(&Request::Stop { id: 1 }),
         status_frame(&Status {
             last_id: 1,
@@ -56,7 +72,7 @@ fn dbc_parses_and_covers_every_frame() {
 
 #[test]
 fn nmt_and_heartbeat_decode_to_their_fields() {
-    let nmt = decode(&canopen::nmt(NmtCommand::Start, 0));
+    let nmt = decode(&nmt::command(NmtCommand::Start, 0));
     assert_eq!(
         (nmt.message.as_str(), nmt.get("command"), nmt.get("node")),
         ("NMT", Some(1.0), Some(0.0))
@@ -134,7 +150,7 @@ proptest! {
         let limits = DriveLimits { trolley: controller::setpoint::AxisLimits { max_velocity: 3.0, max_acceleration: 1e9 }, ..DriveLimits::LAB };
         let mut gate = SetpointGate::new(limits, 0.01);
         let sp = gate.admit(Drive::Trolley, v).unwrap();
-        let d = decode(&canopen::rpdo1(Drive::Trolley, cw, sp));
+        let d = decode(&canopen::rpdo1(Drive::Trolley.node(), cw, sp));
         prop_assert_eq!(d.message.as_str(), "RPDO1_Trolley");
         prop_assert_eq!(d.get("controlword"), Some(f64::from(cw)));
         let back = d.get("target_velocity").unwrap();
@@ -145,10 +161,29 @@ proptest! {
     #[test]
     fn tpdo_agrees_with_the_dbc(sw in any::<u16>(), vel in any::<i32>(), winch in any::<bool>()) {
         let drive = if winch { Drive::Winch } else { Drive::Trolley };
-        let f = canopen::tpdo1(drive, sw, vel);
+        let node = drive.node();
+        let f = canopen::tpdo1(node, sw, vel);
         let d = decode(&f);
         prop_assert_eq!(d.get("statusword"), Some(f64::from(sw)));
         prop_assert!((d.get("velocity_actual").unwrap() - f64::from(vel) / UNITS_PER_M_PER_S).abs() < 1e-9);
-        prop_assert_eq!(canopen::decode(&f), Ok(canopen::Incoming::Status { drive, statusword: sw, velocity: vel }));
+        prop_assert_eq!(canopen::decode(&f), Ok(canopen::Incoming::Status { node, statusword: sw, velocity: vel }));
+    }
+
+    /// TPDO2 (position actual, mode display) and the SDO frames decode the same through
+    /// the DBC and through the controller.
+    #[test]
+    fn tpdo2_and_sdo_agree_with_the_dbc(pos in any::<i32>(), mode in any::<i8>(), winch in any::<bool>(), bytes in any::<[u8; 8]>()) {
+        let node = if winch { 2 } else { 1 };
+        let f = canopen::tpdo2(node, pos, mode);
+        let d = decode(&f);
+        prop_assert!((d.get("position_actual").unwrap() - f64::from(pos) * 1e-6).abs() < 1e-9);
+        prop_assert_eq!(d.get("mode_display"), Some(f64::from(mode)));
+        prop_assert_eq!(canopen::decode(&f), Ok(canopen::Incoming::Position { node, position: pos, mode }));
+        let f = CanFrame::new(0x580 + u16::from(node), &bytes).unwrap();
+        let d = decode(&f);
+        prop_assert_eq!(d.get("command"), Some(f64::from(bytes[0])));
+        prop_assert_eq!(d.get("index"), Some(f64::from(u16::from_le_bytes([bytes[1], bytes[2]]))));
+        prop_assert_eq!(d.get("subindex"), Some(f64::from(bytes[3])));
+        prop_assert_eq!(canopen::decode(&f), Ok(canopen::Incoming::SdoResponse { node, data: bytes }));
     }
 }

@@ -69,7 +69,7 @@ pub fn soak(minutes: u32) -> Result<(), String> {
     );
     println!(
         "| deadline misses (cycles over {} instructions) | {} |",
-        Config::DEFAULT.cycle_budget,
+        Config::DEFAULT.cycle_budget(),
         f.deadline_misses
     );
     println!(
@@ -154,7 +154,7 @@ fn findings(m: &qemu::Measured) -> Findings {
         }
     }
     for s in &m.steps {
-        if s.instructions > Config::DEFAULT.cycle_budget {
+        if s.instructions > Config::DEFAULT.cycle_budget() {
             f.deadline_misses += 1;
         }
         if s.instructions > f.worst.0 {

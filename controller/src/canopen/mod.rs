@@ -1,6 +1,7 @@
-//! CANopen (CiA 301) as the drives expect it, with the controller as manager of two
-//! CiA 402 drives in profile-velocity mode. The layout is documented for CAN tools
-//! in `firmware/can/crane.dbc`; `controller/tests/dbc.rs` checks this encoder against it.
+//! CANopen (CiA 301) as the drives and a PLC expect it: the controller is NMT manager
+//! (or, under a PLC, a plain node) of CiA 402 drives in cyclic synchronous velocity
+//! mode. The layout is documented for CAN tools in `can/crane.dbc` and, for
+//! configuration tools, the controller's own objects in `can/crane-controller.eds`.
 //!
 //! | frame | COB-ID | bytes |
 //! |---|---|---|
@@ -8,14 +9,16 @@
 //! | SYNC | 0x080 | — |
 //! | EMCY of node n | 0x080 + n | error code (u16), error register (u8), 5 bytes manufacturer |
 //! | TPDO1 of drive n (statusword, 0x6041; velocity actual, 0x606C) | 0x180 + n | u16, i32 |
+//! | TPDO2 of drive n (position actual, 0x6064; mode display, 0x6061) | 0x280 + n | i32, i8 |
 //! | RPDO1 to drive n (controlword, 0x6040; target velocity, 0x60FF) | 0x200 + n | u16, i32 |
+//! | SDO response of node n / request to node n | 0x580 + n / 0x600 + n | 8 bytes ([`sdo`]) |
 //! | heartbeat of node n | 0x700 + n | NMT state |
 //!
-//! All multi-byte values are little endian (CiA 301). Velocities are in the drives'
-//! units of 1 µm/s (see [`crate::units`]).
+//! Frames name nodes, not drives: which node drives which axis is the commissioning
+//! table's business. All multi-byte values are little endian (CiA 301). Velocities and
+//! positions are in the drives' units (1 µm/s, 1 µm by default; see [`crate::setpoint`]).
 
 use crate::commands::{self, CommandError, Request};
-use crate::drive::Drive;
 use crate::frame::CanFrame;
 use crate::setpoint::Setpoint;
 
@@ -32,6 +35,8 @@ pub mod cob {
     pub const EMCY: u16 = 0x080;
     /// First transmit PDO (drive → controller), + node id.
     pub const TPDO1: u16 = 0x180;
+    /// Second transmit PDO, + node id.
+    pub const TPDO2: u16 = 0x280;
     /// First receive PDO (controller → drive), + node id.
     pub const RPDO1: u16 = 0x200;
     /// Heartbeat (NMT error control), + node id.
@@ -48,12 +53,6 @@ fn frame(id: u16, data: &[u8]) -> CanFrame {
     CanFrame::fixed(id, data)
 }
 
-/// NMT command to one node (or all: node 0).
-#[must_use]
-pub fn nmt(command: NmtCommand, node: u8) -> CanFrame {
-    frame(cob::NMT, &[command as u8, node])
-}
-
 /// SYNC, without counter.
 #[must_use]
 pub fn sync() -> CanFrame {
@@ -66,28 +65,29 @@ pub fn heartbeat(node: u8, state: NmtState) -> CanFrame {
     frame(cob::HEARTBEAT + u16::from(node), &[state as u8])
 }
 
-/// RPDO1 to a drive: controlword (0x6040) and target velocity (0x60FF). The velocity
-/// is a [`Setpoint`], so it has passed the choke point of [`crate::units`].
+/// RPDO1 to the drive at `node`: controlword (0x6040) and target velocity (0x60FF). The
+/// velocity is a [`Setpoint`], so it has passed the choke point of [`crate::setpoint`].
 #[must_use]
-pub fn rpdo1(drive: Drive, controlword: u16, target_velocity: Setpoint) -> CanFrame {
+pub fn rpdo1(node: u8, controlword: u16, target_velocity: Setpoint) -> CanFrame {
     let [c0, c1] = controlword.to_le_bytes();
     let [v0, v1, v2, v3] = target_velocity.units().to_le_bytes();
-    frame(
-        cob::RPDO1 + u16::from(drive.node()),
-        &[c0, c1, v0, v1, v2, v3],
-    )
+    frame(cob::RPDO1 + u16::from(node), &[c0, c1, v0, v1, v2, v3])
 }
 
 /// TPDO1 of a drive: statusword (0x6041) and velocity actual value (0x606C).
 /// The controller only receives these; the encoder serves tests and the virtual bus.
 #[must_use]
-pub fn tpdo1(drive: Drive, statusword: u16, velocity: i32) -> CanFrame {
+pub fn tpdo1(node: u8, statusword: u16, velocity: i32) -> CanFrame {
     let [s0, s1] = statusword.to_le_bytes();
     let [v0, v1, v2, v3] = velocity.to_le_bytes();
-    frame(
-        cob::TPDO1 + u16::from(drive.node()),
-        &[s0, s1, v0, v1, v2, v3],
-    )
+    frame(cob::TPDO1 + u16::from(node), &[s0, s1, v0, v1, v2, v3])
+}
+
+/// TPDO2 of a drive: position actual value (0x6064) and modes of operation display (0x6061).
+#[must_use]
+pub fn tpdo2(node: u8, position: i32, mode: i8) -> CanFrame {
+    let [p0, p1, p2, p3] = position.to_le_bytes();
+    frame(cob::TPDO2 + u16::from(node), &[p0, p1, p2, p3, mode as u8])
 }
 
 /// EMCY of `node`: error code, error register (1001h) and 5 manufacturer bytes.
@@ -105,7 +105,14 @@ pub fn emcy(node: u8, code: u16, register: u8, info: [u8; 5]) -> CanFrame {
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Incoming {
-    /// A heartbeat.
+    /// An NMT command for `node` (0: all nodes).
+    Nmt {
+        /// The command.
+        command: NmtCommand,
+        /// Addressee.
+        node: u8,
+    },
+    /// A heartbeat (or, with state *boot-up*, a boot-up message).
     Heartbeat {
         /// Sender.
         node: u8,
@@ -114,19 +121,42 @@ pub enum Incoming {
     },
     /// A drive's TPDO1.
     Status {
-        /// Which drive.
-        drive: Drive,
+        /// Sender.
+        node: u8,
         /// Statusword (0x6041).
         statusword: u16,
-        /// Velocity actual value (0x606C), µm/s.
+        /// Velocity actual value (0x606C), drive units.
         velocity: i32,
+    },
+    /// A drive's TPDO2.
+    Position {
+        /// Sender.
+        node: u8,
+        /// Position actual value (0x6064), drive units.
+        position: i32,
+        /// Modes of operation display (0x6061).
+        mode: i8,
+    },
+    /// An SDO response from `node` (to the controller's client).
+    SdoResponse {
+        /// Server.
+        node: u8,
+        /// The 8 data bytes.
+        data: [u8; 8],
+    },
+    /// An SDO request to `node` (the controller's server, if it is its node).
+    SdoRequest {
+        /// Server addressed.
+        node: u8,
+        /// The 8 data bytes.
+        data: [u8; 8],
     },
     /// A request from the supervisor.
     Command(Request),
-    /// A drive's emergency message.
+    /// An emergency message.
     Emergency {
-        /// Which drive.
-        drive: Drive,
+        /// Sender.
+        node: u8,
         /// CiA 301 error code (0 = error reset / no error).
         code: u16,
         /// Error register.
@@ -151,6 +181,8 @@ pub enum DecodeError {
     },
     /// A heartbeat with a state byte CiA 301 does not define.
     BadState(u8),
+    /// An NMT command CiA 301 does not define.
+    BadNmtCommand(u8),
     /// A malformed command frame.
     Command(CommandError),
 }
@@ -160,60 +192,69 @@ pub fn decode(frame: &CanFrame) -> Result<Incoming, DecodeError> {
     let id = frame.id();
     let data = frame.data();
     let node = (id & 0x7F) as u8;
-    let length = |expected: u8| {
-        if data.len() == usize::from(expected) {
-            Ok(())
-        } else {
-            Err(DecodeError::WrongLength {
-                id,
-                expected,
-                got: data.len() as u8,
-            })
-        }
+    let wrong = |expected: u8| DecodeError::WrongLength {
+        id,
+        expected,
+        got: data.len() as u8,
     };
     if id == commands::COMMAND_ID {
         return commands::decode_request(data)
             .map(Incoming::Command)
             .map_err(DecodeError::Command);
     }
-    match (id & 0x780, Drive::from_node(node)) {
-        (cob::HEARTBEAT, _) if node != 0 => {
-            length(1)?;
-            let b = data.first().copied().unwrap_or(0xFF);
+    if id == cob::NMT {
+        let &[command, node] = data else {
+            return Err(wrong(2));
+        };
+        return NmtCommand::from_byte(command)
+            .map(|command| Incoming::Nmt { command, node })
+            .ok_or(DecodeError::BadNmtCommand(command));
+    }
+    if node == 0 {
+        return Err(DecodeError::UnknownId(id));
+    }
+    let eight = || -> Result<[u8; 8], DecodeError> { data.try_into().map_err(|_| wrong(8)) };
+    match id & 0x780 {
+        cob::HEARTBEAT => {
+            let &[b] = data else {
+                return Err(wrong(1));
+            };
             NmtState::from_byte(b)
                 .map(|state| Incoming::Heartbeat { node, state })
                 .ok_or(DecodeError::BadState(b))
         }
-        (cob::TPDO1, Some(drive)) => {
-            length(6)?;
-            match *data {
-                [s0, s1, v0, v1, v2, v3] => Ok(Incoming::Status {
-                    drive,
-                    statusword: u16::from_le_bytes([s0, s1]),
-                    velocity: i32::from_le_bytes([v0, v1, v2, v3]),
-                }),
-                _ => Err(DecodeError::WrongLength {
-                    id,
-                    expected: 6,
-                    got: data.len() as u8,
-                }),
-            }
-        }
-        (cob::EMCY, Some(drive)) => {
-            length(8)?;
-            match *data {
-                [e0, e1, register, ..] => Ok(Incoming::Emergency {
-                    drive,
-                    code: u16::from_le_bytes([e0, e1]),
-                    register,
-                }),
-                _ => Err(DecodeError::WrongLength {
-                    id,
-                    expected: 8,
-                    got: data.len() as u8,
-                }),
-            }
-        }
+        cob::TPDO1 => match *data {
+            [s0, s1, v0, v1, v2, v3] => Ok(Incoming::Status {
+                node,
+                statusword: u16::from_le_bytes([s0, s1]),
+                velocity: i32::from_le_bytes([v0, v1, v2, v3]),
+            }),
+            _ => Err(wrong(6)),
+        },
+        cob::TPDO2 => match *data {
+            [p0, p1, p2, p3, m] => Ok(Incoming::Position {
+                node,
+                position: i32::from_le_bytes([p0, p1, p2, p3]),
+                mode: m as i8,
+            }),
+            _ => Err(wrong(5)),
+        },
+        cob::EMCY => match *data {
+            [e0, e1, register, ..] if data.len() == 8 => Ok(Incoming::Emergency {
+                node,
+                code: u16::from_le_bytes([e0, e1]),
+                register,
+            }),
+            _ => Err(wrong(8)),
+        },
+        sdo::RESPONSE => Ok(Incoming::SdoResponse {
+            node,
+            data: eight()?,
+        }),
+        sdo::REQUEST => Ok(Incoming::SdoRequest {
+            node,
+            data: eight()?,
+        }),
         _ => Err(DecodeError::UnknownId(id)),
     }
 }
@@ -226,16 +267,24 @@ mod tests {
     #[test]
     fn received_frames_round_trip() {
         for (velocity, statusword) in [(0, 0x0237), (-1_234_567, 0x0008), (i32::MAX, 0xFFFF)] {
-            let f = tpdo1(Drive::Winch, statusword, velocity);
+            let f = tpdo1(2, statusword, velocity);
             assert_eq!(
                 decode(&f),
                 Ok(Incoming::Status {
-                    drive: Drive::Winch,
+                    node: 2,
                     statusword,
                     velocity
                 })
             );
         }
+        assert_eq!(
+            decode(&tpdo2(1, -12_000_000, 9)),
+            Ok(Incoming::Position {
+                node: 1,
+                position: -12_000_000,
+                mode: 9
+            })
+        );
         assert_eq!(
             decode(&heartbeat(1, NmtState::Operational)),
             Ok(Incoming::Heartbeat {
@@ -247,9 +296,28 @@ mod tests {
         assert_eq!(
             decode(&e),
             Ok(Incoming::Emergency {
-                drive: Drive::Winch,
+                node: 2,
                 code: 0x8611,
                 register: 0x81
+            })
+        );
+        assert_eq!(
+            decode(&nmt::command(NmtCommand::Start, 0x10)),
+            Ok(Incoming::Nmt {
+                command: NmtCommand::Start,
+                node: 0x10
+            })
+        );
+        let d = [0x43, 0, 0x10, 0, 0x92, 1, 2, 0];
+        assert_eq!(
+            decode(&CanFrame::new(0x581, &d).unwrap()),
+            Ok(Incoming::SdoResponse { node: 1, data: d })
+        );
+        assert_eq!(
+            decode(&CanFrame::new(0x610, &d).unwrap()),
+            Ok(Incoming::SdoRequest {
+                node: 0x10,
+                data: d
             })
         );
     }
@@ -269,12 +337,24 @@ mod tests {
             Err(DecodeError::BadState(0x42))
         );
         assert_eq!(
-            decode(&CanFrame::new(0x185, &[0; 6]).unwrap()),
-            Err(DecodeError::UnknownId(0x185))
+            decode(&CanFrame::new(0x000, &[0x42, 1]).unwrap()),
+            Err(DecodeError::BadNmtCommand(0x42))
+        );
+        assert_eq!(
+            decode(&CanFrame::new(0x581, &[0x60]).unwrap()),
+            Err(DecodeError::WrongLength {
+                id: 0x581,
+                expected: 8,
+                got: 1
+            })
         );
         assert_eq!(
             decode(&CanFrame::new(0x123, &[]).unwrap()),
             Err(DecodeError::UnknownId(0x123))
+        );
+        assert_eq!(
+            decode(&CanFrame::new(0x180, &[0; 6]).unwrap()),
+            Err(DecodeError::UnknownId(0x180))
         );
         assert!(CanFrame::new(0x800, &[]).is_err());
         assert!(CanFrame::new(1, &[0; 9]).is_err());

@@ -1,6 +1,17 @@
 //! CiA 301 network management: the commands a manager sends and the states a
 //! heartbeat reports.
 
+use crate::frame::CanFrame;
+
+/// COB-ID of NMT commands.
+pub const COB_ID: u16 = 0x000;
+
+/// NMT command to one node (or to all: node 0).
+#[must_use]
+pub fn command(command: NmtCommand, node: u8) -> CanFrame {
+    CanFrame::fixed(COB_ID, &[command as u8, node])
+}
+
 /// NMT commands (CiA 301).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -16,6 +27,22 @@ pub enum NmtCommand {
     ResetNode = 0x81,
     /// Reset communication.
     ResetCommunication = 0x82,
+}
+
+impl NmtCommand {
+    /// The command a byte names, if CiA 301 defines it.
+    #[must_use]
+    pub fn from_byte(b: u8) -> Option<Self> {
+        [
+            Self::Start,
+            Self::Stop,
+            Self::PreOperational,
+            Self::ResetNode,
+            Self::ResetCommunication,
+        ]
+        .into_iter()
+        .find(|c| *c as u8 == b)
+    }
 }
 
 /// NMT states as reported in heartbeats.

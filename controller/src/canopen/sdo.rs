@@ -116,7 +116,9 @@ pub mod abort {
             CANNOT_STORE => "data cannot be transferred or stored to the application",
             0x0800_0021 => "… because of local control",
             DEVICE_STATE => "… because of the present device state",
-            0x0800_0023 => "object dictionary dynamic generation fails or no object dictionary is present",
+            0x0800_0023 => {
+                "object dictionary dynamic generation fails or no object dictionary is present"
+            }
             0x0800_0024 => "no data available",
             _ => "unknown abort code",
         }
@@ -293,12 +295,13 @@ impl SdoClient {
             let cs = 0x23 | (((4 - len) as u8) << 2);
             (addressed(cs, object, payload), false)
         } else {
-            (
-                addressed(0x21, object, (len as u32).to_le_bytes()),
-                true,
-            )
+            (addressed(0x21, object, (len as u32).to_le_bytes()), true)
         };
-        self.start(object, Transfer::DownloadInitiate { data, segmented }, now_ms);
+        self.start(
+            object,
+            Transfer::DownloadInitiate { data, segmented },
+            now_ms,
+        );
         bytes(self.request_id(), frame)
     }
 
@@ -316,11 +319,9 @@ impl SdoClient {
         self.transfer = Transfer::Idle;
         let abort = match error {
             SdoError::Aborted { .. } => None,
-            SdoError::Timeout { .. } | SdoError::Protocol { .. } => Some(abort_frame(
-                self.request_id(),
-                self.object,
-                error.code(),
-            )),
+            SdoError::Timeout { .. } | SdoError::Protocol { .. } => {
+                Some(abort_frame(self.request_id(), self.object, error.code()))
+            }
         };
         Event::Failed { error, abort }
     }
@@ -528,7 +529,7 @@ pub fn serve(od: &mut impl ObjectDictionary, node: u8, request: &[u8]) -> Option
 
 #[cfg(test)]
 mod tests {
-    #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+    #![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
     use super::*;
 
     const OBJ: Object = Object::new(0x1018, 1);
@@ -540,7 +541,12 @@ mod tests {
         assert_eq!(f.id(), 0x601);
         assert_eq!(f.data(), &[0x40, 0x18, 0x10, 1, 0, 0, 0, 0]);
         let got = c.on_response(&[0x43, 0x18, 0x10, 1, 0x78, 0x56, 0x34, 0x12], 5);
-        assert_eq!(got, Some(Event::Complete(Value::from_slice(&[0x78, 0x56, 0x34, 0x12]).unwrap())));
+        assert_eq!(
+            got,
+            Some(Event::Complete(
+                Value::from_slice(&[0x78, 0x56, 0x34, 0x12]).unwrap()
+            ))
+        );
         assert!(!c.busy());
 
         let f = c.write(Object::new(0x6060, 0), &[9], 10);
@@ -561,14 +567,18 @@ mod tests {
             panic!("segment request expected")
         };
         assert_eq!(f.data()[0], 0x60);
-        let Some(Event::Send(f)) = c.on_response(&[0x00, b'c', b'r', b'a', b'n', b'e', b'-', b'd'], 2)
+        let Some(Event::Send(f)) =
+            c.on_response(&[0x00, b'c', b'r', b'a', b'n', b'e', b'-', b'd'], 2)
         else {
             panic!("second segment request expected")
         };
         assert_eq!(f.data()[0], 0x70);
         // Last segment: 3 bytes (n = 4 unused), c = 1, toggle 1.
         let got = c.on_response(&[0x10 | (4 << 1) | 1, b'r', b'v', b'1', 0, 0, 0, 0], 3);
-        assert_eq!(got, Some(Event::Complete(Value::from_slice(b"crane-drv1").unwrap())));
+        assert_eq!(
+            got,
+            Some(Event::Complete(Value::from_slice(b"crane-drv1").unwrap()))
+        );
 
         let data = *b"0123456789";
         let f = c.write(Object::new(0x2000, 1), &data, 10);
@@ -580,7 +590,10 @@ mod tests {
         let Some(Event::Send(f)) = c.on_response(&[0x20, 0, 0, 0, 0, 0, 0, 0], 12) else {
             panic!("second segment expected")
         };
-        assert_eq!(f.data(), &[0x10 | (4 << 1) | 1, b'7', b'8', b'9', 0, 0, 0, 0]);
+        assert_eq!(
+            f.data(),
+            &[0x10 | (4 << 1) | 1, b'7', b'8', b'9', 0, 0, 0, 0]
+        );
         assert_eq!(
             c.on_response(&[0x30, 0, 0, 0, 0, 0, 0, 0], 13),
             Some(Event::Complete(Value::new()))
@@ -602,11 +615,18 @@ mod tests {
                 abort: None
             })
         );
-        assert_eq!(abort::describe(abort::INVALID_VALUE), "invalid value for parameter");
+        assert_eq!(
+            abort::describe(abort::INVALID_VALUE),
+            "invalid value for parameter"
+        );
 
         c.read(OBJ, 1000);
         assert_eq!(c.poll(1099), None);
-        let Some(Event::Failed { error, abort: Some(f) }) = c.poll(1100) else {
+        let Some(Event::Failed {
+            error,
+            abort: Some(f),
+        }) = c.poll(1100)
+        else {
             panic!("timeout expected")
         };
         assert_eq!(error, SdoError::Timeout { object: OBJ });
@@ -619,7 +639,10 @@ mod tests {
         assert!(matches!(
             got,
             Some(Event::Failed {
-                error: SdoError::Protocol { code: abort::TOGGLE, .. },
+                error: SdoError::Protocol {
+                    code: abort::TOGGLE,
+                    ..
+                },
                 abort: Some(_)
             })
         ));
@@ -627,7 +650,10 @@ mod tests {
         c.read(OBJ, 0);
         assert!(matches!(
             c.on_response(&[0x43, 0x00, 0x10, 0, 1, 2, 3, 4], 1),
-            Some(Event::Failed { error: SdoError::Protocol { .. }, .. })
+            Some(Event::Failed {
+                error: SdoError::Protocol { .. },
+                ..
+            })
         ));
     }
 
@@ -667,7 +693,10 @@ mod tests {
         );
         let req = c.write(Object::new(0x1017, 0), &250u16.to_le_bytes(), 2);
         let resp = serve(&mut od, 0x10, req.data()).unwrap();
-        assert_eq!(c.on_response(resp.data(), 3), Some(Event::Complete(Value::new())));
+        assert_eq!(
+            c.on_response(resp.data(), 3),
+            Some(Event::Complete(Value::new()))
+        );
         assert_eq!(od.0, 250);
         // Read-only, missing, segmented, wrong length, unknown command: aborts.
         let req = c.write(Object::new(0x1000, 0), &[1, 2, 3, 4], 4);
@@ -676,11 +705,20 @@ mod tests {
             &[0x80, 0, 0x10, 0, 0x02, 0, 0x01, 0x06]
         );
         let resp = serve(&mut od, 0x10, &[0x40, 0x34, 0x12, 0, 0, 0, 0, 0]).unwrap();
-        assert_eq!(u32::from_le_bytes(resp.data()[4..8].try_into().unwrap()), abort::NO_OBJECT);
+        assert_eq!(
+            u32::from_le_bytes(resp.data()[4..8].try_into().unwrap()),
+            abort::NO_OBJECT
+        );
         let resp = serve(&mut od, 0x10, &[0x21, 0x17, 0x10, 0, 9, 0, 0, 0]).unwrap();
-        assert_eq!(u32::from_le_bytes(resp.data()[4..8].try_into().unwrap()), abort::COMMAND);
+        assert_eq!(
+            u32::from_le_bytes(resp.data()[4..8].try_into().unwrap()),
+            abort::COMMAND
+        );
         let resp = serve(&mut od, 0x10, &[0x2F, 0x17, 0x10, 0, 9, 0, 0, 0]).unwrap();
-        assert_eq!(u32::from_le_bytes(resp.data()[4..8].try_into().unwrap()), abort::LENGTH);
+        assert_eq!(
+            u32::from_le_bytes(resp.data()[4..8].try_into().unwrap()),
+            abort::LENGTH
+        );
         assert_eq!(serve(&mut od, 0x10, &[0x40, 0x17]), None);
     }
 }

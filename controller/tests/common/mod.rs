@@ -72,7 +72,7 @@ impl Rig {
     pub fn with(ff: Ff, scenario: Scenario) -> Self {
         Self {
             c: Controller::new(ff, planner(), Config::DEFAULT),
-            bus: VirtualBus::new(scenario),
+            bus: VirtualBus::new(scenario, HOME),
             now: 0,
             after: 0,
         }
@@ -115,7 +115,7 @@ impl Rig {
 
     /// Cycles until the drives are enabled and the controller is ready.
     pub fn ready(&mut self) -> Vec<Cycle> {
-        self.until(20, |c| c.mode == Mode::Ready)
+        self.until(120, |c| c.mode == Mode::Ready)
     }
 
     /// Trolley position and rope length in the model, m (the load's position at rest).

@@ -196,7 +196,7 @@ impl Board {
             core::ptr::write_volatile((TIMER1 + VALUE) as *mut u32, u32::MAX);
             core::ptr::write_volatile((TIMER1 + CTRL) as *mut u32, 1);
         }
-        let bus = VirtualBus::new(scenario);
+        let bus = VirtualBus::new(scenario, crate::scene::START);
         let bus = if restarted { bus.without_hangs() } else { bus };
         (
             Self {

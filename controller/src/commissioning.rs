@@ -1,0 +1,586 @@
+//! Commissioning a CiA 402 drive over SDO, CiA 302 style: whenever the drive boots (or
+//! is first found), check what it is, write its configuration from the commissioning
+//! table and read every value back, confirm the mode of operation, and only then start
+//! it (NMT, addressed to that node). A drive that fails any step stays disabled: it is
+//! never sent a set point.
+//!
+//! The sequence, one SDO exchange per cycle (docs/COMMISSIONING.md lists it with values):
+//! 1. read 0x1000 *device type*: the low word must be 402 (0x0192);
+//! 2. NMT *enter pre-operational* to the node (manager role), so it accepts PDO mapping;
+//! 3. read 0x1018:1..=4 *identity* (vendor, product, revision, serial; logged);
+//! 4. write, then read back: 0x6060 *modes of operation*, 0x60C2 *interpolation time
+//!    period*, RPDO1 (0x1400/0x1600: controlword 0x6040, target velocity 0x60FF), TPDO1
+//!    (0x1800/0x1A00: statusword 0x6041, velocity actual 0x606C), TPDO2 (0x1801/0x1A01:
+//!    position actual 0x6064, mode display 0x6061), all synchronous on every SYNC;
+//!    heartbeat producer 0x1017 and consumer 0x1016 (the drive watches the controller),
+//!    quick-stop option 0x605A and deceleration 0x6085, max motor speed 0x6080, and
+//!    optionally the velocity unit 0x60A9 and the profile ramps 0x6083/0x6084 (pv only);
+//! 5. read 0x6061 *modes of operation display* until it shows the mode (a few tries);
+//! 6. NMT *start remote node* to that node (manager role).
+
+use heapless::Vec;
+
+use crate::canopen::nmt::{self, NmtCommand};
+use crate::canopen::sdo::{Event, Object, SdoClient, SdoError};
+use crate::frame::CanFrame;
+
+/// CiA 402 mode of operation (0x6060) the drive runs in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum OperationMode {
+    /// Cyclic synchronous velocity (9): the drive follows 0x60FF every SYNC without
+    /// ramps of its own — the mode for set points the master computes every cycle.
+    CyclicSynchronousVelocity,
+    /// Profile velocity (3), only for drives without CSV: every target passes the
+    /// drive's own ramp 0x6083/0x6084, which must then be steeper than anything the
+    /// inverse model asks (docs/COMMISSIONING.md).
+    ProfileVelocity,
+}
+
+impl OperationMode {
+    /// The value of 0x6060 / 0x6061.
+    #[must_use]
+    pub const fn code(self) -> i8 {
+        match self {
+            Self::CyclicSynchronousVelocity => 9,
+            Self::ProfileVelocity => 3,
+        }
+    }
+}
+
+/// What the controller writes into one drive: a row of the commissioning file.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DriveSetup {
+    /// CANopen node id (1..=127).
+    pub node: u8,
+    /// Mode of operation.
+    pub mode: OperationMode,
+    /// The drive's heartbeat producer time 0x1017, ms.
+    pub heartbeat_ms: u16,
+    /// The drive's consumer heartbeat time for the controller (0x1016:1), ms: the drive
+    /// stops by itself if the controller falls silent this long.
+    pub controller_timeout_ms: u16,
+    /// Quick-stop option code 0x605A (6: brake on the quick-stop ramp and stay in
+    /// *quick stop active*, where the controller holds a halted crane).
+    pub quick_stop_option: i16,
+    /// Quick-stop deceleration 0x6085, drive acceleration units.
+    pub quick_stop_deceleration: u32,
+    /// Max motor speed 0x6080, drive velocity units: the drive's own last limit.
+    pub max_velocity: u32,
+    /// SI unit of velocity 0x60A9, written when given (µm/s is `0xFA01_0300`).
+    pub velocity_unit: Option<u32>,
+    /// Profile acceleration and deceleration 0x6083/0x6084 (profile velocity mode only).
+    pub profile_ramp: Option<u32>,
+    /// Metres per increment of position actual 0x6064 (the winch: the drum's scaling).
+    pub position_scale: f64,
+    /// Metres at position actual 0 (trolley position; rope length for the winch).
+    pub position_offset: f64,
+}
+
+impl DriveSetup {
+    /// A stock CiA 402 drive at `node` in CSV, units of 1 µm and 1 µm/s, heartbeat every
+    /// 100 ms, stopping by itself 300 ms after the controller's heartbeat stops, quick
+    /// stop at 6 m/s², at most `max_velocity` m/s.
+    #[must_use]
+    pub const fn stock(node: u8, max_velocity: u32) -> Self {
+        Self {
+            node,
+            mode: OperationMode::CyclicSynchronousVelocity,
+            heartbeat_ms: 100,
+            controller_timeout_ms: 300,
+            quick_stop_option: 6,
+            quick_stop_deceleration: 6_000_000,
+            max_velocity,
+            velocity_unit: None,
+            profile_ramp: None,
+            position_scale: 1e-6,
+            position_offset: 0.0,
+        }
+    }
+
+    /// The default trolley drive: node 1, 3.3 m/s.
+    pub const TROLLEY: Self = Self::stock(1, 3_300_000);
+    /// The default winch drive: node 2, 2.2 m/s.
+    pub const WINCH: Self = Self::stock(2, 2_200_000);
+}
+
+/// CiA 402 device profile number, the low word of 0x1000.
+pub const CIA402_PROFILE: u32 = 402;
+
+/// Objects read or written (CiA 301, CiA 402), by name.
+pub mod object {
+    use crate::canopen::sdo::Object;
+    /// 0x1000 device type.
+    pub const DEVICE_TYPE: Object = Object::new(0x1000, 0);
+    /// 0x1018 identity: vendor id (sub 1) … serial number (sub 4).
+    pub const IDENTITY: u16 = 0x1018;
+    /// 0x1016:1 consumer heartbeat time.
+    pub const CONSUMER_HEARTBEAT: Object = Object::new(0x1016, 1);
+    /// 0x1017 producer heartbeat time.
+    pub const PRODUCER_HEARTBEAT: Object = Object::new(0x1017, 0);
+    /// 0x6060 modes of operation.
+    pub const MODES_OF_OPERATION: Object = Object::new(0x6060, 0);
+    /// 0x6061 modes of operation display.
+    pub const MODES_DISPLAY: Object = Object::new(0x6061, 0);
+    /// 0x605A quick stop option code.
+    pub const QUICK_STOP_OPTION: Object = Object::new(0x605A, 0);
+    /// 0x6085 quick stop deceleration.
+    pub const QUICK_STOP_DECELERATION: Object = Object::new(0x6085, 0);
+    /// 0x6080 max motor speed.
+    pub const MAX_MOTOR_SPEED: Object = Object::new(0x6080, 0);
+    /// 0x60A9 SI unit velocity.
+    pub const VELOCITY_UNIT: Object = Object::new(0x60A9, 0);
+    /// 0x6083 profile acceleration.
+    pub const PROFILE_ACCELERATION: Object = Object::new(0x6083, 0);
+    /// 0x6084 profile deceleration.
+    pub const PROFILE_DECELERATION: Object = Object::new(0x6084, 0);
+    /// 0x60C2:1 interpolation time period value.
+    pub const INTERPOLATION_PERIOD: Object = Object::new(0x60C2, 1);
+    /// 0x60C2:2 interpolation time index (power of ten of the value's unit, s).
+    pub const INTERPOLATION_INDEX: Object = Object::new(0x60C2, 2);
+}
+
+/// One value to write (and read back): object, value, size in bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Write {
+    /// Where.
+    pub object: Object,
+    /// The value, little endian in `size` bytes.
+    pub value: u32,
+    /// 1, 2 or 4.
+    pub size: u8,
+}
+
+const fn w(index: u16, sub: u8, value: u32, size: u8) -> Write {
+    Write {
+        object: Object::new(index, sub),
+        value,
+        size,
+    }
+}
+
+/// The most writes a drive's configuration takes.
+pub const MAX_WRITES: usize = 40;
+
+/// A PDO's communication (0x1400/0x1800 + n) and mapping (0x1600/0x1A00 + n) writes, in
+/// the order CiA 301 requires: disable (COB-ID bit 31), clear the mapping, map, set the
+/// count, the transmission type (1: synchronous, every SYNC), enable.
+fn pdo(writes: &mut Vec<Write, MAX_WRITES>, comm: u16, map: u16, cob: u32, entries: &[u32]) {
+    let mut push = |x| {
+        // The configuration is built from a fixed list that fits MAX_WRITES.
+        let _ = writes.push(x);
+    };
+    push(w(comm, 1, 0x8000_0000 | cob, 4));
+    push(w(map, 0, 0, 1));
+    for (sub, entry) in (1u8..).zip(entries) {
+        push(w(map, sub, *entry, 4));
+    }
+    push(w(map, 0, entries.len() as u32, 1));
+    push(w(comm, 2, 1, 1));
+    push(w(comm, 1, cob, 4));
+}
+
+/// Everything written into a drive, in order, for a controller at node `controller`
+/// cycling every `period_ms`.
+#[must_use]
+pub fn configuration(setup: &DriveSetup, controller: u8, period_ms: u8) -> Vec<Write, MAX_WRITES> {
+    let n = u32::from(setup.node);
+    let mut writes = Vec::new();
+    let mode = setup.mode.code() as u8;
+    let fixed = [
+        w(0x6060, 0, u32::from(mode), 1),
+        w(0x60C2, 1, u32::from(period_ms), 1),
+        // 10^-3 s: the value is in ms.
+        w(0x60C2, 2, u32::from((-3i8) as u8), 1),
+    ];
+    for x in fixed {
+        let _ = writes.push(x);
+    }
+    // RPDO1: controlword (0x6040, 16 bit), target velocity (0x60FF, 32 bit).
+    pdo(
+        &mut writes,
+        0x1400,
+        0x1600,
+        0x200 + n,
+        &[0x6040_0010, 0x60FF_0020],
+    );
+    // TPDO1: statusword (0x6041), velocity actual (0x606C).
+    pdo(
+        &mut writes,
+        0x1800,
+        0x1A00,
+        0x180 + n,
+        &[0x6041_0010, 0x606C_0020],
+    );
+    // TPDO2: position actual (0x6064), modes of operation display (0x6061, 8 bit).
+    pdo(
+        &mut writes,
+        0x1801,
+        0x1A01,
+        0x280 + n,
+        &[0x6064_0020, 0x6061_0008],
+    );
+    let rest = [
+        w(0x1017, 0, u32::from(setup.heartbeat_ms), 2),
+        w(
+            0x1016,
+            1,
+            (u32::from(controller) << 16) | u32::from(setup.controller_timeout_ms),
+            4,
+        ),
+        w(0x605A, 0, u32::from(setup.quick_stop_option as u16), 2),
+        w(0x6085, 0, setup.quick_stop_deceleration, 4),
+        w(0x6080, 0, setup.max_velocity, 4),
+    ];
+    for x in rest {
+        let _ = writes.push(x);
+    }
+    if let Some(unit) = setup.velocity_unit {
+        let _ = writes.push(w(0x60A9, 0, unit, 4));
+    }
+    if let (OperationMode::ProfileVelocity, Some(ramp)) = (setup.mode, setup.profile_ramp) {
+        let _ = writes.push(w(0x6083, 0, ramp, 4));
+        let _ = writes.push(w(0x6084, 0, ramp, 4));
+    }
+    writes
+}
+
+/// Why commissioning a drive failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CommissioningError {
+    /// A transfer failed (abort by the drive, timeout, protocol).
+    Sdo(SdoError),
+    /// 0x1000 does not name the CiA 402 profile.
+    DeviceType {
+        /// What it says.
+        found: u32,
+    },
+    /// A value read back differs from the one written.
+    ReadBack {
+        /// Where.
+        object: Object,
+        /// Written.
+        wrote: u32,
+        /// Read.
+        read: u32,
+    },
+    /// 0x6061 did not show the commissioned mode.
+    Mode {
+        /// What it showed.
+        found: i8,
+    },
+}
+
+impl CommissioningError {
+    /// The object concerned.
+    #[must_use]
+    pub fn object(&self) -> Object {
+        match *self {
+            Self::Sdo(e) => e.object(),
+            Self::DeviceType { .. } => object::DEVICE_TYPE,
+            Self::ReadBack { object, .. } => object,
+            Self::Mode { .. } => object::MODES_DISPLAY,
+        }
+    }
+
+    /// The EMCY's reason byte (docs/COMMANDS.md): 1 aborted by the drive, 2 timeout,
+    /// 3 protocol error, 4 wrong device type, 5 read-back differs, 6 mode not confirmed.
+    #[must_use]
+    pub fn reason(&self) -> u8 {
+        match self {
+            Self::Sdo(SdoError::Aborted { .. }) => 1,
+            Self::Sdo(SdoError::Timeout { .. }) => 2,
+            Self::Sdo(SdoError::Protocol { .. }) => 3,
+            Self::DeviceType { .. } => 4,
+            Self::ReadBack { .. } => 5,
+            Self::Mode { .. } => 6,
+        }
+    }
+
+    /// The SDO abort code, if the failure was an SDO transfer's (0 otherwise).
+    #[must_use]
+    pub fn abort_code(&self) -> u32 {
+        match self {
+            Self::Sdo(e) => e.code(),
+            _ => 0,
+        }
+    }
+}
+
+/// Where commissioning stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Phase {
+    /// Not heard of: the presence check (reading 0x1000) is retried now and then.
+    Absent,
+    /// Running step `step`.
+    Running,
+    /// Configured, confirmed and started: the drive may be enabled.
+    Done,
+    /// Failed: the drive stays disabled until it boots again or a reset.
+    Failed(CommissioningError),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Step {
+    DeviceType,
+    PreOperational,
+    Identity(u8),
+    Write(usize),
+    ReadBack(usize),
+    Mode(u8),
+    Start,
+}
+
+/// What a commissioning step asks of the controller.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Progress {
+    /// Transmit this frame.
+    Send(CanFrame),
+    /// The drive is commissioned and (manager role) started.
+    Done,
+    /// Commissioning failed; transmit `abort` if given. The drive stays disabled.
+    Failed {
+        /// Why.
+        error: CommissioningError,
+        /// An SDO abort to send.
+        abort: Option<CanFrame>,
+    },
+}
+
+/// Tries of reading 0x6061 before the mode counts as not confirmed (a drive may take a
+/// few milliseconds to switch).
+const MODE_TRIES: u8 = 5;
+
+/// The commissioning of one drive.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Commissioning {
+    setup: DriveSetup,
+    writes: Vec<Write, MAX_WRITES>,
+    /// Whether the controller is NMT manager (it switches and starts the drive).
+    manager: bool,
+    sdo: SdoClient,
+    phase: Phase,
+    step: Step,
+    /// An NMT step is taken on the next poll (it has no answer to wait for).
+    nmt_due: bool,
+    identity: [u32; 4],
+    absent_since_ms: Option<u64>,
+}
+
+/// How often an absent drive is looked for, ms.
+pub const PRESENCE_RETRY_MS: u64 = 1_000;
+
+impl Commissioning {
+    /// The commissioning of the drive `setup` for a controller at `controller` cycling
+    /// every `period_ms` ms; `manager`: the controller is NMT manager.
+    #[must_use]
+    pub fn new(
+        setup: DriveSetup,
+        controller: u8,
+        period_ms: u8,
+        manager: bool,
+        sdo_timeout_ms: u32,
+    ) -> Self {
+        Self {
+            setup,
+            writes: configuration(&setup, controller, period_ms),
+            manager,
+            sdo: SdoClient::new(setup.node, sdo_timeout_ms),
+            phase: Phase::Absent,
+            step: Step::DeviceType,
+            nmt_due: false,
+            identity: [0; 4],
+            absent_since_ms: None,
+        }
+    }
+
+    /// The table row.
+    #[must_use]
+    pub fn setup(&self) -> &DriveSetup {
+        &self.setup
+    }
+
+    /// Where it stands.
+    #[must_use]
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    /// Vendor, product, revision and serial number as read from 0x1018.
+    #[must_use]
+    pub fn identity(&self) -> [u32; 4] {
+        self.identity
+    }
+
+    /// The COB-ID of the drive's SDO responses.
+    #[must_use]
+    pub fn response_id(&self) -> u16 {
+        self.sdo.response_id()
+    }
+
+    /// Starts from the beginning (the drive booted, or a reset): the first request.
+    pub fn begin(&mut self, now_ms: u64) -> CanFrame {
+        self.phase = Phase::Running;
+        self.absent_since_ms = None;
+        self.step = Step::DeviceType;
+        self.nmt_due = false;
+        self.sdo.read(object::DEVICE_TYPE, now_ms)
+    }
+
+    /// Forgets everything (the drive is gone): absent until it is heard of again.
+    pub fn forget(&mut self) {
+        self.sdo.cancel();
+        self.phase = Phase::Absent;
+        self.absent_since_ms = None;
+    }
+
+    /// Once per cycle: a due NMT step, a timeout, or the presence check of an absent drive.
+    pub fn poll(&mut self, now_ms: u64) -> Option<Progress> {
+        match self.phase {
+            Phase::Absent => {
+                let since = *self.absent_since_ms.get_or_insert(now_ms);
+                if !self.sdo.busy() && now_ms >= since {
+                    self.absent_since_ms = Some(now_ms.saturating_add(PRESENCE_RETRY_MS));
+                    return Some(Progress::Send(self.sdo.read(object::DEVICE_TYPE, now_ms)));
+                }
+                // A presence check that times out only means "not there yet": nobody
+                // listens for its abort.
+                let _ = self.sdo.poll(now_ms);
+                None
+            }
+            Phase::Running if self.nmt_due => {
+                self.nmt_due = false;
+                Some(self.advance(now_ms))
+            }
+            Phase::Running => self.sdo.poll(now_ms).map(|e| self.on_event(e, now_ms)),
+            Phase::Done | Phase::Failed(_) => None,
+        }
+    }
+
+    /// Takes an SDO response of this drive. `None`: not an answer to anything running.
+    pub fn on_response(&mut self, data: &[u8], now_ms: u64) -> Option<Progress> {
+        let event = self.sdo.on_response(data, now_ms)?;
+        if self.phase == Phase::Absent {
+            // The presence check was answered: the drive is there.
+            self.phase = Phase::Running;
+            self.step = Step::DeviceType;
+        }
+        Some(self.on_event(event, now_ms))
+    }
+
+    fn fail(&mut self, error: CommissioningError, abort: Option<CanFrame>) -> Progress {
+        self.phase = Phase::Failed(error);
+        Progress::Failed { error, abort }
+    }
+
+    fn on_event(&mut self, event: Event, now_ms: u64) -> Progress {
+        let value = match event {
+            Event::Send(frame) => return Progress::Send(frame),
+            Event::Failed { error, abort } => {
+                return self.fail(CommissioningError::Sdo(error), abort);
+            }
+            Event::Complete(value) => value,
+        };
+        let mut word = [0u8; 4];
+        for (w, v) in word.iter_mut().zip(&value) {
+            *w = *v;
+        }
+        let read = u32::from_le_bytes(word);
+        match self.step {
+            Step::DeviceType if read & 0xFFFF != CIA402_PROFILE => {
+                return self.fail(CommissioningError::DeviceType { found: read }, None);
+            }
+            Step::Identity(sub) => {
+                if let Some(slot) = self.identity.get_mut(usize::from(sub).saturating_sub(1)) {
+                    *slot = read;
+                }
+            }
+            Step::ReadBack(i) => {
+                if let Some(x) = self.writes.get(i) {
+                    let mask = match x.size {
+                        1 => 0xFF,
+                        2 => 0xFFFF,
+                        _ => u32::MAX,
+                    };
+                    if read & mask != x.value & mask {
+                        let error = CommissioningError::ReadBack {
+                            object: x.object,
+                            wrote: x.value,
+                            read: read & mask,
+                        };
+                        return self.fail(error, None);
+                    }
+                }
+            }
+            Step::Mode(tries) => {
+                let found = read as u8 as i8;
+                if found != self.setup.mode.code() {
+                    if tries + 1 >= MODE_TRIES {
+                        return self.fail(CommissioningError::Mode { found }, None);
+                    }
+                    self.step = Step::Mode(tries + 1);
+                    return Progress::Send(self.sdo.read(object::MODES_DISPLAY, now_ms));
+                }
+            }
+            _ => {}
+        }
+        self.advance(now_ms)
+    }
+
+    /// The step after the current one, and what it sends.
+    fn advance(&mut self, now_ms: u64) -> Progress {
+        let next = match self.step {
+            Step::DeviceType if self.manager => Step::PreOperational,
+            Step::DeviceType | Step::PreOperational => Step::Identity(1),
+            Step::Identity(sub) if sub < 4 => Step::Identity(sub + 1),
+            Step::Identity(_) => Step::Write(0),
+            Step::Write(i) => Step::ReadBack(i),
+            Step::ReadBack(i) if i + 1 < self.writes.len() => Step::Write(i + 1),
+            Step::ReadBack(_) => Step::Mode(0),
+            Step::Mode(_) if self.manager => Step::Start,
+            Step::Mode(_) | Step::Start => {
+                self.phase = Phase::Done;
+                return Progress::Done;
+            }
+        };
+        self.step = next;
+        let node = self.setup.node;
+        match next {
+            Step::PreOperational | Step::Start => {
+                // No answer to wait for: the next step follows on the next poll.
+                self.nmt_due = true;
+                let command = if next == Step::Start {
+                    NmtCommand::Start
+                } else {
+                    NmtCommand::PreOperational
+                };
+                Progress::Send(nmt::command(command, node))
+            }
+            Step::Identity(sub) => {
+                Progress::Send(self.sdo.read(Object::new(object::IDENTITY, sub), now_ms))
+            }
+            Step::Write(i) | Step::ReadBack(i) => {
+                let Some(x) = self.writes.get(i).copied() else {
+                    self.phase = Phase::Done;
+                    return Progress::Done;
+                };
+                Progress::Send(if matches!(next, Step::Write(_)) {
+                    let bytes = x.value.to_le_bytes();
+                    self.sdo.write(
+                        x.object,
+                        bytes.get(..usize::from(x.size)).unwrap_or(&bytes),
+                        now_ms,
+                    )
+                } else {
+                    self.sdo.read(x.object, now_ms)
+                })
+            }
+            Step::Mode(_) => Progress::Send(self.sdo.read(object::MODES_DISPLAY, now_ms)),
+            Step::DeviceType => Progress::Send(self.sdo.read(object::DEVICE_TYPE, now_ms)),
+        }
+    }
+}

@@ -1,0 +1,282 @@
+//! The controller as a CANopen node (CiA 301): its NMT slave state machine, its object
+//! dictionary and the values its SDO server answers with. `can/crane-controller.eds`
+//! describes the same objects for a PLC's configuration tool; a host test checks the
+//! two against each other.
+//!
+//! | index | name | access |
+//! |---|---|---|
+//! | 0x1000 | device type (0: no standard device profile) | ro |
+//! | 0x1001 | error register | ro |
+//! | 0x1005 | COB-ID SYNC (0x4000_0080: the controller produces SYNC) | ro |
+//! | 0x1006 | communication cycle period, µs (the scene's h) | ro |
+//! | 0x1016:1 | consumer heartbeat time: supervisor node << 16 \| ms (0: not watched) | rw |
+//! | 0x1017 | producer heartbeat time, ms | rw |
+//! | 0x1018:1..=4 | identity: vendor, product, revision, serial | ro |
+//! | 0x1400:1..=2, 0x1600:1..=6 | RPDO1: the supervisor's command frame (0x210) | ro |
+//! | 0x1800:1..=2, 0x1A00:1..=8 | TPDO1: the status frame (0x190) | ro |
+//! | 0x2000:1..=6 | the command frame's fields (request id, command, x, z, duration) | ro |
+//! | 0x2001:1..=8 | the status frame's fields (docs/COMMANDS.md) | ro |
+//! | 0x2002:1..=5 | the last commissioning failure: node, index, sub, abort code, reason | ro |
+//! | 0x2003:1..=2 | NMT role (0 manager, 1 slave); drives' commissioning phase (bit per drive: done) | ro |
+
+use crate::canopen::sdo::{abort, Object, ObjectDictionary, Value};
+use crate::canopen::NmtState;
+use crate::commands::{Status, COMMAND_ID, STATUS_ID};
+
+/// Who starts the drives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Role {
+    /// Standalone: the controller is NMT manager, commissions and starts the drives
+    /// (addressed NMT) and starts itself.
+    Manager,
+    /// Under a PLC that is NMT master: the controller sends no NMT command, waits in
+    /// pre-operational for the PLC's *start*, and still commissions the drives by SDO.
+    Slave,
+}
+
+/// Identity (0x1018) of the controller.
+pub const IDENTITY: [u32; 4] = [0, 0x0000_C4A1, 0x0001_0000, 0];
+
+/// CiA 301 device type of the controller: no standard device profile.
+pub const DEVICE_TYPE: u32 = 0;
+
+/// The command frame's mapping (0x1600): request id, command, x, z, duration.
+pub const COMMAND_MAPPING: [u32; 5] = [
+    0x2000_0108,
+    0x2000_0208,
+    0x2000_0310,
+    0x2000_0410,
+    0x2000_0510,
+];
+
+/// The status frame's mapping (0x1A00): eight bytes of 0x2001.
+pub const STATUS_MAPPING: [u32; 8] = [
+    0x2001_0108,
+    0x2001_0208,
+    0x2001_0308,
+    0x2001_0408,
+    0x2001_0508,
+    0x2001_0608,
+    0x2001_0708,
+    0x2001_0808,
+];
+
+/// The controller's own NMT state and the parameters a master may change.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Node {
+    /// Node id.
+    pub id: u8,
+    /// NMT role.
+    pub role: Role,
+    /// NMT state.
+    pub state: NmtState,
+    /// Producer heartbeat time, ms (0x1017).
+    pub heartbeat_ms: u16,
+    /// Supervisor watched: node and heartbeat timeout, ms (0x1016:1; 0 = not watched).
+    pub supervisor: u32,
+    /// Cycle, µs (0x1006).
+    pub cycle_us: u32,
+}
+
+/// The values the object dictionary reads from the controller at the time of a request.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Snapshot {
+    /// The status frame's contents.
+    pub status: Status,
+    /// Error register (0x1001).
+    pub error_register: u8,
+    /// Last commissioning failure: node, index, sub, abort code, reason.
+    pub commissioning_failure: (u8, u16, u8, u32, u8),
+    /// Bit per drive (trolley bit 0): commissioned.
+    pub commissioned: u8,
+}
+
+/// The object dictionary at one moment: the node's parameters and a snapshot.
+#[derive(Debug)]
+pub struct Dictionary<'a> {
+    /// The node, whose parameters a write changes.
+    pub node: &'a mut Node,
+    /// Read-only values.
+    pub snapshot: Snapshot,
+}
+
+fn value(bytes: &[u8]) -> Value {
+    bytes.iter().copied().collect()
+}
+
+impl ObjectDictionary for Dictionary<'_> {
+    fn read(&self, object: Object) -> Result<Value, u32> {
+        let s = &self.snapshot;
+        let status = &s.status;
+        let sat = |v: u32| v.min(255) as u8;
+        let (node, index, sub, code, reason) = s.commissioning_failure;
+        let sub_of = |n: usize, f: &dyn Fn(usize) -> Option<Value>| -> Result<Value, u32> {
+            match object.sub {
+                0 => Ok(value(&[n as u8])),
+                k => f(usize::from(k) - 1).ok_or(abort::NO_SUB),
+            }
+        };
+        let u32v = |v: u32| value(&v.to_le_bytes());
+        match object.index {
+            0x1000 if object.sub == 0 => Ok(u32v(DEVICE_TYPE)),
+            0x1001 if object.sub == 0 => Ok(value(&[s.error_register])),
+            0x1005 if object.sub == 0 => Ok(u32v(0x4000_0080)),
+            0x1006 if object.sub == 0 => Ok(u32v(self.node.cycle_us)),
+            0x1016 => sub_of(1, &|_| Some(u32v(self.node.supervisor))),
+            0x1017 if object.sub == 0 => Ok(value(&self.node.heartbeat_ms.to_le_bytes())),
+            0x1018 => sub_of(4, &|k| IDENTITY.get(k).map(|v| u32v(*v))),
+            0x1400 => sub_of(2, &|k| match k {
+                0 => Some(u32v(u32::from(COMMAND_ID))),
+                _ => Some(value(&[0xFE])),
+            }),
+            0x1600 => sub_of(COMMAND_MAPPING.len(), &|k| {
+                COMMAND_MAPPING.get(k).map(|v| u32v(*v))
+            }),
+            0x1800 => sub_of(2, &|k| match k {
+                0 => Some(u32v(u32::from(STATUS_ID))),
+                _ => Some(value(&[0xFE])),
+            }),
+            0x1A00 => sub_of(STATUS_MAPPING.len(), &|k| {
+                STATUS_MAPPING.get(k).map(|v| u32v(*v))
+            }),
+            // The command frame's fields: only mapped (write through the RPDO).
+            0x2000 if object.sub == 0 => Ok(value(&[5])),
+            0x2000 if object.sub <= 5 => Err(abort::WRITE_ONLY),
+            0x2001 => sub_of(8, &|k| {
+                let bytes = [
+                    status.last_id,
+                    status.answer as u8,
+                    status.reason.map_or(0, |r| r as u8),
+                    status.mode,
+                    status.fault,
+                    sat(status.ignored),
+                    sat(status.deadline_misses),
+                    sat(status.tx_failures),
+                ];
+                bytes.get(k).map(|b| value(&[*b]))
+            }),
+            0x2002 => sub_of(5, &|k| match k {
+                0 => Some(value(&[node])),
+                1 => Some(value(&index.to_le_bytes())),
+                2 => Some(value(&[sub])),
+                3 => Some(u32v(code)),
+                4 => Some(value(&[reason])),
+                _ => None,
+            }),
+            0x2003 => sub_of(2, &|k| match k {
+                0 => Some(value(&[match self.node.role {
+                    Role::Manager => 0,
+                    Role::Slave => 1,
+                }])),
+                1 => Some(value(&[s.commissioned])),
+                _ => None,
+            }),
+            0x1000 | 0x1001 | 0x1005 | 0x1006 | 0x1017 | 0x2000 => Err(abort::NO_SUB),
+            _ => Err(abort::NO_OBJECT),
+        }
+    }
+
+    fn write(&mut self, object: Object, data: &[u8]) -> Result<(), u32> {
+        match (object.index, object.sub) {
+            (0x1017, 0) => match *data {
+                [a, b] => {
+                    self.node.heartbeat_ms = u16::from_le_bytes([a, b]);
+                    Ok(())
+                }
+                _ => Err(abort::LENGTH),
+            },
+            (0x1016, 1) => match *data {
+                [a, b, c, d] => {
+                    let v = u32::from_le_bytes([a, b, c, d]);
+                    // Bits 31..24 are reserved; a node id above 127 is invalid.
+                    if v >> 24 != 0 || (v >> 16) & 0xFF > 127 {
+                        return Err(abort::INVALID_VALUE);
+                    }
+                    self.node.supervisor = v;
+                    Ok(())
+                }
+                _ => Err(abort::LENGTH),
+            },
+            (0x2000, 1..=5) => Err(abort::UNSUPPORTED_ACCESS),
+            _ => match self.read(object) {
+                Ok(_) => Err(abort::READ_ONLY),
+                Err(code) => Err(code),
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use crate::commands::Answer;
+
+    fn node() -> Node {
+        Node {
+            id: 0x10,
+            role: Role::Manager,
+            state: NmtState::Operational,
+            heartbeat_ms: 100,
+            supervisor: 0,
+            cycle_us: 10_000,
+        }
+    }
+
+    fn snapshot() -> Snapshot {
+        Snapshot {
+            status: Status {
+                last_id: 7,
+                answer: Answer::Accepted,
+                reason: None,
+                mode: 1,
+                fault: 0,
+                ignored: 300,
+                deadline_misses: 0,
+                tx_failures: 2,
+            },
+            error_register: 0,
+            commissioning_failure: (2, 0x6060, 0, 0x0609_0030, 1),
+            commissioned: 0b01,
+        }
+    }
+
+    #[test]
+    fn reads_and_writes() {
+        let mut n = node();
+        let mut od = Dictionary {
+            node: &mut n,
+            snapshot: snapshot(),
+        };
+        assert_eq!(
+            od.read(Object::new(0x1006, 0)).unwrap(),
+            value(&10_000u32.to_le_bytes())
+        );
+        assert_eq!(od.read(Object::new(0x1018, 0)).unwrap(), value(&[4]));
+        assert_eq!(od.read(Object::new(0x2001, 1)).unwrap(), value(&[7]));
+        assert_eq!(od.read(Object::new(0x2001, 6)).unwrap(), value(&[255]));
+        assert_eq!(
+            od.read(Object::new(0x2002, 4)).unwrap(),
+            value(&0x0609_0030u32.to_le_bytes())
+        );
+        assert_eq!(od.read(Object::new(0x2001, 9)), Err(abort::NO_SUB));
+        assert_eq!(od.read(Object::new(0x3000, 0)), Err(abort::NO_OBJECT));
+        assert_eq!(
+            od.write(Object::new(0x1000, 0), &[0; 4]),
+            Err(abort::READ_ONLY)
+        );
+        assert_eq!(od.write(Object::new(0x1017, 0), &[0xF4, 0x01]), Ok(()));
+        assert_eq!(od.write(Object::new(0x1017, 0), &[1]), Err(abort::LENGTH));
+        assert_eq!(
+            od.write(Object::new(0x1016, 1), &0x0080_0064u32.to_le_bytes()),
+            Err(abort::INVALID_VALUE)
+        );
+        assert_eq!(
+            od.write(Object::new(0x1016, 1), &0x0020_01F4u32.to_le_bytes()),
+            Ok(())
+        );
+        assert_eq!(n.heartbeat_ms, 500);
+        assert_eq!(n.supervisor, 0x0020_01F4);
+    }
+}
