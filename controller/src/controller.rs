@@ -882,9 +882,11 @@ impl<F: Feedforward + Replan> Controller<F> {
                 &mut frames,
                 canopen::heartbeat(self.node.id, NmtState::BootUp),
             );
-        } else if self.node.role == Role::Manager && self.node.state == NmtState::PreOperational {
-            // A manager starts itself after a reset of its communication.
-            self.node.state = NmtState::Operational;
+            // A manager starts itself after its boot-up (CiA 302); a slave waits for
+            // its master's *start*.
+            if self.node.role == Role::Manager {
+                self.node.state = NmtState::Operational;
+            }
         }
         if let Some(answer) = self.sdo_answer.take() {
             self.push(&mut frames, answer);
@@ -900,6 +902,7 @@ impl<F: Feedforward + Replan> Controller<F> {
         // is planned.
         if let Some(id) = self.stops.pop_front() {
             self.handle(Request::Stop { id });
+            self.refuse_waiting_moves();
         } else if self.pending.is_none() {
             if let Some(request) = self.requests.pop_front() {
                 self.handle(request);
@@ -1091,12 +1094,9 @@ impl<F: Feedforward + Replan> Controller<F> {
                 }
             }
             Request::Stop { .. } => {
-                // The move being planned and the queued one are dropped; the running one
-                // is replaced by a quicker smooth stop if one fits the limits, else it is
-                // the stop.
-                if let Some(p) = self.pending.take() {
-                    self.give_answer(p.id, Err(Reject::NotReady));
-                }
+                // The queued move is dropped; the running one is replaced by a quicker
+                // smooth stop if one fits the limits, else it is the stop.
+
                 if self.mode == Mode::Ready && self.feedforward.plan().is_moving(now) {
                     let plan = self.feedforward.plan_mut();
                     plan.drop_queued();
@@ -1113,6 +1113,23 @@ impl<F: Feedforward + Replan> Controller<F> {
             },
         };
         self.give_answer(request.id(), answer);
+    }
+
+    /// After a stop: the move being planned and the moves waiting are refused (the crane
+    /// is stopping, reason 2), each answered once, after the stop; resets stay.
+    fn refuse_waiting_moves(&mut self) {
+        if let Some(p) = self.pending.take() {
+            self.give_answer(p.id, Err(Reject::NotReady));
+        }
+        for _ in 0..self.requests.len() {
+            match self.requests.pop_front() {
+                Some(Request::Move { id, .. }) => self.give_answer(id, Err(Reject::NotReady)),
+                Some(other) => {
+                    let _ = self.requests.push_back(other);
+                }
+                None => {}
+            }
+        }
     }
 
     /// Advances the move being planned by this cycle's share of samples; places it in

@@ -157,6 +157,8 @@ pub enum Quirk {
     StatusLag(u8),
     /// It never answers SDO requests.
     SdoMute,
+    /// Its velocity actual reads this, whatever it does (a coasting axis, a bad encoder).
+    ReportsVelocity(i32),
 }
 
 /// One simulated CiA 402 drive: NMT slave (boot-up message, pre-operational until
@@ -362,7 +364,7 @@ impl DriveSim {
         match quirk {
             Quirk::RefusesCsv => self.od.refuses_csv = true,
             Quirk::ReportsMode(m) => self.od.reports_mode = Some(m),
-            Quirk::StatusLag(_) | Quirk::SdoMute => {}
+            Quirk::StatusLag(_) | Quirk::SdoMute | Quirk::ReportsVelocity(_) => {}
         }
     }
 
@@ -581,7 +583,11 @@ impl VirtualBus {
                 let d = self.drive_mut(drive);
                 d.on_sync();
                 if d.nmt == NmtState::Operational && !d.silent {
-                    let status = canopen::tpdo1(node, d.reported_statusword(), d.velocity);
+                    let velocity = match d.quirk {
+                        Some(Quirk::ReportsVelocity(v)) => v,
+                        _ => d.velocity,
+                    };
+                    let status = canopen::tpdo1(node, d.reported_statusword(), velocity);
                     let position =
                         canopen::tpdo2(node, (d.position_nm / 1000) as i32, d.od.mode_display());
                     self.deliver(status);
