@@ -11,6 +11,7 @@ use std::fmt::Write as _;
 use std::fs;
 use std::path::{Path, PathBuf};
 
+use scene::commissioning::CommissioningFile;
 use scene::firmware::firmware_scene;
 use scene::{JacobianSpec, ModelSpec, Scene, SchemeSpec};
 
@@ -56,7 +57,12 @@ fn main() {
     println!("cargo:rerun-if-changed={}", scene_path.display());
     let scene =
         Scene::load(&scene_path).unwrap_or_else(|e| panic!("scene {}: {e}", scene_path.display()));
-    let code = generate(&scene).unwrap_or_else(|e| panic!("scene {}: {e}", scene_path.display()));
+    let commissioning = scene_path.with_file_name(scene::commissioning::FILE_NAME);
+    println!("cargo:rerun-if-changed={}", commissioning.display());
+    let commissioning = CommissioningFile::for_scene(&scene_path)
+        .unwrap_or_else(|e| panic!("{}: {e}", commissioning.display()));
+    let code = generate(&scene, &commissioning)
+        .unwrap_or_else(|e| panic!("scene {}: {e}", scene_path.display()));
     fs::write(out.join("scene.rs"), code).expect("OUT_DIR is writable");
 }
 
@@ -66,9 +72,9 @@ fn copy(from: &Path, to: &Path) {
 }
 
 /// The Rust for one scene.
-fn generate(scene: &Scene) -> Result<String, String> {
+fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, String> {
     // The checks and the setup the host's run of the firmware loop shares.
-    let setup = firmware_scene(scene)?;
+    let setup = firmware_scene(scene, commissioning)?;
     let (model, n) = match &scene.model {
         ModelSpec::CraneSubs(_) => ("solver_core::models::crane_subs::CraneSubs", 7),
         ModelSpec::CraneProj(_) => ("solver_core::models::crane_proj::CraneProj", 8),
@@ -128,6 +134,11 @@ fn generate(scene: &Scene) -> Result<String, String> {
         c,
         "/// Cycle time, ms.\npub const PERIOD_MS: u32 = {};",
         setup.config.period_ms
+    );
+    let _ = writeln!(
+        c,
+        "/// The controller's configuration: the scene's cycle and the commissioning file.\npub const CONFIG: controller::Config = {};",
+        scene::firmware::config_source(&setup.config)?
     );
     let _ = writeln!(c, "/// The crane model, driven by a plan that changes on command.\npub type Model = {model}<f64, solver_core::plan::Plan<f64, 2>>;");
     let _ = writeln!(

@@ -26,7 +26,7 @@ type Feedforward = scene::Feedforward;
 #[cfg_attr(feature = "qemu", rtic::app(device = crate::board::pac, dispatchers = [UARTRX0]))]
 #[cfg_attr(feature = "stm32h743", rtic::app(device = crate::board::pac, dispatchers = [SPI1]))]
 mod app {
-    use controller::{Config, Controller};
+    use controller::Controller;
     use rtic_monotonics::systick::prelude::*;
 
     use crate::board::{self, Board, CanPort};
@@ -102,10 +102,7 @@ mod app {
         let feedforward = controller::Injectable::new(model);
         #[cfg(feature = "stm32h743")]
         let feedforward = model;
-        let config = Config {
-            period_ms: scene::PERIOD_MS,
-            ..Config::DEFAULT
-        };
+        let config = scene::CONFIG;
         if control::spawn().is_err() {
             defmt::error!("control task already running");
             board::finish(false)

@@ -2,14 +2,17 @@
 //! `valgrind --tool=callgrind target/release/examples/profile_scene scenes/paper-crane.toml`.
 use controller::virtual_bus::HEALTHY;
 use host_tests::firmware::controller_reference;
+use scene::commissioning::CommissioningFile;
 use scene::Scene;
 
 fn main() {
     let path = std::env::args()
         .nth(1)
         .unwrap_or_else(|| "scenes/paper-crane.toml".into());
-    let scene = Scene::load(std::path::Path::new(&path)).expect("scene");
-    let cycles = controller_reference(&scene, &HEALTHY).expect("runs");
+    let path = std::path::Path::new(&path);
+    let scene = Scene::load(path).expect("scene");
+    let commissioning = CommissioningFile::for_scene(path).expect("commissioning file");
+    let cycles = controller_reference(&scene, &commissioning, &HEALTHY).expect("runs");
     println!(
         "{} cycles, last mode {:?}",
         cycles.len(),

@@ -5,6 +5,7 @@ use controller::feedforward::command_plan;
 use controller::setpoint::Setpoint;
 use controller::virtual_bus::{run_cycle, Scenario, VirtualBus};
 use controller::{CanFrame, Controller, Feedforward, Injectable, InverseModel, Mode, Replan};
+use scene::commissioning::CommissioningFile;
 use scene::firmware::{firmware_scene, FirmwareScene};
 use scene::{ModelSpec, Scene, SchemeSpec};
 use solver_core::models::crane_proj::CraneProj;
@@ -30,9 +31,10 @@ pub struct ReferenceCycle {
 /// restarted it: booted halted, without the scene's move, the hang not repeated.
 pub fn controller_reference(
     scene: &Scene,
+    commissioning: &CommissioningFile,
     scenario: &Scenario,
 ) -> Result<Vec<ReferenceCycle>, String> {
-    let f = firmware_scene(scene)?;
+    let f = firmware_scene(scene, commissioning)?;
     let cycles = if scenario.cycles == 0 {
         f.cycles
     } else {

@@ -11,7 +11,27 @@ use solver_core::models::crane::CraneParams;
 use solver_core::plan::Plan;
 use solver_core::trajectory::{PointToPoint, Trajectory};
 
+use crate::commissioning::CommissioningFile;
 use crate::{ModelSpec, ScalarSpec, Scene};
+
+/// The firmware's watchdog period, ms: a cycle must be shorter.
+pub const WATCHDOG_MS: u32 = 100;
+
+/// How long commissioning both drives takes, s, at `period_ms` per cycle: one SDO
+/// exchange per cycle for every write and its read-back and the reads around them, the
+/// drives' first heartbeat after their start, and the CiA 402 enable sequence. A scene's
+/// move that starts earlier would ask for motion from drives not yet enabled.
+#[must_use]
+pub fn commissioning_time(config: &Config) -> f64 {
+    let writes = controller::commissioning::configuration(&config.drives[0], config.node, 10).len();
+    let exchanges = 2 * writes + 10;
+    let heartbeat = config
+        .drives
+        .iter()
+        .map(|d| f64::from(d.heartbeat_ms))
+        .fold(0.0, f64::max);
+    (exchanges as f64 * f64::from(config.period_ms) + heartbeat) / 1000.0
+}
 
 /// The firmware's setup of a crane scene.
 #[derive(Debug, Clone, Copy)]
@@ -31,10 +51,16 @@ pub struct FirmwareScene {
     pub cycles: u32,
 }
 
-/// The firmware's setup of `scene`, or why the firmware cannot run it: not a crane, not
-/// f64, or a move that breaks the planner's rules (docs/COMMANDS.md) — a scene's move
-/// must pass the checks every commanded move passes.
-pub fn firmware_scene(scene: &Scene) -> Result<FirmwareScene, String> {
+/// The firmware's setup of `scene` with the drives of `commissioning`, or why the
+/// firmware cannot run it: not a crane, not f64, a cycle the watchdog or the ms timer
+/// cannot keep, a run that is not a whole number of cycles, a bad commissioning file, a
+/// move that starts before the drives can be enabled, or one that breaks the planner's
+/// rules (docs/COMMANDS.md) — a scene's move must pass the checks every commanded move
+/// passes.
+pub fn firmware_scene(
+    scene: &Scene,
+    commissioning: &CommissioningFile,
+) -> Result<FirmwareScene, String> {
     let crane = match &scene.model {
         ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) => c,
         ModelSpec::MassOnCar(_) => {
@@ -61,15 +87,93 @@ pub fn firmware_scene(scene: &Scene) -> Result<FirmwareScene, String> {
             scene.solver.h
         ));
     }
+    if period_ms >= WATCHDOG_MS {
+        return Err(format!(
+            "h = {} s is not shorter than the watchdog's {WATCHDOG_MS} ms: every cycle would reset the controller",
+            scene.solver.h
+        ));
+    }
+    let cycles = scene.trajectory.t_end / scene.solver.h;
+    if (cycles - cycles.round()).abs() > 1e-9 * cycles.max(1.0) {
+        return Err(format!(
+            "h = {} s does not divide t_end = {} s: the run would stop short",
+            scene.solver.h, scene.trajectory.t_end
+        ));
+    }
+    let config = commissioning
+        .config(DriveLimits::LAB, period_ms)
+        .map_err(|e| format!("commissioning file: {e}"))?;
+    let ready = commissioning_time(&config);
+    if scene.trajectory.t_start < ready {
+        return Err(format!(
+            "the move starts at {} s, before the drives can be commissioned and enabled ({ready:.2} s at h = {} s)",
+            scene.trajectory.t_start, scene.solver.h
+        ));
+    }
     Ok(FirmwareScene {
         params,
         first_move,
         plan,
         planner,
-        config: Config {
-            period_ms,
-            ..Config::DEFAULT
-        },
+        config,
         cycles: scene.steps() as u32,
     })
+}
+
+/// `config` as a Rust constant expression, for the firmware's generated scene module:
+/// the same values the host's run of the firmware loop uses, built by the same
+/// [`CommissioningFile::config`]. (Drive limits and the fault thresholds are
+/// [`Config::DEFAULT`]'s; the check below refuses a config that differs there.)
+pub fn config_source(config: &Config) -> Result<String, String> {
+    let defaults = Config {
+        period_ms: config.period_ms,
+        node: config.node,
+        role: config.role,
+        heartbeat_period_ms: config.heartbeat_period_ms,
+        heartbeat_timeout_ms: config.heartbeat_timeout_ms,
+        tpdo_timeout_ms: config.tpdo_timeout_ms,
+        sdo_timeout_ms: config.sdo_timeout_ms,
+        drives: config.drives,
+        ..Config::DEFAULT
+    };
+    if defaults != *config {
+        return Err("the firmware takes limits and fault thresholds from Config::DEFAULT".into());
+    }
+    let drive = |d: &controller::commissioning::DriveSetup| {
+        let mode = match d.mode {
+            controller::commissioning::OperationMode::CyclicSynchronousVelocity => {
+                "CyclicSynchronousVelocity"
+            }
+            controller::commissioning::OperationMode::ProfileVelocity => "ProfileVelocity",
+        };
+        format!(
+            "controller::commissioning::DriveSetup {{ node: {}, mode: controller::commissioning::OperationMode::{mode}, heartbeat_ms: {}, controller_timeout_ms: {}, quick_stop_option: {}, quick_stop_deceleration: {}, max_velocity: {}, velocity_unit: {:?}, profile_ramp: {:?}, position_scale: {:?}, position_offset: {:?} }}",
+            d.node,
+            d.heartbeat_ms,
+            d.controller_timeout_ms,
+            d.quick_stop_option,
+            d.quick_stop_deceleration,
+            d.max_velocity,
+            d.velocity_unit,
+            d.profile_ramp,
+            d.position_scale,
+            d.position_offset
+        )
+    };
+    let role = match config.role {
+        controller::node::Role::Manager => "Manager",
+        controller::node::Role::Slave => "Slave",
+    };
+    let [trolley, winch] = &config.drives;
+    Ok(format!(
+        "controller::Config {{ period_ms: {}, node: {}, role: controller::node::Role::{role}, heartbeat_period_ms: {}, heartbeat_timeout_ms: {}, tpdo_timeout_ms: {}, sdo_timeout_ms: {}, drives: [{}, {}], ..controller::Config::DEFAULT }}",
+        config.period_ms,
+        config.node,
+        config.heartbeat_period_ms,
+        config.heartbeat_timeout_ms,
+        config.tpdo_timeout_ms,
+        config.sdo_timeout_ms,
+        drive(trolley),
+        drive(winch)
+    ))
 }

@@ -31,6 +31,7 @@
 //! A malformed or physically impossible scene is refused with a [`SceneError`]
 //! that names the field and the reason.
 
+pub mod commissioning;
 pub mod firmware;
 
 use std::fmt;
@@ -451,7 +452,7 @@ impl Scene {
 
 /// The dotted key on the line that holds byte `pos` (best effort, for messages):
 /// `table.key` for a `key = value` line, `table` for a `[table]` header.
-fn key_at(text: &str, pos: usize) -> String {
+pub(crate) fn key_at(text: &str, pos: usize) -> String {
     let line_start = text
         .get(..pos)
         .and_then(|b| b.rfind('\n'))

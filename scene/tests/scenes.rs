@@ -2,6 +2,9 @@
 
 use std::path::PathBuf;
 
+use controller::setpoint::DriveLimits;
+use scene::commissioning::{CommissioningFile, FILE_NAME};
+use scene::firmware::firmware_scene;
 use scene::Scene;
 
 fn scenes_dir() -> PathBuf {
@@ -15,7 +18,8 @@ fn every_shipped_scene_loads() {
     let mut n = 0;
     for entry in std::fs::read_dir(scenes_dir()).unwrap() {
         let path = entry.unwrap().path();
-        if path.extension().is_some_and(|e| e == "toml") {
+        let commissioning = path.file_name().is_some_and(|n| n == FILE_NAME);
+        if path.extension().is_some_and(|e| e == "toml") && !commissioning {
             Scene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             n += 1;
         }
@@ -117,4 +121,37 @@ fn garbage_is_refused_not_a_panic() {
     for text in ["", "name = 3", "[[[", "name = \"x\"\n[model]\nkind = 1"] {
         assert!(Scene::parse(text).is_err());
     }
+}
+
+#[test]
+fn the_shipped_commissioning_file_is_the_stock_setup_and_the_firmware_scenes_pass() {
+    let paper = scenes_dir().join("paper-crane.toml");
+    let commissioning = CommissioningFile::for_scene(&paper).unwrap();
+    assert_eq!(
+        commissioning.config(DriveLimits::LAB, 10).unwrap(),
+        controller::Config::DEFAULT
+    );
+    for name in [
+        "paper-crane",
+        "paper-crane-radau",
+        "paper-crane-radau-exact",
+    ] {
+        let scene = Scene::load(&scenes_dir().join(format!("{name}.toml"))).unwrap();
+        firmware_scene(&scene, &commissioning).unwrap_or_else(|e| panic!("{name}: {e}"));
+    }
+}
+
+#[test]
+fn scenes_the_firmware_cannot_run_are_refused_with_a_message() {
+    let c = CommissioningFile::default();
+    let refused = |text: String| firmware_scene(&Scene::parse(&text).unwrap(), &c).unwrap_err();
+    let e = refused(with("h = 0.01", "h = 0.1"));
+    assert!(e.contains("watchdog"), "{e}");
+    let e = refused(with("t_end = 10.0", "t_end = 10.005"));
+    assert!(e.contains("does not divide"), "{e}");
+    let e = refused(with("t_start = 1.0", "t_start = 0.5"));
+    assert!(e.contains("before the drives can be commissioned"), "{e}");
+    let bad = CommissioningFile::parse("[controller]\nnode = 200\n").unwrap();
+    let e = firmware_scene(&Scene::parse(PAPER).unwrap(), &bad).unwrap_err();
+    assert!(e.contains("controller.node"), "{e}");
 }

@@ -11,6 +11,7 @@ use controller::virtual_bus::{Scenario, HEALTHY};
 use host_tests::dbc::Dbc;
 use host_tests::firmware::controller_reference;
 use object::{Object, ObjectSection};
+use scene::commissioning::CommissioningFile;
 use scene::Scene;
 
 use crate::firmware::{self, parse_cost, parse_tx, readable_log, root, Board, StepCost};
@@ -230,7 +231,8 @@ pub fn check(m: &Measured, overwrite: bool) -> Result<(), String> {
 /// the same scene on the same virtual bus and scenario; set points may differ by one
 /// drive unit (1 µm/s).
 pub fn compare_with_host(m: &Measured) -> Result<(), String> {
-    let reference = controller_reference(&m.scene, &m.scenario)?;
+    let commissioning = CommissioningFile::for_scene(&m.path).map_err(|e| e.to_string())?;
+    let reference = controller_reference(&m.scene, &commissioning, &m.scenario)?;
     let expected: Vec<(u32, u16, Vec<u8>)> = reference
         .iter()
         .flat_map(|c| {

@@ -1,0 +1,462 @@
+//! The commissioning file: what the controller writes into each drive, and its own
+//! CANopen settings. It lives next to the scene (`commissioning.toml` in the scene's
+//! folder); without one, the stock defaults apply (drives at nodes 1 and 2 in CSV).
+//! A bad field is refused like a scene's: named, with the reason.
+//!
+//! ```toml
+//! [controller]
+//! node = 16                      # 0x10
+//! role = "manager"               # manager | slave (a PLC is NMT master)
+//! heartbeat_ms = 100             # 0x1017 of the controller
+//! heartbeat_timeout_ms = 300     # a drive whose heartbeat is older is lost
+//! tpdo_timeout_ms = 50           # … whose TPDOs are older
+//! sdo_timeout_ms = 100           # an SDO transfer that takes longer fails
+//!
+//! [[drive]]
+//! axis = "trolley"               # trolley | winch, each exactly once
+//! node = 1
+//! mode = "csv"                   # csv | pv (pv only for drives without CSV)
+//! heartbeat_ms = 100             # written to the drive's 0x1017
+//! controller_timeout_ms = 300    # 0x1016:1: the drive stops if the controller falls silent
+//! quick_stop_option = 6          # 0x605A
+//! quick_stop_deceleration = 6.0  # m/s², 0x6085
+//! max_velocity = 3.3             # m/s, 0x6080: at least the set-point limit
+//! velocity_unit = "um/s"         # optional: write 0x60A9 (the only unit the gate speaks)
+//! profile_acceleration = 30.0    # m/s², pv only (0x6083/0x6084): required there
+//! position_scale = 1e-6          # m per increment of 0x6064
+//! position_offset = 0.0          # m at increment 0
+//! ```
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use controller::commissioning::{DriveSetup, OperationMode};
+use controller::node::Role;
+use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
+use controller::Config;
+use serde::Deserialize;
+
+use crate::SceneError;
+
+/// The file's name, in the scene's folder.
+pub const FILE_NAME: &str = "commissioning.toml";
+
+/// SI unit velocity (0x60A9) for µm/s: prefix 10^-6, metre, per second (CiA 402-2).
+pub const MICROMETRE_PER_SECOND: u32 = 0xFA01_0300;
+
+/// The commissioning file as read.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CommissioningFile {
+    /// The controller's own settings.
+    #[serde(default)]
+    pub controller: ControllerSpec,
+    /// One row per drive.
+    #[serde(default = "stock_drives", rename = "drive")]
+    pub drives: Vec<DriveSpec>,
+}
+
+impl Default for CommissioningFile {
+    fn default() -> Self {
+        Self {
+            controller: ControllerSpec::default(),
+            drives: stock_drives(),
+        }
+    }
+}
+
+/// The controller's CANopen settings.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+#[allow(missing_docs)]
+pub struct ControllerSpec {
+    pub node: u8,
+    pub role: RoleSpec,
+    pub heartbeat_ms: u16,
+    pub heartbeat_timeout_ms: u32,
+    pub tpdo_timeout_ms: u32,
+    pub sdo_timeout_ms: u32,
+}
+
+impl Default for ControllerSpec {
+    fn default() -> Self {
+        let c = Config::DEFAULT;
+        Self {
+            node: c.node,
+            role: RoleSpec::Manager,
+            heartbeat_ms: c.heartbeat_period_ms,
+            heartbeat_timeout_ms: c.heartbeat_timeout_ms,
+            tpdo_timeout_ms: c.tpdo_timeout_ms,
+            sdo_timeout_ms: c.sdo_timeout_ms,
+        }
+    }
+}
+
+/// NMT role.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RoleSpec {
+    /// The controller starts the drives.
+    Manager,
+    /// A PLC is NMT master.
+    Slave,
+}
+
+/// Which axis a drive moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AxisSpec {
+    /// Trolley (u1).
+    Trolley,
+    /// Winch (u2).
+    Winch,
+}
+
+/// Mode of operation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ModeSpec {
+    /// Cyclic synchronous velocity (9).
+    Csv,
+    /// Profile velocity (3).
+    Pv,
+}
+
+/// One drive's row.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[allow(missing_docs)]
+pub struct DriveSpec {
+    pub axis: AxisSpec,
+    pub node: u8,
+    #[serde(default = "csv")]
+    pub mode: ModeSpec,
+    #[serde(default = "hundred")]
+    pub heartbeat_ms: u16,
+    #[serde(default = "three_hundred")]
+    pub controller_timeout_ms: u16,
+    #[serde(default = "six")]
+    pub quick_stop_option: i16,
+    #[serde(default = "six_f")]
+    pub quick_stop_deceleration: f64,
+    pub max_velocity: Option<f64>,
+    pub velocity_unit: Option<String>,
+    pub profile_acceleration: Option<f64>,
+    #[serde(default = "micro")]
+    pub position_scale: f64,
+    #[serde(default)]
+    pub position_offset: f64,
+}
+
+fn csv() -> ModeSpec {
+    ModeSpec::Csv
+}
+fn hundred() -> u16 {
+    100
+}
+fn three_hundred() -> u16 {
+    300
+}
+fn six() -> i16 {
+    6
+}
+fn six_f() -> f64 {
+    6.0
+}
+fn micro() -> f64 {
+    1e-6
+}
+
+fn stock_drives() -> Vec<DriveSpec> {
+    [(AxisSpec::Trolley, 1), (AxisSpec::Winch, 2)]
+        .into_iter()
+        .map(|(axis, node)| DriveSpec {
+            axis,
+            node,
+            mode: ModeSpec::Csv,
+            heartbeat_ms: 100,
+            controller_timeout_ms: 300,
+            quick_stop_option: 6,
+            quick_stop_deceleration: 6.0,
+            max_velocity: None,
+            velocity_unit: None,
+            profile_acceleration: None,
+            position_scale: 1e-6,
+            position_offset: 0.0,
+        })
+        .collect()
+}
+
+fn refuse(field: String, reason: impl Into<String>) -> SceneError {
+    SceneError {
+        field,
+        reason: reason.into(),
+    }
+}
+
+impl CommissioningFile {
+    /// The commissioning file next to the scene at `scene_path`, or the defaults if there
+    /// is none.
+    pub fn for_scene(scene_path: &Path) -> Result<Self, SceneError> {
+        let path = scene_path
+            .parent()
+            .unwrap_or_else(|| Path::new("."))
+            .join(FILE_NAME);
+        if !path.exists() {
+            return Ok(Self::default());
+        }
+        let text = std::fs::read_to_string(&path).map_err(|e| {
+            refuse(
+                String::new(),
+                format!("cannot read {}: {e}", path.display()),
+            )
+        })?;
+        Self::parse(&text)
+    }
+
+    /// Parses the file's text (not yet checked against a scene: see [`Self::config`]).
+    pub fn parse(text: &str) -> Result<Self, SceneError> {
+        toml::from_str(text).map_err(|e| {
+            let field = e
+                .span()
+                .map(|s| crate::key_at(text, s.start))
+                .unwrap_or_default();
+            refuse(field, e.message().to_string())
+        })
+    }
+
+    fn drive(&self, axis: AxisSpec) -> Option<(usize, &DriveSpec)> {
+        self.drives.iter().enumerate().find(|(_, d)| d.axis == axis)
+    }
+
+    /// The controller's configuration for drives with `limits` cycling every `period_ms`,
+    /// or the first field that cannot work, named with the reason.
+    pub fn config(&self, limits: DriveLimits, period_ms: u32) -> Result<Config, SceneError> {
+        let c = &self.controller;
+        if !(1..=127).contains(&c.node) {
+            return Err(refuse("controller.node".into(), "a node id is 1..=127"));
+        }
+        if c.heartbeat_ms == 0 || u32::from(c.heartbeat_ms) % period_ms != 0 {
+            return Err(refuse(
+                "controller.heartbeat_ms".into(),
+                format!("a positive multiple of the cycle ({period_ms} ms)"),
+            ));
+        }
+        if c.tpdo_timeout_ms < 3 * period_ms {
+            return Err(refuse(
+                "controller.tpdo_timeout_ms".into(),
+                format!(
+                    "at least three cycles ({} ms): TPDOs come once a cycle",
+                    3 * period_ms
+                ),
+            ));
+        }
+        if c.sdo_timeout_ms < 2 * period_ms {
+            return Err(refuse(
+                "controller.sdo_timeout_ms".into(),
+                format!(
+                    "at least two cycles ({} ms): one exchange per cycle",
+                    2 * period_ms
+                ),
+            ));
+        }
+        let mut nodes = BTreeSet::from([c.node]);
+        let mut setups = [DriveSetup::TROLLEY, DriveSetup::WINCH];
+        for (slot, axis) in setups.iter_mut().zip([AxisSpec::Trolley, AxisSpec::Winch]) {
+            let name = match axis {
+                AxisSpec::Trolley => "trolley",
+                AxisSpec::Winch => "winch",
+            };
+            let Some((i, d)) = self.drive(axis) else {
+                return Err(refuse("drive".into(), format!("no drive moves the {name}")));
+            };
+            let field = |f: &str| format!("drive[{i}].{f}");
+            if self.drives.iter().filter(|d| d.axis == axis).count() > 1 {
+                return Err(refuse(field("axis"), format!("the {name} has two drives")));
+            }
+            if !(1..=127).contains(&d.node) || !nodes.insert(d.node) {
+                return Err(refuse(
+                    field("node"),
+                    format!("{} is not a free node id in 1..=127", d.node),
+                ));
+            }
+            let limit = match axis {
+                AxisSpec::Trolley => limits.trolley,
+                AxisSpec::Winch => limits.winch,
+            };
+            let units = |v: f64| (v * UNITS_PER_M_PER_S).round();
+            let max_velocity = d.max_velocity.unwrap_or(limit.max_velocity * 1.1);
+            if max_velocity.is_nan()
+                || max_velocity < limit.max_velocity
+                || units(max_velocity) > f64::from(u32::MAX)
+            {
+                return Err(refuse(
+                    field("max_velocity"),
+                    format!(
+                        "{max_velocity} m/s is below the set-point limit {} m/s: the drive would clip what the model asks",
+                        limit.max_velocity
+                    ),
+                ));
+            }
+            if d.quick_stop_deceleration.is_nan()
+                || d.quick_stop_deceleration <= 0.0
+                || units(d.quick_stop_deceleration) > f64::from(u32::MAX)
+            {
+                return Err(refuse(
+                    field("quick_stop_deceleration"),
+                    "a positive deceleration, m/s²",
+                ));
+            }
+            if d.heartbeat_ms == 0 || u32::from(d.heartbeat_ms) * 3 > c.heartbeat_timeout_ms {
+                return Err(refuse(
+                    field("heartbeat_ms"),
+                    format!(
+                        "positive and at most a third of the controller's heartbeat timeout ({} ms)",
+                        c.heartbeat_timeout_ms
+                    ),
+                ));
+            }
+            if u32::from(d.controller_timeout_ms) < 2 * u32::from(c.heartbeat_ms) {
+                return Err(refuse(
+                    field("controller_timeout_ms"),
+                    format!(
+                        "at least twice the controller's heartbeat ({} ms), or the drive trips on a healthy controller",
+                        c.heartbeat_ms
+                    ),
+                ));
+            }
+            if !(d.position_scale.is_finite()
+                && d.position_scale != 0.0
+                && d.position_offset.is_finite())
+            {
+                return Err(refuse(
+                    field("position_scale"),
+                    "finite and non-zero, m per increment",
+                ));
+            }
+            let velocity_unit = match d.velocity_unit.as_deref() {
+                None => None,
+                Some("um/s") => Some(MICROMETRE_PER_SECOND),
+                Some(other) => {
+                    return Err(refuse(
+                        field("velocity_unit"),
+                        format!("{other:?}: the set points are in µm/s (\"um/s\")"),
+                    ))
+                }
+            };
+            let (mode, profile_ramp) = match (d.mode, d.profile_acceleration) {
+                (ModeSpec::Csv, None) => (OperationMode::CyclicSynchronousVelocity, None),
+                (ModeSpec::Csv, Some(_)) => {
+                    return Err(refuse(field("profile_acceleration"), "only for mode = \"pv\""))
+                }
+                (ModeSpec::Pv, Some(a)) if a >= limit.max_acceleration * 10.0 => {
+                    (OperationMode::ProfileVelocity, Some(units(a) as u32))
+                }
+                (ModeSpec::Pv, _) => {
+                    return Err(refuse(
+                        field("profile_acceleration"),
+                        format!(
+                            "profile velocity passes every set point through the drive's ramp 0x6083/0x6084: it must be given and at least ten times the acceleration limit ({} m/s²) not to reshape them",
+                            limit.max_acceleration
+                        ),
+                    ))
+                }
+            };
+            *slot = DriveSetup {
+                node: d.node,
+                mode,
+                heartbeat_ms: d.heartbeat_ms,
+                controller_timeout_ms: d.controller_timeout_ms,
+                quick_stop_option: d.quick_stop_option,
+                quick_stop_deceleration: units(d.quick_stop_deceleration) as u32,
+                max_velocity: units(max_velocity) as u32,
+                velocity_unit,
+                profile_ramp,
+                position_scale: d.position_scale,
+                position_offset: d.position_offset,
+            };
+        }
+        if self.drives.len() > 2 {
+            return Err(refuse(
+                "drive".into(),
+                "this crane has two drives: trolley and winch",
+            ));
+        }
+        Ok(Config {
+            limits,
+            period_ms,
+            node: c.node,
+            role: match c.role {
+                RoleSpec::Manager => Role::Manager,
+                RoleSpec::Slave => Role::Slave,
+            },
+            heartbeat_period_ms: c.heartbeat_ms,
+            heartbeat_timeout_ms: c.heartbeat_timeout_ms,
+            tpdo_timeout_ms: c.tpdo_timeout_ms,
+            sdo_timeout_ms: c.sdo_timeout_ms,
+            drives: setups,
+            ..Config::DEFAULT
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    fn config(text: &str) -> Result<Config, SceneError> {
+        CommissioningFile::parse(text)?.config(DriveLimits::LAB, 10)
+    }
+
+    #[test]
+    fn the_defaults_are_the_stock_drives() {
+        let c = config("").unwrap();
+        assert_eq!(c.drives, Config::DEFAULT.drives);
+        assert_eq!(c, Config::DEFAULT);
+    }
+
+    #[test]
+    fn a_file_sets_nodes_role_and_the_drum() {
+        let c = config(
+            "[controller]\nrole = \"slave\"\nnode = 32\n\n[[drive]]\naxis = \"winch\"\nnode = 5\nposition_scale = 2e-6\nposition_offset = 1.5\nvelocity_unit = \"um/s\"\n\n[[drive]]\naxis = \"trolley\"\nnode = 4\n",
+        )
+        .unwrap();
+        assert_eq!(c.role, Role::Slave);
+        assert_eq!(c.node, 32);
+        let [trolley, winch] = c.drives;
+        assert_eq!((trolley.node, winch.node), (4, 5));
+        assert_eq!(winch.position_scale, 2e-6);
+        assert_eq!(winch.velocity_unit, Some(MICROMETRE_PER_SECOND));
+    }
+
+    #[test]
+    fn bad_fields_are_named_with_their_reason() {
+        let cases = [
+            ("[controller]\nnode = 0\n", "controller.node"),
+            ("[controller]\nheartbeat_ms = 15\n", "controller.heartbeat_ms"),
+            ("[controller]\nrole = \"master\"\n", "controller.role"),
+            ("[controller]\ntpdo_timeout_ms = 10\n", "controller.tpdo_timeout_ms"),
+            ("[[drive]]\naxis = \"trolley\"\nnode = 1\n", "drive"),
+            ("[[drive]]\naxis = \"trolley\"\nnode = 1\n[[drive]]\naxis = \"winch\"\nnode = 1\n", "drive[1].node"),
+            ("[[drive]]\naxis = \"trolley\"\nnode = 16\n[[drive]]\naxis = \"winch\"\nnode = 2\n", "drive[0].node"),
+            ("[[drive]]\naxis = \"trolley\"\nnode = 1\nmax_velocity = 2.0\n[[drive]]\naxis = \"winch\"\nnode = 2\n", "drive[0].max_velocity"),
+            ("[[drive]]\naxis = \"trolley\"\nnode = 1\nmode = \"pv\"\n[[drive]]\naxis = \"winch\"\nnode = 2\n", "drive[0].profile_acceleration"),
+            ("[[drive]]\naxis = \"trolley\"\nnode = 1\nvelocity_unit = \"mm/s\"\n[[drive]]\naxis = \"winch\"\nnode = 2\n", "drive[0].velocity_unit"),
+            ("[[drive]]\naxis = \"trolley\"\nnode = 1\ncontroller_timeout_ms = 150\n[[drive]]\naxis = \"winch\"\nnode = 2\n", "drive[0].controller_timeout_ms"),
+            ("[[drive]]\naxis = \"trolley\"\nnode = 1\nbrake = true\n", "drive.brake"),
+        ];
+        for (text, field) in cases {
+            let e = config(text).unwrap_err();
+            assert!(
+                e.field.starts_with(field) || e.field.ends_with(field.trim_start_matches("drive.")),
+                "{text:?}: {e}"
+            );
+            assert!(!e.reason.is_empty());
+        }
+        // pv with a steep enough ramp is accepted.
+        let c = config("[[drive]]\naxis = \"trolley\"\nnode = 1\nmode = \"pv\"\nprofile_acceleration = 30.0\n[[drive]]\naxis = \"winch\"\nnode = 2\n").unwrap();
+        assert_eq!(c.drives[0].mode, OperationMode::ProfileVelocity);
+        assert_eq!(c.drives[0].profile_ramp, Some(30_000_000));
+    }
+}
