@@ -13,7 +13,7 @@ use solver_core::Error;
 
 use crate::canopen::emcy::{self, REGISTER_COMMUNICATION, REGISTER_GENERIC};
 use crate::canopen::sdo;
-use crate::canopen::{self, Incoming, NmtCommand, NmtState};
+use crate::canopen::{self, nmt, Incoming, NmtCommand, NmtState};
 use crate::cia402::{controlword, statusword, DriveState};
 use crate::commands::{status_frame, Answer, Reject, Request, Status};
 use crate::commissioning::{Commissioning, CommissioningError, DriveSetup, Phase, Progress};
@@ -705,15 +705,26 @@ impl<F: Feedforward + Replan> Controller<F> {
         link.last_heartbeat_ms = Some(now_ms);
         link.nmt = Some(state);
         let phase = link.commissioning.phase();
+        // Seen operational since it was commissioned (its TPDO clock runs).
+        let was_operational = link.last_tpdo_ms.is_some();
         match (state, phase) {
-            // Booted (again), or found pre-operational/stopped: commission it from the
-            // start. If it was linked, it lost its configuration and its enable state.
-            (NmtState::BootUp | NmtState::PreOperational | NmtState::Stopped, Phase::Done)
-            | (NmtState::BootUp, _) => {
+            // Booted again, or left operational: commission it from the start; if it was
+            // linked, it lost its configuration and its enable state.
+            (NmtState::BootUp, _) | (NmtState::PreOperational | NmtState::Stopped, Phase::Done)
+                if was_operational || state == NmtState::BootUp =>
+            {
                 if phase == Phase::Done {
                     self.drive_left_operational(drive, state);
                 }
                 self.recommission(drive, now_ms);
+            }
+            // Commissioned but not operational yet: a manager's start was lost, so it
+            // is sent again; a slave waits for its master's.
+            (NmtState::PreOperational | NmtState::Stopped, Phase::Done) => {
+                let node = link.commissioning.setup().node;
+                if self.node.role == Role::Manager {
+                    self.link_mut(drive).outbox = Some(nmt::command(NmtCommand::Start, node));
+                }
             }
             (
                 NmtState::PreOperational | NmtState::Stopped | NmtState::Operational,

@@ -123,19 +123,21 @@ impl ObjectDictionary for Dictionary<'_> {
             0x1001 if object.sub == 0 => Ok(value(&[s.error_register])),
             0x1005 if object.sub == 0 => Ok(u32v(0x4000_0080)),
             0x1006 if object.sub == 0 => Ok(u32v(self.node.cycle_us)),
-            0x1016 => sub_of(1, &|_| Some(u32v(self.node.supervisor))),
+            0x1016 => sub_of(1, &|k| (k == 0).then(|| u32v(self.node.supervisor))),
             0x1017 if object.sub == 0 => Ok(value(&self.node.heartbeat_ms.to_le_bytes())),
             0x1018 => sub_of(4, &|k| IDENTITY.get(k).map(|v| u32v(*v))),
             0x1400 => sub_of(2, &|k| match k {
                 0 => Some(u32v(u32::from(COMMAND_ID))),
-                _ => Some(value(&[0xFE])),
+                1 => Some(value(&[0xFE])),
+                _ => None,
             }),
             0x1600 => sub_of(COMMAND_MAPPING.len(), &|k| {
                 COMMAND_MAPPING.get(k).map(|v| u32v(*v))
             }),
             0x1800 => sub_of(2, &|k| match k {
                 0 => Some(u32v(u32::from(STATUS_ID))),
-                _ => Some(value(&[0xFE])),
+                1 => Some(value(&[0xFE])),
+                _ => None,
             }),
             0x1A00 => sub_of(STATUS_MAPPING.len(), &|k| {
                 STATUS_MAPPING.get(k).map(|v| u32v(*v))

@@ -9,8 +9,9 @@ use controller::canopen::{self, nmt, NmtCommand, NmtState};
 use controller::commands::{request_frame, Request, STATUS_ID};
 use controller::commissioning::{CommissioningError, Phase};
 use controller::drive::Drive;
+use controller::node::Role;
 use controller::virtual_bus::{Action, Quirk, HEALTHY};
-use controller::{CanFrame, Cycle, Fault, Mode};
+use controller::{CanFrame, Config, Cycle, Fault, Mode};
 
 fn send(rig: &mut Rig, request: Request) {
     rig.c.on_frame(&request_frame(&request), u64::from(rig.now));
@@ -533,4 +534,67 @@ fn a_drive_emcy_warning_is_counted_and_changes_nothing() {
     assert!(out.iter().all(|c| c.mode == Mode::Ready));
     assert!(frames_with(&out, 0x090).is_empty());
     assert_eq!(rig.c.counters().drive_warnings, 1);
+}
+
+#[test]
+fn under_a_plc_as_nmt_master_the_controller_sends_no_nmt_and_waits_for_its_start() {
+    let config = Config {
+        role: Role::Slave,
+        ..Config::DEFAULT
+    };
+    let mut rig = Rig::configured(feedforward(HOME, None), HEALTHY, config);
+    let out = rig.run(100);
+    assert!(frames_with(&out, 0x000).is_empty(), "no NMT command, ever");
+    assert_eq!(rig.c.nmt_state(), NmtState::PreOperational);
+    assert!(frames_with(&out, 0x710)
+        .iter()
+        .skip(1)
+        .all(|d| d == &[0x7F]));
+    assert!(
+        frames_with(&out, STATUS_ID).is_empty(),
+        "no PDO before the master's start"
+    );
+    // Commissioned by SDO all the same, and left pre-operational for the master.
+    for d in Drive::ALL {
+        assert_eq!(rig.c.commissioning(d), Phase::Done);
+        assert_eq!(rig.bus.drive(d).mode(), 9);
+        assert_eq!(rig.bus.drive(d).nmt(), NmtState::PreOperational);
+    }
+    // The PLC starts the network (broadcast): drives and controller go operational.
+    let start = nmt::command(NmtCommand::Start, 0);
+    rig.bus.transmit(&start).unwrap();
+    rig.c.on_frame(&start, u64::from(rig.now));
+    let out = rig.until(50, |c| c.mode == Mode::Ready);
+    assert!(frames_with(&out, 0x000).is_empty());
+    assert_eq!(rig.c.nmt_state(), NmtState::Operational);
+    send(
+        &mut rig,
+        Request::Move {
+            id: 1,
+            target: [16.0, 6.0],
+            duration: Some(6.0),
+        },
+    );
+    assert_eq!(answers(&rig.run(2)), [(1, 1, 0)]);
+}
+
+#[test]
+fn a_lost_nmt_start_is_sent_again() {
+    let mut rig = Rig::new(HEALTHY, false);
+    let start = [0x01, 0x01];
+    rig.until(120, |c| {
+        c.frames
+            .iter()
+            .any(|f| f.id() == 0x000 && f.data() == start)
+    });
+    // The trolley missed it (say, it was still busy): it stays pre-operational.
+    rig.bus
+        .inject(Action::Nmt(Drive::Trolley, NmtCommand::PreOperational));
+    let out = rig.until(60, |c| c.mode == Mode::Ready);
+    assert_eq!(
+        frames_with(&out, 0x000),
+        [start],
+        "sent again, to that node"
+    );
+    assert!(out.iter().all(|c| c.mode.fault().is_none()));
 }

@@ -84,6 +84,15 @@ impl Dbc {
         self.0.messages.len()
     }
 
+    /// The bit lengths of a message's signals, in the DBC's order.
+    pub fn signal_sizes(&self, id: u16) -> Option<Vec<u64>> {
+        self.0
+            .messages
+            .iter()
+            .find(|m| m.id == MessageId::Standard(id))
+            .map(|m| m.signals.iter().map(|s| s.size).collect())
+    }
+
     /// Decodes a frame by the DBC's definition; refuses unknown ids and wrong lengths.
     pub fn decode(&self, id: u16, data: &[u8]) -> Result<Decoded, String> {
         let message = self

@@ -70,8 +70,13 @@ impl Rig {
     }
 
     pub fn with(ff: Ff, scenario: Scenario) -> Self {
+        Self::configured(ff, scenario, Config::DEFAULT)
+    }
+
+    /// With another configuration (role, nodes, timeouts).
+    pub fn configured(ff: Ff, scenario: Scenario, config: Config) -> Self {
         Self {
-            c: Controller::new(ff, planner(), Config::DEFAULT),
+            c: Controller::new(ff, planner(), config),
             bus: VirtualBus::new(scenario, HOME),
             now: 0,
             after: 0,

@@ -1,0 +1,177 @@
+//! `can/crane-controller.eds` — what a PLC's configuration tool imports — against the
+//! controller's object dictionary (`controller/src/node.rs`, served over SDO) and the
+//! DBC: every object in the EDS answers with its data type's size and, where it is a
+//! constant, its default value; every object the controller answers is in the EDS; the
+//! PDO mappings are the DBC's frames. (python-canopen's parser reads the same file in
+//! the interop test.)
+
+use std::collections::BTreeMap;
+
+use controller::canopen::sdo::{abort, Object, ObjectDictionary};
+use controller::canopen::NmtState;
+use controller::commands::{Answer, Status, COMMAND_ID, STATUS_ID};
+use controller::node::{Dictionary, Node, Role, Snapshot};
+use host_tests::dbc::Dbc;
+
+const EDS: &str = include_str!("../../can/crane-controller.eds");
+
+/// Sections of an INI file: name → key → value.
+fn sections(text: &str) -> BTreeMap<String, BTreeMap<String, String>> {
+    let mut out: BTreeMap<String, BTreeMap<String, String>> = BTreeMap::new();
+    let mut current = String::new();
+    for line in text.lines().map(str::trim) {
+        if let Some(name) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
+            current = name.to_string();
+            out.entry(current.clone()).or_default();
+        } else if let Some((k, v)) = line.split_once('=') {
+            out.entry(current.clone())
+                .or_default()
+                .insert(k.trim().to_string(), v.trim().to_string());
+        }
+    }
+    out
+}
+
+fn number(v: &str) -> u64 {
+    match v.strip_prefix("0x").or_else(|| v.strip_prefix("0X")) {
+        Some(hex) => u64::from_str_radix(hex, 16).unwrap(),
+        None => v.parse().unwrap(),
+    }
+}
+
+/// Every variable of the EDS: object, data type size (bytes), access, default value.
+fn variables() -> Vec<(Object, usize, String, u64)> {
+    let s = sections(EDS);
+    let mut out = Vec::new();
+    for (name, keys) in &s {
+        if keys.get("ObjectType").map(String::as_str) != Some("0x7") {
+            continue;
+        }
+        let (index, sub) = match name.split_once("sub") {
+            Some((i, sub)) => (i, u8::from_str_radix(sub, 16).unwrap()),
+            None => (name.as_str(), 0),
+        };
+        let size = match keys["DataType"].as_str() {
+            "0x0005" => 1,
+            "0x0006" => 2,
+            "0x0007" => 4,
+            other => panic!("{name}: data type {other} not used here"),
+        };
+        out.push((
+            Object::new(u16::from_str_radix(index, 16).unwrap(), sub),
+            size,
+            keys["AccessType"].clone(),
+            number(&keys["DefaultValue"]),
+        ));
+    }
+    out
+}
+
+fn node() -> Node {
+    Node {
+        id: 0x10,
+        role: Role::Manager,
+        state: NmtState::Operational,
+        heartbeat_ms: 100,
+        supervisor: 0,
+        cycle_us: 10_000,
+    }
+}
+
+fn snapshot() -> Snapshot {
+    Snapshot {
+        status: Status {
+            last_id: 0,
+            answer: Answer::None,
+            reason: None,
+            mode: 0,
+            fault: 0,
+            ignored: 0,
+            deadline_misses: 0,
+            tx_failures: 0,
+        },
+        error_register: 0,
+        commissioning_failure: (0, 0, 0, 0, 0),
+        commissioned: 0,
+    }
+}
+
+#[test]
+fn every_eds_object_answers_with_its_size_and_default() {
+    let mut n = node();
+    let od = Dictionary {
+        node: &mut n,
+        snapshot: snapshot(),
+    };
+    let vars = variables();
+    assert!(vars.len() > 40, "{} variables", vars.len());
+    for (object, size, access, default) in vars {
+        let got = od.read(object);
+        if access == "wo" {
+            assert_eq!(got, Err(abort::WRITE_ONLY), "{object:?}");
+            continue;
+        }
+        let value = got.unwrap_or_else(|code| panic!("{object:?}: abort {code:#010x}"));
+        assert_eq!(value.len(), size, "{object:?}: size");
+        let mut word = [0u8; 8];
+        word[..size].copy_from_slice(&value);
+        // The dictionary is read at its defaults: a fresh controller, no fault, no request.
+        assert_eq!(u64::from_le_bytes(word), default, "{object:?}: value");
+    }
+}
+
+#[test]
+fn every_object_the_controller_answers_is_in_the_eds() {
+    let mut n = node();
+    let od = Dictionary {
+        node: &mut n,
+        snapshot: snapshot(),
+    };
+    let eds: Vec<Object> = variables().into_iter().map(|v| v.0).collect();
+    for index in 0x1000..=0x2FFF {
+        for sub in 0..=16 {
+            let object = Object::new(index, sub);
+            if od.read(object).is_ok() || od.read(object) == Err(abort::WRITE_ONLY) {
+                assert!(
+                    eds.contains(&object),
+                    "{object:?} answers but is not in the EDS"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn rw_objects_take_writes_and_ro_ones_refuse_them() {
+    let mut n = node();
+    for (object, size, access, default) in variables() {
+        let mut od = Dictionary {
+            node: &mut n,
+            snapshot: snapshot(),
+        };
+        let bytes = &default.to_le_bytes()[..size];
+        let got = od.write(object, bytes);
+        match access.as_str() {
+            "rw" => assert_eq!(got, Ok(()), "{object:?}"),
+            "ro" | "const" => assert_eq!(got, Err(abort::READ_ONLY), "{object:?}"),
+            _ => assert!(got.is_err(), "{object:?}"),
+        }
+    }
+}
+
+#[test]
+fn the_pdo_descriptions_are_the_dbc_frames() {
+    let s = sections(EDS);
+    let dbc = Dbc::crane().unwrap();
+    for (comm, map, id) in [("1400", "1600", COMMAND_ID), ("1800", "1A00", STATUS_ID)] {
+        assert_eq!(
+            number(&s[&format!("{comm}sub1")]["DefaultValue"]),
+            u64::from(id)
+        );
+        let count = number(&s[&format!("{map}sub0")]["DefaultValue"]);
+        let lengths: Vec<u64> = (1..=count)
+            .map(|k| number(&s[&format!("{map}sub{k:X}")]["DefaultValue"]) & 0xFF)
+            .collect();
+        assert_eq!(Some(lengths), dbc.signal_sizes(id), "{map} against the DBC");
+    }
+}
