@@ -30,6 +30,7 @@ pub mod feedforward;
 pub mod frame;
 pub mod planner;
 pub mod traffic;
+pub mod transmit;
 pub mod units;
 pub mod virtual_bus;
 
