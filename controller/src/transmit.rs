@@ -20,7 +20,7 @@
 //!   [`TxQueue::feed`] moves frames into the hardware as its buffers free (the board
 //!   calls it on submission and on its transmit-complete interrupt);
 //! * **every frame leaves or is reported lost, exactly once, as itself** ([`Lost`]):
-//!   * *refused* — submitted while the queue is full: the new frame is refused and
+//!   * *queue full* — submitted while the queue is full: the new frame is refused and
 //!     returned to the caller at once. What is queued is never overwritten or
 //!     reordered, so the refusal is the newest frame, the one in hand to report.
 //!     With a queue as long as a cycle's burst (8) this cannot happen, because of:
@@ -28,7 +28,7 @@
 //!     begins ([`TxQueue::expire`]): bus-off, or a bus too slow or too busy for the
 //!     burst. Its set point or SYNC is stale, so it is taken back (out of the queue, and
 //!     cancelled in the hardware) rather than sent late ahead of the fresh cycle;
-//!   * *bus* — the bus refused it (the virtual bus while it is off).
+//!   * *bus-off* — the bus refused it (the virtual bus while it is off).
 //!
 //! Each lost frame goes to [`Controller::transmit_failed`](crate::Controller::transmit_failed)
 //! before the next tick: a lost RPDO counts towards the delivery fault, a lost EMCY is
@@ -56,11 +56,11 @@ pub struct Queued {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Loss {
     /// Submitted while the queue was full: refused, never queued.
-    Refused,
+    QueueFull,
     /// Still waiting (queued, or pending in the hardware) when a later cycle began.
     Expired,
-    /// Refused by the bus (bus-off).
-    Bus,
+    /// Refused by the bus (the virtual bus while it is off).
+    BusOff,
 }
 
 /// A frame that will never leave, and why: report `queued.frame`, no other.
@@ -148,7 +148,7 @@ impl<const N: usize> TxQueue<N> {
                 self.stats.refused = self.stats.refused.wrapping_add(1);
                 Err(Lost {
                     queued,
-                    loss: Loss::Refused,
+                    loss: Loss::QueueFull,
                 })
             }
         }
@@ -320,7 +320,7 @@ mod tests {
         q.submit(f(0x202), 0).unwrap();
         let lost = q.submit(f(0x080), 0).unwrap_err();
         assert_eq!(lost.queued.frame.id(), 0x080);
-        assert_eq!(lost.loss, Loss::Refused);
+        assert_eq!(lost.loss, Loss::QueueFull);
         let mut hw = FifoModel::<3>::new();
         q.feed(&mut hw);
         assert_eq!(hw.take_next().unwrap().frame.id(), 0x201);

@@ -400,7 +400,7 @@ fn assert_accounted(records: &[Record]) {
         let refused: Vec<Queued> = r
             .lost
             .iter()
-            .filter(|l| l.loss == Loss::Refused)
+            .filter(|l| l.loss == Loss::QueueFull)
             .map(|l| l.queued)
             .collect();
         assert!(refused.is_empty(), "a cycle's burst always fits the queue");
