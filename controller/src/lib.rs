@@ -9,6 +9,7 @@
 //! * [`planner`] — the checks a move or a stop passes before it is accepted;
 //! * [`virtual_bus`], [`traffic`] — simulated drives, scenarios and random traffic
 //!   for the QEMU runs and the host tests;
+//! * [`transmit`] — the transmit queue that keeps a cycle's frames in order and names every loss;
 //! * [`controller`] — the 100 Hz cycle and the reaction to every fault, with injected time.
 //!
 //! The boards (QEMU, STM32H743) only move frames and call [`Controller::tick`].
@@ -35,6 +36,7 @@ pub mod node;
 pub mod planner;
 pub mod setpoint;
 pub mod traffic;
+pub mod transmit;
 pub mod virtual_bus;
 
 pub use controller::{Config, Controller, Counters, Cycle, Fault, Mode};

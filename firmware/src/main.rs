@@ -151,6 +151,9 @@ mod app {
         let mut link_losses = (0, 0);
         while cycles.is_none_or(|n| cycle < u64::from(n)) {
             let now_ms = cycle * u64::from(scene::PERIOD_MS);
+            // Frames of the last cycle that did not leave (bus-off, a slow bus) are taken
+            // back now, each reported as itself before this cycle's tick.
+            report_lost(board, controller, now_ms);
             while let Some(frame) = board.receive(now_ms) {
                 controller.on_frame(&frame, now_ms);
             }
@@ -171,12 +174,15 @@ mod app {
             let out = controller.tick(now_ms);
             let cost = board.cost(start, board.counter());
             controller.record_cost(cost);
+            // The burst is queued in order (controller::transmit): a refused frame is
+            // reported at once, a frame the bus refuses as soon as it does.
             for frame in &out.frames {
                 if let Err(e) = board.transmit(now_ms, frame) {
                     defmt::warn!("tx failed {=u16:#05x}: {}", frame.id(), e);
                     controller.transmit_failed(frame);
                 }
             }
+            report_lost(board, controller, now_ms);
             let (iterations, jacobians) = out
                 .step
                 .map_or((0, 0), |s| (s.stats.iterations, s.stats.jacobian_evals));
@@ -218,5 +224,13 @@ mod app {
         let mode = controller.mode();
         defmt::info!("mode {}", mode);
         board::finish(cx.local.ending.admits(mode))
+    }
+
+    /// Every frame the transmit path lost since the last call, reported as itself.
+    fn report_lost(board: &mut Board, controller: &mut Controller<Feedforward>, now_ms: u64) {
+        while let Some((frame, e)) = board.lost(now_ms) {
+            defmt::warn!("tx failed {=u16:#05x}: {}", frame.id(), e);
+            controller.transmit_failed(&frame);
+        }
     }
 }

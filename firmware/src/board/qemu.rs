@@ -2,8 +2,13 @@
 //!
 //! * CAN: the virtual bus compiled into this build (`controller::virtual_bus`): two
 //!   simulated CiA 402 drives that answer the controller, and the scenario named on
-//!   QEMU's semihosting command line (default `healthy`). Every frame handed to the
-//!   bus is logged (decoded on the host against the DBC), and so is every refusal.
+//!   QEMU's semihosting command line (default `healthy`). Frames go out through the
+//!   same transmit path as on the STM32H743 — `controller::transmit::TxQueue` in front
+//!   of 3 transmit buffers run as a FIFO — so the queue limit is exercised: the cycle
+//!   hands its whole burst over (up to 3 frames into the buffers, the rest queued),
+//!   then the bus takes the buffers' frames in order and each freed buffer is fed from
+//!   the queue, as the FDCAN's transmit interrupt does. Every frame the bus takes is
+//!   logged (decoded on the host against the DBC), and so is every loss.
 //! * Cost: QEMU runs with `-icount shift=7`, so virtual time is driven by the
 //!   instruction count (one instruction = 128 ns). The CMSDK APB timer 1 at
 //!   0x4000_1000 counts down at 25 MHz: 3.2 ticks per instruction, identical on every
@@ -22,7 +27,8 @@
 //! numbers and the vector table), volatile access to the timer, and stack painting.
 #![allow(unsafe_code)]
 
-use controller::virtual_bus::{self, BusOff, Scenario, VirtualBus};
+use controller::transmit::{FifoModel, Loss, Queued, TxQueue, BURST};
+use controller::virtual_bus::{self, Scenario, VirtualBus};
 use controller::CanFrame;
 use heapless::Deque;
 
@@ -134,6 +140,9 @@ impl CanRx {
     pub fn drain(&mut self) {}
 }
 
+/// Transmit buffers, as the STM32H743's FDCAN has them (`fdcan` 0.2: 3).
+pub const TX_BUFFERS: usize = 3;
+
 /// The QEMU board.
 pub struct Board {
     bus: VirtualBus,
@@ -142,6 +151,12 @@ pub struct Board {
     /// End of the last receive window, ms.
     rx_until: Option<u32>,
     watchdog_started: bool,
+    /// Frames waiting for a transmit buffer, in order.
+    tx_queue: TxQueue<BURST>,
+    /// The transmit buffers, a FIFO.
+    tx_buffers: FifoModel<TX_BUFFERS>,
+    /// Frames lost and not yet reported: at most a burst and the buffers' frames.
+    tx_lost: Deque<(CanFrame, Loss), { BURST + TX_BUFFERS }>,
 }
 
 /// The scenario named on the semihosting command line
@@ -204,6 +219,9 @@ impl Board {
                 rx: Deque::new(),
                 rx_until: None,
                 watchdog_started: false,
+                tx_queue: TxQueue::new(),
+                tx_buffers: FifoModel::new(),
+                tx_lost: Deque::new(),
             },
             restarted,
         )
@@ -262,7 +280,7 @@ impl Board {
 }
 
 impl super::CanPort for Board {
-    type TxError = BusOff;
+    type TxError = Loss;
 
     /// Next frame received by `now_ms`, from the virtual bus (whose scenarios are
     /// short: times saturate at `u32::MAX` ms, 49 days).
@@ -283,15 +301,45 @@ impl super::CanPort for Board {
         self.rx.pop_front()
     }
 
-    /// Transmits a frame on the virtual bus, and logs it for the host to decode.
-    fn transmit(&mut self, now_ms: u64, frame: &CanFrame) -> Result<(), BusOff> {
-        defmt::info!(
-            "tx {=u64} {=u16:#05x} {=[u8]:02x}",
-            now_ms,
-            frame.id(),
-            frame.data()
-        );
-        self.bus.transmit(frame)
+    /// Queues a frame: into a free transmit buffer, or behind the frames waiting for one.
+    fn transmit(&mut self, now_ms: u64, frame: &CanFrame) -> Result<(), Loss> {
+        self.tx_queue.submit(*frame, now_ms).map_err(|l| l.loss)?;
+        self.tx_queue.feed(&mut self.tx_buffers);
+        Ok(())
+    }
+
+    /// The bus takes what the buffers hold, in order, each freed buffer fed from the
+    /// queue (the CPU hands a whole burst over in less time than one frame takes on the
+    /// bus); each frame is logged for the host to decode, and a refused one (bus-off)
+    /// is lost. Then the frames of cycles before `now_ms` still waiting expire (none
+    /// do: the virtual bus takes or refuses everything at once).
+    fn lost(&mut self, now_ms: u64) -> Option<(CanFrame, Loss)> {
+        while let Some(Queued { frame, cycle_ms }) = self.tx_buffers.take_next() {
+            defmt::info!(
+                "tx {=u64} {=u16:#05x} {=[u8]:02x}",
+                cycle_ms,
+                frame.id(),
+                frame.data()
+            );
+            if self.bus.transmit(&frame).is_err()
+                && self.tx_lost.push_back((frame, Loss::BusOff)).is_err()
+            {
+                defmt::error!("tx {=u16:#05x} lost and not reported", frame.id());
+            }
+            self.tx_queue.feed(&mut self.tx_buffers);
+        }
+        if self.tx_lost.is_empty() {
+            let pending = &mut self.tx_lost;
+            self.tx_queue.expire(&mut self.tx_buffers, now_ms, |lost| {
+                if pending.push_back((lost.queued.frame, lost.loss)).is_err() {
+                    defmt::error!(
+                        "tx {=u16:#05x} lost and not reported",
+                        lost.queued.frame.id()
+                    );
+                }
+            });
+        }
+        self.tx_lost.pop_front()
     }
 }
 

@@ -8,6 +8,19 @@
 //!   (the FDCAN1_IT0 task, above the 100 Hz task) moves every frame into a 64-frame
 //!   queue that the 100 Hz task empties. The `fdcan` driver has no embedded-can
 //!   implementation, so it sits behind the board's own `transmit`/`receive`.
+//! * Transmission: the driver sets its 3 transmit buffers to *queue* mode (lowest
+//!   identifier first; a full queue displaces a pending frame of higher identifier or
+//!   refuses the new one), which reorders and loses a cycle's burst of up to 8 frames
+//!   (`controller/tests/transmit.rs`). The board switches them to *FIFO* mode (TXBC.TFQM
+//!   = 0, in configuration) and puts `controller::transmit::TxQueue` in front: the 100
+//!   Hz task queues the burst and fills the free buffers; the rest is fed from the
+//!   FDCAN1_IT0 interrupt when the FIFO has emptied (TFE) — from the interrupt, not the
+//!   next cycle, because the burst must be on the bus before that cycle's SYNC is stale
+//!   and the heartbeat must leave every 100 ms. Queue and buffers are shared by the two
+//!   tasks under a short critical section. At the start of a cycle, frames of the last
+//!   one still waiting (bus-off, a congested bus) are taken back — out of the queue and
+//!   cancelled in the buffers (TXBCR) — and reported as themselves, so no stale set
+//!   point or SYNC leaves after the bus returns.
 //! * Bus-off: the FDCAN stops (CCCR.INIT); the interrupt restarts it at once and it
 //!   rejoins after the 128 × 11 recessive bits ISO 11898-1 requires, which the FDCAN
 //!   waits for itself. Meanwhile every transmission fails, and the controller halts
@@ -17,14 +30,18 @@
 //! * Cost: DWT CYCCNT, in core cycles (the QEMU board counts instructions instead).
 //! * Logging: defmt over RTT (probe-rs).
 //!
-//! This module holds the board's one `unsafe`: the restart after bus-off, a register
-//! write the `fdcan` driver offers only together with reconfiguration.
+//! This module holds the board's `unsafe`: FDCAN1 register accesses the `fdcan` driver
+//! does not offer — the restart after bus-off, the Tx FIFO mode, and reading which
+//! buffer a frame goes to and cancelling pending ones.
 #![allow(unsafe_code)]
 
+use core::cell::RefCell;
 use core::num::{NonZeroU16, NonZeroU8};
 use core::sync::atomic::{AtomicU32, Ordering};
 
+use controller::transmit::{Loss, Queued, TxFifo, TxQueue, BURST};
 use controller::CanFrame;
+use cortex_m::interrupt::Mutex;
 use fdcan::config::NominalBitTiming;
 use fdcan::filter::{StandardFilter, StandardFilterSlot};
 use fdcan::frame::{FrameFormat, TxFrameHeader};
@@ -32,6 +49,7 @@ use fdcan::id::{Id, StandardId};
 use fdcan::interrupt::{Interrupt, InterruptLine};
 use fdcan::{FdCanControl, Fifo0, Fifo1, NormalOperationMode, ReceiveOverrun, Rx, Tx};
 use heapless::spsc::{Consumer, Producer, Queue};
+use heapless::Deque;
 use stm32h7xx_hal::can::Can;
 use stm32h7xx_hal::independent_watchdog::IndependentWatchdog;
 use stm32h7xx_hal::pac::FDCAN1;
@@ -57,11 +75,141 @@ static RX_LOST: AtomicU32 = AtomicU32::new(0);
 /// Bus-off restarts since boot.
 static BUS_OFF_RESTARTS: AtomicU32 = AtomicU32::new(0);
 
+/// The FDCAN's transmit buffers (`fdcan` 0.2: `message_ram::TX_FIFO_MAX`).
+const TX_BUFFERS: usize = 3;
+
+/// Register polls to wait for one cancellation (inside a critical section): about the
+/// 160 µs a frame already on the wire may take at 1 Mbit/s; one not confirmed by then
+/// is tried again next cycle.
+const CANCEL_POLLS: u32 = 10_000;
+
+/// The transmit path: the queue and the buffers, shared by the 100 Hz task and the
+/// FDCAN1_IT0 interrupt (`None` until `init`).
+static TX_PATH: Mutex<RefCell<Option<TxPath>>> = Mutex::new(RefCell::new(None));
+
+struct TxPath {
+    queue: TxQueue<BURST>,
+    buffers: Buffers,
+}
+
+/// Runs `f` on the transmit path in a critical section; `None` before `init`.
+fn with_tx<R>(f: impl FnOnce(&mut TxPath) -> R) -> Option<R> {
+    cortex_m::interrupt::free(|cs| {
+        let mut path = TX_PATH.borrow(cs).try_borrow_mut().ok()?;
+        path.as_mut().map(f)
+    })
+}
+
+/// The FDCAN's 3 transmit buffers in FIFO mode, and which frame each holds (to report a
+/// cancelled one as itself, oldest first).
+struct Buffers {
+    tx: Tx<Fdcan1, NormalOperationMode>,
+    /// Per buffer: the order it was filled in, and its frame.
+    held: [Option<(u32, Queued)>; TX_BUFFERS],
+    filled: u32,
+}
+
+/// FDCAN1's registers, for what the driver does not offer.
+fn fdcan1() -> &'static pac::fdcan1::RegisterBlock {
+    // SAFETY: a shared reference to the memory-mapped block; the accesses made through it
+    // (TXFQS, TXBRP, TXBTO, TXBCF reads; TXBCR, TXBC and CCCR writes) are each explained
+    // where they are made.
+    unsafe { &*FDCAN1::ptr() }
+}
+
+impl Buffers {
+    /// Forgets the frames of buffers no longer pending (they left).
+    fn forget_sent(&mut self) {
+        // Reading TXBRP has no side effect.
+        let pending = fdcan1().txbrp.read().trp().bits();
+        for (i, held) in self.held.iter_mut().enumerate() {
+            if pending & (1 << i) == 0 {
+                *held = None;
+            }
+        }
+    }
+}
+
+impl TxFifo for Buffers {
+    fn has_room(&mut self) -> bool {
+        !self.tx.tx_queue_is_full()
+    }
+
+    fn push(&mut self, queued: Queued) -> Result<(), Queued> {
+        self.forget_sent();
+        // CanFrame's id has 11 bits, so this is always `Some`; were it not, the frame
+        // would wait and expire, reported.
+        let Some(id) = StandardId::new(queued.frame.id()) else {
+            return Err(queued);
+        };
+        let header = TxFrameHeader {
+            len: queued.frame.data().len() as u8,
+            frame_format: FrameFormat::Standard,
+            id: id.into(),
+            bit_rate_switching: false,
+            marker: None,
+        };
+        // The buffer the driver writes when the FIFO is not full: the put index
+        // (fdcan 0.2.1 `Tx::transmit_preserve`). Reading TXFQS has no side effect.
+        let slot = usize::from(fdcan1().txfqs.read().tfqpi().bits());
+        // Not full (`has_room`, in the same critical section): the driver writes the
+        // put index and displaces nothing, so `Ok` is always `Ok(None)`.
+        match self.tx.transmit(header, queued.frame.data()) {
+            Ok(_) => {
+                if let Some(held) = self.held.get_mut(slot) {
+                    *held = Some((self.filled, queued));
+                }
+                self.filled = self.filled.wrapping_add(1);
+                Ok(())
+            }
+            Err(_) => Err(queued),
+        }
+    }
+
+    /// One buffer at a time, oldest first: the oldest pending frame is the FIFO's head
+    /// (TXFQS.TFGI), and cancelling the head is the case the M_CAN documents for the
+    /// Tx FIFO — the get index moves on to the next pending buffer and the free level is
+    /// recalculated; cancelling any other buffer leaves both unchanged.
+    fn cancel_before(&mut self, now_ms: u64, lost: &mut dyn FnMut(Queued)) {
+        self.forget_sent();
+        let can = fdcan1();
+        while let Some((i, (_, queued))) = self
+            .held
+            .iter()
+            .enumerate()
+            .filter_map(|(i, h)| h.map(|h| (i, h)))
+            .filter(|(_, (_, q))| q.cycle_ms < now_ms)
+            .min_by_key(|(_, (order, _))| *order)
+        {
+            let bit = 1u32 << i;
+            // SAFETY: TXBCR requests the cancellation of one buffer this path filled; it
+            // changes no configuration.
+            can.txbcr.write(|w| unsafe { w.cr().bits(bit) });
+            let mut polls = 0;
+            while can.txbcf.read().cf().bits() & bit == 0 {
+                polls += 1;
+                if polls >= CANCEL_POLLS {
+                    // Not confirmed (the FDCAN is not running): tried again next cycle.
+                    return;
+                }
+            }
+            if let Some(held) = self.held.get_mut(i) {
+                *held = None;
+            }
+            // Finished: cancelled, unless it completed on the bus meanwhile (TXBTO).
+            if can.txbto.read().to().bits() & bit == 0 {
+                lost(queued);
+            }
+        }
+    }
+}
+
 /// The drive controller board, as the 100 Hz task sees it.
 pub struct Board {
-    tx: Tx<Fdcan1, NormalOperationMode>,
     rx: Consumer<'static, CanFrame>,
     watchdog: IndependentWatchdog,
+    /// Frames lost and not yet reported: at most the queue's and the buffers'.
+    tx_lost: Deque<(CanFrame, Loss), { BURST + TX_BUFFERS }>,
 }
 
 /// The receive side, owned by the FDCAN1_IT0 interrupt.
@@ -70,16 +218,6 @@ pub struct CanRx {
     fifo0: Rx<Fdcan1, NormalOperationMode, Fifo0>,
     fifo1: Rx<Fdcan1, NormalOperationMode, Fifo1>,
     queue: Producer<'static, CanFrame>,
-}
-
-/// Why a frame was not handed to the CAN controller.
-#[derive(Debug, Clone, Copy, defmt::Format)]
-pub enum TxError {
-    /// All transmit buffers are busy (bus-off or a congested bus).
-    QueueFull,
-    /// A pending frame of lower priority was displaced to make room (that frame is
-    /// lost; it is reported as this one, which errs on the side of a failure).
-    Displaced,
 }
 
 impl Board {
@@ -118,15 +256,34 @@ impl Board {
             StandardFilterSlot::_0,
             StandardFilter::accept_all_into_fifo0(),
         );
+        // The driver put the transmit buffers into queue mode (lowest id first); in
+        // FIFO mode they leave in the order written.
+        // TXBC is writable in configuration mode (CCCR.INIT and CCE set), where `can`
+        // is; only TFQM changes, the buffers' address and count stay the HAL's.
+        fdcan1().txbc.modify(|_, w| w.tfqm().clear_bit());
         for interrupt in [
             Interrupt::RxFifo0NewMsg,
             Interrupt::RxFifo1NewMsg,
             Interrupt::BusOff,
+            Interrupt::TxEmpty,
         ] {
             can.enable_interrupt(interrupt);
         }
         can.enable_interrupt_line(InterruptLine::_0, true);
         let (control, tx, fifo0, fifo1) = can.into_normal().split();
+        cortex_m::interrupt::free(|cs| {
+            // Nothing else holds it yet: `init` runs before any task.
+            if let Ok(mut path) = TX_PATH.borrow(cs).try_borrow_mut() {
+                *path = Some(TxPath {
+                    queue: TxQueue::new(),
+                    buffers: Buffers {
+                        tx,
+                        held: [None; TX_BUFFERS],
+                        filled: 0,
+                    },
+                });
+            }
+        });
         // `init` runs once: the queue is created here and lives for the program.
         let queue = cortex_m::singleton!(: RxQueue = RxQueue::new());
         let Some(queue) = queue else {
@@ -142,9 +299,9 @@ impl Board {
         watchdog.start(100.millis());
         (
             Self {
-                tx,
                 rx: consumer,
                 watchdog,
+                tx_lost: Deque::new(),
             },
             CanRx {
                 control,
@@ -187,9 +344,14 @@ impl Board {
 }
 
 impl CanRx {
-    /// Moves every received frame into the queue, and restarts the FDCAN after a
-    /// bus-off. Runs in the FDCAN1_IT0 interrupt.
+    /// Moves every received frame into the queue, feeds the transmit FIFO from the
+    /// transmit queue once it has emptied, and restarts the FDCAN after a bus-off. Runs
+    /// in the FDCAN1_IT0 interrupt.
     pub fn drain(&mut self) {
+        if self.control.has_interrupt(Interrupt::TxEmpty) {
+            self.control.clear_interrupt(Interrupt::TxEmpty);
+            with_tx(|path| path.queue.feed(&mut path.buffers));
+        }
         // A classic CAN frame has at most 8 bytes, but the driver copies as many bytes
         // as the frame's DLC says (up to 64): the buffer is a CAN FD frame's.
         let mut buffer = [0u8; 64];
@@ -233,38 +395,44 @@ impl CanRx {
 /// Leaves the initialisation state the FDCAN entered at bus-off: the recovery sequence
 /// starts (RM0433, FDCAN "Bus-off recovery").
 fn restart_after_bus_off() {
-    // SAFETY: FDCAN1's CCCR is written by no one else after `init` (the driver's halves
-    // do not touch it in normal operation); clearing INIT is the documented way out of
-    // bus-off and changes no configuration.
-    let can = unsafe { &*FDCAN1::ptr() };
-    can.cccr.modify(|_, w| w.init().clear_bit());
+    // FDCAN1's CCCR is written by no one else after `init` (the driver's halves do not
+    // touch it in normal operation); clearing INIT is the documented way out of bus-off
+    // and changes no configuration.
+    fdcan1().cccr.modify(|_, w| w.init().clear_bit());
 }
 
 impl super::CanPort for Board {
-    type TxError = TxError;
+    type TxError = Loss;
 
     /// Next received frame, if any, from the interrupt's queue.
     fn receive(&mut self, _now_ms: u64) -> Option<CanFrame> {
         self.rx.dequeue()
     }
 
-    /// Hands a frame to the CAN controller.
-    fn transmit(&mut self, _now_ms: u64, frame: &CanFrame) -> Result<(), TxError> {
-        let Some(id) = StandardId::new(frame.id()) else {
-            return Err(TxError::QueueFull);
-        };
-        let header = TxFrameHeader {
-            len: frame.data().len() as u8,
-            frame_format: FrameFormat::Standard,
-            id: id.into(),
-            bit_rate_switching: false,
-            marker: None,
-        };
-        match self.tx.transmit(header, frame.data()) {
-            Ok(None) => Ok(()),
-            Ok(Some(())) => Err(TxError::Displaced),
-            Err(_) => Err(TxError::QueueFull),
+    /// Queues a frame behind those of this cycle and fills the free transmit buffers;
+    /// the FDCAN1_IT0 interrupt feeds the rest as the FIFO empties.
+    fn transmit(&mut self, now_ms: u64, frame: &CanFrame) -> Result<(), Loss> {
+        with_tx(|path| {
+            path.queue.submit(*frame, now_ms).map_err(|l| l.loss)?;
+            path.queue.feed(&mut path.buffers);
+            Ok(())
+        })
+        .unwrap_or(Err(Loss::QueueFull))
+    }
+
+    /// Frames of cycles before `now_ms` that have not left are taken back (out of the
+    /// queue, cancelled in the buffers) and returned one by one, oldest first.
+    fn lost(&mut self, now_ms: u64) -> Option<(CanFrame, Loss)> {
+        if self.tx_lost.is_empty() {
+            let pending = &mut self.tx_lost;
+            with_tx(|path| {
+                path.queue.expire(&mut path.buffers, now_ms, |lost| {
+                    // Room for everything the queue and the buffers hold.
+                    let _ = pending.push_back((lost.queued.frame, lost.loss));
+                })
+            });
         }
+        self.tx_lost.pop_front()
     }
 }
 
