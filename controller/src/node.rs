@@ -102,7 +102,7 @@ pub struct Dictionary<'a> {
 }
 
 fn value(bytes: &[u8]) -> Value {
-    bytes.iter().copied().collect()
+    crate::canopen::sdo::value(bytes)
 }
 
 impl ObjectDictionary for Dictionary<'_> {

@@ -233,8 +233,10 @@ impl SimDictionary {
 
 impl ObjectDictionary for SimDictionary {
     fn read(&self, object: Object) -> Result<Value, u32> {
-        let word =
-            |v: u32, size: usize| -> Value { v.to_le_bytes().iter().copied().take(size).collect() };
+        let word = |v: u32, size: usize| -> Value {
+            let bytes = v.to_le_bytes();
+            sdo::value(bytes.get(..size).unwrap_or(&bytes))
+        };
         match (object.index, object.sub) {
             // CiA 402, servo drive (additional information 0x0002).
             (0x1000, 0) => Ok(word(0x0002_0192, 4)),

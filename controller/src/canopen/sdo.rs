@@ -29,6 +29,14 @@ pub const MAX_VALUE: usize = 32;
 /// The bytes of an object's value, little endian as CiA 301 encodes numbers.
 pub type Value = Vec<u8, MAX_VALUE>;
 
+/// A value from bytes, cut at [`MAX_VALUE`]. (Not `collect()`: heapless's `FromIterator`
+/// panics on overflow, and the link-time panic proof would rightly refuse it.)
+#[must_use]
+pub fn value(bytes: &[u8]) -> Value {
+    let fitting = bytes.get(..bytes.len().min(MAX_VALUE)).unwrap_or(&[]);
+    Value::from_slice(fitting).unwrap_or_default()
+}
+
 /// An object dictionary entry: index and sub-index.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -284,7 +292,7 @@ impl SdoClient {
     /// Starts writing `data` (at most [`MAX_VALUE`] bytes; more are cut) to `object`:
     /// expedited up to 4 bytes, segmented beyond. The frame to transmit.
     pub fn write(&mut self, object: Object, data: &[u8], now_ms: u64) -> CanFrame {
-        let data: Value = data.iter().copied().take(MAX_VALUE).collect();
+        let data = value(data);
         let len = data.len();
         let (frame, segmented) = if len <= 4 {
             let mut payload = [0; 4];
@@ -410,10 +418,10 @@ impl SdoClient {
                 // Expedited: n unused bytes if the size is indicated.
                 0x43 => {
                     let unused = usize::from((cs >> 2) & 0x03);
-                    Event::Complete(payload.iter().copied().take(4 - unused).collect())
+                    Event::Complete(value(payload.get(..4 - unused).unwrap_or(&payload)))
                 }
                 // Expedited without size: all four bytes.
-                0x42 => Event::Complete(payload.iter().copied().collect()),
+                0x42 => Event::Complete(value(&payload)),
                 // Segmented: the size follows (checked against what arrives).
                 0x41 | 0x40 => {
                     let size = u32::from_le_bytes(payload);
