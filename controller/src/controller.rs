@@ -938,8 +938,11 @@ impl<F: Feedforward + Replan> Controller<F> {
         let mut setpoints = [Setpoint::ZERO; 2];
         for drive in Drive::ALL {
             let (command, setpoint) = self.command_for(drive, step.as_ref());
-            // Only a commissioned drive gets PDOs: its mapping is known.
-            if self.link(drive).linked() {
+            // Only a commissioned drive gets PDOs: its mapping is known. A drive that
+            // is being commissioned again (it rebooted, or said so) still gets the rest
+            // of its ramp to standstill, so that no drive ever sees its set point jump;
+            // in pre-operational it ignores them.
+            if self.link(drive).linked() || self.gate.last(drive) != Setpoint::ZERO {
                 *drive.of_mut(&mut setpoints) = setpoint;
                 let node = self.link(drive).commissioning.setup().node;
                 self.push(&mut frames, canopen::rpdo1(node, command, setpoint));

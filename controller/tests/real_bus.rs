@@ -598,3 +598,29 @@ fn a_lost_nmt_start_is_sent_again() {
     );
     assert!(out.iter().all(|c| c.mode.fault().is_none()));
 }
+
+#[test]
+fn a_drive_commissioned_again_mid_move_never_sees_its_set_point_jump() {
+    // Found by the fuzzer: a boot-up message of the winch (spoofed, or a real reboot)
+    // mid-move. The winch is commissioned again; meanwhile it still gets the rest of its
+    // ramp to standstill, so the RPDO stream never jumps.
+    let mut rig = Rig::new(HEALTHY, true);
+    let before = rig.run(400);
+    let mut last = before.last().unwrap().setpoints.map(|s| s.units());
+    let boot_up = CanFrame::new(0x702, &[0x00]).unwrap();
+    rig.c.on_frame(&boot_up, u64::from(rig.now));
+    let after = rig.run(300);
+    assert_within_limits(&after, &mut last);
+    let winch: Vec<i32> = after
+        .iter()
+        .flat_map(|c| c.frames.iter())
+        .filter(|f| f.id() == 0x202)
+        .map(|f| i32::from_le_bytes(f.data()[2..6].try_into().unwrap()))
+        .collect();
+    let mut previous = before.last().unwrap().setpoints[1].units();
+    for v in winch {
+        assert!((v - previous).abs() <= 30_001, "{previous} → {v}");
+        previous = v;
+    }
+    assert_eq!(previous, 0);
+}
