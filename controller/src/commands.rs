@@ -5,10 +5,22 @@
 use crate::canopen::{cob, CONTROLLER_NODE};
 use crate::frame::CanFrame;
 
-/// COB-ID of command frames (RPDO1 of the controller).
-pub const COMMAND_ID: u16 = cob::RPDO1 + CONTROLLER_NODE as u16;
-/// COB-ID of status frames (TPDO1 of the controller).
-pub const STATUS_ID: u16 = cob::TPDO1 + CONTROLLER_NODE as u16;
+/// COB-ID of command frames: RPDO1 of the controller (0x200 + its node id; 0x210 by default).
+pub const COMMAND_ID: u16 = command_id(CONTROLLER_NODE);
+/// COB-ID of status frames: TPDO1 of the controller (0x180 + its node id; 0x190 by default).
+pub const STATUS_ID: u16 = status_id(CONTROLLER_NODE);
+
+/// COB-ID of the command frames of the controller at `node`.
+#[must_use]
+pub const fn command_id(node: u8) -> u16 {
+    cob::RPDO1 + node as u16
+}
+
+/// COB-ID of the status frames of the controller at `node`.
+#[must_use]
+pub const fn status_id(node: u8) -> u16 {
+    cob::TPDO1 + node as u16
+}
 
 /// A decoded request.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -171,9 +183,9 @@ pub struct Status {
     pub tx_failures: u32,
 }
 
-/// The status frame.
+/// The status frame of the controller at `node`.
 #[must_use]
-pub fn status_frame(s: &Status) -> CanFrame {
+pub fn status_frame(node: u8, s: &Status) -> CanFrame {
     let sat = |v: u32| v.min(255) as u8;
     let data = [
         s.last_id,
@@ -185,7 +197,7 @@ pub fn status_frame(s: &Status) -> CanFrame {
         sat(s.deadline_misses),
         sat(s.tx_failures),
     ];
-    CanFrame::fixed(STATUS_ID, &data)
+    CanFrame::fixed(status_id(node), &data)
 }
 
 #[cfg(test)]

@@ -15,7 +15,7 @@ use crate::canopen::emcy::{self, REGISTER_COMMUNICATION, REGISTER_GENERIC};
 use crate::canopen::sdo;
 use crate::canopen::{self, nmt, Incoming, NmtCommand, NmtState};
 use crate::cia402::{controlword, statusword, DriveState};
-use crate::commands::{status_frame, Answer, Reject, Request, Status};
+use crate::commands::{self, status_frame, Answer, Reject, Request, Status};
 use crate::commissioning::{Commissioning, CommissioningError, DriveSetup, Phase, Progress};
 use crate::drive::Drive;
 use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
@@ -658,14 +658,18 @@ impl<F: Feedforward + Replan> Controller<F> {
                     self.sdo_answer = sdo::serve(&mut od, self.config.node, &data);
                 }
             }
-            Incoming::Command(request) => {
-                if self.node.state == NmtState::Operational {
-                    self.on_request(request);
-                } else {
-                    // PDOs are not processed outside *operational* (CiA 301).
-                    self.ignore();
+            // The supervisor's command frame: the controller's own RPDO1. (Another
+            // node's RPDO1 — a PLC's to its own devices — is not ours.)
+            Incoming::Rpdo1 { node, frame } if node == self.node.id => {
+                match commands::decode_request(frame.data()) {
+                    // PDOs are processed only in *operational* (CiA 301).
+                    Ok(request) if self.node.state == NmtState::Operational => {
+                        self.on_request(request);
+                    }
+                    _ => self.ignore(),
                 }
             }
+            Incoming::Rpdo1 { .. } => {}
         }
     }
 
@@ -976,12 +980,12 @@ impl<F: Feedforward + Replan> Controller<F> {
                     break;
                 };
                 let status = self.status_with(answer);
-                self.push(&mut frames, status_frame(&status));
+                self.push(&mut frames, status_frame(self.node.id, &status));
                 sent += 1;
             }
             if beat && sent == 0 {
                 let status = self.status();
-                self.push(&mut frames, status_frame(&status));
+                self.push(&mut frames, status_frame(self.node.id, &status));
             }
         }
         self.counters.cycles = self.counters.cycles.wrapping_add(1);

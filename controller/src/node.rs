@@ -21,7 +21,7 @@
 
 use crate::canopen::sdo::{abort, Object, ObjectDictionary, Value};
 use crate::canopen::NmtState;
-use crate::commands::{Status, COMMAND_ID, STATUS_ID};
+use crate::commands::{command_id, status_id, Status};
 
 /// Who starts the drives.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -127,7 +127,7 @@ impl ObjectDictionary for Dictionary<'_> {
             0x1017 if object.sub == 0 => Ok(value(&self.node.heartbeat_ms.to_le_bytes())),
             0x1018 => sub_of(4, &|k| IDENTITY.get(k).map(|v| u32v(*v))),
             0x1400 => sub_of(2, &|k| match k {
-                0 => Some(u32v(u32::from(COMMAND_ID))),
+                0 => Some(u32v(u32::from(command_id(self.node.id)))),
                 1 => Some(value(&[0xFE])),
                 _ => None,
             }),
@@ -135,7 +135,7 @@ impl ObjectDictionary for Dictionary<'_> {
                 COMMAND_MAPPING.get(k).map(|v| u32v(*v))
             }),
             0x1800 => sub_of(2, &|k| match k {
-                0 => Some(u32v(u32::from(STATUS_ID))),
+                0 => Some(u32v(u32::from(status_id(self.node.id)))),
                 1 => Some(value(&[0xFE])),
                 _ => None,
             }),

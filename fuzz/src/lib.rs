@@ -67,7 +67,8 @@ impl Rig {
         }
     }
 
-    /// The healthy rig after `cycles` cycles (drives enabled, the move under way).
+    /// The healthy rig after `cycles` cycles (from 75 cycles on the drives are commissioned
+    /// and enabled; the paper's move runs from 100 to 900).
     pub fn after(cycles: u32) -> Self {
         let mut rig = Self::new(HEALTHY);
         for _ in 0..cycles {

@@ -53,16 +53,19 @@ fn dbc_parses_and_covers_every_frame() {
         CanFrame::new(0x610, &[0x40, 0x18, 0x10, 1, 0, 0, 0, 0]).unwrap(),
         CanFrame::new(0x590, &[0x43, 0x18, 0x10, 1, 0, 0, 0, 0]).unwrap(),
         request_frame(&Request::Stop { id: 1 }),
-        status_frame(&Status {
-            last_id: 1,
-            answer: Answer::Accepted,
-            reason: None,
-            mode: 1,
-            fault: 0,
-            ignored: 0,
-            deadline_misses: 0,
-            tx_failures: 0,
-        }),
+        status_frame(
+            CONTROLLER_NODE,
+            &Status {
+                last_id: 1,
+                answer: Answer::Accepted,
+                reason: None,
+                mode: 1,
+                fault: 0,
+                ignored: 0,
+                deadline_misses: 0,
+                tx_failures: 0,
+            },
+        ),
     ];
     for f in frames {
         dbc.decode(f.id(), f.data())
@@ -108,16 +111,19 @@ fn emcy_fields() {
 
 #[test]
 fn status_names_its_answer_reason_mode_and_fault() {
-    let s = decode(&status_frame(&Status {
-        last_id: 7,
-        answer: Answer::Rejected,
-        reason: Some(Reject::WinchAcceleration),
-        mode: 4,
-        fault: 6,
-        ignored: 300,
-        deadline_misses: 2,
-        tx_failures: 1,
-    }));
+    let s = decode(&status_frame(
+        CONTROLLER_NODE,
+        &Status {
+            last_id: 7,
+            answer: Answer::Rejected,
+            reason: Some(Reject::WinchAcceleration),
+            mode: 4,
+            fault: 6,
+            ignored: 300,
+            deadline_misses: 2,
+            tx_failures: 1,
+        },
+    ));
     assert_eq!(
         s.to_string(),
         "Status_Controller last_id=7 answer=3(Rejected) reason=10(WinchAcceleration) mode=4(Halted) \

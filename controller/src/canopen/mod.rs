@@ -18,11 +18,11 @@
 //! table's business. All multi-byte values are little endian (CiA 301). Velocities and
 //! positions are in the drives' units (1 µm/s, 1 µm by default; see [`crate::setpoint`]).
 
-use crate::commands::{self, CommandError, Request};
 use crate::frame::CanFrame;
 use crate::setpoint::Setpoint;
 
-/// The controller's own node id (heartbeat 0x710, EMCY 0x090).
+/// The controller's node id by default (heartbeat 0x710, EMCY 0x090; the commissioning
+/// file may choose another).
 pub const CONTROLLER_NODE: u8 = 0x10;
 
 /// COB-ID bases (CiA 301 predefined connection set).
@@ -151,8 +151,13 @@ pub enum Incoming {
         /// The 8 data bytes.
         data: [u8; 8],
     },
-    /// A request from the supervisor.
-    Command(Request),
+    /// An RPDO1 for `node` (the supervisor's command frame, if it is the controller's).
+    Rpdo1 {
+        /// Addressee.
+        node: u8,
+        /// The frame as received (its length is the receiver's to check).
+        frame: CanFrame,
+    },
     /// An emergency message.
     Emergency {
         /// Sender.
@@ -183,8 +188,6 @@ pub enum DecodeError {
     BadState(u8),
     /// An NMT command CiA 301 does not define.
     BadNmtCommand(u8),
-    /// A malformed command frame.
-    Command(CommandError),
 }
 
 /// Decodes a received frame.
@@ -197,11 +200,6 @@ pub fn decode(frame: &CanFrame) -> Result<Incoming, DecodeError> {
         expected,
         got: data.len() as u8,
     };
-    if id == commands::COMMAND_ID {
-        return commands::decode_request(data)
-            .map(Incoming::Command)
-            .map_err(DecodeError::Command);
-    }
     if id == cob::NMT {
         let &[command, node] = data else {
             return Err(wrong(2));
@@ -231,6 +229,10 @@ pub fn decode(frame: &CanFrame) -> Result<Incoming, DecodeError> {
             }),
             _ => Err(wrong(6)),
         },
+        cob::RPDO1 => Ok(Incoming::Rpdo1 {
+            node,
+            frame: *frame,
+        }),
         cob::TPDO2 => match *data {
             [p0, p1, p2, p3, m] => Ok(Incoming::Position {
                 node,
