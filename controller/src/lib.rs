@@ -7,8 +7,9 @@
 //! * [`feedforward`] — the inverse model behind a one-step-per-cycle trait, with its plan;
 //! * [`commands`] — move, stop and reset requests, and the status answer;
 //! * [`planner`] — the checks a move or a stop passes before it is accepted;
-//! * [`virtual_bus`], [`traffic`] — simulated drives, scenarios and random traffic
-//!   for the QEMU runs and the host tests;
+//! * `virtual_bus`, `traffic` (feature `sim`, on by default, off in the drive
+//!   controller's build) — simulated stock CiA 402 drives, scenarios and random traffic
+//!   for the QEMU runs, the host tests and the fuzzer;
 //! * [`transmit`] — the transmit queue that keeps a cycle's frames in order and names every loss;
 //! * [`controller`] — the 100 Hz cycle and the reaction to every fault, with injected time.
 //!
@@ -35,8 +36,10 @@ pub mod frame;
 pub mod node;
 pub mod planner;
 pub mod setpoint;
+#[cfg(feature = "sim")]
 pub mod traffic;
 pub mod transmit;
+#[cfg(feature = "sim")]
 pub mod virtual_bus;
 
 pub use controller::{Config, Controller, Counters, Cycle, Fault, Mode};

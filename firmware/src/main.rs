@@ -45,7 +45,7 @@ mod app {
         /// Cycles to run: under QEMU the scenario's (or the scene's), on the board forever.
         cycles: Option<u32>,
         /// The mode the run must end in (QEMU's exit code).
-        ending: controller::virtual_bus::Ending,
+        ending: board::Ending,
     }
 
     #[init]
@@ -74,7 +74,7 @@ mod app {
             let mut core = cx.core;
             let (board, can_rx, restarted) = Board::init(cx.device, &mut core.DCB, &mut core.DWT);
             Mono::start(core.SYST, board::SYSCLK_HZ);
-            let ending = controller::virtual_bus::Ending::Either;
+            let ending = board::Ending::Either;
             (board, can_rx, restarted, None, ending)
         };
         defmt::info!(

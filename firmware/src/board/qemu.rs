@@ -28,6 +28,7 @@
 #![allow(unsafe_code)]
 
 use controller::transmit::{FifoModel, Loss, Queued, TxQueue, BURST};
+pub use controller::virtual_bus::Ending;
 use controller::virtual_bus::{self, Scenario, VirtualBus};
 use controller::CanFrame;
 use heapless::Deque;

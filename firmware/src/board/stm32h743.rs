@@ -479,3 +479,18 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
         cortex_m::asm::wfi();
     }
 }
+
+/// The mode a run must end in: the drive controller runs forever, so any.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ending {
+    /// Whatever the mode.
+    Either,
+}
+
+impl Ending {
+    /// Always: the drive controller's run has no expected end.
+    #[must_use]
+    pub fn admits(self, _mode: controller::Mode) -> bool {
+        true
+    }
+}
