@@ -431,13 +431,6 @@ impl Commissioning {
         self.sdo.read(object::DEVICE_TYPE, now_ms)
     }
 
-    /// Forgets everything (the drive is gone): absent until it is heard of again.
-    pub fn forget(&mut self) {
-        self.sdo.cancel();
-        self.phase = Phase::Absent;
-        self.absent_since_ms = None;
-    }
-
     /// Once per cycle: a due NMT step, a timeout, or the presence check of an absent drive.
     pub fn poll(&mut self, now_ms: u64) -> Option<Progress> {
         match self.phase {
@@ -582,5 +575,115 @@ impl Commissioning {
             Step::Mode(_) => Progress::Send(self.sdo.read(object::MODES_DISPLAY, now_ms)),
             Step::DeviceType => Progress::Send(self.sdo.read(object::DEVICE_TYPE, now_ms)),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
+    use super::*;
+    use crate::canopen::sdo::{serve, ObjectDictionary, Value};
+
+    #[test]
+    fn the_largest_configuration_fits_and_starts_with_the_mode() {
+        let stock = configuration(&DriveSetup::TROLLEY, 0x10, 10);
+        assert_eq!(stock.len(), 3 + 3 * 7 + 5);
+        assert_eq!(stock[0], w(0x6060, 0, 9, 1));
+        let pv = DriveSetup {
+            mode: OperationMode::ProfileVelocity,
+            velocity_unit: Some(0xFA01_0300),
+            profile_ramp: Some(30_000_000),
+            ..DriveSetup::WINCH
+        };
+        let all = configuration(&pv, 0x10, 10);
+        assert_eq!(all.len(), 3 + 3 * 7 + 5 + 3);
+        assert!(all.len() < MAX_WRITES, "nothing is cut");
+        assert_eq!(all[0], w(0x6060, 0, 3, 1));
+        // RPDO1 of node 2: disabled first, enabled last.
+        assert_eq!(all[3], w(0x1400, 1, 0x8000_0202, 4));
+        assert_eq!(all[9], w(0x1400, 1, 0x0000_0202, 4));
+    }
+
+    /// A drive that answers everything, but lies about one object.
+    struct Liar {
+        device_type: u32,
+        wrong: Option<Object>,
+        values: heapless::LinearMap<(u16, u8), u32, 64>,
+    }
+
+    impl ObjectDictionary for Liar {
+        fn read(&self, o: Object) -> Result<Value, u32> {
+            let v = match (o.index, o.sub) {
+                (0x1000, 0) => self.device_type,
+                (0x6061, 0) => self.values.get(&(0x6060, 0)).copied().unwrap_or(0),
+                (i, s) => self.values.get(&(i, s)).copied().unwrap_or(0),
+            };
+            let v = if Some(o) == self.wrong { v ^ 1 } else { v };
+            Ok(crate::canopen::sdo::value(&v.to_le_bytes()))
+        }
+        fn write(&mut self, o: Object, d: &[u8]) -> Result<(), u32> {
+            let mut word = [0u8; 4];
+            word[..d.len()].copy_from_slice(d);
+            self.values
+                .insert((o.index, o.sub), u32::from_le_bytes(word))
+                .map(|_| ())
+                .map_err(|_| 0x0504_0005)
+        }
+    }
+
+    /// Runs a commissioning against `drive` to its end.
+    fn run(drive: &mut Liar) -> Phase {
+        let mut c = Commissioning::new(DriveSetup::TROLLEY, 0x10, 10, true, 100);
+        let mut frame = Some(c.begin(0));
+        for now in 1..200u64 {
+            let progress = match frame.take() {
+                Some(f) if f.id() == 0x601 => {
+                    let answer = serve(drive, 1, f.data()).unwrap();
+                    c.on_response(answer.data(), now)
+                }
+                // An NMT command: no answer, the next step on the next poll.
+                Some(_) | None => c.poll(now),
+            };
+            match progress {
+                Some(Progress::Send(f)) => frame = Some(f),
+                Some(Progress::Done | Progress::Failed { .. }) => return c.phase(),
+                None => {}
+            }
+        }
+        c.phase()
+    }
+
+    fn drive(device_type: u32, wrong: Option<Object>) -> Liar {
+        Liar {
+            device_type,
+            wrong,
+            values: heapless::LinearMap::new(),
+        }
+    }
+
+    #[test]
+    fn a_truthful_drive_is_commissioned() {
+        assert_eq!(run(&mut drive(0x0002_0192, None)), Phase::Done);
+    }
+
+    #[test]
+    fn another_device_profile_is_refused() {
+        assert_eq!(
+            run(&mut drive(0x0000_0191, None)),
+            Phase::Failed(CommissioningError::DeviceType { found: 0x191 })
+        );
+    }
+
+    #[test]
+    fn a_value_that_reads_back_differently_is_named() {
+        let object = Object::new(0x1A01, 2);
+        assert_eq!(
+            run(&mut drive(0x0002_0192, Some(object))),
+            Phase::Failed(CommissioningError::ReadBack {
+                object,
+                wrote: 0x6061_0008,
+                read: 0x6061_0009
+            })
+        );
     }
 }
