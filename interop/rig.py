@@ -33,9 +33,16 @@ ACCEPTED, QUEUED, REJECTED = 1, 2, 3
 
 
 def realtime():
-    """In the child before it runs: the ECU and the drives keep time (a 50 ms TPDO
-    timeout), the test's supervisor need not, so they get a higher priority where
-    that is allowed (root), to ride out a loaded host; elsewhere they run as they are."""
+    """In the child before it runs: the ECU and the drives keep time (the controller drops
+    a drive whose TPDOs are 50 ms late), the test's supervisor need not. Where that is
+    allowed (root), they get a real-time priority (SCHED_FIFO; both sleep between cycles,
+    and the kernel's RT throttling bounds them anyway), else at least nice -10, so that a
+    loaded host does not starve them; elsewhere they run as they are."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(10))
+        return
+    except (OSError, AttributeError):
+        pass
     try:
         os.nice(-10)
     except OSError:
@@ -251,6 +258,20 @@ class Log:
 
     def decoded(self, can_id):
         return [(t, m) for (t, _, i, _, m) in self.frames if i == can_id]
+
+    def setpoint_pairs(self):
+        """(trolley, winch) target velocities of each cycle (the RPDOs before each SYNC;
+        0 for a drive not sent one), µm/s."""
+        pairs, cycle = [], {}
+        for _, sender, can_id, data, _ in self.frames:
+            if sender != "ecu":
+                continue
+            if can_id in (0x201, 0x202):
+                cycle[can_id] = struct.unpack_from("<Hi", data)[1]
+            elif can_id == 0x080:
+                pairs.append((cycle.get(0x201, 0), cycle.get(0x202, 0)))
+                cycle = {}
+        return pairs
 
     def setpoints(self, node):
         """Target velocities sent to a drive, µm/s, in order."""

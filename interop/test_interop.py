@@ -7,11 +7,12 @@ and positions), and that every frame of the run decodes against can/crane.dbc.
 """
 
 import struct
+import subprocess
 import time
 
 import pytest
 
-from rig import ACCEPTED, MODE, REJECTED, Rig
+from rig import ACCEPTED, ECU, MODE, REJECTED, ROOT, Rig
 
 TROLLEY, WINCH = 1, 2
 MAX_SPEED = {TROLLEY: 3_300_000, WINCH: 2_200_000}  # 0x6080 of the stock table, µm/s
@@ -151,6 +152,26 @@ def test_healthy_boot_and_a_move(rigs):
     setpoints = {n: log.setpoints(n) for n in (TROLLEY, WINCH)}
     assert any(setpoints[TROLLEY]) and any(setpoints[WINCH])
     assert_setpoints_within_limits(log)
+    assert_setpoints_equal_the_hosts(log, 13.0, 7.5, 4.0)
+
+
+def moving_part(pairs):
+    """From the first non-zero set point to the last."""
+    moving = [i for i, p in enumerate(pairs) if p != (0, 0)]
+    return pairs[moving[0] : moving[-1] + 1] if moving else []
+
+
+def assert_setpoints_equal_the_hosts(log, x, z, duration):
+    """The set points sent on the bus are the ones the same controller computes on the
+    host for the same move (`ecu --reference`, the virtual bus's drives, no real time)."""
+    out = subprocess.run(
+        [ECU, "--reference", f"{x},{z},{duration}"], cwd=ROOT, capture_output=True, text=True, check=True
+    ).stdout
+    host = moving_part([tuple(int(v) for v in line.split()) for line in out.splitlines()])
+    bus = moving_part(log.setpoint_pairs())
+    assert len(bus) == len(host), (len(bus), len(host))
+    worst = max(abs(a - b) for p, q in zip(bus, host) for a, b in zip(p, q))
+    assert worst <= 2, f"set points differ from the host's by up to {worst} um/s"
 
 
 def assert_commissioned_after_close(drives, log, manager=True):

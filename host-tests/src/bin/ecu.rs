@@ -66,6 +66,12 @@ struct Cli {
     /// Write every frame, both directions, with timestamps, to this file.
     #[arg(long)]
     log: Option<PathBuf>,
+    /// No bus: print the set points (`trolley winch`, µm/s, one cycle a line) the same
+    /// controller sends for a move to X,Z (m) in DURATION s, on the virtual bus's stock
+    /// drives from the moment it is accepted — the host's computation that a run on
+    /// the bus is compared with.
+    #[arg(long, value_name = "X,Z,DURATION")]
+    reference: Option<String>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -105,6 +111,18 @@ fn run(cli: &Cli) -> Result<(), String> {
         command_plan(f.first_move.start().into(), scene.trajectory.smoothness)
             .map_err(|e| e.to_string())?
     };
+    if let Some(spec) = &cli.reference {
+        let numbers: Vec<f64> = spec
+            .split(',')
+            .map(|v| v.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| format!("--reference {spec}: {e}"))?;
+        let [x, z, duration] = numbers[..] else {
+            return Err(format!("--reference {spec}: X,Z,DURATION"));
+        };
+        let f = firmware_scene(&scene)?;
+        return build(&scene, plan, Run::Reference(f, [x, z], duration));
+    }
     let listener = TcpListener::bind(("127.0.0.1", cli.port))
         .map_err(|e| format!("cannot listen on 127.0.0.1:{}: {e}", cli.port))?;
     let port = listener.local_addr().map_err(|e| e.to_string())?.port();
@@ -143,7 +161,91 @@ fn run(cli: &Cli) -> Result<(), String> {
         listener,
         bus: Arc::new(Mutex::new(Bus::new(log))),
     };
-    build(&scene, plan, setup)
+    build(&scene, plan, Run::Serve(setup))
+}
+
+/// What to do with the inverse model.
+enum Run {
+    /// Serve the bus in real time.
+    Serve(Setup),
+    /// Print the set points of one move on the virtual bus.
+    Reference(FirmwareScene, [f64; 2], f64),
+}
+
+impl Run {
+    fn params(&self) -> solver_core::models::crane::CraneParams {
+        match self {
+            Run::Serve(s) => s.f.params,
+            Run::Reference(f, ..) => f.params,
+        }
+    }
+
+    fn with<F: Feedforward + Replan>(self, feedforward: F) -> Result<(), String> {
+        match self {
+            Run::Serve(setup) => serve(feedforward, setup),
+            Run::Reference(f, target, duration) => reference(feedforward, &f, target, duration),
+        }
+    }
+}
+
+/// The set points of one move as the controller computes them on the virtual bus's
+/// stock CiA 402 drives (no real time, no TCP): ready, the move asked, then every
+/// cycle's set points from the one that answers it until the drives rest.
+fn reference<F: Feedforward + Replan>(
+    feedforward: F,
+    f: &FirmwareScene,
+    target: [f64; 2],
+    duration: f64,
+) -> Result<(), String> {
+    use controller::commands::{request_frame, Answer, Request};
+    use controller::virtual_bus::{run_cycle, VirtualBus, HEALTHY};
+    let mut controller = Controller::new(
+        controller::Injectable::new(feedforward),
+        f.planner,
+        f.config,
+    );
+    let mut bus = VirtualBus::new(HEALTHY, f.first_move.start().into());
+    let period = f.config.period_ms;
+    let limit = 100 * 1000 / period + (duration * 1000.0) as u32 / period;
+    let (mut after, mut asked, mut answered) = (0, false, false);
+    let mut rest = 0;
+    for cycle in 0..limit {
+        let now = cycle * period;
+        if !asked && controller.mode() == Mode::Ready {
+            let request = Request::Move {
+                id: 1,
+                target,
+                duration: Some(duration),
+            };
+            controller.on_frame(&request_frame(&request), u64::from(now));
+            asked = true;
+        }
+        let out = run_cycle(&mut controller, &mut bus, after, now)
+            .ok_or("the virtual bus hung the controller")?;
+        after = now;
+        match controller.last_answer() {
+            (1, Answer::Accepted, None) => answered = true,
+            (1, answer, reason) => return Err(format!("the move was {answer:?} {reason:?}")),
+            _ => {}
+        }
+        if answered {
+            let [u1, u2] = out.setpoints.map(|s| s.units());
+            println!("{u1} {u2}");
+            let moving = controller
+                .feedforward()
+                .plan()
+                .is_moving(f64::from(now) / 1e3);
+            rest = if u1 == 0 && u2 == 0 && !moving {
+                rest + 1
+            } else {
+                0
+            };
+            if rest > 10 {
+                return Ok(());
+            }
+        }
+    }
+    Err("the move did not end".into())
 }
 
 /// Everything a run needs besides the inverse model.
@@ -157,31 +259,31 @@ struct Setup {
 
 /// The inverse model of `scene` following `plan`, built as the firmware builds it
 /// (`host_tests::firmware`), then run.
-fn build(scene: &Scene, plan: Plan<f64, 2>, setup: Setup) -> Result<(), String> {
+fn build(scene: &Scene, plan: Plan<f64, 2>, run: Run) -> Result<(), String> {
     let settings = scene.settings();
     let err = |e: solver_core::Error| e.to_string();
     let k = scene.solver.k;
-    let params = setup.f.params;
+    let params = run.params();
     match (&scene.model, scene.solver.scheme) {
         (ModelSpec::CraneSubs(_), SchemeSpec::Bdf) => {
             let model = CraneSubs::new(params, plan).map_err(err)?;
             let integrator = Bdf::<f64, _, 7, 2>::new(&model, &settings, k, 0.0).map_err(err)?;
-            serve(InverseModel { model, integrator }, setup)
+            run.with(InverseModel { model, integrator })
         }
         (ModelSpec::CraneSubs(_), SchemeSpec::Radau) => {
             let model = CraneSubs::new(params, plan).map_err(err)?;
             let integrator = Radau::<f64, _, 7, 2, 21>::new(&model, &settings, 0.0).map_err(err)?;
-            serve(InverseModel { model, integrator }, setup)
+            run.with(InverseModel { model, integrator })
         }
         (ModelSpec::CraneProj(_), SchemeSpec::Bdf) => {
             let model = CraneProj::new(params, plan).map_err(err)?;
             let integrator = Bdf::<f64, _, 8, 2>::new(&model, &settings, k, 0.0).map_err(err)?;
-            serve(InverseModel { model, integrator }, setup)
+            run.with(InverseModel { model, integrator })
         }
         (ModelSpec::CraneProj(_), SchemeSpec::Radau) => {
             let model = CraneProj::new(params, plan).map_err(err)?;
             let integrator = Radau::<f64, _, 8, 2, 24>::new(&model, &settings, 0.0).map_err(err)?;
-            serve(InverseModel { model, integrator }, setup)
+            run.with(InverseModel { model, integrator })
         }
         (ModelSpec::MassOnCar(_), _) => Err("the firmware drives a crane".into()),
     }
