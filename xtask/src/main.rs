@@ -21,8 +21,10 @@
 use std::process::{Command, ExitCode};
 
 mod defmt_log;
+mod ecu;
 mod firmware;
 mod fuzz;
+mod interop;
 mod panics;
 mod qemu;
 mod setup;
@@ -50,6 +52,8 @@ fn main() -> ExitCode {
             None => Err("usage: cargo xtask soak --minutes M".into()),
         },
         Some("flash") => flash(),
+        Some("ecu") => ecu::ecu(&args[1..]),
+        Some("interop") => interop::interop(),
         Some("decode") if args.len() == 3 => decode_log(&args[1], &args[2]),
         Some("panic-proof") if flag("--report") => panics::report(),
         Some("panic-proof") => panics::panic_proof(),
@@ -86,7 +90,7 @@ fn main() -> ExitCode {
             .args(args.iter().skip(1))),
         _ => {
             eprintln!(
-                "usage: cargo xtask run | test | qemu [--overwrite-expected] | qemu-bench | soak --minutes M | fuzz [--seconds N] [target …] | panic-proof [--report] | flash | study … | bench"
+                "usage: cargo xtask run | test | qemu [--overwrite-expected] | qemu-bench | soak --minutes M | ecu [--port N] [--role slave] [--seconds S] | interop | fuzz [--seconds N] [target …] | panic-proof [--report] | flash | study … | bench"
             );
             return ExitCode::from(2);
         }
@@ -221,6 +225,7 @@ fn test() -> Result<(), String> {
         "warnings",
     ]))?;
     run(cargo().args(["test", "--workspace"]))?;
+    interop::interop()?;
     // The numerics on the drive's target, as a `no_std` release build.
     run(cargo().args([
         "build",

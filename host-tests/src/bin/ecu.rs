@@ -1,0 +1,749 @@
+//! `ecu`: the virtual ECU — the firmware's controller, built for a scene exactly as the
+//! firmware builds it, run in real time (one tick per h by the wall clock) with its CAN
+//! bus exposed as SLCAN (Lawicel ASCII) over TCP on 127.0.0.1, so that python-can
+//! (`can.Bus(interface="slcan", channel="socket://127.0.0.1:PORT")`), python-canopen and,
+//! through `slcand`, SocketCAN tools talk to it.
+//!
+//! ```text
+//! ecu [--scene FILE] [--port N] [--role manager|slave] [--demo] [--seconds S] [--log FILE]
+//! ```
+//!
+//! Every TCP client is a node on one CAN bus: a frame a client sends reaches the
+//! controller (at its next tick, as the firmware takes the frames received since the
+//! last cycle) and every other open client; the controller's frames reach every open
+//! client. Nothing is echoed to its sender (as on a real adapter). The first line on
+//! stdout is `listening on 127.0.0.1:PORT` (with `--port 0` the port the system chose).
+//! The run ends by itself after `--seconds`; the log (`--log`) has one line per frame
+//! in both directions in candump's `-l` layout, `(seconds) sender ID#DATA`, where the
+//! sender is `ecu` for the controller and `tcpN` for the N-th client; it is flushed
+//! every tick.
+//!
+//! SLCAN as python-can 4.6's `slcan` interface and Linux's `slcand` use it: `O` and `L`
+//! open (`L` listen-only), `C` closes, `Sn`/`sxxyy` set the bit rate while closed, `V`,
+//! `v`, `N` and `F` report version, serial number and status, `Z0`/`Z1` switch receive
+//! timestamps, `M`/`m`/`X`/`W` are accepted: each answered with `\r` (the reply text
+//! before it where there is one), anything else with `\a`. `tIIILDD…` and `TIIIIIIIILDD…`
+//! (and `r`/`R`) transmit while open; nothing answers a transmitted frame (as on the
+//! CANable's firmware), a frame while closed is answered with `\a`.
+
+use std::io::{BufWriter, Read, Write};
+use std::net::{Shutdown, TcpListener, TcpStream};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+use clap::{Parser, ValueEnum};
+use controller::feedforward::command_plan;
+use controller::node::Role;
+use controller::{CanFrame, Controller, Feedforward, InverseModel, Mode, Replan};
+use scene::firmware::{firmware_scene, FirmwareScene};
+use scene::{ModelSpec, Scene, SchemeSpec};
+use solver_core::models::crane_proj::CraneProj;
+use solver_core::models::crane_subs::CraneSubs;
+use solver_core::plan::Plan;
+use solver_core::{Bdf, Radau};
+
+#[derive(Parser, Debug)]
+#[command(about = "The crane controller in real time, its CAN bus as SLCAN over TCP")]
+struct Cli {
+    /// The scene (the firmware's default scene unless given).
+    #[arg(long, default_value = "scenes/paper-crane.toml")]
+    scene: PathBuf,
+    /// TCP port on 127.0.0.1; 0 lets the system choose (printed on the first line).
+    #[arg(long, default_value_t = 28_800)]
+    port: u16,
+    /// NMT role: manager (starts the drives) or slave (waits for a PLC's start).
+    #[arg(long, value_enum, default_value_t = RoleArg::Manager)]
+    role: RoleArg,
+    /// Run the scene's own move as a demonstration (default: no motion without a command).
+    #[arg(long)]
+    demo: bool,
+    /// Stop after this many seconds (the ECU always stops by itself).
+    #[arg(long, default_value_t = 300.0)]
+    seconds: f64,
+    /// Write every frame, both directions, with timestamps, to this file.
+    #[arg(long)]
+    log: Option<PathBuf>,
+    /// No bus: print the set points (`trolley winch`, µm/s, one cycle a line) the same
+    /// controller sends for a move to X,Z (m) in DURATION s, on the virtual bus's stock
+    /// drives from the moment it is accepted — the host's computation that a run on
+    /// the bus is compared with.
+    #[arg(long, value_name = "X,Z,DURATION")]
+    reference: Option<String>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum RoleArg {
+    Manager,
+    Slave,
+}
+
+/// The longest run allowed: a day.
+const MAX_SECONDS: f64 = 86_400.0;
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(&cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("ecu: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: &Cli) -> Result<(), String> {
+    if !(cli.seconds > 0.0 && cli.seconds <= MAX_SECONDS) {
+        return Err(format!(
+            "--seconds {}: must be in (0, {MAX_SECONDS}]",
+            cli.seconds
+        ));
+    }
+    let scene = Scene::load(&cli.scene).map_err(|e| format!("{}: {e}", cli.scene.display()))?;
+    let f = firmware_scene(&scene)?;
+    // No motion without a command: the scene's move only when asked (as the QEMU main
+    // job asks for it); otherwise the crane rests where the scene's move starts.
+    let plan = if cli.demo {
+        f.plan
+    } else {
+        command_plan(f.first_move.start().into(), scene.trajectory.smoothness)
+            .map_err(|e| e.to_string())?
+    };
+    if let Some(spec) = &cli.reference {
+        let numbers: Vec<f64> = spec
+            .split(',')
+            .map(|v| v.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| format!("--reference {spec}: {e}"))?;
+        let [x, z, duration] = numbers[..] else {
+            return Err(format!("--reference {spec}: X,Z,DURATION"));
+        };
+        let f = firmware_scene(&scene)?;
+        return build(&scene, plan, Run::Reference(f, [x, z], duration));
+    }
+    let listener = TcpListener::bind(("127.0.0.1", cli.port))
+        .map_err(|e| format!("cannot listen on 127.0.0.1:{}: {e}", cli.port))?;
+    let port = listener.local_addr().map_err(|e| e.to_string())?.port();
+    let log = match &cli.log {
+        Some(path) => {
+            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+            }
+            let file =
+                std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+            Some(BufWriter::new(file))
+        }
+        None => None,
+    };
+    println!("listening on 127.0.0.1:{port}");
+    eprintln!(
+        "ecu: scene {} ({}), role {:?}, {}, for {} s",
+        scene.name,
+        cli.scene.display(),
+        cli.role,
+        if cli.demo {
+            "with the scene's move"
+        } else {
+            "at rest until a command"
+        },
+        cli.seconds
+    );
+    let _ = std::io::stdout().flush();
+    let setup = Setup {
+        f,
+        role: match cli.role {
+            RoleArg::Manager => Role::Manager,
+            RoleArg::Slave => Role::Slave,
+        },
+        duration: Duration::from_secs_f64(cli.seconds),
+        listener,
+        bus: Arc::new(Mutex::new(Bus::new(log))),
+    };
+    build(&scene, plan, Run::Serve(setup))
+}
+
+/// What to do with the inverse model.
+enum Run {
+    /// Serve the bus in real time.
+    Serve(Setup),
+    /// Print the set points of one move on the virtual bus.
+    Reference(FirmwareScene, [f64; 2], f64),
+}
+
+impl Run {
+    fn params(&self) -> solver_core::models::crane::CraneParams {
+        match self {
+            Run::Serve(s) => s.f.params,
+            Run::Reference(f, ..) => f.params,
+        }
+    }
+
+    fn with<F: Feedforward + Replan>(self, feedforward: F) -> Result<(), String> {
+        match self {
+            Run::Serve(setup) => serve(feedforward, setup),
+            Run::Reference(f, target, duration) => reference(feedforward, &f, target, duration),
+        }
+    }
+}
+
+/// The set points of one move as the controller computes them on the virtual bus's
+/// stock CiA 402 drives (no real time, no TCP): ready, the move asked, then every
+/// cycle's set points from the one that answers it until the drives rest.
+fn reference<F: Feedforward + Replan>(
+    feedforward: F,
+    f: &FirmwareScene,
+    target: [f64; 2],
+    duration: f64,
+) -> Result<(), String> {
+    use controller::commands::{request_frame, Answer, Request};
+    use controller::virtual_bus::{run_cycle, VirtualBus, HEALTHY};
+    let mut controller = Controller::new(
+        controller::Injectable::new(feedforward),
+        f.planner,
+        f.config,
+    );
+    let mut bus = VirtualBus::new(HEALTHY, f.first_move.start().into());
+    let period = f.config.period_ms;
+    let limit = 100 * 1000 / period + (duration * 1000.0) as u32 / period;
+    let (mut after, mut asked, mut answered) = (0, false, false);
+    let mut rest = 0;
+    for cycle in 0..limit {
+        let now = cycle * period;
+        if !asked && controller.mode() == Mode::Ready {
+            let request = Request::Move {
+                id: 1,
+                target,
+                duration: Some(duration),
+            };
+            controller.on_frame(&request_frame(&request), u64::from(now));
+            asked = true;
+        }
+        let out = run_cycle(&mut controller, &mut bus, after, now)
+            .ok_or("the virtual bus hung the controller")?;
+        after = now;
+        match controller.last_answer() {
+            (1, Answer::Accepted, None) => answered = true,
+            (1, answer, reason) => return Err(format!("the move was {answer:?} {reason:?}")),
+            _ => {}
+        }
+        if answered {
+            let [u1, u2] = out.setpoints.map(|s| s.units());
+            println!("{u1} {u2}");
+            let moving = controller
+                .feedforward()
+                .plan()
+                .is_moving(f64::from(now) / 1e3);
+            rest = if u1 == 0 && u2 == 0 && !moving {
+                rest + 1
+            } else {
+                0
+            };
+            if rest > 10 {
+                return Ok(());
+            }
+        }
+    }
+    Err("the move did not end".into())
+}
+
+/// Everything a run needs besides the inverse model.
+struct Setup {
+    f: FirmwareScene,
+    role: Role,
+    duration: Duration,
+    listener: TcpListener,
+    bus: Arc<Mutex<Bus>>,
+}
+
+/// The inverse model of `scene` following `plan`, built as the firmware builds it
+/// (`host_tests::firmware`), then run.
+fn build(scene: &Scene, plan: Plan<f64, 2>, run: Run) -> Result<(), String> {
+    let settings = scene.settings();
+    let err = |e: solver_core::Error| e.to_string();
+    let k = scene.solver.k;
+    let params = run.params();
+    match (&scene.model, scene.solver.scheme) {
+        (ModelSpec::CraneSubs(_), SchemeSpec::Bdf) => {
+            let model = CraneSubs::new(params, plan).map_err(err)?;
+            let integrator = Bdf::<f64, _, 7, 2>::new(&model, &settings, k, 0.0).map_err(err)?;
+            run.with(InverseModel { model, integrator })
+        }
+        (ModelSpec::CraneSubs(_), SchemeSpec::Radau) => {
+            let model = CraneSubs::new(params, plan).map_err(err)?;
+            let integrator = Radau::<f64, _, 7, 2, 21>::new(&model, &settings, 0.0).map_err(err)?;
+            run.with(InverseModel { model, integrator })
+        }
+        (ModelSpec::CraneProj(_), SchemeSpec::Bdf) => {
+            let model = CraneProj::new(params, plan).map_err(err)?;
+            let integrator = Bdf::<f64, _, 8, 2>::new(&model, &settings, k, 0.0).map_err(err)?;
+            run.with(InverseModel { model, integrator })
+        }
+        (ModelSpec::CraneProj(_), SchemeSpec::Radau) => {
+            let model = CraneProj::new(params, plan).map_err(err)?;
+            let integrator = Radau::<f64, _, 8, 2, 24>::new(&model, &settings, 0.0).map_err(err)?;
+            run.with(InverseModel { model, integrator })
+        }
+        (ModelSpec::MassOnCar(_), _) => Err("the firmware drives a crane".into()),
+    }
+}
+
+/// The real-time loop: tick k at k·h after the start by the wall clock, the frames
+/// received since the last tick fed first (with the tick's time, as the firmware does);
+/// a late tick runs at once, so the controller's time stays k·h.
+fn serve<F: Feedforward + Replan>(feedforward: F, setup: Setup) -> Result<(), String> {
+    let config = controller::Config {
+        role: setup.role,
+        ..setup.f.config
+    };
+    let mut controller = Controller::new(feedforward, setup.f.planner, config);
+    let period = Duration::from_millis(u64::from(config.period_ms));
+    let stop = Arc::new(AtomicBool::new(false));
+    let acceptor = {
+        let (bus, stop) = (Arc::clone(&setup.bus), Arc::clone(&stop));
+        let listener = setup.listener;
+        std::thread::spawn(move || accept(&listener, &bus, &stop))
+    };
+    let start = lock(&setup.bus).start;
+    let cycles = (setup.duration.as_nanos() / period.as_nanos()).max(1) as u64;
+    let mut late = 0u64;
+    let mut worst = Duration::ZERO;
+    for k in 0..cycles {
+        let due = start + period * u32::try_from(k).unwrap_or(u32::MAX);
+        let now = Instant::now();
+        if now < due {
+            std::thread::sleep(due - now);
+        } else if now - due > period {
+            late += 1;
+        }
+        let now_ms = k * u64::from(config.period_ms);
+        let received = std::mem::take(&mut lock(&setup.bus).inbox);
+        for frame in &received {
+            controller.on_frame(frame, now_ms);
+        }
+        let began = Instant::now();
+        let out = controller.tick(now_ms);
+        worst = worst.max(began.elapsed());
+        let mut bus = lock(&setup.bus);
+        for frame in &out.frames {
+            bus.deliver(None, &Frame::from(frame));
+        }
+        bus.flush_log();
+    }
+    stop.store(true, Ordering::SeqCst);
+    lock(&setup.bus).close_all();
+    let _ = acceptor.join();
+    let bus = lock(&setup.bus);
+    let c = controller.counters();
+    eprintln!(
+        "ecu: {cycles} cycles, mode {}, {} frames sent, {} received ({} ignored), \
+         {} drives commissioned, {} warnings; {} clients, {} ticks more than a period late, \
+         longest tick {:.2} ms",
+        mode_name(controller.mode()),
+        c.frames_sent,
+        c.frames_received,
+        c.frames_ignored,
+        c.commissioned,
+        c.drive_warnings,
+        bus.next_client - 1,
+        late,
+        worst.as_secs_f64() * 1e3
+    );
+    Ok(())
+}
+
+fn mode_name(mode: Mode) -> String {
+    match mode.fault() {
+        Some(f) => format!("{mode:?} (fault {})", f.code()),
+        None => format!("{mode:?}"),
+    }
+}
+
+fn lock(bus: &Mutex<Bus>) -> MutexGuard<'_, Bus> {
+    // A reader thread that panicked leaves the bus usable: it only holds plain data.
+    bus.lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// Accepts clients until the run ends; each gets a reader thread.
+fn accept(listener: &TcpListener, bus: &Arc<Mutex<Bus>>, stop: &Arc<AtomicBool>) {
+    if listener.set_nonblocking(true).is_err() {
+        return;
+    }
+    while !stop.load(Ordering::SeqCst) {
+        match listener.accept() {
+            Ok((stream, _)) => {
+                let _ = stream.set_nonblocking(false);
+                let _ = stream.set_nodelay(true);
+                let _ = stream.set_write_timeout(Some(Duration::from_millis(200)));
+                let Ok(writer) = stream.try_clone() else {
+                    continue;
+                };
+                let id = lock(bus).join(writer);
+                let (bus, stop) = (Arc::clone(bus), Arc::clone(stop));
+                std::thread::spawn(move || read_client(stream, id, &bus, &stop));
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            Err(_) => std::thread::sleep(Duration::from_millis(5)),
+        }
+    }
+}
+
+/// One client's SLCAN commands, line by line, until it disconnects or the run ends.
+fn read_client(mut stream: TcpStream, id: usize, bus: &Mutex<Bus>, stop: &AtomicBool) {
+    let _ = stream.set_read_timeout(Some(Duration::from_millis(100)));
+    let mut line = Vec::with_capacity(64);
+    let mut buf = [0u8; 512];
+    while !stop.load(Ordering::SeqCst) {
+        let n = match stream.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
+                continue
+            }
+            Err(_) => break,
+        };
+        for &b in buf.iter().take(n) {
+            if b == b'\r' || b == b'\n' {
+                if !line.is_empty() {
+                    lock(bus).command(id, &line);
+                    line.clear();
+                }
+            } else if line.len() < 64 {
+                line.push(b);
+            }
+        }
+    }
+    lock(bus).leave(id);
+}
+
+/// A frame on the bus: 11- or 29-bit identifier, remote or data.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct Frame {
+    id: u32,
+    extended: bool,
+    remote: bool,
+    dlc: u8,
+    data: Vec<u8>,
+}
+
+impl From<&CanFrame> for Frame {
+    fn from(f: &CanFrame) -> Self {
+        Self {
+            id: u32::from(f.id()),
+            extended: false,
+            remote: false,
+            dlc: f.data().len() as u8,
+            data: f.data().to_vec(),
+        }
+    }
+}
+
+impl Frame {
+    /// The SLCAN text (without `\r`), with a receive timestamp in ms if given.
+    fn slcan(&self, timestamp_ms: Option<u16>) -> String {
+        let kind = match (self.extended, self.remote) {
+            (false, false) => 't',
+            (true, false) => 'T',
+            (false, true) => 'r',
+            (true, true) => 'R',
+        };
+        let mut s = if self.extended {
+            format!("{kind}{:08X}{}", self.id, self.dlc)
+        } else {
+            format!("{kind}{:03X}{}", self.id, self.dlc)
+        };
+        for b in &self.data {
+            s.push_str(&format!("{b:02X}"));
+        }
+        if let Some(t) = timestamp_ms {
+            s.push_str(&format!("{t:04X}"));
+        }
+        s
+    }
+
+    /// candump's `ID#DATA` (`ID#R` for a remote frame).
+    fn candump(&self) -> String {
+        let mut s = if self.extended {
+            format!("{:08X}#", self.id)
+        } else {
+            format!("{:03X}#", self.id)
+        };
+        if self.remote {
+            s.push('R');
+        }
+        for b in &self.data {
+            s.push_str(&format!("{b:02X}"));
+        }
+        s
+    }
+
+    /// The frame of an SLCAN transmit command (`t`, `T`, `r`, `R`), if well formed.
+    fn parse(line: &[u8]) -> Option<Self> {
+        let (&kind, rest) = line.split_first()?;
+        let (extended, remote) = match kind {
+            b't' => (false, false),
+            b'T' => (true, false),
+            b'r' => (false, true),
+            b'R' => (true, true),
+            _ => return None,
+        };
+        let id_len = if extended { 8 } else { 3 };
+        let text = std::str::from_utf8(rest).ok()?;
+        let id = u32::from_str_radix(text.get(..id_len)?, 16).ok()?;
+        if id > if extended { 0x1FFF_FFFF } else { 0x7FF } {
+            return None;
+        }
+        let dlc = text.get(id_len..=id_len)?.parse::<u8>().ok()?;
+        if dlc > 8 {
+            return None;
+        }
+        let hex = text.get(id_len + 1..)?;
+        let data = if remote {
+            if !hex.is_empty() {
+                return None;
+            }
+            Vec::new()
+        } else {
+            if hex.len() != 2 * usize::from(dlc) {
+                return None;
+            }
+            (0..usize::from(dlc))
+                .map(|i| u8::from_str_radix(hex.get(2 * i..2 * i + 2)?, 16).ok())
+                .collect::<Option<Vec<u8>>>()?
+        };
+        Some(Self {
+            id,
+            extended,
+            remote,
+            dlc,
+            data,
+        })
+    }
+
+    /// The controller's kind of frame: 11-bit data frames.
+    fn classic(&self) -> Option<CanFrame> {
+        if self.extended || self.remote {
+            return None;
+        }
+        CanFrame::new(u16::try_from(self.id).ok()?, &self.data).ok()
+    }
+}
+
+struct Client {
+    id: usize,
+    stream: TcpStream,
+    open: bool,
+    listen_only: bool,
+    timestamps: bool,
+}
+
+/// The virtual bus: its clients, the frames waiting for the controller's next tick, and
+/// the log.
+struct Bus {
+    start: Instant,
+    clients: Vec<Client>,
+    next_client: usize,
+    inbox: Vec<CanFrame>,
+    log: Option<BufWriter<std::fs::File>>,
+}
+
+/// SLCAN version answered to `V` and `v`.
+const VERSION: &str = "1013";
+/// Serial number answered to `N`.
+const SERIAL: &str = "ECU1";
+
+impl Bus {
+    fn new(log: Option<BufWriter<std::fs::File>>) -> Self {
+        Self {
+            start: Instant::now(),
+            clients: Vec::new(),
+            next_client: 1,
+            inbox: Vec::new(),
+            log,
+        }
+    }
+
+    fn join(&mut self, stream: TcpStream) -> usize {
+        let id = self.next_client;
+        self.next_client += 1;
+        self.clients.push(Client {
+            id,
+            stream,
+            open: false,
+            listen_only: false,
+            timestamps: false,
+        });
+        eprintln!(
+            "ecu: client tcp{id} connected at {:.3} s",
+            self.start.elapsed().as_secs_f64()
+        );
+        id
+    }
+
+    fn leave(&mut self, id: usize) {
+        if let Some(i) = self.clients.iter().position(|c| c.id == id) {
+            let c = self.clients.remove(i);
+            let _ = c.stream.shutdown(Shutdown::Both);
+            eprintln!(
+                "ecu: client tcp{id} left at {:.3} s",
+                self.start.elapsed().as_secs_f64()
+            );
+        }
+    }
+
+    fn close_all(&mut self) {
+        for c in self.clients.drain(..) {
+            let _ = c.stream.shutdown(Shutdown::Both);
+        }
+        self.flush_log();
+    }
+
+    fn flush_log(&mut self) {
+        if let Some(log) = &mut self.log {
+            let _ = log.flush();
+        }
+    }
+
+    /// Puts `frame` on the bus from client `from` (`None`: the controller): logged, sent
+    /// to every other open client, and to the controller if it came from a client.
+    fn deliver(&mut self, from: Option<usize>, frame: &Frame) {
+        let t = self.start.elapsed();
+        if let Some(log) = &mut self.log {
+            let sender = from.map_or_else(|| "ecu".to_string(), |id| format!("tcp{id}"));
+            let _ = writeln!(log, "({:.6}) {sender} {}", t.as_secs_f64(), frame.candump());
+        }
+        let stamp = (t.as_millis() % 60_000) as u16;
+        let mut gone = Vec::new();
+        for c in self.clients.iter_mut() {
+            if !c.open || Some(c.id) == from {
+                continue;
+            }
+            let mut text = frame.slcan(c.timestamps.then_some(stamp));
+            text.push('\r');
+            if c.stream.write_all(text.as_bytes()).is_err() {
+                gone.push(c.id);
+            }
+        }
+        for id in gone {
+            self.leave(id);
+        }
+        if from.is_some() {
+            if let Some(f) = frame.classic() {
+                self.inbox.push(f);
+            }
+        }
+    }
+
+    /// One SLCAN command of client `id`, answered.
+    fn command(&mut self, id: usize, line: &[u8]) {
+        let first = line.first().copied().unwrap_or(0);
+        if matches!(first, b't' | b'T' | b'r' | b'R') {
+            let may_send = self
+                .clients
+                .iter()
+                .any(|c| c.id == id && c.open && !c.listen_only);
+            if let (true, Some(frame)) = (may_send, Frame::parse(line)) {
+                self.deliver(Some(id), &frame);
+                return;
+            }
+        }
+        let Some(client) = self.clients.iter_mut().find(|c| c.id == id) else {
+            return;
+        };
+        let arg = line.get(1..).unwrap_or_default();
+        let closed = !client.open;
+        let reply: Option<String> = match first {
+            b'O' if arg.is_empty() && closed => {
+                client.open = true;
+                client.listen_only = false;
+                Some(String::new())
+            }
+            b'L' if arg.is_empty() && closed => {
+                client.open = true;
+                client.listen_only = true;
+                Some(String::new())
+            }
+            b'C' if arg.is_empty() => {
+                client.open = false;
+                Some(String::new())
+            }
+            b'S' if closed && matches!(arg, [b'0'..=b'8']) => Some(String::new()),
+            b's' if closed && arg.len() == 4 => Some(String::new()),
+            b'V' if arg.is_empty() => Some(format!("V{VERSION}")),
+            b'v' if arg.is_empty() => Some(format!("v{VERSION}")),
+            b'N' if arg.is_empty() => Some(format!("N{SERIAL}")),
+            b'F' if arg.is_empty() => Some("F00".into()),
+            b'Z' if matches!(arg, [b'0' | b'1']) => {
+                client.timestamps = arg == b"1";
+                Some(String::new())
+            }
+            b'M' | b'm' if arg.len() == 8 => Some(String::new()),
+            b'X' | b'W' if arg.len() == 1 => Some(String::new()),
+            _ => None,
+        };
+        let answer = match reply {
+            Some(mut text) => {
+                text.push('\r');
+                text
+            }
+            None => "\x07".to_string(),
+        };
+        if client.stream.write_all(answer.as_bytes()).is_err() {
+            self.leave(id);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    #[test]
+    fn slcan_frames_round_trip() {
+        let f = Frame::parse(b"t2106010203040506").unwrap();
+        assert_eq!(f.id, 0x210);
+        assert_eq!(f.data, [1, 2, 3, 4, 5, 6]);
+        assert_eq!(f.slcan(None), "t2106010203040506");
+        assert_eq!(f.candump(), "210#010203040506");
+        assert_eq!(f.slcan(Some(0x1234)), "t21060102030405061234");
+        let sync = Frame::parse(b"t0800").unwrap();
+        assert_eq!(sync.classic(), Some(CanFrame::new(0x80, &[]).unwrap()));
+        let ext = Frame::parse(b"T1234567820102").unwrap();
+        assert!(ext.extended && ext.classic().is_none());
+        assert_eq!(ext.candump(), "12345678#0102");
+        let rtr = Frame::parse(b"r7011").unwrap();
+        assert!(rtr.remote && rtr.candump() == "701#R");
+        for bad in [
+            &b"t80"[..],
+            b"t8001",
+            b"t0809000000000000000000",
+            b"t0801XYZ",
+            b"tFFF0",
+            b"x0800",
+        ] {
+            assert_eq!(
+                Frame::parse(bad),
+                None,
+                "{:?}",
+                String::from_utf8_lossy(bad)
+            );
+        }
+        assert!(Frame::parse(b"t7FF0").is_some());
+    }
+
+    #[test]
+    fn the_controllers_frames_become_slcan_text() {
+        let f = controller::canopen::heartbeat(0x10, controller::canopen::NmtState::Operational);
+        assert_eq!(Frame::from(&f).slcan(None), "t710105");
+    }
+}

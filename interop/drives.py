@@ -1,0 +1,411 @@
+"""Two CiA 402 drives (node 1 trolley, node 2 winch) simulated with python-canopen's
+LocalNode on one SLCAN connection to the virtual ECU, in their own process.
+
+python-canopen provides the object dictionary (cia402-drive.eds), the SDO server, the
+NMT slave with its heartbeat producer (0x1017), EMCY and the PDO maps; the glue here is
+the rest of a drive: the boot-up message on power-on, PDOs configured from what was
+written into 0x1400/0x1600/0x1800/0x1A00 (+1) when the node is started, synchronous
+RPDOs applied and TPDOs sent on SYNC, the CiA 402 state machine on the controlword,
+velocity actual = target velocity in CSV (the quick-stop ramp 0x6085 in quick stop),
+position integrated over the interpolation period 0x60C2, mode display = 0x6060, the
+heartbeat consumer 0x1016 (the drive faults if the controller falls silent), and SDO
+and PDOs only where CiA 301 allows them (no SDO in *stopped*, PDOs only in
+*operational*).
+
+Run as `python drives.py --port N [options]`; it takes commands on stdin, one a line,
+and answers each with one JSON line on stdout (see `Drives.command`).
+"""
+
+import argparse
+import json
+import os
+import struct
+import sys
+import threading
+
+import can
+import canopen
+from canopen.sdo import SdoAbortedError
+
+EDS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cia402-drive.eds")
+
+# Statusword bits (CiA 402).
+RTSO, SO, OE, FAULT, VOLTAGE, QS, SOD, WARNING = 0x1, 0x2, 0x4, 0x8, 0x10, 0x20, 0x40, 0x80
+REMOTE, FOLLOWING = 0x200, 0x1000
+STATES = {
+    "not ready": 0x00,
+    "switch on disabled": SOD,
+    "ready to switch on": QS | RTSO,
+    "switched on": QS | SO | RTSO,
+    "operation enabled": QS | OE | SO | RTSO,
+    "quick stop active": OE | SO | RTSO,
+    "fault": FAULT,
+}
+CSV = 9
+INVALID_VALUE = 0x06090030  # SDO abort: invalid value for parameter
+
+
+def controlword_command(state, cw, previous_cw):
+    """The CiA 402 state after controlword `cw` (Tab. 28/29), from `state`."""
+    if state == "fault":
+        # Fault reset acts on the rising edge of bit 7.
+        return "switch on disabled" if cw & 0x80 and not previous_cw & 0x80 else state
+    if cw & 0x80:
+        return state
+    if cw & 0x02 == 0:  # disable voltage
+        return "switch on disabled"
+    if cw & 0x04 == 0:  # quick stop
+        return "quick stop active" if state == "operation enabled" else "switch on disabled"
+    if state == "quick stop active":
+        return state  # left by disable voltage (transition 12)
+    if cw & 0x0F == 0x06:  # shutdown
+        return "ready to switch on" if state != "not ready" else state
+    if cw & 0x0F == 0x07:  # switch on / disable operation
+        return "switched on" if state in ("ready to switch on", "switched on", "operation enabled") else state
+    if cw & 0x0F == 0x0F:  # enable operation (3+4 from ready to switch on)
+        return "operation enabled" if state in ("ready to switch on", "switched on", "operation enabled") else state
+    return state
+
+
+class Drive:
+    """One CiA 402 drive on `network`."""
+
+    def __init__(self, network, node_id, position, refuse_csv=False, sdo_mute=False, status_lag=0):
+        self.network = network
+        self.id = node_id
+        self.node = canopen.LocalNode(node_id, EDS)
+        self.refuse_csv = refuse_csv
+        self.sdo_mute = sdo_mute
+        self.status_lag = status_lag
+        self.lock = threading.RLock()
+        self.powered = False
+        # Physical: a reboot does not move the axis (an absolute encoder).
+        self.position = position
+        self.node.add_read_callback(self._read)
+        self.node.add_write_callback(self._write)
+        network.add_node(self.node)
+        # SDO and NMT through the glue: off when unpowered, no SDO in stopped.
+        network.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
+        network.subscribe(self.node.sdo.rx_cobid, self._on_sdo)
+        network.unsubscribe(0, self.node.nmt.on_command)
+        network.subscribe(0, self._on_nmt)
+        network.subscribe(0x080, self._on_sync)
+        network.subscribe(0x200 + node_id, self._on_rpdo)
+        network.subscribe(0x700 + 0x10, self._on_controller_heartbeat)
+        self._reset_application()
+
+    # --- process data -----------------------------------------------------------------
+    def _reset_application(self):
+        self.node.data_store.clear()
+        self.state = "switch on disabled"  # "not ready" passes by itself at power-on
+        self.controlword = 0
+        self.pending = {}
+        self.target = 0
+        self.velocity = 0
+        self.statuswords = []
+        self.warning = False
+        self.rpdo_mapping = []
+        self.tpdos = []
+        self.controller_seen = None
+        self.syncs = 0
+        self.started_log = []
+        self.pdo_changed = False
+
+    def mode(self):
+        return struct.unpack("<b", self.node.get_data(0x6060, 0))[0]
+
+    def statusword(self):
+        sw = STATES[self.state] | REMOTE
+        if self.state != "not ready":
+            sw |= VOLTAGE
+        if self.warning:
+            sw |= WARNING
+        if self.state == "operation enabled" and self.mode() == CSV:
+            sw |= FOLLOWING
+        return sw
+
+    def _read(self, index, subindex, od):
+        """Values the drive computes (the rest comes from the data store or the EDS)."""
+        if index == 0x6041:
+            return self.reported_statusword()
+        if index == 0x6061:
+            return self.mode()
+        if index == 0x6064:
+            return int(round(self.position))
+        if index == 0x606C:
+            return self.velocity
+        if index == 0x6040:
+            return self.controlword
+        return None
+
+    def _write(self, index, subindex, od, data):
+        if 0x1400 <= index < 0x1C00:
+            self.pdo_changed = True  # takes effect once stored (at the next SYNC)
+        if index == 0x6060 and self.refuse_csv and struct.unpack("<b", data)[0] == CSV:
+            raise SdoAbortedError(INVALID_VALUE)  # a drive without CSV
+        if index == 0x6040:
+            cw = struct.unpack("<H", data)[0]
+            self.state = controlword_command(self.state, cw, self.controlword)
+            self.controlword = cw
+
+    def reported_statusword(self):
+        """The statusword as the TPDO reports it: `status_lag` SYNCs late if asked."""
+        if not self.statuswords:
+            return self.statusword()
+        return self.statuswords[0]
+
+    # --- CiA 301 services ------------------------------------------------------------
+    def _on_sdo(self, can_id, data, timestamp):
+        with self.lock:
+            if not self.powered or self.sdo_mute or self.node.nmt.state == "STOPPED":
+                return
+            self.node.sdo.on_request(can_id, data, timestamp)
+
+    def _on_nmt(self, can_id, data, timestamp):
+        with self.lock:
+            if not self.powered or len(data) != 2 or data[1] not in (0, self.id):
+                return
+            command = data[0]
+            if command in (0x81, 0x82):  # reset node / communication
+                self.boot(reset_application=command == 0x81)
+                return
+            was_operational = self.node.nmt.state == "OPERATIONAL"
+            self.node.nmt.on_command(can_id, data, timestamp)
+            if command == 0x01:
+                self._configure_pdos()
+            elif was_operational and self.state == "operation enabled":
+                self._connection_lost()
+
+    def _connection_lost(self):
+        """Out of *operational* while enabled: the abort connection option 0x6007."""
+        option = struct.unpack("<h", self.node.get_data(0x6007, 0))[0]
+        if option == 1:
+            self.state = "fault"
+        elif option == 2:
+            self.state = "switch on disabled"
+        elif option == 3:
+            self.state = "quick stop active"
+
+    def _on_controller_heartbeat(self, can_id, data, timestamp):
+        with self.lock:
+            self.controller_seen = timestamp
+
+    def _configure_pdos(self):
+        """PDOs as the master wrote them (python-canopen reads 0x14xx/0x16xx/0x18xx/0x1Axx
+        from this node's own dictionary)."""
+        self.pdo_changed = False
+        self.node.rpdo.read()
+        self.node.tpdo.read()
+        self.tpdos = [m for m in self.node.tpdo.map.values() if m.enabled and 1 <= m.trans_type <= 240]
+        rpdo = self.node.rpdo.map[1]
+        self.rpdo_mapping = [(v.index, v.subindex, len(v.od) // 8) for v in rpdo] if rpdo.enabled else []
+        self.rpdo_sync = 0 <= rpdo.trans_type <= 240
+        self.started_log.append(
+            {
+                "rpdo": [hex(rpdo.cob_id), rpdo.trans_type],
+                "tpdo": [[hex(m.cob_id), m.trans_type, len(m.map)] for m in self.tpdos],
+            }
+        )
+
+    def _on_rpdo(self, can_id, data, timestamp):
+        with self.lock:
+            if not self.powered or self.node.nmt.state != "OPERATIONAL" or not self.rpdo_mapping:
+                return
+            offset = 0
+            values = {}
+            for index, subindex, size in self.rpdo_mapping:
+                values[(index, subindex)] = bytes(data[offset : offset + size])
+                offset += size
+            if self.rpdo_sync:
+                self.pending = values  # applied at the next SYNC
+            else:
+                self._apply(values)
+
+    def _apply(self, values):
+        for (index, subindex), raw in values.items():
+            self.node.set_data(index, subindex, raw)
+            if index == 0x60FF:
+                self.target = struct.unpack("<i", raw)[0]
+
+    def period_s(self):
+        value = self.node.get_data(0x60C2, 1)[0]
+        exponent = struct.unpack("<b", self.node.get_data(0x60C2, 2))[0]
+        return value * 10.0**exponent
+
+    def _on_sync(self, can_id, data, timestamp):
+        with self.lock:
+            if not self.powered:
+                return
+            self.syncs += 1
+            operational = self.node.nmt.state == "OPERATIONAL"
+            if operational and self.pdo_changed:
+                self._configure_pdos()  # remapped while operational
+            if operational and self.pending:
+                values, self.pending = self.pending, {}
+                self._apply(values)
+            self._watch_controller(timestamp)
+            dt = self.period_s()
+            self.position += self.velocity * dt
+            if self.state == "operation enabled" and self.mode() == CSV:
+                self.velocity = self.target
+            elif self.state == "quick stop active":
+                step = struct.unpack("<I", self.node.get_data(0x6085, 0))[0] * dt
+                self.velocity = 0 if abs(self.velocity) <= step else self.velocity - step * (1 if self.velocity > 0 else -1)
+                self.velocity = int(round(self.velocity))
+            else:
+                self.velocity = 0
+            self.statuswords.append(self.statusword())
+            del self.statuswords[: max(0, len(self.statuswords) - 1 - self.status_lag)]
+            if operational:
+                for tpdo in self.tpdos:
+                    if self.syncs % tpdo.trans_type:
+                        continue
+                    for var in tpdo:
+                        var.set_data(self.node.get_data(var.index, var.subindex)[: len(var.od) // 8])
+                    tpdo.transmit()
+
+    def _watch_controller(self, now):
+        consumer = struct.unpack("<I", self.node.get_data(0x1016, 1))[0]
+        timeout_s = (consumer & 0xFFFF) / 1000.0
+        if not consumer & 0xFFFF or (consumer >> 16) & 0x7F != 0x10 or self.controller_seen is None:
+            return
+        if now - self.controller_seen > timeout_s and self.state != "fault":
+            self.fault(0x8130, 0x11)  # heartbeat error: the drive stops by itself
+            self.controller_seen = None
+
+    # --- what the test does to a drive -------------------------------------------------
+    def boot(self, reset_application=True):
+        """Power-on (or an NMT reset): boot-up message, pre-operational, heartbeat 0x1017."""
+        with self.lock:
+            self.node.nmt.stop_heartbeat()
+            if reset_application:
+                self._reset_application()
+            else:
+                for index in [i for i in self.node.data_store if 0x1000 <= i < 0x2000]:
+                    del self.node.data_store[index]
+                self.tpdos, self.rpdo_mapping, self.pending = [], [], {}
+            self.powered = True
+            self.node.nmt.state = "INITIALISING"  # sends the boot-up message
+            self.node.nmt.state = "PRE-OPERATIONAL"  # starts the heartbeat (0x1017)
+
+    def power_off(self):
+        with self.lock:
+            self.powered = False
+            self.node.nmt.stop_heartbeat()
+
+    def fault(self, code=0x2310, register=0x03):
+        """A fault: the power stage is off, statusword bit 3, an EMCY (generic bit set)."""
+        with self.lock:
+            self.state = "fault"
+            self.target = 0
+            self.node.emcy.send(code, register)
+
+    def warn(self):
+        """A temperature warning: EMCY with the error register's generic bit clear."""
+        with self.lock:
+            self.node.emcy.send(0x4210, 0x08)
+
+    def dump(self):
+        with self.lock:
+            od = {}
+            for index, subs in sorted(self.node.data_store.items()):
+                for subindex, raw in sorted(subs.items()):
+                    od[f"{index:04X}:{subindex}"] = raw.hex()
+            return {
+                "node": self.id,
+                "nmt": self.node.nmt.state,
+                "state": self.state,
+                "statusword": self.statusword(),
+                "mode": self.mode(),
+                "position": self.position,
+                "velocity": self.velocity,
+                "syncs": self.syncs,
+                "od": od,
+                "started": self.started_log,
+            }
+
+
+class Drives:
+    def __init__(self, args):
+        bus = can.ThreadSafeBus(
+            interface="slcan", channel=f"socket://127.0.0.1:{args.port}", sleep_after_open=0
+        )
+        self.network = canopen.Network(bus)
+        self.network.connect()
+        self.drives = {}
+        for node_id, position in ((1, args.trolley), (2, args.winch)):
+            self.drives[node_id] = Drive(
+                self.network,
+                node_id,
+                position,
+                refuse_csv=node_id in args.refuse_csv,
+                sdo_mute=node_id in args.sdo_mute,
+                status_lag=args.status_lag if node_id in args.lagging else 0,
+            )
+        for node_id in (1, 2):
+            if node_id not in args.unpowered:
+                self.drives[node_id].boot()
+
+    def command(self, line):
+        """`power N`, `off N`, `reboot N`, `fault N`, `warn N`, `dump`: one JSON answer."""
+        words = line.split()
+        if not words:
+            return {"ok": False}
+        verb, nodes = words[0], [int(w) for w in words[1:]]
+        for n in nodes:
+            drive = self.drives[n]
+            if verb == "power":
+                drive.boot()
+            elif verb == "off":
+                drive.power_off()
+            elif verb == "reboot":
+                drive.power_off()
+                drive.boot()
+            elif verb == "fault":
+                drive.fault()
+            elif verb == "warn":
+                drive.warn()
+            else:
+                return {"ok": False, "error": f"unknown command {verb}"}
+        if verb == "dump":
+            return {"ok": True, "drives": [d.dump() for d in self.drives.values()]}
+        return {"ok": True}
+
+    def close(self):
+        for d in self.drives.values():
+            d.power_off()
+        self.network.notifier.stop()
+        try:
+            self.network.bus.shutdown()  # the ECU may be gone already
+        except Exception:
+            pass
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--port", type=int, required=True)
+    p.add_argument("--trolley", type=float, default=12e6, help="position at power-on, um")
+    p.add_argument("--winch", type=float, default=8e6, help="position at power-on, um")
+    p.add_argument("--unpowered", type=int, nargs="*", default=[], help="nodes not powered at start")
+    p.add_argument("--refuse-csv", type=int, nargs="*", default=[], help="nodes that abort 0x6060 = 9")
+    p.add_argument("--sdo-mute", type=int, nargs="*", default=[], help="nodes that never answer SDO")
+    p.add_argument("--lagging", type=int, nargs="*", default=[], help="nodes whose statusword lags")
+    p.add_argument("--status-lag", type=int, default=1, help="SYNCs the statusword lags")
+    args = p.parse_args()
+    drives = Drives(args)
+    print(json.dumps({"ok": True, "ready": True}), flush=True)
+    try:
+        for line in sys.stdin:
+            if line.strip() == "quit":
+                break
+            try:
+                answer = drives.command(line)
+            except Exception as e:  # an answer, never a silent death
+                answer = {"ok": False, "error": repr(e)}
+            print(json.dumps(answer), flush=True)
+    finally:
+        drives.close()
+
+
+if __name__ == "__main__":
+    main()
