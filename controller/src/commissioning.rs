@@ -5,8 +5,9 @@
 //! never sent a set point.
 //!
 //! The sequence, one SDO exchange per cycle (docs/COMMISSIONING.md lists it with values):
-//! 1. read 0x1000 *device type*: the low word must be 402 (0x0192);
-//! 2. NMT *enter pre-operational* to the node (manager role), so it accepts PDO mapping;
+//! 1. NMT *enter pre-operational* to the node (manager role): a drive found stopped
+//!    answers no SDO, and only pre-operational accepts PDO mapping;
+//! 2. read 0x1000 *device type*: the low word must be 402 (0x0192);
 //! 3. read 0x1018:1..=4 *identity* (vendor, product, revision, serial; logged);
 //! 4. write, then read back: 0x6060 *modes of operation*, 0x60C2 *interpolation time
 //!    period*, RPDO1 (0x1400/0x1600: controlword 0x6040, target velocity 0x60FF), TPDO1
@@ -422,13 +423,22 @@ impl Commissioning {
         self.sdo.response_id()
     }
 
-    /// Starts from the beginning (the drive booted, or a reset): the first request.
+    /// Starts from the beginning (the drive booted, was found, or a reset): the first
+    /// frame. A manager first switches the drive to pre-operational — a drive found
+    /// *stopped* answers no SDO, and only pre-operational accepts PDO mapping.
     pub fn begin(&mut self, now_ms: u64) -> CanFrame {
         self.phase = Phase::Running;
         self.absent_since_ms = None;
-        self.step = Step::DeviceType;
-        self.nmt_due = false;
-        self.sdo.read(object::DEVICE_TYPE, now_ms)
+        self.sdo.cancel();
+        if self.manager {
+            self.step = Step::PreOperational;
+            self.nmt_due = true;
+            nmt::command(NmtCommand::PreOperational, self.setup.node)
+        } else {
+            self.step = Step::DeviceType;
+            self.nmt_due = false;
+            self.sdo.read(object::DEVICE_TYPE, now_ms)
+        }
     }
 
     /// Once per cycle: a due NMT step, a timeout, or the presence check of an absent drive.
@@ -458,9 +468,8 @@ impl Commissioning {
     pub fn on_response(&mut self, data: &[u8], now_ms: u64) -> Option<Progress> {
         let event = self.sdo.on_response(data, now_ms)?;
         if self.phase == Phase::Absent {
-            // The presence check was answered: the drive is there.
-            self.phase = Phase::Running;
-            self.step = Step::DeviceType;
+            // The presence check was answered: the drive is there; commission it.
+            return Some(Progress::Send(self.begin(now_ms)));
         }
         Some(self.on_event(event, now_ms))
     }
@@ -527,8 +536,8 @@ impl Commissioning {
     /// The step after the current one, and what it sends.
     fn advance(&mut self, now_ms: u64) -> Progress {
         let next = match self.step {
-            Step::DeviceType if self.manager => Step::PreOperational,
-            Step::DeviceType | Step::PreOperational => Step::Identity(1),
+            Step::PreOperational => Step::DeviceType,
+            Step::DeviceType => Step::Identity(1),
             Step::Identity(sub) if sub < 4 => Step::Identity(sub + 1),
             Step::Identity(_) => Step::Write(0),
             Step::Write(i) => Step::ReadBack(i),

@@ -402,7 +402,8 @@ impl DriveSim {
 
     /// Applies an RPDO addressed to this drive: the CiA 402 transitions (numbers of
     /// CiA 402 Fig. 3) for the controlwords the controller sends, anything else ignored.
-    /// In *quick stop active* the drive brakes on its own quick-stop ramp (0x6085).
+    /// In *quick stop active* the drive brakes on its own quick-stop ramp (0x6085) on
+    /// every SYNC.
     fn command(&mut self, cw: u16, target: i32) {
         use controlword::*;
         use DriveState::*;
@@ -429,15 +430,8 @@ impl DriveSim {
         let follows = matches!(self.od.mode_display(), 9 | 3);
         self.velocity = match self.state {
             OperationEnabled if follows => target,
-            QuickStopActive => {
-                // The quick-stop deceleration 0x6085 (units/s) over one interpolation
-                // period 0x60C2 (ms): both as commissioned.
-                let per_cycle = u64::from(self.od.get(0x6085, 0))
-                    * u64::from(self.od.get(0x60C2, 1).max(1))
-                    / 1000;
-                let step = i32::try_from(per_cycle).unwrap_or(i32::MAX).max(1);
-                self.velocity - self.velocity.clamp(-step, step)
-            }
+            // Braking on its own ramp, SYNC by SYNC (see on_sync).
+            QuickStopActive => self.velocity,
             _ => 0,
         };
     }
@@ -445,6 +439,16 @@ impl DriveSim {
     /// SYNC: integrate the position over the interpolation period (0x60C2, ms) and
     /// remember the statusword.
     fn on_sync(&mut self) {
+        if self.state == DriveState::QuickStopActive {
+            // The quick-stop deceleration 0x6085 (units/s) over one interpolation period
+            // 0x60C2 (ms), both as commissioned — whatever its NMT state: the drive's
+            // motion control does not wait for PDOs to brake.
+            let per_cycle = u64::from(self.od.get(0x6085, 0))
+                * u64::from(self.od.get(0x60C2, 1).max(1))
+                / 1000;
+            let step = i32::try_from(per_cycle).unwrap_or(i32::MAX).max(1);
+            self.velocity -= self.velocity.clamp(-step, step);
+        }
         let period_ms = i64::from(self.od.get(0x60C2, 1).max(1));
         // µm/s × ms = nm.
         self.position_nm += i64::from(self.velocity) * period_ms;

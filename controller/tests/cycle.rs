@@ -31,10 +31,14 @@ fn linked(rig: &mut Rig) -> Vec<controller::Cycle> {
 fn schedule_boot_up_commissioning_then_pdos_sync_and_a_heartbeat_with_status_every_100_ms() {
     let mut rig = Rig::new(HEALTHY, true);
     let first = rig.cycle();
-    // Boot-up, then each drive's commissioning starts (its boot-up was heard): 0x1000.
-    assert_eq!(ids(&first.frames), vec![0x710, 0x601, 0x602, 0x080]);
+    // Boot-up, then each drive's commissioning starts (its boot-up was heard): NMT
+    // pre-operational to that drive, then 0x1000.
+    assert_eq!(ids(&first.frames), vec![0x710, 0x000, 0x000, 0x080]);
     assert_eq!(first.frames[0].data(), &[0x00], "boot-up");
-    assert_eq!(first.frames[1].data(), &[0x40, 0x00, 0x10, 0, 0, 0, 0, 0]);
+    assert_eq!(first.frames[1].data(), &[0x80, 1]);
+    let second = rig.cycle();
+    assert_eq!(ids(&second.frames), vec![0x601, 0x602, 0x080]);
+    assert_eq!(second.frames[0].data(), &[0x40, 0x00, 0x10, 0, 0, 0, 0, 0]);
     let before = linked(&mut rig);
     // No NMT broadcast ever: each drive is started by its own addressed NMT command.
     let nmt: Vec<&[u8]> = before
@@ -43,7 +47,7 @@ fn schedule_boot_up_commissioning_then_pdos_sync_and_a_heartbeat_with_status_eve
         .filter(|f| f.id() == 0x000)
         .map(CanFrame::data)
         .collect();
-    assert_eq!(nmt, [[0x80, 1], [0x80, 2], [0x01, 1], [0x01, 2]]);
+    assert_eq!(nmt, [[0x01, 1], [0x01, 2]]);
     assert!(before
         .iter()
         .flat_map(|c| c.frames.iter())

@@ -624,3 +624,27 @@ fn a_drive_commissioned_again_mid_move_never_sees_its_set_point_jump() {
     }
     assert_eq!(previous, 0);
 }
+
+#[test]
+fn a_drive_stopped_by_someone_else_is_switched_back_commissioned_and_the_crane_recovers() {
+    // Found with the independent stack: a stopped drive answers no SDO, so commissioning
+    // must begin with NMT pre-operational.
+    let mut rig = Rig::new(HEALTHY, true);
+    rig.run(400);
+    rig.bus
+        .inject(Action::Nmt(Drive::Trolley, NmtCommand::Stop));
+    rig.until(300, |c| matches!(c.mode, Mode::Halted(_)));
+    for _ in 0..150 {
+        rig.cycle();
+        if rig.bus.drive(Drive::Trolley).nmt() == NmtState::Operational {
+            break;
+        }
+    }
+    assert_eq!(rig.bus.drive(Drive::Trolley).nmt(), NmtState::Operational);
+    rig.run(20);
+    send(&mut rig, Request::Reset { id: 5 });
+    let out = rig.until(60, |c| c.mode == Mode::Ready);
+    assert_eq!(answers(&out)[0], (5, 1, 0));
+    assert_eq!(rig.c.commissioning(Drive::Trolley), Phase::Done);
+    assert_eq!(rig.bus.drive(Drive::Trolley).nmt(), NmtState::Operational);
+}

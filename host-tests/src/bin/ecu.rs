@@ -38,6 +38,7 @@ use clap::{Parser, ValueEnum};
 use controller::feedforward::command_plan;
 use controller::node::Role;
 use controller::{CanFrame, Controller, Feedforward, InverseModel, Mode, Replan};
+use scene::commissioning::CommissioningFile;
 use scene::firmware::{firmware_scene, FirmwareScene};
 use scene::{ModelSpec, Scene, SchemeSpec};
 use solver_core::models::crane_proj::CraneProj;
@@ -102,7 +103,8 @@ fn run(cli: &Cli) -> Result<(), String> {
         ));
     }
     let scene = Scene::load(&cli.scene).map_err(|e| format!("{}: {e}", cli.scene.display()))?;
-    let f = firmware_scene(&scene)?;
+    let commissioning = CommissioningFile::for_scene(&cli.scene).map_err(|e| e.to_string())?;
+    let f = firmware_scene(&scene, &commissioning)?;
     // No motion without a command: the scene's move only when asked (as the QEMU main
     // job asks for it); otherwise the crane rests where the scene's move starts.
     let plan = if cli.demo {
@@ -120,7 +122,7 @@ fn run(cli: &Cli) -> Result<(), String> {
         let [x, z, duration] = numbers[..] else {
             return Err(format!("--reference {spec}: X,Z,DURATION"));
         };
-        let f = firmware_scene(&scene)?;
+        let f = firmware_scene(&scene, &commissioning)?;
         return build(&scene, plan, Run::Reference(f, [x, z], duration));
     }
     let listener = TcpListener::bind(("127.0.0.1", cli.port))
