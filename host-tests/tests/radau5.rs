@@ -83,3 +83,41 @@ fn same_accuracy_as_exact_newton_at_every_step_size() {
     }
     assert!(failures.is_empty(), "{failures:#?}");
 }
+
+/// Runs the paper's crane move once in the mode and step size named by
+/// `RADAU5_PROBE="transformed 0.01"` (or `exact …`), for a host instruction count:
+///
+/// ```sh
+/// RADAU5_PROBE="transformed 0.01" valgrind --tool=callgrind \
+///   --toggle-collect='*Radau$LT$*$GT$4step*' target/debug/deps/radau5-<hash> \
+///   --ignored --exact probe_for_instruction_counts
+/// ```
+///
+/// Instructions per step = the collected `Ir` / the steps printed.
+#[test]
+#[ignore = "a probe for callgrind, run by hand"]
+fn probe_for_instruction_counts() {
+    let spec = std::env::var("RADAU5_PROBE").unwrap_or_else(|_| "transformed 0.01".into());
+    let (mode, h) = spec.split_once(' ').unwrap();
+    let mode = match mode {
+        "exact" => JacobianMode::Exact,
+        _ => JacobianMode::Transformed,
+    };
+    let h: f64 = h.parse().unwrap();
+    let scene = paper_crane();
+    let ModelSpec::CraneSubs(crane) = &scene.model else {
+        panic!("paper-crane.toml is the crane, subs")
+    };
+    let model = CraneSubs::new(crane.params(), scene.trajectory2().unwrap()).unwrap();
+    let settings = SolverSettings {
+        h,
+        jacobian: mode,
+        ..scene.settings()
+    };
+    let mut radau = solver_core::Radau::<f64, _, 7, 2, 21>::new(&model, &settings, 0.0).unwrap();
+    let steps = (scene.trajectory.t_end / h).round() as usize;
+    for _ in 0..steps {
+        std::hint::black_box(radau.step(&model)).unwrap();
+    }
+    println!("{mode:?} h = {h}: {steps} steps");
+}
