@@ -396,10 +396,11 @@ mod tests {
             let mut xr = b.map(|z| z.re);
             let mut xi = b.map(|z| z.im);
             solve_complex(&lr, &li, &p, &mut xr, &mut xi);
-            let scale = expected.iter().map(|z| z.norm()).fold(0.0, f64::max);
+            let size = |z: Complex<f64>| z.re.abs() + z.im.abs();
+            let scale = expected.iter().map(|z| size(*z)).fold(0.0, f64::max);
             for i in 0..7 {
                 let d = Complex::new(xr[i], xi[i]) - expected[i];
-                assert!(d.norm() <= 1e-9 * scale, "seed {seed}, row {i}");
+                assert!(size(d) <= 1e-9 * scale, "seed {seed}, row {i}");
             }
         }
         let (mut z, mut w) = (SMatrix::<f64, 3, 3>::zeros(), SMatrix::<f64, 3, 3>::zeros());
