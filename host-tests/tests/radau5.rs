@@ -121,3 +121,31 @@ fn probe_for_instruction_counts() {
     }
     println!("{mode:?} h = {h}: {steps} steps");
 }
+
+/// The mode exists only for Radau with exact partials: a scene asking for it with BDF
+/// (or another Jacobian) is refused on the field, and BDF refuses the mode itself.
+#[test]
+fn transformed_newton_is_radau_with_exact_partials_only() {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper-crane-radau5.toml"),
+    )
+    .unwrap();
+    let scene = Scene::parse(&text).unwrap();
+    assert_eq!(scene.settings().jacobian, JacobianMode::Transformed);
+    for (from, to) in [
+        ("scheme = \"radau\"", "scheme = \"bdf\""),
+        ("jacobian = \"exact\"", "jacobian = \"fd\""),
+    ] {
+        let err = Scene::parse(&text.replace(from, to)).unwrap_err();
+        assert_eq!(err.field, "solver.newton", "{to}: {err}");
+    }
+    let ModelSpec::CraneSubs(crane) = &scene.model else {
+        panic!("the crane")
+    };
+    let model = CraneSubs::new(crane.params(), scene.trajectory2().unwrap()).unwrap();
+    let err = solver_core::Bdf::<f64, _, 7, 2>::new(&model, &scene.settings(), 4, 0.0).unwrap_err();
+    assert!(
+        matches!(err, solver_core::Error::InvalidSetting { .. }),
+        "{err:?}"
+    );
+}
