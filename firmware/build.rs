@@ -96,7 +96,9 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
         ),
     };
     let settings = scene.settings();
+    let transformed = s.newton == scene::NewtonSpec::Transformed;
     let jacobian = match (s.jacobian, s.reinit_every) {
+        _ if transformed => "solver_core::JacobianMode::Transformed".to_string(),
         (JacobianSpec::Fd, _) => "solver_core::JacobianMode::FiniteDifference".to_string(),
         (JacobianSpec::Exact, _) => "solver_core::JacobianMode::Exact".to_string(),
         (JacobianSpec::Broyden, r) => {
@@ -104,6 +106,7 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
         }
     };
     let jacobian_label = match (s.jacobian, s.reinit_every) {
+        _ if transformed => "RADAU5".to_string(),
         (JacobianSpec::Fd, _) => "J".to_string(),
         (JacobianSpec::Exact, _) => "exact".to_string(),
         (JacobianSpec::Broyden, None) => "J~".to_string(),

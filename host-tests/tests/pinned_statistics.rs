@@ -122,3 +122,49 @@ fn mass_on_car_at_ten_milliseconds() {
     }
     insta::assert_snapshot!(out);
 }
+
+/// RADAU5's transformed simplified Newton (not one of the paper's modes, so not in
+/// `JACOBIAN_MODES`): steps, iterations, Jacobians and factorisations pinned on the
+/// paper's crane at the test bench's 10 ms and at 1 ms, and on the mass-on-car.
+#[test]
+fn radau_transformed_newton() {
+    let (p, z) = (CraneParams::PAPER, crane_trajectory(4));
+    let model = CraneSubs::new(p, z).unwrap();
+    let mut out = String::new();
+    for h in [0.01, 0.001] {
+        let settings = SolverSettings {
+            h,
+            ..SolverSettings::paper(JacobianMode::Transformed)
+        };
+        let trace =
+            run::<f64, _, 7, 2, 21>(&model, Scheme::Radau, &settings, 0.0, CRANE_T_END).unwrap();
+        let e = emax(&trace.t, &crane_input_errors(&p, &z, &trace), 2.0, 8.0);
+        row(
+            &mut out,
+            &format!("crane h={h}"),
+            &trace,
+            e.global,
+            e.interior,
+        );
+    }
+    let (p, z) = (MassOnCarParams::PAPER, mass_on_car_trajectory(4));
+    let model = MassOnCar::new(p, z).unwrap();
+    let trace = run::<f64, _, 5, 1, 15>(
+        &model,
+        Scheme::Radau,
+        &SolverSettings::paper(JacobianMode::Transformed),
+        0.0,
+        MASS_ON_CAR_T_END,
+    )
+    .unwrap();
+    let mut reference = MassOnCarReference::new(p, z, 0.0, Dopri5Settings::default()).unwrap();
+    let du: Vec<f64> = trace
+        .t
+        .iter()
+        .zip(&trace.u)
+        .map(|(&t, u)| (u[0] - reference.advance_to(t).unwrap().f).abs())
+        .collect();
+    let e = emax(&trace.t, &du, 7.0, 20.0);
+    row(&mut out, "mass-on-car h=0.01", &trace, e.global, e.interior);
+    insta::assert_snapshot!(out);
+}

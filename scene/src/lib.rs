@@ -23,6 +23,8 @@
 //! h = 0.01                   # s
 //! jacobian = "exact"         # fd | broyden | exact
 //! reinit_every = 10          # broyden only; omit for continuous updating (J̃)
+//! newton = "full"            # full | transformed (radau with exact only: RADAU5's
+//!                            # transformed simplified Newton)
 //! rho_power = 2              # algebraic rows scaled by h^-p, p in 0..3
 //! max_iterations = 20
 //! scalar = "f64"             # f64 | f32
@@ -229,6 +231,18 @@ pub enum JacobianSpec {
     Exact,
 }
 
+/// How Newton treats Radau's stage system.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NewtonSpec {
+    /// Newton on the whole stage system with the chosen Jacobian (the paper's modes).
+    #[default]
+    Full,
+    /// RADAU5's simplified Newton on the transformed stage system, exact partials kept
+    /// across steps (`JacobianMode::Transformed`); Radau with `jacobian = "exact"` only.
+    Transformed,
+}
+
 /// Scalar type.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -251,6 +265,8 @@ pub struct SolverSpec {
     pub jacobian: JacobianSpec,
     #[serde(default)]
     pub reinit_every: Option<u32>,
+    #[serde(default)]
+    pub newton: NewtonSpec,
     #[serde(default = "default_rho")]
     pub rho_power: u32,
     #[serde(default = "default_iterations")]
@@ -320,6 +336,7 @@ impl Scene {
         let s = &self.solver;
         let jacobian = match s.jacobian {
             JacobianSpec::Fd => JacobianMode::FiniteDifference,
+            JacobianSpec::Exact if s.newton == NewtonSpec::Transformed => JacobianMode::Transformed,
             JacobianSpec::Exact => JacobianMode::Exact,
             JacobianSpec::Broyden => JacobianMode::Broyden {
                 reinit_every: s.reinit_every,
@@ -398,6 +415,14 @@ impl Scene {
             return Err(refuse(
                 "solver.reinit_every",
                 "only applies to jacobian = \"broyden\"",
+            ));
+        }
+        if s.newton == NewtonSpec::Transformed
+            && (s.scheme != SchemeSpec::Radau || s.jacobian != JacobianSpec::Exact)
+        {
+            return Err(refuse(
+                "solver.newton",
+                "\"transformed\" needs scheme = \"radau\" and jacobian = \"exact\"",
             ));
         }
         if s.reinit_every == Some(0) {

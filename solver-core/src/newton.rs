@@ -54,6 +54,11 @@ pub enum JacobianMode {
     },
     /// The model's exact partial derivatives in every Newton iteration.
     Exact,
+    /// Radau IIA only: RADAU5's simplified Newton on the transformed stage system —
+    /// one real and one complex N×N matrix from the model's exact partials, kept across
+    /// steps while the iteration contracts fast (`schemes::radau5`). Not one of the
+    /// paper's modes; BDF refuses it.
+    Transformed,
 }
 
 /// Newton's stopping rules and limits.
@@ -202,6 +207,13 @@ impl<T: Real, const M: usize> Newton<T, M> {
                 value: 0.0,
             });
         }
+        if mode == JacobianMode::Transformed {
+            // Only Radau IIA's stage system has the structure the transformation needs.
+            return Err(Error::InvalidSetting {
+                name: "jacobian_transformed",
+                value: 1.0,
+            });
+        }
         Ok(Self {
             mode,
             settings,
@@ -302,7 +314,7 @@ impl<T: Real, const M: usize> Newton<T, M> {
                     finite_difference_jacobian(sys, &xi, &g, stats, &mut self.matrix);
                     self.solve_linear(&g, stats, t)?
                 }
-                JacobianMode::Exact => {
+                JacobianMode::Exact | JacobianMode::Transformed => {
                     stats.jacobian_evals += 1;
                     sys.jacobian_into(&xi, &mut self.matrix);
                     self.solve_linear(&g, stats, t)?

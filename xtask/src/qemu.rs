@@ -21,7 +21,10 @@ pub const SCENES: [&str; 2] = ["scenes/paper-crane.toml", "scenes/paper-crane-ra
 
 /// Scenes `qemu-bench` measures beside [`SCENES`], with no golden log or baseline:
 /// other solver configurations a user may choose for the MCU.
-pub const BENCH_ONLY_SCENES: [&str; 1] = ["scenes/paper-crane-radau-exact.toml"];
+pub const BENCH_ONLY_SCENES: [&str; 2] = [
+    "scenes/paper-crane-radau-exact.toml",
+    "scenes/paper-crane-radau5.toml",
+];
 
 /// Wall-clock limit for one QEMU run: 10 minutes, and a minute more per 100,000 cycles.
 fn qemu_limit(scenario: &Scenario) -> Duration {
@@ -354,9 +357,13 @@ pub fn table(runs: &[Measured]) -> String {
                     .map(|s| s.split(',').next().unwrap_or(s).to_string())
             })
             .unwrap_or_default();
-        // The issue's targets: BDF4, and Radau with J̃10; other configurations have none.
+        // The issue's targets: BDF4, Radau with J̃10, and RADAU5's transformed Newton
+        // (worst case including the controller's tick); other configurations have none.
         let settings = &m.scene.solver;
         let target = match settings.scheme {
+            scene::SchemeSpec::Radau if settings.newton == scene::NewtonSpec::Transformed => {
+                "25,000 (mean 12,000)"
+            }
             scene::SchemeSpec::Radau
                 if settings.jacobian == scene::JacobianSpec::Broyden
                     && settings.reinit_every == Some(10) =>

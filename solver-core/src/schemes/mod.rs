@@ -7,6 +7,7 @@
 pub mod bdf;
 mod history;
 pub mod radau;
+pub mod radau5;
 
 use nalgebra::SVector;
 

@@ -16,9 +16,10 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::error::Result;
 use crate::model::DaeModel;
-use crate::newton::{row_scaling, weighted_norm, Newton, StepSystem};
+use crate::newton::{row_scaling, weighted_norm, JacobianMode, Newton, StepSystem};
 use crate::scalar::{c, to_f64, Real};
 use crate::schemes::bdf::scale_rows;
+use crate::schemes::radau5::{StepData, Transformed};
 use crate::schemes::{SolverSettings, StepReport};
 
 const SQRT6: f64 = 2.449_489_742_783_178;
@@ -52,8 +53,17 @@ pub struct Radau<T: Real, M, const N: usize, const NU: usize, const S: usize> {
     /// extrapolated to this step's nodes, as Newton's initial guess.
     extrapolation: [[T; 3]; 3],
     scale: SVector<T, N>,
-    newton: Newton<T, S>,
+    newton: StageSolver<T, N, S>,
     model: PhantomData<fn() -> M>,
+}
+
+/// How the stage system is solved: Newton on the 3N×3N system (the paper's J, J̃, J̃ₙ,
+/// and exact), or RADAU5's transformed simplified Newton on N×N blocks.
+#[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant)] // one of them lives in each integrator, never moved
+enum StageSolver<T: Real, const N: usize, const S: usize> {
+    Full(Newton<T, S>),
+    Transformed(Transformed<T, N>),
 }
 
 impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize>
@@ -83,7 +93,11 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
             hb: B.map(|b| h * c::<T>(b)),
             extrapolation,
             scale: row_scaling(&M::ALGEBRAIC, h, settings.scaling_power),
-            newton: Newton::new(settings.jacobian, settings.newton)?,
+            newton: if settings.jacobian == JacobianMode::Transformed {
+                StageSolver::Transformed(Transformed::new(settings.newton, h)?)
+            } else {
+                StageSolver::Full(Newton::new(settings.jacobian, settings.newton)?)
+            },
             model: PhantomData,
         })
     }
@@ -95,7 +109,10 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
         self.stage_derivatives = SVector::zeros();
         self.t0 = t0;
         self.steps = 0;
-        self.newton.forget();
+        match &mut self.newton {
+            StageSolver::Full(newton) => newton.forget(),
+            StageSolver::Transformed(transformed) => transformed.forget(),
+        }
         Ok(())
     }
 
@@ -124,6 +141,44 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
             guess.fixed_rows_mut::<N>(j * N).copy_from(&g);
         }
         let t = self.t0 + c::<T>((self.steps + 1) as f64) * self.h;
+        let newton = match &mut self.newton {
+            StageSolver::Full(newton) => newton,
+            StageSolver::Transformed(transformed) => {
+                // Stage increments Z = h (A ⊗ I) X' from the extrapolated derivatives.
+                let z = self.ha.map(|row| {
+                    row.iter()
+                        .enumerate()
+                        .fold(SVector::<T, N>::zeros(), |acc, (j, a)| {
+                            acc + block::<T, N, S>(&guess, j) * *a
+                        })
+                });
+                let data = StepData {
+                    model,
+                    samples: &samples,
+                    x0: self.x,
+                    scale: &self.scale,
+                    t: to_f64(t),
+                };
+                let (z, stats) = transformed.solve(&data, z)?;
+                let [_, _, z3] = z;
+                // Radau IIA is stiffly accurate: x_n is the last stage value (Eq. 14).
+                let x = self.x + z3;
+                let derivatives = transformed.derivatives(&z);
+                for (i, d) in derivatives.iter().enumerate() {
+                    self.stage_derivatives
+                        .fixed_rows_mut::<N>(i * N)
+                        .copy_from(d);
+                }
+                self.x = x;
+                self.steps += 1;
+                return Ok(StepReport {
+                    t,
+                    u: M::inputs(&x),
+                    x,
+                    stats,
+                });
+            }
+        };
         let system = RadauSystem {
             model,
             samples,
@@ -132,7 +187,7 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
             scale: &self.scale,
             t: to_f64(t),
         };
-        let (xi, stats) = self.newton.solve(&system, guess)?;
+        let (xi, stats) = newton.solve(&system, guess)?;
         // Eq. 14.
         let mut x = self.x;
         for (i, hb) in self.hb.iter().enumerate() {

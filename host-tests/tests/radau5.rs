@@ -1,0 +1,151 @@
+//! RADAU5's transformed simplified Newton (`JacobianMode::Transformed`) against the
+//! exact-Jacobian full Newton on the paper's crane (`scenes/paper-crane.toml`, Radau IIA):
+//! the same accuracy at every step size from 0.5 ms to 50 ms — e_max and interior
+//! e_max within 10 % — for a fraction of the Newton work.
+//!
+//! `cargo test -p host-tests --test radau5 -- --nocapture` prints the table.
+
+use std::path::Path;
+
+use host_tests::run::{crane_input_errors, emax, run, Scheme, Trace};
+use scene::{ModelSpec, Scene};
+use solver_core::models::crane_subs::CraneSubs;
+use solver_core::{JacobianMode, SolverSettings};
+
+const STEP_SIZES: [f64; 7] = [0.0005, 0.001, 0.002, 0.005, 0.01, 0.02, 0.05];
+
+fn paper_crane() -> Scene {
+    Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper-crane.toml")).unwrap()
+}
+
+struct Outcome {
+    global: f64,
+    interior: f64,
+    trace: Trace<7, 2>,
+}
+
+fn radau(scene: &Scene, mode: JacobianMode, h: f64) -> Outcome {
+    let ModelSpec::CraneSubs(crane) = &scene.model else {
+        panic!("paper-crane.toml is the crane, subs")
+    };
+    let (p, z) = (crane.params(), scene.trajectory2().unwrap());
+    let model = CraneSubs::new(p, z).unwrap();
+    let settings = SolverSettings {
+        h,
+        jacobian: mode,
+        ..scene.settings()
+    };
+    let t_end = scene.trajectory.t_end;
+    let trace = run::<f64, _, 7, 2, 21>(&model, Scheme::Radau, &settings, 0.0, t_end).unwrap();
+    assert!(
+        trace.failure.is_none(),
+        "{mode:?} h = {h}: {:?}",
+        trace.failure
+    );
+    let (a, b) = scene.interior();
+    let e = emax(&trace.t, &crane_input_errors(&p, &z, &trace), a, b);
+    Outcome {
+        global: e.global,
+        interior: e.interior,
+        trace,
+    }
+}
+
+#[test]
+fn same_accuracy_as_exact_newton_at_every_step_size() {
+    let scene = paper_crane();
+    let mut failures = Vec::new();
+    println!("h ms | exact e_max interior | transformed e_max interior | ratios | iterations/step exact, transformed | LUs transformed");
+    for h in STEP_SIZES {
+        let exact = radau(&scene, JacobianMode::Exact, h);
+        let new = radau(&scene, JacobianMode::Transformed, h);
+        let (rg, ri) = (new.global / exact.global, new.interior / exact.interior);
+        let steps = new.trace.steps() as f64;
+        let lus: u64 = new
+            .trace
+            .stats
+            .iter()
+            .map(|s| u64::from(s.factorizations))
+            .sum();
+        println!(
+            "{:5.1} | {:.3e} {:.3e} | {:.3e} {:.3e} | {rg:.3} {ri:.3} | {:.2} {:.2} | {lus}",
+            h * 1e3,
+            exact.global,
+            exact.interior,
+            new.global,
+            new.interior,
+            exact.trace.iterations() as f64 / steps,
+            new.trace.iterations() as f64 / steps,
+        );
+        if rg > 1.1 || ri > 1.1 {
+            failures.push(format!("h = {h}: e_max ratio {rg:.3}, interior {ri:.3}"));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// Runs the paper's crane move once in the mode and step size named by
+/// `RADAU5_PROBE="transformed 0.01"` (or `exact …`), for a host instruction count:
+///
+/// ```sh
+/// RADAU5_PROBE="transformed 0.01" valgrind --tool=callgrind \
+///   --toggle-collect='*Radau$LT$*$GT$4step*' target/debug/deps/radau5-<hash> \
+///   --ignored --exact probe_for_instruction_counts
+/// ```
+///
+/// Instructions per step = the collected `Ir` / the steps printed.
+#[test]
+#[ignore = "a probe for callgrind, run by hand"]
+fn probe_for_instruction_counts() {
+    let spec = std::env::var("RADAU5_PROBE").unwrap_or_else(|_| "transformed 0.01".into());
+    let (mode, h) = spec.split_once(' ').unwrap();
+    let mode = match mode {
+        "exact" => JacobianMode::Exact,
+        _ => JacobianMode::Transformed,
+    };
+    let h: f64 = h.parse().unwrap();
+    let scene = paper_crane();
+    let ModelSpec::CraneSubs(crane) = &scene.model else {
+        panic!("paper-crane.toml is the crane, subs")
+    };
+    let model = CraneSubs::new(crane.params(), scene.trajectory2().unwrap()).unwrap();
+    let settings = SolverSettings {
+        h,
+        jacobian: mode,
+        ..scene.settings()
+    };
+    let mut radau = solver_core::Radau::<f64, _, 7, 2, 21>::new(&model, &settings, 0.0).unwrap();
+    let steps = (scene.trajectory.t_end / h).round() as usize;
+    for _ in 0..steps {
+        std::hint::black_box(radau.step(&model)).unwrap();
+    }
+    println!("{mode:?} h = {h}: {steps} steps");
+}
+
+/// The mode exists only for Radau with exact partials: a scene asking for it with BDF
+/// (or another Jacobian) is refused on the field, and BDF refuses the mode itself.
+#[test]
+fn transformed_newton_is_radau_with_exact_partials_only() {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper-crane-radau5.toml"),
+    )
+    .unwrap();
+    let scene = Scene::parse(&text).unwrap();
+    assert_eq!(scene.settings().jacobian, JacobianMode::Transformed);
+    for (from, to) in [
+        ("scheme = \"radau\"", "scheme = \"bdf\""),
+        ("jacobian = \"exact\"", "jacobian = \"fd\""),
+    ] {
+        let err = Scene::parse(&text.replace(from, to)).unwrap_err();
+        assert_eq!(err.field, "solver.newton", "{to}: {err}");
+    }
+    let ModelSpec::CraneSubs(crane) = &scene.model else {
+        panic!("the crane")
+    };
+    let model = CraneSubs::new(crane.params(), scene.trajectory2().unwrap()).unwrap();
+    let err = solver_core::Bdf::<f64, _, 7, 2>::new(&model, &scene.settings(), 4, 0.0).unwrap_err();
+    assert!(
+        matches!(err, solver_core::Error::InvalidSetting { .. }),
+        "{err:?}"
+    );
+}
