@@ -154,6 +154,11 @@ fn paper_and_extremes_run_quick() {
         }
     }
     assert!(rows[1..].iter().any(|r| r[col("outcome")] == "ok"));
+    // The heat map has one panel per scheme, not every configuration in one column.
+    let svg = std::fs::read_to_string(dir.join("extremes-paper-crane.svg")).unwrap();
+    for text in ["BDF4", "Radau", "exact p=2 f64"] {
+        assert!(svg.lines().any(|l| l.trim() == text), "{text}");
+    }
 }
 
 /// A scene file: the paper's crane with `from` replaced by `to`.
