@@ -359,3 +359,13 @@ fn a_long_run_keeps_its_memory_bounded() {
     let written = std::fs::metadata(&out).unwrap().len();
     assert!(written > 100_000, "{written} bytes written");
 }
+
+#[test]
+fn the_proj_radau_failure_is_documented_with_its_command() {
+    // The run a_failed_run_has_no_e_max_and_a_partial_one_says_so makes fail.
+    let docs = std::fs::read_to_string(root().join("docs/RESULTS.md")).unwrap();
+    assert!(docs.contains("stops with a Newton failure at t = 7.602 s"));
+    assert!(docs.contains(
+        "--vary \"formulation=proj,scheme=radau,jacobian=jt10|jt50|jt|j|exact,h=0.001\""
+    ));
+}
