@@ -538,3 +538,46 @@ pub fn scheme_label(scene: &Scene) -> String {
         SchemeSpec::Radau => "Radau".into(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Counts what a run hands over, keeping nothing else.
+    #[derive(Default)]
+    struct Count {
+        samples: usize,
+        last_progress: (usize, usize),
+    }
+
+    impl Observer for Count {
+        fn sample(&mut self, _: &Sample<'_>) -> Result<(), String> {
+            self.samples += 1;
+            Ok(())
+        }
+        fn progress(&mut self, done: usize, total: usize) {
+            assert!(done >= self.last_progress.0, "progress went back");
+            self.last_progress = (done, total);
+        }
+    }
+
+    #[test]
+    fn a_run_streams_its_samples_and_reports_its_progress() {
+        let scene = Scene::load(&crate::paper::root().join("scenes/paper-crane.toml")).unwrap();
+        let mut count = Count::default();
+        let r = run_scene_observed(&scene, 0, 1e-3, &mut count).unwrap();
+        assert_eq!(r.outcome, Outcome::Ok);
+        assert_eq!(count.samples, 1 + 1000);
+        assert_eq!(count.last_progress, (1000, 1000));
+    }
+
+    #[test]
+    fn long_numbers_are_shortened() {
+        let text = format!("outside [{}, {}]", f64::MIN_POSITIVE, f64::MAX);
+        assert_eq!(
+            readable_numbers(&text),
+            "outside [2.2250738585072014e-308, 1.7976931348623157e308]"
+        );
+        assert_eq!(readable_numbers("t = 7.602 s, 40 it"), "t = 7.602 s, 40 it");
+    }
+}
