@@ -324,19 +324,19 @@ fn range_errors_print_readable_bounds() {
     assert!(err.len() < 200, "{err}");
 }
 
-/// Resident memory of a process, kB.
-fn rss_kb(pid: u32) -> u64 {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
+/// Resident memory of a running process, kB (`None` once it has ended).
+fn rss_kb(pid: u32) -> Option<u64> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
     status
         .lines()
         .find_map(|l| l.strip_prefix("VmRSS:"))
         .and_then(|v| v.split_whitespace().next()?.parse().ok())
-        .unwrap()
 }
 
 #[test]
 fn a_long_run_keeps_its_memory_bounded() {
-    // 10⁷ steps: the old runner kept every state and grew by megabytes per second.
+    // At h = 1 µs BDF4 takes 1.5 million steps before Newton fails at the rounding
+    // floor (t = 1.52 s); the old runner kept every state and grew by ~80 MB/s.
     let scene = variant("tiny-h", "h = 0.01", "h = 0.000001");
     let out = scratch("tiny-h-series").join("series.csv");
     let mut child = study()
@@ -348,24 +348,26 @@ fn a_long_run_keeps_its_memory_bounded() {
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
-    std::thread::sleep(std::time::Duration::from_secs(2));
-    let early = rss_kb(child.id());
-    std::thread::sleep(std::time::Duration::from_secs(4));
-    let late = rss_kb(child.id());
-    child.kill().unwrap();
+    let started = std::time::Instant::now();
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let mut samples = Vec::new();
+    while started.elapsed().as_secs() < 6 && child.try_wait().unwrap().is_none() {
+        if let Some(kb) = rss_kb(child.id()) {
+            samples.push((started.elapsed().as_secs_f64(), kb));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let _ = child.kill();
     child.wait().unwrap();
-    assert!(late < early + 2_000, "grew from {early} kB to {late} kB");
+    let (first, last) = (samples.first().unwrap(), samples.last().unwrap());
+    assert!(last.0 - first.0 >= 1.0, "sampled only {samples:?}");
+    let most = samples.iter().map(|s| s.1).max().unwrap();
+    assert!(
+        most < first.1 + 2_000,
+        "grew from {} kB to {most} kB",
+        first.1
+    );
     // ... while the samples were streamed to the file.
     let written = std::fs::metadata(&out).unwrap().len();
     assert!(written > 100_000, "{written} bytes written");
-}
-
-#[test]
-fn the_proj_radau_failure_is_documented_with_its_command() {
-    // The run a_failed_run_has_no_e_max_and_a_partial_one_says_so makes fail.
-    let docs = std::fs::read_to_string(root().join("docs/RESULTS.md")).unwrap();
-    assert!(docs.contains("stops with a Newton failure at t = 7.602 s"));
-    assert!(docs.contains(
-        "--vary \"formulation=proj,scheme=radau,jacobian=jt10|jt50|jt|j|exact,h=0.001\""
-    ));
 }
