@@ -443,9 +443,8 @@ impl DriveSim {
             // The quick-stop deceleration 0x6085 (units/s) over one interpolation period
             // 0x60C2 (ms), both as commissioned — whatever its NMT state: the drive's
             // motion control does not wait for PDOs to brake.
-            let per_cycle = u64::from(self.od.get(0x6085, 0))
-                * u64::from(self.od.get(0x60C2, 1).max(1))
-                / 1000;
+            let per_cycle =
+                u64::from(self.od.get(0x6085, 0)) * u64::from(self.od.get(0x60C2, 1).max(1)) / 1000;
             let step = i32::try_from(per_cycle).unwrap_or(i32::MAX).max(1);
             self.velocity -= self.velocity.clamp(-step, step);
         }

@@ -12,7 +12,7 @@ use solver_core::reference::mass_on_car::MassOnCarReference;
 use solver_core::trajectory::Trajectory;
 
 use crate::plot::{figure, Chart, Scale, Series};
-use crate::study::{default_threshold, run_scene, RunResult};
+use crate::study::{default_threshold, run_scene, run_scene_observed, RunResult, TimeSeries};
 use crate::sweep::{apply, csv_row, CSV_HEADER};
 
 /// The repository root (scenes are found relative to it).
@@ -358,13 +358,14 @@ fn mass_on_car(out: &Path, quick: bool) -> Result<String, String> {
         for (k, v) in settings.iter() {
             s = apply(&s, k, v)?;
         }
-        let r = run_scene(&s, 0, default_threshold(&s));
-        if r.u.is_empty() {
-            return Err(format!("{label}: {}", r.failure.unwrap_or_default()));
+        let mut series = TimeSeries::default();
+        let r = run_scene_observed(&s, 0, default_threshold(&s), &mut series)?;
+        if r.failure.is_some() {
+            return Err(format!("{label}: {}", r.failure_text()));
         }
-        runs.push((*label, s, r));
+        runs.push((*label, s, series));
     }
-    let signed = |r: &RunResult| -> Vec<(f64, f64)> {
+    let signed = |r: &TimeSeries| -> Vec<(f64, f64)> {
         r.t.iter()
             .zip(r.u.iter().zip(&r.u_ref))
             .map(|(t, (u, u_ref))| (*t, u[0] - u_ref[0]))

@@ -194,41 +194,65 @@ pub fn outcome_color(o: Option<Outcome>) -> RGBColor {
     }
 }
 
-/// A grid of outcomes: one row per configuration, one column per step size.
+/// One panel of a heat map: a grid of outcomes, one row per configuration, one
+/// column per step size.
+pub struct Facet {
+    /// The panel's title (a scheme).
+    pub title: String,
+    /// Row labels.
+    pub rows: Vec<String>,
+    /// Outcomes, row by row.
+    pub cells: Vec<Vec<Option<Outcome>>>,
+}
+
+/// Panels side by side, `per_line` to a line, sharing the step-size columns: a map of
+/// hundreds of configurations in one column could not be read.
 pub fn heat_map(
     path: &Path,
     title: &str,
-    rows: &[String],
     columns: &[String],
-    cells: &[Vec<Option<Outcome>>],
+    facets: &[Facet],
+    per_line: usize,
 ) -> Result<(), String> {
     let e = |e: &dyn std::fmt::Display| e.to_string();
-    let (cw, ch, left, top) = (70i32, 16i32, 230i32, 60i32);
-    let width = (left + cw * columns.len() as i32 + 20).max(700) as u32;
-    let height = (top + ch * rows.len() as i32 + 70) as u32;
+    let (cw, ch, label) = (40i32, 14i32, 110i32);
+    let per_line = per_line.max(1);
+    let facet_w = label + cw * columns.len() as i32 + 30;
+    let most_rows = facets.iter().map(|f| f.rows.len()).max().unwrap_or(0) as i32;
+    let facet_h = 50 + ch * most_rows + 20;
+    let lines = facets.len().div_ceil(per_line) as i32;
+    let width = (facet_w * per_line.min(facets.len().max(1)) as i32 + 20).max(800) as u32;
+    let height = (40 + facet_h * lines + 40) as u32;
     let root = SVGBackend::new(path, (width, height)).into_drawing_area();
     root.fill(&WHITE).map_err(|x| e(&x))?;
     let text = |s: &str, x: i32, y: i32, size: u32| {
         Text::new(s.to_string(), (x, y), ("sans-serif", size).into_font())
     };
     root.draw(&text(title, 10, 10, 18)).map_err(|x| e(&x))?;
-    for (j, c) in columns.iter().enumerate() {
-        root.draw(&text(c, left + cw * j as i32 + 6, top - 18, 12))
+    for (n, facet) in facets.iter().enumerate() {
+        let x0 = 10 + facet_w * (n % per_line) as i32;
+        let y0 = 40 + facet_h * (n / per_line) as i32;
+        root.draw(&text(&facet.title, x0, y0, 15))
             .map_err(|x| e(&x))?;
-    }
-    for (i, (r, row)) in rows.iter().zip(cells).enumerate() {
-        let y = top + ch * i as i32;
-        root.draw(&text(r, 10, y + 2, 11)).map_err(|x| e(&x))?;
-        for (j, cell) in row.iter().enumerate() {
-            let x = left + cw * j as i32;
-            root.draw(&Rectangle::new(
-                [(x, y), (x + cw - 2, y + ch - 2)],
-                outcome_color(*cell).filled(),
-            ))
-            .map_err(|x| e(&x))?;
+        let top = y0 + 40;
+        for (j, c) in columns.iter().enumerate() {
+            root.draw(&text(c, x0 + label + cw * j as i32 + 2, top - 16, 10))
+                .map_err(|x| e(&x))?;
+        }
+        for (i, (r, row)) in facet.rows.iter().zip(&facet.cells).enumerate() {
+            let y = top + ch * i as i32;
+            root.draw(&text(r, x0, y + 1, 10)).map_err(|x| e(&x))?;
+            for (j, cell) in row.iter().enumerate() {
+                let x = x0 + label + cw * j as i32;
+                root.draw(&Rectangle::new(
+                    [(x, y), (x + cw - 2, y + ch - 2)],
+                    outcome_color(*cell).filled(),
+                ))
+                .map_err(|x| e(&x))?;
+            }
         }
     }
-    let legend_y = top + ch * rows.len() as i32 + 20;
+    let legend_y = 40 + facet_h * lines + 10;
     for (k, o) in [
         Outcome::Ok,
         Outcome::Inaccurate,

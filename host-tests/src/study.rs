@@ -9,17 +9,18 @@ use std::time::Instant;
 
 use nalgebra::SVector;
 use scene::{JacobianSpec, ModelSpec, ScalarSpec, Scene, SceneError, SchemeSpec};
+use solver_core::models::crane::CraneParams;
 use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
 use solver_core::models::mass_on_car::MassOnCar;
 use solver_core::reference::dopri5::Dopri5Settings;
 use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::reference::mass_on_car::MassOnCarReference;
-use solver_core::scalar::c;
+use solver_core::scalar::{c, to_f64};
 use solver_core::trajectory::PointToPoint;
 use solver_core::{Bdf, DaeModel, Error, Radau, Real};
 
-use crate::run::{run, Scheme, Trace};
+use crate::run::Scheme;
 
 /// How a configuration ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -52,21 +53,21 @@ impl Outcome {
     }
 }
 
-/// Everything measured about one run.
+/// Everything measured about one run. Nothing here grows with the run's length: the
+/// samples go to an [`Observer`] as they are computed (a run at h = 1e-9 has 10¹⁰).
 #[derive(Debug, Clone)]
 pub struct RunResult {
-    /// Sample times, s.
-    pub t: Vec<f64>,
-    /// Computed inputs per sample.
-    pub u: Vec<Vec<f64>>,
-    /// Reference inputs per sample.
-    pub u_ref: Vec<Vec<f64>>,
-    /// `max_i |u_i − u_ref,i|` per sample.
-    pub error: Vec<f64>,
-    /// Eq. 29 over the whole run.
+    /// Eq. 29 over the whole run; NaN (an empty cell) unless the run reached `t_end`:
+    /// the error of the part that ran is not the run's e_max.
     pub e_global: f64,
-    /// Eq. 29 over the interior of the move ([`Scene::interior`]).
+    /// Eq. 29 over the interior of the move ([`Scene::interior`]); NaN unless completed.
     pub e_interior: f64,
+    /// Eq. 29 over the samples that were computed (equals `e_global` when completed).
+    pub e_partial: f64,
+    /// Time of the last computed sample, s.
+    pub t_reached: f64,
+    /// Where the run should have ended, s.
+    pub t_end: f64,
     /// Steps taken.
     pub steps: usize,
     /// Mean Newton iterations per step.
@@ -89,18 +90,17 @@ pub struct RunResult {
 
 impl RunResult {
     fn refused(e: SceneError) -> Self {
-        Self::not_run(e.to_string())
+        Self::not_run(readable_numbers(&e.to_string()))
     }
 
     /// A configuration that was refused before running, with the reason.
     pub fn not_run(reason: impl Into<String>) -> Self {
         Self {
-            t: vec![],
-            u: vec![],
-            u_ref: vec![],
-            error: vec![],
             e_global: f64::NAN,
             e_interior: f64::NAN,
+            e_partial: f64::NAN,
+            t_reached: f64::NAN,
+            t_end: f64::NAN,
             steps: 0,
             iterations_mean: f64::NAN,
             iterations_max: 0,
@@ -111,6 +111,75 @@ impl RunResult {
             outcome: Outcome::Refused,
             failure: Some(reason.into()),
         }
+    }
+
+    /// Whether the run stopped after some steps but before `t_end`.
+    pub fn is_partial(&self) -> bool {
+        self.steps > 0 && self.e_global.is_nan() && self.outcome != Outcome::Refused
+    }
+
+    /// The failure, and for a run that stopped part-way how far it got and the error
+    /// of that part — never presented as the run's e_max.
+    pub fn failure_text(&self) -> String {
+        let failure = self.failure.clone().unwrap_or_default();
+        if self.is_partial() {
+            format!(
+                "{failure} (partial run: stopped at t = {} s of {} s after {} steps; e_max over that part {:.4e})",
+                self.t_reached, self.t_end, self.steps, self.e_partial
+            )
+        } else {
+            failure
+        }
+    }
+}
+
+/// One computed sample, handed to an [`Observer`] as the run goes.
+#[derive(Debug, Clone, Copy)]
+pub struct Sample<'a> {
+    /// Time, s.
+    pub t: f64,
+    /// Computed inputs.
+    pub u: &'a [f64],
+    /// Reference inputs.
+    pub u_ref: &'a [f64],
+    /// `max_i |u_i − u_ref,i|`.
+    pub error: f64,
+}
+
+/// What a run does with its samples and its progress; by default nothing, so a run
+/// keeps no memory proportional to its length.
+pub trait Observer {
+    /// One sample (the rest state at t = 0 first). An error stops the run.
+    fn sample(&mut self, _sample: &Sample<'_>) -> Result<(), String> {
+        Ok(())
+    }
+    /// `done` of `total` steps taken.
+    fn progress(&mut self, _done: usize, _total: usize) {}
+}
+
+/// Keeps nothing.
+impl Observer for () {}
+
+/// The whole time series in memory: for the paper's figures of short runs.
+#[derive(Debug, Clone, Default)]
+pub struct TimeSeries {
+    /// Sample times, s.
+    pub t: Vec<f64>,
+    /// Computed inputs per sample.
+    pub u: Vec<Vec<f64>>,
+    /// Reference inputs per sample.
+    pub u_ref: Vec<Vec<f64>>,
+    /// `max_i |u_i − u_ref,i|` per sample.
+    pub error: Vec<f64>,
+}
+
+impl Observer for TimeSeries {
+    fn sample(&mut self, s: &Sample<'_>) -> Result<(), String> {
+        self.t.push(s.t);
+        self.u.push(s.u.to_vec());
+        self.u_ref.push(s.u_ref.to_vec());
+        self.error.push(s.error);
+        Ok(())
     }
 }
 
@@ -127,66 +196,102 @@ pub fn default_threshold(scene: &Scene) -> f64 {
 /// A panic (which solver-core promises never to do) is caught and reported as
 /// [`Outcome::Panic`] instead of ending the study.
 pub fn run_scene(scene: &Scene, repeats: usize, threshold: f64) -> RunResult {
-    std::panic::catch_unwind(|| run_scene_unguarded(scene, repeats, threshold)).unwrap_or_else(
-        |_| {
-            let mut r = RunResult::refused(SceneError {
-                field: String::new(),
-                reason: "panicked".into(),
-            });
-            r.outcome = Outcome::Panic;
-            r
-        },
-    )
+    run_scene_observed(scene, repeats, threshold, &mut ()).unwrap_or_else(RunResult::not_run)
 }
 
-fn run_scene_unguarded(scene: &Scene, repeats: usize, threshold: f64) -> RunResult {
-    if let Err(e) = scene.validate() {
-        return RunResult::refused(e);
+/// [`run_scene`], handing every sample and the progress to `observer`. `Err` only when
+/// the observer failed (a file could not be written): the run was not finished.
+pub fn run_scene_observed(
+    scene: &Scene,
+    repeats: usize,
+    threshold: f64,
+    observer: &mut dyn Observer,
+) -> Result<RunResult, String> {
+    let observer = std::panic::AssertUnwindSafe(observer);
+    std::panic::catch_unwind(move || {
+        let observer = observer;
+        run_scene_unguarded(scene, repeats, threshold, observer.0)
+    })
+    .unwrap_or_else(|_| {
+        let mut r = RunResult::not_run("panicked");
+        r.outcome = Outcome::Panic;
+        Ok(r)
+    })
+}
+
+fn run_scene_unguarded(
+    scene: &Scene,
+    repeats: usize,
+    threshold: f64,
+    observer: &mut dyn Observer,
+) -> Result<RunResult, String> {
+    if let Err(e) = scene.validate().and_then(|()| whole_steps(scene)) {
+        return Ok(RunResult::refused(e));
     }
     let result = match scene.solver.scalar {
-        ScalarSpec::F64 => dispatch::<f64>(scene, repeats),
-        ScalarSpec::F32 => dispatch::<f32>(scene, repeats),
-    };
-    match result {
+        ScalarSpec::F64 => dispatch::<f64>(scene, repeats, observer),
+        ScalarSpec::F32 => dispatch::<f32>(scene, repeats, observer),
+    }?;
+    Ok(match result {
         Ok(mut r) => {
+            // NaN is never accurate.
             if r.outcome == Outcome::Ok && (r.e_global.is_nan() || r.e_global > threshold) {
                 r.outcome = Outcome::Inaccurate;
             }
             r
         }
         Err(e) => RunResult::refused(e),
-    }
+    })
 }
 
-fn dispatch<T: Real>(scene: &Scene, repeats: usize) -> Result<RunResult, SceneError> {
+/// Refuses a step size that does not divide the run: h = 0.03 s over 10 s would end
+/// at 9.99 s (or 10.02 s), and e_max would describe a different run than asked for.
+pub fn whole_steps(scene: &Scene) -> Result<(), SceneError> {
+    let (t_end, h) = (scene.trajectory.t_end, scene.solver.h);
+    let n = t_end / h;
+    if (n - n.round()).abs() > 1e-6 * n.round().max(1.0) {
+        return Err(SceneError {
+            field: "solver.h".into(),
+            reason: format!(
+                "h = {h} s does not divide trajectory.t_end = {t_end} s ({n:.3} steps): the run would end at {} s",
+                n.round() * h
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// `Ok(Err(_))`: the scene was refused; `Err(_)`: the observer failed.
+type Measured = Result<Result<RunResult, SceneError>, String>;
+
+fn dispatch<T: Real>(scene: &Scene, repeats: usize, observer: &mut dyn Observer) -> Measured {
     let err = |e: Error| scene.field_of(e);
     match &scene.model {
         ModelSpec::CraneSubs(c) => {
-            let model = CraneSubs::new(c.params(), trajectory::<T, 2>(scene)?).map_err(err)?;
-            measure::<T, _, 7, 2, 21>(&model, scene, repeats)
+            match CraneSubs::new(c.params(), trajectory::<T, 2>(scene)?).map_err(err) {
+                Ok(model) => measure::<T, _, 7, 2, 21>(&model, scene, repeats, observer),
+                Err(e) => Ok(Err(e)),
+            }
         }
         ModelSpec::CraneProj(c) => {
-            let model = CraneProj::new(c.params(), trajectory::<T, 2>(scene)?).map_err(err)?;
-            measure::<T, _, 8, 2, 24>(&model, scene, repeats)
+            match CraneProj::new(c.params(), trajectory::<T, 2>(scene)?).map_err(err) {
+                Ok(model) => measure::<T, _, 8, 2, 24>(&model, scene, repeats, observer),
+                Err(e) => Ok(Err(e)),
+            }
         }
         ModelSpec::MassOnCar(m) => {
-            let model = MassOnCar::new(m.params(), trajectory::<T, 1>(scene)?).map_err(err)?;
-            measure::<T, _, 5, 1, 15>(&model, scene, repeats)
+            match MassOnCar::new(m.params(), trajectory::<T, 1>(scene)?).map_err(err) {
+                Ok(model) => measure::<T, _, 5, 1, 15>(&model, scene, repeats, observer),
+                Err(e) => Ok(Err(e)),
+            }
         }
     }
 }
 
-/// The scene's trajectory in the scalar `T`.
-fn trajectory<T: Real, const NZ: usize>(scene: &Scene) -> Result<PointToPoint<T, NZ>, SceneError> {
+/// The scene's trajectory in the scalar `T` (`Err` of the outer result never happens:
+/// the scene was validated; it only lets `?` carry the refusal).
+fn trajectory<T: Real, const NZ: usize>(scene: &Scene) -> Result<PointToPoint<T, NZ>, String> {
     let t = &scene.trajectory;
-    for (field, v) in [("trajectory.start", &t.start), ("trajectory.end", &t.end)] {
-        if v.len() != NZ {
-            return Err(SceneError {
-                field: field.into(),
-                reason: format!("needs {NZ} values, has {}", v.len()),
-            });
-        }
-    }
     PointToPoint::new(
         SVector::<T, NZ>::from_iterator(t.start.iter().map(|v| c::<T>(*v))),
         SVector::<T, NZ>::from_iterator(t.end.iter().map(|v| c::<T>(*v))),
@@ -194,7 +299,7 @@ fn trajectory<T: Real, const NZ: usize>(scene: &Scene) -> Result<PointToPoint<T,
         c(t.duration),
         t.smoothness,
     )
-    .map_err(|e| scene.field_of(e))
+    .map_err(|e| readable_numbers(&scene.field_of(e).to_string()))
 }
 
 fn scheme(scene: &Scene) -> Scheme {
@@ -204,120 +309,160 @@ fn scheme(scene: &Scene) -> Scheme {
     }
 }
 
+/// Either integrator, stepped the same way.
+enum Stepper<T: Real, M, const N: usize, const NU: usize, const S: usize> {
+    Bdf(Bdf<T, M, N, NU>),
+    Radau(Radau<T, M, N, NU, S>),
+}
+
+/// The exact inputs, sample by sample, in f64.
+enum Reference {
+    Crane(CraneParams, PointToPoint<f64, 2>),
+    MassOnCar(MassOnCarReference<PointToPoint<f64, 1>>),
+}
+
+impl Reference {
+    fn new(scene: &Scene) -> Result<Self, SceneError> {
+        Ok(match &scene.model {
+            ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) => {
+                Reference::Crane(c.params(), scene.trajectory2()?)
+            }
+            ModelSpec::MassOnCar(m) => Reference::MassOnCar(
+                MassOnCarReference::new(
+                    m.params(),
+                    scene.trajectory1()?,
+                    0.0,
+                    Dopri5Settings::default(),
+                )
+                .map_err(|e| scene.field_of(e))?,
+            ),
+        })
+    }
+
+    /// The reference inputs at `t` (`t` never decreases between calls).
+    fn at(&mut self, scene: &Scene, t: f64, out: &mut Vec<f64>) -> Result<(), SceneError> {
+        out.clear();
+        match self {
+            Reference::Crane(p, z) => out.extend(flat_inverse(p, z, t).u),
+            Reference::MassOnCar(r) => out.push(r.advance_to(t).map_err(|e| scene.field_of(e))?.f),
+        }
+        Ok(())
+    }
+}
+
+/// Runs the scene once, step by step: each sample is compared with the reference,
+/// folded into the statistics and handed to the observer, then dropped.
 fn measure<T, M, const N: usize, const NU: usize, const S: usize>(
     model: &M,
     scene: &Scene,
     repeats: usize,
-) -> Result<RunResult, SceneError>
+    observer: &mut dyn Observer,
+) -> Measured
 where
     T: Real,
     M: DaeModel<T, N, NU>,
 {
     let settings = scene.settings();
+    let total = scene.steps();
     let t_end = scene.trajectory.t_end;
-    let trace = run::<T, M, N, NU, S>(model, scheme(scene), &settings, 0.0, t_end)
-        .map_err(|e| scene.field_of(e))?;
-    let u_ref = reference_inputs(scene, &trace.t)?;
-    let mut result = summarise(scene, &trace, u_ref);
-    if repeats > 0 && trace.failure.is_none() {
-        result.ns_per_step = time_per_step::<T, M, N, NU, S>(model, scene, trace.steps(), repeats);
-    }
-    Ok(result)
-}
-
-/// The exact inputs at the sample times, in f64.
-fn reference_inputs(scene: &Scene, t: &[f64]) -> Result<Vec<Vec<f64>>, SceneError> {
-    match &scene.model {
-        ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) => {
-            let (p, z) = (c.params(), scene.trajectory2()?);
-            Ok(t.iter()
-                .map(|&t| flat_inverse(&p, &z, t).u.to_vec())
-                .collect())
-        }
-        ModelSpec::MassOnCar(m) => {
-            let mut r = MassOnCarReference::new(
-                m.params(),
-                scene.trajectory1()?,
-                0.0,
-                Dopri5Settings::default(),
-            )
-            .map_err(|e| scene.field_of(e))?;
-            t.iter()
-                .map(|&t| {
-                    r.advance_to(t)
-                        .map(|s| vec![s.f])
-                        .map_err(|e| scene.field_of(e))
-                })
-                .collect()
-        }
-    }
-}
-
-fn summarise<const N: usize, const NU: usize>(
-    scene: &Scene,
-    trace: &Trace<N, NU>,
-    u_ref: Vec<Vec<f64>>,
-) -> RunResult {
-    let u: Vec<Vec<f64>> = trace
-        .u
-        .iter()
-        .map(|u| u.iter().copied().collect())
-        .collect();
-    let error: Vec<f64> = u
-        .iter()
-        .zip(&u_ref)
-        .map(|(a, b)| {
-            a.iter()
-                .zip(b)
-                .map(|(x, y)| (x - y).abs())
-                .fold(0.0, f64::max)
-        })
-        .collect();
     let (a, b) = scene.interior();
-    let pick = |inside: bool| {
-        trace
-            .t
+    let mut reference = match Reference::new(scene) {
+        Ok(r) => r,
+        Err(e) => return Ok(Err(e)),
+    };
+    let made = match scheme(scene) {
+        Scheme::Bdf(k) => Bdf::<T, M, N, NU>::new(model, &settings, k, T::zero()).map(Stepper::Bdf),
+        Scheme::Radau => {
+            Radau::<T, M, N, NU, S>::new(model, &settings, T::zero()).map(Stepper::Radau)
+        }
+    };
+    let x0 = model.rest_state(T::zero());
+    let (mut stepper, x0) = match made.and_then(|s| Ok((s, x0?))) {
+        Ok(v) => v,
+        Err(e) => return Ok(Err(scene.field_of(e))),
+    };
+
+    let mut r = RunResult::not_run("");
+    r.failure = None;
+    r.outcome = Outcome::Ok;
+    r.t_end = t_end;
+    let (mut e_all, mut e_inside) = (0.0_f64, 0.0_f64);
+    let (mut iterations, mut residual_evals) = (0_u64, 0_u64);
+    let mut u_ref = Vec::with_capacity(NU);
+    let mut u = Vec::with_capacity(NU);
+    let mut t = 0.0;
+    let mut u_now = M::inputs(&x0);
+    for step in 0..=total {
+        if step > 0 {
+            let report = match &mut stepper {
+                Stepper::Bdf(s) => s.step(model),
+                Stepper::Radau(s) => s.step(model),
+            };
+            match report {
+                Ok(rep) => {
+                    t = to_f64(rep.t);
+                    u_now = rep.u;
+                    let st = rep.stats;
+                    r.steps = step;
+                    iterations += u64::from(st.iterations);
+                    residual_evals += u64::from(st.residual_evals);
+                    r.iterations_max = r.iterations_max.max(st.iterations);
+                    r.jacobian_evals += u64::from(st.jacobian_evals);
+                    r.floor_steps += usize::from(st.at_rounding_floor);
+                }
+                Err(e) => {
+                    r.outcome = match e {
+                        Error::NonFinite { .. } => Outcome::NonFinite,
+                        _ => Outcome::NewtonFailure,
+                    };
+                    r.failure = Some(e.to_string());
+                    break;
+                }
+            }
+        }
+        u.clear();
+        u.extend(u_now.iter().map(|v| to_f64(*v)));
+        // A non-finite value returned as a success would be a bug; make it visible.
+        if u.iter().any(|v| !v.is_finite()) {
+            r.outcome = Outcome::NonFinite;
+            r.failure = Some(format!("t = {t} s: non-finite input returned"));
+            break;
+        }
+        if let Err(e) = reference.at(scene, t, &mut u_ref) {
+            return Ok(Err(e));
+        }
+        let error = u
             .iter()
-            .zip(&error)
-            .filter(|(t, _)| !inside || (a..=b).contains(*t))
-            .map(|(_, e)| *e)
-            .fold(0.0, f64::max)
-    };
-    let steps = trace.steps();
-    let stats = trace.stats.get(1..).unwrap_or(&[]);
-    let n = stats.len().max(1) as f64;
-    let outcome = match trace.failure {
-        None => Outcome::Ok,
-        Some(Error::NonFinite { .. }) => Outcome::NonFinite,
-        Some(_) => Outcome::NewtonFailure,
-    };
-    // A non-finite value in what was returned would be a bug; make it visible.
-    let outcome = if u.iter().flatten().any(|v| !v.is_finite()) {
-        Outcome::NonFinite
-    } else {
-        outcome
-    };
-    RunResult {
-        e_global: pick(false),
-        e_interior: pick(true),
-        steps,
-        iterations_mean: stats.iter().map(|s| f64::from(s.iterations)).sum::<f64>() / n,
-        iterations_max: stats.iter().map(|s| s.iterations).max().unwrap_or(0),
-        residual_evals_per_step: stats
-            .iter()
-            .map(|s| f64::from(s.residual_evals))
-            .sum::<f64>()
-            / n,
-        jacobian_evals: stats.iter().map(|s| u64::from(s.jacobian_evals)).sum(),
-        floor_steps: stats.iter().filter(|s| s.at_rounding_floor).count(),
-        ns_per_step: f64::NAN,
-        outcome,
-        failure: trace.failure.map(|e| e.to_string()),
-        t: trace.t.clone(),
-        u,
-        u_ref,
-        error,
+            .zip(&u_ref)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
+        e_all = e_all.max(error);
+        if (a..=b).contains(&t) {
+            e_inside = e_inside.max(error);
+        }
+        r.t_reached = t;
+        observer.sample(&Sample {
+            t,
+            u: &u,
+            u_ref: &u_ref,
+            error,
+        })?;
+        if step % 1024 == 0 || step == total {
+            observer.progress(step, total);
+        }
     }
+    let n = r.steps.max(1) as f64;
+    r.iterations_mean = iterations as f64 / n;
+    r.residual_evals_per_step = residual_evals as f64 / n;
+    r.e_partial = e_all;
+    if r.outcome == Outcome::Ok {
+        r.e_global = e_all;
+        r.e_interior = e_inside;
+        if repeats > 0 {
+            r.ns_per_step = time_per_step::<T, M, N, NU, S>(model, scene, r.steps, repeats);
+        }
+    }
+    Ok(Ok(r))
 }
 
 /// Median over `repeats` runs of the host time per step (stepping only, nothing recorded).
@@ -352,6 +497,30 @@ where
     samples.get(samples.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
+/// Rewrites numbers of more than 17 digits in a message (solver-core prints the
+/// bounds `f64::MAX` and `f64::MIN_POSITIVE` with `{}`: 300-digit numbers) in the
+/// shortest exponent form, `1.7976931348623157e308`.
+pub fn readable_numbers(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(start) = rest.find(|ch: char| ch.is_ascii_digit()) {
+        let (before, from) = rest.split_at(start);
+        out.push_str(before);
+        let len = from
+            .find(|ch: char| !(ch.is_ascii_digit() || ch == '.'))
+            .unwrap_or(from.len());
+        let (number, after) = from.split_at(len);
+        let digits = number.chars().filter(char::is_ascii_digit).count();
+        match number.parse::<f64>() {
+            Ok(v) if digits > 17 => out.push_str(&format!("{v:e}")),
+            _ => out.push_str(number),
+        }
+        rest = after;
+    }
+    out.push_str(rest);
+    out
+}
+
 /// Whether the scene's Jacobian mode is Broyden with this re-initialisation period.
 pub fn jacobian_label(scene: &Scene) -> String {
     match (scene.solver.jacobian, scene.solver.reinit_every) {
@@ -367,5 +536,48 @@ pub fn scheme_label(scene: &Scene) -> String {
     match scene.solver.scheme {
         SchemeSpec::Bdf => format!("BDF{}", scene.solver.k),
         SchemeSpec::Radau => "Radau".into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Counts what a run hands over, keeping nothing else.
+    #[derive(Default)]
+    struct Count {
+        samples: usize,
+        last_progress: (usize, usize),
+    }
+
+    impl Observer for Count {
+        fn sample(&mut self, _: &Sample<'_>) -> Result<(), String> {
+            self.samples += 1;
+            Ok(())
+        }
+        fn progress(&mut self, done: usize, total: usize) {
+            assert!(done >= self.last_progress.0, "progress went back");
+            self.last_progress = (done, total);
+        }
+    }
+
+    #[test]
+    fn a_run_streams_its_samples_and_reports_its_progress() {
+        let scene = Scene::load(&crate::paper::root().join("scenes/paper-crane.toml")).unwrap();
+        let mut count = Count::default();
+        let r = run_scene_observed(&scene, 0, 1e-3, &mut count).unwrap();
+        assert_eq!(r.outcome, Outcome::Ok);
+        assert_eq!(count.samples, 1 + 1000);
+        assert_eq!(count.last_progress, (1000, 1000));
+    }
+
+    #[test]
+    fn long_numbers_are_shortened() {
+        let text = format!("outside [{}, {}]", f64::MIN_POSITIVE, f64::MAX);
+        assert_eq!(
+            readable_numbers(&text),
+            "outside [2.2250738585072014e-308, 1.7976931348623157e308]"
+        );
+        assert_eq!(readable_numbers("t = 7.602 s, 40 it"), "t = 7.602 s, 40 it");
     }
 }

@@ -25,7 +25,8 @@ pub const KEYS: [&str; 7] = [
     "scalar",
 ];
 
-/// Parses `key=v1|v2|…,key=…` (several `--vary` options may be given).
+/// Parses `key=v1|v2|…,key=…` (several `--vary` options may be given; [`cross`]
+/// checks the axes together).
 pub fn parse_vary(spec: &str) -> Result<Vec<Axis>, String> {
     spec.split(',')
         .filter(|part| !part.trim().is_empty())
@@ -57,6 +58,9 @@ pub fn parse_vary(spec: &str) -> Result<Vec<Axis>, String> {
 pub fn apply(scene: &Scene, key: &str, value: &str) -> Result<Scene, String> {
     let mut s = scene.clone();
     let bad = |what: &str| format!("{key}={value}: {what}");
+    // The labels the CSV writes (`BDF4`, `Radau`, `J`, `Jt10`) are accepted as written.
+    let lower = value.to_ascii_lowercase();
+    let value = lower.as_str();
     match key {
         "h" => s.solver.h = value.parse().map_err(|_| bad("not a number"))?,
         "rho" => s.solver.rho_power = value.parse().map_err(|_| bad("not 0, 1, 2 or 3"))?,
@@ -116,8 +120,24 @@ pub fn apply(scene: &Scene, key: &str, value: &str) -> Result<Scene, String> {
 /// A configuration of a sweep: the settings applied, and the scene they made.
 pub type Configuration = (Vec<(String, String)>, Scene);
 
-/// Every combination of the axes' values, with the settings that made it.
+/// Every combination of the axes' values, with the settings that made it. Refuses
+/// an axis given twice (the second would silently override the first) and `k`
+/// beside `scheme` (`k` makes a scheme BDF: `scheme=radau` rows would run BDF).
 pub fn cross(scene: &Scene, axes: &[Axis]) -> Result<Vec<Configuration>, String> {
+    for (i, axis) in axes.iter().enumerate() {
+        if axes[..i].iter().any(|a| a.key == axis.key) {
+            return Err(format!(
+                "`{}` is varied twice; give all its values in one axis (`{}=a|b|…`)",
+                axis.key, axis.key
+            ));
+        }
+    }
+    if axes.iter().any(|a| a.key == "k") && axes.iter().any(|a| a.key == "scheme") {
+        return Err(
+            "`k` and `scheme` cannot both be varied (k only exists for BDF); write the schemes as `scheme=radau|bdf1|bdf4`"
+                .into(),
+        );
+    }
     let mut out = vec![(Vec::new(), scene.clone())];
     for axis in axes {
         let mut next = Vec::with_capacity(out.len() * axis.values.len());
@@ -152,9 +172,9 @@ pub fn csv_row(scene: &Scene, r: &RunResult) -> String {
         ScalarSpec::F64 => "f64",
         ScalarSpec::F32 => "f32",
     };
-    let failure = r.failure.as_deref().unwrap_or("").replace(['"', ','], ";");
+    let failure = r.failure_text().replace(['"', ','], ";");
     format!(
-        "{},{},{},{},{},{},{},{},{:.4e},{:.4e},{:.3},{},{:.2},{},{},{:.1},{},\"{}\"",
+        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"",
         scene.name,
         formulation_label(scene),
         scheme_label(scene),
@@ -163,17 +183,27 @@ pub fn csv_row(scene: &Scene, r: &RunResult) -> String {
         s.rho_power,
         scalar,
         r.steps,
-        r.e_global,
-        r.e_interior,
-        r.iterations_mean,
+        cell(r.e_global, |v| format!("{v:.4e}")),
+        cell(r.e_interior, |v| format!("{v:.4e}")),
+        cell(r.iterations_mean, |v| format!("{v:.3}")),
         r.iterations_max,
-        r.residual_evals_per_step,
+        cell(r.residual_evals_per_step, |v| format!("{v:.2}")),
         r.jacobian_evals,
         r.floor_steps,
-        r.ns_per_step,
+        cell(r.ns_per_step, |v| format!("{v:.1}")),
         r.outcome.as_str(),
         failure
     )
+}
+
+/// A number's cell, empty when there is no number (not run, not finished, not timed):
+/// a spreadsheet must not read `NaN` or a made-up `0` as a measurement.
+fn cell(v: f64, format: impl Fn(f64) -> String) -> String {
+    if v.is_finite() {
+        format(v)
+    } else {
+        String::new()
+    }
 }
 
 /// A crane spec, whatever the formulation (for scenes built in code).
@@ -196,5 +226,44 @@ mod tests {
         assert!(parse_vary("speed=3").is_err());
         assert!(parse_vary("h=").is_err());
         assert!(parse_vary("h").is_err());
+    }
+
+    fn paper_crane() -> Scene {
+        Scene::load(&crate::paper::root().join("scenes/paper-crane.toml")).unwrap()
+    }
+
+    #[test]
+    fn an_axis_given_twice_is_refused() {
+        let axes = [parse_vary("h=0.01").unwrap(), parse_vary("h=0.02").unwrap()].concat();
+        let e = cross(&paper_crane(), &axes).unwrap_err();
+        assert!(e.contains("twice"), "{e}");
+    }
+
+    #[test]
+    fn k_beside_scheme_is_refused() {
+        let axes = parse_vary("scheme=radau|bdf,k=1|9").unwrap();
+        let e = cross(&paper_crane(), &axes).unwrap_err();
+        assert!(e.contains("`k` and `scheme`"), "{e}");
+    }
+
+    #[test]
+    fn the_labels_the_csv_writes_are_accepted() {
+        let axes = parse_vary("jacobian=J|Jt10|exact,scheme=BDF4|Radau").unwrap();
+        let configs = cross(&paper_crane(), &axes).unwrap();
+        let labels: Vec<String> = configs
+            .iter()
+            .map(|(_, s)| format!("{} {}", scheme_label(s), jacobian_label(s)))
+            .collect();
+        assert_eq!(
+            labels,
+            [
+                "BDF4 J",
+                "Radau J",
+                "BDF4 Jt10",
+                "Radau Jt10",
+                "BDF4 exact",
+                "Radau exact"
+            ]
+        );
     }
 }

@@ -154,4 +154,220 @@ fn paper_and_extremes_run_quick() {
         }
     }
     assert!(rows[1..].iter().any(|r| r[col("outcome")] == "ok"));
+    // The heat map has one panel per scheme, not every configuration in one column.
+    let svg = std::fs::read_to_string(dir.join("extremes-paper-crane.svg")).unwrap();
+    for text in ["BDF4", "Radau", "exact p=2 f64"] {
+        assert!(svg.lines().any(|l| l.trim() == text), "{text}");
+    }
+}
+
+/// A scene file: the paper's crane with `from` replaced by `to`.
+fn variant(name: &str, from: &str, to: &str) -> PathBuf {
+    let text = std::fs::read_to_string(root().join("scenes/paper-crane.toml")).unwrap();
+    assert!(text.contains(from), "{from}");
+    let path = scratch(name).join("scene.toml");
+    std::fs::write(&path, text.replace(from, to)).unwrap();
+    path
+}
+
+fn sweep_rows(vary: &str, extra: &[&str]) -> Vec<Vec<String>> {
+    let out = scratch(&format!("rows-{}", vary.len())).join("sweep.csv");
+    let output = study()
+        .args(["sweep", "scenes/paper-crane.toml", "--vary", vary, "--out"])
+        .arg(&out)
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{output:?}");
+    csv(&out)
+}
+
+fn column(rows: &[Vec<String>], name: &str) -> usize {
+    rows[0].iter().position(|c| c == name).unwrap()
+}
+
+#[test]
+fn a_failed_run_has_no_e_max_and_a_partial_one_says_so() {
+    // proj Radau with J̃₁₀ at h = 1 ms stops at t = 7.602 s (docs/RESULTS.md, Fig. 7).
+    let rows = sweep_rows(
+        "formulation=proj,scheme=radau,jacobian=jt10,h=0.001",
+        &["--repeats", "0"],
+    );
+    let row = &rows[1];
+    assert_eq!(row[column(&rows, "outcome")], "newton-failure", "{row:?}");
+    assert_eq!(row[column(&rows, "e_max")], "", "{row:?}");
+    assert_eq!(row[column(&rows, "e_max_interior")], "", "{row:?}");
+    let failure = &row[column(&rows, "failure")];
+    assert!(
+        failure.contains("partial run: stopped at t = 7.601 s of 10 s"),
+        "{failure}"
+    );
+    // A refused configuration has no e_max either (it used to be 0).
+    let rows = sweep_rows("k=9", &["--repeats", "0"]);
+    assert_eq!(rows[1][column(&rows, "outcome")], "refused");
+    assert_eq!(rows[1][column(&rows, "e_max")], "");
+}
+
+#[test]
+fn committed_outputs_report_no_e_max_for_failed_runs() {
+    for file in [
+        "docs/figures/extremes.csv",
+        "docs/figures/fig7-subs-proj.csv",
+    ] {
+        let rows = csv(&root().join(file));
+        let (outcome, e) = (column(&rows, "outcome"), column(&rows, "e_max"));
+        let wrong = rows[1..]
+            .iter()
+            .filter(|r| !["ok", "inaccurate"].contains(&r[outcome].as_str()) && !r[e].is_empty())
+            .count();
+        assert_eq!(wrong, 0, "{file}: failed runs with an e_max");
+    }
+}
+
+#[test]
+fn a_step_that_does_not_divide_the_run_is_refused() {
+    let scene = variant("h003", "h = 0.01", "h = 0.03");
+    let output = study().arg("run").arg(&scene).output().unwrap();
+    assert!(!output.status.success());
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        err.contains("does not divide") && err.contains("9.99"),
+        "{err}"
+    );
+}
+
+#[test]
+fn sweep_refuses_what_it_would_mislabel_or_misreport() {
+    for (args, expected) in [
+        (vec!["--vary", "scheme=radau|bdf,k=1|9"], "`k` and `scheme`"),
+        (vec!["--vary", "h=0.01", "--vary", "h=0.02"], "twice"),
+        (
+            vec!["--vary", "h=0.01", "--threshold", "nan"],
+            "finite number > 0",
+        ),
+        (
+            vec!["--vary", "h=0.01", "--threshold=-1"],
+            "finite number > 0",
+        ),
+    ] {
+        let output = study()
+            .args(["sweep", "scenes/paper-crane.toml"])
+            .args(&args)
+            .output()
+            .unwrap();
+        assert!(!output.status.success(), "{args:?}");
+        let err = String::from_utf8_lossy(&output.stderr);
+        assert!(err.contains(expected), "{args:?}: {err}");
+    }
+}
+
+#[test]
+fn untimed_runs_have_an_empty_timing_and_the_csv_labels_are_accepted() {
+    let rows = sweep_rows("jacobian=J|Jt10,h=0.02", &["--repeats", "0"]);
+    assert_eq!(rows.len(), 3);
+    let (j, ns) = (column(&rows, "jacobian"), column(&rows, "ns_per_step"));
+    assert_eq!([&rows[1][j], &rows[2][j]], ["J", "Jt10"]);
+    assert!(rows[1..].iter().all(|r| r[ns].is_empty()), "{rows:?}");
+}
+
+#[test]
+fn an_unwritable_out_fails_before_the_sweep() {
+    let started = std::time::Instant::now();
+    let output = study()
+        .args([
+            "sweep",
+            "scenes/paper-crane.toml",
+            "--vary",
+            "h=0.0005|0.001|0.002,jacobian=j|jt|jt10|jt50|exact,scheme=radau|bdf4",
+            "--out",
+            "/proc/no/such/dir/sweep.csv",
+        ])
+        .output()
+        .unwrap();
+    assert!(!output.status.success());
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert!(err.contains("/proc/no/such/dir"), "{err}");
+    assert!(started.elapsed().as_secs() < 5, "the sweep ran first");
+}
+
+#[test]
+fn a_closed_pipe_ends_quietly() {
+    let mut child = study()
+        .args([
+            "sweep",
+            "scenes/paper-crane.toml",
+            "--vary",
+            "h=0.02|0.05|0.1",
+            "--repeats",
+            "0",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take()); // like `| head -0`
+    let output = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(output.status.success(), "{err}");
+}
+
+#[test]
+fn range_errors_print_readable_bounds() {
+    let text = std::fs::read_to_string(root().join("scenes/mass-on-car.toml")).unwrap();
+    let path = scratch("range").join("scene.toml");
+    std::fs::write(&path, text.replace("d = 0.0", "d = -1.0")).unwrap();
+    let output = study().arg("run").arg(&path).output().unwrap();
+    assert!(!output.status.success());
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert!(err.contains("1.7976931348623157e308"), "{err}");
+    assert!(err.len() < 200, "{err}");
+}
+
+/// Resident memory of a running process, kB (`None` once it has ended).
+fn rss_kb(pid: u32) -> Option<u64> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.split_whitespace().next()?.parse().ok())
+}
+
+#[test]
+fn a_long_run_keeps_its_memory_bounded() {
+    // At h = 1 µs BDF4 takes 1.5 million steps before Newton fails at the rounding
+    // floor (t = 1.52 s); the old runner kept every state and grew by ~80 MB/s.
+    let scene = variant("tiny-h", "h = 0.01", "h = 0.000001");
+    let out = scratch("tiny-h-series").join("series.csv");
+    let mut child = study()
+        .arg("run")
+        .arg(&scene)
+        .arg("--csv")
+        .arg(&out)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let mut samples = Vec::new();
+    while started.elapsed().as_secs() < 6 && child.try_wait().unwrap().is_none() {
+        if let Some(kb) = rss_kb(child.id()) {
+            samples.push((started.elapsed().as_secs_f64(), kb));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let _ = child.kill();
+    child.wait().unwrap();
+    let (first, last) = (samples.first().unwrap(), samples.last().unwrap());
+    assert!(last.0 - first.0 >= 1.0, "sampled only {samples:?}");
+    let most = samples.iter().map(|s| s.1).max().unwrap();
+    assert!(
+        most < first.1 + 2_000,
+        "grew from {} kB to {most} kB",
+        first.1
+    );
+    // ... while the samples were streamed to the file.
+    let written = std::fs::metadata(&out).unwrap().len();
+    assert!(written > 100_000, "{written} bytes written");
 }

@@ -20,6 +20,10 @@ pub const TARGETS: [&str; 4] = [
 
 /// Fuzzes `targets` (all if empty) for `seconds` each; prints runs and coverage.
 pub fn fuzz(seconds: u64, targets: &[String]) -> Result<(), String> {
+    if seconds == 0 {
+        // libFuzzer reads -max_total_time=0 as "no limit": the run would never end.
+        return Err("--seconds must be at least 1".into());
+    }
     setup::ensure_cargo_fuzz()?;
     let chosen: Vec<&str> = if targets.is_empty() {
         TARGETS.to_vec()

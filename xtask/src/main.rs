@@ -15,10 +15,20 @@
 //!   panic, and the firmware's remaining panic paths against docs/PANICS.md.
 //! * `decode ELF LOG` — a raw defmt log decoded with its ELF (debugging QEMU runs).
 //! * `flash` — builds the STM32H743 firmware and runs it with `probe-rs run`.
+//! * `ecu [--port N] [--role manager|slave] [--seconds S] …` — the controller in real
+//!   time, its CAN bus as SLCAN over TCP (docs/COMMISSIONING.md).
+//! * `interop` — python-canopen drives and a supervisor against the virtual ECU.
 //! * `study …` — the speed/accuracy studies (`run`, `sweep`, `paper`, `extremes`).
 //! * `bench` — criterion benchmarks of one step and whole runs on the host.
+//!
+//! Arguments are parsed by clap: an unknown command or flag is refused, not
+//! ignored. The commands that build the firmware for their own scenes refuse a
+//! `SCENE` in the environment instead of silently running the default scene.
 
+use std::path::PathBuf;
 use std::process::{Command, ExitCode};
+
+use clap::{Parser, Subcommand};
 
 mod defmt_log;
 mod ecu;
@@ -32,69 +42,150 @@ mod soak;
 
 use firmware::Board;
 
+/// The command line. clap refuses what it does not know (an unknown flag used to be
+/// ignored: `panic-proof --bogus` ran the proof).
+#[derive(Parser, Debug)]
+#[command(
+    name = "cargo xtask",
+    bin_name = "cargo xtask",
+    about = "The project's single entry point (README.md)"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Cmd,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// The main job: the firmware in QEMU on the default scene and the Radau scene,
+    /// the decoded CAN log and instructions per step.
+    Run,
+    /// The whole test suite (what CI runs).
+    Test,
+    /// The QEMU checks: golden output, the host's computation, baselines (±10 %).
+    Qemu {
+        /// Rewrite the golden logs and baselines instead of comparing with them.
+        #[arg(long)]
+        overwrite_expected: bool,
+    },
+    /// Instructions per step, flash, RAM and stack against the targets.
+    QemuBench,
+    /// The QEMU firmware through M simulated minutes of random traffic and faults.
+    Soak {
+        /// Simulated minutes.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+        minutes: u32,
+    },
+    /// cargo fuzz on the decoders, the command validator and the controller.
+    Fuzz {
+        /// Seconds per target (libFuzzer reads 0 as "forever", so it is refused).
+        #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u64).range(1..))]
+        seconds: u64,
+        /// Targets (all when none is named).
+        targets: Vec<String>,
+    },
+    /// The link-time proof that the portable logic cannot panic.
+    PanicProof {
+        /// Report the firmware's remaining panic paths against docs/PANICS.md.
+        #[arg(long)]
+        report: bool,
+    },
+    /// A raw defmt log decoded with its ELF (debugging QEMU runs).
+    Decode {
+        /// The firmware ELF.
+        elf: PathBuf,
+        /// The raw defmt log.
+        log: PathBuf,
+    },
+    /// Builds the STM32H743 firmware and runs it with `probe-rs run`.
+    Flash,
+    /// The controller in real time with its CAN bus as SLCAN over TCP (`ecu --help`).
+    #[command(disable_help_flag = true)]
+    Ecu {
+        /// Passed to the ECU, which checks them (--port, --role, --seconds, …).
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
+    /// python-canopen drives and supervisor against the virtual ECU (in `test`).
+    Interop,
+    /// The speed/accuracy studies: `run`, `sweep`, `paper`, `extremes` (`study --help`).
+    #[command(disable_help_flag = true)]
+    Study {
+        /// Passed to the study program, which checks them.
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
+    /// Criterion benchmarks of one step and whole runs on the host.
+    #[command(disable_help_flag = true)]
+    Bench {
+        /// Passed to criterion.
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
+}
+
+impl Cmd {
+    /// Whether the command builds the firmware for its own fixed scenes, so that a
+    /// `SCENE` in the environment would be silently ignored.
+    fn builds_fixed_scenes(&self) -> bool {
+        matches!(
+            self,
+            Cmd::Run
+                | Cmd::Test
+                | Cmd::Qemu { .. }
+                | Cmd::QemuBench
+                | Cmd::Soak { .. }
+                | Cmd::Flash
+        )
+    }
+}
+
+/// `SCENE=… cargo xtask run` used to run the default scene anyway. The QEMU
+/// commands are defined on the scenes the README names (their golden logs and
+/// baselines are committed per scene), so a `SCENE` is refused, not ignored.
+fn refuse_scene(cmd: &Cmd, scene: Option<String>) -> Result<(), String> {
+    match scene {
+        Some(s) if cmd.builds_fixed_scenes() => Err(format!(
+            "SCENE={s} is not used by this command: it builds the firmware for {} (README.md). \
+             Unset SCENE; to run another scene on the host use `cargo xtask study run {s}`.",
+            qemu::SCENES.join(" and ")
+        )),
+        _ => Ok(()),
+    }
+}
+
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let flag = |f: &str| args.iter().any(|a| a == f);
-    let result = match args.first().map(String::as_str) {
-        Some("run") => main_job(),
-        Some("test") => test(),
-        Some("qemu") => qemu_checks(flag("--overwrite-expected")),
-        Some("qemu-bench") => qemu_bench(),
-        Some("soak") => match args
-            .iter()
-            .position(|a| a == "--minutes")
-            .and_then(|i| args.get(i + 1))
-        {
-            Some(m) => m
-                .parse()
-                .map_err(|e| format!("--minutes {m}: {e}"))
-                .and_then(soak::soak),
-            None => Err("usage: cargo xtask soak --minutes M".into()),
-        },
-        Some("flash") => flash(),
-        Some("ecu") => ecu::ecu(&args[1..]),
-        Some("interop") => interop::interop(),
-        Some("decode") if args.len() == 3 => decode_log(&args[1], &args[2]),
-        Some("panic-proof") if flag("--report") => panics::report(),
-        Some("panic-proof") => panics::panic_proof(),
-        Some("fuzz") => {
-            let seconds = args
-                .iter()
-                .position(|a| a == "--seconds")
-                .and_then(|i| args.get(i + 1))
-                .map_or(Ok(30), |s| {
-                    s.parse().map_err(|e| format!("--seconds {s}: {e}"))
-                });
-            let targets: Vec<String> = args
-                .iter()
-                .skip(1)
-                .filter(|a| !a.starts_with("--") && a.parse::<u64>().is_err())
-                .cloned()
-                .collect();
-            seconds.and_then(|s| fuzz::fuzz(s, &targets))
-        }
-        Some("study") => run(cargo()
-            .args([
-                "run",
-                "--release",
-                "--quiet",
-                "-p",
-                "host-tests",
-                "--bin",
-                "study",
-                "--",
-            ])
-            .args(args.iter().skip(1))),
-        Some("bench") => run(cargo()
-            .args(["bench", "-p", "host-tests", "--bench", "step"])
-            .args(args.iter().skip(1))),
-        _ => {
-            eprintln!(
-                "usage: cargo xtask run | test | qemu [--overwrite-expected] | qemu-bench | soak --minutes M | ecu [--port N] [--role slave] [--seconds S] | interop | fuzz [--seconds N] [target …] | panic-proof [--report] | flash | study … | bench"
-            );
-            return ExitCode::from(2);
-        }
-    };
+    let cli = Cli::parse();
+    let result =
+        refuse_scene(&cli.command, std::env::var("SCENE").ok()).and_then(|()| match cli.command {
+            Cmd::Run => main_job(),
+            Cmd::Test => test(),
+            Cmd::Qemu { overwrite_expected } => qemu_checks(overwrite_expected),
+            Cmd::QemuBench => qemu_bench(),
+            Cmd::Soak { minutes } => soak::soak(minutes),
+            Cmd::Fuzz { seconds, targets } => fuzz::fuzz(seconds, &targets),
+            Cmd::PanicProof { report: true } => panics::report(),
+            Cmd::PanicProof { report: false } => panics::panic_proof(),
+            Cmd::Decode { elf, log } => decode_log(&elf, &log),
+            Cmd::Flash => flash(),
+            Cmd::Ecu { args } => ecu::ecu(&args),
+            Cmd::Interop => interop::interop(),
+            Cmd::Study { args } => run(cargo()
+                .args([
+                    "run",
+                    "--release",
+                    "--quiet",
+                    "-p",
+                    "host-tests",
+                    "--bin",
+                    "study",
+                    "--",
+                ])
+                .args(args)),
+            Cmd::Bench { args } => run(cargo()
+                .args(["bench", "-p", "host-tests", "--bench", "step"])
+                .args(args)),
+        });
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -159,9 +250,9 @@ fn all_succeeded(runs: &[qemu::Measured]) -> Result<(), String> {
 }
 
 /// Prints a raw defmt log (a QEMU run's `.defmt` file) decoded with its ELF.
-fn decode_log(elf: &str, log: &str) -> Result<(), String> {
-    let elf = std::fs::read(elf).map_err(|e| format!("{elf}: {e}"))?;
-    let bytes = std::fs::read(log).map_err(|e| format!("{log}: {e}"))?;
+fn decode_log(elf: &std::path::Path, log: &std::path::Path) -> Result<(), String> {
+    let elf = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let bytes = std::fs::read(log).map_err(|e| format!("{}: {e}", log.display()))?;
     for line in defmt_log::decode(&elf, &bytes)? {
         println!("{line}");
     }
@@ -250,4 +341,95 @@ fn test() -> Result<(), String> {
     fuzz::fuzz(20, &[])?;
     eprintln!("xtask test: all checks passed");
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(args: &[&str]) -> Result<Cmd, clap::Error> {
+        Cli::try_parse_from(std::iter::once("xtask").chain(args.iter().copied())).map(|c| c.command)
+    }
+
+    #[test]
+    fn every_documented_command_parses() {
+        for args in [
+            &["run"][..],
+            &["test"],
+            &["qemu"],
+            &["qemu", "--overwrite-expected"],
+            &["qemu-bench"],
+            &["soak", "--minutes", "60"],
+            &["fuzz"],
+            &["fuzz", "--seconds", "600"],
+            &[
+                "fuzz",
+                "--seconds",
+                "20",
+                "frame_decoders",
+                "command_validator",
+            ],
+            &["panic-proof"],
+            &["panic-proof", "--report"],
+            &["decode", "a.elf", "a.defmt"],
+            &["flash"],
+            &["study", "run", "scenes/paper-crane.toml", "--csv", "x.csv"],
+            &[
+                "study",
+                "sweep",
+                "s.toml",
+                "--vary",
+                "h=0.01|0.02",
+                "--repeats",
+                "3",
+            ],
+            &["study", "--help"],
+            &["bench"],
+            &["bench", "--", "--quick"],
+            &["ecu"],
+            &["ecu", "--port", "0", "--role", "slave", "--seconds", "5"],
+            &["interop"],
+        ] {
+            assert!(parse(args).is_ok(), "{args:?}: {:?}", parse(args).err());
+        }
+        assert!(matches!(
+            parse(&["fuzz", "--seconds", "5", "frame_decoders"]).unwrap(),
+            Cmd::Fuzz { seconds: 5, ref targets } if targets == &["frame_decoders"]
+        ));
+        assert!(matches!(
+            parse(&["study", "sweep", "--out", "x"]).unwrap(),
+            Cmd::Study { ref args } if args == &["sweep", "--out", "x"]
+        ));
+    }
+
+    #[test]
+    fn what_is_not_understood_is_refused() {
+        for args in [
+            &["panic-proof", "--bogus"][..],
+            &["fuzz", "--seconds", "0"],
+            &["fuzz", "--seconds", "ten"],
+            &["soak"],
+            &["soak", "--minutes", "0"],
+            &["run", "--scene", "x.toml"],
+            &["qemu", "--overwrite"],
+            &["decode", "a.elf"],
+            &["frobnicate"],
+            &[],
+        ] {
+            assert!(parse(args).is_err(), "{args:?} was accepted");
+        }
+    }
+
+    #[test]
+    fn a_scene_in_the_environment_is_refused_where_it_would_be_ignored() {
+        let scene = Some("scenes/hard-crane.toml".to_string());
+        let e = refuse_scene(&Cmd::Run, scene.clone()).unwrap_err();
+        assert!(
+            e.contains("SCENE=scenes/hard-crane.toml") && e.contains("Unset SCENE"),
+            "{e}"
+        );
+        assert!(refuse_scene(&Cmd::QemuBench, scene.clone()).is_err());
+        assert!(refuse_scene(&Cmd::Study { args: vec![] }, scene).is_ok());
+        assert!(refuse_scene(&Cmd::Run, None).is_ok());
+    }
 }

@@ -10,12 +10,16 @@
 //! Also `cargo xtask study …`. Results and their reading: docs/RESULTS.md.
 
 use std::fs;
+use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use clap::{Parser, Subcommand};
-use host_tests::study::{default_threshold, run_scene, RunResult};
+use host_tests::study::{
+    default_threshold, readable_numbers, run_scene, run_scene_observed, Observer, Outcome,
+    RunResult, Sample,
+};
 use host_tests::sweep::{cross, csv_row, parse_vary, CSV_HEADER};
 use host_tests::{extremes, paper};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -38,7 +42,7 @@ enum Command {
         #[arg(long)]
         csv: Option<PathBuf>,
         /// e_max above which the run counts as inaccurate (default: 1e-3 crane, 1e-2 mass-on-car).
-        #[arg(long)]
+        #[arg(long, value_parser = threshold)]
         threshold: Option<f64>,
     },
     /// The cross product of `--vary` axes, one CSV row per configuration.
@@ -51,11 +55,12 @@ enum Command {
         /// CSV output (default: standard output).
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Timed repeats per configuration (the median is reported).
+        /// Timed repeats per configuration (the median is reported; 0: not timed,
+        /// the ns_per_step column stays empty).
         #[arg(long, default_value_t = 5)]
         repeats: usize,
         /// e_max above which a run counts as inaccurate.
-        #[arg(long)]
+        #[arg(long, value_parser = threshold)]
         threshold: Option<f64>,
     },
     /// The paper's studies (Figs. 4–7, 11–13) as SVG, CSV and a Markdown summary.
@@ -99,7 +104,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("study: {e}");
+            eprintln!("study: {}", readable_numbers(&e));
             ExitCode::FAILURE
         }
     }
@@ -124,73 +129,146 @@ fn progress(len: usize) -> ProgressBar {
     bar
 }
 
+/// A threshold is a positive number: `nan` would make every comparison false and
+/// every run "ok".
+fn threshold(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("`{text}` is not a finite number > 0")),
+    }
+}
+
+/// Writes to standard output. A closed pipe (`study … | head`) ends the program
+/// quietly, as it ends other Unix tools, instead of panicking in `println!`.
+fn emit(text: &str) -> Result<(), String> {
+    let mut out = io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == io::ErrorKind::BrokenPipe => std::process::exit(0),
+        Err(e) => Err(format!("standard output: {e}")),
+    }
+}
+
+/// Creates a file for writing (and its directory), so that a path that cannot be
+/// written is refused before the work, not after it.
+fn create(path: &Path) -> Result<BufWriter<fs::File>, String> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    fs::File::create(path)
+        .map(BufWriter::new)
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
 fn load(path: &Path) -> Result<Scene, String> {
     Scene::load(path).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// A single run: its samples go to the CSV file as they come (memory stays bounded
+/// however small h is) and its progress to a bar.
+struct RunOutput {
+    csv: Option<(PathBuf, BufWriter<fs::File>)>,
+    header: bool,
+    bar: ProgressBar,
+}
+
+impl Observer for RunOutput {
+    fn sample(&mut self, s: &Sample<'_>) -> Result<(), String> {
+        let Some((path, file)) = &mut self.csv else {
+            return Ok(());
+        };
+        let mut line = String::new();
+        if !self.header {
+            line += "t";
+            for i in 1..=s.u.len() {
+                line += &format!(",u{i},u{i}_ref");
+            }
+            line += ",error\n";
+            self.header = true;
+        }
+        line += &format!("{}", s.t);
+        for (a, b) in s.u.iter().zip(s.u_ref) {
+            line += &format!(",{a:.12e},{b:.12e}");
+        }
+        line += &format!(",{:.6e}\n", s.error);
+        file.write_all(line.as_bytes())
+            .map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    fn progress(&mut self, done: usize, total: usize) {
+        self.bar.set_length(total as u64);
+        self.bar.set_position(done as u64);
+    }
 }
 
 fn run(path: &Path, csv: Option<&Path>, threshold: Option<f64>) -> Result<(), String> {
     let scene = load(path)?;
     let threshold = threshold.unwrap_or_else(|| default_threshold(&scene));
-    let r = run_scene(&scene, 5, threshold);
-    print_summary(&scene, &r, threshold);
+    let file = match csv {
+        Some(p) => Some((p.to_path_buf(), create(p)?)),
+        None => None,
+    };
+    let mut output = RunOutput {
+        csv: file,
+        header: false,
+        bar: progress(scene.steps()),
+    };
+    let r = run_scene_observed(&scene, 5, threshold, &mut output)?;
+    output.bar.finish_and_clear();
+    if let Some((p, mut file)) = output.csv.take() {
+        file.flush().map_err(|e| format!("{}: {e}", p.display()))?;
+    }
+    emit(&summary(&scene, &r, threshold))?;
     if let Some(csv) = csv {
-        write_series(csv, &r)?;
-        println!("time series: {}", csv.display());
+        emit(&format!("time series: {}\n", csv.display()))?;
     }
     match r.outcome {
-        host_tests::study::Outcome::Ok | host_tests::study::Outcome::Inaccurate => Ok(()),
+        Outcome::Ok | Outcome::Inaccurate => Ok(()),
         other => Err(format!(
             "the run ended as {}: {}",
             other.as_str(),
-            r.failure.unwrap_or_default()
+            readable_numbers(&r.failure_text())
         )),
     }
 }
 
-fn print_summary(scene: &Scene, r: &RunResult, threshold: f64) {
-    println!("scene {} ({})", scene.name, scene.description);
-    println!(
-        "outcome          {} (threshold {threshold:e})",
+fn summary(scene: &Scene, r: &RunResult, threshold: f64) -> String {
+    let mut text = format!("scene {} ({})\n", scene.name, scene.description);
+    text += &format!(
+        "outcome          {} (threshold {threshold:e})\n",
         r.outcome.as_str()
     );
     if let Some(f) = &r.failure {
-        println!("failure          {f}");
+        text += &format!("failure          {}\n", readable_numbers(f));
     }
     let (a, b) = scene.interior();
-    println!(
-        "e_max            {:.4e} (global), {:.4e} (interior, t in [{a}, {b}] s)",
-        r.e_global, r.e_interior
-    );
-    println!("steps            {}", r.steps);
-    println!("Newton           {:.3} iterations per step (max {}), {:.2} residual evaluations per step, {} Jacobians, {} steps at the rounding floor", r.iterations_mean, r.iterations_max, r.residual_evals_per_step, r.jacobian_evals, r.floor_steps);
-    println!(
-        "host time        {:.1} ns per step (median of 5)",
-        r.ns_per_step
-    );
-}
-
-fn write_series(path: &Path, r: &RunResult) -> Result<(), String> {
-    let nu = r.u.first().map_or(0, Vec::len);
-    let mut text = String::from("t");
-    for i in 1..=nu {
-        text += &format!(",u{i},u{i}_ref");
+    if r.is_partial() {
+        text += &format!(
+            "e_max            none: the run stopped at t = {} s of {} s (over the part that ran: {:.4e})\n",
+            r.t_reached, r.t_end, r.e_partial
+        );
+    } else if r.e_global.is_finite() {
+        text += &format!(
+            "e_max            {:.4e} (global), {:.4e} (interior, t in [{a}, {b}] s)\n",
+            r.e_global, r.e_interior
+        );
+    } else {
+        text += "e_max            none: the run did not start\n";
     }
-    text += ",error\n";
-    for ((t, u), (u_ref, e)) in r.t.iter().zip(&r.u).zip(r.u_ref.iter().zip(&r.error)) {
-        text += &format!("{t}");
-        for (a, b) in u.iter().zip(u_ref) {
-            text += &format!(",{a:.12e},{b:.12e}");
-        }
-        text += &format!(",{e:.6e}\n");
+    text += &format!("steps            {}\n", r.steps);
+    if r.steps == 0 {
+        return text;
     }
-    write(path, &text)
-}
-
-fn write(path: &Path, text: &str) -> Result<(), String> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    text += &format!("Newton           {:.3} iterations per step (max {}), {:.2} residual evaluations per step, {} Jacobians, {} steps at the rounding floor\n", r.iterations_mean, r.iterations_max, r.residual_evals_per_step, r.jacobian_evals, r.floor_steps);
+    if r.ns_per_step.is_finite() {
+        text += &format!(
+            "host time        {:.1} ns per step (median of 5)\n",
+            r.ns_per_step
+        );
+    } else {
+        text += "host time        not timed (only complete runs are)\n";
     }
-    fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
+    text
 }
 
 fn sweep(
@@ -208,20 +286,22 @@ fn sweep(
         .collect::<Result<Vec<_>, _>>()?
         .concat();
     let configs = cross(&scene, &axes)?;
+    // Opened before the first run: an unwritable path fails now, not after the sweep.
+    let mut file = out.map(|p| create(p).map(|f| (p, f))).transpose()?;
+    let mut write_row = |line: &str| match &mut file {
+        Some((p, f)) => f
+            .write_all(line.as_bytes())
+            .and_then(|()| f.flush())
+            .map_err(|e| format!("{}: {e}", p.display())),
+        None => emit(line),
+    };
+    write_row(&format!("{CSV_HEADER}\n"))?;
     let bar = progress(configs.len());
-    let mut text = format!("{CSV_HEADER}\n");
     for (_, s) in &configs {
         let r = run_scene(s, repeats, threshold);
-        text += &csv_row(s, &r);
-        text.push('\n');
+        write_row(&format!("{}\n", csv_row(s, &r)))?;
         bar.inc(1);
     }
     bar.finish_and_clear();
-    match out {
-        Some(p) => write(p, &text),
-        None => {
-            print!("{text}");
-            Ok(())
-        }
-    }
+    Ok(())
 }
