@@ -138,6 +138,22 @@ class Rig:
     def move(self, request_id, x, z, duration):
         self.command(request_id, MOVE, x, z, duration)
 
+    def reset(self, first_id, timeout=2.0):
+        """Resets the crane: a reset is refused (reason 2) until every drive's position
+        actual is fresh and shows standstill, e.g. for the first SYNC after a drive is
+        started again; retried with a new request id each 100 ms. Returns the id accepted."""
+        end = time.time() + timeout
+        request_id = first_id
+        while True:
+            self.command(request_id, RESET)
+            answer = self.answer(request_id)
+            if answer == (ACCEPTED, 0):
+                return request_id
+            assert answer == (REJECTED, 2), answer
+            assert time.time() < end, f"resets refused for {timeout} s"
+            time.sleep(0.1)
+            request_id += 1
+
     def statuses(self):
         """Status frames received: (time, [id, answer, reason, mode, fault, ignored, misses, tx])."""
         return [(t, list(d)) for (t, d) in self.recorder.with_id(STATUS)]

@@ -245,8 +245,7 @@ def test_a_drive_reset_mid_move_quick_stops_the_crane(rigs):
     # Commissioned again meanwhile; a reset makes the crane ready.
     rig.wait(lambda: rig.sdo_u(0x2003, 2) == 0b11, 5, "the winch commissioned again")
     rig.wait(lambda: all(d["velocity"] == 0 for d in rig.dump().values()), 3, "standstill")
-    rig.command(2, 3)
-    assert rig.answer(2) == (ACCEPTED, 0)
+    rig.reset(2)
     rig.wait_mode("ready", 5)
     end = rig.dump()
     log = rig.close()
@@ -275,8 +274,7 @@ def test_a_drive_put_into_nmt_stopped(rigs):
     # SDO), commissions it again and starts it; then a reset makes the crane ready.
     rig.wait(lambda: rig.dump()[TROLLEY]["nmt"] == "OPERATIONAL", 5, "the trolley started again")
     rig.wait(lambda: all(d["velocity"] == 0 for d in rig.dump().values()), 3, "standstill")
-    rig.command(3, 3)
-    assert rig.answer(3) == (ACCEPTED, 0)
+    rig.reset(3)
     rig.wait_mode("ready", 5)
     end = rig.dump()
     log = rig.close()
@@ -307,8 +305,7 @@ def test_a_drive_warning_changes_nothing_and_a_fault_with_a_lagging_statusword_i
     rig.wait_mode("halted", 5)
     assert rig.status()[4] == 3, "drive fault"
     rig.wait(lambda: all(d["velocity"] == 0 for d in rig.dump().values()), 3, "standstill")
-    rig.command(2, 3)
-    assert rig.answer(2) == (ACCEPTED, 0)
+    rig.reset(2)
     rig.wait_mode("ready", 3)
     end = rig.dump()
     log = rig.close()
