@@ -86,12 +86,12 @@ impl Weights {
     pub const DEFAULT: Self = Self {
         load_position: 0.02,
         trolley_position: 0.5,
-        swing_velocity: 0.02,
+        swing_velocity: 0.05,
         trolley_correction: 0.15,
         rope_position: 0.005,
         winch_correction: 0.05,
         drive_disturbance: 0.5,
-        swing_disturbance: 0.05,
+        swing_disturbance: 0.1,
         position_noise: 5e-4,
         angle_noise: 5e-4,
     };
