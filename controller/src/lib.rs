@@ -31,6 +31,7 @@ pub mod commands;
 pub mod commissioning;
 pub mod controller;
 pub mod drive;
+pub mod feedback;
 pub mod feedforward;
 pub mod frame;
 pub mod node;

@@ -3,8 +3,10 @@
 
 pub mod dbc;
 pub mod extremes;
+pub mod feedback_study;
 pub mod firmware;
 pub mod paper;
+pub mod plant;
 pub mod plot;
 pub mod run;
 pub mod scenes;

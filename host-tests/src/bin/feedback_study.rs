@@ -1,0 +1,128 @@
+//! The closed-loop study: `cargo run --release -p host-tests --bin feedback_study -- [--cases N] [--figures DIR]`.
+//!
+//! Monte Carlo (fixed seeds) over mismatch and disturbance cases on the paper's move and
+//! on random moves, feedforward only beside feedforward + feedback; the gust at rest;
+//! plots of a typical and the worst case. Prints the markdown table of `docs/RESULTS.md`.
+
+use std::path::PathBuf;
+
+use clap::Parser;
+use controller::feedback::{Config, Gains};
+use host_tests::feedback_study::{
+    gust_at_rest, monte_carlo, paper_reference, plot_case, random_move, table_row, CaseResult,
+    TABLE_HEADER,
+};
+use host_tests::plant::Rng;
+use solver_core::models::crane::CraneParams;
+
+#[derive(Parser)]
+struct Args {
+    /// Cases per set (paper's move, random moves).
+    #[arg(long, default_value_t = 1000)]
+    cases: usize,
+    /// Where the SVG figures go.
+    #[arg(long, default_value = "docs/figures")]
+    figures: PathBuf,
+}
+
+/// Seeds of the two sets.
+const PAPER_SEED: u64 = 2026;
+const RANDOM_SEED: u64 = 410;
+
+fn main() -> Result<(), String> {
+    let args = Args::parse();
+    let cfg = Config::PAPER;
+    let gains = Gains::design(&cfg).map_err(|e| format!("{e:?}"))?;
+    println!("{TABLE_HEADER}");
+    let mut worst_paper = None;
+    for (name, seed, random) in [
+        ("paper's move", PAPER_SEED, false),
+        ("random moves", RANDOM_SEED, true),
+    ] {
+        let mc = monte_carlo(seed, args.cases, random, &gains);
+        let ff: Vec<CaseResult> = mc.cases.iter().map(|c| c.1).collect();
+        let fb: Vec<CaseResult> = mc.cases.iter().map(|c| c.2).collect();
+        println!("{}", table_row(&format!("{name}, feedforward only"), &ff));
+        println!(
+            "{}",
+            table_row(&format!("{name}, feedforward + feedback"), &fb)
+        );
+        if !random {
+            let score = |r: &CaseResult| r.distance / 0.05 + r.swing_deg / 0.1;
+            let worst = mc
+                .cases
+                .iter()
+                .max_by(|a, b| score(&a.2).total_cmp(&score(&b.2)))
+                .map(|c| c.0);
+            let typical = mc.cases.first().map(|c| c.0);
+            worst_paper = worst.zip(typical);
+        } else {
+            // The random set's worst, re-created from its seed.
+            let score = |r: &CaseResult| r.distance / 0.05 + r.swing_deg / 0.1;
+            if let Some((i, _)) = mc
+                .cases
+                .iter()
+                .enumerate()
+                .max_by(|a, b| score(&a.1 .2).total_cmp(&score(&b.1 .2)))
+            {
+                let mut rng = Rng::new(seed);
+                let params = CraneParams::PAPER;
+                let mut found = None;
+                for _ in 0..=i {
+                    let (_, r) = random_move(&mut rng, &params, 0.0);
+                    let l0 = r.r.first().map_or(6.0, |x| x.l);
+                    let case = host_tests::plant::Mismatch::random(&mut rng, l0, r.span);
+                    found = Some((r, case));
+                }
+                if let Some((r, case)) = found {
+                    plot_case(
+                        &args.figures.join("feedback-worst-random.svg"),
+                        "worst random move",
+                        &r,
+                        &case,
+                        &gains,
+                    )?;
+                }
+            }
+        }
+    }
+    println!();
+    println!("| gust at rest (10 N, 1 s) | l = 3 m | l = 6 m | l = 9 m |");
+    println!("|---|---:|---:|---:|");
+    let g: Vec<(f64, f64)> = [3.0, 6.0, 9.0]
+        .iter()
+        .map(|l| gust_at_rest(*l, &gains))
+        .collect();
+    let fmt = |f: &dyn Fn(&(f64, f64)) -> f64| {
+        g.iter()
+            .map(|x| format!("{:.1} %", 100.0 * f(x)))
+            .collect::<Vec<_>>()
+            .join(" | ")
+    };
+    println!(
+        "| swing 2 periods after its peak / peak, feedforward only | {} |",
+        fmt(&|x| x.1)
+    );
+    println!(
+        "| swing 2 periods after its peak / peak, with feedback | {} |",
+        fmt(&|x| x.0)
+    );
+    if let Some((worst, typical)) = worst_paper {
+        let r = paper_reference(&CraneParams::PAPER);
+        plot_case(
+            &args.figures.join("feedback-typical.svg"),
+            "paper's move, typical case",
+            &r,
+            &typical,
+            &gains,
+        )?;
+        plot_case(
+            &args.figures.join("feedback-worst.svg"),
+            "paper's move, worst case",
+            &r,
+            &worst,
+            &gains,
+        )?;
+    }
+    Ok(())
+}

@@ -1,0 +1,485 @@
+//! The closed loop of Fig. 1 on a plant that is not the model ([`crate::plant`]):
+//! feedforward only against feedforward + state feedback ([`controller::feedback`]),
+//! Monte Carlo over mismatch and disturbance cases, on the paper's move and on random
+//! moves.
+
+use std::path::Path;
+
+use controller::feedback::{clamp_to_limits, Config, Gains, Measurement, Reference, StateFeedback};
+use controller::setpoint::DriveLimits;
+use controller::InverseModel;
+use solver_core::models::crane::CraneParams;
+use solver_core::models::crane_subs::CraneSubs;
+use solver_core::trajectory::{PointToPoint, Trajectory};
+use solver_core::{Bdf, Driven, Error, JacobianMode, SolverSettings};
+
+use crate::plant::{Gust, Mismatch, Plant, Rng};
+use crate::plot::{figure, Chart, Scale, Series};
+
+/// The inverse model's solution over a whole run: what the controller has every cycle.
+#[derive(Debug, Clone)]
+pub struct ReferenceRun {
+    /// Time of the first sample, s.
+    pub t0: f64,
+    /// Period, s.
+    pub h: f64,
+    /// Feedforward `u_d` per cycle, m/s.
+    pub u: Vec<[f64; 2]>,
+    /// Reference state per cycle.
+    pub r: Vec<Reference>,
+    /// Desired load position per cycle.
+    pub z: Vec<[f64; 2]>,
+    /// Start and end of the move, s.
+    pub span: (f64, f64),
+    /// The target `[x_C, z_C]`.
+    pub target: [f64; 2],
+}
+
+/// Runs the inverse model (crane *subs*, BDF4, exact Jacobian, h = 10 ms: the default
+/// scene's solver) along `z` from rest at `t0` for `steps` cycles — the same
+/// [`InverseModel`] the controller steps.
+pub fn reference_run(
+    params: CraneParams,
+    z: PointToPoint<f64, 2>,
+    t0: f64,
+    steps: usize,
+) -> Result<ReferenceRun, Error> {
+    let settings = SolverSettings::paper(JacobianMode::Exact);
+    let model = CraneSubs::<f64, _>::new(params, z)?;
+    let integrator = Bdf::new(&model, &settings, 4, t0)?;
+    let mut inv = InverseModel { model, integrator };
+    let sample = |inv: &InverseModel<CraneSubs<f64, PointToPoint<f64, 2>>, Bdf<f64, _, 7, 2>>| {
+        let s: [f64; 7] = inv.integrator.state().into();
+        let t = inv.integrator.time();
+        let [p, v] = inv.model.trajectory().derivatives::<2>(t);
+        let r = Reference::from_subs([s[0], s[1], s[2], s[3]], p.into(), v.into());
+        (r, [s[5], s[6]], <[f64; 2]>::from(p))
+    };
+    let mut run = ReferenceRun {
+        t0,
+        h: settings.h,
+        u: Vec::with_capacity(steps + 1),
+        r: Vec::with_capacity(steps + 1),
+        z: Vec::with_capacity(steps + 1),
+        span: (z.t_start(), z.t_start() + z.duration()),
+        target: z.end().into(),
+    };
+    for k in 0..=steps {
+        if k > 0 {
+            inv.integrator.step(&inv.model)?;
+        }
+        let (r, u, p) = sample(&inv);
+        run.r.push(r);
+        run.u.push(u);
+        run.z.push(p);
+    }
+    Ok(run)
+}
+
+/// What one closed-loop (or open-loop) run of a case measured.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CaseResult {
+    /// Largest horizontal load tracking error during the move, m.
+    pub tracking: f64,
+    /// Largest load tracking error (both axes, rope offset included) during the move, m.
+    pub tracking_2d: f64,
+    /// Largest horizontal distance from the target from 5 s after the move over one swing period, m.
+    pub distance: f64,
+    /// Vertical distance from the target then, m (the rope offset: not observable).
+    pub vertical: f64,
+    /// Largest swing amplitude from 5 s after the move over one swing period, degrees.
+    pub swing_deg: f64,
+    /// Largest |u1|, |u2| sent, m/s.
+    pub max_u: [f64; 2],
+    /// Largest |Δu|/h sent, m/s².
+    pub max_du: [f64; 2],
+}
+
+impl CaseResult {
+    /// The acceptance target: within ±50 mm and swing below 0.1° 5 s after the move.
+    pub fn meets_target(&self) -> bool {
+        self.distance <= 0.05 && self.swing_deg < 0.1
+    }
+}
+
+/// Time series of a run, for the plots.
+#[derive(Debug, Clone, Default)]
+pub struct Series6 {
+    /// t, s.
+    pub t: Vec<f64>,
+    /// Load x_C, z_C.
+    pub load: Vec<[f64; 2]>,
+    /// φ, degrees.
+    pub phi_deg: Vec<f64>,
+    /// Set points sent.
+    pub u: Vec<[f64; 2]>,
+}
+
+/// Swing period at rope length `l`, s.
+pub fn period(g: f64, l: f64) -> f64 {
+    2.0 * std::f64::consts::PI * (l / g).sqrt()
+}
+
+/// Cycles a run needs: until one swing period after "5 s after the move".
+pub fn steps_for(span: (f64, f64), t0: f64, l_end: f64, h: f64) -> usize {
+    ((span.1 + 5.0 + period(9.81, l_end * 1.02) + 0.1 - t0) / h).ceil() as usize
+}
+
+/// Runs `case` along `reference`, with the feedback when `gains` is given.
+pub fn simulate(
+    params: &CraneParams,
+    reference: &ReferenceRun,
+    case: &Mismatch,
+    gains: Option<&Gains>,
+    limits: &DriveLimits,
+    record: bool,
+) -> (CaseResult, Series6) {
+    let cfg = Config {
+        g: params.g,
+        tau1: params.tau1,
+        tau2: params.tau2,
+        h: reference.h,
+        ..Config::PAPER
+    };
+    let mut fb = gains.map(|g| StateFeedback::with_gains(cfg, *g));
+    let r0 = reference.r.first().copied().unwrap_or_default();
+    let mut plant = Plant::at_rest(
+        r0.x,
+        r0.l,
+        reference.t0,
+        [params.tau1, params.tau2],
+        params.g,
+        params.m,
+        *case,
+    );
+    let h = reference.h;
+    let (ts, te) = reference.span;
+    let l_end = reference.r.last().map_or(r0.l, |r| r.l);
+    let window = (
+        te + 5.0,
+        te + 5.0 + period(params.g, l_end + case.rope_offset),
+    );
+    let mut res = CaseResult::default();
+    let mut series = Series6::default();
+    let mut last = [0.0; 2];
+    let mut measured: Option<Measurement> = None;
+    for (k, (r, ud)) in reference.r.iter().zip(&reference.u).enumerate() {
+        let t = reference.t0 + k as f64 * h;
+        let u = match fb.as_mut() {
+            Some(fb) => fb.cycle(r, *ud, measured, last, limits).u,
+            None => [
+                clamp_to_limits(ud[0], last[0], limits.trolley, h),
+                clamp_to_limits(ud[1], last[1], limits.winch, h),
+            ],
+        };
+        // Measure the state now; it arrives in the next cycle.
+        let load = plant.load();
+        let [mx, ml, mphi] = plant.sense();
+        measured = Some(Measurement {
+            x: mx,
+            l: ml,
+            phi: Some(mphi),
+        });
+        let zd = reference.z.get(k).copied().unwrap_or(reference.target);
+        if t >= ts && t <= te {
+            res.tracking = res.tracking.max((load[0] - zd[0]).abs());
+            res.tracking_2d = res
+                .tracking_2d
+                .max(((load[0] - zd[0]).powi(2) + (load[1] - zd[1]).powi(2)).sqrt());
+        }
+        if t >= window.0 && t <= window.1 {
+            res.distance = res.distance.max((load[0] - reference.target[0]).abs());
+            res.vertical = res.vertical.max((load[1] - reference.target[1]).abs());
+            res.swing_deg = res.swing_deg.max(plant.y[2].abs().to_degrees());
+        }
+        for i in 0..2 {
+            res.max_u[i] = res.max_u[i].max(u[i].abs());
+            res.max_du[i] = res.max_du[i].max((u[i] - last[i]).abs() / h);
+        }
+        if record {
+            series.t.push(t);
+            series.load.push(load);
+            series.phi_deg.push(plant.y[2].to_degrees());
+            series.u.push(u);
+        }
+        last = u;
+        plant.advance(u, h);
+    }
+    (res, series)
+}
+
+/// A random move inside the workspace, from rest to rest, smoothness 5 (the controller's
+/// commands), with a duration the drives can follow; refused ones are drawn again.
+pub fn random_move(
+    rng: &mut Rng,
+    params: &CraneParams,
+    t0: f64,
+) -> (PointToPoint<f64, 2>, ReferenceRun) {
+    loop {
+        let a = [rng.uniform(11.0, 22.0), rng.uniform(3.5, 8.5)];
+        let b = [rng.uniform(11.0, 22.0), rng.uniform(3.5, 8.5)];
+        let dist = (b[0] - a[0]).abs() + (b[1] - a[1]).abs();
+        let duration = 3.0 + 0.5 * dist * rng.uniform(1.0, 1.5);
+        let Ok(z) = PointToPoint::new(a.into(), b.into(), t0 + 1.0, duration, 5) else {
+            continue;
+        };
+        let steps = steps_for((t0 + 1.0, t0 + 1.0 + duration), t0, b[1], 0.01);
+        if let Ok(run) = reference_run(*params, z, t0, steps) {
+            let fits = run.u.windows(2).all(|w| {
+                (0..2).all(|i| {
+                    let lim = if i == 0 { 3.0 } else { 2.0 };
+                    w[1][i].abs() < 0.9 * lim && (w[1][i] - w[0][i]).abs() / 0.01 < 2.7
+                })
+            });
+            if fits {
+                return (z, run);
+            }
+        }
+    }
+}
+
+/// The paper's move (`scenes/paper-crane.toml`), run long enough for the measures.
+pub fn paper_reference(params: &CraneParams) -> ReferenceRun {
+    let z = crate::scenes::crane_trajectory(4);
+    let steps = steps_for((1.0, 9.0), 0.0, crate::scenes::CRANE_END[1], 0.01);
+    reference_run(*params, z, 0.0, steps).expect("the paper's move runs")
+}
+
+/// One Monte Carlo set: results of feedforward only and with feedback, case by case.
+#[derive(Debug, Clone, Default)]
+pub struct MonteCarlo {
+    /// Per case: (mismatch, feedforward only, with feedback, reference index).
+    pub cases: Vec<(Mismatch, CaseResult, CaseResult)>,
+}
+
+/// Runs `n` random cases on the paper's move (`random_moves == false`) or on random moves.
+pub fn monte_carlo(seed: u64, n: usize, random_moves: bool, gains: &Gains) -> MonteCarlo {
+    let params = CraneParams::PAPER;
+    let limits = DriveLimits::LAB;
+    let mut rng = Rng::new(seed);
+    let paper = (!random_moves).then(|| paper_reference(&params));
+    let mut mc = MonteCarlo::default();
+    for _ in 0..n {
+        let own;
+        let reference = match &paper {
+            Some(r) => r,
+            None => {
+                own = random_move(&mut rng, &params, 0.0).1;
+                &own
+            }
+        };
+        let l0 = reference.r.first().map_or(6.0, |r| r.l);
+        let case = Mismatch::random(&mut rng, l0, reference.span);
+        let (ff, _) = simulate(&params, reference, &case, None, &limits, false);
+        let (fb, _) = simulate(&params, reference, &case, Some(gains), &limits, false);
+        mc.cases.push((case, ff, fb));
+    }
+    mc
+}
+
+/// The `q`-quantile (0..1) of `v`.
+pub fn quantile(v: &mut [f64], q: f64) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let i = ((v.len() as f64 - 1.0) * q).round() as usize;
+    v.get(i).copied().unwrap_or(f64::NAN)
+}
+
+/// One row of the table (markdown) for one mode of a Monte Carlo set.
+pub fn table_row(name: &str, results: &[CaseResult]) -> String {
+    let col = |f: &dyn Fn(&CaseResult) -> f64| results.iter().map(f).collect::<Vec<_>>();
+    let mut tr = col(&|r| r.tracking * 1e3);
+    let mut d = col(&|r| r.distance * 1e3);
+    let mut s = col(&|r| r.swing_deg);
+    let vert = col(&|r| r.vertical * 1e3).into_iter().fold(0.0, f64::max);
+    let u1 = col(&|r| r.max_u[0]).into_iter().fold(0.0, f64::max);
+    let u2 = col(&|r| r.max_u[1]).into_iter().fold(0.0, f64::max);
+    let a1 = col(&|r| r.max_du[0]).into_iter().fold(0.0, f64::max);
+    let a2 = col(&|r| r.max_du[1]).into_iter().fold(0.0, f64::max);
+    let ok = results.iter().filter(|r| r.meets_target()).count();
+    format!(
+        "| {name} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.3} / {:.3} / {:.3} | {:.0} | {}/{} ({:.1} %) | {:.2}, {:.2} | {:.2}, {:.2} |",
+        quantile(&mut tr, 0.5),
+        quantile(&mut tr, 1.0),
+        quantile(&mut d, 0.5),
+        quantile(&mut d, 0.99),
+        quantile(&mut d, 1.0),
+        quantile(&mut s, 0.5),
+        quantile(&mut s, 0.99),
+        quantile(&mut s, 1.0),
+        vert,
+        ok,
+        results.len(),
+        100.0 * ok as f64 / results.len().max(1) as f64,
+        u1,
+        u2,
+        a1,
+        a2,
+    )
+}
+
+/// The table's header.
+pub const TABLE_HEADER: &str = "| set, mode | tracking during the move, mm (median / max) | distance 5 s after, mm (median / p99 / max) | swing 5 s after, ° (median / p99 / max) | vertical offset max, mm | within ±50 mm and < 0.1° | worst |u1|, |u2| m/s | worst |Δu1|/h, |Δu2|/h m/s² |\n|---|---|---|---|---:|---|---|---|";
+
+/// A gust at rest at rope length `l`: the swing amplitude two swing periods after its
+/// peak, relative to the peak (`(ratio with feedback, ratio feedforward only)`).
+pub fn gust_at_rest(l: f64, gains: &Gains) -> (f64, f64) {
+    let params = CraneParams::PAPER;
+    let h = 0.01;
+    let t_end = 1.5 + 4.0 * period(params.g, l);
+    let steps = (t_end / h).ceil() as usize;
+    let reference = ReferenceRun {
+        t0: 0.0,
+        h,
+        u: vec![[0.0; 2]; steps],
+        r: vec![
+            Reference {
+                x: 15.0,
+                l,
+                ..Reference::default()
+            };
+            steps
+        ],
+        z: vec![[15.0, l]; steps],
+        span: (0.0, 0.0),
+        target: [15.0, l],
+    };
+    let case = Mismatch {
+        gust: Gust {
+            start: 0.5,
+            duration: 1.0,
+            amplitude: 10.0,
+        },
+        position_noise: Mismatch::SENSORS.0,
+        angle_noise: Mismatch::SENSORS.1,
+        noise_seed: 7,
+        ..Mismatch::NONE
+    };
+    let ratio = |g: Option<&Gains>| {
+        let (_, s) = simulate(&params, &reference, &case, g, &DriveLimits::LAB, true);
+        // The peak: the largest swing from the gust's start to one period after its end.
+        let until = case.gust.start + case.gust.duration + period(params.g, l);
+        let (ip, peak) = s
+            .phi_deg
+            .iter()
+            .zip(&s.t)
+            .enumerate()
+            .filter(|(_, (_, t))| **t <= until)
+            .fold((0, 0.0_f64), |(bi, b), (i, (v, _))| {
+                if v.abs() > b {
+                    (i, v.abs())
+                } else {
+                    (bi, b)
+                }
+            });
+        let tp = s.t.get(ip).copied().unwrap_or(0.0);
+        let t2 = tp + 2.0 * period(params.g, l);
+        let later =
+            s.t.iter()
+                .zip(&s.phi_deg)
+                .filter(|(t, _)| **t >= t2 && **t <= t2 + period(params.g, l))
+                .fold(0.0_f64, |m, (_, v)| m.max(v.abs()));
+        later / peak
+    };
+    (ratio(Some(gains)), ratio(None))
+}
+
+/// Plots one case: load path, swing angle and set points, feedforward against closed loop.
+pub fn plot_case(
+    path: &Path,
+    title: &str,
+    reference: &ReferenceRun,
+    case: &Mismatch,
+    gains: &Gains,
+) -> Result<(), String> {
+    let params = CraneParams::PAPER;
+    let (_, ff) = simulate(&params, reference, case, None, &DriveLimits::LAB, true);
+    let (_, fb) = simulate(
+        &params,
+        reference,
+        case,
+        Some(gains),
+        &DriveLimits::LAB,
+        true,
+    );
+    let path_series = |name: &str, s: &Series6| Series {
+        name: name.into(),
+        points: s.load.iter().map(|p| (p[0], -p[1])).collect(),
+    };
+    let desired = Series {
+        name: "desired".into(),
+        points: reference.z.iter().map(|p| (p[0], -p[1])).collect(),
+    };
+    let phi = |name: &str, s: &Series6| Series {
+        name: name.into(),
+        points: s.t.iter().copied().zip(s.phi_deg.iter().copied()).collect(),
+    };
+    let u = |name: &str, s: &Series6, i: usize| Series {
+        name: name.into(),
+        points: s.t.iter().copied().zip(s.u.iter().map(|u| u[i])).collect(),
+    };
+    let xerr = |name: &str, s: &Series6| Series {
+        name: name.into(),
+        points: s
+            .t
+            .iter()
+            .zip(s.load.iter().zip(&reference.z))
+            .map(|(t, (p, z))| (*t, (p[0] - z[0]) * 1e3))
+            .collect(),
+    };
+    let title_path = format!("{title}: load path (x_C, −z_C)");
+    figure(
+        path,
+        &[
+            (
+                Chart {
+                    title: &title_path,
+                    x_label: "x_C, m",
+                    y_label: "−z_C, m",
+                    x_scale: Scale::Linear,
+                    y_scale: Scale::Linear,
+                },
+                vec![
+                    desired,
+                    path_series("feedforward", &ff),
+                    path_series("closed loop", &fb),
+                ],
+            ),
+            (
+                Chart {
+                    title: "horizontal load error x_C − x_C,d",
+                    x_label: "t, s",
+                    y_label: "mm",
+                    x_scale: Scale::Linear,
+                    y_scale: Scale::Linear,
+                },
+                vec![xerr("feedforward", &ff), xerr("closed loop", &fb)],
+            ),
+            (
+                Chart {
+                    title: "swing angle φ",
+                    x_label: "t, s",
+                    y_label: "°",
+                    x_scale: Scale::Linear,
+                    y_scale: Scale::Linear,
+                },
+                vec![phi("feedforward", &ff), phi("closed loop", &fb)],
+            ),
+            (
+                Chart {
+                    title: "set points",
+                    x_label: "t, s",
+                    y_label: "m/s",
+                    x_scale: Scale::Linear,
+                    y_scale: Scale::Linear,
+                },
+                vec![
+                    u("u1 feedforward", &ff, 0),
+                    u("u1 closed loop", &fb, 0),
+                    u("u2 feedforward", &ff, 1),
+                    u("u2 closed loop", &fb, 1),
+                ],
+            ),
+        ],
+        true,
+    )
+}

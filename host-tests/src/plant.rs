@@ -1,0 +1,238 @@
+//! A crane plant that is *not* the controller's model, for the closed-loop study.
+//!
+//! Eqs. 21–22 (minimal coordinates, state `[x, l, φ, ẋ, l̇, φ̇]`) with what the inverse
+//! model leaves out:
+//!
+//! * the drives' velocity loops are first order with time constants `τ1 (1 + δ1)`,
+//!   `τ2 (1 + δ2)`, `|δ| ≤ 30 %` (the model's τ of Tab. 3 are identified values);
+//! * friction in both axes, as the velocity droop it causes in a velocity-controlled
+//!   drive: Coulomb (`c · tanh(v / 1 mm/s)`) plus viscous (`b · v`), so the drive
+//!   follows `τ v̇ + v = u − c tanh(v/ε) − b v`;
+//! * the rope is longer than the drum's measurement says by an offset of up to ±2 % of
+//!   the initial length (hook block, rope stretch): the pendulum has length `l + Δl`;
+//! * a wind gust: a horizontal force `F(t)` on the load (a sin² pulse);
+//! * measurements sampled every cycle with noise and quantisation, delivered one
+//!   cycle (10 ms) late.
+//!
+//! Integrated with classical RK4 at 1 ms under the zero-order-held 10 ms set points.
+
+/// A small deterministic generator (SplitMix64): the study's cases are fixed by a seed.
+#[derive(Debug, Clone)]
+pub struct Rng(u64);
+
+impl Rng {
+    /// A generator from `seed`.
+    pub fn new(seed: u64) -> Self {
+        Self(seed)
+    }
+
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `[0, 1)`.
+    pub fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Uniform in `[a, b)`.
+    pub fn uniform(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * self.unit()
+    }
+
+    /// Standard normal (Box–Muller).
+    pub fn normal(&mut self) -> f64 {
+        let u1 = self.unit().max(1e-300);
+        let u2 = self.unit();
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+}
+
+/// A wind gust: `F(t) = amplitude · sin²(π (t − start)/duration)` on `[start, start + duration]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gust {
+    /// Start, s.
+    pub start: f64,
+    /// Duration, s.
+    pub duration: f64,
+    /// Peak horizontal force on the load, N.
+    pub amplitude: f64,
+}
+
+impl Gust {
+    /// No gust.
+    pub const NONE: Self = Self {
+        start: 0.0,
+        duration: 1.0,
+        amplitude: 0.0,
+    };
+
+    /// The force at `t`, N.
+    pub fn force(&self, t: f64) -> f64 {
+        let s = (t - self.start) / self.duration;
+        if (0.0..=1.0).contains(&s) {
+            let v = (std::f64::consts::PI * s).sin();
+            self.amplitude * v * v
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Everything in which the plant differs from the model, and the sensors.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Mismatch {
+    /// Relative error of the trolley drive's time constant (plant τ1 = model τ1 · (1 + this)).
+    pub tau1: f64,
+    /// Relative error of the winch drive's time constant.
+    pub tau2: f64,
+    /// Rope longer than measured by this, m.
+    pub rope_offset: f64,
+    /// Coulomb droop of the trolley / winch velocity loop, m/s.
+    pub coulomb: [f64; 2],
+    /// Viscous droop of the trolley / winch, relative.
+    pub viscous: [f64; 2],
+    /// The wind gust.
+    pub gust: Gust,
+    /// Position noise (1σ) and quantum, m.
+    pub position_noise: (f64, f64),
+    /// Angle noise (1σ) and quantum, rad.
+    pub angle_noise: (f64, f64),
+    /// Seed of the sensor noise.
+    pub noise_seed: u64,
+}
+
+impl Mismatch {
+    /// The plant equal to the model: no friction, no offset, no gust, exact sensors.
+    pub const NONE: Self = Self {
+        tau1: 0.0,
+        tau2: 0.0,
+        rope_offset: 0.0,
+        coulomb: [0.0; 2],
+        viscous: [0.0; 2],
+        gust: Gust::NONE,
+        position_noise: (0.0, 0.0),
+        angle_noise: (0.0, 0.0),
+        noise_seed: 0,
+    };
+
+    /// The sensors of the study: positions 0.2 mm noise, 0.1 mm quantum; the inclinometer
+    /// 0.02° noise, 0.01° quantum.
+    pub const SENSORS: ((f64, f64), (f64, f64)) = ((2e-4, 1e-4), (3.5e-4, 1.75e-4));
+
+    /// A random case: τ within ±30 %, rope offset within ±2 % of `l0`, Coulomb droop up
+    /// to 3 mm/s on both axes, viscous up to 3 %, and a gust of up to
+    /// ±10 N (≈ 3° of static deflection on the 18.9 kg load) lasting 0.5–3 s starting in `gust_window`.
+    pub fn random(rng: &mut Rng, l0: f64, gust_window: (f64, f64)) -> Self {
+        let duration = rng.uniform(0.5, 3.0);
+        let (a, b) = gust_window;
+        let start = rng.uniform(a, (b - duration).max(a));
+        Self {
+            tau1: rng.uniform(-0.3, 0.3),
+            tau2: rng.uniform(-0.3, 0.3),
+            rope_offset: rng.uniform(-0.02, 0.02) * l0,
+            coulomb: [rng.uniform(0.0, 0.003), rng.uniform(0.0, 0.003)],
+            viscous: [rng.uniform(0.0, 0.03), rng.uniform(0.0, 0.03)],
+            gust: Gust {
+                start,
+                duration,
+                amplitude: rng.uniform(-10.0, 10.0),
+            },
+            position_noise: Self::SENSORS.0,
+            angle_noise: Self::SENSORS.1,
+            noise_seed: rng.next_u64(),
+        }
+    }
+}
+
+/// The plant's true state, `[x, l_drum, φ, ẋ, l̇, φ̇]` (the pendulum length is `l_drum + offset`).
+#[derive(Debug, Clone)]
+pub struct Plant {
+    /// State.
+    pub y: [f64; 6],
+    /// Time, s.
+    pub t: f64,
+    tau: [f64; 2],
+    g: f64,
+    m: f64,
+    mismatch: Mismatch,
+    noise: Rng,
+}
+
+/// Integration step of the plant, s.
+pub const PLANT_STEP: f64 = 1e-3;
+
+impl Plant {
+    /// At rest at trolley `x`, drum rope length `l`, time `t`; model time constants `tau`.
+    pub fn at_rest(x: f64, l: f64, t: f64, tau: [f64; 2], g: f64, m: f64, mm: Mismatch) -> Self {
+        Self {
+            y: [x, l, 0.0, 0.0, 0.0, 0.0],
+            t,
+            tau: [tau[0] * (1.0 + mm.tau1), tau[1] * (1.0 + mm.tau2)],
+            g,
+            m,
+            mismatch: mm,
+            noise: Rng::new(mm.noise_seed),
+        }
+    }
+
+    fn rhs(&self, t: f64, y: &[f64; 6], u: [f64; 2]) -> [f64; 6] {
+        let [_, l, phi, vx, vl, vphi] = *y;
+        let mm = &self.mismatch;
+        let droop = |i: usize, v: f64| mm.coulomb[i] * (v / 1e-3).tanh() + mm.viscous[i] * v;
+        let ax = (u[0] - vx - droop(0, vx)) / self.tau[0];
+        let al = (u[1] - vl - droop(1, vl)) / self.tau[1];
+        let len = l + mm.rope_offset;
+        let (s, c) = phi.sin_cos();
+        let f = mm.gust.force(t) / self.m;
+        let aphi = (-self.g * s - 2.0 * vphi * vl - c * ax + c * f) / len;
+        [vx, vl, vphi, ax, al, aphi]
+    }
+
+    /// Integrates over `dt` (a multiple of [`PLANT_STEP`]) with `u` held.
+    pub fn advance(&mut self, u: [f64; 2], dt: f64) {
+        let n = (dt / PLANT_STEP).round().max(1.0) as usize;
+        let h = dt / n as f64;
+        for _ in 0..n {
+            let y = self.y;
+            let t = self.t;
+            let add = |a: &[f64; 6], k: &[f64; 6], s: f64| std::array::from_fn(|i| a[i] + s * k[i]);
+            let k1 = self.rhs(t, &y, u);
+            let k2 = self.rhs(t + h / 2.0, &add(&y, &k1, h / 2.0), u);
+            let k3 = self.rhs(t + h / 2.0, &add(&y, &k2, h / 2.0), u);
+            let k4 = self.rhs(t + h, &add(&y, &k3, h), u);
+            self.y = std::array::from_fn(|i| {
+                y[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            });
+            self.t += h;
+        }
+    }
+
+    /// The load position `[x_C, z_C]` (Eq. 27 with the true rope length).
+    pub fn load(&self) -> [f64; 2] {
+        let [x, l, phi, ..] = self.y;
+        let len = l + self.mismatch.rope_offset;
+        [x + len * phi.sin(), len * phi.cos()]
+    }
+
+    /// What the sensors read now: `[x, l_drum, φ]` with noise and quantisation.
+    pub fn sense(&mut self) -> [f64; 3] {
+        let [x, l, phi, ..] = self.y;
+        let (pn, pq) = self.mismatch.position_noise;
+        let (an, aq) = self.mismatch.angle_noise;
+        let mut q = |v: f64, sigma: f64, quantum: f64| {
+            let v = v + sigma * self.noise.normal();
+            if quantum > 0.0 {
+                (v / quantum).round() * quantum
+            } else {
+                v
+            }
+        };
+        [q(x, pn, pq), q(l, pn, pq), q(phi, an, aq)]
+    }
+}

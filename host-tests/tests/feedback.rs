@@ -1,0 +1,191 @@
+//! The state feedback of Fig. 1 (`controller::feedback`) on the plant of
+//! `host_tests::plant`: stability of the scheduled linear closed loop over the rope
+//! range and the mismatch range, the Monte Carlo targets on a fixed-seed subset, the
+//! gust at rest, anti-windup, and zero correction on a perfect measurement.
+
+use controller::drive::Drive;
+use controller::feedback::{discretise, Config, Gains, Measurement, StateFeedback};
+use controller::setpoint::{DriveLimits, SetpointGate};
+use host_tests::feedback_study::{gust_at_rest, monte_carlo, paper_reference};
+use nalgebra::SMatrix;
+use solver_core::models::crane::CraneParams;
+
+fn rho12(m: &SMatrix<f64, 12, 12>) -> f64 {
+    m.complex_eigenvalues()
+        .iter()
+        .map(|z| z.re.hypot(z.im))
+        .fold(0.0, f64::max)
+}
+
+fn rho6(m: &SMatrix<f64, 6, 6>) -> f64 {
+    m.complex_eigenvalues()
+        .iter()
+        .map(|z| z.re.hypot(z.im))
+        .fold(0.0, f64::max)
+}
+
+/// The sampled closed loop with the one-cycle-late measurement and the predictor
+/// observer, state `[p_k, p_{k−1}, ê_{k−1|k−2}]`, for a plant whose lags and pendulum
+/// length differ from the model's; the gains are those scheduled at the reference `l`.
+#[test]
+fn scheduled_closed_loop_is_stable_over_rope_and_mismatch_range() {
+    let cfg = Config::PAPER;
+    let gains = Gains::design(&cfg).unwrap();
+    let mut worst: f64 = 0.0;
+    let c4 = SMatrix::<f64, 2, 4>::new(1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0);
+    let c2 = SMatrix::<f64, 1, 2>::new(1.0, 0.0);
+    for i in 0..=24 {
+        let l = 3.0 + 0.25 * f64::from(i);
+        let gp = gains.at(l);
+        for d1 in [-0.3, 0.0, 0.3] {
+            for d2 in [-0.3, 0.0, 0.3] {
+                for rope in [-0.02, 0.0, 0.02] {
+                    let p = discretise(
+                        cfg.g,
+                        cfg.tau1 * (1.0 + d1),
+                        cfg.tau2 * (1.0 + d2),
+                        l * (1.0 + rope),
+                        cfg.h,
+                    );
+                    let m: SMatrix<f64, 12, 12> =
+                        closed_loop(&p.a, &p.b, &gp.model.a, &gp.model.b, &gp.k, &gp.obs, &c4);
+                    let r = rho12(&m);
+                    assert!(
+                        r < 0.9995,
+                        "trolley loop unstable: l = {l}, τ1 {d1:+}, rope {rope:+}: ρ = {r}"
+                    );
+                    worst = worst.max(r);
+                    let m: SMatrix<f64, 6, 6> = closed_loop(
+                        &p.aw,
+                        &p.bw,
+                        &gp.model.aw,
+                        &gp.model.bw,
+                        &gp.kw,
+                        &gp.obs_w,
+                        &c2,
+                    );
+                    let r = rho6(&m);
+                    assert!(
+                        r < 0.9995,
+                        "winch loop unstable: l = {l}, τ2 {d2:+}: ρ = {r}"
+                    );
+                }
+            }
+        }
+    }
+    println!("largest closed-loop eigenvalue modulus over the grid: {worst:.5}");
+}
+
+/// `z_{k+1} = M z_k` with `z_k = [p_k, p_{k−1}, ê_{k−1|k−2}]` (R = 3N).
+fn closed_loop<const N: usize, const M: usize, const R: usize>(
+    pa: &SMatrix<f64, N, N>,
+    pb: &SMatrix<f64, N, 1>,
+    ma: &SMatrix<f64, N, N>,
+    mb: &SMatrix<f64, N, 1>,
+    k: &SMatrix<f64, 1, N>,
+    obs: &SMatrix<f64, N, M>,
+    c: &SMatrix<f64, M, N>,
+) -> SMatrix<f64, R, R> {
+    assert_eq!(R, 3 * N);
+    let id = SMatrix::<f64, N, N>::identity();
+    // ê_{k|k−1} = ma (I − L C) ê_{k−1|k−2} + ma L C p_{k−1} + mb δu_{k−1},  δu_{k−1} = −K ê_{k−1|k−2}
+    let e_e = ma * (id - obs * c) - mb * k;
+    let e_p1 = ma * obs * c;
+    // δu_k = −K ê_{k|k−1};  p_{k+1} = pa p_k + pb δu_k
+    let p_p1 = -(pb * k * e_p1);
+    let p_e = -(pb * k * e_e);
+    SMatrix::from_fn(|i, j| {
+        let (bi, ii, bj, jj) = (i / N, i % N, j / N, j % N);
+        match (bi, bj) {
+            (0, 0) => pa[(ii, jj)],
+            (0, 1) => p_p1[(ii, jj)],
+            (0, 2) => p_e[(ii, jj)],
+            (1, 0) => id[(ii, jj)],
+            (2, 1) => e_p1[(ii, jj)],
+            (2, 2) => e_e[(ii, jj)],
+            _ => 0.0,
+        }
+    })
+}
+
+#[test]
+fn monte_carlo_targets_hold_on_a_fixed_seed_subset() {
+    let gains = Gains::design(&Config::PAPER).unwrap();
+    for (seed, random) in [(11, false), (12, true)] {
+        let mc = monte_carlo(seed, 25, random, &gains);
+        for (case, ff, fb) in &mc.cases {
+            assert!(
+                fb.meets_target(),
+                "feedback misses the target: {fb:?} for {case:?} (feedforward only: {ff:?})"
+            );
+            assert!(fb.max_u[0] <= 3.0 && fb.max_u[1] <= 2.0);
+            assert!(fb.max_du[0] <= 3.0 + 1e-9 && fb.max_du[1] <= 3.0 + 1e-9);
+        }
+        // Feedforward alone does not get there on this plant.
+        let ff_ok = mc.cases.iter().filter(|c| c.1.meets_target()).count();
+        assert!(
+            ff_ok < mc.cases.len() / 2,
+            "{ff_ok} feedforward-only cases meet the target"
+        );
+    }
+}
+
+#[test]
+fn gust_at_rest_is_damped_below_ten_percent_in_two_periods() {
+    let gains = Gains::design(&Config::PAPER).unwrap();
+    for l in [3.0, 6.0, 9.0] {
+        let (fb, ff) = gust_at_rest(l, &gains);
+        assert!(fb < 0.1, "l = {l}: {fb}");
+        assert!(ff > 0.5, "without feedback the swing stays: l = {l}: {ff}");
+    }
+}
+
+/// Measurements 1 m and 10° off and a feedforward at the limits: every set point passes
+/// the gate, i.e. the clamp keeps within the velocity and acceleration limits.
+#[test]
+fn anti_windup_keeps_set_points_within_the_gate() {
+    let params = CraneParams::PAPER;
+    let reference = paper_reference(&params);
+    let limits = DriveLimits::LAB;
+    let mut fb = StateFeedback::new(Config::PAPER).unwrap();
+    let mut gate = SetpointGate::new(limits, 0.01);
+    let mut last = [0.0; 2];
+    for (k, (r, ud)) in reference.r.iter().zip(&reference.u).enumerate() {
+        let sign = if (k / 150) % 2 == 0 { 1.0 } else { -1.0 };
+        let m = Measurement {
+            x: r.x + sign,
+            l: r.l - sign * 0.5,
+            phi: Some(r.phi + sign * 0.17),
+        };
+        let ud = [ud[0] * 2.0, ud[1] * 2.0];
+        let out = fb.cycle(r, ud, Some(m), last, &limits);
+        let a = gate.admit(Drive::Trolley, out.u[0]);
+        let b = gate.admit(Drive::Winch, out.u[1]);
+        assert!(
+            a.is_ok() && b.is_ok(),
+            "cycle {k}: {out:?} refused: {a:?} {b:?}"
+        );
+        last = [
+            gate.last(Drive::Trolley).metres_per_second(),
+            gate.last(Drive::Winch).metres_per_second(),
+        ];
+    }
+}
+
+#[test]
+fn correction_is_zero_when_measurement_equals_reference() {
+    let reference = paper_reference(&CraneParams::PAPER);
+    let mut fb = StateFeedback::new(Config::PAPER).unwrap();
+    let mut measured = None;
+    let mut last = [0.0; 2];
+    for (r, ud) in reference.r.iter().zip(&reference.u) {
+        let out = fb.cycle(r, *ud, measured, last, &DriveLimits::LAB);
+        assert_eq!(out.correction, [0.0; 2]);
+        last = out.u;
+        measured = Some(Measurement {
+            x: r.x,
+            l: r.l,
+            phi: Some(r.phi),
+        });
+    }
+}
