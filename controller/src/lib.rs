@@ -10,6 +10,9 @@
 //! * `virtual_bus`, `traffic` (feature `sim`, on by default, off in the drive
 //!   controller's build) — simulated stock CiA 402 drives, scenarios and random traffic
 //!   for the QEMU runs, the host tests and the fuzzer;
+//! * `plant` (feature `sim`) — a crane that is not the model (lags, friction, rope
+//!   offset, gust, noisy late sensors) for the closed-loop runs;
+//! * [`feedback`] — the state feedback around the inverse model (Fig. 1);
 //! * [`transmit`] — the transmit queue that keeps a cycle's frames in order and names every loss;
 //! * [`controller`] — the 100 Hz cycle and the reaction to every fault, with injected time.
 //!
@@ -36,6 +39,8 @@ pub mod feedforward;
 pub mod frame;
 pub mod node;
 pub mod planner;
+#[cfg(feature = "sim")]
+pub mod plant;
 pub mod setpoint;
 #[cfg(feature = "sim")]
 pub mod traffic;

@@ -15,6 +15,9 @@
 //!   cycle (10 ms) late.
 //!
 //! Integrated with classical RK4 at 1 ms under the zero-order-held 10 ms set points.
+//!
+//! `no_std` and `libm` only: the QEMU firmware's virtual bus runs the same plant as the
+//! host (feature `sim`), so that QEMU and host compute the same frames.
 
 /// A small deterministic generator (SplitMix64): the study's cases are fixed by a seed.
 #[derive(Debug, Clone)]
@@ -49,7 +52,7 @@ impl Rng {
     pub fn normal(&mut self) -> f64 {
         let u1 = self.unit().max(1e-300);
         let u2 = self.unit();
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+        libm::sqrt(-2.0 * libm::log(u1)) * libm::cos(2.0 * core::f64::consts::PI * u2)
     }
 }
 
@@ -76,7 +79,7 @@ impl Gust {
     pub fn force(&self, t: f64) -> f64 {
         let s = (t - self.start) / self.duration;
         if (0.0..=1.0).contains(&s) {
-            let v = (std::f64::consts::PI * s).sin();
+            let v = libm::sin(core::f64::consts::PI * s);
             self.amplitude * v * v
         } else {
             0.0
@@ -170,10 +173,11 @@ pub const PLANT_STEP: f64 = 1e-3;
 impl Plant {
     /// At rest at trolley `x`, drum rope length `l`, time `t`; model time constants `tau`.
     pub fn at_rest(x: f64, l: f64, t: f64, tau: [f64; 2], g: f64, m: f64, mm: Mismatch) -> Self {
+        let [tau1, tau2] = tau;
         Self {
             y: [x, l, 0.0, 0.0, 0.0, 0.0],
             t,
-            tau: [tau[0] * (1.0 + mm.tau1), tau[1] * (1.0 + mm.tau2)],
+            tau: [tau1 * (1.0 + mm.tau1), tau2 * (1.0 + mm.tau2)],
             g,
             m,
             mismatch: mm,
@@ -184,11 +188,15 @@ impl Plant {
     fn rhs(&self, t: f64, y: &[f64; 6], u: [f64; 2]) -> [f64; 6] {
         let [_, l, phi, vx, vl, vphi] = *y;
         let mm = &self.mismatch;
-        let droop = |i: usize, v: f64| mm.coulomb[i] * (v / 1e-3).tanh() + mm.viscous[i] * v;
-        let ax = (u[0] - vx - droop(0, vx)) / self.tau[0];
-        let al = (u[1] - vl - droop(1, vl)) / self.tau[1];
+        let [c1, c2] = mm.coulomb;
+        let [b1, b2] = mm.viscous;
+        let droop = |c: f64, b: f64, v: f64| c * libm::tanh(v / 1e-3) + b * v;
+        let [u1, u2] = u;
+        let [tau1, tau2] = self.tau;
+        let ax = (u1 - vx - droop(c1, b1, vx)) / tau1;
+        let al = (u2 - vl - droop(c2, b2, vl)) / tau2;
         let len = l + mm.rope_offset;
-        let (s, c) = phi.sin_cos();
+        let (s, c) = (libm::sin(phi), libm::cos(phi));
         let f = mm.gust.force(t) / self.m;
         let aphi = (-self.g * s - 2.0 * vphi * vl - c * ax + c * f) / len;
         [vx, vl, vphi, ax, al, aphi]
@@ -196,18 +204,21 @@ impl Plant {
 
     /// Integrates over `dt` (a multiple of [`PLANT_STEP`]) with `u` held.
     pub fn advance(&mut self, u: [f64; 2], dt: f64) {
-        let n = (dt / PLANT_STEP).round().max(1.0) as usize;
+        let n = libm::round(dt / PLANT_STEP).max(1.0) as usize;
         let h = dt / n as f64;
         for _ in 0..n {
             let y = self.y;
             let t = self.t;
-            let add = |a: &[f64; 6], k: &[f64; 6], s: f64| std::array::from_fn(|i| a[i] + s * k[i]);
+            let add = |a: &[f64; 6], k: &[f64; 6], s: f64| -> [f64; 6] {
+                core::array::from_fn(|i| a.get(i).zip(k.get(i)).map_or(0.0, |(a, k)| a + s * k))
+            };
             let k1 = self.rhs(t, &y, u);
             let k2 = self.rhs(t + h / 2.0, &add(&y, &k1, h / 2.0), u);
             let k3 = self.rhs(t + h / 2.0, &add(&y, &k2, h / 2.0), u);
             let k4 = self.rhs(t + h, &add(&y, &k3, h), u);
-            self.y = std::array::from_fn(|i| {
-                y[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            self.y = core::array::from_fn(|i| {
+                let at = |v: &[f64; 6]| v.get(i).copied().unwrap_or(0.0);
+                at(&y) + h / 6.0 * (at(&k1) + 2.0 * at(&k2) + 2.0 * at(&k3) + at(&k4))
             });
             self.t += h;
         }
@@ -217,7 +228,7 @@ impl Plant {
     pub fn load(&self) -> [f64; 2] {
         let [x, l, phi, ..] = self.y;
         let len = l + self.mismatch.rope_offset;
-        [x + len * phi.sin(), len * phi.cos()]
+        [x + len * libm::sin(phi), len * libm::cos(phi)]
     }
 
     /// What the sensors read now: `[x, l_drum, φ]` with noise and quantisation.
@@ -228,7 +239,7 @@ impl Plant {
         let mut q = |v: f64, sigma: f64, quantum: f64| {
             let v = v + sigma * self.noise.normal();
             if quantum > 0.0 {
-                (v / quantum).round() * quantum
+                libm::round(v / quantum) * quantum
             } else {
                 v
             }
