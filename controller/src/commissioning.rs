@@ -108,6 +108,98 @@ impl DriveSetup {
 
 /// CiA 402 device profile number, the low word of 0x1000.
 pub const CIA402_PROFILE: u32 = 402;
+/// CiA 410 (inclinometer) device profile number, the low word of 0x1000.
+pub const CIA410_PROFILE: u32 = 410;
+
+/// A device the controller commissions: a CiA 402 drive ([`DriveSetup`]) or the CiA 410
+/// inclinometer ([`InclinometerSetup`]). The sequence is the same; what is checked and
+/// written differs.
+pub trait Device {
+    /// The device profile the low word of 0x1000 must name.
+    const PROFILE: u32;
+    /// Its node id.
+    fn node(&self) -> u8;
+    /// Everything written into it, in order, for a controller at node `controller`
+    /// cycling every `period_ms`.
+    fn configuration(&self, controller: u8, period_ms: u8) -> Vec<Write, MAX_WRITES>;
+    /// The mode of operation 0x6061 must confirm before the device is started (drives).
+    fn confirmed_mode(&self) -> Option<i8>;
+}
+
+impl Device for DriveSetup {
+    const PROFILE: u32 = CIA402_PROFILE;
+    fn node(&self) -> u8 {
+        self.node
+    }
+    fn configuration(&self, controller: u8, period_ms: u8) -> Vec<Write, MAX_WRITES> {
+        configuration(self, controller, period_ms)
+    }
+    fn confirmed_mode(&self) -> Option<i8> {
+        Some(self.mode.code())
+    }
+}
+
+/// The inclinometer on the hook block (CiA 410): a row of the commissioning file.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct InclinometerSetup {
+    /// CANopen node id (1..=127).
+    pub node: u8,
+    /// Resolution 0x6000 of *slope long16* (0x6010), 0.001°: 10 is 0.01° (CiA 410's
+    /// usual choice; ±327° fit the 16 bits).
+    pub resolution: u16,
+    /// Its heartbeat producer time 0x1017, ms.
+    pub heartbeat_ms: u16,
+    /// Radians of swing angle per degree of slope, with the sign: +1° of slope is
+    /// `sign · 1°` of the angle φ of Eq. 20 (how the sensor is mounted).
+    pub sign: f64,
+    /// The slope at φ = 0 (the load hanging still), degrees: the mounting offset.
+    pub offset_deg: f64,
+}
+
+impl InclinometerSetup {
+    /// A stock one-axis CiA 410 inclinometer at node 3: 0.01°, heartbeat every 100 ms,
+    /// mounted so that its slope is φ.
+    pub const STOCK: Self = Self {
+        node: 3,
+        resolution: 10,
+        heartbeat_ms: 100,
+        sign: 1.0,
+        offset_deg: 0.0,
+    };
+
+    /// The swing angle φ, rad, from a *slope long16* value.
+    #[must_use]
+    pub fn angle(&self, slope: i16) -> f64 {
+        let degrees = f64::from(slope) * f64::from(self.resolution) * 1e-3;
+        (self.sign * (degrees - self.offset_deg)).to_radians()
+    }
+}
+
+impl Device for InclinometerSetup {
+    const PROFILE: u32 = CIA410_PROFILE;
+    fn node(&self) -> u8 {
+        self.node
+    }
+    /// 0x6000 *resolution*, TPDO1 (0x1800/0x1A00: *slope long16* 0x6010) synchronous on
+    /// every SYNC, heartbeat producer 0x1017.
+    fn configuration(&self, _controller: u8, _period_ms: u8) -> Vec<Write, MAX_WRITES> {
+        let mut writes = Vec::new();
+        let _ = writes.push(w(0x6000, 0, u32::from(self.resolution), 2));
+        pdo(
+            &mut writes,
+            0x1800,
+            0x1A00,
+            0x180 + u32::from(self.node),
+            &[0x6010_0010],
+        );
+        let _ = writes.push(w(0x1017, 0, u32::from(self.heartbeat_ms), 2));
+        writes
+    }
+    fn confirmed_mode(&self) -> Option<i8> {
+        None
+    }
+}
 
 /// Objects read or written (CiA 301, CiA 402), by name.
 pub mod object {
@@ -254,7 +346,7 @@ pub fn configuration(setup: &DriveSetup, controller: u8, period_ms: u8) -> Vec<W
 pub enum CommissioningError {
     /// A transfer failed (abort by the drive, timeout, protocol).
     Sdo(SdoError),
-    /// 0x1000 does not name the CiA 402 profile.
+    /// 0x1000 does not name the device's profile (CiA 402, CiA 410).
     DeviceType {
         /// What it says.
         found: u32,
@@ -356,10 +448,10 @@ pub enum Progress {
 /// few milliseconds to switch).
 const MODE_TRIES: u8 = 5;
 
-/// The commissioning of one drive.
+/// The commissioning of one device (a drive unless said otherwise).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Commissioning {
-    setup: DriveSetup,
+pub struct Commissioning<D = DriveSetup> {
+    setup: D,
     writes: Vec<Write, MAX_WRITES>,
     /// Whether the controller is NMT manager (it switches and starts the drive).
     manager: bool,
@@ -375,22 +467,22 @@ pub struct Commissioning {
 /// How often an absent drive is looked for, ms.
 pub const PRESENCE_RETRY_MS: u64 = 1_000;
 
-impl Commissioning {
-    /// The commissioning of the drive `setup` for a controller at `controller` cycling
+impl<D: Device> Commissioning<D> {
+    /// The commissioning of the device `setup` for a controller at `controller` cycling
     /// every `period_ms` ms; `manager`: the controller is NMT manager.
     #[must_use]
     pub fn new(
-        setup: DriveSetup,
+        setup: D,
         controller: u8,
         period_ms: u8,
         manager: bool,
         sdo_timeout_ms: u32,
     ) -> Self {
         Self {
+            writes: setup.configuration(controller, period_ms),
+            sdo: SdoClient::new(setup.node(), sdo_timeout_ms),
             setup,
-            writes: configuration(&setup, controller, period_ms),
             manager,
-            sdo: SdoClient::new(setup.node, sdo_timeout_ms),
             phase: Phase::Absent,
             step: Step::DeviceType,
             nmt_due: false,
@@ -401,7 +493,7 @@ impl Commissioning {
 
     /// The table row.
     #[must_use]
-    pub fn setup(&self) -> &DriveSetup {
+    pub fn setup(&self) -> &D {
         &self.setup
     }
 
@@ -433,7 +525,7 @@ impl Commissioning {
         if self.manager {
             self.step = Step::PreOperational;
             self.nmt_due = true;
-            nmt::command(NmtCommand::PreOperational, self.setup.node)
+            nmt::command(NmtCommand::PreOperational, self.setup.node())
         } else {
             self.step = Step::DeviceType;
             self.nmt_due = false;
@@ -493,7 +585,7 @@ impl Commissioning {
         }
         let read = u32::from_le_bytes(word);
         match self.step {
-            Step::DeviceType if read & 0xFFFF != CIA402_PROFILE => {
+            Step::DeviceType if read & 0xFFFF != D::PROFILE => {
                 return self.fail(CommissioningError::DeviceType { found: read }, None);
             }
             Step::Identity(sub) => {
@@ -520,7 +612,7 @@ impl Commissioning {
             }
             Step::Mode(tries) => {
                 let found = read as u8 as i8;
-                if found != self.setup.mode.code() {
+                if Some(found) != self.setup.confirmed_mode() {
                     if tries + 1 >= MODE_TRIES {
                         return self.fail(CommissioningError::Mode { found }, None);
                     }
@@ -542,15 +634,15 @@ impl Commissioning {
             Step::Identity(_) => Step::Write(0),
             Step::Write(i) => Step::ReadBack(i),
             Step::ReadBack(i) if i + 1 < self.writes.len() => Step::Write(i + 1),
-            Step::ReadBack(_) => Step::Mode(0),
-            Step::Mode(_) if self.manager => Step::Start,
-            Step::Mode(_) | Step::Start => {
+            Step::ReadBack(_) if self.setup.confirmed_mode().is_some() => Step::Mode(0),
+            Step::ReadBack(_) | Step::Mode(_) if self.manager => Step::Start,
+            Step::ReadBack(_) | Step::Mode(_) | Step::Start => {
                 self.phase = Phase::Done;
                 return Progress::Done;
             }
         };
         self.step = next;
-        let node = self.setup.node;
+        let node = self.setup.node();
         match next {
             Step::PreOperational | Step::Start => {
                 // No answer to wait for: the next step follows on the next poll.
