@@ -1,9 +1,14 @@
 //! The inverse model as the controller sees it: one step per cycle, two velocities
 //! out, and a plan it can change while the model runs.
 
+use solver_core::models::crane_proj::CraneProj;
+use solver_core::models::crane_subs::CraneSubs;
 use solver_core::plan::Plan;
 use solver_core::scalar::{c, to_f64};
+use solver_core::trajectory::Trajectory;
 use solver_core::{Bdf, DaeModel, Driven, Error, NewtonStats, Radau, Real};
+
+use crate::feedback::Reference;
 
 /// The least smoothness `n` of the moves and stops the controller plans.
 ///
@@ -39,6 +44,41 @@ pub trait Feedforward {
     fn step(&mut self) -> Result<FeedforwardStep, Error>;
     /// Model time of the newest solution, s.
     fn time(&self) -> f64;
+    /// The reference state of the newest solution (trolley, rope, angle and their
+    /// rates) for the state feedback; asked only by a controller that corrects.
+    fn reference(&self) -> Reference;
+}
+
+/// The crane's reference state `y_d, v_d` (Eqs. 7–10) from a solution of its inverse
+/// model: what the state feedback compares the measurements with.
+pub trait CraneReference {
+    /// The reference at time `t` from the solution `y` (the scheme's unknowns).
+    fn reference(&self, y: &[f64], t: f64) -> Reference;
+}
+
+/// *subs*: `y = [x, l, ẋ, l̇, λ, u1, u2]`; the angle and its rate from the desired
+/// load position and velocity (Eqs. 27–28).
+impl<T: Real> CraneReference for CraneSubs<T, Plan<f64, 2>> {
+    fn reference(&self, y: &[f64], t: f64) -> Reference {
+        let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
+        let [p, v] = self.trajectory().derivatives::<2>(t);
+        Reference::from_subs([at(0), at(1), at(2), at(3)], p.into(), v.into())
+    }
+}
+
+/// *proj*: `y = [x, l, φ, ẋ, l̇, φ̇, u1, u2]` holds the reference as it is.
+impl<T: Real> CraneReference for CraneProj<T, Plan<f64, 2>> {
+    fn reference(&self, y: &[f64], _t: f64) -> Reference {
+        let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
+        Reference {
+            x: at(0),
+            l: at(1),
+            phi: at(2),
+            vx: at(3),
+            vl: at(4),
+            vphi: at(5),
+        }
+    }
 }
 
 /// An inverse model driven by a [`Plan`] that the controller may change.
@@ -69,6 +109,8 @@ pub trait Stepper<M> {
     fn time(&self) -> f64;
     /// Starts again at rest at `t0` (the model's trajectory must rest there).
     fn restart(&mut self, model: &M, t0: f64) -> Result<(), Error>;
+    /// The newest solution's unknowns into `out` (as many as fit).
+    fn solution(&self, out: &mut [f64]);
 }
 
 fn report<T: Real>(t: T, u: nalgebra::SVector<T, 2>, stats: NewtonStats) -> FeedforwardStep {
@@ -90,6 +132,11 @@ impl<T: Real, M: DaeModel<T, N, 2>, const N: usize> Stepper<M> for Bdf<T, M, N, 
     fn restart(&mut self, model: &M, t0: f64) -> Result<(), Error> {
         Bdf::restart(self, model, c(t0))
     }
+    fn solution(&self, out: &mut [f64]) {
+        for (o, y) in out.iter_mut().zip(self.state().iter()) {
+            *o = to_f64(*y);
+        }
+    }
 }
 
 impl<T: Real, M: DaeModel<T, N, 2>, const N: usize, const S: usize> Stepper<M>
@@ -104,14 +151,27 @@ impl<T: Real, M: DaeModel<T, N, 2>, const N: usize, const S: usize> Stepper<M>
     fn restart(&mut self, model: &M, t0: f64) -> Result<(), Error> {
         Radau::restart(self, model, c(t0))
     }
+    fn solution(&self, out: &mut [f64]) {
+        for (o, y) in out.iter_mut().zip(self.state().iter()) {
+            *o = to_f64(*y);
+        }
+    }
 }
 
-impl<M, I: Stepper<M>> Feedforward for InverseModel<M, I> {
+/// The most unknowns of a crane model (*proj*).
+const MAX_UNKNOWNS: usize = 8;
+
+impl<M: CraneReference, I: Stepper<M>> Feedforward for InverseModel<M, I> {
     fn step(&mut self) -> Result<FeedforwardStep, Error> {
         self.integrator.step(&self.model)
     }
     fn time(&self) -> f64 {
         self.integrator.time()
+    }
+    fn reference(&self) -> Reference {
+        let mut y = [0.0; MAX_UNKNOWNS];
+        self.integrator.solution(&mut y);
+        self.model.reference(&y, self.integrator.time())
     }
 }
 
@@ -169,6 +229,9 @@ impl<F: Feedforward + Replan> Feedforward for Injectable<F> {
     }
     fn time(&self) -> f64 {
         self.inner.time()
+    }
+    fn reference(&self) -> Reference {
+        self.inner.reference()
     }
 }
 
