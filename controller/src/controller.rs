@@ -11,13 +11,16 @@
 use heapless::{Deque, Vec};
 use solver_core::Error;
 
-use crate::canopen::emcy::{self, REGISTER_COMMUNICATION, REGISTER_GENERIC};
+use crate::canopen::emcy::{self, REGISTER_COMMUNICATION, REGISTER_GENERIC, REGISTER_MANUFACTURER};
 use crate::canopen::sdo;
 use crate::canopen::{self, nmt, Incoming, NmtCommand, NmtState};
 use crate::cia402::{controlword, statusword, DriveState};
 use crate::commands::{self, status_frame, Answer, Reject, Request, Status};
-use crate::commissioning::{Commissioning, CommissioningError, DriveSetup, Phase, Progress};
+use crate::commissioning::{
+    Commissioning, CommissioningError, DriveSetup, InclinometerSetup, Phase, Progress,
+};
 use crate::drive::Drive;
+use crate::feedback::{Correction, Measurement, Mode as FeedbackMode, NoFeedback};
 use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
 use crate::frame::CanFrame;
 use crate::node::{Dictionary, Node, Role, Snapshot};
@@ -60,6 +63,9 @@ pub struct Config {
     /// This many TPDOs in a row of an enabled drive in CSV that does not follow the set
     /// point (statusword bit 12 clear) while it is asked to move: a fault.
     pub not_following_tpdos: u8,
+    /// The inclinometer measuring the swing angle for the state feedback (CiA 410), if
+    /// the scene closes the loop.
+    pub inclinometer: Option<InclinometerSetup>,
 }
 
 impl Config {
@@ -81,6 +87,7 @@ impl Config {
         undeliverable_cycles: 3,
         fault_reset_cycles: 20,
         not_following_tpdos: 3,
+        inclinometer: None,
     };
 
     /// A cycle costing more than this (core cycles; QEMU instructions) missed its
@@ -335,6 +342,29 @@ impl DriveLink {
     }
 }
 
+/// What the controller knows of the inclinometer.
+#[derive(Debug, Clone, PartialEq)]
+struct SensorLink {
+    commissioning: Commissioning<InclinometerSetup>,
+    nmt: Option<NmtState>,
+    last_heartbeat_ms: Option<u64>,
+    /// The angle of its last TPDO, rad, and whether it arrived since the last cycle.
+    angle: Option<f64>,
+    fresh: bool,
+    outbox: Option<CanFrame>,
+}
+
+impl SensorLink {
+    /// Commissioned, operational, heard within `timeout_ms`: its angles count.
+    fn healthy(&self, now_ms: u64, timeout_ms: u32) -> bool {
+        self.commissioning.phase() == Phase::Done
+            && self.nmt == Some(NmtState::Operational)
+            && self
+                .last_heartbeat_ms
+                .is_some_and(|t| now_ms.saturating_sub(t) <= u64::from(timeout_ms))
+    }
+}
+
 /// Running totals, reported in the status frame and the logs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -392,10 +422,20 @@ pub struct Cycle {
 
 type AnswerRecord = (u8, Answer, Option<Reject>);
 
-/// The crane controller: a CANopen node, manager (or slave) of the trolley and winch drives.
+/// The crane controller: a CANopen node, manager (or slave) of the trolley and winch
+/// drives, with the inverse model `F` as feedforward and `C` between it and the drives
+/// (Fig. 1: [`NoFeedback`], or the state feedback with an inclinometer).
 #[derive(Debug, Clone)]
-pub struct Controller<F> {
+pub struct Controller<F, C = NoFeedback> {
     feedforward: F,
+    correction: C,
+    inclinometer: Option<SensorLink>,
+    /// The loop is closed: a move was accepted since the last boot or fault. Before,
+    /// the controller holds zero set points whatever the load does (no motion without a
+    /// command).
+    closed_loop: bool,
+    /// The feedback mode last announced (EMCY 0xFF20 when it falls back to feedforward).
+    feedback_announced: Option<FeedbackMode>,
     config: Config,
     node: Node,
     gate: SetpointGate,
@@ -434,6 +474,19 @@ impl<F: Feedforward + Replan> Controller<F> {
     /// A controller that follows `feedforward` and checks moves with `planner`; it starts
     /// by commissioning the drives and holds them at standstill until a move is asked.
     pub fn new(feedforward: F, planner: Planner, config: Config) -> Self {
+        Self::with_correction(feedforward, NoFeedback, planner, config)
+    }
+}
+
+impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
+    /// A controller whose set points are `feedforward`'s corrected by `correction`
+    /// (the state feedback measures the angle with `config.inclinometer`).
+    pub fn with_correction(
+        feedforward: F,
+        correction: C,
+        planner: Planner,
+        config: Config,
+    ) -> Self {
         let period_ms = u8::try_from(config.period_ms).unwrap_or(u8::MAX);
         let manager = config.role == Role::Manager;
         let link = |setup: DriveSetup| {
@@ -446,8 +499,29 @@ impl<F: Feedforward + Replan> Controller<F> {
             ))
         };
         let [trolley, winch] = config.drives;
+        let inclinometer = config
+            .inclinometer
+            .filter(|_| C::ENABLED)
+            .map(|setup| SensorLink {
+                commissioning: Commissioning::new(
+                    setup,
+                    config.node,
+                    period_ms,
+                    manager,
+                    config.sdo_timeout_ms,
+                ),
+                nmt: None,
+                last_heartbeat_ms: None,
+                angle: None,
+                fresh: false,
+                outbox: None,
+            });
         Self {
             feedforward,
+            correction,
+            inclinometer,
+            closed_loop: false,
+            feedback_announced: None,
             config,
             node: Node {
                 id: config.node,
@@ -565,6 +639,10 @@ impl<F: Feedforward + Replan> Controller<F> {
     /// Takes one received frame. Frames it does not understand are ignored and counted:
     /// they never change a set point.
     pub fn on_frame(&mut self, frame: &CanFrame, now_ms: u64) {
+        if self.on_inclinometer_frame(frame, now_ms) {
+            self.counters.frames_received = self.counters.frames_received.saturating_add(1);
+            return;
+        }
         let Ok(incoming) = canopen::decode(frame) else {
             self.ignore();
             return;
@@ -671,6 +749,95 @@ impl<F: Feedforward + Replan> Controller<F> {
             }
             Incoming::Rpdo1 { .. } => {}
         }
+    }
+
+    /// A frame of the inclinometer (its TPDO1 *slope long16*, heartbeat, SDO response,
+    /// EMCY): taken here, `true`. An EMCY that reports a fault makes its angles count
+    /// as missing until it is commissioned again (the feedback's degraded rule decides).
+    fn on_inclinometer_frame(&mut self, frame: &CanFrame, now_ms: u64) -> bool {
+        let Some(sensor) = self.inclinometer.as_mut() else {
+            return false;
+        };
+        let setup = *sensor.commissioning.setup();
+        let node = u16::from(setup.node);
+        let id = frame.id();
+        let data = frame.data();
+        if id == canopen::cob::TPDO1 + node {
+            match *data {
+                [a, b] if sensor.commissioning.phase() == Phase::Done => {
+                    sensor.angle = Some(setup.angle(i16::from_le_bytes([a, b])));
+                    sensor.fresh = true;
+                }
+                [_, _] => {}
+                _ => self.ignore(),
+            }
+            return true;
+        }
+        let Ok(incoming) = canopen::decode(frame) else {
+            return false;
+        };
+        match incoming {
+            Incoming::Heartbeat { node, state } if node == setup.node => {
+                sensor.last_heartbeat_ms = Some(now_ms);
+                sensor.nmt = Some(state);
+                let phase = sensor.commissioning.phase();
+                let rebooted = state == NmtState::BootUp
+                    || (phase == Phase::Done && state != NmtState::Operational)
+                    || phase == Phase::Absent;
+                if rebooted {
+                    sensor.angle = None;
+                    sensor.outbox = Some(sensor.commissioning.begin(now_ms));
+                } else if phase == Phase::Done
+                    && state != NmtState::Operational
+                    && self.node.role == Role::Manager
+                {
+                    sensor.outbox = Some(nmt::command(NmtCommand::Start, setup.node));
+                }
+                true
+            }
+            Incoming::SdoResponse { node, data } if node == setup.node => {
+                match sensor.commissioning.on_response(&data, now_ms) {
+                    Some(Progress::Send(frame)) => sensor.outbox = Some(frame),
+                    Some(Progress::Done) => {}
+                    Some(Progress::Failed { error, abort }) => {
+                        sensor.outbox = abort;
+                        self.inclinometer_failed(error);
+                    }
+                    None => self.ignore(),
+                }
+                true
+            }
+            Incoming::Emergency {
+                node,
+                code,
+                register,
+            } if node == setup.node => {
+                if emcy::is_fault(code, register) {
+                    sensor.angle = None;
+                    sensor.nmt = None;
+                }
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// The inclinometer's commissioning failed: no fault (the crane can run on
+    /// feedforward alone), but the failure is recorded in 0x2002 like a drive's, and
+    /// the feedback's degraded rule announces the missing angle.
+    fn inclinometer_failed(&mut self, error: CommissioningError) {
+        let node = self
+            .inclinometer
+            .as_ref()
+            .map_or(0, |s| s.commissioning.setup().node);
+        let object = error.object();
+        self.commissioning_failure = (
+            node,
+            object.index,
+            object.sub,
+            error.abort_code(),
+            error.reason(),
+        );
     }
 
     fn supervisor_node(&self) -> Option<u8> {
@@ -939,9 +1106,10 @@ impl<F: Feedforward + Replan> Controller<F> {
         } else {
             None
         };
+        let wanted = step.as_ref().map(|s| self.corrected(s));
         let mut setpoints = [Setpoint::ZERO; 2];
         for drive in Drive::ALL {
-            let (command, setpoint) = self.command_for(drive, step.as_ref());
+            let (command, setpoint) = self.command_for(drive, wanted);
             // Only a commissioned drive gets PDOs: its mapping is known. A drive that
             // is being commissioned again (it rebooted, or said so) still gets the rest
             // of its ramp to standstill, so that no drive ever sees its set point jump;
@@ -1013,6 +1181,80 @@ impl<F: Feedforward + Replan> Controller<F> {
                 self.push(frames, frame);
             }
         }
+        let Some(sensor) = self.inclinometer.as_mut() else {
+            return;
+        };
+        let frame = match sensor.outbox.take() {
+            Some(frame) => Some(frame),
+            None => match sensor.commissioning.poll(now_ms) {
+                Some(Progress::Send(frame)) => Some(frame),
+                Some(Progress::Done) | None => None,
+                Some(Progress::Failed { error, abort }) => {
+                    self.inclinometer_failed(error);
+                    abort
+                }
+            },
+        };
+        if let Some(frame) = frame {
+            self.push(frames, frame);
+        }
+    }
+
+    /// What the drives and the inclinometer measured at the last SYNC (their TPDOs
+    /// arrive between cycles): trolley position and rope length from position actual
+    /// (0x6064) through the commissioned scaling, the angle if a fresh one came from a
+    /// healthy inclinometer. `None` when a position is not fresh.
+    fn measurement(&mut self) -> Option<Measurement> {
+        let now_ms = self.now_ms;
+        let phi = self.inclinometer.as_mut().and_then(|sensor| {
+            let fresh = core::mem::take(&mut sensor.fresh);
+            let healthy = sensor.healthy(now_ms, self.config.heartbeat_timeout_ms);
+            sensor.angle.filter(|_| fresh && healthy)
+        });
+        let mut position = [0.0; 2];
+        for drive in Drive::ALL {
+            let link = self.link(drive);
+            let fresh = link
+                .last_position_ms
+                .is_some_and(|t| now_ms.saturating_sub(t) <= u64::from(self.config.period_ms));
+            let setup = link.commissioning.setup();
+            *drive.of_mut(&mut position) = setup.position_offset
+                + setup.position_scale * f64::from(link.position.filter(|_| fresh)?);
+        }
+        let [x, l] = position;
+        Some(Measurement { x, l, phi })
+    }
+
+    /// This cycle's set points before the gate: the inverse model's `u_d`, corrected by
+    /// the feedback while the loop is closed (Fig. 1). A change of the feedback's mode
+    /// is announced: falling back to feedforward only by EMCY 0xFF20 (a warning: the
+    /// crane goes on with the paper's controller), back to closed loop by nothing.
+    fn corrected(&mut self, step: &FeedforwardStep) -> [f64; 2] {
+        if !C::ENABLED || !self.closed_loop || self.mode != Mode::Ready {
+            return step.u;
+        }
+        let reference = self.feedforward.reference();
+        let measured = self.measurement();
+        let last = Drive::ALL.map(|d| self.gate.last(d).metres_per_second());
+        let out = self
+            .correction
+            .correct(&reference, step.u, measured, last, &self.config.limits);
+        if self.feedback_announced != Some(out.mode) {
+            if let FeedbackMode::FeedforwardOnly(reason) = out.mode {
+                let node = self
+                    .inclinometer
+                    .as_ref()
+                    .map_or(0, |s| s.commissioning.setup().node);
+                self.send_emcy(canopen::emcy(
+                    self.node.id,
+                    emcy::FEEDBACK_OFF,
+                    REGISTER_MANUFACTURER,
+                    [15, node, reason.code(), 0, 0],
+                ));
+            }
+            self.feedback_announced = Some(out.mode);
+        }
+        out.u
     }
 
     /// What a commissioning step asks: the frame to send, if any, and the end of the
@@ -1180,7 +1422,29 @@ impl<F: Feedforward + Replan> Controller<F> {
                 Answer::Accepted
             })
         });
+        if answer.is_ok() {
+            self.close_loop();
+        }
         self.give_answer(pending.id, answer);
+    }
+
+    /// A move was accepted: the feedback acts from now on. If it had fallen back to
+    /// feedforward only and the crane is at rest, it starts again from a zero error
+    /// estimate (its degraded rule takes it off again if the angle is still bad).
+    fn close_loop(&mut self) {
+        if !C::ENABLED {
+            return;
+        }
+        let at_rest = !self.moving();
+        let degraded = matches!(
+            self.correction.mode(),
+            Some(FeedbackMode::FeedforwardOnly(_))
+        );
+        if !self.closed_loop || (degraded && at_rest) {
+            self.correction.restart();
+            self.feedback_announced = None;
+        }
+        self.closed_loop = true;
     }
 
     fn give_answer(&mut self, id: u8, answer: Result<Answer, Reject>) {
@@ -1229,6 +1493,8 @@ impl<F: Feedforward + Replan> Controller<F> {
                 self.recommission(drive, self.now_ms);
             }
         }
+        self.correction.restart();
+        self.feedback_announced = None;
         self.resetting = self.config.fault_reset_cycles;
         self.last_miss_cycle = None;
         self.failed_cycles = 0;
@@ -1254,12 +1520,12 @@ impl<F: Feedforward + Replan> Controller<F> {
     }
 
     /// Controlword and set point for one drive this cycle.
-    fn command_for(&mut self, drive: Drive, step: Option<&FeedforwardStep>) -> (u16, Setpoint) {
+    fn command_for(&mut self, drive: Drive, wanted: Option<[f64; 2]>) -> (u16, Setpoint) {
         let ready = self.link(drive).ready();
         let state = self.link(drive).state;
         match self.mode {
             Mode::Enabling | Mode::Ready => {
-                let wanted = step.map(|s| *drive.of(&s.u)).unwrap_or(0.0);
+                let wanted = wanted.map(|u| *drive.of(&u)).unwrap_or(0.0);
                 let Some(command) = state.enable_command() else {
                     // A drive in fault: after a reset, the fault-reset sequence; otherwise
                     // it is a fault.
@@ -1358,6 +1624,7 @@ impl<F: Feedforward + Replan> Controller<F> {
             }
             return;
         }
+        self.closed_loop = false;
         self.mode = match reaction {
             Reaction::Controlled => Mode::Stopping(fault),
             Reaction::Quick => Mode::QuickStop(fault),

@@ -779,6 +779,88 @@ impl StateFeedback {
     }
 }
 
+/// What the controller puts between the inverse model's `u_d` and the set-point gate:
+/// nothing ([`NoFeedback`], the paper's feedforward alone) or the state feedback
+/// ([`StateFeedback`]). A type parameter of the controller, so that a scene without
+/// feedback does not link the gain design, the observer or the inclinometer's use
+/// (model only what a scene requires).
+pub trait Correction {
+    /// `false`: the controller never asks for a reference or measurements.
+    const ENABLED: bool;
+    /// One cycle: the set points to hand to the gate (see [`StateFeedback::cycle`]).
+    fn correct(
+        &mut self,
+        reference: &Reference,
+        u_d: [f64; 2],
+        measured: Option<Measurement>,
+        last: [f64; 2],
+        limits: &DriveLimits,
+    ) -> Output;
+    /// Back to closed loop with a zero error estimate (the crane at rest).
+    fn restart(&mut self);
+    /// What it is doing (`None`: there is no feedback).
+    fn mode(&self) -> Option<Mode>;
+}
+
+/// Feedforward only: the set points are the inverse model's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct NoFeedback;
+
+impl Correction for NoFeedback {
+    const ENABLED: bool = false;
+    fn correct(
+        &mut self,
+        _reference: &Reference,
+        u_d: [f64; 2],
+        _measured: Option<Measurement>,
+        _last: [f64; 2],
+        _limits: &DriveLimits,
+    ) -> Output {
+        Output {
+            u: u_d,
+            correction: [0.0; 2],
+            mode: Mode::FeedforwardOnly(Degraded::AngleLost),
+            error: [0.0; 6],
+        }
+    }
+    fn restart(&mut self) {}
+    fn mode(&self) -> Option<Mode> {
+        None
+    }
+}
+
+impl Correction for StateFeedback {
+    const ENABLED: bool = true;
+    fn correct(
+        &mut self,
+        reference: &Reference,
+        u_d: [f64; 2],
+        measured: Option<Measurement>,
+        last: [f64; 2],
+        limits: &DriveLimits,
+    ) -> Output {
+        self.cycle(reference, u_d, measured, last, limits)
+    }
+    fn restart(&mut self) {
+        self.reset();
+    }
+    fn mode(&self) -> Option<Mode> {
+        Some(self.mode)
+    }
+}
+
+impl Degraded {
+    /// The reason byte of the EMCY announcing feedforward only (docs/COMMANDS.md).
+    #[must_use]
+    pub fn code(self) -> u8 {
+        match self {
+            Self::AngleLost => 1,
+            Self::AngleImplausible => 2,
+            Self::PositionsInvalid => 3,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used, clippy::indexing_slicing)]

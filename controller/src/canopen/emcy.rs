@@ -31,6 +31,9 @@ pub const COMMISSIONING: u16 = 0xFF10;
 /// Device specific: a drive reports a mode of operation (0x6061) other than the
 /// commissioned one.
 pub const DRIVE_MODE: u16 = 0xFF11;
+/// Device specific: the state feedback fell back to feedforward only — a warning
+/// (manufacturer bytes: 15, inclinometer node, reason; docs/COMMANDS.md).
+pub const FEEDBACK_OFF: u16 = 0xFF20;
 
 /// Error register (0x1001) bit 0: generic error. CiA 301 requires it whenever any error
 /// is present, so an EMCY without it is a warning (see [`is_fault`]).
