@@ -9,17 +9,23 @@
 //! the target velocity as actual velocity, integrate it into their position, and answer
 //! every SYNC with their TPDOs. Quirks make one of them misbehave the ways real drives do.
 
+mod inclinometer;
+pub use inclinometer::{InclinometerSim, SensorFault};
+
 use heapless::{Deque, LinearMap};
 
 use crate::canopen::sdo::{self, abort, Object, ObjectDictionary, Value};
 use crate::canopen::{self, cob, NmtCommand, NmtState};
 use crate::cia402::{controlword, DriveState};
 use crate::commands::{request_frame, Request};
+use crate::commissioning::InclinometerSetup;
 use crate::controller::{Controller, Cycle, Mode};
 use crate::drive::Drive;
 use crate::feedforward::{Feedforward, Injectable, Replan};
 use crate::frame::CanFrame;
+use crate::plant::{Mismatch, Plant};
 use crate::traffic::Traffic;
+use solver_core::models::crane::CraneParams;
 
 /// A frame as `const` data.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -83,6 +89,8 @@ pub enum Action {
         /// How long, in cycles.
         cycles: u8,
     },
+    /// The inclinometer (scenarios with a plant) fails so.
+    Sensor(SensorFault),
 }
 
 /// An action at a time.
@@ -109,6 +117,10 @@ pub struct Scenario {
     pub random: Option<u32>,
     /// The mode the run must end in (the QEMU firmware's exit code says whether it did).
     pub ends: Ending,
+    /// The crane the drives move: `None`, ideal drives that integrate their set points;
+    /// `Some`, the paper's lab crane (Tab. 3) as a plant that is not the model, with
+    /// this mismatch, and an inclinometer on the hook block (node 3).
+    pub plant: Option<Mismatch>,
 }
 
 /// The mode a scenario must end in.
@@ -178,6 +190,8 @@ pub struct DriveSim {
     velocity: i32,
     /// Position, nm (position actual is in µm).
     position_nm: i64,
+    /// Velocity actual when a plant moves it (else it is the set point followed).
+    actual_velocity: Option<i32>,
     silent: bool,
     quirk: Option<Quirk>,
     /// Statuswords of the last SYNCs, newest first (for a lagging TPDO).
@@ -290,6 +304,7 @@ impl DriveSim {
             state: DriveState::SwitchOnDisabled,
             velocity: 0,
             position_nm: libm::round(position * 1e9) as i64,
+            actual_velocity: None,
             silent: false,
             quirk: None,
             history: [0x0250; 4],
@@ -460,6 +475,8 @@ impl DriveSim {
 #[derive(Debug, Clone)]
 pub struct VirtualBus {
     drives: [DriveSim; 2],
+    plant: Option<Plant>,
+    inclinometer: Option<InclinometerSim>,
     scenario: Scenario,
     next_event: usize,
     inbox: Deque<CanFrame, 32>,
@@ -484,11 +501,26 @@ impl VirtualBus {
     #[must_use]
     pub fn new(scenario: Scenario, start: [f64; 2]) -> Self {
         let [x, l] = start;
+        let crane = CraneParams::PAPER;
         Self {
             drives: [
                 DriveSim::new(Drive::Trolley.node(), x),
                 DriveSim::new(Drive::Winch.node(), l),
             ],
+            plant: scenario.plant.map(|mismatch| {
+                Plant::at_rest(
+                    x,
+                    l,
+                    0.0,
+                    [crane.tau1, crane.tau2],
+                    crane.g,
+                    crane.m,
+                    mismatch,
+                )
+            }),
+            inclinometer: scenario
+                .plant
+                .map(|_| InclinometerSim::new(InclinometerSetup::STOCK.node)),
             scenario,
             next_event: 0,
             inbox: Deque::new(),
@@ -516,6 +548,18 @@ impl VirtualBus {
 
     fn drive_mut(&mut self, drive: Drive) -> &mut DriveSim {
         drive.of_mut(&mut self.drives)
+    }
+
+    /// The plant, in scenarios with one.
+    #[must_use]
+    pub fn plant(&self) -> Option<&Plant> {
+        self.plant.as_ref()
+    }
+
+    /// The inclinometer, in scenarios with a plant.
+    #[must_use]
+    pub fn inclinometer(&self) -> Option<&InclinometerSim> {
+        self.inclinometer.as_ref()
     }
 
     /// The same bus after the watchdog restarted the firmware: the scenario's hang is
@@ -554,6 +598,26 @@ impl VirtualBus {
             return Err(BusOff);
         }
         let data = frame.data();
+        if id == cob::SYNC {
+            self.sync();
+            return Ok(());
+        }
+        if let Some(sensor) = self.inclinometer.as_mut() {
+            let node = sensor.node();
+            if id == cob::NMT {
+                if let [command, addressee] = *data {
+                    if addressee == 0 || addressee == node {
+                        if let Some(command) = NmtCommand::from_byte(command) {
+                            sensor.on_nmt(command);
+                        }
+                    }
+                }
+            } else if id == sdo::REQUEST + u16::from(node) {
+                if let Some(answer) = sensor.on_sdo(data) {
+                    self.deliver(answer);
+                }
+            }
+        }
         for drive in Drive::ALL {
             let (powered, node, nmt) = {
                 let d = self.drive(drive);
@@ -584,23 +648,62 @@ impl VirtualBus {
                         i32::from_le_bytes([v0, v1, v2, v3]),
                     );
                 }
-            } else if id == cob::SYNC {
-                let d = self.drive_mut(drive);
-                d.on_sync();
-                if d.nmt == NmtState::Operational && !d.silent {
-                    let velocity = match d.quirk {
-                        Some(Quirk::ReportsVelocity(v)) => v,
-                        _ => d.velocity,
-                    };
-                    let status = canopen::tpdo1(node, d.reported_statusword(), velocity);
-                    let position =
-                        canopen::tpdo2(node, (d.position_nm / 1000) as i32, d.od.mode_display());
-                    self.deliver(status);
-                    self.deliver(position);
-                }
             }
         }
         Ok(())
+    }
+
+    /// SYNC: the drives advance one interpolation period — on their own, or moving the
+    /// plant, whose sensed state then is their position and velocity actual and the
+    /// inclinometer's slope — and answer with their TPDOs.
+    fn sync(&mut self) {
+        for d in &mut self.drives {
+            if d.powered {
+                d.on_sync();
+            }
+        }
+        let mut slope = None;
+        if let Some(plant) = self.plant.as_mut() {
+            let period_ms = self
+                .drives
+                .first()
+                .map_or(1, |d| d.od.get(0x60C2, 1).max(1));
+            let u = self.drives.each_ref().map(|d| {
+                if d.powered {
+                    f64::from(d.velocity) * 1e-6
+                } else {
+                    0.0
+                }
+            });
+            plant.advance(u, f64::from(period_ms) * 1e-3);
+            let [x, l, phi] = plant.sense();
+            let [_, _, _, vx, vl, _] = plant.y;
+            for (d, (position, velocity)) in self.drives.iter_mut().zip([(x, vx), (l, vl)]) {
+                d.position_nm = libm::round(position * 1e9) as i64;
+                d.actual_velocity = Some(libm::round(velocity * 1e6) as i32);
+            }
+            slope = Some(phi.to_degrees());
+        }
+        for drive in Drive::ALL {
+            let d = self.drive(drive);
+            if d.powered && d.nmt == NmtState::Operational && !d.silent {
+                let velocity = match d.quirk {
+                    Some(Quirk::ReportsVelocity(v)) => v,
+                    _ => d.actual_velocity.unwrap_or(d.velocity),
+                };
+                let node = d.node;
+                let status = canopen::tpdo1(node, d.reported_statusword(), velocity);
+                let position =
+                    canopen::tpdo2(node, (d.position_nm / 1000) as i32, d.od.mode_display());
+                self.deliver(status);
+                self.deliver(position);
+            }
+        }
+        if let (Some(sensor), Some(phi_deg)) = (self.inclinometer.as_mut(), slope) {
+            if let Some(frame) = sensor.on_sync(phi_deg) {
+                self.deliver(frame);
+            }
+        }
     }
 
     /// Everything that appears on the bus in `(after_ms, up_to_ms]`: the scenario's
@@ -640,6 +743,11 @@ impl VirtualBus {
             if period > 0 && up_to_ms >= d.next_heartbeat_ms {
                 let beat = canopen::heartbeat(d.node, d.nmt);
                 d.next_heartbeat_ms = up_to_ms.saturating_add(period);
+                let _ = fresh.push_back(beat);
+            }
+        }
+        if let Some(sensor) = self.inclinometer.as_mut() {
+            if let Some(beat) = sensor.heartbeat(up_to_ms) {
                 let _ = fresh.push_back(beat);
             }
         }
@@ -700,6 +808,11 @@ impl VirtualBus {
             Action::SolverFailure => self.solver_failure = true,
             Action::Hang => self.hang = self.hangs,
             Action::BusOff { cycles } => self.bus_off_cycles = cycles,
+            Action::Sensor(fault) => {
+                if let Some(sensor) = self.inclinometer.as_mut() {
+                    sensor.fail(fault);
+                }
+            }
         }
     }
 
@@ -782,6 +895,7 @@ pub const HEALTHY: Scenario = Scenario {
     cycles: 0,
     random: None,
     ends: Ending::Ready,
+    plant: None,
 };
 
 /// Two moves requested back to back after the paper's move: the first starts at once,
@@ -796,6 +910,7 @@ pub const TWO_MOVES: Scenario = Scenario {
     cycles: 2_000,
     random: None,
     ends: Ending::Ready,
+    plant: None,
 };
 
 /// Every rejection reason once: a move while the drives are being commissioned (not
@@ -821,6 +936,7 @@ pub const REJECTIONS: Scenario = Scenario {
     cycles: 1_900,
     random: None,
     ends: Ending::Ready,
+    plant: None,
 };
 
 /// A storm of malformed and unknown frames during the move: ignored, counted, no effect.
@@ -837,6 +953,7 @@ pub const STORM: Scenario = Scenario {
     cycles: 0,
     random: None,
     ends: Ending::Ready,
+    plant: None,
 };
 
 /// The winch drive faults in the middle of the move: quick stop, halted; then a reset.
@@ -850,6 +967,7 @@ pub const DRIVE_FAULT: Scenario = Scenario {
     cycles: 1_000,
     random: None,
     ends: Ending::Ready,
+    plant: None,
 };
 
 /// The inverse model fails in the middle of the move: controlled stop, halted.
@@ -860,6 +978,7 @@ pub const NEWTON_FAILURE: Scenario = Scenario {
     cycles: 0,
     random: None,
     ends: Ending::Halted,
+    plant: None,
 };
 
 /// The trolley drive falls silent in the middle of the move: quick stop, halted.
@@ -870,6 +989,7 @@ pub const LOST_HEARTBEAT: Scenario = Scenario {
     cycles: 0,
     random: None,
     ends: Ending::Halted,
+    plant: None,
 };
 
 /// A stop request in the middle of the move: the load comes to rest smoothly, a
@@ -881,6 +1001,7 @@ pub const STOP: Scenario = Scenario {
     cycles: 0,
     random: None,
     ends: Ending::Ready,
+    plant: None,
 };
 
 /// The bus goes off twice in the middle of the move: for 2 cycles (counted, the move
@@ -895,6 +1016,7 @@ pub const BUS_OFF: Scenario = Scenario {
     cycles: 0,
     random: None,
     ends: Ending::Halted,
+    plant: None,
 };
 
 /// The firmware hangs in the middle of the move: the watchdog restarts it, it boots
@@ -910,6 +1032,7 @@ pub const HANG: Scenario = Scenario {
     cycles: 800,
     random: None,
     ends: Ending::Ready,
+    plant: None,
 };
 
 /// Every scenario, by name.
@@ -936,6 +1059,7 @@ pub const SOAK: Scenario = Scenario {
     cycles: 6_000,
     random: Some(0x5EED_C0DE),
     ends: Ending::Either,
+    plant: None,
 };
 
 /// The scenario of this name (the checked ones and the soak run).

@@ -1,0 +1,205 @@
+//! A simulated stock CiA 410 inclinometer on the hook block: NMT slave (boot-up
+//! message, pre-operational until started), SDO server of the objects commissioning
+//! touches, *slope long16* (0x6010) in TPDO1 on every SYNC while operational, a
+//! heartbeat once 0x1017 is set. Its slope is the plant's swing angle φ (Eq. 20),
+//! noisy and quantised as the plant senses it, in the resolution 0x6000 asks.
+
+use heapless::LinearMap;
+
+use crate::canopen::sdo::{self, abort, Object, ObjectDictionary, Value};
+use crate::canopen::{self, NmtCommand, NmtState};
+use crate::frame::CanFrame;
+
+/// What can go wrong with it in a scenario.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SensorFault {
+    /// It falls silent (cable cut): no heartbeat, no TPDO.
+    Lost,
+    /// Its value freezes at the last one (a stuck pendulum), while it goes on talking.
+    Stuck,
+}
+
+/// The objects it holds: (index, sub) → (value, size).
+#[derive(Debug, Clone, PartialEq)]
+struct Dictionary {
+    entries: LinearMap<(u16, u8), (u32, u8), 16>,
+    node: u8,
+}
+
+impl Dictionary {
+    fn new(node: u8) -> Self {
+        let mut entries = LinearMap::new();
+        // 0.1° by default (as many sensors ship); heartbeat off.
+        let _ = entries.insert((0x6000, 0), (100, 2));
+        let _ = entries.insert((0x1017, 0), (0, 2));
+        Self { entries, node }
+    }
+
+    fn get(&self, index: u16, sub: u8) -> u32 {
+        self.entries.get(&(index, sub)).map_or(0, |(v, _)| *v)
+    }
+
+    fn writable(index: u16, sub: u8) -> bool {
+        matches!(
+            (index, sub),
+            (0x6000 | 0x1017, 0) | (0x1800, 1..=2) | (0x1A00, 0..=8)
+        )
+    }
+}
+
+impl ObjectDictionary for Dictionary {
+    fn read(&self, object: Object) -> Result<Value, u32> {
+        let word = |v: u32, size: usize| -> Value {
+            let bytes = v.to_le_bytes();
+            sdo::value(bytes.get(..size).unwrap_or(&bytes))
+        };
+        match (object.index, object.sub) {
+            // CiA 410, one axis, 16 bit (additional information 0x0001).
+            (0x1000, 0) => Ok(word(0x0001_019A, 4)),
+            (0x1018, 0) => Ok(word(4, 1)),
+            (0x1018, 1) => Ok(word(0x0000_0B2C, 4)),
+            (0x1018, 2) => Ok(word(0x0410_0000 | u32::from(self.node), 4)),
+            (0x1018, 3) => Ok(word(0x0001_0000, 4)),
+            (0x1018, 4) => Ok(word(2000 + u32::from(self.node), 4)),
+            (index, sub) if Dictionary::writable(index, sub) => {
+                let (v, size) = self.entries.get(&(index, sub)).copied().unwrap_or((0, 4));
+                Ok(word(v, usize::from(size)))
+            }
+            _ => Err(abort::NO_OBJECT),
+        }
+    }
+
+    fn write(&mut self, object: Object, data: &[u8]) -> Result<(), u32> {
+        let (index, sub) = (object.index, object.sub);
+        if !Dictionary::writable(index, sub) {
+            return Err(match self.read(object) {
+                Ok(_) => abort::READ_ONLY,
+                Err(code) => code,
+            });
+        }
+        let mut word = [0u8; 4];
+        for (w, d) in word.iter_mut().zip(data) {
+            *w = *d;
+        }
+        self.entries
+            .insert(
+                (index, sub),
+                (u32::from_le_bytes(word), data.len().min(4) as u8),
+            )
+            .map(|_| ())
+            .map_err(|_| abort::OUT_OF_MEMORY)
+    }
+}
+
+/// The simulated inclinometer.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InclinometerSim {
+    node: u8,
+    nmt: NmtState,
+    boot_up_due: bool,
+    od: Dictionary,
+    fault: Option<SensorFault>,
+    /// The slope it reports, resolution units.
+    slope: i16,
+    next_heartbeat_ms: u32,
+}
+
+impl InclinometerSim {
+    /// Powered, about to send its boot-up message.
+    #[must_use]
+    pub fn new(node: u8) -> Self {
+        Self {
+            node,
+            nmt: NmtState::PreOperational,
+            boot_up_due: true,
+            od: Dictionary::new(node),
+            fault: None,
+            slope: 0,
+            next_heartbeat_ms: 0,
+        }
+    }
+
+    /// Its node id.
+    #[must_use]
+    pub fn node(&self) -> u8 {
+        self.node
+    }
+
+    /// Its NMT state.
+    #[must_use]
+    pub fn nmt(&self) -> NmtState {
+        self.nmt
+    }
+
+    /// A value of its object dictionary, as written.
+    #[must_use]
+    pub fn object(&self, index: u16, sub: u8) -> u32 {
+        self.od.get(index, sub)
+    }
+
+    /// From now on it has `fault`.
+    pub fn fail(&mut self, fault: SensorFault) {
+        self.fault = Some(fault);
+    }
+
+    /// An NMT command addressed to it (or all).
+    pub fn on_nmt(&mut self, command: NmtCommand) {
+        self.nmt = match command {
+            NmtCommand::Start => NmtState::Operational,
+            NmtCommand::Stop => NmtState::Stopped,
+            NmtCommand::PreOperational => NmtState::PreOperational,
+            NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
+                *self = Self {
+                    fault: self.fault,
+                    ..Self::new(self.node)
+                };
+                NmtState::PreOperational
+            }
+        };
+    }
+
+    /// An SDO request to it: the answer, if it gives one.
+    pub fn on_sdo(&mut self, data: &[u8]) -> Option<CanFrame> {
+        if self.nmt == NmtState::Stopped || self.fault == Some(SensorFault::Lost) {
+            return None;
+        }
+        sdo::serve(&mut self.od, self.node, data)
+    }
+
+    /// SYNC: it samples `phi_deg` (the plant's sensed angle, °) and sends TPDO1 if
+    /// operational.
+    pub fn on_sync(&mut self, phi_deg: f64) -> Option<CanFrame> {
+        match self.fault {
+            Some(SensorFault::Lost) => return None,
+            Some(SensorFault::Stuck) => {}
+            None => {
+                let resolution = f64::from(self.od.get(0x6000, 0).max(1)) * 1e-3;
+                let slope = libm::round(phi_deg / resolution);
+                self.slope = slope.clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16;
+            }
+        }
+        (self.nmt == NmtState::Operational).then(|| {
+            CanFrame::fixed(
+                canopen::cob::TPDO1 + u16::from(self.node),
+                &self.slope.to_le_bytes(),
+            )
+        })
+    }
+
+    /// Its boot-up message and heartbeats due by `now_ms`.
+    pub fn heartbeat(&mut self, now_ms: u32) -> Option<CanFrame> {
+        if self.fault == Some(SensorFault::Lost) {
+            return None;
+        }
+        if core::mem::take(&mut self.boot_up_due) {
+            self.next_heartbeat_ms = now_ms;
+            return Some(canopen::heartbeat(self.node, NmtState::BootUp));
+        }
+        let period = self.od.get(0x1017, 0);
+        if period > 0 && now_ms >= self.next_heartbeat_ms {
+            self.next_heartbeat_ms = now_ms.saturating_add(period);
+            return Some(canopen::heartbeat(self.node, self.nmt));
+        }
+        None
+    }
+}
