@@ -118,6 +118,12 @@ pub struct Config {
     /// Consecutive cycles with a missing or implausible angle tolerated before the
     /// feedback is switched off.
     pub max_bad_angle_cycles: u32,
+    /// A stuck sensor: the angle has not changed by a single quantum for this many
+    /// cycles …
+    pub max_frozen_cycles: u32,
+    /// … while the reference angle moved by more than this, rad. (At rest a quiet
+    /// sensor may legitimately read the same value; during a move it cannot.)
+    pub frozen_motion: f64,
 }
 
 impl Config {
@@ -132,6 +138,8 @@ impl Config {
         max_angle: 0.26,
         max_innovation: 0.035,
         max_bad_angle_cycles: 3,
+        max_frozen_cycles: 50,
+        frozen_motion: 0.0087,
     };
 }
 
@@ -652,6 +660,9 @@ pub struct StateFeedback {
     applied: [f64; 2],
     mode: Mode,
     bad_angle_cycles: u32,
+    /// The last angle received, the cycles it has stayed the same, and the reference
+    /// angle when it started to (the stuck-sensor check).
+    frozen: (Option<f64>, u32, f64),
 }
 
 impl StateFeedback {
@@ -673,6 +684,7 @@ impl StateFeedback {
             applied: [0.0; 2],
             mode: Mode::Closed,
             bad_angle_cycles: 0,
+            frozen: (None, 0, 0.0),
         }
     }
 
@@ -694,6 +706,21 @@ impl StateFeedback {
         *self = Self::with_gains(self.cfg, self.gains);
     }
 
+    /// Whether the sensor looks stuck: `phi` identical for [`Config::max_frozen_cycles`]
+    /// cycles while the reference angle (`reference_phi`, the previous cycle's) moved by
+    /// more than [`Config::frozen_motion`].
+    fn frozen(&mut self, phi: Option<f64>, reference_phi: f64) -> bool {
+        let (last, cycles, since) = self.frozen;
+        self.frozen = if phi.is_some() && phi == last {
+            (last, cycles.saturating_add(1), since)
+        } else {
+            (phi, 0, reference_phi)
+        };
+        let (_, cycles, since) = self.frozen;
+        cycles >= self.cfg.max_frozen_cycles
+            && (reference_phi - since).abs() > self.cfg.frozen_motion
+    }
+
     /// One cycle. `reference` and `u_d` are this cycle's inverse-model solution,
     /// `measured` is the sample of the previous cycle (`None` in the very first cycle or
     /// when no position arrived), `last` the set points last admitted by the gate.
@@ -712,7 +739,10 @@ impl StateFeedback {
         if let (Some(m), Some(prev), Mode::Closed) = (measured, self.previous, self.mode) {
             let positions_finite = m.x.is_finite() && m.l.is_finite();
             let predicted_phi = prev.phi + self.e.z;
-            let check = check_angle(&self.cfg, m.phi, predicted_phi);
+            let check = match check_angle(&self.cfg, m.phi, predicted_phi) {
+                AngleCheck::Good if self.frozen(m.phi, prev.phi) => AngleCheck::Implausible,
+                check => check,
+            };
             self.bad_angle_cycles = match check {
                 AngleCheck::Good => 0,
                 _ => self.bad_angle_cycles.saturating_add(1),

@@ -21,6 +21,7 @@ use crate::commands::{request_frame, Request};
 use crate::commissioning::InclinometerSetup;
 use crate::controller::{Controller, Cycle, Mode};
 use crate::drive::Drive;
+use crate::feedback::Correction;
 use crate::feedforward::{Feedforward, Injectable, Replan};
 use crate::frame::CanFrame;
 use crate::plant::{Mismatch, Plant};
@@ -851,8 +852,8 @@ impl VirtualBus {
 /// since `after_ms`, the scenario's hang or solver failure if one is due, the tick,
 /// and the transmission (a refused frame is reported to the controller). `None`: the
 /// firmware hangs here, and its watchdog takes over.
-pub fn run_cycle<F: Feedforward + Replan>(
-    controller: &mut Controller<Injectable<F>>,
+pub fn run_cycle<F: Feedforward + Replan, C: Correction>(
+    controller: &mut Controller<Injectable<F>, C>,
     bus: &mut VirtualBus,
     after_ms: u32,
     now_ms: u32,
