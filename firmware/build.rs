@@ -149,6 +149,22 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
         "/// The integrator.\npub type Integrator = {integrator};"
     );
     let _ = writeln!(c, "/// Model and integrator.\npub type Feedforward = controller::InverseModel<Model, Integrator>;");
+    // The state feedback is linked only when the scene closes the loop.
+    match &setup.feedback {
+        Some(config) => {
+            let _ = writeln!(
+                c,
+                "/// Between the inverse model and the drives: the state feedback (Fig. 1).\npub type Correction = controller::feedback::StateFeedback;\n/// Its configuration: the scene's `[feedback]`.\npub const FEEDBACK: controller::feedback::Config = {};\n/// The feedback, its gains designed from the scene's weights.\npub fn correction() -> Result<Correction, controller::feedback::DesignError> {{\n    Correction::new(FEEDBACK)\n}}",
+                scene::feedback::FeedbackSpec::source(config)
+            );
+        }
+        None => {
+            let _ = writeln!(
+                c,
+                "/// Between the inverse model and the drives: nothing (feedforward only).\npub type Correction = controller::feedback::NoFeedback;\n/// No feedback to design.\npub fn correction() -> Result<Correction, controller::feedback::DesignError> {{\n    Ok(controller::feedback::NoFeedback)\n}}"
+            );
+        }
+    }
     let _ = writeln!(
         c,
         "/// Crane parameters.\npub const PARAMS: solver_core::models::crane::CraneParams = solver_core::models::crane::CraneParams {{ m: {:?}, g: {:?}, tau1: {:?}, tau2: {:?}, workspace: solver_core::models::crane::Workspace {{ x_min: {:?}, x_max: {:?}, l_min: {:?}, l_max: {:?} }}, min_tension_fraction: {:?} }};",

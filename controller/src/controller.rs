@@ -560,6 +560,12 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         }
     }
 
+    /// The scene's own move was planned at boot (the QEMU main job's demonstration, which
+    /// it asks for explicitly): it counts as a command, so a state feedback acts on it.
+    pub fn demonstration_commanded(&mut self) {
+        self.close_loop();
+    }
+
     /// After a restart by the watchdog: halted, announced by an EMCY (CiA 301 0x6010,
     /// software reset), until a supervisor's reset walks the drives through fault reset
     /// and the enable sequence. Nothing moves on its own after a crash.

@@ -110,8 +110,23 @@ impl Run {
 }
 
 fn run<C: Correction>(correction: C, scenario: Scenario, seconds: f64) -> Run {
-    let ff: Ff = feedforward(HOME, None);
+    run_from(correction, scenario, seconds, false)
+}
+
+/// With `demonstration`, the paper's move is planned at boot, as the QEMU firmware
+/// does with the scene's move, and counts as the main job's command.
+fn run_from<C: Correction>(
+    correction: C,
+    scenario: Scenario,
+    seconds: f64,
+    demonstration: bool,
+) -> Run {
+    let first = demonstration.then_some(([20.0, 4.0], 1.0, 8.0));
+    let ff: Ff = feedforward(HOME, first);
     let mut c = Controller::with_correction(ff, correction, planner(), config());
+    if demonstration {
+        c.demonstration_commanded();
+    }
     let mut bus = VirtualBus::new(scenario, HOME);
     let (mut after, mut now) = (0, 0);
     let mut out = Run {
@@ -321,4 +336,53 @@ fn after_a_fault_the_model_restarts_where_the_drives_measure_the_crane() {
         plant[1]
     );
     assert!((model[0] - 12.0).abs() > 0.5, "it did move");
+}
+
+#[test]
+fn the_firmware_scenarios_of_the_feedback_scene() {
+    use controller::virtual_bus::{
+        CLOSED_LOOP, FEEDBACK_SCENARIOS, GUST, INCLINOMETER_LOST, INCLINOMETER_STUCK,
+    };
+    assert_eq!(
+        FEEDBACK_SCENARIOS.map(|s| s.name),
+        [
+            "closed-loop",
+            "gust",
+            "inclinometer-lost",
+            "inclinometer-stuck"
+        ]
+    );
+    let closed = run_from(feedback(), CLOSED_LOOP, 16.0, true);
+    let (d, swing) = closed.settled();
+    assert!(d < 0.05 && swing < 0.1, "{d} m, {swing}°");
+    assert!(closed.emcys(0xFF20).is_empty());
+    assert_within_limits(&closed);
+
+    // The gust at rest (10.5 s): two swing periods after its end the swing is a tenth
+    // of what feedforward alone leaves.
+    let damped = run_from(feedback(), GUST, 16.0, true);
+    let open = run_from(NoFeedback, GUST, 16.0, true);
+    let late = |r: &Run| {
+        r.load
+            .iter()
+            .filter(|(t, ..)| *t > 15.0)
+            .map(|(_, _, phi)| phi.abs())
+            .fold(0.0, f64::max)
+    };
+    eprintln!(
+        "gust at rest, swing after 15 s: feedforward only {:.3}°, feedback {:.3}°",
+        late(&open).to_degrees(),
+        late(&damped).to_degrees()
+    );
+    assert!(late(&damped) < 0.1 * late(&open));
+    assert_within_limits(&damped);
+
+    for (scenario, reason) in [(INCLINOMETER_LOST, 1), (INCLINOMETER_STUCK, 2)] {
+        let r = run_from(feedback(), scenario, 16.0, true);
+        let off = r.emcys(0xFF20);
+        assert_eq!(off.len(), 1, "{}", scenario.name);
+        assert_eq!(off[0][5], reason, "{}", scenario.name);
+        assert_eq!(r.cycles.last().unwrap().mode, Mode::Ready);
+        assert_within_limits(&r);
+    }
 }

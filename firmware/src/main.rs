@@ -40,7 +40,7 @@ mod app {
     #[local]
     struct Local {
         can_rx: board::CanRx,
-        controller: Controller<Feedforward>,
+        controller: Controller<Feedforward, scene::Correction>,
         board: Board,
         /// Cycles to run: under QEMU the scenario's (or the scene's), on the board forever.
         cycles: Option<u32>,
@@ -107,9 +107,20 @@ mod app {
             defmt::error!("control task already running");
             board::finish(false)
         }
-        let mut controller = Controller::new(feedforward, scene::PLANNER, config);
+        let correction = match scene::correction() {
+            Ok(c) => c,
+            Err(e) => {
+                defmt::error!("feedback refused: {}", e);
+                board::finish(false)
+            }
+        };
+        let mut controller =
+            Controller::with_correction(feedforward, correction, scene::PLANNER, config);
         if restarted {
             controller.restarted_by_watchdog();
+        } else if demonstration {
+            // The scene's move is the main job's command: a feedback acts on it.
+            controller.demonstration_commanded();
         }
         (
             Shared {},
@@ -227,7 +238,11 @@ mod app {
     }
 
     /// Every frame the transmit path lost since the last call, reported as itself.
-    fn report_lost(board: &mut Board, controller: &mut Controller<Feedforward>, now_ms: u64) {
+    fn report_lost(
+        board: &mut Board,
+        controller: &mut Controller<Feedforward, scene::Correction>,
+        now_ms: u64,
+    ) {
         while let Some((frame, e)) = board.lost(now_ms) {
             defmt::warn!("tx failed {=u16:#05x}: {}", frame.id(), e);
             controller.transmit_failed(&frame);

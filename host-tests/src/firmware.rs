@@ -1,6 +1,7 @@
 //! The firmware's cycle, run on the host: the same controller, the same scene, the
 //! same virtual bus and scenario. The QEMU run must send exactly these frames.
 
+use controller::feedback::{Correction, StateFeedback};
 use controller::feedforward::command_plan;
 use controller::setpoint::Setpoint;
 use controller::virtual_bus::{run_cycle, Scenario, VirtualBus};
@@ -75,61 +76,86 @@ fn boot(
         (ModelSpec::CraneSubs(_), SchemeSpec::Bdf) => {
             let model = CraneSubs::new(f.params, plan).map_err(err)?;
             let integrator = Bdf::<f64, _, 7, 2>::new(&model, &settings, k, 0.0).map_err(err)?;
-            Ok(run(
+            run(
                 InverseModel { model, integrator },
                 f,
                 restarted,
                 bus,
                 cycles,
-            ))
+            )
         }
         (ModelSpec::CraneSubs(_), SchemeSpec::Radau) => {
             let model = CraneSubs::new(f.params, plan).map_err(err)?;
             let integrator = Radau::<f64, _, 7, 2, 21>::new(&model, &settings, 0.0).map_err(err)?;
-            Ok(run(
+            run(
                 InverseModel { model, integrator },
                 f,
                 restarted,
                 bus,
                 cycles,
-            ))
+            )
         }
         (ModelSpec::CraneProj(_), SchemeSpec::Bdf) => {
             let model = CraneProj::new(f.params, plan).map_err(err)?;
             let integrator = Bdf::<f64, _, 8, 2>::new(&model, &settings, k, 0.0).map_err(err)?;
-            Ok(run(
+            run(
                 InverseModel { model, integrator },
                 f,
                 restarted,
                 bus,
                 cycles,
-            ))
+            )
         }
         (ModelSpec::CraneProj(_), SchemeSpec::Radau) => {
             let model = CraneProj::new(f.params, plan).map_err(err)?;
             let integrator = Radau::<f64, _, 8, 2, 24>::new(&model, &settings, 0.0).map_err(err)?;
-            Ok(run(
+            run(
                 InverseModel { model, integrator },
                 f,
                 restarted,
                 bus,
                 cycles,
-            ))
+            )
         }
         (ModelSpec::MassOnCar(_), _) => Err("the firmware drives a crane".into()),
     }
 }
 
+/// The firmware's controller for the scene: the state feedback if it closes the loop.
 fn run<F: Feedforward + Replan>(
     feedforward: F,
+    f: &FirmwareScene,
+    restarted: bool,
+    bus: VirtualBus,
+    cycles: u32,
+) -> Result<Vec<ReferenceCycle>, String> {
+    let feedforward = Injectable::new(feedforward);
+    Ok(match f.feedback {
+        Some(config) => {
+            let feedback = StateFeedback::new(config).map_err(|e| format!("{e:?}"))?;
+            let controller =
+                Controller::with_correction(feedforward, feedback, f.planner, f.config);
+            run_with(controller, f, restarted, bus, cycles)
+        }
+        None => {
+            let controller = Controller::new(feedforward, f.planner, f.config);
+            run_with(controller, f, restarted, bus, cycles)
+        }
+    })
+}
+
+fn run_with<F: Feedforward + Replan, C: Correction>(
+    mut controller: Controller<Injectable<F>, C>,
     f: &FirmwareScene,
     restarted: bool,
     mut bus: VirtualBus,
     cycles: u32,
 ) -> Vec<ReferenceCycle> {
-    let mut controller = Controller::new(Injectable::new(feedforward), f.planner, f.config);
     if restarted {
         controller.restarted_by_watchdog();
+    } else {
+        // The scene's move, planned at boot, is the main job's command.
+        controller.demonstration_commanded();
     }
     let period_ms = f.config.period_ms;
     let mut after = 0;

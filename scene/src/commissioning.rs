@@ -25,12 +25,19 @@
 //! profile_acceleration = 30.0    # m/s², pv only (0x6083/0x6084): required there
 //! position_scale = 1e-6          # m per increment of 0x6064
 //! position_offset = 0.0          # m at increment 0
+//!
+//! [inclinometer]                 # CiA 410, for a scene with [feedback]
+//! node = 3
+//! resolution_mdeg = 10           # 0x6000: 0.01° per unit of slope long16 (0x6010)
+//! heartbeat_ms = 100             # written to its 0x1017
+//! sign = 1.0                     # +1 or -1: slope +1° is φ = sign · 1°
+//! offset_deg = 0.0               # the slope with the load hanging still
 //! ```
 
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use controller::commissioning::{DriveSetup, OperationMode};
+use controller::commissioning::{DriveSetup, InclinometerSetup, OperationMode};
 use controller::node::Role;
 use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
 use controller::Config;
@@ -54,6 +61,9 @@ pub struct CommissioningFile {
     /// One row per drive.
     #[serde(default = "stock_drives", rename = "drive")]
     pub drives: Vec<DriveSpec>,
+    /// The inclinometer, used by scenes with a state feedback.
+    #[serde(default)]
+    pub inclinometer: InclinometerSpec,
 }
 
 impl Default for CommissioningFile {
@@ -61,6 +71,32 @@ impl Default for CommissioningFile {
         Self {
             controller: ControllerSpec::default(),
             drives: stock_drives(),
+            inclinometer: InclinometerSpec::default(),
+        }
+    }
+}
+
+/// The inclinometer's row (CiA 410).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+#[allow(missing_docs)]
+pub struct InclinometerSpec {
+    pub node: u8,
+    pub resolution_mdeg: u16,
+    pub heartbeat_ms: u16,
+    pub sign: f64,
+    pub offset_deg: f64,
+}
+
+impl Default for InclinometerSpec {
+    fn default() -> Self {
+        let s = InclinometerSetup::STOCK;
+        Self {
+            node: s.node,
+            resolution_mdeg: s.resolution,
+            heartbeat_ms: s.heartbeat_ms,
+            sign: s.sign,
+            offset_deg: s.offset_deg,
         }
     }
 }
@@ -222,6 +258,53 @@ impl CommissioningFile {
                 .map(|s| crate::key_at(text, s.start))
                 .unwrap_or_default();
             refuse(field, e.message().to_string())
+        })
+    }
+
+    /// `config` with the inclinometer of this file (for a scene with a state feedback),
+    /// or the first of its fields that cannot work.
+    pub fn with_inclinometer(&self, config: Config) -> Result<Config, SceneError> {
+        let i = &self.inclinometer;
+        let taken = [config.node, config.drives[0].node, config.drives[1].node];
+        if !(1..=127).contains(&i.node) || taken.contains(&i.node) {
+            return Err(refuse(
+                "inclinometer.node".into(),
+                format!("{} is not a free node id in 1..=127", i.node),
+            ));
+        }
+        if i.resolution_mdeg == 0 || i.resolution_mdeg > 100 {
+            return Err(refuse(
+                "inclinometer.resolution_mdeg".into(),
+                "1..=100 (0.001° to 0.1°): coarser hides the swing the feedback damps",
+            ));
+        }
+        if i.heartbeat_ms == 0 || u32::from(i.heartbeat_ms) * 3 > config.heartbeat_timeout_ms {
+            return Err(refuse(
+                "inclinometer.heartbeat_ms".into(),
+                format!(
+                    "positive and at most a third of the controller's heartbeat timeout ({} ms)",
+                    config.heartbeat_timeout_ms
+                ),
+            ));
+        }
+        if i.sign != 1.0 && i.sign != -1.0 {
+            return Err(refuse("inclinometer.sign".into(), "+1 or -1"));
+        }
+        if !(i.offset_deg.is_finite() && i.offset_deg.abs() < 90.0) {
+            return Err(refuse(
+                "inclinometer.offset_deg".into(),
+                "finite, within ±90°",
+            ));
+        }
+        Ok(Config {
+            inclinometer: Some(InclinometerSetup {
+                node: i.node,
+                resolution: i.resolution_mdeg,
+                heartbeat_ms: i.heartbeat_ms,
+                sign: i.sign,
+                offset_deg: i.offset_deg,
+            }),
+            ..config
         })
     }
 
@@ -407,6 +490,36 @@ mod tests {
 
     fn config(text: &str) -> Result<Config, SceneError> {
         CommissioningFile::parse(text)?.config(DriveLimits::LAB, 10)
+    }
+
+    #[test]
+    fn the_inclinometer_is_checked_like_a_drive() {
+        let stock = CommissioningFile::parse("").unwrap();
+        let c = stock.with_inclinometer(Config::DEFAULT).unwrap();
+        assert_eq!(c.inclinometer, Some(InclinometerSetup::STOCK));
+        for (text, field) in [
+            ("[inclinometer]\nnode = 1", "inclinometer.node"),
+            ("[inclinometer]\nnode = 16", "inclinometer.node"),
+            (
+                "[inclinometer]\nresolution_mdeg = 1000",
+                "inclinometer.resolution_mdeg",
+            ),
+            (
+                "[inclinometer]\nheartbeat_ms = 200",
+                "inclinometer.heartbeat_ms",
+            ),
+            ("[inclinometer]\nsign = 0.5", "inclinometer.sign"),
+            (
+                "[inclinometer]\noffset_deg = nan",
+                "inclinometer.offset_deg",
+            ),
+        ] {
+            let file = CommissioningFile::parse(text).unwrap();
+            let e = file.with_inclinometer(Config::DEFAULT).unwrap_err();
+            assert_eq!(e.field, field, "{text}: {e}");
+        }
+        let e = CommissioningFile::parse("[inclinometer]\nnod = 3").unwrap_err();
+        assert!(e.to_string().contains("nod"), "{e}");
     }
 
     #[test]

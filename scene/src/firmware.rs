@@ -49,6 +49,9 @@ pub struct FirmwareScene {
     pub config: Config,
     /// Cycles the scene runs (to its `t_end`).
     pub cycles: u32,
+    /// The state feedback, if the scene closes the loop (its inclinometer is then in
+    /// `config`).
+    pub feedback: Option<controller::feedback::Config>,
 }
 
 /// The firmware's setup of `scene` with the drives of `commissioning`, or why the
@@ -103,6 +106,18 @@ pub fn firmware_scene(
     let config = commissioning
         .config(DriveLimits::LAB, period_ms)
         .map_err(|e| format!("commissioning file: {e}"))?;
+    let feedback = scene
+        .feedback
+        .map(|f| f.config(&params, scene.solver.h))
+        .transpose()
+        .map_err(|e| e.to_string())?;
+    let config = if feedback.is_some() {
+        commissioning
+            .with_inclinometer(config)
+            .map_err(|e| format!("commissioning file: {e}"))?
+    } else {
+        config
+    };
     let ready = commissioning_time(&config);
     if scene.trajectory.t_start < ready {
         return Err(format!(
@@ -117,6 +132,7 @@ pub fn firmware_scene(
         planner,
         config,
         cycles: scene.steps() as u32,
+        feedback,
     })
 }
 
@@ -134,6 +150,7 @@ pub fn config_source(config: &Config) -> Result<String, String> {
         tpdo_timeout_ms: config.tpdo_timeout_ms,
         sdo_timeout_ms: config.sdo_timeout_ms,
         drives: config.drives,
+        inclinometer: config.inclinometer,
         ..Config::DEFAULT
     };
     if defaults != *config {
@@ -165,8 +182,15 @@ pub fn config_source(config: &Config) -> Result<String, String> {
         controller::node::Role::Slave => "Slave",
     };
     let [trolley, winch] = &config.drives;
+    let inclinometer = match &config.inclinometer {
+        None => "None".to_string(),
+        Some(i) => format!(
+            "Some(controller::commissioning::InclinometerSetup {{ node: {}, resolution: {}, heartbeat_ms: {}, sign: {:?}, offset_deg: {:?} }})",
+            i.node, i.resolution, i.heartbeat_ms, i.sign, i.offset_deg
+        ),
+    };
     Ok(format!(
-        "controller::Config {{ period_ms: {}, node: {}, role: controller::node::Role::{role}, heartbeat_period_ms: {}, heartbeat_timeout_ms: {}, tpdo_timeout_ms: {}, sdo_timeout_ms: {}, drives: [{}, {}], ..controller::Config::DEFAULT }}",
+        "controller::Config {{ period_ms: {}, node: {}, role: controller::node::Role::{role}, heartbeat_period_ms: {}, heartbeat_timeout_ms: {}, tpdo_timeout_ms: {}, sdo_timeout_ms: {}, drives: [{}, {}], inclinometer: {inclinometer}, ..controller::Config::DEFAULT }}",
         config.period_ms,
         config.node,
         config.heartbeat_period_ms,

@@ -34,6 +34,7 @@
 //! that names the field and the reason.
 
 pub mod commissioning;
+pub mod feedback;
 pub mod firmware;
 
 use std::fmt;
@@ -91,6 +92,10 @@ pub struct Scene {
     pub trajectory: TrajectorySpec,
     /// How to solve.
     pub solver: SolverSpec,
+    /// The state feedback around the inverse model (Fig. 1), if the scene closes the
+    /// loop (`feedback::FeedbackSpec`).
+    #[serde(default)]
+    pub feedback: Option<feedback::FeedbackSpec>,
 }
 
 /// Which model, with optional parameters (the paper's values by default).

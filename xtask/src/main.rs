@@ -225,6 +225,10 @@ fn main_job() -> Result<(), String> {
     let runs = qemu::SCENES
         .iter()
         .map(|s| qemu::measure(s))
+        .chain([qemu::measure_scenario(
+            qemu::FEEDBACK_SCENE,
+            controller::virtual_bus::CLOSED_LOOP,
+        )])
         .collect::<Result<Vec<_>, _>>()?;
     let dbc = host_tests::dbc::Dbc::crane()?;
     if let Some(default) = runs.first() {
@@ -271,6 +275,10 @@ fn qemu_checks(overwrite: bool) -> Result<(), String> {
         .filter(|s| s.name != controller::virtual_bus::HEALTHY.name)
     {
         let m = qemu::measure_scenario(qemu::SCENARIO_SCENE, scenario)?;
+        qemu::check(&m, overwrite)?;
+    }
+    for scenario in controller::virtual_bus::FEEDBACK_SCENARIOS {
+        let m = qemu::measure_scenario(qemu::FEEDBACK_SCENE, scenario)?;
         qemu::check(&m, overwrite)?;
     }
     Ok(())

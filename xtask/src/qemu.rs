@@ -26,6 +26,11 @@ pub const BENCH_ONLY_SCENES: [&str; 2] = [
     "scenes/paper-crane-radau5.toml",
 ];
 
+/// The scene with the state feedback (Fig. 1): checked on the feedback scenarios of the
+/// virtual bus (`controller::virtual_bus::FEEDBACK_SCENARIOS`, a plant that is not the
+/// model and an inclinometer), measured by `qemu-bench` on the first of them.
+pub const FEEDBACK_SCENE: &str = "scenes/paper-crane-feedback.toml";
+
 /// Wall-clock limit for one QEMU run: 10 minutes, and a minute more per 100,000 cycles.
 fn qemu_limit(scenario: &Scenario) -> Duration {
     Duration::from_secs(600 + u64::from(scenario.cycles) / 100_000 * 60)

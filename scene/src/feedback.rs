@@ -1,0 +1,190 @@
+//! The scene's state feedback, `[feedback]`: with the section the firmware links the
+//! state feedback of Fig. 1 (`controller::feedback`) and commissions the inclinometer
+//! of the commissioning file; without it, the inverse model alone (model only what a
+//! scene requires). Every field has the study's value as default
+//! (`controller::feedback::Config::PAPER`, docs/RESULTS.md):
+//!
+//! ```toml
+//! [feedback]
+//! # LQR weights, Bryson's rule: the acceptable value of each quantity.
+//! load_position = 0.02        # m, horizontal load position x + l φ
+//! trolley_position = 0.5      # m
+//! swing_velocity = 0.05       # m/s, l φ̇
+//! trolley_correction = 0.15   # m/s, δu1
+//! rope_position = 0.005       # m
+//! winch_correction = 0.05     # m/s, δu2
+//! # Kalman observer: what disturbs and how well it is measured (1σ).
+//! drive_disturbance = 0.5     # m/s², friction and lag errors
+//! swing_disturbance = 0.1     # rad/s², wind
+//! position_noise = 5e-4       # m
+//! angle_noise = 5e-4          # rad
+//! # The degraded-mode rule (docs/COMMANDS.md).
+//! max_angle = 0.26            # rad: beyond, the angle is implausible
+//! max_innovation = 0.035      # rad: further from the prediction, implausible
+//! bridged_cycles = 3          # bad angles bridged before feedforward only
+//! frozen_cycles = 50          # the same value this long …
+//! frozen_motion = 0.0087      # … while the reference moved this much (rad): stuck
+//! ```
+//!
+//! The gains are designed from the weights at start-up (`Gains::design`), for the
+//! scene's crane (g, τ1, τ2 of Tab. 3) and cycle h; the scene check designs them once
+//! on the host, so a set of weights whose Riccati iteration does not converge is refused
+//! here, not on the crane.
+
+use controller::feedback::{Config, Gains, Weights};
+use serde::Deserialize;
+use solver_core::models::crane::CraneParams;
+
+use crate::{refuse, SceneError};
+
+/// `[feedback]` as read.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+#[allow(missing_docs)]
+pub struct FeedbackSpec {
+    pub load_position: f64,
+    pub trolley_position: f64,
+    pub swing_velocity: f64,
+    pub trolley_correction: f64,
+    pub rope_position: f64,
+    pub winch_correction: f64,
+    pub drive_disturbance: f64,
+    pub swing_disturbance: f64,
+    pub position_noise: f64,
+    pub angle_noise: f64,
+    pub max_angle: f64,
+    pub max_innovation: f64,
+    pub bridged_cycles: u32,
+    pub frozen_cycles: u32,
+    pub frozen_motion: f64,
+}
+
+impl Default for FeedbackSpec {
+    fn default() -> Self {
+        let w = Weights::DEFAULT;
+        let c = Config::PAPER;
+        Self {
+            load_position: w.load_position,
+            trolley_position: w.trolley_position,
+            swing_velocity: w.swing_velocity,
+            trolley_correction: w.trolley_correction,
+            rope_position: w.rope_position,
+            winch_correction: w.winch_correction,
+            drive_disturbance: w.drive_disturbance,
+            swing_disturbance: w.swing_disturbance,
+            position_noise: w.position_noise,
+            angle_noise: w.angle_noise,
+            max_angle: c.max_angle,
+            max_innovation: c.max_innovation,
+            bridged_cycles: c.max_bad_angle_cycles,
+            frozen_cycles: c.max_frozen_cycles,
+            frozen_motion: c.frozen_motion,
+        }
+    }
+}
+
+impl FeedbackSpec {
+    /// The feedback's configuration for the crane `params` cycling every `h` s, or the
+    /// first field that cannot work, named with the reason.
+    pub fn config(&self, params: &CraneParams, h: f64) -> Result<Config, SceneError> {
+        let positive = [
+            ("load_position", self.load_position),
+            ("trolley_position", self.trolley_position),
+            ("swing_velocity", self.swing_velocity),
+            ("trolley_correction", self.trolley_correction),
+            ("rope_position", self.rope_position),
+            ("winch_correction", self.winch_correction),
+            ("drive_disturbance", self.drive_disturbance),
+            ("swing_disturbance", self.swing_disturbance),
+            ("position_noise", self.position_noise),
+            ("angle_noise", self.angle_noise),
+            ("max_angle", self.max_angle),
+            ("max_innovation", self.max_innovation),
+            ("frozen_motion", self.frozen_motion),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(refuse(
+                    &format!("feedback.{name}"),
+                    format!("must be finite and > 0 (got {v})"),
+                ));
+            }
+        }
+        if self.max_angle >= std::f64::consts::FRAC_PI_2 {
+            return Err(refuse(
+                "feedback.max_angle",
+                "below π/2: the load hangs below the trolley",
+            ));
+        }
+        if self.bridged_cycles > 10 {
+            return Err(refuse(
+                "feedback.bridged_cycles",
+                "at most 10 (0.1 s at 100 Hz): longer, the observer runs blind",
+            ));
+        }
+        if self.frozen_cycles < 2 {
+            return Err(refuse(
+                "feedback.frozen_cycles",
+                "at least 2: one repeated value is not a stuck sensor",
+            ));
+        }
+        let config = Config {
+            weights: Weights {
+                load_position: self.load_position,
+                trolley_position: self.trolley_position,
+                swing_velocity: self.swing_velocity,
+                trolley_correction: self.trolley_correction,
+                rope_position: self.rope_position,
+                winch_correction: self.winch_correction,
+                drive_disturbance: self.drive_disturbance,
+                swing_disturbance: self.swing_disturbance,
+                position_noise: self.position_noise,
+                angle_noise: self.angle_noise,
+            },
+            g: params.g,
+            tau1: params.tau1,
+            tau2: params.tau2,
+            h,
+            max_angle: self.max_angle,
+            max_innovation: self.max_innovation,
+            max_bad_angle_cycles: self.bridged_cycles,
+            max_frozen_cycles: self.frozen_cycles,
+            frozen_motion: self.frozen_motion,
+        };
+        Gains::design(&config).map_err(|e| {
+            refuse(
+                "feedback",
+                format!("no gains can be designed from these weights: {e:?}"),
+            )
+        })?;
+        Ok(config)
+    }
+
+    /// The Rust of `config` (the firmware's build emits it).
+    #[must_use]
+    pub fn source(config: &Config) -> String {
+        let w = &config.weights;
+        format!(
+            "controller::feedback::Config {{ weights: controller::feedback::Weights {{ load_position: {:?}, trolley_position: {:?}, swing_velocity: {:?}, trolley_correction: {:?}, rope_position: {:?}, winch_correction: {:?}, drive_disturbance: {:?}, swing_disturbance: {:?}, position_noise: {:?}, angle_noise: {:?} }}, g: {:?}, tau1: {:?}, tau2: {:?}, h: {:?}, max_angle: {:?}, max_innovation: {:?}, max_bad_angle_cycles: {}, max_frozen_cycles: {}, frozen_motion: {:?} }}",
+            w.load_position,
+            w.trolley_position,
+            w.swing_velocity,
+            w.trolley_correction,
+            w.rope_position,
+            w.winch_correction,
+            w.drive_disturbance,
+            w.swing_disturbance,
+            w.position_noise,
+            w.angle_noise,
+            config.g,
+            config.tau1,
+            config.tau2,
+            config.h,
+            config.max_angle,
+            config.max_innovation,
+            config.max_bad_angle_cycles,
+            config.max_frozen_cycles,
+            config.frozen_motion
+        )
+    }
+}
