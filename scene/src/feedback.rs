@@ -188,3 +188,55 @@ impl FeedbackSpec {
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use crate::commissioning::CommissioningFile;
+    use crate::firmware::firmware_scene;
+    use crate::Scene;
+
+    fn scene(feedback: &str) -> Result<Scene, SceneError> {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../scenes/paper-crane-feedback.toml");
+        let text = std::fs::read_to_string(path).unwrap();
+        let base = text.split("[feedback]").next().unwrap();
+        Scene::parse(&format!("{base}[feedback]\n{feedback}"))
+    }
+
+    #[test]
+    fn the_defaults_are_the_study_s_and_link_the_inclinometer() {
+        let s = scene("").unwrap();
+        let f = firmware_scene(&s, &CommissioningFile::default()).unwrap();
+        assert_eq!(f.feedback, Some(Config::PAPER));
+        assert!(f.config.inclinometer.is_some());
+        // Without the section: no feedback, no inclinometer.
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper-crane.toml");
+        let plain = Scene::load(&path).unwrap();
+        let f = firmware_scene(&plain, &CommissioningFile::default()).unwrap();
+        assert_eq!((f.feedback, f.config.inclinometer), (None, None));
+    }
+
+    #[test]
+    fn a_bad_field_is_named() {
+        let check = |text: &str| {
+            let s = scene(text)?;
+            s.feedback.unwrap().config(&CraneParams::PAPER, 0.01)
+        };
+        for (text, field) in [
+            ("load_position = -1.0", "feedback.load_position"),
+            ("angle_noise = nan", "feedback.angle_noise"),
+            ("max_angle = 2.0", "feedback.max_angle"),
+            ("bridged_cycles = 50", "feedback.bridged_cycles"),
+            ("frozen_cycles = 1", "feedback.frozen_cycles"),
+            ("load_position = 1e-300", "feedback"),
+        ] {
+            let e = check(text).unwrap_err();
+            assert_eq!(e.field, field, "{text}: {e}");
+        }
+        let e = scene("load_positon = 0.02").unwrap_err();
+        assert!(e.to_string().contains("load_positon"), "{e}");
+    }
+}
