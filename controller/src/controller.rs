@@ -499,23 +499,25 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             ))
         };
         let [trolley, winch] = config.drives;
-        let inclinometer = config
-            .inclinometer
-            .filter(|_| C::ENABLED)
-            .map(|setup| SensorLink {
-                commissioning: Commissioning::new(
-                    setup,
-                    config.node,
-                    period_ms,
-                    manager,
-                    config.sdo_timeout_ms,
-                ),
-                nmt: None,
-                last_heartbeat_ms: None,
-                angle: None,
-                fresh: false,
-                outbox: None,
-            });
+        let setup = if C::ENABLED {
+            config.inclinometer
+        } else {
+            None
+        };
+        let inclinometer = setup.map(|setup| SensorLink {
+            commissioning: Commissioning::new(
+                setup,
+                config.node,
+                period_ms,
+                manager,
+                config.sdo_timeout_ms,
+            ),
+            nmt: None,
+            last_heartbeat_ms: None,
+            angle: None,
+            fresh: false,
+            outbox: None,
+        });
         Self {
             feedforward,
             correction,
@@ -645,7 +647,9 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// Takes one received frame. Frames it does not understand are ignored and counted:
     /// they never change a set point.
     pub fn on_frame(&mut self, frame: &CanFrame, now_ms: u64) {
-        if self.on_inclinometer_frame(frame, now_ms) {
+        // `C::ENABLED` is a constant: without the feedback none of the inclinometer's
+        // code is linked.
+        if C::ENABLED && self.on_inclinometer_frame(frame, now_ms) {
             self.counters.frames_received = self.counters.frames_received.saturating_add(1);
             return;
         }
@@ -1186,6 +1190,9 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             if let Some(frame) = frame {
                 self.push(frames, frame);
             }
+        }
+        if !C::ENABLED {
+            return;
         }
         let Some(sensor) = self.inclinometer.as_mut() else {
             return;

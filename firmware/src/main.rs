@@ -60,6 +60,10 @@ mod app {
                 }
             };
             defmt::info!("scenario {=str}: {=str}", scenario.name, scenario.expect);
+            if scenario.plant.is_some() && !cfg!(feature = "plant") {
+                defmt::error!("this scenario moves a plant: build a scene with [feedback]");
+                board::finish(false)
+            }
             let cycles = if scenario.cycles == 0 {
                 scene::CYCLES
             } else {

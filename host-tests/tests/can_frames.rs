@@ -22,7 +22,7 @@ fn decode(frame: &CanFrame) -> host_tests::dbc::Decoded {
 #[test]
 fn dbc_parses_and_covers_every_frame() {
     let dbc = Dbc::crane().unwrap();
-    assert_eq!(dbc.messages(), 22);
+    assert_eq!(dbc.messages(), 27);
     let frames = [
         nmt::command(NmtCommand::Start, 0),
         canopen::sync(),
@@ -52,6 +52,12 @@ fn dbc_parses_and_covers_every_frame() {
         CanFrame::new(0x582, &[0x80, 0x60, 0x60, 0, 0x30, 0, 9, 6]).unwrap(),
         CanFrame::new(0x610, &[0x40, 0x18, 0x10, 1, 0, 0, 0, 0]).unwrap(),
         CanFrame::new(0x590, &[0x43, 0x18, 0x10, 1, 0, 0, 0, 0]).unwrap(),
+        // The inclinometer (CiA 410, node 3): its slope, SDO, heartbeat, EMCY.
+        CanFrame::new(0x183, &(-1234i16).to_le_bytes()).unwrap(),
+        CanFrame::new(0x603, &[0x2B, 0x00, 0x60, 0, 10, 0, 0, 0]).unwrap(),
+        CanFrame::new(0x583, &[0x43, 0, 0x10, 0, 0x9A, 1, 1, 0]).unwrap(),
+        canopen::heartbeat(3, NmtState::Operational),
+        canopen::emcy(3, 0x5000, 0x01, [0; 5]),
         request_frame(&Request::Stop { id: 1 }),
         status_frame(
             CONTROLLER_NODE,
@@ -191,5 +197,17 @@ proptest! {
         prop_assert_eq!(d.get("index"), Some(f64::from(u16::from_le_bytes([bytes[1], bytes[2]]))));
         prop_assert_eq!(d.get("subindex"), Some(f64::from(bytes[3])));
         prop_assert_eq!(canopen::decode(&f), Ok(canopen::Incoming::SdoResponse { node, data: bytes }));
+    }
+}
+
+#[test]
+fn the_inclinometer_slope_decodes_to_the_angle_the_controller_uses() {
+    use controller::commissioning::InclinometerSetup;
+    for raw in [-1234i16, 0, 1, 2600, i16::MAX] {
+        let d = decode(&CanFrame::new(0x183, &raw.to_le_bytes()).unwrap());
+        assert_eq!(d.message, "TPDO1_Inclinometer");
+        let degrees = d.get("slope_long16").unwrap();
+        let angle = InclinometerSetup::STOCK.angle(raw);
+        assert!((degrees.to_radians() - angle).abs() < 1e-12, "{raw}");
     }
 }

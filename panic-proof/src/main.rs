@@ -3,9 +3,10 @@
 //! `panic-never` is this binary's panic handler: it calls a symbol that does not exist,
 //! so the link fails if any panicking branch survives optimisation. The binary drives
 //! every entry point the firmware calls — `Controller::restarted_by_watchdog`,
-//! `on_frame`, `tick`, `record_cost`, `transmit_failed` — for every model and scheme a scene can
-//! choose (crane *subs* and *proj*, BDF and Radau IIA, every Jacobian mode through the
-//! settings), with every input (frames, times, costs, settings, parameters, the first
+//! `demonstration_commanded`, `on_frame`, `tick`, `record_cost`, `transmit_failed` — for
+//! every model and scheme a scene can choose (crane *subs* and *proj*, BDF and Radau IIA,
+//! every Jacobian mode through the settings), with and without the state feedback (its
+//! gain design included), with every input (frames, times, costs, settings, parameters, the first
 //! move) hidden behind `black_box`, so that nothing is proven for constants only.
 //! Built with the firmware's release profile for the drive's target:
 //! `cargo xtask panic-proof`. What it does not cover — the board, RTIC and defmt — is
@@ -18,6 +19,8 @@ use core::hint::black_box;
 use controller::feedforward::command_plan;
 use controller::planner::Planner;
 use controller::setpoint::DriveLimits;
+use controller::commissioning::InclinometerSetup;
+use controller::feedback::{self, Correction, StateFeedback};
 use controller::{CanFrame, Config, Controller, Feedforward, InverseModel, Replan};
 use cortex_m_rt::entry;
 use nalgebra::SVector;
@@ -58,14 +61,39 @@ fn plan() -> Result<Plan<f64, 2>, Error> {
     Ok(plan)
 }
 
-/// Runs the controller's entry points on opaque inputs, forever.
+/// The controller on `feedforward`, with or without the state feedback (as the scene
+/// says), its entry points run on opaque inputs.
 fn run<F: Feedforward + Replan>(feedforward: F) -> ! {
     let params: CraneParams = black_box(CraneParams::PAPER);
     let limits: DriveLimits = black_box(DriveLimits::LAB);
     let config: Config = black_box(Config::DEFAULT);
-    let mut controller = Controller::new(feedforward, Planner::new(params, limits), config);
+    let planner = Planner::new(params, limits);
+    if black_box(true) {
+        let Ok(feedback) = StateFeedback::new(black_box(feedback::Config::PAPER)) else {
+            halt()
+        };
+        let config = Config {
+            inclinometer: black_box(Some(InclinometerSetup::STOCK)),
+            ..config
+        };
+        drive(Controller::with_correction(
+            feedforward,
+            feedback,
+            planner,
+            config,
+        ))
+    } else {
+        drive(Controller::new(feedforward, planner, config))
+    }
+}
+
+/// Runs the controller's entry points on opaque inputs, forever.
+fn drive<F: Feedforward + Replan, C: Correction>(mut controller: Controller<F, C>) -> ! {
     if black_box(false) {
         controller.restarted_by_watchdog();
+    }
+    if black_box(false) {
+        controller.demonstration_commanded();
     }
     loop {
         let now: u64 = black_box(0);

@@ -67,6 +67,15 @@ pub fn build(board: Board, scene: &Path) -> Result<PathBuf, String> {
         .and_then(|s| s.to_str())
         .unwrap_or("scene");
     let (mut cmd, target_dir) = firmware_cargo("build", board, name);
+    // A scene that closes the loop runs its QEMU scenarios on the virtual bus's plant
+    // and inclinometer; other scenes do not link them.
+    let closes_loop = scene::Scene::load(scene)
+        .map_err(|e| format!("{}: {e}", scene.display()))?
+        .feedback
+        .is_some();
+    if board == Board::Qemu && closes_loop {
+        cmd.args(["--features", "plant"]);
+    }
     run(cmd.env("SCENE", scene))?;
     Ok(target_dir.join(setup::TARGET).join("release/firmware"))
 }
@@ -74,6 +83,9 @@ pub fn build(board: Board, scene: &Path) -> Result<PathBuf, String> {
 /// Clippy on the firmware for `board`.
 pub fn clippy(board: Board) -> Result<(), String> {
     let (mut cmd, _) = firmware_cargo("clippy", board, "clippy");
+    if board == Board::Qemu {
+        cmd.args(["--features", "plant"]);
+    }
     run(cmd.args(["--", "-D", "warnings"]))
 }
 

@@ -10,14 +10,7 @@ use crate::canopen::sdo::{self, abort, Object, ObjectDictionary, Value};
 use crate::canopen::{self, NmtCommand, NmtState};
 use crate::frame::CanFrame;
 
-/// What can go wrong with it in a scenario.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SensorFault {
-    /// It falls silent (cable cut): no heartbeat, no TPDO.
-    Lost,
-    /// Its value freezes at the last one (a stuck pendulum), while it goes on talking.
-    Stuck,
-}
+use super::SensorFault;
 
 /// The objects it holds: (index, sub) → (value, size).
 #[derive(Debug, Clone, PartialEq)]

@@ -9,8 +9,10 @@
 //! the target velocity as actual velocity, integrate it into their position, and answer
 //! every SYNC with their TPDOs. Quirks make one of them misbehave the ways real drives do.
 
+#[cfg(feature = "plant")]
 mod inclinometer;
-pub use inclinometer::{InclinometerSim, SensorFault};
+#[cfg(feature = "plant")]
+pub use inclinometer::InclinometerSim;
 
 use heapless::{Deque, LinearMap};
 
@@ -18,14 +20,18 @@ use crate::canopen::sdo::{self, abort, Object, ObjectDictionary, Value};
 use crate::canopen::{self, cob, NmtCommand, NmtState};
 use crate::cia402::{controlword, DriveState};
 use crate::commands::{request_frame, Request};
+#[cfg(feature = "plant")]
 use crate::commissioning::InclinometerSetup;
 use crate::controller::{Controller, Cycle, Mode};
 use crate::drive::Drive;
 use crate::feedback::Correction;
 use crate::feedforward::{Feedforward, Injectable, Replan};
 use crate::frame::CanFrame;
-use crate::plant::{Gust, Mismatch, Plant};
+#[cfg(feature = "plant")]
+use crate::plant::Plant;
+use crate::plant::{Gust, Mismatch};
 use crate::traffic::Traffic;
+#[cfg(feature = "plant")]
 use solver_core::models::crane::CraneParams;
 
 /// A frame as `const` data.
@@ -92,6 +98,15 @@ pub enum Action {
     },
     /// The inclinometer (scenarios with a plant) fails so.
     Sensor(SensorFault),
+}
+
+/// What can go wrong with it (the inclinometer) in a scenario.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SensorFault {
+    /// It falls silent (cable cut): no heartbeat, no TPDO.
+    Lost,
+    /// Its value freezes at the last one (a stuck pendulum), while it goes on talking.
+    Stuck,
 }
 
 /// An action at a time.
@@ -476,7 +491,9 @@ impl DriveSim {
 #[derive(Debug, Clone)]
 pub struct VirtualBus {
     drives: [DriveSim; 2],
+    #[cfg(feature = "plant")]
     plant: Option<Plant>,
+    #[cfg(feature = "plant")]
     inclinometer: Option<InclinometerSim>,
     scenario: Scenario,
     next_event: usize,
@@ -502,12 +519,14 @@ impl VirtualBus {
     #[must_use]
     pub fn new(scenario: Scenario, start: [f64; 2]) -> Self {
         let [x, l] = start;
+        #[cfg(feature = "plant")]
         let crane = CraneParams::PAPER;
         Self {
             drives: [
                 DriveSim::new(Drive::Trolley.node(), x),
                 DriveSim::new(Drive::Winch.node(), l),
             ],
+            #[cfg(feature = "plant")]
             plant: scenario.plant.map(|mismatch| {
                 Plant::at_rest(
                     x,
@@ -519,6 +538,7 @@ impl VirtualBus {
                     mismatch,
                 )
             }),
+            #[cfg(feature = "plant")]
             inclinometer: scenario
                 .plant
                 .map(|_| InclinometerSim::new(InclinometerSetup::STOCK.node)),
@@ -552,12 +572,14 @@ impl VirtualBus {
     }
 
     /// The plant, in scenarios with one.
+    #[cfg(feature = "plant")]
     #[must_use]
     pub fn plant(&self) -> Option<&Plant> {
         self.plant.as_ref()
     }
 
     /// The inclinometer, in scenarios with a plant.
+    #[cfg(feature = "plant")]
     #[must_use]
     pub fn inclinometer(&self) -> Option<&InclinometerSim> {
         self.inclinometer.as_ref()
@@ -603,6 +625,7 @@ impl VirtualBus {
             self.sync();
             return Ok(());
         }
+        #[cfg(feature = "plant")]
         if let Some(sensor) = self.inclinometer.as_mut() {
             let node = sensor.node();
             if id == cob::NMT {
@@ -663,7 +686,9 @@ impl VirtualBus {
                 d.on_sync();
             }
         }
+        #[cfg(feature = "plant")]
         let mut slope = None;
+        #[cfg(feature = "plant")]
         if let Some(plant) = self.plant.as_mut() {
             let period_ms = self
                 .drives
@@ -700,6 +725,7 @@ impl VirtualBus {
                 self.deliver(position);
             }
         }
+        #[cfg(feature = "plant")]
         if let (Some(sensor), Some(phi_deg)) = (self.inclinometer.as_mut(), slope) {
             if let Some(frame) = sensor.on_sync(phi_deg) {
                 self.deliver(frame);
@@ -747,6 +773,7 @@ impl VirtualBus {
                 let _ = fresh.push_back(beat);
             }
         }
+        #[cfg(feature = "plant")]
         if let Some(sensor) = self.inclinometer.as_mut() {
             if let Some(beat) = sensor.heartbeat(up_to_ms) {
                 let _ = fresh.push_back(beat);
@@ -809,11 +836,14 @@ impl VirtualBus {
             Action::SolverFailure => self.solver_failure = true,
             Action::Hang => self.hang = self.hangs,
             Action::BusOff { cycles } => self.bus_off_cycles = cycles,
+            #[cfg(feature = "plant")]
             Action::Sensor(fault) => {
                 if let Some(sensor) = self.inclinometer.as_mut() {
                     sensor.fail(fault);
                 }
             }
+            #[cfg(not(feature = "plant"))]
+            Action::Sensor(_) => {}
         }
     }
 
