@@ -49,7 +49,8 @@ enum Command {
     Sweep {
         /// The scene file.
         scene: PathBuf,
-        /// Axes: `key=v1|v2,…` with keys h, rho, k, scheme, jacobian, formulation, scalar.
+        /// Axes: `key=v1|v2,…` with keys h, rho, k, scheme, jacobian (j, jt, jtN, exact,
+        /// transformed), formulation, scalar.
         #[arg(long, required = true)]
         vary: Vec<String>,
         /// CSV output (default: standard output).
