@@ -1,7 +1,8 @@
 //! `cargo xtask <command>`: everything that is not plain `cargo test`.
 //!
 //! * `run` — the main job: the firmware in QEMU on the default scene (and the Radau
-//!   scene), its decoded CAN log, and instructions per step per scheme.
+//!   scene, RADAU5's transformed Newton), its decoded CAN log, and instructions per
+//!   step per scheme.
 //! * `test` — the whole test suite: formatting, lints, host tests, the `no_std` build
 //!   of solver-core, both firmware boards, and the QEMU checks.
 //! * `qemu [--overwrite-expected]` — the QEMU checks alone: golden output, the host's
