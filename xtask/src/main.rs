@@ -21,6 +21,8 @@
 //! * `interop` — python-canopen drives and a supervisor against the virtual ECU.
 //! * `study …` — the speed/accuracy studies (`run`, `sweep`, `paper`, `extremes`).
 //! * `bench` — criterion benchmarks of one step and whole runs on the host.
+//! * `instructions` — host instructions per step under callgrind (deterministic),
+//!   BDF4 and Radau on the paper's crane move at h = 10 ms and 1 ms.
 //!
 //! Arguments are parsed by clap: an unknown command or flag is refused, not
 //! ignored. The commands that build the firmware for their own scenes refuse a
@@ -35,6 +37,7 @@ mod defmt_log;
 mod ecu;
 mod firmware;
 mod fuzz;
+mod instructions;
 mod interop;
 mod panics;
 mod qemu;
@@ -116,6 +119,9 @@ enum Cmd {
         #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
         args: Vec<String>,
     },
+    /// Host instructions per step under valgrind's callgrind (deterministic): BDF4 and
+    /// Radau on the paper's crane move at h = 10 ms and 1 ms.
+    Instructions,
     /// Criterion benchmarks of one step and whole runs on the host.
     #[command(disable_help_flag = true)]
     Bench {
@@ -183,6 +189,7 @@ fn main() -> ExitCode {
                     "--",
                 ])
                 .args(args)),
+            Cmd::Instructions => instructions::instructions(),
             Cmd::Bench { args } => run(cargo()
                 .args(["bench", "-p", "host-tests", "--bench", "step"])
                 .args(args)),
@@ -387,6 +394,7 @@ mod tests {
             &["study", "--help"],
             &["bench"],
             &["bench", "--", "--quick"],
+            &["instructions"],
             &["ecu"],
             &["ecu", "--port", "0", "--role", "slave", "--seconds", "5"],
             &["interop"],
@@ -415,6 +423,7 @@ mod tests {
             &["qemu", "--overwrite"],
             &["decode", "a.elf"],
             &["frobnicate"],
+            &["instructions", "--quick"],
             &[],
         ] {
             assert!(parse(args).is_err(), "{args:?} was accepted");
