@@ -8,6 +8,8 @@
 //! * `qemu [--overwrite-expected]` — the QEMU checks alone: golden output, the host's
 //!   computation of the same scene, committed baselines (±10 %).
 //! * `qemu-bench` — instructions per step, flash, RAM and stack against the targets.
+//! * `fig8 [--out-dir DIR]` — the paper's Fig. 8(d, e) from the same QEMU runs:
+//!   instructions per cycle over the move, BDF4 and Radau, as SVG and CSV.
 //! * `soak --minutes M` — the QEMU firmware through M simulated minutes of random
 //!   requests, garbage and faults; every set point checked against the limits.
 //! * `fuzz [--seconds N] [target …]` — cargo fuzz on the frame decoders, the command
@@ -35,6 +37,7 @@ use clap::{Parser, Subcommand};
 
 mod defmt_log;
 mod ecu;
+mod fig8;
 mod firmware;
 mod fuzz;
 mod instructions;
@@ -74,6 +77,13 @@ enum Cmd {
     },
     /// Instructions per step, flash, RAM and stack against the targets.
     QemuBench,
+    /// The paper's Fig. 8(d, e): QEMU instructions per cycle over the move, BDF4 and
+    /// Radau, as SVG and CSV (the runs of `qemu-bench`).
+    Fig8 {
+        /// Output directory.
+        #[arg(long, default_value = "docs/figures")]
+        out_dir: PathBuf,
+    },
     /// The QEMU firmware through M simulated minutes of random traffic and faults.
     Soak {
         /// Simulated minutes.
@@ -141,6 +151,7 @@ impl Cmd {
                 | Cmd::Test
                 | Cmd::Qemu { .. }
                 | Cmd::QemuBench
+                | Cmd::Fig8 { .. }
                 | Cmd::Soak { .. }
                 | Cmd::Flash
         )
@@ -169,6 +180,7 @@ fn main() -> ExitCode {
             Cmd::Test => test(),
             Cmd::Qemu { overwrite_expected } => qemu_checks(overwrite_expected),
             Cmd::QemuBench => qemu_bench(),
+            Cmd::Fig8 { out_dir } => fig8::fig8(&firmware::root().join(out_dir)),
             Cmd::Soak { minutes } => soak::soak(minutes),
             Cmd::Fuzz { seconds, targets } => fuzz::fuzz(seconds, &targets),
             Cmd::PanicProof { report: true } => panics::report(),
@@ -367,6 +379,8 @@ mod tests {
             &["qemu"],
             &["qemu", "--overwrite-expected"],
             &["qemu-bench"],
+            &["fig8"],
+            &["fig8", "--out-dir", "/tmp/figures"],
             &["soak", "--minutes", "60"],
             &["fuzz"],
             &["fuzz", "--seconds", "600"],
