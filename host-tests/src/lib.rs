@@ -6,6 +6,7 @@ pub mod extremes;
 pub mod firmware;
 pub mod paper;
 pub mod plot;
+pub mod root_locus;
 pub mod run;
 pub mod scenes;
 pub mod study;
