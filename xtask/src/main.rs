@@ -142,8 +142,9 @@ enum Cmd {
 }
 
 impl Cmd {
-    /// Whether the command builds the firmware for its own fixed scenes, so that a
-    /// `SCENE` in the environment would be silently ignored.
+    /// Whether the command builds the firmware for its own fixed scenes (or, like
+    /// `instructions`, measures its own fixed scene on the host), so that a `SCENE` in
+    /// the environment would be silently ignored.
     fn builds_fixed_scenes(&self) -> bool {
         matches!(
             self,
@@ -152,6 +153,7 @@ impl Cmd {
                 | Cmd::Qemu { .. }
                 | Cmd::QemuBench
                 | Cmd::Fig8 { .. }
+                | Cmd::Instructions
                 | Cmd::Soak { .. }
                 | Cmd::Flash
         )
@@ -163,11 +165,16 @@ impl Cmd {
 /// baselines are committed per scene), so a `SCENE` is refused, not ignored.
 fn refuse_scene(cmd: &Cmd, scene: Option<String>) -> Result<(), String> {
     match scene {
-        Some(s) if cmd.builds_fixed_scenes() => Err(format!(
-            "SCENE={s} is not used by this command: it builds the firmware for {} (README.md). \
-             Unset SCENE; to run another scene on the host use `cargo xtask study run {s}`.",
-            qemu::SCENES.join(" and ")
-        )),
+        Some(s) if cmd.builds_fixed_scenes() => {
+            let what = match cmd {
+                Cmd::Instructions => format!("it measures {}", instructions::SCENE),
+                _ => format!("it builds the firmware for {}", qemu::SCENES.join(" and ")),
+            };
+            Err(format!(
+                "SCENE={s} is not used by this command: {what} (README.md). \
+                 Unset SCENE; to run another scene on the host use `cargo xtask study run {s}`."
+            ))
+        }
         _ => Ok(()),
     }
 }
@@ -453,6 +460,15 @@ mod tests {
             "{e}"
         );
         assert!(refuse_scene(&Cmd::QemuBench, scene.clone()).is_err());
+        assert!(refuse_scene(
+            &Cmd::Fig8 {
+                out_dir: "x".into()
+            },
+            scene.clone()
+        )
+        .is_err());
+        let e = refuse_scene(&Cmd::Instructions, scene.clone()).unwrap_err();
+        assert!(e.contains("it measures scenes/paper-crane.toml"), "{e}");
         assert!(refuse_scene(&Cmd::Study { args: vec![] }, scene).is_ok());
         assert!(refuse_scene(&Cmd::Run, None).is_ok());
     }
