@@ -9,6 +9,7 @@ pub mod paper;
 /// The plant lives beside the virtual bus (the QEMU firmware runs it too).
 pub use controller::plant;
 pub mod plot;
+pub mod root_locus;
 pub mod run;
 pub mod scenes;
 pub mod study;

@@ -127,8 +127,11 @@ pub fn regenerate(
         },
         Study {
             file: "fig5-radau-broyden",
-            title: "Fig. 5: Radau IIA with J, J~, J~10, J~50 (and the exact Jacobian)",
-            curves: ["j", "jt", "jt10", "jt50", "exact"]
+            title:
+                "Fig. 5: Radau IIA with J, J~, J~10, J~50, exact, and RADAU5's transformed Newton",
+            // `transformed` is not one of the paper's modes: RADAU5's simplified Newton
+            // (issue 11), the firmware's Radau; its line shows it at the paper's accuracy.
+            curves: ["j", "jt", "jt10", "jt50", "exact", "transformed"]
                 .iter()
                 .map(|m| {
                     curve(

@@ -8,7 +8,7 @@
 use std::time::Instant;
 
 use nalgebra::SVector;
-use scene::{JacobianSpec, ModelSpec, ScalarSpec, Scene, SceneError, SchemeSpec};
+use scene::{JacobianSpec, ModelSpec, NewtonSpec, ScalarSpec, Scene, SceneError, SchemeSpec};
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
@@ -521,10 +521,15 @@ pub fn readable_numbers(text: &str) -> String {
     out
 }
 
-/// Whether the scene's Jacobian mode is Broyden with this re-initialisation period.
+/// The Jacobian column of the CSV: `J`, `Jt`, `JtN`, `exact`, or `transformed` for
+/// RADAU5's simplified Newton (exact partials too, but a different iteration: it
+/// must not be reported as the paper's exact-Jacobian full Newton).
 pub fn jacobian_label(scene: &Scene) -> String {
     match (scene.solver.jacobian, scene.solver.reinit_every) {
         (JacobianSpec::Fd, _) => "J".into(),
+        (JacobianSpec::Exact, _) if scene.solver.newton == NewtonSpec::Transformed => {
+            "transformed".into()
+        }
         (JacobianSpec::Exact, _) => "exact".into(),
         (JacobianSpec::Broyden, None) => "Jt".into(),
         (JacobianSpec::Broyden, Some(n)) => format!("Jt{n}"),

@@ -1,7 +1,7 @@
 //! Sweeps: a scene varied along axes (`--vary h=0.02|0.01,rho=2|3,scalar=f32|f64`),
 //! the cross product run, one CSV row per configuration.
 
-use scene::{CraneSpec, JacobianSpec, ModelSpec, ScalarSpec, Scene, SchemeSpec};
+use scene::{CraneSpec, JacobianSpec, ModelSpec, NewtonSpec, ScalarSpec, Scene, SchemeSpec};
 
 use crate::study::{jacobian_label, scheme_label, RunResult};
 
@@ -82,17 +82,23 @@ pub fn apply(scene: &Scene, key: &str, value: &str) -> Result<Scene, String> {
             }
         }
         "jacobian" => {
-            let (mode, reinit) = match value {
-                "j" | "fd" => (JacobianSpec::Fd, None),
-                "exact" => (JacobianSpec::Exact, None),
-                "jt" | "broyden" => (JacobianSpec::Broyden, None),
+            // `transformed` is RADAU5's simplified Newton on the transformed stage
+            // system (the scene's `jacobian = "exact"`, `newton = "transformed"`);
+            // every other value is one of the paper's modes on the whole stage system,
+            // so it resets `newton` (a radau5 scene varied to `jt10` must not keep it).
+            let (mode, reinit, newton) = match value {
+                "j" | "fd" => (JacobianSpec::Fd, None, NewtonSpec::Full),
+                "exact" => (JacobianSpec::Exact, None, NewtonSpec::Full),
+                "transformed" | "radau5" => (JacobianSpec::Exact, None, NewtonSpec::Transformed),
+                "jt" | "broyden" => (JacobianSpec::Broyden, None, NewtonSpec::Full),
                 v => match v.strip_prefix("jt").and_then(|n| n.parse::<u32>().ok()) {
-                    Some(n) => (JacobianSpec::Broyden, Some(n)),
-                    None => return Err(bad("expected j, exact, jt or jtN")),
+                    Some(n) => (JacobianSpec::Broyden, Some(n), NewtonSpec::Full),
+                    None => return Err(bad("expected j, exact, transformed, jt or jtN")),
                 },
             };
             s.solver.jacobian = mode;
             s.solver.reinit_every = reinit;
+            s.solver.newton = newton;
         }
         "formulation" => {
             let crane = match &s.model {
@@ -244,6 +250,25 @@ mod tests {
         let axes = parse_vary("scheme=radau|bdf,k=1|9").unwrap();
         let e = cross(&paper_crane(), &axes).unwrap_err();
         assert!(e.contains("`k` and `scheme`"), "{e}");
+    }
+
+    #[test]
+    fn transformed_is_radau5_and_labelled_so() {
+        let axes = parse_vary("scheme=radau,jacobian=transformed|exact|Jt10").unwrap();
+        let configs = cross(&paper_crane(), &axes).unwrap();
+        let labels: Vec<String> = configs.iter().map(|(_, s)| jacobian_label(s)).collect();
+        assert_eq!(labels, ["transformed", "exact", "Jt10"]);
+        assert_eq!(configs[0].1.solver.newton, NewtonSpec::Transformed);
+        assert_eq!(
+            configs[0].1.settings().jacobian,
+            solver_core::JacobianMode::Transformed
+        );
+        // Back to a paper mode from a radau5 scene: the transformed Newton is dropped.
+        let radau5 =
+            Scene::load(&crate::paper::root().join("scenes/paper-crane-radau5.toml")).unwrap();
+        let back = apply(&radau5, "jacobian", "exact").unwrap();
+        assert_eq!(back.solver.newton, NewtonSpec::Full);
+        assert_eq!(jacobian_label(&radau5), "transformed");
     }
 
     #[test]

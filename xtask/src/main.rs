@@ -1,12 +1,15 @@
 //! `cargo xtask <command>`: everything that is not plain `cargo test`.
 //!
 //! * `run` — the main job: the firmware in QEMU on the default scene (and the Radau
-//!   scene), its decoded CAN log, and instructions per step per scheme.
+//!   scene, RADAU5's transformed Newton), its decoded CAN log, and instructions per
+//!   step per scheme.
 //! * `test` — the whole test suite: formatting, lints, host tests, the `no_std` build
 //!   of solver-core, both firmware boards, and the QEMU checks.
 //! * `qemu [--overwrite-expected]` — the QEMU checks alone: golden output, the host's
 //!   computation of the same scene, committed baselines (±10 %).
 //! * `qemu-bench` — instructions per step, flash, RAM and stack against the targets.
+//! * `fig8 [--out-dir DIR]` — the paper's Fig. 8(d, e) from the same QEMU runs:
+//!   instructions per cycle over the move, BDF4 and Radau, as SVG and CSV.
 //! * `soak --minutes M` — the QEMU firmware through M simulated minutes of random
 //!   requests, garbage and faults; every set point checked against the limits.
 //! * `fuzz [--seconds N] [target …]` — cargo fuzz on the frame decoders, the command
@@ -20,6 +23,8 @@
 //! * `interop` — python-canopen drives and a supervisor against the virtual ECU.
 //! * `study …` — the speed/accuracy studies (`run`, `sweep`, `paper`, `extremes`).
 //! * `bench` — criterion benchmarks of one step and whole runs on the host.
+//! * `instructions` — host instructions per step under callgrind (deterministic),
+//!   BDF4 and Radau on the paper's crane move at h = 10 ms and 1 ms.
 //!
 //! Arguments are parsed by clap: an unknown command or flag is refused, not
 //! ignored. The commands that build the firmware for their own scenes refuse a
@@ -32,8 +37,10 @@ use clap::{Parser, Subcommand};
 
 mod defmt_log;
 mod ecu;
+mod fig8;
 mod firmware;
 mod fuzz;
+mod instructions;
 mod interop;
 mod panics;
 mod qemu;
@@ -70,6 +77,13 @@ enum Cmd {
     },
     /// Instructions per step, flash, RAM and stack against the targets.
     QemuBench,
+    /// The paper's Fig. 8(d, e): QEMU instructions per cycle over the move, BDF4 and
+    /// Radau, as SVG and CSV (the runs of `qemu-bench`).
+    Fig8 {
+        /// Output directory.
+        #[arg(long, default_value = "docs/figures")]
+        out_dir: PathBuf,
+    },
     /// The QEMU firmware through M simulated minutes of random traffic and faults.
     Soak {
         /// Simulated minutes.
@@ -115,6 +129,9 @@ enum Cmd {
         #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
         args: Vec<String>,
     },
+    /// Host instructions per step under valgrind's callgrind (deterministic): BDF4 and
+    /// Radau on the paper's crane move at h = 10 ms and 1 ms.
+    Instructions,
     /// Criterion benchmarks of one step and whole runs on the host.
     #[command(disable_help_flag = true)]
     Bench {
@@ -125,8 +142,9 @@ enum Cmd {
 }
 
 impl Cmd {
-    /// Whether the command builds the firmware for its own fixed scenes, so that a
-    /// `SCENE` in the environment would be silently ignored.
+    /// Whether the command builds the firmware for its own fixed scenes (or, like
+    /// `instructions`, measures its own fixed scene on the host), so that a `SCENE` in
+    /// the environment would be silently ignored.
     fn builds_fixed_scenes(&self) -> bool {
         matches!(
             self,
@@ -134,6 +152,8 @@ impl Cmd {
                 | Cmd::Test
                 | Cmd::Qemu { .. }
                 | Cmd::QemuBench
+                | Cmd::Fig8 { .. }
+                | Cmd::Instructions
                 | Cmd::Soak { .. }
                 | Cmd::Flash
         )
@@ -145,11 +165,16 @@ impl Cmd {
 /// baselines are committed per scene), so a `SCENE` is refused, not ignored.
 fn refuse_scene(cmd: &Cmd, scene: Option<String>) -> Result<(), String> {
     match scene {
-        Some(s) if cmd.builds_fixed_scenes() => Err(format!(
-            "SCENE={s} is not used by this command: it builds the firmware for {} (README.md). \
-             Unset SCENE; to run another scene on the host use `cargo xtask study run {s}`.",
-            qemu::SCENES.join(" and ")
-        )),
+        Some(s) if cmd.builds_fixed_scenes() => {
+            let what = match cmd {
+                Cmd::Instructions => format!("it measures {}", instructions::SCENE),
+                _ => format!("it builds the firmware for {}", qemu::SCENES.join(" and ")),
+            };
+            Err(format!(
+                "SCENE={s} is not used by this command: {what} (README.md). \
+                 Unset SCENE; to run another scene on the host use `cargo xtask study run {s}`."
+            ))
+        }
         _ => Ok(()),
     }
 }
@@ -162,6 +187,7 @@ fn main() -> ExitCode {
             Cmd::Test => test(),
             Cmd::Qemu { overwrite_expected } => qemu_checks(overwrite_expected),
             Cmd::QemuBench => qemu_bench(),
+            Cmd::Fig8 { out_dir } => fig8::fig8(&firmware::root().join(out_dir)),
             Cmd::Soak { minutes } => soak::soak(minutes),
             Cmd::Fuzz { seconds, targets } => fuzz::fuzz(seconds, &targets),
             Cmd::PanicProof { report: true } => panics::report(),
@@ -182,6 +208,7 @@ fn main() -> ExitCode {
                     "--",
                 ])
                 .args(args)),
+            Cmd::Instructions => instructions::instructions(),
             Cmd::Bench { args } => run(cargo()
                 .args(["bench", "-p", "host-tests", "--bench", "step"])
                 .args(args)),
@@ -367,6 +394,8 @@ mod tests {
             &["qemu"],
             &["qemu", "--overwrite-expected"],
             &["qemu-bench"],
+            &["fig8"],
+            &["fig8", "--out-dir", "/tmp/figures"],
             &["soak", "--minutes", "60"],
             &["fuzz"],
             &["fuzz", "--seconds", "600"],
@@ -394,6 +423,7 @@ mod tests {
             &["study", "--help"],
             &["bench"],
             &["bench", "--", "--quick"],
+            &["instructions"],
             &["ecu"],
             &["ecu", "--port", "0", "--role", "slave", "--seconds", "5"],
             &["interop"],
@@ -422,6 +452,7 @@ mod tests {
             &["qemu", "--overwrite"],
             &["decode", "a.elf"],
             &["frobnicate"],
+            &["instructions", "--quick"],
             &[],
         ] {
             assert!(parse(args).is_err(), "{args:?} was accepted");
@@ -437,6 +468,15 @@ mod tests {
             "{e}"
         );
         assert!(refuse_scene(&Cmd::QemuBench, scene.clone()).is_err());
+        assert!(refuse_scene(
+            &Cmd::Fig8 {
+                out_dir: "x".into()
+            },
+            scene.clone()
+        )
+        .is_err());
+        let e = refuse_scene(&Cmd::Instructions, scene.clone()).unwrap_err();
+        assert!(e.contains("it measures scenes/paper-crane.toml"), "{e}");
         assert!(refuse_scene(&Cmd::Study { args: vec![] }, scene).is_ok());
         assert!(refuse_scene(&Cmd::Run, None).is_ok());
     }

@@ -1,5 +1,5 @@
 //! Installs what a fresh machine lacks: the Rust target (through rustup and the
-//! pinned toolchain) and qemu-system-arm from Debian's packages.
+//! pinned toolchain), qemu-system-arm and valgrind from Debian's packages.
 
 use std::process::Command;
 
@@ -25,7 +25,19 @@ pub fn ensure_target() -> Result<(), String> {
 
 /// qemu-system-arm from Debian's packages, if it is not on the PATH.
 pub fn ensure_qemu() -> Result<(), String> {
-    if Command::new("qemu-system-arm")
+    ensure_debian_package("qemu-system-arm", "qemu-system-arm")
+}
+
+/// valgrind (callgrind counts `cargo xtask instructions`) from Debian's packages, if
+/// it is not on the PATH.
+pub fn ensure_valgrind() -> Result<(), String> {
+    ensure_debian_package("valgrind", "valgrind")
+}
+
+/// `apt-get install package` (as root, or through sudo), if `program --version` does
+/// not run; `apt-get update` first only when the install fails without it.
+fn ensure_debian_package(program: &str, package: &str) -> Result<(), String> {
+    if Command::new(program)
         .arg("--version")
         .output()
         .is_ok_and(|o| o.status.success())
@@ -48,21 +60,10 @@ pub fn ensure_qemu() -> Result<(), String> {
         cmd.env("DEBIAN_FRONTEND", "noninteractive").args(args);
         run(&mut cmd)
     };
-    if apt(&[
-        "install",
-        "-y",
-        "--no-install-recommends",
-        "qemu-system-arm",
-    ])
-    .is_err()
-    {
+    let install = ["install", "-y", "--no-install-recommends", package];
+    if apt(&install).is_err() {
         apt(&["update"])?;
-        apt(&[
-            "install",
-            "-y",
-            "--no-install-recommends",
-            "qemu-system-arm",
-        ])?;
+        apt(&install)?;
     }
     Ok(())
 }

@@ -5,6 +5,7 @@
 //! study sweep SCENE --vary h=…|…,rho=…  [--out FILE]   the cross product, one CSV row each
 //! study paper [--out-dir DIR] [--quick]        the paper's Figs. 4–7 and 11–13 on our scenes
 //! study extremes [--out-dir DIR] [--quick]     the stability map
+//! study root-locus [--out-dir DIR]             Fig. 10: the internal dynamics' eigenvalues over α
 //! ```
 //!
 //! Also `cargo xtask study …`. Results and their reading: docs/RESULTS.md.
@@ -21,7 +22,7 @@ use host_tests::study::{
     RunResult, Sample,
 };
 use host_tests::sweep::{cross, csv_row, parse_vary, CSV_HEADER};
-use host_tests::{extremes, paper};
+use host_tests::{extremes, paper, root_locus};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use scene::Scene;
 
@@ -49,7 +50,8 @@ enum Command {
     Sweep {
         /// The scene file.
         scene: PathBuf,
-        /// Axes: `key=v1|v2,…` with keys h, rho, k, scheme, jacobian, formulation, scalar.
+        /// Axes: `key=v1|v2,…` with keys h, rho, k, scheme, jacobian (j, jt, jtN, exact,
+        /// transformed), formulation, scalar.
         #[arg(long, required = true)]
         vary: Vec<String>,
         /// CSV output (default: standard output).
@@ -71,6 +73,13 @@ enum Command {
         /// Fewer step sizes and one timing repeat (for tests).
         #[arg(long)]
         quick: bool,
+    },
+    /// Fig. 10: the root locus of the mass-on-car's internal dynamics over α, with α̂
+    /// of Eq. 39 marked, as SVG and CSV.
+    RootLocus {
+        /// Output directory.
+        #[arg(long, default_value = "docs/figures")]
+        out_dir: PathBuf,
     },
     /// The stability map over schemes, Jacobians, step sizes, scalings, scalars and hard scenes.
     Extremes {
@@ -100,6 +109,12 @@ fn main() -> ExitCode {
         } => sweep(&scene, &vary, out.as_deref(), repeats, threshold),
         Command::Paper { out_dir, quick } => paper::regenerate(&out_dir, quick, &progress),
         Command::Extremes { out_dir, quick } => extremes::map(&out_dir, quick, &progress),
+        Command::RootLocus { out_dir } => root_locus::write(&out_dir).map(|alpha_hat| {
+            eprintln!(
+                "wrote {}: alpha^ = {alpha_hat:.3} deg (Eq. 39, d = 1 Ns/m)",
+                out_dir.join("fig10-root-locus.{csv,svg}").display()
+            );
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

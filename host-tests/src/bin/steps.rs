@@ -1,0 +1,108 @@
+//! `steps`: a crane scene stepped from rest to `t_end`, nothing recorded — the program
+//! that `cargo xtask instructions` runs under callgrind to count instructions per step.
+//!
+//! ```text
+//! steps SCENE [key=value …]     keys as in `study sweep --vary` (h, scheme, jacobian, …)
+//! ```
+//!
+//! Each step goes through [`measured_step_bdf`] or [`measured_step_radau`], which are
+//! never inlined, so that `valgrind --tool=callgrind --toggle-collect='*measured_step*'`
+//! collects exactly the steps (with everything they call) and nothing of the setup:
+//! instructions per step = callgrind's `Collected` / the steps printed. The scene goes
+//! through the same `apply` as the study's sweeps, so the labels are the CSV's.
+
+use std::process::ExitCode;
+
+use host_tests::study::{jacobian_label, scheme_label, whole_steps};
+use host_tests::sweep::apply;
+use scene::{ModelSpec, ScalarSpec, Scene, SchemeSpec};
+use solver_core::models::crane_subs::CraneSubs;
+use solver_core::trajectory::PointToPoint;
+use solver_core::{Bdf, Error, Radau, StepReport};
+
+/// The crane *subs* model of the paper (Eqs. 24–28): 7 unknowns, 2 inputs; Radau's stage
+/// system has 21.
+type Crane = CraneSubs<f64, PointToPoint<f64, 2>>;
+
+/// One BDF step, the unit callgrind collects.
+#[inline(never)]
+fn measured_step_bdf(bdf: &mut Bdf<f64, Crane, 7, 2>, model: &Crane) -> Result<u32, Error> {
+    bdf.step(model)
+        .map(|r: StepReport<f64, 7, 2>| r.stats.iterations)
+}
+
+/// One Radau IIA step, the unit callgrind collects.
+#[inline(never)]
+fn measured_step_radau(
+    radau: &mut Radau<f64, Crane, 7, 2, 21>,
+    model: &Crane,
+) -> Result<u32, Error> {
+    radau
+        .step(model)
+        .map(|r: StepReport<f64, 7, 2>| r.stats.iterations)
+}
+
+fn main() -> ExitCode {
+    match run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("steps: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run() -> Result<(), String> {
+    let mut args = std::env::args().skip(1);
+    let path = args
+        .next()
+        .ok_or("usage: steps SCENE [key=value …] (keys as in `study sweep --vary`)")?;
+    let mut scene = Scene::load(path.as_ref()).map_err(|e| format!("{path}: {e}"))?;
+    for setting in args {
+        let (key, value) = setting
+            .split_once('=')
+            .ok_or_else(|| format!("`{setting}`: expected key=value"))?;
+        scene = apply(&scene, key, value)?;
+    }
+    // `apply` does not validate; a refused combination (BDF with `transformed`) must
+    // not be measured as something else.
+    scene
+        .validate()
+        .and_then(|()| whole_steps(&scene))
+        .map_err(|e| e.to_string())?;
+    let (ModelSpec::CraneSubs(crane), ScalarSpec::F64) = (&scene.model, scene.solver.scalar) else {
+        return Err("only the crane *subs* model in f64 is measured".into());
+    };
+    let model = CraneSubs::new(
+        crane.params(),
+        scene.trajectory2().map_err(|e| e.to_string())?,
+    )
+    .map_err(|e| e.to_string())?;
+    let settings = scene.settings();
+    let steps = scene.steps();
+    let mut iterations = 0_u64;
+    match scene.solver.scheme {
+        SchemeSpec::Bdf => {
+            let mut bdf =
+                Bdf::new(&model, &settings, scene.solver.k, 0.0).map_err(|e| e.to_string())?;
+            for _ in 0..steps {
+                iterations +=
+                    u64::from(measured_step_bdf(&mut bdf, &model).map_err(|e| e.to_string())?);
+            }
+        }
+        SchemeSpec::Radau => {
+            let mut radau = Radau::new(&model, &settings, 0.0).map_err(|e| e.to_string())?;
+            for _ in 0..steps {
+                iterations +=
+                    u64::from(measured_step_radau(&mut radau, &model).map_err(|e| e.to_string())?);
+            }
+        }
+    }
+    println!(
+        "{} {} h = {}: steps {steps}, Newton iterations {iterations}",
+        scheme_label(&scene),
+        jacobian_label(&scene),
+        scene.solver.h
+    );
+    Ok(())
+}
