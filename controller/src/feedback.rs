@@ -628,7 +628,8 @@ pub fn clamp_to_limits(u: f64, last: f64, limits: AxisLimits, h: f64) -> f64 {
         // `last` itself outside the velocity limit: move towards it as fast as allowed.
         return if last > 0.0 { lo } else { hi };
     }
-    u.clamp(lo, hi)
+    // Not `f64::clamp`, which panics on a NaN bound (the panic-proof link found it).
+    u.max(lo).min(hi)
 }
 
 /// The output of one cycle.
