@@ -3,11 +3,13 @@
 //! controller sends.
 
 use controller::canopen::cob;
+use controller::commissioning::InclinometerSetup;
 use controller::drive::Drive;
+use controller::feedback::{self, Correction, NoFeedback, StateFeedback};
 use controller::feedforward::command_plan;
 use controller::planner::Planner;
 use controller::setpoint::DriveLimits;
-use controller::virtual_bus::{run_cycle, Scenario, VirtualBus, HEALTHY};
+use controller::virtual_bus::{run_cycle, Scenario, VirtualBus, CLOSED_LOOP, HEALTHY};
 use controller::{CanFrame, Config, Controller, Injectable, InverseModel};
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
@@ -48,13 +50,38 @@ pub fn feedforward(paper_move: bool) -> Feedforward {
 }
 
 /// The controller and its bus, advanced together as the firmware does.
-pub struct Rig {
+pub struct Rig<C = NoFeedback> {
     /// The controller.
-    pub controller: Controller<Feedforward>,
+    pub controller: Controller<Feedforward, C>,
     /// The simulated drives.
     pub bus: VirtualBus,
     /// Cycles run.
     pub cycle: u32,
+}
+
+impl Rig<StateFeedback> {
+    /// The controller with the state feedback (the inclinometer at node 3) and the paper's
+    /// move planned as the main job's command, on the plant of `CLOSED_LOOP`, after
+    /// `cycles` cycles.
+    pub fn closed_loop(cycles: u32) -> Self {
+        let feedback = StateFeedback::new(feedback::Config::PAPER).expect("the study's gains");
+        let config = Config {
+            inclinometer: Some(InclinometerSetup::STOCK),
+            ..Config::DEFAULT
+        };
+        let mut controller =
+            Controller::with_correction(feedforward(true), feedback, PLANNER, config);
+        controller.demonstration_commanded();
+        let mut rig = Self {
+            controller,
+            bus: VirtualBus::new(CLOSED_LOOP, HOME),
+            cycle: 0,
+        };
+        for _ in 0..cycles {
+            rig.step();
+        }
+        rig
+    }
 }
 
 impl Rig {
@@ -76,7 +103,9 @@ impl Rig {
         }
         rig
     }
+}
 
+impl<C: Correction> Rig<C> {
     /// Time of the next cycle, ms.
     pub fn now_ms(&self) -> u32 {
         self.cycle * 10

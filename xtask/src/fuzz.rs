@@ -11,11 +11,12 @@ use std::time::Instant;
 use crate::{cargo, firmware::root, setup};
 
 /// Every fuzz target.
-pub const TARGETS: [&str; 4] = [
+pub const TARGETS: [&str; 5] = [
     "frame_decoders",
     "command_validator",
     "garbage_changes_nothing",
     "controller_under_traffic",
+    "closed_loop_under_traffic",
 ];
 
 /// Fuzzes `targets` (all if empty) for `seconds` each; prints runs and coverage.

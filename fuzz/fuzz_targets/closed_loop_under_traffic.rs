@@ -1,0 +1,36 @@
+//! The controller with the state feedback, on the virtual bus's plant during the paper's
+//! move, under arbitrary frames at arbitrary cycles — half of them the inclinometer's
+//! (slopes of any value, heartbeats of any state, SDO answers of any content) and the
+//! drives' positions: no panic, and every set point it sends is within the drive limits,
+//! cycle after cycle.
+#![no_main]
+
+use controller::CanFrame;
+use crane_fuzz::{assert_admissible, Rig};
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|events: Vec<(u8, u16, Vec<u8>)>| {
+    let mut rig = Rig::closed_loop(80); // ready, the move not begun (1 s)
+    let mut last = [0i64; 2];
+    for (gap, id, data) in events.iter().take(32) {
+        for _ in 0..*gap {
+            let out = rig.step();
+            assert_admissible(&out.frames, &mut last);
+        }
+        let id = match id % 8 {
+            0 | 1 => 0x183,
+            2 => 0x703,
+            3 => 0x583,
+            4 => 0x281 + (id >> 3) % 2,
+            5 => 0x083,
+            _ => id & 0x7FF,
+        };
+        if let Ok(frame) = CanFrame::new(id, data) {
+            rig.controller.on_frame(&frame, u64::from(rig.now_ms()));
+        }
+    }
+    for _ in 0..100 {
+        let out = rig.step();
+        assert_admissible(&out.frames, &mut last);
+    }
+});
