@@ -45,7 +45,8 @@
 //! matrices, no indexing.
 
 use nalgebra::{
-    Matrix2, Matrix2x1, Matrix4, Matrix4x1, Matrix4x2, RowVector2, RowVector4, Vector2, Vector4,
+    Matrix2, Matrix2x1, Matrix4, Matrix4x1, Matrix4x2, RowVector2, RowVector4, SMatrix, Vector2,
+    Vector4,
 };
 
 use crate::setpoint::{AxisLimits, DriveLimits};
@@ -193,22 +194,14 @@ pub fn linearise(
 
 /// `exp(A h)` and `∫₀ʰ exp(A s) ds · B` by their Taylor series (`‖A‖h < 1` here: 20 terms
 /// reach rounding).
-fn zoh4(a: Matrix4<f64>, b: Matrix4x1<f64>, h: f64) -> (Matrix4<f64>, Matrix4x1<f64>) {
-    let mut phi = Matrix4::identity();
-    let mut int = Matrix4::identity() * h;
-    let mut term = Matrix4::identity();
-    for k in 1..25 {
-        term = term * a * (h / f64::from(k));
-        phi += term;
-        int += term * (h / f64::from(k + 1));
-    }
-    (phi, int * b)
-}
-
-fn zoh2(a: Matrix2<f64>, b: Matrix2x1<f64>, h: f64) -> (Matrix2<f64>, Matrix2x1<f64>) {
-    let mut phi = Matrix2::identity();
-    let mut int = Matrix2::identity() * h;
-    let mut term = Matrix2::identity();
+fn zoh<const N: usize>(
+    a: SMatrix<f64, N, N>,
+    b: SMatrix<f64, N, 1>,
+    h: f64,
+) -> (SMatrix<f64, N, N>, SMatrix<f64, N, 1>) {
+    let mut phi = SMatrix::<f64, N, N>::identity();
+    let mut int = SMatrix::<f64, N, N>::identity() * h;
+    let mut term = SMatrix::<f64, N, N>::identity();
     for k in 1..25 {
         term = term * a * (h / f64::from(k));
         phi += term;
@@ -221,8 +214,8 @@ fn zoh2(a: Matrix2<f64>, b: Matrix2x1<f64>, h: f64) -> (Matrix2<f64>, Matrix2x1<
 #[must_use]
 pub fn discretise(g: f64, tau1: f64, tau2: f64, l: f64, h: f64) -> Discrete {
     let (a, b, aw, bw) = linearise(g, tau1, tau2, l);
-    let (a, b) = zoh4(a, b, h);
-    let (aw, bw) = zoh2(aw, bw, h);
+    let (a, b) = zoh(a, b, h);
+    let (aw, bw) = zoh(aw, bw, h);
     Discrete { a, b, aw, bw }
 }
 
@@ -230,7 +223,12 @@ const RICCATI_ITERATIONS: usize = 20_000;
 const RICCATI_TOL: f64 = 1e-11;
 
 /// LQR gain of a single-input system by iterating the discrete Riccati equation.
-fn lqr4(a: Matrix4<f64>, b: Matrix4x1<f64>, q: Matrix4<f64>, r: f64) -> Option<RowVector4<f64>> {
+fn lqr<const N: usize>(
+    a: SMatrix<f64, N, N>,
+    b: SMatrix<f64, N, 1>,
+    q: SMatrix<f64, N, N>,
+    r: f64,
+) -> Option<SMatrix<f64, 1, N>> {
     let mut s = q;
     for _ in 0..RICCATI_ITERATIONS {
         let bs = b.transpose() * s;
@@ -255,39 +253,14 @@ fn lqr4(a: Matrix4<f64>, b: Matrix4x1<f64>, q: Matrix4<f64>, r: f64) -> Option<R
     None
 }
 
-fn lqr2(a: Matrix2<f64>, b: Matrix2x1<f64>, q: Matrix2<f64>, r: f64) -> Option<RowVector2<f64>> {
-    let mut s = q;
-    for _ in 0..RICCATI_ITERATIONS {
-        let bs = b.transpose() * s;
-        let denom = r + (bs * b).x;
-        if !(denom.is_finite() && denom > 0.0) {
-            return None;
-        }
-        let k = (bs * a) / denom;
-        let next = q + a.transpose() * s * (a - b * k);
-        let next = (next + next.transpose()) * 0.5;
-        let change = (next - s).abs().max();
-        let size = next.abs().max();
-        s = next;
-        if !size.is_finite() {
-            return None;
-        }
-        if change <= RICCATI_TOL * size {
-            let bs = b.transpose() * s;
-            return Some((bs * a) / (r + (bs * b).x));
-        }
-    }
-    None
-}
-
-/// Steady-state Kalman gain (filter form, `x̂ += L (y − C x̂)`) of the trolley–swing block
-/// measured in `x` and `φ`.
-fn kalman4(a: Matrix4<f64>, qw: Matrix4<f64>, rv: Matrix2<f64>) -> Option<Matrix4x2<f64>> {
-    #[rustfmt::skip]
-    let c = nalgebra::Matrix2x4::new(
-        1.0, 0.0, 0.0, 0.0,
-        0.0, 0.0, 1.0, 0.0,
-    );
+/// Steady-state Kalman gain (filter form, `x̂ += L (y − C x̂)`) of `x' = A x + w`,
+/// `y = C x + v`, with process and measurement noise covariances `qw`, `rv`.
+fn kalman<const N: usize, const M: usize>(
+    a: SMatrix<f64, N, N>,
+    c: SMatrix<f64, M, N>,
+    qw: SMatrix<f64, N, N>,
+    rv: SMatrix<f64, M, M>,
+) -> Option<SMatrix<f64, N, M>> {
     let mut p = qw;
     for _ in 0..RICCATI_ITERATIONS {
         let sinv = (c * p * c.transpose() + rv).try_inverse()?;
@@ -304,31 +277,6 @@ fn kalman4(a: Matrix4<f64>, qw: Matrix4<f64>, rv: Matrix2<f64>) -> Option<Matrix
         if change <= RICCATI_TOL * size {
             let sinv = (c * p * c.transpose() + rv).try_inverse()?;
             return Some(p * c.transpose() * sinv);
-        }
-    }
-    None
-}
-
-fn kalman2(a: Matrix2<f64>, qw: Matrix2<f64>, rv: f64) -> Option<Matrix2x1<f64>> {
-    let c = RowVector2::new(1.0, 0.0);
-    let mut p = qw;
-    for _ in 0..RICCATI_ITERATIONS {
-        let s = (c * p * c.transpose()).x + rv;
-        if !(s.is_finite() && s > 0.0) {
-            return None;
-        }
-        let gain = p * c.transpose() / s;
-        let next = a * (p - gain * c * p) * a.transpose() + qw;
-        let next = (next + next.transpose()) * 0.5;
-        let change = (next - p).abs().max();
-        let size = next.abs().max();
-        p = next;
-        if !size.is_finite() {
-            return None;
-        }
-        if change <= RICCATI_TOL * size {
-            let s = (c * p * c.transpose()).x + rv;
-            return Some(p * c.transpose() / s);
         }
     }
     None
@@ -414,10 +362,10 @@ impl Gains {
                 0.0,
                 sq(w.swing_velocity) * l * l,
             ));
-        let k = lqr4(model.a, model.b, q, sq(w.trolley_correction))
+        let k = lqr(model.a, model.b, q, sq(w.trolley_correction))
             .ok_or(DesignError::NoConvergence { l })?;
         let qw = Matrix2::from_diagonal(&Vector2::new(sq(w.rope_position), 0.0));
-        let kw = lqr2(model.aw, model.bw, qw, sq(w.winch_correction))
+        let kw = lqr(model.aw, model.bw, qw, sq(w.winch_correction))
             .ok_or(DesignError::NoConvergence { l })?;
         // Process noise enters as accelerations over one period.
         let (h, dd, ds) = (cfg.h, w.drive_disturbance, w.swing_disturbance);
@@ -428,10 +376,17 @@ impl Gains {
             w.position_noise * w.position_noise,
             w.angle_noise * w.angle_noise,
         ));
-        let obs = kalman4(model.a, qn, rv).ok_or(DesignError::NoConvergence { l })?;
+        // The trolley–swing block is measured in x and φ, the winch block in l.
+        #[rustfmt::skip]
+        let c = nalgebra::Matrix2x4::new(
+            1.0, 0.0, 0.0, 0.0,
+            0.0, 0.0, 1.0, 0.0,
+        );
+        let obs = kalman(model.a, c, qn, rv).ok_or(DesignError::NoConvergence { l })?;
         let g2 = Vector2::new(0.5 * h * h, h);
         let qn2 = g2 * g2.transpose() * (dd * dd) + Matrix2::identity() * 1e-14;
-        let obs_w = kalman2(model.aw, qn2, w.position_noise * w.position_noise)
+        let rv_w = SMatrix::<f64, 1, 1>::new(w.position_noise * w.position_noise);
+        let obs_w = kalman(model.aw, RowVector2::new(1.0, 0.0), qn2, rv_w)
             .ok_or(DesignError::NoConvergence { l })?;
         Ok(GainPoint {
             l,
