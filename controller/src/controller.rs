@@ -840,6 +840,11 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             .inclinometer
             .as_ref()
             .map_or(0, |s| s.commissioning.setup().node);
+        self.record_commissioning_failure(node, error);
+    }
+
+    /// What 0x2002 shows: the last commissioning failure of any device.
+    fn record_commissioning_failure(&mut self, node: u8, error: CommissioningError) {
         let object = error.object();
         self.commissioning_failure = (
             node,
@@ -1281,14 +1286,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             }
             Progress::Failed { error, abort } => {
                 let node = self.link(drive).commissioning.setup().node;
-                let object = error.object();
-                self.commissioning_failure = (
-                    node,
-                    object.index,
-                    object.sub,
-                    error.abort_code(),
-                    error.reason(),
-                );
+                self.record_commissioning_failure(node, error);
                 self.fault(Fault::Commissioning(drive, error));
                 abort
             }

@@ -5,32 +5,18 @@
 //! cycle after cycle.
 #![no_main]
 
-use controller::CanFrame;
-use crane_fuzz::{assert_admissible, Rig};
+use crane_fuzz::{under_traffic, Rig};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|events: Vec<(u8, u16, Vec<u8>)>| {
-    let mut rig = Rig::closed_loop(80); // ready, the move not begun (1 s)
-    let mut last = [0i64; 2];
-    for (gap, id, data) in events.iter().take(32) {
-        for _ in 0..*gap {
-            let out = rig.step();
-            assert_admissible(&out.frames, &mut last);
-        }
-        let id = match id % 8 {
-            0 | 1 => 0x183,
-            2 => 0x703,
-            3 => 0x583,
-            4 => 0x281 + (id >> 3) % 2,
-            5 => 0x083,
-            _ => id & 0x7FF,
-        };
-        if let Ok(frame) = CanFrame::new(id, data) {
-            rig.controller.on_frame(&frame, u64::from(rig.now_ms()));
-        }
-    }
-    for _ in 0..100 {
-        let out = rig.step();
-        assert_admissible(&out.frames, &mut last);
-    }
+    // Ready, the move not begun (it starts at 1 s).
+    let mut rig = Rig::closed_loop(80);
+    under_traffic(&mut rig, &events, |id| match id % 8 {
+        0 | 1 => 0x183,
+        2 => 0x703,
+        3 => 0x583,
+        4 => 0x281 + (id >> 3) % 2,
+        5 => 0x083,
+        _ => id & 0x7FF,
+    });
 });

@@ -121,6 +121,30 @@ impl<C: Correction> Rig<C> {
     }
 }
 
+/// Fuzzed traffic: each event runs its gap of cycles, then its frame (the id through
+/// `target`, which points half of them at what a target studies) arrives; then 100
+/// cycles more. Every cycle's set points must be admissible ([`assert_admissible`]).
+pub fn under_traffic<C: Correction>(
+    rig: &mut Rig<C>,
+    events: &[(u8, u16, Vec<u8>)],
+    target: impl Fn(u16) -> u16,
+) {
+    let mut last = [0i64; 2];
+    for (gap, id, data) in events.iter().take(32) {
+        for _ in 0..*gap {
+            let out = rig.step();
+            assert_admissible(&out.frames, &mut last);
+        }
+        if let Ok(frame) = CanFrame::new(target(*id), data) {
+            rig.controller.on_frame(&frame, u64::from(rig.now_ms()));
+        }
+    }
+    for _ in 0..100 {
+        let out = rig.step();
+        assert_admissible(&out.frames, &mut last);
+    }
+}
+
 /// Panics unless every RPDO in `frames` is within the drive limits, and within the
 /// acceleration limit against `last` (updated).
 pub fn assert_admissible(frames: &[CanFrame], last: &mut [i64; 2]) {
