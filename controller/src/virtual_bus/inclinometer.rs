@@ -10,12 +10,12 @@ use crate::canopen::sdo::{self, abort, Object, ObjectDictionary, Value};
 use crate::canopen::{self, NmtCommand, NmtState};
 use crate::frame::CanFrame;
 
-use super::SensorFault;
+use super::{refuse_write, sdo_word, store, stored, Objects, SensorFault};
 
 /// The objects it holds: (index, sub) → (value, size).
 #[derive(Debug, Clone, PartialEq)]
 struct Dictionary {
-    entries: LinearMap<(u16, u8), (u32, u8), 16>,
+    entries: Objects<16>,
     node: u8,
 }
 
@@ -42,10 +42,7 @@ impl Dictionary {
 
 impl ObjectDictionary for Dictionary {
     fn read(&self, object: Object) -> Result<Value, u32> {
-        let word = |v: u32, size: usize| -> Value {
-            let bytes = v.to_le_bytes();
-            sdo::value(bytes.get(..size).unwrap_or(&bytes))
-        };
+        let word = sdo_word;
         match (object.index, object.sub) {
             // CiA 410, one axis, 16 bit (additional information 0x0001).
             (0x1000, 0) => Ok(word(0x0001_019A, 4)),
@@ -55,32 +52,17 @@ impl ObjectDictionary for Dictionary {
             (0x1018, 3) => Ok(word(0x0001_0000, 4)),
             (0x1018, 4) => Ok(word(2000 + u32::from(self.node), 4)),
             (index, sub) if Dictionary::writable(index, sub) => {
-                let (v, size) = self.entries.get(&(index, sub)).copied().unwrap_or((0, 4));
-                Ok(word(v, usize::from(size)))
+                Ok(stored(&self.entries, index, sub))
             }
             _ => Err(abort::NO_OBJECT),
         }
     }
 
     fn write(&mut self, object: Object, data: &[u8]) -> Result<(), u32> {
-        let (index, sub) = (object.index, object.sub);
-        if !Dictionary::writable(index, sub) {
-            return Err(match self.read(object) {
-                Ok(_) => abort::READ_ONLY,
-                Err(code) => code,
-            });
+        if !Dictionary::writable(object.index, object.sub) {
+            return Err(refuse_write(self.read(object)));
         }
-        let mut word = [0u8; 4];
-        for (w, d) in word.iter_mut().zip(data) {
-            *w = *d;
-        }
-        self.entries
-            .insert(
-                (index, sub),
-                (u32::from_le_bytes(word), data.len().min(4) as u8),
-            )
-            .map(|_| ())
-            .map_err(|_| abort::OUT_OF_MEMORY)
+        store(&mut self.entries, object, data)
     }
 }
 

@@ -261,12 +261,53 @@ impl SimDictionary {
     }
 }
 
+/// A simulated device's stored objects: (index, sub) → (value, size in bytes).
+type Objects<const N: usize> = LinearMap<(u16, u8), (u32, u8), N>;
+
+/// `v` as an SDO value of `size` bytes, little endian.
+fn sdo_word(v: u32, size: usize) -> Value {
+    let bytes = v.to_le_bytes();
+    sdo::value(bytes.get(..size).unwrap_or(&bytes))
+}
+
+/// A stored object as written (0 in 4 bytes if it never was).
+fn stored<const N: usize>(entries: &Objects<N>, index: u16, sub: u8) -> Value {
+    let (v, size) = entries.get(&(index, sub)).copied().unwrap_or((0, 4));
+    sdo_word(v, usize::from(size))
+}
+
+/// The value `data` carries, little endian, at most 4 bytes.
+fn written_value(data: &[u8]) -> u32 {
+    let mut word = [0u8; 4];
+    for (w, d) in word.iter_mut().zip(data) {
+        *w = *d;
+    }
+    u32::from_le_bytes(word)
+}
+
+/// Stores a write the device accepted.
+fn store<const N: usize>(entries: &mut Objects<N>, object: Object, data: &[u8]) -> Result<(), u32> {
+    entries
+        .insert(
+            (object.index, object.sub),
+            (written_value(data), data.len().min(4) as u8),
+        )
+        .map(|_| ())
+        .map_err(|_| abort::OUT_OF_MEMORY)
+}
+
+/// The abort answering a write to an object that is not writable: *read only* if it
+/// exists, else why it cannot be read.
+fn refuse_write(read: Result<Value, u32>) -> u32 {
+    match read {
+        Ok(_) => abort::READ_ONLY,
+        Err(code) => code,
+    }
+}
+
 impl ObjectDictionary for SimDictionary {
     fn read(&self, object: Object) -> Result<Value, u32> {
-        let word = |v: u32, size: usize| -> Value {
-            let bytes = v.to_le_bytes();
-            sdo::value(bytes.get(..size).unwrap_or(&bytes))
-        };
+        let word = sdo_word;
         match (object.index, object.sub) {
             // CiA 402, servo drive (additional information 0x0002).
             (0x1000, 0) => Ok(word(0x0002_0192, 4)),
@@ -277,8 +318,7 @@ impl ObjectDictionary for SimDictionary {
             (0x1018, 4) => Ok(word(1000 + u32::from(self.node), 4)),
             (0x6061, 0) => Ok(word(u32::from(self.mode_display() as u8), 1)),
             (index, sub) if SimDictionary::writable(index, sub) => {
-                let (v, size) = self.entries.get(&(index, sub)).copied().unwrap_or((0, 4));
-                Ok(word(v, usize::from(size)))
+                Ok(stored(&self.entries, index, sub))
             }
             _ => Err(abort::NO_OBJECT),
         }
@@ -287,23 +327,12 @@ impl ObjectDictionary for SimDictionary {
     fn write(&mut self, object: Object, data: &[u8]) -> Result<(), u32> {
         let (index, sub) = (object.index, object.sub);
         if !SimDictionary::writable(index, sub) {
-            return Err(match self.read(object) {
-                Ok(_) => abort::READ_ONLY,
-                Err(code) => code,
-            });
+            return Err(refuse_write(self.read(object)));
         }
-        let mut word = [0u8; 4];
-        for (w, d) in word.iter_mut().zip(data) {
-            *w = *d;
-        }
-        let value = u32::from_le_bytes(word);
-        if (index, sub) == (0x6060, 0) && self.refuses_csv && value == 9 {
+        if (index, sub) == (0x6060, 0) && self.refuses_csv && written_value(data) == 9 {
             return Err(abort::INVALID_VALUE);
         }
-        self.entries
-            .insert((index, sub), (value, data.len().min(4) as u8))
-            .map(|_| ())
-            .map_err(|_| abort::OUT_OF_MEMORY)
+        store(&mut self.entries, object, data)
     }
 }
 
