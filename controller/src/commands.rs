@@ -70,6 +70,10 @@ pub enum CommandError {
     TrailingBytes,
 }
 
+/// Ticks of a move's duration per second: the command frame carries durations in 10 ms
+/// units — the wire's resolution (docs/COMMANDS.md), fixed whatever the scene's cycle h.
+pub const DURATION_TICKS_PER_S: f64 = 100.0;
+
 /// Decodes a command frame's 8 bytes.
 pub fn decode_request(data: &[u8]) -> Result<Request, CommandError> {
     let [id, command, x0, x1, z0, z1, d0, d1] = *data else {
@@ -79,7 +83,7 @@ pub fn decode_request(data: &[u8]) -> Result<Request, CommandError> {
         1 => {
             let mm = |a, b| f64::from(u16::from_le_bytes([a, b])) / 1000.0;
             let ticks = u16::from_le_bytes([d0, d1]);
-            let duration = (ticks != 0).then(|| f64::from(ticks) / 100.0);
+            let duration = (ticks != 0).then(|| f64::from(ticks) / DURATION_TICKS_PER_S);
             Ok(Request::Move {
                 id,
                 target: [mm(x0, x1), mm(z0, z1)],
@@ -108,7 +112,7 @@ pub fn request_frame(request: &Request) -> CanFrame {
             let [x0, x1] = mm(x);
             let [z0, z1] = mm(z);
             let ticks: u16 = duration.map_or(0, |d| {
-                libm::round(d * 100.0).clamp(1.0, f64::from(u16::MAX)) as u16
+                libm::round(d * DURATION_TICKS_PER_S).clamp(1.0, f64::from(u16::MAX)) as u16
             });
             let [d0, d1] = ticks.to_le_bytes();
             [id, 1, x0, x1, z0, z1, d0, d1]

@@ -13,7 +13,7 @@ use solver_core::plan::{Hermite, Plan};
 use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::trajectory::{PointToPoint, Trajectory};
 
-use crate::commands::Reject;
+use crate::commands::{Reject, DURATION_TICKS_PER_S};
 use crate::setpoint::DriveLimits;
 
 /// Points per checked path segment (plus its end).
@@ -214,7 +214,8 @@ enum Phase {
     Shortest,
     /// Geometric bisection: `lo` fails, `hi` passes (or is the longest, untested).
     Bisect { lo: f64, hi: f64, tested: bool },
-    /// `hi` rounded up to the 10 ms grid.
+    /// `hi` rounded up to the command frame's duration unit (10 ms, whatever h), so the
+    /// duration found is one a supervisor can ask for.
     Round { hi: f64 },
     /// Nothing passed: the reasons at the longest duration.
     Reason,
@@ -374,7 +375,10 @@ impl MoveSearch {
             } => Check::new(hi, false),
             Phase::Bisect { hi, .. } => {
                 self.phase = Phase::Round { hi };
-                Check::new((libm::ceil(hi * 100.0) / 100.0).min(longest), false)
+                Check::new(
+                    (libm::ceil(hi * DURATION_TICKS_PER_S) / DURATION_TICKS_PER_S).min(longest),
+                    false,
+                )
             }
             _ => return Some(Err(Reject::Invalid)),
         };
