@@ -648,3 +648,44 @@ fn a_drive_stopped_by_someone_else_is_switched_back_commissioned_and_the_crane_r
     assert_eq!(rig.c.commissioning(Drive::Trolley), Phase::Done);
     assert_eq!(rig.bus.drive(Drive::Trolley).nmt(), NmtState::Operational);
 }
+
+#[test]
+fn a_watched_supervisor_that_falls_silent_during_a_move_stops_the_crane() {
+    // The PLC asks the controller to watch its heartbeat (0x1016:1 = node 0x20, 300 ms).
+    let mut rig = Rig::new(HEALTHY, true);
+    rig.run(50);
+    let write = CanFrame::new(0x610, &[0x23, 0x16, 0x10, 1, 0x2C, 0x01, 0x20, 0]).unwrap();
+    rig.c.on_frame(&write, u64::from(rig.now));
+    assert_eq!(
+        frames_with(&[rig.cycle()], 0x590),
+        [[0x60, 0x16, 0x10, 1, 0, 0, 0, 0]]
+    );
+    // Its heartbeat every 100 ms until 2 s: at rest and into the move, nothing happens.
+    while rig.now < 2_000 {
+        if rig.now % 100 == 0 {
+            let beat = canopen::heartbeat(0x20, NmtState::Operational);
+            rig.c.on_frame(&beat, u64::from(rig.now));
+        }
+        let out = rig.cycle();
+        assert!(!matches!(out.mode, Mode::Stopping(_)), "at {} ms", rig.now);
+    }
+    let mut last = rig.cycle().setpoints.map(|s| s.units());
+    // Then silence: more than 300 ms after its last heartbeat (1.9 s) a controlled stop
+    // (fault 14), announced; `now` is the next cycle's time.
+    let out = rig.until(60, |c| matches!(c.mode, Mode::Stopping(_)));
+    assert!(
+        (2_210..=2_230).contains(&rig.now),
+        "stopped at {} ms",
+        rig.now
+    );
+    assert!(matches!(
+        out.last().unwrap().mode,
+        Mode::Stopping(Fault::SupervisorLost)
+    ));
+    let emcy = frames_with(&out, 0x090);
+    assert_eq!(emcy.len(), 1);
+    assert_eq!(emcy[0][..4], [0x30, 0x81, 0x11, 14], "0x8130, fault 14");
+    let rest = rig.until(300, |c| matches!(c.mode, Mode::Halted(_)));
+    assert_within_limits(&out, &mut last);
+    assert_within_limits(&rest, &mut last);
+}
