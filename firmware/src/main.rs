@@ -162,6 +162,7 @@ mod app {
         let mut next = Mono::now();
         let (mut min, mut max, mut sum) = (u64::MAX, 0u64, 0u64);
         let mut cycle: u64 = 0;
+        let mut commissioned = 0;
         #[cfg(feature = "stm32h743")]
         let mut link_losses = (0, 0);
         while cycles.is_none_or(|n| cycle < u64::from(n)) {
@@ -198,6 +199,10 @@ mod app {
                 }
             }
             report_lost(board, controller, now_ms);
+            if controller.counters().commissioned != commissioned {
+                commissioned = controller.counters().commissioned;
+                log_identities(controller);
+            }
             let (iterations, jacobians) = out
                 .step
                 .map_or((0, 0), |s| (s.stats.iterations, s.stats.jacobian_evals));
@@ -239,6 +244,24 @@ mod app {
         let mode = controller.mode();
         defmt::info!("mode {}", mode);
         board::finish(cx.local.ending.admits(mode))
+    }
+
+    /// The identity (0x1018:1..=4) of every commissioned drive: which drive, by vendor,
+    /// product, revision and serial number, is on the crane (a commissioning record).
+    fn log_identities(controller: &Controller<Feedforward, scene::Correction>) {
+        for drive in controller::drive::Drive::ALL {
+            if controller.commissioning(drive) == controller::commissioning::Phase::Done {
+                let [vendor, product, revision, serial] = controller.identity(drive);
+                defmt::info!(
+                    "{} commissioned: vendor {=u32:#010x} product {=u32:#010x} revision {=u32:#010x} serial {=u32}",
+                    drive,
+                    vendor,
+                    product,
+                    revision,
+                    serial
+                );
+            }
+        }
     }
 
     /// Every frame the transmit path lost since the last call, reported as itself.
