@@ -1,5 +1,6 @@
 //! The firmware's portable logic, tested on the host.
 //!
+//! * [`board`] — the 100 Hz cycle every board runs, behind the one trait a board implements;
 //! * [`drive`] — the driven axes (trolley, winch);
 //! * [`canopen`] — CiA 301 by specification: frames, NMT, EMCY codes;
 //! * [`setpoint`] — m/s to drive units through the one set-point choke point;
@@ -28,6 +29,7 @@
     clippy::indexing_slicing
 )]
 
+pub mod board;
 pub mod canopen;
 pub mod cia402;
 pub mod commands;

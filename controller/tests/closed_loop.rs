@@ -128,18 +128,17 @@ fn run_from<C: Correction>(
         c.demonstration_commanded();
     }
     let mut bus = VirtualBus::new(scenario, HOME);
-    let (mut after, mut now) = (0, 0);
+    let mut now = 0;
     let mut out = Run {
         cycles: Vec::new(),
         load: Vec::new(),
         bus: bus.clone(),
     };
     while f64::from(now) < seconds * 1000.0 {
-        let cycle = run_cycle(&mut c, &mut bus, after, now).expect("no hang");
+        let cycle = run_cycle(&mut c, &mut bus, now).expect("no hang");
         let plant = bus.plant().unwrap();
         out.load.push((plant.t, plant.load(), plant.y[2]));
         out.cycles.push(cycle);
-        after = now;
         now += 10;
     }
     out.bus = bus;
@@ -300,10 +299,9 @@ fn after_a_fault_the_model_restarts_where_the_drives_measure_the_crane() {
     let ff: Ff = feedforward(HOME, None);
     let mut c = Controller::with_correction(ff, feedback(), planner(), config());
     let mut bus = VirtualBus::new(FAULT, HOME);
-    let (mut after, mut now) = (0, 0);
+    let mut now = 0;
     let mut step = |c: &mut Controller<Ff, StateFeedback>, bus: &mut VirtualBus| {
-        let out = run_cycle(c, bus, after, now).unwrap();
-        after = now;
+        let out = run_cycle(c, bus, now).unwrap();
         now += 10;
         out
     };

@@ -662,7 +662,7 @@ fn a_watched_supervisor_that_falls_silent_during_a_move_stops_the_crane() {
     );
     // Its heartbeat every 100 ms until 2 s: at rest and into the move, nothing happens.
     while rig.now < 2_000 {
-        if rig.now % 100 == 0 {
+        if rig.now.is_multiple_of(100) {
             let beat = canopen::heartbeat(0x20, NmtState::Operational);
             rig.c.on_frame(&beat, u64::from(rig.now));
         }

@@ -167,38 +167,41 @@ mod app {
         let mut link_losses = (0, 0);
         while cycles.is_none_or(|n| cycle < u64::from(n)) {
             let now_ms = cycle * u64::from(scene::PERIOD_MS);
-            // Frames of the last cycle that did not leave (bus-off, a slow bus) are taken
-            // back now, each reported as itself before this cycle's tick.
-            report_lost(board, controller, now_ms);
-            while let Some(frame) = board.receive(now_ms) {
-                controller.on_frame(&frame, now_ms);
-            }
-            #[cfg(feature = "qemu")]
-            if board.take_hang() {
-                defmt::warn!(
-                    "hang at {=u64} ms: the 100 Hz task stops checking in",
-                    now_ms
-                );
-                #[allow(clippy::empty_loop)]
-                loop {}
-            }
-            #[cfg(feature = "qemu")]
-            if board.take_solver_failure() {
-                controller.feedforward_mut().fail_next_step();
-            }
-            let start = board.counter();
-            let out = controller.tick(now_ms);
-            let cost = board.cost(start, board.counter());
-            controller.record_cost(cost);
-            // The burst is queued in order (controller::transmit): a refused frame is
+            // The cycle every board runs (controller::board): the frames of the last cycle
+            // that did not leave (bus-off, a slow bus) reported, each as itself, before
+            // the tick; the burst queued in order (controller::transmit), a refused frame
             // reported at once, a frame the bus refuses as soon as it does.
-            for frame in &out.frames {
-                if let Err(e) = board.transmit(now_ms, frame) {
-                    defmt::warn!("tx failed {=u16:#05x}: {}", frame.id(), e);
-                    controller.transmit_failed(frame);
+            let mut cost = 0;
+            let tick = |controller: &mut Controller<Feedforward, scene::Correction>,
+                        board: &mut Board| {
+                #[cfg(feature = "qemu")]
+                if board.take_hang() {
+                    defmt::warn!(
+                        "hang at {=u64} ms: the 100 Hz task stops checking in",
+                        now_ms
+                    );
+                    #[allow(clippy::empty_loop)]
+                    loop {}
                 }
-            }
-            report_lost(board, controller, now_ms);
+                #[cfg(feature = "qemu")]
+                if board.take_solver_failure() {
+                    controller.feedforward_mut().fail_next_step();
+                }
+                let start = board.counter();
+                let out = controller.tick(now_ms);
+                cost = board.cost(start, board.counter());
+                controller.record_cost(cost);
+                Some(out)
+            };
+            let log_lost = |frame: &controller::CanFrame, e: &<Board as CanPort>::TxError| {
+                defmt::warn!("tx failed {=u16:#05x}: {}", frame.id(), e);
+            };
+            let Some(out) = controller::board::cycle(controller, board, now_ms, tick, log_lost)
+            else {
+                // The tick above never declines (a hang loops inside it).
+                defmt::error!("the cycle declined its tick");
+                board::finish(false)
+            };
             if controller.counters().commissioned != commissioned {
                 commissioned = controller.counters().commissioned;
                 log_identities(controller);
@@ -261,18 +264,6 @@ mod app {
                     serial
                 );
             }
-        }
-    }
-
-    /// Every frame the transmit path lost since the last call, reported as itself.
-    fn report_lost(
-        board: &mut Board,
-        controller: &mut Controller<Feedforward, scene::Correction>,
-        now_ms: u64,
-    ) {
-        while let Some((frame, e)) = board.lost(now_ms) {
-            defmt::warn!("tx failed {=u16:#05x}: {}", frame.id(), e);
-            controller.transmit_failed(&frame);
         }
     }
 }

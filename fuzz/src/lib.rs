@@ -113,8 +113,8 @@ impl<C: Correction> Rig<C> {
 
     /// One cycle; its set points, drive units.
     pub fn step(&mut self) -> controller::Cycle {
-        let (now, after) = (self.now_ms(), self.now_ms().saturating_sub(10));
-        let out = run_cycle(&mut self.controller, &mut self.bus, after, now)
+        let now = self.now_ms();
+        let out = run_cycle(&mut self.controller, &mut self.bus, now)
             .expect("the fuzzed bus does not hang");
         self.cycle += 1;
         out

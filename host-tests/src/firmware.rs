@@ -158,14 +158,12 @@ fn run_with<F: Feedforward + Replan, C: Correction>(
         controller.demonstration_commanded();
     }
     let period_ms = f.config.period_ms;
-    let mut after = 0;
     let mut out = Vec::new();
     for cycle in 0..cycles {
         let now_ms = cycle * period_ms;
-        let Some(c) = run_cycle(&mut controller, &mut bus, after, now_ms) else {
+        let Some(c) = run_cycle(&mut controller, &mut bus, now_ms) else {
             break;
         };
-        after = now_ms;
         out.push(ReferenceCycle {
             now_ms,
             frames: c.frames.to_vec(),

@@ -16,6 +16,7 @@ pub use inclinometer::InclinometerSim;
 
 use heapless::{Deque, LinearMap};
 
+use crate::board::{self, CanPort};
 use crate::canopen::sdo::{self, abort, Object, ObjectDictionary, Value};
 use crate::canopen::{self, cob, NmtCommand, NmtState};
 use crate::cia402::{controlword, DriveState};
@@ -527,6 +528,13 @@ pub struct VirtualBus {
     scenario: Scenario,
     next_event: usize,
     inbox: Deque<CanFrame, 32>,
+    /// Frames due this cycle, in bus order, for [`CanPort::receive`].
+    rx: Deque<CanFrame, 32>,
+    /// End of the last receive window, ms.
+    rx_until: Option<u32>,
+    /// Frames that did not fit the receive window (must stay 0; a loss would also show
+    /// as a missing frame in the QEMU/host comparison).
+    rx_overflow: u32,
     injected: Deque<CanFrame, 32>,
     traffic: Option<Traffic>,
     solver_failure: bool,
@@ -574,6 +582,9 @@ impl VirtualBus {
             scenario,
             next_event: 0,
             inbox: Deque::new(),
+            rx: Deque::new(),
+            rx_until: None,
+            rx_overflow: 0,
             injected: Deque::new(),
             traffic: scenario.random.map(Traffic::new),
             solver_failure: false,
@@ -906,33 +917,73 @@ impl VirtualBus {
     }
 }
 
-/// One cycle of the firmware's loop on the virtual bus — what `firmware/src/main.rs`
-/// does with the QEMU board, but for counting instructions: the frames that appeared
-/// since `after_ms`, the scenario's hang or solver failure if one is due, the tick,
-/// and the transmission (a refused frame is reported to the controller). `None`: the
-/// firmware hangs here, and its watchdog takes over.
+/// The virtual bus is the host's CAN port: frames arrive in windows of one cycle (the
+/// scenario's events, the drives' boot-up messages and heartbeats, then the answers to
+/// the controller's last frames), and a transmitted frame reaches the drives at once —
+/// or, during a bus-off, is refused.
+impl CanPort for VirtualBus {
+    type TxError = BusOff;
+
+    fn transmit(&mut self, _now_ms: u64, frame: &CanFrame) -> Result<(), BusOff> {
+        VirtualBus::transmit(self, frame)
+    }
+
+    fn lost(&mut self, _now_ms: u64) -> Option<(CanFrame, BusOff)> {
+        None
+    }
+
+    /// Times saturate at `u32::MAX` ms (49 days; scenarios are short).
+    fn receive(&mut self, now_ms: u64) -> Option<CanFrame> {
+        let now_ms = u32::try_from(now_ms).unwrap_or(u32::MAX);
+        if self.rx.is_empty() && self.rx_until.is_none_or(|t| t < now_ms) {
+            let after = self.rx_until.unwrap_or(0);
+            let mut window: Deque<CanFrame, 32> = Deque::new();
+            for frame in self.receive_until(after, now_ms) {
+                let _ = window.push_back(frame);
+            }
+            for frame in window {
+                if self.rx.push_back(frame).is_err() {
+                    self.rx_overflow = self.rx_overflow.saturating_add(1);
+                }
+            }
+            self.rx_until = Some(now_ms);
+        }
+        self.rx.pop_front()
+    }
+}
+
+impl VirtualBus {
+    /// Frames that did not fit a cycle's receive window (0 in every scenario).
+    #[must_use]
+    pub fn rx_overflow(&self) -> u32 {
+        self.rx_overflow
+    }
+}
+
+/// One cycle of the firmware's loop on the virtual bus, on the host: [`board::cycle`]
+/// with the scenario's hang and solver failure injected before the tick, as the QEMU
+/// board does. `None`: the firmware hangs here, and its watchdog takes over.
 pub fn run_cycle<F: Feedforward + Replan, C: Correction>(
     controller: &mut Controller<Injectable<F>, C>,
     bus: &mut VirtualBus,
-    after_ms: u32,
     now_ms: u32,
 ) -> Option<Cycle> {
-    for frame in bus.receive_until(after_ms, now_ms) {
-        controller.on_frame(&frame, u64::from(now_ms));
-    }
-    if bus.take_hang() {
-        return None;
-    }
-    if bus.take_solver_failure() {
-        controller.feedforward_mut().fail_next_step();
-    }
-    let out = controller.tick(u64::from(now_ms));
-    for frame in &out.frames {
-        if bus.transmit(frame).is_err() {
-            controller.transmit_failed(frame);
-        }
-    }
-    Some(out)
+    let now = u64::from(now_ms);
+    board::cycle(
+        controller,
+        bus,
+        now,
+        |controller, bus| {
+            if bus.take_hang() {
+                return None;
+            }
+            if bus.take_solver_failure() {
+                controller.feedforward_mut().fail_next_step();
+            }
+            Some(controller.tick(now))
+        },
+        |_, _| {},
+    )
 }
 
 const fn move_to(id: u8, x: f64, z: f64, duration: f64) -> Action {

@@ -59,7 +59,6 @@ pub struct Rig {
     pub bus: VirtualBus,
     /// Time of the next cycle, ms.
     pub now: u32,
-    after: u32,
 }
 
 impl Rig {
@@ -79,7 +78,6 @@ impl Rig {
             c: Controller::new(ff, planner(), config),
             bus: VirtualBus::new(scenario, HOME),
             now: 0,
-            after: 0,
         }
     }
 
@@ -90,8 +88,7 @@ impl Rig {
 
     /// One cycle, or `None` where the scenario hangs the firmware.
     pub fn try_cycle(&mut self) -> Option<Cycle> {
-        let out = run_cycle(&mut self.c, &mut self.bus, self.after, self.now)?;
-        self.after = self.now;
+        let out = run_cycle(&mut self.c, &mut self.bus, self.now)?;
         self.now += 10;
         Some(out)
     }

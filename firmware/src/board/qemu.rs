@@ -27,6 +27,7 @@
 //! numbers and the vector table), volatile access to the timer, and stack painting.
 #![allow(unsafe_code)]
 
+use controller::board::CanPort;
 use controller::transmit::{FifoModel, Loss, Queued, TxQueue, BURST};
 pub use controller::virtual_bus::Ending;
 use controller::virtual_bus::{self, Scenario, VirtualBus};
@@ -147,10 +148,6 @@ pub const TX_BUFFERS: usize = 3;
 /// The QEMU board.
 pub struct Board {
     bus: VirtualBus,
-    /// Frames due this cycle, in bus order.
-    rx: Deque<CanFrame, 32>,
-    /// End of the last receive window, ms.
-    rx_until: Option<u32>,
     watchdog_started: bool,
     /// Frames waiting for a transmit buffer, in order.
     tx_queue: TxQueue<BURST>,
@@ -217,8 +214,6 @@ impl Board {
         (
             Self {
                 bus,
-                rx: Deque::new(),
-                rx_until: None,
                 watchdog_started: false,
                 tx_queue: TxQueue::new(),
                 tx_buffers: FifoModel::new(),
@@ -280,26 +275,13 @@ impl Board {
     }
 }
 
-impl super::CanPort for Board {
+impl CanPort for Board {
     type TxError = Loss;
 
-    /// Next frame received by `now_ms`, from the virtual bus (whose scenarios are
-    /// short: times saturate at `u32::MAX` ms, 49 days).
+    /// Next frame received by `now_ms`: the virtual bus's own port (the host's run
+    /// receives through the same code).
     fn receive(&mut self, now_ms: u64) -> Option<CanFrame> {
-        let now_ms = u32::try_from(now_ms).unwrap_or(u32::MAX);
-        if self.rx.is_empty() && self.rx_until.is_none_or(|t| t < now_ms) {
-            let after = self.rx_until.unwrap_or(0);
-            for frame in self.bus.receive_until(after, now_ms) {
-                if self.rx.push_back(frame).is_err() {
-                    defmt::warn!(
-                        "virtual bus: receive queue full, frame {=u16:#05x} dropped",
-                        frame.id()
-                    );
-                }
-            }
-            self.rx_until = Some(now_ms);
-        }
-        self.rx.pop_front()
+        CanPort::receive(&mut self.bus, now_ms)
     }
 
     /// Queues a frame: into a free transmit buffer, or behind the frames waiting for one.

@@ -401,7 +401,7 @@ fn restart_after_bus_off() {
     fdcan1().cccr.modify(|_, w| w.init().clear_bit());
 }
 
-impl super::CanPort for Board {
+impl controller::board::CanPort for Board {
     type TxError = Loss;
 
     /// Next received frame, if any, from the interrupt's queue.

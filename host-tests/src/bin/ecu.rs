@@ -209,7 +209,7 @@ fn reference<F: Feedforward + Replan>(
     let mut bus = VirtualBus::new(HEALTHY, f.first_move.start().into());
     let period = f.config.period_ms;
     let limit = 100 * 1000 / period + (duration * 1000.0) as u32 / period;
-    let (mut after, mut asked, mut answered) = (0, false, false);
+    let (mut asked, mut answered) = (false, false);
     let mut rest = 0;
     for cycle in 0..limit {
         let now = cycle * period;
@@ -222,9 +222,8 @@ fn reference<F: Feedforward + Replan>(
             controller.on_frame(&request_frame(&request), u64::from(now));
             asked = true;
         }
-        let out = run_cycle(&mut controller, &mut bus, after, now)
+        let out = run_cycle(&mut controller, &mut bus, now)
             .ok_or("the virtual bus hung the controller")?;
-        after = now;
         match controller.last_answer() {
             (1, Answer::Accepted, None) => answered = true,
             (1, answer, reason) => return Err(format!("the move was {answer:?} {reason:?}")),
