@@ -4,7 +4,8 @@
 //! so the link fails if any panicking branch survives optimisation. The binary drives
 //! every entry point the firmware calls — `Controller::restarted_by_watchdog`,
 //! `on_frame`, `tick`, `record_cost`, `transmit_failed` — for every model and scheme a scene can
-//! choose (crane *subs* and *proj*, BDF and Radau IIA, every Jacobian mode through the
+//! choose (crane *subs* and *proj*, BDF — with the run-time modes and the structured exact
+//! Newton — and Radau IIA, every Jacobian mode through the
 //! settings), with every input (frames, times, costs, settings, parameters, the first
 //! move) hidden behind `black_box`, so that nothing is proven for constants only.
 //! Built with the firmware's release profile for the drive's target:
@@ -42,6 +43,31 @@ use solver_core::{Bdf, Error, JacobianMode, Radau, SolverSettings};
 
 type Subs = CraneSubs<f64, Plan<f64, 2>>;
 type Proj = CraneProj<f64, Plan<f64, 2>>;
+/// BDF with the structured exact Newton, as the default scene's firmware links it.
+type SubsStructured =
+    Bdf<f64, Subs, 7, 2, solver_core::schemes::bdf::StructuredOf<f64, Subs, 7, 2>>;
+
+/// The firmware's wrapper (`firmware/src/scene.rs`): the controller's `Stepper` for BDF
+/// with any Newton strategy.
+struct Stepped<I>(I);
+
+impl controller::feedforward::Stepper<Subs> for Stepped<SubsStructured> {
+    fn step(&mut self, model: &Subs) -> Result<controller::feedforward::FeedforwardStep, Error> {
+        self.0
+            .step(model)
+            .map(|r| controller::feedforward::FeedforwardStep {
+                t: r.t,
+                u: r.u.into(),
+                stats: r.stats,
+            })
+    }
+    fn time(&self) -> f64 {
+        self.0.time()
+    }
+    fn restart(&mut self, model: &Subs, t0: f64) -> Result<(), Error> {
+        self.0.restart(model, t0)
+    }
+}
 
 /// The first plan: rest, then a move, all from opaque inputs.
 fn plan() -> Result<Plan<f64, 2>, Error> {
@@ -109,6 +135,18 @@ fn main() -> ! {
                 halt()
             };
             run(InverseModel { model, integrator })
+        }
+        4 => {
+            let Ok(model) = Subs::new(params, plan) else {
+                halt()
+            };
+            let Ok(integrator) = SubsStructured::new(&model, &settings, k, t0) else {
+                halt()
+            };
+            run(InverseModel {
+                model,
+                integrator: Stepped(integrator),
+            })
         }
         1 => {
             let Ok(model) = Subs::new(params, plan) else {
