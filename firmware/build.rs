@@ -83,9 +83,19 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
         }
     };
     let s = &scene.solver;
+    // The Newton strategy is a type, so the firmware links only the one its scene names:
+    // the crane subs model's structured elimination for the exact Jacobian, otherwise
+    // the run-time modes on a dense LU.
+    let structured = matches!(scene.model, ModelSpec::CraneSubs(_))
+        && s.jacobian == JacobianSpec::Exact
+        && s.newton != scene::NewtonSpec::Transformed;
     let (integrator, new, scheme) = match s.scheme {
         SchemeSpec::Bdf => (
-            format!("solver_core::Bdf<f64, Model, {n}, 2>"),
+            if structured {
+                format!("solver_core::Bdf<f64, Model, {n}, 2, solver_core::schemes::bdf::StructuredOf<f64, Model, {n}, 2>>")
+            } else {
+                format!("solver_core::Bdf<f64, Model, {n}, 2>")
+            },
             format!("Integrator::new(&model, &SETTINGS, {}, 0.0)", s.k),
             format!("BDF{}", s.k),
         ),
@@ -148,7 +158,12 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
         c,
         "/// The integrator.\npub type Integrator = {integrator};"
     );
-    let _ = writeln!(c, "/// Model and integrator.\npub type Feedforward = controller::InverseModel<Model, Integrator>;");
+    let stub = env::var_os("CARGO_FEATURE_STUB_INVERSE_MODEL").is_some();
+    if stub {
+        let _ = writeln!(c, "/// The inverse model stubbed out (feature `stub-inverse-model`).\npub type Feedforward = Stub;");
+    } else {
+        let _ = writeln!(c, "/// Model and integrator.\npub type Feedforward = controller::InverseModel<Model, Integrator>;");
+    }
     // The state feedback is linked only when the scene closes the loop.
     match &setup.feedback {
         Some(config) => {
@@ -193,14 +208,19 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
     );
     let _ = writeln!(
         c,
-        "/// Builds the scene's inverse model at rest at t = 0, its move planned if\n/// `first_move` (checked against the planner's rules when the firmware was built).\npub fn inverse_model(first_move: bool) -> Result<Feedforward, solver_core::Error> {{\n    let mut plan = controller::feedforward::command_plan({}, {})?;\n    if first_move {{\n        plan.push(solver_core::trajectory::PointToPoint::new({}.into(), {}.into(), {:?}_f64, {:?}_f64, {})?)?;\n    }}\n    let model = Model::new(PARAMS, plan)?;\n    let integrator = {new}?;\n    Ok(controller::InverseModel {{ model, integrator }})\n}}",
+        "/// Builds the scene's inverse model at rest at t = 0, its move planned if\n/// `first_move` (checked against the planner's rules when the firmware was built).\npub fn inverse_model(first_move: bool) -> Result<Feedforward, solver_core::Error> {{\n    let mut plan = controller::feedforward::command_plan({}, {})?;\n    if first_move {{\n        plan.push(solver_core::trajectory::PointToPoint::new({}.into(), {}.into(), {:?}_f64, {:?}_f64, {})?)?;\n    }}\n    {}\n}}",
         v(&tr.start),
         tr.smoothness,
         v(&tr.start),
         v(&tr.end),
         tr.t_start,
         tr.duration,
-        tr.smoothness
+        tr.smoothness,
+        if stub {
+            "Ok(Stub { plan, t: 0.0 })".to_string()
+        } else {
+            format!("let model = Model::new(PARAMS, plan)?;\n    let integrator = {new}?;\n    Ok(controller::InverseModel {{ model, integrator }})")
+        }
     );
     Ok(c)
 }

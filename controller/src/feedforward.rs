@@ -5,6 +5,7 @@ use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
 use solver_core::plan::Plan;
 use solver_core::scalar::{c, to_f64};
+use solver_core::schemes::bdf::BdfNewton;
 use solver_core::trajectory::Trajectory;
 use solver_core::{Bdf, DaeModel, Driven, Error, NewtonStats, Radau, Real};
 
@@ -122,7 +123,11 @@ fn report<T: Real>(t: T, u: nalgebra::SVector<T, 2>, stats: NewtonStats) -> Feed
     }
 }
 
-impl<T: Real, M: DaeModel<T, N, 2>, const N: usize> Stepper<M> for Bdf<T, M, N, 2> {
+/// BDF with any Newton strategy (the scene's type: the run-time modes on a dense LU, or
+/// a model's structured elimination).
+impl<T: Real, M: DaeModel<T, N, 2>, J: BdfNewton<T, M, N, 2>, const N: usize> Stepper<M>
+    for Bdf<T, M, N, 2, J>
+{
     fn step(&mut self, model: &M) -> Result<FeedforwardStep, Error> {
         Bdf::step(self, model).map(|r| report(r.t, r.u, r.stats))
     }

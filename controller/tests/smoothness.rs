@@ -52,7 +52,7 @@ fn peak_accelerations(
         let integrator = Radau::<f64, _, 7, 2, 21>::new(&model, &settings, 0.0).unwrap();
         peak_rate(Injectable::new(InverseModel { model, integrator }), steps)
     } else {
-        let integrator = Bdf::new(&model, &settings(), k, 0.0).unwrap();
+        let integrator = Bdf::<f64, _, 7, 2>::new(&model, &settings(), k, 0.0).unwrap();
         peak_rate(Injectable::new(InverseModel { model, integrator }), steps)
     };
     (exact, computed)

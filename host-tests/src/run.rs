@@ -2,8 +2,10 @@
 
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
+use solver_core::newton::Newton;
 use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::scalar::{c, to_f64};
+use solver_core::schemes::bdf::BdfNewton;
 use solver_core::trajectory::Trajectory;
 use solver_core::{Bdf, DaeModel, Error, JacobianMode, NewtonStats, Radau, Real, SolverSettings};
 
@@ -80,16 +82,62 @@ where
     T: Real,
     M: DaeModel<T, N, NU>,
 {
+    match scheme {
+        Scheme::Bdf(k) => run_bdf::<T, M, N, NU, Newton<T, N>>(model, k, settings, t0, t_end),
+        Scheme::Radau => run_radau::<T, M, N, NU, S>(model, settings, t0, t_end),
+    }
+}
+
+/// [`run`] with BDF k and the Newton strategy `J` (the firmware's structured one, say).
+pub fn run_bdf<T, M, const N: usize, const NU: usize, J>(
+    model: &M,
+    k: usize,
+    settings: &SolverSettings,
+    t0: f64,
+    t_end: f64,
+) -> Result<Trace<N, NU>, Error>
+where
+    T: Real,
+    M: DaeModel<T, N, NU>,
+    J: BdfNewton<T, M, N, NU>,
+{
+    let (mut trace, steps) = start(model, settings, t0, t_end)?;
+    let mut bdf = Bdf::<T, M, N, NU, J>::new(model, settings, k, c(t0))?;
+    for _ in 0..steps {
+        if !record(&mut trace, bdf.step(model)) {
+            break;
+        }
+    }
+    Ok(trace)
+}
+
+/// The trace of the rest state at `t0`, and the number of steps to `t_end`.
+fn start<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize>(
+    model: &M,
+    settings: &SolverSettings,
+    t0: f64,
+    t_end: f64,
+) -> Result<(Trace<N, NU>, usize), Error> {
     let steps = ((t_end - t0) / settings.h).round() as usize;
     let x0 = model.rest_state(c(t0))?;
-    let mut trace = Trace {
-        t: vec![t0],
-        x: vec![x0.map(to_f64)],
-        u: vec![M::inputs(&x0).map(to_f64)],
-        stats: vec![NewtonStats::default()],
-        failure: None,
-    };
-    let mut record = |result: Result<solver_core::StepReport<T, N, NU>, Error>| match result {
+    Ok((
+        Trace {
+            t: vec![t0],
+            x: vec![x0.map(to_f64)],
+            u: vec![M::inputs(&x0).map(to_f64)],
+            stats: vec![NewtonStats::default()],
+            failure: None,
+        },
+        steps,
+    ))
+}
+
+/// Appends a step's result to the trace, or its error; `false` on error.
+fn record<T: Real, const N: usize, const NU: usize>(
+    trace: &mut Trace<N, NU>,
+    result: Result<solver_core::StepReport<T, N, NU>, Error>,
+) -> bool {
+    match result {
         Ok(r) => {
             trace.t.push(to_f64(r.t));
             trace.x.push(r.x.map(to_f64));
@@ -101,23 +149,24 @@ where
             trace.failure = Some(e);
             false
         }
-    };
-    match scheme {
-        Scheme::Bdf(k) => {
-            let mut bdf = Bdf::<T, M, N, NU>::new(model, settings, k, c(t0))?;
-            for _ in 0..steps {
-                if !record(bdf.step(model)) {
-                    break;
-                }
-            }
-        }
-        Scheme::Radau => {
-            let mut radau = Radau::<T, M, N, NU, S>::new(model, settings, c(t0))?;
-            for _ in 0..steps {
-                if !record(radau.step(model)) {
-                    break;
-                }
-            }
+    }
+}
+
+fn run_radau<T, M, const N: usize, const NU: usize, const S: usize>(
+    model: &M,
+    settings: &SolverSettings,
+    t0: f64,
+    t_end: f64,
+) -> Result<Trace<N, NU>, Error>
+where
+    T: Real,
+    M: DaeModel<T, N, NU>,
+{
+    let (mut trace, steps) = start(model, settings, t0, t_end)?;
+    let mut radau = Radau::<T, M, N, NU, S>::new(model, settings, c(t0))?;
+    for _ in 0..steps {
+        if !record(&mut trace, radau.step(model)) {
+            break;
         }
     }
     Ok(trace)

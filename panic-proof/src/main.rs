@@ -4,9 +4,10 @@
 //! so the link fails if any panicking branch survives optimisation. The binary drives
 //! every entry point the firmware calls — `Controller::restarted_by_watchdog`,
 //! `demonstration_commanded`, `on_frame`, `tick`, `record_cost`, `transmit_failed` — for
-//! every model and scheme a scene can choose (crane *subs* and *proj*, BDF and Radau IIA,
-//! every Jacobian mode through the settings), with and without the state feedback (its
-//! gain design included), with every input (frames, times, costs, settings, parameters, the first
+//! every model and scheme a scene can choose (crane *subs* and *proj*, BDF — with the
+//! run-time modes and the structured exact Newton — and Radau IIA, every Jacobian mode
+//! through the settings), with and without the state feedback (its gain design
+//! included), with every input (frames, times, costs, settings, parameters, the first
 //! move) hidden behind `black_box`, so that nothing is proven for constants only.
 //! Built with the firmware's release profile for the drive's target:
 //! `cargo xtask panic-proof`. What it does not cover — the board, RTIC and defmt — is
@@ -45,6 +46,9 @@ use solver_core::{Bdf, Error, JacobianMode, Radau, SolverSettings};
 
 type Subs = CraneSubs<f64, Plan<f64, 2>>;
 type Proj = CraneProj<f64, Plan<f64, 2>>;
+/// BDF with the structured exact Newton, as the default scene's firmware links it.
+type SubsStructured =
+    Bdf<f64, Subs, 7, 2, solver_core::schemes::bdf::StructuredOf<f64, Subs, 7, 2>>;
 
 /// The first plan: rest, then a move, all from opaque inputs.
 fn plan() -> Result<Plan<f64, 2>, Error> {
@@ -137,6 +141,18 @@ fn main() -> ! {
                 halt()
             };
             run(InverseModel { model, integrator })
+        }
+        4 => {
+            let Ok(model) = Subs::new(params, plan) else {
+                halt()
+            };
+            let Ok(integrator) = SubsStructured::new(&model, &settings, k, t0) else {
+                halt()
+            };
+            run(InverseModel {
+                model,
+                integrator,
+            })
         }
         1 => {
             let Ok(model) = Subs::new(params, plan) else {

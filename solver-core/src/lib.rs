@@ -37,7 +37,7 @@ pub mod schemes;
 pub mod trajectory;
 
 pub use error::{Error, Result};
-pub use model::{DaeModel, Driven, Partials};
+pub use model::{DaeModel, Driven, Partials, StructuredJacobian};
 pub use newton::{JacobianMode, NewtonSettings, NewtonStats};
 pub use scalar::Real;
 pub use schemes::{Bdf, Radau, SolverSettings, StepReport};

@@ -78,3 +78,30 @@ pub trait DaeModel<T: Real, const N: usize, const NU: usize> {
         })
     }
 }
+
+/// A model whose BDF Newton matrix `A = S·(∂F/∂x + c·∂F/∂ẋ)` (`c = α₀/h`, `S` the row
+/// scaling ρ of Sec. 3.1.1) has a fixed sparsity pattern that it eliminates by hand:
+/// a static pivot order, no pivot search, no fill-in, only the entries that change
+/// computed. Used by [`Structured`](crate::schemes::bdf::Structured), the BDF Newton
+/// strategy the firmware links; models without it keep the dense LU.
+///
+/// The factors must solve the same system as the dense LU of `S·(∂F/∂x + c·∂F/∂ẋ)`
+/// built from [`DaeModel::partials`] (each implementation's tests check it).
+pub trait StructuredJacobian<T: Real, const N: usize, const NU: usize>: DaeModel<T, N, NU> {
+    /// What the elimination keeps of `A`: reciprocal pivots and multipliers.
+    type Factors: Copy + core::fmt::Debug;
+
+    /// Factors `A` at `(x, ẋ)` and the sample `s`; `None` when a pivot is zero or
+    /// not finite (`A` singular).
+    fn factor(
+        &self,
+        x: &SVector<T, N>,
+        xdot: &SVector<T, N>,
+        s: &Self::Sample,
+        c: T,
+        scale: &SVector<T, N>,
+    ) -> Option<Self::Factors>;
+
+    /// Solves `A η = r` in place with the factors of [`StructuredJacobian::factor`].
+    fn solve(f: &Self::Factors, r: &mut SVector<T, N>);
+}

@@ -80,6 +80,23 @@ pub fn build(board: Board, scene: &Path) -> Result<PathBuf, String> {
     Ok(target_dir.join(setup::TARGET).join("release/firmware"))
 }
 
+/// Builds the QEMU firmware for `scene` with the inverse model stubbed out (feature
+/// `stub-inverse-model`): the same firmware without model, integrator and Newton, whose
+/// flash subtracted from the real build's is the solver's share. Returns the ELF's path.
+pub fn build_without_inverse_model(scene: &Path) -> Result<PathBuf, String> {
+    setup::ensure_target()?;
+    let name = scene
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("scene");
+    let (mut cmd, target_dir) =
+        firmware_cargo("build", Board::Qemu, &format!("{name}-stub-inverse-model"));
+    run(cmd
+        .args(["--features", "stub-inverse-model"])
+        .env("SCENE", scene))?;
+    Ok(target_dir.join(setup::TARGET).join("release/firmware"))
+}
+
 /// Clippy on the firmware for `board`.
 pub fn clippy(board: Board) -> Result<(), String> {
     let (mut cmd, _) = firmware_cargo("clippy", board, "clippy");
