@@ -86,9 +86,7 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
     // The Newton strategy is a type, so the firmware links only the one its scene names:
     // the crane subs model's structured elimination for the exact Jacobian, otherwise
     // the run-time modes on a dense LU.
-    let structured = matches!(scene.model, ModelSpec::CraneSubs(_))
-        && s.jacobian == JacobianSpec::Exact
-        && s.newton != scene::NewtonSpec::Transformed;
+    let structured = scene::firmware::structured_newton(scene);
     let (integrator, new, scheme) = match s.scheme {
         SchemeSpec::Bdf => (
             if structured {

@@ -7,11 +7,15 @@ use controller::setpoint::Setpoint;
 use controller::virtual_bus::{run_cycle, Scenario, VirtualBus};
 use controller::{CanFrame, Controller, Feedforward, Injectable, InverseModel, Mode, Replan};
 use scene::commissioning::CommissioningFile;
-use scene::firmware::{firmware_scene, FirmwareScene};
+use scene::firmware::{firmware_scene, structured_newton, FirmwareScene};
 use scene::{ModelSpec, Scene, SchemeSpec};
 use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
 use solver_core::plan::Plan;
+use solver_core::schemes::bdf::StructuredOf;
+
+/// The firmware's *subs* model, driven by a plan that changes on command.
+type Subs = CraneSubs<f64, Plan<f64, 2>>;
 use solver_core::{Bdf, Radau};
 
 /// One cycle as the firmware runs it.
@@ -73,6 +77,20 @@ fn boot(
     let err = |e: solver_core::Error| e.to_string();
     let k = scene.solver.k;
     match (&scene.model, scene.solver.scheme) {
+        (ModelSpec::CraneSubs(_), SchemeSpec::Bdf) if structured_newton(scene) => {
+            let model = CraneSubs::new(f.params, plan).map_err(err)?;
+            let integrator = Bdf::<f64, Subs, 7, 2, StructuredOf<f64, Subs, 7, 2>>::new(
+                &model, &settings, k, 0.0,
+            )
+            .map_err(err)?;
+            run(
+                InverseModel { model, integrator },
+                f,
+                restarted,
+                bus,
+                cycles,
+            )
+        }
         (ModelSpec::CraneSubs(_), SchemeSpec::Bdf) => {
             let model = CraneSubs::new(f.params, plan).map_err(err)?;
             let integrator = Bdf::<f64, _, 7, 2>::new(&model, &settings, k, 0.0).map_err(err)?;

@@ -136,6 +136,19 @@ pub fn firmware_scene(
     })
 }
 
+/// Whether the firmware steps `scene` with the crane *subs* model's structured
+/// elimination (BDF, exact Jacobian) rather than the run-time modes on a dense LU: the
+/// Newton strategy is a type, so the firmware links only the one its scene names. The
+/// host's run of the firmware takes the same strategy — with the loop closed through a
+/// plant, a difference of a rounding unit in a set point would grow.
+#[must_use]
+pub fn structured_newton(scene: &Scene) -> bool {
+    matches!(scene.model, ModelSpec::CraneSubs(_))
+        && scene.solver.scheme == crate::SchemeSpec::Bdf
+        && scene.solver.jacobian == crate::JacobianSpec::Exact
+        && scene.solver.newton != crate::NewtonSpec::Transformed
+}
+
 /// `config` as a Rust constant expression, for the firmware's generated scene module:
 /// the same values the host's run of the firmware loop uses, built by the same
 /// [`CommissioningFile::config`]. (Drive limits and the fault thresholds are
