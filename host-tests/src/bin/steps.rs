@@ -17,6 +17,7 @@ use host_tests::study::{jacobian_label, scheme_label, whole_steps};
 use host_tests::sweep::apply;
 use scene::{ModelSpec, ScalarSpec, Scene, SchemeSpec};
 use solver_core::models::crane_subs::CraneSubs;
+use solver_core::schemes::bdf::StructuredOf;
 use solver_core::trajectory::PointToPoint;
 use solver_core::{Bdf, Error, Radau, StepReport};
 
@@ -32,6 +33,16 @@ fn measured_step_bdf(bdf: &mut Bdf<f64, Crane, 7, 2>, model: &Crane) -> Result<u
 }
 
 /// One Radau IIA step, the unit callgrind collects.
+/// BDF with the *subs* model's structured elimination: the firmware's default scene.
+#[inline(never)]
+fn measured_step_bdf_structured(
+    bdf: &mut Bdf<f64, Crane, 7, 2, StructuredOf<f64, Crane, 7, 2>>,
+    model: &Crane,
+) -> Result<u32, Error> {
+    bdf.step(model)
+        .map(|r: StepReport<f64, 7, 2>| r.stats.iterations)
+}
+
 #[inline(never)]
 fn measured_step_radau(
     radau: &mut Radau<f64, Crane, 7, 2, 21>,
@@ -58,11 +69,21 @@ fn run() -> Result<(), String> {
         .next()
         .ok_or("usage: steps SCENE [key=value …] (keys as in `study sweep --vary`)")?;
     let mut scene = Scene::load(path.as_ref()).map_err(|e| format!("{path}: {e}"))?;
+    // `newton=structured` (BDF, exact Jacobian): the firmware's Newton, not a study axis.
+    let mut structured = false;
     for setting in args {
         let (key, value) = setting
             .split_once('=')
             .ok_or_else(|| format!("`{setting}`: expected key=value"))?;
+        if (key, value) == ("newton", "structured") {
+            structured = true;
+            scene = apply(&scene, "jacobian", "exact")?;
+            continue;
+        }
         scene = apply(&scene, key, value)?;
+    }
+    if structured && scene.solver.scheme != SchemeSpec::Bdf {
+        return Err("newton=structured is BDF's".into());
     }
     // `apply` does not validate; a refused combination (BDF with `transformed`) must
     // not be measured as something else.
@@ -82,6 +103,20 @@ fn run() -> Result<(), String> {
     let steps = scene.steps();
     let mut iterations = 0_u64;
     match scene.solver.scheme {
+        SchemeSpec::Bdf if structured => {
+            let mut bdf = Bdf::<f64, Crane, 7, 2, StructuredOf<f64, Crane, 7, 2>>::new(
+                &model,
+                &settings,
+                scene.solver.k,
+                0.0,
+            )
+            .map_err(|e| e.to_string())?;
+            for _ in 0..steps {
+                iterations += u64::from(
+                    measured_step_bdf_structured(&mut bdf, &model).map_err(|e| e.to_string())?,
+                );
+            }
+        }
         SchemeSpec::Bdf => {
             let mut bdf =
                 Bdf::new(&model, &settings, scene.solver.k, 0.0).map_err(|e| e.to_string())?;
@@ -99,9 +134,10 @@ fn run() -> Result<(), String> {
         }
     }
     println!(
-        "{} {} h = {}: steps {steps}, Newton iterations {iterations}",
+        "{} {}{} h = {}: steps {steps}, Newton iterations {iterations}",
         scheme_label(&scene),
         jacobian_label(&scene),
+        if structured { " structured" } else { "" },
         scene.solver.h
     );
     Ok(())
