@@ -67,13 +67,7 @@ pub fn build(board: Board, scene: &Path) -> Result<PathBuf, String> {
         .and_then(|s| s.to_str())
         .unwrap_or("scene");
     let (mut cmd, target_dir) = firmware_cargo("build", board, name);
-    // A scene that closes the loop runs its QEMU scenarios on the virtual bus's plant
-    // and inclinometer; other scenes do not link them.
-    let closes_loop = scene::Scene::load(scene)
-        .map_err(|e| format!("{}: {e}", scene.display()))?
-        .feedback
-        .is_some();
-    if board == Board::Qemu && closes_loop {
+    if board == Board::Qemu && closes_loop(scene)? {
         cmd.args(["--features", "plant"]);
     }
     run(cmd.env("SCENE", scene))?;
@@ -91,10 +85,22 @@ pub fn build_without_inverse_model(scene: &Path) -> Result<PathBuf, String> {
         .unwrap_or("scene");
     let (mut cmd, target_dir) =
         firmware_cargo("build", Board::Qemu, &format!("{name}-stub-inverse-model"));
+    if closes_loop(scene)? {
+        cmd.args(["--features", "plant"]);
+    }
     run(cmd
         .args(["--features", "stub-inverse-model"])
         .env("SCENE", scene))?;
     Ok(target_dir.join(setup::TARGET).join("release/firmware"))
+}
+
+/// Whether `scene` closes the loop: its QEMU scenarios run on the virtual bus's plant
+/// and inclinometer (feature `plant`); other scenes do not link them.
+fn closes_loop(scene: &Path) -> Result<bool, String> {
+    Ok(scene::Scene::load(scene)
+        .map_err(|e| format!("{}: {e}", scene.display()))?
+        .feedback
+        .is_some())
 }
 
 /// Clippy on the firmware for `board`.

@@ -316,6 +316,11 @@ fn qemu_bench() -> Result<(), String> {
         .iter()
         .chain(&qemu::BENCH_ONLY_SCENES)
         .map(|s| qemu::measure(s))
+        // The state feedback's cost: its scene on the plant it closes the loop around.
+        .chain([qemu::measure_with_solver_flash(
+            qemu::FEEDBACK_SCENE,
+            controller::virtual_bus::CLOSED_LOOP,
+        )])
         .collect::<Result<Vec<_>, _>>()?;
     print!("{}", qemu::table(&runs));
     print!("{}", qemu::worst_steps(&runs, 8));

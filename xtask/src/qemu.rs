@@ -72,7 +72,13 @@ pub struct Measured {
 /// Builds and runs `scene` on the QEMU board with the healthy bus, and measures the
 /// solver's share of its flash.
 pub fn measure(scene: &str) -> Result<Measured, String> {
-    let mut m = measure_scenario(scene, HEALTHY)?;
+    measure_with_solver_flash(scene, HEALTHY)
+}
+
+/// [`measure_scenario`], and the solver's share of the flash (the same firmware built
+/// with the inverse model stubbed out).
+pub fn measure_with_solver_flash(scene: &str, scenario: Scenario) -> Result<Measured, String> {
+    let mut m = measure_scenario(scene, scenario)?;
     let stub = sizes(&firmware::build_without_inverse_model(&root().join(scene))?)?;
     m.solver_flash = Some(m.sizes.flash.saturating_sub(stub.flash));
     Ok(m)
