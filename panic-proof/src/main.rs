@@ -17,11 +17,11 @@
 
 use core::hint::black_box;
 
+use controller::commissioning::InclinometerSetup;
+use controller::feedback::{self, Correction, StateFeedback};
 use controller::feedforward::command_plan;
 use controller::planner::Planner;
 use controller::setpoint::DriveLimits;
-use controller::commissioning::InclinometerSetup;
-use controller::feedback::{self, Correction, StateFeedback};
 use controller::{CanFrame, Config, Controller, Feedforward, InverseModel, Replan};
 use cortex_m_rt::entry;
 use nalgebra::SVector;
@@ -149,10 +149,7 @@ fn main() -> ! {
             let Ok(integrator) = SubsStructured::new(&model, &settings, k, t0) else {
                 halt()
             };
-            run(InverseModel {
-                model,
-                integrator,
-            })
+            run(InverseModel { model, integrator })
         }
         1 => {
             let Ok(model) = Subs::new(params, plan) else {
