@@ -352,6 +352,9 @@ struct SensorLink {
     angle: Option<f64>,
     fresh: bool,
     outbox: Option<CanFrame>,
+    /// Seen operational since it was commissioned: a later pre-operational or stopped
+    /// heartbeat means it lost its configuration (before, a lost NMT start).
+    seen_operational: bool,
 }
 
 impl SensorLink {
@@ -517,6 +520,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             angle: None,
             fresh: false,
             outbox: None,
+            seen_operational: false,
         });
         Self {
             feedforward,
@@ -565,7 +569,14 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// The scene's own move was planned at boot (the QEMU main job's demonstration, which
     /// it asks for explicitly): it counts as a command, so a state feedback acts on it.
     pub fn demonstration_commanded(&mut self) {
-        self.close_loop();
+        let at_rest = !self.moving();
+        self.close_loop(at_rest);
+    }
+
+    /// What the state feedback is doing (`None`: the controller has none).
+    #[must_use]
+    pub fn feedback_mode(&self) -> Option<FeedbackMode> {
+        self.correction.mode()
     }
 
     /// After a restart by the watchdog: halted, announced by an EMCY (CiA 301 0x6010,
@@ -791,12 +802,19 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 sensor.last_heartbeat_ms = Some(now_ms);
                 sensor.nmt = Some(state);
                 let phase = sensor.commissioning.phase();
+                let operational = state == NmtState::Operational;
+                // As for a drive: booted again, or left operational after it was seen
+                // operational → commission it again; commissioned but not operational
+                // yet → the manager's start was lost, send it again.
                 let rebooted = state == NmtState::BootUp
-                    || (phase == Phase::Done && state != NmtState::Operational)
+                    || (phase == Phase::Done && !operational && sensor.seen_operational)
                     || phase == Phase::Absent;
                 if rebooted {
                     sensor.angle = None;
+                    sensor.seen_operational = false;
                     sensor.outbox = Some(sensor.commissioning.begin(now_ms));
+                } else if phase == Phase::Done && operational {
+                    sensor.seen_operational = true;
                 } else if phase == Phase::Done
                     && state != NmtState::Operational
                     && self.node.role == Role::Manager
@@ -1122,6 +1140,11 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             None
         };
         let wanted = step.as_ref().map(|s| self.corrected(s));
+        // An angle counts for the cycle after it arrived only, whether the loop used it
+        // or not: one that waited through enabling or a halt is stale.
+        if let Some(sensor) = self.inclinometer.as_mut() {
+            sensor.fresh = false;
+        }
         let mut setpoints = [Setpoint::ZERO; 2];
         for drive in Drive::ALL {
             let (command, setpoint) = self.command_for(drive, wanted);
@@ -1419,6 +1442,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             return;
         };
         let now = self.now_s();
+        let at_rest = !self.moving();
         let answer = result.and_then(|duration| {
             let plan = self.feedforward.plan_mut();
             let moving = plan.is_moving(now);
@@ -1434,19 +1458,19 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             })
         });
         if answer.is_ok() {
-            self.close_loop();
+            self.close_loop(at_rest);
         }
         self.give_answer(pending.id, answer);
     }
 
-    /// A move was accepted: the feedback acts from now on. If it had fallen back to
-    /// feedforward only and the crane is at rest, it starts again from a zero error
-    /// estimate (its degraded rule takes it off again if the angle is still bad).
-    fn close_loop(&mut self) {
+    /// A move was accepted (`at_rest`: the crane was at rest when it was): the feedback
+    /// acts from now on. If it had fallen back to feedforward only and the crane was at
+    /// rest, it starts again from a zero error estimate (its degraded rule takes it off
+    /// again if the angle is still bad).
+    fn close_loop(&mut self, at_rest: bool) {
         if !C::ENABLED {
             return;
         }
-        let at_rest = !self.moving();
         let degraded = matches!(
             self.correction.mode(),
             Some(FeedbackMode::FeedforwardOnly(_))

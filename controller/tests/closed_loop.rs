@@ -384,3 +384,56 @@ fn the_firmware_scenarios_of_the_feedback_scene() {
         assert_within_limits(&r);
     }
 }
+
+#[test]
+fn after_falling_back_the_feedback_is_armed_again_by_a_move_accepted_at_rest() {
+    use controller::feedback::{Degraded, Mode as FeedbackMode};
+    // Lost at 5 s, repaired at 10 s; at 11 s, at rest, a move back to (15, 6).
+    const AGAIN: Scenario = scenario(
+        "inclinometer-back",
+        &[
+            MOVE,
+            Event {
+                at_ms: 5_000,
+                action: Action::Sensor(SensorFault::Lost),
+            },
+            Event {
+                at_ms: 10_000,
+                action: Action::Sensor(SensorFault::Back),
+            },
+            Event {
+                at_ms: 11_000,
+                action: Action::Request(Request::Move {
+                    id: 2,
+                    target: [15.0, 6.0],
+                    duration: Some(6.0),
+                }),
+            },
+        ],
+    );
+    let ff: Ff = feedforward(HOME, None);
+    let mut c = Controller::with_correction(ff, feedback(), planner(), config());
+    let mut bus = VirtualBus::new(AGAIN, HOME);
+    let mut modes = Vec::new();
+    for now in (0..12_000).step_by(10) {
+        run_cycle(&mut c, &mut bus, now).unwrap();
+        modes.push((now, c.feedback_mode()));
+    }
+    let at = |t: u32| modes.iter().find(|(now, _)| *now == t).unwrap().1;
+    assert_eq!(at(4_990), Some(FeedbackMode::Closed));
+    assert_eq!(
+        at(9_000),
+        Some(FeedbackMode::FeedforwardOnly(Degraded::AngleLost))
+    );
+    assert_eq!(
+        at(10_900),
+        Some(FeedbackMode::FeedforwardOnly(Degraded::AngleLost)),
+        "latched while the sensor is back but no move was asked"
+    );
+    assert_eq!(
+        at(11_990),
+        Some(FeedbackMode::Closed),
+        "armed again by move 2"
+    );
+    assert_eq!(c.last_answer().0, 2);
+}

@@ -112,9 +112,9 @@ impl InclinometerSim {
         self.od.get(index, sub)
     }
 
-    /// From now on it has `fault`.
+    /// From now on it has `fault` ([`SensorFault::Back`]: none).
     pub fn fail(&mut self, fault: SensorFault) {
-        self.fault = Some(fault);
+        self.fault = (fault != SensorFault::Back).then_some(fault);
     }
 
     /// An NMT command addressed to it (or all).
@@ -147,7 +147,7 @@ impl InclinometerSim {
         match self.fault {
             Some(SensorFault::Lost) => return None,
             Some(SensorFault::Stuck) => {}
-            None => {
+            None | Some(SensorFault::Back) => {
                 let resolution = f64::from(self.od.get(0x6000, 0).max(1)) * 1e-3;
                 let slope = libm::round(phi_deg / resolution);
                 self.slope = slope.clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16;

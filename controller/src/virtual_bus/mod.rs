@@ -108,6 +108,8 @@ pub enum SensorFault {
     Lost,
     /// Its value freezes at the last one (a stuck pendulum), while it goes on talking.
     Stuck,
+    /// Repaired: it talks and measures again.
+    Back,
 }
 
 /// An action at a time.
