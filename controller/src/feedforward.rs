@@ -6,6 +6,7 @@ use solver_core::models::crane_subs::CraneSubs;
 use solver_core::plan::Plan;
 use solver_core::scalar::{c, to_f64};
 use solver_core::schemes::bdf::BdfNewton;
+use solver_core::schemes::radau::RadauNewton;
 use solver_core::trajectory::Trajectory;
 use solver_core::{Bdf, DaeModel, Driven, Error, NewtonStats, Radau, Real};
 
@@ -144,8 +145,15 @@ impl<T: Real, M: DaeModel<T, N, 2>, J: BdfNewton<T, M, N, 2>, const N: usize> St
     }
 }
 
-impl<T: Real, M: DaeModel<T, N, 2>, const N: usize, const S: usize> Stepper<M>
-    for Radau<T, M, N, 2, S>
+/// Radau IIA with any Newton strategy (the scene's type: the paper's modes, RADAU5's
+/// transformed Newton, or either chosen at run time).
+impl<
+        T: Real,
+        M: DaeModel<T, N, 2>,
+        J: RadauNewton<T, M, N, 2, S>,
+        const N: usize,
+        const S: usize,
+    > Stepper<M> for Radau<T, M, N, 2, S, J>
 {
     fn step(&mut self, model: &M) -> Result<FeedforwardStep, Error> {
         Radau::step(self, model).map(|r| report(r.t, r.u, r.stats))

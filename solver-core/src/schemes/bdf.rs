@@ -33,6 +33,7 @@ use crate::newton::{
     StepSystem,
 };
 use crate::scalar::{c, to_f64, Real};
+use crate::schemes::contraction::{Contraction, Verdict};
 use crate::schemes::history::History;
 use crate::schemes::{SolverSettings, StepReport};
 
@@ -359,9 +360,8 @@ where
         // Whether the factors were formed at an iterate of this step's iteration (not
         // only at the prediction).
         let mut refactored = false;
-        let mut eta: f64 = (4.0 * self.eta.max(1e-6)).min(1.0);
+        let mut contraction = Contraction::start(self.eta);
         let (rtol, atol) = (self.settings.rtol, self.settings.atol);
-        let mut previous = f64::INFINITY;
         for it in 1..=self.settings.max_iterations {
             stats.residual_evals += 1;
             let mut d = -step.residual(&xi);
@@ -385,30 +385,23 @@ where
                     iterations: it,
                 });
             }
-            let theta = norm / previous;
-            if it >= 2 && theta < 1.0 {
-                eta = theta / (1.0 - theta);
-            }
-            let contracting = it == 1 || theta < 1.0;
-            if norm <= 1.0 || (contracting && eta * norm <= 1.0) {
-                stats.converged = true;
-            } else if it >= 2 && theta >= self.settings.stall_ratio {
-                if !refactored {
-                    // Factors from the prediction that do not contract: refactor here.
-                    self.refresh(step, &xi, &mut stats)?;
-                    refactored = true;
-                    eta = 1.0;
-                } else if norm <= self.settings.stall_limit {
-                    // Fresh factors and still no contraction: rounding noise.
+            match contraction.judge(it, norm, refactored, 0.0, &self.settings) {
+                Verdict::Converged => stats.converged = true,
+                Verdict::AtRoundingFloor => {
                     stats.converged = true;
                     stats.at_rounding_floor = true;
                 }
+                Verdict::Refresh => {
+                    // Factors from the prediction that do not contract: refactor here.
+                    self.refresh(step, &xi, &mut stats)?;
+                    refactored = true;
+                }
+                Verdict::Continue => {}
             }
             if stats.converged {
-                self.eta = eta;
+                self.eta = contraction.eta();
                 return Ok((xi, stats));
             }
-            previous = norm;
         }
         Err(Error::NewtonNotConverged {
             t: step.t,

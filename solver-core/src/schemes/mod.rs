@@ -5,6 +5,7 @@
 //! step (so a caller may swap in a new trajectory between steps).
 
 pub mod bdf;
+mod contraction;
 mod history;
 pub mod radau;
 pub mod radau5;

@@ -14,12 +14,12 @@ use core::marker::PhantomData;
 
 use nalgebra::{SMatrix, SVector};
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::model::DaeModel;
-use crate::newton::{row_scaling, weighted_norm, JacobianMode, Newton, StepSystem};
+use crate::newton::{row_scaling, weighted_norm, JacobianMode, Newton, NewtonStats, StepSystem};
 use crate::scalar::{c, to_f64, Real};
 use crate::schemes::bdf::scale_rows;
-use crate::schemes::radau5::{StepData, Transformed};
+use crate::schemes::radau5::Transformed;
 use crate::schemes::{SolverSettings, StepReport};
 
 const SQRT6: f64 = 2.449_489_742_783_178;
@@ -38,9 +38,22 @@ pub const A: [[f64; 3]; 3] = [
 /// Weights `b_i` (= the last row of A: the scheme is stiffly accurate).
 pub const B: [f64; 3] = A[2];
 
-/// The Radau IIA integrator; `S` must be `3 * N` (checked at compile time).
+/// The Radau IIA integrator for a model `M` with `N` unknowns and `NU` inputs; `S` must
+/// be `3 * N` (checked at compile time). Its stage system is solved by `J`
+/// ([`RadauNewton`]): the paper's modes on the 3N×3N system ([`Newton`]), RADAU5's
+/// transformed simplified Newton ([`Transformed`]), or either, chosen at run time by the
+/// settings' Jacobian mode ([`StageSolver`], the default, for the studies). Being a
+/// type, the choice decides what is linked: a firmware whose scene names `Transformed`
+/// contains no 3N×3N LU, no finite differences and no Broyden update.
 #[derive(Debug, Clone)]
-pub struct Radau<T: Real, M, const N: usize, const NU: usize, const S: usize> {
+pub struct Radau<
+    T: Real,
+    M,
+    const N: usize,
+    const NU: usize,
+    const S: usize,
+    J = StageSolver<T, N, S>,
+> {
     h: T,
     t0: T,
     steps: u64,
@@ -53,21 +66,161 @@ pub struct Radau<T: Real, M, const N: usize, const NU: usize, const S: usize> {
     /// extrapolated to this step's nodes, as Newton's initial guess.
     extrapolation: [[T; 3]; 3],
     scale: SVector<T, N>,
-    newton: StageSolver<T, N, S>,
+    newton: J,
     model: PhantomData<fn() -> M>,
 }
 
-/// How the stage system is solved: Newton on the 3N×3N system (the paper's J, J̃, J̃ₙ,
-/// and exact), or RADAU5's transformed simplified Newton on N×N blocks.
+/// How a Radau step's stage system (Eq. 13) is solved.
+pub trait RadauNewton<
+    T: Real,
+    M: DaeModel<T, N, NU>,
+    const N: usize,
+    const NU: usize,
+    const S: usize,
+>: Sized
+{
+    /// The strategy for `settings` at step size `h`; refuses a Jacobian mode it cannot do.
+    fn new(settings: &SolverSettings, h: T) -> Result<Self>;
+    /// Forgets what is carried from step to step (after a restart).
+    fn forget(&mut self);
+    /// Solves one step from `guess`, the stage derivatives extrapolated from the last
+    /// step: the new value `x_n` and this step's stage derivatives.
+    fn solve(
+        &mut self,
+        step: &RadauStep<'_, T, M, N, NU>,
+        guess: SVector<T, S>,
+    ) -> Result<(SVector<T, N>, SVector<T, S>, NewtonStats)>;
+}
+
+/// The paper's modes (J, J̃, J̃ₙ, exact) on the 3N×3N system, unknowns the stage
+/// derivatives; `Transformed` is refused ([`Newton::new`]).
+impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize>
+    RadauNewton<T, M, N, NU, S> for Newton<T, S>
+{
+    fn new(settings: &SolverSettings, _h: T) -> Result<Self> {
+        Newton::new(settings.jacobian, settings.newton)
+    }
+
+    fn forget(&mut self) {
+        Newton::forget(self);
+    }
+
+    fn solve(
+        &mut self,
+        step: &RadauStep<'_, T, M, N, NU>,
+        guess: SVector<T, S>,
+    ) -> Result<(SVector<T, N>, SVector<T, S>, NewtonStats)> {
+        let (xi, stats) = Newton::solve(self, step, guess)?;
+        // Eq. 14.
+        let mut x = step.x0;
+        for (i, hb) in step.hb.iter().enumerate() {
+            x += block::<T, N, S>(&xi, i) * *hb;
+        }
+        Ok((x, xi, stats))
+    }
+}
+
+/// RADAU5's transformed simplified Newton on N×N blocks, unknowns the stage increments;
+/// the Jacobian mode must be `Transformed` (anything else is refused: the settings would
+/// be silently ignored).
+impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize>
+    RadauNewton<T, M, N, NU, S> for Transformed<T, N>
+{
+    fn new(settings: &SolverSettings, h: T) -> Result<Self> {
+        if settings.jacobian != JacobianMode::Transformed {
+            return Err(Error::InvalidSetting {
+                name: "jacobian (RADAU5's Newton is transformed only)",
+                value: f64::NAN,
+            });
+        }
+        Transformed::new(settings.newton, h)
+    }
+
+    fn forget(&mut self) {
+        Transformed::forget(self);
+    }
+
+    fn solve(
+        &mut self,
+        step: &RadauStep<'_, T, M, N, NU>,
+        guess: SVector<T, S>,
+    ) -> Result<(SVector<T, N>, SVector<T, S>, NewtonStats)> {
+        // Stage increments Z = h (A ⊗ I) X' from the extrapolated derivatives.
+        let z = step.ha.map(|row| {
+            row.iter()
+                .enumerate()
+                .fold(SVector::<T, N>::zeros(), |acc, (j, a)| {
+                    acc + block::<T, N, S>(&guess, j) * *a
+                })
+        });
+        let (z, stats) = self.iterate(step, z)?;
+        let [_, _, z3] = z;
+        let mut stage_derivatives = SVector::<T, S>::zeros();
+        for (i, d) in self.derivatives(&z).iter().enumerate() {
+            for (r, v) in d.iter().enumerate() {
+                if let Some(slot) = stage_derivatives.get_mut(i * N + r) {
+                    *slot = *v;
+                }
+            }
+        }
+        // Radau IIA is stiffly accurate: x_n is the last stage value (Eq. 14).
+        Ok((step.x0 + z3, stage_derivatives, stats))
+    }
+}
+
+/// The Newton strategy chosen at run time by the settings' Jacobian mode: RADAU5's for
+/// `Transformed`, the paper's modes otherwise (the studies sweep them all).
 #[derive(Debug, Clone)]
 #[allow(clippy::large_enum_variant)] // one of them lives in each integrator, never moved
-enum StageSolver<T: Real, const N: usize, const S: usize> {
+pub enum StageSolver<T: Real, const N: usize, const S: usize> {
+    /// The paper's modes on the 3N×3N system.
     Full(Newton<T, S>),
+    /// RADAU5's transformed simplified Newton.
     Transformed(Transformed<T, N>),
 }
 
 impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize>
-    Radau<T, M, N, NU, S>
+    RadauNewton<T, M, N, NU, S> for StageSolver<T, N, S>
+{
+    fn new(settings: &SolverSettings, h: T) -> Result<Self> {
+        Ok(if settings.jacobian == JacobianMode::Transformed {
+            Self::Transformed(<Transformed<T, N> as RadauNewton<T, M, N, NU, S>>::new(
+                settings, h,
+            )?)
+        } else {
+            Self::Full(<Newton<T, S> as RadauNewton<T, M, N, NU, S>>::new(
+                settings, h,
+            )?)
+        })
+    }
+
+    fn forget(&mut self) {
+        match self {
+            Self::Full(newton) => newton.forget(),
+            Self::Transformed(transformed) => transformed.forget(),
+        }
+    }
+
+    fn solve(
+        &mut self,
+        step: &RadauStep<'_, T, M, N, NU>,
+        guess: SVector<T, S>,
+    ) -> Result<(SVector<T, N>, SVector<T, S>, NewtonStats)> {
+        match self {
+            Self::Full(newton) => RadauNewton::solve(newton, step, guess),
+            Self::Transformed(transformed) => RadauNewton::solve(transformed, step, guess),
+        }
+    }
+}
+
+impl<
+        T: Real,
+        M: DaeModel<T, N, NU>,
+        const N: usize,
+        const NU: usize,
+        const S: usize,
+        J: RadauNewton<T, M, N, NU, S>,
+    > Radau<T, M, N, NU, S, J>
 {
     const STAGE_SYSTEM_IS_3N: () = assert!(S == 3 * N, "Radau IIA: S must equal 3 * N");
 
@@ -93,11 +246,7 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
             hb: B.map(|b| h * c::<T>(b)),
             extrapolation,
             scale: row_scaling(&M::ALGEBRAIC, h, settings.scaling_power),
-            newton: if settings.jacobian == JacobianMode::Transformed {
-                StageSolver::Transformed(Transformed::new(settings.newton, h)?)
-            } else {
-                StageSolver::Full(Newton::new(settings.jacobian, settings.newton)?)
-            },
+            newton: J::new(settings, h)?,
             model: PhantomData,
         })
     }
@@ -109,10 +258,7 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
         self.stage_derivatives = SVector::zeros();
         self.t0 = t0;
         self.steps = 0;
-        match &mut self.newton {
-            StageSolver::Full(newton) => newton.forget(),
-            StageSolver::Transformed(transformed) => transformed.forget(),
-        }
+        self.newton.forget();
         Ok(())
     }
 
@@ -136,65 +282,27 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
         for (j, weights) in self.extrapolation.iter().enumerate() {
             let mut g = SVector::<T, N>::zeros();
             for (i, w) in weights.iter().enumerate() {
-                g += self.stage_derivatives.fixed_rows::<N>(i * N) * *w;
+                g += block::<T, N, S>(&self.stage_derivatives, i) * *w;
             }
-            guess.fixed_rows_mut::<N>(j * N).copy_from(&g);
+            for (r, v) in g.iter().enumerate() {
+                if let Some(slot) = guess.get_mut(j * N + r) {
+                    *slot = *v;
+                }
+            }
         }
         let t = self.t0 + c::<T>((self.steps + 1) as f64) * self.h;
-        let newton = match &mut self.newton {
-            StageSolver::Full(newton) => newton,
-            StageSolver::Transformed(transformed) => {
-                // Stage increments Z = h (A ⊗ I) X' from the extrapolated derivatives.
-                let z = self.ha.map(|row| {
-                    row.iter()
-                        .enumerate()
-                        .fold(SVector::<T, N>::zeros(), |acc, (j, a)| {
-                            acc + block::<T, N, S>(&guess, j) * *a
-                        })
-                });
-                let data = StepData {
-                    model,
-                    samples: &samples,
-                    x0: self.x,
-                    scale: &self.scale,
-                    t: to_f64(t),
-                };
-                let (z, stats) = transformed.solve(&data, z)?;
-                let [_, _, z3] = z;
-                // Radau IIA is stiffly accurate: x_n is the last stage value (Eq. 14).
-                let x = self.x + z3;
-                let derivatives = transformed.derivatives(&z);
-                for (i, d) in derivatives.iter().enumerate() {
-                    self.stage_derivatives
-                        .fixed_rows_mut::<N>(i * N)
-                        .copy_from(d);
-                }
-                self.x = x;
-                self.steps += 1;
-                return Ok(StepReport {
-                    t,
-                    u: M::inputs(&x),
-                    x,
-                    stats,
-                });
-            }
-        };
-        let system = RadauSystem {
+        let step = RadauStep {
             model,
             samples,
             x0: self.x,
             ha: &self.ha,
+            hb: &self.hb,
             scale: &self.scale,
             t: to_f64(t),
         };
-        let (xi, stats) = newton.solve(&system, guess)?;
-        // Eq. 14.
-        let mut x = self.x;
-        for (i, hb) in self.hb.iter().enumerate() {
-            x += xi.fixed_rows::<N>(i * N) * *hb;
-        }
+        let (x, stage_derivatives, stats) = self.newton.solve(&step, guess)?;
         self.x = x;
-        self.stage_derivatives = xi;
+        self.stage_derivatives = stage_derivatives;
         self.steps += 1;
         Ok(StepReport {
             t,
@@ -214,17 +322,24 @@ fn lagrange(i: usize, tau: f64) -> f64 {
         .fold(1.0, |acc, (_, cm)| acc * (tau - cm) / (ci - cm))
 }
 
-/// One Radau step's system of size 3N (Eq. 13), unknowns the stage derivatives.
-struct RadauSystem<'a, T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> {
-    model: &'a M,
-    samples: [M::Sample; 3],
-    x0: SVector<T, N>,
-    ha: &'a [[T; 3]; 3],
-    scale: &'a SVector<T, N>,
-    t: f64,
+/// One Radau step's data: the model, the trajectory at the three nodes `t_{n−1} + c_i h`,
+/// the start value; as the paper's modes see it, the system of size 3N of Eq. 13 in the
+/// stage derivatives.
+pub struct RadauStep<'a, T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> {
+    pub(crate) model: &'a M,
+    pub(crate) samples: [M::Sample; 3],
+    /// `x_{n−1}`.
+    pub(crate) x0: SVector<T, N>,
+    /// `h a_ij` and `h b_i` of Tab. 1.
+    pub(crate) ha: &'a [[T; 3]; 3],
+    pub(crate) hb: &'a [T; 3],
+    /// Row scaling ρ (Sec. 3.1.1).
+    pub(crate) scale: &'a SVector<T, N>,
+    /// Time of the step's end (for error context).
+    pub(crate) t: f64,
 }
 
-impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> RadauSystem<'_, T, M, N, NU> {
+impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> RadauStep<'_, T, M, N, NU> {
     /// Stage value `X_i = x_{n−1} + h Σ_j a_ij X'_j` and derivative `X'_i`.
     fn stage<const S: usize>(
         &self,
@@ -248,7 +363,7 @@ fn block<T: Real, const N: usize, const S: usize>(xi: &SVector<T, S>, j: usize) 
 }
 
 impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize>
-    StepSystem<T, S> for RadauSystem<'_, T, M, N, NU>
+    StepSystem<T, S> for RadauStep<'_, T, M, N, NU>
 {
     fn residual(&self, xi: &SVector<T, S>) -> SVector<T, S> {
         let mut g = SVector::<T, S>::zeros();

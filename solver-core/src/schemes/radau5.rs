@@ -60,6 +60,8 @@ use crate::linalg::{self, Pivots};
 use crate::model::DaeModel;
 use crate::newton::{max_abs, weighted_norm, NewtonSettings, NewtonStats};
 use crate::scalar::{c, is_finite, Real};
+use crate::schemes::contraction::{Contraction, Verdict};
+use crate::schemes::radau::RadauStep;
 
 /// The real eigenvalue γ of `A⁻¹` (Tab. 1): `3 + 3^(2/3) − 3^(1/3)`.
 pub const GAMMA: f64 = 3.637_834_252_744_496;
@@ -106,9 +108,11 @@ pub const FLOOR_FACTOR: f64 = 10.0;
 /// The stage increments `Z_1, Z_2, Z_3`.
 pub(crate) type Stages<T, const N: usize> = [SVector<T, N>; 3];
 
-/// The factored transformed matrices and what the iteration carries between steps.
+/// RADAU5's transformed simplified Newton for a model of `N` unknowns: the factored
+/// transformed matrices and what the iteration carries between steps (a Radau Newton
+/// strategy, [`RadauNewton`](crate::schemes::radau::RadauNewton)).
 #[derive(Debug, Clone)]
-pub(crate) struct Transformed<T: Real, const N: usize> {
+pub struct Transformed<T: Real, const N: usize> {
     settings: NewtonSettings,
     /// LU of `J_x + γ/h J_ẋ`.
     real: SMatrix<T, N, N>,
@@ -132,20 +136,6 @@ pub(crate) struct Transformed<T: Real, const N: usize> {
     t_inv: [[T; 3]; 3],
     /// `A⁻¹/h`.
     a_inv_h: [[T; 3]; 3],
-}
-
-/// One step's data: the model, the trajectory at the three nodes, the start value.
-pub(crate) struct StepData<'a, T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> {
-    /// The model.
-    pub model: &'a M,
-    /// The trajectory at `t_{n−1} + c_i h`.
-    pub samples: &'a [M::Sample; 3],
-    /// `x_{n−1}`.
-    pub x0: SVector<T, N>,
-    /// Row scaling ρ (Sec. 3.1.1).
-    pub scale: &'a SVector<T, N>,
-    /// Time of the step's end (for error context).
-    pub t: f64,
 }
 
 impl<T: Real, const N: usize> Transformed<T, N> {
@@ -192,7 +182,7 @@ impl<T: Real, const N: usize> Transformed<T, N> {
     /// Exact partials at stage 3 of `z`, the two matrices factored, the floor estimated.
     fn refresh<M, const NU: usize>(
         &mut self,
-        data: &StepData<'_, T, M, N, NU>,
+        data: &RadauStep<'_, T, M, N, NU>,
         z: &Stages<T, N>,
         stats: &mut NewtonStats,
     ) -> Result<()>
@@ -202,7 +192,7 @@ impl<T: Real, const N: usize> Transformed<T, N> {
         let [_, _, z3] = z;
         let x = data.x0 + z3;
         let [_, _, xdot] = self.derivatives(z);
-        let [_, _, sample] = data.samples;
+        let [_, _, sample] = &data.samples;
         let p = data.model.partials(&x, &xdot, sample);
         stats.jacobian_evals += 1;
         stats.factorizations += 1;
@@ -259,7 +249,7 @@ impl<T: Real, const N: usize> Transformed<T, N> {
     /// `G(Z)` (Eq. 13 in stage increments) and the stage values.
     fn residual<M, const NU: usize>(
         &self,
-        data: &StepData<'_, T, M, N, NU>,
+        data: &RadauStep<'_, T, M, N, NU>,
         z: &Stages<T, N>,
         stats: &mut NewtonStats,
     ) -> Result<Stages<T, N>>
@@ -269,7 +259,7 @@ impl<T: Real, const N: usize> Transformed<T, N> {
         stats.residual_evals += 1;
         let xdot = self.derivatives(z);
         let mut g = [SVector::<T, N>::zeros(); 3];
-        for (((gi, zi), xdi), sample) in g.iter_mut().zip(z).zip(&xdot).zip(data.samples) {
+        for (((gi, zi), xdi), sample) in g.iter_mut().zip(z).zip(&xdot).zip(&data.samples) {
             *gi = data
                 .model
                 .residual(&(data.x0 + zi), xdi, sample)
@@ -285,9 +275,9 @@ impl<T: Real, const N: usize> Transformed<T, N> {
     }
 
     /// Solves one step's stage system from the guess `z` (stage increments).
-    pub(crate) fn solve<M, const NU: usize>(
+    pub(crate) fn iterate<M, const NU: usize>(
         &mut self,
-        data: &StepData<'_, T, M, N, NU>,
+        data: &RadauStep<'_, T, M, N, NU>,
         mut z: Stages<T, N>,
     ) -> Result<(Stages<T, N>, NewtonStats)>
     where
@@ -299,12 +289,8 @@ impl<T: Real, const N: usize> Transformed<T, N> {
             self.refresh(data, &z, &mut stats)?;
             fresh = true;
         }
-        // RADAU5's FACCON: the last η, drifting towards 1 while it is not re-measured
-        // (RADAU5 takes η^0.8 per step; a factor 4 does the same within a few steps
-        // without a software `pow`, a few hundred instructions on the MCU).
-        let mut eta: f64 = (4.0 * self.eta.max(1e-6)).min(1.0);
+        let mut contraction = Contraction::start(self.eta);
         let (rtol, atol) = (self.settings.rtol, self.settings.atol);
-        let mut previous = f64::INFINITY;
         for it in 1..=self.settings.max_iterations {
             let g = self.residual(data, &z, &mut stats)?;
             stats.residual_norm = g.iter().map(max_abs).fold(0.0, f64::max);
@@ -322,36 +308,27 @@ impl<T: Real, const N: usize> Transformed<T, N> {
                     iterations: it,
                 });
             }
-            let theta = norm / previous;
-            if it >= 2 {
+            let verdict = contraction.judge(it, norm, fresh, self.floor, &self.settings);
+            if let Some(theta) = contraction.theta() {
                 self.theta = theta;
-                if theta < 1.0 {
-                    eta = theta / (1.0 - theta);
-                }
             }
-            let contracting = it == 1 || theta < 1.0;
-            if norm <= 1.0 || (contracting && eta * norm <= 1.0) {
-                stats.converged = true;
-            } else if norm <= self.floor {
-                stats.converged = true;
-                stats.at_rounding_floor = true;
-            } else if it >= 2 && theta >= self.settings.stall_ratio {
-                if !fresh {
-                    // An old matrix that no longer contracts: refresh it here.
-                    self.refresh(data, &z, &mut stats)?;
-                    fresh = true;
-                    eta = 1.0;
-                } else if norm <= self.settings.stall_limit {
-                    // A current matrix and still no contraction: rounding noise.
+            match verdict {
+                Verdict::Converged => stats.converged = true,
+                Verdict::AtRoundingFloor => {
                     stats.converged = true;
                     stats.at_rounding_floor = true;
                 }
+                Verdict::Refresh => {
+                    // An old matrix that no longer contracts: refresh it here.
+                    self.refresh(data, &z, &mut stats)?;
+                    fresh = true;
+                }
+                Verdict::Continue => {}
             }
             if stats.converged {
-                self.eta = eta;
+                self.eta = contraction.eta();
                 return Ok((z, stats));
             }
-            previous = norm;
         }
         Err(Error::NewtonNotConverged {
             t: data.t,
