@@ -106,7 +106,7 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
             "Radau IIA".to_string(),
         ),
         SchemeSpec::Radau => (
-            format!("solver_core::Radau<f64, Model, {n}, 2, {0}, solver_core::newton::Newton<f64, {0}>>", 3 * n),
+            format!("solver_core::Radau<f64, Model, {n}, 2, {0}, solver_core::schemes::radau::FullNewton<f64, {0}>>", 3 * n),
             "Integrator::new(&model, &SETTINGS, 0.0)".to_string(),
             "Radau IIA".to_string(),
         ),

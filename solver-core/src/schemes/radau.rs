@@ -40,7 +40,7 @@ pub const B: [f64; 3] = A[2];
 
 /// The Radau IIA integrator for a model `M` with `N` unknowns and `NU` inputs; `S` must
 /// be `3 * N` (checked at compile time). Its stage system is solved by `J`
-/// ([`RadauNewton`]): the paper's modes on the 3N×3N system ([`Newton`]), RADAU5's
+/// ([`RadauNewton`]): the paper's modes on the 3N×3N system ([`FullNewton`]), RADAU5's
 /// transformed simplified Newton ([`Transformed`]), or either, chosen at run time by the
 /// settings' Jacobian mode ([`StageSolver`], the default, for the studies). Being a
 /// type, the choice decides what is linked: a firmware whose scene names `Transformed`
@@ -58,13 +58,8 @@ pub struct Radau<
     t0: T,
     steps: u64,
     x: SVector<T, N>,
-    /// The last step's stage derivatives, the start of the next step's guess.
-    stage_derivatives: SVector<T, S>,
     ha: [[T; 3]; 3],
     hb: [T; 3],
-    /// `E[j][i] = L_i(1 + c_j)`: the last step's collocation polynomial of `x'`,
-    /// extrapolated to this step's nodes, as Newton's initial guess.
-    extrapolation: [[T; 3]; 3],
     scale: SVector<T, N>,
     newton: J,
     model: PhantomData<fn() -> M>,
@@ -81,42 +76,68 @@ pub trait RadauNewton<
 {
     /// The strategy for `settings` at step size `h`; refuses a Jacobian mode it cannot do.
     fn new(settings: &SolverSettings, h: T) -> Result<Self>;
-    /// Forgets what is carried from step to step (after a restart).
+    /// Forgets what is carried from step to step (after a restart at rest).
     fn forget(&mut self);
-    /// Solves one step from `guess`, the stage derivatives extrapolated from the last
-    /// step: the new value `x_n` and this step's stage derivatives.
-    fn solve(
-        &mut self,
-        step: &RadauStep<'_, T, M, N, NU>,
-        guess: SVector<T, S>,
-    ) -> Result<(SVector<T, N>, SVector<T, S>, NewtonStats)>;
+    /// Solves one step, starting from the last step's collocation polynomial
+    /// extrapolated to this step's nodes: the new value `x_n`.
+    fn solve(&mut self, step: &RadauStep<'_, T, M, N, NU>) -> Result<(SVector<T, N>, NewtonStats)>;
 }
 
-/// The paper's modes (J, J̃, J̃ₙ, exact) on the 3N×3N system, unknowns the stage
-/// derivatives; `Transformed` is refused ([`Newton::new`]).
+/// `E[j][i] = L_i(1 + c_j)`: the Lagrange basis on the nodes `C`, at this step's nodes
+/// seen from the last step — what extrapolates the last step's collocation polynomial.
+pub(crate) fn extrapolation() -> [[f64; 3]; 3] {
+    C.map(|cj| [0, 1, 2].map(|i| lagrange(i, 1.0 + cj)))
+}
+
+/// The paper's modes (J, J̃, J̃ₙ, exact) on the 3N×3N system of Eq. 13, unknowns the
+/// stage derivatives, the guess the last step's derivatives extrapolated;
+/// `Transformed` is refused ([`Newton::new`]).
+#[derive(Debug, Clone)]
+pub struct FullNewton<T: Real, const S: usize> {
+    newton: Newton<T, S>,
+    /// The last step's stage derivatives `X'_1, X'_2, X'_3`.
+    derivatives: SVector<T, S>,
+    /// [`extrapolation`].
+    extrapolation: [[T; 3]; 3],
+}
+
 impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize>
-    RadauNewton<T, M, N, NU, S> for Newton<T, S>
+    RadauNewton<T, M, N, NU, S> for FullNewton<T, S>
 {
     fn new(settings: &SolverSettings, _h: T) -> Result<Self> {
-        Newton::new(settings.jacobian, settings.newton)
+        Ok(Self {
+            newton: Newton::new(settings.jacobian, settings.newton)?,
+            derivatives: SVector::zeros(),
+            extrapolation: extrapolation().map(|row| row.map(c::<T>)),
+        })
     }
 
     fn forget(&mut self) {
-        Newton::forget(self);
+        self.newton.forget();
+        self.derivatives = SVector::zeros();
     }
 
-    fn solve(
-        &mut self,
-        step: &RadauStep<'_, T, M, N, NU>,
-        guess: SVector<T, S>,
-    ) -> Result<(SVector<T, N>, SVector<T, S>, NewtonStats)> {
-        let (xi, stats) = Newton::solve(self, step, guess)?;
+    fn solve(&mut self, step: &RadauStep<'_, T, M, N, NU>) -> Result<(SVector<T, N>, NewtonStats)> {
+        let mut guess = SVector::<T, S>::zeros();
+        for (j, weights) in self.extrapolation.iter().enumerate() {
+            let mut g = SVector::<T, N>::zeros();
+            for (i, w) in weights.iter().enumerate() {
+                g += block::<T, N, S>(&self.derivatives, i) * *w;
+            }
+            for (r, v) in g.iter().enumerate() {
+                if let Some(slot) = guess.get_mut(j * N + r) {
+                    *slot = *v;
+                }
+            }
+        }
+        let (xi, stats) = self.newton.solve(step, guess)?;
         // Eq. 14.
         let mut x = step.x0;
         for (i, hb) in step.hb.iter().enumerate() {
             x += block::<T, N, S>(&xi, i) * *hb;
         }
-        Ok((x, xi, stats))
+        self.derivatives = xi;
+        Ok((x, stats))
     }
 }
 
@@ -140,31 +161,11 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
         Transformed::forget(self);
     }
 
-    fn solve(
-        &mut self,
-        step: &RadauStep<'_, T, M, N, NU>,
-        guess: SVector<T, S>,
-    ) -> Result<(SVector<T, N>, SVector<T, S>, NewtonStats)> {
-        // Stage increments Z = h (A ⊗ I) X' from the extrapolated derivatives.
-        let z = step.ha.map(|row| {
-            row.iter()
-                .enumerate()
-                .fold(SVector::<T, N>::zeros(), |acc, (j, a)| {
-                    acc + block::<T, N, S>(&guess, j) * *a
-                })
-        });
-        let (z, stats) = self.iterate(step, z)?;
+    fn solve(&mut self, step: &RadauStep<'_, T, M, N, NU>) -> Result<(SVector<T, N>, NewtonStats)> {
+        let (z, stats) = self.iterate(step)?;
         let [_, _, z3] = z;
-        let mut stage_derivatives = SVector::<T, S>::zeros();
-        for (i, d) in self.derivatives(&z).iter().enumerate() {
-            for (r, v) in d.iter().enumerate() {
-                if let Some(slot) = stage_derivatives.get_mut(i * N + r) {
-                    *slot = *v;
-                }
-            }
-        }
         // Radau IIA is stiffly accurate: x_n is the last stage value (Eq. 14).
-        Ok((step.x0 + z3, stage_derivatives, stats))
+        Ok((step.x0 + z3, stats))
     }
 }
 
@@ -174,7 +175,7 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
 #[allow(clippy::large_enum_variant)] // one of them lives in each integrator, never moved
 pub enum StageSolver<T: Real, const N: usize, const S: usize> {
     /// The paper's modes on the 3N×3N system.
-    Full(Newton<T, S>),
+    Full(FullNewton<T, S>),
     /// RADAU5's transformed simplified Newton.
     Transformed(Transformed<T, N>),
 }
@@ -188,7 +189,7 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
                 settings, h,
             )?)
         } else {
-            Self::Full(<Newton<T, S> as RadauNewton<T, M, N, NU, S>>::new(
+            Self::Full(<FullNewton<T, S> as RadauNewton<T, M, N, NU, S>>::new(
                 settings, h,
             )?)
         })
@@ -196,19 +197,17 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
 
     fn forget(&mut self) {
         match self {
-            Self::Full(newton) => newton.forget(),
-            Self::Transformed(transformed) => transformed.forget(),
+            Self::Full(full) => RadauNewton::<T, M, N, NU, S>::forget(full),
+            Self::Transformed(transformed) => RadauNewton::<T, M, N, NU, S>::forget(transformed),
         }
     }
 
-    fn solve(
-        &mut self,
-        step: &RadauStep<'_, T, M, N, NU>,
-        guess: SVector<T, S>,
-    ) -> Result<(SVector<T, N>, SVector<T, S>, NewtonStats)> {
+    fn solve(&mut self, step: &RadauStep<'_, T, M, N, NU>) -> Result<(SVector<T, N>, NewtonStats)> {
         match self {
-            Self::Full(newton) => RadauNewton::solve(newton, step, guess),
-            Self::Transformed(transformed) => RadauNewton::solve(transformed, step, guess),
+            Self::Full(full) => RadauNewton::<T, M, N, NU, S>::solve(full, step),
+            Self::Transformed(transformed) => {
+                RadauNewton::<T, M, N, NU, S>::solve(transformed, step)
+            }
         }
     }
 }
@@ -230,21 +229,13 @@ impl<
         settings.validate()?;
         let h = c::<T>(settings.h);
         let x = model.rest_state(t0)?;
-        let mut extrapolation = [[T::zero(); 3]; 3];
-        for (row, cj) in extrapolation.iter_mut().zip(C) {
-            for (i, e) in row.iter_mut().enumerate() {
-                *e = c(lagrange(i, 1.0 + cj));
-            }
-        }
         Ok(Self {
             h,
             t0,
             steps: 0,
             x,
-            stage_derivatives: SVector::zeros(),
             ha: A.map(|row| row.map(|a| h * c::<T>(a))),
             hb: B.map(|b| h * c::<T>(b)),
-            extrapolation,
             scale: row_scaling(&M::ALGEBRAIC, h, settings.scaling_power),
             newton: J::new(settings, h)?,
             model: PhantomData,
@@ -255,7 +246,6 @@ impl<
     /// trajectory must rest at `t0`.
     pub fn restart(&mut self, model: &M, t0: T) -> Result<()> {
         self.x = model.rest_state(t0)?;
-        self.stage_derivatives = SVector::zeros();
         self.t0 = t0;
         self.steps = 0;
         self.newton.forget();
@@ -278,18 +268,6 @@ impl<
     pub fn step(&mut self, model: &M) -> Result<StepReport<T, N, NU>> {
         let t_prev = self.time();
         let samples = C.map(|ci| model.sample(t_prev + c::<T>(ci) * self.h));
-        let mut guess = SVector::<T, S>::zeros();
-        for (j, weights) in self.extrapolation.iter().enumerate() {
-            let mut g = SVector::<T, N>::zeros();
-            for (i, w) in weights.iter().enumerate() {
-                g += block::<T, N, S>(&self.stage_derivatives, i) * *w;
-            }
-            for (r, v) in g.iter().enumerate() {
-                if let Some(slot) = guess.get_mut(j * N + r) {
-                    *slot = *v;
-                }
-            }
-        }
         let t = self.t0 + c::<T>((self.steps + 1) as f64) * self.h;
         let step = RadauStep {
             model,
@@ -300,9 +278,8 @@ impl<
             scale: &self.scale,
             t: to_f64(t),
         };
-        let (x, stage_derivatives, stats) = self.newton.solve(&step, guess)?;
+        let (x, stats) = self.newton.solve(&step)?;
         self.x = x;
-        self.stage_derivatives = stage_derivatives;
         self.steps += 1;
         Ok(StepReport {
             t,

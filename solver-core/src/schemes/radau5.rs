@@ -61,7 +61,7 @@ use crate::model::DaeModel;
 use crate::newton::{max_abs, weighted_norm, NewtonSettings, NewtonStats};
 use crate::scalar::{c, is_finite, Real};
 use crate::schemes::contraction::{Contraction, Verdict};
-use crate::schemes::radau::RadauStep;
+use crate::schemes::radau::{extrapolation, RadauStep, A};
 
 /// The real eigenvalue γ of `A⁻¹` (Tab. 1): `3 + 3^(2/3) − 3^(1/3)`.
 pub const GAMMA: f64 = 3.637_834_252_744_496;
@@ -136,6 +136,12 @@ pub struct Transformed<T: Real, const N: usize> {
     t_inv: [[T; 3]; 3],
     /// `A⁻¹/h`.
     a_inv_h: [[T; 3]; 3],
+    /// The last step's stage increments.
+    last: Stages<T, N>,
+    /// `A E A⁻¹`: the last step's collocation polynomial extrapolated to this step's
+    /// nodes, in stage increments (`E` of [`extrapolation`] acts on derivatives:
+    /// `Z = hA X'`, `X' = (hA)⁻¹ Z`; h cancels).
+    continuation: [[T; 3]; 3],
 }
 
 impl<T: Real, const N: usize> Transformed<T, N> {
@@ -160,11 +166,14 @@ impl<T: Real, const N: usize> Transformed<T, N> {
             t_mat: conv(T_MAT),
             t_inv: conv(T_INV),
             a_inv_h: A_INV.map(|row| row.map(|a| c::<T>(a) / h)),
+            last: [SVector::zeros(); 3],
+            continuation: conv(mul3(&A, &mul3(&extrapolation(), &A_INV))),
         })
     }
 
     /// Forgets the factors (after a restart).
     pub(crate) fn forget(&mut self) {
+        self.last = [SVector::zeros(); 3];
         self.factored = false;
         self.theta = 0.0;
         self.eta = 1.0;
@@ -274,15 +283,20 @@ impl<T: Real, const N: usize> Transformed<T, N> {
         Ok(g)
     }
 
-    /// Solves one step's stage system from the guess `z` (stage increments).
+    /// Solves one step's stage system, from the last step's collocation polynomial
+    /// extrapolated; the stage increments.
     pub(crate) fn iterate<M, const NU: usize>(
         &mut self,
         data: &RadauStep<'_, T, M, N, NU>,
-        mut z: Stages<T, N>,
     ) -> Result<(Stages<T, N>, NewtonStats)>
     where
         M: DaeModel<T, N, NU>,
     {
+        let mut z = self.continuation.map(|row| {
+            row.iter()
+                .zip(&self.last)
+                .fold(SVector::<T, N>::zeros(), |acc, (w, zi)| acc + zi * *w)
+        });
         let mut stats = NewtonStats::default();
         let mut fresh = false;
         if !self.factored || self.theta > THETA_REFRESH {
@@ -327,6 +341,7 @@ impl<T: Real, const N: usize> Transformed<T, N> {
             }
             if stats.converged {
                 self.eta = contraction.eta();
+                self.last = z;
                 return Ok((z, stats));
             }
         }
@@ -363,11 +378,21 @@ impl<T: Real, const N: usize> Transformed<T, N> {
     }
 }
 
+/// The product of two 3×3 matrices.
+fn mul3(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    a.map(|row| {
+        [0, 1, 2].map(|j| {
+            row.iter().zip(b).fold(0.0, |acc, (aik, brow)| {
+                acc + aik * brow.get(j).copied().unwrap_or(0.0)
+            })
+        })
+    })
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::indexing_slicing)]
     use super::*;
-    use crate::schemes::radau::A;
 
     fn mul(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
         let mut out = [[0.0; 3]; 3];
