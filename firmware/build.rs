@@ -85,8 +85,9 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
     let s = &scene.solver;
     // The Newton strategy is a type, so the firmware links only the one its scene names:
     // for BDF the crane subs model's structured elimination (exact Jacobian) or the
-    // run-time modes on a dense LU; for Radau RADAU5's transformed Newton or the paper's
-    // modes on the 3N×3N system.
+    // run-time modes on a dense LU; for Radau RADAU5's transformed Newton (its two systems
+    // by the structured elimination for the subs model) or the paper's modes on the 3N×3N
+    // system.
     let structured = scene::firmware::structured_newton(scene);
     let (integrator, new, scheme) = match s.scheme {
         SchemeSpec::Bdf => (
@@ -101,7 +102,11 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
         // RADAU5's transformed Newton, or the paper's modes on the 3N×3N system: only the
         // one the scene names is linked.
         SchemeSpec::Radau if s.newton == scene::NewtonSpec::Transformed => (
-            format!("solver_core::Radau<f64, Model, {n}, 2, {}, solver_core::schemes::radau5::Transformed<f64, {n}>>", 3 * n),
+            if structured {
+                format!("solver_core::Radau<f64, Model, {n}, 2, {}, solver_core::schemes::radau5::Transformed<f64, {n}, solver_core::schemes::radau5::StructuredStagesOf<f64, Model, {n}, 2>>>", 3 * n)
+            } else {
+                format!("solver_core::Radau<f64, Model, {n}, 2, {}, solver_core::schemes::radau5::Transformed<f64, {n}>>", 3 * n)
+            },
             "Integrator::new(&model, &SETTINGS, 0.0)".to_string(),
             "Radau IIA".to_string(),
         ),

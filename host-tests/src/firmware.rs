@@ -13,6 +13,7 @@ use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
 use solver_core::plan::Plan;
 use solver_core::schemes::bdf::StructuredOf;
+use solver_core::schemes::radau5::{StructuredStagesOf, Transformed};
 
 /// The firmware's *subs* model, driven by a plan that changes on command.
 type Subs = CraneSubs<f64, Plan<f64, 2>>;
@@ -94,6 +95,25 @@ fn boot(
         (ModelSpec::CraneSubs(_), SchemeSpec::Bdf) => {
             let model = CraneSubs::new(f.params, plan).map_err(err)?;
             let integrator = Bdf::<f64, _, 7, 2>::new(&model, &settings, k, 0.0).map_err(err)?;
+            run(
+                InverseModel { model, integrator },
+                f,
+                restarted,
+                bus,
+                cycles,
+            )
+        }
+        (ModelSpec::CraneSubs(_), SchemeSpec::Radau) if structured_newton(scene) => {
+            let model = CraneSubs::new(f.params, plan).map_err(err)?;
+            let integrator = Radau::<
+                f64,
+                Subs,
+                7,
+                2,
+                21,
+                Transformed<f64, 7, StructuredStagesOf<f64, Subs, 7, 2>>,
+            >::new(&model, &settings, 0.0)
+            .map_err(err)?;
             run(
                 InverseModel { model, integrator },
                 f,

@@ -6,6 +6,7 @@ use solver_core::newton::Newton;
 use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::scalar::{c, to_f64};
 use solver_core::schemes::bdf::BdfNewton;
+use solver_core::schemes::radau::{RadauNewton, StageSolver};
 use solver_core::trajectory::Trajectory;
 use solver_core::{Bdf, DaeModel, Error, JacobianMode, NewtonStats, Radau, Real, SolverSettings};
 
@@ -84,7 +85,9 @@ where
 {
     match scheme {
         Scheme::Bdf(k) => run_bdf::<T, M, N, NU, Newton<T, N>>(model, k, settings, t0, t_end),
-        Scheme::Radau => run_radau::<T, M, N, NU, S>(model, settings, t0, t_end),
+        Scheme::Radau => {
+            run_radau::<T, M, N, NU, S, StageSolver<T, N, S>>(model, settings, t0, t_end)
+        }
     }
 }
 
@@ -152,7 +155,9 @@ fn record<T: Real, const N: usize, const NU: usize>(
     }
 }
 
-fn run_radau<T, M, const N: usize, const NU: usize, const S: usize>(
+/// [`run`] with Radau IIA and the Newton strategy `J` (the firmware's structured RADAU5,
+/// say; [`run`] takes the one the settings' Jacobian mode names).
+pub fn run_radau<T, M, const N: usize, const NU: usize, const S: usize, J>(
     model: &M,
     settings: &SolverSettings,
     t0: f64,
@@ -161,9 +166,10 @@ fn run_radau<T, M, const N: usize, const NU: usize, const S: usize>(
 where
     T: Real,
     M: DaeModel<T, N, NU>,
+    J: RadauNewton<T, M, N, NU, S>,
 {
     let (mut trace, steps) = start(model, settings, t0, t_end)?;
-    let mut radau = Radau::<T, M, N, NU, S>::new(model, settings, c(t0))?;
+    let mut radau = Radau::<T, M, N, NU, S, J>::new(model, settings, c(t0))?;
     for _ in 0..steps {
         if !record(&mut trace, radau.step(model)) {
             break;

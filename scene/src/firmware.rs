@@ -136,17 +136,22 @@ pub fn firmware_scene(
     })
 }
 
-/// Whether the firmware steps `scene` with the crane *subs* model's structured
-/// elimination (BDF, exact Jacobian) rather than the run-time modes on a dense LU: the
-/// Newton strategy is a type, so the firmware links only the one its scene names. The
-/// host's run of the firmware takes the same strategy — with the loop closed through a
-/// plant, a difference of a rounding unit in a set point would grow.
+/// Whether the firmware solves `scene`'s Newton systems with the crane *subs* model's
+/// structured elimination rather than dense LUs: BDF with the exact Jacobian, or Radau
+/// with RADAU5's transformed Newton (its real and complex systems). The Newton strategy
+/// is a type, so the firmware links only the one its scene names. The host's run of the
+/// firmware takes the same strategy — with the loop closed through a plant, a
+/// difference of a rounding unit in a set point would grow.
 #[must_use]
 pub fn structured_newton(scene: &Scene) -> bool {
+    let transformed = scene.solver.newton == crate::NewtonSpec::Transformed;
     matches!(scene.model, ModelSpec::CraneSubs(_))
-        && scene.solver.scheme == crate::SchemeSpec::Bdf
-        && scene.solver.jacobian == crate::JacobianSpec::Exact
-        && scene.solver.newton != crate::NewtonSpec::Transformed
+        && match scene.solver.scheme {
+            crate::SchemeSpec::Bdf => {
+                scene.solver.jacobian == crate::JacobianSpec::Exact && !transformed
+            }
+            crate::SchemeSpec::Radau => transformed,
+        }
 }
 
 /// `config` as a Rust constant expression, for the firmware's generated scene module:

@@ -104,4 +104,11 @@ pub trait StructuredJacobian<T: Real, const N: usize, const NU: usize>: DaeModel
 
     /// Solves `A η = r` in place with the factors of [`StructuredJacobian::factor`].
     fn solve(f: &Self::Factors, r: &mut SVector<T, N>);
+
+    /// Solves the complex system `(∂F/∂x + (c + i b) ∂F/∂ẋ)(η_re + i η_im) = r_re + i r_im`
+    /// in place (rows scaled as in `factor`), `f` the factors for the real part `c` of
+    /// the shift and `b` its imaginary part — RADAU5's complex stage system
+    /// (`schemes::radau5`). A model implements it where the elimination's pivots do not
+    /// depend on the shift, so that the real factors serve.
+    fn solve_complex(f: &Self::Factors, b: T, re: &mut SVector<T, N>, im: &mut SVector<T, N>);
 }

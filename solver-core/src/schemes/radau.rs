@@ -19,7 +19,7 @@ use crate::model::DaeModel;
 use crate::newton::{row_scaling, weighted_norm, JacobianMode, Newton, NewtonStats, StepSystem};
 use crate::scalar::{c, to_f64, Real};
 use crate::schemes::bdf::scale_rows;
-use crate::schemes::radau5::Transformed;
+use crate::schemes::radau5::{StageSystems, Transformed};
 use crate::schemes::{SolverSettings, StepReport};
 
 const SQRT6: f64 = 2.449_489_742_783_178;
@@ -144,8 +144,14 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
 /// RADAU5's transformed simplified Newton on N×N blocks, unknowns the stage increments;
 /// the Jacobian mode must be `Transformed` (anything else is refused: the settings would
 /// be silently ignored).
-impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize>
-    RadauNewton<T, M, N, NU, S> for Transformed<T, N>
+impl<
+        T: Real,
+        M: DaeModel<T, N, NU>,
+        L: StageSystems<T, M, N, NU>,
+        const N: usize,
+        const NU: usize,
+        const S: usize,
+    > RadauNewton<T, M, N, NU, S> for Transformed<T, N, L>
 {
     fn new(settings: &SolverSettings, h: T) -> Result<Self> {
         if settings.jacobian != JacobianMode::Transformed {
@@ -154,7 +160,7 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: u
                 value: f64::NAN,
             });
         }
-        Transformed::new(settings.newton, h)
+        Transformed::new::<M, NU>(settings.newton, h)
     }
 
     fn forget(&mut self) {

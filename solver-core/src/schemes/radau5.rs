@@ -57,7 +57,7 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::error::{Error, Result};
 use crate::linalg::{self, Pivots};
-use crate::model::DaeModel;
+use crate::model::{DaeModel, StructuredJacobian};
 use crate::newton::{max_abs, weighted_norm, NewtonSettings, NewtonStats};
 use crate::scalar::{c, is_finite, Real};
 use crate::schemes::contraction::{Contraction, Verdict};
@@ -108,12 +108,37 @@ pub const FLOOR_FACTOR: f64 = 10.0;
 /// The stage increments `Z_1, Z_2, Z_3`.
 pub(crate) type Stages<T, const N: usize> = [SVector<T, N>; 3];
 
-/// RADAU5's transformed simplified Newton for a model of `N` unknowns: the factored
-/// transformed matrices and what the iteration carries between steps (a Radau Newton
-/// strategy, [`RadauNewton`](crate::schemes::radau::RadauNewton)).
+/// The two transformed N×N systems of a step, `J_x + γ/h J_ẋ` (real) and
+/// `J_x + (α + iβ)/h J_ẋ` (complex): factored when the Jacobian is refreshed, solved in
+/// every iteration. A type, like BDF's Newton strategy, so that a firmware links one way.
+pub trait StageSystems<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize>:
+    Sized
+{
+    /// Nothing factored yet.
+    fn empty() -> Self;
+    /// Factors both at stage values `x`, `ẋ` and `sample`; `jacobians` are the row-scaled
+    /// partials there and `shifts` = `[γ/h, α/h, β/h]`. `false` if either is singular.
+    #[allow(clippy::too_many_arguments)]
+    fn factor(
+        &mut self,
+        model: &M,
+        x: &SVector<T, N>,
+        xdot: &SVector<T, N>,
+        sample: &M::Sample,
+        scale: &SVector<T, N>,
+        jacobians: (&SMatrix<T, N, N>, &SMatrix<T, N, N>),
+        shifts: [T; 3],
+    ) -> bool;
+    /// Solves the real system in place.
+    fn solve_real(&self, r: &mut SVector<T, N>);
+    /// Solves the complex system in place, real and imaginary parts.
+    fn solve_complex(&self, re: &mut SVector<T, N>, im: &mut SVector<T, N>);
+}
+
+/// Dense LUs of the two systems (any model): a real one and a complex one in real
+/// arithmetic (`linalg::factor_complex`).
 #[derive(Debug, Clone)]
-pub struct Transformed<T: Real, const N: usize> {
-    settings: NewtonSettings,
+pub struct DenseStages<T: Real, const N: usize> {
     /// LU of `J_x + γ/h J_ẋ`.
     real: SMatrix<T, N, N>,
     real_pivots: Pivots<N>,
@@ -121,6 +146,124 @@ pub struct Transformed<T: Real, const N: usize> {
     complex_re: SMatrix<T, N, N>,
     complex_im: SMatrix<T, N, N>,
     complex_pivots: Pivots<N>,
+}
+
+impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> StageSystems<T, M, N, NU>
+    for DenseStages<T, N>
+{
+    fn empty() -> Self {
+        Self {
+            real: SMatrix::zeros(),
+            real_pivots: [0; N],
+            complex_re: SMatrix::zeros(),
+            complex_im: SMatrix::zeros(),
+            complex_pivots: [0; N],
+        }
+    }
+
+    fn factor(
+        &mut self,
+        _model: &M,
+        _x: &SVector<T, N>,
+        _xdot: &SVector<T, N>,
+        _sample: &M::Sample,
+        _scale: &SVector<T, N>,
+        (jx, jxd): (&SMatrix<T, N, N>, &SMatrix<T, N, N>),
+        [gamma_h, alpha_h, beta_h]: [T; 3],
+    ) -> bool {
+        self.real = jx + jxd * gamma_h;
+        self.complex_re = jx + jxd * alpha_h;
+        self.complex_im = jxd * beta_h;
+        linalg::factor(&mut self.real, &mut self.real_pivots)
+            && linalg::factor_complex(
+                &mut self.complex_re,
+                &mut self.complex_im,
+                &mut self.complex_pivots,
+            )
+    }
+
+    fn solve_real(&self, r: &mut SVector<T, N>) {
+        linalg::solve(&self.real, &self.real_pivots, r);
+    }
+
+    fn solve_complex(&self, re: &mut SVector<T, N>, im: &mut SVector<T, N>) {
+        linalg::solve_complex(
+            &self.complex_re,
+            &self.complex_im,
+            &self.complex_pivots,
+            re,
+            im,
+        );
+    }
+}
+
+/// The model's structured elimination of both systems ([`StructuredJacobian`]; for the
+/// crane *subs* model 3 divisions and a few dozen multiply-adds instead of two LUs).
+#[derive(Debug, Clone)]
+pub struct StructuredStages<T: Real, F> {
+    /// Factors for the shift γ/h.
+    real: Option<F>,
+    /// Factors for the real part α/h of the complex shift.
+    complex: Option<F>,
+    /// Its imaginary part β/h.
+    beta_h: T,
+}
+
+/// The [`StructuredStages`] of a model `M`.
+pub type StructuredStagesOf<T, M, const N: usize, const NU: usize> =
+    StructuredStages<T, <M as StructuredJacobian<T, N, NU>>::Factors>;
+
+impl<T: Real, M, const N: usize, const NU: usize> StageSystems<T, M, N, NU>
+    for StructuredStages<T, M::Factors>
+where
+    M: StructuredJacobian<T, N, NU>,
+{
+    fn empty() -> Self {
+        Self {
+            real: None,
+            complex: None,
+            beta_h: T::zero(),
+        }
+    }
+
+    fn factor(
+        &mut self,
+        model: &M,
+        x: &SVector<T, N>,
+        xdot: &SVector<T, N>,
+        sample: &M::Sample,
+        scale: &SVector<T, N>,
+        _jacobians: (&SMatrix<T, N, N>, &SMatrix<T, N, N>),
+        [gamma_h, alpha_h, beta_h]: [T; 3],
+    ) -> bool {
+        self.real = model.factor(x, xdot, sample, gamma_h, scale);
+        self.complex = model.factor(x, xdot, sample, alpha_h, scale);
+        self.beta_h = beta_h;
+        self.real.is_some() && self.complex.is_some()
+    }
+
+    fn solve_real(&self, r: &mut SVector<T, N>) {
+        if let Some(f) = &self.real {
+            M::solve(f, r);
+        }
+    }
+
+    fn solve_complex(&self, re: &mut SVector<T, N>, im: &mut SVector<T, N>) {
+        if let Some(f) = &self.complex {
+            M::solve_complex(f, self.beta_h, re, im);
+        }
+    }
+}
+
+/// RADAU5's transformed simplified Newton for a model of `N` unknowns, its two systems
+/// solved by `L` ([`DenseStages`] or the model's [`StructuredStages`]): the factors and
+/// what the iteration carries between steps (a Radau Newton strategy,
+/// [`RadauNewton`](crate::schemes::radau::RadauNewton)).
+#[derive(Debug, Clone)]
+pub struct Transformed<T: Real, const N: usize, L = DenseStages<T, N>> {
+    settings: NewtonSettings,
+    /// The two systems, factored.
+    systems: L,
     /// Whether the factors above are valid.
     factored: bool,
     /// The last contraction rate measured (decides the refresh at the next step).
@@ -144,18 +287,18 @@ pub struct Transformed<T: Real, const N: usize> {
     continuation: [[T; 3]; 3],
 }
 
-impl<T: Real, const N: usize> Transformed<T, N> {
+impl<T: Real, const N: usize, L> Transformed<T, N, L> {
     /// The solver for step size `h`.
-    pub(crate) fn new(settings: NewtonSettings, h: T) -> Result<Self> {
+    pub(crate) fn new<M, const NU: usize>(settings: NewtonSettings, h: T) -> Result<Self>
+    where
+        M: DaeModel<T, N, NU>,
+        L: StageSystems<T, M, N, NU>,
+    {
         settings.validate()?;
         let conv = |m: [[f64; 3]; 3]| m.map(|row| row.map(c::<T>));
         Ok(Self {
             settings,
-            real: SMatrix::zeros(),
-            real_pivots: [0; N],
-            complex_re: SMatrix::zeros(),
-            complex_im: SMatrix::zeros(),
-            complex_pivots: [0; N],
+            systems: L::empty(),
             factored: false,
             theta: 0.0,
             eta: 1.0,
@@ -197,6 +340,7 @@ impl<T: Real, const N: usize> Transformed<T, N> {
     ) -> Result<()>
     where
         M: DaeModel<T, N, NU>,
+        L: StageSystems<T, M, N, NU>,
     {
         let [_, _, z3] = z;
         let x = data.x0 + z3;
@@ -224,26 +368,23 @@ impl<T: Real, const N: usize> Transformed<T, N> {
                 .fold(T::zero(), |acc, (j, v)| acc + (*j * *v).abs());
             eps * terms
         });
-        self.real = jx + jxd * self.gamma_h;
-        self.complex_re = jx + jxd * self.alpha_h;
-        self.complex_im = jxd * self.beta_h;
-        let singular = Error::SingularJacobian {
-            t: data.t,
-            iterations: stats.iterations,
-            residual: stats.residual_norm,
-        };
-        if !linalg::factor(&mut self.real, &mut self.real_pivots) {
-            return Err(singular);
-        }
-        if !linalg::factor_complex(
-            &mut self.complex_re,
-            &mut self.complex_im,
-            &mut self.complex_pivots,
+        if !self.systems.factor(
+            data.model,
+            &x,
+            &xdot,
+            sample,
+            data.scale,
+            (&jx, &jxd),
+            [self.gamma_h, self.alpha_h, self.beta_h],
         ) {
-            return Err(singular);
+            return Err(Error::SingularJacobian {
+                t: data.t,
+                iterations: stats.iterations,
+                residual: stats.residual_norm,
+            });
         }
         let mut d = noise;
-        linalg::solve(&self.real, &self.real_pivots, &mut d);
+        self.systems.solve_real(&mut d);
         let floor = weighted_norm(&d, &x, self.settings.rtol, self.settings.atol);
         self.floor = if floor.is_finite() {
             FLOOR_FACTOR * floor
@@ -291,6 +432,7 @@ impl<T: Real, const N: usize> Transformed<T, N> {
     ) -> Result<(Stages<T, N>, NewtonStats)>
     where
         M: DaeModel<T, N, NU>,
+        L: StageSystems<T, M, N, NU>,
     {
         let mut z = self.continuation.map(|row| {
             row.iter()
@@ -308,7 +450,7 @@ impl<T: Real, const N: usize> Transformed<T, N> {
         for it in 1..=self.settings.max_iterations {
             let g = self.residual(data, &z, &mut stats)?;
             stats.residual_norm = g.iter().map(max_abs).fold(0.0, f64::max);
-            let dz = self.increment(&g);
+            let dz = self.increment::<M, NU>(&g);
             let mut norm = 0.0_f64;
             for (zi, dzi) in z.iter_mut().zip(&dz) {
                 *zi += dzi;
@@ -354,21 +496,19 @@ impl<T: Real, const N: usize> Transformed<T, N> {
     }
 
     /// `ΔZ = −(T ⊗ I) blockdiag(real, complex)⁻¹ (T⁻¹ ⊗ I) G`.
-    fn increment(&self, g: &Stages<T, N>) -> Stages<T, N> {
+    fn increment<M, const NU: usize>(&self, g: &Stages<T, N>) -> Stages<T, N>
+    where
+        M: DaeModel<T, N, NU>,
+        L: StageSystems<T, M, N, NU>,
+    {
         let [r1, mut r2, mut r3] = self.t_inv.map(|row| {
             row.iter()
                 .zip(g)
                 .fold(SVector::<T, N>::zeros(), |acc, (t, gi)| acc - gi * *t)
         });
         let mut v1 = r1;
-        linalg::solve(&self.real, &self.real_pivots, &mut v1);
-        linalg::solve_complex(
-            &self.complex_re,
-            &self.complex_im,
-            &self.complex_pivots,
-            &mut r2,
-            &mut r3,
-        );
+        self.systems.solve_real(&mut v1);
+        self.systems.solve_complex(&mut r2, &mut r3);
         let v = [v1, r2, r3];
         self.t_mat.map(|row| {
             row.iter()
