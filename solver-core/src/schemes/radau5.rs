@@ -116,23 +116,24 @@ pub trait StageSystems<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU:
 {
     /// Nothing factored yet.
     fn empty() -> Self;
-    /// Factors both at stage values `x`, `ẋ` and `sample`; `jacobians` are the row-scaled
-    /// partials there and `shifts` = `[γ/h, α/h, β/h]`. `false` if either is singular.
-    #[allow(clippy::too_many_arguments)]
-    fn factor(
-        &mut self,
-        model: &M,
-        x: &SVector<T, N>,
-        xdot: &SVector<T, N>,
-        sample: &M::Sample,
-        scale: &SVector<T, N>,
-        jacobians: (&SMatrix<T, N, N>, &SMatrix<T, N, N>),
-        shifts: [T; 3],
-    ) -> bool;
+    /// Factors both at `at`, `shifts` = `[γ/h, α/h, β/h]`; `false` if either is singular.
+    fn factor(&mut self, at: &FactorPoint<'_, T, M, N, NU>, shifts: [T; 3]) -> bool;
     /// Solves the real system in place.
     fn solve_real(&self, r: &mut SVector<T, N>);
     /// Solves the complex system in place, real and imaginary parts.
     fn solve_complex(&self, re: &mut SVector<T, N>, im: &mut SVector<T, N>);
+}
+
+/// Where the systems are formed: the model at stage 3's values `x`, `ẋ` and trajectory
+/// sample, with the row scaling S and the row-scaled partials `S ∂F/∂x`, `S ∂F/∂ẋ` there.
+pub struct FactorPoint<'a, T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> {
+    model: &'a M,
+    x: SVector<T, N>,
+    xdot: SVector<T, N>,
+    sample: &'a M::Sample,
+    scale: &'a SVector<T, N>,
+    jx: SMatrix<T, N, N>,
+    jxd: SMatrix<T, N, N>,
 }
 
 /// Dense LUs of the two systems (any model): a real one and a complex one in real
@@ -163,17 +164,12 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> StageSyste
 
     fn factor(
         &mut self,
-        _model: &M,
-        _x: &SVector<T, N>,
-        _xdot: &SVector<T, N>,
-        _sample: &M::Sample,
-        _scale: &SVector<T, N>,
-        (jx, jxd): (&SMatrix<T, N, N>, &SMatrix<T, N, N>),
+        at: &FactorPoint<'_, T, M, N, NU>,
         [gamma_h, alpha_h, beta_h]: [T; 3],
     ) -> bool {
-        self.real = jx + jxd * gamma_h;
-        self.complex_re = jx + jxd * alpha_h;
-        self.complex_im = jxd * beta_h;
+        self.real = at.jx + at.jxd * gamma_h;
+        self.complex_re = at.jx + at.jxd * alpha_h;
+        self.complex_im = at.jxd * beta_h;
         linalg::factor(&mut self.real, &mut self.real_pivots)
             && linalg::factor_complex(
                 &mut self.complex_re,
@@ -228,16 +224,12 @@ where
 
     fn factor(
         &mut self,
-        model: &M,
-        x: &SVector<T, N>,
-        xdot: &SVector<T, N>,
-        sample: &M::Sample,
-        scale: &SVector<T, N>,
-        _jacobians: (&SMatrix<T, N, N>, &SMatrix<T, N, N>),
+        at: &FactorPoint<'_, T, M, N, NU>,
         [gamma_h, alpha_h, beta_h]: [T; 3],
     ) -> bool {
-        self.real = model.factor(x, xdot, sample, gamma_h, scale);
-        self.complex = model.factor(x, xdot, sample, alpha_h, scale);
+        let factor = |shift| at.model.factor(&at.x, &at.xdot, at.sample, shift, at.scale);
+        self.real = factor(gamma_h);
+        self.complex = factor(alpha_h);
         self.beta_h = beta_h;
         self.real.is_some() && self.complex.is_some()
     }
@@ -368,15 +360,19 @@ impl<T: Real, const N: usize, L> Transformed<T, N, L> {
                 .fold(T::zero(), |acc, (j, v)| acc + (*j * *v).abs());
             eps * terms
         });
-        if !self.systems.factor(
-            data.model,
-            &x,
-            &xdot,
+        let at = FactorPoint {
+            model: data.model,
+            x,
+            xdot,
             sample,
-            data.scale,
-            (&jx, &jxd),
-            [self.gamma_h, self.alpha_h, self.beta_h],
-        ) {
+            scale: data.scale,
+            jx,
+            jxd,
+        };
+        if !self
+            .systems
+            .factor(&at, [self.gamma_h, self.alpha_h, self.beta_h])
+        {
             return Err(Error::SingularJacobian {
                 t: data.t,
                 iterations: stats.iterations,
