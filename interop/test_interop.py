@@ -116,6 +116,11 @@ def emcy(code, register, fault, node, detail=0, index=0):
     return struct.pack("<HBBBBH", code, register, fault, node, detail, index)
 
 
+def abort_emcy(abort_code):
+    """EMCY 0xFF12: the SDO abort code of the commissioning failure announced before it."""
+    return struct.pack("<HBBI", 0xFF12, 0x81, 16, abort_code)
+
+
 def test_healthy_boot_and_a_move(rigs):
     rig = rigs()
     rig.wait_mode("ready")
@@ -224,7 +229,15 @@ def test_a_drive_that_refuses_csv_is_left_disabled(rigs):
     assert rig.answer(1) == (REJECTED, 2)
     log = rig.close()
     log.assert_decodes()
-    assert [d for (_, d) in log.sent(0x090)] == [emcy(0xFF10, 0x81, 12, TROLLEY, 0, 0x6060)]
+    # EMCY 0xFF10 names the drive and the object, EMCY 0xFF12 the abort code — as cantools
+    # reads them from can/crane.dbc.
+    assert [d for (_, d) in log.sent(0x090)] == [
+        emcy(0xFF10, 0x81, 12, TROLLEY, 0, 0x6060),
+        abort_emcy(0x0609_0030),
+    ]
+    decoded = [m for (_, m) in log.decoded(0x090)]
+    assert decoded[0]["node"] == TROLLEY and decoded[0]["object_index"] == 0x6060
+    assert decoded[1]["abort_code"] == 0x0609_0030
     aborts = [d for (_, d) in log.by_others(0x581) if d[0] == 0x80]
     assert aborts == [bytes.fromhex("8060600030000906")], "the drive's SDO abort"
     assert not log.sent(0x201), "never a PDO to the drive that refused"
@@ -330,7 +343,10 @@ def test_an_sdo_timeout_is_a_commissioning_failure(rigs):
     assert rig.sdo_u(0x2002, 5) == 2, "timeout"
     log = rig.close()
     log.assert_decodes()
-    assert [d for (_, d) in log.sent(0x090)] == [emcy(0xFF10, 0x81, 12, WINCH, 0, 0x1000)]
+    assert [d for (_, d) in log.sent(0x090)] == [
+        emcy(0xFF10, 0x81, 12, WINCH, 0, 0x1000),
+        abort_emcy(0x0504_0000),
+    ]
     assert bytes.fromhex("8000100000000405") in [d for (_, d) in log.sent(0x602)], "abort sent"
     assert not log.sent(0x202)
 

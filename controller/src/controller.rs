@@ -1655,7 +1655,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         if current.is_some_and(|c| c >= reaction) {
             // Already met as severely; a commissioning failure is still announced.
             if let Fault::Commissioning(..) = fault {
-                self.send_emcy(self.emcy_of(fault));
+                self.announce(fault);
             }
             return;
         }
@@ -1665,7 +1665,22 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             Reaction::Quick => Mode::QuickStop(fault),
             Reaction::Halt => Mode::Halted(fault),
         };
+        self.announce(fault);
+    }
+
+    /// The EMCY of `fault`; for a commissioning failure a second one, EMCY 0xFF12 with
+    /// the SDO abort code, which does not fit beside the drive and the object.
+    fn announce(&mut self, fault: Fault) {
         self.send_emcy(self.emcy_of(fault));
+        if let Fault::Commissioning(_, error) = fault {
+            let [a0, a1, a2, a3] = error.abort_code().to_le_bytes();
+            self.send_emcy(canopen::emcy(
+                self.node.id,
+                emcy::COMMISSIONING_ABORT,
+                REGISTER_GENERIC | REGISTER_MANUFACTURER,
+                [emcy::ABORT_CODE_FOLLOWS, a0, a1, a2, a3],
+            ));
+        }
     }
 
     /// The EMCY announcing `fault`: manufacturer bytes fault code, node, detail, and for a
@@ -1690,7 +1705,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             };
         let info = match fault {
             // The object in the same layout: the sub-index as the detail, the index in
-            // the last two bytes. The abort code does not fit an EMCY: it is in 0x2002:4.
+            // the last two bytes; the abort code follows in EMCY 0xFF12 (and 0x2002:4).
             Fault::Commissioning(_, error) => {
                 let object = error.object();
                 let [i0, i1] = object.index.to_le_bytes();

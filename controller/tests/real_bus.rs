@@ -136,10 +136,14 @@ fn a_drive_that_does_not_confirm_csv_is_never_sent_a_set_point() {
     assert!(cycles
         .iter()
         .all(|c| c.setpoints.map(|s| s.units()) == [0, 0]));
-    // EMCY 0xFF10: fault 12, node 2, object 0x6061:00.
+    // EMCY 0xFF10: fault 12, node 2, object 0x6061:00; then EMCY 0xFF12: no SDO abort
+    // (the drive answered, with the wrong mode).
     assert_eq!(
         frames_with(&cycles, 0x090),
-        [[0x10, 0xFF, 0x81, 12, 2, 0x00, 0x61, 0x60]]
+        [
+            [0x10, 0xFF, 0x81, 12, 2, 0x00, 0x61, 0x60],
+            [0x12, 0xFF, 0x81, 16, 0, 0, 0, 0]
+        ]
     );
     let last_status = cycles.iter().rev().find_map(|c| status(&c.frames)).unwrap();
     assert_eq!(last_status[3..5], [4, 12], "halted, commissioning");
@@ -170,9 +174,13 @@ fn a_drive_that_refuses_csv_is_left_disabled_and_the_abort_code_is_readable() {
         (e.object().index, e.object().sub, e.code()),
         (0x6060, 0, 0x0609_0030)
     );
+    // EMCY 0xFF10 names the drive and the object, EMCY 0xFF12 the abort code.
     assert_eq!(
         frames_with(&cycles, 0x090),
-        [[0x10, 0xFF, 0x81, 12, 1, 0x00, 0x60, 0x60]]
+        [
+            [0x10, 0xFF, 0x81, 12, 1, 0x00, 0x60, 0x60],
+            [0x12, 0xFF, 0x81, 16, 0x30, 0x00, 0x09, 0x06]
+        ]
     );
     assert!(frames_with(&cycles, 0x201).is_empty());
     // The controller's object dictionary names the failure with its abort code.

@@ -4,7 +4,7 @@
 
 use std::fmt;
 
-use can_dbc::{ByteOrder, MessageId, ValueType};
+use can_dbc::{ByteOrder, MessageId, MultiplexIndicator, Signal as DbcSignal, ValueType};
 
 /// A parsed DBC file.
 pub struct Dbc(can_dbc::Dbc);
@@ -112,25 +112,51 @@ impl Dbc {
         let mut bytes = [0u8; 8];
         bytes.iter_mut().zip(data).for_each(|(b, d)| *b = *d);
         let word = u64::from_le_bytes(bytes);
+        let raw_bits = |s: &DbcSignal| {
+            if s.byte_order != ByteOrder::LittleEndian || s.size == 0 || s.start_bit + s.size > 64 {
+                return Err(format!(
+                    "{}.{}: only little-endian signals within 8 bytes",
+                    message.name, s.name
+                ));
+            }
+            let mask = if s.size == 64 {
+                u64::MAX
+            } else {
+                (1u64 << s.size) - 1
+            };
+            Ok((word >> s.start_bit) & mask)
+        };
+        // Multiplexing: a signal marked `mK` is present when the multiplexor (`M`) is K,
+        // or, with `SG_MUL_VAL_` ranges (extended multiplexing), within one of them.
+        let switch = message
+            .signals
+            .iter()
+            .find(|s| s.multiplexer_indicator == MultiplexIndicator::Multiplexor)
+            .map(raw_bits)
+            .transpose()?;
+        let present = |s: &DbcSignal| match (&s.multiplexer_indicator, switch) {
+            (MultiplexIndicator::MultiplexedSignal(k), Some(value)) => {
+                let ranges: Vec<_> = self
+                    .0
+                    .extended_multiplex
+                    .iter()
+                    .filter(|e| e.message_id == message.id && e.signal_name == s.name)
+                    .flat_map(|e| e.mappings.iter().map(|m| m.min_value..=m.max_value))
+                    .collect();
+                if ranges.is_empty() {
+                    value == *k
+                } else {
+                    ranges.iter().any(|r| r.contains(&value))
+                }
+            }
+            _ => true,
+        };
         let signals = message
             .signals
             .iter()
+            .filter(|s| present(s))
             .map(|s| {
-                if s.byte_order != ByteOrder::LittleEndian
-                    || s.size == 0
-                    || s.start_bit + s.size > 64
-                {
-                    return Err(format!(
-                        "{}.{}: only little-endian signals within 8 bytes",
-                        message.name, s.name
-                    ));
-                }
-                let mask = if s.size == 64 {
-                    u64::MAX
-                } else {
-                    (1u64 << s.size) - 1
-                };
-                let raw = (word >> s.start_bit) & mask;
+                let raw = raw_bits(s)?;
                 let raw = match s.value_type {
                     ValueType::Unsigned => raw as f64,
                     ValueType::Signed => {

@@ -1,7 +1,7 @@
 //! The encoder against the DBC file that documents the frames (`can/crane.dbc`):
 //! what the controller sends is what a CAN tool reading the DBC will see.
 
-use controller::canopen::{self, nmt, NmtCommand, NmtState, CONTROLLER_NODE};
+use controller::canopen::{self, emcy, nmt, NmtCommand, NmtState, CONTROLLER_NODE};
 use controller::cia402::controlword;
 use controller::commands::{
     decode_request, request_frame, status_frame, Answer, Reject, Request, Status,
@@ -100,19 +100,63 @@ fn emcy_fields() {
         CONTROLLER_NODE,
         0x6100,
         0x81,
-        [0xAA, 0, 0, 0, 0],
+        [1, 0, 0, 0, 0],
     ));
     assert_eq!(
         (
             e.get("error_code"),
             e.get("error_register"),
             e.get("fault"),
-            e.get("node")
+            e.get("node"),
+            e.get("abort_code")
         ),
-        (Some(24832.0), Some(129.0), Some(170.0), Some(0.0))
+        (Some(24832.0), Some(129.0), Some(1.0), Some(0.0), None)
     );
     let drive = decode(&canopen::emcy(2, 0x2310, 0x03, [0xAA, 0, 0, 0, 0]));
     assert_eq!(drive.get("manufacturer"), Some(170.0));
+}
+
+/// A commissioning failure is two EMCYs: 0xFF10 with the drive and the object, 0xFF12
+/// with the SDO abort code — the DBC multiplexes the manufacturer bytes on the fault byte.
+#[test]
+fn commissioning_emcys_name_drive_object_and_abort_code() {
+    let failed = decode(&canopen::emcy(
+        CONTROLLER_NODE,
+        emcy::COMMISSIONING,
+        0x81,
+        [12, 1, 0, 0x60, 0x60],
+    ));
+    assert_eq!(
+        (
+            failed.get("fault"),
+            failed.get("node"),
+            failed.get("detail"),
+            failed.get("object_index"),
+            failed.get("abort_code")
+        ),
+        (Some(12.0), Some(1.0), Some(0.0), Some(24672.0), None)
+    );
+    let [a0, a1, a2, a3] = 0x0609_0030_u32.to_le_bytes();
+    let abort = decode(&canopen::emcy(
+        CONTROLLER_NODE,
+        emcy::COMMISSIONING_ABORT,
+        0x81,
+        [emcy::ABORT_CODE_FOLLOWS, a0, a1, a2, a3],
+    ));
+    assert_eq!(
+        (
+            abort.get("error_code"),
+            abort.get("fault"),
+            abort.get("abort_code"),
+            abort.get("node")
+        ),
+        (
+            Some(65298.0),
+            Some(16.0),
+            Some(f64::from(0x0609_0030_u32)),
+            None
+        )
+    );
 }
 
 #[test]

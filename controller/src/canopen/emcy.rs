@@ -28,6 +28,15 @@ pub const DRIVE_NOT_READY: u16 = 0xFF04;
 /// Device specific: commissioning a drive failed (drive, object and reason in the
 /// manufacturer bytes).
 pub const COMMISSIONING: u16 = 0xFF10;
+/// Device specific: the SDO abort code of the commissioning failure announced by the
+/// [`COMMISSIONING`] EMCY just before it — drive, object and abort code do not fit one
+/// EMCY's five manufacturer bytes (manufacturer bytes: [`ABORT_CODE_FOLLOWS`], the abort
+/// code as u32 little-endian; 0 when the failure was no SDO abort, e.g. a wrong device
+/// type: the reason is in 0x2002:5).
+pub const COMMISSIONING_ABORT: u16 = 0xFF12;
+/// The first manufacturer byte of [`COMMISSIONING_ABORT`] (where other EMCYs of the
+/// controller have their fault code): 16, not a fault of its own.
+pub const ABORT_CODE_FOLLOWS: u8 = 16;
 /// Device specific: a drive reports a mode of operation (0x6061) other than the
 /// commissioned one.
 pub const DRIVE_MODE: u16 = 0xFF11;
