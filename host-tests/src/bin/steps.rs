@@ -18,6 +18,7 @@ use host_tests::sweep::apply;
 use scene::{ModelSpec, ScalarSpec, Scene, SchemeSpec};
 use solver_core::models::crane_subs::CraneSubs;
 use solver_core::schemes::bdf::StructuredOf;
+use solver_core::schemes::radau5::{StructuredStagesOf, Transformed};
 use solver_core::trajectory::PointToPoint;
 use solver_core::{Bdf, Error, Radau, StepReport};
 
@@ -32,7 +33,6 @@ fn measured_step_bdf(bdf: &mut Bdf<f64, Crane, 7, 2>, model: &Crane) -> Result<u
         .map(|r: StepReport<f64, 7, 2>| r.stats.iterations)
 }
 
-/// One Radau IIA step, the unit callgrind collects.
 /// BDF with the *subs* model's structured elimination: the firmware's default scene.
 #[inline(never)]
 fn measured_step_bdf_structured(
@@ -40,6 +40,24 @@ fn measured_step_bdf_structured(
     model: &Crane,
 ) -> Result<u32, Error> {
     bdf.step(model)
+        .map(|r: StepReport<f64, 7, 2>| r.stats.iterations)
+}
+
+/// RADAU5 with the *subs* model's structured elimination: the firmware's Radau scene.
+#[inline(never)]
+fn measured_step_radau_structured(
+    radau: &mut Radau<
+        f64,
+        Crane,
+        7,
+        2,
+        21,
+        Transformed<f64, 7, StructuredStagesOf<f64, Crane, 7, 2>>,
+    >,
+    model: &Crane,
+) -> Result<u32, Error> {
+    radau
+        .step(model)
         .map(|r: StepReport<f64, 7, 2>| r.stats.iterations)
 }
 
@@ -69,7 +87,8 @@ fn run() -> Result<(), String> {
         .next()
         .ok_or("usage: steps SCENE [key=value …] (keys as in `study sweep --vary`)")?;
     let mut scene = Scene::load(path.as_ref()).map_err(|e| format!("{path}: {e}"))?;
-    // `newton=structured` (BDF, exact Jacobian): the firmware's Newton, not a study axis.
+    // `newton=structured` (BDF with the exact Jacobian, or Radau with `transformed`): the
+    // firmware's Newton by the model's structured elimination, not a study axis.
     let mut structured = false;
     for setting in args {
         let (key, value) = setting
@@ -77,13 +96,16 @@ fn run() -> Result<(), String> {
             .ok_or_else(|| format!("`{setting}`: expected key=value"))?;
         if (key, value) == ("newton", "structured") {
             structured = true;
-            scene = apply(&scene, "jacobian", "exact")?;
+            if scene.solver.newton != scene::NewtonSpec::Transformed {
+                scene = apply(&scene, "jacobian", "exact")?;
+            }
             continue;
         }
         scene = apply(&scene, key, value)?;
     }
-    if structured && scene.solver.scheme != SchemeSpec::Bdf {
-        return Err("newton=structured is BDF's".into());
+    let transformed = scene.solver.newton == scene::NewtonSpec::Transformed;
+    if structured && scene.solver.scheme == SchemeSpec::Radau && !transformed {
+        return Err("newton=structured is BDF's (exact) or RADAU5's (jacobian=transformed)".into());
     }
     // `apply` does not validate; a refused combination (BDF with `transformed`) must
     // not be measured as something else.
@@ -123,6 +145,23 @@ fn run() -> Result<(), String> {
             for _ in 0..steps {
                 iterations +=
                     u64::from(measured_step_bdf(&mut bdf, &model).map_err(|e| e.to_string())?);
+            }
+        }
+        SchemeSpec::Radau if structured => {
+            let mut radau = Radau::<
+                f64,
+                Crane,
+                7,
+                2,
+                21,
+                Transformed<f64, 7, StructuredStagesOf<f64, Crane, 7, 2>>,
+            >::new(&model, &settings, 0.0)
+            .map_err(|e| e.to_string())?;
+            for _ in 0..steps {
+                iterations += u64::from(
+                    measured_step_radau_structured(&mut radau, &model)
+                        .map_err(|e| e.to_string())?,
+                );
             }
         }
         SchemeSpec::Radau => {
