@@ -23,6 +23,7 @@ use heapless::Vec;
 
 use crate::canopen::nmt::{self, NmtCommand};
 use crate::canopen::sdo::{Event, Object, SdoClient, SdoError};
+use crate::drive::Drive;
 use crate::frame::CanFrame;
 
 /// CiA 402 mode of operation (0x6060) the drive runs in.
@@ -104,6 +105,33 @@ impl DriveSetup {
     pub const TROLLEY: Self = Self::stock(1, 3_300_000);
     /// The default winch drive: node 2, 2.2 m/s.
     pub const WINCH: Self = Self::stock(2, 2_200_000);
+}
+
+/// The most nodes the controller commissions: the crane's two drives and the
+/// inclinometer. Each place costs the controller about 0.75 KiB of RAM (a node's
+/// commissioning table and state), so it is no larger than the crane needs; a crane with
+/// another node (a bridge drive) raises it.
+pub const MAX_NODES: usize = 3;
+
+/// A node the controller commissions and supervises: a row of the commissioning file.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NodeSetup {
+    /// A CiA 402 drive and the axis (the model's input) it drives.
+    Drive(Drive, DriveSetup),
+    /// The CiA 410 inclinometer on the hook block, for the state feedback.
+    Inclinometer(InclinometerSetup),
+}
+
+impl NodeSetup {
+    /// Its node id.
+    #[must_use]
+    pub const fn node(&self) -> u8 {
+        match self {
+            Self::Drive(_, d) => d.node,
+            Self::Inclinometer(i) => i.node,
+        }
+    }
 }
 
 /// CiA 402 device profile number, the low word of 0x1000.

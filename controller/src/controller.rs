@@ -17,12 +17,14 @@ use crate::canopen::{self, nmt, Incoming, NmtCommand, NmtState};
 use crate::cia402::{controlword, statusword, DriveState};
 use crate::commands::{self, status_frame, Answer, Reject, Request, Status};
 use crate::commissioning::{
-    Commissioning, CommissioningError, DriveSetup, InclinometerSetup, Phase, Progress,
+    Commissioning, CommissioningError, Device, DriveSetup, InclinometerSetup, NodeSetup, Phase,
+    Progress, MAX_NODES,
 };
 use crate::drive::Drive;
 use crate::feedback::{Correction, Measurement, Mode as FeedbackMode, NoFeedback};
 use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
 use crate::frame::CanFrame;
+use crate::links::{DriveLink, Link, Links};
 use crate::node::{Dictionary, Node, Role, Snapshot};
 use crate::planner::{MoveSearch, Planner, SAMPLES_PER_CYCLE};
 use crate::setpoint::{DriveLimits, Setpoint, SetpointError, SetpointGate, UNITS_PER_M_PER_S};
@@ -49,8 +51,11 @@ pub struct Config {
     pub tpdo_timeout_ms: u32,
     /// An SDO server that has not answered within this fails the transfer, ms.
     pub sdo_timeout_ms: u32,
-    /// What each drive is configured with (the commissioning file).
-    pub drives: [DriveSetup; 2],
+    /// The nodes commissioned and supervised, in order — a drive per axis, the
+    /// inclinometer for a scene with the state feedback (the commissioning file). A
+    /// second row for an axis is not used; an axis without one is never ready, so
+    /// nothing moves.
+    pub nodes: [Option<NodeSetup>; MAX_NODES],
     /// A reset is refused while a drive reports a speed above this, drive units (µm/s).
     pub standstill_units: i32,
     /// A second deadline miss within this many cycles stops the crane.
@@ -63,9 +68,6 @@ pub struct Config {
     /// This many TPDOs in a row of an enabled drive in CSV that does not follow the set
     /// point (statusword bit 12 clear) while it is asked to move: a fault.
     pub not_following_tpdos: u8,
-    /// The inclinometer measuring the swing angle for the state feedback (CiA 410), if
-    /// the scene closes the loop.
-    pub inclinometer: Option<InclinometerSetup>,
 }
 
 impl Config {
@@ -81,13 +83,16 @@ impl Config {
         heartbeat_timeout_ms: 300,
         tpdo_timeout_ms: 50,
         sdo_timeout_ms: 100,
-        drives: [DriveSetup::TROLLEY, DriveSetup::WINCH],
+        nodes: [
+            Some(NodeSetup::Drive(Drive::Trolley, DriveSetup::TROLLEY)),
+            Some(NodeSetup::Drive(Drive::Winch, DriveSetup::WINCH)),
+            None,
+        ],
         standstill_units: 1_000,
         deadline_window: 100,
         undeliverable_cycles: 3,
         fault_reset_cycles: 20,
         not_following_tpdos: 3,
-        inclinometer: None,
     };
 
     /// A cycle costing more than this (core cycles; QEMU instructions) missed its
@@ -99,6 +104,43 @@ impl Config {
 
     fn period_s(&self) -> f64 {
         f64::from(self.period_ms) / 1000.0
+    }
+
+    /// The drive of `axis`, if the nodes have one.
+    #[must_use]
+    pub fn drive(&self, axis: Drive) -> Option<&DriveSetup> {
+        self.nodes.iter().flatten().find_map(|n| match n {
+            NodeSetup::Drive(a, d) if *a == axis => Some(d),
+            _ => None,
+        })
+    }
+
+    /// The inclinometer, if the nodes have one.
+    #[must_use]
+    pub fn inclinometer(&self) -> Option<&InclinometerSetup> {
+        self.nodes.iter().flatten().find_map(|n| match n {
+            NodeSetup::Inclinometer(i) => Some(i),
+            NodeSetup::Drive(..) => None,
+        })
+    }
+
+    /// These settings with `node` added to the list (see [`Config::add_node`]).
+    #[must_use]
+    pub fn with_node(mut self, node: NodeSetup) -> Self {
+        self.add_node(node);
+        self
+    }
+
+    /// Adds `node` in the first free place of the list (none left: unchanged, and
+    /// `false`).
+    pub fn add_node(&mut self, node: NodeSetup) -> bool {
+        match self.nodes.iter_mut().find(|n| n.is_none()) {
+            Some(slot) => {
+                *slot = Some(node);
+                true
+            }
+            None => false,
+        }
     }
 }
 
@@ -279,95 +321,6 @@ impl Mode {
     }
 }
 
-/// What the controller knows of one drive.
-#[derive(Debug, Clone, PartialEq)]
-struct DriveLink {
-    commissioning: Commissioning,
-    /// NMT state from its last heartbeat or boot-up message.
-    nmt: Option<NmtState>,
-    last_heartbeat_ms: Option<u64>,
-    statusword: u16,
-    state: DriveState,
-    velocity: i32,
-    position: Option<i32>,
-    mode_display: Option<i8>,
-    /// Last TPDO1; the clock starts when the drive is first seen operational.
-    last_tpdo_ms: Option<u64>,
-    last_position_ms: Option<u64>,
-    /// The next commissioning frame, answered to a response received between cycles.
-    outbox: Option<CanFrame>,
-    not_following: u8,
-}
-
-impl DriveLink {
-    fn new(commissioning: Commissioning) -> Self {
-        Self {
-            commissioning,
-            nmt: None,
-            last_heartbeat_ms: None,
-            statusword: 0,
-            state: DriveState::Unknown,
-            velocity: 0,
-            position: None,
-            mode_display: None,
-            last_tpdo_ms: None,
-            last_position_ms: None,
-            outbox: None,
-            not_following: 0,
-        }
-    }
-
-    /// Commissioned and started: it may be sent PDOs and is supervised.
-    fn linked(&self) -> bool {
-        self.commissioning.phase() == Phase::Done
-    }
-
-    /// Linked, operational and enabled under remote control: it may be asked to move.
-    fn ready(&self) -> bool {
-        self.linked()
-            && self.nmt == Some(NmtState::Operational)
-            && self.last_tpdo_ms.is_some()
-            && self.state == DriveState::OperationEnabled
-            && self.statusword & statusword::REMOTE != 0
-    }
-
-    /// Forgets what the drive reported (it rebooted): the TPDO values are stale.
-    fn forget_process_data(&mut self) {
-        self.state = DriveState::Unknown;
-        self.statusword = 0;
-        self.last_tpdo_ms = None;
-        self.last_position_ms = None;
-        self.mode_display = None;
-        self.not_following = 0;
-    }
-}
-
-/// What the controller knows of the inclinometer.
-#[derive(Debug, Clone, PartialEq)]
-struct SensorLink {
-    commissioning: Commissioning<InclinometerSetup>,
-    nmt: Option<NmtState>,
-    last_heartbeat_ms: Option<u64>,
-    /// The angle of its last TPDO, rad, and whether it arrived since the last cycle.
-    angle: Option<f64>,
-    fresh: bool,
-    outbox: Option<CanFrame>,
-    /// Seen operational since it was commissioned: a later pre-operational or stopped
-    /// heartbeat means it lost its configuration (before, a lost NMT start).
-    seen_operational: bool,
-}
-
-impl SensorLink {
-    /// Commissioned, operational, heard within `timeout_ms`: its angles count.
-    fn healthy(&self, now_ms: u64, timeout_ms: u32) -> bool {
-        self.commissioning.phase() == Phase::Done
-            && self.nmt == Some(NmtState::Operational)
-            && self
-                .last_heartbeat_ms
-                .is_some_and(|t| now_ms.saturating_sub(t) <= u64::from(timeout_ms))
-    }
-}
-
 /// Running totals, reported in the status frame and the logs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -432,7 +385,6 @@ type AnswerRecord = (u8, Answer, Option<Reject>);
 pub struct Controller<F, C = NoFeedback> {
     feedforward: F,
     correction: C,
-    inclinometer: Option<SensorLink>,
     /// The loop is closed: a move was accepted since the last boot or fault. Before,
     /// the controller holds zero set points whatever the load does (no motion without a
     /// command).
@@ -443,7 +395,8 @@ pub struct Controller<F, C = NoFeedback> {
     node: Node,
     gate: SetpointGate,
     planner: Planner,
-    drives: [DriveLink; 2],
+    /// The nodes on the bus, from `config.nodes`.
+    links: Links,
     mode: Mode,
     /// Moves and resets, in order; stops are taken before them.
     requests: Deque<Request, 4>,
@@ -483,7 +436,7 @@ impl<F: Feedforward + Replan> Controller<F> {
 
 impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// A controller whose set points are `feedforward`'s corrected by `correction`
-    /// (the state feedback measures the angle with `config.inclinometer`).
+    /// (the state feedback measures the angle with the inclinometer of `config.nodes`).
     pub fn with_correction(
         feedforward: F,
         correction: C,
@@ -492,40 +445,19 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     ) -> Self {
         let period_ms = u8::try_from(config.period_ms).unwrap_or(u8::MAX);
         let manager = config.role == Role::Manager;
-        let link = |setup: DriveSetup| {
-            DriveLink::new(Commissioning::new(
-                setup,
-                config.node,
-                period_ms,
-                manager,
-                config.sdo_timeout_ms,
-            ))
-        };
-        let [trolley, winch] = config.drives;
-        let setup = if C::ENABLED {
-            config.inclinometer
-        } else {
-            None
-        };
-        let inclinometer = setup.map(|setup| SensorLink {
-            commissioning: Commissioning::new(
-                setup,
-                config.node,
-                period_ms,
-                manager,
-                config.sdo_timeout_ms,
-            ),
-            nmt: None,
-            last_heartbeat_ms: None,
-            angle: None,
-            fresh: false,
-            outbox: None,
-            seen_operational: false,
-        });
+        // Without the feedback the inclinometer is not linked (`C::ENABLED` is a
+        // constant: none of its code is).
+        let links = Links::new(
+            &config.nodes,
+            config.node,
+            period_ms,
+            manager,
+            config.sdo_timeout_ms,
+            C::ENABLED,
+        );
         Self {
             feedforward,
             correction,
-            inclinometer,
             closed_loop: false,
             feedback_announced: None,
             config,
@@ -544,7 +476,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             },
             gate: SetpointGate::new(config.limits, config.period_s()),
             planner,
-            drives: [link(trolley), link(winch)],
+            links,
             mode: Mode::Enabling,
             requests: Deque::new(),
             stops: Deque::new(),
@@ -607,19 +539,21 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// The CiA 402 state of a drive as last reported.
     #[must_use]
     pub fn drive_state(&self, drive: Drive) -> DriveState {
-        self.link(drive).state
+        self.link(drive).map_or(DriveState::Unknown, |l| l.state)
     }
 
     /// Where a drive's commissioning stands.
     #[must_use]
     pub fn commissioning(&self, drive: Drive) -> Phase {
-        self.link(drive).commissioning.phase()
+        self.link(drive)
+            .map_or(Phase::Absent, |l| l.commissioning.phase())
     }
 
     /// A drive's identity (0x1018:1..=4) as read when it was commissioned.
     #[must_use]
     pub fn identity(&self, drive: Drive) -> [u32; 4] {
-        self.link(drive).commissioning.identity()
+        self.link(drive)
+            .map_or([0; 4], |l| l.commissioning.identity())
     }
 
     /// The inverse model (and its plan).
@@ -650,9 +584,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     }
 
     fn drive_at(&self, node: u8) -> Option<Drive> {
-        Drive::ALL
-            .into_iter()
-            .find(|d| self.link(*d).commissioning.setup().node == node)
+        self.links.axis_at(node)
     }
 
     /// Takes one received frame. Frames it does not understand are ignored and counted:
@@ -687,7 +619,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 statusword,
                 velocity,
             } => match self.drive_at(node) {
-                Some(drive) if self.link(drive).linked() => {
+                Some(drive) if self.link(drive).is_some_and(DriveLink::linked) => {
                     self.on_status(drive, statusword, velocity, now_ms);
                 }
                 // A drive being commissioned: its mapping is not confirmed yet.
@@ -699,9 +631,10 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 position,
                 mode,
             } => match self.drive_at(node) {
-                Some(drive) if !self.link(drive).linked() => {}
                 Some(drive) => {
-                    let link = self.link_mut(drive);
+                    let Some(link) = self.link_mut(drive).filter(|l| l.linked()) else {
+                        return;
+                    };
                     link.position = Some(position);
                     link.mode_display = Some(mode);
                     link.last_position_ms = Some(now_ms);
@@ -732,12 +665,14 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 };
                 match self
                     .link_mut(drive)
-                    .commissioning
-                    .on_response(&data, now_ms)
+                    .and_then(|l| l.commissioning.on_response(&data, now_ms))
                 {
                     // The next request goes out with the next cycle.
                     Some(progress) => {
-                        self.link_mut(drive).outbox = self.on_progress(drive, progress)
+                        let outbox = self.on_progress(drive, progress);
+                        if let Some(link) = self.link_mut(drive) {
+                            link.outbox = outbox;
+                        }
                     }
                     None => self.ignore(),
                 }
@@ -776,7 +711,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// EMCY): taken here, `true`. An EMCY that reports a fault makes its angles count
     /// as missing until it is commissioned again (the feedback's degraded rule decides).
     fn on_inclinometer_frame(&mut self, frame: &CanFrame, now_ms: u64) -> bool {
-        let Some(sensor) = self.inclinometer.as_mut() else {
+        let Some(sensor) = self.links.sensor_mut() else {
             return false;
         };
         let setup = *sensor.commissioning.setup();
@@ -855,8 +790,8 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// the feedback's degraded rule announces the missing angle.
     fn inclinometer_failed(&mut self, error: CommissioningError) {
         let node = self
-            .inclinometer
-            .as_ref()
+            .links
+            .sensor()
             .map_or(0, |s| s.commissioning.setup().node);
         self.record_commissioning_failure(node, error);
     }
@@ -905,7 +840,10 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
 
     /// A drive's heartbeat or boot-up message.
     fn on_heartbeat(&mut self, drive: Drive, state: NmtState, now_ms: u64) {
-        let link = self.link_mut(drive);
+        let manager = self.node.role == Role::Manager;
+        let Some(link) = self.link_mut(drive) else {
+            return;
+        };
         link.last_heartbeat_ms = Some(now_ms);
         link.nmt = Some(state);
         let phase = link.commissioning.phase();
@@ -924,11 +862,11 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             }
             // Commissioned but not operational yet: a manager's start was lost, so it
             // is sent again; a slave waits for its master's.
-            (NmtState::PreOperational | NmtState::Stopped, Phase::Done) => {
-                let node = link.commissioning.setup().node;
-                if self.node.role == Role::Manager {
-                    self.link_mut(drive).outbox = Some(nmt::command(NmtCommand::Start, node));
-                }
+            (NmtState::PreOperational | NmtState::Stopped, Phase::Done) if manager => {
+                link.outbox = Some(nmt::command(
+                    NmtCommand::Start,
+                    link.commissioning.setup().node,
+                ));
             }
             (
                 NmtState::PreOperational | NmtState::Stopped | NmtState::Operational,
@@ -936,20 +874,19 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             ) => {
                 self.recommission(drive, now_ms);
             }
-            (NmtState::Operational, Phase::Done) => {
-                // The TPDOs' clocks start when the drive is first seen operational.
-                let link = self.link_mut(drive);
-                if link.last_tpdo_ms.is_none() {
-                    link.last_tpdo_ms = Some(now_ms);
-                    link.last_position_ms = Some(now_ms);
-                }
+            // The TPDOs' clocks start when the drive is first seen operational.
+            (NmtState::Operational, Phase::Done) if link.last_tpdo_ms.is_none() => {
+                link.last_tpdo_ms = Some(now_ms);
+                link.last_position_ms = Some(now_ms);
             }
             _ => {}
         }
     }
 
     fn recommission(&mut self, drive: Drive, now_ms: u64) {
-        let link = self.link_mut(drive);
+        let Some(link) = self.link_mut(drive) else {
+            return;
+        };
         link.forget_process_data();
         let frame = link.commissioning.begin(now_ms);
         link.outbox = Some(frame);
@@ -965,7 +902,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         if self.mode == Mode::Ready {
             self.mode = Mode::Enabling;
         }
-        let node = self.link(drive).commissioning.setup().node;
+        let node = self.node_of(drive);
         // A warning: error register without the generic bit (see emcy::is_fault).
         self.send_emcy(canopen::emcy(
             self.node.id,
@@ -976,13 +913,15 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     }
 
     fn on_status(&mut self, drive: Drive, sw: u16, velocity: i32, now_ms: u64) {
-        let limit_before = self.link(drive).statusword & statusword::INTERNAL_LIMIT;
-        let warning_before = self.link(drive).statusword & statusword::WARNING;
         let moving = self.moving();
         let asked = self.gate.last(drive) != Setpoint::ZERO;
-        let csv = self.link(drive).commissioning.setup().mode.code() == 9;
         let not_following_limit = self.config.not_following_tpdos;
-        let link = self.link_mut(drive);
+        let Some(link) = self.link_mut(drive) else {
+            return;
+        };
+        let limit_before = link.statusword & statusword::INTERNAL_LIMIT;
+        let warning_before = link.statusword & statusword::WARNING;
+        let csv = link.commissioning.setup().mode.code() == 9;
         link.statusword = sw;
         link.state = DriveState::from_statusword(sw);
         link.velocity = velocity;
@@ -1068,9 +1007,9 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         self.counters.tx_failures = self.counters.tx_failures.saturating_add(1);
         let id = frame.id();
         if self
-            .drives
-            .iter()
-            .any(|d| id == canopen::cob::RPDO1 + u16::from(d.commissioning.setup().node))
+            .links
+            .drives()
+            .any(|(_, d)| id == canopen::cob::RPDO1 + u16::from(d.commissioning.setup().node))
         {
             self.rpdo_failed = true;
         }
@@ -1142,7 +1081,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         let wanted = step.as_ref().map(|s| self.corrected(s));
         // An angle counts for the cycle after it arrived only, whether the loop used it
         // or not: one that waited through enabling or a halt is stale.
-        if let Some(sensor) = self.inclinometer.as_mut() {
+        if let Some(sensor) = self.links.sensor_mut() {
             sensor.fresh = false;
         }
         let mut setpoints = [Setpoint::ZERO; 2];
@@ -1152,9 +1091,15 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             // is being commissioned again (it rebooted, or said so) still gets the rest
             // of its ramp to standstill, so that no drive ever sees its set point jump;
             // in pre-operational it ignores them.
-            if self.link(drive).linked() || self.gate.last(drive) != Setpoint::ZERO {
+            // An axis without a drive gets nothing (and is never ready).
+            let Some((linked, node)) = self
+                .link(drive)
+                .map(|l| (l.linked(), l.commissioning.setup().node))
+            else {
+                continue;
+            };
+            if linked || self.gate.last(drive) != Setpoint::ZERO {
                 *drive.of_mut(&mut setpoints) = setpoint;
-                let node = self.link(drive).commissioning.setup().node;
                 self.push(&mut frames, canopen::rpdo1(node, command, setpoint));
             }
         }
@@ -1203,41 +1148,39 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         }
     }
 
-    /// Commissioning of each drive: the frame answering a response received between
-    /// cycles, a due step, a timeout or a presence check — at most one frame per drive.
+    /// Commissioning of each node, in the list's order: the frame answering a response
+    /// received between cycles, a due step, a timeout or a presence check — at most one
+    /// frame per node.
     fn commission(&mut self, now_ms: u64, frames: &mut Vec<CanFrame, MAX_FRAMES>) {
-        for drive in Drive::ALL {
-            let link = self.link_mut(drive);
-            let frame = match link.outbox.take() {
-                Some(frame) => Some(frame),
-                None => match link.commissioning.poll(now_ms) {
-                    Some(progress) => self.on_progress(drive, progress),
-                    None => None,
-                },
+        for i in 0..self.links.len() {
+            // What the node's commissioning asks, then (the link no longer borrowed) its
+            // consequence.
+            let (drive, step) = match self.links.get_mut(i) {
+                Some(Link::Drive(drive, link)) => (
+                    Some(*drive),
+                    next_step(&mut link.outbox, &mut link.commissioning, now_ms),
+                ),
+                // `C::ENABLED` is a constant: without the feedback none of this is linked.
+                Some(Link::Inclinometer(sensor)) if C::ENABLED => (
+                    None,
+                    next_step(&mut sensor.outbox, &mut sensor.commissioning, now_ms),
+                ),
+                _ => continue,
+            };
+            let frame = match (drive, step) {
+                (_, Step::Frame(frame)) => Some(frame),
+                (_, Step::Idle) => None,
+                (Some(drive), Step::Progress(progress)) => self.on_progress(drive, progress),
+                (None, Step::Progress(Progress::Send(frame))) => Some(frame),
+                (None, Step::Progress(Progress::Done)) => None,
+                (None, Step::Progress(Progress::Failed { error, abort })) => {
+                    self.inclinometer_failed(error);
+                    abort
+                }
             };
             if let Some(frame) = frame {
                 self.push(frames, frame);
             }
-        }
-        if !C::ENABLED {
-            return;
-        }
-        let Some(sensor) = self.inclinometer.as_mut() else {
-            return;
-        };
-        let frame = match sensor.outbox.take() {
-            Some(frame) => Some(frame),
-            None => match sensor.commissioning.poll(now_ms) {
-                Some(Progress::Send(frame)) => Some(frame),
-                Some(Progress::Done) | None => None,
-                Some(Progress::Failed { error, abort }) => {
-                    self.inclinometer_failed(error);
-                    abort
-                }
-            },
-        };
-        if let Some(frame) = frame {
-            self.push(frames, frame);
         }
     }
 
@@ -1247,14 +1190,14 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// healthy inclinometer. `None` when a position is not fresh.
     fn measurement(&mut self) -> Option<Measurement> {
         let now_ms = self.now_ms;
-        let phi = self.inclinometer.as_mut().and_then(|sensor| {
+        let phi = self.links.sensor_mut().and_then(|sensor| {
             let fresh = core::mem::take(&mut sensor.fresh);
             let healthy = sensor.healthy(now_ms, self.config.heartbeat_timeout_ms);
             sensor.angle.filter(|_| fresh && healthy)
         });
         let mut position = [0.0; 2];
         for drive in Drive::ALL {
-            let link = self.link(drive);
+            let link = self.link(drive)?;
             let fresh = link
                 .last_position_ms
                 .is_some_and(|t| now_ms.saturating_sub(t) <= u64::from(self.config.period_ms));
@@ -1283,8 +1226,8 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         if self.feedback_announced != Some(out.mode) {
             if let FeedbackMode::FeedforwardOnly(reason) = out.mode {
                 let node = self
-                    .inclinometer
-                    .as_ref()
+                    .links
+                    .sensor()
                     .map_or(0, |s| s.commissioning.setup().node);
                 self.send_emcy(canopen::emcy(
                     self.node.id,
@@ -1308,7 +1251,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 None
             }
             Progress::Failed { error, abort } => {
-                let node = self.link(drive).commissioning.setup().node;
+                let node = self.node_of(drive);
                 self.record_commissioning_failure(node, error);
                 self.fault(Fault::Commissioning(drive, error));
                 abort
@@ -1339,7 +1282,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         let commissioned = Drive::ALL
             .iter()
             .enumerate()
-            .filter(|(_, d)| self.link(**d).linked())
+            .filter(|(_, d)| self.link(**d).is_some_and(DriveLink::linked))
             .fold(0u8, |bits, (i, _)| bits | (1 << i));
         Snapshot {
             status: self.status(),
@@ -1360,7 +1303,9 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
 
     /// Whether every drive may be asked to move.
     fn drives_ready(&self) -> bool {
-        Drive::ALL.iter().all(|d| self.link(*d).ready())
+        Drive::ALL
+            .iter()
+            .all(|d| self.link(*d).is_some_and(DriveLink::ready))
     }
 
     /// Takes one request (docs/COMMANDS.md): answers it, or starts planning a move.
@@ -1499,7 +1444,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     fn measured_rest(&self) -> Option<[f64; 2]> {
         let mut position = [0.0; 2];
         for drive in Drive::ALL {
-            let link = self.link(drive);
+            let link = self.link(drive)?;
             let fresh = link.last_position_ms.is_some_and(|t| {
                 self.now_ms.saturating_sub(t) <= u64::from(self.config.tpdo_timeout_ms)
             });
@@ -1524,7 +1469,10 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             .restart_at_rest(position, self.now_s())
             .map_err(|_| Reject::Invalid)?;
         for drive in Drive::ALL {
-            if matches!(self.link(drive).commissioning.phase(), Phase::Failed(_)) {
+            if self
+                .link(drive)
+                .is_some_and(|l| matches!(l.commissioning.phase(), Phase::Failed(_)))
+            {
                 self.recommission(drive, self.now_ms);
             }
         }
@@ -1556,8 +1504,8 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
 
     /// Controlword and set point for one drive this cycle.
     fn command_for(&mut self, drive: Drive, wanted: Option<[f64; 2]>) -> (u16, Setpoint) {
-        let ready = self.link(drive).ready();
-        let state = self.link(drive).state;
+        let ready = self.link(drive).is_some_and(DriveLink::ready);
+        let state = self.drive_state(drive);
         match self.mode {
             Mode::Enabling | Mode::Ready => {
                 let wanted = wanted.map(|u| *drive.of(&u)).unwrap_or(0.0);
@@ -1597,10 +1545,9 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             t.is_some_and(|t| now_ms.saturating_sub(t) > u64::from(limit))
         };
         for drive in Drive::ALL {
-            let link = self.link(drive);
-            if !link.linked() {
+            let Some(link) = self.link(drive).filter(|l| l.linked()) else {
                 continue;
-            }
+            };
             if late(link.last_heartbeat_ms, self.config.heartbeat_timeout_ms) {
                 self.fault(Fault::HeartbeatLost(drive));
             } else if late(link.last_tpdo_ms, self.config.tpdo_timeout_ms)
@@ -1686,9 +1633,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// The EMCY announcing `fault`: manufacturer bytes fault code, node, detail, and for a
     /// commissioning failure the object's index (docs/COMMANDS.md).
     fn emcy_of(&self, fault: Fault) -> CanFrame {
-        let node = fault
-            .drive()
-            .map_or(0, |d| self.link(d).commissioning.setup().node);
+        let node = fault.drive().map_or(0, |d| self.node_of(d));
         let register = REGISTER_GENERIC
             | if matches!(
                 fault,
@@ -1724,11 +1669,41 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         }
     }
 
-    fn link(&self, drive: Drive) -> &DriveLink {
-        drive.of(&self.drives)
+    /// The drive of `drive`'s axis, if the nodes have one.
+    fn link(&self, drive: Drive) -> Option<&DriveLink> {
+        self.links.drive(drive)
     }
 
-    fn link_mut(&mut self, drive: Drive) -> &mut DriveLink {
-        drive.of_mut(&mut self.drives)
+    fn link_mut(&mut self, drive: Drive) -> Option<&mut DriveLink> {
+        self.links.drive_mut(drive)
+    }
+
+    /// The node id of `drive`'s axis (0 without a drive).
+    fn node_of(&self, drive: Drive) -> u8 {
+        self.link(drive).map_or(0, |l| l.commissioning.setup().node)
+    }
+}
+
+/// What a node's commissioning asks this cycle.
+enum Step {
+    /// A frame answering a response received between cycles.
+    Frame(CanFrame),
+    /// A step, a timeout or a presence check came due.
+    Progress(Progress),
+    /// Nothing.
+    Idle,
+}
+
+/// The answer waiting in `outbox`, else what `commissioning` asks at `now_ms`.
+fn next_step<D: Device>(
+    outbox: &mut Option<CanFrame>,
+    commissioning: &mut Commissioning<D>,
+    now_ms: u64,
+) -> Step {
+    match outbox.take() {
+        Some(frame) => Step::Frame(frame),
+        None => commissioning
+            .poll(now_ms)
+            .map_or(Step::Idle, Step::Progress),
     }
 }

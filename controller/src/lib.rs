@@ -39,6 +39,7 @@ pub mod drive;
 pub mod feedback;
 pub mod feedforward;
 pub mod frame;
+mod links;
 pub mod node;
 pub mod planner;
 #[cfg(feature = "sim")]

@@ -13,7 +13,7 @@ mod common;
 use common::{feedforward, planner, Ff, HOME};
 use controller::canopen::NmtState;
 use controller::commands::Request;
-use controller::commissioning::InclinometerSetup;
+use controller::commissioning::{InclinometerSetup, NodeSetup};
 use controller::drive::Drive;
 use controller::feedback::{self, Correction, NoFeedback, StateFeedback};
 use controller::plant::{Gust, Mismatch};
@@ -67,10 +67,7 @@ const fn scenario(name: &'static str, events: &'static [Event]) -> Scenario {
 const HEALTHY: Scenario = scenario("closed-loop", &[MOVE]);
 
 fn config() -> Config {
-    Config {
-        inclinometer: Some(InclinometerSetup::STOCK),
-        ..Config::DEFAULT
-    }
+    Config::DEFAULT.with_node(NodeSetup::Inclinometer(InclinometerSetup::STOCK))
 }
 
 fn feedback() -> StateFeedback {

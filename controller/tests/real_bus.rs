@@ -697,3 +697,73 @@ fn a_watched_supervisor_that_falls_silent_during_a_move_stops_the_crane() {
     assert_within_limits(&out, &mut last);
     assert_within_limits(&rest, &mut last);
 }
+
+/// The nodes are a list (the commissioning file's rows): listed winch first, the winch is
+/// commissioned first and the crane works the same.
+#[test]
+fn the_nodes_are_commissioned_in_the_order_of_the_list() {
+    let [trolley, winch, ..] = Config::DEFAULT.nodes;
+    let config = Config {
+        nodes: [winch, trolley, None],
+        ..Config::DEFAULT
+    };
+    let mut rig = Rig::configured(feedforward(HOME, None), HEALTHY, config);
+    let out = rig.until(200, |c| c.mode == Mode::Ready);
+    assert_eq!(out.last().map(|c| c.mode), Some(Mode::Ready));
+    let first_sdo = out
+        .iter()
+        .flat_map(|c| c.frames.iter())
+        .find(|f| (0x601..=0x602).contains(&f.id()))
+        .map(|f| f.id());
+    assert_eq!(
+        first_sdo,
+        Some(0x602),
+        "the winch, listed first, is asked first"
+    );
+    send(
+        &mut rig,
+        Request::Move {
+            id: 1,
+            target: [16.0, 6.0],
+            duration: Some(6.0),
+        },
+    );
+    let moved = rig.run(700);
+    assert_eq!(answers(&moved), [(1, 1, 0)]);
+    assert!((rig.bus.drive(Drive::Trolley).position() - 16.0).abs() < 1e-3);
+    assert!((rig.bus.drive(Drive::Winch).position() - 6.0).abs() < 1e-3);
+}
+
+/// An axis without a drive in the list is never ready: no PDO to anybody's winch node,
+/// every move refused with reason 2, nothing moves.
+#[test]
+fn an_axis_without_a_drive_in_the_list_is_never_ready_and_nothing_moves() {
+    let [trolley, ..] = Config::DEFAULT.nodes;
+    let config = Config {
+        nodes: [trolley, None, None],
+        ..Config::DEFAULT
+    };
+    let mut rig = Rig::configured(feedforward(HOME, None), HEALTHY, config);
+    let out = rig.run(200);
+    assert!(out.iter().all(|c| c.mode == Mode::Enabling));
+    assert!(frames_with(&out, 0x202).is_empty() && frames_with(&out, 0x602).is_empty());
+    assert_eq!(rig.c.commissioning(Drive::Winch), Phase::Absent);
+    assert_eq!(rig.c.commissioning(Drive::Trolley), Phase::Done);
+    send(
+        &mut rig,
+        Request::Move {
+            id: 1,
+            target: [16.0, 6.0],
+            duration: Some(6.0),
+        },
+    );
+    let refused = rig.run(50);
+    assert_eq!(
+        answers(&refused),
+        [(1, 3, 2)],
+        "rejected, reason 2: not ready"
+    );
+    assert!(refused
+        .iter()
+        .all(|c| c.setpoints.map(|s| s.units()) == [0, 0]));
+}

@@ -3,7 +3,7 @@
 //! controller sends.
 
 use controller::canopen::cob;
-use controller::commissioning::InclinometerSetup;
+use controller::commissioning::{InclinometerSetup, NodeSetup};
 use controller::drive::Drive;
 use controller::feedback::{self, Correction, NoFeedback, StateFeedback};
 use controller::feedforward::command_plan;
@@ -65,10 +65,7 @@ impl Rig<StateFeedback> {
     /// `cycles` cycles.
     pub fn closed_loop(cycles: u32) -> Self {
         let feedback = StateFeedback::new(feedback::Config::PAPER).expect("the study's gains");
-        let config = Config {
-            inclinometer: Some(InclinometerSetup::STOCK),
-            ..Config::DEFAULT
-        };
+        let config = Config::DEFAULT.with_node(NodeSetup::Inclinometer(InclinometerSetup::STOCK));
         let mut controller =
             Controller::with_correction(feedforward(true), feedback, PLANNER, config);
         controller.demonstration_commanded();

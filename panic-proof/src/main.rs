@@ -17,7 +17,7 @@
 
 use core::hint::black_box;
 
-use controller::commissioning::InclinometerSetup;
+use controller::commissioning::{InclinometerSetup, NodeSetup};
 use controller::feedback::{self, Correction, StateFeedback};
 use controller::feedforward::command_plan;
 use controller::planner::Planner;
@@ -76,10 +76,7 @@ fn run<F: Feedforward + Replan>(feedforward: F) -> ! {
         let Ok(feedback) = StateFeedback::new(black_box(feedback::Config::PAPER)) else {
             halt()
         };
-        let config = Config {
-            inclinometer: black_box(Some(InclinometerSetup::STOCK)),
-            ..config
-        };
+        let config = config.with_node(NodeSetup::Inclinometer(black_box(InclinometerSetup::STOCK)));
         drive(Controller::with_correction(
             feedforward,
             feedback,

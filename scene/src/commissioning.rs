@@ -37,7 +37,10 @@
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use controller::commissioning::{DriveSetup, InclinometerSetup, OperationMode};
+use controller::commissioning::{
+    DriveSetup, InclinometerSetup, NodeSetup, OperationMode, MAX_NODES,
+};
+use controller::drive::Drive;
 use controller::node::Role;
 use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
 use controller::Config;
@@ -265,8 +268,9 @@ impl CommissioningFile {
     /// or the first of its fields that cannot work.
     pub fn with_inclinometer(&self, config: Config) -> Result<Config, SceneError> {
         let i = &self.inclinometer;
-        let taken = [config.node, config.drives[0].node, config.drives[1].node];
-        if !(1..=127).contains(&i.node) || taken.contains(&i.node) {
+        let taken =
+            config.node == i.node || config.nodes.iter().flatten().any(|n| n.node() == i.node);
+        if !(1..=127).contains(&i.node) || taken {
             return Err(refuse(
                 "inclinometer.node".into(),
                 format!("{} is not a free node id in 1..=127", i.node),
@@ -296,16 +300,20 @@ impl CommissioningFile {
                 "finite, within ±90°",
             ));
         }
-        Ok(Config {
-            inclinometer: Some(InclinometerSetup {
-                node: i.node,
-                resolution: i.resolution_mdeg,
-                heartbeat_ms: i.heartbeat_ms,
-                sign: i.sign,
-                offset_deg: i.offset_deg,
-            }),
-            ..config
-        })
+        let mut config = config;
+        if !config.add_node(NodeSetup::Inclinometer(InclinometerSetup {
+            node: i.node,
+            resolution: i.resolution_mdeg,
+            heartbeat_ms: i.heartbeat_ms,
+            sign: i.sign,
+            offset_deg: i.offset_deg,
+        })) {
+            return Err(refuse(
+                "inclinometer".into(),
+                format!("more than {MAX_NODES} nodes"),
+            ));
+        }
+        Ok(config)
     }
 
     fn drive(&self, axis: AxisSpec) -> Option<(usize, &DriveSpec)> {
@@ -465,6 +473,15 @@ impl CommissioningFile {
                 "this crane has two drives: trolley and winch",
             ));
         }
+        // The nodes in the file's order (the stock file: trolley, then winch).
+        let [trolley, winch] = setups;
+        let mut list = [None; MAX_NODES];
+        for (slot, d) in list.iter_mut().zip(&self.drives) {
+            *slot = Some(match d.axis {
+                AxisSpec::Trolley => NodeSetup::Drive(Drive::Trolley, trolley),
+                AxisSpec::Winch => NodeSetup::Drive(Drive::Winch, winch),
+            });
+        }
         Ok(Config {
             limits,
             period_ms,
@@ -477,7 +494,7 @@ impl CommissioningFile {
             heartbeat_timeout_ms: c.heartbeat_timeout_ms,
             tpdo_timeout_ms: c.tpdo_timeout_ms,
             sdo_timeout_ms: c.sdo_timeout_ms,
-            drives: setups,
+            nodes: list,
             ..Config::DEFAULT
         })
     }
@@ -496,7 +513,7 @@ mod tests {
     fn the_inclinometer_is_checked_like_a_drive() {
         let stock = CommissioningFile::parse("").unwrap();
         let c = stock.with_inclinometer(Config::DEFAULT).unwrap();
-        assert_eq!(c.inclinometer, Some(InclinometerSetup::STOCK));
+        assert_eq!(c.inclinometer(), Some(&InclinometerSetup::STOCK));
         for (text, field) in [
             ("[inclinometer]\nnode = 1", "inclinometer.node"),
             ("[inclinometer]\nnode = 16", "inclinometer.node"),
@@ -525,7 +542,7 @@ mod tests {
     #[test]
     fn the_defaults_are_the_stock_drives() {
         let c = config("").unwrap();
-        assert_eq!(c.drives, Config::DEFAULT.drives);
+        assert_eq!(c.nodes, Config::DEFAULT.nodes);
         assert_eq!(c, Config::DEFAULT);
     }
 
@@ -537,8 +554,20 @@ mod tests {
         .unwrap();
         assert_eq!(c.role, Role::Slave);
         assert_eq!(c.node, 32);
-        let [trolley, winch] = c.drives;
+        let (trolley, winch) = (
+            c.drive(Drive::Trolley).unwrap(),
+            c.drive(Drive::Winch).unwrap(),
+        );
         assert_eq!((trolley.node, winch.node), (4, 5));
+        // The nodes in the file's order: the winch first.
+        assert!(matches!(
+            c.nodes,
+            [
+                Some(NodeSetup::Drive(Drive::Winch, _)),
+                Some(NodeSetup::Drive(Drive::Trolley, _)),
+                None
+            ]
+        ));
         assert_eq!(winch.position_scale, 2e-6);
         assert_eq!(winch.velocity_unit, Some(MICROMETRE_PER_SECOND));
     }
@@ -569,7 +598,8 @@ mod tests {
         }
         // pv with a steep enough ramp is accepted.
         let c = config("[[drive]]\naxis = \"trolley\"\nnode = 1\nmode = \"pv\"\nprofile_acceleration = 30.0\n[[drive]]\naxis = \"winch\"\nnode = 2\n").unwrap();
-        assert_eq!(c.drives[0].mode, OperationMode::ProfileVelocity);
-        assert_eq!(c.drives[0].profile_ramp, Some(30_000_000));
+        let trolley = c.drive(Drive::Trolley).unwrap();
+        assert_eq!(trolley.mode, OperationMode::ProfileVelocity);
+        assert_eq!(trolley.profile_ramp, Some(30_000_000));
     }
 }

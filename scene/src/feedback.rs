@@ -210,13 +210,13 @@ mod tests {
         let s = scene("").unwrap();
         let f = firmware_scene(&s, &CommissioningFile::default()).unwrap();
         assert_eq!(f.feedback, Some(Config::PAPER));
-        assert!(f.config.inclinometer.is_some());
+        assert!(f.config.inclinometer().is_some());
         // Without the section: no feedback, no inclinometer.
         let path =
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper-crane.toml");
         let plain = Scene::load(&path).unwrap();
         let f = firmware_scene(&plain, &CommissioningFile::default()).unwrap();
-        assert_eq!((f.feedback, f.config.inclinometer), (None, None));
+        assert_eq!((f.feedback, f.config.inclinometer()), (None, None));
     }
 
     #[test]

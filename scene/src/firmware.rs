@@ -3,6 +3,7 @@
 //! firmware's build script (which turns it into Rust) and the host's run of the
 //! firmware's loop (`host_tests::firmware`), so both start from the same state.
 
+use controller::commissioning::NodeSetup;
 use controller::feedforward::command_plan;
 use controller::planner::Planner;
 use controller::setpoint::DriveLimits;
@@ -23,11 +24,18 @@ pub const WATCHDOG_MS: u32 = 100;
 /// move that starts earlier would ask for motion from drives not yet enabled.
 #[must_use]
 pub fn commissioning_time(config: &Config) -> f64 {
-    let writes = controller::commissioning::configuration(&config.drives[0], config.node, 10).len();
+    let drives = || {
+        config.nodes.iter().flatten().filter_map(|n| match n {
+            NodeSetup::Drive(_, d) => Some(d),
+            NodeSetup::Inclinometer(_) => None,
+        })
+    };
+    let writes = drives()
+        .map(|d| controller::commissioning::configuration(d, config.node, 10).len())
+        .max()
+        .unwrap_or(0);
     let exchanges = 2 * writes + 10;
-    let heartbeat = config
-        .drives
-        .iter()
+    let heartbeat = drives()
         .map(|d| f64::from(d.heartbeat_ms))
         .fold(0.0, f64::max);
     (exchanges as f64 * f64::from(config.period_ms) + heartbeat) / 1000.0
@@ -167,8 +175,7 @@ pub fn config_source(config: &Config) -> Result<String, String> {
         heartbeat_timeout_ms: config.heartbeat_timeout_ms,
         tpdo_timeout_ms: config.tpdo_timeout_ms,
         sdo_timeout_ms: config.sdo_timeout_ms,
-        drives: config.drives,
-        inclinometer: config.inclinometer,
+        nodes: config.nodes,
         ..Config::DEFAULT
     };
     if defaults != *config {
@@ -199,23 +206,26 @@ pub fn config_source(config: &Config) -> Result<String, String> {
         controller::node::Role::Manager => "Manager",
         controller::node::Role::Slave => "Slave",
     };
-    let [trolley, winch] = &config.drives;
-    let inclinometer = match &config.inclinometer {
+    let node = |n: &Option<NodeSetup>| {
+        match n {
         None => "None".to_string(),
-        Some(i) => format!(
-            "Some(controller::commissioning::InclinometerSetup {{ node: {}, resolution: {}, heartbeat_ms: {}, sign: {:?}, offset_deg: {:?} }})",
+        Some(NodeSetup::Drive(axis, d)) => {
+            format!("Some(controller::commissioning::NodeSetup::Drive(controller::drive::Drive::{axis:?}, {}))", drive(d))
+        }
+        Some(NodeSetup::Inclinometer(i)) => format!(
+            "Some(controller::commissioning::NodeSetup::Inclinometer(controller::commissioning::InclinometerSetup {{ node: {}, resolution: {}, heartbeat_ms: {}, sign: {:?}, offset_deg: {:?} }}))",
             i.node, i.resolution, i.heartbeat_ms, i.sign, i.offset_deg
         ),
+    }
     };
+    let nodes = config.nodes.iter().map(node).collect::<Vec<_>>().join(", ");
     Ok(format!(
-        "controller::Config {{ period_ms: {}, node: {}, role: controller::node::Role::{role}, heartbeat_period_ms: {}, heartbeat_timeout_ms: {}, tpdo_timeout_ms: {}, sdo_timeout_ms: {}, drives: [{}, {}], inclinometer: {inclinometer}, ..controller::Config::DEFAULT }}",
+        "controller::Config {{ period_ms: {}, node: {}, role: controller::node::Role::{role}, heartbeat_period_ms: {}, heartbeat_timeout_ms: {}, tpdo_timeout_ms: {}, sdo_timeout_ms: {}, nodes: [{nodes}], ..controller::Config::DEFAULT }}",
         config.period_ms,
         config.node,
         config.heartbeat_period_ms,
         config.heartbeat_timeout_ms,
         config.tpdo_timeout_ms,
         config.sdo_timeout_ms,
-        drive(trolley),
-        drive(winch)
     ))
 }

@@ -1,0 +1,244 @@
+//! What the controller knows of each node it commissions and supervises — a list built
+//! from the commissioning file (`Config::nodes`): a CiA 402 drive per axis of the model's
+//! inputs and, for a scene with the state feedback, the CiA 410 inclinometer. A crane
+//! with another drive (a bridge) or sensor adds a row, not a field.
+
+use heapless::Vec;
+
+use crate::canopen::NmtState;
+use crate::cia402::{statusword, DriveState};
+use crate::commissioning::{Commissioning, InclinometerSetup, NodeSetup, Phase, MAX_NODES};
+use crate::drive::Drive;
+use crate::frame::CanFrame;
+
+/// One node on the bus.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Link {
+    /// A drive and the axis it drives.
+    Drive(Drive, DriveLink),
+    /// The inclinometer.
+    Inclinometer(SensorLink),
+}
+
+/// The nodes, in the commissioning file's order, with where each axis's drive and the
+/// inclinometer are in the list (looked up every cycle: no search).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Links {
+    list: Vec<Link, MAX_NODES>,
+    axes: [Option<usize>; 2],
+    sensor: Option<usize>,
+}
+
+impl Links {
+    /// Links for `nodes`, each commissioned by the controller at node `controller`
+    /// cycling every `period_ms` (`manager`: it sends NMT commands); the inclinometer
+    /// only if `sensors` (a controller with the state feedback), the first of each axis.
+    ///
+    /// Always inlined: `sensors` is the controller's `C::ENABLED`, a constant, so that a
+    /// firmware without the feedback links none of the inclinometer's commissioning.
+    #[inline(always)]
+    pub(crate) fn new(
+        nodes: &[Option<NodeSetup>; MAX_NODES],
+        controller: u8,
+        period_ms: u8,
+        manager: bool,
+        sdo_timeout_ms: u32,
+        sensors: bool,
+    ) -> Self {
+        let mut links = Self {
+            list: Vec::new(),
+            axes: [None; 2],
+            sensor: None,
+        };
+        for node in nodes.iter().flatten() {
+            let at = Some(links.list.len());
+            let link = match *node {
+                NodeSetup::Drive(axis, setup) => {
+                    let slot = axis.of_mut(&mut links.axes);
+                    if slot.is_some() {
+                        continue;
+                    }
+                    *slot = at;
+                    Link::Drive(
+                        axis,
+                        DriveLink::new(Commissioning::new(
+                            setup,
+                            controller,
+                            period_ms,
+                            manager,
+                            sdo_timeout_ms,
+                        )),
+                    )
+                }
+                NodeSetup::Inclinometer(setup) if sensors && links.sensor.is_none() => {
+                    links.sensor = at;
+                    Link::Inclinometer(SensorLink {
+                        commissioning: Commissioning::new(
+                            setup,
+                            controller,
+                            period_ms,
+                            manager,
+                            sdo_timeout_ms,
+                        ),
+                        nmt: None,
+                        last_heartbeat_ms: None,
+                        angle: None,
+                        fresh: false,
+                        outbox: None,
+                        seen_operational: false,
+                    })
+                }
+                NodeSetup::Inclinometer(_) => continue,
+            };
+            // `nodes` has MAX_NODES entries at most: it always fits.
+            let _ = links.list.push(link);
+        }
+        links
+    }
+
+    /// How many nodes.
+    pub(crate) fn len(&self) -> usize {
+        self.list.len()
+    }
+
+    /// Node `i` of the list.
+    pub(crate) fn get_mut(&mut self, i: usize) -> Option<&mut Link> {
+        self.list.get_mut(i)
+    }
+
+    /// The drives, with their axes.
+    pub(crate) fn drives(&self) -> impl Iterator<Item = (Drive, &DriveLink)> {
+        self.list.iter().filter_map(|l| match l {
+            Link::Drive(a, link) => Some((*a, link)),
+            Link::Inclinometer(_) => None,
+        })
+    }
+
+    /// The drive of `axis`, if the commissioning file has one.
+    pub(crate) fn drive(&self, axis: Drive) -> Option<&DriveLink> {
+        match self.list.get((*axis.of(&self.axes))?)? {
+            Link::Drive(_, link) => Some(link),
+            Link::Inclinometer(_) => None,
+        }
+    }
+
+    /// The drive of `axis`, to change.
+    pub(crate) fn drive_mut(&mut self, axis: Drive) -> Option<&mut DriveLink> {
+        match self.list.get_mut((*axis.of(&self.axes))?)? {
+            Link::Drive(_, link) => Some(link),
+            Link::Inclinometer(_) => None,
+        }
+    }
+
+    /// The axis whose drive is at CANopen node `node`.
+    pub(crate) fn axis_at(&self, node: u8) -> Option<Drive> {
+        self.drives()
+            .find(|(_, link)| link.commissioning.setup().node == node)
+            .map(|(axis, _)| axis)
+    }
+
+    /// The inclinometer, if the controller has one.
+    pub(crate) fn sensor(&self) -> Option<&SensorLink> {
+        match self.list.get(self.sensor?)? {
+            Link::Inclinometer(link) => Some(link),
+            Link::Drive(..) => None,
+        }
+    }
+
+    /// The inclinometer, to change.
+    pub(crate) fn sensor_mut(&mut self) -> Option<&mut SensorLink> {
+        match self.list.get_mut(self.sensor?)? {
+            Link::Inclinometer(link) => Some(link),
+            Link::Drive(..) => None,
+        }
+    }
+}
+
+/// What the controller knows of one drive.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct DriveLink {
+    pub(crate) commissioning: Commissioning,
+    /// NMT state from its last heartbeat or boot-up message.
+    pub(crate) nmt: Option<NmtState>,
+    pub(crate) last_heartbeat_ms: Option<u64>,
+    pub(crate) statusword: u16,
+    pub(crate) state: DriveState,
+    pub(crate) velocity: i32,
+    pub(crate) position: Option<i32>,
+    pub(crate) mode_display: Option<i8>,
+    /// Last TPDO1; the clock starts when the drive is first seen operational.
+    pub(crate) last_tpdo_ms: Option<u64>,
+    pub(crate) last_position_ms: Option<u64>,
+    /// The next commissioning frame, answered to a response received between cycles.
+    pub(crate) outbox: Option<CanFrame>,
+    pub(crate) not_following: u8,
+}
+
+impl DriveLink {
+    pub(crate) fn new(commissioning: Commissioning) -> Self {
+        Self {
+            commissioning,
+            nmt: None,
+            last_heartbeat_ms: None,
+            statusword: 0,
+            state: DriveState::Unknown,
+            velocity: 0,
+            position: None,
+            mode_display: None,
+            last_tpdo_ms: None,
+            last_position_ms: None,
+            outbox: None,
+            not_following: 0,
+        }
+    }
+
+    /// Commissioned and started: it may be sent PDOs and is supervised.
+    pub(crate) fn linked(&self) -> bool {
+        self.commissioning.phase() == Phase::Done
+    }
+
+    /// Linked, operational and enabled under remote control: it may be asked to move.
+    pub(crate) fn ready(&self) -> bool {
+        self.linked()
+            && self.nmt == Some(NmtState::Operational)
+            && self.last_tpdo_ms.is_some()
+            && self.state == DriveState::OperationEnabled
+            && self.statusword & statusword::REMOTE != 0
+    }
+
+    /// Forgets what the drive reported (it rebooted): the TPDO values are stale.
+    pub(crate) fn forget_process_data(&mut self) {
+        self.state = DriveState::Unknown;
+        self.statusword = 0;
+        self.last_tpdo_ms = None;
+        self.last_position_ms = None;
+        self.mode_display = None;
+        self.not_following = 0;
+    }
+}
+
+/// What the controller knows of the inclinometer.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct SensorLink {
+    pub(crate) commissioning: Commissioning<InclinometerSetup>,
+    pub(crate) nmt: Option<NmtState>,
+    pub(crate) last_heartbeat_ms: Option<u64>,
+    /// The angle of its last TPDO, rad, and whether it arrived since the last cycle.
+    pub(crate) angle: Option<f64>,
+    pub(crate) fresh: bool,
+    pub(crate) outbox: Option<CanFrame>,
+    /// Seen operational since it was commissioned: a later pre-operational or stopped
+    /// heartbeat means it lost its configuration (before, a lost NMT start).
+    pub(crate) seen_operational: bool,
+}
+
+impl SensorLink {
+    /// Commissioned, operational, heard within `timeout_ms`: its angles count.
+    pub(crate) fn healthy(&self, now_ms: u64, timeout_ms: u32) -> bool {
+        self.commissioning.phase() == Phase::Done
+            && self.nmt == Some(NmtState::Operational)
+            && self
+                .last_heartbeat_ms
+                .is_some_and(|t| now_ms.saturating_sub(t) <= u64::from(timeout_ms))
+    }
+}
