@@ -26,6 +26,8 @@ type Feedforward = scene::Feedforward;
 #[cfg_attr(feature = "qemu", rtic::app(device = crate::board::pac, dispatchers = [UARTRX0]))]
 #[cfg_attr(feature = "stm32h743", rtic::app(device = crate::board::pac, dispatchers = [SPI1]))]
 mod app {
+    use core::mem::MaybeUninit;
+
     use controller::Controller;
     use rtic_monotonics::systick::prelude::*;
 
@@ -37,18 +39,25 @@ mod app {
     #[shared]
     struct Shared {}
 
+    /// The 100 Hz task's resources. The controller and the board are built into statics
+    /// of `init` and held by reference: returned by value, they would stay in `main`'s
+    /// frame for good (`main` never returns), beneath every task's stack — 15–25 KiB of
+    /// the stack before (`cargo xtask qemu-bench`, *stack (control task)*).
     #[local]
     struct Local {
         can_rx: board::CanRx,
-        controller: Controller<Feedforward, scene::Correction>,
-        board: Board,
+        controller: &'static mut Controller<Feedforward, scene::Correction>,
+        board: &'static mut Board,
         /// Cycles to run: under QEMU the scenario's (or the scene's), on the board forever.
         cycles: Option<u32>,
         /// The mode the run must end in (QEMU's exit code).
         ending: board::Ending,
     }
 
-    #[init]
+    #[init(local = [
+        controller_slot: MaybeUninit<Controller<Feedforward, scene::Correction>> = MaybeUninit::uninit(),
+        board_slot: MaybeUninit<Board> = MaybeUninit::uninit(),
+    ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         #[cfg(feature = "qemu")]
         let (board, can_rx, restarted, cycles, ending) = {
@@ -118,8 +127,12 @@ mod app {
                 board::finish(false)
             }
         };
-        let mut controller =
-            Controller::with_correction(feedforward, correction, scene::PLANNER, config);
+        let controller = cx.local.controller_slot.write(Controller::with_correction(
+            feedforward,
+            correction,
+            scene::PLANNER,
+            config,
+        ));
         if restarted {
             controller.restarted_by_watchdog();
         } else if demonstration {
@@ -131,7 +144,7 @@ mod app {
             Local {
                 can_rx,
                 controller,
-                board,
+                board: cx.local.board_slot.write(board),
                 cycles,
                 ending,
             },
@@ -157,7 +170,9 @@ mod app {
     /// watchdog is fed only here, after a completed cycle.
     #[task(priority = 1, local = [controller, board, cycles, ending])]
     async fn control(cx: control::Context) {
-        let (controller, board) = (cx.local.controller, cx.local.board);
+        let (controller, board) = (&mut **cx.local.controller, &mut **cx.local.board);
+        // From here on the stack's high-water mark is this task's (under QEMU).
+        board.restart_stack_watermark();
         let cycles = *cx.local.cycles;
         let mut next = Mono::now();
         let (mut min, mut max, mut sum) = (u64::MAX, 0u64, 0u64);
@@ -236,12 +251,13 @@ mod app {
         }
         let counters = controller.counters();
         defmt::info!(
-            "done: {=u64} cycles, instructions per step min {=u64} mean {=u64} max {=u64}, stack {=u32} bytes, {}",
+            "done: {=u64} cycles, instructions per step min {=u64} mean {=u64} max {=u64}, stack {=u32} bytes, control task {=u32} bytes, {}",
             cycle,
             min,
             sum / cycle.max(1),
             max,
-            board.stack_high_water(),
+            board.stack_use().0,
+            board.stack_use().1,
             counters
         );
         let mode = controller.mode();

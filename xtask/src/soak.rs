@@ -78,6 +78,10 @@ pub fn soak(minutes: u32) -> Result<(), String> {
     );
     println!("| mean instructions per step | {mean} |");
     println!("| stack high-water mark | {} bytes |", m.stack);
+    println!(
+        "| … since the control task started | {} bytes |",
+        m.task_stack
+    );
     println!("\nAnswers: {}", list(&f.answers));
     println!(
         "Faults met (status fault code: times): {}",

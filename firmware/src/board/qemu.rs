@@ -155,6 +155,10 @@ pub struct Board {
     tx_buffers: FifoModel<TX_BUFFERS>,
     /// Frames lost and not yet reported: at most a burst and the buffers' frames.
     tx_lost: Deque<(CanFrame, Loss), { BURST + TX_BUFFERS }>,
+    /// The stack's high-water mark when the control task started (boot and `init`).
+    init_stack: u32,
+    /// The stack pointer when the control task started: below it, the task's own frames.
+    task_base: usize,
 }
 
 /// The scenario named on the semihosting command line
@@ -215,6 +219,8 @@ impl Board {
             Self {
                 bus,
                 watchdog_started: false,
+                init_stack: 0,
+                task_base: 0,
                 tx_queue: TxQueue::new(),
                 tx_buffers: FifoModel::new(),
                 tx_lost: Deque::new(),
@@ -262,8 +268,31 @@ impl Board {
         }
     }
 
-    /// Deepest stack use since boot, bytes (stack painting).
-    pub fn stack_high_water(&self) -> u32 {
+    /// Starts measuring the control task's own stack: records the high-water mark of
+    /// boot and `init` (which builds the RTIC resources on the stack), then paints the
+    /// stack below the task's frame again, with interrupts off so that no handler's
+    /// frame is painted over while in use. Called once, as the task starts.
+    pub fn restart_stack_watermark(&mut self) {
+        self.init_stack = self.stack_high_water();
+        self.task_base = cortex_m::register::msp::read() as usize;
+        cortex_m::interrupt::free(|_| paint_stack());
+    }
+
+    /// Stack use, bytes: the deepest since boot, and the control task's own — how far
+    /// below its starting stack pointer it (and the interrupts on top of it) reached.
+    /// The difference is what stays live above the task: `main`'s frame, which holds
+    /// the resources `init` returned by value.
+    pub fn stack_use(&self) -> (u32, u32) {
+        let since = self.stack_high_water();
+        let (_, top) = stack_bounds();
+        let task = self
+            .task_base
+            .saturating_sub(top.saturating_sub(since as usize));
+        (self.init_stack.max(since), task as u32)
+    }
+
+    /// Deepest stack use since the last painting, bytes.
+    fn stack_high_water(&self) -> u32 {
         let (bottom, top) = stack_bounds();
         let mut p = bottom;
         // SAFETY: reads of the stack region between the linker's _stack_end and
