@@ -49,6 +49,22 @@ fn sdo_read(rig: &mut Rig, index: u16, sub: u8) -> [u8; 8] {
     resp.data().try_into().unwrap()
 }
 
+/// Commands the move to (16 m, 6 m) in 6 s as request 1: accepted, and the drives arrive.
+fn move_and_arrive(rig: &mut Rig) {
+    send(
+        rig,
+        Request::Move {
+            id: 1,
+            target: [16.0, 6.0],
+            duration: Some(6.0),
+        },
+    );
+    let moved = rig.run(700);
+    assert_eq!(answers(&moved), [(1, 1, 0)]);
+    assert!((rig.bus.drive(Drive::Trolley).position() - 16.0).abs() < 1e-3);
+    assert!((rig.bus.drive(Drive::Winch).position() - 6.0).abs() < 1e-3);
+}
+
 #[test]
 fn drives_powered_after_the_controller_are_commissioned_when_they_boot_and_nothing_moves() {
     let mut rig = Rig::new(HEALTHY, false);
@@ -79,17 +95,7 @@ fn drives_powered_after_the_controller_are_commissioned_when_they_boot_and_nothi
         .iter()
         .all(|c| c.setpoints.map(|s| s.units()) == [0, 0]));
     // A move on command is executed.
-    send(
-        &mut rig,
-        Request::Move {
-            id: 1,
-            target: [16.0, 6.0],
-            duration: Some(6.0),
-        },
-    );
-    let moved = rig.run(700);
-    assert_eq!(answers(&moved), [(1, 1, 0)]);
-    assert!((rig.bus.drive(Drive::Trolley).position() - 16.0).abs() < 1e-3);
+    move_and_arrive(&mut rig);
 }
 
 #[test]
@@ -720,18 +726,7 @@ fn the_nodes_are_commissioned_in_the_order_of_the_list() {
         Some(0x602),
         "the winch, listed first, is asked first"
     );
-    send(
-        &mut rig,
-        Request::Move {
-            id: 1,
-            target: [16.0, 6.0],
-            duration: Some(6.0),
-        },
-    );
-    let moved = rig.run(700);
-    assert_eq!(answers(&moved), [(1, 1, 0)]);
-    assert!((rig.bus.drive(Drive::Trolley).position() - 16.0).abs() < 1e-3);
-    assert!((rig.bus.drive(Drive::Winch).position() - 6.0).abs() < 1e-3);
+    move_and_arrive(&mut rig);
 }
 
 /// An axis without a drive in the list is never ready: no PDO to anybody's winch node,
