@@ -189,7 +189,12 @@ enum Reaction {
 }
 
 impl Fault {
-    /// The fault byte of the status frame and of the EMCY.
+    /// The largest fault byte. `can/crane.dbc` multiplexes the EMCY's manufacturer
+    /// bytes on it: 0–15 a fault, 16 the abort code that follows a commissioning
+    /// failure (`emcy::ABORT_CODE_FOLLOWS`).
+    pub const MAX_CODE: u8 = 14;
+
+    /// The fault byte of the status frame and of the EMCY, 1 to [`Fault::MAX_CODE`].
     #[must_use]
     pub fn code(&self) -> u8 {
         match self {
@@ -362,6 +367,16 @@ struct PendingMove {
 /// The most frames one cycle hands out.
 pub const MAX_FRAMES: usize = 16;
 
+/// EMCYs waiting to be sent at most. A commissioning failure takes two (0xFF10 and
+/// 0xFF12), so every node of the list can fail in one cycle with room to spare.
+pub const EMCY_QUEUE: usize = 8;
+
+const _: () = assert!(EMCY_QUEUE >= 2 * crate::commissioning::MAX_NODES + 2);
+
+/// Frames a cycle sends after its EMCYs at most: SYNC, heartbeat and two status frames.
+/// EMCYs beyond what leaves room for them wait for the next cycle.
+const AFTER_EMCY: usize = 4;
+
 /// Everything one cycle produced.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Cycle {
@@ -411,7 +426,12 @@ pub struct Controller<F, C = NoFeedback> {
     last_miss_cycle: Option<u32>,
     rpdo_failed: bool,
     failed_cycles: u32,
-    emcy: Deque<CanFrame, 4>,
+    /// EMCYs to send, oldest first. A full queue keeps the oldest: the first fault is
+    /// the cause, and the two frames of a commissioning failure stay together.
+    emcy: Deque<CanFrame, EMCY_QUEUE>,
+    /// The EMCYs handed out by the last cycle, each with whether the board reported it
+    /// lost; the lost ones go back to the front of `emcy` in their original order.
+    emcy_in_flight: Vec<(CanFrame, bool), EMCY_QUEUE>,
     /// The SDO server's answer to a request received between cycles.
     sdo_answer: Option<CanFrame>,
     /// The last commissioning failure (0x2002): node, index, sub, abort code, reason.
@@ -488,6 +508,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             rpdo_failed: false,
             failed_cycles: 0,
             emcy: Deque::new(),
+            emcy_in_flight: Vec::new(),
             sdo_answer: None,
             commissioning_failure: (0, 0, 0, 0, 0),
             resetting: 0,
@@ -1013,10 +1034,15 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         {
             self.rpdo_failed = true;
         }
-        if id == canopen::cob::EMCY + u16::from(self.node.id)
-            && self.emcy.push_front(*frame).is_err()
-        {
-            self.ignore();
+        if id == canopen::cob::EMCY + u16::from(self.node.id) {
+            match self
+                .emcy_in_flight
+                .iter_mut()
+                .find(|(sent, lost)| !*lost && sent == frame)
+            {
+                Some((_, lost)) => *lost = true,
+                None => self.ignore(),
+            }
         }
     }
 
@@ -1109,8 +1135,14 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 self.mode = Mode::Halted(f);
             }
         }
-        while let Some(emcy) = self.emcy.pop_front() {
+        self.requeue_lost_emcys();
+        while frames.len() + AFTER_EMCY < MAX_FRAMES {
+            let Some(emcy) = self.emcy.pop_front() else {
+                break;
+            };
             self.push(&mut frames, emcy);
+            // Room for it: both hold EMCY_QUEUE, and it was cleared above.
+            let _ = self.emcy_in_flight.push((emcy, false));
         }
         self.push(&mut frames, canopen::sync());
         let periodic = u32::from(self.node.heartbeat_ms)
@@ -1581,13 +1613,29 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         }
     }
 
+    /// Queues an EMCY; with the queue full, the new one is dropped and counted.
     fn send_emcy(&mut self, frame: CanFrame) {
         if self.emcy.push_back(frame).is_err() {
-            // Four EMCYs in one cycle: the oldest is dropped, and counted.
-            let _ = self.emcy.pop_front();
-            let _ = self.emcy.push_back(frame);
             self.ignore();
         }
+    }
+
+    /// Puts the EMCYs of the last cycle that the board reported lost back at the front
+    /// of the queue, in the order they were first sent: 0xFF10 stays ahead of its
+    /// 0xFF12 however often the bus goes off. Should the queue be full, its newest
+    /// frames make room (dropped and counted).
+    fn requeue_lost_emcys(&mut self) {
+        for (frame, lost) in self.emcy_in_flight.iter().rev() {
+            if !*lost {
+                continue;
+            }
+            if self.emcy.is_full() {
+                let _ = self.emcy.pop_back();
+                self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(1);
+            }
+            let _ = self.emcy.push_front(*frame);
+        }
+        self.emcy_in_flight.clear();
     }
 
     /// Meets a fault: the first one leaves *ready*; a later, more severe one escalates.

@@ -1,9 +1,9 @@
 //! The transmit path: a bounded queue in front of the CAN controller's transmit
 //! buffers that keeps the cycle's order and accounts for every frame.
 //!
-//! A cycle hands over up to 8 frames at once — RPDO trolley (0x201), RPDO winch
-//! (0x202), an EMCY (0x090), SYNC (0x080), and every 100 ms the heartbeat (0x710) and
-//! the status (0x190) — and a synchronous RPDO counts only if it is on the bus before
+//! A cycle hands over up to [`BURST`] (16) frames at once — SDO requests and answers,
+//! RPDO trolley (0x201), RPDO winch (0x202), EMCYs (0x090), SYNC (0x080), and every
+//! 100 ms the heartbeat (0x710) and the status (0x190) — and a synchronous RPDO counts only if it is on the bus before
 //! the SYNC that applies it. The STM32H743's FDCAN, as the `fdcan` 0.2 driver sets it
 //! up, has 3 transmit buffers in *queue* mode: the bus takes the pending frame with the
 //! lowest identifier first, and a transmit into a full queue displaces a pending frame
@@ -23,7 +23,7 @@
 //!   * *queue full* — submitted while the queue is full: the new frame is refused and
 //!     returned to the caller at once. What is queued is never overwritten or
 //!     reordered, so the refusal is the newest frame, the one in hand to report.
-//!     With a queue as long as a cycle's burst (8) this cannot happen, because of:
+//!     With a queue as long as a cycle's burst ([`BURST`]) this cannot happen, because of:
 //!   * *expired* — a frame of an earlier cycle that has not left when a new cycle
 //!     begins ([`TxQueue::expire`]): bus-off, or a bus too slow or too busy for the
 //!     burst. Its set point or SYNC is stale, so it is taken back (out of the queue, and
@@ -32,7 +32,7 @@
 //!
 //! Each lost frame goes to [`Controller::transmit_failed`](crate::Controller::transmit_failed)
 //! before the next tick: a lost RPDO counts towards the delivery fault, a lost EMCY is
-//! sent again.
+//! sent again, in the order it was first sent among the EMCYs lost with it.
 
 use heapless::Deque;
 

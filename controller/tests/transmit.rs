@@ -21,8 +21,9 @@ mod common;
 
 use common::Rig;
 use controller::canopen::cob;
+use controller::drive::Drive;
 use controller::transmit::{FifoModel, Loss, Lost, Queued, TxQueue, BURST};
-use controller::virtual_bus::HEALTHY;
+use controller::virtual_bus::{Action, Quirk, HEALTHY};
 use controller::{CanFrame, Cycle, Fault, Mode};
 
 const TROLLEY: u16 = 0x201;
@@ -257,8 +258,12 @@ struct Record {
 
 impl NewPath {
     fn new() -> Self {
+        Self::on(Rig::new(HEALTHY, true))
+    }
+
+    fn on(rig: Rig) -> Self {
         Self {
-            rig: Rig::new(HEALTHY, true),
+            rig,
             queue: TxQueue::new(),
             hw: FifoModel::new(),
             after: 0,
@@ -266,6 +271,11 @@ impl NewPath {
     }
 
     fn cycle(&mut self, bus: Bus) -> Record {
+        self.cycle_with(|_| bus)
+    }
+
+    /// One cycle, with the bus chosen after seeing what the tick hands out.
+    fn cycle_with(&mut self, bus: impl FnOnce(&Cycle) -> Bus) -> Record {
         let now = self.rig.now;
         let mut lost = Vec::new();
         self.queue
@@ -285,7 +295,7 @@ impl NewPath {
             }
             self.queue.feed(&mut self.hw);
         }
-        let takes = match bus {
+        let takes = match bus(&out) {
             Bus::Free => usize::MAX,
             Bus::Takes(n) => n,
             Bus::Off => 0,
@@ -543,4 +553,128 @@ fn random_bus_conditions_every_frame_leaves_in_order_or_is_reported_once() {
     assert_eq!(sent + reported, handed);
     assert_eq!(path.rig.c.counters().tx_failures as usize, reported);
     assert!(reported > 0, "the conditions did lose frames");
+}
+
+/// The manufacturer-specific codes of a commissioning failure's two EMCYs.
+const FF10: [u8; 2] = [0x10, 0xFF];
+const FF12: [u8; 2] = [0x12, 0xFF];
+
+fn emcy_codes<'a>(frames: impl IntoIterator<Item = &'a CanFrame>) -> Vec<[u8; 2]> {
+    frames
+        .into_iter()
+        .filter(|f| f.id() == EMCY)
+        .map(|f| [f.data()[0], f.data()[1]])
+        .collect()
+}
+
+/// A trolley that refuses CSV: a commissioning failure, announced by EMCY 0xFF10
+/// (drive and object) and then 0xFF12 (the abort code).
+fn refusing_csv() -> NewPath {
+    let mut rig = Rig::new(HEALTHY, false);
+    rig.bus
+        .inject(Action::Quirk(Drive::Trolley, Quirk::RefusesCsv));
+    NewPath::on(rig)
+}
+
+#[test]
+fn an_emcy_pair_lost_in_bus_off_cycles_goes_out_later_in_its_order() {
+    // The bus goes off in each of the first three cycles that hand out EMCYs: both
+    // frames are lost together (expired), three times over.
+    let mut path = refusing_csv();
+    let mut off = 0;
+    let records: Vec<Record> = (0..150)
+        .map(|_| {
+            path.cycle_with(|out| {
+                if off < 3 && !emcy_codes(&out.frames).is_empty() {
+                    off += 1;
+                    Bus::Off
+                } else {
+                    Bus::Free
+                }
+            })
+        })
+        .collect();
+    assert_eq!(off, 3, "the pair was handed out at least three times");
+    assert_accounted(&records);
+    let handed: Vec<Vec<[u8; 2]>> = records
+        .iter()
+        .map(|r| emcy_codes(&r.out.frames))
+        .filter(|c| !c.is_empty())
+        .collect();
+    // Every hand-out is the pair, 0xFF10 first; on the bus the pairs arrive whole, in
+    // order, each once (the drive is commissioned again later and fails again).
+    assert!(handed.iter().all(|c| *c == [FF10, FF12]), "{handed:?}");
+    let on_bus = emcy_codes(records.iter().flat_map(|r| r.sent.iter().map(|q| &q.frame)));
+    assert!(!on_bus.is_empty());
+    assert!(on_bus.chunks(2).all(|c| c == [FF10, FF12]), "{on_bus:?}");
+    assert_eq!(handed.len(), on_bus.len() / 2 + 3, "three hand-outs lost");
+    let lost = records
+        .iter()
+        .flat_map(|r| &r.lost)
+        .filter(|l| l.queued.frame.id() == EMCY)
+        .count();
+    assert_eq!(lost, 6);
+}
+
+#[test]
+fn the_second_frame_of_an_emcy_pair_lost_alone_follows_the_first_on_the_bus() {
+    // The bus takes the burst up to and including 0xFF10 once: 0xFF12 and what follows
+    // it expire, and 0xFF12 goes out in the next cycle.
+    let mut path = refusing_csv();
+    let mut cut = false;
+    let records: Vec<Record> = (0..150)
+        .map(|_| {
+            path.cycle_with(|out| {
+                let at = out.frames.iter().position(|f| f.id() == EMCY);
+                match at {
+                    Some(i) if !cut => {
+                        cut = true;
+                        Bus::Takes(i + 1)
+                    }
+                    _ => Bus::Free,
+                }
+            })
+        })
+        .collect();
+    assert!(cut);
+    assert_accounted(&records);
+    let on_bus = emcy_codes(records.iter().flat_map(|r| r.sent.iter().map(|q| &q.frame)));
+    assert_eq!(on_bus, [FF10, FF12]);
+}
+
+#[test]
+fn lost_emcys_reported_in_any_order_are_sent_again_in_their_first_order() {
+    // A board may report the losses of one cycle in another order than it sent them
+    // (a refusal at submission before an expiry of an earlier frame).
+    let mut rig = Rig::new(HEALTHY, false);
+    rig.bus
+        .inject(Action::Quirk(Drive::Trolley, Quirk::RefusesCsv));
+    let first = rig
+        .until(100, |c| !emcy_codes(&c.frames).is_empty())
+        .pop()
+        .unwrap();
+    let pair: Vec<CanFrame> = first
+        .frames
+        .iter()
+        .filter(|f| f.id() == EMCY)
+        .copied()
+        .collect();
+    assert_eq!(emcy_codes(&pair), [FF10, FF12]);
+    for lost in pair.iter().rev() {
+        rig.c.transmit_failed(lost);
+    }
+    let again = rig.cycle();
+    let resent: Vec<CanFrame> = again
+        .frames
+        .iter()
+        .filter(|f| f.id() == EMCY)
+        .copied()
+        .collect();
+    assert_eq!(resent, pair, "the same frames, 0xFF10 first");
+    // A frame never handed out (or reported twice) is not sent: it is counted.
+    let ignored = rig.c.counters().frames_ignored;
+    rig.c.transmit_failed(&pair[0]);
+    rig.c.transmit_failed(&pair[0]);
+    assert_eq!(rig.c.counters().frames_ignored, ignored + 1);
+    assert_eq!(emcy_codes(&rig.cycle().frames), [FF10]);
 }

@@ -6,9 +6,11 @@ use controller::cia402::controlword;
 use controller::commands::{
     decode_request, request_frame, status_frame, Answer, Reject, Request, Status,
 };
+use controller::commissioning::CommissioningError;
 use controller::drive::Drive;
+use controller::setpoint::SetpointError;
 use controller::setpoint::{DriveLimits, SetpointGate, UNITS_PER_M_PER_S};
-use controller::CanFrame;
+use controller::{CanFrame, Fault};
 use host_tests::dbc::Dbc;
 use proptest::prelude::*;
 
@@ -157,6 +159,72 @@ fn commissioning_emcys_name_drive_object_and_abort_code() {
             None
         )
     );
+}
+
+/// One fault of each kind; the match makes a new kind a compile error here.
+fn every_fault() -> Vec<Fault> {
+    let d = Drive::Trolley;
+    let all = vec![
+        Fault::Solver(solver_core::Error::InvalidStepSize { h: 0.0 }),
+        Fault::Setpoint(SetpointError::NonFinite { drive: d }),
+        Fault::DriveFault(d),
+        Fault::HeartbeatLost(d),
+        Fault::Deadline,
+        Fault::Undeliverable,
+        Fault::DriveNotReady(d),
+        Fault::Watchdog,
+        Fault::DriveLeftOperational(d, NmtState::Stopped),
+        Fault::TpdoTimeout(d),
+        Fault::DriveMode(d),
+        Fault::Commissioning(d, CommissioningError::DeviceType { found: 0 }),
+        Fault::NotOperational,
+        Fault::SupervisorLost,
+    ];
+    for f in &all {
+        match f {
+            Fault::Solver(_)
+            | Fault::Setpoint(_)
+            | Fault::DriveFault(_)
+            | Fault::HeartbeatLost(_)
+            | Fault::Deadline
+            | Fault::Undeliverable
+            | Fault::DriveNotReady(_)
+            | Fault::Watchdog
+            | Fault::DriveLeftOperational(..)
+            | Fault::TpdoTimeout(_)
+            | Fault::DriveMode(_)
+            | Fault::Commissioning(..)
+            | Fault::NotOperational
+            | Fault::SupervisorLost => {}
+        }
+    }
+    all
+}
+
+/// The DBC's multiplexor ranges hold for every fault: each code is distinct, in
+/// 1..=`Fault::MAX_CODE`, and decodes with the fault signals, never as the abort code.
+#[test]
+fn every_fault_code_is_in_the_dbc_fault_range() {
+    let faults = every_fault();
+    let mut codes: Vec<u8> = faults.iter().map(Fault::code).collect();
+    codes.sort_unstable();
+    codes.dedup();
+    assert_eq!(codes.len(), faults.len(), "distinct codes");
+    assert_eq!(codes, (1..=Fault::MAX_CODE).collect::<Vec<_>>());
+    const { assert!(Fault::MAX_CODE < emcy::ABORT_CODE_FOLLOWS) };
+    for code in codes {
+        let e = decode(&canopen::emcy(
+            CONTROLLER_NODE,
+            emcy::COMMISSIONING,
+            0x81,
+            [code, 1, 0, 0, 0],
+        ));
+        assert_eq!(
+            (e.get("fault"), e.get("node"), e.get("abort_code")),
+            (Some(f64::from(code)), Some(1.0), None),
+            "fault {code}"
+        );
+    }
 }
 
 #[test]

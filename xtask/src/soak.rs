@@ -6,7 +6,7 @@
 
 use std::collections::BTreeMap;
 
-use controller::canopen::cob;
+use controller::canopen::{cob, emcy};
 use controller::commands::STATUS_ID;
 use controller::drive::Drive;
 use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
@@ -133,7 +133,13 @@ fn findings(m: &qemu::Measured) -> Findings {
                 last[d.index()] = Some(v);
             }
         }
-        if tx.id == 0x090 && tx.data.len() == 8 && tx.data[0..2] != [0, 0] {
+        // A fault's EMCY, by its fault byte; not 0x0000 (error reset) nor the abort code
+        // that follows a commissioning failure (0xFF12, byte 16: no fault of its own).
+        if tx.id == 0x090
+            && tx.data.len() == 8
+            && tx.data[0..2] != [0, 0]
+            && u16::from_le_bytes([tx.data[0], tx.data[1]]) != emcy::COMMISSIONING_ABORT
+        {
             *f.faults.entry(tx.data[3]).or_default() += 1;
             if tx.data[3] == 2 {
                 if tx.data[5] == 1 {
