@@ -41,6 +41,8 @@ use solver_core::models::crane::CraneParams;
 use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
 use solver_core::plan::Plan;
+use solver_core::schemes::radau::FullNewton;
+use solver_core::schemes::radau5::{StructuredStagesOf, Transformed};
 use solver_core::trajectory::PointToPoint;
 use solver_core::{Bdf, Error, JacobianMode, Radau, SolverSettings};
 
@@ -153,6 +155,47 @@ fn main() -> ! {
                 halt()
             };
             let Ok(integrator) = Radau::<f64, Subs, 7, 2, 21>::new(&model, &settings, t0) else {
+                halt()
+            };
+            run(InverseModel { model, integrator })
+        }
+        // The Newton strategies the firmware links, as its build script names them:
+        // the paper's modes alone, and RADAU5's transformed Newton on the structured
+        // (subs) or dense (proj) stage systems.
+        5 => {
+            let Ok(model) = Subs::new(params, plan) else {
+                halt()
+            };
+            let Ok(integrator) =
+                Radau::<f64, Subs, 7, 2, 21, FullNewton<f64, 21>>::new(&model, &settings, t0)
+            else {
+                halt()
+            };
+            run(InverseModel { model, integrator })
+        }
+        6 => {
+            let Ok(model) = Subs::new(params, plan) else {
+                halt()
+            };
+            let Ok(integrator) = Radau::<
+                f64,
+                Subs,
+                7,
+                2,
+                21,
+                Transformed<f64, 7, StructuredStagesOf<f64, Subs, 7, 2>>,
+            >::new(&model, &settings, t0) else {
+                halt()
+            };
+            run(InverseModel { model, integrator })
+        }
+        7 => {
+            let Ok(model) = Proj::new(params, plan) else {
+                halt()
+            };
+            let Ok(integrator) =
+                Radau::<f64, Proj, 8, 2, 24, Transformed<f64, 8>>::new(&model, &settings, t0)
+            else {
                 halt()
             };
             run(InverseModel { model, integrator })
