@@ -83,7 +83,9 @@ pub trait DaeModel<T: Real, const N: usize, const NU: usize> {
 /// scaling ρ of Sec. 3.1.1) has a fixed sparsity pattern that it eliminates by hand:
 /// a static pivot order, no pivot search, no fill-in, only the entries that change
 /// computed. Used by [`Structured`](crate::schemes::bdf::Structured), the BDF Newton
-/// strategy the firmware links; models without it keep the dense LU.
+/// strategy the firmware links, and by RADAU5's
+/// [`StructuredStages`](crate::schemes::radau5::StructuredStages) for its real and complex
+/// stage systems; models without it keep the dense LUs.
 ///
 /// The factors must solve the same system as the dense LU of `S·(∂F/∂x + c·∂F/∂ẋ)`
 /// built from [`DaeModel::partials`] (each implementation's tests check it).
@@ -108,7 +110,8 @@ pub trait StructuredJacobian<T: Real, const N: usize, const NU: usize>: DaeModel
     /// Solves the complex system `(∂F/∂x + (c + i b) ∂F/∂ẋ)(η_re + i η_im) = r_re + i r_im`
     /// in place (rows scaled as in `factor`), `f` the factors for the real part `c` of
     /// the shift and `b` its imaginary part — RADAU5's complex stage system
-    /// (`schemes::radau5`). A model implements it where the elimination's pivots do not
-    /// depend on the shift, so that the real factors serve.
+    /// (`schemes::radau5`). Required: a model implements this trait only where its
+    /// elimination's pivots do not depend on the shift, so that the real factors serve
+    /// the complex system too (checked by multiplying the system back in its tests).
     fn solve_complex(f: &Self::Factors, b: T, re: &mut SVector<T, N>, im: &mut SVector<T, N>);
 }

@@ -47,9 +47,11 @@ impl Contraction {
         }
     }
 
-    /// Judges iteration `it` (from 1) with increment `norm` (weighted); `fresh`: the
-    /// matrix was formed during this step; `floor`: the increment rounding alone makes
-    /// (0 if not known).
+    /// Judges iteration `it` (from 1) with increment `norm` (weighted); `floor`: the
+    /// increment rounding alone makes (0 if not known). `fresh`: a refresh would not
+    /// give a better matrix, so a stall is not met by another — for RADAU5 the matrix
+    /// was formed during this step; for BDF it was formed at an iterate of this step's
+    /// iteration (the factors every step forms at the prediction do not count).
     pub(crate) fn judge(
         &mut self,
         it: u32,

@@ -27,9 +27,10 @@
 //!
 //! ## When the matrices are recomputed
 //!
-//! A factorisation (one real, one complex LU) depends on `J` and h only; h is fixed,
-//! so they are kept from step to step while the iteration contracts fast. The rule,
-//! RADAU5's: the contraction rate `θ_k = ‖ΔZ_k‖ / ‖ΔZ_{k−1}‖` of the last step that
+//! A factorisation (the real and the complex system's: two LUs, or one structured
+//! elimination whose factors serve both, see [`StageSystems`]) depends on `J` and h
+//! only; h is fixed, so it is kept from step to step while the iteration contracts
+//! fast. The rule, RADAU5's: the contraction rate `θ_k = ‖ΔZ_k‖ / ‖ΔZ_{k−1}‖` of the last step that
 //! measured one decides — above [`THETA_REFRESH`] the next step starts with a fresh
 //! `J` (exact partials at the predicted end of the step, stage 3, whose trajectory
 //! sample the step has anyway). Within a step, an iteration that contracts by less
