@@ -1,13 +1,15 @@
 //! `cargo xtask <command>`: everything that is not plain `cargo test`.
 //!
 //! * `run` — the main job: the firmware in QEMU on the default scene (and the Radau
-//!   scene, RADAU5's transformed Newton), its decoded CAN log, and instructions per
-//!   step per scheme.
+//!   scene, RADAU5's transformed Newton), its decoded CAN log, instructions per step
+//!   per scheme, and the default scene's estimated Cortex-M7 cycles per step.
 //! * `test` — the whole test suite: formatting, lints, host tests, the `no_std` build
 //!   of solver-core, both firmware boards, and the QEMU checks.
 //! * `qemu [--overwrite-expected]` — the QEMU checks alone: golden output, the host's
 //!   computation of the same scene, committed baselines (±10 %).
 //! * `qemu-bench` — instructions per step, flash, RAM and stack against the targets.
+//! * `cycles [SCENE …]` — estimated Cortex-M7 cycles (and µs at 480 MHz) per step,
+//!   from QEMU's execution trace through a stated timing model (lower / point / upper).
 //! * `fig8 [--out-dir DIR]` — the paper's Fig. 8(d, e) from the same QEMU runs:
 //!   instructions per cycle over the move, BDF4 and Radau, as SVG and CSV.
 //! * `soak --minutes M` — the QEMU firmware through M simulated minutes of random
@@ -35,6 +37,7 @@ use std::process::{Command, ExitCode};
 
 use clap::{Parser, Subcommand};
 
+mod cycles;
 mod defmt_log;
 mod ecu;
 mod fig8;
@@ -77,6 +80,12 @@ enum Cmd {
     },
     /// Instructions per step, flash, RAM and stack against the targets.
     QemuBench,
+    /// Estimated Cortex-M7 cycles per step (lower / point / upper) and µs at 480 MHz,
+    /// from QEMU's execution trace (xtask/src/cycles/m7.rs states the model).
+    Cycles {
+        /// Scene files (the scenes of `qemu-bench` when none is named).
+        scenes: Vec<String>,
+    },
     /// The paper's Fig. 8(d, e): QEMU instructions per cycle over the move, BDF4 and
     /// Radau, as SVG and CSV (the runs of `qemu-bench`).
     Fig8 {
@@ -187,6 +196,7 @@ fn main() -> ExitCode {
             Cmd::Test => test(),
             Cmd::Qemu { overwrite_expected } => qemu_checks(overwrite_expected),
             Cmd::QemuBench => qemu_bench(),
+            Cmd::Cycles { scenes } => cycles_of(scenes),
             Cmd::Fig8 { out_dir } => fig8::fig8(&firmware::root().join(out_dir)),
             Cmd::Soak { minutes } => soak::soak(minutes),
             Cmd::Fuzz { seconds, targets } => fuzz::fuzz(seconds, &targets),
@@ -265,7 +275,9 @@ fn main_job() -> Result<(), String> {
         }
     }
     print!("{}", qemu::table(&runs));
-    all_succeeded(&runs)
+    all_succeeded(&runs)?;
+    // What the instructions of the default scene cost on a Cortex-M7 (estimated).
+    cycles::cycles(&[qemu::SCENES[0].to_string()])
 }
 
 /// Fails naming the first run whose firmware did not end in the mode its scenario
@@ -309,6 +321,21 @@ fn qemu_checks(overwrite: bool) -> Result<(), String> {
         qemu::check(&m, overwrite)?;
     }
     Ok(())
+}
+
+/// `cargo xtask cycles`: the named scenes, or those of `qemu-bench`.
+fn cycles_of(scenes: Vec<String>) -> Result<(), String> {
+    let scenes = if scenes.is_empty() {
+        qemu::SCENES
+            .iter()
+            .chain(&qemu::BENCH_ONLY_SCENES)
+            .chain([&qemu::FEEDBACK_SCENE])
+            .map(|s| s.to_string())
+            .collect()
+    } else {
+        scenes
+    };
+    cycles::cycles(&scenes)
 }
 
 fn qemu_bench() -> Result<(), String> {
@@ -372,6 +399,9 @@ fn test() -> Result<(), String> {
     // The real drive controller: CI can build it, not run it.
     firmware::build(Board::Stm32h743, &firmware::root().join(qemu::SCENES[0]))?;
     qemu_checks(false)?;
+    // The Cortex-M7 estimate on the default scene: its trace windows must match the
+    // firmware's own instruction counts step by step.
+    cycles::cycles(&[qemu::SCENES[0].to_string()])?;
     // A short soak: one simulated minute of random traffic, every set point checked.
     soak::soak(1)?;
     panics::lint()?;
@@ -400,6 +430,8 @@ mod tests {
             &["qemu", "--overwrite-expected"],
             &["qemu-bench"],
             &["fig8"],
+            &["cycles"],
+            &["cycles", "scenes/paper-crane.toml"],
             &["fig8", "--out-dir", "/tmp/figures"],
             &["soak", "--minutes", "60"],
             &["fuzz"],

@@ -240,7 +240,10 @@ impl Board {
     }
 
     /// The free-running cost counter: timer ticks counting up (the timer counts down
-    /// and wraps every 172 s of virtual time).
+    /// and wraps every 172 s of virtual time). Never inlined: its entry address marks
+    /// the two ends of each step's cost window in QEMU's execution trace, where
+    /// `cargo xtask cycles` estimates the Cortex-M7's cycles.
+    #[inline(never)]
     pub fn counter(&self) -> u32 {
         // SAFETY: a volatile word read of the timer's VALUE register (see `init`).
         u32::MAX - unsafe { core::ptr::read_volatile((TIMER1 + VALUE) as *const u32) }
