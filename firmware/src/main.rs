@@ -85,6 +85,9 @@ mod app {
         #[cfg(feature = "stm32h743")]
         let (board, can_rx, restarted, cycles, ending) = {
             let mut core = cx.core;
+            // The code runs from flash, which has wait states at 480 MHz: through the
+            // 16 KiB instruction cache (data and stack are in the DTCM, no cache).
+            core.SCB.enable_icache();
             let (board, can_rx, restarted) = Board::init(cx.device, &mut core.DCB, &mut core.DWT);
             Mono::start(core.SYST, board::SYSCLK_HZ);
             let ending = board::Ending::Either;
