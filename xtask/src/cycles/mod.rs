@@ -63,7 +63,8 @@ pub struct Traced {
     /// missing from the estimate; must be 0).
     pub unknown_blocks: u64,
     /// Blocks logged as executed that QEMU then stopped before their first
-    /// instruction (not counted).
+    /// instruction (not counted), or rewound to an I/O access inside them (counted up
+    /// to it).
     pub stopped_blocks: u64,
 }
 
@@ -124,6 +125,22 @@ impl Reader {
         } else if let Some(rest) = line.strip_prefix("Trace ") {
             if let Some((host, pc)) = parse_trace(rest) {
                 self.logged_execution(host, pc);
+            }
+        } else if let Some(rest) =
+            line.strip_prefix("cpu_io_recompile: rewound execution of TB to ")
+        {
+            // An I/O access inside the block under -icount: the instructions before it
+            // ran, QEMU rewinds to the access and runs it as a block of its own.
+            let pc = u32::from_str_radix(rest.trim().trim_start_matches("0x"), 16).ok();
+            if let (Some(pc), Some((host, block))) = (pc, self.logged.take()) {
+                match block.iter().position(|i| i.address == pc) {
+                    Some(0) => self.out.stopped_blocks += 1,
+                    Some(k) => {
+                        self.out.stopped_blocks += 1;
+                        self.logged = Some((host, block[..k].into()));
+                    }
+                    None => self.logged = Some((host, block)),
+                }
             }
         } else if let Some(rest) = line.strip_prefix("Stopped execution of TB chain before ") {
             // The instruction budget (-icount) ran out before the block began: QEMU
@@ -500,6 +517,29 @@ Trace 0: 0x7f0000000100 [00800408/00000100/00000110/ff020200] counter
         let t = read_trace(stopped.as_bytes(), 0x100).unwrap();
         assert_eq!(t.stopped_blocks, 1);
         assert_eq!(t.steps[0].instructions, 1 + 9 + 1);
+    }
+
+    #[test]
+    fn a_block_rewound_for_an_io_access_counts_once() {
+        let rewound = TRACE.replacen(
+            "Trace 0: 0x7f0000000300 [00800408/00000208/00000110/ff020200] after\n",
+            "Trace 0: 0x7f0000000300 [00800408/00000208/00000110/ff020200] after\n\
+             cpu_io_recompile: rewound execution of TB to 00000208\n\
+             Trace 0: 0x7f0000000300 [00800408/00000208/00000110/ff020200] after\n",
+            1,
+        );
+        let t = read_trace(rewound.as_bytes(), 0x100).unwrap();
+        assert_eq!(t.stopped_blocks, 1);
+        assert_eq!(t.steps[0].instructions, 1 + 9 + 1);
+        // Rewound to its third instruction: the first two ran.
+        let mid = TRACE.replacen(
+            "Trace 0: 0x7f0000000200 [00800408/00000200/00000110/ff020200] work\n",
+            "Trace 0: 0x7f0000000200 [00800408/00000200/00000110/ff020200] work\n\
+             cpu_io_recompile: rewound execution of TB to 00000206\n",
+            1,
+        );
+        let t = read_trace(mid.as_bytes(), 0x100).unwrap();
+        assert_eq!(t.steps[0].instructions, 1 + 2 + 6 + 1);
     }
 
     #[test]
