@@ -567,13 +567,23 @@ fn emcy_codes<'a>(frames: impl IntoIterator<Item = &'a CanFrame>) -> Vec<[u8; 2]
         .collect()
 }
 
+/// The controller's EMCYs among `frames`, in order.
+fn emcy_frames(frames: &[CanFrame]) -> Vec<CanFrame> {
+    frames.iter().filter(|f| f.id() == EMCY).copied().collect()
+}
+
 /// A trolley that refuses CSV: a commissioning failure, announced by EMCY 0xFF10
 /// (drive and object) and then 0xFF12 (the abort code).
-fn refusing_csv() -> NewPath {
+fn rig_refusing_csv() -> Rig {
     let mut rig = Rig::new(HEALTHY, false);
     rig.bus
         .inject(Action::Quirk(Drive::Trolley, Quirk::RefusesCsv));
-    NewPath::on(rig)
+    rig
+}
+
+/// [`rig_refusing_csv`] behind the transmit path.
+fn refusing_csv() -> NewPath {
+    NewPath::on(rig_refusing_csv())
 }
 
 #[test]
@@ -646,31 +656,22 @@ fn the_second_frame_of_an_emcy_pair_lost_alone_follows_the_first_on_the_bus() {
 fn lost_emcys_reported_in_any_order_are_sent_again_in_their_first_order() {
     // A board may report the losses of one cycle in another order than it sent them
     // (a refusal at submission before an expiry of an earlier frame).
-    let mut rig = Rig::new(HEALTHY, false);
-    rig.bus
-        .inject(Action::Quirk(Drive::Trolley, Quirk::RefusesCsv));
+    let mut rig = rig_refusing_csv();
     let first = rig
         .until(100, |c| !emcy_codes(&c.frames).is_empty())
         .pop()
         .unwrap();
-    let pair: Vec<CanFrame> = first
-        .frames
-        .iter()
-        .filter(|f| f.id() == EMCY)
-        .copied()
-        .collect();
+    let pair = emcy_frames(&first.frames);
     assert_eq!(emcy_codes(&pair), [FF10, FF12]);
     for lost in pair.iter().rev() {
         rig.c.transmit_failed(lost);
     }
     let again = rig.cycle();
-    let resent: Vec<CanFrame> = again
-        .frames
-        .iter()
-        .filter(|f| f.id() == EMCY)
-        .copied()
-        .collect();
-    assert_eq!(resent, pair, "the same frames, 0xFF10 first");
+    assert_eq!(
+        emcy_frames(&again.frames),
+        pair,
+        "the same frames, 0xFF10 first"
+    );
     // A frame never handed out (or reported twice) is not sent: it is counted.
     let ignored = rig.c.counters().frames_ignored;
     rig.c.transmit_failed(&pair[0]);
