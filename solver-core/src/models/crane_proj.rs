@@ -16,7 +16,7 @@
 //!
 //! (expand `a_C = d²/dt² [x + l sin φ, l cos φ]` to check the first line).
 //! Projecting the dynamics onto the constrained and unconstrained directions of
-//! the servo-constraints (Blajer & Kołodziejczyk, ref. [3]) means: in the
+//! the servo-constraints (Blajer & Kołodziejczyk, ref. \[3\]) means: in the
 //! directions the servo-constraint fixes, the load's acceleration is not a
 //! dynamic unknown but prescribed, `a_C = z̈_d(t)`. Evaluated along the
 //! constrained motion, row 3 therefore becomes an algebraic relation between the

@@ -3,7 +3,7 @@
 //! Eqs. 24–26 describe the crane in the redundant coordinates `[x, l, x_C, z_C]`
 //! with one rope constraint (Eq. 26) and its multiplier λ. The servo-constraints
 //! Eq. 28 prescribe `x_C = x_C,d(t)`, `z_C = z_C,d(t)`; substituting them (as in
-//! Otto & Seifried 2018, ref. [4]) removes the load coordinates and leaves, with
+//! Otto & Seifried 2018, ref. \[4\]) removes the load coordinates and leaves, with
 //! `x = [x, l, ẋ, l̇, λ, u1, u2]`,
 //!
 //! ```text

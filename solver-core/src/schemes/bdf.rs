@@ -5,7 +5,7 @@
 //! ## Start-up
 //!
 //! BDF needs the k values before the first step, consistent of order k + 1
-//! (Brenan et al., ref. [16]). The inverse model starts at rest: the desired
+//! (Brenan et al., ref. \[16\]). The inverse model starts at rest: the desired
 //! output rests before its move, so the exact solution is the constant rest state
 //! for all earlier times, and the history is filled with it — exact, hence
 //! consistent of any order. A start time at which the trajectory moves is refused

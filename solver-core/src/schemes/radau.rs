@@ -4,7 +4,7 @@
 //! `F(x_{n−1} + h Σ_j a_ij X'_j, X'_i, t_{n−1} + c_i h) = 0` (i = 1, 2, 3) — a system of
 //! size `S = 3N` — and sets `x_n = x_{n−1} + h Σ_i b_i X'_i` (Eq. 14). For index-3
 //! problems the algebraic variables (here: the inputs) converge with order
-//! `s − 1 = 2` (Hairer, Lubich & Roche, ref. [17]).
+//! `s − 1 = 2` (Hairer, Lubich & Roche, ref. \[17\]).
 //!
 //! Tab. 1 as printed has `a_21 = (296 − 169√6)/1800`; the row sum must equal `c_2`,
 //! which holds for `(296 + 169√6)/1800`, the value of Hairer & Wanner used here
