@@ -14,7 +14,7 @@ use solver_core::trajectory::{PointToPoint, Trajectory};
 use solver_core::{Bdf, Driven, Error, JacobianMode, SolverSettings};
 
 use crate::plant::{Gust, Mismatch, Plant, Rng};
-use crate::plot::{figure, Chart, Scale, Series};
+use crate::plot::{figure, Chart, Legend, Scale, Series};
 
 /// The inverse model's solution over a whole run: what the controller has every cycle.
 #[derive(Debug, Clone)]
@@ -437,6 +437,7 @@ pub fn plot_case(
                     y_label: "−z_C, m",
                     x_scale: Scale::Linear,
                     y_scale: Scale::Linear,
+                    legend: Legend::OverData,
                 },
                 vec![
                     desired,
@@ -451,6 +452,7 @@ pub fn plot_case(
                     y_label: "mm",
                     x_scale: Scale::Linear,
                     y_scale: Scale::Linear,
+                    legend: Legend::OverData,
                 },
                 vec![xerr("feedforward", &ff), xerr("closed loop", &fb)],
             ),
@@ -461,6 +463,7 @@ pub fn plot_case(
                     y_label: "°",
                     x_scale: Scale::Linear,
                     y_scale: Scale::Linear,
+                    legend: Legend::OverData,
                 },
                 vec![phi("feedforward", &ff), phi("closed loop", &fb)],
             ),
@@ -471,6 +474,7 @@ pub fn plot_case(
                     y_label: "m/s",
                     x_scale: Scale::Linear,
                     y_scale: Scale::Linear,
+                    legend: Legend::OverData,
                 },
                 vec![
                     u("u1 feedforward", &ff, 0),

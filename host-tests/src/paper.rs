@@ -11,7 +11,7 @@ use solver_core::reference::dopri5::Dopri5Settings;
 use solver_core::reference::mass_on_car::MassOnCarReference;
 use solver_core::trajectory::Trajectory;
 
-use crate::plot::{figure, Chart, Scale, Series};
+use crate::plot::{figure, Chart, Legend, Scale, Series};
 use crate::study::{default_threshold, run_scene, run_scene_observed, RunResult, TimeSeries};
 use crate::sweep::{apply, csv_row, CSV_HEADER};
 
@@ -217,6 +217,7 @@ pub fn regenerate(
                 y_label: "e_max [m/s]",
                 x_scale: Scale::Log,
                 y_scale: Scale::Log,
+                legend: Legend::OverData,
             },
             series(&|r| r.e_global),
         )];
@@ -227,6 +228,7 @@ pub fn regenerate(
                 y_label: "interior e_max [m/s]",
                 x_scale: Scale::Log,
                 y_scale: Scale::Log,
+                legend: Legend::OverData,
             },
             series(&|r| r.e_interior),
         ));
@@ -238,6 +240,7 @@ pub fn regenerate(
                     y_label: "time [s]",
                     x_scale: Scale::Log,
                     y_scale: Scale::Log,
+                    legend: Legend::OverData,
                 },
                 series(&|r| r.ns_per_step * r.steps as f64 * 1e-9),
             ));
@@ -307,6 +310,7 @@ fn mass_on_car(out: &Path, quick: bool) -> Result<String, String> {
         y_label: y,
         x_scale: Scale::Linear,
         y_scale: Scale::Linear,
+        legend: Legend::OverData,
     };
     figure(
         &out.join("fig11-mass-on-car-reference.svg"),

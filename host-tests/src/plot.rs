@@ -37,6 +37,33 @@ pub struct Chart<'a> {
     pub x_scale: Scale,
     /// y scaling.
     pub y_scale: Scale,
+    /// Where the legend goes.
+    pub legend: Legend,
+}
+
+/// Where a chart's legend goes. It always sits in the lower right corner; the
+/// question is whether the data may run under it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Legend {
+    /// Over the data: right for charts whose lower right corner is empty.
+    OverData,
+    /// Below the data: the y range is extended downwards to make room for it, for
+    /// time series that fill the whole width (Fig. 8), whose end it would hide.
+    BelowData,
+}
+
+/// The part of the plot's height the legend takes, with `series` entries.
+fn legend_share(series: usize) -> f64 {
+    0.06 + 0.07 * series as f64
+}
+
+/// `(lo, hi)` extended downwards so that the lower `share` of the height is free.
+fn room_below((lo, hi): (f64, f64), scale: Scale, share: f64) -> (f64, f64) {
+    let k = share / (1.0 - share);
+    match scale {
+        Scale::Log => (lo / (hi / lo).powf(k), hi),
+        Scale::Linear => (lo - (hi - lo) * k, hi),
+    }
 }
 
 const COLORS: [RGBColor; 8] = [
@@ -90,7 +117,11 @@ pub fn draw(
     };
     let all: Vec<(f64, f64)> = series.iter().flat_map(points).collect();
     let (x0, x1) = range(all.iter().map(|p| p.0), chart.x_scale);
-    let (y0, y1) = range(all.iter().map(|p| p.1), chart.y_scale);
+    let mut y_range = range(all.iter().map(|p| p.1), chart.y_scale);
+    if chart.legend == Legend::BelowData {
+        y_range = room_below(y_range, chart.y_scale, legend_share(series.len()));
+    }
+    let (y0, y1) = y_range;
     let mut builder = ChartBuilder::on(area);
     builder
         .caption(chart.title, ("sans-serif", 18))
@@ -274,4 +305,20 @@ pub fn heat_map(
             .map_err(|x| e(&x))?;
     }
     root.present().map_err(|x| e(&x))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The data's lowest value lies at `share` of the new height, on either scale.
+    #[test]
+    fn room_below_frees_the_lower_share_of_the_height() {
+        let (lo, hi) = room_below((0.0, 100.0), Scale::Linear, 0.25);
+        assert_eq!(hi, 100.0);
+        assert!(((0.0 - lo) / (hi - lo) - 0.25).abs() < 1e-12, "{lo}");
+        let (lo, hi) = room_below((1.0, 100.0), Scale::Log, 0.5);
+        assert_eq!(hi, 100.0);
+        assert!((lo - 0.01).abs() < 1e-12, "{lo}");
+    }
 }

@@ -12,7 +12,7 @@ use std::path::Path;
 use solver_core::models::mass_on_car::MassOnCarParams;
 use solver_core::reference::mass_on_car::{breakaway_angle, zero_dynamics_eigenvalues};
 
-use crate::plot::{figure, Chart, Scale, Series};
+use crate::plot::{figure, Chart, Legend, Scale, Series};
 
 /// Tab. 4's two dampings, Ns/m.
 pub const DAMPINGS: [f64; 2] = [0.0, 1.0];
@@ -161,6 +161,7 @@ pub fn write(out: &Path) -> Result<f64, String> {
                     y_label: "Im lambda [1/s]",
                     x_scale: Scale::Linear,
                     y_scale: Scale::Linear,
+                    legend: Legend::OverData,
                 },
                 plane,
             ),
@@ -171,6 +172,7 @@ pub fn write(out: &Path) -> Result<f64, String> {
                     y_label: "lambda [1/s]",
                     x_scale: Scale::Linear,
                     y_scale: Scale::Linear,
+                    legend: Legend::OverData,
                 },
                 parts,
             ),

@@ -11,7 +11,8 @@
 //! * `cycles [SCENE …]` — estimated Cortex-M7 cycles (and µs at 480 MHz) per step,
 //!   from QEMU's execution trace through a stated timing model (lower / point / upper).
 //! * `fig8 [--out-dir DIR]` — the paper's Fig. 8(d, e) from the same QEMU runs:
-//!   instructions per cycle over the move, BDF4 and Radau, as SVG and CSV.
+//!   instructions and estimated Cortex-M7 µs per cycle over the move, BDF4 and Radau,
+//!   as SVG and CSV.
 //! * `soak --minutes M` — the QEMU firmware through M simulated minutes of random
 //!   requests, garbage and faults; every set point checked against the limits.
 //! * `fuzz [--seconds N] [target …]` — cargo fuzz on the frame decoders, the command
@@ -86,8 +87,8 @@ enum Cmd {
         /// Scene files (the scenes of `qemu-bench` when none is named).
         scenes: Vec<String>,
     },
-    /// The paper's Fig. 8(d, e): QEMU instructions per cycle over the move, BDF4 and
-    /// Radau, as SVG and CSV (the runs of `qemu-bench`).
+    /// The paper's Fig. 8(d, e): QEMU instructions and estimated Cortex-M7 µs per cycle
+    /// over the move, BDF4 and Radau, as SVG and CSV (the runs of `qemu-bench`).
     Fig8 {
         /// Output directory.
         #[arg(long, default_value = "docs/figures")]

@@ -359,7 +359,7 @@ pub fn estimate(scene: &str) -> Result<Estimate, String> {
 }
 
 /// Every step's window against the firmware's own count; the largest difference.
-fn check_windows(scene: &str, steps: &[Step], costs: &[u64]) -> Result<i64, String> {
+pub(crate) fn check_windows(scene: &str, steps: &[Step], costs: &[u64]) -> Result<i64, String> {
     if steps.len() != costs.len() || steps.is_empty() {
         return Err(format!(
             "{scene}: {} windows in the trace, {} cost lines in the log",
