@@ -10,7 +10,7 @@
 //! * [`trajectory`] — smooth point-to-point moves of degree 2n+1 (the paper's C4 polynomial is n = 4).
 //! * [`model`] — the [`DaeModel`] trait; [`models`] — crane *subs* and *proj*, mass-on-car.
 //! * [`schemes`] — BDF k = 1..6 (Eq. 16) and Radau IIA (Eqs. 13–15) with [`newton`] (J, J̃, exact).
-//! * [`reference`] — the exact answers that prove the schemes right: the crane's flat
+//! * [`reference`](mod@reference) — the exact answers that prove the schemes right: the crane's flat
 //!   inverse, the mass-on-car's internal dynamics (Eqs. 37–38), forward simulations.
 //!
 //! `no_std`, no heap, no `unsafe`; every failure is an [`Error`] with context.

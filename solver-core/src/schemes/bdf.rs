@@ -9,7 +9,7 @@
 //! output rests before its move, so the exact solution is the constant rest state
 //! for all earlier times, and the history is filled with it — exact, hence
 //! consistent of any order. A start time at which the trajectory moves is refused
-//! ([`Error::NotAtRest`](crate::Error::NotAtRest)) rather than started with a wrong history.
+//! ([`Error::NotAtRest`]) rather than started with a wrong history.
 //!
 //! ## How Newton is done: a type parameter
 //!

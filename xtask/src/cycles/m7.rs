@@ -51,7 +51,7 @@ pub enum Class {
     Multiple(u8),
     /// A branch; `conditional` or `indirect` ones can be mispredicted.
     Branch {
-        /// On a condition (b<cc>, cbz, cbnz).
+        /// On a condition (`b<cc>`, `cbz`, `cbnz`).
         conditional: bool,
         /// To a register or loaded address (bx, blx r, pop {pc}, tbb).
         indirect: bool,
