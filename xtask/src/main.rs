@@ -384,6 +384,10 @@ fn test() -> Result<(), String> {
         "warnings",
     ]))?;
     run(cargo().args(["test", "--workspace"]))?;
+    // The doc comments are the next engineer's guide: their links must resolve.
+    run(cargo()
+        .args(["doc", "--workspace", "--no-deps"])
+        .env("RUSTDOCFLAGS", "-D warnings"))?;
     interop::interop()?;
     // The numerics on the drive's target, as a `no_std` release build.
     run(cargo().args([
