@@ -52,9 +52,12 @@ pub enum Legend {
     BelowData,
 }
 
-/// The part of the plot's height the legend takes, with `series` entries.
-fn legend_share(series: usize) -> f64 {
-    0.06 + 0.07 * series as f64
+/// The part of the plot's height the legend takes, with `entries` lines in it: fitted by
+/// eye on the stacked panels of [`figure`] (320 px high) with plotters' default label
+/// font — 0.07 of the height per line, 0.06 for the box's margins. Other panel sizes
+/// would need other numbers; only Fig. 8 uses it.
+fn legend_share(entries: usize) -> f64 {
+    0.06 + 0.07 * entries as f64
 }
 
 /// `(lo, hi)` extended downwards so that the lower `share` of the height is free.
@@ -119,7 +122,9 @@ pub fn draw(
     let (x0, x1) = range(all.iter().map(|p| p.0), chart.x_scale);
     let mut y_range = range(all.iter().map(|p| p.1), chart.y_scale);
     if chart.legend == Legend::BelowData {
-        y_range = room_below(y_range, chart.y_scale, legend_share(series.len()));
+        // Only series with points to draw get a legend entry.
+        let entries = series.iter().filter(|s| !points(s).is_empty()).count();
+        y_range = room_below(y_range, chart.y_scale, legend_share(entries));
     }
     let (y0, y1) = y_range;
     let mut builder = ChartBuilder::on(area);

@@ -160,7 +160,13 @@ fn complete(m: &Measured) -> Result<(), String> {
 /// two runs did not execute the same cycles.
 fn trace<'a>(m: &'a Measured, e: &'a cycles::Estimate) -> Result<Trace<'a>, String> {
     let measured: Vec<u64> = m.steps.iter().map(|s| s.instructions).collect();
-    cycles::check_windows(&m.stem(), &e.steps, &measured)?;
+    let worst = cycles::check_windows(&m.stem(), &e.steps, &measured)?;
+    eprintln!(
+        "{}: every cycle's instructions agree within {} between the traced run and its own \
+         cost lines, within {worst} between it and the measured run",
+        m.stem(),
+        e.worst_mismatch
+    );
     Ok(Trace {
         label: format!("{} {}", scheme_label(&m.scene), jacobian_label(&m.scene)),
         bdf: m.scene.solver.scheme == SchemeSpec::Bdf,
@@ -196,19 +202,21 @@ fn microseconds(cycles: u64) -> f64 {
 }
 
 /// Mean and maximum of the cycles while the load moves and while it rests: QEMU
-/// instructions and estimated µs (point estimate), with the upper bound's maximum.
+/// instructions and estimated µs (point estimate), then the upper bound's maximum in µs
+/// and the point estimate's cycles per instruction over the whole run.
 pub fn summary(traces: &[Trace<'_>]) -> String {
-    let mut out = String::from(
+    let mut out = format!(
         "\nPer 100 Hz cycle, mean / max, while the load moves and at rest (before and after \
-         the move); µs: the Cortex-M7 point estimate at 480 MHz, then the upper bound's maximum \
-         and the point estimate's cycles per instruction over the whole run:\n\n\
+         the move); µs: the Cortex-M7 point estimate at {CLOCK_MHZ:.0} MHz, then the upper \
+         bound's maximum and the point estimate's cycles per instruction over the whole run:\n\n\
          | solver | instructions, moving | instructions, at rest | µs, moving | µs, at rest | µs upper bound, max | cycles per instruction |\n\
          |---|---:|---:|---:|---:|---:|---:|\n",
     );
     for t in traces {
-        // (instructions, point-estimate cycles) of each cycle, moving or at rest; a cycle
-        // within a tenth of a step of the move's ends counts as inside (`cycle · h`
-        // rounds).
+        // (instructions, point-estimate cycles) of each cycle, moving or at rest. Cycle n
+        // is the step that starts at t = n·h; it is moving if that start lies in
+        // [t_start, t_start + duration), a tenth of a step of slack against the rounding
+        // of n·h.
         let (mut moving, mut resting) = (Vec::new(), Vec::new());
         for (s, e) in t.steps.iter().zip(t.estimated) {
             let time = f64::from(s.cycle) * t.h;
@@ -296,7 +304,7 @@ mod tests {
         ];
         let estimated = [
             cycles::Step {
-                instructions: 7001,
+                instructions: 7000,
                 cycles: [5000, 9600, 14000],
             },
             cycles::Step {
@@ -328,6 +336,40 @@ mod tests {
         let table = summary(&traces);
         assert!(
             table.contains("| BDF4 exact | 8000 / 8000 | 7000 / 7000 | 25.0 / 25.0 | 20.0 / 20.0 | 33.3 | 1.44 |"),
+            "{table}"
+        );
+    }
+
+    /// The move's end is open: the cycle that starts as the move ends is at rest; a part
+    /// with no cycles says so rather than printing a number.
+    #[test]
+    fn the_summary_splits_at_the_moves_open_end_and_marks_an_empty_part() {
+        let steps = [1, 2].map(|cycle| StepCost {
+            cycle,
+            instructions: 1000 * u64::from(cycle),
+            iterations: 1,
+            jacobians: 0,
+        });
+        let estimated = [1, 2].map(|c: u64| cycles::Step {
+            instructions: 1000 * c,
+            cycles: [0, 4800 * c, 0],
+        });
+        let trace = |moving| Trace {
+            label: "Radau transformed".into(),
+            bdf: false,
+            h: 0.01,
+            moving,
+            steps: &steps,
+            estimated: &estimated,
+        };
+        let table = summary(&[trace((0.01, 0.02))]);
+        assert!(
+            table.contains("| 1000 / 1000 | 2000 / 2000 | 10.0 / 10.0 | 20.0 / 20.0 |"),
+            "{table}"
+        );
+        let table = summary(&[trace((5.0, 6.0))]);
+        assert!(
+            table.contains("| Radau transformed | — | 1500 / 2000 | — | 15.0 / 20.0 |"),
             "{table}"
         );
     }

@@ -358,11 +358,13 @@ pub fn estimate(scene: &str) -> Result<Estimate, String> {
     })
 }
 
-/// Every step's window against the firmware's own count; the largest difference.
+/// Every step's window against the firmware's own count of its instructions (its cost
+/// lines, from the traced run or from another run of the same firmware); the largest
+/// difference.
 pub(crate) fn check_windows(scene: &str, steps: &[Step], costs: &[u64]) -> Result<i64, String> {
     if steps.len() != costs.len() || steps.is_empty() {
         return Err(format!(
-            "{scene}: {} windows in the trace, {} cost lines in the log",
+            "{scene}: {} windows in the trace, {} steps counted by the firmware",
             steps.len(),
             costs.len()
         ));
