@@ -41,11 +41,7 @@ pub struct Trace<'a> {
 /// traced for the cycle estimate, and writes `fig8-cost.csv` and `.svg` into `out`;
 /// prints `qemu-bench`'s table of the same runs.
 pub fn fig8(out: &Path) -> Result<(), String> {
-    let scenes: Vec<&str> = qemu::SCENES
-        .iter()
-        .chain(&qemu::BENCH_ONLY_SCENES)
-        .copied()
-        .collect();
+    let scenes: Vec<&str> = qemu::feedforward_scenes().collect();
     let runs = scenes
         .iter()
         .map(|s| qemu::measure(s))
@@ -224,8 +220,8 @@ pub fn summary(traces: &[Trace<'_>]) -> String {
             let part = if inside { &mut moving } else { &mut resting };
             part.push((s.instructions, e.cycles[1]));
         }
-        let instructions = |p: &[(u64, u64)]| mean_max(p.iter().map(|c| c.0 as f64), 0);
-        let us = |p: &[(u64, u64)]| mean_max(p.iter().map(|c| microseconds(c.1)), 1);
+        let instructions = |p: &[(u64, u64)]| mean_max_cell(p.iter().map(|c| c.0 as f64), 0);
+        let us = |p: &[(u64, u64)]| mean_max_cell(p.iter().map(|c| microseconds(c.1)), 1);
         let upper = t.estimated.iter().map(|e| e.cycles[2]).max().unwrap_or(0);
         let all = moving.iter().chain(&resting);
         let per_instruction = all.clone().map(|c| c.1).sum::<u64>() as f64
@@ -245,7 +241,7 @@ pub fn summary(traces: &[Trace<'_>]) -> String {
 }
 
 /// `mean / max` with `digits` decimals, `—` for no values.
-fn mean_max(values: impl Iterator<Item = f64>, digits: usize) -> String {
+fn mean_max_cell(values: impl Iterator<Item = f64>, digits: usize) -> String {
     let values: Vec<f64> = values.collect();
     if values.is_empty() {
         return "—".into();

@@ -327,11 +327,9 @@ fn qemu_checks(overwrite: bool) -> Result<(), String> {
 /// `cargo xtask cycles`: the named scenes, or those of `qemu-bench`.
 fn cycles_of(scenes: Vec<String>) -> Result<(), String> {
     let scenes = if scenes.is_empty() {
-        qemu::SCENES
-            .iter()
-            .chain(&qemu::BENCH_ONLY_SCENES)
-            .chain([&qemu::FEEDBACK_SCENE])
-            .map(|s| s.to_string())
+        qemu::feedforward_scenes()
+            .chain([qemu::FEEDBACK_SCENE])
+            .map(str::to_string)
             .collect()
     } else {
         scenes
@@ -340,10 +338,8 @@ fn cycles_of(scenes: Vec<String>) -> Result<(), String> {
 }
 
 fn qemu_bench() -> Result<(), String> {
-    let runs = qemu::SCENES
-        .iter()
-        .chain(&qemu::BENCH_ONLY_SCENES)
-        .map(|s| qemu::measure(s))
+    let runs = qemu::feedforward_scenes()
+        .map(qemu::measure)
         // The state feedback's cost: its scene on the plant it closes the loop around.
         .chain([qemu::measure_with_solver_flash(
             qemu::FEEDBACK_SCENE,

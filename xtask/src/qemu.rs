@@ -30,6 +30,12 @@ pub const BENCH_ONLY_SCENES: [&str; 2] = [
     "scenes/paper-crane-radau-exact.toml",
 ];
 
+/// The feedforward scenes `qemu-bench` measures on the healthy bus, in its table's
+/// order: [`SCENES`], then [`BENCH_ONLY_SCENES`].
+pub fn feedforward_scenes() -> impl Iterator<Item = &'static str> {
+    SCENES.into_iter().chain(BENCH_ONLY_SCENES)
+}
+
 /// The scene with the state feedback (Fig. 1): checked on the feedback scenarios of the
 /// virtual bus (`controller::virtual_bus::FEEDBACK_SCENARIOS`, a plant that is not the
 /// model and an inclinometer), measured by `qemu-bench` on the first of them.
