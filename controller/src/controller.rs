@@ -1365,13 +1365,14 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 }
             }
             Request::Stop { .. } => {
-                // The queued move is dropped; the running one is replaced by a quicker
-                // smooth stop if one fits the limits, else it is the stop.
-
+                // The queued move is dropped; a move that has not begun is dropped too;
+                // the running one is re-timed to rest on its own path at or before its
+                // target if that is quicker within the limits, else it is the stop.
                 if self.mode == Mode::Ready && self.feedforward.plan().is_moving(now) {
+                    let stop = self.planner.plan_stop(self.feedforward.plan(), now);
                     let plan = self.feedforward.plan_mut();
-                    plan.drop_queued();
-                    if let Some(stop) = self.planner.plan_stop(plan, now) {
+                    plan.cancel_from(now);
+                    if let Some(stop) = stop {
                         plan.apply_stop(stop);
                     }
                 }

@@ -9,7 +9,7 @@
 
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
-use solver_core::plan::{Hermite, Plan};
+use solver_core::plan::{Plan, Stop};
 use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::trajectory::{PointToPoint, Trajectory};
 
@@ -25,8 +25,16 @@ pub const MARGIN: f64 = 0.95;
 pub const MAX_DOWN_ACCELERATION: f64 = 0.5;
 /// Shortest and longest move, s.
 pub const DURATION_RANGE: (f64, f64) = (0.5, 600.0);
-/// Durations tried for a stop, s: steps of √2, shortest first.
-pub const STOP_DURATIONS: [f64; 9] = [0.5, 0.7, 1.0, 1.4, 2.0, 2.8, 4.0, 5.6, 8.0];
+/// Durations tried for a stop, s: 0.5 s to 8 s in steps of 2^(1/4) (19 % longer each),
+/// shortest first.
+pub const STOP_DURATIONS: [f64; 17] = [
+    0.5, 0.59, 0.71, 0.84, 1.0, 1.19, 1.41, 1.68, 2.0, 2.38, 2.83, 3.36, 4.0, 4.76, 5.66, 6.73, 8.0,
+];
+
+/// Where a stop of a given duration may come to rest, tried in order: as near as its
+/// motion allows (0), halfway from there to the target, at the target (1) — a farther
+/// end decelerates more gently in the same time (`Plan::stop_candidate`).
+pub const STOP_STRETCH: [f64; 3] = [0.0, 0.5, 1.0];
 
 /// The checks, in the order of precedence of their reasons.
 const ORDER: [Reject; 7] = [
@@ -142,32 +150,39 @@ impl Planner {
         [f.x, f.l]
     }
 
-    /// A checked smooth stop taking over at `t`: the shortest of [`STOP_DURATIONS`] that
-    /// passes every check and comes to rest before the running segment would. `None`
-    /// when no stop beats the plan itself — the running segment, checked when it was
-    /// accepted, is then the quickest smooth way to rest — or when the search would take
-    /// more than [`STOP_SAMPLES`] samples (the running segment again: a stop is answered
-    /// in the cycle it arrives, within the cycle's budget).
+    /// A checked smooth stop taking over at `t`, on the running move's path
+    /// ([`Stop`]): the shortest of [`STOP_DURATIONS`] whose re-timing provably stays on
+    /// the path at or before the target ([`Stop::stays_on_path`]), passes every check and
+    /// comes to rest before the running segment would. `None` when no stop beats the
+    /// plan itself — the running segment, checked when it was accepted, is then the
+    /// quickest smooth way to rest, and it ends at the target — or when the search would
+    /// take more than [`STOP_SAMPLES`] samples (the running segment again: a stop is
+    /// answered in the cycle it arrives, within the cycle's budget).
     #[must_use]
-    pub fn plan_stop(&self, plan: &Plan<f64, 2>, t: f64) -> Option<Hermite<f64, 2>> {
-        let (_, running_until) = plan.active()?.span();
+    pub fn plan_stop(&self, plan: &Plan<f64, 2>, t: f64) -> Option<Stop<f64, 2>> {
+        let (_, running_until) = plan.segment_at(t)?.span();
         let mut budget = STOP_SAMPLES;
         for d in STOP_DURATIONS
             .iter()
             .copied()
             .take_while(|&d| t + d < running_until)
         {
-            let stop = plan.stop_candidate(t, d).ok()?;
-            let mut found = 0;
-            for k in 0..=SAMPLES {
-                budget = budget.checked_sub(1)?;
-                found |= self.violations_at(&stop, sample_time(t, t + d, spread(k)));
-                if found != 0 {
-                    break;
+            for stretch in STOP_STRETCH {
+                let stop = plan.stop_candidate(t, d, stretch)?.ok()?;
+                if !stop.stays_on_path() {
+                    continue;
                 }
-            }
-            if found == 0 {
-                return Some(stop);
+                let mut found = 0;
+                for k in 0..=SAMPLES {
+                    budget = budget.checked_sub(1)?;
+                    found |= self.violations_at(&stop, sample_time(t, t + d, spread(k)));
+                    if found != 0 {
+                        break;
+                    }
+                }
+                if found == 0 {
+                    return Some(stop);
+                }
             }
         }
         None

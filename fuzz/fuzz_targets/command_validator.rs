@@ -41,6 +41,8 @@ fuzz_target!(|input: (u64, u64, Option<u64>, bool, u16)| {
         if let Some(stop) = PLANNER.plan_stop(&plan, t) {
             let (t0, t1) = stop.active_span();
             assert_eq!(PLANNER.check(&stop, t0, t1), Ok(()));
+            // On the stopped move's path, at or before its target.
+            assert!(stop.stays_on_path() && stop.fraction() <= 1.0);
         }
     }
 });

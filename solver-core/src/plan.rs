@@ -31,6 +31,18 @@ pub struct Hermite<T: Real, const NZ: usize> {
     /// Monomial coefficients in τ, per axis: `p(τ) = Σ c_k τ^k`.
     coeffs: [[T; MAX_COEFFS]; NZ],
     end: SVector<T, NZ>,
+    /// Every axis's Bernstein coefficients run monotonically from its start value to its
+    /// end: then (convex hull, and a derivative whose Bernstein coefficients are the
+    /// differences) each axis moves monotonically from start to end and never beyond.
+    monotone: bool,
+}
+
+fn sign(k: usize) -> f64 {
+    if k.is_multiple_of(2) {
+        1.0
+    } else {
+        -1.0
+    }
 }
 
 fn binomial(n: usize, k: usize) -> f64 {
@@ -39,6 +51,40 @@ fn binomial(n: usize, k: usize) -> f64 {
 
 fn falling(m: usize, j: usize) -> f64 {
     (0..j).fold(1.0, |acc, i| acc * (m - i) as f64)
+}
+
+/// The first `n + 1` Bernstein coefficients of a polynomial of degree `m = 2n + 1` on
+/// `τ ∈ [0, 1]` whose derivatives at τ = 0 are `d[j]`, `j = 0..=n` (the rest zero):
+/// `p^(j)(0) = m!/(m−j)! Σ_i (−1)^(j−i) C(j,i) β_i`, solved for `β_j` in turn.
+fn start_bernstein(d: &[f64; MAX_SMOOTHNESS + 1], n: usize) -> [f64; MAX_COEFFS] {
+    let m = 2 * n + 1;
+    let mut beta = [0.0; MAX_COEFFS];
+    for (j, dj) in d.iter().enumerate().take(n + 1) {
+        let lower: f64 = beta
+            .iter()
+            .take(j)
+            .enumerate()
+            .map(|(i, b)| sign(j - i) * binomial(j, i) * b)
+            .sum();
+        if let Some(b) = beta.get_mut(j) {
+            *b = dj / falling(m, j) - lower;
+        }
+    }
+    beta
+}
+
+/// The nearest end at which a two-point Hermite polynomial of smoothness `n` starting
+/// with the τ-derivatives `d` (`d[j] = z^(j)·T^j`) provably rises monotonically (its
+/// Bernstein coefficients non-decreasing): the last of its first n+1 Bernstein
+/// coefficients, if those rise — `None` if they do not (then no end makes it monotone).
+fn nearest_rising_end(d: &[f64; MAX_SMOOTHNESS + 1], n: usize) -> Option<f64> {
+    let beta = start_bernstein(d, n);
+    let rising = beta
+        .iter()
+        .take(n + 1)
+        .zip(beta.iter().skip(1).take(n))
+        .all(|(a, b)| b >= a);
+    rising.then(|| beta.get(n).copied().unwrap_or(f64::NAN))
 }
 
 impl<T: Real, const NZ: usize> Hermite<T, NZ> {
@@ -63,6 +109,7 @@ impl<T: Real, const NZ: usize> Hermite<T, NZ> {
         let m = 2 * n + 1;
         let big_t = to_f64(duration);
         let mut coeffs = [[T::zero(); MAX_COEFFS]; NZ];
+        let mut monotone = true;
         for (axis, out) in coeffs.iter_mut().enumerate() {
             // Derivatives with respect to τ: z^(j) · T^j.
             let mut d = [0.0; MAX_SMOOTHNESS + 1];
@@ -86,21 +133,18 @@ impl<T: Real, const NZ: usize> Hermite<T, NZ> {
                     value: f64::NAN,
                 });
             }
-            let sign = |k: usize| if k.is_multiple_of(2) { 1.0 } else { -1.0 };
-            // Bernstein coefficients: p^(j)(0) = m!/(m−j)! Σ_i (−1)^(j−i) C(j,i) β_i, solved for β_j;
-            // at τ = 1 all derivatives vanish, so the last n+1 coefficients equal the end value.
-            let mut beta = [e; MAX_COEFFS];
-            for (j, dj) in d.iter().enumerate().take(n + 1) {
-                let lower: f64 = beta
-                    .iter()
-                    .take(j)
-                    .enumerate()
-                    .map(|(i, b)| sign(j - i) * binomial(j, i) * b)
-                    .sum();
-                if let Some(b) = beta.get_mut(j) {
-                    *b = dj / falling(m, j) - lower;
-                }
+            // The first n+1 Bernstein coefficients follow from the start; at τ = 1 all
+            // derivatives vanish, so the last n+1 equal the end value.
+            let mut beta = start_bernstein(&d, n);
+            for b in beta.iter_mut().take(m + 1).skip(n + 1) {
+                *b = e;
             }
+            let rising = beta.first().is_none_or(|b0| e >= *b0);
+            monotone &= beta
+                .iter()
+                .take(m + 1)
+                .zip(beta.iter().skip(1).take(m))
+                .all(|(a, b)| if rising { b >= a } else { b <= a });
             // Bernstein → monomial: c_k = C(m,k) Σ_{i≤k} (−1)^(k−i) C(k,i) β_i.
             for (k, ck) in out.iter_mut().enumerate().take(m + 1) {
                 let s: f64 = beta
@@ -118,7 +162,16 @@ impl<T: Real, const NZ: usize> Hermite<T, NZ> {
             n,
             coeffs,
             end,
+            monotone,
         })
+    }
+
+    /// Whether every axis provably moves monotonically from its start value to its end,
+    /// never beyond either (a sufficient test on the Bernstein coefficients: exact, no
+    /// sampling).
+    #[must_use]
+    pub fn is_monotone(&self) -> bool {
+        self.monotone
     }
 
     /// Where the segment comes to rest.
@@ -175,15 +228,96 @@ impl<T: Real, const NZ: usize> Trajectory<T, NZ> for Hermite<T, NZ> {
     }
 }
 
-/// One piece of a plan. (A stop carries its polynomial's coefficients and is larger
-/// than a move; without a heap there is nothing to box into, and a plan holds one.)
+/// A stop on a move's path: the move's timing law `σ(t)` (the fraction of the way from
+/// its start to its target, [`PointToPoint::timing`]) re-timed from the stop's start
+/// on, so that the load decelerates *along the same straight segment* and comes to
+/// rest at `σ_end ≤ 1` — at or before the target in every axis, never past it.
+///
+/// The new timing is a two-point Hermite polynomial in σ ([`Hermite`] with one axis):
+/// σ and its first n derivatives continue the move's, so the inputs (which contain
+/// `z_d⁗`) stay continuous; it is accepted only if its Bernstein coefficients rise
+/// monotonically ([`Stop::stays_on_path`]), which proves that σ never decreases and
+/// never exceeds `σ_end` — no sampling involved.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stop<T: Real, const NZ: usize> {
+    from: SVector<T, NZ>,
+    to: SVector<T, NZ>,
+    timing: Hermite<T, 1>,
+}
+
+impl<T: Real, const NZ: usize> Stop<T, NZ> {
+    /// Where the stop comes to rest.
+    #[must_use]
+    pub fn end(&self) -> SVector<T, NZ> {
+        self.from + (self.to - self.from) * self.fraction()
+    }
+
+    /// The fraction of the stopped move's path at which it comes to rest (≤ 1).
+    #[must_use]
+    pub fn fraction(&self) -> T {
+        self.timing.end().get(0).copied().unwrap_or_else(T::zero)
+    }
+
+    /// The time at which it comes to rest.
+    #[must_use]
+    pub fn t_end(&self) -> T {
+        self.timing.t_end()
+    }
+
+    /// Whether the load provably stays on the stopped move's path between where it is
+    /// at the stop's start and the stop's end (which is at or before the target): σ
+    /// never decreases and never exceeds `σ_end ≤ 1`.
+    #[must_use]
+    pub fn stays_on_path(&self) -> bool {
+        self.timing.is_monotone() && self.fraction() <= T::one()
+    }
+
+    /// The path's start and target (the stopped move's).
+    #[must_use]
+    pub fn path(&self) -> (SVector<T, NZ>, SVector<T, NZ>) {
+        (self.from, self.to)
+    }
+
+    /// σ and its first `D − 1` derivatives at `t`.
+    #[must_use]
+    pub fn timing<const D: usize>(&self, t: T) -> [T; D] {
+        let s: [SVector<T, 1>; D] = self.timing.derivatives(t);
+        s.map(|v| v.get(0).copied().unwrap_or_else(T::zero))
+    }
+}
+
+impl<T: Real, const NZ: usize> Trajectory<T, NZ> for Stop<T, NZ> {
+    fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, NZ>; D] {
+        let s: [T; D] = self.timing(t);
+        let delta = self.to - self.from;
+        let mut out = [SVector::<T, NZ>::zeros(); D];
+        for (order, (slot, sj)) in out.iter_mut().zip(s.iter()).enumerate() {
+            *slot = if order == 0 {
+                self.from + delta * *sj
+            } else {
+                delta * *sj
+            };
+        }
+        out
+    }
+
+    fn active_span(&self) -> (T, T) {
+        self.timing.active_span()
+    }
+
+    fn smoothness(&self) -> usize {
+        self.timing.smoothness()
+    }
+}
+
+/// One piece of a plan.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[allow(clippy::large_enum_variant)]
 pub enum Segment<T: Real, const NZ: usize> {
     /// A rest-to-rest move.
     Move(PointToPoint<T, NZ>),
-    /// A stop from motion.
-    Stop(Hermite<T, NZ>),
+    /// A stop from motion, on the path of the move it stopped.
+    Stop(Stop<T, NZ>),
 }
 
 impl<T: Real, const NZ: usize> Segment<T, NZ> {
@@ -206,6 +340,15 @@ impl<T: Real, const NZ: usize> Segment<T, NZ> {
         match self {
             Segment::Move(m) => m.derivatives(t),
             Segment::Stop(s) => s.derivatives(t),
+        }
+    }
+
+    /// The straight path the segment moves along (start, target), and its timing law σ
+    /// with its first `D − 1` derivatives at `t`.
+    fn path_timing<const D: usize>(&self, t: T) -> ((SVector<T, NZ>, SVector<T, NZ>), [T; D]) {
+        match self {
+            Segment::Move(m) => ((m.start(), m.end()), m.timing(t)),
+            Segment::Stop(s) => (s.path(), s.timing(t)),
         }
     }
 }
@@ -333,15 +476,69 @@ impl<T: Real, const NZ: usize> Plan<T, NZ> {
         Ok(())
     }
 
-    /// A stop that takes over at `t` (not yet stepped) and comes to rest after `duration`,
-    /// as far as its motion at `t` carries it: the end is `z(t) + ż(t)·duration/2` (what a
-    /// uniform deceleration covers). The queued move is dropped. Not yet part of the plan.
-    pub fn stop_candidate(&self, t: T, duration: T) -> Result<Hermite<T, NZ>> {
-        let start: [SVector<T, NZ>; MAX_SMOOTHNESS + 1] = self.derivatives(t);
+    /// The segment the plan follows at `t`, if it moves then or later: the active one,
+    /// or the queued move once the active one has ended.
+    #[must_use]
+    pub fn segment_at(&self, t: T) -> Option<Segment<T, NZ>> {
+        let active = self.active?;
+        match self.queued {
+            Some(q) if t > active.span().1 => Some(Segment::Move(q)),
+            _ => Some(active),
+        }
+    }
+
+    /// A stop that takes over at `t` (not yet stepped) and comes to rest after
+    /// `duration` on the path of the segment running at `t`, at the fraction
+    /// `min(max(σ(t) + σ̇(t)·duration/2, σ_rise), 1)` of it: as far as a uniform
+    /// deceleration would carry it, but not nearer than the nearest end `σ_rise` that the
+    /// start's derivatives allow without turning back, and never past the target;
+    /// `stretch` ∈ [0, 1] moves that end towards the target (1: at it), for a gentler
+    /// deceleration in the same time. Check [`Stop::stays_on_path`] before using it.
+    /// `None` when nothing moves at or after `t`. Not yet part of the plan.
+    pub fn stop_candidate(&self, t: T, duration: T, stretch: T) -> Option<Result<Stop<T, NZ>>> {
+        let segment = self.segment_at(t)?;
+        let ((from, to), sigma) = segment.path_timing::<{ MAX_SMOOTHNESS + 1 }>(t);
         let n = self.smoothness;
-        let [z, zd, ..] = start;
-        let end = z + zd * (duration * c::<T>(0.5));
-        Hermite::new(t, duration, start.get(..=n).unwrap_or(&start), end)
+        let start: [SVector<T, 1>; MAX_SMOOTHNESS + 1] = sigma.map(|v| SVector::from([v]));
+        let [s0, s1, ..] = sigma;
+        // As far as a uniform deceleration carries it, but no nearer than the nearest end
+        // its start derivatives allow without turning back, and never past the target.
+        let reach = to_f64(s0 + s1 * duration * c::<T>(0.5));
+        let big_t = to_f64(duration);
+        let mut d = [0.0; MAX_SMOOTHNESS + 1];
+        let mut t_power = 1.0;
+        for (dj, sj) in d.iter_mut().zip(sigma.iter()).take(n + 1) {
+            *dj = to_f64(*sj) * t_power;
+            t_power *= big_t;
+        }
+        let nearest = nearest_rising_end(&d, n).unwrap_or(reach);
+        let base = reach.max(nearest).min(1.0);
+        let end = c::<T>(base + to_f64(stretch).clamp(0.0, 1.0) * (1.0 - base));
+        Some(
+            Hermite::new(
+                t,
+                duration,
+                start.get(..=n).unwrap_or(&start),
+                SVector::from([end]),
+            )
+            .map(|timing| Stop { from, to, timing }),
+        )
+    }
+
+    /// Whether the segment running at `t` has not begun by then (a stop then simply
+    /// drops it: the load is still at rest).
+    #[must_use]
+    pub fn not_started_at(&self, t: T) -> bool {
+        self.segment_at(t).is_some_and(|s| t <= s.span().0)
+    }
+
+    /// Drops everything planned that has not begun by `t` — the queued move, and the
+    /// active one too if it starts later — so that the plan rests where it is at `t`.
+    pub fn cancel_from(&mut self, t: T) {
+        self.queued = None;
+        if self.active.is_some_and(|a| t <= a.span().0) {
+            self.active = None;
+        }
     }
 
     /// Drops the queued move, if any.
@@ -350,7 +547,7 @@ impl<T: Real, const NZ: usize> Plan<T, NZ> {
     }
 
     /// Replaces everything planned from the stop's start on by the stop.
-    pub fn apply_stop(&mut self, stop: Hermite<T, NZ>) {
+    pub fn apply_stop(&mut self, stop: Stop<T, NZ>) {
         self.queued = None;
         self.active = Some(Segment::Stop(stop));
     }
@@ -464,7 +661,7 @@ mod tests {
         assert!(z[0][0] > 1.0 && z[0][0] < 3.0, "in the second move");
         // Stop at 3.5 s, inside the second move: continuous to order 4.
         let before: [V; 5] = plan.derivatives(3.5);
-        let stop = plan.stop_candidate(3.5, 1.0).unwrap();
+        let stop = plan.stop_candidate(3.5, 1.0, 0.0).unwrap().unwrap();
         plan.apply_stop(stop);
         let after: [V; 5] = plan.derivatives(3.5);
         for j in 0..5 {
@@ -476,5 +673,62 @@ mod tests {
         plan.retire(10.0);
         assert!(!plan.is_moving(10.0));
         assert!((plan.final_position()[0] - stop.end()[0]).abs() < 1e-15);
+    }
+
+    /// A stop at any instant of a move, for any duration, ends on the move's straight
+    /// path at or before its target; a stop whose Bernstein test passes never leaves the
+    /// segment between where it started and where it ends (checked densely here).
+    #[test]
+    fn a_stop_never_passes_the_target() {
+        type V2 = SVector<f64, 2>;
+        let mut accepted = 0;
+        for n in [4, 5, 6] {
+            let from = V2::new(12.0, 8.0);
+            let to = V2::new(20.0, 4.0);
+            let mut plan = Plan::at_rest(from, n).unwrap();
+            plan.push(plan.candidate(to, 1.0, 8.0).unwrap()).unwrap();
+            for k in 0..=80 {
+                let t = 1.0 + 8.0 * f64::from(k) / 80.0;
+                for d in [0.3, 0.5, 1.0, 2.0, 4.0, 8.0] {
+                    let Some(stop) = plan.stop_candidate(t, d, 0.0) else {
+                        continue;
+                    };
+                    let stop = stop.unwrap();
+                    let sigma = stop.fraction();
+                    assert!(sigma <= 1.0, "n {n} t {t} d {d}: ends at σ = {sigma}");
+                    let end = stop.end();
+                    for axis in 0..2 {
+                        let (lo, hi) = (from[axis].min(to[axis]), from[axis].max(to[axis]));
+                        assert!(end[axis] >= lo - 1e-12 && end[axis] <= hi + 1e-12);
+                    }
+                    if !stop.stays_on_path() {
+                        continue;
+                    }
+                    accepted += 1;
+                    let s0: [f64; 1] = stop.timing(t);
+                    let mut last = s0[0];
+                    for i in 0..=400 {
+                        let [s, v]: [f64; 2] = stop.timing(t + d * f64::from(i) / 400.0);
+                        assert!(
+                            s >= last - 1e-9 && s <= sigma + 1e-9 && v >= -1e-9,
+                            "n {n} t {t} d {d} i {i}: σ {s} last {last} σ_end {sigma} v {v}"
+                        );
+                        last = s;
+                    }
+                    // Continuous with the move to order n at the stop's start.
+                    let a: [V2; 7] = plan.derivatives(t);
+                    let b: [V2; 7] = stop.derivatives(t);
+                    for j in 0..=n {
+                        assert!(
+                            (a[j] - b[j]).norm() < 1e-6 * (1.0 + a[j].norm()),
+                            "n {n} t {t} d {d} order {j}: {} vs {}",
+                            a[j],
+                            b[j]
+                        );
+                    }
+                }
+            }
+        }
+        assert!(accepted > 100, "only {accepted} stops passed");
     }
 }

@@ -271,21 +271,36 @@ impl<T: Real, const NZ: usize> PointToPoint<T, NZ> {
     }
 }
 
-impl<T: Real, const NZ: usize> Trajectory<T, NZ> for PointToPoint<T, NZ> {
-    fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, NZ>; D] {
+impl<T: Real, const NZ: usize> PointToPoint<T, NZ> {
+    /// The move's timing law: the fraction `σ(t) = S_n((t − t_start)/duration)` of the
+    /// way from start to end, and its first `D − 1` derivatives with respect to t. Every
+    /// axis follows it, so the load's path is the straight segment from start to end;
+    /// a stop re-times σ and stays on that segment ([`crate::plan::Stop`]).
+    #[must_use]
+    pub fn timing<const D: usize>(&self, t: T) -> [T; D] {
         let tau = (t - self.t_start) / self.duration;
-        let s: [T; D] = self.step.eval(tau);
-        let delta = self.end - self.start;
+        let mut s: [T; D] = self.step.eval(tau);
         let inv_t = T::one() / self.duration;
         let mut scale = T::one();
+        for sj in s.iter_mut().skip(1) {
+            scale *= inv_t;
+            *sj *= scale;
+        }
+        s
+    }
+}
+
+impl<T: Real, const NZ: usize> Trajectory<T, NZ> for PointToPoint<T, NZ> {
+    fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, NZ>; D] {
+        let s: [T; D] = self.timing(t);
+        let delta = self.end - self.start;
         let mut out = [SVector::<T, NZ>::zeros(); D];
         for (order, (slot, sj)) in out.iter_mut().zip(s.iter()).enumerate() {
             *slot = if order == 0 {
                 self.start + delta * *sj
             } else {
-                delta * (*sj * scale)
+                delta * *sj
             };
-            scale *= inv_t;
         }
         out
     }
