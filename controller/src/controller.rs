@@ -347,8 +347,13 @@ pub struct Counters {
     pub tx_failures: u32,
     /// Requests answered.
     pub requests: u32,
-    /// Repeated requests (an id already answered or waiting): answered again, not acted on.
+    /// Repeats (the same request, id and bytes, while it waits or within
+    /// [`REPEAT_WINDOW_MS`] of its answer): answered again, not acted on.
     pub repeated_requests: u32,
+    /// Requests that found [`ANSWER_QUEUE`] answers waiting (a supervisor sending faster
+    /// than [`STATUS_PER_CYCLE`] a cycle for long): not answered and counted as ignored
+    /// (status byte 5) — a stop among them is still obeyed.
+    pub unanswered: u32,
     /// Drive warnings: EMCYs classified as warnings, *internal limit active* (statusword
     /// bit 11) and statusword bit 7 rising.
     pub drive_warnings: u32,
@@ -359,7 +364,8 @@ pub struct Counters {
 /// A move request whose duration is being searched.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct PendingMove {
-    id: u8,
+    /// The request, as received (for its answer and for repeats).
+    request: Request,
     target: [f64; 2],
     search: MoveSearch,
 }
@@ -393,6 +399,26 @@ pub struct Cycle {
 
 type AnswerRecord = (u8, Answer, Option<Reject>);
 
+/// Answers waiting for their status frame at most: a burst of this many requests between
+/// two cycles is answered in full.
+pub const ANSWER_QUEUE: usize = 32;
+
+/// Places in [`ANSWER_QUEUE`] only stops' answers may take: a flood of moves cannot
+/// leave a stop unanswered.
+pub const STOP_ANSWERS: usize = 4;
+
+/// Status frames a cycle sends at most (one per answer), room permitting: a supervisor
+/// may send this many requests per cycle for as long as it likes.
+pub const STATUS_PER_CYCLE: usize = 8;
+
+/// A request equal to one answered (same id, same bytes) within this window is a repeat
+/// — the supervisor did not see the answer — and gets the answer again; after it, or with
+/// other bytes, it is a new request.
+pub const REPEAT_WINDOW_MS: u64 = 1_000;
+
+/// Answered requests remembered for repeats.
+const RECENT_ANSWERS: usize = 8;
+
 /// The crane controller: a CANopen node, manager (or slave) of the trolley and winch
 /// drives, with the inverse model `F` as feedforward and `C` between it and the drives
 /// (Fig. 1: [`NoFeedback`], or the state feedback with an inclinometer).
@@ -415,14 +441,19 @@ pub struct Controller<F, C = NoFeedback> {
     mode: Mode,
     /// Moves and resets, in order; stops are taken before them.
     requests: Deque<Request, 4>,
-    stops: Deque<u8, 4>,
+    /// A stop arrived since the last cycle: obeyed first thing in the next (however
+    /// many arrived, whatever their ids; each has its answer in `unsent`).
+    stop_due: bool,
+    /// The requests answered lately, with the time of the answer: a repeat within
+    /// [`REPEAT_WINDOW_MS`] is answered again, not acted on.
+    answered: Deque<(Request, AnswerRecord, u64), RECENT_ANSWERS>,
     /// The move being planned, a share of its search per cycle.
     pending: Option<PendingMove>,
     counters: Counters,
     /// The last answer: request id, answer, reason.
     answer: AnswerRecord,
     /// Answers not yet sent in a status frame (one frame each).
-    unsent: Deque<AnswerRecord, 8>,
+    unsent: Deque<AnswerRecord, ANSWER_QUEUE>,
     last_miss_cycle: Option<u32>,
     rpdo_failed: bool,
     failed_cycles: u32,
@@ -499,7 +530,8 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             links,
             mode: Mode::Enabling,
             requests: Deque::new(),
-            stops: Deque::new(),
+            stop_due: false,
+            answered: Deque::new(),
             pending: None,
             counters: Counters::default(),
             answer: (0, Answer::None, None),
@@ -975,31 +1007,64 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         }
     }
 
-    /// A request off the bus: a repeated id is answered again, not acted on; a stop
-    /// goes before every waiting move; a request beyond the queue is rejected as busy.
+    /// A request off the bus (docs/COMMANDS.md, "Requests"). A stop is obeyed whatever
+    /// its id: never taken for a repeat, never queued behind anything, never refused for
+    /// lack of room. A move or reset equal to one still waiting is that request again
+    /// (its one answer comes when it is handled); equal to one answered within
+    /// [`REPEAT_WINDOW_MS`], it gets that answer again; anything else is new, queued, or
+    /// answered *busy* when four wait.
     fn on_request(&mut self, request: Request) {
         let id = request.id();
-        let waiting = self.requests.iter().any(|r| r.id() == id)
-            || self.stops.iter().any(|s| *s == id)
-            || self.pending.is_some_and(|p| p.id == id);
+        if let Request::Stop { .. } = request {
+            self.stop_due = true;
+            self.queue_answer((id, Answer::Accepted, None), ANSWER_QUEUE - self.promised());
+            self.counters.requests = self.counters.requests.saturating_add(1);
+            return;
+        }
+        let waiting = self.requests.iter().any(|r| *r == request)
+            || self.pending.is_some_and(|p| p.request == request);
         if waiting {
             self.counters.repeated_requests = self.counters.repeated_requests.saturating_add(1);
             return;
         }
-        if self.answer.1 != Answer::None && self.answer.0 == id {
-            // The supervisor did not see our answer: send it again.
-            self.counters.repeated_requests = self.counters.repeated_requests.saturating_add(1);
-            if self.unsent.push_back(self.answer).is_err() {
-                self.ignore();
-            }
+        if self.unsent.len() + self.promised() >= ANSWER_QUEUE - STOP_ANSWERS {
+            // No place left for its answer: counted, not acted on.
+            self.counters.unanswered = self.counters.unanswered.saturating_add(1);
+            self.ignore();
             return;
         }
-        let queued = match request {
-            Request::Stop { id } => self.stops.push_back(id).is_ok(),
-            _ => self.requests.push_back(request).is_ok(),
-        };
-        if !queued {
-            self.give_answer(id, Err(Reject::Busy));
+        let now_ms = self.now_ms;
+        let answered = self
+            .answered
+            .iter()
+            .rev()
+            .find(|(r, _, at)| *r == request && now_ms.saturating_sub(*at) <= REPEAT_WINDOW_MS);
+        if let Some((_, answer, _)) = answered {
+            // The supervisor did not see our answer: send it again.
+            let answer = *answer;
+            self.counters.repeated_requests = self.counters.repeated_requests.saturating_add(1);
+            self.queue_answer(answer, ANSWER_QUEUE);
+            return;
+        }
+        if self.requests.push_back(request).is_err() {
+            self.give_answer(request, Err(Reject::Busy));
+        }
+    }
+
+    /// Answers promised to requests taken but not answered yet (waiting, or being
+    /// planned): their places in the answer queue are kept.
+    fn promised(&self) -> usize {
+        self.requests.len() + usize::from(self.pending.is_some())
+    }
+
+    /// Queues an answer for its status frame; with `room` answers waiting it is counted
+    /// as unanswered and ignored instead. (A request is taken only when its answer will
+    /// have a place, so for a taken request this never happens.)
+    fn queue_answer(&mut self, answer: AnswerRecord, room: usize) {
+        self.answer = answer;
+        if self.unsent.len() >= room || self.unsent.push_back(answer).is_err() {
+            self.counters.unanswered = self.counters.unanswered.saturating_add(1);
+            self.ignore();
         }
     }
 
@@ -1080,8 +1145,8 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         }
         // A stop goes first; then requests in order: the next one waits while a move
         // is planned.
-        if let Some(id) = self.stops.pop_front() {
-            self.handle(Request::Stop { id });
+        if core::mem::take(&mut self.stop_due) {
+            self.obey_stop();
             self.refuse_waiting_moves();
         } else if self.pending.is_none() {
             if let Some(request) = self.requests.pop_front() {
@@ -1156,9 +1221,10 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             );
         }
         if self.node.state == NmtState::Operational {
-            // One status frame per answer (two per cycle at most), and every period.
+            // One status frame per answer (STATUS_PER_CYCLE at most, room permitting),
+            // and every period.
             let mut sent = 0;
-            while sent < 2 {
+            while sent < STATUS_PER_CYCLE && frames.len() < MAX_FRAMES {
                 let Some(answer) = self.unsent.pop_front() else {
                     break;
                 };
@@ -1340,14 +1406,12 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             .all(|d| self.link(*d).is_some_and(DriveLink::ready))
     }
 
-    /// Takes one request (docs/COMMANDS.md): answers it, or starts planning a move.
+    /// Takes one move or reset (docs/COMMANDS.md): answers it, or starts planning a move.
+    /// (Stops are obeyed before, by [`Controller::obey_stop`], and answered on arrival.)
     fn handle(&mut self, request: Request) {
-        let now = self.now_s();
         let answer = match request {
             Request::Move {
-                id,
-                target,
-                duration,
+                target, duration, ..
             } => {
                 let plan = self.feedforward.plan();
                 if self.mode != Mode::Ready || !self.drives_ready() {
@@ -1357,45 +1421,54 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 } else {
                     match MoveSearch::new(plan, target, duration) {
                         Ok(search) => {
-                            self.pending = Some(PendingMove { id, target, search });
+                            self.pending = Some(PendingMove {
+                                request,
+                                target,
+                                search,
+                            });
                             return;
                         }
                         Err(r) => Err(r),
                     }
                 }
             }
-            Request::Stop { .. } => {
-                // The queued move is dropped; a move that has not begun is dropped too;
-                // the running one is re-timed to rest on its own path at or before its
-                // target if that is quicker within the limits, else it is the stop.
-                if self.mode == Mode::Ready && self.feedforward.plan().is_moving(now) {
-                    let stop = self.planner.plan_stop(self.feedforward.plan(), now);
-                    let plan = self.feedforward.plan_mut();
-                    plan.cancel_from(now);
-                    if let Some(stop) = stop {
-                        plan.apply_stop(stop);
-                    }
-                }
-                Ok(Answer::Accepted)
-            }
+            // Answered on arrival and obeyed by `obey_stop`; never queued.
+            Request::Stop { .. } => Ok(Answer::Accepted),
             Request::Reset { .. } => match self.mode {
                 Mode::Halted(_) => self.reset().map(|()| Answer::Accepted),
                 Mode::Stopping(_) | Mode::QuickStop(_) => Err(Reject::NotReady),
                 Mode::Enabling | Mode::Ready => Ok(Answer::Accepted),
             },
         };
-        self.give_answer(request.id(), answer);
+        self.give_answer(request, answer);
+    }
+
+    /// Obeys the stops that arrived since the last cycle (one or many: the same stop).
+    /// The queued move is dropped, and a move that has not begun; the running one is
+    /// re-timed to rest on its own path at or before its target if that is quicker
+    /// within the limits, else it is the stop. At rest, and while already stopping or
+    /// halted, there is nothing to stop.
+    fn obey_stop(&mut self) {
+        let now = self.now_s();
+        if self.mode == Mode::Ready && self.feedforward.plan().is_moving(now) {
+            let stop = self.planner.plan_stop(self.feedforward.plan(), now);
+            let plan = self.feedforward.plan_mut();
+            plan.cancel_from(now);
+            if let Some(stop) = stop {
+                plan.apply_stop(stop);
+            }
+        }
     }
 
     /// After a stop: the move being planned and the moves waiting are refused (the crane
     /// is stopping, reason 2), each answered once, after the stop; resets stay.
     fn refuse_waiting_moves(&mut self) {
         if let Some(p) = self.pending.take() {
-            self.give_answer(p.id, Err(Reject::NotReady));
+            self.give_answer(p.request, Err(Reject::NotReady));
         }
         for _ in 0..self.requests.len() {
             match self.requests.pop_front() {
-                Some(Request::Move { id, .. }) => self.give_answer(id, Err(Reject::NotReady)),
+                Some(r @ Request::Move { .. }) => self.give_answer(r, Err(Reject::NotReady)),
                 Some(other) => {
                     let _ = self.requests.push_back(other);
                 }
@@ -1411,7 +1484,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             return;
         };
         if self.mode != Mode::Ready || !self.drives_ready() {
-            self.give_answer(pending.id, Err(Reject::NotReady));
+            self.give_answer(pending.request, Err(Reject::NotReady));
             return;
         }
         let mut budget = SAMPLES_PER_CYCLE;
@@ -1438,7 +1511,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         if answer.is_ok() {
             self.close_loop(at_rest);
         }
-        self.give_answer(pending.id, answer);
+        self.give_answer(pending.request, answer);
     }
 
     /// A move was accepted (`at_rest`: the crane was at rest when it was): the feedback
@@ -1460,14 +1533,18 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         self.closed_loop = true;
     }
 
-    fn give_answer(&mut self, id: u8, answer: Result<Answer, Reject>) {
-        self.answer = match answer {
+    /// Answers `request` (once: its status frame is queued) and remembers it for repeats.
+    fn give_answer(&mut self, request: Request, answer: Result<Answer, Reject>) {
+        let id = request.id();
+        let record = match answer {
             Ok(a) => (id, a, None),
             Err(r) => (id, Answer::Rejected, Some(r)),
         };
-        if self.unsent.push_back(self.answer).is_err() {
-            self.ignore();
+        self.queue_answer(record, ANSWER_QUEUE);
+        if self.answered.is_full() {
+            let _ = self.answered.pop_front();
         }
+        let _ = self.answered.push_back((request, record, self.now_ms));
         self.counters.requests = self.counters.requests.saturating_add(1);
     }
 

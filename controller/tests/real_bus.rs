@@ -6,16 +6,12 @@ mod common;
 
 use common::*;
 use controller::canopen::{self, nmt, NmtCommand, NmtState};
-use controller::commands::{request_frame, Request, STATUS_ID};
+use controller::commands::{Request, STATUS_ID};
 use controller::commissioning::{CommissioningError, Phase};
 use controller::drive::Drive;
 use controller::node::Role;
 use controller::virtual_bus::{Action, Quirk, HEALTHY};
 use controller::{CanFrame, Config, Cycle, Fault, Mode};
-
-fn send(rig: &mut Rig, request: Request) {
-    rig.c.on_frame(&request_frame(&request), u64::from(rig.now));
-}
 
 fn frames_with(cycles: &[Cycle], id: u16) -> Vec<Vec<u8>> {
     cycles
@@ -23,16 +19,6 @@ fn frames_with(cycles: &[Cycle], id: u16) -> Vec<Vec<u8>> {
         .flat_map(|c| c.frames.iter())
         .filter(|f| f.id() == id)
         .map(|f| f.data().to_vec())
-        .collect()
-}
-
-/// All answers in status frames sent because of an answer (not the periodic ones).
-fn every_answer(cycles: &[Cycle]) -> Vec<(u8, u8, u8)> {
-    cycles
-        .iter()
-        .flat_map(|c| c.frames.iter())
-        .filter(|f| f.id() == STATUS_ID)
-        .map(|f| (f.data()[0], f.data()[1], f.data()[2]))
         .collect()
 }
 
@@ -423,12 +409,12 @@ fn a_stop_is_never_dropped_behind_a_full_queue_and_every_request_is_answered_onc
     // (The periodic status repeats the last answer: consecutive repeats are one answer.)
     let mut given = every_answer(&out);
     given.dedup();
-    // Answers one frame each: 6 busy at once (the queue is full), the stop first, then
-    // the moves that were waiting, rejected: the crane is stopping.
+    // Answers one frame each: the stop on arrival (never queued), 6 busy at once (the
+    // queue is full), then the moves that were waiting, rejected: the crane is stopping.
     let ids: Vec<u8> = given.iter().map(|a| a.0).collect();
-    assert_eq!(&ids[..2], [6, 5], "{given:?}");
-    assert_eq!(given[0], (6, 3, 1), "busy");
-    assert_eq!(given[1], (5, 1, 0), "stop accepted");
+    assert_eq!(&ids[..2], [5, 6], "{given:?}");
+    assert_eq!(given[0], (5, 1, 0), "stop accepted");
+    assert_eq!(given[1], (6, 3, 1), "busy");
     assert!(given[2..].iter().all(|a| a.1 == 3 && a.2 == 2), "{given:?}");
     let mut sorted = ids.clone();
     sorted.sort_unstable();

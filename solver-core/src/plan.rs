@@ -498,7 +498,11 @@ impl<T: Real, const NZ: usize> Plan<T, NZ> {
     pub fn stop_candidate(&self, t: T, duration: T, stretch: T) -> Option<Result<Stop<T, NZ>>> {
         let segment = self.segment_at(t)?;
         let ((from, to), sigma) = segment.path_timing::<{ MAX_SMOOTHNESS + 1 }>(t);
-        let n = self.smoothness;
+        // One order smoother than the moves: the derivative that jumps where the stop
+        // takes over is then the (n+2)-th, one beyond what the drives' accelerations
+        // contain, so a multistep scheme meets no jump in them (a jump in the (n+1)-th
+        // made BDF4's accelerations overshoot the checked ones by up to 8 %).
+        let n = (self.smoothness + 1).min(MAX_SMOOTHNESS);
         let start: [SVector<T, 1>; MAX_SMOOTHNESS + 1] = sigma.map(|v| SVector::from([v]));
         let [s0, s1, ..] = sigma;
         // As far as a uniform deceleration carries it, but no nearer than the nearest end

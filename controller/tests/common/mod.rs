@@ -216,3 +216,21 @@ pub fn emcys(cycles: &[Cycle]) -> Vec<(u32, (u16, u8, u8, u8))> {
         .filter_map(|(i, c)| emcy(&c.frames).map(|e| (i as u32 * 10, e)))
         .collect()
 }
+
+/// Sends `request` to the controller (received before the next cycle).
+pub fn send(rig: &mut Rig, request: controller::commands::Request) {
+    rig.c.on_frame(
+        &controller::commands::request_frame(&request),
+        u64::from(rig.now),
+    );
+}
+
+/// Every status frame's answer, in order (the periodic ones repeat the last answer).
+pub fn every_answer(cycles: &[Cycle]) -> Vec<(u8, u8, u8)> {
+    cycles
+        .iter()
+        .flat_map(|c| c.frames.iter())
+        .filter(|f| f.id() == controller::commands::STATUS_ID)
+        .map(|f| (f.data()[0], f.data()[1], f.data()[2]))
+        .collect()
+}

@@ -1,0 +1,224 @@
+//! The supervisor's requests as docs/COMMANDS.md ("Requests") promises them: a stop is
+//! obeyed whatever its id, a repeat is the same request (id *and* bytes) within the
+//! repeat window, and every request gets exactly one answer however fast they come —
+//! the cases a black-box test of the virtual ECU found broken (issue 17, cases 1 and 3).
+
+mod common;
+
+use std::collections::BTreeMap;
+
+use common::*;
+use controller::commands::Request;
+use controller::controller::{ANSWER_QUEUE, REPEAT_WINDOW_MS, STATUS_PER_CYCLE, STOP_ANSWERS};
+use controller::virtual_bus::HEALTHY;
+use controller::{Mode, Replan};
+use nalgebra::SVector;
+
+const TARGET: [f64; 2] = [20.0, 5.0];
+
+fn a_move(id: u8) -> Request {
+    Request::Move {
+        id,
+        target: TARGET,
+        duration: Some(8.0),
+    }
+}
+
+/// Ready at home, then `request` sent and answered: the cycles until its answer.
+fn ready_with(request: Request) -> Rig {
+    let mut rig = Rig::new(HEALTHY, false);
+    rig.ready();
+    send(&mut rig, request);
+    rig.until(20, |c| {
+        status(&c.frames).is_some_and(|s| s[0] == request.id() && s[1] != 0)
+    });
+    rig
+}
+
+/// The trolley's set point, µm/s.
+fn trolley(c: &controller::Cycle) -> i32 {
+    c.setpoints[0].units()
+}
+
+#[test]
+fn a_stop_with_the_running_moves_id_is_obeyed() {
+    // The move alone: the trolley's top speed.
+    let mut alone = ready_with(a_move(5));
+    let top = alone.run(900).iter().map(trolley).max().unwrap_or(0);
+    // Stopped 2 s after it was accepted (trolley at 0.8 m/s), with the move's id.
+    let mut rig = ready_with(a_move(5));
+    rig.run(199);
+    let before = trolley(&rig.cycle());
+    assert!(before > 500_000, "{before}");
+    send(&mut rig, Request::Stop { id: 5 });
+    let out = rig.cycle();
+    assert_eq!(
+        status(&out.frames).map(|s| [s[0], s[1], s[2]]),
+        Some([5, 1, 0]),
+        "the stop's own answer"
+    );
+    let rest = rig.until(900, |c| {
+        c.setpoints.iter().all(|s| s.units() == 0) && c.mode == Mode::Ready
+    });
+    let peak = rest.iter().map(trolley).max().unwrap_or(0);
+    assert!(
+        f64::from(peak) < 0.95 * f64::from(top),
+        "the trolley went on as if not stopped: {before} → {peak} µm/s (move alone {top})"
+    );
+    let end = rig.c.feedforward().plan().final_position();
+    assert!(
+        end[0] < TARGET[0] - 0.5,
+        "stopped short of the target, not run to it: {end:?}"
+    );
+}
+
+#[test]
+fn a_stop_with_the_queued_moves_id_drops_it_and_is_answered() {
+    let mut rig = ready_with(a_move(1));
+    rig.run(100);
+    send(
+        &mut rig,
+        Request::Move {
+            id: 7,
+            target: [14.0, 6.0],
+            duration: Some(10.0),
+        },
+    );
+    let queued = rig.until(20, |c| status(&c.frames).is_some_and(|s| s[0] == 7));
+    assert_eq!(status(&queued.last().unwrap().frames).unwrap()[1], 2);
+    send(&mut rig, Request::Stop { id: 7 });
+    let out = rig.cycle();
+    assert_eq!(
+        status(&out.frames).map(|s| [s[0], s[1], s[2]]),
+        Some([7, 1, 0])
+    );
+    assert!(!rig.c.feedforward().plan().has_queued());
+    rig.run(1500);
+    let end = rig.c.feedforward().plan().final_position();
+    assert!(
+        (end - SVector::from([14.0, 6.0])).norm() > 1.0,
+        "the queued move ran: {end:?}"
+    );
+}
+
+#[test]
+fn a_repeat_is_the_same_bytes_within_the_window_and_nothing_else() {
+    let mut rig = ready_with(a_move(3));
+    let plan = *rig.c.feedforward().plan();
+    let requests = rig.c.counters().requests;
+    // The same request again: its answer again, nothing done.
+    send(&mut rig, a_move(3));
+    let out = rig.cycle();
+    assert_eq!(
+        status(&out.frames).map(|s| s[..3].to_vec()),
+        Some(vec![3, 1, 0])
+    );
+    assert_eq!(*rig.c.feedforward().plan(), plan);
+    assert_eq!(rig.c.counters().requests, requests);
+    assert_eq!(rig.c.counters().repeated_requests, 1);
+    // The same id with other bytes is a new request: queued behind the move.
+    send(
+        &mut rig,
+        Request::Move {
+            id: 3,
+            target: [15.0, 6.0],
+            duration: Some(10.0),
+        },
+    );
+    let out = rig.until(20, |c| status(&c.frames).is_some_and(|s| s[1] != 1));
+    assert_eq!(
+        status(&out.last().unwrap().frames).map(|s| s[..3].to_vec()),
+        Some(vec![3, 2, 0]),
+        "queued"
+    );
+    assert!(rig.c.feedforward().plan().has_queued());
+    // A reset's bytes again after the window: a new request, answered anew.
+    let mut rig = Rig::new(HEALTHY, false);
+    rig.ready();
+    send(&mut rig, Request::Reset { id: 9 });
+    rig.cycle();
+    let answered = rig.c.counters().requests;
+    rig.run((REPEAT_WINDOW_MS / 10) as usize + 1);
+    send(&mut rig, Request::Reset { id: 9 });
+    rig.cycle();
+    assert_eq!(rig.c.counters().requests, answered + 1);
+    assert_eq!(rig.c.counters().repeated_requests, 0);
+}
+
+#[test]
+fn two_hundred_requests_in_under_a_third_of_a_second_are_each_answered_once() {
+    let mut rig = ready_with(a_move(0));
+    rig.run(200);
+    let mut outs = Vec::new();
+    // 200 moves with distinct ids (1..=200) over 29 cycles: 6 or 7 between two cycles.
+    let mut next = 1u16;
+    for cycle in 0..29u16 {
+        let until = 1 + (200 * (cycle + 1)) / 29;
+        while next < until.min(201) {
+            send(&mut rig, a_move(next as u8));
+            next += 1;
+        }
+        outs.push(rig.cycle());
+    }
+    outs.extend(rig.run(40));
+    let mut given = every_answer(&outs);
+    // The periodic status repeats the last answer: consecutive equal frames are one.
+    given.dedup();
+    let mut per_id: BTreeMap<u8, u32> = BTreeMap::new();
+    for (id, answer, _) in &given {
+        assert_ne!(*answer, 0);
+        *per_id.entry(*id).or_default() += 1;
+    }
+    assert_eq!(per_id.len(), 200, "ids answered: {}", per_id.len());
+    assert!(per_id.values().all(|&n| n == 1), "{per_id:?}");
+    assert_eq!(rig.c.counters().unanswered, 0);
+    let most = outs
+        .iter()
+        .map(|c| {
+            c.frames
+                .iter()
+                .filter(|f| f.id() == controller::commands::STATUS_ID)
+                .count()
+        })
+        .max()
+        .unwrap_or(0);
+    assert!(most <= STATUS_PER_CYCLE, "{most} status frames in a cycle");
+}
+
+#[test]
+fn beyond_the_answer_queue_requests_are_counted_and_a_stop_is_still_obeyed() {
+    let mut rig = ready_with(a_move(0));
+    rig.run(300);
+    let ignored = rig.c.counters().frames_ignored;
+    // More requests between two cycles than answers can wait: the excess is counted.
+    let burst = ANSWER_QUEUE + 10;
+    for id in 1..=burst {
+        send(&mut rig, a_move(id as u8));
+    }
+    send(&mut rig, Request::Stop { id: 250 });
+    // Four moves wait for their turn (their answers' places kept); the rest are answered
+    // *busy* at once, until the answers promised fill what moves may take. The stop has
+    // a place kept for it.
+    let excess = (burst - (ANSWER_QUEUE - STOP_ANSWERS)) as u32;
+    let c = rig.c.counters();
+    assert_eq!(c.unanswered, excess);
+    assert_eq!(c.frames_ignored, ignored + excess);
+    let outs = rig.run(20);
+    // The stop was obeyed all the same: the move re-timed, nothing queued.
+    let plan = rig.c.feedforward().plan();
+    assert!(!plan.has_queued());
+    assert!(
+        plan.final_position()[0] < TARGET[0] - 0.1,
+        "{:?}",
+        plan.final_position()
+    );
+    let mut given = every_answer(&outs);
+    given.dedup();
+    // Every answer that had room, the stop's, and the four waiting moves' (refused:
+    // the crane stops).
+    assert_eq!(given.len(), ANSWER_QUEUE - STOP_ANSWERS + 1, "{given:?}");
+    assert!(given.contains(&(250, 1, 0)), "the stop's answer");
+    // Status byte 5 (frames ignored) reports them.
+    let last = status(&outs.last().unwrap().frames);
+    assert!(last.is_none_or(|s| u32::from(s[5]) == (ignored + excess).min(255)));
+}
