@@ -561,6 +561,23 @@ impl<D: Device> Commissioning<D> {
         }
     }
 
+    /// Puts a commissioning that is running aside while the controller may not use SDO
+    /// or start nodes (its own NMT state): the transfer in flight is forgotten — its
+    /// timeout would otherwise fail the drive for a silence the controller caused — and
+    /// the device counts as absent, found again by its heartbeat or the presence check.
+    /// Whether it was running.
+    pub fn suspend(&mut self) -> bool {
+        if self.phase != Phase::Running {
+            return false;
+        }
+        self.sdo.cancel();
+        self.phase = Phase::Absent;
+        self.step = Step::DeviceType;
+        self.nmt_due = false;
+        self.absent_since_ms = None;
+        true
+    }
+
     /// Once per cycle: a due NMT step, a timeout, or the presence check of an absent drive.
     pub fn poll(&mut self, now_ms: u64) -> Option<Progress> {
         match self.phase {

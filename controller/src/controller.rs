@@ -24,8 +24,8 @@ use crate::drive::Drive;
 use crate::feedback::{Correction, Measurement, Mode as FeedbackMode, NoFeedback};
 use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
 use crate::frame::CanFrame;
-use crate::links::{DriveLink, Link, Links};
-use crate::node::{Dictionary, Node, Role, Snapshot};
+use crate::links::{self, DriveLink, Heartbeat, Link, Links};
+use crate::node::{Dictionary, Node, Role, Snapshot, StagedRequest};
 use crate::planner::{MoveSearch, Planner, SAMPLES_PER_CYCLE};
 use crate::setpoint::{DriveLimits, Setpoint, SetpointError, SetpointGate, UNITS_PER_M_PER_S};
 
@@ -475,6 +475,8 @@ pub struct Controller<F, C = NoFeedback> {
     starting: bool,
     /// A boot-up message is due (first cycle, or an NMT reset of this node).
     boot_up: bool,
+    /// SYNC was sent in the last cycle (the drives' TPDOs are due).
+    syncing: bool,
 }
 
 impl<F: Feedforward + Replan> Controller<F> {
@@ -524,6 +526,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 heartbeat_ms: config.heartbeat_period_ms,
                 supervisor: 0,
                 cycle_us: config.period_ms.saturating_mul(1000),
+                request: StagedRequest::default(),
             },
             gate: SetpointGate::new(config.limits, config.period_s()),
             planner,
@@ -548,6 +551,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             now_ms: 0,
             starting: true,
             boot_up: true,
+            syncing: false,
         }
     }
 
@@ -743,6 +747,12 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                         snapshot,
                     };
                     self.sdo_answer = sdo::serve(&mut od, self.config.node, &data);
+                    // A request written over SDO: taken as the command frame's.
+                    if core::mem::take(&mut self.node.request.submitted) {
+                        if let Ok(request) = commands::decode_request(&self.node.request.bytes) {
+                            self.on_request(request);
+                        }
+                    }
                 }
             }
             // The supervisor's command frame: the controller's own RPDO1. (Another
@@ -789,25 +799,28 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             Incoming::Heartbeat { node, state } if node == setup.node => {
                 sensor.last_heartbeat_ms = Some(now_ms);
                 sensor.nmt = Some(state);
-                let phase = sensor.commissioning.phase();
-                let operational = state == NmtState::Operational;
-                // As for a drive: booted again, or left operational after it was seen
-                // operational → commission it again; commissioned but not operational
-                // yet → the manager's start was lost, send it again.
-                let rebooted = state == NmtState::BootUp
-                    || (phase == Phase::Done && !operational && sensor.seen_operational)
-                    || phase == Phase::Absent;
-                if rebooted {
+                // As for a drive (`links::on_heartbeat`).
+                let (action, left) = links::on_heartbeat(
+                    state,
+                    sensor.commissioning.phase(),
+                    sensor.seen_operational,
+                    self.node.role == Role::Manager,
+                );
+                if left {
                     sensor.angle = None;
                     sensor.seen_operational = false;
-                    sensor.outbox = Some(sensor.commissioning.begin(now_ms));
-                } else if phase == Phase::Done && operational {
-                    sensor.seen_operational = true;
-                } else if phase == Phase::Done
-                    && state != NmtState::Operational
-                    && self.node.role == Role::Manager
-                {
-                    sensor.outbox = Some(nmt::command(NmtCommand::Start, setup.node));
+                }
+                match action {
+                    Heartbeat::Commission => {
+                        sensor.angle = None;
+                        sensor.seen_operational = false;
+                        sensor.outbox = Some(sensor.commissioning.begin(now_ms));
+                    }
+                    Heartbeat::Start => {
+                        sensor.outbox = Some(nmt::command(NmtCommand::Start, setup.node));
+                    }
+                    Heartbeat::Resumed => sensor.seen_operational = true,
+                    Heartbeat::Nothing => {}
                 }
                 true
             }
@@ -891,7 +904,10 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         }
     }
 
-    /// A drive's heartbeat or boot-up message.
+    /// A drive's heartbeat or boot-up message (`links::on_heartbeat` decides). A drive
+    /// that left *operational* is a fault during a move; at rest it is brought back: a
+    /// stopped one (configuration intact) by NMT *start* from a manager or its master,
+    /// any other by commissioning it again. Whatever it reported before counts no more.
     fn on_heartbeat(&mut self, drive: Drive, state: NmtState, now_ms: u64) {
         let manager = self.node.role == Role::Manager;
         let Some(link) = self.link_mut(drive) else {
@@ -902,37 +918,28 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         let phase = link.commissioning.phase();
         // Seen operational since it was commissioned (its TPDO clock runs).
         let was_operational = link.last_tpdo_ms.is_some();
-        match (state, phase) {
-            // Booted again, or left operational: commission it from the start; if it was
-            // linked, it lost its configuration and its enable state.
-            (NmtState::BootUp, _) | (NmtState::PreOperational | NmtState::Stopped, Phase::Done)
-                if was_operational || state == NmtState::BootUp =>
-            {
-                if phase == Phase::Done {
-                    self.drive_left_operational(drive, state);
-                }
-                self.recommission(drive, now_ms);
-            }
-            // Commissioned but not operational yet: a manager's start was lost, so it
-            // is sent again; a slave waits for its master's.
-            (NmtState::PreOperational | NmtState::Stopped, Phase::Done) if manager => {
+        let (action, left) = links::on_heartbeat(state, phase, was_operational, manager);
+        if left {
+            link.forget_process_data();
+            self.drive_left_operational(drive, state);
+        }
+        let Some(link) = self.link_mut(drive) else {
+            return;
+        };
+        match action {
+            Heartbeat::Commission => self.recommission(drive, now_ms),
+            Heartbeat::Start => {
                 link.outbox = Some(nmt::command(
                     NmtCommand::Start,
                     link.commissioning.setup().node,
                 ));
             }
-            (
-                NmtState::PreOperational | NmtState::Stopped | NmtState::Operational,
-                Phase::Absent,
-            ) => {
-                self.recommission(drive, now_ms);
-            }
-            // The TPDOs' clocks start when the drive is first seen operational.
-            (NmtState::Operational, Phase::Done) if link.last_tpdo_ms.is_none() => {
+            // The TPDOs' clocks start when the drive is (again) seen operational.
+            Heartbeat::Resumed => {
                 link.last_tpdo_ms = Some(now_ms);
                 link.last_position_ms = Some(now_ms);
             }
-            _ => {}
+            Heartbeat::Nothing => {}
         }
     }
 
@@ -946,7 +953,9 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     }
 
     /// A linked drive reported boot-up, pre-operational or stopped: a fault during a
-    /// move; at rest it is commissioned and enabled again, announced by an EMCY warning.
+    /// move; at rest it is enabled again once it is back, announced by an EMCY warning —
+    /// unless the controller itself is not operational (the network is being stopped or
+    /// configured by its master: nothing to warn of).
     fn drive_left_operational(&mut self, drive: Drive, state: NmtState) {
         if self.moving() {
             self.fault(Fault::DriveLeftOperational(drive, state));
@@ -954,6 +963,9 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         }
         if self.mode == Mode::Ready {
             self.mode = Mode::Enabling;
+        }
+        if self.node.state != NmtState::Operational {
+            return;
         }
         let node = self.node_of(drive);
         // A warning: error register without the generic bit (see emcy::is_fault).
@@ -1136,9 +1148,21 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         if let Some(answer) = self.sdo_answer.take() {
             self.push(&mut frames, answer);
         }
+        // What the controller's own NMT state lets it send (CiA 301); bringing a moving
+        // load to rest is the one exception, for the RPDOs and the SYNC that apply them.
+        let allowed = self.node.state.services();
+        let finishing = self.moving();
+        let pdo = allowed.pdo || finishing;
+        let sync = allowed.sync || finishing;
         self.supervise_delivery();
         self.supervise_drives(now_ms);
-        self.commission(now_ms, &mut frames);
+        // A manager commissions and starts its nodes only while operational itself; a
+        // slave commissions them by SDO in pre-operational too (its master starts them).
+        if allowed.sdo && (self.node.role == Role::Slave || allowed.pdo) {
+            self.commission(now_ms, &mut frames);
+        } else {
+            self.suspend_commissioning();
+        }
         // Ready once every drive is: a reset's answer still shows *enabling*.
         if self.mode == Mode::Enabling && self.drives_ready() {
             self.mode = Mode::Ready;
@@ -1176,7 +1200,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             sensor.fresh = false;
         }
         let mut setpoints = [Setpoint::ZERO; 2];
-        for drive in Drive::ALL {
+        for drive in Drive::ALL.into_iter().filter(|_| pdo) {
             let (command, setpoint) = self.command_for(drive, wanted);
             // Only a commissioned drive gets PDOs: its mapping is known. A drive that
             // is being commissioned again (it rebooted, or said so) still gets the rest
@@ -1201,7 +1225,8 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             }
         }
         self.requeue_lost_emcys();
-        while frames.len() + AFTER_EMCY < MAX_FRAMES {
+        // EMCYs wait while the controller is stopped.
+        while allowed.emcy && frames.len() + AFTER_EMCY < MAX_FRAMES {
             let Some(emcy) = self.emcy.pop_front() else {
                 break;
             };
@@ -1209,7 +1234,14 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             // Room for it: both hold EMCY_QUEUE, and it was cleared above.
             let _ = self.emcy_in_flight.push((emcy, false));
         }
-        self.push(&mut frames, canopen::sync());
+        if sync {
+            if !self.syncing {
+                // SYNC resumes: the drives' TPDOs follow from now on.
+                self.restart_tpdo_clocks(now_ms);
+            }
+            self.push(&mut frames, canopen::sync());
+        }
+        self.syncing = sync;
         let periodic = u32::from(self.node.heartbeat_ms)
             .checked_div(self.config.period_ms)
             .unwrap_or(0);
@@ -1649,6 +1681,33 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         }
     }
 
+    /// Suspends every commissioning that is running (`Commissioning::suspend`), with
+    /// the frame it had waiting.
+    fn suspend_commissioning(&mut self) {
+        for i in 0..self.links.len() {
+            let (commissioning_suspended, outbox) = match self.links.get_mut(i) {
+                Some(Link::Drive(_, link)) => (link.commissioning.suspend(), &mut link.outbox),
+                Some(Link::Inclinometer(sensor)) => {
+                    (sensor.commissioning.suspend(), &mut sensor.outbox)
+                }
+                None => continue,
+            };
+            if commissioning_suspended {
+                *outbox = None;
+            }
+        }
+    }
+
+    /// The TPDO clocks of the drives seen operational start again now.
+    fn restart_tpdo_clocks(&mut self, now_ms: u64) {
+        for drive in Drive::ALL {
+            if let Some(link) = self.link_mut(drive).filter(|l| l.last_tpdo_ms.is_some()) {
+                link.last_tpdo_ms = Some(now_ms);
+                link.last_position_ms = Some(now_ms);
+            }
+        }
+    }
+
     /// Heartbeats of linked drives, their TPDOs' age, and the supervisor's heartbeat.
     fn supervise_drives(&mut self, now_ms: u64) {
         let late = |t: Option<u64>, limit: u32| {
@@ -1658,10 +1717,14 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             let Some(link) = self.link(drive).filter(|l| l.linked()) else {
                 continue;
             };
+            // TPDOs answer the SYNC: they are due only from an operational drive while
+            // the controller produces SYNC.
+            let tpdos_due = self.syncing && link.nmt == Some(NmtState::Operational);
             if late(link.last_heartbeat_ms, self.config.heartbeat_timeout_ms) {
                 self.fault(Fault::HeartbeatLost(drive));
-            } else if late(link.last_tpdo_ms, self.config.tpdo_timeout_ms)
-                || late(link.last_position_ms, self.config.tpdo_timeout_ms)
+            } else if tpdos_due
+                && (late(link.last_tpdo_ms, self.config.tpdo_timeout_ms)
+                    || late(link.last_position_ms, self.config.tpdo_timeout_ms))
             {
                 self.fault(Fault::TpdoTimeout(drive));
             }

@@ -242,3 +242,60 @@ impl SensorLink {
                 .is_some_and(|t| now_ms.saturating_sub(t) <= u64::from(timeout_ms))
     }
 }
+
+/// What a node's heartbeat (or boot-up message) asks of the controller.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Heartbeat {
+    /// Nothing to do.
+    Nothing,
+    /// Commission it from the start: it booted (its configuration is gone), came back
+    /// pre-operational after it was operational (someone may have written to its
+    /// dictionary), or was not known yet.
+    Commission,
+    /// Send it NMT *start* (manager): commissioned, but stopped or pre-operational —
+    /// a start that was lost, or a node stopped by NMT, which keeps its configuration
+    /// (no SDO reaches a stopped node).
+    Start,
+    /// It is operational again after it was not: its TPDO clocks start now.
+    Resumed,
+}
+
+/// The controller's answer to a node's NMT state `state` (CiA 301 heartbeat), given its
+/// commissioning `phase`, whether it was operational since (`was_operational`), and
+/// whether the controller is NMT manager. Also whether the node *left operational*
+/// (commissioned, was operational or booted again, is operational no more) — a fault
+/// during a move.
+///
+/// | reported | commissioned, was operational | commissioned, not yet | not known (absent) |
+/// |---|---|---|---|
+/// | boot-up | commission (left) | commission | commission |
+/// | pre-operational | commission (left) | start (manager) | commission |
+/// | stopped | start (manager; left) | start (manager) | commission (manager: begins with NMT pre-operational); a slave waits |
+/// | operational | — | resumed | commission |
+pub(crate) fn on_heartbeat(
+    state: NmtState,
+    phase: Phase,
+    was_operational: bool,
+    manager: bool,
+) -> (Heartbeat, bool) {
+    let done = phase == Phase::Done;
+    let left =
+        done && (was_operational || state == NmtState::BootUp) && state != NmtState::Operational;
+    let start = if manager {
+        Heartbeat::Start
+    } else {
+        Heartbeat::Nothing
+    };
+    let action = match (state, phase) {
+        (NmtState::BootUp, _) => Heartbeat::Commission,
+        (NmtState::PreOperational, Phase::Done) if was_operational => Heartbeat::Commission,
+        (NmtState::PreOperational | NmtState::Stopped, Phase::Done) => start,
+        (NmtState::Stopped, Phase::Absent) if !manager => Heartbeat::Nothing,
+        (NmtState::PreOperational | NmtState::Stopped | NmtState::Operational, Phase::Absent) => {
+            Heartbeat::Commission
+        }
+        (NmtState::Operational, Phase::Done) if !was_operational => Heartbeat::Resumed,
+        _ => Heartbeat::Nothing,
+    };
+    (action, left)
+}

@@ -14,14 +14,14 @@
 //! | 0x1018:1..=4 | identity: vendor, product, revision, serial | ro |
 //! | 0x1400:1..=2, 0x1600:1..=6 | RPDO1: the supervisor's command frame (0x210) | ro |
 //! | 0x1800:1..=2, 0x1A00:1..=8 | TPDO1: the status frame (0x190) | ro |
-//! | 0x2000:1..=6 | the command frame's fields (request id, command, x, z, duration) | ro |
+//! | 0x2000:1..=5 | the command frame's fields (request id, command, x, z, duration); writing the command submits a request | wo |
 //! | 0x2001:1..=8 | the status frame's fields (docs/COMMANDS.md) | ro |
 //! | 0x2002:1..=5 | the last commissioning failure: node, index, sub, abort code, reason | ro |
 //! | 0x2003:1..=2 | NMT role (0 manager, 1 slave); drives' commissioning phase (bit per drive: done) | ro |
 
 use crate::canopen::sdo::{abort, Object, ObjectDictionary, Value};
 use crate::canopen::NmtState;
-use crate::commands::{command_id, status_id, Status};
+use crate::commands::{command_id, decode_request, status_id, Status};
 
 /// Who starts the drives.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -77,6 +77,27 @@ pub struct Node {
     pub supervisor: u32,
     /// Cycle, µs (0x1006).
     pub cycle_us: u32,
+    /// A request written field by field over SDO into 0x2000 (the command frame's
+    /// bytes); writing the command (sub 2) submits it.
+    pub request: StagedRequest,
+}
+
+/// A request written over SDO into 0x2000:1..=5, as the command frame's 8 bytes, for a
+/// supervisor that commands through the dictionary rather than the command PDO.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct StagedRequest {
+    /// The command frame's bytes as written so far.
+    pub bytes: [u8; 8],
+    /// The command (sub 2) was written: the controller takes it as a request.
+    pub submitted: bool,
+}
+
+impl Node {
+    /// The cycle, ms (0x1006 in ms).
+    #[must_use]
+    pub fn cycle_ms(&self) -> u32 {
+        self.cycle_us / 1000
+    }
 }
 
 /// The values the object dictionary reads from the controller at the time of a request.
@@ -181,9 +202,16 @@ impl ObjectDictionary for Dictionary<'_> {
 
     fn write(&mut self, object: Object, data: &[u8]) -> Result<(), u32> {
         match (object.index, object.sub) {
+            // The heartbeat (and the status with it) goes out on a cycle: a period the
+            // node can produce is 0 (off) or a whole number of cycles.
             (0x1017, 0) => match *data {
                 [a, b] => {
-                    self.node.heartbeat_ms = u16::from_le_bytes([a, b]);
+                    let ms = u16::from_le_bytes([a, b]);
+                    let cycle_ms = self.node.cycle_ms();
+                    if ms != 0 && (cycle_ms == 0 || u32::from(ms) % cycle_ms != 0) {
+                        return Err(abort::INVALID_VALUE);
+                    }
+                    self.node.heartbeat_ms = ms;
                     Ok(())
                 }
                 _ => Err(abort::LENGTH),
@@ -191,16 +219,59 @@ impl ObjectDictionary for Dictionary<'_> {
             (0x1016, 1) => match *data {
                 [a, b, c, d] => {
                     let v = u32::from_le_bytes([a, b, c, d]);
-                    // Bits 31..24 are reserved; a node id above 127 is invalid.
-                    if v >> 24 != 0 || (v >> 16) & 0xFF > 127 {
+                    // Bits 31..24 are reserved; a node id above 127 is invalid; the
+                    // heartbeat is checked once a cycle, so a time shorter than a cycle
+                    // cannot be watched; the controller does not consume its own.
+                    let (node, ms) = ((v >> 16) & 0xFF, v & 0xFFFF);
+                    if v >> 24 != 0
+                        || node > 127
+                        || (node != 0 && ms != 0 && ms < self.node.cycle_ms())
+                    {
                         return Err(abort::INVALID_VALUE);
+                    }
+                    if node != 0 && node == u32::from(self.node.id) {
+                        return Err(abort::PARAMETER_INCOMPATIBLE);
                     }
                     self.node.supervisor = v;
                     Ok(())
                 }
                 _ => Err(abort::LENGTH),
             },
-            (0x2000, 1..=5) => Err(abort::UNSUPPORTED_ACCESS),
+            // The command frame's fields, as mapped into RPDO1 (0x1600): bytes 0, 1,
+            // 2–3, 4–5, 6–7. The command (sub 2) submits what was written, checked as
+            // a command frame is; only in operational, as the command PDO.
+            (0x2000, sub @ 1..=5) => {
+                let (at, size) = match sub {
+                    1 => (0, 1),
+                    2 => (1, 1),
+                    k => (2 * usize::from(k) - 4, 2),
+                };
+                if data.len() != size {
+                    return Err(abort::LENGTH);
+                }
+                let mut bytes = self.node.request.bytes;
+                if let Some(field) = bytes.get_mut(at..at + size) {
+                    field.copy_from_slice(data);
+                }
+                if sub == 2 {
+                    // Stop and reset carry nothing else: fields left from a move are not
+                    // theirs.
+                    if matches!(data, [2 | 3]) {
+                        if let Some(rest) = bytes.get_mut(2..) {
+                            rest.fill(0);
+                        }
+                    }
+                    if self.node.state != NmtState::Operational {
+                        return Err(abort::DEVICE_STATE);
+                    }
+                    if decode_request(&bytes).is_err() {
+                        return Err(abort::INVALID_VALUE);
+                    }
+                    self.node.request.submitted = true;
+                }
+                self.node.request.bytes = bytes;
+                Ok(())
+            }
             _ => match self.read(object) {
                 Ok(_) => Err(abort::READ_ONLY),
                 Err(code) => Err(code),
@@ -223,6 +294,7 @@ mod tests {
             heartbeat_ms: 100,
             supervisor: 0,
             cycle_us: 10_000,
+            request: StagedRequest::default(),
         }
     }
 
@@ -280,5 +352,44 @@ mod tests {
         );
         assert_eq!(n.heartbeat_ms, 500);
         assert_eq!(n.supervisor, 0x0020_01F4);
+    }
+
+    /// A value the node cannot produce is refused (0x06090030), not confirmed and then
+    /// produced otherwise or not at all (issue 17, case 4).
+    #[test]
+    fn writes_the_node_cannot_honour_are_refused() {
+        let mut n = node();
+        let mut od = Dictionary {
+            node: &mut n,
+            snapshot: snapshot(),
+        };
+        let heartbeat = |ms: u16| ms.to_le_bytes();
+        for ms in [5, 15, 1, 9, 105] {
+            assert_eq!(
+                od.write(Object::new(0x1017, 0), &heartbeat(ms)),
+                Err(abort::INVALID_VALUE),
+                "{ms} ms"
+            );
+        }
+        for ms in [0, 10, 20, 100, 65_530] {
+            assert_eq!(od.write(Object::new(0x1017, 0), &heartbeat(ms)), Ok(()));
+        }
+        assert_eq!(od.node.heartbeat_ms, 65_530);
+        let consumer = |node: u32, ms: u32| (node << 16 | ms).to_le_bytes();
+        assert_eq!(
+            od.write(Object::new(0x1016, 1), &consumer(0x20, 5)),
+            Err(abort::INVALID_VALUE),
+            "shorter than a cycle"
+        );
+        assert_eq!(
+            od.write(Object::new(0x1016, 1), &consumer(0x10, 300)),
+            Err(abort::PARAMETER_INCOMPATIBLE),
+            "its own node id"
+        );
+        assert_eq!(
+            od.write(Object::new(0x1016, 1), &consumer(0x20, 10)),
+            Ok(())
+        );
+        assert_eq!(od.write(Object::new(0x1016, 1), &consumer(0, 0)), Ok(()));
     }
 }

@@ -74,3 +74,33 @@ impl NmtState {
         .find(|s| *s as u8 == b)
     }
 }
+
+/// The communication services CiA 301 lets a node use in an NMT state (CiA 301 7.3.2.2,
+/// "NMT states and communication object relation"): NMT and the heartbeat in every
+/// state; SDO, SYNC and EMCY in pre-operational and operational; PDOs in operational
+/// only.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Services {
+    /// PDOs (the drives' RPDOs, the status frame; the command frame is taken).
+    pub pdo: bool,
+    /// SDO, as client (commissioning) and as server.
+    pub sdo: bool,
+    /// SYNC production.
+    pub sync: bool,
+    /// EMCY production.
+    pub emcy: bool,
+}
+
+impl NmtState {
+    /// What a node in this state may send.
+    #[must_use]
+    pub fn services(self) -> Services {
+        let configured = matches!(self, Self::PreOperational | Self::Operational);
+        Services {
+            pdo: self == Self::Operational,
+            sdo: configured,
+            sync: configured,
+            emcy: configured,
+        }
+    }
+}
