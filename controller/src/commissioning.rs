@@ -22,7 +22,7 @@
 use heapless::Vec;
 
 use crate::canopen::nmt::{self, NmtCommand};
-use crate::canopen::sdo::{Event, Object, SdoClient, SdoError};
+use crate::canopen::sdo::{abort, Event, Object, SdoClient, SdoError};
 use crate::drive::Drive;
 use crate::frame::CanFrame;
 
@@ -393,6 +393,12 @@ pub enum CommissioningError {
         /// What it showed.
         found: i8,
     },
+    /// The device never answered within the boot time (CiA 302's 0x1F89): not
+    /// connected, not powered, or at another node id.
+    NeverAppeared {
+        /// How long it was looked for, ms.
+        waited_ms: u32,
+    },
 }
 
 impl CommissioningError {
@@ -404,11 +410,14 @@ impl CommissioningError {
             Self::DeviceType { .. } => object::DEVICE_TYPE,
             Self::ReadBack { object, .. } => object,
             Self::Mode { .. } => object::MODES_DISPLAY,
+            // What the presence check reads.
+            Self::NeverAppeared { .. } => object::DEVICE_TYPE,
         }
     }
 
     /// The EMCY's reason byte (docs/COMMANDS.md): 1 aborted by the drive, 2 timeout,
-    /// 3 protocol error, 4 wrong device type, 5 read-back differs, 6 mode not confirmed.
+    /// 3 protocol error, 4 wrong device type, 5 read-back differs, 6 mode not confirmed,
+    /// 7 never appeared within the boot time.
     #[must_use]
     pub fn reason(&self) -> u8 {
         match self {
@@ -418,6 +427,7 @@ impl CommissioningError {
             Self::DeviceType { .. } => 4,
             Self::ReadBack { .. } => 5,
             Self::Mode { .. } => 6,
+            Self::NeverAppeared { .. } => 7,
         }
     }
 
@@ -426,6 +436,8 @@ impl CommissioningError {
     pub fn abort_code(&self) -> u32 {
         match self {
             Self::Sdo(e) => e.code(),
+            // Its presence checks timed out, as CiA 301 has a client say it.
+            Self::NeverAppeared { .. } => abort::TIMEOUT,
             _ => 0,
         }
     }
@@ -490,6 +502,12 @@ pub struct Commissioning<D = DriveSetup> {
     nmt_due: bool,
     identity: [u32; 4],
     absent_since_ms: Option<u64>,
+    /// When the controller began to look for a device never heard of, ms.
+    looking_since_ms: Option<u64>,
+    /// The device has answered or spoken since the controller started.
+    heard: bool,
+    /// A device not heard of within this is a failure, ms ([`Commissioning::with_boot_time`]).
+    boot_time_ms: u32,
 }
 
 /// How often an absent drive is looked for, ms.
@@ -516,7 +534,18 @@ impl<D: Device> Commissioning<D> {
             nmt_due: false,
             identity: [0; 4],
             absent_since_ms: None,
+            looking_since_ms: None,
+            heard: false,
+            boot_time_ms: u32::MAX,
         }
+    }
+
+    /// With a boot time: a device not heard of `ms` after the controller began to look
+    /// for it fails with [`CommissioningError::NeverAppeared`] (CiA 302's 0x1F89).
+    #[must_use]
+    pub fn with_boot_time(mut self, ms: u32) -> Self {
+        self.boot_time_ms = ms;
+        self
     }
 
     /// The table row.
@@ -547,6 +576,7 @@ impl<D: Device> Commissioning<D> {
     /// frame. A manager first switches the drive to pre-operational — a drive found
     /// *stopped* answers no SDO, and only pre-operational accepts PDO mapping.
     pub fn begin(&mut self, now_ms: u64) -> CanFrame {
+        self.heard = true;
         self.phase = Phase::Running;
         self.absent_since_ms = None;
         self.sdo.cancel();
@@ -565,8 +595,10 @@ impl<D: Device> Commissioning<D> {
     /// or start nodes (its own NMT state): the transfer in flight is forgotten — its
     /// timeout would otherwise fail the drive for a silence the controller caused — and
     /// the device counts as absent, found again by its heartbeat or the presence check.
-    /// Whether it was running.
+    /// Whether it was running. (A device never heard of starts its boot time afresh.)
     pub fn suspend(&mut self) -> bool {
+        // The boot time counts the time the controller looks, not the time it may not.
+        self.looking_since_ms = None;
         if self.phase != Phase::Running {
             return false;
         }
@@ -582,6 +614,12 @@ impl<D: Device> Commissioning<D> {
     pub fn poll(&mut self, now_ms: u64) -> Option<Progress> {
         match self.phase {
             Phase::Absent => {
+                let looking = now_ms.saturating_sub(*self.looking_since_ms.get_or_insert(now_ms));
+                if !self.heard && looking >= u64::from(self.boot_time_ms) {
+                    self.sdo.cancel();
+                    let waited_ms = u32::try_from(looking).unwrap_or(u32::MAX);
+                    return Some(self.fail(CommissioningError::NeverAppeared { waited_ms }, None));
+                }
                 let since = *self.absent_since_ms.get_or_insert(now_ms);
                 if !self.sdo.busy() && now_ms >= since {
                     self.absent_since_ms = Some(now_ms.saturating_add(PRESENCE_RETRY_MS));

@@ -58,6 +58,15 @@ pub struct Config {
     pub nodes: [Option<NodeSetup>; MAX_NODES],
     /// A reset is refused while a drive reports a speed above this, drive units (µm/s).
     pub standstill_units: i32,
+    /// How far outside the workspace a drive's position actual may lie before it is
+    /// implausible (end stops beyond the planned box, feedback near its edge), m.
+    pub position_tolerance_m: f64,
+    /// A drive reporting a velocity beyond this multiple of its limit, or moving faster
+    /// between two position actuals, reports something implausible.
+    pub overspeed: f64,
+    /// A node of the list that has not answered this long after the controller began to
+    /// look for it is a commissioning failure (CiA 302's boot time, 0x1F89), ms.
+    pub boot_time_ms: u32,
     /// A second deadline miss within this many cycles stops the crane.
     pub deadline_window: u32,
     /// This many cycles in a row with a failed RPDO: set points cannot be delivered.
@@ -89,6 +98,9 @@ impl Config {
             None,
         ],
         standstill_units: 1_000,
+        position_tolerance_m: 0.5,
+        overspeed: 1.2,
+        boot_time_ms: 10_000,
         deadline_window: 100,
         undeliverable_cycles: 3,
         fault_reset_cycles: 20,
@@ -178,6 +190,26 @@ pub enum Fault {
     NotOperational,
     /// The supervisor's heartbeat stopped during a move (0x1016 of the controller).
     SupervisorLost,
+    /// A drive reports a position or velocity it cannot have: never the basis of a
+    /// restart.
+    Implausible(Drive, Implausibility),
+    /// Another node sends with the controller's own node id.
+    DuplicateNodeId,
+}
+
+/// What is implausible about what a drive reports (the EMCY's detail byte).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum Implausibility {
+    /// Position actual (0x6064) outside the workspace by more than
+    /// [`Config::position_tolerance_m`].
+    Position = 1,
+    /// Velocity actual (0x606C) beyond the drive's limit by more than
+    /// [`Config::overspeed`].
+    Velocity = 2,
+    /// Position actual jumped further than the drive can move between two TPDOs.
+    Jump = 3,
 }
 
 /// How a fault is met (docs/COMMANDS.md), mildest first.
@@ -190,9 +222,9 @@ enum Reaction {
 
 impl Fault {
     /// The largest fault byte. `can/crane.dbc` multiplexes the EMCY's manufacturer
-    /// bytes on it: 0–15 a fault, 16 the abort code that follows a commissioning
-    /// failure (`emcy::ABORT_CODE_FOLLOWS`).
-    pub const MAX_CODE: u8 = 14;
+    /// bytes on it: 0–15 and 17–18 a fault (15 the feedback warning), 16 the abort code
+    /// that follows a commissioning failure (`emcy::ABORT_CODE_FOLLOWS`).
+    pub const MAX_CODE: u8 = 18;
 
     /// The fault byte of the status frame and of the EMCY, 1 to [`Fault::MAX_CODE`].
     #[must_use]
@@ -212,6 +244,9 @@ impl Fault {
             Fault::Commissioning(..) => 12,
             Fault::NotOperational => 13,
             Fault::SupervisorLost => 14,
+            // 15 and 16 are taken (emcy::FEEDBACK_OFF, emcy::ABORT_CODE_FOLLOWS).
+            Fault::Implausible(..) => 17,
+            Fault::DuplicateNodeId => 18,
         }
     }
 
@@ -232,6 +267,8 @@ impl Fault {
             Fault::TpdoTimeout(_) => emcy::RPDO_TIMEOUT,
             Fault::DriveMode(_) => emcy::DRIVE_MODE,
             Fault::Commissioning(..) => emcy::COMMISSIONING,
+            Fault::Implausible(..) => emcy::DRIVE_IMPLAUSIBLE,
+            Fault::DuplicateNodeId => emcy::CAN_ID_COLLISION,
         }
     }
 
@@ -245,6 +282,7 @@ impl Fault {
             | Fault::DriveLeftOperational(d, _)
             | Fault::TpdoTimeout(d)
             | Fault::DriveMode(d)
+            | Fault::Implausible(d, _)
             | Fault::Commissioning(d, _) => Some(d),
             Fault::Setpoint(
                 SetpointError::NonFinite { drive }
@@ -269,6 +307,7 @@ impl Fault {
             Fault::Solver(Error::NonFinite { .. }) => 3,
             Fault::Solver(_) => 4,
             Fault::DriveLeftOperational(_, state) => *state as u8,
+            Fault::Implausible(_, what) => *what as u8,
             _ => 0,
         }
     }
@@ -279,7 +318,8 @@ impl Fault {
             | Fault::HeartbeatLost(_)
             | Fault::DriveLeftOperational(..)
             | Fault::TpdoTimeout(_)
-            | Fault::DriveMode(_) => Reaction::Quick,
+            | Fault::DriveMode(_)
+            | Fault::Implausible(..) => Reaction::Quick,
             Fault::Undeliverable | Fault::Watchdog | Fault::Commissioning(..) => Reaction::Halt,
             _ => Reaction::Controlled,
         }
@@ -506,6 +546,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             period_ms,
             manager,
             config.sdo_timeout_ms,
+            config.boot_time_ms,
             C::ENABLED,
         );
         Self {
@@ -647,6 +688,11 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// Takes one received frame. Frames it does not understand are ignored and counted:
     /// they never change a set point.
     pub fn on_frame(&mut self, frame: &CanFrame, now_ms: u64) {
+        if self.sent_by_a_twin(frame) {
+            self.counters.frames_received = self.counters.frames_received.saturating_add(1);
+            self.fault(Fault::DuplicateNodeId);
+            return;
+        }
         // `C::ENABLED` is a constant: without the feedback none of the inclinometer's
         // code is linked.
         if C::ENABLED && self.on_inclinometer_frame(frame, now_ms) {
@@ -689,13 +735,20 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 mode,
             } => match self.drive_at(node) {
                 Some(drive) => {
-                    let Some(link) = self.link_mut(drive).filter(|l| l.linked()) else {
+                    if !self.link(drive).is_some_and(DriveLink::linked) {
+                        return;
+                    }
+                    let implausible = self.judge_position(drive, position, now_ms);
+                    let Some(link) = self.link_mut(drive) else {
                         return;
                     };
+                    link.implausible = implausible;
                     link.position = Some(position);
                     link.mode_display = Some(mode);
                     link.last_position_ms = Some(now_ms);
-                    if mode != link.commissioning.setup().mode.code() {
+                    if let Some(what) = implausible {
+                        self.fault(Fault::Implausible(drive, what));
+                    } else if mode != link.commissioning.setup().mode.code() {
                         self.fault(Fault::DriveMode(drive));
                     }
                 }
@@ -768,6 +821,23 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             }
             Incoming::Rpdo1 { .. } => {}
         }
+    }
+
+    /// Whether `frame` carries a COB-ID only the controller's own node id sends — its
+    /// heartbeat, EMCY, SDO response or status (TPDO1): another node on the bus has its
+    /// node id. (A CAN controller does not receive its own frames.)
+    fn sent_by_a_twin(&self, frame: &CanFrame) -> bool {
+        let id = u16::from(self.node.id);
+        let cob = canopen::cob::FUNCTION;
+        let node_id = frame.id() & !cob;
+        node_id == id
+            && [
+                canopen::cob::HEARTBEAT,
+                canopen::cob::EMCY,
+                canopen::cob::SDO_RESPONSE,
+                canopen::cob::TPDO1,
+            ]
+            .contains(&(frame.id() & cob))
     }
 
     /// A frame of the inclinometer (its TPDO1 *slope long16*, heartbeat, SDO response,
@@ -977,7 +1047,43 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         ));
     }
 
+    /// Whether a drive's position actual (`units`) is one it can have: inside its axis's
+    /// range of the workspace (trolley x, rope length l) within
+    /// [`Config::position_tolerance_m`], and no further from its last one than the drive
+    /// can move in the time between at [`Config::overspeed`] times its velocity limit
+    /// (at least a cycle's worth), plus the tolerance's tenth.
+    fn judge_position(&self, drive: Drive, units: i32, now_ms: u64) -> Option<Implausibility> {
+        let link = self.link(drive)?;
+        let setup = link.commissioning.setup();
+        let metres = |u: i32| setup.position_offset + setup.position_scale * f64::from(u);
+        let w = self.planner.params().workspace;
+        let (lo, hi) = match drive {
+            Drive::Trolley => (w.x_min, w.x_max),
+            Drive::Winch => (w.l_min, w.l_max),
+        };
+        let tolerance = self.config.position_tolerance_m;
+        let at = metres(units);
+        if !(lo - tolerance..=hi + tolerance).contains(&at) {
+            return Some(Implausibility::Position);
+        }
+        let (Some(last), Some(last_ms)) = (link.position, link.last_position_ms) else {
+            return None;
+        };
+        let dt = now_ms
+            .saturating_sub(last_ms)
+            .max(u64::from(self.config.period_ms)) as f64
+            / 1000.0;
+        let reach = self.config.overspeed * self.config.limits.of(drive).max_velocity * dt
+            + 0.1 * tolerance;
+        ((at - metres(last)).abs() > reach).then_some(Implausibility::Jump)
+    }
+
     fn on_status(&mut self, drive: Drive, sw: u16, velocity: i32, now_ms: u64) {
+        let overspeed =
+            self.config.overspeed * self.config.limits.of(drive).max_velocity * UNITS_PER_M_PER_S;
+        if f64::from(velocity).abs() > overspeed {
+            self.fault(Fault::Implausible(drive, Implausibility::Velocity));
+        }
         let moving = self.moving();
         let asked = self.gate.last(drive) != Setpoint::ZERO;
         let not_following_limit = self.config.not_following_tpdos;
@@ -1590,7 +1696,9 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             let fresh = link.last_position_ms.is_some_and(|t| {
                 self.now_ms.saturating_sub(t) <= u64::from(self.config.tpdo_timeout_ms)
             });
-            if !fresh || link.velocity.unsigned_abs() > self.config.standstill_units.unsigned_abs()
+            if !fresh
+                || link.implausible.is_some()
+                || link.velocity.unsigned_abs() > self.config.standstill_units.unsigned_abs()
             {
                 return None;
             }
@@ -1832,6 +1940,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                     | Fault::DriveLeftOperational(..)
                     | Fault::NotOperational
                     | Fault::SupervisorLost
+                    | Fault::DuplicateNodeId
             ) {
                 REGISTER_COMMUNICATION
             } else {

@@ -8,6 +8,7 @@ use heapless::Vec;
 use crate::canopen::NmtState;
 use crate::cia402::{statusword, DriveState};
 use crate::commissioning::{Commissioning, InclinometerSetup, NodeSetup, Phase, MAX_NODES};
+use crate::controller::Implausibility;
 use crate::drive::Drive;
 use crate::frame::CanFrame;
 
@@ -43,6 +44,7 @@ impl Links {
         period_ms: u8,
         manager: bool,
         sdo_timeout_ms: u32,
+        boot_time_ms: u32,
         sensors: bool,
     ) -> Self {
         let mut links = Self {
@@ -61,13 +63,16 @@ impl Links {
                     *slot = at;
                     Link::Drive(
                         axis,
-                        DriveLink::new(Commissioning::new(
-                            setup,
-                            controller,
-                            period_ms,
-                            manager,
-                            sdo_timeout_ms,
-                        )),
+                        DriveLink::new(
+                            Commissioning::new(
+                                setup,
+                                controller,
+                                period_ms,
+                                manager,
+                                sdo_timeout_ms,
+                            )
+                            .with_boot_time(boot_time_ms),
+                        ),
                     )
                 }
                 NodeSetup::Inclinometer(setup) if sensors && links.sensor.is_none() => {
@@ -79,7 +84,8 @@ impl Links {
                             period_ms,
                             manager,
                             sdo_timeout_ms,
-                        ),
+                        )
+                        .with_boot_time(boot_time_ms),
                         nmt: None,
                         last_heartbeat_ms: None,
                         angle: None,
@@ -172,6 +178,9 @@ pub(crate) struct DriveLink {
     /// The next commissioning frame, answered to a response received between cycles.
     pub(crate) outbox: Option<CanFrame>,
     pub(crate) not_following: u8,
+    /// What was implausible about its last position actual, if anything (a reset is
+    /// refused meanwhile).
+    pub(crate) implausible: Option<Implausibility>,
 }
 
 impl DriveLink {
@@ -189,6 +198,7 @@ impl DriveLink {
             last_position_ms: None,
             outbox: None,
             not_following: 0,
+            implausible: None,
         }
     }
 
@@ -214,6 +224,7 @@ impl DriveLink {
         self.last_position_ms = None;
         self.mode_display = None;
         self.not_following = 0;
+        self.implausible = None;
     }
 }
 

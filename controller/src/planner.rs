@@ -61,6 +61,12 @@ impl Planner {
         Self { params, limits }
     }
 
+    /// The crane's parameters (its workspace among them).
+    #[must_use]
+    pub const fn params(&self) -> &CraneParams {
+        &self.params
+    }
+
     /// The rules the desired output breaks at `t`: bit `i` set for `ORDER[i]`.
     fn violations_at<Z: Trajectory<f64, 2>>(&self, z: &Z, t: f64) -> u8 {
         let p = &self.params;

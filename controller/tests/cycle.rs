@@ -10,7 +10,7 @@ use common::*;
 use controller::canopen::{self, NmtState};
 use controller::cia402::controlword as cw;
 use controller::commands::{request_frame, Request};
-use controller::commissioning::Phase;
+use controller::commissioning::{CommissioningError, Phase};
 use controller::drive::Drive;
 use controller::setpoint::{SetpointError, UNITS_PER_M_PER_S};
 use controller::virtual_bus::{Action, HEALTHY};
@@ -187,13 +187,25 @@ fn a_drive_that_leaves_operation_while_moving_stops_the_crane() {
 }
 
 #[test]
-fn drives_that_never_answer_are_looked_for_and_nothing_moves() {
+fn drives_that_never_answer_are_looked_for_then_a_named_commissioning_failure() {
     // No bus at all: the controller alone, ticked, nothing asked of it.
     let mut c = Rig::new(HEALTHY, false).c;
+    let boot_time = c.config().boot_time_ms;
     let mut presence = Vec::new();
-    for i in 0..=1200 {
+    let mut emcys = Vec::new();
+    for i in 0..=1200u64 {
         let out = c.tick(i * 10);
-        assert_eq!(out.mode, Mode::Enabling, "at {} ms", i * 10);
+        let expected = if i * 10 < u64::from(boot_time) {
+            Mode::Enabling
+        } else {
+            Mode::Halted(Fault::Commissioning(
+                Drive::Trolley,
+                CommissioningError::NeverAppeared {
+                    waited_ms: boot_time,
+                },
+            ))
+        };
+        assert_eq!(out.mode, expected, "at {} ms", i * 10);
         assert!(
             out.frames.iter().all(|f| !matches!(f.id(), 0x201 | 0x202)),
             "no set point to a drive that is not commissioned"
@@ -201,13 +213,34 @@ fn drives_that_never_answer_are_looked_for_and_nothing_moves() {
         if out.frames.iter().any(|f| f.id() == 0x601) {
             presence.push(i * 10);
         }
+        emcys.extend(
+            out.frames
+                .iter()
+                .filter(|f| f.id() == 0x090)
+                .map(|f| (i * 10, f.data().to_vec())),
+        );
     }
-    // 0x1000 is read once a second (presence check, CiA 302), no fault, no EMCY.
+    // 0x1000 is read once a second (presence check, CiA 302) for the boot time (10 s),
+    // then the drive that never answered is a commissioning failure naming it, the object
+    // looked for, reason 7, and the SDO timeout — for both drives.
     assert_eq!(
         presence,
-        [0, 1000, 2000, 3000, 4000, 5000, 6000, 7000, 8000, 9000, 10000, 11000, 12000]
+        [0, 1000, 2000, 3000, 4000, 5000, 6000, 7000, 8000, 9000]
     );
-    assert_eq!(c.commissioning(Drive::Trolley), Phase::Absent);
+    assert!(matches!(
+        c.commissioning(Drive::Trolley),
+        Phase::Failed(CommissioningError::NeverAppeared { .. })
+    ));
+    let at = u64::from(boot_time);
+    assert_eq!(
+        emcys,
+        [
+            (at, vec![0x10, 0xFF, 0x81, 12, 1, 0, 0x00, 0x10]),
+            (at, vec![0x12, 0xFF, 0x81, 16, 0x00, 0x00, 0x04, 0x05]),
+            (at, vec![0x10, 0xFF, 0x81, 12, 2, 0, 0x00, 0x10]),
+            (at, vec![0x12, 0xFF, 0x81, 16, 0x00, 0x00, 0x04, 0x05]),
+        ]
+    );
 
     // A demonstration move planned for 1 s (the QEMU main job's) with no drive there:
     // the documented reaction, not motion: halted, and still no set point.

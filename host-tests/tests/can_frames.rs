@@ -7,6 +7,7 @@ use controller::commands::{
     decode_request, request_frame, status_frame, Answer, Reject, Request, Status,
 };
 use controller::commissioning::CommissioningError;
+use controller::controller::Implausibility;
 use controller::drive::Drive;
 use controller::setpoint::SetpointError;
 use controller::setpoint::{DriveLimits, SetpointGate, UNITS_PER_M_PER_S};
@@ -179,6 +180,8 @@ fn every_fault() -> Vec<Fault> {
         Fault::Commissioning(d, CommissioningError::DeviceType { found: 0 }),
         Fault::NotOperational,
         Fault::SupervisorLost,
+        Fault::Implausible(d, Implausibility::Jump),
+        Fault::DuplicateNodeId,
     ];
     for f in &all {
         match f {
@@ -195,14 +198,18 @@ fn every_fault() -> Vec<Fault> {
             | Fault::DriveMode(_)
             | Fault::Commissioning(..)
             | Fault::NotOperational
-            | Fault::SupervisorLost => {}
+            | Fault::SupervisorLost
+            | Fault::Implausible(..)
+            | Fault::DuplicateNodeId => {}
         }
     }
     all
 }
 
 /// The DBC's multiplexor ranges hold for every fault: each code is distinct, in
-/// 1..=`Fault::MAX_CODE`, and decodes with the fault signals, never as the abort code.
+/// 1..=`Fault::MAX_CODE` but for the two the EMCY's first manufacturer byte means
+/// otherwise (15 the feedback warning, 16 the abort code), and decodes with the fault
+/// signals, never as the abort code.
 #[test]
 fn every_fault_code_is_in_the_dbc_fault_range() {
     let faults = every_fault();
@@ -210,8 +217,13 @@ fn every_fault_code_is_in_the_dbc_fault_range() {
     codes.sort_unstable();
     codes.dedup();
     assert_eq!(codes.len(), faults.len(), "distinct codes");
-    assert_eq!(codes, (1..=Fault::MAX_CODE).collect::<Vec<_>>());
-    const { assert!(Fault::MAX_CODE < emcy::ABORT_CODE_FOLLOWS) };
+    let taken = [15, emcy::ABORT_CODE_FOLLOWS];
+    assert_eq!(
+        codes,
+        (1..=Fault::MAX_CODE)
+            .filter(|c| !taken.contains(c))
+            .collect::<Vec<_>>()
+    );
     for code in codes {
         let e = decode(&canopen::emcy(
             CONTROLLER_NODE,

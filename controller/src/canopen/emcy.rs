@@ -15,6 +15,8 @@ pub const HEARTBEAT: u16 = 0x8130;
 /// Recovered from bus off (CiA 301) — not sent by this controller; named so that it is
 /// not used for anything else.
 pub const RECOVERED_FROM_BUS_OFF: u16 = 0x8140;
+/// CAN-ID collision: another node sends with the controller's own node id.
+pub const CAN_ID_COLLISION: u16 = 0x8150;
 /// RPDO timeout: a drive's TPDO (the controller's receive PDO) stopped arriving.
 pub const RPDO_TIMEOUT: u16 = 0x8250;
 /// Device specific: a second deadline miss.
@@ -25,6 +27,9 @@ pub const DRIVE_FAULT: u16 = 0xFF02;
 pub const SETPOINT_REFUSED: u16 = 0xFF03;
 /// Device specific: the model asked for motion of a drive that is not enabled.
 pub const DRIVE_NOT_READY: u16 = 0xFF04;
+/// Device specific: a drive reports a position or velocity it cannot have (outside the
+/// workspace, beyond its limits, a jump it cannot make in a cycle).
+pub const DRIVE_IMPLAUSIBLE: u16 = 0xFF05;
 /// Device specific: commissioning a drive failed (drive, object and reason in the
 /// manufacturer bytes).
 pub const COMMISSIONING: u16 = 0xFF10;
@@ -33,6 +38,9 @@ pub const COMMISSIONING: u16 = 0xFF10;
 /// EMCY's five manufacturer bytes (manufacturer bytes: [`ABORT_CODE_FOLLOWS`], the abort
 /// code as u32 little-endian; 0 when the failure was no SDO abort, e.g. a wrong device
 /// type: the reason is in 0x2002:5).
+///
+/// Fault codes never take the values of the manufacturer bytes' other meanings: 15 (the
+/// feedback warning, [`FEEDBACK_OFF`]) and 16 ([`ABORT_CODE_FOLLOWS`]).
 pub const COMMISSIONING_ABORT: u16 = 0xFF12;
 /// The first manufacturer byte of [`COMMISSIONING_ABORT`] (where other EMCYs of the
 /// controller have their fault code): 16, not a fault of its own.

@@ -41,6 +41,12 @@ pub mod cob {
     pub const RPDO1: u16 = 0x200;
     /// Heartbeat (NMT error control), + node id.
     pub const HEARTBEAT: u16 = 0x700;
+    /// SDO response (server → client), + node id.
+    pub const SDO_RESPONSE: u16 = 0x580;
+    /// SDO request (client → server), + node id.
+    pub const SDO_REQUEST: u16 = 0x600;
+    /// The function code's bits of an 11-bit COB-ID (the rest is the node id).
+    pub const FUNCTION: u16 = 0x780;
 }
 
 pub mod emcy;

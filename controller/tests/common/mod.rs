@@ -7,12 +7,12 @@ use controller::drive::Drive;
 use controller::planner::Planner;
 use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
 use controller::virtual_bus::{run_cycle, Scenario, VirtualBus};
-use controller::{Config, Controller, Cycle, Injectable, InverseModel, Mode};
+use controller::{Config, Controller, Cycle, Injectable, InverseModel, Mode, Replan};
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane_subs::CraneSubs;
 use solver_core::plan::Plan;
-use solver_core::trajectory::PointToPoint;
+use solver_core::trajectory::{PointToPoint, Trajectory};
 use solver_core::{Bdf, JacobianMode, NewtonSettings, SolverSettings};
 
 pub type Model = CraneSubs<f64, Plan<f64, 2>>;
@@ -74,9 +74,11 @@ impl Rig {
 
     /// With another configuration (role, nodes, timeouts).
     pub fn configured(ff: Ff, scenario: Scenario, config: Config) -> Self {
+        // The simulated drives stand where the model starts: the load at rest there.
+        let [start]: [SVector<f64, 2>; 1] = ff.plan().derivatives(0.0);
         Self {
             c: Controller::new(ff, planner(), config),
-            bus: VirtualBus::new(scenario, HOME),
+            bus: VirtualBus::new(scenario, start.into()),
             now: 0,
         }
     }
