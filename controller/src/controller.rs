@@ -688,7 +688,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// Takes one received frame. Frames it does not understand are ignored and counted:
     /// they never change a set point.
     pub fn on_frame(&mut self, frame: &CanFrame, now_ms: u64) {
-        if self.sent_by_a_twin(frame) {
+        if canopen::cob::produced_by(self.node.id, frame.id()) {
             self.counters.frames_received = self.counters.frames_received.saturating_add(1);
             self.fault(Fault::DuplicateNodeId);
             return;
@@ -821,23 +821,6 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             }
             Incoming::Rpdo1 { .. } => {}
         }
-    }
-
-    /// Whether `frame` carries a COB-ID only the controller's own node id sends — its
-    /// heartbeat, EMCY, SDO response or status (TPDO1): another node on the bus has its
-    /// node id. (A CAN controller does not receive its own frames.)
-    fn sent_by_a_twin(&self, frame: &CanFrame) -> bool {
-        let id = u16::from(self.node.id);
-        let cob = canopen::cob::FUNCTION;
-        let node_id = frame.id() & !cob;
-        node_id == id
-            && [
-                canopen::cob::HEARTBEAT,
-                canopen::cob::EMCY,
-                canopen::cob::SDO_RESPONSE,
-                canopen::cob::TPDO1,
-            ]
-            .contains(&(frame.id() & cob))
     }
 
     /// A frame of the inclinometer (its TPDO1 *slope long16*, heartbeat, SDO response,

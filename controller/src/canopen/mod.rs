@@ -47,6 +47,16 @@ pub mod cob {
     pub const SDO_REQUEST: u16 = 0x600;
     /// The function code's bits of an 11-bit COB-ID (the rest is the node id).
     pub const FUNCTION: u16 = 0x780;
+
+    /// Whether `id` is a COB-ID only node `node` sends as the controller does — its
+    /// heartbeat, EMCY, SDO response or first TPDO (the status frame): seen on the bus
+    /// from elsewhere, another node has its node id (a CAN controller does not receive
+    /// its own frames).
+    #[must_use]
+    pub fn produced_by(node: u8, id: u16) -> bool {
+        id & !FUNCTION == u16::from(node)
+            && [HEARTBEAT, EMCY, SDO_RESPONSE, TPDO1].contains(&(id & FUNCTION))
+    }
 }
 
 pub mod emcy;
