@@ -5,7 +5,9 @@ use controller::feedback::{Correction, StateFeedback};
 use controller::feedforward::command_plan;
 use controller::setpoint::Setpoint;
 use controller::virtual_bus::{run_cycle, Scenario, VirtualBus};
-use controller::{CanFrame, Controller, Feedforward, Injectable, InverseModel, Mode, Replan};
+use controller::{
+    CanFrame, Config, Controller, Feedforward, Injectable, InverseModel, Mode, Replan,
+};
 use scene::commissioning::CommissioningFile;
 use scene::firmware::{firmware_scene, structured_newton, FirmwareScene};
 use scene::{ModelSpec, Scene, SchemeSpec};
@@ -65,18 +67,35 @@ pub fn controller_reference(
     Ok(run)
 }
 
-/// One boot of the firmware with `plan`, until the cycles are done or it hangs.
-fn boot(
+/// What is done with the firmware's controller for a scene, whatever the types the
+/// scene gives it (model, scheme, Newton strategy, feedback).
+pub trait WithController {
+    /// What it gives.
+    type Output;
+    /// Does it with `controller`.
+    fn with<F: Feedforward + Replan, C: Correction>(
+        self,
+        controller: Controller<Injectable<F>, C>,
+    ) -> Self::Output;
+}
+
+/// The one construction of the firmware's controller on the host, for the host's run
+/// of the firmware (the QEMU runs are compared with it) and the virtual ECU: the
+/// scene's model and scheme with the Newton strategy the firmware links
+/// (`structured_newton`), following `plan`, the state feedback with the inclinometer for
+/// a scene with `[feedback]` (`f.config` then lists it), and `config` (the firmware's,
+/// or it with another role). A scene the firmware cannot run is refused.
+pub fn with_controller<V: WithController>(
     scene: &Scene,
     f: &FirmwareScene,
     plan: Plan<f64, 2>,
-    restarted: bool,
-    bus: VirtualBus,
-    cycles: u32,
-) -> Result<Vec<ReferenceCycle>, String> {
+    config: Config,
+    visit: V,
+) -> Result<V::Output, String> {
     let settings = scene.settings();
     let err = |e: solver_core::Error| e.to_string();
     let k = scene.solver.k;
+    let build = Build { f, config, visit };
     match (&scene.model, scene.solver.scheme) {
         (ModelSpec::CraneSubs(_), SchemeSpec::Bdf) if structured_newton(scene) => {
             let model = CraneSubs::new(f.params, plan).map_err(err)?;
@@ -84,24 +103,12 @@ fn boot(
                 &model, &settings, k, 0.0,
             )
             .map_err(err)?;
-            run(
-                InverseModel { model, integrator },
-                f,
-                restarted,
-                bus,
-                cycles,
-            )
+            build.with(InverseModel { model, integrator })
         }
         (ModelSpec::CraneSubs(_), SchemeSpec::Bdf) => {
             let model = CraneSubs::new(f.params, plan).map_err(err)?;
             let integrator = Bdf::<f64, _, 7, 2>::new(&model, &settings, k, 0.0).map_err(err)?;
-            run(
-                InverseModel { model, integrator },
-                f,
-                restarted,
-                bus,
-                cycles,
-            )
+            build.with(InverseModel { model, integrator })
         }
         (ModelSpec::CraneSubs(_), SchemeSpec::Radau) if structured_newton(scene) => {
             let model = CraneSubs::new(f.params, plan).map_err(err)?;
@@ -114,72 +121,92 @@ fn boot(
                 Transformed<f64, 7, StructuredStagesOf<f64, Subs, 7, 2>>,
             >::new(&model, &settings, 0.0)
             .map_err(err)?;
-            run(
-                InverseModel { model, integrator },
-                f,
-                restarted,
-                bus,
-                cycles,
-            )
+            build.with(InverseModel { model, integrator })
         }
         (ModelSpec::CraneSubs(_), SchemeSpec::Radau) => {
             let model = CraneSubs::new(f.params, plan).map_err(err)?;
             let integrator = Radau::<f64, _, 7, 2, 21>::new(&model, &settings, 0.0).map_err(err)?;
-            run(
-                InverseModel { model, integrator },
-                f,
-                restarted,
-                bus,
-                cycles,
-            )
+            build.with(InverseModel { model, integrator })
         }
         (ModelSpec::CraneProj(_), SchemeSpec::Bdf) => {
             let model = CraneProj::new(f.params, plan).map_err(err)?;
             let integrator = Bdf::<f64, _, 8, 2>::new(&model, &settings, k, 0.0).map_err(err)?;
-            run(
-                InverseModel { model, integrator },
-                f,
-                restarted,
-                bus,
-                cycles,
-            )
+            build.with(InverseModel { model, integrator })
         }
         (ModelSpec::CraneProj(_), SchemeSpec::Radau) => {
             let model = CraneProj::new(f.params, plan).map_err(err)?;
             let integrator = Radau::<f64, _, 8, 2, 24>::new(&model, &settings, 0.0).map_err(err)?;
-            run(
-                InverseModel { model, integrator },
-                f,
-                restarted,
-                bus,
-                cycles,
-            )
+            build.with(InverseModel { model, integrator })
         }
         (ModelSpec::MassOnCar(_), _) => Err("the firmware drives a crane".into()),
     }
 }
 
-/// The firmware's controller for the scene: the state feedback if it closes the loop.
-fn run<F: Feedforward + Replan>(
-    feedforward: F,
+/// The inverse model built; the controller around it next.
+struct Build<'a, V> {
+    f: &'a FirmwareScene,
+    config: Config,
+    visit: V,
+}
+
+impl<V: WithController> Build<'_, V> {
+    /// The firmware's controller around `feedforward`: with the state feedback if the
+    /// scene closes the loop.
+    fn with<F: Feedforward + Replan>(self, feedforward: F) -> Result<V::Output, String> {
+        let feedforward = Injectable::new(feedforward);
+        let (planner, config) = (self.f.planner, self.config);
+        Ok(match self.f.feedback {
+            Some(feedback) => {
+                let feedback = StateFeedback::new(feedback).map_err(|e| format!("{e:?}"))?;
+                self.visit.with(Controller::with_correction(
+                    feedforward,
+                    feedback,
+                    planner,
+                    config,
+                ))
+            }
+            None => self
+                .visit
+                .with(Controller::new(feedforward, planner, config)),
+        })
+    }
+}
+
+/// One boot of the firmware with `plan`, until the cycles are done or it hangs.
+fn boot(
+    scene: &Scene,
     f: &FirmwareScene,
+    plan: Plan<f64, 2>,
     restarted: bool,
     bus: VirtualBus,
     cycles: u32,
 ) -> Result<Vec<ReferenceCycle>, String> {
-    let feedforward = Injectable::new(feedforward);
-    Ok(match f.feedback {
-        Some(config) => {
-            let feedback = StateFeedback::new(config).map_err(|e| format!("{e:?}"))?;
-            let controller =
-                Controller::with_correction(feedforward, feedback, f.planner, f.config);
-            run_with(controller, f, restarted, bus, cycles)
-        }
-        None => {
-            let controller = Controller::new(feedforward, f.planner, f.config);
-            run_with(controller, f, restarted, bus, cycles)
-        }
-    })
+    let run = Boot {
+        f,
+        restarted,
+        bus,
+        cycles,
+    };
+    with_controller(scene, f, plan, f.config, run)
+}
+
+/// The firmware's loop on the virtual bus.
+struct Boot<'a> {
+    f: &'a FirmwareScene,
+    restarted: bool,
+    bus: VirtualBus,
+    cycles: u32,
+}
+
+impl WithController for Boot<'_> {
+    type Output = Vec<ReferenceCycle>;
+
+    fn with<F: Feedforward + Replan, C: Correction>(
+        self,
+        controller: Controller<Injectable<F>, C>,
+    ) -> Self::Output {
+        run_with(controller, self.f, self.restarted, self.bus, self.cycles)
+    }
 }
 
 fn run_with<F: Feedforward + Replan, C: Correction>(

@@ -35,16 +35,14 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use clap::{Parser, ValueEnum};
+use controller::feedback::Correction;
 use controller::feedforward::command_plan;
 use controller::node::Role;
-use controller::{CanFrame, Controller, Feedforward, InverseModel, Mode, Replan};
+use controller::{CanFrame, Controller, Feedforward, Injectable, Mode, Replan};
+use host_tests::firmware::{with_controller, WithController};
 use scene::commissioning::CommissioningFile;
-use scene::firmware::{firmware_scene, FirmwareScene};
-use scene::{ModelSpec, Scene, SchemeSpec};
-use solver_core::models::crane_proj::CraneProj;
-use solver_core::models::crane_subs::CraneSubs;
-use solver_core::plan::Plan;
-use solver_core::{Bdf, Radau};
+use scene::firmware::firmware_scene;
+use scene::Scene;
 
 #[derive(Parser, Debug)]
 #[command(about = "The crane controller in real time, its CAN bus as SLCAN over TCP")]
@@ -122,8 +120,12 @@ fn run(cli: &Cli) -> Result<(), String> {
         let [x, z, duration] = numbers[..] else {
             return Err(format!("--reference {spec}: X,Z,DURATION"));
         };
-        let f = firmware_scene(&scene, &commissioning)?;
-        return build(&scene, plan, Run::Reference(f, [x, z], duration));
+        let reference = Reference {
+            target: [x, z],
+            duration,
+            start: f.first_move.start().into(),
+        };
+        return with_controller(&scene, &f, plan, f.config, reference)?;
     }
     let listener = TcpListener::bind(("127.0.0.1", cli.port))
         .map_err(|e| format!("cannot listen on 127.0.0.1:{}: {e}", cli.port))?;
@@ -141,10 +143,16 @@ fn run(cli: &Cli) -> Result<(), String> {
     };
     println!("listening on 127.0.0.1:{port}");
     eprintln!(
-        "ecu: scene {} ({}), role {:?}, {}, for {} s",
+        "ecu: scene {} ({}), role {:?}, {}, {}, for {} s",
         scene.name,
         cli.scene.display(),
         cli.role,
+        match f.config.inclinometer() {
+            Some(i) if f.feedback.is_some() => {
+                format!("state feedback with the inclinometer at node {}", i.node)
+            }
+            _ => "feedforward only".into(),
+        },
         if cli.demo {
             "with the scene's move"
         } else {
@@ -154,60 +162,64 @@ fn run(cli: &Cli) -> Result<(), String> {
     );
     let _ = std::io::stdout().flush();
     let setup = Setup {
-        f,
-        role: match cli.role {
-            RoleArg::Manager => Role::Manager,
-            RoleArg::Slave => Role::Slave,
-        },
         duration: Duration::from_secs_f64(cli.seconds),
         listener,
         bus: Arc::new(Mutex::new(Bus::new(log))),
     };
-    build(&scene, plan, Run::Serve(setup))
+    let config = controller::Config {
+        role: match cli.role {
+            RoleArg::Manager => Role::Manager,
+            RoleArg::Slave => Role::Slave,
+        },
+        ..f.config
+    };
+    // The firmware's controller for the scene, built as the host's run of the
+    // firmware builds it (one construction: model, scheme, Newton strategy, feedback).
+    with_controller(&scene, &f, plan, config, setup)?
 }
 
-/// What to do with the inverse model.
-enum Run {
-    /// Serve the bus in real time.
-    Serve(Setup),
-    /// Print the set points of one move on the virtual bus.
-    Reference(FirmwareScene, [f64; 2], f64),
+/// Print the set points of one move on the virtual bus.
+struct Reference {
+    target: [f64; 2],
+    duration: f64,
+    /// Where the simulated crane rests.
+    start: [f64; 2],
 }
 
-impl Run {
-    fn params(&self) -> solver_core::models::crane::CraneParams {
-        match self {
-            Run::Serve(s) => s.f.params,
-            Run::Reference(f, ..) => f.params,
-        }
+impl WithController for Reference {
+    type Output = Result<(), String>;
+
+    fn with<F: Feedforward + Replan, C: Correction>(
+        self,
+        controller: Controller<Injectable<F>, C>,
+    ) -> Self::Output {
+        reference(controller, &self)
     }
+}
 
-    fn with<F: Feedforward + Replan>(self, feedforward: F) -> Result<(), String> {
-        match self {
-            Run::Serve(setup) => serve(feedforward, setup),
-            Run::Reference(f, target, duration) => reference(feedforward, &f, target, duration),
-        }
+impl WithController for Setup {
+    type Output = Result<(), String>;
+
+    fn with<F: Feedforward + Replan, C: Correction>(
+        self,
+        controller: Controller<Injectable<F>, C>,
+    ) -> Self::Output {
+        serve(controller, self)
     }
 }
 
 /// The set points of one move as the controller computes them on the virtual bus's
 /// stock CiA 402 drives (no real time, no TCP): ready, the move asked, then every
 /// cycle's set points from the one that answers it until the drives rest.
-fn reference<F: Feedforward + Replan>(
-    feedforward: F,
-    f: &FirmwareScene,
-    target: [f64; 2],
-    duration: f64,
+fn reference<F: Feedforward + Replan, C: Correction>(
+    mut controller: Controller<Injectable<F>, C>,
+    r: &Reference,
 ) -> Result<(), String> {
     use controller::commands::{request_frame, Answer, Request};
     use controller::virtual_bus::{run_cycle, VirtualBus, HEALTHY};
-    let mut controller = Controller::new(
-        controller::Injectable::new(feedforward),
-        f.planner,
-        f.config,
-    );
-    let mut bus = VirtualBus::new(HEALTHY, f.first_move.start().into());
-    let period = f.config.period_ms;
+    let (target, duration) = (r.target, r.duration);
+    let mut bus = VirtualBus::new(HEALTHY, r.start);
+    let period = controller.config().period_ms;
     let limit = 100 * 1000 / period + (duration * 1000.0) as u32 / period;
     let (mut asked, mut answered) = (false, false);
     let mut rest = 0;
@@ -249,56 +261,21 @@ fn reference<F: Feedforward + Replan>(
     Err("the move did not end".into())
 }
 
-/// Everything a run needs besides the inverse model.
+/// Everything a real-time run needs besides the controller.
 struct Setup {
-    f: FirmwareScene,
-    role: Role,
     duration: Duration,
     listener: TcpListener,
     bus: Arc<Mutex<Bus>>,
 }
 
-/// The inverse model of `scene` following `plan`, built as the firmware builds it
-/// (`host_tests::firmware`), then run.
-fn build(scene: &Scene, plan: Plan<f64, 2>, run: Run) -> Result<(), String> {
-    let settings = scene.settings();
-    let err = |e: solver_core::Error| e.to_string();
-    let k = scene.solver.k;
-    let params = run.params();
-    match (&scene.model, scene.solver.scheme) {
-        (ModelSpec::CraneSubs(_), SchemeSpec::Bdf) => {
-            let model = CraneSubs::new(params, plan).map_err(err)?;
-            let integrator = Bdf::<f64, _, 7, 2>::new(&model, &settings, k, 0.0).map_err(err)?;
-            run.with(InverseModel { model, integrator })
-        }
-        (ModelSpec::CraneSubs(_), SchemeSpec::Radau) => {
-            let model = CraneSubs::new(params, plan).map_err(err)?;
-            let integrator = Radau::<f64, _, 7, 2, 21>::new(&model, &settings, 0.0).map_err(err)?;
-            run.with(InverseModel { model, integrator })
-        }
-        (ModelSpec::CraneProj(_), SchemeSpec::Bdf) => {
-            let model = CraneProj::new(params, plan).map_err(err)?;
-            let integrator = Bdf::<f64, _, 8, 2>::new(&model, &settings, k, 0.0).map_err(err)?;
-            run.with(InverseModel { model, integrator })
-        }
-        (ModelSpec::CraneProj(_), SchemeSpec::Radau) => {
-            let model = CraneProj::new(params, plan).map_err(err)?;
-            let integrator = Radau::<f64, _, 8, 2, 24>::new(&model, &settings, 0.0).map_err(err)?;
-            run.with(InverseModel { model, integrator })
-        }
-        (ModelSpec::MassOnCar(_), _) => Err("the firmware drives a crane".into()),
-    }
-}
-
 /// The real-time loop: tick k at k·h after the start by the wall clock, the frames
 /// received since the last tick fed first (with the tick's time, as the firmware does);
 /// a late tick runs at once, so the controller's time stays k·h.
-fn serve<F: Feedforward + Replan>(feedforward: F, setup: Setup) -> Result<(), String> {
-    let config = controller::Config {
-        role: setup.role,
-        ..setup.f.config
-    };
-    let mut controller = Controller::new(feedforward, setup.f.planner, config);
+fn serve<F: Feedforward + Replan, C: Correction>(
+    mut controller: Controller<Injectable<F>, C>,
+    setup: Setup,
+) -> Result<(), String> {
+    let config = *controller.config();
     let period = Duration::from_millis(u64::from(config.period_ms));
     let stop = Arc::new(AtomicBool::new(false));
     let acceptor = {
