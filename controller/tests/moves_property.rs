@@ -17,7 +17,7 @@ mod common;
 use common::*;
 use controller::commands::{decode_request, request_frame, Reject, Request};
 use controller::planner::{DURATION_RANGE, MARGIN, MAX_DOWN_ACCELERATION, SAMPLES};
-use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
+use controller::setpoint::DriveLimits;
 use controller::virtual_bus::HEALTHY;
 use controller::{Mode, Replan};
 use nalgebra::SVector;
@@ -25,7 +25,7 @@ use proptest::prelude::*;
 use proptest::test_runner::TestRunner;
 use solver_core::models::crane::CraneParams;
 use solver_core::reference::flat_crane::flat_inverse;
-use solver_core::reference::plant::{crane_output, crane_rhs, simulate, SampledInput};
+use solver_core::reference::plant::crane_output;
 use solver_core::trajectory::{PointToPoint, Trajectory};
 use std::cell::RefCell;
 
@@ -224,36 +224,20 @@ fn execute(
         );
     }
     prop_assert_eq!(outs.last().unwrap().setpoints.map(|s| s.units()), [0, 0]);
-    // The crane driven by the set points sent: sample n + 1 is the one sent in cycle n
-    // (the model's input at the end of that step). Let the swing show for 2 s more.
+    // The crane driven by the set points sent; the swing shows for 2 s more.
     let t_first = f64::from(rig.now) / 1000.0 - 0.01 * outs.len() as f64;
-    let mut u: Vec<SVector<f64, 2>> = vec![SVector::zeros()];
-    u.extend(outs.iter().map(|c| {
-        SVector::from(
-            c.setpoints
-                .map(|s| f64::from(s.units()) / UNITS_PER_M_PER_S),
-        )
-    }));
-    u.extend(std::iter::repeat_n(SVector::zeros(), 200));
-    let p = CraneParams::PAPER;
-    let y0 = SVector::from([home[0], home[1], 0.0, 0.0, 0.0, 0.0]);
     let mut worst = (0.0f64, 0.0f64);
     let settle = t_first + 0.01 * (outs.len() as f64);
-    simulate(
-        |y, u| crane_rhs(&p, y, u),
-        y0,
-        &SampledInput::new(t_first, 0.01, &u),
-        |_, t, y| {
-            if t >= settle {
-                let load = crane_output(y);
-                let off = ((load[0] - target[0]).powi(2) + (load[1] - target[1]).powi(2)).sqrt();
-                // The load's velocity: trolley plus swing.
-                let speed = (y[3] + y[4] * y[2].sin() + y[1] * y[5] * y[2].cos()).abs();
-                worst = (worst.0.max(off), worst.1.max(speed));
-            }
-        },
-    )
-    .map_err(|e| TestCaseError::fail(e.to_string()))?;
+    simulate_sent(&outs, t_first, home, |t, y| {
+        if t >= settle {
+            let load = crane_output(y);
+            let off = ((load[0] - target[0]).powi(2) + (load[1] - target[1]).powi(2)).sqrt();
+            // The load's velocity: trolley plus swing.
+            let speed = (y[3] + y[4] * y[2].sin() + y[1] * y[5] * y[2].cos()).abs();
+            worst = (worst.0.max(off), worst.1.max(speed));
+        }
+    })
+    .map_err(TestCaseError::fail)?;
     prop_assert!(
         worst.0 < 1e-3 && worst.1 < 1e-3,
         "the crane's load: {:.2e} m off, {:.2e} m/s",
@@ -265,15 +249,8 @@ fn execute(
 
 #[test]
 fn random_move_requests() {
-    let cases = std::env::var("PROPTEST_CASES")
-        .ok()
-        .and_then(|c| c.parse().ok())
-        .unwrap_or(10_000);
-    let config = ProptestConfig {
-        cases,
-        failure_persistence: None,
-        ..ProptestConfig::default()
-    };
+    let config = property_config(10_000);
+    let cases = config.cases;
     let tally = RefCell::new([0u32; 11]);
     let strategy = (
         (10.5..22.5f64, 3.2..8.8f64),

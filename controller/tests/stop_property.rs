@@ -18,14 +18,12 @@ mod common;
 
 use common::*;
 use controller::commands::{request_frame, Request};
-use controller::setpoint::UNITS_PER_M_PER_S;
 use controller::virtual_bus::HEALTHY;
 use controller::{Mode, Replan};
 use nalgebra::SVector;
 use proptest::prelude::*;
 use proptest::test_runner::TestRunner;
-use solver_core::models::crane::CraneParams;
-use solver_core::reference::plant::{crane_output, crane_rhs, simulate, SampledInput};
+use solver_core::reference::plant::crane_output;
 use solver_core::trajectory::Trajectory;
 use std::cell::RefCell;
 
@@ -139,35 +137,20 @@ fn check_stop(
             "the model rests at {drives:?}, the plan at {rest:?}"
         );
     }
-    // The crane driven by the set points sent (sample n + 1 is cycle n's).
+    // The crane driven by the set points sent.
     let t_first = f64::from(rig.now) / 1000.0 - 0.01 * outs.len() as f64;
-    let mut u: Vec<SVector<f64, 2>> = vec![SVector::zeros()];
-    u.extend(outs.iter().map(|c| {
-        SVector::from(
-            c.setpoints
-                .map(|s| f64::from(s.units()) / UNITS_PER_M_PER_S),
-        )
-    }));
-    u.extend(std::iter::repeat_n(SVector::zeros(), 200));
-    let p = CraneParams::PAPER;
-    let y0 = SVector::from([home[0], home[1], 0.0, 0.0, 0.0, 0.0]);
     let mut past = 0.0f64;
     let mut last = SVector::<f64, 2>::zeros();
-    simulate(
-        |y, u| crane_rhs(&p, y, u),
-        y0,
-        &SampledInput::new(t_first, 0.01, &u),
-        |_, _, y| {
-            let load = crane_output(y);
-            for i in 0..2 {
-                // How far the load is beyond the target in the direction of travel.
-                let beyond = (load[i] - to[i]) * dir[i].signum();
-                past = past.max(beyond);
-            }
-            last = load;
-        },
-    )
-    .map_err(|e| TestCaseError::fail(e.to_string()))?;
+    simulate_sent(&outs, t_first, home, |_, y| {
+        let load = crane_output(y);
+        for i in 0..2 {
+            // How far the load is beyond the target in the direction of travel.
+            let beyond = (load[i] - to[i]) * dir[i].signum();
+            past = past.max(beyond);
+        }
+        last = load;
+    })
+    .map_err(TestCaseError::fail)?;
     prop_assert!(
         past <= PAST_TARGET_M,
         "the crane's load passed the target by {past:.4} m"
@@ -185,15 +168,8 @@ fn check_stop(
 
 #[test]
 fn a_stop_at_any_instant_rests_on_the_path_at_or_before_the_target() {
-    let cases = std::env::var("PROPTEST_CASES")
-        .ok()
-        .and_then(|c| c.parse().ok())
-        .unwrap_or(2_000);
-    let config = ProptestConfig {
-        cases,
-        failure_persistence: None,
-        ..ProptestConfig::default()
-    };
+    let config = property_config(2_000);
+    let cases = config.cases;
     let tally = RefCell::new(Tally::default());
     let strategy = (
         (10.5..22.5f64, 3.2..8.8f64),

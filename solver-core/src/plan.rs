@@ -18,7 +18,7 @@ use nalgebra::SVector;
 
 use crate::error::{check_positive, Error, Result};
 use crate::scalar::{c, to_f64, Real};
-use crate::trajectory::{check_smoothness, PointToPoint, Trajectory, MAX_SMOOTHNESS};
+use crate::trajectory::{along, check_smoothness, PointToPoint, Trajectory, MAX_SMOOTHNESS};
 
 const MAX_COEFFS: usize = 2 * MAX_SMOOTHNESS + 2;
 
@@ -288,17 +288,7 @@ impl<T: Real, const NZ: usize> Stop<T, NZ> {
 
 impl<T: Real, const NZ: usize> Trajectory<T, NZ> for Stop<T, NZ> {
     fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, NZ>; D] {
-        let s: [T; D] = self.timing(t);
-        let delta = self.to - self.from;
-        let mut out = [SVector::<T, NZ>::zeros(); D];
-        for (order, (slot, sj)) in out.iter_mut().zip(s.iter()).enumerate() {
-            *slot = if order == 0 {
-                self.from + delta * *sj
-            } else {
-                delta * *sj
-            };
-        }
-        out
+        along(self.from, self.to, &self.timing(t))
     }
 
     fn active_span(&self) -> (T, T) {
@@ -709,22 +699,27 @@ mod tests {
                         continue;
                     }
                     accepted += 1;
+                    // The Bernstein test proves it of the exact polynomial; evaluated in
+                    // monomial form (degree up to 15) it carries rounding of about 1e-9.
                     let s0: [f64; 1] = stop.timing(t);
                     let mut last = s0[0];
                     for i in 0..=400 {
                         let [s, v]: [f64; 2] = stop.timing(t + d * f64::from(i) / 400.0);
                         assert!(
-                            s >= last - 1e-9 && s <= sigma + 1e-9 && v >= -1e-9,
+                            s >= last - 1e-8 && s <= sigma + 1e-8 && v >= -1e-7,
                             "n {n} t {t} d {d} i {i}: σ {s} last {last} σ_end {sigma} v {v}"
                         );
                         last = s;
                     }
-                    // Continuous with the move to order n at the stop's start.
+                    // Continuous with the move to order n at the stop's start: to
+                    // rounding up to the 4th derivative (what the models and the flat
+                    // inverse use); the higher ones lose digits to the τ-scaling (d^j).
                     let a: [V2; 7] = plan.derivatives(t);
                     let b: [V2; 7] = stop.derivatives(t);
                     for j in 0..=n {
+                        let tol = if j <= 4 { 1e-8 } else { 1e-4 };
                         assert!(
-                            (a[j] - b[j]).norm() < 1e-6 * (1.0 + a[j].norm()),
+                            (a[j] - b[j]).norm() < tol * (1.0 + a[j].norm()),
                             "n {n} t {t} d {d} order {j}: {} vs {}",
                             a[j],
                             b[j]

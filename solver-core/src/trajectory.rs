@@ -290,19 +290,28 @@ impl<T: Real, const NZ: usize> PointToPoint<T, NZ> {
     }
 }
 
+/// The point at the fraction `s[0]` of the straight segment from `from` to `to`, and its
+/// derivatives from those of the fraction, `s[j]` (every axis moves along the segment).
+pub(crate) fn along<T: Real, const NZ: usize, const D: usize>(
+    from: SVector<T, NZ>,
+    to: SVector<T, NZ>,
+    s: &[T; D],
+) -> [SVector<T, NZ>; D] {
+    let delta = to - from;
+    let mut out = [SVector::<T, NZ>::zeros(); D];
+    for (order, (slot, sj)) in out.iter_mut().zip(s.iter()).enumerate() {
+        *slot = if order == 0 {
+            from + delta * *sj
+        } else {
+            delta * *sj
+        };
+    }
+    out
+}
+
 impl<T: Real, const NZ: usize> Trajectory<T, NZ> for PointToPoint<T, NZ> {
     fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, NZ>; D] {
-        let s: [T; D] = self.timing(t);
-        let delta = self.end - self.start;
-        let mut out = [SVector::<T, NZ>::zeros(); D];
-        for (order, (slot, sj)) in out.iter_mut().zip(s.iter()).enumerate() {
-            *slot = if order == 0 {
-                self.start + delta * *sj
-            } else {
-                delta * *sj
-            };
-        }
-        out
+        along(self.start, self.end, &self.timing(t))
     }
 
     fn active_span(&self) -> (T, T) {

@@ -236,3 +236,48 @@ pub fn every_answer(cycles: &[Cycle]) -> Vec<(u8, u8, u8)> {
         .map(|f| (f.data()[0], f.data()[1], f.data()[2]))
         .collect()
 }
+
+/// A property test's settings: `default` cases unless `PROPTEST_CASES` says otherwise,
+/// no persisted failures (a failure prints its minimal input).
+pub fn property_config(default: u32) -> proptest::test_runner::Config {
+    let cases = std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(default);
+    proptest::test_runner::Config {
+        cases,
+        failure_persistence: None,
+        ..proptest::test_runner::Config::default()
+    }
+}
+
+/// The crane (Eqs. 21-22, the paper's parameters) driven by the set points `cycles`
+/// sent, from rest with the load at `home`, the first cycle at `t_first` s (sample n + 1
+/// is the set point sent in cycle n, the model's input at the end of that step), then
+/// 2 s at zero so that any swing left shows: `each(t, state)` at every output time.
+pub fn simulate_sent(
+    cycles: &[Cycle],
+    t_first: f64,
+    home: [f64; 2],
+    each: impl FnMut(f64, &SVector<f64, 6>),
+) -> Result<(), String> {
+    use solver_core::reference::plant::{crane_rhs, simulate, SampledInput};
+    let mut u: Vec<SVector<f64, 2>> = vec![SVector::zeros()];
+    u.extend(cycles.iter().map(|c| {
+        SVector::from(
+            c.setpoints
+                .map(|s| f64::from(s.units()) / UNITS_PER_M_PER_S),
+        )
+    }));
+    u.extend(std::iter::repeat_n(SVector::zeros(), 200));
+    let p = CraneParams::PAPER;
+    let y0 = SVector::from([home[0], home[1], 0.0, 0.0, 0.0, 0.0]);
+    let mut each = each;
+    simulate(
+        |y, u| crane_rhs(&p, y, u),
+        y0,
+        &SampledInput::new(t_first, 0.01, &u),
+        |_, t, y| each(t, y),
+    )
+    .map_err(|e| e.to_string())
+}
