@@ -54,6 +54,7 @@ def expected_writes(node):
             (0x1017, 0, 100),
             (0x1016, 1, 0x0010_012C),
             (0x605A, 0, 6),
+            (0x6007, 0, 3),
             (0x6085, 0, 6_000_000),
             (0x6080, 0, MAX_SPEED[node]),
         ]
@@ -283,8 +284,9 @@ def test_a_drive_put_into_nmt_stopped(rigs):
     rig.wait_mode("halted", 5)
     rig.move(2, 13.0, 8.0, 2.0)
     assert rig.answer(2) == (REJECTED, 2), "not ready"
-    # The controller switches it back to pre-operational (a stopped drive answers no
-    # SDO), commissions it again and starts it; then a reset makes the crane ready.
+    # A drive reporting *stopped* kept its configuration (no SDO reaches a stopped node):
+    # the controller starts it again by NMT, without commissioning it anew; then a reset
+    # makes the crane ready.
     rig.wait(lambda: rig.dump()[TROLLEY]["nmt"] == "OPERATIONAL", 5, "the trolley started again")
     rig.wait(lambda: all(d["velocity"] == 0 for d in rig.dump().values()), 3, "standstill")
     rig.reset(3)
@@ -297,7 +299,10 @@ def test_a_drive_put_into_nmt_stopped(rigs):
         emcy(0x8130, 0x11, 9, TROLLEY, 4),  # its heartbeat said stopped
         emcy(0x8250, 0x11, 10, TROLLEY, 0),  # its TPDOs stopped first
     ), first.hex()
-    assert bytes([0x80, TROLLEY]) in [d for (_, d) in log.sent(0x000)], "pre-operational"
+    t_stop = next(t for (t, d) in log.by_others(0x000) if d == bytes([0x02, TROLLEY]))
+    nmt = [d for (t, d) in log.sent(0x000) if t > t_stop]
+    assert nmt == [bytes([0x01, TROLLEY])], f"NMT start only, never pre-operational: {nmt}"
+    assert not [d for (t, d) in log.sent(0x600 + TROLLEY) if t > t_stop], "not commissioned again"
     assert end[TROLLEY]["nmt"] == "OPERATIONAL"
     assert end[WINCH]["velocity"] == 0
     assert_setpoints_within_limits(log)

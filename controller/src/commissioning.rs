@@ -66,6 +66,12 @@ pub struct DriveSetup {
     /// Quick-stop option code 0x605A (6: brake on the quick-stop ramp and stay in
     /// *quick stop active*, where the controller holds a halted crane).
     pub quick_stop_option: i16,
+    /// Abort connection option code 0x6007: what the drive does when it loses the
+    /// controller (its heartbeat consumer trips, bus-off) or is switched out of
+    /// *operational* — 3: quick stop, which the controller's enable sequence leaves again
+    /// by itself; a drive's default is often 1 (fault), which a network stop and start at
+    /// rest would then turn into a fault needing a reset.
+    pub abort_connection_option: i16,
     /// Quick-stop deceleration 0x6085, drive acceleration units.
     pub quick_stop_deceleration: u32,
     /// Max motor speed 0x6080, drive velocity units: the drive's own last limit.
@@ -92,6 +98,7 @@ impl DriveSetup {
             heartbeat_ms: 100,
             controller_timeout_ms: 300,
             quick_stop_option: 6,
+            abort_connection_option: 3,
             quick_stop_deceleration: 6_000_000,
             max_velocity,
             velocity_unit: None,
@@ -352,6 +359,12 @@ pub fn configuration(setup: &DriveSetup, controller: u8, period_ms: u8) -> Vec<W
             4,
         ),
         w(0x605A, 0, u32::from(setup.quick_stop_option as u16), 2),
+        w(
+            0x6007,
+            0,
+            u32::from(setup.abort_connection_option as u16),
+            2,
+        ),
         w(0x6085, 0, setup.quick_stop_deceleration, 4),
         w(0x6080, 0, setup.max_velocity, 4),
     ];
@@ -771,7 +784,7 @@ mod tests {
     #[test]
     fn the_largest_configuration_fits_and_starts_with_the_mode() {
         let stock = configuration(&DriveSetup::TROLLEY, 0x10, 10);
-        assert_eq!(stock.len(), 3 + 3 * 7 + 5);
+        assert_eq!(stock.len(), 3 + 3 * 7 + 6);
         assert_eq!(stock[0], w(0x6060, 0, 9, 1));
         let pv = DriveSetup {
             mode: OperationMode::ProfileVelocity,
@@ -780,7 +793,7 @@ mod tests {
             ..DriveSetup::WINCH
         };
         let all = configuration(&pv, 0x10, 10);
-        assert_eq!(all.len(), 3 + 3 * 7 + 5 + 3);
+        assert_eq!(all.len(), 3 + 3 * 7 + 6 + 3);
         assert!(all.len() < MAX_WRITES, "nothing is cut");
         assert_eq!(all[0], w(0x6060, 0, 3, 1));
         // RPDO1 of node 2: disabled first, enabled last.

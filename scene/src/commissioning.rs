@@ -19,6 +19,7 @@
 //! heartbeat_ms = 100             # written to the drive's 0x1017
 //! controller_timeout_ms = 300    # 0x1016:1: the drive stops if the controller falls silent
 //! quick_stop_option = 6          # 0x605A
+//! abort_connection_option = 3    # 0x6007
 //! quick_stop_deceleration = 6.0  # m/s², 0x6085
 //! max_velocity = 3.3             # m/s, 0x6080: at least the set-point limit
 //! velocity_unit = "um/s"         # optional: write 0x60A9 (the only unit the gate speaks)
@@ -176,6 +177,8 @@ pub struct DriveSpec {
     pub controller_timeout_ms: u16,
     #[serde(default = "six")]
     pub quick_stop_option: i16,
+    #[serde(default = "three")]
+    pub abort_connection_option: i16,
     #[serde(default = "six_f")]
     pub quick_stop_deceleration: f64,
     pub max_velocity: Option<f64>,
@@ -199,6 +202,9 @@ fn three_hundred() -> u16 {
 fn six() -> i16 {
     6
 }
+fn three() -> i16 {
+    3
+}
 fn six_f() -> f64 {
     6.0
 }
@@ -216,6 +222,7 @@ fn stock_drives() -> Vec<DriveSpec> {
             heartbeat_ms: 100,
             controller_timeout_ms: 300,
             quick_stop_option: 6,
+            abort_connection_option: 3,
             quick_stop_deceleration: 6.0,
             max_velocity: None,
             velocity_unit: None,
@@ -459,6 +466,7 @@ impl CommissioningFile {
                 heartbeat_ms: d.heartbeat_ms,
                 controller_timeout_ms: d.controller_timeout_ms,
                 quick_stop_option: d.quick_stop_option,
+                abort_connection_option: d.abort_connection_option,
                 quick_stop_deceleration: units(d.quick_stop_deceleration) as u32,
                 max_velocity: units(max_velocity) as u32,
                 velocity_unit,

@@ -189,11 +189,12 @@ pub fn config_source(config: &Config) -> Result<String, String> {
             controller::commissioning::OperationMode::ProfileVelocity => "ProfileVelocity",
         };
         format!(
-            "controller::commissioning::DriveSetup {{ node: {}, mode: controller::commissioning::OperationMode::{mode}, heartbeat_ms: {}, controller_timeout_ms: {}, quick_stop_option: {}, quick_stop_deceleration: {}, max_velocity: {}, velocity_unit: {:?}, profile_ramp: {:?}, position_scale: {:?}, position_offset: {:?} }}",
+            "controller::commissioning::DriveSetup {{ node: {}, mode: controller::commissioning::OperationMode::{mode}, heartbeat_ms: {}, controller_timeout_ms: {}, quick_stop_option: {}, abort_connection_option: {}, quick_stop_deceleration: {}, max_velocity: {}, velocity_unit: {:?}, profile_ramp: {:?}, position_scale: {:?}, position_offset: {:?} }}",
             d.node,
             d.heartbeat_ms,
             d.controller_timeout_ms,
             d.quick_stop_option,
+            d.abort_connection_option,
             d.quick_stop_deceleration,
             d.max_velocity,
             d.velocity_unit,

@@ -230,9 +230,11 @@ struct SimDictionary {
 impl SimDictionary {
     fn new(node: u8) -> Self {
         let mut entries = LinearMap::new();
-        // Profile position, left from another machine; heartbeat off (CiA 301 default).
+        // Profile position, left from another machine; heartbeat off (CiA 301 default);
+        // abort connection option 1, fault (a common factory setting).
         let _ = entries.insert((0x6060, 0), (1, 1));
         let _ = entries.insert((0x1017, 0), (0, 2));
+        let _ = entries.insert((0x6007, 0), (1, 2));
         Self {
             entries,
             refuses_csv: false,
@@ -254,7 +256,7 @@ impl SimDictionary {
         matches!(
             (index, sub),
             (
-                0x6060 | 0x1017 | 0x605A | 0x6085 | 0x6080 | 0x60A9 | 0x6083 | 0x6084,
+                0x6060 | 0x1017 | 0x605A | 0x6007 | 0x6085 | 0x6080 | 0x60A9 | 0x6083 | 0x6084,
                 0
             ) | (0x60C2, 1..=2)
                 | (0x1016, 1)
@@ -457,9 +459,15 @@ impl DriveSim {
             }
         };
         if self.nmt != NmtState::Operational && self.state == DriveState::OperationEnabled {
-            // A drive that leaves operational loses its RPDOs: it stops (CiA 402 0x6007
-            // "abort connection option" quick stop).
-            self.state = DriveState::QuickStopActive;
+            // A drive that leaves operational loses its RPDOs: it reacts as its abort
+            // connection option 0x6007 says (CiA 402): 1 fault, 2 disable voltage,
+            // 3 quick stop, 0 nothing.
+            self.state = match self.od.get(0x6007, 0) as u16 as i16 {
+                1 => DriveState::Fault,
+                2 => DriveState::SwitchOnDisabled,
+                3 => DriveState::QuickStopActive,
+                _ => self.state,
+            };
         }
     }
 
