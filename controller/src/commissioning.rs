@@ -604,6 +604,12 @@ impl<D: Device> Commissioning<D> {
         }
     }
 
+    /// The device was heard (a heartbeat): it is there, whatever it answers — the boot
+    /// time no longer applies (a stopped node answers no presence check).
+    pub fn heard_of(&mut self) {
+        self.heard = true;
+    }
+
     /// Puts a commissioning that is running aside while the controller may not use SDO
     /// or start nodes (its own NMT state): the transfer in flight is forgotten — its
     /// timeout would otherwise fail the drive for a silence the controller caused — and

@@ -456,8 +456,9 @@ pub const STATUS_PER_CYCLE: usize = 8;
 /// other bytes, it is a new request.
 pub const REPEAT_WINDOW_MS: u64 = 1_000;
 
-/// Answered requests remembered for repeats.
-const RECENT_ANSWERS: usize = 8;
+/// Answered requests remembered for repeats (forgotten at a stop: the same bytes after
+/// it are a new request).
+const RECENT_ANSWERS: usize = 16;
 
 /// The crane controller: a CANopen node, manager (or slave) of the trolley and winch
 /// drives, with the inverse model `F` as feedforward and `C` between it and the drives
@@ -482,8 +483,11 @@ pub struct Controller<F, C = NoFeedback> {
     /// Moves and resets, in order; stops are taken before them.
     requests: Deque<Request, 4>,
     /// A stop arrived since the last cycle: obeyed first thing in the next (however
-    /// many arrived, whatever their ids; each has its answer in `unsent`).
+    /// many arrived, whatever their ids).
     stop_due: bool,
+    /// The ids of the stops to answer when they are obeyed — after the moves they
+    /// refuse, so that the last answer is the stop's (their places in `unsent` kept).
+    stop_ids: Deque<u8, ANSWER_QUEUE>,
     /// The requests answered lately, with the time of the answer: a repeat within
     /// [`REPEAT_WINDOW_MS`] is answered again, not acted on.
     answered: Deque<(Request, AnswerRecord, u64), RECENT_ANSWERS>,
@@ -575,6 +579,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             mode: Mode::Enabling,
             requests: Deque::new(),
             stop_due: false,
+            stop_ids: Deque::new(),
             answered: Deque::new(),
             pending: None,
             counters: Counters::default(),
@@ -738,12 +743,22 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                     if !self.link(drive).is_some_and(DriveLink::linked) {
                         return;
                     }
-                    let implausible = self.judge_position(drive, position, now_ms);
+                    let judged = self.judge_position(drive, position, now_ms);
                     let Some(link) = self.link_mut(drive) else {
                         return;
                     };
+                    // A jump stays implausible — which of the two readings is true is
+                    // not known — until the drive is commissioned again (it reboots or
+                    // is reset); a position outside the workspace is judged anew.
+                    let implausible = match (judged, link.implausible) {
+                        (None, Some(Implausibility::Jump)) => Some(Implausibility::Jump),
+                        (judged, _) => judged,
+                    };
                     link.implausible = implausible;
-                    link.position = Some(position);
+                    // A reading outside the workspace is no baseline for the next.
+                    if judged != Some(Implausibility::Position) {
+                        link.position = Some(position);
+                    }
                     link.mode_display = Some(mode);
                     link.last_position_ms = Some(now_ms);
                     if let Some(what) = implausible {
@@ -852,6 +867,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             Incoming::Heartbeat { node, state } if node == setup.node => {
                 sensor.last_heartbeat_ms = Some(now_ms);
                 sensor.nmt = Some(state);
+                sensor.commissioning.heard_of();
                 // As for a drive (`links::on_heartbeat`).
                 let (action, left) = links::on_heartbeat(
                     state,
@@ -952,8 +968,13 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             }
         };
         self.node.state = state;
-        if state != NmtState::Operational && self.moving() {
-            self.fault(Fault::NotOperational);
+        if state != NmtState::Operational {
+            // Requests are process data: none taken in operational is acted on outside
+            // it — each waiting one is refused (answered when the status may go out).
+            self.refuse_waiting(true);
+            if self.moving() {
+                self.fault(Fault::NotOperational);
+            }
         }
     }
 
@@ -968,6 +989,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         };
         link.last_heartbeat_ms = Some(now_ms);
         link.nmt = Some(state);
+        link.commissioning.heard_of();
         let phase = link.commissioning.phase();
         // Seen operational since it was commissioned (its TPDO clock runs).
         let was_operational = link.last_tpdo_ms.is_some();
@@ -988,10 +1010,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 ));
             }
             // The TPDOs' clocks start when the drive is (again) seen operational.
-            Heartbeat::Resumed => {
-                link.last_tpdo_ms = Some(now_ms);
-                link.last_position_ms = Some(now_ms);
-            }
+            Heartbeat::Resumed => link.restart_clocks(now_ms),
             Heartbeat::Nothing => {}
         }
     }
@@ -1118,8 +1137,13 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         let id = request.id();
         if let Request::Stop { .. } = request {
             self.stop_due = true;
-            self.queue_answer((id, Answer::Accepted, None), ANSWER_QUEUE - self.promised());
-            self.counters.requests = self.counters.requests.saturating_add(1);
+            // Its answer goes out once it is obeyed; its place is kept now.
+            if self.unsent.len() + self.promised() < ANSWER_QUEUE {
+                let _ = self.stop_ids.push_back(id);
+            } else {
+                self.counters.unanswered = self.counters.unanswered.saturating_add(1);
+                self.ignore();
+            }
             return;
         }
         let waiting = self.requests.iter().any(|r| *r == request)
@@ -1141,10 +1165,13 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             .rev()
             .find(|(r, _, at)| *r == request && now_ms.saturating_sub(*at) <= REPEAT_WINDOW_MS);
         if let Some((_, answer, _)) = answered {
-            // The supervisor did not see our answer: send it again.
+            // The supervisor did not see our answer: send it again — unless it is still
+            // waiting for its status frame (one frame answers both).
             let answer = *answer;
             self.counters.repeated_requests = self.counters.repeated_requests.saturating_add(1);
-            self.queue_answer(answer, ANSWER_QUEUE);
+            if !self.unsent.iter().any(|a| *a == answer) {
+                self.queue_answer(answer, ANSWER_QUEUE);
+            }
             return;
         }
         if self.requests.push_back(request).is_err() {
@@ -1155,7 +1182,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// Answers promised to requests taken but not answered yet (waiting, or being
     /// planned): their places in the answer queue are kept.
     fn promised(&self) -> usize {
-        self.requests.len() + usize::from(self.pending.is_some())
+        self.requests.len() + usize::from(self.pending.is_some()) + self.stop_ids.len()
     }
 
     /// Queues an answer for its status frame; with `room` answers waiting it is counted
@@ -1260,7 +1287,14 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         // is planned.
         if core::mem::take(&mut self.stop_due) {
             self.obey_stop();
-            self.refuse_waiting_moves();
+            // What was answered before the stop is a new request after it (a move sent
+            // again is to move again); the moves the stop refuses are remembered.
+            self.answered.clear();
+            self.refuse_waiting(false);
+            while let Some(id) = self.stop_ids.pop_front() {
+                self.queue_answer((id, Answer::Accepted, None), ANSWER_QUEUE);
+                self.counters.requests = self.counters.requests.saturating_add(1);
+            }
         } else if self.pending.is_none() {
             if let Some(request) = self.requests.pop_front() {
                 self.handle(request);
@@ -1535,7 +1569,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 target, duration, ..
             } => {
                 let plan = self.feedforward.plan();
-                if self.mode != Mode::Ready || !self.drives_ready() {
+                if !self.may_move() {
                     Err(Reject::NotReady)
                 } else if plan.has_queued() {
                     Err(Reject::Busy)
@@ -1555,6 +1589,9 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             }
             // Answered on arrival and obeyed by `obey_stop`; never queued.
             Request::Stop { .. } => Ok(Answer::Accepted),
+            Request::Reset { .. } if self.node.state != NmtState::Operational => {
+                Err(Reject::NotReady)
+            }
             Request::Reset { .. } => match self.mode {
                 Mode::Halted(_) => self.reset().map(|()| Answer::Accepted),
                 Mode::Stopping(_) | Mode::QuickStop(_) => Err(Reject::NotReady),
@@ -1581,15 +1618,19 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         }
     }
 
-    /// After a stop: the move being planned and the moves waiting are refused (the crane
-    /// is stopping, reason 2), each answered once, after the stop; resets stay.
-    fn refuse_waiting_moves(&mut self) {
+    /// The move being planned and the moves waiting are refused (reason 2), each
+    /// answered once: after a stop (the crane is stopping; resets stay), or on leaving
+    /// *operational* (`resets` too: nothing waits to be acted on outside it).
+    fn refuse_waiting(&mut self, resets: bool) {
         if let Some(p) = self.pending.take() {
             self.give_answer(p.request, Err(Reject::NotReady));
         }
         for _ in 0..self.requests.len() {
             match self.requests.pop_front() {
                 Some(r @ Request::Move { .. }) => self.give_answer(r, Err(Reject::NotReady)),
+                Some(r @ Request::Reset { .. }) if resets => {
+                    self.give_answer(r, Err(Reject::NotReady));
+                }
                 Some(other) => {
                     let _ = self.requests.push_back(other);
                 }
@@ -1598,13 +1639,19 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         }
     }
 
+    /// Whether a move may be accepted: ready, every drive ready, and the controller
+    /// operational (a move is process data, and a stop frame is one too).
+    fn may_move(&self) -> bool {
+        self.mode == Mode::Ready && self.drives_ready() && self.node.state == NmtState::Operational
+    }
+
     /// Advances the move being planned by this cycle's share of samples; places it in
     /// the plan and answers when its search is done. A fault meanwhile refuses it.
     fn plan_pending(&mut self) {
         let Some(mut pending) = self.pending.take() else {
             return;
         };
-        if self.mode != Mode::Ready || !self.drives_ready() {
+        if !self.may_move() {
             self.give_answer(pending.request, Err(Reject::NotReady));
             return;
         }
@@ -1789,12 +1836,13 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         }
     }
 
-    /// The TPDO clocks of the drives seen operational start again now.
+    /// The TPDO clocks of the drives seen operational start again now; what they
+    /// reported before the gap is no baseline for the next reading (they may have been
+    /// moved meanwhile).
     fn restart_tpdo_clocks(&mut self, now_ms: u64) {
         for drive in Drive::ALL {
             if let Some(link) = self.link_mut(drive).filter(|l| l.last_tpdo_ms.is_some()) {
-                link.last_tpdo_ms = Some(now_ms);
-                link.last_position_ms = Some(now_ms);
+                link.restart_clocks(now_ms);
             }
         }
     }

@@ -184,6 +184,15 @@ pub(crate) struct DriveLink {
 }
 
 impl DriveLink {
+    /// Its TPDOs are due from `now_ms` on (it is operational again, or SYNC resumed);
+    /// the position it reported before is no baseline for the next (it may have been
+    /// moved meanwhile) — until that one comes, its position is unknown.
+    pub(crate) fn restart_clocks(&mut self, now_ms: u64) {
+        self.last_tpdo_ms = Some(now_ms);
+        self.last_position_ms = Some(now_ms);
+        self.position = None;
+    }
+
     pub(crate) fn new(commissioning: Commissioning) -> Self {
         Self {
             commissioning,
@@ -220,6 +229,8 @@ impl DriveLink {
     pub(crate) fn forget_process_data(&mut self) {
         self.state = DriveState::Unknown;
         self.statusword = 0;
+        self.position = None;
+        self.velocity = 0;
         self.last_tpdo_ms = None;
         self.last_position_ms = None;
         self.mode_display = None;

@@ -174,7 +174,9 @@ impl Planner {
             .take_while(|&d| t + d < running_until)
         {
             for stretch in STOP_STRETCH {
-                let stop = plan.stop_candidate(t, d, stretch)?.ok()?;
+                let Ok(stop) = plan.stop_candidate(t, d, stretch)? else {
+                    continue;
+                };
                 if !stop.stays_on_path() {
                     continue;
                 }

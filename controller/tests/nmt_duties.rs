@@ -281,3 +281,46 @@ fn a_request_written_over_sdo_is_taken_as_the_command_frames() {
     );
     assert_eq!(sdo_write(&mut rig, 0x2000, 2, &[3]), (0x80, 0x0800_0022));
 }
+
+/// A move asked "as fast as the limits allow" is planned over several cycles; switched
+/// out of operational meanwhile, the controller refuses it (reason 2) instead of
+/// starting it where stop frames are not taken (found by review).
+#[test]
+fn a_move_being_planned_when_the_controller_leaves_operational_is_refused() {
+    for command in [NmtCommand::Stop, NmtCommand::PreOperational] {
+        let mut rig = Rig::new(HEALTHY, false);
+        rig.ready();
+        send(
+            &mut rig,
+            Request::Move {
+                id: 7,
+                target: [22.0, 4.0],
+                duration: None,
+            },
+        );
+        send(&mut rig, Request::Reset { id: 8 });
+        rig.cycle();
+        rig.c
+            .on_frame(&nmt::command(command, 0x10), u64::from(rig.now));
+        let out = rig.run(100);
+        assert!(
+            out.iter()
+                .all(|c| c.setpoints.iter().all(|s| s.units() == 0)),
+            "{command:?}: nothing moves"
+        );
+        assert!(!rig
+            .c
+            .feedforward()
+            .plan()
+            .is_moving(f64::from(rig.now) / 1e3));
+        // The answers wait for operational (the status is a PDO), then both go out.
+        rig.c
+            .on_frame(&nmt::command(NmtCommand::Start, 0x10), u64::from(rig.now));
+        let out = rig.run(3);
+        assert_eq!(
+            every_answer(&out)[..2],
+            [(7, 3, 2), (8, 3, 2)],
+            "{command:?}"
+        );
+    }
+}

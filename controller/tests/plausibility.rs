@@ -41,10 +41,13 @@ fn a_position_outside_the_workspace_is_a_fault_and_no_basis_for_a_restart() {
         Mode::Halted(Fault::Implausible(Drive::Trolley, Implausibility::Position))
     );
     assert_eq!(emcy_of(&out), Some((0xFF05, 0x81, 17, 1, 1)));
-    // While the drive says so, a reset is refused: the model would restart there.
+    // While the drive says so, a reset is refused: the model would restart there. (A
+    // cycle in which only that reading arrived: ticked without the bus.)
     rig.c.on_frame(&trolley_at(30.0), u64::from(rig.now));
     send(&mut rig, Request::Reset { id: 4 });
-    assert_eq!(answers(&rig.run(2)), [(4, 3, 2)]);
+    let out = rig.c.tick(u64::from(rig.now));
+    rig.now += 10;
+    assert_eq!(answers(&[out]), [(4, 3, 2)]);
     // Its own TPDOs (the true position) make it plausible again: the reset is taken.
     rig.run(5);
     send(&mut rig, Request::Reset { id: 5 });
@@ -65,6 +68,23 @@ fn a_position_jump_mid_move_is_a_fault() {
         Mode::QuickStop(Fault::Implausible(Drive::Trolley, Implausibility::Jump))
     );
     assert_eq!(emcy_of(&out), Some((0xFF05, 0x81, 17, 1, 3)));
+    // Which reading is true is not known: the drive's position stays implausible, and a
+    // reset is refused, until the drive is commissioned again (here: it reboots).
+    rig.until(300, |c| matches!(c.mode, Mode::Halted(_)));
+    rig.run(20);
+    send(&mut rig, Request::Reset { id: 7 });
+    assert_eq!(answers(&rig.run(2)), [(7, 3, 2)]);
+    rig.bus
+        .inject(controller::virtual_bus::Action::PowerOn(Drive::Trolley));
+    rig.until(150, rig_ready_to_reset);
+    send(&mut rig, Request::Reset { id: 8 });
+    assert_eq!(answers(&rig.run(2)), [(8, 1, 0)]);
+}
+
+/// A cycle after which a reset may be taken (the trolley commissioned again and its
+/// TPDOs flowing): its RPDO is being sent again.
+fn rig_ready_to_reset(c: &controller::Cycle) -> bool {
+    c.frames.iter().any(|f| f.id() == 0x201)
 }
 
 #[test]

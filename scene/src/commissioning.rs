@@ -432,6 +432,15 @@ impl CommissioningFile {
                     "finite and non-zero, m per increment",
                 ));
             }
+            if !(1..=3).contains(&d.abort_connection_option) {
+                return Err(refuse(
+                    field("abort_connection_option"),
+                    format!(
+                        "{}: 1 (fault), 2 (disable voltage) or 3 (quick stop) — with 0 a drive that loses the controller keeps its last set point",
+                        d.abort_connection_option
+                    ),
+                ));
+            }
             let velocity_unit = match d.velocity_unit.as_deref() {
                 None => None,
                 Some("um/s") => Some(MICROMETRE_PER_SECOND),
@@ -594,6 +603,7 @@ mod tests {
             ("[[drive]]\naxis = \"trolley\"\nnode = 1\nmode = \"pv\"\n[[drive]]\naxis = \"winch\"\nnode = 2\n", "drive[0].profile_acceleration"),
             ("[[drive]]\naxis = \"trolley\"\nnode = 1\nvelocity_unit = \"mm/s\"\n[[drive]]\naxis = \"winch\"\nnode = 2\n", "drive[0].velocity_unit"),
             ("[[drive]]\naxis = \"trolley\"\nnode = 1\ncontroller_timeout_ms = 150\n[[drive]]\naxis = \"winch\"\nnode = 2\n", "drive[0].controller_timeout_ms"),
+            ("[[drive]]\naxis = \"trolley\"\nnode = 1\n[[drive]]\naxis = \"winch\"\nnode = 2\nabort_connection_option = 0\n", "drive[1].abort_connection_option"),
             ("[[drive]]\naxis = \"trolley\"\nnode = 1\nbrake = true\n", "drive.brake"),
         ];
         for (text, field) in cases {

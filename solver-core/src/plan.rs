@@ -529,6 +529,8 @@ impl<T: Real, const NZ: usize> Plan<T, NZ> {
     /// Drops everything planned that has not begun by `t` — the queued move, and the
     /// active one too if it starts later — so that the plan rests where it is at `t`.
     pub fn cancel_from(&mut self, t: T) {
+        // A queued move that has begun by `t` is running: it becomes the active one.
+        self.retire(t);
         self.queued = None;
         if self.active.is_some_and(|a| t <= a.span().0) {
             self.active = None;
