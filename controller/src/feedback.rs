@@ -33,8 +33,23 @@
 //!   acceleration limit allows from the last set point ([`clamp_to_limits`]), i.e.
 //!   exactly what [`crate::setpoint::SetpointGate::admit`] accepts; the observer is
 //!   fed the deviation actually sent, so its state never winds up on a saturated drive.
+//! * **Start.** The observer starts from the first measurement with a plausible angle —
+//!   positions and the swing the load already has — not from zero: cranes start moves
+//!   with a swinging load, and a swing that was there before is no innovation.
+//! * **A stuck angle.** A reading that has not changed for
+//!   [`Config::max_frozen_cycles`] cycles while what the crane's own motion makes the
+//!   angle do (the observer run on the drives' positions alone since the reading last
+//!   changed) moved it by more than [`Config::frozen_motion`] is stuck — at rest too,
+//!   where a swinging load or a trolley the feedback moves betray it. Until the reading
+//!   changes again the trolley's correction may not grow beyond its value at the last
+//!   change plus [`Config::held_allowance`]: an angle that does not move cannot make
+//!   the feedback push harder, so a stuck one does little harm before it is caught.
+//! * **At rest.** With the reference still and the load within [`Config::rest_position`]
+//!   of it and swinging less than [`Config::rest_swing`] (judged over half a period),
+//!   the feedback lets go: the set points are the inverse model's, exactly zero, and the
+//!   drives hold. It takes hold again at [`REST_HYSTERESIS`] times either.
 //! * **Degraded mode.** [`degraded_rule`]: the angle missing or implausible for more
-//!   than [`Config::max_bad_angle_cycles`] cycles, or the positions not finite →
+//!   than [`Config::max_bad_angle_cycles`] cycles, stuck, or the positions not finite →
 //!   feedforward only, announced by [`Mode::FeedforwardOnly`] with its reason, latched
 //!   until [`StateFeedback::reset`] (a new observer start needs the crane at rest).
 //!   Set points stay continuous: the correction is removed within the acceleration
@@ -122,14 +137,37 @@ pub struct Config {
     /// A stuck sensor: the angle has not changed by a single quantum for this many
     /// cycles …
     pub max_frozen_cycles: u32,
-    /// … while the reference angle moved by more than this, rad. (At rest a quiet
-    /// sensor may legitimately read the same value; during a move it cannot.)
+    /// … while what the crane's own motion makes the angle do (the observer run on the
+    /// drives' positions alone, from the moment the reading stopped changing) moved it
+    /// by more than this, rad. A quiet load may legitimately read the same value at rest
+    /// or at constant speed; an angle that stays put while the trolley accelerates under
+    /// it cannot.
     pub frozen_motion: f64,
+    /// While the reading has not changed since the last cycle (it may be stuck), the
+    /// trolley's correction may grow by at most this beyond what it was when the reading
+    /// last changed, m/s: a reading that does not move cannot make the feedback push
+    /// harder, so a stuck angle can do little before it is caught.
+    pub held_allowance: f64,
+    /// At rest (the reference still), the feedback lets go — set points exactly the
+    /// inverse model's, zero — once the estimated load is within this of its reference
+    /// horizontally and in rope length, m, …
+    pub rest_position: f64,
+    /// … and the estimated swing amplitude is below this, rad. It takes hold again when
+    /// either is exceeded [`REST_HYSTERESIS`] times over (so it does not chatter), or
+    /// the reference moves.
+    pub rest_swing: f64,
 }
+
+/// How far beyond its threshold a settled crane must be disturbed for the feedback to
+/// take hold again ([`Config::rest_position`], [`Config::rest_swing`]).
+pub const REST_HYSTERESIS: f64 = 1.5;
 
 impl Config {
     /// The paper's crane (Tab. 3) at h = 10 ms with [`Weights::DEFAULT`]; the angle is
-    /// implausible beyond 15° or 2° off the prediction; 3 cycles (30 ms) are bridged.
+    /// implausible beyond 15° or 2° off the prediction; 3 cycles (30 ms) are bridged; a
+    /// reading unchanged for 3 cycles while the crane's motion should have moved it by
+    /// 0.1° is stuck; the feedback lets go at rest within 10 mm and 0.063° (held again
+    /// at 15 mm or 0.095°, below the 0.1° the study asks).
     pub const PAPER: Self = Self {
         weights: Weights::DEFAULT,
         g: 9.81,
@@ -139,8 +177,11 @@ impl Config {
         max_angle: 0.26,
         max_innovation: 0.035,
         max_bad_angle_cycles: 3,
-        max_frozen_cycles: 50,
-        frozen_motion: 0.0087,
+        max_frozen_cycles: 3,
+        frozen_motion: 0.00175,
+        held_allowance: 0.02,
+        rest_position: 0.01,
+        rest_swing: 0.0011,
     };
 }
 
@@ -507,6 +548,9 @@ pub enum Degraded {
     AngleLost,
     /// The angle out of range or too far from the prediction for more than the tolerated cycles.
     AngleImplausible,
+    /// The angle stuck: unchanged while the crane's own motion moved it
+    /// ([`Config::frozen_motion`]). A verdict, not a glitch: not bridged.
+    AngleFrozen,
     /// A position is not finite.
     PositionsInvalid,
 }
@@ -531,6 +575,8 @@ pub enum AngleCheck {
     Missing,
     /// Out of range, non-finite, or too far from the prediction.
     Implausible,
+    /// Stuck: unchanged while the crane's own motion moved it ([`Config::frozen_motion`]).
+    Frozen,
 }
 
 /// Classifies a measured angle against the limits and the observer's prediction `predicted`.
@@ -546,8 +592,9 @@ pub fn check_angle(cfg: &Config, phi: Option<f64>, predicted: f64) -> AngleCheck
 
 /// The degraded-mode rule: from the current mode, this cycle's angle check, the number
 /// of consecutive bad-angle cycles *including this one*, and whether the positions are
-/// finite, the next mode. Feedforward only is latched; a bad angle is bridged by the
-/// observer's prediction for up to `max_bad_angle_cycles` cycles.
+/// finite, the next mode. Feedforward only is latched; a missing or implausible angle
+/// is bridged by the observer's prediction for up to `max_bad_angle_cycles` cycles; a
+/// stuck one is not (it has already been watched for [`Config::max_frozen_cycles`]).
 #[must_use]
 pub fn degraded_rule(
     cfg: &Config,
@@ -560,6 +607,7 @@ pub fn degraded_rule(
         (Mode::FeedforwardOnly(_), _) => mode,
         _ if !positions_finite => Mode::FeedforwardOnly(Degraded::PositionsInvalid),
         (Mode::Closed, AngleCheck::Good) => Mode::Closed,
+        (Mode::Closed, AngleCheck::Frozen) => Mode::FeedforwardOnly(Degraded::AngleFrozen),
         (Mode::Closed, _) if bad_cycles <= cfg.max_bad_angle_cycles => Mode::Closed,
         (Mode::Closed, AngleCheck::Missing) => Mode::FeedforwardOnly(Degraded::AngleLost),
         (Mode::Closed, _) => Mode::FeedforwardOnly(Degraded::AngleImplausible),
@@ -597,8 +645,58 @@ pub struct Output {
     pub correction: [f64; 2],
     /// The mode after this cycle.
     pub mode: Mode,
+    /// The feedback has let go of a crane at rest on its target ([`Config::rest_position`]).
+    pub resting: bool,
     /// The estimated error state now, `[x, ẋ, φ, φ̇, l, l̇]` (measured − reference).
     pub error: [f64; 6],
+}
+
+/// The stuck-sensor watch: since the angle read last changed, the observer run on the
+/// drives' positions alone, i.e. what the crane's own motion makes the angle do.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Held {
+    /// The angle read last cycle.
+    last: Option<f64>,
+    /// While it repeats: the position-only error estimate and the cycles it has repeated.
+    run: Option<(Vector4<f64>, u32)>,
+    /// The trolley correction when the reading last changed, m/s.
+    correction: f64,
+}
+
+impl Held {
+    const NEW: Self = Self {
+        last: None,
+        run: None,
+        correction: 0.0,
+    };
+}
+
+/// The slots of the last half swing period in which [`StateFeedback::settle`] keeps the
+/// largest angle.
+const SWING_SLOTS: usize = 4;
+
+/// The swing of a crane at rest, as [`StateFeedback::settle`] judges it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Swing {
+    /// The estimated angle, low-passed, rad.
+    smooth: f64,
+    /// Its largest magnitude in each slot of the last half period, rad.
+    slots: [f64; SWING_SLOTS],
+    /// The slot being filled and the cycles it holds.
+    slot: usize,
+    in_slot: u32,
+    /// Cycles the reference has been still.
+    cycles: u32,
+}
+
+impl Swing {
+    const NEW: Self = Self {
+        smooth: 0.0,
+        slots: [0.0; SWING_SLOTS],
+        slot: 0,
+        in_slot: 0,
+        cycles: 0,
+    };
 }
 
 /// The state feedback with its observer: one [`StateFeedback::cycle`] per 100 Hz cycle.
@@ -612,17 +710,23 @@ pub struct StateFeedback {
     ew: Vector2<f64>,
     /// The reference of the previous cycle (the measurement that arrives belongs to it).
     previous: Option<Reference>,
+    /// The observer was started from a measurement with a good angle (a load may
+    /// already swing when the first move is commanded).
+    started: bool,
     /// The correction sent last cycle.
     applied: [f64; 2],
     mode: Mode,
     bad_angle_cycles: u32,
-    /// The last angle received, the cycles it has stayed the same, and the reference
-    /// angle when it started to (the stuck-sensor check).
-    frozen: (Option<f64>, u32, f64),
+    held: Held,
+    /// Let go at rest (see [`Config::rest_position`]).
+    resting: bool,
+    /// The swing judged at rest (see [`StateFeedback::settle`]).
+    swing: Swing,
 }
 
 impl StateFeedback {
-    /// Designs the gains from `cfg` and starts in [`Mode::Closed`] with a zero error estimate.
+    /// Designs the gains from `cfg` and starts in [`Mode::Closed`]; the observer starts
+    /// from the first measurement.
     pub fn new(cfg: Config) -> Result<Self, DesignError> {
         let gains = Gains::design(&cfg)?;
         Ok(Self::with_gains(cfg, gains))
@@ -637,10 +741,13 @@ impl StateFeedback {
             e: Vector4::zeros(),
             ew: Vector2::zeros(),
             previous: None,
+            started: false,
             applied: [0.0; 2],
             mode: Mode::Closed,
             bad_angle_cycles: 0,
-            frozen: (None, 0, 0.0),
+            held: Held::NEW,
+            resting: false,
+            swing: Swing::NEW,
         }
     }
 
@@ -656,25 +763,93 @@ impl StateFeedback {
         self.mode
     }
 
-    /// Back to [`Mode::Closed`] with a zero error estimate (call with the crane at rest
-    /// and the inverse model restarted at the measured position).
+    /// Back to [`Mode::Closed`], the observer to be started from the next measurement
+    /// (call with the inverse model restarted at the measured position).
     pub fn reset(&mut self) {
         *self = Self::with_gains(self.cfg, self.gains);
     }
 
-    /// Whether the sensor looks stuck: `phi` identical for [`Config::max_frozen_cycles`]
-    /// cycles while the reference angle (`reference_phi`, the previous cycle's) moved by
-    /// more than [`Config::frozen_motion`].
-    fn frozen(&mut self, phi: Option<f64>, reference_phi: f64) -> bool {
-        let (last, cycles, since) = self.frozen;
-        self.frozen = if phi.is_some() && phi == last {
-            (last, cycles.saturating_add(1), since)
-        } else {
-            (phi, 0, reference_phi)
+    /// The stuck-sensor watch for this cycle's reading `phi` of the sample whose
+    /// reference was `prev`, `ex` its measured trolley error: [`AngleCheck::Frozen`]
+    /// when the reading has repeated for [`Config::max_frozen_cycles`] cycles while the
+    /// position-only observer moved the angle by more than [`Config::frozen_motion`].
+    fn watch_frozen(
+        &mut self,
+        phi: Option<f64>,
+        prev: &Reference,
+        ex: f64,
+        obs: &Matrix4x2<f64>,
+    ) -> bool {
+        let repeated = phi.is_some() && phi == self.held.last;
+        self.held.last = phi;
+        if !repeated {
+            self.held.run = None;
+            self.held.correction = self.applied[0];
+            return false;
+        }
+        let (Some(p), Some((run, cycles))) = (phi, self.held.run.as_mut()) else {
+            // First repeat: watch from the observer's estimate of this sample.
+            self.held.run = Some((self.e, 0));
+            return false;
         };
-        let (_, cycles, since) = self.frozen;
-        cycles >= self.cfg.max_frozen_cycles
-            && (reference_phi - since).abs() > self.cfg.frozen_motion
+        *run += obs.column(0) * (ex - run.x);
+        *cycles = cycles.saturating_add(1);
+        *cycles >= self.cfg.max_frozen_cycles
+            && (prev.phi + run.z - p).abs() > self.cfg.frozen_motion
+    }
+
+    /// Whether a crane at rest on its target may be let go, or must be held again
+    /// ([`Config::rest_position`], [`Config::rest_swing`], [`REST_HYSTERESIS`]). The
+    /// swing is judged over half a period before the crane is let go.
+    fn settle(&mut self, reference: &Reference, u_d: [f64; 2]) {
+        const STILL: f64 = 1e-6;
+        let still = u_d.iter().all(|u| u.abs() < STILL)
+            && reference.vx.abs() < STILL
+            && reference.vl.abs() < STILL
+            && reference.vphi.abs() < STILL;
+        if !still || !self.started || self.mode != Mode::Closed {
+            self.resting = false;
+            self.swing = Swing::NEW;
+            return;
+        }
+        let l = reference.l.max(0.1);
+        // The swing amplitude as the largest estimated angle over the last half period
+        // (a swing shows its amplitude once in every half period), the angle low-passed
+        // at twice the swing frequency first: the estimate's noise (and its rate's far
+        // more) is of the order of the few hundredths of a degree to be judged.
+        let omega = libm::sqrt(self.cfg.g / l);
+        let half_period = core::f64::consts::PI / omega;
+        let smoothing = 1.0 - libm::exp(-2.0 * omega * self.cfg.h);
+        let phi = reference.phi + self.e.z;
+        let sw = &mut self.swing;
+        sw.smooth = if sw.cycles == 0 {
+            phi
+        } else {
+            sw.smooth + smoothing * (phi - sw.smooth)
+        };
+        // The half period in SWING_SLOTS slots, each holding its largest |angle|.
+        let slot_cycles = half_period / (SWING_SLOTS as f64 * self.cfg.h);
+        if f64::from(sw.in_slot) >= slot_cycles {
+            sw.slot = (sw.slot + 1) % SWING_SLOTS;
+            sw.in_slot = 0;
+            if let Some(m) = sw.slots.get_mut(sw.slot) {
+                *m = 0.0;
+            }
+        }
+        if let Some(m) = sw.slots.get_mut(sw.slot) {
+            *m = m.max(sw.smooth.abs());
+        }
+        sw.in_slot = sw.in_slot.saturating_add(1);
+        sw.cycles = sw.cycles.saturating_add(1);
+        let peak = sw.slots.iter().copied().fold(0.0, f64::max);
+        let judged = f64::from(sw.cycles) * self.cfg.h >= half_period;
+        let load = (self.e.x + l * self.e.z).abs().max(self.ew.x.abs());
+        let (pos, swing) = (self.cfg.rest_position, self.cfg.rest_swing);
+        self.resting = if self.resting {
+            load <= REST_HYSTERESIS * pos && peak <= REST_HYSTERESIS * swing
+        } else {
+            judged && load <= pos && peak <= swing
+        };
     }
 
     /// One cycle. `reference` and `u_d` are this cycle's inverse-model solution,
@@ -694,9 +869,20 @@ impl StateFeedback {
         let point = self.gains.at(reference.l);
         if let (Some(m), Some(prev), Mode::Closed) = (measured, self.previous, self.mode) {
             let positions_finite = m.x.is_finite() && m.l.is_finite();
-            let predicted_phi = prev.phi + self.e.z;
+            let ex = m.x - prev.x;
+            // Until started, the angle is only range-checked: the observer has no
+            // prediction yet, the load may be swinging.
+            let predicted_phi = if self.started {
+                prev.phi + self.e.z
+            } else {
+                m.phi.unwrap_or(0.0)
+            };
             let check = match check_angle(&self.cfg, m.phi, predicted_phi) {
-                AngleCheck::Good if self.frozen(m.phi, prev.phi) => AngleCheck::Implausible,
+                AngleCheck::Good
+                    if self.started && self.watch_frozen(m.phi, &prev, ex, &point.obs) =>
+                {
+                    AngleCheck::Frozen
+                }
                 check => check,
             };
             self.bad_angle_cycles = match check {
@@ -710,37 +896,52 @@ impl StateFeedback {
                 self.bad_angle_cycles,
                 positions_finite,
             );
-            if self.mode == Mode::Closed {
-                // Correct the estimate of the previous sample with its measurement.
-                let ex = m.x - prev.x;
-                let residual_x = ex - self.e.x;
-                let residual_phi = match (check, m.phi) {
-                    (AngleCheck::Good, Some(p)) => p - prev.phi - self.e.z,
-                    _ => 0.0,
-                };
-                // Without a good angle, correct with the position only.
-                let gain = match check {
-                    AngleCheck::Good => point.obs,
-                    _ => {
-                        let mut g = point.obs;
-                        g.set_column(1, &Vector4::zeros());
-                        g
-                    }
-                };
-                self.e += gain * Vector2::new(residual_x, residual_phi);
-                let el = m.l - prev.l;
-                self.ew += point.obs_w * (el - self.ew.x);
+            match (self.mode, check, m.phi) {
+                (Mode::Closed, AngleCheck::Good, Some(p)) if !self.started => {
+                    // Start from what is measured: positions, and the swing the load
+                    // already has (its rate follows from the next samples).
+                    self.e = Vector4::new(ex, 0.0, p - prev.phi, 0.0);
+                    self.ew = Vector2::new(m.l - prev.l, 0.0);
+                    self.started = true;
+                }
+                (Mode::Closed, _, _) => {
+                    // Correct the estimate of the previous sample with its measurement;
+                    // without a good angle, with the position only.
+                    let residual_x = ex - self.e.x;
+                    let (gain, residual_phi) = match (check, m.phi) {
+                        (AngleCheck::Good, Some(p)) if self.started => {
+                            (point.obs, p - prev.phi - self.e.z)
+                        }
+                        _ => {
+                            let mut g = point.obs;
+                            g.set_column(1, &Vector4::zeros());
+                            (g, 0.0)
+                        }
+                    };
+                    self.e += gain * Vector2::new(residual_x, residual_phi);
+                    self.ew += point.obs_w * (m.l - prev.l - self.ew.x);
+                }
+                _ => {}
             }
         }
         // Predict to now with the correction actually sent.
         self.e = point.model.a * self.e + point.model.b * app1;
         self.ew = point.model.aw * self.ew + point.model.bw * app2;
-        let (d1, d2) = match self.mode {
-            Mode::Closed if self.previous.is_some() => {
+        if let Some((run, _)) = self.held.run.as_mut() {
+            *run = point.model.a * *run + point.model.b * app1;
+        }
+        self.settle(reference, u_d);
+        let (mut d1, d2) = match self.mode {
+            Mode::Closed if self.started && !self.resting => {
                 ((-(point.k * self.e)).x, (-(point.kw * self.ew)).x)
             }
             _ => (0.0, 0.0),
         };
+        if self.held.run.is_some() {
+            // The reading has not changed: it may be stuck, so it may not push harder.
+            let cap = self.held.correction.abs() + self.cfg.held_allowance;
+            d1 = d1.max(-cap).min(cap);
+        }
         let u1 = clamp_to_limits(ud1 + d1, last1, limits.trolley, self.cfg.h);
         let u2 = clamp_to_limits(ud2 + d2, last2, limits.winch, self.cfg.h);
         let correction = [u1 - ud1, u2 - ud2];
@@ -752,6 +953,7 @@ impl StateFeedback {
         if let Mode::FeedforwardOnly(_) = self.mode {
             self.e = Vector4::zeros();
             self.ew = Vector2::zeros();
+            self.held = Held::NEW;
         }
         self.previous = Some(*reference);
         let [e0, e1, e2, e3]: [f64; 4] = self.e.into();
@@ -760,6 +962,7 @@ impl StateFeedback {
             u: [u1, u2],
             correction,
             mode: self.mode,
+            resting: self.resting,
             error: [e0, e1, e2, e3, w0, w1],
         }
     }
@@ -806,6 +1009,7 @@ impl Correction for NoFeedback {
             u: u_d,
             correction: [0.0; 2],
             mode: Mode::FeedforwardOnly(Degraded::AngleLost),
+            resting: false,
             error: [0.0; 6],
         }
     }
@@ -843,6 +1047,7 @@ impl Degraded {
             Self::AngleLost => 1,
             Self::AngleImplausible => 2,
             Self::PositionsInvalid => 3,
+            Self::AngleFrozen => 4,
         }
     }
 }
@@ -965,6 +1170,159 @@ mod tests {
         assert_eq!(last, [0.0, 0.0]);
         fb.reset();
         assert_eq!(fb.mode(), Mode::Closed);
+    }
+
+    /// The linear trolley–swing crane of the model at rest at `(15 m, l)`, started
+    /// with a swing `phi0` and a trolley error `x0`, under the feedback; the angle read
+    /// through `read` (cycle, true angle) → reading. Returns per cycle the true state
+    /// `[x, ẋ, φ, φ̇]` (relative to the rest) and the feedback's output.
+    fn linear_run(
+        l: f64,
+        x0: f64,
+        phi0: f64,
+        cycles: usize,
+        read: impl Fn(usize, f64) -> Option<f64>,
+    ) -> Vec<(Vector4<f64>, Output)> {
+        let cfg = Config::PAPER;
+        let mut fb = StateFeedback::new(cfg).unwrap();
+        let model = discretise(cfg.g, cfg.tau1, cfg.tau2, l, cfg.h);
+        let r = at_rest(15.0, l);
+        let mut truth = Vector4::new(x0, 0.0, phi0, 0.0);
+        let mut sample: Option<Measurement> = None;
+        let mut last = [0.0; 2];
+        let mut out = Vec::new();
+        for k in 0..cycles {
+            let o = fb.cycle(&r, [0.0; 2], sample, last, &DriveLimits::LAB);
+            sample = Some(Measurement {
+                x: 15.0 + truth.x,
+                l,
+                phi: read(k, truth.z),
+            });
+            truth = model.a * truth + model.b * o.u[0];
+            last = o.u;
+            out.push((truth, o));
+        }
+        out
+    }
+
+    fn amplitude(s: &Vector4<f64>, l: f64) -> f64 {
+        libm::sqrt(s.z * s.z + s.w * s.w * l / 9.81)
+    }
+
+    #[test]
+    fn a_load_already_swinging_keeps_the_feedback_and_is_damped() {
+        // 5° of swing when the feedback starts: the observer starts from the measured
+        // angle, so the swing is no innovation, and the feedback damps it.
+        let l = 6.0;
+        let period = 2.0 * core::f64::consts::PI * libm::sqrt(l / 9.81);
+        let two_periods = (2.0 * period / 0.01) as usize;
+        let run = linear_run(l, 0.0, 5f64.to_radians(), two_periods + 1, |_, p| Some(p));
+        assert!(run.iter().all(|(_, o)| o.mode == Mode::Closed));
+        let (end, _) = run.last().unwrap();
+        assert!(
+            amplitude(end, l) < 0.1 * 5f64.to_radians(),
+            "swing after two periods {:.3}°",
+            amplitude(end, l).to_degrees()
+        );
+    }
+
+    #[test]
+    fn a_stuck_angle_is_caught_at_rest_before_it_moves_the_trolley() {
+        // The load swings 2° after a gust; the reading sticks at 1 s. What the
+        // trolley's own motion makes the angle do betrays it within a few cycles, and
+        // meanwhile the unchanged reading may not push harder than before.
+        let l = 6.0;
+        let stuck_at = 100;
+        let stuck = core::cell::Cell::new(None);
+        let run = linear_run(l, 0.0, 2f64.to_radians(), 400, |k, p| {
+            if k == stuck_at {
+                stuck.set(Some(p));
+            }
+            if k >= stuck_at {
+                stuck.get()
+            } else {
+                Some(p)
+            }
+        });
+        let caught = run
+            .iter()
+            .position(|(_, o)| o.mode == Mode::FeedforwardOnly(Degraded::AngleFrozen))
+            .unwrap();
+        assert!(
+            caught < stuck_at + 15,
+            "caught {} cycles after",
+            caught - stuck_at
+        );
+        let x_at = |k: usize| run[k].0.x;
+        let moved = (stuck_at..run.len())
+            .map(|k| (x_at(k) - x_at(stuck_at)).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            moved < 0.02,
+            "the stuck angle moved the trolley {:.1} mm",
+            moved * 1e3
+        );
+        // Before it was caught, no correction grew beyond its value at the last change
+        // plus the allowance.
+        let base = run[stuck_at].1.correction[0].abs();
+        for (_, o) in &run[stuck_at + 2..caught] {
+            assert!(o.correction[0].abs() <= base + Config::PAPER.held_allowance + 1e-12);
+        }
+    }
+
+    #[test]
+    fn a_quiet_reading_of_a_quiet_crane_is_no_stuck_sensor() {
+        // At rest on the target, nothing moves: the same reading for ever is right.
+        let run = linear_run(6.0, 0.0, 0.0, 500, |_, _| Some(0.0));
+        assert!(run.iter().all(|(_, o)| o.mode == Mode::Closed));
+    }
+
+    #[test]
+    fn at_rest_on_the_target_the_set_points_are_exactly_zero_until_disturbed() {
+        // 40 mm off and 0.5° of swing: the feedback brings the load in, then lets go —
+        // the set points exactly zero — and takes hold again when a push swings it.
+        let l = 5.0;
+        let cfg = Config::PAPER;
+        let mut fb = StateFeedback::new(cfg).unwrap();
+        let model = discretise(cfg.g, cfg.tau1, cfg.tau2, l, cfg.h);
+        let r = at_rest(15.0, l);
+        let mut truth = Vector4::new(0.04, 0.0, 0.5f64.to_radians(), 0.0);
+        let mut sample = None;
+        let mut last = [0.0; 2];
+        let mut resting_since = None;
+        for k in 0..2000 {
+            if k == 1500 {
+                truth.w += 0.01; // a push: 0.57°/s of swing rate
+            }
+            let o = fb.cycle(&r, [0.0; 2], sample, last, &DriveLimits::LAB);
+            sample = Some(Measurement {
+                x: 15.0 + truth.x,
+                l,
+                phi: Some(truth.z),
+            });
+            truth = model.a * truth + model.b * o.u[0];
+            last = o.u;
+            match (o.resting, resting_since) {
+                (true, None) if k < 1500 => resting_since = Some(k),
+                (false, Some(_)) if k < 1500 => {
+                    unreachable!("let go at {resting_since:?}, held again at {k}")
+                }
+                _ => {}
+            }
+            if let Some(since) = resting_since {
+                if k > since + 5 && k < 1500 {
+                    assert_eq!(o.u, [0.0, 0.0], "cycle {k}");
+                }
+            }
+            if k == 1499 {
+                assert!((truth.x + l * truth.z).abs() < 0.05);
+                assert!(amplitude(&truth, l) < 0.1f64.to_radians());
+            }
+            if k == 1550 {
+                assert!(!o.resting, "the push is answered");
+            }
+        }
+        assert!(resting_since.is_some_and(|k| k < 1400), "{resting_since:?}");
     }
 
     #[test]

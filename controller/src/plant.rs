@@ -108,6 +108,9 @@ pub struct Mismatch {
     pub angle_noise: (f64, f64),
     /// Seed of the sensor noise.
     pub noise_seed: u64,
+    /// The swing the load already has when the run starts, rad (a gust before the
+    /// command), at rest in the swing's turning point.
+    pub swing0: f64,
 }
 
 impl Mismatch {
@@ -122,6 +125,7 @@ impl Mismatch {
         position_noise: (0.0, 0.0),
         angle_noise: (0.0, 0.0),
         noise_seed: 0,
+        swing0: 0.0,
     };
 
     /// The sensors of the study: positions 0.2 mm noise, 0.1 mm quantum; the inclinometer
@@ -129,8 +133,9 @@ impl Mismatch {
     pub const SENSORS: ((f64, f64), (f64, f64)) = ((2e-4, 1e-4), (3.5e-4, 1.75e-4));
 
     /// A random case: τ within ±30 %, rope offset within ±2 % of `l0`, Coulomb droop up
-    /// to 3 mm/s on both axes, viscous up to 3 %, and a gust of up to
-    /// ±10 N (≈ 3° of static deflection on the 18.9 kg load) lasting 0.5–3 s starting in `gust_window`.
+    /// to 3 mm/s on both axes, viscous up to 3 %, a gust of up to
+    /// ±10 N (≈ 3° of static deflection on the 18.9 kg load) lasting 0.5–3 s starting in
+    /// `gust_window`, and a load already swinging up to ±5° when the run starts.
     pub fn random(rng: &mut Rng, l0: f64, gust_window: (f64, f64)) -> Self {
         let duration = rng.uniform(0.5, 3.0);
         let (a, b) = gust_window;
@@ -149,6 +154,7 @@ impl Mismatch {
             position_noise: Self::SENSORS.0,
             angle_noise: Self::SENSORS.1,
             noise_seed: rng.next_u64(),
+            swing0: rng.uniform(-5.0, 5.0).to_radians(),
         }
     }
 }
@@ -175,7 +181,7 @@ impl Plant {
     pub fn at_rest(x: f64, l: f64, t: f64, tau: [f64; 2], g: f64, m: f64, mm: Mismatch) -> Self {
         let [tau1, tau2] = tau;
         Self {
-            y: [x, l, 0.0, 0.0, 0.0, 0.0],
+            y: [x, l, mm.swing0, 0.0, 0.0, 0.0],
             t,
             tau: [tau1 * (1.0 + mm.tau1), tau2 * (1.0 + mm.tau2)],
             g,

@@ -93,12 +93,20 @@ pub struct CaseResult {
     pub max_u: [f64; 2],
     /// Largest |Δu|/h sent, m/s².
     pub max_du: [f64; 2],
+    /// Largest |u| sent from 5 s after the move to the end, m/s (zero: the drives hold).
+    pub at_rest_u: f64,
 }
 
 impl CaseResult {
     /// The acceptance target: within ±50 mm and swing below 0.1° 5 s after the move.
     pub fn meets_target(&self) -> bool {
         self.distance <= 0.05 && self.swing_deg < 0.1
+    }
+
+    /// Whether this run left the load further from the target or swinging more than
+    /// `other` (5 s after the move, over a swing period).
+    pub fn worse_than(&self, other: &Self) -> bool {
+        self.distance > other.distance || self.swing_deg > other.swing_deg
     }
 }
 
@@ -125,12 +133,48 @@ pub fn steps_for(span: (f64, f64), t0: f64, l_end: f64, h: f64) -> usize {
     ((span.1 + 5.0 + period(9.81, l_end * 1.02) + 0.1 - t0) / h).ceil() as usize
 }
 
+/// What goes wrong with the inclinometer, from a time on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SensorFault {
+    /// Its value freezes at the last one, while it goes on talking.
+    Frozen(f64),
+    /// It falls silent.
+    Lost(f64),
+}
+
+impl SensorFault {
+    /// The angle read at `t`: `phi` now, `held` the value read last before the fault.
+    fn read(fault: Option<Self>, t: f64, phi: f64, held: &mut Option<f64>) -> Option<f64> {
+        match fault {
+            Some(Self::Frozen(at)) if t >= at => held.or(Some(phi)),
+            Some(Self::Lost(at)) if t >= at => None,
+            _ => {
+                *held = Some(phi);
+                Some(phi)
+            }
+        }
+    }
+}
+
 /// Runs `case` along `reference`, with the feedback when `gains` is given.
 pub fn simulate(
     params: &CraneParams,
     reference: &ReferenceRun,
     case: &Mismatch,
     gains: Option<&Gains>,
+    limits: &DriveLimits,
+    record: bool,
+) -> (CaseResult, Series6) {
+    simulate_with_fault(params, reference, case, gains, None, limits, record)
+}
+
+/// [`simulate`] with the inclinometer failing as `fault` says.
+pub fn simulate_with_fault(
+    params: &CraneParams,
+    reference: &ReferenceRun,
+    case: &Mismatch,
+    gains: Option<&Gains>,
+    fault: Option<SensorFault>,
     limits: &DriveLimits,
     record: bool,
 ) -> (CaseResult, Series6) {
@@ -163,6 +207,7 @@ pub fn simulate(
     let mut series = Series6::default();
     let mut last = [0.0; 2];
     let mut measured: Option<Measurement> = None;
+    let mut held = None;
     for (k, (r, ud)) in reference.r.iter().zip(&reference.u).enumerate() {
         let t = reference.t0 + k as f64 * h;
         let u = match fb.as_mut() {
@@ -178,7 +223,7 @@ pub fn simulate(
         measured = Some(Measurement {
             x: mx,
             l: ml,
-            phi: Some(mphi),
+            phi: SensorFault::read(fault, t, mphi, &mut held),
         });
         let zd = reference.z.get(k).copied().unwrap_or(reference.target);
         if t >= ts && t <= te {
@@ -191,6 +236,9 @@ pub fn simulate(
             res.distance = res.distance.max((load[0] - reference.target[0]).abs());
             res.vertical = res.vertical.max((load[1] - reference.target[1]).abs());
             res.swing_deg = res.swing_deg.max(plant.y[2].abs().to_degrees());
+        }
+        if t >= window.0 {
+            res.at_rest_u = res.at_rest_u.max(u[0].abs()).max(u[1].abs());
         }
         for i in 0..2 {
             res.max_u[i] = res.max_u[i].max(u[i].abs());
@@ -277,6 +325,69 @@ pub fn monte_carlo(seed: u64, n: usize, random_moves: bool, gains: &Gains) -> Mo
     mc
 }
 
+/// One case of the sensor-fault set: the case, and for each of [`FAULTS`] feedforward
+/// only and the feedback with the failing inclinometer, on the same plant.
+pub type FaultCase = (Mismatch, [(CaseResult, CaseResult); 4]);
+
+/// The names of [`FaultCase`]'s four faults.
+pub const FAULTS: [&str; 4] = [
+    "frozen mid-move",
+    "lost mid-move",
+    "frozen at rest",
+    "lost at rest",
+];
+
+/// `n` random cases of the paper's move, each run with feedforward only and with the
+/// feedback and a failing inclinometer: mid-move at a random instant of the move (the
+/// case's gust somewhere in the move), and at rest 2.5 s after the move (a gust of the
+/// case's strength 1–2 s after the move, so the load swings when the sensor fails).
+pub fn fault_study(seed: u64, n: usize, gains: &Gains) -> Vec<FaultCase> {
+    let params = CraneParams::PAPER;
+    let limits = DriveLimits::LAB;
+    let mut rng = Rng::new(seed);
+    let reference = paper_reference(&params);
+    let (ts, te) = reference.span;
+    let l0 = reference.r.first().map_or(6.0, |r| r.l);
+    (0..n)
+        .map(|_| {
+            let mid = Mismatch::random(&mut rng, l0, reference.span);
+            let during = rng.uniform(ts, te);
+            let rest = Mismatch {
+                gust: Gust {
+                    start: te + 1.0,
+                    duration: 1.0,
+                    ..mid.gust
+                },
+                ..mid
+            };
+            let run = |case: &Mismatch, g: Option<&Gains>, f: Option<SensorFault>| {
+                simulate_with_fault(&params, &reference, case, g, f, &limits, false).0
+            };
+            let ff_mid = run(&mid, None, None);
+            let ff_rest = run(&rest, None, None);
+            let faults = [
+                (
+                    ff_mid,
+                    run(&mid, Some(gains), Some(SensorFault::Frozen(during))),
+                ),
+                (
+                    ff_mid,
+                    run(&mid, Some(gains), Some(SensorFault::Lost(during))),
+                ),
+                (
+                    ff_rest,
+                    run(&rest, Some(gains), Some(SensorFault::Frozen(te + 2.5))),
+                ),
+                (
+                    ff_rest,
+                    run(&rest, Some(gains), Some(SensorFault::Lost(te + 2.5))),
+                ),
+            ];
+            (mid, faults)
+        })
+        .collect()
+}
+
 /// The `q`-quantile (0..1) of `v`.
 pub fn quantile(v: &mut [f64], q: f64) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -296,8 +407,9 @@ pub fn table_row(name: &str, results: &[CaseResult]) -> String {
     let a1 = col(&|r| r.max_du[0]).into_iter().fold(0.0, f64::max);
     let a2 = col(&|r| r.max_du[1]).into_iter().fold(0.0, f64::max);
     let ok = results.iter().filter(|r| r.meets_target()).count();
+    let rest = col(&|r| r.at_rest_u * 1e3).into_iter().fold(0.0, f64::max);
     format!(
-        "| {name} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.3} / {:.3} / {:.3} | {:.0} | {}/{} ({:.1} %) | {:.2}, {:.2} | {:.2}, {:.2} |",
+        "| {name} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.3} / {:.3} / {:.3} | {:.0} | {}/{} ({:.1} %) | {:.2}, {:.2} | {:.2}, {:.2} | {rest:.3} |",
         quantile(&mut tr, 0.5),
         quantile(&mut tr, 1.0),
         quantile(&mut d, 0.5),
@@ -318,7 +430,7 @@ pub fn table_row(name: &str, results: &[CaseResult]) -> String {
 }
 
 /// The table's header.
-pub const TABLE_HEADER: &str = "| set, mode | tracking during the move, mm (median / max) | distance 5 s after, mm (median / p99 / max) | swing 5 s after, ° (median / p99 / max) | vertical offset max, mm | within ±50 mm and < 0.1° | worst |u1|, |u2| m/s | worst |Δu1|/h, |Δu2|/h m/s² |\n|---|---|---|---|---:|---|---|---|";
+pub const TABLE_HEADER: &str = "| set, mode | tracking during the move, mm (median / max) | distance 5 s after, mm (median / p99 / max) | swing 5 s after, ° (median / p99 / max) | vertical offset max, mm | within ±50 mm and < 0.1° | worst |u1|, |u2| m/s | worst |Δu1|/h, |Δu2|/h m/s² | largest set point from 5 s after the move, mm/s |\n|---|---|---|---|---:|---|---|---|---:|";
 
 /// A gust at rest at rope length `l`: the swing amplitude two swing periods after its
 /// peak, relative to the peak (`(ratio with feedback, ratio feedforward only)`).

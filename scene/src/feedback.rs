@@ -22,8 +22,12 @@
 //! max_angle = 0.26            # rad: beyond, the angle is implausible
 //! max_innovation = 0.035      # rad: further from the prediction, implausible
 //! bridged_cycles = 3          # bad angles bridged before feedforward only
-//! frozen_cycles = 50          # the same value this long …
-//! frozen_motion = 0.0087      # … while the reference moved this much (rad): stuck
+//! frozen_cycles = 3           # the same value this long …
+//! frozen_motion = 0.00175     # … while the crane's motion moved it this much (rad): stuck
+//! held_allowance = 0.02       # m/s: how much harder an unchanged reading may push
+//! # At rest on the target the feedback lets go (set points zero) …
+//! rest_position = 0.01        # m: load within this of its target (x and rope) …
+//! rest_swing = 0.0011         # rad: … and swinging less; held again at 1.5× either
 //! ```
 //!
 //! The gains are designed from the weights at start-up (`Gains::design`), for the
@@ -57,6 +61,9 @@ pub struct FeedbackSpec {
     pub bridged_cycles: u32,
     pub frozen_cycles: u32,
     pub frozen_motion: f64,
+    pub held_allowance: f64,
+    pub rest_position: f64,
+    pub rest_swing: f64,
 }
 
 impl Default for FeedbackSpec {
@@ -79,6 +86,9 @@ impl Default for FeedbackSpec {
             bridged_cycles: c.max_bad_angle_cycles,
             frozen_cycles: c.max_frozen_cycles,
             frozen_motion: c.frozen_motion,
+            held_allowance: c.held_allowance,
+            rest_position: c.rest_position,
+            rest_swing: c.rest_swing,
         }
     }
 }
@@ -101,6 +111,9 @@ impl FeedbackSpec {
             ("max_angle", self.max_angle),
             ("max_innovation", self.max_innovation),
             ("frozen_motion", self.frozen_motion),
+            ("held_allowance", self.held_allowance),
+            ("rest_position", self.rest_position),
+            ("rest_swing", self.rest_swing),
         ];
         for (name, v) in positive {
             if !(v.is_finite() && v > 0.0) {
@@ -150,6 +163,9 @@ impl FeedbackSpec {
             max_bad_angle_cycles: self.bridged_cycles,
             max_frozen_cycles: self.frozen_cycles,
             frozen_motion: self.frozen_motion,
+            held_allowance: self.held_allowance,
+            rest_position: self.rest_position,
+            rest_swing: self.rest_swing,
         };
         Gains::design(&config).map_err(|e| {
             refuse(
@@ -165,7 +181,7 @@ impl FeedbackSpec {
     pub fn source(config: &Config) -> String {
         let w = &config.weights;
         format!(
-            "controller::feedback::Config {{ weights: controller::feedback::Weights {{ load_position: {:?}, trolley_position: {:?}, swing_velocity: {:?}, trolley_correction: {:?}, rope_position: {:?}, winch_correction: {:?}, drive_disturbance: {:?}, swing_disturbance: {:?}, position_noise: {:?}, angle_noise: {:?} }}, g: {:?}, tau1: {:?}, tau2: {:?}, h: {:?}, max_angle: {:?}, max_innovation: {:?}, max_bad_angle_cycles: {}, max_frozen_cycles: {}, frozen_motion: {:?} }}",
+            "controller::feedback::Config {{ weights: controller::feedback::Weights {{ load_position: {:?}, trolley_position: {:?}, swing_velocity: {:?}, trolley_correction: {:?}, rope_position: {:?}, winch_correction: {:?}, drive_disturbance: {:?}, swing_disturbance: {:?}, position_noise: {:?}, angle_noise: {:?} }}, g: {:?}, tau1: {:?}, tau2: {:?}, h: {:?}, max_angle: {:?}, max_innovation: {:?}, max_bad_angle_cycles: {}, max_frozen_cycles: {}, frozen_motion: {:?}, held_allowance: {:?}, rest_position: {:?}, rest_swing: {:?} }}",
             w.load_position,
             w.trolley_position,
             w.swing_velocity,
@@ -184,7 +200,10 @@ impl FeedbackSpec {
             config.max_innovation,
             config.max_bad_angle_cycles,
             config.max_frozen_cycles,
-            config.frozen_motion
+            config.frozen_motion,
+            config.held_allowance,
+            config.rest_position,
+            config.rest_swing
         )
     }
 }
@@ -231,6 +250,7 @@ mod tests {
             ("max_angle = 2.0", "feedback.max_angle"),
             ("bridged_cycles = 50", "feedback.bridged_cycles"),
             ("frozen_cycles = 1", "feedback.frozen_cycles"),
+            ("rest_swing = 0.0", "feedback.rest_swing"),
             ("load_position = 1e-300", "feedback"),
         ] {
             let e = check(text).unwrap_err();

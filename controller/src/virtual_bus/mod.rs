@@ -1184,6 +1184,7 @@ pub const MISMATCHED: Mismatch = Mismatch {
     position_noise: Mismatch::SENSORS.0,
     angle_noise: Mismatch::SENSORS.1,
     noise_seed: 7,
+    swing0: 0.0,
 };
 
 /// The scene's move on [`MISMATCHED`] with an 8 N gust for 1.5 s in the middle of it.
@@ -1233,7 +1234,7 @@ pub const INCLINOMETER_LOST: Scenario = Scenario {
 /// [`CLOSED_LOOP`] with the inclinometer's value frozen from 3 s.
 pub const INCLINOMETER_STUCK: Scenario = Scenario {
     name: "inclinometer-stuck",
-    expect: "ready; feedforward only once the frozen angle is implausible (EMCY 0xFF20), no fault",
+    expect: "ready; feedforward only once the frozen angle is caught (EMCY 0xFF20, reason 4 stuck), no fault",
     events: &[at(3_000, Action::Sensor(SensorFault::Stuck))],
     ..CLOSED_LOOP
 };

@@ -1,16 +1,18 @@
 //! The closed-loop study: `cargo run --release -p host-tests --bin feedback_study -- [--cases N] [--figures DIR]`.
 //!
 //! Monte Carlo (fixed seeds) over mismatch and disturbance cases on the paper's move and
-//! on random moves, feedforward only beside feedforward + feedback; the gust at rest;
-//! plots of a typical and the worst case. Prints the markdown table of `docs/RESULTS.md`.
+//! on random moves (loads already swinging up to 5° at the start), feedforward only
+//! beside feedforward + feedback; the gust at rest; a frozen or lost inclinometer
+//! mid-move and at rest against feedforward alone on the same case; plots of a typical
+//! and the worst case. Prints the markdown tables of `docs/RESULTS.md`.
 
 use std::path::PathBuf;
 
 use clap::Parser;
 use controller::feedback::{Config, Gains};
 use host_tests::feedback_study::{
-    gust_at_rest, monte_carlo, paper_reference, plot_case, random_move, table_row, CaseResult,
-    TABLE_HEADER,
+    fault_study, gust_at_rest, monte_carlo, paper_reference, plot_case, quantile, random_move,
+    table_row, CaseResult, FAULTS, TABLE_HEADER,
 };
 use host_tests::plant::Rng;
 use solver_core::models::crane::CraneParams;
@@ -28,6 +30,7 @@ struct Args {
 /// Seeds of the two sets.
 const PAPER_SEED: u64 = 2026;
 const RANDOM_SEED: u64 = 410;
+const FAULT_SEED: u64 = 3;
 
 fn main() -> Result<(), String> {
     let args = Args::parse();
@@ -107,6 +110,35 @@ fn main() -> Result<(), String> {
         "| swing 2 periods after its peak / peak, with feedback | {} |",
         fmt(&|x| x.0)
     );
+    println!();
+    let faults = fault_study(FAULT_SEED, args.cases, &gains);
+    println!("| inclinometer (paper's move) | worse than feedforward alone on the same case | by at most: distance mm, swing ° | distance 5 s after, mm (median / max) | swing 5 s after, ° (median / max) | feedforward only: distance, mm (median / max) |");
+    println!("|---|---|---|---|---|---|");
+    for (i, name) in FAULTS.iter().enumerate() {
+        let pairs: Vec<_> = faults.iter().filter_map(|(_, f)| f.get(i)).collect();
+        let worse = pairs.iter().filter(|(ff, fb)| fb.worse_than(ff)).count();
+        let mut d: Vec<f64> = pairs.iter().map(|p| p.1.distance * 1e3).collect();
+        let mut sw: Vec<f64> = pairs.iter().map(|p| p.1.swing_deg).collect();
+        let mut dff: Vec<f64> = pairs.iter().map(|p| p.0.distance * 1e3).collect();
+        let excess_d = pairs
+            .iter()
+            .map(|(ff, fb)| (fb.distance - ff.distance) * 1e3)
+            .fold(0.0, f64::max);
+        let excess_s = pairs
+            .iter()
+            .map(|(ff, fb)| fb.swing_deg - ff.swing_deg)
+            .fold(0.0, f64::max);
+        println!(
+            "| {name} | {worse}/{} | {excess_d:.1}, {excess_s:.3} | {:.1} / {:.1} | {:.3} / {:.3} | {:.1} / {:.1} |",
+            pairs.len(),
+            quantile(&mut d, 0.5),
+            quantile(&mut d, 1.0),
+            quantile(&mut sw, 0.5),
+            quantile(&mut sw, 1.0),
+            quantile(&mut dff, 0.5),
+            quantile(&mut dff, 1.0),
+        );
+    }
     if let Some((worst, typical)) = worst_paper {
         let r = paper_reference(&CraneParams::PAPER);
         plot_case(
