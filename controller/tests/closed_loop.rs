@@ -97,6 +97,18 @@ impl Run {
             })
     }
 
+    /// The cycle whose frames carry the first EMCY 0xFF20 (feedback off).
+    fn feedback_off_at(&self) -> usize {
+        self.cycles
+            .iter()
+            .position(|c| {
+                c.frames
+                    .iter()
+                    .any(|f| f.id() == 0x090 && f.data()[..2] == [0x20, 0xFF])
+            })
+            .unwrap()
+    }
+
     fn emcys(&self, code: u16) -> Vec<[u8; 8]> {
         self.cycles
             .iter()
@@ -259,11 +271,7 @@ fn a_lost_inclinometer_falls_back_to_feedforward_announced_and_the_move_goes_on(
     assert_eq!(off.len(), 1, "announced once");
     assert_eq!(off[0], [0x20, 0xFF, 0x80, 15, 3, 1, 0, 0], "angle lost");
     // Three cycles are bridged by the observer; the fourth without an angle switches.
-    let at = r
-        .cycles
-        .iter()
-        .position(|c| c.frames.iter().any(|f| f.id() == 0x090))
-        .unwrap();
+    let at = r.feedback_off_at();
     assert!((500..=506).contains(&at), "switched at cycle {at}");
     assert_eq!(r.cycles.last().unwrap().mode, Mode::Ready, "no fault");
     assert_within_limits(&r);
@@ -287,11 +295,7 @@ fn a_stuck_inclinometer_is_caught_by_the_crane_s_own_motion_and_falls_back_to_fe
     assert_eq!(off[0][5], 4, "stuck");
     // Caught within a few cycles: the move's acceleration swings the load, so an angle
     // that stays put is contradicted by the observer run on the drives' positions.
-    let at = r
-        .cycles
-        .iter()
-        .position(|c| c.frames.iter().any(|f| f.id() == 0x090))
-        .unwrap();
+    let at = r.feedback_off_at();
     eprintln!("stuck at cycle 300, announced at cycle {at}");
     assert!((300..=320).contains(&at), "switched at cycle {at}");
     assert_eq!(r.cycles.last().unwrap().mode, Mode::Ready);
@@ -550,15 +554,7 @@ fn a_stuck_inclinometer_at_rest_is_caught_and_leaves_the_load_no_worse_than_feed
     let off = r.emcys(0xFF20);
     assert_eq!(off.len(), 1);
     assert_eq!(off[0][5], 4, "stuck");
-    let at = r
-        .cycles
-        .iter()
-        .position(|c| {
-            c.frames
-                .iter()
-                .any(|f| f.id() == 0x090 && f.data()[..2] == [0x20, 0xFF])
-        })
-        .unwrap();
+    let at = r.feedback_off_at();
     eprintln!("stuck at cycle 1200, announced at cycle {at}");
     // Where the load ends: over the last swing period, never further from the target
     // than with feedforward alone (here the feedback had damped part of the gust's
