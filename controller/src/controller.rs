@@ -471,7 +471,7 @@ pub struct Controller<F, C = NoFeedback> {
     /// the controller holds zero set points whatever the load does (no motion without a
     /// command).
     closed_loop: bool,
-    /// The feedback mode last announced (EMCY 0xFF20 when it falls back to feedforward).
+    /// The feedback mode last announced (EMCY 0xFF20 when it stops reading the angle).
     feedback_announced: Option<FeedbackMode>,
     config: Config,
     node: Node,
@@ -1464,8 +1464,9 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
 
     /// This cycle's set points before the gate: the inverse model's `u_d`, corrected by
     /// the feedback while the loop is closed (Fig. 1). A change of the feedback's mode
-    /// is announced: falling back to feedforward only by EMCY 0xFF20 (a warning: the
-    /// crane goes on with the paper's controller), back to closed loop by nothing.
+    /// is announced: the angle no longer used (the swing estimated from the positions,
+    /// or feedforward only) by EMCY 0xFF20 with the reason (a warning: the move goes
+    /// on), back to closed loop by nothing.
     fn corrected(&mut self, step: &FeedforwardStep) -> [f64; 2] {
         if !C::ENABLED || !self.closed_loop || self.mode != Mode::Ready {
             return step.u;
@@ -1477,7 +1478,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             .correction
             .correct(&reference, step.u, measured, last, &self.config.limits);
         if self.feedback_announced != Some(out.mode) {
-            if let FeedbackMode::FeedforwardOnly(reason) = out.mode {
+            if let Some(reason) = out.mode.degraded() {
                 let node = self
                     .links
                     .sensor()
@@ -1683,17 +1684,18 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     }
 
     /// A move was accepted (`at_rest`: the crane was at rest when it was): the feedback
-    /// acts from now on. If it had fallen back to feedforward only and the crane was at
-    /// rest, it starts again from a zero error estimate (its degraded rule takes it off
-    /// again if the angle is still bad).
+    /// acts from now on. If it had stopped reading the angle and the crane was at rest,
+    /// it starts again, its observer from the next good measurement (its degraded rule
+    /// takes it off again if the angle is still bad).
     fn close_loop(&mut self, at_rest: bool) {
         if !C::ENABLED {
             return;
         }
-        let degraded = matches!(
-            self.correction.mode(),
-            Some(FeedbackMode::FeedforwardOnly(_))
-        );
+        let degraded = self
+            .correction
+            .mode()
+            .and_then(FeedbackMode::degraded)
+            .is_some();
         if !self.closed_loop || (degraded && at_rest) {
             self.correction.restart();
             self.feedback_announced = None;

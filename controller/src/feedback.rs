@@ -561,8 +561,28 @@ pub enum Degraded {
 pub enum Mode {
     /// Feedforward plus state feedback.
     Closed,
-    /// Feedforward only, with the reason (latched until [`StateFeedback::reset`]).
+    /// The angle failed (lost, implausible or stuck) and is no longer read: the
+    /// feedback goes on with the swing the model predicts from the drives' measured
+    /// positions, from the estimate it had when the angle was last trusted, until the
+    /// crane rests. Cutting the correction mid-swing instead leaves the load with the
+    /// swing and the trolley offset the feedback was in the middle of removing — worse
+    /// than feedforward alone in one case of eight (issue 18). Latched until
+    /// [`StateFeedback::reset`].
+    SwingEstimated(Degraded),
+    /// Feedforward only, with the reason (latched until [`StateFeedback::reset`]): the
+    /// positions themselves are not usable.
     FeedforwardOnly(Degraded),
+}
+
+impl Mode {
+    /// The reason the angle is not used, if it is not.
+    #[must_use]
+    pub fn degraded(self) -> Option<Degraded> {
+        match self {
+            Self::Closed => None,
+            Self::SwingEstimated(d) | Self::FeedforwardOnly(d) => Some(d),
+        }
+    }
 }
 
 /// How this cycle's angle looks.
@@ -590,11 +610,14 @@ pub fn check_angle(cfg: &Config, phi: Option<f64>, predicted: f64) -> AngleCheck
     }
 }
 
-/// The degraded-mode rule: from the current mode, this cycle's angle check, the number
-/// of consecutive bad-angle cycles *including this one*, and whether the positions are
-/// finite, the next mode. Feedforward only is latched; a missing or implausible angle
-/// is bridged by the observer's prediction for up to `max_bad_angle_cycles` cycles; a
-/// stuck one is not (it has already been watched for [`Config::max_frozen_cycles`]).
+/// The degraded-mode rule: from the current mode, this cycle's angle check (ignored
+/// once the angle is no longer read), the number of consecutive bad-angle cycles
+/// *including this one*, and whether the positions are finite, the next mode. Both
+/// degraded modes are latched; non-finite positions end in feedforward only; a missing
+/// or implausible angle is bridged by the observer's prediction for up to
+/// `max_bad_angle_cycles` cycles, then the swing is estimated from the positions; a
+/// stuck one is not bridged (it has already been watched for
+/// [`Config::max_frozen_cycles`]).
 #[must_use]
 pub fn degraded_rule(
     cfg: &Config,
@@ -606,12 +629,27 @@ pub fn degraded_rule(
     match (mode, angle) {
         (Mode::FeedforwardOnly(_), _) => mode,
         _ if !positions_finite => Mode::FeedforwardOnly(Degraded::PositionsInvalid),
+        (Mode::SwingEstimated(_), _) => mode,
         (Mode::Closed, AngleCheck::Good) => Mode::Closed,
-        (Mode::Closed, AngleCheck::Frozen) => Mode::FeedforwardOnly(Degraded::AngleFrozen),
+        (Mode::Closed, AngleCheck::Frozen) => Mode::SwingEstimated(Degraded::AngleFrozen),
         (Mode::Closed, _) if bad_cycles <= cfg.max_bad_angle_cycles => Mode::Closed,
-        (Mode::Closed, AngleCheck::Missing) => Mode::FeedforwardOnly(Degraded::AngleLost),
-        (Mode::Closed, _) => Mode::FeedforwardOnly(Degraded::AngleImplausible),
+        (Mode::Closed, AngleCheck::Missing) => Mode::SwingEstimated(Degraded::AngleLost),
+        (Mode::Closed, _) => Mode::SwingEstimated(Degraded::AngleImplausible),
     }
+}
+
+/// The observer's gain for a trolley position alone, at rope length `l`: the trolley's
+/// position and velocity are corrected as the observer's gain says, the load is not
+/// moved by it. The swing is not observable from the trolley's position (the drive does
+/// not feel the rope), so the two-measurement gain's swing rows would pull the swing
+/// estimate with every trolley residual; instead the load's position `x + lφ` and
+/// velocity `ẋ + lφ̇` stay, and the swing follows from the corrected trolley. The
+/// model's prediction then swings the load under the trolley's measured motion (the
+/// load's own dynamics, `d²(x + lφ)/dt² = −gφ`, are driven by the trolley's position).
+fn position_only(obs: &Matrix4x2<f64>, l: f64) -> Vector4<f64> {
+    let (gx, gv) = (obs.m11, obs.m21);
+    let l = l.max(0.1);
+    Vector4::new(gx, gv, -gx / l, -gv / l)
 }
 
 /// `u` clamped to what the set-point gate admits after `last`: within the velocity limit
@@ -792,10 +830,33 @@ impl StateFeedback {
             self.held.run = Some((self.e, 0));
             return false;
         };
-        *run += obs.column(0) * (ex - run.x);
+        *run += position_only(obs, prev.l) * (ex - run.x);
         *cycles = cycles.saturating_add(1);
         *cycles >= self.cfg.max_frozen_cycles
             && (prev.phi + run.z - p).abs() > self.cfg.frozen_motion
+    }
+
+    /// This cycle's angle `phi` against the limits, the observer's prediction (once
+    /// started: until then the load may be swinging, only the range is checked) and the
+    /// stuck-sensor watch ([`Self::watch_frozen`]).
+    fn judge_angle(
+        &mut self,
+        phi: Option<f64>,
+        prev: &Reference,
+        ex: f64,
+        obs: &Matrix4x2<f64>,
+    ) -> AngleCheck {
+        let predicted = if self.started {
+            prev.phi + self.e.z
+        } else {
+            phi.unwrap_or(0.0)
+        };
+        match check_angle(&self.cfg, phi, predicted) {
+            AngleCheck::Good if self.started && self.watch_frozen(phi, prev, ex, obs) => {
+                AngleCheck::Frozen
+            }
+            check => check,
+        }
     }
 
     /// Whether a crane at rest on its target may be let go, or must be held again
@@ -807,7 +868,7 @@ impl StateFeedback {
             && reference.vx.abs() < STILL
             && reference.vl.abs() < STILL
             && reference.vphi.abs() < STILL;
-        if !still || !self.started || self.mode != Mode::Closed {
+        if !still || !self.started || matches!(self.mode, Mode::FeedforwardOnly(_)) {
             self.resting = false;
             self.swing = Swing::NEW;
             return;
@@ -867,28 +928,20 @@ impl StateFeedback {
         let [last1, last2] = last;
         let [app1, app2] = self.applied;
         let point = self.gains.at(reference.l);
-        if let (Some(m), Some(prev), Mode::Closed) = (measured, self.previous, self.mode) {
+        let reads_positions = !matches!(self.mode, Mode::FeedforwardOnly(_));
+        if let (Some(m), Some(prev), true) = (measured, self.previous, reads_positions) {
             let positions_finite = m.x.is_finite() && m.l.is_finite();
             let ex = m.x - prev.x;
-            // Until started, the angle is only range-checked: the observer has no
-            // prediction yet, the load may be swinging.
-            let predicted_phi = if self.started {
-                prev.phi + self.e.z
-            } else {
-                m.phi.unwrap_or(0.0)
-            };
-            let check = match check_angle(&self.cfg, m.phi, predicted_phi) {
-                AngleCheck::Good
-                    if self.started && self.watch_frozen(m.phi, &prev, ex, &point.obs) =>
-                {
-                    AngleCheck::Frozen
-                }
-                check => check,
+            let check = match self.mode {
+                Mode::Closed => self.judge_angle(m.phi, &prev, ex, &point.obs),
+                // The angle is no longer read.
+                _ => AngleCheck::Missing,
             };
             self.bad_angle_cycles = match check {
                 AngleCheck::Good => 0,
                 _ => self.bad_angle_cycles.saturating_add(1),
             };
+            let was = self.mode;
             self.mode = degraded_rule(
                 &self.cfg,
                 self.mode,
@@ -896,32 +949,43 @@ impl StateFeedback {
                 self.bad_angle_cycles,
                 positions_finite,
             );
-            match (self.mode, check, m.phi) {
-                (Mode::Closed, AngleCheck::Good, Some(p)) if !self.started => {
-                    // Start from what is measured: positions, and the swing the load
-                    // already has (its rate follows from the next samples).
-                    self.e = Vector4::new(ex, 0.0, p - prev.phi, 0.0);
-                    self.ew = Vector2::new(m.l - prev.l, 0.0);
-                    self.started = true;
+            let angle = match (self.mode, check, m.phi) {
+                (Mode::Closed, AngleCheck::Good, Some(p)) => Some(p),
+                _ => None,
+            };
+            match (was, self.mode, self.held.run) {
+                (_, Mode::FeedforwardOnly(_), _) => {}
+                (Mode::Closed, Mode::SwingEstimated(Degraded::AngleFrozen), Some((run, _))) => {
+                    // Stuck since the reading last changed: the estimate from the
+                    // positions alone since then (corrected with this sample) is the
+                    // one to go on with, not the one the stuck readings pulled along.
+                    self.e = run;
                 }
-                (Mode::Closed, _, _) => {
+                _ if !self.started => {
+                    if let Some(p) = angle {
+                        // Start from what is measured: positions, and the swing the load
+                        // already has (its rate follows from the next samples).
+                        self.e = Vector4::new(ex, 0.0, p - prev.phi, 0.0);
+                        self.ew = Vector2::new(m.l - prev.l, 0.0);
+                        self.started = true;
+                    }
+                }
+                _ => {
                     // Correct the estimate of the previous sample with its measurement;
                     // without a good angle, with the position only.
                     let residual_x = ex - self.e.x;
-                    let (gain, residual_phi) = match (check, m.phi) {
-                        (AngleCheck::Good, Some(p)) if self.started => {
-                            (point.obs, p - prev.phi - self.e.z)
+                    match angle {
+                        Some(p) => {
+                            let residual_phi = p - prev.phi - self.e.z;
+                            self.e += point.obs * Vector2::new(residual_x, residual_phi);
                         }
-                        _ => {
-                            let mut g = point.obs;
-                            g.set_column(1, &Vector4::zeros());
-                            (g, 0.0)
-                        }
-                    };
-                    self.e += gain * Vector2::new(residual_x, residual_phi);
+                        None => self.e += position_only(&point.obs, prev.l) * residual_x,
+                    }
                     self.ew += point.obs_w * (m.l - prev.l - self.ew.x);
                 }
-                _ => {}
+            }
+            if self.mode != Mode::Closed {
+                self.held = Held::NEW;
             }
         }
         // Predict to now with the correction actually sent.
@@ -932,7 +996,7 @@ impl StateFeedback {
         }
         self.settle(reference, u_d);
         let (mut d1, d2) = match self.mode {
-            Mode::Closed if self.started && !self.resting => {
+            Mode::Closed | Mode::SwingEstimated(_) if self.started && !self.resting => {
                 ((-(point.k * self.e)).x, (-(point.kw * self.ew)).x)
             }
             _ => (0.0, 0.0),
@@ -947,7 +1011,7 @@ impl StateFeedback {
         let correction = [u1 - ud1, u2 - ud2];
         // Anti-windup: the observer learns what was sent, not what was wished.
         self.applied = match self.mode {
-            Mode::Closed => correction,
+            Mode::Closed | Mode::SwingEstimated(_) => correction,
             Mode::FeedforwardOnly(_) => [0.0; 2],
         };
         if let Mode::FeedforwardOnly(_) = self.mode {
@@ -1124,18 +1188,28 @@ mod tests {
         assert_eq!(degraded_rule(&c, Closed, Missing, n, true), Closed);
         assert_eq!(
             degraded_rule(&c, Closed, Missing, n + 1, true),
-            FeedforwardOnly(Degraded::AngleLost)
+            SwingEstimated(Degraded::AngleLost)
         );
         assert_eq!(
             degraded_rule(&c, Closed, Implausible, n + 1, true),
-            FeedforwardOnly(Degraded::AngleImplausible)
+            SwingEstimated(Degraded::AngleImplausible)
+        );
+        assert_eq!(
+            degraded_rule(&c, Closed, Frozen, 1, true),
+            SwingEstimated(Degraded::AngleFrozen)
         );
         assert_eq!(
             degraded_rule(&c, Closed, Good, 0, false),
             FeedforwardOnly(Degraded::PositionsInvalid)
         );
-        // Latched.
-        let off = FeedforwardOnly(Degraded::AngleLost);
+        // Latched; positions lost while estimating end in feedforward only.
+        let estimated = SwingEstimated(Degraded::AngleLost);
+        assert_eq!(degraded_rule(&c, estimated, Good, 0, true), estimated);
+        assert_eq!(
+            degraded_rule(&c, estimated, Missing, 9, false),
+            FeedforwardOnly(Degraded::PositionsInvalid)
+        );
+        let off = FeedforwardOnly(Degraded::PositionsInvalid);
         assert_eq!(degraded_rule(&c, off, Good, 0, true), off);
         assert_eq!(check_angle(&c, None, 0.0), Missing);
         assert_eq!(check_angle(&c, Some(f64::NAN), 0.0), Implausible);
@@ -1145,7 +1219,7 @@ mod tests {
     }
 
     #[test]
-    fn angle_lost_switches_to_feedforward_and_announces_it() {
+    fn a_lost_angle_then_lost_positions_end_in_feedforward_only() {
         let mut fb = StateFeedback::new(Config::PAPER).unwrap();
         let r = at_rest(15.0, 5.0);
         let mut last = [0.0; 2];
@@ -1158,9 +1232,18 @@ mod tests {
             let out = fb.cycle(&r, [0.0; 2], Some(m), last, &DriveLimits::LAB);
             last = out.u;
             if k >= 3 + 4 {
-                assert_eq!(out.mode, Mode::FeedforwardOnly(Degraded::AngleLost));
+                assert_eq!(out.mode, Mode::SwingEstimated(Degraded::AngleLost));
+                assert!(out.u[0] < 0.0, "still correcting the 10 mm");
             }
         }
+        let lost = Measurement {
+            x: f64::NAN,
+            l: 5.0,
+            phi: None,
+        };
+        let out = fb.cycle(&r, [0.0; 2], Some(lost), last, &DriveLimits::LAB);
+        assert_eq!(out.mode, Mode::FeedforwardOnly(Degraded::PositionsInvalid));
+        last = out.u;
         // The correction is ramped out within the acceleration limit, then zero.
         for _ in 0..100 {
             let out = fb.cycle(&r, [0.0; 2], None, last, &DriveLimits::LAB);
@@ -1234,7 +1317,7 @@ mod tests {
         let l = 6.0;
         let stuck_at = 100;
         let stuck = core::cell::Cell::new(None);
-        let run = linear_run(l, 0.0, 2f64.to_radians(), 400, |k, p| {
+        let run = linear_run(l, 0.0, 2f64.to_radians(), 1000, |k, p| {
             if k == stuck_at {
                 stuck.set(Some(p));
             }
@@ -1246,21 +1329,12 @@ mod tests {
         });
         let caught = run
             .iter()
-            .position(|(_, o)| o.mode == Mode::FeedforwardOnly(Degraded::AngleFrozen))
+            .position(|(_, o)| o.mode == Mode::SwingEstimated(Degraded::AngleFrozen))
             .unwrap();
         assert!(
             caught < stuck_at + 15,
             "caught {} cycles after",
             caught - stuck_at
-        );
-        let x_at = |k: usize| run[k].0.x;
-        let moved = (stuck_at..run.len())
-            .map(|k| (x_at(k) - x_at(stuck_at)).abs())
-            .fold(0.0, f64::max);
-        assert!(
-            moved < 0.02,
-            "the stuck angle moved the trolley {:.1} mm",
-            moved * 1e3
         );
         // Before it was caught, no correction grew beyond its value at the last change
         // plus the allowance.
@@ -1268,6 +1342,46 @@ mod tests {
         for (_, o) in &run[stuck_at + 2..caught] {
             assert!(o.correction[0].abs() <= base + Config::PAPER.held_allowance + 1e-12);
         }
+        // From then on the swing is estimated from the trolley's motion: it is damped
+        // as with the angle, and the crane is let go at rest on its target.
+        let (end, last) = run.last().unwrap();
+        let at_stuck = amplitude(&run[stuck_at].0, l);
+        assert!(
+            amplitude(end, l) < 0.1 * at_stuck,
+            "swing {:.3}° at the end, {:.3}° when the reading stuck",
+            amplitude(end, l).to_degrees(),
+            at_stuck.to_degrees()
+        );
+        let load = end.x + l * end.z;
+        assert!(load.abs() < 0.01, "load {:.1} mm off", load * 1e3);
+        assert!(last.resting && last.u == [0.0; 2]);
+    }
+
+    #[test]
+    fn a_lost_angle_mid_swing_is_estimated_from_the_trolley_and_damped() {
+        // The load swings 3°; the inclinometer falls silent after 0.3 s, before the
+        // feedback has damped it. Cutting the correction would leave the swing; the
+        // model's swing under the trolley's measured motion goes on damping it.
+        let l = 6.0;
+        let lost_at = 30;
+        let run = linear_run(l, 0.0, 3f64.to_radians(), 1500, |k, p| {
+            (k < lost_at).then_some(p)
+        });
+        let degraded_at = run
+            .iter()
+            .position(|(_, o)| o.mode == Mode::SwingEstimated(Degraded::AngleLost))
+            .unwrap();
+        assert!(degraded_at <= lost_at + 2 + Config::PAPER.max_bad_angle_cycles as usize);
+        let (end, last) = run.last().unwrap();
+        let at_loss = amplitude(&run[lost_at].0, l);
+        assert!(at_loss > 1f64.to_radians(), "still swinging when lost");
+        assert!(
+            amplitude(end, l) < 0.05 * at_loss,
+            "swing {:.3}° at the end, {:.3}° when lost",
+            amplitude(end, l).to_degrees(),
+            at_loss.to_degrees()
+        );
+        assert!(last.resting && last.u == [0.0; 2]);
     }
 
     #[test]

@@ -278,7 +278,7 @@ fn a_lost_inclinometer_falls_back_to_feedforward_announced_and_the_move_goes_on(
 }
 
 #[test]
-fn a_stuck_inclinometer_is_caught_by_the_crane_s_own_motion_and_falls_back_to_feedforward() {
+fn a_stuck_inclinometer_is_caught_by_the_crane_s_own_motion_and_the_swing_is_estimated() {
     const STUCK: Scenario = scenario(
         "inclinometer-stuck",
         &[
@@ -408,7 +408,8 @@ fn the_firmware_scenarios_of_the_feedback_scene() {
 #[test]
 fn after_falling_back_the_feedback_is_armed_again_by_a_move_accepted_at_rest() {
     use controller::feedback::{Degraded, Mode as FeedbackMode};
-    // Lost at 5 s, repaired at 10 s; at 11 s, at rest, a move back to (15, 6).
+    // Lost at 5 s, repaired at 10 s; at 13 s, at rest (the swing estimated from the
+    // positions was damped after the move and let go), a move back to (15, 6).
     const AGAIN: Scenario = scenario(
         "inclinometer-back",
         &[
@@ -422,7 +423,7 @@ fn after_falling_back_the_feedback_is_armed_again_by_a_move_accepted_at_rest() {
                 action: Action::Sensor(SensorFault::Back),
             },
             Event {
-                at_ms: 11_000,
+                at_ms: 13_000,
                 action: Action::Request(Request::Move {
                     id: 2,
                     target: [15.0, 6.0],
@@ -435,7 +436,7 @@ fn after_falling_back_the_feedback_is_armed_again_by_a_move_accepted_at_rest() {
     let mut c = Controller::with_correction(ff, feedback(), planner(), config());
     let mut bus = VirtualBus::new(AGAIN, HOME);
     let mut modes = Vec::new();
-    for now in (0..12_000).step_by(10) {
+    for now in (0..14_000).step_by(10) {
         run_cycle(&mut c, &mut bus, now).unwrap();
         modes.push((now, c.feedback_mode()));
     }
@@ -443,15 +444,15 @@ fn after_falling_back_the_feedback_is_armed_again_by_a_move_accepted_at_rest() {
     assert_eq!(at(4_990), Some(FeedbackMode::Closed));
     assert_eq!(
         at(9_000),
-        Some(FeedbackMode::FeedforwardOnly(Degraded::AngleLost))
+        Some(FeedbackMode::SwingEstimated(Degraded::AngleLost))
     );
     assert_eq!(
-        at(10_900),
-        Some(FeedbackMode::FeedforwardOnly(Degraded::AngleLost)),
+        at(12_900),
+        Some(FeedbackMode::SwingEstimated(Degraded::AngleLost)),
         "latched while the sensor is back but no move was asked"
     );
     assert_eq!(
-        at(11_990),
+        at(13_990),
         Some(FeedbackMode::Closed),
         "armed again by move 2"
     );
@@ -557,8 +558,7 @@ fn a_stuck_inclinometer_at_rest_is_caught_and_leaves_the_load_no_worse_than_feed
     let at = r.feedback_off_at();
     eprintln!("stuck at cycle 1200, announced at cycle {at}");
     // Where the load ends: over the last swing period, never further from the target
-    // than with feedforward alone (here the feedback had damped part of the gust's
-    // swing before the freeze; the rest of it stays, as with feedforward alone).
+    // than with feedforward alone.
     let end = |r: &Run| {
         r.load
             .iter()
@@ -578,7 +578,9 @@ fn a_stuck_inclinometer_at_rest_is_caught_and_leaves_the_load_no_worse_than_feed
         (trolley(&r, 19.9) - trolley(&r, 12.0)).abs() * 1e3
     );
     assert!(end(&r) <= end(&open));
-    assert!((trolley(&r, 19.9) - trolley(&r, 12.0)).abs() < 0.02);
+    // The swing it was damping when the reading stuck goes on being damped, estimated
+    // from the trolley's motion: the load ends within the target tolerance.
+    assert!(end(&r) <= 0.05);
     assert_eq!(r.cycles.last().unwrap().mode, Mode::Ready);
     assert_within_limits(&r);
 }

@@ -325,9 +325,28 @@ pub fn monte_carlo(seed: u64, n: usize, random_moves: bool, gains: &Gains) -> Mo
     mc
 }
 
-/// One case of the sensor-fault set: the case, and for each of [`FAULTS`] feedforward
-/// only and the feedback with the failing inclinometer, on the same plant.
-pub type FaultCase = (Mismatch, [(CaseResult, CaseResult); 4]);
+/// One case of the sensor-fault set.
+#[derive(Debug, Clone, Copy)]
+pub struct FaultCase {
+    /// The plant (its gust somewhere in the move; the at-rest runs move it after the move).
+    pub case: Mismatch,
+    /// When the inclinometer fails in the mid-move runs, s.
+    pub fails_at: f64,
+    /// For each of [`FAULTS`]: feedforward only, and the feedback with the failing
+    /// inclinometer, on the same plant.
+    pub runs: [(CaseResult, CaseResult); 4],
+}
+
+impl FaultCase {
+    /// Whether the mid-move runs' gust still blows when the inclinometer fails. What it
+    /// does from then on no sensor sees: the feedback, estimating the swing from the
+    /// trolley's motion, leaves that part of the swing as feedforward alone does, and
+    /// feedforward's own errors may happen to cancel it on the same case.
+    pub fn gust_after_failure(&self) -> bool {
+        let g = &self.case.gust;
+        g.amplitude != 0.0 && g.start + g.duration > self.fails_at
+    }
+}
 
 /// The names of [`FaultCase`]'s four faults.
 pub const FAULTS: [&str; 4] = [
@@ -383,7 +402,11 @@ pub fn fault_study(seed: u64, n: usize, gains: &Gains) -> Vec<FaultCase> {
                     run(&rest, Some(gains), Some(SensorFault::Lost(te + 2.5))),
                 ),
             ];
-            (mid, faults)
+            FaultCase {
+                case: mid,
+                fails_at: during,
+                runs: faults,
+            }
         })
         .collect()
 }
