@@ -8,8 +8,9 @@
 //! * friction in both axes, as the velocity droop it causes in a velocity-controlled
 //!   drive: Coulomb (`c · tanh(v / 1 mm/s)`) plus viscous (`b · v`), so the drive
 //!   follows `τ v̇ + v = u − c tanh(v/ε) − b v`;
-//! * the rope is longer than the drum's measurement says by an offset of up to ±2 % of
-//!   the initial length (hook block, rope stretch): the pendulum has length `l + Δl`;
+//! * the rope is not what the drum's measurement says: its scaling is off by up to ±2 %
+//!   (rope diameter, layering) and it is longer by an offset of up to ±2 % of the initial
+//!   length (hook block, rope stretch): the pendulum has length `(1 + s) l + Δl`;
 //! * a wind gust: a horizontal force `F(t)` on the load (a sin² pulse);
 //! * measurements sampled every cycle with noise and quantisation, delivered one
 //!   cycle (10 ms) late.
@@ -96,6 +97,8 @@ pub struct Mismatch {
     pub tau2: f64,
     /// Rope longer than measured by this, m.
     pub rope_offset: f64,
+    /// The drum's scaling error: the rope is `(1 + this)` times what the drum measures.
+    pub drum_scale: f64,
     /// Coulomb droop of the trolley / winch velocity loop, m/s.
     pub coulomb: [f64; 2],
     /// Viscous droop of the trolley / winch, relative.
@@ -119,6 +122,7 @@ impl Mismatch {
         tau1: 0.0,
         tau2: 0.0,
         rope_offset: 0.0,
+        drum_scale: 0.0,
         coulomb: [0.0; 2],
         viscous: [0.0; 2],
         gust: Gust::NONE,
@@ -132,7 +136,8 @@ impl Mismatch {
     /// 0.02° noise, 0.01° quantum.
     pub const SENSORS: ((f64, f64), (f64, f64)) = ((2e-4, 1e-4), (3.5e-4, 1.75e-4));
 
-    /// A random case: τ within ±30 %, rope offset within ±2 % of `l0`, Coulomb droop up
+    /// A random case: τ within ±30 %, rope offset within ±2 % of `l0`, drum scaling
+    /// within ±2 %, Coulomb droop up
     /// to 3 mm/s on both axes, viscous up to 3 %, a gust of up to
     /// ±10 N (≈ 3° of static deflection on the 18.9 kg load) lasting 0.5–3 s starting in
     /// `gust_window`, and a load already swinging up to ±5° when the run starts.
@@ -155,7 +160,13 @@ impl Mismatch {
             angle_noise: Self::SENSORS.1,
             noise_seed: rng.next_u64(),
             swing0: rng.uniform(-5.0, 5.0).to_radians(),
+            drum_scale: rng.uniform(-0.02, 0.02),
         }
+    }
+
+    /// The pendulum's length when the drum measures `l`, m.
+    pub fn rope(&self, l: f64) -> f64 {
+        (1.0 + self.drum_scale) * l + self.rope_offset
     }
 }
 
@@ -201,10 +212,11 @@ impl Plant {
         let [tau1, tau2] = self.tau;
         let ax = (u1 - vx - droop(c1, b1, vx)) / tau1;
         let al = (u2 - vl - droop(c2, b2, vl)) / tau2;
-        let len = l + mm.rope_offset;
+        let len = mm.rope(l);
+        let vlen = (1.0 + mm.drum_scale) * vl;
         let (s, c) = (libm::sin(phi), libm::cos(phi));
         let f = mm.gust.force(t) / self.m;
-        let aphi = (-self.g * s - 2.0 * vphi * vl - c * ax + c * f) / len;
+        let aphi = (-self.g * s - 2.0 * vphi * vlen - c * ax + c * f) / len;
         [vx, vl, vphi, ax, al, aphi]
     }
 
@@ -233,7 +245,7 @@ impl Plant {
     /// The load position `[x_C, z_C]` (Eq. 27 with the true rope length).
     pub fn load(&self) -> [f64; 2] {
         let [x, l, phi, ..] = self.y;
-        let len = l + self.mismatch.rope_offset;
+        let len = self.mismatch.rope(l);
         [x + len * libm::sin(phi), len * libm::cos(phi)]
     }
 

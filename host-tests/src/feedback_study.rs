@@ -98,9 +98,16 @@ pub struct CaseResult {
 }
 
 impl CaseResult {
-    /// The acceptance target: within ±50 mm and swing below 0.1° 5 s after the move.
+    /// The horizontal acceptance target: within ±50 mm and swing below 0.1° 5 s after
+    /// the move.
     pub fn meets_target(&self) -> bool {
         self.distance <= 0.05 && self.swing_deg < 0.1
+    }
+
+    /// [`Self::meets_target`] and within ±50 mm vertically too (issue 18 asks all three
+    /// directions; the rope's true length is not measured yet, docs/RESULTS.md).
+    pub fn meets_target_in_all_directions(&self) -> bool {
+        self.meets_target() && self.vertical <= 0.05
     }
 
     /// Whether this run left the load further from the target or swinging more than
@@ -199,10 +206,7 @@ pub fn simulate_with_fault(
     let h = reference.h;
     let (ts, te) = reference.span;
     let l_end = reference.r.last().map_or(r0.l, |r| r.l);
-    let window = (
-        te + 5.0,
-        te + 5.0 + period(params.g, l_end + case.rope_offset),
-    );
+    let window = (te + 5.0, te + 5.0 + period(params.g, case.rope(l_end)));
     let mut res = CaseResult::default();
     let mut series = Series6::default();
     let mut last = [0.0; 2];
@@ -424,15 +428,19 @@ pub fn table_row(name: &str, results: &[CaseResult]) -> String {
     let mut tr = col(&|r| r.tracking * 1e3);
     let mut d = col(&|r| r.distance * 1e3);
     let mut s = col(&|r| r.swing_deg);
-    let vert = col(&|r| r.vertical * 1e3).into_iter().fold(0.0, f64::max);
+    let mut vert = col(&|r| r.vertical * 1e3);
     let u1 = col(&|r| r.max_u[0]).into_iter().fold(0.0, f64::max);
     let u2 = col(&|r| r.max_u[1]).into_iter().fold(0.0, f64::max);
     let a1 = col(&|r| r.max_du[0]).into_iter().fold(0.0, f64::max);
     let a2 = col(&|r| r.max_du[1]).into_iter().fold(0.0, f64::max);
     let ok = results.iter().filter(|r| r.meets_target()).count();
+    let all = results
+        .iter()
+        .filter(|r| r.meets_target_in_all_directions())
+        .count();
     let rest = col(&|r| r.at_rest_u * 1e3).into_iter().fold(0.0, f64::max);
     format!(
-        "| {name} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.3} / {:.3} / {:.3} | {:.0} | {}/{} ({:.1} %) | {:.2}, {:.2} | {:.2}, {:.2} | {rest:.3} |",
+        "| {name} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.3} / {:.3} / {:.3} | {:.1} / {:.1} / {:.1} | {}/{} ({:.1} %) | {all} ({:.1} %) | {:.2}, {:.2} | {:.2}, {:.2} | {rest:.3} |",
         quantile(&mut tr, 0.5),
         quantile(&mut tr, 1.0),
         quantile(&mut d, 0.5),
@@ -441,10 +449,13 @@ pub fn table_row(name: &str, results: &[CaseResult]) -> String {
         quantile(&mut s, 0.5),
         quantile(&mut s, 0.99),
         quantile(&mut s, 1.0),
-        vert,
+        quantile(&mut vert, 0.5),
+        quantile(&mut vert, 0.99),
+        quantile(&mut vert, 1.0),
         ok,
         results.len(),
         100.0 * ok as f64 / results.len().max(1) as f64,
+        100.0 * all as f64 / results.len().max(1) as f64,
         u1,
         u2,
         a1,
@@ -453,7 +464,7 @@ pub fn table_row(name: &str, results: &[CaseResult]) -> String {
 }
 
 /// The table's header.
-pub const TABLE_HEADER: &str = "| set, mode | tracking during the move, mm (median / max) | distance 5 s after, mm (median / p99 / max) | swing 5 s after, ° (median / p99 / max) | vertical offset max, mm | within ±50 mm and < 0.1° | worst |u1|, |u2| m/s | worst |Δu1|/h, |Δu2|/h m/s² | largest set point from 5 s after the move, mm/s |\n|---|---|---|---|---:|---|---|---|---:|";
+pub const TABLE_HEADER: &str = "| set, mode | tracking during the move, mm (median / max) | distance 5 s after, mm (median / p99 / max) | swing 5 s after, ° (median / p99 / max) | vertical 5 s after, mm (median / p99 / max) | within ±50 mm horizontally and < 0.1° | and within ±50 mm vertically | worst |u1|, |u2| m/s | worst |Δu1|/h, |Δu2|/h m/s² | largest set point from 5 s after the move, mm/s |\n|---|---|---|---|---|---|---|---|---|---:|";
 
 /// A gust at rest at rope length `l`: the swing amplitude two swing periods after its
 /// peak, relative to the peak (`(ratio with feedback, ratio feedforward only)`).
