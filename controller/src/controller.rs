@@ -1547,6 +1547,14 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             },
             commissioning_failure: self.commissioning_failure,
             commissioned,
+            rope: self.correction.rope().map_or((0, 0, 0), |r| {
+                let (scale, offset) = r.estimate();
+                (
+                    libm::round(scale * 1e6) as i32,
+                    libm::round(offset * 1e6) as i32,
+                    r.samples(),
+                )
+            }),
         }
     }
 

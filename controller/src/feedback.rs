@@ -64,6 +64,7 @@ use nalgebra::{
     Vector4,
 };
 
+use crate::rope::RopeLength;
 use crate::setpoint::{AxisLimits, DriveLimits};
 
 /// Number of rope lengths at which gains are designed.
@@ -760,6 +761,9 @@ pub struct StateFeedback {
     resting: bool,
     /// The swing judged at rest (see [`StateFeedback::settle`]).
     swing: Swing,
+    /// The rope's length learnt from the swing, for the commissioning step (kept
+    /// through a reset: the rope does not change with the feedback's mode).
+    rope: RopeLength,
 }
 
 impl StateFeedback {
@@ -786,6 +790,7 @@ impl StateFeedback {
             held: Held::NEW,
             resting: false,
             swing: Swing::NEW,
+            rope: RopeLength::new(cfg.g, cfg.h),
         }
     }
 
@@ -804,7 +809,16 @@ impl StateFeedback {
     /// Back to [`Mode::Closed`], the observer to be started from the next measurement
     /// (call with the inverse model restarted at the measured position).
     pub fn reset(&mut self) {
-        *self = Self::with_gains(self.cfg, self.gains);
+        *self = Self {
+            rope: self.rope,
+            ..Self::with_gains(self.cfg, self.gains)
+        };
+    }
+
+    /// The rope as the swing has shown it so far ([`crate::rope`]).
+    #[must_use]
+    pub fn rope(&self) -> &RopeLength {
+        &self.rope
     }
 
     /// The stuck-sensor watch for this cycle's reading `phi` of the sample whose
@@ -953,6 +967,10 @@ impl StateFeedback {
                 (Mode::Closed, AngleCheck::Good, Some(p)) => Some(p),
                 _ => None,
             };
+            match angle {
+                Some(p) => self.rope.sample(m.x, p, m.l),
+                None => self.rope.gap(),
+            }
             match (was, self.mode, self.held.run) {
                 (_, Mode::FeedforwardOnly(_), _) => {}
                 (Mode::Closed, Mode::SwingEstimated(Degraded::AngleFrozen), Some((run, _))) => {
@@ -1053,6 +1071,9 @@ pub trait Correction {
     fn restart(&mut self);
     /// What it is doing (`None`: there is no feedback).
     fn mode(&self) -> Option<Mode>;
+    /// The rope calibration learnt from the swing (`None`: there is no feedback, so no
+    /// inclinometer).
+    fn rope(&self) -> Option<&RopeLength>;
 }
 
 /// Feedforward only: the set points are the inverse model's.
@@ -1081,6 +1102,9 @@ impl Correction for NoFeedback {
     fn mode(&self) -> Option<Mode> {
         None
     }
+    fn rope(&self) -> Option<&RopeLength> {
+        None
+    }
 }
 
 impl Correction for StateFeedback {
@@ -1100,6 +1124,9 @@ impl Correction for StateFeedback {
     }
     fn mode(&self) -> Option<Mode> {
         Some(self.mode)
+    }
+    fn rope(&self) -> Option<&RopeLength> {
+        Some(&self.rope)
     }
 }
 

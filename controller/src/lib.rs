@@ -14,6 +14,7 @@
 //! * `plant` (feature `sim`) — a crane that is not the model (lags, friction, rope
 //!   offset, gust, noisy late sensors) for the closed-loop runs;
 //! * [`feedback`] — the state feedback around the inverse model (Fig. 1);
+//! * [`rope`] — the rope's true length learnt from the swing, a commissioning step;
 //! * [`transmit`] — the transmit queue that keeps a cycle's frames in order and names every loss;
 //! * [`controller`] — the 100 Hz cycle and the reaction to every fault, with injected time.
 //!
@@ -44,6 +45,7 @@ pub mod node;
 pub mod planner;
 #[cfg(feature = "sim")]
 pub mod plant;
+pub mod rope;
 pub mod setpoint;
 #[cfg(feature = "sim")]
 pub mod traffic;

@@ -168,6 +168,18 @@ impl Mismatch {
     pub fn rope(&self, l: f64) -> f64 {
         (1.0 + self.drum_scale) * l + self.rope_offset
     }
+
+    /// The same crane with the winch's scaling corrected by the rope calibration
+    /// `(s, o)` ([`crate::rope`]): its reading becomes `(1 + s) l + o`, so the rope is
+    /// `k (reading − o) + offset` with `k = (1 + drum_scale) / (1 + s)`.
+    pub fn calibrated(&self, (s, o): (f64, f64)) -> Self {
+        let k = (1.0 + self.drum_scale) / (1.0 + s);
+        Self {
+            drum_scale: k - 1.0,
+            rope_offset: self.rope_offset - k * o,
+            ..*self
+        }
+    }
 }
 
 /// The plant's true state, `[x, l_drum, φ, ẋ, l̇, φ̇]` (the pendulum length is `l_drum + offset`).

@@ -589,3 +589,57 @@ fn a_stuck_inclinometer_at_rest_is_caught_and_leaves_the_load_no_worse_than_feed
     assert_eq!(r.cycles.last().unwrap().mode, Mode::Ready);
     assert_within_limits(&r);
 }
+
+#[test]
+fn the_rope_is_learnt_from_the_swing_in_calm_air_and_read_from_0x2004() {
+    // The commissioning step (controller::rope): the move in calm air, the load at rest
+    // at the start; then 0x2004 read over SDO as a commissioning engineer would.
+    const CALM: Scenario = Scenario {
+        plant: Some(Mismatch {
+            gust: Gust::NONE,
+            ..MISMATCH
+        }),
+        ..scenario("rope-calibration", &[MOVE])
+    };
+    let ff: Ff = feedforward(HOME, None);
+    let mut c = Controller::with_correction(ff, feedback(), planner(), config());
+    let mut bus = VirtualBus::new(CALM, HOME);
+    let mut now = 0;
+    while now < 12_000 {
+        run_cycle(&mut c, &mut bus, now).unwrap();
+        now += 10;
+    }
+    let mut read = |sub: u8| -> i64 {
+        let req = controller::CanFrame::new(0x610, &[0x40, 0x04, 0x20, sub, 0, 0, 0, 0]).unwrap();
+        c.on_frame(&req, u64::from(now));
+        let cycle = run_cycle(&mut c, &mut bus, now).unwrap();
+        now += 10;
+        let answer = cycle.frames.iter().find(|f| f.id() == 0x590).unwrap();
+        let d = answer.data();
+        assert_eq!(d[0], 0x43, "an expedited upload of 4 bytes: {d:02x?}");
+        i64::from(i32::from_le_bytes(d[4..8].try_into().unwrap()))
+    };
+    let (scale, offset) = (read(1) as f64 * 1e-6, read(2) as f64 * 1e-6);
+    let samples = read(3);
+    // The plant's rope: 1.5 % longer than the drum says, and 80 mm more.
+    let truth = |l: f64| MISMATCH.rope(l);
+    let learnt = |l: f64| (1.0 + scale) * l + offset;
+    eprintln!(
+        "rope learnt in calm air from {samples} samples: scale {:+.4} (true {:+.4}), offset {:+.3} m (true {:+.3}); at 4 m off by {:.1} mm, at 8 m by {:.1} mm",
+        scale,
+        MISMATCH.drum_scale,
+        offset,
+        MISMATCH.rope_offset,
+        (learnt(4.0) - truth(4.0)) * 1e3,
+        (learnt(8.0) - truth(8.0)) * 1e3
+    );
+    assert!(samples > 500);
+    for l in [4.0, 6.0, 8.0] {
+        assert!(
+            (learnt(l) - truth(l)).abs() < 0.02,
+            "at {l} m: learnt {:.3}, true {:.3}",
+            learnt(l),
+            truth(l)
+        );
+    }
+}

@@ -95,6 +95,9 @@ pub struct CaseResult {
     pub max_du: [f64; 2],
     /// Largest |u| sent from 5 s after the move to the end, m/s (zero: the drives hold).
     pub at_rest_u: f64,
+    /// The rope's scaling error and offset the feedback learnt from the swing
+    /// (`controller::rope`; zero without feedback).
+    pub rope: (f64, f64),
 }
 
 impl CaseResult {
@@ -257,7 +260,24 @@ pub fn simulate_with_fault(
         last = u;
         plant.advance(u, h);
     }
+    res.rope = fb.map_or((0.0, 0.0), |fb| fb.rope().estimate());
     (res, series)
+}
+
+/// The rope calibration, a commissioning step (`controller::rope`): the paper's move
+/// on `case`'s crane in calm air with the load at rest, the feedback on; the scaling
+/// error and offset learnt from the swing.
+pub fn calibrate_rope(params: &CraneParams, case: &Mismatch, gains: &Gains) -> (f64, f64) {
+    let calm = Mismatch {
+        gust: Gust::NONE,
+        swing0: 0.0,
+        ..*case
+    };
+    let reference = paper_reference(params);
+    let limits = DriveLimits::LAB;
+    simulate(params, &reference, &calm, Some(gains), &limits, false)
+        .0
+        .rope
 }
 
 /// A random move inside the workspace, from rest to rest, smoothness 5 (the controller's
@@ -300,8 +320,9 @@ pub fn paper_reference(params: &CraneParams) -> ReferenceRun {
 /// One Monte Carlo set: results of feedforward only and with feedback, case by case.
 #[derive(Debug, Clone, Default)]
 pub struct MonteCarlo {
-    /// Per case: (mismatch, feedforward only, with feedback, reference index).
-    pub cases: Vec<(Mismatch, CaseResult, CaseResult)>,
+    /// Per case: (mismatch, feedforward only, with feedback, with feedback after the
+    /// rope calibration).
+    pub cases: Vec<(Mismatch, CaseResult, CaseResult, CaseResult)>,
 }
 
 /// Runs `n` random cases on the paper's move (`random_moves == false`) or on random moves.
@@ -324,7 +345,9 @@ pub fn monte_carlo(seed: u64, n: usize, random_moves: bool, gains: &Gains) -> Mo
         let case = Mismatch::random(&mut rng, l0, reference.span);
         let (ff, _) = simulate(&params, reference, &case, None, &limits, false);
         let (fb, _) = simulate(&params, reference, &case, Some(gains), &limits, false);
-        mc.cases.push((case, ff, fb));
+        let calibrated = case.calibrated(calibrate_rope(&params, &case, gains));
+        let (cal, _) = simulate(&params, reference, &calibrated, Some(gains), &limits, false);
+        mc.cases.push((case, ff, fb, cal));
     }
     mc
 }

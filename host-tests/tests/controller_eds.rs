@@ -54,7 +54,8 @@ fn variables() -> Vec<(Object, usize, String, u64)> {
         let size = match keys["DataType"].as_str() {
             "0x0005" => 1,
             "0x0006" => 2,
-            "0x0007" => 4,
+            // UNSIGNED32 and INTEGER32.
+            "0x0007" | "0x0004" => 4,
             other => panic!("{name}: data type {other} not used here"),
         };
         out.push((
@@ -94,6 +95,7 @@ fn snapshot() -> Snapshot {
         error_register: 0,
         commissioning_failure: (0, 0, 0, 0, 0),
         commissioned: 0,
+        rope: (0, 0, 0),
     }
 }
 

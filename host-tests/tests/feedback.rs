@@ -113,10 +113,15 @@ fn monte_carlo_targets_hold_on_a_fixed_seed_subset() {
     let gains = Gains::design(&Config::PAPER).unwrap();
     for (seed, random) in [(11, false), (12, true)] {
         let mc = monte_carlo(seed, 25, random, &gains);
-        for (case, ff, fb) in &mc.cases {
+        for (case, ff, fb, calibrated) in &mc.cases {
             assert!(
                 fb.meets_target(),
                 "feedback misses the target: {fb:?} for {case:?} (feedforward only: {ff:?})"
+            );
+            // The rope calibrated (a commissioning step), in all three directions.
+            assert!(
+                calibrated.meets_target_in_all_directions(),
+                "calibrated: {calibrated:?} for {case:?}"
             );
             assert!(fb.max_u[0] <= 3.0 && fb.max_u[1] <= 2.0);
             assert!(fb.max_du[0] <= 3.0 + 1e-9 && fb.max_du[1] <= 3.0 + 1e-9);

@@ -45,10 +45,18 @@ fn main() -> Result<(), String> {
         let mc = monte_carlo(seed, args.cases, random, &gains);
         let ff: Vec<CaseResult> = mc.cases.iter().map(|c| c.1).collect();
         let fb: Vec<CaseResult> = mc.cases.iter().map(|c| c.2).collect();
+        let cal: Vec<CaseResult> = mc.cases.iter().map(|c| c.3).collect();
         println!("{}", table_row(&format!("{name}, feedforward only"), &ff));
         println!(
             "{}",
             table_row(&format!("{name}, feedforward + feedback"), &fb)
+        );
+        println!(
+            "{}",
+            table_row(
+                &format!("{name}, feedforward + feedback, rope calibrated"),
+                &cal
+            )
         );
         if !random {
             let score = |r: &CaseResult| r.distance / 0.05 + r.swing_deg / 0.1;
