@@ -462,8 +462,8 @@ def main():
             except Exception as e:  # an answer, never a silent death
                 answer = {"ok": False, "error": repr(e)}
             print(json.dumps(answer), flush=True)
-            if "load" in answer:  # the load's story, for whoever reads the run's stderr
-                print(line.split()[0], json.dumps(answer["load"]), file=sys.stderr, flush=True)
+            if "load" in answer and line.split()[0] != "dump":  # the story, for the run's stderr
+                print(line.strip(), json.dumps(answer["load"]), file=sys.stderr, flush=True)
     finally:
         drives.close()
 
