@@ -12,6 +12,11 @@ heartbeat consumer 0x1016 (the drive faults if the controller falls silent), and
 and PDOs only where CiA 301 allows them (no SDO in *stopped*, PDOs only in
 *operational*).
 
+The same process simulates the load (load.py): a pendulum under the trolley whose rope
+is the winch's position, stepped on every SYNC after the drives, and with
+`--inclinometer` the CiA 410 inclinometer on the hook block that measures its swing
+(node, sign and offset from the commissioning file's `[inclinometer]`).
+
 Run as `python drives.py --port N [options]`; it takes commands on stdin, one a line,
 and answers each with one JSON line on stdout (see `Drives.command`).
 """
@@ -22,12 +27,17 @@ import os
 import struct
 import sys
 import threading
+import tomllib
 
 import can
 import canopen
 from canopen.sdo import SdoAbortedError
 
-EDS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cia402-drive.eds")
+from load import Inclinometer, Load
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+EDS = os.path.join(HERE, "cia402-drive.eds")
+COMMISSIONING = os.path.join(os.path.dirname(HERE), "scenes", "commissioning.toml")
 
 # Statusword bits (CiA 402).
 RTSO, SO, OE, FAULT, VOLTAGE, QS, SOD, WARNING = 0x1, 0x2, 0x4, 0x8, 0x10, 0x20, 0x40, 0x80
@@ -342,16 +352,55 @@ class Drives:
                 sdo_mute=node_id in args.sdo_mute,
                 status_lag=args.status_lag if node_id in args.lagging else 0,
             )
+        commissioning = {}  # without a file, the stock defaults (as the ECU reads it)
+        if os.path.exists(args.commissioning):
+            with open(args.commissioning, "rb") as f:
+                commissioning = tomllib.load(f)
+        rows = {row["axis"]: row for row in commissioning.get("drive", [])}
+        axes = {
+            node_id: (rows.get(axis, {}).get("position_scale", 1e-6), rows.get(axis, {}).get("position_offset", 0.0))
+            for node_id, axis in ((1, "trolley"), (2, "winch"))
+        }
+        self.load = Load(self.drives[1], self.drives[2], axes, args.cycle_ms / 1000.0)
+        self.inclinometer = None
+        if args.inclinometer:
+            row = commissioning.get("inclinometer", {})
+            self.inclinometer = Inclinometer(
+                self.network, row.get("node", 3), row.get("sign", 1.0), row.get("offset_deg", 0.0)
+            )
+        # After the drives' own: the load swings with the motion they have just taken.
+        self.network.subscribe(0x080, self._on_sync)
         for node_id in (1, 2):
             if node_id not in args.unpowered:
                 self.drives[node_id].boot()
+        if self.inclinometer is not None:
+            self.inclinometer.boot()
+
+    def _on_sync(self, can_id, data, timestamp):
+        with self.load.lock:  # a command sees the load and the reading of one SYNC
+            phi = self.load.on_sync()
+            if self.inclinometer is not None:
+                self.inclinometer.sample(phi)
 
     def command(self, line):
-        """`power N`, `off N`, `reboot N`, `fault N`, `warn N`, `dump`: one JSON answer."""
+        """`power N`, `off N`, `reboot N`, `fault N`, `warn N`, `dump`; for the load
+        `swing DEG`, `kick DEG`, and for the inclinometer `freeze`, `lose`, `heal`: one
+        JSON answer (those of the load and the inclinometer with the load's state at
+        that moment, `load`)."""
         words = line.split()
         if not words:
             return {"ok": False}
-        verb, nodes = words[0], [int(w) for w in words[1:]]
+        verb = words[0]
+        if verb in ("swing", "kick"):
+            state = getattr(self.load, verb)(float(words[1]))
+            return {"ok": True, "load": state}
+        if verb in ("freeze", "lose", "heal"):
+            if self.inclinometer is None:
+                return {"ok": False, "error": "no inclinometer (--inclinometer)"}
+            with self.load.lock:  # between two SYNCs: the state is the frozen reading's
+                self.inclinometer.fail({"freeze": "frozen", "lose": "lost", "heal": None}[verb])
+                return {"ok": True, "load": self.load.state()}
+        nodes = [int(w) for w in words[1:]]
         for n in nodes:
             drive = self.drives[n]
             if verb == "power":
@@ -368,12 +417,19 @@ class Drives:
             else:
                 return {"ok": False, "error": f"unknown command {verb}"}
         if verb == "dump":
-            return {"ok": True, "drives": [d.dump() for d in self.drives.values()]}
+            return {
+                "ok": True,
+                "drives": [d.dump() for d in self.drives.values()],
+                "load": self.load.state(),
+                "inclinometer": self.inclinometer.dump() if self.inclinometer is not None else None,
+            }
         return {"ok": True}
 
     def close(self):
         for d in self.drives.values():
             d.power_off()
+        if self.inclinometer is not None:
+            self.inclinometer.power_off()
         self.network.notifier.stop()
         try:
             self.network.bus.shutdown()  # the ECU may be gone already
@@ -391,6 +447,9 @@ def main():
     p.add_argument("--sdo-mute", type=int, nargs="*", default=[], help="nodes that never answer SDO")
     p.add_argument("--lagging", type=int, nargs="*", default=[], help="nodes whose statusword lags")
     p.add_argument("--status-lag", type=int, default=1, help="SYNCs the statusword lags")
+    p.add_argument("--inclinometer", action="store_true", help="the CiA 410 inclinometer on the hook block")
+    p.add_argument("--commissioning", default=COMMISSIONING, help="the scene's commissioning.toml: scaling, inclinometer")
+    p.add_argument("--cycle-ms", type=float, default=10.0, help="the SYNC period the load is stepped by")
     args = p.parse_args()
     drives = Drives(args)
     print(json.dumps({"ok": True, "ready": True}), flush=True)
@@ -403,6 +462,8 @@ def main():
             except Exception as e:  # an answer, never a silent death
                 answer = {"ok": False, "error": repr(e)}
             print(json.dumps(answer), flush=True)
+            if "load" in answer and line.split()[0] != "dump":  # the story, for the run's stderr
+                print(line.strip(), json.dumps(answer["load"]), file=sys.stderr, flush=True)
     finally:
         drives.close()
 

@@ -1,7 +1,9 @@
-"""One interop run: the virtual ECU (the real controller in real time, SLCAN over TCP),
-the two simulated drives in their own process (drives.py), and a supervisor — a
-python-canopen network with the controller as a RemoteNode (can/crane-controller.eds)
-that reads its object dictionary over SDO and sends commands on 0x210.
+"""One interop run: the virtual ECU (the real controller in real time, SLCAN over TCP)
+built for a scene (the default scene unless `scene` is given), the two simulated drives
+in their own process (drives.py; with the load they swing, and with `--inclinometer` the
+CiA 410 inclinometer that measures it, load.py), and a supervisor — a python-canopen
+network with the controller as a RemoteNode (can/crane-controller.eds) that reads its
+object dictionary over SDO and sends commands on 0x210.
 
 Every frame of the run is in the ECU's log (both directions, with timestamps); at the
 end every one of them must decode with cantools against can/crane.dbc.
@@ -24,6 +26,7 @@ ROOT = os.path.dirname(HERE)
 DBC = os.path.join(ROOT, "can", "crane.dbc")
 CONTROLLER_EDS = os.path.join(ROOT, "can", "crane-controller.eds")
 ECU = os.environ.get("ECU_BIN", os.path.join(ROOT, "target", "debug", "ecu"))
+DEFAULT_SCENE = "scenes/paper-crane.toml"  # the ECU's without --scene
 
 CONTROLLER = 0x10
 STATUS, EMCY_CONTROLLER, COMMAND = 0x190, 0x090, 0x210
@@ -68,14 +71,15 @@ class Recorder(can.Listener):
 class Rig:
     """Starts the ECU, the drives and the supervisor; `close` stops them and checks the log."""
 
-    def __init__(self, tmp, role="manager", drive_args=(), seconds=40):
+    def __init__(self, tmp, role="manager", drive_args=(), seconds=40, scene=None):
         self.tmp = str(tmp)
         os.makedirs(self.tmp, exist_ok=True)
         self.log_path = os.path.join(self.tmp, "frames.log")
         self.procs = []
         self.ecu_err = open(os.path.join(self.tmp, "ecu.stderr"), "w")
         self.ecu = subprocess.Popen(
-            [ECU, "--port", "0", "--role", role, "--seconds", str(seconds), "--log", self.log_path],
+            [ECU, "--port", "0", "--role", role, "--seconds", str(seconds), "--log", self.log_path]
+            + (["--scene", scene] if scene else []),
             cwd=ROOT,
             stdout=subprocess.PIPE,
             stderr=self.ecu_err,
@@ -101,8 +105,11 @@ class Rig:
         self.controller.sdo.RESPONSE_TIMEOUT = 1.0
         self.network.add_node(self.controller)
         self.drives_err = open(os.path.join(self.tmp, "drives.stderr"), "w")
+        # The commissioning file next to the scene: the drives' scaling, the inclinometer.
+        commissioning = os.path.join(ROOT, os.path.dirname(scene or DEFAULT_SCENE), "commissioning.toml")
         self.drives = subprocess.Popen(
-            [sys.executable, os.path.join(HERE, "drives.py"), "--port", str(self.port), *drive_args],
+            [sys.executable, os.path.join(HERE, "drives.py"), "--port", str(self.port)]
+            + ["--commissioning", commissioning, *drive_args],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=self.drives_err,
@@ -127,6 +134,14 @@ class Rig:
     def dump(self):
         """Each drive's state and object dictionary (what was written into it)."""
         return {d["node"]: d for d in self.drive("dump")["drives"]}
+
+    def load(self):
+        """The load under the trolley (load.py): swing angle, amplitude, position."""
+        return self.drive("dump")["load"]
+
+    def inclinometer(self):
+        """The inclinometer's state and object dictionary (`--inclinometer` only)."""
+        return self.drive("dump")["inclinometer"]
 
     # --- the supervisor ----------------------------------------------------------------
     def command(self, request_id, command, x=0.0, z=0.0, duration=0.0):

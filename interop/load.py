@@ -1,0 +1,271 @@
+"""The load and its sensor for the drives' process (drives.py): a pendulum hanging from
+the trolley, moved by the two simulated drives, and a CiA 410 inclinometer on the hook
+block (python-canopen LocalNode, cia410-inclinometer.eds) that measures its swing.
+
+The pendulum is the crane of Eqs. 21-22 (the rope massless and straight, the load a
+point): `φ̈ = −(g sin φ + cos φ · ẍ + 2 l̇ φ̇) / l`, the rope length `l` and the trolley
+position `x` those of the drives (position actual through the commissioning file's
+scaling, as the controller reads them). The drives in CSV hold their velocity from one
+SYNC to the next (drives.py), so the trolley's acceleration is a velocity step at each
+SYNC: it changes φ̇ by `−cos φ · Δẋ / l` there, and between SYNCs the pendulum swings
+with the trolley at constant speed and the rope at constant rate (RK4, 1 ms steps). The
+drives have no lag and there is no friction, noise or wind: a plant that is not the
+controller's model (its drives have lags of 30 and 20 ms), but the simplest one that the
+test can reason about — a swing left alone keeps its amplitude.
+
+The angle φ is the controller's (controller/src/plant.rs, the virtual bus's
+inclinometer): positive with the load displaced towards +x, the load at `x + l sin φ`.
+The inclinometer reports *slope long16* (0x6010) as the controller converts it back
+(`InclinometerSetup::angle`): `slope · resolution = φ / sign + offset` in degrees, the
+resolution 0x6000 in 0.001° as commissioned, the sign and offset of the commissioning
+file's `[inclinometer]`.
+"""
+
+import math
+import os
+import struct
+import threading
+
+import canopen
+
+EDS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cia410-inclinometer.eds")
+G = 9.81  # m/s², Tab. 3
+SUBSTEPS = 10  # RK4 steps per SYNC period
+
+
+class Load:
+    """The pendulum under the trolley; `trolley` and `winch` are drives.py's `Drive`s,
+    `axes` maps each to (scale m per increment, offset m) from the commissioning file."""
+
+    def __init__(self, trolley, winch, axes, cycle_s):
+        self.trolley, self.winch = trolley, winch
+        self.axes = axes
+        self.cycle_s = cycle_s
+        self.lock = threading.RLock()
+        self.phi = 0.0  # rad
+        self.rate = 0.0  # φ̇, rad/s
+        self.syncs = 0
+        with self.lock:
+            self.vx, self.vl = self._velocities()
+            self.l = self.rope()
+
+    def _metres(self, drive, value):
+        scale, offset = self.axes[drive.id]
+        return offset + scale * value
+
+    def trolley_x(self):
+        return self._metres(self.trolley, self.trolley.position)
+
+    def rope(self):
+        return self._metres(self.winch, self.winch.position)
+
+    def _velocities(self):
+        return self.axes[self.trolley.id][0] * self.trolley.velocity, self.axes[self.winch.id][0] * self.winch.velocity
+
+    def _accelerations(self, t, phi, rate, l0):
+        l = max(l0 + self.vl * t, 0.1)
+        return rate, -(G * math.sin(phi) + 2.0 * self.vl * rate) / l
+
+    def on_sync(self):
+        """After the drives took this SYNC: the swing over the period that ended (the
+        trolley and the rope at the speeds they held), then the trolley's velocity step."""
+        with self.lock:
+            self.syncs += 1
+            h = self.cycle_s / SUBSTEPS
+            l0, phi, rate = self.l, self.phi, self.rate
+            for i in range(SUBSTEPS):
+                t = i * h
+                k1 = self._accelerations(t, phi, rate, l0)
+                k2 = self._accelerations(t + h / 2, phi + h / 2 * k1[0], rate + h / 2 * k1[1], l0)
+                k3 = self._accelerations(t + h / 2, phi + h / 2 * k2[0], rate + h / 2 * k2[1], l0)
+                k4 = self._accelerations(t + h, phi + h * k3[0], rate + h * k3[1], l0)
+                phi += h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+                rate += h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+            self.l = max(self.rope(), 0.1)
+            vx, vl = self._velocities()
+            rate -= math.cos(phi) * (vx - self.vx) / self.l
+            self.phi, self.rate, self.vx, self.vl = phi, rate, vx, vl
+            return phi
+
+    def amplitude(self, still=False):
+        """The swing's amplitude, rad: the angle at which its energy would turn it (the
+        rope held at its length). With `still`, as if the trolley stopped now: the
+        load's own motion, that a moving trolley's velocity step would leave to it."""
+        rate = self.rate + (math.cos(self.phi) * self.vx / self.l if still else 0.0)
+        c = math.cos(self.phi) - self.l * rate**2 / (2 * G)
+        return math.acos(max(-1.0, min(1.0, c)))
+
+    def swing(self, degrees):
+        """The swing's amplitude is `degrees` now, the load at a turning point (φ̇ = 0):
+        as a load already swinging when the controller first looks at it."""
+        with self.lock:
+            self.phi, self.rate = math.radians(degrees), 0.0
+            return self.state()
+
+    def kick(self, degrees):
+        """The swing's amplitude is `degrees` now, by a blow to the load: the angle stays,
+        its rate changes (in the direction it had, + if none). A swing at rest starts so
+        (a gust, a knock): the angle itself never jumps, so a controller watching it
+        sees a swing, not an implausible reading."""
+        with self.lock:
+            a = math.radians(degrees)
+            if abs(self.phi) > a:
+                raise ValueError(f"the load is at {math.degrees(self.phi):.3f}° already")
+            speed = math.sqrt(max(0.0, 2 * G / self.l * (math.cos(self.phi) - math.cos(a))))
+            self.rate = -speed if self.rate < 0 else speed
+            return self.state()
+
+    def state(self):
+        """What the test judges: the swing and where the load is (m, °)."""
+        with self.lock:
+            x, l = self.trolley_x(), self.l
+            return {
+                "syncs": self.syncs,
+                "phi_deg": math.degrees(self.phi),
+                "rate_deg_s": math.degrees(self.rate),
+                "amplitude_deg": math.degrees(self.amplitude()),
+                "still_amplitude_deg": math.degrees(self.amplitude(still=True)),
+                "trolley_m_s": self.vx,
+                "trolley_m": x,
+                "rope_m": l,
+                "load_x_m": x + l * math.sin(self.phi),
+                "load_z_m": l * math.cos(self.phi),
+            }
+
+
+class Inclinometer:
+    """A one-axis CiA 410 inclinometer on the hook block, on `network`.
+
+    python-canopen gives the object dictionary (cia410-inclinometer.eds), the SDO server,
+    the NMT slave and the heartbeat producer (0x1017); the glue here is the rest, as for
+    the drives: the boot-up message on power-on, TPDO1 configured from 0x1800/0x1A00 when
+    started, sampled and sent on SYNC while operational, no SDO in *stopped*. Its faults:
+    `frozen` (the reading sticks — TPDO1 repeats its last value, heartbeat and SDO go on,
+    as a sensor whose measuring cell hangs) and `lost` (TPDO1 stops; the node still
+    answers and beats)."""
+
+    def __init__(self, network, node_id, sign=1.0, offset_deg=0.0):
+        self.network = network
+        self.id = node_id
+        self.sign, self.offset_deg = sign, offset_deg
+        self.node = canopen.LocalNode(node_id, EDS)
+        self.lock = threading.RLock()
+        self.powered = False
+        self.fault = None
+        self.node.add_read_callback(self._read)
+        self.node.add_write_callback(self._write)
+        network.add_node(self.node)
+        network.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
+        network.subscribe(self.node.sdo.rx_cobid, self._on_sdo)
+        network.unsubscribe(0, self.node.nmt.on_command)
+        network.subscribe(0, self._on_nmt)
+        self._reset_application()
+
+    def _reset_application(self):
+        self.node.data_store.clear()
+        self.slope = 0
+        self.tpdo = None
+        self.syncs = 0
+        self.sent = 0
+        self.started_log = []
+        self.pdo_changed = False
+
+    def _read(self, index, subindex, od):
+        if index == 0x6010:
+            return self.slope
+        return None
+
+    def _write(self, index, subindex, od, data):
+        if index in (0x1800, 0x1A00):
+            self.pdo_changed = True
+
+    def resolution_deg(self):
+        return struct.unpack("<H", self.node.get_data(0x6000, 0))[0] * 1e-3
+
+    def _on_sdo(self, can_id, data, timestamp):
+        with self.lock:
+            if not self.powered or self.node.nmt.state == "STOPPED":
+                return
+            self.node.sdo.on_request(can_id, data, timestamp)
+
+    def _on_nmt(self, can_id, data, timestamp):
+        with self.lock:
+            if not self.powered or len(data) != 2 or data[1] not in (0, self.id):
+                return
+            if data[0] in (0x81, 0x82):
+                self.boot(reset_application=data[0] == 0x81)
+                return
+            self.node.nmt.on_command(can_id, data, timestamp)
+            if data[0] == 0x01:
+                self._configure_tpdo()
+
+    def _configure_tpdo(self):
+        self.pdo_changed = False
+        self.node.tpdo.read()
+        m = self.node.tpdo.map[1]
+        self.tpdo = m if m.enabled and 1 <= m.trans_type <= 240 else None
+        self.started_log.append([hex(m.cob_id), m.trans_type, [hex(v.index) for v in m]])
+
+    def sample(self, phi):
+        """SYNC: measure `phi` (rad) at the commissioned resolution, and send TPDO1."""
+        with self.lock:
+            if not self.powered:
+                return
+            self.syncs += 1
+            operational = self.node.nmt.state == "OPERATIONAL"
+            if operational and self.pdo_changed:
+                self._configure_tpdo()
+            if self.fault != "frozen":
+                degrees = math.degrees(phi) / self.sign + self.offset_deg
+                slope = round(degrees / self.resolution_deg())
+                self.slope = max(-32768, min(32767, slope))
+            if not operational or self.tpdo is None or self.fault == "lost":
+                return
+            if self.syncs % self.tpdo.trans_type:
+                return
+            for var in self.tpdo:
+                var.set_data(self.node.get_data(var.index, var.subindex)[: len(var.od) // 8])
+            self.tpdo.transmit()
+            self.sent += 1
+
+    def boot(self, reset_application=True):
+        """Power-on (or an NMT reset): boot-up message, pre-operational, heartbeat 0x1017."""
+        with self.lock:
+            self.node.nmt.stop_heartbeat()
+            if reset_application:
+                self._reset_application()
+            else:
+                for index in [i for i in self.node.data_store if 0x1000 <= i < 0x2000]:
+                    del self.node.data_store[index]
+                self.tpdo = None
+            self.powered = True
+            self.node.nmt.state = "INITIALISING"
+            self.node.nmt.state = "PRE-OPERATIONAL"
+
+    def power_off(self):
+        with self.lock:
+            self.powered = False
+            self.node.nmt.stop_heartbeat()
+
+    def fail(self, fault):
+        """`frozen`, `lost`, or None (healthy again)."""
+        with self.lock:
+            self.fault = fault
+
+    def dump(self):
+        with self.lock:
+            od = {}
+            for index, subs in sorted(self.node.data_store.items()):
+                for subindex, raw in sorted(subs.items()):
+                    od[f"{index:04X}:{subindex}"] = raw.hex()
+            return {
+                "node": self.id,
+                "nmt": self.node.nmt.state,
+                "fault": self.fault,
+                "slope": self.slope,
+                "resolution_deg": self.resolution_deg(),
+                "syncs": self.syncs,
+                "sent": self.sent,
+                "od": od,
+                "started": self.started_log,
+            }
