@@ -26,8 +26,8 @@
 //! frozen_motion = 0.00175     # … while the crane's motion moved it this much (rad): stuck
 //! held_allowance = 0.02       # m/s: how much harder an unchanged reading may push
 //! # At rest on the target the feedback lets go (set points zero) …
-//! rest_position = 0.01        # m: load within this of its target (x and rope) …
-//! rest_swing = 0.0011         # rad: … and swinging less; held again at 1.5× either
+//! rest_position = 0.02        # m: load within this of its target (x and rope) …
+//! rest_swing = 0.0014         # rad: … and swinging less; held again at 1.25× either
 //! ```
 //!
 //! The gains are designed from the weights at start-up (`Gains::design`), for the
