@@ -19,7 +19,7 @@
 //! position_noise = 5e-4       # m
 //! angle_noise = 5e-4          # rad
 //! # The degraded-mode rule (docs/COMMANDS.md).
-//! max_angle = 0.26            # rad: beyond, the angle is implausible
+//! max_angle = 0.35            # rad: beyond, the angle is implausible
 //! max_innovation = 0.035      # rad: further from the prediction, implausible
 //! bridged_cycles = 3          # bad angles bridged before feedforward only
 //! frozen_cycles = 3           # the same value this long …

@@ -751,7 +751,15 @@ impl VirtualBus {
                     0.0
                 }
             });
-            plant.advance(u, f64::from(period_ms) * 1e-3);
+            // A drive without power on its motor holds its axis by the brake.
+            let braked = self.drives.each_ref().map(|d| {
+                !d.powered
+                    || !matches!(
+                        d.state,
+                        DriveState::OperationEnabled | DriveState::QuickStopActive
+                    )
+            });
+            plant.advance_braked(u, f64::from(period_ms) * 1e-3, braked);
             let [x, l, phi] = plant.sense();
             let [_, _, _, vx, vl, _] = plant.y;
             for (d, (position, velocity)) in self.drives.iter_mut().zip([(x, vx), (l, vl)]) {
