@@ -334,16 +334,17 @@ def test_an_inclinometer_lost_mid_move_falls_back_and_the_move_completes(rigs):
     t_off = feedback_off(log)[0][0]
     assert 3 <= cycles_between(log, t_last, t_off) <= 6, cycles_between(log, t_last, t_off)
     assert [t for (t, _) in log.by_others(HEARTBEAT3) if t > t_off], "the node still beats"
-    # The move went on to its end on feedforward alone: ready, no fault, set points
-    # until the move's planned end (400 cycles after its answer) and zero after it, the
-    # drives at the target — the trolley to within what the feedback had corrected
-    # before the loss (not taken back: 33 mm when this was written, where feedforward
-    # alone ends within 1 mm on this plant; interop/README.md).
+    # The move went on to its end, the feedback estimating the swing from the trolley's
+    # motion and damping it until the crane rests (not cut mid-swing), then letting go:
+    # ready, no fault, set points at least until the move's planned end (400 cycles
+    # after its answer) and zero within 10 s after it, the drives at the target.
     assert status[3:6] == [MODE["ready"], 0, 0], status
     t_accept = next(t for (t, d) in log.sent(0x190) if d[0] == 1 and d[1] == ACCEPTED)
     t_end = zero_from(log, t_off)
     moving = cycles_between(log, t_accept, t_end) if t_end is not None else None
-    assert moving is not None and 395 <= moving <= 405, moving
+    print(f"set points zero {moving} cycles after the answer; load {load}")
+    assert moving is not None and 395 <= moving <= 1400, moving
+    assert distance(load, 13.0) < 0.05, load
     assert abs(end[TROLLEY]["position"] - 13e6) < 50e3, end[TROLLEY]["position"]
     assert abs(end[WINCH]["position"] - 7.5e6) < 2e3, end[WINCH]["position"]
     assert_setpoints_within_limits(log)
