@@ -26,7 +26,6 @@ import json
 import os
 import struct
 import sys
-import threading
 import tomllib
 
 import can
@@ -34,6 +33,7 @@ import canopen
 from canopen.sdo import SdoAbortedError
 
 from load import Inclinometer, Load
+from node import SimulatedNode
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 EDS = os.path.join(HERE, "cia402-drive.eds")
@@ -77,28 +77,16 @@ def controlword_command(state, cw, previous_cw):
     return state
 
 
-class Drive:
+class Drive(SimulatedNode):
     """One CiA 402 drive on `network`."""
 
     def __init__(self, network, node_id, position, refuse_csv=False, sdo_mute=False, status_lag=0):
-        self.network = network
-        self.id = node_id
-        self.node = canopen.LocalNode(node_id, EDS)
         self.refuse_csv = refuse_csv
         self.sdo_mute = sdo_mute
         self.status_lag = status_lag
-        self.lock = threading.RLock()
-        self.powered = False
         # Physical: a reboot does not move the axis (an absolute encoder).
         self.position = position
-        self.node.add_read_callback(self._read)
-        self.node.add_write_callback(self._write)
-        network.add_node(self.node)
-        # SDO and NMT through the glue: off when unpowered, no SDO in stopped.
-        network.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
-        network.subscribe(self.node.sdo.rx_cobid, self._on_sdo)
-        network.unsubscribe(0, self.node.nmt.on_command)
-        network.subscribe(0, self._on_nmt)
+        super().__init__(network, node_id, EDS)
         network.subscribe(0x080, self._on_sync)
         network.subscribe(0x200 + node_id, self._on_rpdo)
         network.subscribe(0x700 + 0x10, self._on_controller_heartbeat)
@@ -165,26 +153,17 @@ class Drive:
         return self.statuswords[0]
 
     # --- CiA 301 services ------------------------------------------------------------
-    def _on_sdo(self, can_id, data, timestamp):
-        with self.lock:
-            if not self.powered or self.sdo_mute or self.node.nmt.state == "STOPPED":
-                return
-            self.node.sdo.on_request(can_id, data, timestamp)
+    def _sdo_refused(self):
+        return self.sdo_mute
 
-    def _on_nmt(self, can_id, data, timestamp):
-        with self.lock:
-            if not self.powered or len(data) != 2 or data[1] not in (0, self.id):
-                return
-            command = data[0]
-            if command in (0x81, 0x82):  # reset node / communication
-                self.boot(reset_application=command == 0x81)
-                return
-            was_operational = self.node.nmt.state == "OPERATIONAL"
-            self.node.nmt.on_command(can_id, data, timestamp)
-            if command == 0x01:
-                self._configure_pdos()
-            elif was_operational and self.state == "operation enabled":
-                self._connection_lost()
+    def _after_nmt(self, command, was_operational):
+        if command == 0x01:
+            self._configure_pdos()
+        elif was_operational and self.state == "operation enabled":
+            self._connection_lost()
+
+    def _forget_communication(self):
+        self.tpdos, self.rpdo_mapping, self.pending = [], [], {}
 
     def _connection_lost(self):
         """Out of *operational* while enabled: the abort connection option 0x6007."""
@@ -284,25 +263,6 @@ class Drive:
             self.controller_seen = None
 
     # --- what the test does to a drive -------------------------------------------------
-    def boot(self, reset_application=True):
-        """Power-on (or an NMT reset): boot-up message, pre-operational, heartbeat 0x1017."""
-        with self.lock:
-            self.node.nmt.stop_heartbeat()
-            if reset_application:
-                self._reset_application()
-            else:
-                for index in [i for i in self.node.data_store if 0x1000 <= i < 0x2000]:
-                    del self.node.data_store[index]
-                self.tpdos, self.rpdo_mapping, self.pending = [], [], {}
-            self.powered = True
-            self.node.nmt.state = "INITIALISING"  # sends the boot-up message
-            self.node.nmt.state = "PRE-OPERATIONAL"  # starts the heartbeat (0x1017)
-
-    def power_off(self):
-        with self.lock:
-            self.powered = False
-            self.node.nmt.stop_heartbeat()
-
     def fault(self, code=0x2310, register=0x03):
         """A fault: the power stage is off, statusword bit 3, an EMCY (generic bit set)."""
         with self.lock:
@@ -317,10 +277,7 @@ class Drive:
 
     def dump(self):
         with self.lock:
-            od = {}
-            for index, subs in sorted(self.node.data_store.items()):
-                for subindex, raw in sorted(subs.items()):
-                    od[f"{index:04X}:{subindex}"] = raw.hex()
+            od = self.dictionary()
             return {
                 "node": self.id,
                 "nmt": self.node.nmt.state,

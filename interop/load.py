@@ -26,7 +26,7 @@ import os
 import struct
 import threading
 
-import canopen
+from node import SimulatedNode
 
 EDS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cia410-inclinometer.eds")
 G = 9.81  # m/s², Tab. 3
@@ -133,7 +133,7 @@ class Load:
             }
 
 
-class Inclinometer:
+class Inclinometer(SimulatedNode):
     """A one-axis CiA 410 inclinometer on the hook block, on `network`.
 
     python-canopen gives the object dictionary (cia410-inclinometer.eds), the SDO server,
@@ -145,20 +145,9 @@ class Inclinometer:
     answers and beats)."""
 
     def __init__(self, network, node_id, sign=1.0, offset_deg=0.0):
-        self.network = network
-        self.id = node_id
         self.sign, self.offset_deg = sign, offset_deg
-        self.node = canopen.LocalNode(node_id, EDS)
-        self.lock = threading.RLock()
-        self.powered = False
         self.fault = None
-        self.node.add_read_callback(self._read)
-        self.node.add_write_callback(self._write)
-        network.add_node(self.node)
-        network.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
-        network.subscribe(self.node.sdo.rx_cobid, self._on_sdo)
-        network.unsubscribe(0, self.node.nmt.on_command)
-        network.subscribe(0, self._on_nmt)
+        super().__init__(network, node_id, EDS)
         self._reset_application()
 
     def _reset_application(self):
@@ -182,22 +171,12 @@ class Inclinometer:
     def resolution_deg(self):
         return struct.unpack("<H", self.node.get_data(0x6000, 0))[0] * 1e-3
 
-    def _on_sdo(self, can_id, data, timestamp):
-        with self.lock:
-            if not self.powered or self.node.nmt.state == "STOPPED":
-                return
-            self.node.sdo.on_request(can_id, data, timestamp)
+    def _after_nmt(self, command, was_operational):
+        if command == 0x01:
+            self._configure_tpdo()
 
-    def _on_nmt(self, can_id, data, timestamp):
-        with self.lock:
-            if not self.powered or len(data) != 2 or data[1] not in (0, self.id):
-                return
-            if data[0] in (0x81, 0x82):
-                self.boot(reset_application=data[0] == 0x81)
-                return
-            self.node.nmt.on_command(can_id, data, timestamp)
-            if data[0] == 0x01:
-                self._configure_tpdo()
+    def _forget_communication(self):
+        self.tpdo = None
 
     def _configure_tpdo(self):
         self.pdo_changed = False
@@ -228,25 +207,6 @@ class Inclinometer:
             self.tpdo.transmit()
             self.sent += 1
 
-    def boot(self, reset_application=True):
-        """Power-on (or an NMT reset): boot-up message, pre-operational, heartbeat 0x1017."""
-        with self.lock:
-            self.node.nmt.stop_heartbeat()
-            if reset_application:
-                self._reset_application()
-            else:
-                for index in [i for i in self.node.data_store if 0x1000 <= i < 0x2000]:
-                    del self.node.data_store[index]
-                self.tpdo = None
-            self.powered = True
-            self.node.nmt.state = "INITIALISING"
-            self.node.nmt.state = "PRE-OPERATIONAL"
-
-    def power_off(self):
-        with self.lock:
-            self.powered = False
-            self.node.nmt.stop_heartbeat()
-
     def fail(self, fault):
         """`frozen`, `lost`, or None (healthy again)."""
         with self.lock:
@@ -254,10 +214,7 @@ class Inclinometer:
 
     def dump(self):
         with self.lock:
-            od = {}
-            for index, subs in sorted(self.node.data_store.items()):
-                for subindex, raw in sorted(subs.items()):
-                    od[f"{index:04X}:{subindex}"] = raw.hex()
+            od = self.dictionary()
             return {
                 "node": self.id,
                 "nmt": self.node.nmt.state,

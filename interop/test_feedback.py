@@ -144,14 +144,20 @@ def hold_zero(rig, seconds, timeout):
     return rig.wait(still, timeout, f"{seconds} s of zero set points")
 
 
-# --- a. commissioned, and a healthy move with the feedback on -----------------------------
-def test_the_inclinometer_is_commissioned_and_a_healthy_move_keeps_the_feedback_on(rigs):
-    rig = feedback_rig(rigs)
+def move_and_let_go(rig):
+    """The 4 s move to (13, 7.5) m as request 1, accepted; then at rest, the feedback
+    letting go (set points zero for 0.5 s)."""
     rig.move(1, 13.0, 7.5, 4.0)
     assert rig.answer(1) == (ACCEPTED, 0)
     time.sleep(4.0)
     wait_rest(rig, 6)
     hold_zero(rig, 0.5, 5)
+
+
+# --- a. commissioned, and a healthy move with the feedback on -----------------------------
+def test_the_inclinometer_is_commissioned_and_a_healthy_move_keeps_the_feedback_on(rigs):
+    rig = feedback_rig(rigs)
+    move_and_let_go(rig)
     load = rig.load()
     sensor = rig.inclinometer()
     status = rig.status()
@@ -254,11 +260,7 @@ def test_the_same_swinging_start_with_feedforward_alone_ends_swinging(rigs):
 # --- c. a frozen inclinometer at rest ------------------------------------------------------
 def test_an_inclinometer_frozen_at_rest_is_caught_and_leaves_the_load_no_worse(rigs):
     rig = feedback_rig(rigs)
-    rig.move(1, 13.0, 7.5, 4.0)
-    assert rig.answer(1) == (ACCEPTED, 0)
-    time.sleep(4.0)
-    wait_rest(rig, 6)
-    hold_zero(rig, 0.5, 5)  # let go at rest
+    move_and_let_go(rig)
     # A swing given at rest by a blow (the angle does not jump, so the reading is
     # plausible), then the reading sticks while the feedback damps it.
     kicked = rig.drive("kick 2")["load"]
