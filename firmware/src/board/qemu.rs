@@ -249,7 +249,8 @@ impl Board {
         u32::MAX - unsafe { core::ptr::read_volatile((TIMER1 + VALUE) as *const u32) }
     }
 
-    /// QEMU instructions between two readings of [`Board::counter`], across a wrap:
+    /// QEMU instructions between two readings of [`Board::counter`] (or of
+    /// [`solver_counter`]), across a wrap:
     /// 25 MHz timer, 128 ns per instruction, 3.2 ticks per instruction.
     pub fn cost(&self, from: u32, to: u32) -> u64 {
         u64::from(to.wrapping_sub(from)) * 10 / 32
@@ -422,4 +423,15 @@ unsafe fn NonMaskableInt() {
 unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     defmt::error!("HardFault at pc {=u32:#010x}", frame.pc());
     finish(false)
+}
+
+/// The same free-running counter as [`Board::counter`], read around the inverse model's
+/// steps (`crate::timed`). A function of its own, never inlined: `cargo xtask cycles`
+/// cuts the tick's windows at every entry into `Board::counter`, so the solver's window
+/// inside the tick must not enter it; its own entry address marks the solver's window
+/// in the trace the same way.
+#[inline(never)]
+pub fn solver_counter() -> u32 {
+    // SAFETY: a volatile word read of the timer's VALUE register (see `Board::init`).
+    u32::MAX - unsafe { core::ptr::read_volatile((TIMER1 + VALUE) as *const u32) }
 }

@@ -497,3 +497,9 @@ impl Ending {
         true
     }
 }
+
+/// The cycle counter read around the inverse model's steps (`crate::timed`): the same
+/// DWT CYCCNT as [`Board::counter`], which `Board::cost` converts.
+pub fn solver_counter() -> u32 {
+    cortex_m::peripheral::DWT::cycle_count()
+}
