@@ -242,6 +242,8 @@ impl<T: Real, const NZ: usize> Trajectory<T, NZ> for Hermite<T, NZ> {
 pub struct Stop<T: Real, const NZ: usize> {
     from: SVector<T, NZ>,
     to: SVector<T, NZ>,
+    /// `to − from`.
+    delta: SVector<T, NZ>,
     timing: Hermite<T, 1>,
 }
 
@@ -288,7 +290,7 @@ impl<T: Real, const NZ: usize> Stop<T, NZ> {
 
 impl<T: Real, const NZ: usize> Trajectory<T, NZ> for Stop<T, NZ> {
     fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, NZ>; D] {
-        along(self.from, self.to, &self.timing(t))
+        along(self.from, self.delta, &self.timing(t))
     }
 
     fn active_span(&self) -> (T, T) {
@@ -515,7 +517,12 @@ impl<T: Real, const NZ: usize> Plan<T, NZ> {
                 start.get(..=n).unwrap_or(&start),
                 SVector::from([end]),
             )
-            .map(|timing| Stop { from, to, timing }),
+            .map(|timing| Stop {
+                from,
+                to,
+                delta: to - from,
+                timing,
+            }),
         )
     }
 
