@@ -330,7 +330,6 @@ impl<T: Real, const NZ: usize> Segment<T, NZ> {
         }
     }
 
-    #[inline]
     fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, NZ>; D] {
         match self {
             Segment::Move(m) => m.derivatives(t),
@@ -567,7 +566,6 @@ impl<T: Real, const NZ: usize> Trajectory<T, NZ> for Plan<T, NZ> {
     /// one at rest at its end). Issue 20: the plan copied both segments by value on
     /// every call (about 900 bytes: some 450 Cortex-M7 instructions, +28 % on a BDF4
     /// step); now a comparison or two select the segment and nothing is copied.
-    #[inline]
     fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, NZ>; D] {
         let rest = || {
             let mut rest = [SVector::<T, NZ>::zeros(); D];

@@ -125,7 +125,6 @@ impl SmoothStep {
     /// sums run in increasing index: the operations of the Bernstein and Leibniz sums
     /// as they always were, without the tables of every power up to the degree.
     #[must_use]
-    #[inline]
     pub fn eval<T: Real, const D: usize>(&self, tau: T) -> [T; D] {
         let mut out = [T::zero(); D];
         if tau <= T::zero() {
@@ -171,7 +170,6 @@ impl SmoothStep {
 
     /// `S^(m+1)` from the powers `pt[k] = τ^k`, `ps[k] = (1−τ)^k`, `k ≤ n`: Leibniz'
     /// terms `i` with `i ≤ n` and `j = m − i ≤ n`, in increasing `i`.
-    #[inline]
     fn derivative_at<T: Real>(
         &self,
         m: usize,
@@ -186,8 +184,8 @@ impl SmoothStep {
             n.checked_sub(m).and_then(|lo| ps.get(lo..=n)),
         );
         let (Some(row), Some(pt_m), Some(ps_m)) = terms else {
-            // Beyond the table or the degree's middle (asked when a stop is planned).
-            return untabulated(n, m, pt, ps);
+            // Beyond n + 1 (asked when a stop is planned).
+            return beyond(n, m, self.derivative.get(m), pt, ps);
         };
         let mut acc = T::zero();
         for ((coeff, x), y) in row.iter().zip(pt_m.iter().rev()).zip(ps_m.iter()) {
@@ -197,20 +195,25 @@ impl SmoothStep {
     }
 }
 
-/// [`SmoothStep::derivative_at`] for an order whose coefficients are not tabulated:
-/// each computed by [`derivative_coefficient`].
+/// [`SmoothStep::derivative_at`] for an order beyond n + 1, where some terms of
+/// Leibniz' rule do not exist: the tabulated coefficients while there are, then each
+/// computed by [`derivative_coefficient`].
 #[cold]
-fn untabulated<T: Real>(
+fn beyond<T: Real>(
     n: usize,
     m: usize,
+    row: Option<&[f64; TABULATED_ORDERS]>,
     pt: &[T; MAX_SMOOTHNESS + 1],
     ps: &[T; MAX_SMOOTHNESS + 1],
 ) -> T {
     let pow = |p: &[T; MAX_SMOOTHNESS + 1], i: usize| p.get(i).copied().unwrap_or_else(T::one);
+    // i ≤ n and j = m − i ≤ n: Leibniz' terms that exist.
     (m.saturating_sub(n)..=m.min(n)).fold(T::zero(), |acc, i| {
-        // i ≤ n and j = m − i ≤ n: Leibniz' terms that exist.
-        let j = m - i;
-        acc + c::<T>(derivative_coefficient(n, m, i)) * pow(pt, n - i) * pow(ps, n - j)
+        let coeff = row
+            .and_then(|r| r.get(i))
+            .copied()
+            .unwrap_or_else(|| derivative_coefficient(n, m, i));
+        acc + c::<T>(coeff) * pow(pt, n - i) * pow(ps, n - (m - i))
     })
 }
 
@@ -344,7 +347,6 @@ impl<T: Real, const NZ: usize> PointToPoint<T, NZ> {
     /// axis follows it, so the load's path is the straight segment from start to end;
     /// a stop re-times σ and stays on that segment ([`crate::plan::Stop`]).
     #[must_use]
-    #[inline]
     pub fn timing<const D: usize>(&self, t: T) -> [T; D] {
         let tau = (t - self.t_start) / self.duration;
         let mut s: [T; D] = self.step.eval(tau);
@@ -360,7 +362,6 @@ impl<T: Real, const NZ: usize> PointToPoint<T, NZ> {
 /// The point at the fraction `s[0]` of the straight segment from `from` by `delta`,
 /// and its derivatives from those of the fraction, `s[j]` (every axis moves along the
 /// segment).
-#[inline]
 pub(crate) fn along<T: Real, const NZ: usize, const D: usize>(
     from: SVector<T, NZ>,
     delta: SVector<T, NZ>,
@@ -378,7 +379,6 @@ pub(crate) fn along<T: Real, const NZ: usize, const D: usize>(
 }
 
 impl<T: Real, const NZ: usize> Trajectory<T, NZ> for PointToPoint<T, NZ> {
-    #[inline]
     fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, NZ>; D] {
         along(self.start, self.delta, &self.timing(t))
     }
