@@ -5,7 +5,7 @@
 //! feedforward the controller steps and reads the board's solver counter
 //! (`board::solver_counter`, a function of its own, so that the tick's windows that
 //! `cargo xtask cycles` cuts at `Board::counter` stay the tick's) before and after each
-//! step; the firmware logs the sum beside the tick's cost. Nothing else changes: the
+//! step; the firmware logs the sum, in the units of `Board::cost`, beside the tick's cost. Nothing else changes: the
 //! controller, its frames and the plan see the inner feedforward.
 
 use controller::feedback::Reference;
@@ -42,7 +42,7 @@ impl<F: Feedforward> Feedforward for Timed<F> {
     fn step(&mut self) -> Result<FeedforwardStep, Error> {
         let start = board::solver_counter();
         let out = self.inner.step();
-        let spent = board::solver_counter().wrapping_sub(start);
+        let spent = board::solver_elapsed(start, board::solver_counter());
         self.ticks = self.ticks.wrapping_add(spent);
         out
     }

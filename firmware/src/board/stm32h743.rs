@@ -499,7 +499,13 @@ impl Ending {
 }
 
 /// The cycle counter read around the inverse model's steps (`crate::timed`): the same
-/// DWT CYCCNT as [`Board::counter`], which `Board::cost` converts.
+/// DWT CYCCNT as [`Board::counter`].
 pub fn solver_counter() -> u32 {
     cortex_m::peripheral::DWT::cycle_count()
+}
+
+/// Core cycles between two readings of [`solver_counter`], across a wrap; the same units
+/// as [`Board::cost`]'s.
+pub fn solver_elapsed(start: u32, end: u32) -> u32 {
+    end.wrapping_sub(start)
 }
