@@ -1,6 +1,6 @@
 //! A move's evaluation after issue 20 against the evaluation before it, bit for bit.
 //!
-//! Issue 20 made `PointToPoint::derivatives` cheaper (604 → 271 host instructions per
+//! Issue 20 made `PointToPoint::derivatives` cheaper (604 → 263 host instructions per
 //! call at n = 4, D = 3) by keeping what depends only on the move (`1/T`, `end − start`,
 //! the end time) and by forming only the powers the sums use, each once. The sums and
 //! the order of their operations are the Bernstein/Leibniz ones of before (see

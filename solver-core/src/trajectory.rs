@@ -22,7 +22,7 @@
 //! sums use, each once, continuing τ's powers into the value's terms. The operations of
 //! the sums and their order are those they always had, so every value is bit for bit
 //! what it was (`host-tests/tests/trajectory_evaluation.rs` pins it against the code
-//! before): 604 → 271 host instructions per `PointToPoint::derivatives` call at n = 4
+//! before): 604 → 263 host instructions per `PointToPoint::derivatives` call at n = 4
 //! with the models' three orders (`solver-core/examples/trajectory_calls.rs`).
 //!
 //! A factored form was measured and not taken: the value as `τⁿ⁺¹ Σ_k C(n+k, k)(1−τ)ᵏ`
