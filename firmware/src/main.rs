@@ -10,6 +10,7 @@
 
 mod board;
 mod scene;
+mod timed;
 
 #[cfg(feature = "stm32h743")]
 use defmt_rtt as _;
@@ -17,11 +18,12 @@ use defmt_rtt as _;
 use defmt_semihosting as _;
 
 /// What the controller steps: under QEMU with the scenarios' solver-failure
-/// injection, on the drive controller the inverse model alone.
+/// injection, on the drive controller the inverse model alone; on both boards with its
+/// steps timed (the solver's share of the tick in each cost line).
 #[cfg(feature = "qemu")]
-type Feedforward = controller::Injectable<scene::Feedforward>;
+type Feedforward = timed::Timed<controller::Injectable<scene::Feedforward>>;
 #[cfg(feature = "stm32h743")]
-type Feedforward = scene::Feedforward;
+type Feedforward = timed::Timed<scene::Feedforward>;
 
 #[cfg_attr(feature = "qemu", rtic::app(device = crate::board::pac, dispatchers = [UARTRX0]))]
 #[cfg_attr(feature = "stm32h743", rtic::app(device = crate::board::pac, dispatchers = [SPI1]))]
@@ -115,9 +117,9 @@ mod app {
             }
         };
         #[cfg(feature = "qemu")]
-        let feedforward = controller::Injectable::new(model);
+        let feedforward = crate::timed::Timed::new(controller::Injectable::new(model));
         #[cfg(feature = "stm32h743")]
-        let feedforward = model;
+        let feedforward = crate::timed::Timed::new(model);
         let config = scene::CONFIG;
         if control::spawn().is_err() {
             defmt::error!("control task already running");
@@ -189,7 +191,7 @@ mod app {
             // that did not leave (bus-off, a slow bus) reported, each as itself, before
             // the tick; the burst queued in order (controller::transmit), a refused frame
             // reported at once, a frame the bus refuses as soon as it does.
-            let mut cost = 0;
+            let (mut cost, mut solver) = (0, 0);
             let tick = |controller: &mut Controller<Feedforward, scene::Correction>,
                         board: &mut Board| {
                 #[cfg(feature = "qemu")]
@@ -203,11 +205,14 @@ mod app {
                 }
                 #[cfg(feature = "qemu")]
                 if board.take_solver_failure() {
-                    controller.feedforward_mut().fail_next_step();
+                    controller.feedforward_mut().inner.fail_next_step();
                 }
                 let start = board.counter();
                 let out = controller.tick(now_ms);
                 cost = board.cost(start, board.counter());
+                // The inverse model's steps within it (`timed`): a linear count, so the
+                // ticks convert as a window from 0.
+                solver = board.cost(0, controller.feedforward_mut().take_ticks());
                 controller.record_cost(cost);
                 Some(out)
             };
@@ -227,12 +232,14 @@ mod app {
             let (iterations, jacobians) = out
                 .step
                 .map_or((0, 0), |s| (s.stats.iterations, s.stats.jacobian_evals));
+            // cycle, the whole tick, Newton iterations, Jacobians, the solver's steps alone.
             defmt::info!(
-                "cost {=u64} {=u64} {=u32} {=u32}",
+                "cost {=u64} {=u64} {=u32} {=u32} {=u64}",
                 cycle,
                 cost,
                 iterations,
-                jacobians
+                jacobians,
+                solver
             );
             (min, max, sum) = (min.min(cost), max.max(cost), sum.wrapping_add(cost));
             #[cfg(feature = "stm32h743")]

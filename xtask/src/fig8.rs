@@ -290,12 +290,14 @@ mod tests {
                 instructions: 7000,
                 iterations: 2,
                 jacobians: 2,
+                solver: 5000,
             },
             StepCost {
                 cycle: 2,
                 instructions: 8000,
                 iterations: 2,
                 jacobians: 2,
+                solver: 5000,
             },
         ];
         let estimated = [
@@ -345,6 +347,7 @@ mod tests {
             instructions: 1000 * u64::from(cycle),
             iterations: 1,
             jacobians: 0,
+            solver: 500,
         });
         let estimated = [1, 2].map(|c: u64| cycles::Step {
             instructions: 1000 * c,

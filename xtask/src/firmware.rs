@@ -215,17 +215,21 @@ pub fn parse_tx(line: &str) -> Option<Tx> {
     })
 }
 
-/// One step's cost from a `cost <cycle> <instructions> <iterations> <jacobians>` line.
+/// One step's cost from a `cost <cycle> <instructions> <iterations> <jacobians> <solver>`
+/// line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct StepCost {
     /// Cycle number.
     pub cycle: u32,
-    /// QEMU instructions of the whole 100 Hz step.
+    /// QEMU instructions of the whole 100 Hz step (the controller's tick).
     pub instructions: u64,
     /// Newton iterations.
     pub iterations: u32,
     /// Jacobians formed (Broyden: re-initialisations).
     pub jacobians: u32,
+    /// QEMU instructions of the inverse model's step alone, inside the tick (0: the
+    /// cycle did not step it).
+    pub solver: u64,
 }
 
 /// Parses a cost line.
@@ -236,6 +240,7 @@ pub fn parse_cost(line: &str) -> Option<StepCost> {
         instructions: it.next()?.parse().ok()?,
         iterations: it.next()?.parse().ok()?,
         jacobians: it.next()?.parse().ok()?,
+        solver: it.next()?.parse().ok()?,
     })
 }
 
@@ -278,14 +283,17 @@ mod tests {
             })
         );
         assert_eq!(
-            parse_cost("cost 12 4567 2 1"),
+            parse_cost("cost 12 4567 2 1 2890"),
             Some(StepCost {
                 cycle: 12,
                 instructions: 4567,
                 iterations: 2,
-                jacobians: 1
+                jacobians: 1,
+                solver: 2890
             })
         );
+        // A line without the solver's window is not this firmware's.
+        assert_eq!(parse_cost("cost 12 4567 2 1"), None);
         assert_eq!(parse_tx("cost 1 2 3"), None);
     }
 }

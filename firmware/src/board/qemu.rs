@@ -423,3 +423,22 @@ unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     defmt::error!("HardFault at pc {=u32:#010x}", frame.pc());
     finish(false)
 }
+
+/// The timer that [`Board::counter`] reads, read around the inverse model's steps
+/// (`crate::timed`) as it counts — down: [`solver_elapsed`] turns two readings into
+/// ticks. A function of its own, never inlined: `cargo xtask cycles` cuts the tick's
+/// windows at every entry into `Board::counter`, so the solver's window inside the tick
+/// must not enter it. Its body must differ from `Board::counter`'s too (the raw value,
+/// not `u32::MAX −` it): identical functions are folded into one symbol by the
+/// optimiser, and `Board::counter`'s name would vanish from the ELF.
+#[inline(never)]
+pub fn solver_counter() -> u32 {
+    // SAFETY: a volatile word read of the timer's VALUE register (see `Board::init`).
+    unsafe { core::ptr::read_volatile((TIMER1 + VALUE) as *const u32) }
+}
+
+/// Timer ticks between two readings of [`solver_counter`] (it counts down), across a
+/// wrap; `Board::cost(0, ticks)` converts them into QEMU instructions.
+pub fn solver_elapsed(start: u32, end: u32) -> u32 {
+    start.wrapping_sub(end)
+}

@@ -497,3 +497,15 @@ impl Ending {
         true
     }
 }
+
+/// The cycle counter read around the inverse model's steps (`crate::timed`): the same
+/// DWT CYCCNT as [`Board::counter`].
+pub fn solver_counter() -> u32 {
+    cortex_m::peripheral::DWT::cycle_count()
+}
+
+/// Core cycles between two readings of [`solver_counter`], across a wrap; the same units
+/// as [`Board::cost`]'s.
+pub fn solver_elapsed(start: u32, end: u32) -> u32 {
+    end.wrapping_sub(start)
+}
