@@ -1547,12 +1547,13 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             },
             commissioning_failure: self.commissioning_failure,
             commissioned,
-            rope: self.correction.rope().map_or((0, 0, 0), |r| {
+            rope: self.correction.rope().map_or((0, 0, 0, 0), |r| {
                 let (scale, offset) = r.estimate();
                 (
                     libm::round(scale * 1e6) as i32,
                     libm::round(offset * 1e6) as i32,
                     r.samples(),
+                    r.learnt() as u8,
                 )
             }),
         }

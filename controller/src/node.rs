@@ -18,7 +18,7 @@
 //! | 0x2001:1..=8 | the status frame's fields (docs/COMMANDS.md) | ro |
 //! | 0x2002:1..=5 | the last commissioning failure: node, index, sub, abort code, reason | ro |
 //! | 0x2003:1..=2 | NMT role (0 manager, 1 slave); drives' commissioning phase (bit per drive: done) | ro |
-//! | 0x2004:1..=3 | rope calibration learnt from the swing (`crate::rope`): drum scaling error, ppm (i32); rope offset, µm (i32); samples (0: no inclinometer or no swing yet) | ro |
+//! | 0x2004:1..=4 | rope calibration learnt from the swing (`crate::rope`): drum scaling error, ppm (i32); rope offset, µm (i32); samples taken (u32); what was learnt (u8: 0 nothing yet, 1 the offset at one length, 2 scaling and offset, 3 at a bound: not to be saved) | ro |
 
 use crate::canopen::sdo::{abort, Object, ObjectDictionary, Value};
 use crate::canopen::NmtState;
@@ -112,8 +112,9 @@ pub struct Snapshot {
     pub commissioning_failure: (u8, u16, u8, u32, u8),
     /// Bit per drive (trolley bit 0): commissioned.
     pub commissioned: u8,
-    /// The rope calibration learnt so far: scaling error, ppm; offset, µm; samples.
-    pub rope: (i32, i32, u32),
+    /// The rope calibration learnt so far: scaling error, ppm; offset, µm; samples;
+    /// what was learnt (`crate::rope::Learnt`).
+    pub rope: (i32, i32, u32, u8),
 }
 
 /// The object dictionary at one moment: the node's parameters and a snapshot.
@@ -198,12 +199,13 @@ impl ObjectDictionary for Dictionary<'_> {
                 1 => Some(value(&[s.commissioned])),
                 _ => None,
             }),
-            0x2004 => sub_of(3, &|k| {
-                let (scale, offset, samples) = s.rope;
+            0x2004 => sub_of(4, &|k| {
+                let (scale, offset, samples, learnt) = s.rope;
                 match k {
                     0 => Some(value(&scale.to_le_bytes())),
                     1 => Some(value(&offset.to_le_bytes())),
                     2 => Some(u32v(samples)),
+                    3 => Some(value(&[learnt])),
                     _ => None,
                 }
             }),
@@ -325,7 +327,7 @@ mod tests {
             error_register: 0,
             commissioning_failure: (2, 0x6060, 0, 0x0609_0030, 1),
             commissioned: 0b01,
-            rope: (-15_000, 80_000, 1234),
+            rope: (-15_000, 80_000, 1234, 2),
         }
     }
 
@@ -351,6 +353,7 @@ mod tests {
             od.read(Object::new(0x2004, 3)).unwrap(),
             value(&1234u32.to_le_bytes())
         );
+        assert_eq!(od.read(Object::new(0x2004, 4)).unwrap(), value(&[2]));
         assert_eq!(
             od.read(Object::new(0x2002, 4)).unwrap(),
             value(&0x0609_0030u32.to_le_bytes())

@@ -27,20 +27,24 @@
 //! makes (about 0.1 rad/s²), a gust of 2 N on the lab crane's load biases the length by
 //! a decimetre — online, gust and rope error cannot be told apart (measured: the
 //! 1000-case study with the estimate fed back left 60–140 mm in gusty cases). In calm
-//! air, with feedforward only (the load swings freely after each move), a move down and
-//! one up give the rope to a few millimetres; the controller shows the estimate in
-//! 0x2003 and the commissioning engineer saves it as the winch's `position_scale` and
-//! `position_offset` (docs/COMMISSIONING.md, "Rope calibration").
+//! air, a move that hoists while it travels, under the state feedback (the estimator
+//! runs inside it, on every sample with a good angle), gives the rope to about a
+//! centimetre; the controller shows the estimate in 0x2004 and the commissioning
+//! engineer saves it as the winch's `position_scale` and `position_offset`
+//! (docs/COMMISSIONING.md, "Rope calibration").
 
 /// The largest scaling error believed, relative.
 pub const MAX_SCALE: f64 = 0.05;
 /// The largest offset believed, m.
 pub const MAX_OFFSET: f64 = 0.5;
-/// The filter's corner, rad/s: 5–7× the swing's 1.0–1.8 rad/s (l = 3–9 m).
+/// The filter's corner, rad/s: 4.4–7.7× the swing's 1.0–1.8 rad/s (l = 3–9 m).
 const OMEGA: f64 = 8.0;
 /// Information (Σ φ̈², rad²/s⁴) before the estimate is used: about a second of a
 /// 0.1 rad/s² swing acceleration, a move's.
 const MIN_INFORMATION: f64 = 1.0;
+
+/// Missing samples in a row the filters bridge (longer, they start again).
+const MAX_BRIDGED: u32 = 3;
 
 /// The sums of the regression: Σ r rᵀ (upper triangle), Σ r y, and the samples.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -93,6 +97,20 @@ impl Derivatives {
     }
 }
 
+/// What the rope calibration has learnt so far.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Learnt {
+    /// Not enough swing yet: the drum is believed.
+    Nothing = 0,
+    /// The rope's length at the one length it swung at, as an offset.
+    Offset = 1,
+    /// Scaling error and offset.
+    Both = 2,
+    /// At a bound ([`MAX_SCALE`], [`MAX_OFFSET`]): something else than the rope was
+    /// learnt (a gust, a sensor's offset); not to be saved.
+    Clamped = 3,
+}
+
 /// The least-squares estimate of the rope's scaling error and offset.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RopeLength {
@@ -107,6 +125,8 @@ pub struct RopeLength {
     taken: Sums,
     /// Cycles the filters have run without a gap.
     warm: u32,
+    /// Samples missing since the last one taken.
+    missed: u32,
 }
 
 impl RopeLength {
@@ -123,6 +143,7 @@ impl RopeLength {
             l_phi: Derivatives::default(),
             taken: Sums::default(),
             warm: 0,
+            missed: 0,
         }
     }
 
@@ -132,12 +153,20 @@ impl RopeLength {
             self.gap();
             return;
         }
-        let [_, _, xa] = self.x.push(x, self.h);
-        let [pf, _, pa] = self.phi.push(phi, self.h);
-        let [sf, _, _] = self.sin_phi.push(libm::sin(phi), self.h);
-        let [_, _, la] = self.l.push(l, self.h);
-        let [_, _, lpa] = self.l_phi.push(l * phi, self.h);
+        // A bridged gap: the filters advance over it with this sample held, and this
+        // sample, which they saw late, is not taken.
+        let bridged = self.missed;
+        self.missed = 0;
+        let dt = self.h * f64::from(bridged + 1);
+        let [_, _, xa] = self.x.push(x, dt);
+        let [pf, _, pa] = self.phi.push(phi, dt);
+        let [sf, _, _] = self.sin_phi.push(libm::sin(phi), dt);
+        let [_, _, la] = self.l.push(l, dt);
+        let [_, _, lpa] = self.l_phi.push(l * phi, dt);
         self.warm = self.warm.saturating_add(1);
+        if bridged > 0 {
+            return;
+        }
         // The filters forget their start within a few time constants (3/ω ≈ 0.4 s).
         if f64::from(self.warm) * self.h < 6.0 / OMEGA {
             return;
@@ -148,8 +177,15 @@ impl RopeLength {
         self.taken.add(r1, r2, y);
     }
 
-    /// No good sample this cycle: the filters start again at the next one.
+    /// No good sample this cycle: up to [`MAX_BRIDGED`] in a row the filters bridge,
+    /// beyond they start again at the next sample (a restart costs the warm-up, in
+    /// which a moving crane's samples are lost).
     pub fn gap(&mut self) {
+        self.missed = self.missed.saturating_add(1);
+        if self.missed <= MAX_BRIDGED {
+            return;
+        }
+        self.missed = 0;
         self.x = Derivatives::default();
         self.phi = Derivatives::default();
         self.sin_phi = Derivatives::default();
@@ -163,26 +199,46 @@ impl RopeLength {
     /// tell them apart.
     #[must_use]
     pub fn estimate(&self) -> (f64, f64) {
+        let (s, o, _) = self.solve();
+        (s, o)
+    }
+
+    /// What [`Self::estimate`] is worth (0x2004:4): [`Learnt::Nothing`] yet,
+    /// [`Learnt::Offset`] only (one rope length seen), [`Learnt::Both`], or
+    /// [`Learnt::Clamped`] at a bound (not to be saved).
+    #[must_use]
+    pub fn learnt(&self) -> Learnt {
+        self.solve().2
+    }
+
+    fn solve(&self) -> (f64, f64, Learnt) {
         let [a11, a12, a22] = self.taken.a;
         let [b1, b2] = self.taken.b;
         if a22 < MIN_INFORMATION {
-            return (0.0, 0.0);
+            return (0.0, 0.0, Learnt::Nothing);
         }
         let det = a11 * a22 - a12 * a12;
         // Both unknowns when the regressors are far from collinear (the rope length
         // varied over the samples), else the length at this rope, as an offset.
-        let (s, o) = if det > 1e-3 * a11 * a22 {
-            ((a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det)
+        let (s, o, learnt) = if det > 1e-3 * a11 * a22 {
+            let s = (a22 * b1 - a12 * b2) / det;
+            (s, (a11 * b2 - a12 * b1) / det, Learnt::Both)
         } else {
-            (0.0, b2 / a22)
+            (0.0, b2 / a22, Learnt::Offset)
         };
         if !(s.is_finite() && o.is_finite()) {
-            return (0.0, 0.0);
+            return (0.0, 0.0, Learnt::Nothing);
         }
-        (
+        let (sc, oc) = (
             s.clamp(-MAX_SCALE, MAX_SCALE),
             o.clamp(-MAX_OFFSET, MAX_OFFSET),
-        )
+        );
+        let learnt = if sc == s && oc == o {
+            learnt
+        } else {
+            Learnt::Clamped
+        };
+        (sc, oc, learnt)
     }
 
     /// The rope's length for the drum's reading `l` under [`Self::estimate`], m.
@@ -207,6 +263,11 @@ mod tests {
     /// A pendulum of length `(1 + s) l + o` under a trolley moving back and forth
     /// while the drum hoists from 8 to 4 m, sampled at 100 Hz with an angle quantum.
     fn learn(s: f64, o: f64, quantum: f64) -> RopeLength {
+        learn_with_gaps(s, o, quantum, 0)
+    }
+
+    /// [`learn`] with a sample missing every `gap_every` samples (0: none).
+    fn learn_with_gaps(s: f64, o: f64, quantum: f64, gap_every: usize) -> RopeLength {
         let (g, h) = (9.81, 0.01);
         let mut est = RopeLength::new(g, h);
         let (mut phi, mut vphi) = (0.0, 0.0);
@@ -235,7 +296,11 @@ mod tests {
             } else {
                 phi
             };
-            est.sample(x, read, l);
+            if gap_every > 0 && k % gap_every == gap_every - 1 {
+                est.gap();
+            } else {
+                est.sample(x, read, l);
+            }
         }
         est
     }
@@ -243,12 +308,28 @@ mod tests {
     #[test]
     fn the_scaling_error_and_the_offset_are_learnt_from_the_swing() {
         for (s, o) in [(0.02, 0.0), (-0.02, 0.1), (0.0, -0.15), (0.015, 0.08)] {
-            let (es, eo) = learn(s, o, 1.75e-4).estimate();
+            let est = learn(s, o, 1.75e-4);
+            assert_eq!(est.learnt(), Learnt::Both);
+            let (es, eo) = est.estimate();
             // What matters: the length at the end of the move, 4 m.
             let err = ((1.0 + s) * 4.0 + o) - ((1.0 + es) * 4.0 + eo);
             assert!(
                 err.abs() < 0.02,
                 "s {s}, o {o}: learnt {es:.4}, {eo:.3}, length off {:.1} mm",
+                err * 1e3
+            );
+        }
+    }
+
+    #[test]
+    fn a_missing_sample_now_and_then_costs_nothing() {
+        // One sample lost every second (a TPDO dropped): the filters bridge it.
+        for gap_every in [100, 200] {
+            let est = learn_with_gaps(0.015, 0.08, 1.75e-4, gap_every);
+            let err = est.length(4.0) - ((1.0 + 0.015) * 4.0 + 0.08);
+            assert!(
+                err.abs() < 0.02,
+                "a gap every {gap_every}: length off {:.1} mm",
                 err * 1e3
             );
         }
@@ -261,6 +342,7 @@ mod tests {
             est.sample(10.0, 0.0, 6.0);
         }
         assert_eq!(est.estimate(), (0.0, 0.0));
+        assert_eq!(est.learnt(), Learnt::Nothing);
         assert_eq!(est.length(6.0), 6.0);
         est.sample(f64::NAN, 0.0, 4.0);
         assert_eq!(est.length(4.0), 4.0);

@@ -21,13 +21,13 @@
 //! # The degraded-mode rule (docs/COMMANDS.md).
 //! max_angle = 0.35            # rad: beyond, the angle is implausible
 //! max_innovation = 0.035      # rad: further from the prediction, implausible
-//! bridged_cycles = 3          # bad angles bridged before feedforward only
+//! bridged_cycles = 3          # bad angles bridged before the angle is no longer read
 //! frozen_cycles = 3           # the same value this long …
 //! frozen_motion = 0.00175     # … while the crane's motion moved it this much (rad): stuck
 //! held_allowance = 0.02       # m/s: how much harder an unchanged reading may push
 //! # At rest on the target the feedback lets go (set points zero) …
 //! rest_position = 0.02        # m: load within this of its target (x and rope) …
-//! rest_swing = 0.0014         # rad: … and swinging less; held again at 1.25× either
+//! rest_swing = 0.00139        # rad: … and swinging less; held again at 1.25× either
 //! ```
 //!
 //! The gains are designed from the weights at start-up (`Gains::design`), for the
