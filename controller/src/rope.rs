@@ -177,7 +177,7 @@ impl RopeLength {
         self.taken.add(r1, r2, y);
     }
 
-    /// No good sample this cycle: up to [`MAX_BRIDGED`] in a row the filters bridge,
+    /// No good sample this cycle: up to three in a row the filters bridge,
     /// beyond they start again at the next sample (a restart costs the warm-up, in
     /// which a moving crane's samples are lost).
     pub fn gap(&mut self) {
