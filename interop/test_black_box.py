@@ -42,11 +42,22 @@ MM = 1e3  # µm
 # --- helpers -----------------------------------------------------------------------------
 def off_beat(rig, delay=0.045):
     """Waits for the controller's next heartbeat (the cycle that sends the periodic status
-    frame) and then `delay`: a request sent now is answered between two beats, so its
-    answer is a status frame that no periodic one can be mistaken for."""
-    n = len(rig.recorder.with_id(HEARTBEAT))
-    rig.wait(lambda: len(rig.recorder.with_id(HEARTBEAT)) > n, 0.5, "a heartbeat")
-    time.sleep(delay)
+    frame) until `delay` after it, timed from the heartbeat's own receive time: a request
+    sent now is answered between two beats, so its answer is a status frame that no
+    periodic one can be mistaken for. Late (a loaded machine: the next beat too close),
+    it waits for another beat — a request landing on the beat would be answered in the
+    periodic status frame itself."""
+    for _ in range(10):
+        n = len(rig.recorder.with_id(HEARTBEAT))
+        end = time.time() + 0.5
+        while len(rig.recorder.with_id(HEARTBEAT)) <= n:
+            assert time.time() < end, "no heartbeat within 0.5 s"
+            time.sleep(0.002)
+        beat = rig.recorder.with_id(HEARTBEAT)[-1][0]
+        time.sleep(max(0.0, beat + delay - time.time()))
+        if time.time() - beat < delay + 0.02:
+            return
+    raise AssertionError("no chance to send between two heartbeats in 10 tries")
 
 
 def off_beat_statuses(log, after, within):
