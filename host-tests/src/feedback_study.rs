@@ -265,17 +265,21 @@ pub fn simulate_with_fault(
 }
 
 /// The rope calibration, a commissioning step (`controller::rope`): the paper's move
-/// on `case`'s crane in calm air with the load at rest, the feedback on; the scaling
-/// error and offset learnt from the swing.
-pub fn calibrate_rope(params: &CraneParams, case: &Mismatch, gains: &Gains) -> (f64, f64) {
+/// (`paper`, [`paper_reference`]) on `case`'s crane in calm air with the load at rest,
+/// the feedback on; the scaling error and offset learnt from the swing.
+pub fn calibrate_rope(
+    params: &CraneParams,
+    paper: &ReferenceRun,
+    case: &Mismatch,
+    gains: &Gains,
+) -> (f64, f64) {
     let calm = Mismatch {
         gust: Gust::NONE,
         swing0: 0.0,
         ..*case
     };
-    let reference = paper_reference(params);
     let limits = DriveLimits::LAB;
-    simulate(params, &reference, &calm, Some(gains), &limits, false)
+    simulate(params, paper, &calm, Some(gains), &limits, false)
         .0
         .rope
 }
@@ -330,13 +334,14 @@ pub fn monte_carlo(seed: u64, n: usize, random_moves: bool, gains: &Gains) -> Mo
     let params = CraneParams::PAPER;
     let limits = DriveLimits::LAB;
     let mut rng = Rng::new(seed);
-    let paper = (!random_moves).then(|| paper_reference(&params));
+    // The paper's move: the set's move, or the calibration's.
+    let paper = paper_reference(&params);
     let mut mc = MonteCarlo::default();
     for _ in 0..n {
         let own;
-        let reference = match &paper {
-            Some(r) => r,
-            None => {
+        let reference = match random_moves {
+            false => &paper,
+            true => {
                 own = random_move(&mut rng, &params, 0.0).1;
                 &own
             }
@@ -345,7 +350,7 @@ pub fn monte_carlo(seed: u64, n: usize, random_moves: bool, gains: &Gains) -> Mo
         let case = Mismatch::random(&mut rng, l0, reference.span);
         let (ff, _) = simulate(&params, reference, &case, None, &limits, false);
         let (fb, _) = simulate(&params, reference, &case, Some(gains), &limits, false);
-        let calibrated = case.calibrated(calibrate_rope(&params, &case, gains));
+        let calibrated = case.calibrated(calibrate_rope(&params, &paper, &case, gains));
         let (cal, _) = simulate(&params, reference, &calibrated, Some(gains), &limits, false);
         mc.cases.push((case, ff, fb, cal));
     }
@@ -400,7 +405,7 @@ pub fn fault_study(seed: u64, n: usize, gains: &Gains) -> Vec<FaultCase> {
             let mid = Mismatch::random(&mut rng, l0, reference.span);
             let during = rng.uniform(ts, te);
             // The crane as commissioned: its rope calibrated.
-            let mid = mid.calibrated(calibrate_rope(&params, &mid, gains));
+            let mid = mid.calibrated(calibrate_rope(&params, &reference, &mid, gains));
             let rest = Mismatch {
                 gust: Gust {
                     start: te + 1.0,
