@@ -40,4 +40,4 @@ pub use error::{Error, Result};
 pub use model::{DaeModel, Driven, Partials, StructuredJacobian};
 pub use newton::{JacobianMode, NewtonSettings, NewtonStats};
 pub use scalar::Real;
-pub use schemes::{Bdf, Radau, SolverSettings, StepReport};
+pub use schemes::{Bdf, Integrator, Radau, Scheme, SolverSettings, StepReport};

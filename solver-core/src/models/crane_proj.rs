@@ -52,6 +52,9 @@ use crate::trajectory::{ensure_at_rest, Trajectory};
 
 /// Number of unknowns of the *proj* formulation.
 pub const N: usize = 8;
+/// Number of inputs.
+pub const NU: usize = 2;
+schemes_of!(CraneProj);
 
 /// The crane *proj* inverse model, driven by a load trajectory `Z`.
 #[derive(Debug, Clone, Copy, PartialEq)]

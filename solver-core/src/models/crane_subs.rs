@@ -31,6 +31,9 @@ use crate::trajectory::{ensure_at_rest, Trajectory};
 
 /// Number of unknowns of the *subs* formulation.
 pub const N: usize = 7;
+/// Number of inputs.
+pub const NU: usize = 2;
+schemes_of!(CraneSubs, structured);
 
 /// The crane *subs* inverse model, driven by a load trajectory `Z`.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -25,6 +25,9 @@ use crate::trajectory::{ensure_at_rest, Trajectory};
 
 /// Number of unknowns.
 pub const N: usize = 5;
+/// Number of inputs.
+pub const NU: usize = 1;
+schemes_of!(MassOnCar);
 
 /// Parameters of Tab. 4 plus the inclination α.
 #[derive(Debug, Clone, Copy, PartialEq)]

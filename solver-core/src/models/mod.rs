@@ -1,5 +1,50 @@
 //! The models of the paper. Each is one small [`DaeModel`](crate::model::DaeModel)
 //! implementation; a scene links only the one it needs.
+//!
+//! Each model's module also names its sizes (`N` unknowns, `NU` inputs, `S = 3N` for
+//! Radau's stage system) and its schemes (`Bdf`, `Radau`, `Chosen`, and where the model
+//! has a structured elimination the firmware's `StructuredBdf` and `StructuredRadau5`),
+//! so that no caller spells a size: `crane_subs::Bdf<f64, Z>` is BDF on the *subs* crane.
+
+/// The scheme aliases of the model `$model` in the invoking module, which defines `N`
+/// and `NU`; with `structured`, also the strategies of its structured elimination.
+macro_rules! schemes_of {
+    ($model:ident) => {
+        /// Radau IIA's stage-system size, `3 * N`.
+        pub const S: usize = 3 * N;
+        /// BDF on this model, its Newton iteration done by `J` (by default dense LUs and
+        /// the settings' Jacobian mode).
+        pub type Bdf<T, Z, J = $crate::newton::Newton<T, N>> =
+            $crate::schemes::Bdf<T, $model<T, Z>, N, NU, J>;
+        /// Radau IIA on this model, its stage system solved by `J` (by default chosen at
+        /// run time by the settings' Jacobian mode).
+        pub type Radau<T, Z, J = $crate::schemes::radau::StageSolver<T, N, S>> =
+            $crate::schemes::Radau<T, $model<T, Z>, N, NU, S, J>;
+        /// RADAU5's transformed Newton on dense LUs.
+        pub type Radau5<T, Z> = Radau<T, Z, $crate::schemes::radau5::Transformed<T, N>>;
+        /// Radau IIA with the paper's modes on the 3N×3N system.
+        pub type RadauFull<T, Z> = Radau<T, Z, $crate::schemes::radau::FullNewton<T, S>>;
+        /// The scheme a [`Scheme`]($crate::schemes::Scheme) value names, chosen at run time.
+        pub type Chosen<T, Z> = $crate::schemes::Chosen<T, $model<T, Z>, N, NU, S>;
+    };
+    ($model:ident, structured) => {
+        schemes_of!($model);
+        /// BDF with the structured elimination (the firmware's for the exact Jacobian).
+        pub type StructuredBdf<T, Z> =
+            Bdf<T, Z, $crate::schemes::bdf::StructuredOf<T, $model<T, Z>, N, NU>>;
+        /// RADAU5's transformed Newton with both stage systems by the structured
+        /// elimination (the firmware's).
+        pub type StructuredRadau5<T, Z> = Radau<
+            T,
+            Z,
+            $crate::schemes::radau5::Transformed<
+                T,
+                N,
+                $crate::schemes::radau5::StructuredStagesOf<T, $model<T, Z>, N, NU>,
+            >,
+        >;
+    };
+}
 
 pub mod crane;
 pub mod crane_proj;
