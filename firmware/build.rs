@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use scene::commissioning::CommissioningFile;
 use scene::firmware::firmware_scene;
-use scene::{JacobianSpec, ModelSpec, Scene, SchemeSpec};
+use scene::{JacobianSpec, Scene};
 
 fn main() {
     let manifest =
@@ -75,47 +75,11 @@ fn copy(from: &Path, to: &Path) {
 fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, String> {
     // The checks and the setup the host's run of the firmware loop shares.
     let setup = firmware_scene(scene, commissioning)?;
-    let (model, n) = match &scene.model {
-        ModelSpec::CraneSubs(_) => ("solver_core::models::crane_subs::CraneSubs", 7),
-        ModelSpec::CraneProj(_) => ("solver_core::models::crane_proj::CraneProj", 8),
-        ModelSpec::MassOnCar(_) => {
-            return Err("the firmware drives a crane; this scene is the mass-on-car".into())
-        }
-    };
+    // The model, the scheme and the Newton strategy are types, so the firmware links
+    // only the ones its scene names (`scene::dispatch::FirmwareScheme`, which the host's
+    // run of the firmware builds too).
+    let types = setup.scheme.rust();
     let s = &scene.solver;
-    // The Newton strategy is a type, so the firmware links only the one its scene names:
-    // for BDF the crane subs model's structured elimination (exact Jacobian) or the
-    // run-time modes on a dense LU; for Radau RADAU5's transformed Newton (its two systems
-    // by the structured elimination for the subs model) or the paper's modes on the 3N×3N
-    // system.
-    let structured = scene::firmware::structured_newton(scene);
-    let (integrator, new, scheme) = match s.scheme {
-        SchemeSpec::Bdf => (
-            if structured {
-                format!("solver_core::Bdf<f64, Model, {n}, 2, solver_core::schemes::bdf::StructuredOf<f64, Model, {n}, 2>>")
-            } else {
-                format!("solver_core::Bdf<f64, Model, {n}, 2>")
-            },
-            format!("Integrator::new(&model, &SETTINGS, {}, 0.0)", s.k),
-            format!("BDF{}", s.k),
-        ),
-        // RADAU5's transformed Newton, or the paper's modes on the 3N×3N system: only the
-        // one the scene names is linked.
-        SchemeSpec::Radau if s.newton == scene::NewtonSpec::Transformed => (
-            if structured {
-                format!("solver_core::Radau<f64, Model, {n}, 2, {}, solver_core::schemes::radau5::Transformed<f64, {n}, solver_core::schemes::radau5::StructuredStagesOf<f64, Model, {n}, 2>>>", 3 * n)
-            } else {
-                format!("solver_core::Radau<f64, Model, {n}, 2, {}, solver_core::schemes::radau5::Transformed<f64, {n}>>", 3 * n)
-            },
-            "Integrator::new(&model, &SETTINGS, 0.0)".to_string(),
-            "Radau IIA".to_string(),
-        ),
-        SchemeSpec::Radau => (
-            format!("solver_core::Radau<f64, Model, {n}, 2, {0}, solver_core::schemes::radau::FullNewton<f64, {0}>>", 3 * n),
-            "Integrator::new(&model, &SETTINGS, 0.0)".to_string(),
-            "Radau IIA".to_string(),
-        ),
-    };
     let settings = scene.settings();
     let transformed = s.newton == scene::NewtonSpec::Transformed;
     let jacobian = match (s.jacobian, s.reinit_every) {
@@ -148,7 +112,7 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
         "/// Scene name.\npub const NAME: &str = {:?};",
         scene.name
     );
-    let _ = writeln!(c, "/// Scheme and Jacobian, for logs.\npub const SOLVER: &str = \"{scheme} {jacobian_label} h = {} s\";", s.h);
+    let _ = writeln!(c, "/// Scheme and Jacobian, for logs.\npub const SOLVER: &str = \"{} {jacobian_label} h = {} s\";", types.scheme, s.h);
     let _ = writeln!(
         c,
         "/// Cycles the scene's move takes (to its `t_end`).\npub const CYCLES: u32 = {};",
@@ -164,16 +128,21 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
         "/// The controller's configuration: the scene's cycle and the commissioning file.\npub const CONFIG: controller::Config = {};",
         scene::firmware::config_source(&setup.config)?
     );
-    let _ = writeln!(c, "/// The crane model, driven by a plan that changes on command.\npub type Model = {model}<f64, solver_core::plan::Plan<f64, 2>>;");
     let _ = writeln!(
         c,
-        "/// The integrator.\npub type Integrator = {integrator};"
+        "/// The crane model, driven by a plan that changes on command.\npub type Model = {};",
+        types.model
+    );
+    let _ = writeln!(
+        c,
+        "/// The integrator.\npub type Integrator = {};",
+        types.integrator
     );
     let stub = env::var_os("CARGO_FEATURE_STUB_INVERSE_MODEL").is_some();
     if stub {
         let _ = writeln!(c, "/// The inverse model stubbed out (feature `stub-inverse-model`).\npub type Feedforward = Stub;");
     } else {
-        let _ = writeln!(c, "/// Model and integrator.\npub type Feedforward = controller::InverseModel<Model, Integrator>;");
+        let _ = writeln!(c, "/// Model and integrator.\npub type Feedforward = controller::InverseModel<Model, Integrator, f64, {{ {} }}>;", types.unknowns);
     }
     // The state feedback is linked only when the scene closes the loop.
     match &setup.feedback {
@@ -230,7 +199,7 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
         if stub {
             "Ok(Stub { plan, t: 0.0 })".to_string()
         } else {
-            format!("let model = Model::new(PARAMS, plan)?;\n    let integrator = {new}?;\n    Ok(controller::InverseModel {{ model, integrator }})")
+            format!("let model = Model::new(PARAMS, plan)?;\n    let integrator = {}?;\n    Ok(controller::InverseModel::new(model, integrator))", types.new)
         }
     );
     Ok(c)

@@ -5,10 +5,10 @@ use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
 use solver_core::plan::Plan;
 use solver_core::scalar::{c, to_f64};
-use solver_core::schemes::bdf::BdfNewton;
-use solver_core::schemes::radau::RadauNewton;
 use solver_core::trajectory::Trajectory;
-use solver_core::{Bdf, DaeModel, Driven, Error, NewtonStats, Radau, Real};
+use solver_core::{DaeModel, Driven, Error, Integrator, NewtonStats, Real};
+
+use core::marker::PhantomData;
 
 use crate::feedback::Reference;
 
@@ -93,102 +93,57 @@ pub trait Replan {
     fn restart_at_rest(&mut self, position: [f64; 2], t: f64) -> Result<(), Error>;
 }
 
-/// A model together with the integrator that advances it.
+/// A model together with the integrator that advances it, in the integrator's scalar
+/// `T` (f64 in the firmware) on the model's `N` unknowns: the inverse model as the
+/// controller steps it, through solver-core's one scheme interface ([`Integrator`]).
 #[derive(Debug, Clone)]
-pub struct InverseModel<M, I> {
+pub struct InverseModel<M, I, T, const N: usize> {
     /// The DAE.
     pub model: M,
     /// The scheme and its state.
     pub integrator: I,
+    scalar: PhantomData<fn() -> T>,
 }
 
-/// What the controller needs of a scheme: one step, the time reached, a restart at
-/// rest. (BDF and Radau IIA; the scalar is the scheme's own, the controller's f64.)
-pub trait Stepper<M> {
-    /// Advances one step. On error the integrator stays where it was.
-    fn step(&mut self, model: &M) -> Result<FeedforwardStep, Error>;
-    /// Time of the newest solution, s.
-    fn time(&self) -> f64;
-    /// Starts again at rest at `t0` (the model's trajectory must rest there).
-    fn restart(&mut self, model: &M, t0: f64) -> Result<(), Error>;
-    /// The newest solution's unknowns into `out` (as many as fit).
-    fn solution(&self, out: &mut [f64]);
-}
-
-fn report<T: Real>(t: T, u: nalgebra::SVector<T, 2>, stats: NewtonStats) -> FeedforwardStep {
-    let [u1, u2]: [T; 2] = u.into();
-    FeedforwardStep {
-        t: to_f64(t),
-        u: [to_f64(u1), to_f64(u2)],
-        stats,
-    }
-}
-
-/// BDF with any Newton strategy (the scene's type: the run-time modes on a dense LU, or
-/// a model's structured elimination).
-impl<T: Real, M: DaeModel<T, N, 2>, J: BdfNewton<T, M, N, 2>, const N: usize> Stepper<M>
-    for Bdf<T, M, N, 2, J>
-{
-    fn step(&mut self, model: &M) -> Result<FeedforwardStep, Error> {
-        Bdf::step(self, model).map(|r| report(r.t, r.u, r.stats))
-    }
-    fn time(&self) -> f64 {
-        to_f64(Bdf::time(self))
-    }
-    fn restart(&mut self, model: &M, t0: f64) -> Result<(), Error> {
-        Bdf::restart(self, model, c(t0))
-    }
-    fn solution(&self, out: &mut [f64]) {
-        for (o, y) in out.iter_mut().zip(self.state().iter()) {
-            *o = to_f64(*y);
+impl<M, I, T, const N: usize> InverseModel<M, I, T, N> {
+    /// `model` advanced by `integrator`.
+    pub fn new(model: M, integrator: I) -> Self {
+        Self {
+            model,
+            integrator,
+            scalar: PhantomData,
         }
     }
 }
 
-/// Radau IIA with any Newton strategy (the scene's type: the paper's modes, RADAU5's
-/// transformed Newton, or either chosen at run time).
-impl<
-        T: Real,
-        M: DaeModel<T, N, 2>,
-        J: RadauNewton<T, M, N, 2, S>,
-        const N: usize,
-        const S: usize,
-    > Stepper<M> for Radau<T, M, N, 2, S, J>
+impl<T: Real, M: CraneReference + DaeModel<T, N, 2>, I: Integrator<T, M, N, 2>, const N: usize>
+    Feedforward for InverseModel<M, I, T, N>
 {
-    fn step(&mut self, model: &M) -> Result<FeedforwardStep, Error> {
-        Radau::step(self, model).map(|r| report(r.t, r.u, r.stats))
-    }
-    fn time(&self) -> f64 {
-        to_f64(Radau::time(self))
-    }
-    fn restart(&mut self, model: &M, t0: f64) -> Result<(), Error> {
-        Radau::restart(self, model, c(t0))
-    }
-    fn solution(&self, out: &mut [f64]) {
-        for (o, y) in out.iter_mut().zip(self.state().iter()) {
-            *o = to_f64(*y);
-        }
-    }
-}
-
-/// The most unknowns of a crane model (*proj*).
-const MAX_UNKNOWNS: usize = 8;
-
-impl<M: CraneReference, I: Stepper<M>> Feedforward for InverseModel<M, I> {
     fn step(&mut self) -> Result<FeedforwardStep, Error> {
-        self.integrator.step(&self.model)
+        let r = self.integrator.step(&self.model)?;
+        let [u1, u2]: [T; 2] = r.u.into();
+        Ok(FeedforwardStep {
+            t: to_f64(r.t),
+            u: [to_f64(u1), to_f64(u2)],
+            stats: r.stats,
+        })
     }
     fn time(&self) -> f64 {
-        self.integrator.time()
+        to_f64(self.integrator.time())
     }
     fn reference(&self) -> Reference {
-        let mut y = [0.0; MAX_UNKNOWNS];
-        self.integrator.solution(&mut y);
-        self.model.reference(&y, self.integrator.time())
+        let y: [f64; N] = self.integrator.state().map(to_f64).into();
+        self.model.reference(&y, self.time())
     }
 }
 
-impl<M: Driven<Trajectory = Plan<f64, 2>>, I: Stepper<M>> Replan for InverseModel<M, I> {
+impl<
+        T: Real,
+        M: Driven<Trajectory = Plan<f64, 2>> + DaeModel<T, N, 2>,
+        I: Integrator<T, M, N, 2>,
+        const N: usize,
+    > Replan for InverseModel<M, I, T, N>
+{
     fn plan(&self) -> &Plan<f64, 2> {
         self.model.trajectory()
     }
@@ -198,7 +153,7 @@ impl<M: Driven<Trajectory = Plan<f64, 2>>, I: Stepper<M>> Replan for InverseMode
     fn restart_at_rest(&mut self, position: [f64; 2], t: f64) -> Result<(), Error> {
         let n = self.model.trajectory().planned_smoothness();
         *self.model.trajectory_mut() = Plan::at_rest(position.into(), n)?;
-        self.integrator.restart(&self.model, t)
+        self.integrator.restart(&self.model, c(t))
     }
 }
 

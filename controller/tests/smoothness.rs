@@ -11,11 +11,11 @@ use common::settings;
 use controller::{Feedforward, Injectable, InverseModel};
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_subs::CraneSubs;
+use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::plan::Plan;
 use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::trajectory::PointToPoint;
-use solver_core::{Bdf, JacobianMode, Radau, SolverSettings};
+use solver_core::{JacobianMode, SolverSettings};
 
 /// Largest |u̇| of the exact inverse and largest |Δu/h| of BDF k (k = 0: Radau IIA
 /// with J̃₁₀), trolley drive.
@@ -49,11 +49,13 @@ fn peak_accelerations(
             },
             ..settings()
         };
-        let integrator = Radau::<f64, _, 7, 2, 21>::new(&model, &settings, 0.0).unwrap();
-        peak_rate(Injectable::new(InverseModel { model, integrator }), steps)
+        let integrator =
+            crane_subs::Radau::<f64, Plan<f64, 2>>::new(&model, &settings, 0.0).unwrap();
+        peak_rate(Injectable::new(InverseModel::new(model, integrator)), steps)
     } else {
-        let integrator = Bdf::<f64, _, 7, 2>::new(&model, &settings(), k, 0.0).unwrap();
-        peak_rate(Injectable::new(InverseModel { model, integrator }), steps)
+        let integrator =
+            crane_subs::Bdf::<f64, Plan<f64, 2>>::new(&model, &settings(), k, 0.0).unwrap();
+        peak_rate(Injectable::new(InverseModel::new(model, integrator)), steps)
     };
     (exact, computed)
 }

@@ -13,15 +13,16 @@ use controller::virtual_bus::{run_cycle, Scenario, VirtualBus, CLOSED_LOOP, HEAL
 use controller::{CanFrame, Config, Controller, Injectable, InverseModel};
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_subs::CraneSubs;
+use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::plan::Plan;
 use solver_core::trajectory::PointToPoint;
-use solver_core::{Bdf, JacobianMode, NewtonSettings, SolverSettings};
+use solver_core::{JacobianMode, NewtonSettings, SolverSettings};
 
 /// The inverse model the firmware runs by default.
 pub type Model = CraneSubs<f64, Plan<f64, 2>>;
 /// Model, integrator and the solver-failure injection.
-pub type Feedforward = Injectable<InverseModel<Model, Bdf<f64, Model, 7, 2>>>;
+pub type Feedforward =
+    Injectable<InverseModel<Model, crane_subs::Bdf<f64, Plan<f64, 2>>, f64, { crane_subs::N }>>;
 
 /// Where the crane rests at power-up: the paper's start (x_C, z_C), m.
 pub const HOME: [f64; 2] = [12.0, 8.0];
@@ -45,8 +46,8 @@ pub fn feedforward(paper_move: bool) -> Feedforward {
         scaling_power: 2,
         newton: NewtonSettings::for_scalar::<f64>(),
     };
-    let integrator = Bdf::new(&model, &settings, 4, 0.0).expect("BDF4");
-    Injectable::new(InverseModel { model, integrator })
+    let integrator = crane_subs::Bdf::new(&model, &settings, 4, 0.0).expect("BDF4");
+    Injectable::new(InverseModel::new(model, integrator))
 }
 
 /// The controller and its bus, advanced together as the firmware does.

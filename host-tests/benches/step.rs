@@ -12,8 +12,8 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use host_tests::run::JACOBIAN_MODES;
 use host_tests::scenes::{crane_trajectory, mass_on_car_trajectory};
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_subs::CraneSubs;
-use solver_core::models::mass_on_car::{MassOnCar, MassOnCarParams};
+use solver_core::models::crane_subs::{self, CraneSubs};
+use solver_core::models::mass_on_car::{self, MassOnCar, MassOnCarParams};
 use solver_core::{Bdf, DaeModel, JacobianMode, Radau, SolverSettings};
 
 const MODES: [(&str, JacobianMode); 5] = JACOBIAN_MODES;
@@ -95,12 +95,12 @@ fn whole_run<M, const N: usize, const NU: usize, const S: usize>(
 
 fn benches(c: &mut Criterion) {
     let crane = CraneSubs::new(CraneParams::PAPER, crane_trajectory(4)).expect("the paper's crane");
-    one_step::<_, 7, 2, 21>(c, "crane subs", &crane, 5.0);
-    whole_run::<_, 7, 2, 21>(c, "crane subs 10 s", &crane, 10.0);
+    one_step::<_, _, _, { crane_subs::S }>(c, "crane subs", &crane, 5.0);
+    whole_run::<_, _, _, { crane_subs::S }>(c, "crane subs 10 s", &crane, 10.0);
     let car = MassOnCar::new(MassOnCarParams::PAPER, mass_on_car_trajectory(4))
         .expect("the paper's mass-on-car");
-    one_step::<_, 5, 1, 15>(c, "mass-on-car", &car, 4.5);
-    whole_run::<_, 5, 1, 15>(c, "mass-on-car 20 s", &car, 20.0);
+    one_step::<_, _, _, { mass_on_car::S }>(c, "mass-on-car", &car, 4.5);
+    whole_run::<_, _, _, { mass_on_car::S }>(c, "mass-on-car 20 s", &car, 20.0);
 }
 
 criterion_group!(step, benches);

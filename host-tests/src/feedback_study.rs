@@ -9,9 +9,9 @@ use controller::feedback::{clamp_to_limits, Config, Gains, Measurement, Referenc
 use controller::setpoint::DriveLimits;
 use controller::InverseModel;
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_subs::CraneSubs;
+use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::trajectory::{PointToPoint, Trajectory};
-use solver_core::{Bdf, Driven, Error, JacobianMode, SolverSettings};
+use solver_core::{Driven, Error, JacobianMode, SolverSettings};
 
 use crate::plant::{Gust, Mismatch, Plant, Rng};
 use crate::plot::{figure, Chart, Legend, Scale, Series};
@@ -46,10 +46,13 @@ pub fn reference_run(
 ) -> Result<ReferenceRun, Error> {
     let settings = SolverSettings::paper(JacobianMode::Exact);
     let model = CraneSubs::<f64, _>::new(params, z)?;
-    let integrator = Bdf::new(&model, &settings, 4, t0)?;
-    let mut inv = InverseModel { model, integrator };
-    let sample = |inv: &InverseModel<CraneSubs<f64, PointToPoint<f64, 2>>, Bdf<f64, _, 7, 2>>| {
-        let s: [f64; 7] = inv.integrator.state().into();
+    let integrator = crane_subs::Bdf::new(&model, &settings, 4, t0)?;
+    let mut inv = InverseModel::new(model, integrator);
+    type Move = PointToPoint<f64, 2>;
+    type Inverse =
+        InverseModel<CraneSubs<f64, Move>, crane_subs::Bdf<f64, Move>, f64, { crane_subs::N }>;
+    let sample = |inv: &Inverse| {
+        let s: [f64; crane_subs::N] = inv.integrator.state().into();
         let t = inv.integrator.time();
         let [p, v] = inv.model.trajectory().derivatives::<2>(t);
         let r = Reference::from_subs([s[0], s[1], s[2], s[3]], p.into(), v.into());

@@ -5,21 +5,12 @@ use controller::feedback::{Correction, StateFeedback};
 use controller::feedforward::command_plan;
 use controller::setpoint::Setpoint;
 use controller::virtual_bus::{run_cycle, Scenario, VirtualBus};
-use controller::{
-    CanFrame, Config, Controller, Feedforward, Injectable, InverseModel, Mode, Replan,
-};
+use controller::{CanFrame, Config, Controller, Feedforward, Injectable, Mode, Replan};
 use scene::commissioning::CommissioningFile;
-use scene::firmware::{firmware_scene, structured_newton, FirmwareScene};
-use scene::{ModelSpec, Scene, SchemeSpec};
-use solver_core::models::crane_proj::CraneProj;
-use solver_core::models::crane_subs::CraneSubs;
+use scene::dispatch::FirmwareVisitor;
+use scene::firmware::{firmware_scene, FirmwareScene};
+use scene::Scene;
 use solver_core::plan::Plan;
-use solver_core::schemes::bdf::StructuredOf;
-use solver_core::schemes::radau5::{StructuredStagesOf, Transformed};
-
-/// The firmware's *subs* model, driven by a plan that changes on command.
-type Subs = CraneSubs<f64, Plan<f64, 2>>;
-use solver_core::{Bdf, Radau};
 
 /// One cycle as the firmware runs it.
 #[derive(Debug, Clone, PartialEq)]
@@ -82,7 +73,7 @@ pub trait WithController {
 /// The one construction of the firmware's controller on the host, for the host's run
 /// of the firmware (the QEMU runs are compared with it) and the virtual ECU: the
 /// scene's model and scheme with the Newton strategy the firmware links
-/// (`structured_newton`), following `plan`, the state feedback with the inclinometer for
+/// (`FirmwareScheme`), following `plan`, the state feedback with the inclinometer for
 /// a scene with `[feedback]` (`f.config` then lists it), and `config` (the firmware's,
 /// or it with another role). A scene the firmware cannot run is refused.
 pub fn with_controller<V: WithController>(
@@ -92,54 +83,10 @@ pub fn with_controller<V: WithController>(
     config: Config,
     visit: V,
 ) -> Result<V::Output, String> {
-    let settings = scene.settings();
-    let err = |e: solver_core::Error| e.to_string();
-    let k = scene.solver.k;
     let build = Build { f, config, visit };
-    match (&scene.model, scene.solver.scheme) {
-        (ModelSpec::CraneSubs(_), SchemeSpec::Bdf) if structured_newton(scene) => {
-            let model = CraneSubs::new(f.params, plan).map_err(err)?;
-            let integrator = Bdf::<f64, Subs, 7, 2, StructuredOf<f64, Subs, 7, 2>>::new(
-                &model, &settings, k, 0.0,
-            )
-            .map_err(err)?;
-            build.with(InverseModel { model, integrator })
-        }
-        (ModelSpec::CraneSubs(_), SchemeSpec::Bdf) => {
-            let model = CraneSubs::new(f.params, plan).map_err(err)?;
-            let integrator = Bdf::<f64, _, 7, 2>::new(&model, &settings, k, 0.0).map_err(err)?;
-            build.with(InverseModel { model, integrator })
-        }
-        (ModelSpec::CraneSubs(_), SchemeSpec::Radau) if structured_newton(scene) => {
-            let model = CraneSubs::new(f.params, plan).map_err(err)?;
-            let integrator = Radau::<
-                f64,
-                Subs,
-                7,
-                2,
-                21,
-                Transformed<f64, 7, StructuredStagesOf<f64, Subs, 7, 2>>,
-            >::new(&model, &settings, 0.0)
-            .map_err(err)?;
-            build.with(InverseModel { model, integrator })
-        }
-        (ModelSpec::CraneSubs(_), SchemeSpec::Radau) => {
-            let model = CraneSubs::new(f.params, plan).map_err(err)?;
-            let integrator = Radau::<f64, _, 7, 2, 21>::new(&model, &settings, 0.0).map_err(err)?;
-            build.with(InverseModel { model, integrator })
-        }
-        (ModelSpec::CraneProj(_), SchemeSpec::Bdf) => {
-            let model = CraneProj::new(f.params, plan).map_err(err)?;
-            let integrator = Bdf::<f64, _, 8, 2>::new(&model, &settings, k, 0.0).map_err(err)?;
-            build.with(InverseModel { model, integrator })
-        }
-        (ModelSpec::CraneProj(_), SchemeSpec::Radau) => {
-            let model = CraneProj::new(f.params, plan).map_err(err)?;
-            let integrator = Radau::<f64, _, 8, 2, 24>::new(&model, &settings, 0.0).map_err(err)?;
-            build.with(InverseModel { model, integrator })
-        }
-        (ModelSpec::MassOnCar(_), _) => Err("the firmware drives a crane".into()),
-    }
+    f.scheme
+        .visit(f.params, plan, &scene.settings(), build)
+        .map_err(|e| e.to_string())?
 }
 
 /// The inverse model built; the controller around it next.
@@ -149,10 +96,12 @@ struct Build<'a, V> {
     visit: V,
 }
 
-impl<V: WithController> Build<'_, V> {
+impl<V: WithController> FirmwareVisitor for Build<'_, V> {
+    type Output = Result<V::Output, String>;
+
     /// The firmware's controller around `feedforward`: with the state feedback if the
     /// scene closes the loop.
-    fn with<F: Feedforward + Replan>(self, feedforward: F) -> Result<V::Output, String> {
+    fn visit<F: Feedforward + Replan>(self, feedforward: F) -> Self::Output {
         let feedforward = Injectable::new(feedforward);
         let (planner, config) = (self.f.planner, self.config);
         Ok(match self.f.feedback {

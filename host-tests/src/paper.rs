@@ -277,10 +277,10 @@ pub fn regenerate(
 /// the implicit Euler against the reference; the input errors Δu of four solvers.
 fn mass_on_car(out: &Path, quick: bool) -> Result<String, String> {
     let base = shipped("mass-on-car.toml")?;
-    let params = match &base.model {
-        scene::ModelSpec::MassOnCar(m) => m.params(),
-        _ => return Err("mass-on-car.toml is not a mass-on-car scene".into()),
-    };
+    let params = base
+        .model
+        .mass_on_car()
+        .ok_or("mass-on-car.toml is not a mass-on-car scene")?;
     let z = base.trajectory1().map_err(|e| e.to_string())?;
     let mut reference = MassOnCarReference::new(params, z, 0.0, Dopri5Settings::default())
         .map_err(|e| e.to_string())?;

@@ -2,13 +2,11 @@
 
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
-use solver_core::newton::Newton;
 use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::scalar::{c, to_f64};
-use solver_core::schemes::bdf::BdfNewton;
-use solver_core::schemes::radau::{RadauNewton, StageSolver};
+use solver_core::schemes::Chosen;
 use solver_core::trajectory::Trajectory;
-use solver_core::{Bdf, DaeModel, Error, JacobianMode, NewtonStats, Radau, Real, SolverSettings};
+use solver_core::{DaeModel, Error, Integrator, JacobianMode, NewtonStats, Real, SolverSettings};
 
 /// The paper's Jacobian modes (J, J̃, J̃₁₀, J̃₅₀) and the exact one, with short labels.
 pub const JACOBIAN_MODES: [(&str, JacobianMode); 5] = [
@@ -29,14 +27,7 @@ pub const JACOBIAN_MODES: [(&str, JacobianMode); 5] = [
     ("exact", JacobianMode::Exact),
 ];
 
-/// Which integrator.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Scheme {
-    /// BDF with k steps (k = 1: implicit Euler).
-    Bdf(usize),
-    /// 3-stage Radau IIA.
-    Radau,
-}
+pub use solver_core::Scheme;
 
 /// Everything a run produced, in f64, starting with the rest state at `t0`.
 #[derive(Debug, Clone)]
@@ -71,7 +62,8 @@ impl<const N: usize, const NU: usize> Trace<N, NU> {
 }
 
 /// Integrates `model` from rest at `t0` to `t_end` with fixed steps; stops at the first error.
-/// `S` is Radau's stage-system size, `3 * N`.
+/// `S` is Radau's stage-system size, `3 * N`; the Newton strategy is the one the
+/// settings' Jacobian mode names ([`Chosen`]).
 pub fn run<T, M, const N: usize, const NU: usize, const S: usize>(
     model: &M,
     scheme: Scheme,
@@ -83,96 +75,45 @@ where
     T: Real,
     M: DaeModel<T, N, NU>,
 {
-    match scheme {
-        Scheme::Bdf(k) => run_bdf::<T, M, N, NU, Newton<T, N>>(model, k, settings, t0, t_end),
-        Scheme::Radau => {
-            run_radau::<T, M, N, NU, S, StageSolver<T, N, S>>(model, settings, t0, t_end)
-        }
-    }
+    let integrator = Chosen::<T, M, N, NU, S>::new(model, scheme, settings, c(t0))?;
+    run_with(model, integrator, settings, t_end)
 }
 
-/// [`run`] with BDF k and the Newton strategy `J` (the firmware's structured one, say).
-pub fn run_bdf<T, M, const N: usize, const NU: usize, J>(
+/// [`run`] with `integrator` (any scheme and Newton strategy: the firmware's structured
+/// one, say), from where it stands to `t_end`.
+pub fn run_with<T, M, I, const N: usize, const NU: usize>(
     model: &M,
-    k: usize,
+    mut integrator: I,
     settings: &SolverSettings,
-    t0: f64,
     t_end: f64,
 ) -> Result<Trace<N, NU>, Error>
 where
     T: Real,
     M: DaeModel<T, N, NU>,
-    J: BdfNewton<T, M, N, NU>,
+    I: Integrator<T, M, N, NU>,
 {
-    let (mut trace, steps) = start(model, settings, t0, t_end)?;
-    let mut bdf = Bdf::<T, M, N, NU, J>::new(model, settings, k, c(t0))?;
-    for _ in 0..steps {
-        if !record(&mut trace, bdf.step(model)) {
-            break;
-        }
-    }
-    Ok(trace)
-}
-
-/// The trace of the rest state at `t0`, and the number of steps to `t_end`.
-fn start<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize>(
-    model: &M,
-    settings: &SolverSettings,
-    t0: f64,
-    t_end: f64,
-) -> Result<(Trace<N, NU>, usize), Error> {
+    let t0 = to_f64(integrator.time());
     let steps = ((t_end - t0) / settings.h).round() as usize;
-    let x0 = model.rest_state(c(t0))?;
-    Ok((
-        Trace {
-            t: vec![t0],
-            x: vec![x0.map(to_f64)],
-            u: vec![M::inputs(&x0).map(to_f64)],
-            stats: vec![NewtonStats::default()],
-            failure: None,
-        },
-        steps,
-    ))
-}
-
-/// Appends a step's result to the trace, or its error; `false` on error.
-fn record<T: Real, const N: usize, const NU: usize>(
-    trace: &mut Trace<N, NU>,
-    result: Result<solver_core::StepReport<T, N, NU>, Error>,
-) -> bool {
-    match result {
-        Ok(r) => {
-            trace.t.push(to_f64(r.t));
-            trace.x.push(r.x.map(to_f64));
-            trace.u.push(r.u.map(to_f64));
-            trace.stats.push(r.stats);
-            true
-        }
-        Err(e) => {
-            trace.failure = Some(e);
-            false
-        }
-    }
-}
-
-/// [`run`] with Radau IIA and the Newton strategy `J` (the firmware's structured RADAU5,
-/// say; [`run`] takes the one the settings' Jacobian mode names).
-pub fn run_radau<T, M, const N: usize, const NU: usize, const S: usize, J>(
-    model: &M,
-    settings: &SolverSettings,
-    t0: f64,
-    t_end: f64,
-) -> Result<Trace<N, NU>, Error>
-where
-    T: Real,
-    M: DaeModel<T, N, NU>,
-    J: RadauNewton<T, M, N, NU, S>,
-{
-    let (mut trace, steps) = start(model, settings, t0, t_end)?;
-    let mut radau = Radau::<T, M, N, NU, S, J>::new(model, settings, c(t0))?;
+    let x0 = integrator.state();
+    let mut trace = Trace {
+        t: vec![t0],
+        x: vec![x0.map(to_f64)],
+        u: vec![M::inputs(&x0).map(to_f64)],
+        stats: vec![NewtonStats::default()],
+        failure: None,
+    };
     for _ in 0..steps {
-        if !record(&mut trace, radau.step(model)) {
-            break;
+        match integrator.step(model) {
+            Ok(r) => {
+                trace.t.push(to_f64(r.t));
+                trace.x.push(r.x.map(to_f64));
+                trace.u.push(r.u.map(to_f64));
+                trace.stats.push(r.stats);
+            }
+            Err(e) => {
+                trace.failure = Some(e);
+                break;
+            }
         }
     }
     Ok(trace)

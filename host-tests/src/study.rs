@@ -7,20 +7,11 @@
 
 use std::time::Instant;
 
-use nalgebra::SVector;
+use scene::dispatch::{scheme, Exact, ModelVisitor};
 use scene::{JacobianSpec, ModelSpec, NewtonSpec, ScalarSpec, Scene, SceneError, SchemeSpec};
-use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_proj::CraneProj;
-use solver_core::models::crane_subs::CraneSubs;
-use solver_core::models::mass_on_car::MassOnCar;
-use solver_core::reference::dopri5::Dopri5Settings;
-use solver_core::reference::flat_crane::flat_inverse;
-use solver_core::reference::mass_on_car::MassOnCarReference;
-use solver_core::scalar::{c, to_f64};
-use solver_core::trajectory::PointToPoint;
-use solver_core::{Bdf, DaeModel, Error, Radau, Real};
-
-use crate::run::Scheme;
+use solver_core::scalar::to_f64;
+use solver_core::schemes::Chosen;
+use solver_core::{DaeModel, Error, Integrator, Real};
 
 /// How a configuration ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -265,88 +256,33 @@ pub fn whole_steps(scene: &Scene) -> Result<(), SceneError> {
 type Measured = Result<Result<RunResult, SceneError>, String>;
 
 fn dispatch<T: Real>(scene: &Scene, repeats: usize, observer: &mut dyn Observer) -> Measured {
-    let err = |e: Error| scene.field_of(e);
-    match &scene.model {
-        ModelSpec::CraneSubs(c) => {
-            match CraneSubs::new(c.params(), trajectory::<T, 2>(scene)?).map_err(err) {
-                Ok(model) => measure::<T, _, 7, 2, 21>(&model, scene, repeats, observer),
-                Err(e) => Ok(Err(e)),
-            }
-        }
-        ModelSpec::CraneProj(c) => {
-            match CraneProj::new(c.params(), trajectory::<T, 2>(scene)?).map_err(err) {
-                Ok(model) => measure::<T, _, 8, 2, 24>(&model, scene, repeats, observer),
-                Err(e) => Ok(Err(e)),
-            }
-        }
-        ModelSpec::MassOnCar(m) => {
-            match MassOnCar::new(m.params(), trajectory::<T, 1>(scene)?).map_err(err) {
-                Ok(model) => measure::<T, _, 5, 1, 15>(&model, scene, repeats, observer),
-                Err(e) => Ok(Err(e)),
-            }
-        }
+    match scene::dispatch::model::<T, _>(
+        scene,
+        Measure {
+            scene,
+            repeats,
+            observer,
+        },
+    ) {
+        Ok(measured) => measured,
+        Err(e) => Ok(Err(e)),
     }
 }
 
-/// The scene's trajectory in the scalar `T` (`Err` of the outer result never happens:
-/// the scene was validated; it only lets `?` carry the refusal).
-fn trajectory<T: Real, const NZ: usize>(scene: &Scene) -> Result<PointToPoint<T, NZ>, String> {
-    let t = &scene.trajectory;
-    PointToPoint::new(
-        SVector::<T, NZ>::from_iterator(t.start.iter().map(|v| c::<T>(*v))),
-        SVector::<T, NZ>::from_iterator(t.end.iter().map(|v| c::<T>(*v))),
-        c(t.t_start),
-        c(t.duration),
-        t.smoothness,
-    )
-    .map_err(|e| readable_numbers(&scene.field_of(e).to_string()))
+/// [`measure`] as the visitor of a scene's model.
+struct Measure<'a> {
+    scene: &'a Scene,
+    repeats: usize,
+    observer: &'a mut dyn Observer,
 }
 
-fn scheme(scene: &Scene) -> Scheme {
-    match scene.solver.scheme {
-        SchemeSpec::Bdf => Scheme::Bdf(scene.solver.k),
-        SchemeSpec::Radau => Scheme::Radau,
-    }
-}
-
-/// Either integrator, stepped the same way.
-enum Stepper<T: Real, M, const N: usize, const NU: usize, const S: usize> {
-    Bdf(Bdf<T, M, N, NU>),
-    Radau(Radau<T, M, N, NU, S>),
-}
-
-/// The exact inputs, sample by sample, in f64.
-enum Reference {
-    Crane(CraneParams, PointToPoint<f64, 2>),
-    MassOnCar(MassOnCarReference<PointToPoint<f64, 1>>),
-}
-
-impl Reference {
-    fn new(scene: &Scene) -> Result<Self, SceneError> {
-        Ok(match &scene.model {
-            ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) => {
-                Reference::Crane(c.params(), scene.trajectory2()?)
-            }
-            ModelSpec::MassOnCar(m) => Reference::MassOnCar(
-                MassOnCarReference::new(
-                    m.params(),
-                    scene.trajectory1()?,
-                    0.0,
-                    Dopri5Settings::default(),
-                )
-                .map_err(|e| scene.field_of(e))?,
-            ),
-        })
-    }
-
-    /// The reference inputs at `t` (`t` never decreases between calls).
-    fn at(&mut self, scene: &Scene, t: f64, out: &mut Vec<f64>) -> Result<(), SceneError> {
-        out.clear();
-        match self {
-            Reference::Crane(p, z) => out.extend(flat_inverse(p, z, t).u),
-            Reference::MassOnCar(r) => out.push(r.advance_to(t).map_err(|e| scene.field_of(e))?.f),
-        }
-        Ok(())
+impl<T: Real> ModelVisitor<T> for Measure<'_> {
+    type Output = Measured;
+    fn visit<M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize>(
+        self,
+        model: M,
+    ) -> Measured {
+        measure::<T, M, N, NU, S>(&model, self.scene, self.repeats, self.observer)
     }
 }
 
@@ -366,16 +302,11 @@ where
     let total = scene.steps();
     let t_end = scene.trajectory.t_end;
     let (a, b) = scene.interior();
-    let mut reference = match Reference::new(scene) {
+    let mut reference = match Exact::new(scene) {
         Ok(r) => r,
         Err(e) => return Ok(Err(e)),
     };
-    let made = match scheme(scene) {
-        Scheme::Bdf(k) => Bdf::<T, M, N, NU>::new(model, &settings, k, T::zero()).map(Stepper::Bdf),
-        Scheme::Radau => {
-            Radau::<T, M, N, NU, S>::new(model, &settings, T::zero()).map(Stepper::Radau)
-        }
-    };
+    let made = Chosen::<T, M, N, NU, S>::new(model, scheme(scene), &settings, T::zero());
     let x0 = model.rest_state(T::zero());
     let (mut stepper, x0) = match made.and_then(|s| Ok((s, x0?))) {
         Ok(v) => v,
@@ -394,11 +325,7 @@ where
     let mut u_now = M::inputs(&x0);
     for step in 0..=total {
         if step > 0 {
-            let report = match &mut stepper {
-                Stepper::Bdf(s) => s.step(model),
-                Stepper::Radau(s) => s.step(model),
-            };
-            match report {
+            match stepper.step(model) {
                 Ok(rep) => {
                     t = to_f64(rep.t);
                     u_now = rep.u;
@@ -428,8 +355,8 @@ where
             r.failure = Some(format!("t = {t} s: non-finite input returned"));
             break;
         }
-        if let Err(e) = reference.at(scene, t, &mut u_ref) {
-            return Ok(Err(e));
+        if let Err(e) = reference.at(t, &mut u_ref) {
+            return Ok(Err(scene.field_of(e)));
         }
         let error = u
             .iter()
@@ -480,16 +407,8 @@ where
     let mut samples: Vec<f64> = (0..repeats)
         .filter_map(|_| {
             let start = Instant::now();
-            let ok = match scheme(scene) {
-                Scheme::Bdf(k) => Bdf::<T, M, N, NU>::new(model, &settings, k, T::zero())
-                    .is_ok_and(|mut b| {
-                        (0..steps).all(|_| std::hint::black_box(b.step(model)).is_ok())
-                    }),
-                Scheme::Radau => Radau::<T, M, N, NU, S>::new(model, &settings, T::zero())
-                    .is_ok_and(|mut r| {
-                        (0..steps).all(|_| std::hint::black_box(r.step(model)).is_ok())
-                    }),
-            };
+            let ok = Chosen::<T, M, N, NU, S>::new(model, scheme(scene), &settings, T::zero())
+                .is_ok_and(|mut i| (0..steps).all(|_| std::hint::black_box(i.step(model)).is_ok()));
             ok.then(|| start.elapsed().as_nanos() as f64 / steps.max(1) as f64)
         })
         .collect();

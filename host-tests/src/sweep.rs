@@ -1,7 +1,7 @@
 //! Sweeps: a scene varied along axes (`--vary h=0.02|0.01,rho=2|3,scalar=f32|f64`),
 //! the cross product run, one CSV row per configuration.
 
-use scene::{CraneSpec, JacobianSpec, ModelSpec, NewtonSpec, ScalarSpec, Scene, SchemeSpec};
+use scene::{JacobianSpec, ModelSpec, NewtonSpec, ScalarSpec, Scene, SchemeSpec};
 
 use crate::study::{jacobian_label, scheme_label, RunResult};
 
@@ -101,10 +101,10 @@ pub fn apply(scene: &Scene, key: &str, value: &str) -> Result<Scene, String> {
             s.solver.newton = newton;
         }
         "formulation" => {
-            let crane = match &s.model {
-                ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) => *c,
-                ModelSpec::MassOnCar(_) => return Err(bad("only the crane has formulations")),
-            };
+            let crane = s
+                .model
+                .crane()
+                .ok_or_else(|| bad("only the crane has formulations"))?;
             s.model = match value {
                 "subs" => ModelSpec::CraneSubs(crane),
                 "proj" => ModelSpec::CraneProj(crane),
@@ -162,15 +162,6 @@ pub fn cross(scene: &Scene, axes: &[Axis]) -> Result<Vec<Configuration>, String>
 /// The CSV columns of a sweep (documented in docs/RESULTS.md; a test pins them).
 pub const CSV_HEADER: &str = "scene,formulation,scheme,jacobian,h,rho,scalar,steps,e_max,e_max_interior,iterations_mean,iterations_max,residual_evals_per_step,jacobian_evals,floor_steps,ns_per_step,outcome,failure";
 
-/// `subs`, `proj` or `mass-on-car`.
-pub fn formulation_label(scene: &Scene) -> &'static str {
-    match scene.model {
-        ModelSpec::CraneSubs(_) => "subs",
-        ModelSpec::CraneProj(_) => "proj",
-        ModelSpec::MassOnCar(_) => "mass-on-car",
-    }
-}
-
 /// One configuration's CSV row.
 pub fn csv_row(scene: &Scene, r: &RunResult) -> String {
     let s = &scene.solver;
@@ -182,7 +173,7 @@ pub fn csv_row(scene: &Scene, r: &RunResult) -> String {
     format!(
         "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"",
         scene.name,
-        formulation_label(scene),
+        scene.model.label(),
         scheme_label(scene),
         jacobian_label(scene),
         s.h,
@@ -209,14 +200,6 @@ fn cell(v: f64, format: impl Fn(f64) -> String) -> String {
         format(v)
     } else {
         String::new()
-    }
-}
-
-/// A crane spec, whatever the formulation (for scenes built in code).
-pub fn crane_spec(scene: &Scene) -> Option<CraneSpec> {
-    match scene.model {
-        ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) => Some(c),
-        ModelSpec::MassOnCar(_) => None,
     }
 }
 

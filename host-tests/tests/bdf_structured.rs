@@ -4,17 +4,15 @@
 //!
 //! `cargo test -p host-tests --test bdf_structured -- --nocapture` prints the table.
 
-use host_tests::run::{crane_input_errors, emax, run, run_bdf, Scheme, Trace};
+use host_tests::run::{crane_input_errors, emax, run, run_with, Scheme, Trace};
 use host_tests::scenes::{crane_trajectory, CRANE_T_END};
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_subs::CraneSubs;
+use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::plan::Plan;
-use solver_core::schemes::bdf::{Bdf, StructuredOf};
 use solver_core::trajectory::PointToPoint;
 use solver_core::{Error, JacobianMode, SolverSettings};
 
 type Subs = CraneSubs<f64, PointToPoint<f64, 2>>;
-type Structured = StructuredOf<f64, Subs, 7, 2>;
 
 fn settings(h: f64) -> SolverSettings {
     SolverSettings {
@@ -23,7 +21,7 @@ fn settings(h: f64) -> SolverSettings {
     }
 }
 
-fn iterations(trace: &Trace<7, 2>) -> f64 {
+fn iterations(trace: &Trace<{ crane_subs::N }, { crane_subs::NU }>) -> f64 {
     trace.iterations() as f64 / trace.steps() as f64
 }
 
@@ -37,13 +35,26 @@ fn same_accuracy_as_the_dense_path_for_fewer_iterations() {
     println!("| h | dense e_max / interior | structured e_max / interior | iterations per step, dense / structured |");
     println!("|---|---:|---:|---:|");
     for h in [0.001, 0.002, 0.005, 0.01, 0.02, 0.05] {
-        let dense = run::<f64, _, 7, 2, 21>(&model, Scheme::Bdf(4), &settings(h), 0.0, CRANE_T_END)
-            .unwrap();
-        let structured =
-            run_bdf::<f64, _, 7, 2, Structured>(&model, 4, &settings(h), 0.0, CRANE_T_END).unwrap();
+        let dense = run::<f64, _, _, _, { crane_subs::S }>(
+            &model,
+            Scheme::Bdf(4),
+            &settings(h),
+            0.0,
+            CRANE_T_END,
+        )
+        .unwrap();
+        let structured = run_with(
+            &model,
+            crane_subs::StructuredBdf::new(&model, &settings(h), 4, 0.0).unwrap(),
+            &settings(h),
+            CRANE_T_END,
+        )
+        .unwrap();
         assert!(dense.failure.is_none() && structured.failure.is_none());
         assert_eq!(structured.steps(), dense.steps());
-        let e = |t: &Trace<7, 2>| emax(&t.t, &crane_input_errors(&p, &z, t), 2.0, 8.0);
+        let e = |t: &Trace<{ crane_subs::N }, { crane_subs::NU }>| {
+            emax(&t.t, &crane_input_errors(&p, &z, t), 2.0, 8.0)
+        };
         let (ed, es) = (e(&dense), e(&structured));
         println!(
             "| {} ms | {:.4e} / {:.4e} | {:.4e} / {:.4e} | {:.2} / {:.2} |",
@@ -80,7 +91,7 @@ fn structured_newton_refuses_other_jacobian_modes() {
         JacobianMode::Transformed,
     ] {
         let s = SolverSettings::paper(mode);
-        let err = Bdf::<f64, Subs, 7, 2, Structured>::new(&model, &s, 4, 0.0).unwrap_err();
+        let err = crane_subs::StructuredBdf::<f64, _>::new(&model, &s, 4, 0.0).unwrap_err();
         assert!(
             matches!(err, Error::InvalidSetting { .. }),
             "{mode:?}: {err:?}"
@@ -95,10 +106,7 @@ fn restart_forgets_the_carried_state() {
     let plan = Plan::at_rest([12.0, 8.0].into(), 5).unwrap();
     let model = CraneSubs::new(CraneParams::PAPER, plan).unwrap();
     let s = settings(0.01);
-    let mut bdf = Bdf::<f64, _, 7, 2, StructuredOf<f64, CraneSubs<f64, Plan<f64, 2>>, 7, 2>>::new(
-        &model, &s, 4, 0.0,
-    )
-    .unwrap();
+    let mut bdf = crane_subs::StructuredBdf::<f64, Plan<f64, 2>>::new(&model, &s, 4, 0.0).unwrap();
     let first = bdf.step(&model).unwrap();
     bdf.step(&model).unwrap();
     bdf.restart(&model, 0.0).unwrap();

@@ -10,7 +10,7 @@ use controller::feedback::Correction;
 use controller::{Controller, Feedforward, Injectable, Replan};
 use host_tests::firmware::{with_controller, WithController};
 use scene::commissioning::CommissioningFile;
-use scene::firmware::{firmware_scene, structured_newton};
+use scene::firmware::firmware_scene;
 use scene::{ModelSpec, Scene};
 
 /// What a controller was built with: a feedback, its inverse model's type.
@@ -56,7 +56,7 @@ fn every_crane_scene_gets_the_firmwares_controller() {
         assert_eq!(feedback, scene.feedback.is_some(), "{}", path.display());
         assert_eq!(
             model.contains("Structured"),
-            structured_newton(&scene),
+            f.scheme.structured(),
             "{}: {model}",
             path.display()
         );

@@ -8,7 +8,7 @@
 use host_tests::run::{crane_input_errors, emax, run, Emax, Scheme};
 use host_tests::scenes::{crane_trajectory, CRANE_T_END};
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_subs::CraneSubs;
+use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::{JacobianMode, SolverSettings};
 
 const INTERIOR: (f64, f64) = (2.0, 8.0);
@@ -21,7 +21,8 @@ fn subs_emax(n: usize, scheme: Scheme, mode: JacobianMode, h: f64) -> Emax {
         h,
         ..SolverSettings::paper(mode)
     };
-    let trace = run::<f64, _, 7, 2, 21>(&model, scheme, &settings, 0.0, CRANE_T_END).unwrap();
+    let trace = run::<f64, _, _, _, { crane_subs::S }>(&model, scheme, &settings, 0.0, CRANE_T_END)
+        .unwrap();
     assert!(
         trace.failure.is_none(),
         "{scheme:?} h = {h}: {:?}",

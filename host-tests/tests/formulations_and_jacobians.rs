@@ -4,8 +4,8 @@
 use host_tests::run::{crane_input_errors, emax, run, Scheme, Trace};
 use host_tests::scenes::{crane_trajectory, CRANE_T_END};
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_proj::CraneProj;
-use solver_core::models::crane_subs::CraneSubs;
+use solver_core::models::crane_proj::{self, CraneProj};
+use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::{JacobianMode, SolverSettings};
 
 const JT10: JacobianMode = JacobianMode::Broyden {
@@ -19,10 +19,20 @@ fn settings(mode: JacobianMode, h: f64) -> SolverSettings {
     }
 }
 
-fn subs(scheme: Scheme, mode: JacobianMode, h: f64) -> Trace<7, 2> {
+fn subs(
+    scheme: Scheme,
+    mode: JacobianMode,
+    h: f64,
+) -> Trace<{ crane_subs::N }, { crane_subs::NU }> {
     let model = CraneSubs::new(CraneParams::PAPER, crane_trajectory(4)).unwrap();
-    let trace =
-        run::<f64, _, 7, 2, 21>(&model, scheme, &settings(mode, h), 0.0, CRANE_T_END).unwrap();
+    let trace = run::<f64, _, _, _, { crane_subs::S }>(
+        &model,
+        scheme,
+        &settings(mode, h),
+        0.0,
+        CRANE_T_END,
+    )
+    .unwrap();
     assert!(
         trace.failure.is_none(),
         "subs {scheme:?} {mode:?} h = {h}: {:?}",
@@ -31,10 +41,20 @@ fn subs(scheme: Scheme, mode: JacobianMode, h: f64) -> Trace<7, 2> {
     trace
 }
 
-fn proj(scheme: Scheme, mode: JacobianMode, h: f64) -> Trace<8, 2> {
+fn proj(
+    scheme: Scheme,
+    mode: JacobianMode,
+    h: f64,
+) -> Trace<{ crane_proj::N }, { crane_proj::NU }> {
     let model = CraneProj::new(CraneParams::PAPER, crane_trajectory(4)).unwrap();
-    let trace =
-        run::<f64, _, 8, 2, 24>(&model, scheme, &settings(mode, h), 0.0, CRANE_T_END).unwrap();
+    let trace = run::<f64, _, _, _, { crane_proj::S }>(
+        &model,
+        scheme,
+        &settings(mode, h),
+        0.0,
+        CRANE_T_END,
+    )
+    .unwrap();
     assert!(
         trace.failure.is_none(),
         "proj {scheme:?} {mode:?} h = {h}: {:?}",

@@ -12,8 +12,8 @@ use host_tests::scenes::{
 };
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_subs::CraneSubs;
-use solver_core::models::mass_on_car::{MassOnCar, MassOnCarParams};
+use solver_core::models::crane_subs::{self, CraneSubs};
+use solver_core::models::mass_on_car::{self, MassOnCar, MassOnCarParams};
 use solver_core::reference::plant::{
     crane_output, crane_rhs, mass_on_car_output, mass_on_car_rhs, simulate, SampledInput,
 };
@@ -23,7 +23,7 @@ use solver_core::{JacobianMode, SolverSettings};
 const H: f64 = 0.01;
 
 /// (max |z − z_d| in m, final |φ̇| in rad/s) when the crane is driven by `trace.u`.
-fn crane_tracking(trace: &Trace<7, 2>) -> (f64, f64) {
+fn crane_tracking(trace: &Trace<{ crane_subs::N }, { crane_subs::NU }>) -> (f64, f64) {
     let (p, z) = (CraneParams::PAPER, crane_trajectory(4));
     assert!(trace.failure.is_none(), "{:?}", trace.failure);
     let input = SampledInput::new(0.0, H, &trace.u);
@@ -43,13 +43,13 @@ fn crane_tracking(trace: &Trace<7, 2>) -> (f64, f64) {
     (worst, swing)
 }
 
-fn crane_run(scheme: Scheme, mode: JacobianMode) -> Trace<7, 2> {
+fn crane_run(scheme: Scheme, mode: JacobianMode) -> Trace<{ crane_subs::N }, { crane_subs::NU }> {
     let model = CraneSubs::new(CraneParams::PAPER, crane_trajectory(4)).unwrap();
     let settings = SolverSettings {
         h: H,
         ..SolverSettings::paper(mode)
     };
-    run::<f64, _, 7, 2, 21>(&model, scheme, &settings, 0.0, CRANE_T_END).unwrap()
+    run::<f64, _, _, _, { crane_subs::S }>(&model, scheme, &settings, 0.0, CRANE_T_END).unwrap()
 }
 
 #[test]
@@ -95,8 +95,14 @@ fn mass_on_car_output_follows_with_the_computed_force() {
         h: H,
         ..SolverSettings::paper(JacobianMode::FiniteDifference)
     };
-    let trace =
-        run::<f64, _, 5, 1, 15>(&model, Scheme::Bdf(4), &settings, 0.0, MASS_ON_CAR_T_END).unwrap();
+    let trace = run::<f64, _, _, _, { mass_on_car::S }>(
+        &model,
+        Scheme::Bdf(4),
+        &settings,
+        0.0,
+        MASS_ON_CAR_T_END,
+    )
+    .unwrap();
     assert!(trace.failure.is_none());
     let input = SampledInput::new(0.0, H, &trace.u);
     let mut worst = 0.0_f64;

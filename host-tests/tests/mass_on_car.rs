@@ -3,7 +3,7 @@
 
 use host_tests::run::{run, Scheme};
 use host_tests::scenes::{mass_on_car_trajectory, MASS_ON_CAR_T_END};
-use solver_core::models::mass_on_car::{MassOnCar, MassOnCarParams};
+use solver_core::models::mass_on_car::{self, MassOnCar, MassOnCarParams};
 use solver_core::reference::dopri5::Dopri5Settings;
 use solver_core::reference::mass_on_car::{
     breakaway_angle, zero_dynamics_eigenvalues, MassOnCarReference,
@@ -19,7 +19,9 @@ fn delta_u(scheme: Scheme, mode: JacobianMode, h: f64) -> Vec<(f64, f64)> {
         h,
         ..SolverSettings::paper(mode)
     };
-    let trace = run::<f64, _, 5, 1, 15>(&model, scheme, &settings, 0.0, MASS_ON_CAR_T_END).unwrap();
+    let trace =
+        run::<f64, _, _, _, { mass_on_car::S }>(&model, scheme, &settings, 0.0, MASS_ON_CAR_T_END)
+            .unwrap();
     assert!(
         trace.failure.is_none(),
         "{scheme:?} h = {h}: {:?}",

@@ -10,8 +10,8 @@ use host_tests::scenes::{
     crane_trajectory, mass_on_car_trajectory, CRANE_T_END, MASS_ON_CAR_T_END,
 };
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_subs::CraneSubs;
-use solver_core::models::mass_on_car::{MassOnCar, MassOnCarParams};
+use solver_core::models::crane_subs::{self, CraneSubs};
+use solver_core::models::mass_on_car::{self, MassOnCar, MassOnCarParams};
 use solver_core::reference::dopri5::Dopri5Settings;
 use solver_core::reference::mass_on_car::MassOnCarReference;
 use solver_core::{JacobianMode, SolverSettings};
@@ -72,7 +72,7 @@ fn crane_subs_at_ten_milliseconds() {
             .map(|(n, m)| (format!("Radau {n}"), Scheme::Radau, *m)),
     );
     for (label, scheme, mode) in schemes {
-        let trace = run::<f64, _, 7, 2, 21>(
+        let trace = run::<f64, _, _, _, { crane_subs::S }>(
             &model,
             scheme,
             &SolverSettings::paper(mode),
@@ -102,7 +102,7 @@ fn mass_on_car_at_ten_milliseconds() {
             },
         ),
     ] {
-        let trace = run::<f64, _, 5, 1, 15>(
+        let trace = run::<f64, _, _, _, { mass_on_car::S }>(
             &model,
             scheme,
             &SolverSettings::paper(mode),
@@ -136,8 +136,14 @@ fn radau_transformed_newton() {
             h,
             ..SolverSettings::paper(JacobianMode::Transformed)
         };
-        let trace =
-            run::<f64, _, 7, 2, 21>(&model, Scheme::Radau, &settings, 0.0, CRANE_T_END).unwrap();
+        let trace = run::<f64, _, _, _, { crane_subs::S }>(
+            &model,
+            Scheme::Radau,
+            &settings,
+            0.0,
+            CRANE_T_END,
+        )
+        .unwrap();
         let e = emax(&trace.t, &crane_input_errors(&p, &z, &trace), 2.0, 8.0);
         row(
             &mut out,
@@ -149,7 +155,7 @@ fn radau_transformed_newton() {
     }
     let (p, z) = (MassOnCarParams::PAPER, mass_on_car_trajectory(4));
     let model = MassOnCar::new(p, z).unwrap();
-    let trace = run::<f64, _, 5, 1, 15>(
+    let trace = run::<f64, _, _, _, { mass_on_car::S }>(
         &model,
         Scheme::Radau,
         &SolverSettings::paper(JacobianMode::Transformed),

@@ -7,14 +7,10 @@
 
 use std::path::Path;
 
-use host_tests::run::{crane_input_errors, emax, run, run_radau, Scheme, Trace};
+use host_tests::run::{crane_input_errors, emax, run, run_with, Scheme, Trace};
 use scene::{ModelSpec, Scene};
-use solver_core::models::crane_subs::CraneSubs;
-use solver_core::schemes::radau5::{StructuredStagesOf, Transformed};
-use solver_core::trajectory::PointToPoint;
+use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::{JacobianMode, SolverSettings};
-
-type Subs = CraneSubs<f64, PointToPoint<f64, 2>>;
 
 const STEP_SIZES: [f64; 7] = [0.0005, 0.001, 0.002, 0.005, 0.01, 0.02, 0.05];
 
@@ -25,7 +21,7 @@ fn paper_crane() -> Scene {
 struct Outcome {
     global: f64,
     interior: f64,
-    trace: Trace<7, 2>,
+    trace: Trace<{ crane_subs::N }, { crane_subs::NU }>,
 }
 
 fn radau(scene: &Scene, mode: JacobianMode, h: f64) -> Outcome {
@@ -40,7 +36,9 @@ fn radau(scene: &Scene, mode: JacobianMode, h: f64) -> Outcome {
         ..scene.settings()
     };
     let t_end = scene.trajectory.t_end;
-    let trace = run::<f64, _, 7, 2, 21>(&model, Scheme::Radau, &settings, 0.0, t_end).unwrap();
+    let trace =
+        run::<f64, _, _, _, { crane_subs::S }>(&model, Scheme::Radau, &settings, 0.0, t_end)
+            .unwrap();
     assert!(
         trace.failure.is_none(),
         "{mode:?} h = {h}: {:?}",
@@ -79,15 +77,8 @@ fn structured_stage_systems_match_the_dense_lus() {
             ..scene.settings()
         };
         let dense = radau(&scene, JacobianMode::Transformed, h);
-        let structured = run_radau::<
-            f64,
-            _,
-            7,
-            2,
-            21,
-            Transformed<f64, 7, StructuredStagesOf<f64, Subs, 7, 2>>,
-        >(&model, &settings, 0.0, t_end)
-        .unwrap();
+        let integrator = crane_subs::StructuredRadau5::new(&model, &settings, 0.0).unwrap();
+        let structured = run_with(&model, integrator, &settings, t_end).unwrap();
         assert!(
             structured.failure.is_none(),
             "h = {h}: {:?}",
@@ -195,7 +186,7 @@ fn probe_for_instruction_counts() {
         jacobian: mode,
         ..scene.settings()
     };
-    let mut radau = solver_core::Radau::<f64, _, 7, 2, 21>::new(&model, &settings, 0.0).unwrap();
+    let mut radau = crane_subs::Radau::<f64, _>::new(&model, &settings, 0.0).unwrap();
     let steps = (scene.trajectory.t_end / h).round() as usize;
     for _ in 0..steps {
         std::hint::black_box(radau.step(&model)).unwrap();
@@ -224,7 +215,7 @@ fn transformed_newton_is_radau_with_exact_partials_only() {
         panic!("the crane")
     };
     let model = CraneSubs::new(crane.params(), scene.trajectory2().unwrap()).unwrap();
-    let err = solver_core::Bdf::<f64, _, 7, 2>::new(&model, &scene.settings(), 4, 0.0).unwrap_err();
+    let err = crane_subs::Bdf::<f64, _>::new(&model, &scene.settings(), 4, 0.0).unwrap_err();
     assert!(
         matches!(err, solver_core::Error::InvalidSetting { .. }),
         "{err:?}"

@@ -13,14 +13,12 @@
 
 use std::path::Path;
 
-use host_tests::run::{crane_input_errors, emax, run, run_bdf, run_radau, Scheme, Trace};
+use host_tests::run::{crane_input_errors, emax, run, run_with, Scheme, Trace};
 use nalgebra::SVector;
 use scene::{ModelSpec, Scene};
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_subs::CraneSubs;
+use solver_core::models::crane_subs::{self, CraneSubs, N, NU, S};
 use solver_core::plan::Plan;
-use solver_core::schemes::bdf::StructuredOf;
-use solver_core::schemes::radau5::{StructuredStagesOf, Transformed};
 use solver_core::trajectory::{PointToPoint, SmoothStep, Trajectory};
 use solver_core::SolverSettings;
 
@@ -141,7 +139,7 @@ fn errors<Z: Trajectory<f64, 2>>(trajectory: Z, params: CraneParams, h: f64) -> 
     let settings = |s: &Scene| SolverSettings { h, ..s.settings() };
     let t_end = bdf.trajectory.t_end;
     let (a, b) = bdf.interior();
-    let e = |trace: Trace<7, 2>| {
+    let e = |trace: Trace<N, NU>| {
         assert!(trace.failure.is_none(), "h = {h}: {:?}", trace.failure);
         let e = emax(
             &trace.t,
@@ -151,26 +149,14 @@ fn errors<Z: Trajectory<f64, 2>>(trajectory: Z, params: CraneParams, h: f64) -> 
         );
         (e.global, e.interior)
     };
-    type Model<Z> = CraneSubs<f64, Z>;
+    let structured_bdf =
+        crane_subs::StructuredBdf::new(&model, &settings(&bdf), bdf.solver.k, 0.0).unwrap();
+    let structured_radau5 =
+        crane_subs::StructuredRadau5::new(&model, &settings(&radau5), 0.0).unwrap();
     [
-        e(run_bdf::<f64, _, 7, 2, StructuredOf<f64, Model<Z>, 7, 2>>(
-            &model,
-            bdf.solver.k,
-            &settings(&bdf),
-            0.0,
-            t_end,
-        )
-        .unwrap()),
-        e(run_radau::<
-            f64,
-            _,
-            7,
-            2,
-            21,
-            Transformed<f64, 7, StructuredStagesOf<f64, Model<Z>, 7, 2>>,
-        >(&model, &settings(&radau5), 0.0, t_end)
-        .unwrap()),
-        e(run::<f64, _, 7, 2, 21>(&model, Scheme::Bdf(4), &settings(&bdf), 0.0, t_end).unwrap()),
+        e(run_with(&model, structured_bdf, &settings(&bdf), t_end).unwrap()),
+        e(run_with(&model, structured_radau5, &settings(&radau5), t_end).unwrap()),
+        e(run::<f64, _, N, NU, S>(&model, Scheme::Bdf(4), &settings(&bdf), 0.0, t_end).unwrap()),
     ]
 }
 

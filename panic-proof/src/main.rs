@@ -38,19 +38,16 @@ fn panic(_: &core::panic::PanicInfo) -> ! {
     }
 }
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_proj::CraneProj;
-use solver_core::models::crane_subs::CraneSubs;
+use solver_core::models::crane_proj::{self, CraneProj};
+use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::plan::Plan;
-use solver_core::schemes::radau::FullNewton;
-use solver_core::schemes::radau5::{StructuredStagesOf, Transformed};
 use solver_core::trajectory::PointToPoint;
-use solver_core::{Bdf, Error, JacobianMode, Radau, SolverSettings};
+use solver_core::{Error, JacobianMode, SolverSettings};
 
-type Subs = CraneSubs<f64, Plan<f64, 2>>;
-type Proj = CraneProj<f64, Plan<f64, 2>>;
-/// BDF with the structured exact Newton, as the default scene's firmware links it.
-type SubsStructured =
-    Bdf<f64, Subs, 7, 2, solver_core::schemes::bdf::StructuredOf<f64, Subs, 7, 2>>;
+/// The firmware's plan.
+type P = Plan<f64, 2>;
+type Subs = CraneSubs<f64, P>;
+type Proj = CraneProj<f64, P>;
 
 /// The first plan: rest, then a move, all from opaque inputs.
 fn plan() -> Result<Plan<f64, 2>, Error> {
@@ -123,100 +120,48 @@ fn halt() -> ! {
     }
 }
 
+/// Builds the model on the first plan and the integrator `$integrator` on it, then runs
+/// the controller on them.
+macro_rules! prove {
+    ($model:ty, |$m:ident| $new:expr) => {{
+        let Ok(plan) = plan() else { halt() };
+        let Ok(model) = <$model>::new(black_box(CraneParams::PAPER), plan) else {
+            halt()
+        };
+        let $m = &model;
+        let Ok(integrator) = $new else { halt() };
+        run(InverseModel::new(model, integrator))
+    }};
+}
+
+/// Every integrator the firmware links, one per row of `scene::dispatch::FirmwareScheme`
+/// (the build script names them from there).
 #[entry]
 fn main() -> ! {
     let settings: SolverSettings = black_box(SolverSettings::paper(JacobianMode::Exact));
     let k: usize = black_box(4);
     let t0: f64 = black_box(0.0);
-    let choice: u8 = black_box(0);
-    let Ok(plan) = plan() else { halt() };
-    let params: CraneParams = black_box(CraneParams::PAPER);
-    match choice {
-        0 => {
-            let Ok(model) = Subs::new(params, plan) else {
-                halt()
-            };
-            let Ok(integrator) = Bdf::<f64, Subs, 7, 2>::new(&model, &settings, k, t0) else {
-                halt()
-            };
-            run(InverseModel { model, integrator })
-        }
-        4 => {
-            let Ok(model) = Subs::new(params, plan) else {
-                halt()
-            };
-            let Ok(integrator) = SubsStructured::new(&model, &settings, k, t0) else {
-                halt()
-            };
-            run(InverseModel { model, integrator })
-        }
-        1 => {
-            let Ok(model) = Subs::new(params, plan) else {
-                halt()
-            };
-            let Ok(integrator) = Radau::<f64, Subs, 7, 2, 21>::new(&model, &settings, t0) else {
-                halt()
-            };
-            run(InverseModel { model, integrator })
-        }
-        // The Newton strategies the firmware links, as its build script names them:
-        // the paper's modes alone, and RADAU5's transformed Newton on the structured
-        // (subs) or dense (proj) stage systems.
-        5 => {
-            let Ok(model) = Subs::new(params, plan) else {
-                halt()
-            };
-            let Ok(integrator) =
-                Radau::<f64, Subs, 7, 2, 21, FullNewton<f64, 21>>::new(&model, &settings, t0)
-            else {
-                halt()
-            };
-            run(InverseModel { model, integrator })
-        }
-        6 => {
-            let Ok(model) = Subs::new(params, plan) else {
-                halt()
-            };
-            let Ok(integrator) = Radau::<
-                f64,
-                Subs,
-                7,
-                2,
-                21,
-                Transformed<f64, 7, StructuredStagesOf<f64, Subs, 7, 2>>,
-            >::new(&model, &settings, t0) else {
-                halt()
-            };
-            run(InverseModel { model, integrator })
-        }
-        7 => {
-            let Ok(model) = Proj::new(params, plan) else {
-                halt()
-            };
-            let Ok(integrator) =
-                Radau::<f64, Proj, 8, 2, 24, Transformed<f64, 8>>::new(&model, &settings, t0)
-            else {
-                halt()
-            };
-            run(InverseModel { model, integrator })
-        }
-        2 => {
-            let Ok(model) = Proj::new(params, plan) else {
-                halt()
-            };
-            let Ok(integrator) = Bdf::<f64, Proj, 8, 2>::new(&model, &settings, k, t0) else {
-                halt()
-            };
-            run(InverseModel { model, integrator })
-        }
-        _ => {
-            let Ok(model) = Proj::new(params, plan) else {
-                halt()
-            };
-            let Ok(integrator) = Radau::<f64, Proj, 8, 2, 24>::new(&model, &settings, t0) else {
-                halt()
-            };
-            run(InverseModel { model, integrator })
-        }
+    match black_box(0_u8) {
+        0 => prove!(Subs, |m| crane_subs::StructuredBdf::<f64, P>::new(
+            m, &settings, k, t0
+        )),
+        1 => prove!(Subs, |m| crane_subs::Bdf::<f64, P>::new(
+            m, &settings, k, t0
+        )),
+        2 => prove!(Subs, |m| crane_subs::StructuredRadau5::<f64, P>::new(
+            m, &settings, t0
+        )),
+        3 => prove!(Subs, |m| crane_subs::RadauFull::<f64, P>::new(
+            m, &settings, t0
+        )),
+        4 => prove!(Proj, |m| crane_proj::Bdf::<f64, P>::new(
+            m, &settings, k, t0
+        )),
+        5 => prove!(Proj, |m| crane_proj::Radau5::<f64, P>::new(
+            m, &settings, t0
+        )),
+        _ => prove!(Proj, |m| crane_proj::RadauFull::<f64, P>::new(
+            m, &settings, t0
+        )),
     }
 }

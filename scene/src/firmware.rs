@@ -13,7 +13,8 @@ use solver_core::plan::Plan;
 use solver_core::trajectory::{PointToPoint, Trajectory};
 
 use crate::commissioning::CommissioningFile;
-use crate::{ModelSpec, ScalarSpec, Scene};
+use crate::dispatch::FirmwareScheme;
+use crate::Scene;
 
 /// The firmware's watchdog period, ms: a cycle must be shorter.
 pub const WATCHDOG_MS: u32 = 100;
@@ -60,10 +61,12 @@ pub struct FirmwareScene {
     /// The state feedback, if the scene closes the loop (its inclinometer is then in
     /// `config`).
     pub feedback: Option<controller::feedback::Config>,
+    /// The integrator the firmware links.
+    pub scheme: FirmwareScheme,
 }
 
 /// The firmware's setup of `scene` with the drives of `commissioning`, or why the
-/// firmware cannot run it: not a crane, not f64, a cycle the watchdog or the ms timer
+/// firmware cannot run it: not a crane, not f64 ([`FirmwareScheme::of`]), a cycle the watchdog or the ms timer
 /// cannot keep, a run that is not a whole number of cycles, a bad commissioning file, a
 /// move that starts before the drives can be enabled, or one that breaks the planner's
 /// rules (docs/COMMANDS.md) — a scene's move must pass the checks every commanded move
@@ -72,16 +75,12 @@ pub fn firmware_scene(
     scene: &Scene,
     commissioning: &CommissioningFile,
 ) -> Result<FirmwareScene, String> {
-    let crane = match &scene.model {
-        ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) => c,
-        ModelSpec::MassOnCar(_) => {
-            return Err("the firmware drives a crane; this scene is the mass-on-car".into())
-        }
-    };
-    if scene.solver.scalar != ScalarSpec::F64 {
-        return Err("the firmware plans moves in f64; this scene computes in f32".into());
-    }
-    let params = crane.params();
+    let scheme = FirmwareScheme::of(scene)?;
+    let params = scene
+        .model
+        .crane()
+        .ok_or("the firmware drives a crane")?
+        .params();
     let first_move = scene.trajectory2().map_err(|e| e.to_string())?;
     let mut plan = command_plan(first_move.start().into(), scene.trajectory.smoothness)
         .map_err(|e| e.to_string())?;
@@ -141,25 +140,8 @@ pub fn firmware_scene(
         config,
         cycles: scene.steps() as u32,
         feedback,
+        scheme,
     })
-}
-
-/// Whether the firmware solves `scene`'s Newton systems with the crane *subs* model's
-/// structured elimination rather than dense LUs: BDF with the exact Jacobian, or Radau
-/// with RADAU5's transformed Newton (its real and complex systems). The Newton strategy
-/// is a type, so the firmware links only the one its scene names. The host's run of the
-/// firmware takes the same strategy — with the loop closed through a plant, a
-/// difference of a rounding unit in a set point would grow.
-#[must_use]
-pub fn structured_newton(scene: &Scene) -> bool {
-    let transformed = scene.solver.newton == crate::NewtonSpec::Transformed;
-    matches!(scene.model, ModelSpec::CraneSubs(_))
-        && match scene.solver.scheme {
-            crate::SchemeSpec::Bdf => {
-                scene.solver.jacobian == crate::JacobianSpec::Exact && !transformed
-            }
-            crate::SchemeSpec::Radau => transformed,
-        }
 }
 
 /// `config` as a Rust constant expression, for the firmware's generated scene module:

@@ -34,18 +34,16 @@
 //! that names the field and the reason.
 
 pub mod commissioning;
+pub mod dispatch;
 pub mod feedback;
 pub mod firmware;
 
 use std::fmt;
 use std::path::Path;
 
-use nalgebra::SVector;
 use serde::Deserialize;
 use solver_core::models::crane::{CraneParams, Workspace};
-use solver_core::models::crane_proj::CraneProj;
-use solver_core::models::crane_subs::CraneSubs;
-use solver_core::models::mass_on_car::{MassOnCar, MassOnCarParams};
+use solver_core::models::mass_on_car::MassOnCarParams;
 use solver_core::trajectory::PointToPoint;
 use solver_core::{Error, JacobianMode, NewtonSettings, SolverSettings};
 
@@ -108,6 +106,36 @@ pub enum ModelSpec {
     CraneProj(CraneSpec),
     /// Mass-on-car with internal dynamics.
     MassOnCar(MassOnCarSpec),
+}
+
+impl ModelSpec {
+    /// The crane's parameters, whatever the formulation (`None` for another model).
+    #[must_use]
+    pub fn crane(&self) -> Option<CraneSpec> {
+        match self {
+            ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) => Some(*c),
+            ModelSpec::MassOnCar(_) => None,
+        }
+    }
+
+    /// The mass-on-car's parameters (`None` for a crane).
+    #[must_use]
+    pub fn mass_on_car(&self) -> Option<MassOnCarParams> {
+        match self {
+            ModelSpec::MassOnCar(m) => Some(m.params()),
+            ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) => None,
+        }
+    }
+
+    /// The model's short name in results: `subs`, `proj` or `mass-on-car`.
+    #[must_use]
+    pub fn label(&self) -> &'static str {
+        match self {
+            ModelSpec::CraneSubs(_) => "subs",
+            ModelSpec::CraneProj(_) => "proj",
+            ModelSpec::MassOnCar(_) => "mass-on-car",
+        }
+    }
 }
 
 /// Crane parameters (Tab. 3) and workspace (Sec. 3.1.5).
@@ -373,23 +401,7 @@ impl Scene {
     }
 
     fn trajectory_n<const NZ: usize>(&self) -> Result<PointToPoint<f64, NZ>, SceneError> {
-        let t = &self.trajectory;
-        for (field, v) in [("trajectory.start", &t.start), ("trajectory.end", &t.end)] {
-            if v.len() != NZ {
-                return Err(refuse(
-                    field,
-                    format!("needs {NZ} values (one per output axis), has {}", v.len()),
-                ));
-            }
-        }
-        PointToPoint::new(
-            SVector::from_column_slice(&t.start),
-            SVector::from_column_slice(&t.end),
-            t.t_start,
-            t.duration,
-            t.smoothness,
-        )
-        .map_err(|e| self.field_of(e))
+        dispatch::trajectory::<f64, NZ>(self)
     }
 
     /// Every check that does not need a run: types, ranges, and the model built
@@ -443,12 +455,7 @@ impl Scene {
                 "longer than the whole run (trajectory.t_end)",
             ));
         }
-        match &self.model {
-            ModelSpec::CraneSubs(c) => CraneSubs::new(c.params(), self.trajectory2()?).map(|_| ()),
-            ModelSpec::CraneProj(c) => CraneProj::new(c.params(), self.trajectory2()?).map(|_| ()),
-            ModelSpec::MassOnCar(m) => MassOnCar::new(m.params(), self.trajectory1()?).map(|_| ()),
-        }
-        .map_err(|e| self.field_of(e))
+        dispatch::model::<f64, _>(self, dispatch::Built)
     }
 
     /// Maps a solver-core error to the scene field it comes from.

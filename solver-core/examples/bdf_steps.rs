@@ -15,8 +15,7 @@
 
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_subs::CraneSubs;
-use solver_core::schemes::bdf::StructuredOf;
+use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::trajectory::PointToPoint;
 use solver_core::{JacobianMode, SolverSettings};
 
@@ -40,17 +39,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut iterations = 0u64;
     match path.as_str() {
         "dense" => {
-            let mut bdf = solver_core::Bdf::<f64, _, 7, 2>::new(&model, &settings, 4, 0.0)?;
+            let mut bdf = crane_subs::Bdf::<f64, _>::new(&model, &settings, 4, 0.0)?;
             for _ in 0..steps {
                 iterations += u64::from(std::hint::black_box(bdf.step(&model))?.stats.iterations);
             }
         }
         "structured" => {
-            type Model = CraneSubs<f64, PointToPoint<f64, 2>>;
-            let mut bdf =
-                solver_core::Bdf::<f64, Model, 7, 2, StructuredOf<f64, Model, 7, 2>>::new(
-                    &model, &settings, 4, 0.0,
-                )?;
+            let mut bdf = crane_subs::StructuredBdf::<f64, _>::new(&model, &settings, 4, 0.0)?;
             for _ in 0..steps {
                 iterations += u64::from(std::hint::black_box(bdf.step(&model))?.stats.iterations);
             }

@@ -12,9 +12,9 @@
 
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_subs::CraneSubs;
+use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::trajectory::PointToPoint;
-use solver_core::{JacobianMode, Radau, SolverSettings};
+use solver_core::{JacobianMode, SolverSettings};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
@@ -38,7 +38,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         h,
         ..SolverSettings::paper(mode)
     };
-    let mut radau = Radau::<f64, _, 7, 2, 21>::new(&model, &settings, 0.0)?;
+    let mut radau = crane_subs::Radau::<f64, _>::new(&model, &settings, 0.0)?;
     let steps = (10.0 / h).round() as usize;
     let mut iterations = 0u64;
     for _ in 0..steps {

@@ -10,13 +10,14 @@ use controller::virtual_bus::{run_cycle, Scenario, VirtualBus};
 use controller::{Config, Controller, Cycle, Injectable, InverseModel, Mode, Replan};
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_subs::CraneSubs;
+use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::plan::Plan;
 use solver_core::trajectory::{PointToPoint, Trajectory};
-use solver_core::{Bdf, JacobianMode, NewtonSettings, SolverSettings};
+use solver_core::{JacobianMode, NewtonSettings, SolverSettings};
 
 pub type Model = CraneSubs<f64, Plan<f64, 2>>;
-pub type Ff = Injectable<InverseModel<Model, Bdf<f64, Model, 7, 2>>>;
+pub type Ff =
+    Injectable<InverseModel<Model, crane_subs::Bdf<f64, Plan<f64, 2>>, f64, { crane_subs::N }>>;
 
 /// Where the crane rests when a test starts: the paper's start (x_C, z_C), m.
 pub const HOME: [f64; 2] = [12.0, 8.0];
@@ -49,8 +50,8 @@ pub fn feedforward(home: [f64; 2], first: Option<([f64; 2], f64, f64)>) -> Ff {
         plan.push(m).unwrap();
     }
     let model = CraneSubs::new(CraneParams::PAPER, plan).unwrap();
-    let integrator = Bdf::new(&model, &settings(), 4, 0.0).unwrap();
-    Injectable::new(InverseModel { model, integrator })
+    let integrator = crane_subs::Bdf::new(&model, &settings(), 4, 0.0).unwrap();
+    Injectable::new(InverseModel::new(model, integrator))
 }
 
 /// The controller, the bus and the clock, advanced together as the firmware does.

@@ -22,59 +22,52 @@ use std::process::ExitCode;
 use host_tests::study::{jacobian_label, scheme_label, whole_steps};
 use host_tests::sweep::apply;
 use scene::{ModelSpec, ScalarSpec, Scene, SchemeSpec};
-use solver_core::models::crane_subs::CraneSubs;
-use solver_core::schemes::bdf::StructuredOf;
-use solver_core::schemes::radau5::{StructuredStagesOf, Transformed};
+use solver_core::models::crane_subs::{self, CraneSubs, N, NU};
 use solver_core::trajectory::Trajectory;
-use solver_core::{Bdf, Error, Radau, StepReport};
+use solver_core::{Error, StepReport};
 
-/// The crane *subs* model of the paper (Eqs. 24–28) driven by the trajectory `Z`: 7
-/// unknowns, 2 inputs; Radau's stage system has 21.
+/// The crane *subs* model of the paper (Eqs. 24–28) driven by the trajectory `Z`.
 type Crane<Z> = CraneSubs<f64, Z>;
-
-/// RADAU5 with the *subs* model's structured elimination (the firmware's Radau).
-type Radau5Structured<Z> =
-    Radau<f64, Crane<Z>, 7, 2, 21, Transformed<f64, 7, StructuredStagesOf<f64, Crane<Z>, 7, 2>>>;
 
 /// One BDF step, the unit callgrind collects.
 #[inline(never)]
 fn measured_step_bdf<Z: Trajectory<f64, 2>>(
-    bdf: &mut Bdf<f64, Crane<Z>, 7, 2>,
+    bdf: &mut crane_subs::Bdf<f64, Z>,
     model: &Crane<Z>,
 ) -> Result<u32, Error> {
     bdf.step(model)
-        .map(|r: StepReport<f64, 7, 2>| r.stats.iterations)
+        .map(|r: StepReport<f64, N, NU>| r.stats.iterations)
 }
 
 /// BDF with the *subs* model's structured elimination: the firmware's default scene.
 #[inline(never)]
 fn measured_step_bdf_structured<Z: Trajectory<f64, 2>>(
-    bdf: &mut Bdf<f64, Crane<Z>, 7, 2, StructuredOf<f64, Crane<Z>, 7, 2>>,
+    bdf: &mut crane_subs::StructuredBdf<f64, Z>,
     model: &Crane<Z>,
 ) -> Result<u32, Error> {
     bdf.step(model)
-        .map(|r: StepReport<f64, 7, 2>| r.stats.iterations)
+        .map(|r: StepReport<f64, N, NU>| r.stats.iterations)
 }
 
 /// RADAU5 with the *subs* model's structured elimination: the firmware's Radau scene.
 #[inline(never)]
 fn measured_step_radau_structured<Z: Trajectory<f64, 2>>(
-    radau: &mut Radau5Structured<Z>,
+    radau: &mut crane_subs::StructuredRadau5<f64, Z>,
     model: &Crane<Z>,
 ) -> Result<u32, Error> {
     radau
         .step(model)
-        .map(|r: StepReport<f64, 7, 2>| r.stats.iterations)
+        .map(|r: StepReport<f64, N, NU>| r.stats.iterations)
 }
 
 #[inline(never)]
 fn measured_step_radau<Z: Trajectory<f64, 2>>(
-    radau: &mut Radau<f64, Crane<Z>, 7, 2, 21>,
+    radau: &mut crane_subs::Radau<f64, Z>,
     model: &Crane<Z>,
 ) -> Result<u32, Error> {
     radau
         .step(model)
-        .map(|r: StepReport<f64, 7, 2>| r.stats.iterations)
+        .map(|r: StepReport<f64, N, NU>| r.stats.iterations)
 }
 
 fn main() -> ExitCode {
@@ -182,13 +175,9 @@ fn step_all<Z: Trajectory<f64, 2>>(
     let mut iterations = 0_u64;
     match scene.solver.scheme {
         SchemeSpec::Bdf if structured => {
-            let mut bdf = Bdf::<f64, Crane<Z>, 7, 2, StructuredOf<f64, Crane<Z>, 7, 2>>::new(
-                model,
-                &settings,
-                scene.solver.k,
-                0.0,
-            )
-            .map_err(|e| e.to_string())?;
+            let mut bdf =
+                crane_subs::StructuredBdf::<f64, Z>::new(model, &settings, scene.solver.k, 0.0)
+                    .map_err(|e| e.to_string())?;
             for _ in 0..steps {
                 iterations += u64::from(
                     measured_step_bdf_structured(&mut bdf, model).map_err(|e| e.to_string())?,
@@ -196,16 +185,16 @@ fn step_all<Z: Trajectory<f64, 2>>(
             }
         }
         SchemeSpec::Bdf => {
-            let mut bdf =
-                Bdf::new(model, &settings, scene.solver.k, 0.0).map_err(|e| e.to_string())?;
+            let mut bdf = crane_subs::Bdf::<f64, Z>::new(model, &settings, scene.solver.k, 0.0)
+                .map_err(|e| e.to_string())?;
             for _ in 0..steps {
                 iterations +=
                     u64::from(measured_step_bdf(&mut bdf, model).map_err(|e| e.to_string())?);
             }
         }
         SchemeSpec::Radau if structured => {
-            let mut radau =
-                Radau5Structured::<Z>::new(model, &settings, 0.0).map_err(|e| e.to_string())?;
+            let mut radau = crane_subs::StructuredRadau5::<f64, Z>::new(model, &settings, 0.0)
+                .map_err(|e| e.to_string())?;
             for _ in 0..steps {
                 iterations += u64::from(
                     measured_step_radau_structured(&mut radau, model).map_err(|e| e.to_string())?,
@@ -213,7 +202,8 @@ fn step_all<Z: Trajectory<f64, 2>>(
             }
         }
         SchemeSpec::Radau => {
-            let mut radau = Radau::new(model, &settings, 0.0).map_err(|e| e.to_string())?;
+            let mut radau = crane_subs::Radau::<f64, Z>::new(model, &settings, 0.0)
+                .map_err(|e| e.to_string())?;
             for _ in 0..steps {
                 iterations +=
                     u64::from(measured_step_radau(&mut radau, model).map_err(|e| e.to_string())?);
