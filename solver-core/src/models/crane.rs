@@ -143,7 +143,7 @@ pub fn check_trajectory<T: Real, Z: Trajectory<T, 2>>(p: &CraneParams, z: &Z) ->
 /// within the rope-slack margin, and then the crane coordinates that the position-level
 /// flat inverse needs at `(z_d, z̈_d)` — `coordinates` returns them as
 /// `(name, value, min, max)` — within their ranges. Shared by the planar crane and the
-/// 3D one (`models::crane3d`): only the flat inverse and the workspace
+/// 3D one ([`crane3d`](crate::models::crane3d)): only the flat inverse and the workspace
 /// differ between them.
 pub(crate) fn check_load_path<T, const NZ: usize, const K: usize, Z>(
     g: f64,

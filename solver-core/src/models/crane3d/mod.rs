@@ -38,9 +38,10 @@
 //! With the load position as the flat output, the vertical equation gives
 //! `λ = (z̈_C − g)/(2 z_C)`, the horizontal ones `x = x_C − ẍ_C/(2λ)` and
 //! `y = y_C − ÿ_C/(2λ)`, the constraint `l` ([`flat_configuration`]), and the drives'
-//! rows the inputs `u_i = τ_i q̈_i + q̇_i` (`reference::flat_crane3d`). With
-//! `y_C ≡ y ≡` const it is the planar crane of Eqs. 24–26, the bridge in the planar
-//! trolley's place and the hoist in the winch's ([`Crane3dParams::extruded`]).
+//! rows the inputs `u_i = τ_i q̈_i + q̇_i`
+//! ([`flat_crane3d`](crate::reference::flat_crane3d)). With `y_C ≡ y ≡` const it is
+//! the planar crane of Eqs. 24–26, the bridge in the planar trolley's place and the
+//! hoist in the winch's ([`Crane3dParams::extruded`]).
 
 use nalgebra::SVector;
 
