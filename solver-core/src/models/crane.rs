@@ -127,17 +127,42 @@ pub const CHECK_SAMPLES: usize = 2000;
 /// The move is sampled at [`CHECK_SAMPLES`]` + 1` points of its active span (the
 /// trajectory rests outside it, so its end points cover the rest of time).
 pub fn check_trajectory<T: Real, Z: Trajectory<T, 2>>(p: &CraneParams, z: &Z) -> Result<()> {
-    let (t0, t1) = z.active_span();
     let g = c::<T>(p.g);
-    let limit = p.g * (1.0 - p.min_tension_fraction);
     let w = &p.workspace;
+    check_load_path(p.g, p.min_tension_fraction, z, |zd, zdd| {
+        let conf = flat_configuration(g, zd, zdd);
+        [
+            ("x", to_f64(conf.x), w.x_min, w.x_max),
+            ("l", to_f64(conf.l), w.l_min, w.l_max),
+        ]
+    })
+}
+
+/// The checks every crane's load path must pass, sample by sample: the load below the
+/// rope's exit (`z_C > 0`, the vertical output last in `z`), its downward acceleration
+/// within the rope-slack margin, and then the crane coordinates that the position-level
+/// flat inverse needs at `(z_d, z̈_d)` — `coordinates` returns them as
+/// `(name, value, min, max)` — within their ranges. Shared by the planar crane and the
+/// 3D one ([`crane3d`](crate::models::crane3d)): only the flat inverse and the workspace
+/// differ between them.
+pub(crate) fn check_load_path<T, const NZ: usize, const K: usize, Z>(
+    g: f64,
+    min_tension_fraction: f64,
+    z: &Z,
+    coordinates: impl Fn(&SVector<T, NZ>, &SVector<T, NZ>) -> [(&'static str, f64, f64, f64); K],
+) -> Result<()>
+where
+    T: Real,
+    Z: Trajectory<T, NZ>,
+{
+    let (t0, t1) = z.active_span();
+    let limit = g * (1.0 - min_tension_fraction);
+    let vertical = |v: &SVector<T, NZ>| v.iter().last().copied().map_or(f64::NAN, to_f64);
     for i in 0..=CHECK_SAMPLES {
         let t = t0 + (t1 - t0) * c::<T>(i as f64 / CHECK_SAMPLES as f64);
         let [zd, _, zdd] = z.derivatives::<3>(t);
         let tf = to_f64(t);
-        let [_, zc]: [T; 2] = zd.into();
-        let [_, zcdd]: [T; 2] = zdd.into();
-        let (zc, acc) = (to_f64(zc), to_f64(zcdd));
+        let (zc, acc) = (vertical(&zd), vertical(&zdd));
         if zc.is_nan() || zc <= 0.0 {
             return Err(Error::OutsideWorkspace {
                 t: tf,
@@ -154,11 +179,7 @@ pub fn check_trajectory<T: Real, Z: Trajectory<T, 2>>(p: &CraneParams, z: &Z) ->
                 limit,
             });
         }
-        let conf = flat_configuration(g, &zd, &zdd);
-        for (coordinate, value, min, max) in [
-            ("x", to_f64(conf.x), w.x_min, w.x_max),
-            ("l", to_f64(conf.l), w.l_min, w.l_max),
-        ] {
+        for (coordinate, value, min, max) in coordinates(&zd, &zdd) {
             if !(min..=max).contains(&value) {
                 return Err(Error::OutsideWorkspace {
                     t: tf,

@@ -47,6 +47,7 @@ macro_rules! schemes_of {
 }
 
 pub mod crane;
+pub mod crane3d;
 pub mod crane_proj;
 pub mod crane_subs;
 pub mod mass_on_car;

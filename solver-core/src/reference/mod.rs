@@ -9,7 +9,9 @@
 //! References run in `f64` whatever scalar the solver under test uses.
 
 pub mod dopri5;
+pub mod emax;
 pub mod flat_crane;
+pub mod flat_crane3d;
 pub mod jet;
 pub mod mass_on_car;
 pub mod plant;
