@@ -16,12 +16,14 @@
 use controller::feedforward::{CraneReference, Feedforward, InverseModel, Replan};
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
+use solver_core::models::crane3d::{Crane3dParams, Crane3dSubs};
 use solver_core::models::crane_proj::{self, CraneProj};
 use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::models::mass_on_car::MassOnCar;
 use solver_core::plan::Plan;
 use solver_core::reference::dopri5::Dopri5Settings;
 use solver_core::reference::flat_crane::flat_inverse;
+use solver_core::reference::flat_crane3d;
 use solver_core::reference::mass_on_car::MassOnCarReference;
 use solver_core::scalar::c;
 use solver_core::trajectory::PointToPoint;
@@ -61,6 +63,12 @@ pub fn model<T: Real, V: ModelVisitor<T>>(
             use solver_core::models::mass_on_car::{N, NU, S};
             visitor.visit::<_, N, NU, S>(
                 MassOnCar::new(m.params(), trajectory::<T, 1>(scene)?).map_err(err)?,
+            )
+        }
+        ModelSpec::Crane3dSubs(c) => {
+            use solver_core::models::crane3d::subs::{N, NU, S};
+            visitor.visit::<_, N, NU, S>(
+                Crane3dSubs::new(c.params(), trajectory::<T, 3>(scene)?).map_err(err)?,
             )
         }
     })
@@ -115,6 +123,8 @@ pub enum Exact {
     Crane(CraneParams, PointToPoint<f64, 2>),
     /// The mass-on-car's internal dynamics integrated along (Eqs. 37–38).
     MassOnCar(MassOnCarReference<PointToPoint<f64, 1>>),
+    /// The 3D crane's flat inverse.
+    Crane3d(Crane3dParams, PointToPoint<f64, 3>),
 }
 
 impl Exact {
@@ -133,6 +143,7 @@ impl Exact {
                 )
                 .map_err(|e| scene.field_of(e))?,
             ),
+            ModelSpec::Crane3dSubs(c) => Exact::Crane3d(c.params(), trajectory::<f64, 3>(scene)?),
         })
     }
 
@@ -142,6 +153,7 @@ impl Exact {
         match self {
             Exact::Crane(p, z) => out.extend(flat_inverse(p, z, t).u),
             Exact::MassOnCar(r) => out.push(r.advance_to(t)?.f),
+            Exact::Crane3d(p, z) => out.extend(flat_crane3d::flat_inverse(p, z, t).u),
         }
         Ok(())
     }
@@ -204,6 +216,11 @@ impl FirmwareScheme {
             (ModelSpec::CraneProj(_), SchemeSpec::Radau) => Self::ProjRadauFull,
             (ModelSpec::MassOnCar(_), _) => {
                 return Err("the firmware drives a crane; this scene is the mass-on-car".into())
+            }
+            (ModelSpec::Crane3dSubs(_), _) => {
+                return Err(
+                    "the firmware drives the planar crane; its controller for three axes is not built yet (issue 19)".into(),
+                )
             }
         })
     }
@@ -346,15 +363,10 @@ mod tests {
         } else {
             "jacobian = \"exact\"\n"
         };
-        let start = if model == "mass-on-car" {
-            "[0.0]"
-        } else {
-            "[12.0, 8.0]"
-        };
-        let end = if model == "mass-on-car" {
-            "[1.0]"
-        } else {
-            "[20.0, 4.0]"
+        let (start, end) = match model {
+            "mass-on-car" => ("[0.0]", "[1.0]"),
+            "crane3d-subs" => ("[12.0, 3.0, 8.0]", "[20.0, 6.0, 4.0]"),
+            _ => ("[12.0, 8.0]", "[20.0, 4.0]"),
         };
         Scene::parse(&format!(
             "name = \"t\"\n[model]\nkind = \"{model}\"\n[trajectory]\nstart = {start}\nend = {end}\nt_start = 1.0\nduration = 7.0\nsmoothness = 4\nt_end = 10.0\n[solver]\n{solver}\n{jacobian}h = 0.01\n"
@@ -368,6 +380,7 @@ mod tests {
             ("crane-subs", "CraneSubs", 7),
             ("crane-proj", "CraneProj", 8),
             ("mass-on-car", "MassOnCar", 5),
+            ("crane3d-subs", "Crane3dSubs", 10),
         ] {
             let (ty, unknowns) = model::<f64, _>(&scene(kind, "scheme = \"bdf\""), Name).unwrap();
             assert!(ty.contains(name), "{ty}");
@@ -426,5 +439,6 @@ mod tests {
             }));
         }
         assert!(FirmwareScheme::of(&scene("mass-on-car", "scheme = \"bdf\"")).is_err());
+        assert!(FirmwareScheme::of(&scene("crane3d-subs", "scheme = \"bdf\"")).is_err());
     }
 }

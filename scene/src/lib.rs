@@ -6,11 +6,11 @@
 //! description = "…"
 //!
 //! [model]
-//! kind = "crane-subs"        # crane-subs | crane-proj | mass-on-car
+//! kind = "crane-subs"        # crane-subs | crane-proj | mass-on-car | crane3d-subs
 //! tau1 = 0.03                # optional parameters; the paper's values by default
 //!
 //! [trajectory]
-//! start = [12.0, 8.0]        # one value per output axis: [x_C, z_C] m, or [z] m
+//! start = [12.0, 8.0]        # one value per output axis: [x_C, z_C] m, [x_C, y_C, z_C] m, or [z] m
 //! end = [20.0, 4.0]
 //! t_start = 1.0              # s
 //! duration = 8.0             # s
@@ -43,6 +43,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 use solver_core::models::crane::{CraneParams, Workspace};
+use solver_core::models::crane3d::{Crane3dParams, Workspace3d};
 use solver_core::models::mass_on_car::MassOnCarParams;
 use solver_core::trajectory::PointToPoint;
 use solver_core::{Error, JacobianMode, NewtonSettings, SolverSettings};
@@ -106,6 +107,9 @@ pub enum ModelSpec {
     CraneProj(CraneSpec),
     /// Mass-on-car with internal dynamics.
     MassOnCar(MassOnCarSpec),
+    /// The crane in three dimensions (bridge, trolley, hoist), redundant coordinates
+    /// with the servo-constraints substituted.
+    Crane3dSubs(Crane3dSpec),
 }
 
 impl ModelSpec {
@@ -114,7 +118,7 @@ impl ModelSpec {
     pub fn crane(&self) -> Option<CraneSpec> {
         match self {
             ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) => Some(*c),
-            ModelSpec::MassOnCar(_) => None,
+            ModelSpec::MassOnCar(_) | ModelSpec::Crane3dSubs(_) => None,
         }
     }
 
@@ -123,7 +127,7 @@ impl ModelSpec {
     pub fn mass_on_car(&self) -> Option<MassOnCarParams> {
         match self {
             ModelSpec::MassOnCar(m) => Some(m.params()),
-            ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) => None,
+            ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) | ModelSpec::Crane3dSubs(_) => None,
         }
     }
 
@@ -134,6 +138,70 @@ impl ModelSpec {
             ModelSpec::CraneSubs(_) => "subs",
             ModelSpec::CraneProj(_) => "proj",
             ModelSpec::MassOnCar(_) => "mass-on-car",
+            ModelSpec::Crane3dSubs(_) => "3d-subs",
+        }
+    }
+}
+
+/// The 3D crane's parameters: the load, the three drives' lags and the workspace box
+/// (`Crane3dParams::EXAMPLE`, an assumed EOT crane, by default).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+#[allow(missing_docs)]
+pub struct Crane3dSpec {
+    pub m: f64,
+    pub g: f64,
+    pub tau1: f64,
+    pub tau2: f64,
+    pub tau3: f64,
+    pub x_min: f64,
+    pub x_max: f64,
+    pub y_min: f64,
+    pub y_max: f64,
+    pub l_min: f64,
+    pub l_max: f64,
+    pub min_tension_fraction: f64,
+}
+
+impl Default for Crane3dSpec {
+    fn default() -> Self {
+        let p = Crane3dParams::EXAMPLE;
+        let w = p.workspace;
+        Self {
+            m: p.m,
+            g: p.g,
+            tau1: p.tau1,
+            tau2: p.tau2,
+            tau3: p.tau3,
+            x_min: w.x_min,
+            x_max: w.x_max,
+            y_min: w.y_min,
+            y_max: w.y_max,
+            l_min: w.l_min,
+            l_max: w.l_max,
+            min_tension_fraction: p.min_tension_fraction,
+        }
+    }
+}
+
+impl Crane3dSpec {
+    /// The solver-core parameters.
+    pub fn params(&self) -> Crane3dParams {
+        Crane3dParams {
+            m: self.m,
+            g: self.g,
+            tau1: self.tau1,
+            tau2: self.tau2,
+            tau3: self.tau3,
+            workspace: Workspace3d {
+                x_min: self.x_min,
+                x_max: self.x_max,
+                y_min: self.y_min,
+                y_max: self.y_max,
+                l_min: self.l_min,
+                l_max: self.l_max,
+            },
+            min_tension_fraction: self.min_tension_fraction,
         }
     }
 }
@@ -346,6 +414,7 @@ impl Scene {
         match self.model {
             ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) => 2,
             ModelSpec::MassOnCar(_) => 1,
+            ModelSpec::Crane3dSubs(_) => 3,
         }
     }
 

@@ -155,3 +155,34 @@ fn scenes_the_firmware_cannot_run_are_refused_with_a_message() {
     let e = firmware_scene(&Scene::parse(PAPER).unwrap(), &bad).unwrap_err();
     assert!(e.contains("controller.node"), "{e}");
 }
+
+/// The 3D crane's scene with one line replaced.
+fn crane3d_with(old: &str, new: &str) -> String {
+    let text = include_str!("../../scenes/crane3d-diagonal.toml");
+    assert!(text.contains(old), "{old}");
+    text.replacen(old, new, 1)
+}
+
+#[test]
+fn a_3d_scene_is_checked_as_a_planar_one_is() {
+    let (field, reason) = refused(&crane3d_with(
+        "end = [20.0, 6.0, 4.0]",
+        "end = [20.0, 9.0, 4.0]",
+    ));
+    assert_eq!(field, "trajectory");
+    assert!(
+        reason.contains("y = ") && reason.contains("workspace"),
+        "{reason}"
+    );
+    let (field, reason) = refused(&crane3d_with(
+        "start = [12.0, 3.0, 8.0]",
+        "start = [12.0, 8.0]",
+    ));
+    assert_eq!(field, "trajectory.start");
+    assert!(reason.contains("needs 3 values"), "{reason}");
+    let (field, _) = refused(&crane3d_with(
+        "kind = \"crane3d-subs\"",
+        "kind = \"crane3d-subs\"\ntau3 = -1.0",
+    ));
+    assert_eq!(field, "model.tau3");
+}

@@ -60,11 +60,12 @@ pub enum Error {
         /// The largest admissible vertical acceleration, m/s².
         limit: f64,
     },
-    /// The inverse model needs the trolley or the rope outside the workspace.
+    /// The inverse model needs a drive's axis or the rope outside the workspace.
     OutsideWorkspace {
         /// Time at which the workspace is first left, in s.
         t: f64,
-        /// `"x"` (trolley position) or `"l"` (rope length).
+        /// Which: `"x"` (the planar crane's trolley, the 3D crane's bridge), `"y"` (the
+        /// 3D crane's trolley) or `"l"` (rope length).
         coordinate: &'static str,
         /// The required value, in m.
         value: f64,

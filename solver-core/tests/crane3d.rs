@@ -13,17 +13,14 @@
 use nalgebra::SVector;
 use solver_core::model::DaeModel;
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane3d::{Crane3dParams, Crane3dSubs};
-use solver_core::models::crane_subs::CraneSubs;
-use solver_core::newton::Newton;
+use solver_core::models::crane3d::subs as crane3d;
+use solver_core::models::crane3d::{Crane3dParams, Crane3dSubs, N, NU};
+use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::reference::emax::Emax;
 use solver_core::reference::flat_crane3d;
 use solver_core::scalar::{c, to_f64};
-use solver_core::schemes::bdf::{BdfNewton, StructuredOf};
-use solver_core::schemes::radau::{FullNewton, RadauNewton};
-use solver_core::schemes::radau5::{StructuredStagesOf, Transformed};
 use solver_core::trajectory::PointToPoint;
-use solver_core::{Bdf, Error, JacobianMode, NewtonSettings, Radau, Real, SolverSettings};
+use solver_core::{Error, Integrator, JacobianMode, NewtonSettings, Real, SolverSettings};
 
 const START: [f64; 3] = [12.0, 3.0, 8.0];
 const END: [f64; 3] = [20.0, 6.0, 4.0];
@@ -103,41 +100,21 @@ fn steps(h: f64, t_end: f64) -> usize {
     (t_end / h).round() as usize
 }
 
-fn run_bdf<T, M, const N: usize, const NU: usize, J>(
+/// Steps `integrator` on `model` from rest to `t_end`.
+fn run<T, M, I, const N: usize, const NU: usize>(
     model: &M,
-    k: usize,
-    s: &SolverSettings,
+    mut integrator: I,
+    h: f64,
     t_end: f64,
 ) -> Run<N, NU>
 where
     T: Real,
     M: DaeModel<T, N, NU>,
-    J: BdfNewton<T, M, N, NU>,
+    I: Integrator<T, M, N, NU>,
 {
     let mut run = Run::start::<T, M>(model);
-    let mut bdf = Bdf::<T, M, N, NU, J>::new(model, s, k, T::zero()).unwrap();
-    for _ in 0..steps(s.h, t_end) {
-        if !run.record(bdf.step(model)) {
-            break;
-        }
-    }
-    run
-}
-
-fn run_radau<T, M, const N: usize, const NU: usize, const S: usize, J>(
-    model: &M,
-    s: &SolverSettings,
-    t_end: f64,
-) -> Run<N, NU>
-where
-    T: Real,
-    M: DaeModel<T, N, NU>,
-    J: RadauNewton<T, M, N, NU, S>,
-{
-    let mut run = Run::start::<T, M>(model);
-    let mut radau = Radau::<T, M, N, NU, S, J>::new(model, s, T::zero()).unwrap();
-    for _ in 0..steps(s.h, t_end) {
-        if !run.record(radau.step(model)) {
+    for _ in 0..steps(h, t_end) {
+        if !run.record(integrator.step(model)) {
             break;
         }
     }
@@ -159,38 +136,54 @@ enum Solver {
     Radau5Structured,
 }
 
-fn solve<T: Real>(solver: Solver, model: &Model<T>, h: f64) -> Run<10, 3> {
-    type M<T> = Model<T>;
+fn solve<T: Real>(solver: Solver, model: &Model<T>, h: f64) -> Run<N, NU> {
+    let (exact, transformed) = (
+        settings(JacobianMode::Exact, h),
+        settings(JacobianMode::Transformed, h),
+    );
+    let t0 = T::zero();
     match solver {
         Solver::Bdf(k, mode) => {
-            run_bdf::<T, M<T>, 10, 3, Newton<T, 10>>(model, k, &settings(mode, h), T_END)
-        }
-        Solver::BdfStructured(k) => run_bdf::<T, M<T>, 10, 3, StructuredOf<T, M<T>, 10, 3>>(
-            model,
-            k,
-            &settings(JacobianMode::Exact, h),
-            T_END,
-        ),
-        Solver::Radau(mode) => {
-            run_radau::<T, M<T>, 10, 3, 30, FullNewton<T, 30>>(model, &settings(mode, h), T_END)
-        }
-        Solver::Radau5Dense => run_radau::<T, M<T>, 10, 3, 30, Transformed<T, 10>>(
-            model,
-            &settings(JacobianMode::Transformed, h),
-            T_END,
-        ),
-        Solver::Radau5Structured => {
-            run_radau::<T, M<T>, 10, 3, 30, Transformed<T, 10, StructuredStagesOf<T, M<T>, 10, 3>>>(
+            let s = settings(mode, h);
+            run(
                 model,
-                &settings(JacobianMode::Transformed, h),
+                crane3d::Bdf::<T, Move<T>>::new(model, &s, k, t0).unwrap(),
+                h,
                 T_END,
             )
         }
+        Solver::BdfStructured(k) => run(
+            model,
+            crane3d::StructuredBdf::<T, Move<T>>::new(model, &exact, k, t0).unwrap(),
+            h,
+            T_END,
+        ),
+        Solver::Radau(mode) => {
+            let s = settings(mode, h);
+            run(
+                model,
+                crane3d::RadauFull::<T, Move<T>>::new(model, &s, t0).unwrap(),
+                h,
+                T_END,
+            )
+        }
+        Solver::Radau5Dense => run(
+            model,
+            crane3d::Radau5::<T, Move<T>>::new(model, &transformed, t0).unwrap(),
+            h,
+            T_END,
+        ),
+        Solver::Radau5Structured => run(
+            model,
+            crane3d::StructuredRadau5::<T, Move<T>>::new(model, &transformed, t0).unwrap(),
+            h,
+            T_END,
+        ),
     }
 }
 
 /// Eq. 29 of a run against the flat reference (always in f64).
-fn e_max(run: &Run<10, 3>) -> Emax {
+fn e_max(run: &Run<N, NU>) -> Emax {
     assert!(run.failure.is_none(), "run failed: {:?}", run.failure);
     flat_crane3d::e_max(
         &Crane3dParams::EXAMPLE,
@@ -376,8 +369,6 @@ fn orders_match_the_schemes() {
 /// all three.)
 #[test]
 fn planar_move_gives_the_planar_set_points() {
-    type Planar = CraneSubs<f64, PointToPoint<f64, 2>>;
-    type Spatial = Model<f64>;
     let planar_params = CraneParams::PAPER;
     let params = Crane3dParams::extruded(&planar_params, 0.025, 0.0, 8.0);
     let y_c = 4.0;
@@ -401,53 +392,58 @@ fn planar_move_gives_the_planar_set_points() {
     let spatial = Crane3dSubs::new(params, z3).unwrap();
     let t_end = 10.0;
     let s = |mode| settings(mode, 0.01);
-    let cases: [(&str, Run<7, 2>, Run<10, 3>, f64); 3] = [
+    let (exact, transformed) = (s(JacobianMode::Exact), s(JacobianMode::Transformed));
+    let h = exact.h;
+    let cases: [(
+        &str,
+        Run<{ crane_subs::N }, { crane_subs::NU }>,
+        Run<N, NU>,
+        f64,
+    ); 3] = [
         (
             "BDF4 structured",
-            run_bdf::<f64, Planar, 7, 2, StructuredOf<f64, Planar, 7, 2>>(
+            run(
                 &planar,
-                4,
-                &s(JacobianMode::Exact),
+                crane_subs::StructuredBdf::new(&planar, &exact, 4, 0.0).unwrap(),
+                h,
                 t_end,
             ),
-            run_bdf::<f64, Spatial, 10, 3, StructuredOf<f64, Spatial, 10, 3>>(
+            run(
                 &spatial,
-                4,
-                &s(JacobianMode::Exact),
+                crane3d::StructuredBdf::new(&spatial, &exact, 4, 0.0).unwrap(),
+                h,
                 t_end,
             ),
             0.0,
         ),
         (
             "RADAU5 transformed, structured",
-            run_radau::<
-                f64,
-                Planar,
-                7,
-                2,
-                21,
-                Transformed<f64, 7, StructuredStagesOf<f64, Planar, 7, 2>>,
-            >(&planar, &s(JacobianMode::Transformed), t_end),
-            run_radau::<
-                f64,
-                Spatial,
-                10,
-                3,
-                30,
-                Transformed<f64, 10, StructuredStagesOf<f64, Spatial, 10, 3>>,
-            >(&spatial, &s(JacobianMode::Transformed), t_end),
+            run(
+                &planar,
+                crane_subs::StructuredRadau5::new(&planar, &transformed, 0.0).unwrap(),
+                h,
+                t_end,
+            ),
+            run(
+                &spatial,
+                crane3d::StructuredRadau5::new(&spatial, &transformed, 0.0).unwrap(),
+                h,
+                t_end,
+            ),
             0.0,
         ),
         (
             "RADAU5 transformed, dense LUs",
-            run_radau::<f64, Planar, 7, 2, 21, Transformed<f64, 7>>(
+            run(
                 &planar,
-                &s(JacobianMode::Transformed),
+                crane_subs::Radau5::new(&planar, &transformed, 0.0).unwrap(),
+                h,
                 t_end,
             ),
-            run_radau::<f64, Spatial, 10, 3, 30, Transformed<f64, 10>>(
+            run(
                 &spatial,
-                &s(JacobianMode::Transformed),
+                crane3d::Radau5::new(&spatial, &transformed, 0.0).unwrap(),
+                h,
                 t_end,
             ),
             1e-9,
@@ -489,8 +485,11 @@ fn f32_runs_as_well() {
     let model = model::<f32>();
     let mut s = settings(JacobianMode::Exact, 0.01);
     s.newton = NewtonSettings::for_scalar::<f32>();
-    let run = run_bdf::<f32, Model<f32>, 10, 3, StructuredOf<f32, Model<f32>, 10, 3>>(
-        &model, 4, &s, T_END,
+    let run = run(
+        &model,
+        crane3d::StructuredBdf::<f32, Move<f32>>::new(&model, &s, 4, 0.0).unwrap(),
+        s.h,
+        T_END,
     );
     assert!(run.failure.is_none(), "{:?}", run.failure);
     assert_eq!(run.steps(), 900);

@@ -52,7 +52,7 @@ use crate::trajectory::Trajectory;
 
 pub mod subs;
 
-pub use subs::{Crane3dSubs, Subs3dFactors, N};
+pub use subs::{Crane3dSubs, Subs3dFactors, N, NU};
 
 /// Where bridge, trolley and rope may go.
 #[derive(Debug, Clone, Copy, PartialEq)]

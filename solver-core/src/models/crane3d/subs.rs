@@ -41,9 +41,9 @@ use crate::trajectory::{ensure_at_rest, Trajectory};
 
 /// Number of unknowns of the 3D *subs* formulation.
 pub const N: usize = 10;
-
 /// Number of inputs (bridge, trolley, hoist) and of outputs (`x_C`, `y_C`, `z_C`).
-const NU: usize = 3;
+pub const NU: usize = 3;
+schemes_of!(Crane3dSubs, structured);
 
 /// The 3D crane *subs* inverse model, driven by a load trajectory `Z`.
 #[derive(Debug, Clone, Copy, PartialEq)]
