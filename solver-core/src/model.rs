@@ -84,7 +84,7 @@ pub trait DaeModel<T: Real, const N: usize, const NU: usize> {
 /// a static pivot order, no pivot search, no fill-in, only the entries that change
 /// computed. Used by [`Structured`](crate::schemes::bdf::Structured), the BDF Newton
 /// strategy the firmware links, and by RADAU5's
-/// [`StructuredStages`](crate::schemes::radau5::StructuredStages) for its real and complex
+/// [`StructuredStages`](crate::schemes::radau::transformed::StructuredStages) for its real and complex
 /// stage systems; models without it keep the dense LUs.
 ///
 /// The factors must solve the same system as the dense LU of `S·(∂F/∂x + c·∂F/∂ẋ)`

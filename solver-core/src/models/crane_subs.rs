@@ -355,7 +355,7 @@ mod tests {
     /// (rows scaled), checked by multiplying back in real arithmetic.
     #[test]
     fn structured_elimination_solves_the_complex_system() {
-        use crate::schemes::radau5::{ALPHA, BETA};
+        use crate::schemes::radau::transformed::{ALPHA, BETA};
         let m = model();
         for case in 0..120 {
             let t = 0.08 * case as f64;

@@ -21,7 +21,7 @@ macro_rules! schemes_of {
         pub type Radau<T, Z, J = $crate::schemes::radau::StageSolver<T, N, S>> =
             $crate::schemes::Radau<T, $model<T, Z>, N, NU, S, J>;
         /// RADAU5's transformed Newton on dense LUs.
-        pub type Radau5<T, Z> = Radau<T, Z, $crate::schemes::radau5::Transformed<T, N>>;
+        pub type Radau5<T, Z> = Radau<T, Z, $crate::schemes::radau::transformed::Transformed<T, N>>;
         /// Radau IIA with the paper's modes on the 3N×3N system.
         pub type RadauFull<T, Z> = Radau<T, Z, $crate::schemes::radau::FullNewton<T, S>>;
         /// The scheme a [`Scheme`]($crate::schemes::Scheme) value names, chosen at run time.
@@ -37,10 +37,10 @@ macro_rules! schemes_of {
         pub type StructuredRadau5<T, Z> = Radau<
             T,
             Z,
-            $crate::schemes::radau5::Transformed<
+            $crate::schemes::radau::transformed::Transformed<
                 T,
                 N,
-                $crate::schemes::radau5::StructuredStagesOf<T, $model<T, Z>, N, NU>,
+                $crate::schemes::radau::transformed::StructuredStagesOf<T, $model<T, Z>, N, NU>,
             >,
         >;
     };

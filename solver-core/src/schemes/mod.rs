@@ -12,7 +12,6 @@ pub mod bdf;
 mod contraction;
 mod history;
 pub mod radau;
-pub mod radau5;
 
 use nalgebra::SVector;
 

@@ -480,7 +480,7 @@ mod tests {
     /// arithmetic: at RADAU5's shift `(α + iβ)/h` and at other shifts `c + i b`.
     #[test]
     fn structured_elimination_solves_the_complex_system() {
-        use crate::schemes::radau5::{ALPHA, BETA};
+        use crate::schemes::radau::transformed::{ALPHA, BETA};
         let m = model();
         for case in 0..160 {
             let k = case as f64;

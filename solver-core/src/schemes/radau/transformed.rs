@@ -59,10 +59,12 @@ use nalgebra::{SMatrix, SVector};
 use crate::error::{Error, Result};
 use crate::linalg::{self, Pivots};
 use crate::model::{DaeModel, StructuredJacobian};
-use crate::newton::{max_abs, weighted_norm, NewtonSettings, NewtonStats};
+use crate::newton::{max_abs, weighted_norm, JacobianMode, NewtonSettings, NewtonStats};
 use crate::scalar::{c, is_finite, Real};
 use crate::schemes::contraction::{Contraction, Verdict};
-use crate::schemes::radau::{extrapolation, RadauStep, A};
+use crate::schemes::radau::step::{RadauNewton, RadauStep};
+use crate::schemes::radau::tableau::{extrapolation, A};
+use crate::schemes::SolverSettings;
 
 /// The real eigenvalue γ of `A⁻¹` (Tab. 1): `3 + 3^(2/3) − 3^(1/3)`.
 pub const GAMMA: f64 = 3.637_834_252_744_496;
@@ -251,7 +253,7 @@ where
 /// RADAU5's transformed simplified Newton for a model of `N` unknowns, its two systems
 /// solved by `L` ([`DenseStages`] or the model's [`StructuredStages`]): the factors and
 /// what the iteration carries between steps (a Radau Newton strategy,
-/// [`RadauNewton`](crate::schemes::radau::RadauNewton)).
+/// [`RadauNewton`]).
 #[derive(Debug, Clone)]
 pub struct Transformed<T: Real, const N: usize, L = DenseStages<T, N>> {
     settings: NewtonSettings,
@@ -524,6 +526,40 @@ fn mul3(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
             })
         })
     })
+}
+
+/// RADAU5's transformed simplified Newton on N×N blocks, unknowns the stage increments;
+/// the Jacobian mode must be `Transformed` (anything else is refused: the settings would
+/// be silently ignored).
+impl<
+        T: Real,
+        M: DaeModel<T, N, NU>,
+        L: StageSystems<T, M, N, NU>,
+        const N: usize,
+        const NU: usize,
+        const S: usize,
+    > RadauNewton<T, M, N, NU, S> for Transformed<T, N, L>
+{
+    fn new(settings: &SolverSettings, h: T) -> Result<Self> {
+        if settings.jacobian != JacobianMode::Transformed {
+            return Err(Error::InvalidSetting {
+                name: "jacobian (RADAU5's Newton is transformed only)",
+                value: f64::NAN,
+            });
+        }
+        Transformed::new::<M, NU>(settings.newton, h)
+    }
+
+    fn forget(&mut self) {
+        Transformed::forget(self);
+    }
+
+    fn solve(&mut self, step: &RadauStep<'_, T, M, N, NU>) -> Result<(SVector<T, N>, NewtonStats)> {
+        let (z, stats) = self.iterate(step)?;
+        let [_, _, z3] = z;
+        // Radau IIA is stiffly accurate: x_n is the last stage value (Eq. 14).
+        Ok((step.x0 + z3, stats))
+    }
 }
 
 #[cfg(test)]
