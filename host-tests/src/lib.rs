@@ -1,6 +1,7 @@
 //! The std side: runs of solver-core over whole trajectories and the measures the
 //! paper uses on them (Eq. 29's `e_max`), shared by the tests and the study CLI.
 
+pub mod crane3d_study;
 pub mod dbc;
 pub mod extremes;
 pub mod feedback_study;

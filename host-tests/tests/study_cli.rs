@@ -161,6 +161,40 @@ fn paper_and_extremes_run_quick() {
     }
 }
 
+/// The 3D crane's study runs end to end: its convergence rows are 3D runs that reach the
+/// end with BDF4's interior order near 4 against the 3D flat reference, and its map has
+/// an outcome for every run.
+#[test]
+fn crane3d_runs_quick() {
+    let dir = scratch("crane3d");
+    let status = study()
+        .args(["crane3d", "--quick", "--out-dir"])
+        .arg(&dir)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    for file in [
+        "crane3d.md",
+        "crane3d-convergence.svg",
+        "crane3d-convergence-interior.svg",
+        "crane3d-convergence.csv",
+        "crane3d-f32-f64.csv",
+        "extremes.csv",
+        "extremes-crane3d-diagonal.svg",
+    ] {
+        assert!(dir.join(file).exists(), "{file}");
+    }
+    let rows = csv(&dir.join("crane3d-convergence.csv"));
+    let col = |name: &str| rows[0].iter().position(|c| c == name).unwrap();
+    assert_eq!(rows.len(), 1 + 4 * 2, "four moves, BDF4, two step sizes");
+    for pair in rows[1..].chunks(2) {
+        assert_eq!(pair[0][col("formulation")], "3d-subs");
+        let e = |r: &Vec<String>| r[col("e_max_interior")].parse::<f64>().unwrap();
+        let order = (e(&pair[0]) / e(&pair[1])).log2();
+        assert!((3.8..4.3).contains(&order), "{pair:?}: order {order}");
+    }
+}
+
 /// A scene file: the paper's crane with `from` replaced by `to`.
 fn variant(name: &str, from: &str, to: &str) -> PathBuf {
     let text = std::fs::read_to_string(root().join("scenes/paper-crane.toml")).unwrap();

@@ -5,6 +5,7 @@
 //! study sweep SCENE --vary h=…|…,rho=…  [--out FILE]   the cross product, one CSV row each
 //! study paper [--out-dir DIR] [--quick]        the paper's Figs. 4–7 and 11–13 on our scenes
 //! study extremes [--out-dir DIR] [--quick]     the stability map
+//! study crane3d [--out-dir DIR] [--quick]      the 3D crane: convergence, orders, f32/f64, stability map
 //! study root-locus [--out-dir DIR]             Fig. 10: the internal dynamics' eigenvalues over α
 //! ```
 //!
@@ -22,7 +23,7 @@ use host_tests::study::{
     RunResult, Sample,
 };
 use host_tests::sweep::{cross, csv_row, parse_vary, CSV_HEADER};
-use host_tests::{extremes, paper, root_locus};
+use host_tests::{crane3d_study, extremes, paper, root_locus};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use scene::Scene;
 
@@ -74,6 +75,16 @@ enum Command {
         #[arg(long)]
         quick: bool,
     },
+    /// The crane in three dimensions: convergence of BDF 1–6 and Radau IIA against the 3D
+    /// flat reference on four moves, observed orders, f32 against f64, the stability map.
+    Crane3d {
+        /// Output directory.
+        #[arg(long, default_value = "docs/figures/crane3d")]
+        out_dir: PathBuf,
+        /// Two step sizes, BDF4 only, one move in the map (for tests).
+        #[arg(long)]
+        quick: bool,
+    },
     /// Fig. 10: the root locus of the mass-on-car's internal dynamics over α, with α̂
     /// of Eq. 39 marked, as SVG and CSV.
     RootLocus {
@@ -109,6 +120,9 @@ fn main() -> ExitCode {
         } => sweep(&scene, &vary, out.as_deref(), repeats, threshold),
         Command::Paper { out_dir, quick } => paper::regenerate(&out_dir, quick, &progress),
         Command::Extremes { out_dir, quick } => extremes::map(&out_dir, quick, &progress),
+        Command::Crane3d { out_dir, quick } => {
+            crane3d_study::regenerate(&out_dir, quick, &progress)
+        }
         Command::RootLocus { out_dir } => root_locus::write(&out_dir).map(|alpha_hat| {
             eprintln!(
                 "wrote {}: alpha^ = {alpha_hat:.3} deg (Eq. 39, d = 1 Ns/m)",
