@@ -464,6 +464,11 @@ impl Scene {
         self.trajectory_n::<2>()
     }
 
+    /// The 3D crane's trajectory (three axes).
+    pub fn trajectory3(&self) -> Result<PointToPoint<f64, 3>, SceneError> {
+        self.trajectory_n::<3>()
+    }
+
     /// The mass-on-car trajectory (one axis).
     pub fn trajectory1(&self) -> Result<PointToPoint<f64, 1>, SceneError> {
         self.trajectory_n::<1>()

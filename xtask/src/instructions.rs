@@ -8,7 +8,8 @@
 //! counted and instructions per step = `Collected` / steps. These are x86-64
 //! instructions of this host's default release build (LTO, no `target-cpu`), not
 //! times and not Cortex-M7 cycles. The firmware's solvers are counted on the bare move
-//! and on the firmware's trajectory type (`Plan`), which holds the same move.
+//! and on the firmware's trajectory type (`Plan`), which holds the same move; the 3D
+//! crane's (issue 19) on its diagonal move (`scenes/crane3d-diagonal.toml`).
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -16,8 +17,11 @@ use std::process::Command;
 use crate::firmware::root;
 use crate::{cargo, run, setup};
 
-/// The scene every configuration is measured on: the paper's crane move.
+/// The scene the planar configurations are measured on: the paper's crane move.
 pub const SCENE: &str = "scenes/paper-crane.toml";
+
+/// The scene the 3D crane's configurations are measured on: its diagonal move.
+pub const SCENE_3D: &str = "scenes/crane3d-diagonal.toml";
 
 /// The step sizes: the test bench's 10 ms, and 1 ms (where Radau is 30× more accurate).
 pub const STEP_SIZES: [&str; 2] = ["0.01", "0.001"];
@@ -30,34 +34,49 @@ pub const STEP_SIZES: [&str; 2] = ["0.01", "0.001"];
 /// measured twice: on the bare move (`PointToPoint`, as the studies drive the model) and
 /// on the firmware's trajectory type, a `Plan` holding the same move — what the MCU
 /// steps on (issue 20: the plan once cost 28 % more per step than the move it holds).
-pub const CONFIGURATIONS: [(&str, &[&str]); 8] = [
-    ("BDF4 exact", &["scheme=bdf4", "jacobian=exact"]),
+pub const CONFIGURATIONS: [(&str, &str, &[&str]); 10] = [
+    ("BDF4 exact", SCENE, &["scheme=bdf4", "jacobian=exact"]),
     (
         "BDF4 exact, structured",
+        SCENE,
         &["scheme=bdf4", "newton=structured"],
     ),
     (
         "BDF4 exact, structured, Plan",
+        SCENE,
         &["scheme=bdf4", "newton=structured", "trajectory=plan"],
     ),
-    ("Radau exact", &["scheme=radau", "jacobian=exact"]),
-    ("Radau J̃₁₀", &["scheme=radau", "jacobian=jt10"]),
+    ("Radau exact", SCENE, &["scheme=radau", "jacobian=exact"]),
+    ("Radau J̃₁₀", SCENE, &["scheme=radau", "jacobian=jt10"]),
     (
         "Radau transformed",
+        SCENE,
         &["scheme=radau", "jacobian=transformed"],
     ),
     (
         "Radau transformed, structured",
+        SCENE,
         &["scheme=radau", "jacobian=transformed", "newton=structured"],
     ),
     (
         "Radau transformed, structured, Plan",
+        SCENE,
         &[
             "scheme=radau",
             "jacobian=transformed",
             "newton=structured",
             "trajectory=plan",
         ],
+    ),
+    (
+        "3D BDF4 exact, structured",
+        SCENE_3D,
+        &["scheme=bdf4", "newton=structured"],
+    ),
+    (
+        "3D Radau transformed, structured",
+        SCENE_3D,
+        &["scheme=radau", "jacobian=transformed", "newton=structured"],
     ),
 ];
 
@@ -93,10 +112,10 @@ pub fn instructions() -> Result<(), String> {
     ]))?;
     let program = root().join("target/release/steps");
     let mut rows = Vec::new();
-    for (label, settings) in CONFIGURATIONS {
+    for (label, scene, settings) in CONFIGURATIONS {
         let counts = STEP_SIZES
             .iter()
-            .map(|h| count(&program, settings, h))
+            .map(|h| count(&program, scene, settings, h))
             .collect::<Result<Vec<_>, _>>()?;
         rows.push((label, counts));
     }
@@ -105,7 +124,7 @@ pub fn instructions() -> Result<(), String> {
 }
 
 /// Runs `steps` under callgrind for one configuration and step size.
-fn count(program: &PathBuf, settings: &[&str], h: &str) -> Result<Count, String> {
+fn count(program: &PathBuf, scene: &str, settings: &[&str], h: &str) -> Result<Count, String> {
     // callgrind's profile is not used (the totals are on standard error); it is
     // written to the temporary directory, not into the work tree.
     let profile = std::env::temp_dir().join(format!("callgrind.steps.{}", std::process::id()));
@@ -114,10 +133,10 @@ fn count(program: &PathBuf, settings: &[&str], h: &str) -> Result<Count, String>
         .args(["--tool=callgrind", "--toggle-collect=*measured_step*"])
         .arg(format!("--callgrind-out-file={}", profile.display()))
         .arg(program)
-        .arg(SCENE)
+        .arg(scene)
         .args(settings)
         .arg(format!("h={h}"));
-    eprintln!("$ valgrind … steps {SCENE} {} h={h}", settings.join(" "));
+    eprintln!("$ valgrind … steps {scene} {} h={h}", settings.join(" "));
     let output = cmd
         .output()
         .map_err(|e| format!("cannot start valgrind: {e}"))?;
@@ -173,7 +192,8 @@ pub fn table(rows: &[(&str, Vec<Count>)]) -> String {
     let mut out = String::from(
         "\nHost instructions per step (valgrind callgrind, x86-64 release build; not time, not Cortex-M7 cycles),\n\
          the paper's crane move (scenes/paper-crane.toml, 10 s from rest), setup excluded; *Plan*: the model\n\
-         driven by the firmware's trajectory type holding the same move, not the bare move:\n\n\
+         driven by the firmware's trajectory type holding the same move, not the bare move; *3D*: the crane in\n\
+         three dimensions on its diagonal move (scenes/crane3d-diagonal.toml, 9 s from rest):\n\n\
          | instructions per step | h = 10 ms | Newton iterations / step | h = 1 ms | Newton iterations / step |\n\
          |---|---:|---:|---:|---:|\n",
     );

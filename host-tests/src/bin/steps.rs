@@ -6,7 +6,7 @@
 //!                               and newton=structured, trajectory=plan|point-to-point
 //! ```
 //!
-//! Each step goes through [`measured_step_bdf`] or [`measured_step_radau`], which are
+//! Each step goes through [`measured_step`], which is
 //! never inlined, so that `valgrind --tool=callgrind --toggle-collect='*measured_step*'`
 //! collects exactly the steps (with everything they call) and nothing of the setup:
 //! instructions per step = callgrind's `Collected` / the steps printed. The scene goes
@@ -22,52 +22,43 @@ use std::process::ExitCode;
 use host_tests::study::{jacobian_label, scheme_label, whole_steps};
 use host_tests::sweep::apply;
 use scene::{ModelSpec, ScalarSpec, Scene, SchemeSpec};
-use solver_core::models::crane_subs::{self, CraneSubs, N, NU};
+use solver_core::models::crane3d::{self, Crane3dSubs};
+use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::trajectory::Trajectory;
-use solver_core::{Error, StepReport};
+use solver_core::{DaeModel, Error, Integrator, SolverSettings};
 
-/// The crane *subs* model of the paper (Eqs. 24–28) driven by the trajectory `Z`.
-type Crane<Z> = CraneSubs<f64, Z>;
-
-/// One BDF step, the unit callgrind collects.
+/// One step of any scheme on any model, the unit callgrind collects (never inlined, so
+/// that its monomorphisations carry its name).
 #[inline(never)]
-fn measured_step_bdf<Z: Trajectory<f64, 2>>(
-    bdf: &mut crane_subs::Bdf<f64, Z>,
-    model: &Crane<Z>,
+fn measured_step<
+    M: DaeModel<f64, N, NU>,
+    I: Integrator<f64, M, N, NU>,
+    const N: usize,
+    const NU: usize,
+>(
+    integrator: &mut I,
+    model: &M,
 ) -> Result<u32, Error> {
-    bdf.step(model)
-        .map(|r: StepReport<f64, N, NU>| r.stats.iterations)
+    integrator.step(model).map(|r| r.stats.iterations)
 }
 
-/// BDF with the *subs* model's structured elimination: the firmware's default scene.
-#[inline(never)]
-fn measured_step_bdf_structured<Z: Trajectory<f64, 2>>(
-    bdf: &mut crane_subs::StructuredBdf<f64, Z>,
-    model: &Crane<Z>,
-) -> Result<u32, Error> {
-    bdf.step(model)
-        .map(|r: StepReport<f64, N, NU>| r.stats.iterations)
-}
-
-/// RADAU5 with the *subs* model's structured elimination: the firmware's Radau scene.
-#[inline(never)]
-fn measured_step_radau_structured<Z: Trajectory<f64, 2>>(
-    radau: &mut crane_subs::StructuredRadau5<f64, Z>,
-    model: &Crane<Z>,
-) -> Result<u32, Error> {
-    radau
-        .step(model)
-        .map(|r: StepReport<f64, N, NU>| r.stats.iterations)
-}
-
-#[inline(never)]
-fn measured_step_radau<Z: Trajectory<f64, 2>>(
-    radau: &mut crane_subs::Radau<f64, Z>,
-    model: &Crane<Z>,
-) -> Result<u32, Error> {
-    radau
-        .step(model)
-        .map(|r: StepReport<f64, N, NU>| r.stats.iterations)
+/// Steps `integrator` `steps` times; the Newton iterations.
+fn step_with<
+    M: DaeModel<f64, N, NU>,
+    I: Integrator<f64, M, N, NU>,
+    const N: usize,
+    const NU: usize,
+>(
+    integrator: Result<I, Error>,
+    model: &M,
+    steps: usize,
+) -> Result<u64, String> {
+    let mut integrator = integrator.map_err(|e| e.to_string())?;
+    let mut iterations = 0_u64;
+    for _ in 0..steps {
+        iterations += u64::from(measured_step(&mut integrator, model).map_err(|e| e.to_string())?);
+    }
+    Ok(iterations)
 }
 
 fn main() -> ExitCode {
@@ -130,8 +121,20 @@ fn run() -> Result<(), String> {
         .validate()
         .and_then(|()| whole_steps(&scene))
         .map_err(|e| e.to_string())?;
-    let (ModelSpec::CraneSubs(crane), ScalarSpec::F64) = (&scene.model, scene.solver.scalar) else {
-        return Err("only the crane *subs* model in f64 is measured".into());
+    if scene.solver.scalar != ScalarSpec::F64 {
+        return Err("only f64 is measured".into());
+    }
+    let crane = match &scene.model {
+        ModelSpec::CraneSubs(crane) => crane,
+        ModelSpec::Crane3dSubs(crane) if driven == Driven::PointToPoint => {
+            let iterations = step_all_3d(&scene, crane.params(), structured)?;
+            return report(&scene, structured, driven, iterations);
+        }
+        _ => {
+            return Err(
+                "only the crane *subs* models are measured (the 3D one on its bare move)".into(),
+            )
+        }
     };
     let trajectory = scene.trajectory2().map_err(|e| e.to_string())?;
     let iterations = match driven {
@@ -152,10 +155,15 @@ fn run() -> Result<(), String> {
             step_all(&scene, &model, structured)?
         }
     };
+    report(&scene, structured, driven, iterations)
+}
+
+/// The line `cargo xtask instructions` reads the steps and iterations from.
+fn report(scene: &Scene, structured: bool, driven: Driven, iterations: u64) -> Result<(), String> {
     println!(
         "{} {}{}{} h = {}: steps {}, Newton iterations {iterations}",
-        scheme_label(&scene),
-        jacobian_label(&scene),
+        scheme_label(scene),
+        jacobian_label(scene),
         if structured { " structured" } else { "" },
         if driven == Driven::Plan { " plan" } else { "" },
         scene.solver.h,
@@ -167,48 +175,42 @@ fn run() -> Result<(), String> {
 /// Steps the scene from rest to its end with the scheme it names; the Newton iterations.
 fn step_all<Z: Trajectory<f64, 2>>(
     scene: &Scene,
-    model: &Crane<Z>,
+    model: &CraneSubs<f64, Z>,
     structured: bool,
 ) -> Result<u64, String> {
-    let settings = scene.settings();
-    let steps = scene.steps();
-    let mut iterations = 0_u64;
+    let (s, k, n) = (&scene.settings(), scene.solver.k, scene.steps());
     match scene.solver.scheme {
         SchemeSpec::Bdf if structured => {
-            let mut bdf =
-                crane_subs::StructuredBdf::<f64, Z>::new(model, &settings, scene.solver.k, 0.0)
-                    .map_err(|e| e.to_string())?;
-            for _ in 0..steps {
-                iterations += u64::from(
-                    measured_step_bdf_structured(&mut bdf, model).map_err(|e| e.to_string())?,
-                );
-            }
+            step_with(crane_subs::StructuredBdf::new(model, s, k, 0.0), model, n)
         }
-        SchemeSpec::Bdf => {
-            let mut bdf = crane_subs::Bdf::<f64, Z>::new(model, &settings, scene.solver.k, 0.0)
-                .map_err(|e| e.to_string())?;
-            for _ in 0..steps {
-                iterations +=
-                    u64::from(measured_step_bdf(&mut bdf, model).map_err(|e| e.to_string())?);
-            }
-        }
+        SchemeSpec::Bdf => step_with(crane_subs::Bdf::<f64, Z>::new(model, s, k, 0.0), model, n),
         SchemeSpec::Radau if structured => {
-            let mut radau = crane_subs::StructuredRadau5::<f64, Z>::new(model, &settings, 0.0)
-                .map_err(|e| e.to_string())?;
-            for _ in 0..steps {
-                iterations += u64::from(
-                    measured_step_radau_structured(&mut radau, model).map_err(|e| e.to_string())?,
-                );
-            }
+            step_with(crane_subs::StructuredRadau5::new(model, s, 0.0), model, n)
         }
-        SchemeSpec::Radau => {
-            let mut radau = crane_subs::Radau::<f64, Z>::new(model, &settings, 0.0)
-                .map_err(|e| e.to_string())?;
-            for _ in 0..steps {
-                iterations +=
-                    u64::from(measured_step_radau(&mut radau, model).map_err(|e| e.to_string())?);
-            }
-        }
+        SchemeSpec::Radau => step_with(crane_subs::Radau::<f64, Z>::new(model, s, 0.0), model, n),
     }
-    Ok(iterations)
+}
+
+/// [`step_all`] for the 3D crane on the scene's bare move.
+fn step_all_3d(
+    scene: &Scene,
+    params: crane3d::Crane3dParams,
+    structured: bool,
+) -> Result<u64, String> {
+    let model = Crane3dSubs::new(params, scene.trajectory3().map_err(|e| e.to_string())?)
+        .map_err(|e| e.to_string())?;
+    let (s, k, n): (&SolverSettings, usize, usize) =
+        (&scene.settings(), scene.solver.k, scene.steps());
+    type Z = solver_core::trajectory::PointToPoint<f64, 3>;
+    use crane3d::subs;
+    match scene.solver.scheme {
+        SchemeSpec::Bdf if structured => {
+            step_with(subs::StructuredBdf::new(&model, s, k, 0.0), &model, n)
+        }
+        SchemeSpec::Bdf => step_with(subs::Bdf::<f64, Z>::new(&model, s, k, 0.0), &model, n),
+        SchemeSpec::Radau if structured => {
+            step_with(subs::StructuredRadau5::new(&model, s, 0.0), &model, n)
+        }
+        SchemeSpec::Radau => step_with(subs::Radau::<f64, Z>::new(&model, s, 0.0), &model, n),
+    }
 }
