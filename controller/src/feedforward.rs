@@ -157,43 +157,28 @@ impl<
     }
 }
 
-/// A feedforward whose next step can be made to fail, for the fault-injection
-/// scenarios (the QEMU build and the host tests; the drive controller's build does not
-/// link it).
+/// What a wrapper does around each step of the feedforward it wraps ([`Wrapped`]): the
+/// fault injection of the QEMU build and the host tests ([`FailNext`]), the firmware's
+/// timing of the solver.
+pub trait AroundStep {
+    /// Steps `inner` (or not), doing what the wrapper is for around it.
+    fn step<F: Feedforward>(&mut self, inner: &mut F) -> Result<FeedforwardStep, Error>;
+}
+
+/// A feedforward with something done around each of its steps ([`AroundStep`]);
+/// everything else — its time, its reference, its plan — is the inner feedforward's, so
+/// the controller, its frames and the plan see the inner one.
 #[derive(Debug, Clone)]
-pub struct Injectable<F> {
+pub struct Wrapped<F, A> {
     /// The real feedforward.
     pub inner: F,
-    fail_next: bool,
+    /// What is done around its steps.
+    pub around: A,
 }
 
-impl<F> Injectable<F> {
-    /// Wraps `inner`; nothing is injected until [`Injectable::fail_next_step`].
-    pub fn new(inner: F) -> Self {
-        Self {
-            inner,
-            fail_next: false,
-        }
-    }
-
-    /// The next step reports what Newton reports when it runs out of iterations
-    /// (the model stays where it was, as on a real failure).
-    pub fn fail_next_step(&mut self) {
-        self.fail_next = true;
-    }
-}
-
-impl<F: Feedforward + Replan> Feedforward for Injectable<F> {
+impl<F: Feedforward, A: AroundStep> Feedforward for Wrapped<F, A> {
     fn step(&mut self) -> Result<FeedforwardStep, Error> {
-        if core::mem::take(&mut self.fail_next) {
-            return Err(Error::NewtonNotConverged {
-                t: self.inner.time(),
-                iterations: 20,
-                residual: f64::INFINITY,
-                increment: f64::INFINITY,
-            });
-        }
-        self.inner.step()
+        self.around.step(&mut self.inner)
     }
     fn time(&self) -> f64 {
         self.inner.time()
@@ -203,7 +188,7 @@ impl<F: Feedforward + Replan> Feedforward for Injectable<F> {
     }
 }
 
-impl<F: Replan> Replan for Injectable<F> {
+impl<F: Replan, A> Replan for Wrapped<F, A> {
     fn plan(&self) -> &Plan<f64, 2> {
         self.inner.plan()
     }
@@ -212,5 +197,46 @@ impl<F: Replan> Replan for Injectable<F> {
     }
     fn restart_at_rest(&mut self, position: [f64; 2], t: f64) -> Result<(), Error> {
         self.inner.restart_at_rest(position, t)
+    }
+}
+
+/// A feedforward whose next step can be made to fail, for the fault-injection
+/// scenarios (the QEMU build and the host tests; the drive controller's build does not
+/// link it).
+pub type Injectable<F> = Wrapped<F, FailNext>;
+
+/// The next step fails when asked to ([`Injectable`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct FailNext {
+    fail_next: bool,
+}
+
+impl<F> Wrapped<F, FailNext> {
+    /// Wraps `inner`; nothing is injected until [`Wrapped::fail_next_step`].
+    pub fn new(inner: F) -> Self {
+        Self {
+            inner,
+            around: FailNext::default(),
+        }
+    }
+
+    /// The next step reports what Newton reports when it runs out of iterations
+    /// (the model stays where it was, as on a real failure).
+    pub fn fail_next_step(&mut self) {
+        self.around.fail_next = true;
+    }
+}
+
+impl AroundStep for FailNext {
+    fn step<F: Feedforward>(&mut self, inner: &mut F) -> Result<FeedforwardStep, Error> {
+        if core::mem::take(&mut self.fail_next) {
+            return Err(Error::NewtonNotConverged {
+                t: inner.time(),
+                iterations: 20,
+                residual: f64::INFINITY,
+                increment: f64::INFINITY,
+            });
+        }
+        inner.step()
     }
 }

@@ -117,9 +117,9 @@ mod app {
             }
         };
         #[cfg(feature = "qemu")]
-        let feedforward = crate::timed::Timed::new(controller::Injectable::new(model));
+        let feedforward = crate::timed::timed(controller::Injectable::new(model));
         #[cfg(feature = "stm32h743")]
-        let feedforward = crate::timed::Timed::new(model);
+        let feedforward = crate::timed::timed(model);
         let config = scene::CONFIG;
         if control::spawn().is_err() {
             defmt::error!("control task already running");
@@ -212,7 +212,7 @@ mod app {
                 cost = board.cost(start, board.counter());
                 // The inverse model's steps within it (`timed`): a linear count, so the
                 // ticks convert as a window from 0.
-                solver = board.cost(0, controller.feedforward_mut().take_ticks());
+                solver = board.cost(0, controller.feedforward_mut().around.take_ticks());
                 controller.record_cost(cost);
                 Some(out)
             };

@@ -8,29 +8,22 @@
 //! step; the firmware logs the sum, in the units of `Board::cost`, beside the tick's cost. Nothing else changes: the
 //! controller, its frames and the plan see the inner feedforward.
 
-use controller::feedback::Reference;
-use controller::feedforward::FeedforwardStep;
-use controller::{Feedforward, Replan};
-use solver_core::plan::Plan;
+use controller::feedforward::{AroundStep, FeedforwardStep, Wrapped};
+use controller::Feedforward;
 use solver_core::Error;
 
 use crate::board;
 
 /// A feedforward whose steps are timed with the board's solver counter.
-#[derive(Debug, Clone)]
-pub struct Timed<F> {
-    /// The feedforward the controller steps.
-    pub inner: F,
-    /// Counter ticks spent in [`Feedforward::step`] since the last [`Timed::take_ticks`].
+pub type Timed<F> = Wrapped<F, SolverTimer>;
+
+/// Counter ticks spent in [`Feedforward::step`] since the last [`SolverTimer::take_ticks`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SolverTimer {
     ticks: u32,
 }
 
-impl<F> Timed<F> {
-    /// Wraps `inner`; nothing measured yet.
-    pub fn new(inner: F) -> Self {
-        Self { inner, ticks: 0 }
-    }
-
+impl SolverTimer {
     /// The counter ticks the steps took since the last call (0: no step), and starts
     /// again from zero. In the board's counter units: `Board::cost(0, ticks)` converts.
     pub fn take_ticks(&mut self) -> u32 {
@@ -38,30 +31,20 @@ impl<F> Timed<F> {
     }
 }
 
-impl<F: Feedforward> Feedforward for Timed<F> {
-    fn step(&mut self) -> Result<FeedforwardStep, Error> {
-        let start = board::solver_counter();
-        let out = self.inner.step();
-        let spent = board::solver_elapsed(start, board::solver_counter());
-        self.ticks = self.ticks.wrapping_add(spent);
-        out
-    }
-    fn time(&self) -> f64 {
-        self.inner.time()
-    }
-    fn reference(&self) -> Reference {
-        self.inner.reference()
+/// Wraps `inner`; nothing measured yet.
+pub fn timed<F>(inner: F) -> Timed<F> {
+    Wrapped {
+        inner,
+        around: SolverTimer::default(),
     }
 }
 
-impl<F: Replan> Replan for Timed<F> {
-    fn plan(&self) -> &Plan<f64, 2> {
-        self.inner.plan()
-    }
-    fn plan_mut(&mut self) -> &mut Plan<f64, 2> {
-        self.inner.plan_mut()
-    }
-    fn restart_at_rest(&mut self, position: [f64; 2], t: f64) -> Result<(), Error> {
-        self.inner.restart_at_rest(position, t)
+impl AroundStep for SolverTimer {
+    fn step<F: Feedforward>(&mut self, inner: &mut F) -> Result<FeedforwardStep, Error> {
+        let start = board::solver_counter();
+        let out = inner.step();
+        let spent = board::solver_elapsed(start, board::solver_counter());
+        self.ticks = self.ticks.wrapping_add(spent);
+        out
     }
 }
