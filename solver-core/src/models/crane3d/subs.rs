@@ -338,17 +338,22 @@ mod tests {
 
     type Model = Crane3dSubs<f64, PointToPoint<f64, 3>>;
 
-    /// The diagonal move with hoisting: (12, 3, 8) → (20, 6, 4) m from t = 1 s to 8 s.
-    fn model() -> Model {
-        let z = PointToPoint::new(
+    /// The diagonal move with hoisting: (12, 3, 8) → (20, 6, 4) m from t = 1 s to 8 s,
+    /// of smoothness `n`.
+    fn diagonal(n: usize) -> PointToPoint<f64, 3> {
+        PointToPoint::new(
             SVector::from([12.0, 3.0, 8.0]),
             SVector::from([20.0, 6.0, 4.0]),
             1.0,
             7.0,
-            4,
+            n,
         )
-        .unwrap();
-        Crane3dSubs::new(Crane3dParams::EXAMPLE, z).unwrap()
+        .unwrap()
+    }
+
+    /// The model on the diagonal move of the paper's smoothness.
+    fn model() -> Model {
+        Crane3dSubs::new(Crane3dParams::EXAMPLE, diagonal(4)).unwrap()
     }
 
     /// A state off the solution near `(x_C, y_C, z_C)`, with every unknown non-zero.
@@ -544,14 +549,7 @@ mod tests {
     /// A trajectory that is too rough (n = 3: `u` would jump) is refused.
     #[test]
     fn rough_trajectory_is_refused() {
-        let z = PointToPoint::new(
-            SVector::from([12.0, 3.0, 8.0]),
-            SVector::from([20.0, 6.0, 4.0]),
-            1.0,
-            7.0,
-            3,
-        )
-        .unwrap();
+        let z = diagonal(3);
         assert!(matches!(
             Crane3dSubs::<f64, _>::new(Crane3dParams::EXAMPLE, z),
             Err(Error::TrajectoryTooRough {
