@@ -8,8 +8,8 @@ use heapless::Vec;
 use crate::canopen::NmtState;
 use crate::cia402::{statusword, DriveState};
 use crate::commissioning::{Commissioning, InclinometerSetup, NodeSetup, Phase, MAX_NODES};
-use crate::controller::Implausibility;
 use crate::drive::Drive;
+use crate::fault::Implausibility;
 use crate::frame::CanFrame;
 
 /// One node on the bus.

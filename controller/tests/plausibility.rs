@@ -8,8 +8,8 @@ mod common;
 use common::*;
 use controller::canopen::{self, NmtState};
 use controller::commands::Request;
-use controller::controller::Implausibility;
 use controller::drive::Drive;
+use controller::fault::Implausibility;
 use controller::virtual_bus::HEALTHY;
 use controller::{CanFrame, Fault, Mode};
 

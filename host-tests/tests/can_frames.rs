@@ -7,8 +7,8 @@ use controller::commands::{
     decode_request, request_frame, status_frame, Answer, Reject, Request, Status,
 };
 use controller::commissioning::CommissioningError;
-use controller::controller::Implausibility;
 use controller::drive::Drive;
+use controller::fault::Implausibility;
 use controller::setpoint::SetpointError;
 use controller::setpoint::{DriveLimits, SetpointGate, UNITS_PER_M_PER_S};
 use controller::{CanFrame, Fault};

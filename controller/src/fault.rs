@@ -1,0 +1,181 @@
+//! What can go wrong, as the controller reports it (the status frame's fault byte, the
+//! EMCY's error code and manufacturer bytes) and how each is met (`Reaction`):
+//! docs/COMMANDS.md.
+
+use solver_core::Error;
+
+use crate::canopen::emcy;
+use crate::canopen::NmtState;
+use crate::commissioning::CommissioningError;
+use crate::drive::Drive;
+use crate::setpoint::SetpointError;
+
+/// Why the controller left *ready* (status byte 4, EMCY's first manufacturer byte).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Fault {
+    /// The inverse model failed (Newton, singular matrix, non-finite values).
+    Solver(Error),
+    /// The choke point refused the model's set point.
+    Setpoint(SetpointError),
+    /// A drive reported a fault (statusword bit 3 or an EMCY classified as a fault).
+    DriveFault(Drive),
+    /// A drive's heartbeat stopped.
+    HeartbeatLost(Drive),
+    /// A second deadline miss within the window.
+    Deadline,
+    /// Set points could not be delivered for several cycles.
+    Undeliverable,
+    /// The model asked for motion of a drive that is not enabled.
+    DriveNotReady(Drive),
+    /// The controller was restarted by its watchdog: the 100 Hz task had stopped.
+    Watchdog,
+    /// A drive that should be operational reported boot-up, pre-operational or stopped
+    /// during a move (it rebooted or was switched by someone else).
+    DriveLeftOperational(Drive, NmtState),
+    /// A started drive's TPDOs stopped arriving.
+    TpdoTimeout(Drive),
+    /// A drive reports another mode of operation than the commissioned one, or does
+    /// not follow its set points.
+    DriveMode(Drive),
+    /// Commissioning a drive failed.
+    Commissioning(Drive, CommissioningError),
+    /// The controller was switched out of *operational* by its NMT master during a move.
+    NotOperational,
+    /// The supervisor's heartbeat stopped during a move (0x1016 of the controller).
+    SupervisorLost,
+    /// A drive reports a position or velocity it cannot have: never the basis of a
+    /// restart.
+    Implausible(Drive, Implausibility),
+    /// Another node sends with the controller's own node id.
+    DuplicateNodeId,
+}
+
+/// What is implausible about what a drive reports (the EMCY's detail byte).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum Implausibility {
+    /// Position actual (0x6064) outside the workspace by more than
+    /// [`Config::position_tolerance_m`](crate::config::Config::position_tolerance_m).
+    Position = 1,
+    /// Velocity actual (0x606C) beyond the drive's limit by more than
+    /// [`Config::overspeed`](crate::config::Config::overspeed).
+    Velocity = 2,
+    /// Position actual jumped further than the drive can move between two TPDOs.
+    Jump = 3,
+}
+
+/// How a fault is met (docs/COMMANDS.md), mildest first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) enum Reaction {
+    Controlled,
+    Quick,
+    Halt,
+}
+
+impl Fault {
+    /// The largest fault byte. `can/crane.dbc` multiplexes the EMCY's manufacturer
+    /// bytes on it: 0–15 and 17–18 a fault (15 the feedback warning), 16 the abort code
+    /// that follows a commissioning failure (`emcy::ABORT_CODE_FOLLOWS`).
+    pub const MAX_CODE: u8 = 18;
+
+    /// The fault byte of the status frame and of the EMCY, 1 to [`Fault::MAX_CODE`].
+    #[must_use]
+    pub fn code(&self) -> u8 {
+        match self {
+            Fault::Solver(_) => 1,
+            Fault::Setpoint(_) => 2,
+            Fault::DriveFault(_) => 3,
+            Fault::HeartbeatLost(_) => 4,
+            Fault::Deadline => 5,
+            Fault::Undeliverable => 6,
+            Fault::DriveNotReady(_) => 7,
+            Fault::Watchdog => 8,
+            Fault::DriveLeftOperational(..) => 9,
+            Fault::TpdoTimeout(_) => 10,
+            Fault::DriveMode(_) => 11,
+            Fault::Commissioning(..) => 12,
+            Fault::NotOperational => 13,
+            Fault::SupervisorLost => 14,
+            // 15 and 16 are taken (emcy::FEEDBACK_OFF, emcy::ABORT_CODE_FOLLOWS).
+            Fault::Implausible(..) => 17,
+            Fault::DuplicateNodeId => 18,
+        }
+    }
+
+    /// The CiA 301 error code of the EMCY.
+    #[must_use]
+    pub fn emcy_code(&self) -> u16 {
+        match self {
+            Fault::Solver(_) => emcy::INTERNAL_SOFTWARE,
+            Fault::Setpoint(_) => emcy::SETPOINT_REFUSED,
+            Fault::DriveFault(_) => emcy::DRIVE_FAULT,
+            Fault::HeartbeatLost(_) | Fault::DriveLeftOperational(..) | Fault::SupervisorLost => {
+                emcy::HEARTBEAT
+            }
+            Fault::Deadline => emcy::DEADLINE,
+            Fault::Undeliverable | Fault::NotOperational => emcy::COMMUNICATION,
+            Fault::DriveNotReady(_) => emcy::DRIVE_NOT_READY,
+            Fault::Watchdog => emcy::SOFTWARE_RESET,
+            Fault::TpdoTimeout(_) => emcy::RPDO_TIMEOUT,
+            Fault::DriveMode(_) => emcy::DRIVE_MODE,
+            Fault::Commissioning(..) => emcy::COMMISSIONING,
+            Fault::Implausible(..) => emcy::DRIVE_IMPLAUSIBLE,
+            Fault::DuplicateNodeId => emcy::CAN_ID_COLLISION,
+        }
+    }
+
+    /// The drive concerned, if any.
+    #[must_use]
+    pub fn drive(&self) -> Option<Drive> {
+        match *self {
+            Fault::DriveFault(d)
+            | Fault::HeartbeatLost(d)
+            | Fault::DriveNotReady(d)
+            | Fault::DriveLeftOperational(d, _)
+            | Fault::TpdoTimeout(d)
+            | Fault::DriveMode(d)
+            | Fault::Implausible(d, _)
+            | Fault::Commissioning(d, _) => Some(d),
+            Fault::Setpoint(
+                SetpointError::NonFinite { drive }
+                | SetpointError::OverSpeed { drive, .. }
+                | SetpointError::OverAcceleration { drive, .. },
+            ) => Some(drive),
+            _ => None,
+        }
+    }
+
+    /// The EMCY's third manufacturer byte: for a refused set point, why (1 non-finite,
+    /// 2 over speed, 3 over acceleration); for a solver failure, which (1 Newton did not
+    /// converge, 2 singular matrix, 3 non-finite value, 4 other); for a drive that left
+    /// *operational*, the NMT state it reported; otherwise 0.
+    pub(crate) fn detail(&self) -> u8 {
+        match self {
+            Fault::Setpoint(SetpointError::NonFinite { .. }) => 1,
+            Fault::Setpoint(SetpointError::OverSpeed { .. }) => 2,
+            Fault::Setpoint(SetpointError::OverAcceleration { .. }) => 3,
+            Fault::Solver(Error::NewtonNotConverged { .. }) => 1,
+            Fault::Solver(Error::SingularJacobian { .. }) => 2,
+            Fault::Solver(Error::NonFinite { .. }) => 3,
+            Fault::Solver(_) => 4,
+            Fault::DriveLeftOperational(_, state) => *state as u8,
+            Fault::Implausible(_, what) => *what as u8,
+            _ => 0,
+        }
+    }
+
+    pub(crate) fn reaction(&self) -> Reaction {
+        match self {
+            Fault::DriveFault(_)
+            | Fault::HeartbeatLost(_)
+            | Fault::DriveLeftOperational(..)
+            | Fault::TpdoTimeout(_)
+            | Fault::DriveMode(_)
+            | Fault::Implausible(..) => Reaction::Quick,
+            Fault::Undeliverable | Fault::Watchdog | Fault::Commissioning(..) => Reaction::Halt,
+            _ => Reaction::Controlled,
+        }
+    }
+}
