@@ -203,12 +203,8 @@ pub struct Controller<F, C = NoFeedback> {
     last_miss_cycle: Option<u32>,
     rpdo_failed: bool,
     failed_cycles: u32,
-    /// EMCYs to send, oldest first. A full queue keeps the oldest: the first fault is
-    /// the cause, and the two frames of a commissioning failure stay together.
-    emcy: Deque<CanFrame, EMCY_QUEUE>,
-    /// The EMCYs handed out by the last cycle, each with whether the board reported it
-    /// lost; the lost ones go back to the front of `emcy` in their original order.
-    emcy_in_flight: Vec<(CanFrame, bool), EMCY_QUEUE>,
+    /// The EMCY producer: what is to be sent and what the last cycle sent.
+    emcy: emcy::Producer<EMCY_QUEUE>,
     /// The SDO server's answer to a request received between cycles.
     sdo_answer: Option<CanFrame>,
     /// The last commissioning failure (0x2002): node, index, sub, abort code, reason.
@@ -290,8 +286,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             last_miss_cycle: None,
             rpdo_failed: false,
             failed_cycles: 0,
-            emcy: Deque::new(),
-            emcy_in_flight: Vec::new(),
+            emcy: emcy::Producer::default(),
             sdo_answer: None,
             commissioning_failure: (0, 0, 0, 0, 0),
             resetting: 0,
@@ -929,15 +924,8 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         {
             self.rpdo_failed = true;
         }
-        if id == canopen::cob::EMCY + u16::from(self.node.id) {
-            match self
-                .emcy_in_flight
-                .iter_mut()
-                .find(|(sent, lost)| !*lost && sent == frame)
-            {
-                Some((_, lost)) => *lost = true,
-                None => self.ignore(),
-            }
+        if id == canopen::cob::EMCY + u16::from(self.node.id) && !self.emcy.lost(frame) {
+            self.ignore();
         }
     }
 
@@ -1049,15 +1037,14 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 self.mode = Mode::Halted(f);
             }
         }
-        self.requeue_lost_emcys();
+        let dropped = self.emcy.requeue_lost();
+        self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(dropped);
         // EMCYs wait while the controller is stopped.
         while allowed.emcy && frames.len() + AFTER_EMCY < MAX_FRAMES {
-            let Some(emcy) = self.emcy.pop_front() else {
+            let Some(emcy) = self.emcy.hand_out() else {
                 break;
             };
             self.push(&mut frames, emcy);
-            // Room for it: both hold EMCY_QUEUE, and it was cleared above.
-            let _ = self.emcy_in_flight.push((emcy, false));
         }
         if sync {
             if !self.syncing {
@@ -1608,27 +1595,9 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
 
     /// Queues an EMCY; with the queue full, the new one is dropped and counted.
     fn send_emcy(&mut self, frame: CanFrame) {
-        if self.emcy.push_back(frame).is_err() {
+        if !self.emcy.send(frame) {
             self.ignore();
         }
-    }
-
-    /// Puts the EMCYs of the last cycle that the board reported lost back at the front
-    /// of the queue, in the order they were first sent: 0xFF10 stays ahead of its
-    /// 0xFF12 however often the bus goes off. Should the queue be full, its newest
-    /// frames make room (dropped and counted).
-    fn requeue_lost_emcys(&mut self) {
-        for (frame, lost) in self.emcy_in_flight.iter().rev() {
-            if !*lost {
-                continue;
-            }
-            if self.emcy.is_full() {
-                let _ = self.emcy.pop_back();
-                self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(1);
-            }
-            let _ = self.emcy.push_front(*frame);
-        }
-        self.emcy_in_flight.clear();
     }
 
     /// Meets a fault: the first one leaves *ready*; a later, more severe one escalates.

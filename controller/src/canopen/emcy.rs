@@ -68,3 +68,117 @@ pub const REGISTER_MANUFACTURER: u8 = 0x80;
 pub fn is_fault(code: u16, register: u8) -> bool {
     code != NO_ERROR && register & REGISTER_GENERIC != 0
 }
+
+/// The EMCY producer's queue (CiA 301 §7.2.7; CANopenNode's `CO_Emergency`): what is to
+/// be sent, oldest first, and what the last cycle handed to the board, so that a frame
+/// the board reports lost goes out again in its original order.
+#[derive(Debug, Clone)]
+pub struct Producer<const Q: usize> {
+    /// EMCYs to send, oldest first. A full queue keeps the oldest: the first fault is
+    /// the cause, and the two frames of a commissioning failure stay together.
+    queue: heapless::Deque<crate::frame::CanFrame, Q>,
+    /// The EMCYs handed out by the last cycle, each with whether the board reported it
+    /// lost; the lost ones go back to the front of `queue` in their original order.
+    in_flight: heapless::Vec<(crate::frame::CanFrame, bool), Q>,
+}
+
+impl<const Q: usize> Default for Producer<Q> {
+    fn default() -> Self {
+        Self {
+            queue: heapless::Deque::new(),
+            in_flight: heapless::Vec::new(),
+        }
+    }
+}
+
+impl<const Q: usize> Producer<Q> {
+    /// Queues `frame`; `false` when the queue is full (the frame is dropped, the oldest
+    /// kept).
+    pub fn send(&mut self, frame: crate::frame::CanFrame) -> bool {
+        self.queue.push_back(frame).is_ok()
+    }
+
+    /// Puts the frames of the last cycle that the board reported lost back at the front
+    /// of the queue, in their original order, and forgets the rest; the number of queued
+    /// frames dropped from the back to make room.
+    pub fn requeue_lost(&mut self) -> u32 {
+        let mut dropped = 0_u32;
+        for (frame, lost) in self.in_flight.iter().rev() {
+            if !*lost {
+                continue;
+            }
+            if self.queue.is_full() {
+                let _ = self.queue.pop_back();
+                dropped = dropped.saturating_add(1);
+            }
+            let _ = self.queue.push_front(*frame);
+        }
+        self.in_flight.clear();
+        dropped
+    }
+
+    /// The next frame to send this cycle, remembered as in flight.
+    pub fn hand_out(&mut self) -> Option<crate::frame::CanFrame> {
+        let frame = self.queue.pop_front()?;
+        // Room for it: both hold Q, and `requeue_lost` cleared it.
+        let _ = self.in_flight.push((frame, false));
+        Some(frame)
+    }
+
+    /// The board could not send `frame`: `false` when it was not one handed out by the
+    /// last cycle (or was reported already).
+    pub fn lost(&mut self, frame: &crate::frame::CanFrame) -> bool {
+        match self
+            .in_flight
+            .iter_mut()
+            .find(|(sent, lost)| !*lost && sent == frame)
+        {
+            Some((_, lost)) => {
+                *lost = true;
+                true
+            }
+            None => false,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use crate::canopen::emcy as frame;
+
+    fn emcy(code: u16) -> crate::frame::CanFrame {
+        frame(5, code, 0x81, [0; 5])
+    }
+
+    #[test]
+    fn a_lost_frame_goes_out_again_first_in_its_order() {
+        let mut p = Producer::<4>::default();
+        for code in [DEADLINE, DRIVE_FAULT, SETPOINT_REFUSED] {
+            assert!(p.send(emcy(code)));
+        }
+        let sent = [p.hand_out().unwrap(), p.hand_out().unwrap()];
+        assert!(p.lost(&sent[1]) && p.lost(&sent[0]));
+        assert!(!p.lost(&sent[0]), "reported once");
+        assert!(!p.lost(&emcy(HEARTBEAT)), "never handed out");
+        assert_eq!(p.requeue_lost(), 0);
+        let again: [_; 3] = core::array::from_fn(|_| p.hand_out().unwrap());
+        assert_eq!(again, [sent[0], sent[1], emcy(SETPOINT_REFUSED)]);
+        assert!(p.hand_out().is_none());
+    }
+
+    #[test]
+    fn a_full_queue_keeps_the_oldest_and_counts_what_a_requeue_drops() {
+        let mut p = Producer::<2>::default();
+        assert!(p.send(emcy(DEADLINE)));
+        let sent = p.hand_out().unwrap();
+        assert!(p.send(emcy(DRIVE_FAULT)) && p.send(emcy(HEARTBEAT)));
+        assert!(!p.send(emcy(RPDO_TIMEOUT)), "full: the new one is dropped");
+        assert!(p.lost(&sent));
+        assert_eq!(p.requeue_lost(), 1, "the newest queued frame made room");
+        assert_eq!(p.hand_out(), Some(sent));
+        assert_eq!(p.hand_out(), Some(emcy(DRIVE_FAULT)));
+        assert_eq!(p.hand_out(), None);
+    }
+}
