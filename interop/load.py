@@ -13,7 +13,7 @@ drives have no lag and there is no friction, noise or wind: a plant that is not 
 controller's model (its drives have lags of 30 and 20 ms), but the simplest one that the
 test can reason about — a swing left alone keeps its amplitude.
 
-The angle φ is the controller's (controller/src/plant.rs, the virtual bus's
+The angle φ is the controller's (sim/src/plant.rs, the virtual bus's
 inclinometer): positive with the load displaced towards +x, the load at `x + l sin φ`.
 The inclinometer reports *slope long16* (0x6010) as the controller converts it back
 (`InclinometerSetup::angle`): `slope · resolution = φ / sign + offset` in degrees, the

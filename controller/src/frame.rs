@@ -40,9 +40,11 @@ impl CanFrame {
         })
     }
 
-    /// One of the controller's own frames, whose ids and lengths are fixed by design:
-    /// the id is masked to 11 bits and the data cut at 8 bytes, so this cannot fail.
-    pub(crate) fn fixed(id: u16, data: &[u8]) -> Self {
+    /// A frame whose id and length are fixed by design (the controller's own, a
+    /// simulated node's): the id is masked to 11 bits and the data cut at 8 bytes, so
+    /// this cannot fail.
+    #[must_use]
+    pub fn fixed(id: u16, data: &[u8]) -> Self {
         let mut bytes = [0; 8];
         for (b, d) in bytes.iter_mut().zip(data) {
             *b = *d;

@@ -8,17 +8,14 @@
 //! * [`feedforward`] — the inverse model behind a one-step-per-cycle trait, with its plan;
 //! * [`commands`] — move, stop and reset requests, and the status answer;
 //! * [`planner`] — the checks a move or a stop passes before it is accepted;
-//! * `virtual_bus`, `traffic` (feature `sim`, on by default, off in the drive
-//!   controller's build) — simulated stock CiA 402 drives, scenarios and random traffic
-//!   for the QEMU runs, the host tests and the fuzzer;
-//! * `plant` (feature `sim`) — a crane that is not the model (lags, friction, rope
-//!   offset, gust, noisy late sensors) for the closed-loop runs;
 //! * [`feedback`] — the state feedback around the inverse model (Fig. 1);
 //! * [`rope`] — the rope's true length learnt from the swing, a commissioning step;
 //! * [`transmit`] — the transmit queue that keeps a cycle's frames in order and names every loss;
 //! * [`controller`] — the 100 Hz cycle and the reaction to every fault, with injected time.
 //!
-//! The boards (QEMU, STM32H743) only move frames and call [`Controller::tick`].
+//! The boards (QEMU, STM32H743) only move frames and call [`Controller::tick`]. The
+//! simulation the QEMU board, the host tests and the fuzzer run it against (virtual bus,
+//! scenarios, traffic, plant) is the crate `sim`.
 
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
@@ -45,15 +42,9 @@ pub mod frame;
 mod links;
 pub mod node;
 pub mod planner;
-#[cfg(feature = "sim")]
-pub mod plant;
 pub mod rope;
 pub mod setpoint;
-#[cfg(feature = "sim")]
-pub mod traffic;
 pub mod transmit;
-#[cfg(feature = "sim")]
-pub mod virtual_bus;
 
 pub use controller::{Config, Controller, Counters, Cycle, Fault, Mode};
 pub use feedforward::{Feedforward, FeedforwardStep, Injectable, InverseModel, Replan};

@@ -16,12 +16,10 @@ use controller::commands::Request;
 use controller::commissioning::{InclinometerSetup, NodeSetup};
 use controller::drive::Drive;
 use controller::feedback::{self, Correction, NoFeedback, StateFeedback};
-use controller::plant::{Gust, Mismatch};
 use controller::setpoint::DriveLimits;
-use controller::virtual_bus::{
-    run_cycle, Action, Ending, Event, Scenario, SensorFault, VirtualBus,
-};
 use controller::{Config, Controller, Cycle, Mode};
+use sim::plant::{Gust, Mismatch};
+use sim::{run_cycle, Action, Ending, Event, Scenario, SensorFault, VirtualBus};
 
 /// The paper's move, asked at 1 s: (12, 8) → (20, 4) in 8 s.
 const MOVE: Event = Event {
@@ -360,9 +358,7 @@ fn after_a_fault_the_model_restarts_where_the_drives_measure_the_crane() {
 
 #[test]
 fn the_firmware_scenarios_of_the_feedback_scene() {
-    use controller::virtual_bus::{
-        CLOSED_LOOP, FEEDBACK_SCENARIOS, GUST, INCLINOMETER_LOST, INCLINOMETER_STUCK,
-    };
+    use sim::{CLOSED_LOOP, FEEDBACK_SCENARIOS, GUST, INCLINOMETER_LOST, INCLINOMETER_STUCK};
     assert_eq!(
         FEEDBACK_SCENARIOS.map(|s| s.name),
         [

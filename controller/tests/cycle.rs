@@ -13,9 +13,9 @@ use controller::commands::{request_frame, Request};
 use controller::commissioning::{CommissioningError, Phase};
 use controller::drive::Drive;
 use controller::setpoint::{SetpointError, UNITS_PER_M_PER_S};
-use controller::virtual_bus::{Action, HEALTHY};
 use controller::{CanFrame, Config, Fault, Mode, Replan};
 use nalgebra::SVector;
+use sim::{Action, HEALTHY};
 use solver_core::trajectory::PointToPoint;
 
 fn ids(frames: &[CanFrame]) -> Vec<u16> {

@@ -10,8 +10,8 @@ use controller::canopen::{nmt, NmtCommand, NmtState};
 use controller::commands::{Answer, Request, STATUS_ID};
 use controller::drive::Drive;
 use controller::node::Role;
-use controller::virtual_bus::HEALTHY;
 use controller::{Config, Cycle, Mode, Replan};
+use sim::HEALTHY;
 
 /// The COB-IDs the controller sent in `cycles`.
 fn sent(cycles: &[Cycle]) -> Vec<u16> {

@@ -10,8 +10,8 @@ use controller::canopen::{self, NmtState};
 use controller::commands::Request;
 use controller::drive::Drive;
 use controller::fault::Implausibility;
-use controller::virtual_bus::HEALTHY;
 use controller::{CanFrame, Fault, Mode};
+use sim::HEALTHY;
 
 /// The trolley's TPDO2 with position actual `x` m (µm units, CSV).
 fn trolley_at(x: f64) -> CanFrame {
@@ -74,8 +74,7 @@ fn a_position_jump_mid_move_is_a_fault() {
     rig.run(20);
     send(&mut rig, Request::Reset { id: 7 });
     assert_eq!(answers(&rig.run(2)), [(7, 3, 2)]);
-    rig.bus
-        .inject(controller::virtual_bus::Action::PowerOn(Drive::Trolley));
+    rig.bus.inject(sim::Action::PowerOn(Drive::Trolley));
     rig.until(150, rig_ready_to_reset);
     send(&mut rig, Request::Reset { id: 8 });
     assert_eq!(answers(&rig.run(2)), [(8, 1, 0)]);

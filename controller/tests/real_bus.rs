@@ -10,8 +10,8 @@ use controller::commands::{Request, STATUS_ID};
 use controller::commissioning::{CommissioningError, Phase};
 use controller::drive::Drive;
 use controller::node::Role;
-use controller::virtual_bus::{Action, Quirk, HEALTHY};
 use controller::{CanFrame, Config, Cycle, Fault, Mode};
+use sim::{Action, Quirk, HEALTHY};
 
 fn frames_with(cycles: &[Cycle], id: u16) -> Vec<Vec<u8>> {
     cycles

@@ -10,9 +10,9 @@ use std::collections::BTreeMap;
 use common::*;
 use controller::commands::Request;
 use controller::controller::{ANSWER_QUEUE, REPEAT_WINDOW_MS, STATUS_PER_CYCLE, STOP_ANSWERS};
-use controller::virtual_bus::HEALTHY;
 use controller::{Mode, Replan};
 use nalgebra::SVector;
+use sim::HEALTHY;
 
 const TARGET: [f64; 2] = [20.0, 5.0];
 

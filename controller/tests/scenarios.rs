@@ -1,5 +1,5 @@
 //! The virtual bus's scenarios, run on the host exactly as the QEMU firmware runs them
-//! (`virtual_bus::run_cycle`): each ends in the state docs/COMMANDS.md documents, with
+//! (`sim::run_cycle`): each ends in the state docs/COMMANDS.md documents, with
 //! the answers, modes and EMCYs it documents, and every set point within the limits.
 
 mod common;
@@ -7,8 +7,8 @@ mod common;
 use common::*;
 use controller::cia402::controlword as cw;
 use controller::drive::Drive;
-use controller::virtual_bus::{self, Scenario};
 use controller::{Fault, Mode, Replan};
+use sim::Scenario;
 use solver_core::Error;
 
 /// Runs a scenario with the paper's move planned, as the firmware does; checks the limits.
@@ -57,7 +57,7 @@ const READY: (u32, Mode) = (750, Mode::Ready);
 
 #[test]
 fn healthy_follows_the_paper_move_and_rests_at_the_target() {
-    let (rig, cycles) = play(virtual_bus::HEALTHY);
+    let (rig, cycles) = play(sim::HEALTHY);
     assert_eq!(modes(&cycles), vec![(0, Mode::Enabling), READY]);
     assert_at_rest(&rig, &cycles, [20.0, 4.0]);
     assert!(emcys(&cycles).is_empty());
@@ -66,7 +66,7 @@ fn healthy_follows_the_paper_move_and_rests_at_the_target() {
 
 #[test]
 fn two_moves_back_to_back_the_second_queued() {
-    let (rig, cycles) = play(virtual_bus::TWO_MOVES);
+    let (rig, cycles) = play(sim::TWO_MOVES);
     assert_eq!(
         answers(&cycles),
         vec![(1, 1, 0), (2, 2, 0)],
@@ -78,7 +78,7 @@ fn two_moves_back_to_back_the_second_queued() {
 
 #[test]
 fn rejections_give_every_reason_and_change_nothing() {
-    let (rig, cycles) = play(virtual_bus::REJECTIONS);
+    let (rig, cycles) = play(sim::REJECTIONS);
     let expected = vec![
         (1, 3, 2),   // not ready
         (2, 2, 0),   // queued
@@ -104,8 +104,8 @@ fn rejections_give_every_reason_and_change_nothing() {
 
 #[test]
 fn a_storm_of_garbage_is_counted_and_changes_no_set_point() {
-    let (rig, noisy) = play(virtual_bus::STORM);
-    let (_, clean) = play(virtual_bus::HEALTHY);
+    let (rig, noisy) = play(sim::STORM);
+    let (_, clean) = play(sim::HEALTHY);
     assert_eq!(rig.c.counters().frames_ignored, 100);
     for (i, (a, b)) in clean.iter().zip(&noisy).enumerate() {
         assert_eq!(a.setpoints, b.setpoints, "cycle {i}");
@@ -118,7 +118,7 @@ fn a_storm_of_garbage_is_counted_and_changes_no_set_point() {
 
 #[test]
 fn drive_fault_quick_stops_halts_and_recovers_after_a_reset() {
-    let (rig, cycles) = play(virtual_bus::DRIVE_FAULT);
+    let (rig, cycles) = play(sim::DRIVE_FAULT);
     let fault = Fault::DriveFault(Drive::Winch);
     let m = modes(&cycles);
     assert_eq!(
@@ -170,7 +170,7 @@ fn drive_fault_quick_stops_halts_and_recovers_after_a_reset() {
 
 #[test]
 fn newton_failure_ramps_down_then_halts() {
-    let (_, cycles) = play(virtual_bus::NEWTON_FAILURE);
+    let (_, cycles) = play(sim::NEWTON_FAILURE);
     let fault = Fault::Solver(Error::NewtonNotConverged {
         t: 5.0,
         iterations: 20,
@@ -195,7 +195,7 @@ fn newton_failure_ramps_down_then_halts() {
 
 #[test]
 fn lost_heartbeat_quick_stops_and_halts() {
-    let (_, cycles) = play(virtual_bus::LOST_HEARTBEAT);
+    let (_, cycles) = play(sim::LOST_HEARTBEAT);
     // The silent drive's TPDOs stop with its heartbeat: the last arrived at 4.00 s
     // (answering the SYNC of 3.99 s), and they are lost when more than 50 ms old — long
     // before its heartbeat (300 ms).
@@ -211,7 +211,7 @@ fn lost_heartbeat_quick_stops_and_halts() {
 
 #[test]
 fn stop_request_brings_the_load_to_rest_smoothly() {
-    let (rig, cycles) = play(virtual_bus::STOP);
+    let (rig, cycles) = play(sim::STOP);
     assert_eq!(answers(&cycles), vec![(1, 1, 0)]);
     assert_eq!(
         modes(&cycles),
@@ -228,7 +228,7 @@ fn stop_request_brings_the_load_to_rest_smoothly() {
             .rposition(|c| c.setpoints.iter().any(|s| s.units() != 0))
             .unwrap()
     };
-    let (_, healthy) = play(virtual_bus::HEALTHY);
+    let (_, healthy) = play(sim::HEALTHY);
     assert!(
         last_motion(&cycles) + 95 < last_motion(&healthy),
         "{} vs {} cycles",
@@ -239,7 +239,7 @@ fn stop_request_brings_the_load_to_rest_smoothly() {
 
 #[test]
 fn bus_off_is_counted_then_halts_when_set_points_cannot_be_delivered() {
-    let (rig, cycles) = play(virtual_bus::BUS_OFF);
+    let (rig, cycles) = play(sim::BUS_OFF);
     let m = modes(&cycles);
     assert_eq!(m[..2], [(0, Mode::Enabling), READY]);
     // 3.00–3.01 s off: two failed cycles, no fault. 6.00–6.04 s off: the third failed
@@ -285,7 +285,7 @@ fn assert_controlled_stop(cycles: &[controller::Cycle], from: usize) {
 #[test]
 fn a_hang_restarts_the_controller_halted_until_a_reset() {
     // First boot: the paper's move until the hang at 5 s stops the cycle.
-    let mut rig = Rig::new(virtual_bus::HANG, true);
+    let mut rig = Rig::new(sim::HANG, true);
     let mut ran = 0;
     while rig.try_cycle().is_some() {
         ran += 1;
@@ -293,10 +293,10 @@ fn a_hang_restarts_the_controller_halted_until_a_reset() {
     assert_eq!(ran, 500, "the 100 Hz task stopped at 5 s");
     // Second boot, as the firmware comes up after the watchdog's reset: no scene move,
     // halted, the hang not repeated.
-    let mut rig = Rig::with(feedforward(HOME, None), virtual_bus::HANG);
+    let mut rig = Rig::with(feedforward(HOME, None), sim::HANG);
     rig.bus = rig.bus.clone().without_hangs();
     rig.c.restarted_by_watchdog();
-    let cycles = rig.run(virtual_bus::HANG.cycles as usize);
+    let cycles = rig.run(sim::HANG.cycles as usize);
     assert_within_limits(&cycles, &mut [0; 2]);
     let m = modes(&cycles);
     assert_eq!(
@@ -326,12 +326,12 @@ fn a_hang_restarts_the_controller_halted_until_a_reset() {
     assert!(quick_stops > 2 * 20, "{quick_stops} RPDOs");
     assert_eq!(answers(&cycles), vec![(1, 1, 0)]);
     assert_at_rest(&rig, &cycles, HOME);
-    assert!(virtual_bus::HANG.ends.admits(rig.c.mode()));
+    assert!(sim::HANG.ends.admits(rig.c.mode()));
 }
 
 #[test]
 fn every_scenario_is_tested_here() {
-    let names: Vec<_> = virtual_bus::SCENARIOS.iter().map(|s| s.name).collect();
+    let names: Vec<_> = sim::SCENARIOS.iter().map(|s| s.name).collect();
     assert_eq!(
         names,
         [

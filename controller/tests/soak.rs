@@ -7,8 +7,8 @@
 mod common;
 
 use common::*;
-use controller::virtual_bus::{Scenario, SOAK};
 use controller::{Fault, Mode};
+use sim::{Scenario, SOAK};
 
 #[test]
 fn ten_minutes_of_random_traffic_keep_every_set_point_within_the_limits() {

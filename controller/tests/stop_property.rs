@@ -18,11 +18,11 @@ mod common;
 
 use common::*;
 use controller::commands::{request_frame, Request};
-use controller::virtual_bus::HEALTHY;
 use controller::{Mode, Replan};
 use nalgebra::SVector;
 use proptest::prelude::*;
 use proptest::test_runner::TestRunner;
+use sim::HEALTHY;
 use solver_core::reference::plant::crane_output;
 use solver_core::trajectory::Trajectory;
 use std::cell::RefCell;

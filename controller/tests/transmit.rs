@@ -23,8 +23,8 @@ use common::Rig;
 use controller::canopen::cob;
 use controller::drive::Drive;
 use controller::transmit::{FifoModel, Loss, Lost, Queued, TxQueue, BURST};
-use controller::virtual_bus::{Action, Quirk, HEALTHY};
 use controller::{CanFrame, Cycle, Fault, Mode};
+use sim::{Action, Quirk, HEALTHY};
 
 const TROLLEY: u16 = 0x201;
 const WINCH: u16 = 0x202;

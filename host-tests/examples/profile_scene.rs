@@ -1,9 +1,9 @@
 //! Runs one scene's controller loop (the firmware's cycle) for profiling:
 //! `valgrind --tool=callgrind target/release/examples/profile_scene scenes/paper-crane.toml`.
-use controller::virtual_bus::HEALTHY;
 use host_tests::firmware::controller_reference;
 use scene::commissioning::CommissioningFile;
 use scene::Scene;
+use sim::HEALTHY;
 
 fn main() {
     let path = std::env::args()

@@ -4,12 +4,12 @@
 use controller::feedback::{Correction, StateFeedback};
 use controller::feedforward::command_plan;
 use controller::setpoint::Setpoint;
-use controller::virtual_bus::{run_cycle, Scenario, VirtualBus};
 use controller::{CanFrame, Config, Controller, Feedforward, Injectable, Mode, Replan};
 use scene::commissioning::CommissioningFile;
 use scene::dispatch::FirmwareVisitor;
 use scene::firmware::{firmware_scene, FirmwareScene};
 use scene::Scene;
+use sim::{run_cycle, Scenario, VirtualBus};
 use solver_core::plan::Plan;
 
 /// One cycle as the firmware runs it.

@@ -8,7 +8,7 @@ pub mod feedback_study;
 pub mod firmware;
 pub mod paper;
 /// The plant lives beside the virtual bus (the QEMU firmware runs it too).
-pub use controller::plant;
+pub use sim::plant;
 pub mod plot;
 pub mod root_locus;
 pub mod run;

@@ -4,8 +4,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use controller::virtual_bus::Scenario;
 use host_tests::dbc::Dbc;
+use sim::Scenario;
 
 use crate::{cargo, defmt_log, run, setup};
 

@@ -265,7 +265,7 @@ fn main_job() -> Result<(), String> {
         .map(|s| qemu::measure(s))
         .chain([qemu::measure_scenario(
             qemu::FEEDBACK_SCENE,
-            controller::virtual_bus::CLOSED_LOOP,
+            sim::CLOSED_LOOP,
         )])
         .collect::<Result<Vec<_>, _>>()?;
     let dbc = host_tests::dbc::Dbc::crane()?;
@@ -310,14 +310,14 @@ fn qemu_checks(overwrite: bool) -> Result<(), String> {
         let m = qemu::measure(scene)?;
         qemu::check(&m, overwrite)?;
     }
-    for scenario in controller::virtual_bus::SCENARIOS
+    for scenario in sim::SCENARIOS
         .into_iter()
-        .filter(|s| s.name != controller::virtual_bus::HEALTHY.name)
+        .filter(|s| s.name != sim::HEALTHY.name)
     {
         let m = qemu::measure_scenario(qemu::SCENARIO_SCENE, scenario)?;
         qemu::check(&m, overwrite)?;
     }
-    for scenario in controller::virtual_bus::FEEDBACK_SCENARIOS {
+    for scenario in sim::FEEDBACK_SCENARIOS {
         let m = qemu::measure_scenario(qemu::FEEDBACK_SCENE, scenario)?;
         qemu::check(&m, overwrite)?;
     }
@@ -343,7 +343,7 @@ fn qemu_bench() -> Result<(), String> {
         // The state feedback's cost: its scene on the plant it closes the loop around.
         .chain([qemu::measure_with_solver_flash(
             qemu::FEEDBACK_SCENE,
-            controller::virtual_bus::CLOSED_LOOP,
+            sim::CLOSED_LOOP,
         )])
         .collect::<Result<Vec<_>, _>>()?;
     print!("{}", qemu::table(&runs));

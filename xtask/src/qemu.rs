@@ -7,12 +7,12 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use controller::canopen::cob;
-use controller::virtual_bus::{Scenario, HEALTHY};
 use host_tests::dbc::Dbc;
 use host_tests::firmware::controller_reference;
 use object::{Object, ObjectSection};
 use scene::commissioning::CommissioningFile;
 use scene::Scene;
+use sim::{Scenario, HEALTHY};
 
 use crate::firmware::{self, parse_cost, parse_tx, readable_log, root, Board, StepCost};
 
@@ -37,7 +37,7 @@ pub fn feedforward_scenes() -> impl Iterator<Item = &'static str> {
 }
 
 /// The scene with the state feedback (Fig. 1): checked on the feedback scenarios of the
-/// virtual bus (`controller::virtual_bus::FEEDBACK_SCENARIOS`, a plant that is not the
+/// virtual bus (`sim::FEEDBACK_SCENARIOS`, a plant that is not the
 /// model and an inclinometer), measured by `qemu-bench` on the first of them.
 pub const FEEDBACK_SCENE: &str = "scenes/paper-crane-feedback.toml";
 

@@ -1,5 +1,5 @@
 //! `cargo xtask soak --minutes M`: the QEMU firmware through M simulated minutes of
-//! random valid and invalid requests, garbage and faults (`controller::traffic`), after
+//! random valid and invalid requests, garbage and faults (`sim::traffic`), after
 //! the default scene's move. Every frame is checked against the drive limits here,
 //! independently of the controller's choke point, and against the host's run of the
 //! same traffic.
@@ -10,8 +10,8 @@ use controller::canopen::{cob, emcy};
 use controller::commands::STATUS_ID;
 use controller::drive::Drive;
 use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
-use controller::virtual_bus::{Scenario, SOAK};
 use controller::Config;
+use sim::{Scenario, SOAK};
 
 use crate::firmware::parse_tx;
 use crate::qemu;

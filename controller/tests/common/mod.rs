@@ -6,9 +6,9 @@
 use controller::drive::Drive;
 use controller::planner::Planner;
 use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
-use controller::virtual_bus::{run_cycle, Scenario, VirtualBus};
 use controller::{Config, Controller, Cycle, Injectable, InverseModel, Mode, Replan};
 use nalgebra::SVector;
+use sim::{run_cycle, Scenario, VirtualBus};
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::plan::Plan;

@@ -1,6 +1,6 @@
 //! QEMU `mps2-an500`: a Cortex-M7 with double-precision FPU, no CAN controller.
 //!
-//! * CAN: the virtual bus compiled into this build (`controller::virtual_bus`): two
+//! * CAN: the virtual bus compiled into this build (the crate `sim`): two
 //!   simulated CiA 402 drives that answer the controller, and the scenario named on
 //!   QEMU's semihosting command line (default `healthy`). Frames go out through the
 //!   same transmit path as on the STM32H743 — `controller::transmit::TxQueue` in front
@@ -29,10 +29,10 @@
 
 use controller::board::CanPort;
 use controller::transmit::{FifoModel, Loss, Queued, TxQueue, BURST};
-pub use controller::virtual_bus::Ending;
-use controller::virtual_bus::{self, Scenario, VirtualBus};
 use controller::CanFrame;
 use heapless::Deque;
+pub use sim::Ending;
+use sim::{Scenario, VirtualBus};
 
 /// Core clock of the MPS2 board, Hz (SysTick and the APB timers run on it).
 pub const SYSCLK_HZ: u32 = 25_000_000;
@@ -176,14 +176,14 @@ pub fn scenario() -> Result<Scenario, usize> {
         )
     };
     if status != 0 {
-        return Ok(virtual_bus::HEALTHY);
+        return Ok(sim::HEALTHY);
     }
     let line = buffer.get(..block[1].min(buffer.len())).unwrap_or(&[]);
     let line = core::str::from_utf8(line).unwrap_or("");
     let mut words = line.split_ascii_whitespace().skip(1);
     let mut scenario = match words.next() {
-        None => return Ok(virtual_bus::HEALTHY),
-        Some(name) => virtual_bus::scenario(name).ok_or(name.len())?,
+        None => return Ok(sim::HEALTHY),
+        Some(name) => sim::scenario(name).ok_or(name.len())?,
     };
     if let Some(cycles) = words.next().and_then(|w| w.parse().ok()) {
         scenario.cycles = cycles;

@@ -216,7 +216,7 @@ fn reference<F: Feedforward + Replan, C: Correction>(
     r: &Reference,
 ) -> Result<(), String> {
     use controller::commands::{request_frame, Answer, Request};
-    use controller::virtual_bus::{run_cycle, VirtualBus, HEALTHY};
+    use sim::{run_cycle, VirtualBus, HEALTHY};
     let (target, duration) = (r.target, r.duration);
     let mut bus = VirtualBus::new(HEALTHY, r.start);
     let period = controller.config().period_ms;

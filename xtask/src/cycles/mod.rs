@@ -25,9 +25,9 @@ use std::path::{Path, PathBuf};
 use std::process::Stdio;
 use std::rc::Rc;
 
-use controller::virtual_bus::HEALTHY;
 use m7::{Class, Insn, Pipeline, Predictor, Setting};
 use object::{Object, ObjectSymbol};
+use sim::HEALTHY;
 
 use crate::defmt_log;
 use crate::firmware::{self, parse_cost, root, Board};
@@ -301,7 +301,7 @@ pub struct Estimate {
 /// around (as `qemu-bench` measures them).
 pub fn estimate(scene: &str) -> Result<Estimate, String> {
     let scenario = if scene == crate::qemu::FEEDBACK_SCENE {
-        controller::virtual_bus::CLOSED_LOOP
+        sim::CLOSED_LOOP
     } else {
         HEALTHY
     };

@@ -3,9 +3,10 @@
 //! (a drive fault, a silent drive, a failed solver step, a bus-off). Deterministic for a
 //! seed, so the QEMU run and the host's run of the same seed see the same bus.
 
-use crate::commands::Request;
-use crate::drive::Drive;
-use crate::virtual_bus::Action;
+use controller::commands::Request;
+use controller::drive::Drive;
+
+use crate::scenario::Action;
 
 /// One in how many cycles each kind of event happens, on average.
 mod every {

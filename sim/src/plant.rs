@@ -176,7 +176,7 @@ impl Mismatch {
     }
 
     /// The same crane with the winch's scaling corrected by the rope calibration
-    /// `(s, o)` ([`crate::rope`]): its reading becomes `(1 + s) l + o`, so the rope is
+    /// `(s, o)` ([`controller::rope`]): its reading becomes `(1 + s) l + o`, so the rope is
     /// `k (reading − o) + offset` with `k = (1 + drum_scale) / (1 + s)`.
     pub fn calibrated(&self, (s, o): (f64, f64)) -> Self {
         let k = (1.0 + self.drum_scale) / (1.0 + s);

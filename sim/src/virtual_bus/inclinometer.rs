@@ -6,11 +6,12 @@
 
 use heapless::LinearMap;
 
-use crate::canopen::sdo::{self, abort, Object, ObjectDictionary, Value};
-use crate::canopen::{self, NmtCommand, NmtState};
-use crate::frame::CanFrame;
+use controller::canopen::sdo::{self, abort, Object, ObjectDictionary, Value};
+use controller::canopen::{self, NmtCommand, NmtState};
+use controller::frame::CanFrame;
 
-use super::{refuse_write, sdo_word, store, stored, Objects, SensorFault};
+use super::{refuse_write, sdo_word, store, stored, Objects};
+use crate::scenario::SensorFault;
 
 /// The objects it holds: (index, sub) → (value, size).
 #[derive(Debug, Clone, PartialEq)]

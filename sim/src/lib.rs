@@ -1,0 +1,36 @@
+//! The simulation beside the product, as embassy keeps its mock time driver apart: what
+//! the QEMU firmware, the host tests, the virtual ECU and the fuzzer run the controller
+//! against. The drive controller's own build (STM32H743) does not link it.
+//!
+//! * [`scenario`](mod@scenario) — the vocabulary of a run (timed supervisor requests, garbage, drive
+//!   and sensor faults) and the named scenarios the QEMU checks replay;
+//! * [`virtual_bus`] — simulated stock CiA 402 drives (and, with the feature `plant`, a
+//!   CiA 410 inclinometer over a plant) that answer the controller frame by frame;
+//! * [`traffic`] — random traffic for the soak run, deterministic for a seed;
+//! * [`plant`] — a crane that is not the model (lags, friction, rope offset, gusts,
+//!   noisy late sensors) for the closed-loop runs.
+
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+#![deny(missing_docs)]
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
+pub mod plant;
+pub mod scenario;
+pub mod traffic;
+pub mod virtual_bus;
+
+pub use scenario::{
+    scenario, Action, Ending, Event, Quirk, RawFrame, Scenario, SensorFault, BUS_OFF, CLOSED_LOOP,
+    DRIVE_FAULT, FEEDBACK_SCENARIOS, GUST, HANG, HEALTHY, INCLINOMETER_LOST, INCLINOMETER_STUCK,
+    LOST_HEARTBEAT, MISMATCHED, NEWTON_FAILURE, REJECTIONS, SCENARIOS, SOAK, STOP, STORM,
+    TWO_MOVES,
+};
+#[cfg(feature = "plant")]
+pub use virtual_bus::InclinometerSim;
+pub use virtual_bus::{run_cycle, BusOff, DriveSim, VirtualBus};

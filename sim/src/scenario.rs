@@ -1,0 +1,440 @@
+//! What a run on the virtual bus is made of: timed actions of a supervisor, of the bus
+//! and of the drives (supervisor requests, garbage, a drive fault, a silenced drive, an
+//! injected solver failure, a sensor fault), the plant that is not the model, and the
+//! named scenarios the QEMU checks, the host tests and the soak run replay.
+
+use controller::canopen::NmtCommand;
+use controller::commands::Request;
+use controller::controller::Mode;
+use controller::drive::Drive;
+use controller::frame::CanFrame;
+
+use crate::plant::{Gust, Mismatch};
+
+/// A frame as `const` data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RawFrame {
+    /// 11-bit identifier.
+    pub id: u16,
+    /// Number of data bytes.
+    pub len: u8,
+    /// Data.
+    pub data: [u8; 8],
+}
+
+impl RawFrame {
+    /// The frame (id masked to 11 bits, length capped at 8).
+    #[must_use]
+    pub fn frame(&self) -> CanFrame {
+        CanFrame::fixed(
+            self.id,
+            self.data.get(..usize::from(self.len.min(8))).unwrap_or(&[]),
+        )
+    }
+}
+
+/// What happens at a scenario's event.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Action {
+    /// The supervisor sends a request.
+    Request(Request),
+    /// A frame appears on the bus (garbage, malformed, foreign).
+    Frame(RawFrame),
+    /// `count` frames of garbage appear.
+    Storm {
+        /// How many.
+        count: u8,
+    },
+    /// The drive goes to *fault* (statusword bit 3) and sends an EMCY.
+    DriveFault(Drive),
+    /// The drive falls silent (no heartbeat, no TPDO).
+    Silence(Drive),
+    /// The drive drops to *switch on disabled* without a fault (safe torque off).
+    DropOut(Drive),
+    /// A silent drive talks again.
+    Revive(Drive),
+    /// The drive sends an EMCY warning (error register without the generic bit).
+    DriveWarning(Drive),
+    /// The drive loses power (silent, forgets everything).
+    PowerOff(Drive),
+    /// The drive is powered (again): it boots, sends its boot-up message, and waits
+    /// pre-operational in its boot configuration.
+    PowerOn(Drive),
+    /// Someone else (a service tool) sends the drive this NMT command.
+    Nmt(Drive, NmtCommand),
+    /// The drive behaves unlike a stock one from now on.
+    Quirk(Drive, Quirk),
+    /// The inverse model's next step fails (the firmware's solver-fault injection).
+    SolverFailure,
+    /// The firmware hangs: its 100 Hz task stops (the watchdog's case).
+    Hang,
+    /// The controller's transmissions fail for `cycles` cycles (bus-off, then recovery).
+    BusOff {
+        /// How long, in cycles.
+        cycles: u8,
+    },
+    /// The inclinometer (scenarios with a plant) fails so.
+    Sensor(SensorFault),
+}
+
+/// What can go wrong with it (the inclinometer) in a scenario.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SensorFault {
+    /// It falls silent (cable cut): no heartbeat, no TPDO.
+    Lost,
+    /// Its value freezes at the last one (a stuck pendulum), while it goes on talking.
+    Stuck,
+    /// Repaired: it talks and measures again.
+    Back,
+}
+
+/// An action at a time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Event {
+    /// Time, ms.
+    pub at_ms: u32,
+    /// What happens.
+    pub action: Action,
+}
+
+/// A named scenario: its events and how long it runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scenario {
+    /// Name (the QEMU command line selects it).
+    pub name: &'static str,
+    /// What the end state should be, for the logs.
+    pub expect: &'static str,
+    /// Events in time order.
+    pub events: &'static [Event],
+    /// Cycles to run; 0 runs the scene's own time.
+    pub cycles: u32,
+    /// Random traffic from this seed on top of the events (the soak run).
+    pub random: Option<u32>,
+    /// The mode the run must end in (the QEMU firmware's exit code says whether it did).
+    pub ends: Ending,
+    /// The crane the drives move: `None`, ideal drives that integrate their set points;
+    /// `Some`, the paper's lab crane (Tab. 3) as a plant that is not the model, with
+    /// this mismatch, and an inclinometer on the hook block (node 3).
+    pub plant: Option<Mismatch>,
+}
+
+/// The mode a scenario must end in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ending {
+    /// Ready.
+    Ready,
+    /// Halted, by the fault the scenario injects.
+    Halted,
+    /// Either (random traffic).
+    Either,
+}
+
+impl Ending {
+    /// Whether `mode` is an admissible end.
+    #[must_use]
+    pub fn admits(self, mode: Mode) -> bool {
+        match self {
+            Ending::Ready => mode == Mode::Ready,
+            Ending::Halted => matches!(mode, Mode::Halted(_)),
+            Ending::Either => true,
+        }
+    }
+}
+
+impl Scenario {
+    /// When the scenario makes the firmware hang, ms.
+    #[must_use]
+    pub fn hang_at_ms(&self) -> Option<u32> {
+        self.events
+            .iter()
+            .find(|e| e.action == Action::Hang)
+            .map(|e| e.at_ms)
+    }
+}
+
+/// A way a simulated drive differs from a well-behaved stock drive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Quirk {
+    /// It has no cyclic synchronous velocity mode: writing 0x6060 = 9 is aborted
+    /// (0x0609_0030).
+    RefusesCsv,
+    /// Its mode display 0x6061 shows this whatever 0x6060 says.
+    ReportsMode(i8),
+    /// Its TPDO statusword is this many SYNCs old.
+    StatusLag(u8),
+    /// It never answers SDO requests.
+    SdoMute,
+    /// Its velocity actual reads this, whatever it does (a coasting axis, a bad encoder).
+    ReportsVelocity(i32),
+}
+
+const fn move_to(id: u8, x: f64, z: f64, duration: f64) -> Action {
+    Action::Request(Request::Move {
+        id,
+        target: [x, z],
+        duration: if duration > 0.0 { Some(duration) } else { None },
+    })
+}
+
+const fn at(at_ms: u32, action: Action) -> Event {
+    Event { at_ms, action }
+}
+
+/// The paper's move and nothing else: healthy drives.
+pub const HEALTHY: Scenario = Scenario {
+    name: "healthy",
+    expect: "ready, at rest at (20, 4)",
+    events: &[],
+    cycles: 0,
+    random: None,
+    ends: Ending::Ready,
+    plant: None,
+};
+
+/// Two moves requested back to back after the paper's move: the first starts at once,
+/// the second (as fast as the limits allow) is queued behind it.
+pub const TWO_MOVES: Scenario = Scenario {
+    name: "two-moves",
+    expect: "ready, at rest at (15, 6); answers: 1 accepted, 2 queued",
+    events: &[
+        at(9_500, move_to(1, 16.0, 5.0, 6.0)),
+        at(9_600, move_to(2, 15.0, 6.0, 0.0)),
+    ],
+    cycles: 2_000,
+    random: None,
+    ends: Ending::Ready,
+    plant: None,
+};
+
+/// Every rejection reason once: a move while the drives are being commissioned (not
+/// ready), one queued behind the paper's move and one more (busy), then, from (18, 5), one request
+/// per remaining reason and a valid move as fast as the limits allow.
+pub const REJECTIONS: Scenario = Scenario {
+    name: "rejections",
+    expect: "ready, at rest at (16, 6); reasons 2, 1, 3, 4, 5, 6, 7, 8, 9, 10 given once each",
+    events: &[
+        at(0, move_to(1, 14.0, 6.0, 4.0)), // 2 not ready: the drives are being enabled
+        at(800, move_to(2, 18.0, 5.0, 4.0)), // queued behind the paper's move: 9 s to 13 s
+        at(900, move_to(3, 14.0, 6.0, 4.0)), // 1 busy: a move is already queued
+        at(13_100, move_to(4, 0.0, 5.0, 8.0)), // 3 invalid: x = 0
+        at(13_200, move_to(5, 24.0, 5.0, 8.0)), // 4 trolley workspace
+        at(13_300, move_to(6, 18.0, 10.0, 8.0)), // 5 rope workspace
+        at(13_400, move_to(7, 18.0, 6.5, 1.0)), // 6 slack rope
+        at(13_500, move_to(8, 17.0, 5.0, 1.5)), // 7 trolley velocity
+        at(13_600, move_to(9, 18.0, 7.0, 2.5)), // 8 winch velocity
+        at(13_700, move_to(10, 18.5, 5.0, 2.5)), // 9 trolley acceleration
+        at(13_800, move_to(11, 18.0, 5.4, 1.0)), // 10 winch acceleration
+        at(13_900, move_to(12, 16.0, 6.0, 0.0)), // accepted, as fast as the limits allow
+    ],
+    cycles: 1_900,
+    random: None,
+    ends: Ending::Ready,
+    plant: None,
+};
+
+/// A storm of malformed and unknown frames during the move: ignored, counted, no effect.
+pub const STORM: Scenario = Scenario {
+    name: "storm",
+    expect: "ready, at rest at (20, 4); 100 frames ignored, set points as in healthy",
+    events: &[
+        at(2_000, Action::Storm { count: 20 }),
+        at(3_000, Action::Storm { count: 20 }),
+        at(4_000, Action::Storm { count: 20 }),
+        at(5_000, Action::Storm { count: 20 }),
+        at(6_000, Action::Storm { count: 20 }),
+    ],
+    cycles: 0,
+    random: None,
+    ends: Ending::Ready,
+    plant: None,
+};
+
+/// The winch drive faults in the middle of the move: quick stop, halted; then a reset.
+pub const DRIVE_FAULT: Scenario = Scenario {
+    name: "drive-fault",
+    expect: "ready, at rest; the winch's fault at 5 s: quick stop, halted, reset at 8 s",
+    events: &[
+        at(5_000, Action::DriveFault(Drive::Winch)),
+        at(8_000, Action::Request(Request::Reset { id: 1 })),
+    ],
+    cycles: 1_000,
+    random: None,
+    ends: Ending::Ready,
+    plant: None,
+};
+
+/// The inverse model fails in the middle of the move: controlled stop, halted.
+pub const NEWTON_FAILURE: Scenario = Scenario {
+    name: "newton-failure",
+    expect: "halted after the solver's failure at 5 s and a controlled stop",
+    events: &[at(5_000, Action::SolverFailure)],
+    cycles: 0,
+    random: None,
+    ends: Ending::Halted,
+    plant: None,
+};
+
+/// The trolley drive falls silent in the middle of the move: quick stop, halted.
+pub const LOST_HEARTBEAT: Scenario = Scenario {
+    name: "lost-heartbeat",
+    expect: "halted after the trolley's heartbeat stopped at 4 s",
+    events: &[at(4_000, Action::Silence(Drive::Trolley))],
+    cycles: 0,
+    random: None,
+    ends: Ending::Halted,
+    plant: None,
+};
+
+/// A stop request in the middle of the move: the load comes to rest smoothly, a
+/// second before the move would have ended.
+pub const STOP: Scenario = Scenario {
+    name: "stop",
+    expect: "ready, at rest short of (20, 4) after a smooth stop from 4 s to 8 s",
+    events: &[at(4_000, Action::Request(Request::Stop { id: 1 }))],
+    cycles: 0,
+    random: None,
+    ends: Ending::Ready,
+    plant: None,
+};
+
+/// The bus goes off twice in the middle of the move: for 2 cycles (counted, the move
+/// goes on), then for 5 (the set points cannot be delivered: halted).
+pub const BUS_OFF: Scenario = Scenario {
+    name: "bus-off",
+    expect: "halted after the second bus-off at 6 s; 2 + 3 cycles of failed transmissions",
+    events: &[
+        at(3_000, Action::BusOff { cycles: 2 }),
+        at(6_000, Action::BusOff { cycles: 5 }),
+    ],
+    cycles: 0,
+    random: None,
+    ends: Ending::Halted,
+    plant: None,
+};
+
+/// The firmware hangs in the middle of the move: the watchdog restarts it, it boots
+/// halted (reset cause logged, EMCY 0x6010) and a supervisor's reset enables it again.
+pub const HANG: Scenario = Scenario {
+    name: "hang",
+    expect:
+        "restarted by the watchdog after the hang at 5 s; halted, then ready after the reset at 1 s",
+    events: &[
+        at(1_000, Action::Request(Request::Reset { id: 1 })),
+        at(5_000, Action::Hang),
+    ],
+    cycles: 800,
+    random: None,
+    ends: Ending::Ready,
+    plant: None,
+};
+
+/// Every scenario, by name.
+pub const SCENARIOS: [Scenario; 10] = [
+    HEALTHY,
+    TWO_MOVES,
+    REJECTIONS,
+    STORM,
+    DRIVE_FAULT,
+    NEWTON_FAILURE,
+    LOST_HEARTBEAT,
+    STOP,
+    BUS_OFF,
+    HANG,
+];
+
+/// The lab crane as a plant that is not the model, for the state feedback's scenarios:
+/// the trolley's drive 30 % slower than τ1, the winch's 30 % faster than τ2, the rope
+/// 1.5 % longer than the drum says and 80 mm more (the hook block), 2 mm/s Coulomb and 2 % viscous droop on both axes,
+/// the study's sensors (docs/RESULTS.md); no gust.
+pub const MISMATCHED: Mismatch = Mismatch {
+    tau1: 0.3,
+    tau2: -0.3,
+    rope_offset: 0.08,
+    drum_scale: 0.015,
+    coulomb: [0.002, 0.002],
+    viscous: [0.02, 0.02],
+    gust: Gust::NONE,
+    position_noise: Mismatch::SENSORS.0,
+    angle_noise: Mismatch::SENSORS.1,
+    noise_seed: 7,
+    swing0: 0.0,
+};
+
+/// The scene's move on [`MISMATCHED`] with an 8 N gust for 1.5 s in the middle of it.
+pub const CLOSED_LOOP: Scenario = Scenario {
+    name: "closed-loop",
+    expect: "ready; the load within ±50 mm of (20, 4) and swinging < 0.1° from 14 s",
+    events: &[],
+    cycles: 0,
+    random: None,
+    ends: Ending::Ready,
+    plant: Some(Mismatch {
+        gust: Gust {
+            start: 4.0,
+            duration: 1.5,
+            amplitude: 8.0,
+        },
+        ..MISMATCHED
+    }),
+};
+
+/// The scene's move on [`MISMATCHED`], then a 10 N gust for 1 s on the load at rest.
+pub const GUST: Scenario = Scenario {
+    name: "gust",
+    expect: "ready; the swing the gust excites at rest damped by the feedback",
+    events: &[],
+    cycles: 0,
+    random: None,
+    ends: Ending::Ready,
+    plant: Some(Mismatch {
+        gust: Gust {
+            start: 10.5,
+            duration: 1.0,
+            amplitude: 10.0,
+        },
+        ..MISMATCHED
+    }),
+};
+
+/// [`CLOSED_LOOP`] with the inclinometer falling silent at 5 s.
+pub const INCLINOMETER_LOST: Scenario = Scenario {
+    name: "inclinometer-lost",
+    expect: "ready; feedforward only from 5 s (EMCY 0xFF20, angle lost), no fault",
+    events: &[at(5_000, Action::Sensor(SensorFault::Lost))],
+    ..CLOSED_LOOP
+};
+
+/// [`CLOSED_LOOP`] with the inclinometer's value frozen from 3 s.
+pub const INCLINOMETER_STUCK: Scenario = Scenario {
+    name: "inclinometer-stuck",
+    expect: "ready; feedforward only once the frozen angle is caught (EMCY 0xFF20, reason 4 stuck), no fault",
+    events: &[at(3_000, Action::Sensor(SensorFault::Stuck))],
+    ..CLOSED_LOOP
+};
+
+/// The scenarios of a scene with the state feedback (`scenes/paper-crane-feedback.toml`).
+pub const FEEDBACK_SCENARIOS: [Scenario; 4] =
+    [CLOSED_LOOP, GUST, INCLINOMETER_LOST, INCLINOMETER_STUCK];
+
+/// The soak run: random valid and invalid requests, garbage and faults after the
+/// paper's move, for as many cycles as asked (`cargo xtask soak --minutes M`; one
+/// simulated minute by default).
+pub const SOAK: Scenario = Scenario {
+    name: "soak",
+    expect: "every set point finite and within the limits, whatever the traffic",
+    events: &[],
+    cycles: 6_000,
+    random: Some(0x5EED_C0DE),
+    ends: Ending::Either,
+    plant: None,
+};
+
+/// The scenario of this name (the checked ones and the soak run).
+#[must_use]
+pub fn scenario(name: &str) -> Option<Scenario> {
+    SCENARIOS
+        .into_iter()
+        .chain(FEEDBACK_SCENARIOS)
+        .chain([SOAK])
+        .find(|s| s.name == name)
+}
