@@ -15,6 +15,7 @@
 //!   offset, gust, noisy late sensors) for the closed-loop runs;
 //! * [`feedback`] — the state feedback around the inverse model (Fig. 1);
 //! * [`rope`] — the rope's true length learnt from the swing, a commissioning step;
+//! * [`zero`] — the inclinometer's offset: the angle's DC that the pendulum cannot make;
 //! * [`transmit`] — the transmit queue that keeps a cycle's frames in order and names every loss;
 //! * [`controller`] — the 100 Hz cycle and the reaction to every fault, with injected time.
 //!
@@ -52,6 +53,7 @@ pub mod traffic;
 pub mod transmit;
 #[cfg(feature = "sim")]
 pub mod virtual_bus;
+pub mod zero;
 
 pub use controller::{Config, Controller, Counters, Cycle, Fault, Mode};
 pub use feedforward::{Feedforward, FeedforwardStep, Injectable, InverseModel, Replan};
