@@ -120,6 +120,8 @@ fn beyond_dead_band(o: f64) -> f64 {
     }
 }
 
+use crate::feedback::Reference;
+
 /// `ω³/(s + ω)³` as a state-variable filter: its states are the filtered signal and
 /// its first two derivatives.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -129,6 +131,20 @@ struct Derivatives {
 }
 
 impl Derivatives {
+    /// Starts on a signal `u` with first two derivatives `du`, `ddu` as if it had been
+    /// following it: its states are then the filtered signal and derivatives, which
+    /// lag (`ω³/(s + ω)³ ≈ 1 − 3s/ω + 6s²/ω²`), so that no transient starts.
+    fn start(&mut self, [u, du, ddu]: [f64; 3]) -> [f64; 3] {
+        let w = CORNER;
+        self.y = [
+            u - 3.0 * du / w + 6.0 * ddu / (w * w),
+            du - 3.0 * ddu / w,
+            ddu,
+        ];
+        self.started = true;
+        self.y
+    }
+
     /// Advances by `h` with input `u` held: semi-implicit Euler in 4 sub-steps
     /// (ω h/4 = 0.015). Every signal goes through the same filter, so its error is
     /// common to both sides of the equation. The first input starts it at rest on it.
@@ -282,10 +298,16 @@ impl Zero {
     }
 
     /// A good reading `phi` (rad, as read) with the trolley at `x` and the drum's rope
-    /// `l` (m) of the same sample; `still`: the crane's reference stands still (only
-    /// then is the estimate judged steady: during a move, the equation's small errors —
-    /// the rope's length, filtered products — are larger than at rest).
-    pub fn sample(&mut self, x: f64, phi: f64, l: f64, still: bool) {
+    /// `l` (m) of the same sample, whose reference was `reference`; `still`: it stands
+    /// still (only then is the estimate judged steady: during a move, the equation's
+    /// small errors — the rope's length, filtered products — are larger than at rest).
+    ///
+    /// The first sample starts the filters with the derivatives the reference has: a
+    /// start in the middle of a move (the feedback closed on a move already under
+    /// way) takes the reading's departure from the reference's angle for an offset,
+    /// not the swing the move itself gives the load. At rest that is all of the
+    /// reading.
+    pub fn sample(&mut self, x: f64, phi: f64, l: f64, reference: &Reference, still: bool) {
         let q = phi - self.steps;
         if !(x.is_finite() && q.is_finite() && l.is_finite()) {
             self.gap();
@@ -294,9 +316,27 @@ impl Zero {
         let dt = self.h * f64::from(self.missed + 1);
         self.missed = 0;
         self.samples = self.samples.saturating_add(1);
-        let [t, _, _] = self.tan.push(libm::tan(q), dt);
-        let [_, _, ax] = self.xc.push(x + l * libm::sin(q), dt);
-        let [_, _, az] = self.zc.push(l * libm::cos(q), dt);
+        let (t, ax, az) = if self.tan.started {
+            let [t, _, _] = self.tan.push(libm::tan(q), dt);
+            let [_, _, ax] = self.xc.push(x + l * libm::sin(q), dt);
+            let [_, _, az] = self.zc.push(l * libm::cos(q), dt);
+            (t, ax, az)
+        } else {
+            let r = reference;
+            let (s, c) = (libm::sin(r.phi), libm::cos(r.phi));
+            let tan_d = libm::tan(r.phi);
+            let rate = (1.0 + tan_d * tan_d) * r.vphi;
+            let [t, _, _] = self.tan.start([libm::tan(q), rate, 0.0]);
+            // The load's acceleration along the reference: its angle's, as filtered (the
+            // filter lags by 3/ω; the winch's acceleration is not known, and is small
+            // beside g).
+            let lagged = tan_d - 3.0 * rate / CORNER;
+            let vx = r.vx + r.vl * s + r.l * c * r.vphi;
+            let [_, _, ax] = self.xc.start([x + l * libm::sin(q), vx, -self.g * lagged]);
+            let vz = r.vl * c - r.l * s * r.vphi;
+            let [_, _, az] = self.zc.start([l * libm::cos(q), vz, 0.0]);
+            (t, ax, az)
+        };
         // The angle the load's acceleration requires; a load falling freely (the rope
         // slack) tells nothing, and the estimate is held.
         let lift = self.g - az;
@@ -363,6 +403,14 @@ mod tests {
 
     const G: f64 = 9.81;
     const H: f64 = 0.01;
+    const REST: Reference = Reference {
+        x: 15.0,
+        l: 6.0,
+        phi: 0.0,
+        vx: 0.0,
+        vl: 0.0,
+        vphi: 0.0,
+    };
 
     /// A free pendulum of length `l` under a trolley that moves as `x(t)`, exact
     /// (RK4 at 1 ms), read every 10 ms with offset `bias(t)`; the offsets estimated.
@@ -382,7 +430,7 @@ mod tests {
         let steps = (seconds / H) as usize;
         for k in 0..steps {
             let t = k as f64 * H;
-            zero.sample(x(t), s[0] + bias(t), l, true);
+            zero.sample(x(t), s[0] + bias(t), l, &REST, true);
             out.push(zero.offset());
             let dt = 1e-3;
             for i in 0..10 {
@@ -470,17 +518,17 @@ mod tests {
     #[test]
     fn steps_and_gaps() {
         let mut z = Zero::new(G, H);
-        z.sample(15.0, 0.02, 6.0, true);
+        z.sample(15.0, 0.02, 6.0, &REST, true);
         z.step(0.01);
-        z.sample(15.0, 0.03, 6.0, true);
+        z.sample(15.0, 0.03, 6.0, &REST, true);
         assert!((z.offset() - 0.03).abs() < 1e-9);
         for _ in 0..=MAX_BRIDGED {
             z.gap();
         }
         // Restarted, the steps kept: the next reading is all offset.
-        z.sample(15.0, 0.05, 6.0, true);
+        z.sample(15.0, 0.05, 6.0, &REST, true);
         assert!((z.offset() - 0.05).abs() < 1e-12);
-        z.sample(f64::NAN, 0.05, 6.0, true);
+        z.sample(f64::NAN, 0.05, 6.0, &REST, true);
         assert_eq!(z.missed, 1);
     }
 }
