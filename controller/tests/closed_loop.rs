@@ -696,12 +696,18 @@ fn an_inclinometer_offset_from_power_up_moves_no_trolley_and_is_announced_at_res
     );
     assert!(d < 0.05 && swing < 0.1, "{d} m, {swing}°");
     assert!(off < 0.05, "the trolley {:.1} mm off", off * 1e3);
-    assert!(d <= d_open && swing <= swing_open, "no worse than feedforward");
+    assert!(
+        d <= d_open && swing <= swing_open,
+        "no worse than feedforward"
+    );
     let emcy = r.emcys(0xFF20);
     assert_eq!(emcy, [[0x20, 0xFF, 0x80, 15, 3, 5, 0, 0]], "reason 5, once");
     let at = r.feedback_off_at();
     eprintln!("announced at cycle {at}");
-    assert!(at > (MOVE_END_S * 100.0) as usize, "at rest, after the move");
+    assert!(
+        at > (MOVE_END_S * 100.0) as usize,
+        "at rest, after the move"
+    );
     assert_eq!(r.cycles.last().unwrap().mode, Mode::Ready, "no fault");
     assert_within_limits(&r);
 }
