@@ -4,9 +4,7 @@
 //! gust at rest, anti-windup, and zero correction on a perfect measurement.
 
 use controller::drive::Drive;
-use controller::feedback::{
-    discretise, Config, Degraded, Gains, Measurement, Mode, StateFeedback,
-};
+use controller::feedback::{discretise, Config, Degraded, Gains, Measurement, Mode, StateFeedback};
 use controller::setpoint::{DriveLimits, SetpointGate};
 use host_tests::feedback_study::{fault_study, gust_at_rest, monte_carlo, paper_reference, FAULTS};
 use nalgebra::SMatrix;
@@ -219,7 +217,10 @@ fn a_failed_inclinometer_leaves_what_it_saw_better_than_feedforward_alone() {
 #[test]
 fn a_biased_inclinometer_never_displaces_the_trolley_and_is_announced() {
     let gains = Gains::design(&Config::PAPER).unwrap();
-    assert_eq!(&FAULTS[4..], ["offset from power-up", "offset step at rest"]);
+    assert_eq!(
+        &FAULTS[4..],
+        ["offset from power-up", "offset step at rest"]
+    );
     let faults = fault_study(7, 20, &gains);
     let mut announced = 0;
     for f in &faults {
