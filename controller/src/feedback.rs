@@ -909,6 +909,15 @@ impl StateFeedback {
         }
     }
 
+    /// The reading's offset known now: what is taken out of the reading, and until the
+    /// angle is trusted the offset shown so far.
+    fn known_offset(&self) -> f64 {
+        match self.unit {
+            Some(_) => self.read_offset() + self.shown(),
+            None => self.read_offset(),
+        }
+    }
+
     /// The trolley–swing estimate the feedback acts on: until the angle is trusted, the
     /// observer's (run on the reading as it is) less its response to the offset the
     /// zero's estimate shows now beyond its dead band — all of the first reading, at
@@ -1015,17 +1024,24 @@ impl StateFeedback {
             let miss = p - predicted;
             if miss.abs() > zero::MAX_STEP
                 && miss.abs() <= self.cfg.max_innovation
-                && p.abs() <= self.cfg.max_angle
+                && (p - self.known_offset()).abs() <= self.cfg.max_angle
             {
                 self.zero.step(miss);
             }
         }
+        // Judged as the angle it reads, the offset known taken out: a 10° offset does
+        // not make a 12° swing implausible.
+        let known = if self.started {
+            self.known_offset()
+        } else {
+            0.0
+        };
         let predicted = if self.started {
             prev.phi + self.e.z + self.read_offset()
         } else {
             predicted
         };
-        let check = match check_angle(&self.cfg, phi, predicted) {
+        let check = match check_angle(&self.cfg, phi.map(|p| p - known), predicted - known) {
             AngleCheck::Good if self.started && self.watch_frozen(phi, prev, ex, obs) => {
                 AngleCheck::Frozen
             }

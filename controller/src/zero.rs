@@ -189,14 +189,16 @@ pub struct Zero {
     beyond: u32,
     /// Samples taken since the filters started.
     samples: u32,
-    /// The sum of the estimate over the current block of [`STEADY_CYCLES`] and its
-    /// samples, and the means of the last two blocks.
-    block: (f64, u32),
+    /// The sum of the drift over the current block of [`STEADY_CYCLES`], its samples
+    /// and whether the crane stood still throughout; the means of the last two blocks
+    /// and whether it stood still in each.
+    block: (f64, u32, bool),
     means: [Option<f64>; 2],
+    still_blocks: [bool; 2],
     /// The part of the drift taken out of the readings ([`Zero::fix`]), rad.
     taken: f64,
-    /// The drift when the estimate settled, brought towards nought by every later
-    /// estimate closer to it, rad ([`Zero::shown`]).
+    /// The drift when the estimate settled, brought towards nought by two steady
+    /// seconds closer to it, rad ([`Zero::shown`]).
     settled: Option<f64>,
 }
 
@@ -219,8 +221,9 @@ impl Zero {
             missed: 0,
             beyond: 0,
             samples: 0,
-            block: (0.0, 0),
+            block: (0.0, 0, true),
             means: [None; 2],
+            still_blocks: [false; 2],
             taken: 0.0,
             settled: None,
         }
@@ -232,14 +235,14 @@ impl Zero {
     /// can be fixed ([`Zero::fix`]).
     #[must_use]
     pub fn steady_at_rest(&self) -> bool {
-        self.samples >= SETTLING_CYCLES && self.steady().is_some()
+        self.samples >= SETTLING_CYCLES && self.steady_still().is_some()
     }
 
     /// The offset as far as it is shown before it is fixed, beyond the dead band,
     /// rad, the steps not counted: until the estimate has settled, the estimate (all
     /// of the first reading at first, then what the load's motion has not confirmed
     /// as a swing); then the estimate as it was when it settled, brought towards nought
-    /// by every later estimate closer to it, until the crane is at rest and it is
+    /// by two steady seconds closer to it, until the crane is at rest and it is
     /// fixed. Not the estimate as it goes on: during a move its small errors (the
     /// rope's length, filtered products) are larger than at rest, and a gust's push is
     /// a force the feedback counters; a gust blowing when the estimate settled fades
@@ -263,10 +266,18 @@ impl Zero {
         }
     }
 
+    /// [`Zero::steady`], both blocks at rest.
+    fn steady_still(&self) -> Option<f64> {
+        match self.still_blocks {
+            [true, true] => self.steady(),
+            _ => None,
+        }
+    }
+
     /// From now on the offset estimated beyond the [`DEAD_BAND`] is taken out of the
     /// readings ([`Zero::removed`]), with every step that follows.
     pub fn fix(&mut self) {
-        self.taken = beyond_dead_band(self.steady().unwrap_or(self.drift) - self.steps);
+        self.taken = beyond_dead_band(self.steady_still().unwrap_or(self.drift));
     }
 
     /// What is taken out of the readings, rad: the steps, and the drift fixed by
@@ -313,7 +324,7 @@ impl Zero {
             self.gap();
             return;
         }
-        let dt = self.h * f64::from(self.missed + 1);
+        let dt = self.h * f64::from(self.missed.saturating_add(1));
         self.missed = 0;
         self.samples = self.samples.saturating_add(1);
         let (t, ax, az) = if self.tan.started {
@@ -348,26 +359,31 @@ impl Zero {
                 self.drift + (raw - self.drift) * (1.0 - libm::exp(-dt / SMOOTHING))
             };
         }
-        if self.samples >= SETTLING_CYCLES {
-            let d = self.drift;
-            self.settled = Some(match self.settled {
-                None => d,
-                Some(s) if s * d <= 0.0 => 0.0,
-                Some(s) if d.abs() < s.abs() => d,
-                Some(s) => s,
-            });
+        let d = self.drift;
+        if self.samples >= SETTLING_CYCLES && self.settled.is_none() {
+            self.settled = Some(d);
+        }
+        let (sum, n, all_still) = self.block;
+        let n = n.saturating_add(1);
+        self.block = (sum + d, n, all_still && still);
+        if n >= STEADY_CYCLES {
+            let [_, last] = self.means;
+            let [_, last_still] = self.still_blocks;
+            self.means = [last, Some((sum + d) / f64::from(n))];
+            self.still_blocks = [last_still, all_still && still];
+            self.block = (0.0, 0, true);
+            // Two steady seconds closer to nought than the estimate when it settled (a
+            // gust blowing then has dropped) bring it there; a gust now, a transient,
+            // seldom gives two equal means.
+            if let (Some(m), Some(s)) = (self.steady(), self.settled) {
+                if s * m <= 0.0 {
+                    self.settled = Some(0.0);
+                } else if m.abs() < s.abs() {
+                    self.settled = Some(m);
+                }
+            }
         }
         let o = self.offset();
-        let (sum, n) = self.block;
-        self.block = (sum + o, n + 1);
-        if !still {
-            self.block = (0.0, 0);
-            self.means = [None; 2];
-        } else if n + 1 >= STEADY_CYCLES {
-            let [_, last] = self.means;
-            self.means = [last, Some((sum + o) / f64::from(n + 1))];
-            self.block = (0.0, 0);
-        }
         // An offset, or one that has gone since it was fixed (a steady wind dropped).
         self.beyond = if o.abs().max((o - self.removed()).abs()) > MAX_OFFSET {
             self.beyond.saturating_add(1)
