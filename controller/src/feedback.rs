@@ -44,13 +44,32 @@
 //!   changes again the trolley's correction may not grow beyond its value at the last
 //!   change plus [`Config::held_allowance`]: an angle that does not move cannot make
 //!   the feedback push harder, so a stuck one does little harm before it is caught.
+//! * **An offset angle** (review finding 12). A pendulum's angle swings about zero;
+//!   only a steady force holds it off — and a steady wind cannot be told from a biased
+//!   sensor. The inclinometer's zero ([`crate::zero`]) is the difference between the
+//!   angle read and the angle the load's measured acceleration requires: a DC
+//!   component the pendulum cannot make. The feedback never acts on it. At the start a
+//!   reading cannot yet be told from an offset, so the observer runs on the reading as
+//!   it is and the feedback acts on its estimate less the observer's response to the
+//!   offset shown so far (superposition): all of the first reading at first, then
+//!   only what the load's motion has not confirmed as a swing.
+//!   Once the estimate is steady at rest the angle is trusted: the offset is fixed and
+//!   taken out of every reading (within [`zero::DEAD_BAND`], nothing is taken out: a
+//!   healthy crane is read as before). A reading that leaves the prediction by more
+//!   than [`zero::MAX_STEP`] is a step of the zero (no pendulum jumps), taken out at
+//!   once. An offset beyond [`zero::MAX_OFFSET`] for longer than a gust
+//!   ([`zero::OFFSET_CYCLES`]) is announced once the crane rests
+//!   ([`Degraded::AngleOffset`], EMCY 0xFF20 reason 5) and the angle is no longer
+//!   read; not during a move, which the angle, its offset taken out, finishes better
+//!   than the positions alone (a gust after a fall-back mid-move is left to
+//!   feedforward).
 //! * **At rest.** With the reference still and the load within [`Config::rest_position`]
 //!   of it and swinging less than [`Config::rest_swing`] (judged over half a period),
 //!   the feedback lets go: the set points are the inverse model's, exactly zero, and the
 //!   drives hold. It takes hold again at [`REST_HYSTERESIS`] times either.
 //! * **Degraded mode.** [`degraded_rule`]: the angle missing or implausible for more
-//!   than [`Config::max_bad_angle_cycles`] cycles, or stuck → [`Mode::SwingEstimated`]:
-//!   the angle is no longer read, the swing is estimated from the trolley's measured
+//!   than [`Config::max_bad_angle_cycles`] cycles, stuck, or offset →
+//!   [`Mode::SwingEstimated`]: the angle is no longer read, the swing is estimated from the trolley's measured
 //!   motion and damped until the crane rests; with nothing to estimate from (the
 //!   observer never started, or started from the stuck reading itself), or the
 //!   positions not finite → [`Mode::FeedforwardOnly`], the correction removed within
@@ -68,6 +87,7 @@ use nalgebra::{
 
 use crate::rope::RopeLength;
 use crate::setpoint::{AxisLimits, DriveLimits};
+use crate::zero::{self, Zero};
 
 /// Number of rope lengths at which gains are designed.
 pub const GRID_POINTS: usize = 7;
@@ -559,6 +579,12 @@ pub enum Degraded {
     AngleFrozen,
     /// A position is not finite.
     PositionsInvalid,
+    /// The angle has a DC component the pendulum cannot make — a biased sensor or a
+    /// steady wind, which no test can tell apart ([`crate::zero`]) — beyond
+    /// [`zero::MAX_OFFSET`] for [`zero::OFFSET_CYCLES`]. The feedback never acted on
+    /// it (the observer reads the angle less its offset), so the estimate it goes on
+    /// with is the swing about the load's rest: nothing to undo.
+    AngleOffset,
 }
 
 /// What the feedback is doing.
@@ -603,6 +629,9 @@ pub enum AngleCheck {
     Implausible,
     /// Stuck: unchanged while the crane's own motion moved it ([`Config::frozen_motion`]).
     Frozen,
+    /// Offset: a DC component beyond [`zero::MAX_OFFSET`] for longer than a gust
+    /// ([`zero::OFFSET_CYCLES`]).
+    Offset,
 }
 
 /// Classifies a measured angle against the limits and the observer's prediction `predicted`.
@@ -638,6 +667,7 @@ pub fn degraded_rule(
         (Mode::SwingEstimated(_), _) => mode,
         (Mode::Closed, AngleCheck::Good) => Mode::Closed,
         (Mode::Closed, AngleCheck::Frozen) => Mode::SwingEstimated(Degraded::AngleFrozen),
+        (Mode::Closed, AngleCheck::Offset) => Mode::SwingEstimated(Degraded::AngleOffset),
         (Mode::Closed, _) if bad_cycles <= cfg.max_bad_angle_cycles => Mode::Closed,
         (Mode::Closed, AngleCheck::Missing) => Mode::SwingEstimated(Degraded::AngleLost),
         (Mode::Closed, _) => Mode::SwingEstimated(Degraded::AngleImplausible),
@@ -679,6 +709,15 @@ pub fn clamp_to_limits(u: f64, last: f64, limits: AxisLimits, h: f64) -> f64 {
     u.max(lo).min(hi)
 }
 
+/// Whether the reference stands still: the inverse model's set points and rates zero.
+fn still(reference: &Reference, u_d: [f64; 2]) -> bool {
+    const STILL: f64 = 1e-6;
+    u_d.iter().all(|u| u.abs() < STILL)
+        && reference.vx.abs() < STILL
+        && reference.vl.abs() < STILL
+        && reference.vphi.abs() < STILL
+}
+
 /// The output of one cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -693,6 +732,13 @@ pub struct Output {
     pub resting: bool,
     /// The estimated error state now, `[x, ẋ, φ, φ̇, l, l̇]` (measured − reference).
     pub error: [f64; 6],
+    /// The inclinometer's offset believed now ([`crate::zero`]), rad: the observer
+    /// reads the angle less the part of it judged when the angle was trusted.
+    pub offset: f64,
+    /// The angle is trusted: the zero's estimate has settled and is steady, and the
+    /// offset it showed then is taken out of every reading. Until then the feedback
+    /// acts on the observer's estimate less the offset shown so far.
+    pub trusted: bool,
 }
 
 /// The stuck-sensor watch: since the angle read last changed, the observer run on the
@@ -705,6 +751,13 @@ struct Held {
     run: Option<(Vector4<f64>, u32)>,
     /// The trolley correction when the reading last changed, m/s.
     correction: f64,
+    /// The reading's offset when it started to repeat, rad: the estimate run on the
+    /// positions alone is compared with the repeated reading less it.
+    offset: f64,
+    /// The offset shown but not yet taken out ([`StateFeedback::estimate`]) when it
+    /// started to repeat, rad: a stuck reading under a moving load is no evidence of
+    /// the offset.
+    left: f64,
 }
 
 impl Held {
@@ -712,6 +765,8 @@ impl Held {
         last: None,
         run: None,
         correction: 0.0,
+        offset: 0.0,
+        left: 0.0,
     };
 }
 
@@ -772,6 +827,16 @@ pub struct StateFeedback {
     /// The rope's length learnt from the swing, for the commissioning step (kept
     /// through a reset: the rope does not change with the feedback's mode).
     rope: RopeLength,
+    /// The inclinometer's offset ([`crate::zero`]), started with the observer: not
+    /// kept through a reset (a steady wind that has dropped would become a wrong zero;
+    /// a real offset is commissioned away, `InclinometerSetup::offset_deg`).
+    zero: Zero,
+    /// Until the angle is trusted (the zero's estimate settled and steady,
+    /// [`zero::SETTLING_CYCLES`], [`zero::STEADY_CYCLES`]): the observer's response to
+    /// a unit offset of the reading since it started, to take the offset out of the
+    /// estimate by superposition: as far as it is known yet for the feedback
+    /// ([`Self::estimate`]), and for good when it is trusted ([`Self::trust`]).
+    unit: Option<Vector4<f64>>,
 }
 
 impl StateFeedback {
@@ -800,6 +865,8 @@ impl StateFeedback {
             resting: false,
             swing: Swing::NEW,
             rope: RopeLength::new(cfg.g, cfg.h),
+            zero: Zero::new(cfg.g, cfg.h),
+            unit: None,
         }
     }
 
@@ -830,6 +897,67 @@ impl StateFeedback {
         &self.rope
     }
 
+    /// The offset taken from the reading: the steps of the zero; once the angle is
+    /// trusted, the offset fixed then too (until then the observer reads the rest as
+    /// it is, and the offset shown so far is taken out of its estimate,
+    /// [`Self::estimate`]).
+    fn read_offset(&self) -> f64 {
+        match (self.started, self.unit) {
+            (true, None) => self.zero.removed(),
+            (true, Some(_)) => self.zero.steps(),
+            (false, _) => 0.0,
+        }
+    }
+
+    /// The reading's offset known now: what is taken out of the reading, and until the
+    /// angle is trusted the offset shown so far.
+    fn known_offset(&self) -> f64 {
+        match self.unit {
+            Some(_) => self.read_offset() + self.shown(),
+            None => self.read_offset(),
+        }
+    }
+
+    /// The trolley–swing estimate the feedback acts on: until the angle is trusted, the
+    /// observer's (run on the reading as it is) less its response to the offset the
+    /// zero's estimate shows now beyond its dead band — all of the first reading, at
+    /// the start, then what the load's motion has not confirmed as a swing. So the
+    /// feedback acts from the start on what the pendulum's physics has confirmed, and
+    /// never on an offset; once trusted, the observer's.
+    fn estimate(&self) -> Vector4<f64> {
+        match self.unit {
+            Some(u) => self.e - u * self.shown(),
+            None => self.e,
+        }
+    }
+
+    /// The offset shown but not yet taken out of the readings ([`Zero::shown`]), or
+    /// while the reading repeats (it may be stuck), the one from before.
+    fn shown(&self) -> f64 {
+        match self.held.run {
+            Some(_) => self.held.left,
+            None => self.zero.shown(),
+        }
+    }
+
+    /// Once the zero's estimate is steady at rest, the angle is trusted: its offset is
+    /// fixed ([`Zero::fix`]) and taken out of the estimate — by superposition, the
+    /// observer's response to it since the start ([`Self::unit`]) times the offset —
+    /// and from then on out of every reading. Under a swing at the start the offset
+    /// is nought and nothing changes; under an offset the estimate is the one the
+    /// observer would have made from the true angle.
+    fn trust(&mut self) {
+        if let (Some(u), true, Mode::Closed) = (self.unit, self.zero.steady_at_rest(), self.mode) {
+            self.zero.fix();
+            let c = self.zero.removed() - self.zero.steps();
+            self.e -= u * c;
+            // A repeating reading is watched again from the next repeat, on the
+            // estimate now read.
+            self.held.run = None;
+            self.unit = None;
+        }
+    }
+
     /// The stuck-sensor watch for this cycle's reading `phi` of the sample whose
     /// reference was `prev`, `ex` its measured trolley error: [`AngleCheck::Frozen`]
     /// when the reading has repeated for [`Config::max_frozen_cycles`] cycles while the
@@ -852,48 +980,90 @@ impl StateFeedback {
             return false;
         }
         let (Some(p), Some((run, cycles))) = (phi, self.held.run.as_mut()) else {
-            // First repeat: watch from the observer's estimate of this sample.
-            self.held.run = Some((self.e, 0));
+            // First repeat: watch from the estimate of this sample the feedback acts on
+            // (the offset shown so far taken out).
+            self.held.left = match self.unit {
+                Some(_) => self.zero.shown(),
+                None => 0.0,
+            };
+            self.held.run = Some((self.estimate(), 0));
+            self.held.offset = self.read_offset();
             return false;
         };
         *run += position_only(obs, prev.l) * (ex - run.x);
         *cycles = cycles.saturating_add(1);
         *cycles >= self.cfg.max_frozen_cycles
-            && (prev.phi + run.z - p).abs() > self.cfg.frozen_motion
+            && (prev.phi + run.z - (p - self.held.offset - self.held.left)).abs()
+                > self.cfg.frozen_motion
     }
 
-    /// This cycle's angle `phi` against the limits, the observer's prediction (once
-    /// started: until then the load may be swinging, only the range is checked) and the
-    /// stuck-sensor watch ([`Self::watch_frozen`]).
+    /// This cycle's angle `m.phi` against the limits, the observer's prediction (once
+    /// started: until then the load may be swinging, only the range is checked), the
+    /// stuck-sensor watch ([`Self::watch_frozen`]) and the inclinometer's zero
+    /// ([`crate::zero`]): a reading that leaves the prediction by more than
+    /// [`zero::MAX_STEP`] (but not by an implausible [`Config::max_innovation`]) is a
+    /// step of the zero, not a swing; a good reading feeds the zero's estimate, whose
+    /// offset lasting beyond [`zero::MAX_OFFSET`] for [`zero::OFFSET_CYCLES`] is
+    /// [`AngleCheck::Offset`].
     fn judge_angle(
         &mut self,
-        phi: Option<f64>,
+        m: &Measurement,
         prev: &Reference,
         ex: f64,
         obs: &Matrix4x2<f64>,
+        still: bool,
     ) -> AngleCheck {
+        let phi = m.phi;
+        // The prediction of the reading: of the angle, plus the offset believed.
         let predicted = if self.started {
-            prev.phi + self.e.z
+            prev.phi + self.e.z + self.read_offset()
         } else {
             phi.unwrap_or(0.0)
         };
-        match check_angle(&self.cfg, phi, predicted) {
+        if let (Some(p), true) = (phi, self.started) {
+            let miss = p - predicted;
+            if miss.abs() > zero::MAX_STEP
+                && miss.abs() <= self.cfg.max_innovation
+                && (p - self.known_offset()).abs() <= self.cfg.max_angle
+            {
+                self.zero.step(miss);
+            }
+        }
+        // Judged as the angle it reads, the offset known taken out: a 10° offset does
+        // not make a 12° swing implausible.
+        let known = if self.started {
+            self.known_offset()
+        } else {
+            0.0
+        };
+        let predicted = if self.started {
+            prev.phi + self.e.z + self.read_offset()
+        } else {
+            predicted
+        };
+        let check = match check_angle(&self.cfg, phi.map(|p| p - known), predicted - known) {
             AngleCheck::Good if self.started && self.watch_frozen(phi, prev, ex, obs) => {
                 AngleCheck::Frozen
             }
             check => check,
+        };
+        match (check, phi) {
+            (AngleCheck::Good, Some(p)) => {
+                self.zero.sample(m.x, p, m.l, prev, still);
+                if self.zero.offset_persists() && still && self.resting {
+                    return AngleCheck::Offset;
+                }
+            }
+            _ => self.zero.gap(),
         }
+        check
     }
 
     /// Whether a crane at rest on its target may be let go, or must be held again
     /// ([`Config::rest_position`], [`Config::rest_swing`], [`REST_HYSTERESIS`]). The
     /// swing is judged over half a period before the crane is let go.
     fn settle(&mut self, reference: &Reference, u_d: [f64; 2]) {
-        const STILL: f64 = 1e-6;
-        let still = u_d.iter().all(|u| u.abs() < STILL)
-            && reference.vx.abs() < STILL
-            && reference.vl.abs() < STILL
-            && reference.vphi.abs() < STILL;
+        let still = still(reference, u_d);
         if !still || !self.started || matches!(self.mode, Mode::FeedforwardOnly(_)) {
             self.resting = false;
             self.swing = Swing::NEW;
@@ -907,7 +1077,8 @@ impl StateFeedback {
         let omega = libm::sqrt(self.cfg.g / l);
         let half_period = core::f64::consts::PI / omega;
         let smoothing = 1.0 - libm::exp(-2.0 * omega * self.cfg.h);
-        let phi = reference.phi + self.e.z;
+        let e = self.estimate();
+        let phi = reference.phi + e.z;
         let sw = &mut self.swing;
         sw.smooth = if sw.cycles == 0 {
             phi
@@ -934,7 +1105,7 @@ impl StateFeedback {
         let gain = smoothing / libm::sqrt(1.0 - 2.0 * r * libm::cos(omega * self.cfg.h) + r * r);
         let peak = sw.slots.iter().copied().fold(0.0, f64::max) / gain.max(0.1);
         let judged = f64::from(sw.cycles) * self.cfg.h >= half_period;
-        let load = (self.e.x + l * self.e.z).abs().max(self.ew.x.abs());
+        let load = (e.x + l * e.z).abs().max(self.ew.x.abs());
         let (pos, swing) = (self.cfg.rest_position, self.cfg.rest_swing);
         self.resting = if self.resting {
             load <= REST_HYSTERESIS * pos && peak <= REST_HYSTERESIS * swing
@@ -963,7 +1134,10 @@ impl StateFeedback {
             let positions_finite = m.x.is_finite() && m.l.is_finite();
             let ex = m.x - prev.x;
             let check = match self.mode {
-                Mode::Closed => self.judge_angle(m.phi, &prev, ex, &point.obs),
+                Mode::Closed => {
+                    let still = still(reference, u_d);
+                    self.judge_angle(&m, &prev, ex, &point.obs, still)
+                }
                 // The angle is no longer read.
                 _ => AngleCheck::Missing,
             };
@@ -987,13 +1161,29 @@ impl StateFeedback {
                     self.mode = Mode::FeedforwardOnly(reason);
                 }
             }
-            let angle = match (self.mode, check, m.phi) {
+            let read = match (self.mode, check, m.phi) {
                 (Mode::Closed, AngleCheck::Good, Some(p)) => Some(p),
                 _ => None,
             };
-            match angle {
+            match read {
                 Some(p) => self.rope.sample(m.x, p, m.l),
                 None => self.rope.gap(),
+            }
+            // What the observer reads: the angle less its offset — a DC component the
+            // pendulum cannot make is never taken for a swing or a displaced load.
+            let angle = read.map(|p| p - self.read_offset());
+            if let (Mode::Closed, Mode::SwingEstimated(_), Some(u)) = (was, self.mode, self.unit) {
+                // The angle failed before it was trusted: the swing goes on from the
+                // estimate the feedback acted on, the offset shown so far taken out.
+                self.e -= u * self.shown();
+                self.unit = None;
+            } else if let (Mode::Closed, Mode::SwingEstimated(Degraded::AngleOffset)) =
+                (was, self.mode)
+            {
+                // The offset not yet taken out of the readings (it grew after the angle
+                // was trusted) is taken out of the estimate the swing goes on from: the
+                // trolley is brought back from where it chased it.
+                self.e.z -= self.zero.left();
             }
             match (was, self.mode, self.held.run) {
                 (_, Mode::FeedforwardOnly(_), _) => {}
@@ -1004,13 +1194,16 @@ impl StateFeedback {
                     self.e = run;
                 }
                 _ if !self.started => {
-                    if let Some(p) = angle {
+                    if let (Some(p), Some(raw)) = (angle, read) {
                         // Start from what is measured: positions, and the swing the load
-                        // already has (its rate follows from the next samples).
+                        // already has (its rate follows from the next samples) — or the
+                        // reading's offset: which, the zero's estimate tells once
+                        // settled, and the trolley waits for it ([`Self::trust`]).
                         self.e = Vector4::new(ex, 0.0, p - prev.phi, 0.0);
                         self.ew = Vector2::new(m.l - prev.l, 0.0);
                         self.started = true;
-                        self.held.last = Some(p);
+                        self.held.last = Some(raw);
+                        self.unit = Some(Vector4::new(0.0, 0.0, 1.0, 0.0));
                     }
                 }
                 _ => {
@@ -1024,6 +1217,14 @@ impl StateFeedback {
                         }
                         None => self.e += position_only(&point.obs, prev.l) * residual_x,
                     }
+                    // The same correction of the response to a unit offset (a reading
+                    // one higher, the positions the same).
+                    if let Some(u) = self.unit.as_mut() {
+                        *u += match angle {
+                            Some(_) => point.obs * Vector2::new(-u.x, 1.0 - u.z),
+                            None => position_only(&point.obs, prev.l) * -u.x,
+                        };
+                    }
                     self.ew += point.obs_w * (m.l - prev.l - self.ew.x);
                 }
             }
@@ -1033,6 +1234,10 @@ impl StateFeedback {
         }
         // Predict to now with the correction actually sent.
         self.e = point.model.a * self.e + point.model.b * app1;
+        if let Some(u) = self.unit.as_mut() {
+            *u = point.model.a * *u;
+        }
+        self.trust();
         self.ew = point.model.aw * self.ew + point.model.bw * app2;
         if let Some((run, _)) = self.held.run.as_mut() {
             *run = point.model.a * *run + point.model.b * app1;
@@ -1040,7 +1245,7 @@ impl StateFeedback {
         self.settle(reference, u_d);
         let (mut d1, d2) = match self.mode {
             Mode::Closed | Mode::SwingEstimated(_) if self.started && !self.resting => {
-                ((-(point.k * self.e)).x, (-(point.kw * self.ew)).x)
+                ((-(point.k * self.estimate())).x, (-(point.kw * self.ew)).x)
             }
             _ => (0.0, 0.0),
         };
@@ -1071,6 +1276,8 @@ impl StateFeedback {
             mode: self.mode,
             resting: self.resting,
             error: [e0, e1, e2, e3, w0, w1],
+            offset: self.zero.offset(),
+            trusted: self.started && self.unit.is_none(),
         }
     }
 }
@@ -1122,6 +1329,8 @@ impl Correction for NoFeedback {
             mode: Mode::FeedforwardOnly(Degraded::AngleLost),
             resting: false,
             error: [0.0; 6],
+            offset: 0.0,
+            trusted: false,
         }
     }
     fn restart(&mut self) {}
@@ -1165,6 +1374,7 @@ impl Degraded {
             Self::AngleImplausible => 2,
             Self::PositionsInvalid => 3,
             Self::AngleFrozen => 4,
+            Self::AngleOffset => 5,
         }
     }
 }
@@ -1184,18 +1394,24 @@ mod tests {
 
     #[test]
     fn zero_when_measurement_equals_reference() {
+        // A reference a pendulum can follow (a free swing of 0.3° under a trolley at
+        // constant speed, the rope shortening slowly), the feedback started on it in
+        // the middle of its motion: the zero's estimate, started on the reference's
+        // motion, sees no offset beyond its dead band. (The paper's move:
+        // host-tests/tests/feedback.rs.)
         let mut fb = StateFeedback::new(Config::PAPER).unwrap();
         let mut last = [0.1, -0.05];
         let mut prev: Option<Reference> = None;
-        for k in 0..300 {
+        let w = libm::sqrt(9.81 / 6.0);
+        for k in 0..600 {
             let t = f64::from(k) * 0.01;
             let r = Reference {
                 x: 12.0 + 0.1 * t,
                 l: 6.0 - 0.05 * t,
-                phi: 0.01 * libm::sin(t),
+                phi: 0.005 * libm::sin(w * t + 1.0),
                 vx: 0.1,
                 vl: -0.05,
-                vphi: 0.01 * libm::cos(t),
+                vphi: 0.005 * w * libm::cos(w * t + 1.0),
             };
             let ud = [0.1, -0.05];
             let m = prev.map(|p| Measurement {
@@ -1204,6 +1420,13 @@ mod tests {
                 phi: Some(p.phi),
             });
             let out = fb.cycle(&r, ud, m, last, &DriveLimits::LAB);
+            if k < 5 {
+                eprintln!(
+                    "{k} off {:.4} corr {:?}",
+                    out.offset.to_degrees(),
+                    out.correction
+                );
+            }
             assert_eq!(out.correction, [0.0, 0.0]);
             assert_eq!(out.mode, Mode::Closed);
             last = out.u;
@@ -1250,6 +1473,22 @@ mod tests {
         assert_eq!(
             degraded_rule(&c, Closed, Frozen, 1, true),
             SwingEstimated(Degraded::AngleFrozen)
+        );
+        assert_eq!(
+            degraded_rule(&c, Closed, Offset, 1, true),
+            SwingEstimated(Degraded::AngleOffset)
+        );
+        // The reason bytes of EMCY 0xFF20 (docs/COMMANDS.md, can/crane.dbc).
+        assert_eq!(
+            [
+                Degraded::AngleLost,
+                Degraded::AngleImplausible,
+                Degraded::PositionsInvalid,
+                Degraded::AngleFrozen,
+                Degraded::AngleOffset
+            ]
+            .map(Degraded::code),
+            [1, 2, 3, 4, 5]
         );
         assert_eq!(
             degraded_rule(&c, Closed, Good, 0, false),
@@ -1364,13 +1603,14 @@ mod tests {
 
     #[test]
     fn a_stuck_angle_is_caught_at_rest_before_it_moves_the_trolley() {
-        // The load swings 2° after a gust; the reading sticks at 1 s. What the
+        // The load swings 6° after a gust; the reading sticks at 3 s (after the zero's
+        // estimate has settled, crate::zero), the load still swinging 2°. What the
         // trolley's own motion makes the angle do betrays it within a few cycles, and
         // meanwhile the unchanged reading may not push harder than before.
         let l = 6.0;
-        let stuck_at = 100;
+        let stuck_at = 300;
         let stuck = core::cell::Cell::new(None);
-        let run = linear_run(l, 0.0, 2f64.to_radians(), 1000, |k, p| {
+        let run = linear_run(l, 0.0, 6f64.to_radians(), 1200, |k, p| {
             if k == stuck_at {
                 stuck.set(Some(p));
             }
@@ -1413,13 +1653,16 @@ mod tests {
     #[test]
     fn a_reading_stuck_since_the_start_is_no_swing_to_damp() {
         // The load hangs still, the inclinometer reads a stuck 1.5° from the first
-        // sample (after a restart the observer starts from it). Caught as stuck, the
-        // feedback must not go on "damping" a swing it only ever assumed.
+        // sample (after a restart the observer starts from it). A still load under a
+        // still trolley cannot tell a stuck reading from an offset one: it is an offset
+        // (a pendulum holds no 1.5° without a force), never taken for a swing, and
+        // announced once the crane is at rest; the feedback must not "damp" a swing it
+        // only ever assumed.
         let l = 6.0;
         let stuck = 1.5f64.to_radians();
         let run = linear_run(l, 0.0, 0.0, 1500, |_, _| Some(stuck));
         let (end, last) = run.last().unwrap();
-        assert_eq!(last.mode, Mode::FeedforwardOnly(Degraded::AngleFrozen));
+        assert_eq!(last.mode, Mode::SwingEstimated(Degraded::AngleOffset));
         let moved = run.iter().map(|(t, _)| t.x.abs()).fold(0.0, f64::max);
         assert!(moved < 0.015, "the trolley moved {:.1} mm", moved * 1e3);
         assert!(
@@ -1428,6 +1671,79 @@ mod tests {
             amplitude(end, l).to_degrees()
         );
         assert_eq!(last.u, [0.0; 2]);
+    }
+
+    #[test]
+    fn a_steady_offset_from_power_up_is_no_swing_and_is_announced_at_rest() {
+        // The inclinometer reads 5° more than the angle from the first sample; the
+        // load swings 2° and the trolley is 30 mm off. The offset is taken for neither
+        // a swing nor a displaced load (read as one, the feedback drove the trolley
+        // about `0.7 l b`, 370 mm, off): the crane moves as with a true reading, and
+        // once it rests the offset is announced and the angle no longer read.
+        let l = 6.0;
+        let b = 5f64.to_radians();
+        let run = linear_run(l, 0.03, 2f64.to_radians(), 2000, |_, p| Some(p + b));
+        let healthy = linear_run(l, 0.03, 2f64.to_radians(), 2000, |_, p| Some(p));
+        let apart = run
+            .iter()
+            .zip(&healthy)
+            .map(|((t, _), (h, _))| (t.x - h.x).abs())
+            .fold(0.0, f64::max);
+        // The trolley goes where it goes with a true reading (damping the swing moves
+        // it by 127 mm), within a few millimetres.
+        assert!(
+            apart < 0.005,
+            "{:.1} mm from the true reading's",
+            apart * 1e3
+        );
+        let (end, last) = run.last().unwrap();
+        assert!(
+            amplitude(end, l) < 0.1f64.to_radians(),
+            "swing {:.3}°",
+            amplitude(end, l).to_degrees()
+        );
+        let load = end.x + l * end.z;
+        assert!(load.abs() < 0.02, "load {:.1} mm off", load * 1e3);
+        assert!((last.offset - b).abs() < 0.1f64.to_radians());
+        assert_eq!(last.mode, Mode::SwingEstimated(Degraded::AngleOffset));
+        assert!(last.resting && last.u == [0.0; 2]);
+        // Announced only at rest, the crane let go: the swing was damped on the angle.
+        let announced = run
+            .iter()
+            .position(|(_, o)| o.mode != Mode::Closed)
+            .unwrap();
+        assert!(run[announced - 1].1.resting);
+    }
+
+    #[test]
+    fn a_step_of_the_zero_at_rest_is_taken_out_at_once_and_announced() {
+        // The crane rests on its target, let go; at 10 s the reading steps by 1.5° (a
+        // knock on the sensor). No pendulum jumps: the step is the zero's, so the
+        // trolley is not moved (read as a swing, it drove the trolley 50–90 mm off) and
+        // the set points stay zero; 5 s later the offset is announced.
+        let l = 5.0;
+        let step_at = 1000;
+        let b = 1.5f64.to_radians();
+        let run = linear_run(l, 0.04, 0.5f64.to_radians(), 1800, |k, p| {
+            Some(if k >= step_at { p + b } else { p })
+        });
+        assert!(run[step_at - 1].1.resting, "let go before the step");
+        let x0 = run[step_at].0.x;
+        for (k, (t, o)) in run.iter().enumerate().skip(step_at) {
+            assert!((t.x - x0).abs() < 1e-3, "cycle {k}: trolley moved");
+            assert!(o.resting && o.u == [0.0; 2], "cycle {k}: {o:?}");
+        }
+        let announced = run
+            .iter()
+            .position(|(_, o)| o.mode == Mode::SwingEstimated(Degraded::AngleOffset))
+            .unwrap();
+        let after = announced - step_at;
+        assert!(
+            (zero::OFFSET_CYCLES as usize..zero::OFFSET_CYCLES as usize + 10).contains(&after),
+            "announced {after} cycles after the step"
+        );
+        let last = run.last().unwrap().1;
+        assert!((last.offset - b).abs() < 0.05f64.to_radians());
     }
 
     #[test]

@@ -10,6 +10,7 @@
 //! * [`planner`] — the checks a move or a stop passes before it is accepted;
 //! * [`feedback`] — the state feedback around the inverse model (Fig. 1);
 //! * [`rope`] — the rope's true length learnt from the swing, a commissioning step;
+//! * [`zero`] — the inclinometer's offset: the angle's DC that the pendulum cannot make;
 //! * [`transmit`] — the transmit queue that keeps a cycle's frames in order and names every loss;
 //! * [`controller`] — the 100 Hz cycle and the reaction to every fault, with injected time.
 //!
@@ -45,6 +46,7 @@ pub mod planner;
 pub mod rope;
 pub mod setpoint;
 pub mod transmit;
+pub mod zero;
 
 pub use controller::{Config, Controller, Counters, Cycle, Fault, Mode};
 pub use feedforward::{Feedforward, FeedforwardStep, Injectable, InverseModel, Replan};

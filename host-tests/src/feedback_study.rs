@@ -5,7 +5,9 @@
 
 use std::path::Path;
 
-use controller::feedback::{clamp_to_limits, Config, Gains, Measurement, Reference, StateFeedback};
+use controller::feedback::{
+    clamp_to_limits, Config, Gains, Measurement, Mode, Reference, StateFeedback,
+};
 use controller::setpoint::DriveLimits;
 use controller::InverseModel;
 use solver_core::models::crane::CraneParams;
@@ -101,6 +103,11 @@ pub struct CaseResult {
     /// The rope's scaling error and offset the feedback learnt from the swing
     /// (`controller::rope`; zero without feedback).
     pub rope: (f64, f64),
+    /// Largest distance of the trolley from its reference from 5 s after the move
+    /// over one swing period, m: where a wrong angle would have driven it.
+    pub trolley: f64,
+    /// The feedback's mode at the end (`None` without feedback).
+    pub mode: Option<Mode>,
 }
 
 impl CaseResult {
@@ -153,6 +160,14 @@ pub enum SensorFault {
     Frozen(f64),
     /// It falls silent.
     Lost(f64),
+    /// It reads `by` (rad) more than the angle from `at` (s) on — from power-up when
+    /// `at` is before the run: a mount knocked askew, a zero never commissioned.
+    Offset {
+        /// From, s.
+        at: f64,
+        /// The offset, rad.
+        by: f64,
+    },
 }
 
 impl SensorFault {
@@ -161,6 +176,7 @@ impl SensorFault {
         match fault {
             Some(Self::Frozen(at)) if t >= at => held.or(Some(phi)),
             Some(Self::Lost(at)) if t >= at => None,
+            Some(Self::Offset { at, by }) if t >= at => Some(phi + by),
             _ => {
                 *held = Some(phi);
                 Some(phi)
@@ -221,7 +237,11 @@ pub fn simulate_with_fault(
     for (k, (r, ud)) in reference.r.iter().zip(&reference.u).enumerate() {
         let t = reference.t0 + k as f64 * h;
         let u = match fb.as_mut() {
-            Some(fb) => fb.cycle(r, *ud, measured, last, limits).u,
+            Some(fb) => {
+                let out = fb.cycle(r, *ud, measured, last, limits);
+                res.mode = Some(out.mode);
+                out.u
+            }
             None => [
                 clamp_to_limits(ud[0], last[0], limits.trolley, h),
                 clamp_to_limits(ud[1], last[1], limits.winch, h),
@@ -244,6 +264,7 @@ pub fn simulate_with_fault(
         }
         if t >= window.0 && t <= window.1 {
             res.distance = res.distance.max((load[0] - reference.target[0]).abs());
+            res.trolley = res.trolley.max((plant.y[0] - r.x).abs());
             res.vertical = res.vertical.max((load[1] - reference.target[1]).abs());
             res.swing_deg = res.swing_deg.max(plant.y[2].abs().to_degrees());
         }
@@ -369,7 +390,9 @@ pub struct FaultCase {
     pub fails_at: f64,
     /// For each of [`FAULTS`]: feedforward only, and the feedback with the failing
     /// inclinometer, on the same plant.
-    pub runs: [(CaseResult, CaseResult); 4],
+    pub runs: [(CaseResult, CaseResult); 6],
+    /// The offsets of the last two faults, rad: from power-up, and the step at rest.
+    pub offsets: [f64; 2],
 }
 
 impl FaultCase {
@@ -383,23 +406,31 @@ impl FaultCase {
     }
 }
 
-/// The names of [`FaultCase`]'s four faults.
-pub const FAULTS: [&str; 4] = [
+/// The names of [`FaultCase`]'s six faults.
+pub const FAULTS: [&str; 6] = [
     "frozen mid-move",
     "lost mid-move",
     "frozen at rest",
     "lost at rest",
+    "offset from power-up",
+    "offset step at rest",
 ];
 
 /// `n` random cases of the paper's move on the crane as commissioned (its rope
 /// calibrated, [`calibrate_rope`]), each run with feedforward only and with the
 /// feedback and a failing inclinometer: mid-move at a random instant of the move (the
 /// case's gust somewhere in the move), and at rest 2.5 s after the move (a gust of the
-/// case's strength 1–2 s after the move, so the load swings when the sensor fails).
+/// case's strength 1–2 s after the move, so the load swings when the sensor fails);
+/// and a biased one: 3–10° of either sign from power-up on the mid-move case, and a
+/// step of 1–2° at rest 2.5 s after the move on the at-rest case (review finding 12).
+/// The offsets are drawn from their own generator, so that the other faults' cases are
+/// those of the same seed before the offsets were added.
 pub fn fault_study(seed: u64, n: usize, gains: &Gains) -> Vec<FaultCase> {
     let params = CraneParams::PAPER;
     let limits = DriveLimits::LAB;
     let mut rng = Rng::new(seed);
+    let mut offsets = Rng::new(seed ^ 0x000F_F5E7);
+    let sign = |rng: &mut Rng| if rng.unit() < 0.5 { -1.0 } else { 1.0 };
     let reference = paper_reference(&params);
     let (ts, te) = reference.span;
     let l0 = reference.r.first().map_or(6.0, |r| r.l);
@@ -422,6 +453,8 @@ pub fn fault_study(seed: u64, n: usize, gains: &Gains) -> Vec<FaultCase> {
             };
             let ff_mid = run(&mid, None, None);
             let ff_rest = run(&rest, None, None);
+            let from_power_up = sign(&mut offsets) * offsets.uniform(3.0, 10.0).to_radians();
+            let step_at_rest = sign(&mut offsets) * offsets.uniform(1.0, 2.0).to_radians();
             let faults = [
                 (
                     ff_mid,
@@ -439,11 +472,34 @@ pub fn fault_study(seed: u64, n: usize, gains: &Gains) -> Vec<FaultCase> {
                     ff_rest,
                     run(&rest, Some(gains), Some(SensorFault::Lost(te + 2.5))),
                 ),
+                (
+                    ff_mid,
+                    run(
+                        &mid,
+                        Some(gains),
+                        Some(SensorFault::Offset {
+                            at: f64::NEG_INFINITY,
+                            by: from_power_up,
+                        }),
+                    ),
+                ),
+                (
+                    ff_rest,
+                    run(
+                        &rest,
+                        Some(gains),
+                        Some(SensorFault::Offset {
+                            at: te + 2.5,
+                            by: step_at_rest,
+                        }),
+                    ),
+                ),
             ];
             FaultCase {
                 case: mid,
                 fails_at: during,
                 runs: faults,
+                offsets: [from_power_up, step_at_rest],
             }
         })
         .collect()

@@ -84,6 +84,9 @@ pub enum SensorFault {
     Lost,
     /// Its value freezes at the last one (a stuck pendulum), while it goes on talking.
     Stuck,
+    /// It reads this many hundredths of a degree more than the angle (a mount knocked
+    /// askew, a zero never commissioned): from power-up when the event is at 0 ms.
+    Offset(i16),
     /// Repaired: it talks and measures again.
     Back,
 }

@@ -9,7 +9,7 @@
 use std::path::PathBuf;
 
 use clap::Parser;
-use controller::feedback::{Config, Gains};
+use controller::feedback::{Config, Degraded, Gains, Mode};
 use host_tests::feedback_study::{
     fault_study, gust_at_rest, monte_carlo, paper_reference, plot_case, quantile, random_move,
     table_row, CaseResult, FaultCase, FAULTS, TABLE_HEADER,
@@ -154,6 +154,43 @@ fn main() -> Result<(), String> {
             quantile(&mut sw, 1.0),
             quantile(&mut dff, 0.5),
             quantile(&mut dff, 1.0),
+        );
+    }
+    println!();
+    // The biased inclinometer (review finding 12): where the trolley and the load end,
+    // and whether the offset was announced (EMCY 0xFF20 reason 5) or not (below the
+    // 0.5° it judges, or taken out of the readings within the dead band).
+    println!("| inclinometer offset (paper's move) | offset, ° | announced (reason 5) | trolley off its reference 5 s after, mm (median / max) | load's distance 5 s after, mm (median / max) | feedforward only: load's distance, mm (median / max) | worse than feedforward alone | within ±50 mm and < 0.1° |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for (i, name) in FAULTS.iter().enumerate().skip(4) {
+        let pairs: Vec<_> = faults.iter().filter_map(|f| f.runs.get(i)).collect();
+        let mut size: Vec<f64> = faults
+            .iter()
+            .filter_map(|f| f.offsets.get(i - 4))
+            .map(|o| o.abs().to_degrees())
+            .collect();
+        let announced = pairs
+            .iter()
+            .filter(|(_, fb)| fb.mode.and_then(Mode::degraded) == Some(Degraded::AngleOffset))
+            .count();
+        let mut tr: Vec<f64> = pairs.iter().map(|p| p.1.trolley * 1e3).collect();
+        let mut d: Vec<f64> = pairs.iter().map(|p| p.1.distance * 1e3).collect();
+        let mut dff: Vec<f64> = pairs.iter().map(|p| p.0.distance * 1e3).collect();
+        let worse = pairs.iter().filter(|(ff, fb)| fb.worse_than(ff)).count();
+        let ok = pairs.iter().filter(|(_, fb)| fb.meets_target()).count();
+        println!(
+            "| {name} | {:.1}–{:.1} | {announced}/{} | {:.1} / {:.1} | {:.1} / {:.1} | {:.1} / {:.1} | {worse}/{} | {ok}/{} |",
+            quantile(&mut size, 0.0),
+            quantile(&mut size, 1.0),
+            pairs.len(),
+            quantile(&mut tr, 0.5),
+            quantile(&mut tr, 1.0),
+            quantile(&mut d, 0.5),
+            quantile(&mut d, 1.0),
+            quantile(&mut dff, 0.5),
+            quantile(&mut dff, 1.0),
+            pairs.len(),
+            pairs.len(),
         );
     }
     if let Some((worst, typical)) = worst_paper {

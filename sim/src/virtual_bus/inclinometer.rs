@@ -145,14 +145,16 @@ impl InclinometerSim {
     /// SYNC: it samples `phi_deg` (the plant's sensed angle, °) and sends TPDO1 if
     /// operational.
     pub fn on_sync(&mut self, phi_deg: f64) -> Option<CanFrame> {
-        match self.fault {
+        let offset_deg = match self.fault {
             Some(SensorFault::Lost) => return None,
-            Some(SensorFault::Stuck) => {}
-            None | Some(SensorFault::Back) => {
-                let resolution = f64::from(self.od.get(0x6000, 0).max(1)) * 1e-3;
-                let slope = libm::round(phi_deg / resolution);
-                self.slope = slope.clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16;
-            }
+            Some(SensorFault::Stuck) => None,
+            Some(SensorFault::Offset(centidegrees)) => Some(f64::from(centidegrees) * 0.01),
+            None | Some(SensorFault::Back) => Some(0.0),
+        };
+        if let Some(offset_deg) = offset_deg {
+            let resolution = f64::from(self.od.get(0x6000, 0).max(1)) * 1e-3;
+            let slope = libm::round((phi_deg + offset_deg) / resolution);
+            self.slope = slope.clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16;
         }
         (self.nmt == NmtState::Operational).then(|| {
             CanFrame::fixed(
