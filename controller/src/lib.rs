@@ -35,6 +35,7 @@ pub mod commands;
 pub mod commissioning;
 pub mod config;
 pub mod controller;
+mod derivatives;
 pub mod drive;
 pub mod fault;
 pub mod feedback;

@@ -33,6 +33,8 @@
 //! engineer saves it as the winch's `position_scale` and `position_offset`
 //! (docs/COMMISSIONING.md, "Rope calibration").
 
+use crate::derivatives::Derivatives;
+
 /// The largest scaling error believed, relative.
 pub const MAX_SCALE: f64 = 0.05;
 /// The largest offset believed, m.
@@ -62,38 +64,6 @@ impl Sums {
         self.b[0] += r1 * y;
         self.b[1] += r2 * y;
         self.n = self.n.saturating_add(1);
-    }
-}
-
-/// `ω³/(s + ω)³` as a state-variable filter: its states are the filtered signal and
-/// its first two derivatives.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-struct Derivatives {
-    y: [f64; 3],
-    started: bool,
-}
-
-impl Derivatives {
-    /// Advances by `h` with input `u` held: semi-implicit Euler in 4 sub-steps
-    /// (ω h/4 = 0.02). Every signal goes through the same filter, so its error is
-    /// common to both sides of the regression.
-    fn push(&mut self, u: f64, h: f64) -> [f64; 3] {
-        if !self.started {
-            self.y = [u, 0.0, 0.0];
-            self.started = true;
-            return self.y;
-        }
-        const SUB: usize = 4;
-        let dt = h / SUB as f64;
-        let (w, w2, w3) = (OMEGA, OMEGA * OMEGA, OMEGA * OMEGA * OMEGA);
-        let [mut p, mut v, mut a] = self.y;
-        for _ in 0..SUB {
-            a += dt * (w3 * (u - p) - 3.0 * w2 * v - 3.0 * w * a);
-            v += dt * a;
-            p += dt * v;
-        }
-        self.y = [p, v, a];
-        self.y
     }
 }
 
@@ -136,11 +106,11 @@ impl RopeLength {
         Self {
             g,
             h,
-            x: Derivatives::default(),
-            phi: Derivatives::default(),
-            sin_phi: Derivatives::default(),
-            l: Derivatives::default(),
-            l_phi: Derivatives::default(),
+            x: Derivatives::new(OMEGA),
+            phi: Derivatives::new(OMEGA),
+            sin_phi: Derivatives::new(OMEGA),
+            l: Derivatives::new(OMEGA),
+            l_phi: Derivatives::new(OMEGA),
             taken: Sums::default(),
             warm: 0,
             missed: 0,
@@ -186,11 +156,11 @@ impl RopeLength {
             return;
         }
         self.missed = 0;
-        self.x = Derivatives::default();
-        self.phi = Derivatives::default();
-        self.sin_phi = Derivatives::default();
-        self.l = Derivatives::default();
-        self.l_phi = Derivatives::default();
+        self.x = Derivatives::new(OMEGA);
+        self.phi = Derivatives::new(OMEGA);
+        self.sin_phi = Derivatives::new(OMEGA);
+        self.l = Derivatives::new(OMEGA);
+        self.l_phi = Derivatives::new(OMEGA);
         self.warm = 0;
     }
 

@@ -120,53 +120,8 @@ fn beyond_dead_band(o: f64) -> f64 {
     }
 }
 
+use crate::derivatives::Derivatives;
 use crate::feedback::Reference;
-
-/// `ω³/(s + ω)³` as a state-variable filter: its states are the filtered signal and
-/// its first two derivatives.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-struct Derivatives {
-    y: [f64; 3],
-    started: bool,
-}
-
-impl Derivatives {
-    /// Starts on a signal `u` with first two derivatives `du`, `ddu` as if it had been
-    /// following it: its states are then the filtered signal and derivatives, which
-    /// lag (`ω³/(s + ω)³ ≈ 1 − 3s/ω + 6s²/ω²`), so that no transient starts.
-    fn start(&mut self, [u, du, ddu]: [f64; 3]) -> [f64; 3] {
-        let w = CORNER;
-        self.y = [
-            u - 3.0 * du / w + 6.0 * ddu / (w * w),
-            du - 3.0 * ddu / w,
-            ddu,
-        ];
-        self.started = true;
-        self.y
-    }
-
-    /// Advances by `h` with input `u` held: semi-implicit Euler in 4 sub-steps
-    /// (ω h/4 = 0.015). Every signal goes through the same filter, so its error is
-    /// common to both sides of the equation. The first input starts it at rest on it.
-    fn push(&mut self, u: f64, h: f64) -> [f64; 3] {
-        if !self.started {
-            self.y = [u, 0.0, 0.0];
-            self.started = true;
-            return self.y;
-        }
-        const SUB: usize = 4;
-        let dt = h / SUB as f64;
-        let (w, w2, w3) = (CORNER, CORNER * CORNER, CORNER * CORNER * CORNER);
-        let [mut p, mut v, mut a] = self.y;
-        for _ in 0..SUB {
-            a += dt * (w3 * (u - p) - 3.0 * w2 * v - 3.0 * w * a);
-            v += dt * a;
-            p += dt * v;
-        }
-        self.y = [p, v, a];
-        self.y
-    }
-}
 
 /// The estimate of the reading's offset (see the module's documentation).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -213,9 +168,9 @@ impl Zero {
         Self {
             g,
             h,
-            tan: Derivatives::default(),
-            xc: Derivatives::default(),
-            zc: Derivatives::default(),
+            tan: Derivatives::new(CORNER),
+            xc: Derivatives::new(CORNER),
+            zc: Derivatives::new(CORNER),
             steps: 0.0,
             drift: 0.0,
             missed: 0,
@@ -327,7 +282,7 @@ impl Zero {
         let dt = self.h * f64::from(self.missed.saturating_add(1));
         self.missed = 0;
         self.samples = self.samples.saturating_add(1);
-        let (t, ax, az) = if self.tan.started {
+        let (t, ax, az) = if self.tan.started() {
             let [t, _, _] = self.tan.push(libm::tan(q), dt);
             let [_, _, ax] = self.xc.push(x + l * libm::sin(q), dt);
             let [_, _, az] = self.zc.push(l * libm::cos(q), dt);
