@@ -355,7 +355,7 @@ impl<T: Real, Z: Trajectory<T, 2>> StructuredJacobian<T, N, 2> for CraneSubs<T, 
 /// move changes its rope by at most 1.2 m/s, 0.2 % of its length in a 10 ms step, 1 %
 /// in 50 ms). What is left is about `δ² / (2 l)`, `δ` the last update: more than the
 /// increment's rounding is refused (`None`), and the strategies keep their predictors.
-fn rope_increment<T: Real>(l0: T, q: T) -> Option<T> {
+pub(crate) fn rope_increment<T: Real>(l0: T, q: T) -> Option<T> {
     const STEPS: usize = 4;
     let two = c::<T>(2.0);
     let (mut i, mut update) = (T::zero(), T::zero());
