@@ -19,7 +19,7 @@ use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::reference::emax::Emax;
 use solver_core::reference::flat_crane3d;
 use solver_core::scalar::{c, to_f64};
-use solver_core::schemes::bdf::EliminatedOf;
+use solver_core::schemes::bdf::{EliminatedOf, CORRECT_BELOW_H};
 use solver_core::schemes::radau::transformed::{EliminatedStagesOf, Transformed};
 use solver_core::trajectory::PointToPoint;
 use solver_core::{Error, Integrator, JacobianMode, NewtonSettings, Real, SolverSettings};
@@ -592,9 +592,10 @@ fn f32_runs_as_well() {
 
 /// The closed-form starts on the diagonal move against the structured strategies
 /// starting from their predictors, at every step size of the planar pins: one BDF
-/// iteration per step and none for Radau, e_max and interior e_max within 0.5 % of the
-/// predictors' (at most 0.19 % above: BDF4's interior at 5 ms, RADAU5's e_max at 2 ms,
-/// both on the rounding floor; RADAU5's interior at 0.5 and 1 ms 0.86 and 0.85 of it).
+/// iteration per step below 5 ms and none from it, none for Radau, e_max and interior e_max within 0.5 % of the
+/// predictors' (at most 0.3 % above: BDF4's interior at 5 ms by 0.24 %, RADAU5's e_max
+/// at 2 ms by 0.29 %, both on the rounding floor; RADAU5's interior at 0.5 and 1 ms 0.86
+/// and 0.85 of it).
 #[test]
 fn closed_form_starts_keep_the_accuracy() {
     println!("| h | solver | predictor e_max / interior | closed form e_max / interior | iterations per step |");
@@ -622,7 +623,11 @@ fn closed_form_starts_keep_the_accuracy() {
                 eq.global <= 1.005 * ep.global && eq.interior <= 1.005 * ep.interior,
                 "{label} h = {h}: {ep:?} {eq:?}"
             );
-            let iterations = if label == "BDF4" { 1.0 } else { 0.0 };
+            let iterations = if label == "BDF4" && h < CORRECT_BELOW_H {
+                1.0
+            } else {
+                0.0
+            };
             assert_eq!(per_step(&q), iterations, "{label} h = {h}");
         }
     }
