@@ -560,21 +560,22 @@ fn planar_move_gives_the_planar_set_points() {
 /// scheme's: the index-3 step amplifies rounding by about `1/h²`-`1/h³`, so with 7
 /// digits the planar crane's f32 BDF4 e_max at 10 ms is 3.7e-2
 /// (`docs/figures/scalar-f32-f64.csv`: "f32 is unusable for these index-3 problems").
-/// The 3D run must reach the end with e_max below [`BOUND_FACTOR`] times that.
+/// The 3D run must reach the end with e_max below [`BOUND_FACTOR`] times that, and so
+/// must the closed-form BDF4 and RADAU5 (observed 7.5e-2 and 1.4e-1).
 #[test]
 fn f32_runs_as_well() {
     let model = model::<f32>();
     let mut s = settings(JacobianMode::Exact, 0.01);
     s.newton = NewtonSettings::for_scalar::<f32>();
-    let run = run(
+    let structured = run(
         &model,
         crane3d::StructuredBdf::<f32, Move<f32>>::new(&model, &s, 4, 0.0).unwrap(),
         s.h,
         T_END,
     );
-    assert!(run.failure.is_none(), "{:?}", run.failure);
-    assert_eq!(run.steps(), 900);
-    let e = e_max(&run);
+    assert!(structured.failure.is_none(), "{:?}", structured.failure);
+    assert_eq!(structured.steps(), 900);
+    let e = e_max(&structured);
     let f64_run = emax_of(Solver::BdfStructured(4), 0.01);
     println!(
         "f32 BDF4 structured, 10 ms: e_max {:.4e}, interior {:.4e} (f64: {:.4e}, {:.4e}); {:.2} iterations per step",
@@ -582,18 +583,53 @@ fn f32_runs_as_well() {
         e.interior,
         f64_run.global,
         f64_run.interior,
-        run.iterations as f64 / run.steps() as f64
+        structured.iterations as f64 / structured.steps() as f64
     );
     assert!(
         e.global.is_finite() && e.global <= BOUND_FACTOR * 3.7369e-2,
         "{e:?}"
     );
+    // The closed forms in f32 (Heron's test on the rope takes f32's epsilon).
+    let mut t = settings(JacobianMode::Transformed, 0.01);
+    t.newton = NewtonSettings::for_scalar::<f32>();
+    for (label, closed) in [
+        (
+            "BDF4 from the closed form",
+            run(
+                &model,
+                ClosedFormBdf::<f32>::new(&model, &s, 4, 0.0).unwrap(),
+                s.h,
+                T_END,
+            ),
+        ),
+        (
+            "RADAU5 from the closed form",
+            run(
+                &model,
+                ClosedFormRadau5::<f32>::new(&model, &t, 0.0).unwrap(),
+                t.h,
+                T_END,
+            ),
+        ),
+    ] {
+        assert!(closed.failure.is_none(), "{label}: {:?}", closed.failure);
+        let e = e_max(&closed);
+        println!(
+            "f32 {label}, 10 ms: e_max {:.4e}, interior {:.4e}",
+            e.global, e.interior
+        );
+        assert!(
+            e.global.is_finite() && e.global <= BOUND_FACTOR * 3.7369e-2,
+            "{label}: {e:?}"
+        );
+    }
 }
 
 /// The closed-form starts on the diagonal move against the structured strategies
 /// starting from their predictors, at every step size of the planar pins: one BDF
-/// iteration per step below 5 ms and none from it, none for Radau, e_max and interior e_max within 0.5 % of the
-/// predictors' (at most 0.3 % above: BDF4's interior at 5 ms by 0.24 %, RADAU5's e_max
+/// iteration per step below 5 ms and none from it, none for Radau, e_max and interior
+/// e_max within 0.5 % of the predictors' (at most 0.3 % above: BDF4's interior at 5 ms
+/// by 0.24 %, RADAU5's e_max
 /// at 2 ms by 0.29 %, both on the rounding floor; RADAU5's interior at 0.5 and 1 ms 0.86
 /// and 0.85 of it).
 #[test]
