@@ -236,7 +236,7 @@ fn transformed_newton_is_radau_with_exact_partials_only() {
 /// interior error is smaller (0.90–0.97 of the iteration's at 0.5–2 ms: the iteration's
 /// corrections add the residual's rounding, which Eq. 13 differentiates twice), from 5
 /// ms on equal to 1e-4, e_max within 1e-6 of it (at 20 ms 4.5e-7 above: the floor of the
-/// move's second step, where e_max sits, 5e-12 in the input).
+/// move's first step, where e_max sits, 5e-12 in the input).
 #[test]
 fn closed_form_stages_need_no_iteration() {
     let scene = Scene::load(
