@@ -494,26 +494,8 @@ mod tests {
         assert!(m.factor(&x, &x, &s, 200.0, &scale).is_none());
     }
 
-    /// A difference formula as a scheme gives it: BDF-like (`K = 1`: `ẋ = (α₀ Δ + p)/h`)
-    /// or Radau-like (`K = 3`: `X' = (A⁻¹/h) Z`), around an anchor.
-    struct Formula<const K: usize> {
-        anchor: SVector<f64, N>,
-        weights: [[f64; K]; K],
-        past: SVector<f64, N>,
-    }
-
-    impl<const K: usize> DifferenceFormula<f64, K> for Formula<K> {
-        fn anchor(&self, j: usize) -> f64 {
-            self.anchor[j]
-        }
-        fn derivative(&self, j: usize, increments: [f64; K]) -> [f64; K] {
-            self.weights.map(|row| {
-                row.iter()
-                    .zip(increments)
-                    .fold(self.past[j], |acc, (w, d)| acc + w * d)
-            })
-        }
-    }
+    /// A difference formula around an anchor, for this model's `N` unknowns.
+    type Formula<const K: usize> = crate::models::test_support::Formula<N, K>;
 
     /// The closed-form step solves the scheme's equations at every node: each row of
     /// `F(x_{n−1} + Δ_k, Ẋ_k, t_k)` vanishes to within a few roundings of its terms, for

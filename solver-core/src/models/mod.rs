@@ -51,3 +51,34 @@ pub mod crane3d;
 pub mod crane_proj;
 pub mod crane_subs;
 pub mod mass_on_car;
+
+/// What the models' tests share.
+#[cfg(test)]
+#[allow(clippy::indexing_slicing)]
+pub(crate) mod test_support {
+    use nalgebra::SVector;
+
+    use crate::model::DifferenceFormula;
+
+    /// A difference formula as a scheme gives it: BDF-like (`K = 1`: `ẋ = (α₀ Δ + p)/h`)
+    /// or Radau-like (`K = 3`: `X' = (A⁻¹/h) Z`), around an anchor, for a model with `N`
+    /// unknowns.
+    pub(crate) struct Formula<const N: usize, const K: usize> {
+        pub(crate) anchor: SVector<f64, N>,
+        pub(crate) weights: [[f64; K]; K],
+        pub(crate) past: SVector<f64, N>,
+    }
+
+    impl<const N: usize, const K: usize> DifferenceFormula<f64, K> for Formula<N, K> {
+        fn anchor(&self, j: usize) -> f64 {
+            self.anchor[j]
+        }
+        fn derivative(&self, j: usize, increments: [f64; K]) -> [f64; K] {
+            self.weights.map(|row| {
+                row.iter()
+                    .zip(increments)
+                    .fold(self.past[j], |acc, (w, d)| acc + w * d)
+            })
+        }
+    }
+}
