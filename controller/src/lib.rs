@@ -8,6 +8,7 @@
 //! * [`feedforward`] — the inverse model behind a one-step-per-cycle trait, with its plan;
 //! * [`commands`] — move, stop and reset requests, and the status answer;
 //! * [`planner`] — the checks a move or a stop passes before it is accepted;
+//! * `requests` — the supervisor's requests from arrival to answer (each answered once);
 //! * [`feedback`] — the state feedback around the inverse model (Fig. 1);
 //! * [`rope`] — the rope's true length learnt from the swing, a commissioning step;
 //! * [`zero`] — the inclinometer's offset: the angle's DC that the pendulum cannot make;
@@ -44,6 +45,7 @@ pub mod frame;
 mod links;
 pub mod node;
 pub mod planner;
+mod requests;
 pub mod rope;
 pub mod setpoint;
 pub mod transmit;
