@@ -13,7 +13,9 @@ use heapless::Vec;
 use crate::canopen::emcy::{self, REGISTER_COMMUNICATION, REGISTER_GENERIC, REGISTER_MANUFACTURER};
 use crate::canopen::sdo;
 use crate::canopen::{self, nmt, Incoming, NmtCommand, NmtState};
+use crate::cia402::pdo::{self, Tpdo};
 use crate::cia402::{controlword, statusword, DriveState};
+use crate::cia410;
 use crate::commands::{self, status_frame, Answer, Reject, Request, Status};
 use crate::commissioning::{Commissioning, CommissioningError, Device, Phase, Progress};
 pub use crate::config::Config;
@@ -361,6 +363,17 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             self.ignore();
             return;
         };
+        // A TPDO that reaches here is a drive's: its contents are CiA 402's.
+        let tpdo = match incoming {
+            Incoming::Tpdo { frame, .. } => match Tpdo::decode(&frame) {
+                Ok(tpdo) => Some(tpdo),
+                Err(_) => {
+                    self.ignore();
+                    return;
+                }
+            },
+            _ => None,
+        };
         self.counters.frames_received = self.counters.frames_received.saturating_add(1);
         match incoming {
             Incoming::Nmt { command, node } => {
@@ -375,24 +388,20 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                     self.last_supervisor_heartbeat_ms = Some(now_ms);
                 }
             }
-            Incoming::Status {
-                node,
-                statusword,
-                velocity,
-            } => match self.drive_at(node) {
-                Some(drive) if self.link(drive).is_some_and(DriveLink::linked) => {
-                    self.on_status(drive, statusword, velocity, now_ms);
+            Incoming::Tpdo { node, .. } => match (self.drive_at(node), tpdo) {
+                (
+                    Some(drive),
+                    Some(Tpdo::Status {
+                        statusword,
+                        velocity,
+                    }),
+                ) => {
+                    // A drive being commissioned: its mapping is not confirmed yet.
+                    if self.link(drive).is_some_and(DriveLink::linked) {
+                        self.on_status(drive, statusword, velocity, now_ms);
+                    }
                 }
-                // A drive being commissioned: its mapping is not confirmed yet.
-                Some(_) => {}
-                None => self.ignore(),
-            },
-            Incoming::Position {
-                node,
-                position,
-                mode,
-            } => match self.drive_at(node) {
-                Some(drive) => {
+                (Some(drive), Some(Tpdo::Position { position, mode })) => {
                     if !self.link(drive).is_some_and(DriveLink::linked) {
                         return;
                     }
@@ -420,7 +429,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                         self.fault(Fault::DriveMode(drive));
                     }
                 }
-                None => self.ignore(),
+                _ => self.ignore(),
             },
             Incoming::Emergency {
                 node,
@@ -501,15 +510,14 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         let setup = *sensor.commissioning.setup();
         let node = u16::from(setup.node);
         let id = frame.id();
-        let data = frame.data();
         if id == canopen::cob::TPDO1 + node {
-            match *data {
-                [a, b] if sensor.commissioning.phase() == Phase::Done => {
-                    sensor.angle = Some(setup.angle(i16::from_le_bytes([a, b])));
+            match cia410::decode_tpdo1(frame) {
+                Ok(slope) if sensor.commissioning.phase() == Phase::Done => {
+                    sensor.angle = Some(setup.angle(slope));
                     sensor.fresh = true;
                 }
-                [_, _] => {}
-                _ => self.ignore(),
+                Ok(_) => {}
+                Err(_) => self.ignore(),
             }
             return true;
         }
@@ -931,7 +939,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             };
             if linked || self.gate.last(drive) != Setpoint::ZERO {
                 *drive.of_mut(&mut setpoints) = setpoint;
-                self.push(&mut frames, canopen::rpdo1(node, command, setpoint));
+                self.push(&mut frames, pdo::rpdo1(node, command, setpoint));
             }
         }
         self.resetting = self.resetting.saturating_sub(1);

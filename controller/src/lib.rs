@@ -4,7 +4,8 @@
 //! * [`drive`] — the driven axes (trolley, winch);
 //! * [`canopen`] — CiA 301 by specification: frames, NMT, EMCY codes;
 //! * [`setpoint`] — m/s to drive units through the one set-point choke point;
-//! * [`cia402`] — the drive state machine (enable sequence, quick stop, fault);
+//! * [`cia402`] — the drive state machine (enable sequence, quick stop, fault) and its PDOs;
+//! * [`cia410`] — the inclinometer's PDO;
 //! * [`feedforward`] — the inverse model behind a one-step-per-cycle trait, with its plan;
 //! * [`commands`] — move, stop and reset requests, and the status answer;
 //! * [`planner`] — the checks a move or a stop passes before it is accepted;
@@ -32,6 +33,7 @@
 pub mod board;
 pub mod canopen;
 pub mod cia402;
+pub mod cia410;
 pub mod commands;
 pub mod commissioning;
 pub mod config;
