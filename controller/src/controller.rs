@@ -14,7 +14,7 @@ use crate::canopen::emcy::{self, REGISTER_COMMUNICATION, REGISTER_GENERIC, REGIS
 use crate::canopen::sdo;
 use crate::canopen::{self, nmt, Incoming, NmtCommand, NmtState};
 use crate::cia402::pdo::{self, Tpdo};
-use crate::cia402::{controlword, statusword, DriveState};
+use crate::cia402::{controlword, DriveState};
 use crate::cia410;
 use crate::commands::{self, status_frame, Answer, Reject, Request, Status};
 use crate::commissioning::{Commissioning, CommissioningError, Device, Phase, Progress};
@@ -25,7 +25,7 @@ pub use crate::fault::{Fault, Implausibility};
 use crate::feedback::{Correction, Measurement, Mode as FeedbackMode, NoFeedback};
 use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
 use crate::frame::CanFrame;
-use crate::links::{self, DriveLink, Heartbeat, Link, Links};
+use crate::links::{self, DriveLink, Heartbeat, Link, Links, Silent};
 use crate::node::{Dictionary, Node, Role, Snapshot, StagedRequest};
 use crate::planner::{MoveSearch, Planner, SAMPLES_PER_CYCLE};
 use crate::requests::{AnswerRecord, PendingMove, Requests};
@@ -753,37 +753,17 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         let Some(link) = self.link_mut(drive) else {
             return;
         };
-        let limit_before = link.statusword & statusword::INTERNAL_LIMIT;
-        let warning_before = link.statusword & statusword::WARNING;
-        let csv = link.commissioning.setup().mode.code() == 9;
-        link.statusword = sw;
-        link.state = DriveState::from_statusword(sw);
-        link.velocity = velocity;
-        link.last_tpdo_ms = Some(now_ms);
-        // CSV: bit 12 set while the drive follows the target velocity.
-        let ignoring = csv
-            && link.state == DriveState::OperationEnabled
-            && sw & statusword::FOLLOWING == 0
-            && asked;
-        link.not_following = if ignoring {
-            link.not_following.saturating_add(1)
-        } else {
-            0
-        };
-        let not_following = link.not_following >= not_following_limit;
-        let remote_lost = sw & statusword::REMOTE == 0;
-        if (sw & statusword::INTERNAL_LIMIT != 0 && limit_before == 0)
-            || (sw & statusword::WARNING != 0 && warning_before == 0)
-        {
+        let report = link.on_status(sw, velocity, now_ms, asked, not_following_limit);
+        if report.warning {
             self.warn();
         }
-        if sw & statusword::FAULT != 0 {
+        if report.fault {
             // During a reset's fault-reset sequence a fault statusword is expected (it
             // may lag a few SYNCs); one still there when the sequence ends is a fault.
             if self.resetting == 0 {
                 self.fault(Fault::DriveFault(drive));
             }
-        } else if not_following || (moving && remote_lost) {
+        } else if report.not_following || (moving && report.remote_lost) {
             self.fault(Fault::DriveMode(drive));
         }
     }
@@ -1428,19 +1408,18 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             t.is_some_and(|t| now_ms.saturating_sub(t) > u64::from(limit))
         };
         for drive in Drive::ALL {
-            let Some(link) = self.link(drive).filter(|l| l.linked()) else {
-                continue;
-            };
-            // TPDOs answer the SYNC: they are due only from an operational drive while
-            // the controller produces SYNC.
-            let tpdos_due = self.syncing && link.nmt == Some(NmtState::Operational);
-            if late(link.last_heartbeat_ms, self.config.heartbeat_timeout_ms) {
-                self.fault(Fault::HeartbeatLost(drive));
-            } else if tpdos_due
-                && (late(link.last_tpdo_ms, self.config.tpdo_timeout_ms)
-                    || late(link.last_position_ms, self.config.tpdo_timeout_ms))
-            {
-                self.fault(Fault::TpdoTimeout(drive));
+            let silent = self.link(drive).and_then(|l| {
+                l.silent(
+                    now_ms,
+                    self.syncing,
+                    self.config.heartbeat_timeout_ms,
+                    self.config.tpdo_timeout_ms,
+                )
+            });
+            match silent {
+                Some(Silent::Heartbeat) => self.fault(Fault::HeartbeatLost(drive)),
+                Some(Silent::Tpdo) => self.fault(Fault::TpdoTimeout(drive)),
+                None => {}
             }
         }
         // The supervisor, if watched (0x1016:1): lost during a move → controlled stop.
