@@ -613,23 +613,14 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         self.counters.drive_warnings = self.counters.drive_warnings.saturating_add(1);
     }
 
-    /// An NMT command for this node (or all).
+    /// An NMT command for this node (or all): the node's NMT slave obeys it
+    /// ([`Node::on_nmt`]); outside *operational*, what waits is refused and a move is a
+    /// fault.
     fn on_nmt(&mut self, command: NmtCommand) {
-        let state = match command {
-            NmtCommand::Start => NmtState::Operational,
-            NmtCommand::Stop => NmtState::Stopped,
-            NmtCommand::PreOperational => NmtState::PreOperational,
-            NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
-                // Communication parameters back to their defaults, a boot-up message,
-                // then pre-operational (a manager starts itself again next cycle).
-                self.node.heartbeat_ms = self.config.heartbeat_period_ms;
-                self.node.supervisor = 0;
-                self.boot_up = true;
-                NmtState::PreOperational
-            }
-        };
-        self.node.state = state;
-        if state != NmtState::Operational {
+        if self.node.on_nmt(command, self.config.heartbeat_period_ms) {
+            self.boot_up = true;
+        }
+        if self.node.state != NmtState::Operational {
             // Requests are process data: none taken in operational is acted on outside
             // it — each waiting one is refused (answered when the status may go out).
             self.refuse_waiting(true);
