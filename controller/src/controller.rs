@@ -710,11 +710,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         let link = self.link(drive)?;
         let setup = link.commissioning.setup();
         let metres = |u: i32| setup.position_offset + setup.position_scale * f64::from(u);
-        let w = self.planner.params().workspace;
-        let (lo, hi) = match drive {
-            Drive::Trolley => (w.x_min, w.x_max),
-            Drive::Winch => (w.l_min, w.l_max),
-        };
+        let (lo, hi) = *drive.of(&self.planner.ranges());
         let tolerance = self.config.position_tolerance_m;
         let at = metres(units);
         if !(lo - tolerance..=hi + tolerance).contains(&at) {

@@ -261,6 +261,45 @@ fn status_names_its_answer_reason_mode_and_fault() {
     );
 }
 
+/// Every rejection reason the controller gives is named in the DBC by its own name.
+#[test]
+fn every_reject_reason_is_named_in_the_dbc() {
+    let reasons = [
+        Reject::Busy,
+        Reject::NotReady,
+        Reject::Invalid,
+        Reject::TrolleyWorkspace,
+        Reject::RopeWorkspace,
+        Reject::SlackRope,
+        Reject::TrolleyVelocity,
+        Reject::WinchVelocity,
+        Reject::TrolleyAcceleration,
+        Reject::WinchAcceleration,
+        Reject::BridgeWorkspace,
+        Reject::BridgeVelocity,
+        Reject::BridgeAcceleration,
+    ];
+    for (code, reason) in (1u8..).zip(reasons) {
+        assert_eq!(reason as u8, code, "{reason:?}");
+        let s = decode(&status_frame(
+            CONTROLLER_NODE,
+            &Status {
+                last_id: 1,
+                answer: Answer::Rejected,
+                reason: Some(reason),
+                mode: 1,
+                fault: 0,
+                ignored: 0,
+                deadline_misses: 0,
+                tx_failures: 0,
+            },
+        ))
+        .to_string();
+        let named = format!("reason={code}({reason:?})");
+        assert!(s.contains(&named), "{s} lacks {named}");
+    }
+}
+
 proptest! {
     /// Any move request: the DBC reads back what the controller decodes.
     #[test]
