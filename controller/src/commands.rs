@@ -163,6 +163,12 @@ pub enum Reject {
     TrolleyAcceleration = 9,
     /// Winch acceleration above its limit.
     WinchAcceleration = 10,
+    /// The bridge would leave its runway (3D crane).
+    BridgeWorkspace = 11,
+    /// Bridge velocity above its limit (3D crane).
+    BridgeVelocity = 12,
+    /// Bridge acceleration above its limit (3D crane).
+    BridgeAcceleration = 13,
 }
 
 /// The status frame's contents.

@@ -23,6 +23,8 @@ use heapless::Vec;
 
 use crate::canopen::nmt::{self, NmtCommand};
 use crate::canopen::sdo::{abort, Event, Object, SdoClient, SdoError};
+use crate::cia402::pdo as cia402_pdo;
+use crate::cia410;
 use crate::drive::Drive;
 use crate::frame::CanFrame;
 
@@ -220,13 +222,13 @@ impl Device for InclinometerSetup {
     /// every SYNC, heartbeat producer 0x1017.
     fn configuration(&self, _controller: u8, _period_ms: u8) -> Vec<Write, MAX_WRITES> {
         let mut writes = Vec::new();
-        let _ = writes.push(w(0x6000, 0, u32::from(self.resolution), 2));
+        let _ = writes.push(w(cia410::RESOLUTION, 0, u32::from(self.resolution), 2));
         pdo(
             &mut writes,
             0x1800,
             0x1A00,
             0x180 + u32::from(self.node),
-            &[0x6010_0010],
+            &cia410::TPDO1_MAPPING,
         );
         let _ = writes.push(w(0x1017, 0, u32::from(self.heartbeat_ms), 2));
         writes
@@ -332,7 +334,7 @@ pub fn configuration(setup: &DriveSetup, controller: u8, period_ms: u8) -> Vec<W
         0x1400,
         0x1600,
         0x200 + n,
-        &[0x6040_0010, 0x60FF_0020],
+        &cia402_pdo::RPDO1_MAPPING,
     );
     // TPDO1: statusword (0x6041), velocity actual (0x606C).
     pdo(
@@ -340,7 +342,7 @@ pub fn configuration(setup: &DriveSetup, controller: u8, period_ms: u8) -> Vec<W
         0x1800,
         0x1A00,
         0x180 + n,
-        &[0x6041_0010, 0x606C_0020],
+        &cia402_pdo::TPDO1_MAPPING,
     );
     // TPDO2: position actual (0x6064), modes of operation display (0x6061, 8 bit).
     pdo(
@@ -348,7 +350,7 @@ pub fn configuration(setup: &DriveSetup, controller: u8, period_ms: u8) -> Vec<W
         0x1801,
         0x1A01,
         0x280 + n,
-        &[0x6064_0020, 0x6061_0008],
+        &cia402_pdo::TPDO2_MAPPING,
     );
     let rest = [
         w(0x1017, 0, u32::from(setup.heartbeat_ms), 2),

@@ -8,12 +8,14 @@
 //! [`Controller::tick`] every cycle, feed received frames to [`Controller::on_frame`],
 //! transmit what comes out, and report each cycle's cost and each failed transmission.
 
-use heapless::{Deque, Vec};
+use heapless::Vec;
 
 use crate::canopen::emcy::{self, REGISTER_COMMUNICATION, REGISTER_GENERIC, REGISTER_MANUFACTURER};
 use crate::canopen::sdo;
 use crate::canopen::{self, nmt, Incoming, NmtCommand, NmtState};
-use crate::cia402::{controlword, statusword, DriveState};
+use crate::cia402::pdo::{self, Tpdo};
+use crate::cia402::{controlword, DriveState};
+use crate::cia410;
 use crate::commands::{self, status_frame, Answer, Reject, Request, Status};
 use crate::commissioning::{Commissioning, CommissioningError, Device, Phase, Progress};
 pub use crate::config::Config;
@@ -23,9 +25,10 @@ pub use crate::fault::{Fault, Implausibility};
 use crate::feedback::{Correction, Measurement, Mode as FeedbackMode, NoFeedback};
 use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
 use crate::frame::CanFrame;
-use crate::links::{self, DriveLink, Heartbeat, Link, Links};
+use crate::links::{self, DriveLink, Heartbeat, Link, Links, Silent};
 use crate::node::{Dictionary, Node, Role, Snapshot, StagedRequest};
 use crate::planner::{MoveSearch, Planner, SAMPLES_PER_CYCLE};
+use crate::requests::{AnswerRecord, PendingMove, Requests};
 use crate::setpoint::{Setpoint, SetpointGate, UNITS_PER_M_PER_S};
 
 /// The supervisor state.
@@ -103,15 +106,6 @@ pub struct Counters {
     pub commissioned: u32,
 }
 
-/// A move request whose duration is being searched.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct PendingMove {
-    /// The request, as received (for its answer and for repeats).
-    request: Request,
-    target: [f64; 2],
-    search: MoveSearch,
-}
-
 /// The most frames one cycle hands out.
 pub const MAX_FRAMES: usize = 16;
 
@@ -139,28 +133,7 @@ pub struct Cycle {
     pub mode: Mode,
 }
 
-type AnswerRecord = (u8, Answer, Option<Reject>);
-
-/// Answers waiting for their status frame at most: a burst of this many requests between
-/// two cycles is answered in full.
-pub const ANSWER_QUEUE: usize = 32;
-
-/// Places in [`ANSWER_QUEUE`] only stops' answers may take: a flood of moves cannot
-/// leave a stop unanswered.
-pub const STOP_ANSWERS: usize = 4;
-
-/// Status frames a cycle sends at most (one per answer), room permitting: a supervisor
-/// may send this many requests per cycle for as long as it likes.
-pub const STATUS_PER_CYCLE: usize = 8;
-
-/// A request equal to one answered (same id, same bytes) within this window is a repeat
-/// — the supervisor did not see the answer — and gets the answer again; after it, or with
-/// other bytes, it is a new request.
-pub const REPEAT_WINDOW_MS: u64 = 1_000;
-
-/// Answered requests remembered for repeats (forgotten at a stop: the same bytes after
-/// it are a new request).
-const RECENT_ANSWERS: usize = 16;
+pub use crate::requests::{ANSWER_QUEUE, REPEAT_WINDOW_MS, STATUS_PER_CYCLE, STOP_ANSWERS};
 
 /// The crane controller: a CANopen node, manager (or slave) of the trolley and winch
 /// drives, with the inverse model `F` as feedforward and `C` between it and the drives
@@ -182,24 +155,9 @@ pub struct Controller<F, C = NoFeedback> {
     /// The nodes on the bus, from `config.nodes`.
     links: Links,
     mode: Mode,
-    /// Moves and resets, in order; stops are taken before them.
-    requests: Deque<Request, 4>,
-    /// A stop arrived since the last cycle: obeyed first thing in the next (however
-    /// many arrived, whatever their ids).
-    stop_due: bool,
-    /// The ids of the stops to answer when they are obeyed — after the moves they
-    /// refuse, so that the last answer is the stop's (their places in `unsent` kept).
-    stop_ids: Deque<u8, ANSWER_QUEUE>,
-    /// The requests answered lately, with the time of the answer: a repeat within
-    /// [`REPEAT_WINDOW_MS`] is answered again, not acted on.
-    answered: Deque<(Request, AnswerRecord, u64), RECENT_ANSWERS>,
-    /// The move being planned, a share of its search per cycle.
-    pending: Option<PendingMove>,
+    /// The supervisor's requests, from arrival to answer.
+    requests: Requests,
     counters: Counters,
-    /// The last answer: request id, answer, reason.
-    answer: AnswerRecord,
-    /// Answers not yet sent in a status frame (one frame each).
-    unsent: Deque<AnswerRecord, ANSWER_QUEUE>,
     last_miss_cycle: Option<u32>,
     rpdo_failed: bool,
     failed_cycles: u32,
@@ -275,14 +233,8 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             planner,
             links,
             mode: Mode::Enabling,
-            requests: Deque::new(),
-            stop_due: false,
-            stop_ids: Deque::new(),
-            answered: Deque::new(),
-            pending: None,
+            requests: Requests::default(),
             counters: Counters::default(),
-            answer: (0, Answer::None, None),
-            unsent: Deque::new(),
             last_miss_cycle: None,
             rpdo_failed: false,
             failed_cycles: 0,
@@ -333,7 +285,13 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// Diagnostics.
     #[must_use]
     pub fn counters(&self) -> Counters {
-        self.counters
+        let tally = self.requests.tally();
+        Counters {
+            requests: tally.answered,
+            repeated_requests: tally.repeated,
+            unanswered: tally.unanswered,
+            ..self.counters
+        }
     }
 
     /// The CiA 402 state of a drive as last reported.
@@ -376,7 +334,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// The last answer given: request id, answer, reason.
     #[must_use]
     pub fn last_answer(&self) -> (u8, Answer, Option<Reject>) {
-        self.answer
+        self.requests.last()
     }
 
     fn ignore(&mut self) {
@@ -405,6 +363,17 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             self.ignore();
             return;
         };
+        // A TPDO that reaches here is a drive's: its contents are CiA 402's.
+        let tpdo = match incoming {
+            Incoming::Tpdo { frame, .. } => match Tpdo::decode(&frame) {
+                Ok(tpdo) => Some(tpdo),
+                Err(_) => {
+                    self.ignore();
+                    return;
+                }
+            },
+            _ => None,
+        };
         self.counters.frames_received = self.counters.frames_received.saturating_add(1);
         match incoming {
             Incoming::Nmt { command, node } => {
@@ -419,24 +388,20 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                     self.last_supervisor_heartbeat_ms = Some(now_ms);
                 }
             }
-            Incoming::Status {
-                node,
-                statusword,
-                velocity,
-            } => match self.drive_at(node) {
-                Some(drive) if self.link(drive).is_some_and(DriveLink::linked) => {
-                    self.on_status(drive, statusword, velocity, now_ms);
+            Incoming::Tpdo { node, .. } => match (self.drive_at(node), tpdo) {
+                (
+                    Some(drive),
+                    Some(Tpdo::Status {
+                        statusword,
+                        velocity,
+                    }),
+                ) => {
+                    // A drive being commissioned: its mapping is not confirmed yet.
+                    if self.link(drive).is_some_and(DriveLink::linked) {
+                        self.on_status(drive, statusword, velocity, now_ms);
+                    }
                 }
-                // A drive being commissioned: its mapping is not confirmed yet.
-                Some(_) => {}
-                None => self.ignore(),
-            },
-            Incoming::Position {
-                node,
-                position,
-                mode,
-            } => match self.drive_at(node) {
-                Some(drive) => {
+                (Some(drive), Some(Tpdo::Position { position, mode })) => {
                     if !self.link(drive).is_some_and(DriveLink::linked) {
                         return;
                     }
@@ -464,7 +429,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                         self.fault(Fault::DriveMode(drive));
                     }
                 }
-                None => self.ignore(),
+                _ => self.ignore(),
             },
             Incoming::Emergency {
                 node,
@@ -545,15 +510,14 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         let setup = *sensor.commissioning.setup();
         let node = u16::from(setup.node);
         let id = frame.id();
-        let data = frame.data();
         if id == canopen::cob::TPDO1 + node {
-            match *data {
-                [a, b] if sensor.commissioning.phase() == Phase::Done => {
-                    sensor.angle = Some(setup.angle(i16::from_le_bytes([a, b])));
+            match cia410::decode_tpdo1(frame) {
+                Ok(slope) if sensor.commissioning.phase() == Phase::Done => {
+                    sensor.angle = Some(setup.angle(slope));
                     sensor.fresh = true;
                 }
-                [_, _] => {}
-                _ => self.ignore(),
+                Ok(_) => {}
+                Err(_) => self.ignore(),
             }
             return true;
         }
@@ -649,23 +613,14 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         self.counters.drive_warnings = self.counters.drive_warnings.saturating_add(1);
     }
 
-    /// An NMT command for this node (or all).
+    /// An NMT command for this node (or all): the node's NMT slave obeys it
+    /// ([`Node::on_nmt`]); outside *operational*, what waits is refused and a move is a
+    /// fault.
     fn on_nmt(&mut self, command: NmtCommand) {
-        let state = match command {
-            NmtCommand::Start => NmtState::Operational,
-            NmtCommand::Stop => NmtState::Stopped,
-            NmtCommand::PreOperational => NmtState::PreOperational,
-            NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
-                // Communication parameters back to their defaults, a boot-up message,
-                // then pre-operational (a manager starts itself again next cycle).
-                self.node.heartbeat_ms = self.config.heartbeat_period_ms;
-                self.node.supervisor = 0;
-                self.boot_up = true;
-                NmtState::PreOperational
-            }
-        };
-        self.node.state = state;
-        if state != NmtState::Operational {
+        if self.node.on_nmt(command, self.config.heartbeat_period_ms) {
+            self.boot_up = true;
+        }
+        if self.node.state != NmtState::Operational {
             // Requests are process data: none taken in operational is acted on outside
             // it — each waiting one is refused (answered when the status may go out).
             self.refuse_waiting(true);
@@ -755,11 +710,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         let link = self.link(drive)?;
         let setup = link.commissioning.setup();
         let metres = |u: i32| setup.position_offset + setup.position_scale * f64::from(u);
-        let w = self.planner.params().workspace;
-        let (lo, hi) = match drive {
-            Drive::Trolley => (w.x_min, w.x_max),
-            Drive::Winch => (w.l_min, w.l_max),
-        };
+        let (lo, hi) = *drive.of(&self.planner.ranges());
         let tolerance = self.config.position_tolerance_m;
         let at = metres(units);
         if !(lo - tolerance..=hi + tolerance).contains(&at) {
@@ -789,106 +740,40 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         let Some(link) = self.link_mut(drive) else {
             return;
         };
-        let limit_before = link.statusword & statusword::INTERNAL_LIMIT;
-        let warning_before = link.statusword & statusword::WARNING;
-        let csv = link.commissioning.setup().mode.code() == 9;
-        link.statusword = sw;
-        link.state = DriveState::from_statusword(sw);
-        link.velocity = velocity;
-        link.last_tpdo_ms = Some(now_ms);
-        // CSV: bit 12 set while the drive follows the target velocity.
-        let ignoring = csv
-            && link.state == DriveState::OperationEnabled
-            && sw & statusword::FOLLOWING == 0
-            && asked;
-        link.not_following = if ignoring {
-            link.not_following.saturating_add(1)
-        } else {
-            0
-        };
-        let not_following = link.not_following >= not_following_limit;
-        let remote_lost = sw & statusword::REMOTE == 0;
-        if (sw & statusword::INTERNAL_LIMIT != 0 && limit_before == 0)
-            || (sw & statusword::WARNING != 0 && warning_before == 0)
-        {
+        let report = link.on_status(sw, velocity, now_ms, asked, not_following_limit);
+        if report.warning {
             self.warn();
         }
-        if sw & statusword::FAULT != 0 {
+        if report.fault {
             // During a reset's fault-reset sequence a fault statusword is expected (it
             // may lag a few SYNCs); one still there when the sequence ends is a fault.
             if self.resetting == 0 {
                 self.fault(Fault::DriveFault(drive));
             }
-        } else if not_following || (moving && remote_lost) {
+        } else if report.not_following || (moving && report.remote_lost) {
             self.fault(Fault::DriveMode(drive));
         }
     }
 
-    /// A request off the bus (docs/COMMANDS.md, "Requests"). A stop is obeyed whatever
-    /// its id: never taken for a repeat, never queued behind anything, never refused for
-    /// lack of room. A move or reset equal to one still waiting is that request again
-    /// (its one answer comes when it is handled); equal to one answered within
-    /// [`REPEAT_WINDOW_MS`], it gets that answer again; anything else is new, queued, or
-    /// answered *busy* when four wait.
+    /// A request off the bus (docs/COMMANDS.md, "Requests"; [`Requests::take`]
+    /// decides what it is). One that finds no place for its answer is ignored.
     fn on_request(&mut self, request: Request) {
-        let id = request.id();
-        if let Request::Stop { .. } = request {
-            self.stop_due = true;
-            // Its answer goes out once it is obeyed; its place is kept now.
-            if self.unsent.len() + self.promised() < ANSWER_QUEUE {
-                let _ = self.stop_ids.push_back(id);
-            } else {
-                self.counters.unanswered = self.counters.unanswered.saturating_add(1);
-                self.ignore();
-            }
-            return;
-        }
-        let waiting = self.requests.iter().any(|r| *r == request)
-            || self.pending.is_some_and(|p| p.request == request);
-        if waiting {
-            self.counters.repeated_requests = self.counters.repeated_requests.saturating_add(1);
-            return;
-        }
-        if self.unsent.len() + self.promised() >= ANSWER_QUEUE - STOP_ANSWERS {
-            // No place left for its answer: counted, not acted on.
-            self.counters.unanswered = self.counters.unanswered.saturating_add(1);
+        if !self.requests.take(request, self.now_ms) {
             self.ignore();
-            return;
-        }
-        let now_ms = self.now_ms;
-        let answered = self
-            .answered
-            .iter()
-            .rev()
-            .find(|(r, _, at)| *r == request && now_ms.saturating_sub(*at) <= REPEAT_WINDOW_MS);
-        if let Some((_, answer, _)) = answered {
-            // The supervisor did not see our answer: send it again — unless it is still
-            // waiting for its status frame (one frame answers both).
-            let answer = *answer;
-            self.counters.repeated_requests = self.counters.repeated_requests.saturating_add(1);
-            if !self.unsent.iter().any(|a| *a == answer) {
-                self.queue_answer(answer, ANSWER_QUEUE);
-            }
-            return;
-        }
-        if self.requests.push_back(request).is_err() {
-            self.give_answer(request, Err(Reject::Busy));
         }
     }
 
-    /// Answers promised to requests taken but not answered yet (waiting, or being
-    /// planned): their places in the answer queue are kept.
-    fn promised(&self) -> usize {
-        self.requests.len() + usize::from(self.pending.is_some()) + self.stop_ids.len()
+    /// Answers `request` (once: its status frame is queued) and remembers it for repeats.
+    fn give_answer(&mut self, request: Request, answer: Result<Answer, Reject>) {
+        if !self.requests.answer(request, answer, self.now_ms) {
+            self.ignore();
+        }
     }
 
-    /// Queues an answer for its status frame; with `room` answers waiting it is counted
-    /// as unanswered and ignored instead. (A request is taken only when its answer will
-    /// have a place, so for a taken request this never happens.)
-    fn queue_answer(&mut self, answer: AnswerRecord, room: usize) {
-        self.answer = answer;
-        if self.unsent.len() >= room || self.unsent.push_back(answer).is_err() {
-            self.counters.unanswered = self.counters.unanswered.saturating_add(1);
+    /// The move being planned and the moves waiting are refused
+    /// ([`Requests::refuse_waiting`]).
+    fn refuse_waiting(&mut self, resets: bool) {
+        if !self.requests.refuse_waiting(resets, self.now_ms) {
             self.ignore();
         }
     }
@@ -975,20 +860,13 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         }
         // A stop goes first; then requests in order: the next one waits while a move
         // is planned.
-        if core::mem::take(&mut self.stop_due) {
+        if self.requests.stop_due() {
             self.obey_stop();
-            // What was answered before the stop is a new request after it (a move sent
-            // again is to move again); the moves the stop refuses are remembered.
-            self.answered.clear();
-            self.refuse_waiting(false);
-            while let Some(id) = self.stop_ids.pop_front() {
-                self.queue_answer((id, Answer::Accepted, None), ANSWER_QUEUE);
-                self.counters.requests = self.counters.requests.saturating_add(1);
+            if !self.requests.after_stop(now_ms) {
+                self.ignore();
             }
-        } else if self.pending.is_none() {
-            if let Some(request) = self.requests.pop_front() {
-                self.handle(request);
-            }
+        } else if let Some(request) = self.requests.next() {
+            self.handle(request);
         }
         self.plan_pending();
 
@@ -1028,7 +906,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             };
             if linked || self.gate.last(drive) != Setpoint::ZERO {
                 *drive.of_mut(&mut setpoints) = setpoint;
-                self.push(&mut frames, canopen::rpdo1(node, command, setpoint));
+                self.push(&mut frames, pdo::rpdo1(node, command, setpoint));
             }
         }
         self.resetting = self.resetting.saturating_sub(1);
@@ -1069,7 +947,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             // and every period.
             let mut sent = 0;
             while sent < STATUS_PER_CYCLE && frames.len() < MAX_FRAMES {
-                let Some(answer) = self.unsent.pop_front() else {
+                let Some(answer) = self.requests.next_unsent() else {
                     break;
                 };
                 let status = self.status_with(answer);
@@ -1205,7 +1083,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// The status frame's contents now.
     #[must_use]
     pub fn status(&self) -> Status {
-        self.status_with(self.answer)
+        self.status_with(self.requests.last())
     }
 
     fn status_with(&self, (last_id, answer, reason): AnswerRecord) -> Status {
@@ -1275,7 +1153,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 } else {
                     match MoveSearch::new(plan, target, duration) {
                         Ok(search) => {
-                            self.pending = Some(PendingMove {
+                            self.requests.plan(PendingMove {
                                 request,
                                 target,
                                 search,
@@ -1317,27 +1195,6 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         }
     }
 
-    /// The move being planned and the moves waiting are refused (reason 2), each
-    /// answered once: after a stop (the crane is stopping; resets stay), or on leaving
-    /// *operational* (`resets` too: nothing waits to be acted on outside it).
-    fn refuse_waiting(&mut self, resets: bool) {
-        if let Some(p) = self.pending.take() {
-            self.give_answer(p.request, Err(Reject::NotReady));
-        }
-        for _ in 0..self.requests.len() {
-            match self.requests.pop_front() {
-                Some(r @ Request::Move { .. }) => self.give_answer(r, Err(Reject::NotReady)),
-                Some(r @ Request::Reset { .. }) if resets => {
-                    self.give_answer(r, Err(Reject::NotReady));
-                }
-                Some(other) => {
-                    let _ = self.requests.push_back(other);
-                }
-                None => {}
-            }
-        }
-    }
-
     /// Whether a move may be accepted: ready, every drive ready, and the controller
     /// operational (a move is process data, and a stop frame is one too).
     fn may_move(&self) -> bool {
@@ -1347,7 +1204,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// Advances the move being planned by this cycle's share of samples; places it in
     /// the plan and answers when its search is done. A fault meanwhile refuses it.
     fn plan_pending(&mut self) {
-        let Some(mut pending) = self.pending.take() else {
+        let Some(mut pending) = self.requests.take_pending() else {
             return;
         };
         if !self.may_move() {
@@ -1356,7 +1213,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         }
         let mut budget = SAMPLES_PER_CYCLE;
         let Some(result) = pending.search.advance(&self.planner, &mut budget) else {
-            self.pending = Some(pending);
+            self.requests.plan(pending);
             return;
         };
         let now = self.now_s();
@@ -1399,21 +1256,6 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             self.feedback_announced = None;
         }
         self.closed_loop = true;
-    }
-
-    /// Answers `request` (once: its status frame is queued) and remembers it for repeats.
-    fn give_answer(&mut self, request: Request, answer: Result<Answer, Reject>) {
-        let id = request.id();
-        let record = match answer {
-            Ok(a) => (id, a, None),
-            Err(r) => (id, Answer::Rejected, Some(r)),
-        };
-        self.queue_answer(record, ANSWER_QUEUE);
-        if self.answered.is_full() {
-            let _ = self.answered.pop_front();
-        }
-        let _ = self.answered.push_back((request, record, self.now_ms));
-        self.counters.requests = self.counters.requests.saturating_add(1);
     }
 
     /// Where the load hangs, from the drives' position actual (0x6064): trolley position
@@ -1553,19 +1395,18 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             t.is_some_and(|t| now_ms.saturating_sub(t) > u64::from(limit))
         };
         for drive in Drive::ALL {
-            let Some(link) = self.link(drive).filter(|l| l.linked()) else {
-                continue;
-            };
-            // TPDOs answer the SYNC: they are due only from an operational drive while
-            // the controller produces SYNC.
-            let tpdos_due = self.syncing && link.nmt == Some(NmtState::Operational);
-            if late(link.last_heartbeat_ms, self.config.heartbeat_timeout_ms) {
-                self.fault(Fault::HeartbeatLost(drive));
-            } else if tpdos_due
-                && (late(link.last_tpdo_ms, self.config.tpdo_timeout_ms)
-                    || late(link.last_position_ms, self.config.tpdo_timeout_ms))
-            {
-                self.fault(Fault::TpdoTimeout(drive));
+            let silent = self.link(drive).and_then(|l| {
+                l.silent(
+                    now_ms,
+                    self.syncing,
+                    self.config.heartbeat_timeout_ms,
+                    self.config.tpdo_timeout_ms,
+                )
+            });
+            match silent {
+                Some(Silent::Heartbeat) => self.fault(Fault::HeartbeatLost(drive)),
+                Some(Silent::Tpdo) => self.fault(Fault::TpdoTimeout(drive)),
+                None => {}
             }
         }
         // The supervisor, if watched (0x1016:1): lost during a move → controlled stop.

@@ -1,6 +1,8 @@
-//! The inverse model as the controller sees it: one step per cycle, two velocities
-//! out, and a plan it can change while the model runs.
+//! The inverse model as the controller sees it: one step per cycle, a velocity per
+//! driven axis out (`A`: two for the planar crane, three for the 3D crane), and a plan
+//! it can change while the model runs.
 
+use solver_core::models::crane3d::Crane3dSubs;
 use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
 use solver_core::plan::Plan;
@@ -29,38 +31,69 @@ pub fn command_plan(position: [f64; 2], n: usize) -> Result<Plan<f64, 2>, Error>
     Plan::at_rest(position.into(), n.max(MIN_COMMAND_SMOOTHNESS))
 }
 
-/// One step of the inverse model.
+/// One step of the inverse model with `A` driven axes.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FeedforwardStep {
+pub struct FeedforwardStep<const A: usize = 2> {
     /// Model time of the new solution, s.
     pub t: f64,
-    /// `[u1, u2]`: trolley and winch velocity set points, m/s.
-    pub u: [f64; 2],
+    /// The velocity set points in the model's input order (planar: `[u1, u2]`,
+    /// trolley and winch), m/s.
+    pub u: [f64; A],
     /// What Newton did.
     pub stats: NewtonStats,
 }
 
-/// Anything that advances a crane inverse model one step per cycle.
-pub trait Feedforward {
-    /// Advances one step. On error the model stays where it was.
-    fn step(&mut self) -> Result<FeedforwardStep, Error>;
-    /// Model time of the newest solution, s.
-    fn time(&self) -> f64;
-    /// The reference state of the newest solution (trolley, rope, angle and their
-    /// rates) for the state feedback; asked only by a controller that corrects.
-    fn reference(&self) -> Reference;
+/// A crane with `A` driven axes, as a type: what its reference state is
+/// ([`ReferenceOf`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Axes<const A: usize>;
+
+/// The reference state of a crane with a given number of driven axes: the planar
+/// crane's [`Reference`], the 3D crane's one per vertical plane (x–z, y–z).
+pub trait ReferenceOf {
+    /// The reference state.
+    type Reference;
 }
 
-/// The crane's reference state `y_d, v_d` (Eqs. 7–10) from a solution of its inverse
-/// model: what the state feedback compares the measurements with.
-pub trait CraneReference {
+impl ReferenceOf for Axes<2> {
+    type Reference = Reference;
+}
+
+impl ReferenceOf for Axes<3> {
+    type Reference = [Reference; 2];
+}
+
+/// The reference state of a crane with `A` driven axes ([`ReferenceOf`]).
+pub type ReferenceState<const A: usize> = <Axes<A> as ReferenceOf>::Reference;
+
+/// Anything that advances a crane inverse model with `A` driven axes one step per cycle.
+pub trait Feedforward<const A: usize = 2>
+where
+    Axes<A>: ReferenceOf,
+{
+    /// Advances one step. On error the model stays where it was.
+    fn step(&mut self) -> Result<FeedforwardStep<A>, Error>;
+    /// Model time of the newest solution, s.
+    fn time(&self) -> f64;
+    /// The reference state of the newest solution (positions, rope, angles and their
+    /// rates) for the state feedback; asked only by a controller that corrects.
+    fn reference(&self) -> ReferenceState<A>;
+}
+
+/// The reference state `y_d, v_d` (Eqs. 7–10) of a crane with `A` driven axes from a
+/// solution of its inverse model: what the state feedback compares the measurements
+/// with.
+pub trait CraneReference<const A: usize = 2>
+where
+    Axes<A>: ReferenceOf,
+{
     /// The reference at time `t` from the solution `y` (the scheme's unknowns).
-    fn reference(&self, y: &[f64], t: f64) -> Reference;
+    fn reference(&self, y: &[f64], t: f64) -> ReferenceState<A>;
 }
 
 /// *subs*: `y = [x, l, ẋ, l̇, λ, u1, u2]`; the angle and its rate from the desired
 /// load position and velocity (Eqs. 27–28).
-impl<T: Real> CraneReference for CraneSubs<T, Plan<f64, 2>> {
+impl<T: Real> CraneReference<2> for CraneSubs<T, Plan<f64, 2>> {
     fn reference(&self, y: &[f64], t: f64) -> Reference {
         let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
         let [p, v] = self.trajectory().derivatives::<2>(t);
@@ -69,7 +102,7 @@ impl<T: Real> CraneReference for CraneSubs<T, Plan<f64, 2>> {
 }
 
 /// *proj*: `y = [x, l, φ, ẋ, l̇, φ̇, u1, u2]` holds the reference as it is.
-impl<T: Real> CraneReference for CraneProj<T, Plan<f64, 2>> {
+impl<T: Real> CraneReference<2> for CraneProj<T, Plan<f64, 2>> {
     fn reference(&self, y: &[f64], _t: f64) -> Reference {
         let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
         Reference {
@@ -83,14 +116,33 @@ impl<T: Real> CraneReference for CraneProj<T, Plan<f64, 2>> {
     }
 }
 
-/// An inverse model driven by a [`Plan`] that the controller may change.
-pub trait Replan {
+/// The 3D crane (*subs*, `y = [x, y, l, ẋ, ẏ, l̇, λ, u1, u2, u3]`): the reference of
+/// each vertical plane, x–z then y–z, as the planar crane's in that plane — the drive's
+/// position, the rope, the rope's slope in the plane (what a two-axis inclinometer
+/// reports, `solver_core::reference::flat_crane3d::FlatState3d::slope`) and the rates.
+impl<T: Real> CraneReference<3> for Crane3dSubs<T, Plan<f64, 3>> {
+    fn reference(&self, y: &[f64], t: f64) -> [Reference; 2] {
+        let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
+        let [p, v] = self.trajectory().derivatives::<2>(t);
+        let [xc, yc, zc]: [f64; 3] = p.into();
+        let [vxc, vyc, vzc]: [f64; 3] = v.into();
+        let (l, vl) = (at(2), at(5));
+        [
+            Reference::from_subs([at(0), l, at(3), vl], [xc, zc], [vxc, vzc]),
+            Reference::from_subs([at(1), l, at(4), vl], [yc, zc], [vyc, vzc]),
+        ]
+    }
+}
+
+/// An inverse model with `A` driven axes driven by a [`Plan`] that the controller may
+/// change.
+pub trait Replan<const A: usize = 2> {
     /// The plan the model follows.
-    fn plan(&self) -> &Plan<f64, 2>;
+    fn plan(&self) -> &Plan<f64, A>;
     /// The plan, to change what has not been stepped yet (checked by the planner first).
-    fn plan_mut(&mut self) -> &mut Plan<f64, 2>;
-    /// Starts again at rest at `position` at time `t` (after a halt).
-    fn restart_at_rest(&mut self, position: [f64; 2], t: f64) -> Result<(), Error>;
+    fn plan_mut(&mut self) -> &mut Plan<f64, A>;
+    /// Starts again at rest with the load at `position` at time `t` (after a halt).
+    fn restart_at_rest(&mut self, position: [f64; A], t: f64) -> Result<(), Error>;
 }
 
 /// A model together with the integrator that advances it, in the integrator's scalar
@@ -116,22 +168,29 @@ impl<M, I, T, const N: usize> InverseModel<M, I, T, N> {
     }
 }
 
-impl<T: Real, M: CraneReference + DaeModel<T, N, 2>, I: Integrator<T, M, N, 2>, const N: usize>
-    Feedforward for InverseModel<M, I, T, N>
+impl<
+        T: Real,
+        M: CraneReference<A> + DaeModel<T, N, A>,
+        I: Integrator<T, M, N, A>,
+        const N: usize,
+        const A: usize,
+    > Feedforward<A> for InverseModel<M, I, T, N>
+where
+    Axes<A>: ReferenceOf,
 {
-    fn step(&mut self) -> Result<FeedforwardStep, Error> {
+    fn step(&mut self) -> Result<FeedforwardStep<A>, Error> {
         let r = self.integrator.step(&self.model)?;
-        let [u1, u2]: [T; 2] = r.u.into();
+        let u: [T; A] = r.u.into();
         Ok(FeedforwardStep {
             t: to_f64(r.t),
-            u: [to_f64(u1), to_f64(u2)],
+            u: u.map(to_f64),
             stats: r.stats,
         })
     }
     fn time(&self) -> f64 {
         to_f64(self.integrator.time())
     }
-    fn reference(&self) -> Reference {
+    fn reference(&self) -> ReferenceState<A> {
         let y: [f64; N] = self.integrator.state().map(to_f64).into();
         self.model.reference(&y, self.time())
     }
@@ -139,18 +198,19 @@ impl<T: Real, M: CraneReference + DaeModel<T, N, 2>, I: Integrator<T, M, N, 2>, 
 
 impl<
         T: Real,
-        M: Driven<Trajectory = Plan<f64, 2>> + DaeModel<T, N, 2>,
-        I: Integrator<T, M, N, 2>,
+        M: Driven<Trajectory = Plan<f64, A>> + DaeModel<T, N, A>,
+        I: Integrator<T, M, N, A>,
         const N: usize,
-    > Replan for InverseModel<M, I, T, N>
+        const A: usize,
+    > Replan<A> for InverseModel<M, I, T, N>
 {
-    fn plan(&self) -> &Plan<f64, 2> {
+    fn plan(&self) -> &Plan<f64, A> {
         self.model.trajectory()
     }
-    fn plan_mut(&mut self) -> &mut Plan<f64, 2> {
+    fn plan_mut(&mut self) -> &mut Plan<f64, A> {
         self.model.trajectory_mut()
     }
-    fn restart_at_rest(&mut self, position: [f64; 2], t: f64) -> Result<(), Error> {
+    fn restart_at_rest(&mut self, position: [f64; A], t: f64) -> Result<(), Error> {
         let n = self.model.trajectory().planned_smoothness();
         *self.model.trajectory_mut() = Plan::at_rest(position.into(), n)?;
         self.integrator.restart(&self.model, c(t))
@@ -162,40 +222,48 @@ impl<
 /// timing of the solver.
 pub trait AroundStep {
     /// Steps `inner` (or not), doing what the wrapper is for around it.
-    fn step<F: Feedforward>(&mut self, inner: &mut F) -> Result<FeedforwardStep, Error>;
+    fn step<F: Feedforward<A>, const A: usize>(
+        &mut self,
+        inner: &mut F,
+    ) -> Result<FeedforwardStep<A>, Error>
+    where
+        Axes<A>: ReferenceOf;
 }
 
 /// A feedforward with something done around each of its steps ([`AroundStep`]);
 /// everything else — its time, its reference, its plan — is the inner feedforward's, so
 /// the controller, its frames and the plan see the inner one.
 #[derive(Debug, Clone)]
-pub struct Wrapped<F, A> {
+pub struct Wrapped<F, W> {
     /// The real feedforward.
     pub inner: F,
     /// What is done around its steps.
-    pub around: A,
+    pub around: W,
 }
 
-impl<F: Feedforward, A: AroundStep> Feedforward for Wrapped<F, A> {
-    fn step(&mut self) -> Result<FeedforwardStep, Error> {
+impl<F: Feedforward<A>, W: AroundStep, const A: usize> Feedforward<A> for Wrapped<F, W>
+where
+    Axes<A>: ReferenceOf,
+{
+    fn step(&mut self) -> Result<FeedforwardStep<A>, Error> {
         self.around.step(&mut self.inner)
     }
     fn time(&self) -> f64 {
         self.inner.time()
     }
-    fn reference(&self) -> Reference {
+    fn reference(&self) -> ReferenceState<A> {
         self.inner.reference()
     }
 }
 
-impl<F: Replan, A> Replan for Wrapped<F, A> {
-    fn plan(&self) -> &Plan<f64, 2> {
+impl<F: Replan<A>, W, const A: usize> Replan<A> for Wrapped<F, W> {
+    fn plan(&self) -> &Plan<f64, A> {
         self.inner.plan()
     }
-    fn plan_mut(&mut self) -> &mut Plan<f64, 2> {
+    fn plan_mut(&mut self) -> &mut Plan<f64, A> {
         self.inner.plan_mut()
     }
-    fn restart_at_rest(&mut self, position: [f64; 2], t: f64) -> Result<(), Error> {
+    fn restart_at_rest(&mut self, position: [f64; A], t: f64) -> Result<(), Error> {
         self.inner.restart_at_rest(position, t)
     }
 }
@@ -228,7 +296,13 @@ impl<F> Wrapped<F, FailNext> {
 }
 
 impl AroundStep for FailNext {
-    fn step<F: Feedforward>(&mut self, inner: &mut F) -> Result<FeedforwardStep, Error> {
+    fn step<F: Feedforward<A>, const A: usize>(
+        &mut self,
+        inner: &mut F,
+    ) -> Result<FeedforwardStep<A>, Error>
+    where
+        Axes<A>: ReferenceOf,
+    {
         if core::mem::take(&mut self.fail_next) {
             return Err(Error::NewtonNotConverged {
                 t: inner.time(),

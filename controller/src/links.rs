@@ -225,6 +225,73 @@ impl DriveLink {
             && self.statusword & statusword::REMOTE != 0
     }
 
+    /// Takes its TPDO1 (statusword 0x6041, velocity actual 0x606C) at `now_ms`; `asked`:
+    /// it was last sent a set point other than standstill. What the statusword tells is
+    /// the controller's to act on.
+    pub(crate) fn on_status(
+        &mut self,
+        sw: u16,
+        velocity: i32,
+        now_ms: u64,
+        asked: bool,
+        not_following_limit: u8,
+    ) -> StatusReport {
+        let limit_before = self.statusword & statusword::INTERNAL_LIMIT;
+        let warning_before = self.statusword & statusword::WARNING;
+        let csv = self.commissioning.setup().mode.code() == 9;
+        self.statusword = sw;
+        self.state = DriveState::from_statusword(sw);
+        self.velocity = velocity;
+        self.last_tpdo_ms = Some(now_ms);
+        // CSV: bit 12 set while the drive follows the target velocity.
+        let ignoring = csv
+            && self.state == DriveState::OperationEnabled
+            && sw & statusword::FOLLOWING == 0
+            && asked;
+        self.not_following = if ignoring {
+            self.not_following.saturating_add(1)
+        } else {
+            0
+        };
+        StatusReport {
+            warning: (sw & statusword::INTERNAL_LIMIT != 0 && limit_before == 0)
+                || (sw & statusword::WARNING != 0 && warning_before == 0),
+            fault: sw & statusword::FAULT != 0,
+            not_following: self.not_following >= not_following_limit,
+            remote_lost: sw & statusword::REMOTE == 0,
+        }
+    }
+
+    /// Whether a linked drive fell silent by `now_ms` (CiA 301 heartbeat consumer): no
+    /// heartbeat within `heartbeat_timeout_ms`, or — while the controller produces SYNC
+    /// (`syncing`) and the drive is operational, so that its TPDOs are due — no TPDO
+    /// within `tpdo_timeout_ms`.
+    pub(crate) fn silent(
+        &self,
+        now_ms: u64,
+        syncing: bool,
+        heartbeat_timeout_ms: u32,
+        tpdo_timeout_ms: u32,
+    ) -> Option<Silent> {
+        if !self.linked() {
+            return None;
+        }
+        let late = |t: Option<u64>, limit: u32| {
+            t.is_some_and(|t| now_ms.saturating_sub(t) > u64::from(limit))
+        };
+        let tpdos_due = syncing && self.nmt == Some(NmtState::Operational);
+        if late(self.last_heartbeat_ms, heartbeat_timeout_ms) {
+            Some(Silent::Heartbeat)
+        } else if tpdos_due
+            && (late(self.last_tpdo_ms, tpdo_timeout_ms)
+                || late(self.last_position_ms, tpdo_timeout_ms))
+        {
+            Some(Silent::Tpdo)
+        } else {
+            None
+        }
+    }
+
     /// Forgets what the drive reported (it rebooted): the TPDO values are stale.
     pub(crate) fn forget_process_data(&mut self) {
         self.state = DriveState::Unknown;
@@ -237,6 +304,29 @@ impl DriveLink {
         self.not_following = 0;
         self.implausible = None;
     }
+}
+
+/// What a drive's statusword reports (CiA 402 Tab. 30), for the controller to act on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct StatusReport {
+    /// *Internal limit active* (bit 11) or *warning* (bit 7) rose.
+    pub(crate) warning: bool,
+    /// *Fault* (bit 3).
+    pub(crate) fault: bool,
+    /// In CSV, the target velocity ignored (bit 12 clear while enabled and asked to
+    /// move) for as many TPDOs in a row as the limit.
+    pub(crate) not_following: bool,
+    /// *Remote* (bit 9) clear: the drive is under local control.
+    pub(crate) remote_lost: bool,
+}
+
+/// Which of a drive's messages stopped coming.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Silent {
+    /// Its heartbeat.
+    Heartbeat,
+    /// Its TPDOs, while due.
+    Tpdo,
 }
 
 /// What the controller knows of the inclinometer.

@@ -21,7 +21,7 @@
 //! | 0x2004:1..=4 | rope calibration learnt from the swing (`crate::rope`): drum scaling error, ppm (i32); rope offset, µm (i32); samples taken (u32); what was learnt (u8: 0 nothing yet, 1 the offset at one length, 2 scaling and offset, 3 at a bound: not to be saved) | ro |
 
 use crate::canopen::sdo::{abort, Object, ObjectDictionary, Value};
-use crate::canopen::NmtState;
+use crate::canopen::{NmtCommand, NmtState};
 use crate::commands::{command_id, decode_request, status_id, Status};
 
 /// Who starts the drives.
@@ -94,6 +94,26 @@ pub struct StagedRequest {
 }
 
 impl Node {
+    /// Obeys an NMT command addressed to it (CiA 301's NMT slave state machine). A reset
+    /// of the node or its communication brings the communication parameters back to
+    /// their defaults (`heartbeat_ms`: the producer time 0x1017 at boot; the supervisor
+    /// no longer watched) and leaves it pre-operational; `true`: a boot-up message is due
+    /// (a manager starts itself again after it).
+    pub fn on_nmt(&mut self, command: NmtCommand, heartbeat_ms: u16) -> bool {
+        let (state, reset) = match command {
+            NmtCommand::Start => (NmtState::Operational, false),
+            NmtCommand::Stop => (NmtState::Stopped, false),
+            NmtCommand::PreOperational => (NmtState::PreOperational, false),
+            NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
+                self.heartbeat_ms = heartbeat_ms;
+                self.supervisor = 0;
+                (NmtState::PreOperational, true)
+            }
+        };
+        self.state = state;
+        reset
+    }
+
     /// The cycle, ms (0x1006 in ms).
     #[must_use]
     pub fn cycle_ms(&self) -> u32 {
@@ -309,6 +329,28 @@ mod tests {
             supervisor: 0,
             cycle_us: 10_000,
             request: StagedRequest::default(),
+        }
+    }
+
+    #[test]
+    fn nmt_commands_move_the_state_and_a_reset_restores_the_defaults() {
+        let mut n = node();
+        n.heartbeat_ms = 250;
+        n.supervisor = (0x20 << 16) | 300;
+        assert!(!n.on_nmt(NmtCommand::Stop, 100));
+        assert_eq!(n.state, NmtState::Stopped);
+        assert!(!n.on_nmt(NmtCommand::Start, 100));
+        assert_eq!(n.state, NmtState::Operational);
+        assert!(!n.on_nmt(NmtCommand::PreOperational, 100));
+        assert_eq!((n.state, n.heartbeat_ms), (NmtState::PreOperational, 250));
+        for reset in [NmtCommand::ResetCommunication, NmtCommand::ResetNode] {
+            n.heartbeat_ms = 250;
+            n.supervisor = 1;
+            assert!(n.on_nmt(reset, 100), "a boot-up message is due");
+            assert_eq!(
+                (n.state, n.heartbeat_ms, n.supervisor),
+                (NmtState::PreOperational, 100, 0)
+            );
         }
     }
 

@@ -3,18 +3,24 @@
 //! velocity and acceleration limits, evaluated with the exact flat inverse at
 //! [`SAMPLES`] + 1 points of the path.
 //!
+//! The planner is generic over the crane ([`Crane`]) and its number of driven axes `A`:
+//! the planar crane of the paper (`A = 2`: trolley, winch) and the 3D crane (`A = 3`:
+//! bridge, trolley, winch) differ only in their flat inverse, their workspace and which
+//! reason names each axis's violation.
+//!
 //! A move's search for its duration costs up to a dozen such checks; the controller
 //! runs it as a [`MoveSearch`], at most [`SAMPLES_PER_CYCLE`] samples per cycle, so that
 //! planning never takes a cycle past its deadline.
 
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
+use solver_core::models::crane3d::Crane3dParams;
 use solver_core::plan::{Plan, Stop};
-use solver_core::reference::flat_crane::flat_inverse;
+use solver_core::reference::{flat_crane, flat_crane3d};
 use solver_core::trajectory::{PointToPoint, Trajectory};
 
 use crate::commands::{Reject, DURATION_TICKS_PER_S};
-use crate::setpoint::DriveLimits;
+use crate::setpoint::{AxisLimits, DriveLimits};
 
 /// Points per checked path segment (plus its end).
 pub const SAMPLES: usize = 100;
@@ -36,75 +42,190 @@ pub const STOP_DURATIONS: [f64; 17] = [
 /// end decelerates more gently in the same time (`Plan::stop_candidate`).
 pub const STOP_STRETCH: [f64; 3] = [0.0, 0.5, 1.0];
 
-/// The checks, in the order of precedence of their reasons.
-const ORDER: [Reject; 7] = [
+/// The checks, in the order of precedence of their reasons (a planar crane never
+/// meets the bridge's).
+const ORDER: [Reject; 10] = [
+    Reject::BridgeWorkspace,
     Reject::TrolleyWorkspace,
     Reject::RopeWorkspace,
     Reject::SlackRope,
+    Reject::BridgeVelocity,
     Reject::TrolleyVelocity,
     Reject::WinchVelocity,
+    Reject::BridgeAcceleration,
     Reject::TrolleyAcceleration,
     Reject::WinchAcceleration,
 ];
 
-/// Plans and checks moves for one crane and its drives.
+/// The reasons naming one axis's violations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AxisReasons {
+    /// Its drive would leave its travel (the winch: the rope its length range).
+    pub workspace: Reject,
+    /// Its velocity above the limit.
+    pub velocity: Reject,
+    /// Its acceleration above the limit.
+    pub acceleration: Reject,
+}
+
+const BRIDGE: AxisReasons = AxisReasons {
+    workspace: Reject::BridgeWorkspace,
+    velocity: Reject::BridgeVelocity,
+    acceleration: Reject::BridgeAcceleration,
+};
+const TROLLEY: AxisReasons = AxisReasons {
+    workspace: Reject::TrolleyWorkspace,
+    velocity: Reject::TrolleyVelocity,
+    acceleration: Reject::TrolleyAcceleration,
+};
+const WINCH: AxisReasons = AxisReasons {
+    workspace: Reject::RopeWorkspace,
+    velocity: Reject::WinchVelocity,
+    acceleration: Reject::WinchAcceleration,
+};
+
+/// Where the drives stand and how they move when the load follows a path exactly (the
+/// flat inverse), `A` driven axes in the model's input order.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Planner {
-    params: CraneParams,
-    limits: DriveLimits,
+pub struct Flat<const A: usize> {
+    /// Each drive's position, m (trolley or bridge position, rope length).
+    pub position: [f64; A],
+    /// Each input u, m/s.
+    pub u: [f64; A],
+    /// Each input's rate u̇, m/s².
+    pub u_dot: [f64; A],
+}
+
+/// A crane the planner checks paths for: its flat inverse, the range of each drive's
+/// position, and the reasons naming each axis. The last output is the load's depth
+/// z_C below the rail (Eq. 24's convention, in 3D too).
+pub trait Crane<const A: usize> {
+    /// The reasons of each axis, in the model's input order.
+    const REASONS: [AxisReasons; A];
+    /// Gravity, m/s².
+    fn g(&self) -> f64;
+    /// Each drive position's range `(min, max)`, m.
+    fn ranges(&self) -> [(f64, f64); A];
+    /// The flat inverse at `t` of the load's path `z`.
+    fn flat<Z: Trajectory<f64, A>>(&self, z: &Z, t: f64) -> Flat<A>;
+}
+
+/// The paper's planar crane: trolley x and rope length l (Eq. 24).
+impl Crane<2> for CraneParams {
+    const REASONS: [AxisReasons; 2] = [TROLLEY, WINCH];
+    fn g(&self) -> f64 {
+        self.g
+    }
+    fn ranges(&self) -> [(f64, f64); 2] {
+        let w = &self.workspace;
+        [(w.x_min, w.x_max), (w.l_min, w.l_max)]
+    }
+    fn flat<Z: Trajectory<f64, 2>>(&self, z: &Z, t: f64) -> Flat<2> {
+        let f = flat_crane::flat_inverse(self, z, t);
+        Flat {
+            position: [f.x, f.l],
+            u: f.u,
+            u_dot: f.u_dot,
+        }
+    }
+}
+
+/// The 3D crane: bridge x, trolley y and rope length l.
+impl Crane<3> for Crane3dParams {
+    const REASONS: [AxisReasons; 3] = [BRIDGE, TROLLEY, WINCH];
+    fn g(&self) -> f64 {
+        self.g
+    }
+    fn ranges(&self) -> [(f64, f64); 3] {
+        let w = &self.workspace;
+        [(w.x_min, w.x_max), (w.y_min, w.y_max), (w.l_min, w.l_max)]
+    }
+    fn flat<Z: Trajectory<f64, 3>>(&self, z: &Z, t: f64) -> Flat<3> {
+        let f = flat_crane3d::flat_inverse(self, z, t);
+        Flat {
+            position: [f.x, f.y, f.l],
+            u: f.u,
+            u_dot: f.u_dot,
+        }
+    }
+}
+
+/// Plans and checks moves for one crane `K` and its `A` drives.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Planner<K = CraneParams, const A: usize = 2> {
+    crane: K,
+    limits: [AxisLimits; A],
 }
 
 impl Planner {
-    /// A planner for a crane with these parameters and drive limits.
+    /// A planner for the planar crane with these parameters and drive limits.
     #[must_use]
     pub const fn new(params: CraneParams, limits: DriveLimits) -> Self {
-        Self { params, limits }
+        Self::with_axes(params, [limits.trolley, limits.winch])
+    }
+}
+
+impl<K: Crane<A>, const A: usize> Planner<K, A> {
+    /// A planner for `crane` whose drives have `limits`, in the model's input order.
+    #[must_use]
+    pub const fn with_axes(crane: K, limits: [AxisLimits; A]) -> Self {
+        Self { crane, limits }
     }
 
-    /// The crane's parameters (its workspace among them).
+    /// The crane.
     #[must_use]
-    pub const fn params(&self) -> &CraneParams {
-        &self.params
+    pub const fn crane(&self) -> &K {
+        &self.crane
+    }
+
+    /// Each drive position's range `(min, max)`, m, in the model's input order.
+    #[must_use]
+    pub fn ranges(&self) -> [(f64, f64); A] {
+        self.crane.ranges()
     }
 
     /// The rules the desired output breaks at `t`: bit `i` set for `ORDER[i]`.
-    fn violations_at<Z: Trajectory<f64, 2>>(&self, z: &Z, t: f64) -> u8 {
-        let p = &self.params;
-        let w = &p.workspace;
+    fn violations_at<Z: Trajectory<f64, A>>(&self, z: &Z, t: f64) -> u16 {
         let bit = |reason: Reject| {
             ORDER
                 .iter()
                 .position(|r| *r == reason)
-                .map_or(0, |i| 1u8 << i)
+                .map_or(0, |i| 1u16 << i)
         };
-        let [zd, _, zdd] = z.derivatives::<3>(t).map(<[f64; 2]>::from);
-        let [_, zc] = zd;
-        let [_, zcdd] = zdd;
+        let [zd, _, zdd] = z.derivatives::<3>(t);
+        let (zc, zcdd) = match (zd.as_slice().last(), zdd.as_slice().last()) {
+            (Some(zc), Some(zcdd)) => (*zc, *zcdd),
+            // No output at all: no load to hang.
+            _ => return bit(Reject::RopeWorkspace),
+        };
         if zc.is_nan() || zc <= 0.0 {
             return bit(Reject::RopeWorkspace);
         }
-        if zcdd.is_nan() || zcdd > MAX_DOWN_ACCELERATION * p.g {
+        if zcdd.is_nan() || zcdd > MAX_DOWN_ACCELERATION * self.crane.g() {
             return bit(Reject::SlackRope);
         }
-        let f = flat_inverse(p, z, t);
+        let f = self.crane.flat(z, t);
         let mut found = 0;
-        if !(w.x_min..=w.x_max).contains(&f.x) {
-            found |= bit(Reject::TrolleyWorkspace);
+        let axes = K::REASONS
+            .iter()
+            .zip(self.crane.ranges())
+            .zip(f.position)
+            .map(|((reasons, range), at)| (reasons, range, at));
+        for (reasons, (lo, hi), at) in axes {
+            if !(lo..=hi).contains(&at) {
+                found |= bit(reasons.workspace);
+            }
         }
-        if !(w.l_min..=w.l_max).contains(&f.l) {
-            found |= bit(Reject::RopeWorkspace);
-        }
-        let [u1, u2] = f.u;
-        let [a1, a2] = f.u_dot;
-        let (lt, lw) = (self.limits.trolley, self.limits.winch);
-        for (value, limit, reason) in [
-            (u1, lt.max_velocity, Reject::TrolleyVelocity),
-            (u2, lw.max_velocity, Reject::WinchVelocity),
-            (a1, lt.max_acceleration, Reject::TrolleyAcceleration),
-            (a2, lw.max_acceleration, Reject::WinchAcceleration),
-        ] {
-            if value.is_nan() || value.abs() > MARGIN * limit {
-                found |= bit(reason);
+        let rates = K::REASONS
+            .iter()
+            .zip(self.limits)
+            .zip(f.u.iter().zip(f.u_dot));
+        for ((reasons, limit), (u, u_dot)) in rates {
+            if u.is_nan() || u.abs() > MARGIN * limit.max_velocity {
+                found |= bit(reasons.velocity);
+            }
+            if u_dot.is_nan() || u_dot.abs() > MARGIN * limit.max_acceleration {
+                found |= bit(reasons.acceleration);
             }
         }
         found
@@ -112,7 +233,7 @@ impl Planner {
 
     /// Checks the desired output at [`SAMPLES`] + 1 points of `[t0, t1]`; the
     /// highest-precedence violation, if any.
-    pub fn check<Z: Trajectory<f64, 2>>(&self, z: &Z, t0: f64, t1: f64) -> Result<(), Reject> {
+    pub fn check<Z: Trajectory<f64, A>>(&self, z: &Z, t0: f64, t1: f64) -> Result<(), Reject> {
         let found = (0..=SAMPLES).fold(0, |acc, i| {
             acc | self.violations_at(z, sample_time(t0, t1, i))
         });
@@ -121,7 +242,7 @@ impl Planner {
 
     /// Whether the desired output passes every check at the same points as
     /// [`Planner::check`], visited in a spread order and left at the first violation.
-    pub fn passes<Z: Trajectory<f64, 2>>(&self, z: &Z, t0: f64, t1: f64) -> bool {
+    pub fn passes<Z: Trajectory<f64, A>>(&self, z: &Z, t0: f64, t1: f64) -> bool {
         (0..=SAMPLES).all(|k| self.violations_at(z, sample_time(t0, t1, spread(k))) == 0)
     }
 
@@ -131,11 +252,11 @@ impl Planner {
     /// cycles with [`MoveSearch`]).
     pub fn plan_move(
         &self,
-        plan: &Plan<f64, 2>,
-        target: [f64; 2],
+        plan: &Plan<f64, A>,
+        target: [f64; A],
         duration: Option<f64>,
         earliest: f64,
-    ) -> Result<PointToPoint<f64, 2>, Reject> {
+    ) -> Result<PointToPoint<f64, A>, Reject> {
         let mut search = MoveSearch::new(plan, target, duration)?;
         let mut budget = u32::MAX;
         loop {
@@ -148,12 +269,12 @@ impl Planner {
         }
     }
 
-    /// Trolley position and rope length `[x, l]` where `plan` stands at `t` (the flat
-    /// inverse: exact for the plan, which the model follows to the scheme's error).
+    /// Each drive's position (planar: trolley x and rope length l) where `plan` stands
+    /// at `t` (the flat inverse: exact for the plan, which the model follows to the
+    /// scheme's error).
     #[must_use]
-    pub fn drive_positions(&self, plan: &Plan<f64, 2>, t: f64) -> [f64; 2] {
-        let f = flat_inverse(&self.params, plan, t);
-        [f.x, f.l]
+    pub fn drive_positions(&self, plan: &Plan<f64, A>, t: f64) -> [f64; A] {
+        self.crane.flat(plan, t).position
     }
 
     /// A checked smooth stop taking over at `t`, on the running move's path
@@ -165,7 +286,7 @@ impl Planner {
     /// take more than [`STOP_SAMPLES`] samples (the running segment again: a stop is
     /// answered in the cycle it arrives, within the cycle's budget).
     #[must_use]
-    pub fn plan_stop(&self, plan: &Plan<f64, 2>, t: f64) -> Option<Stop<f64, 2>> {
+    pub fn plan_stop(&self, plan: &Plan<f64, A>, t: f64) -> Option<Stop<f64, A>> {
         let (_, running_until) = plan.segment_at(t)?.span();
         let mut budget = STOP_SAMPLES;
         for d in STOP_DURATIONS
@@ -210,7 +331,7 @@ fn spread(k: usize) -> usize {
 }
 
 /// The highest-precedence reason among the violated rules.
-fn first_reason(found: u8) -> Result<(), Reject> {
+fn first_reason(found: u16) -> Result<(), Reject> {
     match ORDER
         .iter()
         .enumerate()
@@ -249,7 +370,7 @@ enum Phase {
 struct Check {
     duration: f64,
     next: usize,
-    found: u8,
+    found: u16,
     /// Every sample and every reason (for the answer), or pass/fail only.
     full: bool,
 }
@@ -271,20 +392,20 @@ impl Check {
 /// not depend on when it starts: the search runs on `[0, T]` and the move is placed
 /// when the search is done.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MoveSearch {
-    start: SVector<f64, 2>,
-    target: SVector<f64, 2>,
+pub struct MoveSearch<const A: usize = 2> {
+    start: SVector<f64, A>,
+    target: SVector<f64, A>,
     smoothness: usize,
     phase: Phase,
     check: Check,
 }
 
-impl MoveSearch {
+impl<const A: usize> MoveSearch<A> {
     /// Starts planning a move from where `plan` ends to `target`; refuses an invalid
     /// request at once.
     pub fn new(
-        plan: &Plan<f64, 2>,
-        target: [f64; 2],
+        plan: &Plan<f64, A>,
+        target: [f64; A],
         duration: Option<f64>,
     ) -> Result<Self, Reject> {
         let (shortest, longest) = DURATION_RANGE;
@@ -311,7 +432,11 @@ impl MoveSearch {
 
     /// Evaluates at most `budget` samples (and lowers it by as many); the chosen
     /// duration or the reason once the search is done.
-    pub fn advance(&mut self, planner: &Planner, budget: &mut u32) -> Option<Result<f64, Reject>> {
+    pub fn advance<K: Crane<A>>(
+        &mut self,
+        planner: &Planner<K, A>,
+        budget: &mut u32,
+    ) -> Option<Result<f64, Reject>> {
         loop {
             let passed = self.run_check(planner, budget)?;
             if let Some(done) = self.next_phase(passed) {
@@ -321,7 +446,11 @@ impl MoveSearch {
     }
 
     /// Runs the current check within the budget: `None` if it is unfinished.
-    fn run_check(&mut self, planner: &Planner, budget: &mut u32) -> Option<Result<(), Reject>> {
+    fn run_check<K: Crane<A>>(
+        &mut self,
+        planner: &Planner<K, A>,
+        budget: &mut u32,
+    ) -> Option<Result<(), Reject>> {
         let c = &mut self.check;
         let Ok(path) = PointToPoint::new(self.start, self.target, 0.0, c.duration, self.smoothness)
         else {

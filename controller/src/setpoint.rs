@@ -4,7 +4,7 @@
 //! The drives' factor group is configured so that one velocity unit of 0x60FF is
 //! 1 µm/s: `i32` covers ±2147 m/s with a resolution far below the solver's error.
 //! [`SetpointGate::admit`] is the only way to make a [`Setpoint`], and
-//! [`crate::canopen::rpdo1`] only takes a [`Setpoint`]: a non-finite value, one
+//! [`crate::cia402::pdo::rpdo1`] only takes a [`Setpoint`]: a non-finite value, one
 //! beyond the drive's velocity limit, or one that changes faster than its
 //! acceleration limit cannot reach the bus.
 

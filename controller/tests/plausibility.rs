@@ -7,6 +7,7 @@ mod common;
 
 use common::*;
 use controller::canopen::{self, NmtState};
+use controller::cia402::pdo;
 use controller::commands::Request;
 use controller::drive::Drive;
 use controller::fault::Implausibility;
@@ -15,7 +16,7 @@ use sim::HEALTHY;
 
 /// The trolley's TPDO2 with position actual `x` m (µm units, CSV).
 fn trolley_at(x: f64) -> CanFrame {
-    canopen::tpdo2(1, (x * 1e6).round() as i32, 9)
+    pdo::tpdo2(1, (x * 1e6).round() as i32, 9)
 }
 
 /// The controller's EMCY in the cycles: (code, register, fault, node, detail).
@@ -92,7 +93,7 @@ fn a_velocity_beyond_the_drives_limit_is_a_fault() {
     rig.ready();
     // 4 m/s reported by the winch (limit 2 m/s), statusword operation enabled.
     rig.c
-        .on_frame(&canopen::tpdo1(2, 0x1637, 4_000_000), u64::from(rig.now));
+        .on_frame(&pdo::tpdo1(2, 0x1637, 4_000_000), u64::from(rig.now));
     let out = rig.run(2);
     assert_eq!(
         out[0].mode,

@@ -6,6 +6,7 @@ mod common;
 
 use common::*;
 use controller::canopen::{self, nmt, NmtCommand, NmtState};
+use controller::cia402::pdo;
 use controller::commands::{Request, STATUS_ID};
 use controller::commissioning::{CommissioningError, Phase};
 use controller::drive::Drive;
@@ -484,10 +485,9 @@ fn the_restart_position_is_the_drives_position_actual_whatever_the_tpdos_said() 
     // A duplicated TPDO1 and a spoofed one with an absurd velocity: once integrated
     // velocities moved the restart position; position actual does not care.
     let now = u64::from(rig.now);
-    rig.c.on_frame(&canopen::tpdo1(1, 0x1237, 1_500_000), now);
-    rig.c.on_frame(&canopen::tpdo1(1, 0x1237, 1_500_000), now);
-    rig.c
-        .on_frame(&canopen::tpdo1(2, 0x1237, 2_000_000_000), now);
+    rig.c.on_frame(&pdo::tpdo1(1, 0x1237, 1_500_000), now);
+    rig.c.on_frame(&pdo::tpdo1(1, 0x1237, 1_500_000), now);
+    rig.c.on_frame(&pdo::tpdo1(2, 0x1237, 2_000_000_000), now);
     rig.bus.inject(Action::Silence(Drive::Trolley));
     rig.until(300, |c| matches!(c.mode, Mode::Halted(_)));
     // Silent: its position is unknown now — a reset is refused.

@@ -8,7 +8,7 @@
 //! step; the firmware logs the sum, in the units of `Board::cost`, beside the tick's cost. Nothing else changes: the
 //! controller, its frames and the plan see the inner feedforward.
 
-use controller::feedforward::{AroundStep, FeedforwardStep, Wrapped};
+use controller::feedforward::{AroundStep, Axes, FeedforwardStep, ReferenceOf, Wrapped};
 use controller::Feedforward;
 use solver_core::Error;
 
@@ -40,7 +40,13 @@ pub fn timed<F>(inner: F) -> Timed<F> {
 }
 
 impl AroundStep for SolverTimer {
-    fn step<F: Feedforward>(&mut self, inner: &mut F) -> Result<FeedforwardStep, Error> {
+    fn step<F: Feedforward<A>, const A: usize>(
+        &mut self,
+        inner: &mut F,
+    ) -> Result<FeedforwardStep<A>, Error>
+    where
+        Axes<A>: ReferenceOf,
+    {
         let start = board::solver_counter();
         let out = inner.step();
         let spent = board::solver_elapsed(start, board::solver_counter());

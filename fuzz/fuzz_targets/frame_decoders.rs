@@ -2,9 +2,9 @@
 //! back to the same bytes.
 #![no_main]
 
-use controller::canopen;
 use controller::commands::{decode_request, request_frame};
 use controller::CanFrame;
+use controller::{canopen, cia402, cia410};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|input: (u16, Vec<u8>)| {
@@ -13,7 +13,10 @@ fuzz_target!(|input: (u16, Vec<u8>)| {
         assert!(data.len() > 8, "only over-long data is refused");
         return;
     };
-    let _ = canopen::decode(&frame);
+    if let Ok(canopen::Incoming::Tpdo { frame, .. }) = canopen::decode(&frame) {
+        let _ = cia402::pdo::Tpdo::decode(&frame);
+        let _ = cia410::decode_tpdo1(&frame);
+    }
     if let Ok(request) = decode_request(frame.data()) {
         assert_eq!(request_frame(&request).data(), frame.data(), "{request:?}");
     }

@@ -8,6 +8,7 @@
 use std::sync::LazyLock;
 
 use controller::canopen;
+use controller::cia402::pdo::Tpdo;
 use controller::CanFrame;
 use crane_fuzz::Rig;
 use libfuzzer_sys::fuzz_target;
@@ -34,7 +35,14 @@ fuzz_target!(|frames: Vec<(u16, Vec<u8>)>| {
             continue;
         };
         let own = canopen::cob::produced_by(controller::canopen::CONTROLLER_NODE, frame.id());
-        if canopen::decode(&frame).is_err() && !own {
+        // Refused by CiA 301, or a drive's TPDO CiA 402 refuses (the default scene has
+        // no inclinometer).
+        let refused = match canopen::decode(&frame) {
+            Err(_) => true,
+            Ok(canopen::Incoming::Tpdo { frame, .. }) => Tpdo::decode(&frame).is_err(),
+            Ok(_) => false,
+        };
+        if refused && !own {
             noisy.controller.on_frame(&frame, now);
             fed += 1;
         }

@@ -2,7 +2,7 @@
 //! what the controller sends is what a CAN tool reading the DBC will see.
 
 use controller::canopen::{self, emcy, nmt, NmtCommand, NmtState, CONTROLLER_NODE};
-use controller::cia402::controlword;
+use controller::cia402::{controlword, pdo};
 use controller::commands::{
     decode_request, request_frame, status_frame, Answer, Reject, Request, Status,
 };
@@ -32,23 +32,23 @@ fn dbc_parses_and_covers_every_frame() {
         canopen::heartbeat(CONTROLLER_NODE, NmtState::Operational),
         canopen::heartbeat(1, NmtState::Operational),
         canopen::heartbeat(2, NmtState::BootUp),
-        canopen::rpdo1(
+        pdo::rpdo1(
             Drive::Trolley.node(),
             0x000F,
             controller::setpoint::Setpoint::ZERO,
         ),
-        canopen::rpdo1(
+        pdo::rpdo1(
             Drive::Winch.node(),
             0x000F,
             controller::setpoint::Setpoint::ZERO,
         ),
-        canopen::tpdo1(Drive::Trolley.node(), 0x0237, 0),
-        canopen::tpdo1(Drive::Winch.node(), 0x0237, 0),
+        pdo::tpdo1(Drive::Trolley.node(), 0x0237, 0),
+        pdo::tpdo1(Drive::Winch.node(), 0x0237, 0),
         canopen::emcy(CONTROLLER_NODE, 0x6100, 0x01, [1, 2, 3, 4, 5]),
         canopen::emcy(1, 0x2310, 0x03, [0; 5]),
         canopen::emcy(2, 0x2310, 0x03, [0; 5]),
-        canopen::tpdo2(1, 12_000_000, 9),
-        canopen::tpdo2(2, 8_000_000, 9),
+        pdo::tpdo2(1, 12_000_000, 9),
+        pdo::tpdo2(2, 8_000_000, 9),
         CanFrame::new(0x601, &[0x40, 0, 0x10, 0, 0, 0, 0, 0]).unwrap(),
         CanFrame::new(0x602, &[0x2F, 0x60, 0x60, 0, 9, 0, 0, 0]).unwrap(),
         CanFrame::new(0x581, &[0x43, 0, 0x10, 0, 0x92, 1, 2, 0]).unwrap(),
@@ -261,6 +261,45 @@ fn status_names_its_answer_reason_mode_and_fault() {
     );
 }
 
+/// Every rejection reason the controller gives is named in the DBC by its own name.
+#[test]
+fn every_reject_reason_is_named_in_the_dbc() {
+    let reasons = [
+        Reject::Busy,
+        Reject::NotReady,
+        Reject::Invalid,
+        Reject::TrolleyWorkspace,
+        Reject::RopeWorkspace,
+        Reject::SlackRope,
+        Reject::TrolleyVelocity,
+        Reject::WinchVelocity,
+        Reject::TrolleyAcceleration,
+        Reject::WinchAcceleration,
+        Reject::BridgeWorkspace,
+        Reject::BridgeVelocity,
+        Reject::BridgeAcceleration,
+    ];
+    for (code, reason) in (1u8..).zip(reasons) {
+        assert_eq!(reason as u8, code, "{reason:?}");
+        let s = decode(&status_frame(
+            CONTROLLER_NODE,
+            &Status {
+                last_id: 1,
+                answer: Answer::Rejected,
+                reason: Some(reason),
+                mode: 1,
+                fault: 0,
+                ignored: 0,
+                deadline_misses: 0,
+                tx_failures: 0,
+            },
+        ))
+        .to_string();
+        let named = format!("reason={code}({reason:?})");
+        assert!(s.contains(&named), "{s} lacks {named}");
+    }
+}
+
 proptest! {
     /// Any move request: the DBC reads back what the controller decodes.
     #[test]
@@ -286,7 +325,7 @@ proptest! {
         let limits = DriveLimits { trolley: controller::setpoint::AxisLimits { max_velocity: 3.0, max_acceleration: 1e9 }, ..DriveLimits::LAB };
         let mut gate = SetpointGate::new(limits, 0.01);
         let sp = gate.admit(Drive::Trolley, v).unwrap();
-        let d = decode(&canopen::rpdo1(Drive::Trolley.node(), cw, sp));
+        let d = decode(&pdo::rpdo1(Drive::Trolley.node(), cw, sp));
         prop_assert_eq!(d.message.as_str(), "RPDO1_Trolley");
         prop_assert_eq!(d.get("controlword"), Some(f64::from(cw)));
         let back = d.get("target_velocity").unwrap();
@@ -298,11 +337,12 @@ proptest! {
     fn tpdo_agrees_with_the_dbc(sw in any::<u16>(), vel in any::<i32>(), winch in any::<bool>()) {
         let drive = if winch { Drive::Winch } else { Drive::Trolley };
         let node = drive.node();
-        let f = canopen::tpdo1(node, sw, vel);
+        let f = pdo::tpdo1(node, sw, vel);
         let d = decode(&f);
         prop_assert_eq!(d.get("statusword"), Some(f64::from(sw)));
         prop_assert!((d.get("velocity_actual").unwrap() - f64::from(vel) / UNITS_PER_M_PER_S).abs() < 1e-9);
-        prop_assert_eq!(canopen::decode(&f), Ok(canopen::Incoming::Status { node, statusword: sw, velocity: vel }));
+        prop_assert_eq!(canopen::decode(&f), Ok(canopen::Incoming::Tpdo { node, frame: f }));
+        prop_assert_eq!(pdo::Tpdo::decode(&f), Ok(pdo::Tpdo::Status { statusword: sw, velocity: vel }));
     }
 
     /// TPDO2 (position actual, mode display) and the SDO frames decode the same through
@@ -310,11 +350,12 @@ proptest! {
     #[test]
     fn tpdo2_and_sdo_agree_with_the_dbc(pos in any::<i32>(), mode in any::<i8>(), winch in any::<bool>(), bytes in any::<[u8; 8]>()) {
         let node = if winch { 2 } else { 1 };
-        let f = canopen::tpdo2(node, pos, mode);
+        let f = pdo::tpdo2(node, pos, mode);
         let d = decode(&f);
         prop_assert!((d.get("position_actual").unwrap() - f64::from(pos) * 1e-6).abs() < 1e-9);
         prop_assert_eq!(d.get("mode_display"), Some(f64::from(mode)));
-        prop_assert_eq!(canopen::decode(&f), Ok(canopen::Incoming::Position { node, position: pos, mode }));
+        prop_assert_eq!(canopen::decode(&f), Ok(canopen::Incoming::Tpdo { node, frame: f }));
+        prop_assert_eq!(pdo::Tpdo::decode(&f), Ok(pdo::Tpdo::Position { position: pos, mode }));
         let f = CanFrame::new(0x580 + u16::from(node), &bytes).unwrap();
         let d = decode(&f);
         prop_assert_eq!(d.get("command"), Some(f64::from(bytes[0])));

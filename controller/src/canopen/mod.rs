@@ -8,18 +8,17 @@
 //! | NMT | 0x000 | command, node (0 = all) |
 //! | SYNC | 0x080 | — |
 //! | EMCY of node n | 0x080 + n | error code (u16), error register (u8), 5 bytes manufacturer |
-//! | TPDO1 of drive n (statusword, 0x6041; velocity actual, 0x606C) | 0x180 + n | u16, i32 |
-//! | TPDO2 of drive n (position actual, 0x6064; mode display, 0x6061) | 0x280 + n | i32, i8 |
-//! | RPDO1 to drive n (controlword, 0x6040; target velocity, 0x60FF) | 0x200 + n | u16, i32 |
+//! | TPDO1, TPDO2 of node n | 0x180 + n, 0x280 + n | its device profile's |
+//! | RPDO1 to node n | 0x200 + n | its device profile's |
 //! | SDO response of node n / request to node n | 0x580 + n / 0x600 + n | 8 bytes ([`sdo`]) |
 //! | heartbeat of node n | 0x700 + n | NMT state |
 //!
 //! Frames name nodes, not drives: which node drives which axis is the commissioning
-//! table's business. All multi-byte values are little endian (CiA 301). Velocities and
-//! positions are in the drives' units (1 µm/s, 1 µm by default; see [`crate::setpoint`]).
+//! table's business, and what a PDO carries is its device profile's ([`crate::cia402::pdo`]
+//! for the drives, [`crate::cia410`] for the inclinometer, [`crate::commands`] for the
+//! controller's own). All multi-byte values are little endian (CiA 301).
 
 use crate::frame::CanFrame;
-use crate::setpoint::Setpoint;
 
 /// The controller's node id by default (heartbeat 0x710, EMCY 0x090; the commissioning
 /// file may choose another).
@@ -81,31 +80,6 @@ pub fn heartbeat(node: u8, state: NmtState) -> CanFrame {
     frame(cob::HEARTBEAT + u16::from(node), &[state as u8])
 }
 
-/// RPDO1 to the drive at `node`: controlword (0x6040) and target velocity (0x60FF). The
-/// velocity is a [`Setpoint`], so it has passed the choke point of [`crate::setpoint`].
-#[must_use]
-pub fn rpdo1(node: u8, controlword: u16, target_velocity: Setpoint) -> CanFrame {
-    let [c0, c1] = controlword.to_le_bytes();
-    let [v0, v1, v2, v3] = target_velocity.units().to_le_bytes();
-    frame(cob::RPDO1 + u16::from(node), &[c0, c1, v0, v1, v2, v3])
-}
-
-/// TPDO1 of a drive: statusword (0x6041) and velocity actual value (0x606C).
-/// The controller only receives these; the encoder serves tests and the virtual bus.
-#[must_use]
-pub fn tpdo1(node: u8, statusword: u16, velocity: i32) -> CanFrame {
-    let [s0, s1] = statusword.to_le_bytes();
-    let [v0, v1, v2, v3] = velocity.to_le_bytes();
-    frame(cob::TPDO1 + u16::from(node), &[s0, s1, v0, v1, v2, v3])
-}
-
-/// TPDO2 of a drive: position actual value (0x6064) and modes of operation display (0x6061).
-#[must_use]
-pub fn tpdo2(node: u8, position: i32, mode: i8) -> CanFrame {
-    let [p0, p1, p2, p3] = position.to_le_bytes();
-    frame(cob::TPDO2 + u16::from(node), &[p0, p1, p2, p3, mode as u8])
-}
-
 /// EMCY of `node`: error code, error register (1001h) and 5 manufacturer bytes.
 #[must_use]
 pub fn emcy(node: u8, code: u16, register: u8, info: [u8; 5]) -> CanFrame {
@@ -135,23 +109,12 @@ pub enum Incoming {
         /// Its NMT state.
         state: NmtState,
     },
-    /// A drive's TPDO1.
-    Status {
+    /// A TPDO1 or TPDO2 of `node` (its contents are its device profile's).
+    Tpdo {
         /// Sender.
         node: u8,
-        /// Statusword (0x6041).
-        statusword: u16,
-        /// Velocity actual value (0x606C), drive units.
-        velocity: i32,
-    },
-    /// A drive's TPDO2.
-    Position {
-        /// Sender.
-        node: u8,
-        /// Position actual value (0x6064), drive units.
-        position: i32,
-        /// Modes of operation display (0x6061).
-        mode: i8,
+        /// The frame as received (its length is the profile's to check).
+        frame: CanFrame,
     },
     /// An SDO response from `node` (to the controller's client).
     SdoResponse {
@@ -237,26 +200,14 @@ pub fn decode(frame: &CanFrame) -> Result<Incoming, DecodeError> {
                 .map(|state| Incoming::Heartbeat { node, state })
                 .ok_or(DecodeError::BadState(b))
         }
-        cob::TPDO1 => match *data {
-            [s0, s1, v0, v1, v2, v3] => Ok(Incoming::Status {
-                node,
-                statusword: u16::from_le_bytes([s0, s1]),
-                velocity: i32::from_le_bytes([v0, v1, v2, v3]),
-            }),
-            _ => Err(wrong(6)),
-        },
+        cob::TPDO1 | cob::TPDO2 => Ok(Incoming::Tpdo {
+            node,
+            frame: *frame,
+        }),
         cob::RPDO1 => Ok(Incoming::Rpdo1 {
             node,
             frame: *frame,
         }),
-        cob::TPDO2 => match *data {
-            [p0, p1, p2, p3, m] => Ok(Incoming::Position {
-                node,
-                position: i32::from_le_bytes([p0, p1, p2, p3]),
-                mode: m as i8,
-            }),
-            _ => Err(wrong(5)),
-        },
         cob::EMCY => match *data {
             [e0, e1, register, ..] if data.len() == 8 => Ok(Incoming::Emergency {
                 node,
@@ -284,23 +235,12 @@ mod tests {
 
     #[test]
     fn received_frames_round_trip() {
-        for (velocity, statusword) in [(0, 0x0237), (-1_234_567, 0x0008), (i32::MAX, 0xFFFF)] {
-            let f = tpdo1(2, statusword, velocity);
-            assert_eq!(
-                decode(&f),
-                Ok(Incoming::Status {
-                    node: 2,
-                    statusword,
-                    velocity
-                })
-            );
-        }
+        let pdo = CanFrame::new(0x282, &[1, 2, 3]).unwrap();
         assert_eq!(
-            decode(&tpdo2(1, -12_000_000, 9)),
-            Ok(Incoming::Position {
-                node: 1,
-                position: -12_000_000,
-                mode: 9
+            decode(&pdo),
+            Ok(Incoming::Tpdo {
+                node: 2,
+                frame: pdo
             })
         );
         assert_eq!(
@@ -342,14 +282,6 @@ mod tests {
 
     #[test]
     fn malformed_frames_are_refused() {
-        assert_eq!(
-            decode(&CanFrame::new(0x181, &[1, 2, 3]).unwrap()),
-            Err(DecodeError::WrongLength {
-                id: 0x181,
-                expected: 6,
-                got: 3
-            })
-        );
         assert_eq!(
             decode(&CanFrame::new(0x701, &[0x42]).unwrap()),
             Err(DecodeError::BadState(0x42))

@@ -8,6 +8,7 @@ use heapless::LinearMap;
 
 use controller::canopen::sdo::{self, abort, Object, ObjectDictionary, Value};
 use controller::canopen::{self, NmtCommand, NmtState};
+use controller::cia410;
 use controller::frame::CanFrame;
 
 use super::{refuse_write, sdo_word, store, stored, Objects};
@@ -156,12 +157,7 @@ impl InclinometerSim {
             let slope = libm::round((phi_deg + offset_deg) / resolution);
             self.slope = slope.clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16;
         }
-        (self.nmt == NmtState::Operational).then(|| {
-            CanFrame::fixed(
-                canopen::cob::TPDO1 + u16::from(self.node),
-                &self.slope.to_le_bytes(),
-            )
-        })
+        (self.nmt == NmtState::Operational).then(|| cia410::tpdo1(self.node, self.slope))
     }
 
     /// Its boot-up message and heartbeats due by `now_ms`.

@@ -23,7 +23,7 @@ use crate::traffic::Traffic;
 use controller::board::{self, CanPort};
 use controller::canopen::sdo::{self, abort, Object, ObjectDictionary, Value};
 use controller::canopen::{self, cob, NmtCommand, NmtState};
-use controller::cia402::{controlword, DriveState};
+use controller::cia402::{controlword, pdo, DriveState};
 use controller::commands::request_frame;
 #[cfg(feature = "plant")]
 use controller::commissioning::InclinometerSetup;
@@ -619,9 +619,8 @@ impl VirtualBus {
                     _ => d.actual_velocity.unwrap_or(d.velocity),
                 };
                 let node = d.node;
-                let status = canopen::tpdo1(node, d.reported_statusword(), velocity);
-                let position =
-                    canopen::tpdo2(node, (d.position_nm / 1000) as i32, d.od.mode_display());
+                let status = pdo::tpdo1(node, d.reported_statusword(), velocity);
+                let position = pdo::tpdo2(node, (d.position_nm / 1000) as i32, d.od.mode_display());
                 self.deliver(status);
                 self.deliver(position);
             }

@@ -5,6 +5,8 @@
 //! switched on → operation enabled* with the commands *shutdown*, *switch on* and
 //! *enable operation*. A fault is left only through an explicit fault reset.
 
+pub mod pdo;
+
 /// Drive states decoded from the statusword (CiA 402, Tab. 30).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

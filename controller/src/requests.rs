@@ -1,0 +1,359 @@
+//! The supervisor's requests from arrival to answer (docs/COMMANDS.md, "Requests"): every
+//! request answered exactly once, a repeat answered again and not acted on, a stop
+//! obeyed whatever its id and never refused for lack of room.
+//!
+//! This is the controller's request service, as CANopenNode keeps each service in its
+//! own object: it decides what a request is (new, a repeat, a stop) and keeps the
+//! answers until their status frames go out; what a move or a reset *does* is the
+//! controller's ([`crate::controller`]), which hands each one back here to be answered.
+
+use heapless::Deque;
+
+use crate::commands::{Answer, Reject, Request};
+use crate::planner::MoveSearch;
+
+/// An answer: request id, answer, reason.
+pub(crate) type AnswerRecord = (u8, Answer, Option<Reject>);
+
+/// Answers waiting for their status frame at most: a burst of this many requests between
+/// two cycles is answered in full.
+pub const ANSWER_QUEUE: usize = 32;
+
+/// Places in [`ANSWER_QUEUE`] only stops' answers may take: a flood of moves cannot
+/// leave a stop unanswered.
+pub const STOP_ANSWERS: usize = 4;
+
+/// Status frames a cycle sends at most (one per answer), room permitting: a supervisor
+/// may send this many requests per cycle for as long as it likes.
+pub const STATUS_PER_CYCLE: usize = 8;
+
+/// A request equal to one answered (same id, same bytes) within this window is a repeat
+/// — the supervisor did not see the answer — and gets the answer again; after it, or with
+/// other bytes, it is a new request.
+pub const REPEAT_WINDOW_MS: u64 = 1_000;
+
+/// Answered requests remembered for repeats (forgotten at a stop: the same bytes after
+/// it are a new request).
+const RECENT_ANSWERS: usize = 16;
+
+/// Moves and resets waiting to be handled at most; a fifth is answered *busy*.
+const WAITING: usize = 4;
+
+/// A move request whose duration is being searched.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct PendingMove {
+    /// The request, as received (for its answer and for repeats).
+    pub request: Request,
+    /// Where the load is to go, `[x_C, z_C]`.
+    pub target: [f64; 2],
+    /// The search for the move's duration, a share per cycle.
+    pub search: MoveSearch,
+}
+
+/// What the request service counts (reported in [`crate::Counters`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct Tally {
+    /// Requests answered.
+    pub answered: u32,
+    /// Repeats answered again (or waiting already), not acted on.
+    pub repeated: u32,
+    /// Requests that found no place for their answer: not answered.
+    pub unanswered: u32,
+}
+
+/// The requests taken and not yet answered, and the answers not yet sent.
+#[derive(Debug, Clone)]
+pub(crate) struct Requests {
+    /// Moves and resets, in order; stops are taken before them.
+    waiting: Deque<Request, WAITING>,
+    /// The move being planned, a share of its search per cycle.
+    pending: Option<PendingMove>,
+    /// A stop arrived since the last cycle: obeyed first thing in the next (however
+    /// many arrived, whatever their ids).
+    stop_due: bool,
+    /// The ids of the stops to answer when they are obeyed — after the moves they
+    /// refuse, so that the last answer is the stop's (their places in `unsent` kept).
+    stop_ids: Deque<u8, ANSWER_QUEUE>,
+    /// The requests answered lately, with the time of the answer: a repeat within
+    /// [`REPEAT_WINDOW_MS`] is answered again, not acted on.
+    answered: Deque<(Request, AnswerRecord, u64), RECENT_ANSWERS>,
+    /// Answers not yet sent in a status frame (one frame each).
+    unsent: Deque<AnswerRecord, ANSWER_QUEUE>,
+    /// The last answer given.
+    last: AnswerRecord,
+    tally: Tally,
+}
+
+impl Default for Requests {
+    fn default() -> Self {
+        Self {
+            waiting: Deque::new(),
+            pending: None,
+            stop_due: false,
+            stop_ids: Deque::new(),
+            answered: Deque::new(),
+            unsent: Deque::new(),
+            last: (0, Answer::None, None),
+            tally: Tally::default(),
+        }
+    }
+}
+
+impl Requests {
+    /// Takes a request off the bus at `now_ms`. A stop is obeyed whatever its id: never
+    /// taken for a repeat, never queued behind anything, never refused for lack of room.
+    /// A move or reset equal to one still waiting is that request again (its one answer
+    /// comes when it is handled); equal to one answered within [`REPEAT_WINDOW_MS`], it
+    /// gets that answer again; anything else is new, queued, or answered *busy* when
+    /// four wait. `false`: it found no place for its answer and is not answered (the
+    /// frame counts as ignored; a stop among them is still obeyed).
+    pub fn take(&mut self, request: Request, now_ms: u64) -> bool {
+        let id = request.id();
+        if let Request::Stop { .. } = request {
+            self.stop_due = true;
+            // Its answer goes out once it is obeyed; its place is kept now.
+            if self.unsent.len() + self.promised() < ANSWER_QUEUE {
+                let _ = self.stop_ids.push_back(id);
+                return true;
+            }
+            self.tally.unanswered = self.tally.unanswered.saturating_add(1);
+            return false;
+        }
+        let waiting = self.waiting.iter().any(|r| *r == request)
+            || self.pending.is_some_and(|p| p.request == request);
+        if waiting {
+            self.tally.repeated = self.tally.repeated.saturating_add(1);
+            return true;
+        }
+        if self.unsent.len() + self.promised() >= ANSWER_QUEUE - STOP_ANSWERS {
+            // No place left for its answer: counted, not acted on.
+            self.tally.unanswered = self.tally.unanswered.saturating_add(1);
+            return false;
+        }
+        let answered = self
+            .answered
+            .iter()
+            .rev()
+            .find(|(r, _, at)| *r == request && now_ms.saturating_sub(*at) <= REPEAT_WINDOW_MS);
+        if let Some((_, answer, _)) = answered {
+            // The supervisor did not see our answer: send it again — unless it is still
+            // waiting for its status frame (one frame answers both).
+            let answer = *answer;
+            self.tally.repeated = self.tally.repeated.saturating_add(1);
+            if !self.unsent.iter().any(|a| *a == answer) {
+                return self.queue(answer);
+            }
+            return true;
+        }
+        if self.waiting.push_back(request).is_err() {
+            return self.answer(request, Err(Reject::Busy), now_ms);
+        }
+        true
+    }
+
+    /// Whether a stop arrived since the last call.
+    pub fn stop_due(&mut self) -> bool {
+        core::mem::take(&mut self.stop_due)
+    }
+
+    /// After a stop was obeyed: what was answered before it is a new request after it (a
+    /// move sent again is to move again); the move being planned and the moves waiting
+    /// are refused; then the stops are answered, last. `false`: an answer found no place.
+    pub fn after_stop(&mut self, now_ms: u64) -> bool {
+        self.answered.clear();
+        let mut all = self.refuse_waiting(false, now_ms);
+        while let Some(id) = self.stop_ids.pop_front() {
+            all &= self.queue((id, Answer::Accepted, None));
+            self.tally.answered = self.tally.answered.saturating_add(1);
+        }
+        all
+    }
+
+    /// The next move or reset to handle, while no move is being planned.
+    pub fn next(&mut self) -> Option<Request> {
+        if self.pending.is_some() {
+            return None;
+        }
+        self.waiting.pop_front()
+    }
+
+    /// The move being planned, taken out to advance its search.
+    pub fn take_pending(&mut self) -> Option<PendingMove> {
+        self.pending.take()
+    }
+
+    /// The move being planned, put (back) to wait for the next cycle's share.
+    pub fn plan(&mut self, pending: PendingMove) {
+        self.pending = Some(pending);
+    }
+
+    /// The move being planned and the moves waiting are refused (reason 2), each
+    /// answered once: after a stop (the crane is stopping; resets stay), or on leaving
+    /// *operational* (`resets` too: nothing waits to be acted on outside it). `false`:
+    /// an answer found no place.
+    pub fn refuse_waiting(&mut self, resets: bool, now_ms: u64) -> bool {
+        let mut all = true;
+        if let Some(p) = self.pending.take() {
+            all &= self.answer(p.request, Err(Reject::NotReady), now_ms);
+        }
+        for _ in 0..self.waiting.len() {
+            match self.waiting.pop_front() {
+                Some(r @ Request::Move { .. }) => {
+                    all &= self.answer(r, Err(Reject::NotReady), now_ms);
+                }
+                Some(r @ Request::Reset { .. }) if resets => {
+                    all &= self.answer(r, Err(Reject::NotReady), now_ms);
+                }
+                Some(other) => {
+                    let _ = self.waiting.push_back(other);
+                }
+                None => {}
+            }
+        }
+        all
+    }
+
+    /// Answers `request` at `now_ms` (once: its status frame is queued) and remembers it
+    /// for repeats. `false`: the answer found no place (never for a request taken: its
+    /// place was kept when it was).
+    pub fn answer(
+        &mut self,
+        request: Request,
+        answer: Result<Answer, Reject>,
+        now_ms: u64,
+    ) -> bool {
+        let id = request.id();
+        let record = match answer {
+            Ok(a) => (id, a, None),
+            Err(r) => (id, Answer::Rejected, Some(r)),
+        };
+        let queued = self.queue(record);
+        if self.answered.is_full() {
+            let _ = self.answered.pop_front();
+        }
+        let _ = self.answered.push_back((request, record, now_ms));
+        self.tally.answered = self.tally.answered.saturating_add(1);
+        queued
+    }
+
+    /// The next answer for a status frame.
+    pub fn next_unsent(&mut self) -> Option<AnswerRecord> {
+        self.unsent.pop_front()
+    }
+
+    /// The last answer given.
+    pub fn last(&self) -> AnswerRecord {
+        self.last
+    }
+
+    /// What has been counted.
+    pub fn tally(&self) -> Tally {
+        self.tally
+    }
+
+    /// Answers promised to requests taken but not answered yet (waiting, or being
+    /// planned): their places in the answer queue are kept.
+    fn promised(&self) -> usize {
+        self.waiting.len() + usize::from(self.pending.is_some()) + self.stop_ids.len()
+    }
+
+    /// Queues an answer for its status frame; with the queue full it is counted as
+    /// unanswered instead (`false`).
+    fn queue(&mut self, answer: AnswerRecord) -> bool {
+        self.last = answer;
+        if self.unsent.push_back(answer).is_err() {
+            self.tally.unanswered = self.tally.unanswered.saturating_add(1);
+            return false;
+        }
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn mv(id: u8, x: f64) -> Request {
+        Request::Move {
+            id,
+            target: [x, 4.0],
+            duration: None,
+        }
+    }
+
+    fn answers(r: &mut Requests) -> heapless::Vec<AnswerRecord, ANSWER_QUEUE> {
+        core::iter::from_fn(|| r.next_unsent()).collect()
+    }
+
+    #[test]
+    fn a_repeat_is_answered_again_and_not_acted_on() {
+        let mut r = Requests::default();
+        assert!(r.take(mv(7, 12.0), 0));
+        // While it waits, the same bytes are the same request: one answer to come.
+        assert!(r.take(mv(7, 12.0), 5));
+        let request = r.next();
+        assert_eq!(request, Some(mv(7, 12.0)));
+        assert_eq!(r.next(), None, "taken twice, waiting once");
+        assert!(r.answer(mv(7, 12.0), Ok(Answer::Accepted), 10));
+        assert_eq!(answers(&mut r).len(), 1);
+        // Within the window: the answer again, nothing to act on.
+        assert!(r.take(mv(7, 12.0), 10 + REPEAT_WINDOW_MS));
+        assert_eq!(r.next(), None);
+        assert_eq!(answers(&mut r).as_slice(), &[(7, Answer::Accepted, None)]);
+        // After it, or with other bytes: new.
+        assert!(r.take(mv(7, 12.0), 11 + REPEAT_WINDOW_MS));
+        assert_eq!(r.next(), Some(mv(7, 12.0)));
+        assert!(r.take(mv(7, 13.0), 12 + REPEAT_WINDOW_MS));
+        assert_eq!(r.next(), Some(mv(7, 13.0)));
+        assert_eq!(r.tally().repeated, 2);
+    }
+
+    #[test]
+    fn a_stop_refuses_what_waits_and_is_answered_last() {
+        let mut r = Requests::default();
+        assert!(r.take(mv(1, 12.0), 0));
+        assert!(r.take(Request::Reset { id: 2 }, 0));
+        assert!(r.take(mv(3, 14.0), 0));
+        // A stop reusing a move's id is still a stop.
+        assert!(r.take(Request::Stop { id: 1 }, 0));
+        assert!(r.stop_due());
+        assert!(!r.stop_due(), "one stop obeyed once");
+        assert!(r.after_stop(0));
+        let given = answers(&mut r);
+        assert_eq!(
+            given.as_slice(),
+            &[
+                (1, Answer::Rejected, Some(Reject::NotReady)),
+                (3, Answer::Rejected, Some(Reject::NotReady)),
+                (1, Answer::Accepted, None),
+            ]
+        );
+        // The reset stays.
+        assert_eq!(r.next(), Some(Request::Reset { id: 2 }));
+        assert_eq!(r.tally().answered, 3);
+    }
+
+    #[test]
+    fn a_flood_of_moves_leaves_room_for_stops() {
+        let mut r = Requests::default();
+        let mut refused = 0;
+        for i in 0..=u8::MAX {
+            if !r.take(mv(i, f64::from(i)), 0) {
+                refused += 1;
+            }
+            // Handled and answered at once, as a busy controller would.
+            if let Some(request) = r.next() {
+                let _ = r.answer(request, Err(Reject::Busy), 0);
+            }
+        }
+        assert!(refused > 0);
+        for id in 0..STOP_ANSWERS as u8 {
+            assert!(r.take(Request::Stop { id }, 0), "stop {id} found no place");
+        }
+        assert!(r.stop_due());
+        assert!(r.after_stop(0));
+        let given = answers(&mut r);
+        assert_eq!(given.len(), ANSWER_QUEUE);
+        assert_eq!(given.last(), Some(&(3, Answer::Accepted, None)));
+    }
+}
