@@ -238,6 +238,11 @@ mod tests {
 
     /// [`learn`] with a sample missing every `gap_every` samples (0: none).
     fn learn_with_gaps(s: f64, o: f64, quantum: f64, gap_every: usize) -> RopeLength {
+        learn_biased(s, o, quantum, gap_every, 0.0)
+    }
+
+    /// [`learn_with_gaps`] with the inclinometer reading `bias` (rad) more than the angle.
+    fn learn_biased(s: f64, o: f64, quantum: f64, gap_every: usize, bias: f64) -> RopeLength {
         let (g, h) = (9.81, 0.01);
         let mut est = RopeLength::new(g, h);
         let (mut phi, mut vphi) = (0.0, 0.0);
@@ -262,9 +267,9 @@ mod tests {
                 + 0.3 / 0.4 * t;
             let l = 8.0 - 4.0 * (t / 15.0).min(1.0);
             let read = if quantum > 0.0 {
-                libm::round(phi / quantum) * quantum
+                libm::round((phi + bias) / quantum) * quantum
             } else {
-                phi
+                phi + bias
             };
             if gap_every > 0 && k % gap_every == gap_every - 1 {
                 est.gap();
@@ -303,6 +308,28 @@ mod tests {
                 err * 1e3
             );
         }
+    }
+
+    #[test]
+    fn an_offset_reading_biases_the_rope() {
+        // Why the calibration needs the inclinometer's zero commissioned: the reading's
+        // offset `b` enters the equation as `−g b − b ẍ φ`, which the regressors of a
+        // move do not average out. On this move 1° of offset puts the rope 22 mm off at
+        // 4 m, 3° 58 mm, 10° at a bound.
+        let truth = (1.0 + 0.015) * 4.0 + 0.08;
+        let healthy = learn_biased(0.015, 0.08, 1.75e-4, 0, 0.0).length(4.0) - truth;
+        assert!(healthy.abs() < 0.005, "{:.1} mm", healthy * 1e3);
+        for bias_deg in [1.0, -3.0, 3.0] {
+            let est = learn_biased(0.015, 0.08, 1.75e-4, 0, f64::to_radians(bias_deg));
+            let err = est.length(4.0) - truth;
+            assert!(
+                err.abs() > 0.015,
+                "{bias_deg}°: length off only {:.1} mm",
+                err * 1e3
+            );
+        }
+        let est = learn_biased(0.015, 0.08, 1.75e-4, 0, f64::to_radians(10.0));
+        assert_eq!(est.learnt(), Learnt::Clamped);
     }
 
     #[test]
