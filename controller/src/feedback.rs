@@ -1922,7 +1922,9 @@ mod tests {
                         match (o.resting, let_go) {
                             (true, None) => let_go = Some(k),
                             (false, Some(at)) => {
-                                panic!("{l} m, {c} m/s, {swing}°: let go at {at}, held at {k}")
+                                unreachable!(
+                                    "{l} m, {c} m/s, {swing}°: let go at {at}, held at {k}"
+                                )
                             }
                             _ => {}
                         }
