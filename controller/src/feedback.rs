@@ -1216,12 +1216,9 @@ impl StateFeedback {
                 _ => None,
             };
             match read {
-                // The raw reading: an offset biases the rope (crate::rope's tests), but
-                // neither the zero's running estimate nor the offset known to the
-                // feedback is steady enough during the calibration move to take out
-                // (tried, issue 18: 42 mm off on a true reading, 160 mm at 3°). The
-                // calibration needs the inclinometer's zero commissioned
-                // (docs/COMMISSIONING.md, "Rope calibration").
+                // The reading as it is: its offset is the regression's constant term
+                // (crate::rope); taking out the zero's estimate instead was tried and
+                // is not steady enough during the calibration move (issue 18).
                 Some(p) => self.rope.sample(m.x, p, m.l),
                 None => self.rope.gap(),
             }
