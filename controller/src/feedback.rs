@@ -216,8 +216,8 @@ impl Config {
     /// 0.1° is stuck; the feedback lets go at rest within 20 mm and 0.06° (held again
     /// at 33 mm or 0.0995°, the study's 0.1° target: a swing let go is not damped
     /// again, so the threshold is the target less the estimate's error at the moment it
-    /// lets go, a few hundredths of a degree; at 0.08° 3–6 % of the cases were let go
-    /// with a swing that then read above 0.1° and were held again, issue 18); the
+    /// lets go, a few hundredths of a degree; at 0.08° 3 % of the study's cases were
+    /// let go with a swing of 0.10–0.16° and held again, issue 18); the
     /// offset check at its defaults ([`zero::Thresholds::DEFAULT`]).
     pub const PAPER: Self = Self {
         weights: Weights::DEFAULT,
