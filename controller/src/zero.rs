@@ -59,6 +59,11 @@
 //! ([`Zero::step`]), so it never reaches the observer as a swing. A single outlier steps
 //! back on the next sample.
 
+/// Not a tuning but the filter's design, fixed by the pendulum (the swing's frequency
+/// over the rope range, l = 3–9 m), like [`SETTLING_CYCLES`], [`SMOOTHING`] and
+/// [`STEADY_CYCLES`], which follow from it: a commissioning engineer has nothing to
+/// measure on the crane that would set them otherwise.
+///
 /// The filter's corner, rad/s: 3–6× the swing's 1.0–1.8 rad/s (l = 3–9 m). A swing
 /// present at the start is told from an offset within about `9/ω` = 1.5 s (the
 /// triple pole's transient `(ωt)² e^{−ωt}/2` is then under 1 %); its noise on the
@@ -82,6 +87,8 @@ pub const SMOOTHING: f64 = 0.25;
 /// estimate's noise is a few hundredths of a degree, a second's mean's a tenth of it).
 pub const STEADY_CYCLES: u32 = 100;
 
+/// The default of [`crate::feedback::Config::offset_dead_band`] (a tuning: it depends
+/// on the inclinometer's noise and on how closely the estimate can follow the load).
 /// An offset within this is left in the reading, rad (0.1°): the estimate's own error
 /// on a healthy crane is a few hundredths of a degree (its noise, the filtering of
 /// `tan` and of a ratio), and a healthy crane is then read exactly as before; beyond
@@ -90,33 +97,64 @@ pub const STEADY_CYCLES: u32 = 100;
 /// trolley by at most about `0.7 l` times it, 11 mm at 9 m.
 pub const DEAD_BAND: f64 = 0.00175;
 
-/// A reading further than this from the observer's prediction (and within
+/// The default of [`crate::feedback::Config::offset_step`] (a tuning: a multiple of
+/// the inclinometer's noise). A reading further than this from the observer's
+/// prediction (and within
 /// [`crate::feedback::Config::max_innovation`], beyond which it is implausible) is a
 /// step of the zero, rad (0.25°: 12 σ of the study's 0.02° noise, 1.8 times the
 /// largest miss in the 400 healthy runs of `feedback_study --cases 200`, 0.14°, with
 /// loads swinging up to 5° at the start and gusts of up to 10 N).
 pub const MAX_STEP: f64 = 0.0044;
 
-/// An offset beyond this, rad (0.5°: the deflection a 1.6 N steady wind gives the lab
-/// crane's 18.9 kg load) …
+/// The default of [`crate::feedback::Config::max_offset`] (a tuning: how much steady
+/// deflection the site accepts before it is announced). An offset beyond this, rad
+/// (0.5°: the deflection a 1.6 N steady wind gives the lab crane's 18.9 kg load) …
 pub const MAX_OFFSET: f64 = 0.0087;
 
 /// … for this many cycles in a row (5 s: longer than the study's longest gust, 3 s,
 /// plus the estimate's settling) is announced: the angle is no longer read
-/// ([`crate::feedback::Degraded::AngleOffset`]).
+/// ([`crate::feedback::Degraded::AngleOffset`]). The default of
+/// [`crate::feedback::Config::offset_cycles`] (a tuning: longer than the site's gusts).
 pub const OFFSET_CYCLES: u32 = 500;
 
-/// An offset `o` as it is taken out: not within the [`DEAD_BAND`], all of it beyond
-/// twice that, and continuously in between (so that no offset is left to act on, and
-/// the estimate does not jump when the offset crosses the band).
-fn beyond_dead_band(o: f64) -> f64 {
-    let a = o.abs();
-    if a <= DEAD_BAND {
-        0.0
-    } else if a >= 2.0 * DEAD_BAND {
-        o
-    } else {
-        2.0 * (a - DEAD_BAND) * o.signum()
+/// The offset check's thresholds, the tunings of the [`crate::feedback::Config`]
+/// (scene `[feedback]`: `offset_dead_band`, `offset_step`, `max_offset`,
+/// `offset_cycles`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Thresholds {
+    /// An offset within this is left in the reading, rad ([`DEAD_BAND`]).
+    pub dead_band: f64,
+    /// A reading further than this from the prediction is a step of the zero, rad
+    /// ([`MAX_STEP`]).
+    pub max_step: f64,
+    /// An offset beyond this … rad ([`MAX_OFFSET`]) …
+    pub max_offset: f64,
+    /// … for this many cycles is announced ([`OFFSET_CYCLES`]).
+    pub offset_cycles: u32,
+}
+
+impl Thresholds {
+    /// Today's values: [`DEAD_BAND`], [`MAX_STEP`], [`MAX_OFFSET`], [`OFFSET_CYCLES`].
+    pub const DEFAULT: Self = Self {
+        dead_band: DEAD_BAND,
+        max_step: MAX_STEP,
+        max_offset: MAX_OFFSET,
+        offset_cycles: OFFSET_CYCLES,
+    };
+
+    /// An offset `o` as it is taken out: not within the dead band, all of it beyond
+    /// twice that, and continuously in between (so that no offset is left to act on,
+    /// and the estimate does not jump when the offset crosses the band).
+    fn beyond_dead_band(&self, o: f64) -> f64 {
+        let band = self.dead_band;
+        let a = o.abs();
+        if a <= band {
+            0.0
+        } else if a >= 2.0 * band {
+            o
+        } else {
+            2.0 * (a - band) * o.signum()
+        }
     }
 }
 
@@ -128,6 +166,7 @@ use crate::feedback::Reference;
 pub struct Zero {
     g: f64,
     h: f64,
+    limits: Thresholds,
     /// `tan` of the reading less the steps.
     tan: Derivatives,
     /// The load's horizontal position `x + l sin φ`, m.
@@ -162,12 +201,13 @@ pub struct Zero {
 const MAX_BRIDGED: u32 = 3;
 
 impl Zero {
-    /// Nothing read yet.
+    /// Nothing read yet; judged with `limits`.
     #[must_use]
-    pub fn new(g: f64, h: f64) -> Self {
+    pub fn new(g: f64, h: f64, limits: Thresholds) -> Self {
         Self {
             g,
             h,
+            limits,
             tan: Derivatives::new(CORNER),
             xc: Derivatives::new(CORNER),
             zc: Derivatives::new(CORNER),
@@ -204,7 +244,8 @@ impl Zero {
     /// from it as the gust drops, an offset does not.
     #[must_use]
     pub fn shown(&self) -> f64 {
-        beyond_dead_band(self.settled.unwrap_or(self.drift))
+        self.limits
+            .beyond_dead_band(self.settled.unwrap_or(self.drift))
     }
 
     /// The steps of the zero seen so far, rad (always taken out of the readings).
@@ -216,7 +257,7 @@ impl Zero {
     /// The last block's mean, when it is within the [`DEAD_BAND`] of the one before.
     fn steady(&self) -> Option<f64> {
         match self.means {
-            [Some(a), Some(b)] if (a - b).abs() < DEAD_BAND => Some(b),
+            [Some(a), Some(b)] if (a - b).abs() < self.limits.dead_band => Some(b),
             _ => None,
         }
     }
@@ -232,7 +273,9 @@ impl Zero {
     /// From now on the offset estimated beyond the [`DEAD_BAND`] is taken out of the
     /// readings ([`Zero::removed`]), with every step that follows.
     pub fn fix(&mut self) {
-        self.taken = beyond_dead_band(self.steady_still().unwrap_or(self.drift));
+        self.taken = self
+            .limits
+            .beyond_dead_band(self.steady_still().unwrap_or(self.drift));
     }
 
     /// What is taken out of the readings, rad: the steps, and the drift fixed by
@@ -253,7 +296,7 @@ impl Zero {
     /// The offset not taken out of the readings, beyond the [`DEAD_BAND`], rad.
     #[must_use]
     pub fn left(&self) -> f64 {
-        beyond_dead_band(self.offset() - self.removed())
+        self.limits.beyond_dead_band(self.offset() - self.removed())
     }
 
     /// The reading stepped by `by` (rad) since the last sample: a step of the zero.
@@ -340,7 +383,7 @@ impl Zero {
         }
         let o = self.offset();
         // An offset, or one that has gone since it was fixed (a steady wind dropped).
-        self.beyond = if o.abs().max((o - self.removed()).abs()) > MAX_OFFSET {
+        self.beyond = if o.abs().max((o - self.removed()).abs()) > self.limits.max_offset {
             self.beyond.saturating_add(1)
         } else {
             0
@@ -354,7 +397,7 @@ impl Zero {
             *self = Self {
                 steps: self.steps,
                 taken: self.taken,
-                ..Self::new(self.g, self.h)
+                ..Self::new(self.g, self.h, self.limits)
             };
         }
     }
@@ -363,7 +406,13 @@ impl Zero {
     /// gust, so a biased sensor or a steady wind.
     #[must_use]
     pub fn offset_persists(&self) -> bool {
-        self.beyond >= OFFSET_CYCLES
+        self.beyond >= self.limits.offset_cycles
+    }
+
+    /// A reading further than this from the prediction is a step of the zero, rad.
+    #[must_use]
+    pub fn max_step(&self) -> f64 {
+        self.limits.max_step
     }
 }
 
@@ -392,7 +441,7 @@ mod tests {
         bias: impl Fn(f64) -> f64,
         seconds: f64,
     ) -> Vec<f64> {
-        let mut zero = Zero::new(G, H);
+        let mut zero = Zero::new(G, H, Thresholds::DEFAULT);
         // State φ, φ̇; the trolley's acceleration by central differences of x(t).
         let acc = |t: f64| (x(t + 1e-4) - 2.0 * x(t) + x(t - 1e-4)) / 1e-8;
         let f = |t: f64, s: [f64; 2]| [s[1], (-G * s[0].sin() - acc(t) * s[0].cos()) / l];
@@ -435,7 +484,7 @@ mod tests {
         let late = est[settled..].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
         assert!(late < DEAD_BAND, "{:.3}°", late.to_degrees());
         assert!(!{
-            let mut z = Zero::new(G, H);
+            let mut z = Zero::new(G, H, Thresholds::DEFAULT);
             z.beyond = OFFSET_CYCLES - 1;
             z.offset_persists()
         });
@@ -488,7 +537,7 @@ mod tests {
 
     #[test]
     fn steps_and_gaps() {
-        let mut z = Zero::new(G, H);
+        let mut z = Zero::new(G, H, Thresholds::DEFAULT);
         z.sample(15.0, 0.02, 6.0, &REST, true);
         z.step(0.01);
         z.sample(15.0, 0.03, 6.0, &REST, true);

@@ -27,7 +27,13 @@
 //! held_allowance = 0.02       # m/s: how much harder an unchanged reading may push
 //! # At rest on the target the feedback lets go (set points zero) …
 //! rest_position = 0.02        # m: load within this of its target (x and rope) …
-//! rest_swing = 0.00139        # rad: … and swinging less; held again at 1.25× either
+//! rest_swing = 0.00105        # rad: … and swinging less (0.06°) for 0.1 s …
+//! rest_hysteresis = 1.65      # … and takes hold again at this times either (0.0995°)
+//! # The inclinometer's offset check (controller::zero).
+//! offset_dead_band = 0.00175  # rad: an offset within this is left in the reading
+//! offset_step = 0.0044        # rad: a reading this far from the prediction is a step of the zero
+//! max_offset = 0.0087         # rad: an offset beyond this …
+//! offset_cycles = 500         # … for this many cycles is announced (EMCY 0xFF20 reason 5)
 //! ```
 //!
 //! The gains are designed from the weights at start-up (`Gains::design`), for the
@@ -64,6 +70,11 @@ pub struct FeedbackSpec {
     pub held_allowance: f64,
     pub rest_position: f64,
     pub rest_swing: f64,
+    pub rest_hysteresis: f64,
+    pub offset_dead_band: f64,
+    pub offset_step: f64,
+    pub max_offset: f64,
+    pub offset_cycles: u32,
 }
 
 impl Default for FeedbackSpec {
@@ -89,6 +100,11 @@ impl Default for FeedbackSpec {
             held_allowance: c.held_allowance,
             rest_position: c.rest_position,
             rest_swing: c.rest_swing,
+            rest_hysteresis: c.rest_hysteresis,
+            offset_dead_band: c.offset_dead_band,
+            offset_step: c.offset_step,
+            max_offset: c.max_offset,
+            offset_cycles: c.offset_cycles,
         }
     }
 }
@@ -114,6 +130,10 @@ impl FeedbackSpec {
             ("held_allowance", self.held_allowance),
             ("rest_position", self.rest_position),
             ("rest_swing", self.rest_swing),
+            ("rest_hysteresis", self.rest_hysteresis),
+            ("offset_dead_band", self.offset_dead_band),
+            ("offset_step", self.offset_step),
+            ("max_offset", self.max_offset),
         ];
         for (name, v) in positive {
             if !(v.is_finite() && v > 0.0) {
@@ -141,6 +161,42 @@ impl FeedbackSpec {
                 "at least 2: one repeated value is not a stuck sensor",
             ));
         }
+        if self.rest_hysteresis < 1.0 {
+            return Err(refuse(
+                "feedback.rest_hysteresis",
+                "at least 1: below, a crane let go would be held again at once (it chatters)",
+            ));
+        }
+        if self.rest_swing * self.rest_hysteresis >= self.max_innovation {
+            return Err(refuse(
+                "feedback.rest_swing",
+                "rest_swing × rest_hysteresis must be below max_innovation: a swing the feedback lets go must be one it can still read",
+            ));
+        }
+        if self.offset_step >= self.max_innovation {
+            return Err(refuse(
+                "feedback.offset_step",
+                "must be below max_innovation: a larger miss is implausible, never a step of the zero",
+            ));
+        }
+        if self.offset_dead_band >= self.max_offset {
+            return Err(refuse(
+                "feedback.offset_dead_band",
+                "must be below max_offset: an offset left in the reading cannot be one that is announced",
+            ));
+        }
+        if self.max_offset >= self.max_angle {
+            return Err(refuse(
+                "feedback.max_offset",
+                "must be below max_angle: the offset is judged on plausible angles",
+            ));
+        }
+        if self.offset_cycles == 0 {
+            return Err(refuse(
+                "feedback.offset_cycles",
+                "at least 1 (longer than the site's gusts: a gust's push is no offset)",
+            ));
+        }
         let config = Config {
             weights: Weights {
                 load_position: self.load_position,
@@ -166,6 +222,11 @@ impl FeedbackSpec {
             held_allowance: self.held_allowance,
             rest_position: self.rest_position,
             rest_swing: self.rest_swing,
+            rest_hysteresis: self.rest_hysteresis,
+            offset_dead_band: self.offset_dead_band,
+            offset_step: self.offset_step,
+            max_offset: self.max_offset,
+            offset_cycles: self.offset_cycles,
         };
         Gains::design(&config).map_err(|e| {
             refuse(
@@ -181,7 +242,7 @@ impl FeedbackSpec {
     pub fn source(config: &Config) -> String {
         let w = &config.weights;
         format!(
-            "controller::feedback::Config {{ weights: controller::feedback::Weights {{ load_position: {:?}, trolley_position: {:?}, swing_velocity: {:?}, trolley_correction: {:?}, rope_position: {:?}, winch_correction: {:?}, drive_disturbance: {:?}, swing_disturbance: {:?}, position_noise: {:?}, angle_noise: {:?} }}, g: {:?}, tau1: {:?}, tau2: {:?}, h: {:?}, max_angle: {:?}, max_innovation: {:?}, max_bad_angle_cycles: {}, max_frozen_cycles: {}, frozen_motion: {:?}, held_allowance: {:?}, rest_position: {:?}, rest_swing: {:?} }}",
+            "controller::feedback::Config {{ weights: controller::feedback::Weights {{ load_position: {:?}, trolley_position: {:?}, swing_velocity: {:?}, trolley_correction: {:?}, rope_position: {:?}, winch_correction: {:?}, drive_disturbance: {:?}, swing_disturbance: {:?}, position_noise: {:?}, angle_noise: {:?} }}, g: {:?}, tau1: {:?}, tau2: {:?}, h: {:?}, max_angle: {:?}, max_innovation: {:?}, max_bad_angle_cycles: {}, max_frozen_cycles: {}, frozen_motion: {:?}, held_allowance: {:?}, rest_position: {:?}, rest_swing: {:?}, rest_hysteresis: {:?}, offset_dead_band: {:?}, offset_step: {:?}, max_offset: {:?}, offset_cycles: {} }}",
             w.load_position,
             w.trolley_position,
             w.swing_velocity,
@@ -203,7 +264,12 @@ impl FeedbackSpec {
             config.frozen_motion,
             config.held_allowance,
             config.rest_position,
-            config.rest_swing
+            config.rest_swing,
+            config.rest_hysteresis,
+            config.offset_dead_band,
+            config.offset_step,
+            config.max_offset,
+            config.offset_cycles
         )
     }
 }
@@ -251,6 +317,14 @@ mod tests {
             ("bridged_cycles = 50", "feedback.bridged_cycles"),
             ("frozen_cycles = 1", "feedback.frozen_cycles"),
             ("rest_swing = 0.0", "feedback.rest_swing"),
+            ("rest_hysteresis = 0.9", "feedback.rest_hysteresis"),
+            ("rest_swing = 0.03", "feedback.rest_swing"),
+            ("offset_dead_band = -0.001", "feedback.offset_dead_band"),
+            ("offset_dead_band = 0.01", "feedback.offset_dead_band"),
+            ("offset_step = 0.04", "feedback.offset_step"),
+            ("max_offset = inf", "feedback.max_offset"),
+            ("max_offset = 0.4", "feedback.max_offset"),
+            ("offset_cycles = 0", "feedback.offset_cycles"),
             ("load_position = 1e-300", "feedback"),
         ] {
             let e = check(text).unwrap_err();
