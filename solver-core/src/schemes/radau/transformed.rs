@@ -244,12 +244,14 @@ pub struct StructuredStages<T: Real, F, S = Predicted> {
     start: core::marker::PhantomData<fn() -> S>,
 }
 
-/// The [`StructuredStages`] of a model `M` (the firmware's), iterating from the
-/// extrapolated collocation polynomial.
+/// The [`StructuredStages`] of a model `M` iterating from the extrapolated collocation
+/// polynomial (the firmware's before issue 20).
 pub type StructuredStagesOf<T, M, const N: usize, const NU: usize> =
     StructuredStages<T, <M as StructuredJacobian<T, N, NU>>::Factors>;
 
-/// The [`StructuredStages`] of a model `M` taking the stages from its closed-form step.
+/// The [`StructuredStages`] of a model `M` taking the stages from its closed-form step (the
+/// firmware's: `StructuredRadau5` of a model's scheme aliases; within the iteration's
+/// rounding floor, `host-tests/tests/step_accuracy.rs`).
 pub type EliminatedStagesOf<T, M, const N: usize, const NU: usize> =
     StructuredStages<T, <M as StructuredJacobian<T, N, NU>>::Factors, crate::model::Eliminated>;
 
