@@ -316,9 +316,10 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> BdfNewton<
 /// of the paper's move at 2 ms was 5 % above Newton's (1.84e-9 against 1.76e-9), with it
 /// 0.997–1.000 of Newton's from 0.5 to 2 ms. From 5 ms on the closed form is the step (no
 /// iteration, no matrix). A model without a closed form keeps the predictor and the
-/// iteration above; a step the closed form refuses (a slack rope, which the models'
-/// trajectory checks refuse up front) iterates from `x_{n−1}`, the predictor not being
-/// formed for a model that has one ([`BdfNewton::PREDICTS`]).
+/// iteration above. A step the closed form refuses (a slack rope, which the models'
+/// trajectory checks refuse up front, or the rope moving by more than 15 % of its length
+/// in one step) is refused ([`Error::SingularJacobian`], 0 iterations): the iteration is
+/// not a fall-back, so that a firmware starting from the closed form does not link it.
 ///
 /// [`Eliminated`]: crate::model::Eliminated
 #[derive(Debug, Clone)]
@@ -461,19 +462,29 @@ where
         step: &BdfStep<'_, T, M, N, NU>,
         mut xi: SVector<T, N>,
     ) -> Result<(SVector<T, N>, NewtonStats)> {
-        if S::ELIMINATE {
-            if let Some([increment]) = step.model.solve_step(&[step.sample], step) {
-                let xi = step.anchor + increment;
-                if self.correct {
-                    return self.correct(step, xi);
-                }
-                ensure_finite(&xi, step.t, 0)?;
-                let stats = NewtonStats {
-                    converged: true,
-                    ..NewtonStats::default()
-                };
-                return Ok((xi, stats));
+        if S::ELIMINATE && M::CLOSED_FORM {
+            // No iteration to fall back on (so none is linked): the closed form refuses
+            // only where the elimination's pivots vanish (a slack rope: the iteration's
+            // factors would be singular too) or where the rope would move by more than
+            // 15 % of its length in one step — trajectories the models' checks and the
+            // planner's limits refuse up front.
+            let Some([increment]) = step.model.solve_step(&[step.sample], step) else {
+                return Err(Error::SingularJacobian {
+                    t: step.t,
+                    iterations: 0,
+                    residual: 0.0,
+                });
+            };
+            let xi = step.anchor + increment;
+            if self.correct {
+                return self.correct(step, xi);
             }
+            ensure_finite(&xi, step.t, 0)?;
+            let stats = NewtonStats {
+                converged: true,
+                ..NewtonStats::default()
+            };
+            return Ok((xi, stats));
         }
         let mut stats = NewtonStats::default();
         self.refresh(step, &xi, &mut stats)?;
