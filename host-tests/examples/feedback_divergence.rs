@@ -35,10 +35,14 @@ struct Row {
     held: bool,
     /// The set points last admitted by the gate (the previous cycle's, as sent).
     sent: [f64; 2],
+    /// The cycle's time, ms.
+    now_ms: u32,
 }
 
 thread_local! {
     static LOG: RefCell<Vec<Row>> = const { RefCell::new(Vec::new()) };
+    /// The time of the cycle being run, ms.
+    static NOW_MS: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
 }
 
 /// The state feedback, every cycle logged.
@@ -63,6 +67,7 @@ impl Correction for Logged {
                 out,
                 held,
                 sent: last,
+                now_ms: NOW_MS.get(),
             })
         });
         out
@@ -100,6 +105,7 @@ fn run(scene: &Scene, scenario: &Scenario, closed_form: bool) -> Vec<Row> {
             let mut c = Controller::with_correction(ff, feedback, f.planner, f.config);
             c.demonstration_commanded();
             for cycle in 0..cycles {
+                NOW_MS.set(cycle * f.config.period_ms);
                 if run_cycle(&mut c, &mut bus, cycle * f.config.period_ms).is_none() {
                     break;
                 }
@@ -117,7 +123,6 @@ fn run(scene: &Scene, scenario: &Scenario, closed_form: bool) -> Vec<Row> {
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let scene = Scene::load(&root.join("scenes/paper-crane-feedback.toml")).unwrap();
-    let h = 0.01;
     for scenario in FEEDBACK_SCENARIOS {
         let (a, b) = (run(&scene, &scenario, false), run(&scene, &scenario, true));
         println!(
@@ -131,7 +136,7 @@ fn main() {
             .zip(&b)
             .position(|(x, y)| differs(x, y))
         {
-            Some(i) => println!("  first {what}: cycle {i} (t = {:.2} s)", i as f64 * h),
+            Some(i) => println!("  first {what}: t = {:.2} s", f64::from(a[i].now_ms) / 1e3),
             None => println!("  {what}: never"),
         };
         first("u_d differs (any bit)", &|x, y| x.u_d != y.u_d);
@@ -142,7 +147,8 @@ fn main() {
         if let Some(i) = a.iter().zip(&b).position(|(x, y)| x.measured != y.measured) {
             for j in i.saturating_sub(1)..(i + 2).min(a.len()) {
                 println!(
-                    "    cycle {j}: measured {:?} / {:?}, u_d {:?} / {:?}, correction {:?} / {:?}",
+                    "    t = {} ms: measured {:?} / {:?}, u_d {:?} / {:?}, correction {:?} / {:?}",
+                    a[j].now_ms,
                     a[j].measured,
                     b[j].measured,
                     a[j].u_d,
@@ -155,6 +161,15 @@ fn main() {
         first("sent set point differs (after the gate)", &|x, y| {
             x.sent != y.sent
         });
+        first(
+            "sent set point differs in µm/s (the frames' unit)",
+            &|x, y| {
+                x.sent
+                    .iter()
+                    .zip(y.sent)
+                    .any(|(p, q)| (p * 1e6).round() != (q * 1e6).round())
+            },
+        );
         first("angle reading differs", &|x, y| {
             x.measured.map(|m| m.phi) != y.measured.map(|m| m.phi)
         });
@@ -189,9 +204,9 @@ fn main() {
             })
             .fold((0, 0.0), |m, c| if c.1 > m.1 { c } else { m });
         println!(
-            "  largest set-point difference {:.1} mm/s at cycle {i} (t = {:.2} s)",
+            "  largest set-point difference {:.1} mm/s at t = {:.2} s",
             d * 1e3,
-            i as f64 * h
+            f64::from(a[i].now_ms) / 1e3
         );
         // The cycles around the first 1 mm/s difference.
         if let Some(k) = a.iter().zip(&b).position(|(x, y)| {
@@ -204,7 +219,8 @@ fn main() {
             for j in k.saturating_sub(4)..(k + 3).min(a.len()) {
                 let (x, y) = (&a[j], &b[j]);
                 println!(
-                    "    cycle {j}: u {:+.6} / {:+.6} m/s, held {} / {}, resting {} / {}, phi {:?} / {:?}, mode {:?} / {:?}",
+                    "    t = {} ms: u {:+.6} / {:+.6} m/s, held {} / {}, resting {} / {}, phi {:?} / {:?}, mode {:?} / {:?}",
+                    x.now_ms,
                     x.out.u[0],
                     y.out.u[0],
                     x.held,
