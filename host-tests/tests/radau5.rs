@@ -10,15 +10,17 @@ use std::path::Path;
 use host_tests::run::{crane_input_errors, emax, run, run_with, Scheme, Trace};
 use scene::{ModelSpec, Scene};
 use solver_core::models::crane_subs::{self, CraneSubs, N, NU};
-use solver_core::schemes::radau::transformed::{EliminatedStagesOf, Transformed};
+use solver_core::schemes::radau::transformed::{StructuredStagesOf, Transformed};
 use solver_core::trajectory::PointToPoint;
 use solver_core::{JacobianMode, SolverSettings};
 
-/// Radau IIA whose stages are the *subs* model's closed-form step, no Newton iteration.
-type ClosedFormRadau5 = crane_subs::Radau<
+/// RADAU5's transformed Newton on the *subs* model's elimination, iterating from the
+/// extrapolated collocation polynomial (the firmware's before issue 20 switched it to the
+/// closed-form stages, `crane_subs::StructuredRadau5`).
+type IteratedRadau5 = crane_subs::Radau<
     f64,
     PointToPoint<f64, 2>,
-    Transformed<f64, N, EliminatedStagesOf<f64, CraneSubs<f64, PointToPoint<f64, 2>>, N, NU>>,
+    Transformed<f64, N, StructuredStagesOf<f64, CraneSubs<f64, PointToPoint<f64, 2>>, N, NU>>,
 >;
 
 const STEP_SIZES: [f64; 7] = [0.0005, 0.001, 0.002, 0.005, 0.01, 0.02, 0.05];
@@ -63,7 +65,8 @@ fn radau(scene: &Scene, mode: JacobianMode, h: f64) -> Outcome {
 }
 
 /// RADAU5 with the *subs* model's structured elimination of its real and complex
-/// systems (the firmware's) against the dense LUs: e_max within 10 % of exact Newton's at
+/// systems (the firmware's systems; iterating from the extrapolated polynomial) against
+/// the dense LUs: e_max within 10 % of exact Newton's at
 /// every step size, equal to the dense LUs' within 1 % where it is not rounding noise
 /// (h ≥ 5 ms), the Newton iterations within 10 %.
 #[test]
@@ -86,7 +89,7 @@ fn structured_stage_systems_match_the_dense_lus() {
             ..scene.settings()
         };
         let dense = radau(&scene, JacobianMode::Transformed, h);
-        let integrator = crane_subs::StructuredRadau5::new(&model, &settings, 0.0).unwrap();
+        let integrator = IteratedRadau5::new(&model, &settings, 0.0).unwrap();
         let structured = run_with(&model, integrator, &settings, t_end).unwrap();
         assert!(
             structured.failure.is_none(),
@@ -231,8 +234,8 @@ fn transformed_newton_is_radau_with_exact_partials_only() {
     );
 }
 
-/// The stages from the closed-form step ([`EliminatedStagesOf`], no iteration) against
-/// RADAU5's iteration with the structured elimination (the firmware's): below 5 ms the
+/// The stages from the closed-form step (`EliminatedStagesOf`, no iteration; the
+/// firmware's) against RADAU5's iteration with the structured elimination: below 5 ms the
 /// interior error is smaller (0.90–0.97 of the iteration's at 0.5–2 ms: the iteration's
 /// corrections add the residual's rounding, which Eq. 13 differentiates twice), from 5
 /// ms on equal to 1e-4, e_max within 1e-6 of it (at 20 ms 4.5e-7 above: the floor of the
@@ -259,14 +262,14 @@ fn closed_form_stages_need_no_iteration() {
         };
         let iterated = run_with(
             &model,
-            crane_subs::StructuredRadau5::new(&model, &settings, 0.0).unwrap(),
+            IteratedRadau5::new(&model, &settings, 0.0).unwrap(),
             &settings,
             t_end,
         )
         .unwrap();
         let closed = run_with(
             &model,
-            ClosedFormRadau5::new(&model, &settings, 0.0).unwrap(),
+            crane_subs::StructuredRadau5::new(&model, &settings, 0.0).unwrap(),
             &settings,
             t_end,
         )

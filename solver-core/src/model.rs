@@ -120,7 +120,9 @@ pub trait StructuredJacobian<T: Real, const N: usize, const NU: usize>: DaeModel
     /// `F(X_k, Ẋ_k, t_k) = 0` (Eq. 12) at every node, `Ẋ` given by the scheme's
     /// difference formula `d` (BDF's Eq. 16, Radau IIA's Eq. 13) and `samples` the
     /// trajectory at the nodes; `None` by default (the strategies then keep their
-    /// predictors), and wherever the model cannot (a zero pivot, a slack rope).
+    /// predictors), and wherever the model cannot (a zero pivot, a slack rope: a
+    /// strategy starting from the closed form then refuses the step,
+    /// [`Error::SingularJacobian`](crate::Error::SingularJacobian)).
     ///
     /// Why here: a Newton matrix triangular in a static order (this trait's premise) is
     /// the Jacobian of a system that is itself triangular in that order. Where each

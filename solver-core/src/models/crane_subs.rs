@@ -150,7 +150,9 @@ impl<T: Real, Z: Trajectory<T, 2>> DaeModel<T, N, 2> for CraneSubs<T, Z> {
 
     fn rest_state(&self, t: T) -> Result<SVector<T, N>> {
         ensure_at_rest(&self.trajectory, t)?;
-        let [[xc, zc]] = self.trajectory.derivatives::<1>(t).map(<[T; 2]>::from);
+        // The order the step samples (`sample`), not `::<1>`: the value has the same
+        // bits, and a firmware then links one evaluation of its plan, not two.
+        let [[xc, zc], _, _] = self.trajectory.derivatives::<3>(t).map(<[T; 2]>::from);
         // Hanging straight down: x = x_C, l = z_C, λ = −g/(2 z_C) from F6.
         let lambda = -self.g / (c::<T>(2.0) * zc);
         let o = T::zero();

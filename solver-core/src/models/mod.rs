@@ -29,18 +29,23 @@ macro_rules! schemes_of {
     };
     ($model:ident, structured) => {
         schemes_of!($model);
-        /// BDF with the structured elimination (the firmware's for the exact Jacobian).
+        /// BDF with the structured elimination (the firmware's for the exact Jacobian),
+        /// each step from the model's closed-form step where it has one
+        /// ([`EliminatedOf`]($crate::schemes::bdf::EliminatedOf)), from the predictor
+        /// otherwise.
         pub type StructuredBdf<T, Z> =
-            Bdf<T, Z, $crate::schemes::bdf::StructuredOf<T, $model<T, Z>, N, NU>>;
+            Bdf<T, Z, $crate::schemes::bdf::EliminatedOf<T, $model<T, Z>, N, NU>>;
         /// RADAU5's transformed Newton with both stage systems by the structured
-        /// elimination (the firmware's).
+        /// elimination (the firmware's), the stages from the model's closed-form step
+        /// where it has one
+        /// ([`EliminatedStagesOf`]($crate::schemes::radau::transformed::EliminatedStagesOf)).
         pub type StructuredRadau5<T, Z> = Radau<
             T,
             Z,
             $crate::schemes::radau::transformed::Transformed<
                 T,
                 N,
-                $crate::schemes::radau::transformed::StructuredStagesOf<T, $model<T, Z>, N, NU>,
+                $crate::schemes::radau::transformed::EliminatedStagesOf<T, $model<T, Z>, N, NU>,
             >,
         >;
     };

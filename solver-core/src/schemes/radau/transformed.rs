@@ -144,6 +144,15 @@ pub trait StageSystems<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU:
     /// Solves the complex system in place, real and imaginary parts.
     fn solve_complex(&self, re: &mut SVector<T, N>, im: &mut SVector<T, N>);
 
+    /// Whether the stages are taken from [`StageSystems::closed_form`] alone: then a step
+    /// it refuses is refused ([`Error::SingularJacobian`], 0 iterations) — the iteration
+    /// is not a fall-back, so that a firmware taking the closed form does not link it.
+    /// The flat cranes' closed form refuses only a slack rope (the elimination's pivots
+    /// vanish: the iteration's factors would be singular too) or the rope moving by more
+    /// than 15 % of its length in one step, trajectories the models' checks and the
+    /// planner's limits refuse up front.
+    const CLOSED_FORM: bool = false;
+
     /// The step's stage increments in closed form, where this way of solving takes them
     /// from the model ([`StructuredJacobian::solve_step`]); `None` (the default): the
     /// iteration from the extrapolated collocation polynomial.
@@ -244,12 +253,14 @@ pub struct StructuredStages<T: Real, F, S = Predicted> {
     start: core::marker::PhantomData<fn() -> S>,
 }
 
-/// The [`StructuredStages`] of a model `M` (the firmware's), iterating from the
-/// extrapolated collocation polynomial.
+/// The [`StructuredStages`] of a model `M` iterating from the extrapolated collocation
+/// polynomial (the firmware's before issue 20).
 pub type StructuredStagesOf<T, M, const N: usize, const NU: usize> =
     StructuredStages<T, <M as StructuredJacobian<T, N, NU>>::Factors>;
 
-/// The [`StructuredStages`] of a model `M` taking the stages from its closed-form step.
+/// The [`StructuredStages`] of a model `M` taking the stages from its closed-form step (the
+/// firmware's: `StructuredRadau5` of a model's scheme aliases; within the iteration's
+/// rounding floor, `host-tests/tests/step_accuracy.rs`).
 pub type EliminatedStagesOf<T, M, const N: usize, const NU: usize> =
     StructuredStages<T, <M as StructuredJacobian<T, N, NU>>::Factors, crate::model::Eliminated>;
 
@@ -258,6 +269,8 @@ impl<T: Real, M, S: StepStart, const N: usize, const NU: usize> StageSystems<T, 
 where
     M: StructuredJacobian<T, N, NU>,
 {
+    const CLOSED_FORM: bool = S::ELIMINATE && M::CLOSED_FORM;
+
     fn empty() -> Self {
         Self {
             real: None,
@@ -492,7 +505,16 @@ impl<T: Real, const N: usize, L> Transformed<T, N, L> {
             a_inv_h: &self.a_inv_h,
             x0: &data.x0,
         };
-        if let Some(z) = L::closed_form(data.model, &data.samples, &formula) {
+        if L::CLOSED_FORM {
+            // No iteration to fall back on (so none is linked): see
+            // `StageSystems::CLOSED_FORM`.
+            let z = L::closed_form(data.model, &data.samples, &formula).ok_or(
+                Error::SingularJacobian {
+                    t: data.t,
+                    iterations: 0,
+                    residual: 0.0,
+                },
+            )?;
             self.last = z;
             let stats = NewtonStats {
                 converged: true,
