@@ -165,6 +165,25 @@ impl Trajectory<f64, 2> for Reference {
     }
 }
 
+/// `(global, interior)` e_max of a run at step `h` against the flat reference, the
+/// interior being `[a, b]`; a failed run fails the test.
+fn input_errors(
+    params: &CraneParams,
+    reference: &Reference,
+    trace: &Trace<N, NU>,
+    h: f64,
+    (a, b): (f64, f64),
+) -> (f64, f64) {
+    assert!(trace.failure.is_none(), "h = {h}: {:?}", trace.failure);
+    let e = emax(
+        &trace.t,
+        &crane_input_errors(params, reference, trace),
+        a,
+        b,
+    );
+    (e.global, e.interior)
+}
+
 /// The three solvers on the crane driven by `Z`; `(global, interior)` each.
 fn errors<Z: Trajectory<f64, 2>>(trajectory: Z, params: CraneParams, h: f64) -> [(f64, f64); 3] {
     let (bdf, radau5) = (scene("paper-crane.toml"), scene("paper-crane-radau5.toml"));
@@ -173,16 +192,7 @@ fn errors<Z: Trajectory<f64, 2>>(trajectory: Z, params: CraneParams, h: f64) -> 
     let settings = |s: &Scene| SolverSettings { h, ..s.settings() };
     let t_end = bdf.trajectory.t_end;
     let (a, b) = bdf.interior();
-    let e = |trace: Trace<N, NU>| {
-        assert!(trace.failure.is_none(), "h = {h}: {:?}", trace.failure);
-        let e = emax(
-            &trace.t,
-            &crane_input_errors(&params, &reference, &trace),
-            a,
-            b,
-        );
-        (e.global, e.interior)
-    };
+    let e = |trace: Trace<N, NU>| input_errors(&params, &reference, &trace, h, (a, b));
     let structured_bdf =
         crane_subs::StructuredBdf::new(&model, &settings(&bdf), bdf.solver.k, 0.0).unwrap();
     let structured_radau5 =
@@ -376,16 +386,7 @@ mod floor {
             settings.newton.rtol = 1e-15;
             settings.newton.atol = 1e-15;
         }
-        let e = |trace: Trace<N, NU>| {
-            assert!(trace.failure.is_none(), "h = {h}: {:?}", trace.failure);
-            let e = emax(
-                &trace.t,
-                &crane_input_errors(&params, &reference, &trace),
-                a,
-                b,
-            );
-            (e.global, e.interior)
-        };
+        let e = |trace: Trace<N, NU>| input_errors(&params, &reference, &trace, h, (a, b));
         let s = &settings;
         match solver {
             Solver::IteratedBdf { .. } => {
