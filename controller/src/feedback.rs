@@ -81,6 +81,7 @@
 //! Everything is `no_std`, allocation-free and panic-free: fixed-size nalgebra
 //! matrices, no indexing.
 
+pub use crate::reference::Reference;
 use nalgebra::{
     Matrix2, Matrix2x1, Matrix4, Matrix4x1, Matrix4x2, RowVector2, RowVector4, SMatrix, Vector2,
     Vector4,
@@ -535,51 +536,6 @@ impl Gains {
             }
         }
         last
-    }
-}
-
-/// The reference state from the inverse model's solution, in the coordinates of Eq. 20.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Reference {
-    /// Trolley position x_d, m.
-    pub x: f64,
-    /// Rope length l_d, m.
-    pub l: f64,
-    /// Swing angle φ_d, rad.
-    pub phi: f64,
-    /// ẋ_d, m/s.
-    pub vx: f64,
-    /// l̇_d, m/s.
-    pub vl: f64,
-    /// φ̇_d, rad/s.
-    pub vphi: f64,
-}
-
-impl Reference {
-    /// From the *subs* solution `[x, l, ẋ, l̇]` (the first four unknowns of
-    /// `solver_core::models::crane_subs`) and the desired load position and velocity
-    /// `z_d, ż_d` (Eq. 28): `φ = atan2(x_C − x, z_C)` (Eq. 27), and its rate.
-    #[must_use]
-    pub fn from_subs(subs: [f64; 4], load: [f64; 2], load_rate: [f64; 2]) -> Self {
-        let [x, l, vx, vl] = subs;
-        let [xc, zc] = load;
-        let [vxc, vzc] = load_rate;
-        let dx = xc - x;
-        let r2 = dx * dx + zc * zc;
-        let vphi = if r2 > 0.0 {
-            ((vxc - vx) * zc - dx * vzc) / r2
-        } else {
-            0.0
-        };
-        Self {
-            x,
-            l,
-            phi: libm::atan2(dx, zc),
-            vx,
-            vl,
-            vphi,
-        }
     }
 }
 

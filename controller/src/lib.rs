@@ -11,6 +11,7 @@
 //! * [`planner`] — the checks a move or a stop passes before it is accepted;
 //! * `requests` — the supervisor's requests from arrival to answer (each answered once);
 //! * [`feedback`] — the state feedback around the inverse model (Fig. 1);
+//! * [`crate::reference`] — the reference state of a vertical plane, from the inverse model;
 //! * [`rope`] — the rope's true length learnt from the swing, a commissioning step;
 //! * [`zero`] — the inclinometer's offset: the angle's DC that the pendulum cannot make;
 //! * [`transmit`] — the transmit queue that keeps a cycle's frames in order and names every loss;
@@ -47,6 +48,7 @@ pub mod frame;
 mod links;
 pub mod node;
 pub mod planner;
+pub mod reference;
 mod requests;
 pub mod rope;
 pub mod setpoint;

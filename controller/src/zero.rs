@@ -159,7 +159,7 @@ impl Thresholds {
 }
 
 use crate::derivatives::Derivatives;
-use crate::feedback::Reference;
+use crate::reference::Reference;
 
 /// The estimate of the reading's offset (see the module's documentation).
 #[derive(Debug, Clone, Copy, PartialEq)]
