@@ -773,9 +773,8 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// The move being planned and the moves waiting are refused
     /// ([`Requests::refuse_waiting`]).
     fn refuse_waiting(&mut self, resets: bool) {
-        if !self.requests.refuse_waiting(resets, self.now_ms) {
-            self.ignore();
-        }
+        let lost = self.requests.refuse_waiting(resets, self.now_ms);
+        self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(lost);
     }
 
     /// Reports what the last cycle cost (core cycles; QEMU instructions). A cycle over
@@ -862,9 +861,8 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         // is planned.
         if self.requests.stop_due() {
             self.obey_stop();
-            if !self.requests.after_stop(now_ms) {
-                self.ignore();
-            }
+            let lost = self.requests.after_stop(now_ms);
+            self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(lost);
         } else if let Some(request) = self.requests.next() {
             self.handle(request);
         }

@@ -545,3 +545,24 @@ impl<const A: usize> MoveSearch<A> {
         None
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every reason a crane names is one the planner ranks: a reason outside [`ORDER`]
+    /// would have no bit, and its violation would pass unseen.
+    fn ranked<const A: usize, K: Crane<A>>() -> bool {
+        K::REASONS.iter().all(|r| {
+            [r.workspace, r.velocity, r.acceleration]
+                .iter()
+                .all(|reason| ORDER.contains(reason))
+        })
+    }
+
+    #[test]
+    fn every_crane_reason_is_ranked() {
+        assert!(ranked::<2, CraneParams>());
+        assert!(ranked::<3, Crane3dParams>());
+    }
+}

@@ -8,7 +8,8 @@
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Reference {
-    /// Trolley position x_d, m.
+    /// The drive's position in this plane x_d, m (planar: the trolley; the 3D crane's
+    /// x–z plane: the bridge, y–z: the trolley).
     pub x: f64,
     /// Rope length l_d, m.
     pub l: f64,

@@ -158,15 +158,16 @@ impl Requests {
 
     /// After a stop was obeyed: what was answered before it is a new request after it (a
     /// move sent again is to move again); the move being planned and the moves waiting
-    /// are refused; then the stops are answered, last. `false`: an answer found no place.
-    pub fn after_stop(&mut self, now_ms: u64) -> bool {
+    /// are refused; then the stops are answered, last. Returns how many answers found no
+    /// place (each counted as unanswered; never for a request taken, whose place was kept).
+    pub fn after_stop(&mut self, now_ms: u64) -> u32 {
         self.answered.clear();
-        let mut all = self.refuse_waiting(false, now_ms);
+        let mut lost = self.refuse_waiting(false, now_ms);
         while let Some(id) = self.stop_ids.pop_front() {
-            all &= self.queue((id, Answer::Accepted, None));
+            lost += u32::from(!self.queue((id, Answer::Accepted, None)));
             self.tally.answered = self.tally.answered.saturating_add(1);
         }
-        all
+        lost
     }
 
     /// The next move or reset to handle, while no move is being planned.
@@ -189,20 +190,20 @@ impl Requests {
 
     /// The move being planned and the moves waiting are refused (reason 2), each
     /// answered once: after a stop (the crane is stopping; resets stay), or on leaving
-    /// *operational* (`resets` too: nothing waits to be acted on outside it). `false`:
-    /// an answer found no place.
-    pub fn refuse_waiting(&mut self, resets: bool, now_ms: u64) -> bool {
-        let mut all = true;
+    /// *operational* (`resets` too: nothing waits to be acted on outside it). Returns how
+    /// many answers found no place.
+    pub fn refuse_waiting(&mut self, resets: bool, now_ms: u64) -> u32 {
+        let mut lost = 0;
         if let Some(p) = self.pending.take() {
-            all &= self.answer(p.request, Err(Reject::NotReady), now_ms);
+            lost += u32::from(!self.answer(p.request, Err(Reject::NotReady), now_ms));
         }
         for _ in 0..self.waiting.len() {
             match self.waiting.pop_front() {
                 Some(r @ Request::Move { .. }) => {
-                    all &= self.answer(r, Err(Reject::NotReady), now_ms);
+                    lost += u32::from(!self.answer(r, Err(Reject::NotReady), now_ms));
                 }
                 Some(r @ Request::Reset { .. }) if resets => {
-                    all &= self.answer(r, Err(Reject::NotReady), now_ms);
+                    lost += u32::from(!self.answer(r, Err(Reject::NotReady), now_ms));
                 }
                 Some(other) => {
                     let _ = self.waiting.push_back(other);
@@ -210,7 +211,7 @@ impl Requests {
                 None => {}
             }
         }
-        all
+        lost
     }
 
     /// Answers `request` at `now_ms` (once: its status frame is queued) and remembers it
@@ -318,7 +319,7 @@ mod tests {
         assert!(r.take(Request::Stop { id: 1 }, 0));
         assert!(r.stop_due());
         assert!(!r.stop_due(), "one stop obeyed once");
-        assert!(r.after_stop(0));
+        assert_eq!(r.after_stop(0), 0);
         let given = answers(&mut r);
         assert_eq!(
             given.as_slice(),
@@ -346,14 +347,38 @@ mod tests {
                 let _ = r.answer(request, Err(Reject::Busy), 0);
             }
         }
-        assert!(refused > 0);
+        // Answered at once, the moves fill the queue up to the stops' places; every later
+        // one is refused (not acted on, not answered).
+        let moves_answered = ANSWER_QUEUE - STOP_ANSWERS;
+        assert_eq!(refused, 256 - moves_answered);
+        assert_eq!(r.tally().unanswered, refused as u32);
         for id in 0..STOP_ANSWERS as u8 {
             assert!(r.take(Request::Stop { id }, 0), "stop {id} found no place");
         }
+        // A stop beyond them is still obeyed, but cannot be answered.
+        assert!(!r.take(Request::Stop { id: 99 }, 0));
         assert!(r.stop_due());
-        assert!(r.after_stop(0));
+        assert_eq!(r.after_stop(0), 0);
         let given = answers(&mut r);
         assert_eq!(given.len(), ANSWER_QUEUE);
         assert_eq!(given.last(), Some(&(3, Answer::Accepted, None)));
+    }
+
+    #[test]
+    fn a_fifth_waiting_request_is_answered_busy() {
+        let mut r = Requests::default();
+        for i in 0..4 {
+            assert!(r.take(mv(i, 12.0 + f64::from(i)), 0));
+        }
+        assert!(r.take(mv(4, 20.0), 0));
+        assert_eq!(
+            answers(&mut r).as_slice(),
+            &[(4, Answer::Rejected, Some(Reject::Busy))]
+        );
+        // The four are still handled, in order.
+        for i in 0..4 {
+            assert_eq!(r.next(), Some(mv(i, 12.0 + f64::from(i))));
+        }
+        assert_eq!(r.next(), None);
     }
 }

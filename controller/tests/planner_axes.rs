@@ -50,17 +50,39 @@ fn a_planar_move_is_the_3d_cranes_special_case() {
         max_velocity: 1.0,
         max_acceleration: 1.0,
     };
+    // Each case with what the planar planner answers: accepted, or the reason.
     let cases = [
-        ([12.0, 8.0], [20.0, 4.0], None),
-        ([12.0, 8.0], [20.0, 4.0], Some(8.0)),
-        ([12.0, 8.0], [20.0, 4.0], Some(2.0)),
-        ([15.0, 5.0], [11.0, 8.5], None),
-        ([15.0, 5.0], [11.0, 8.5], Some(1.0)),
-        ([12.0, 8.0], [24.0, 4.0], None),
-        ([12.0, 8.0], [14.0, 9.5], None),
-        ([12.0, 4.0], [12.0, 8.0], Some(0.6)),
+        ([12.0, 8.0], [20.0, 4.0], None, None),
+        ([12.0, 8.0], [20.0, 4.0], Some(8.0), None),
+        (
+            [12.0, 8.0],
+            [20.0, 4.0],
+            Some(2.0),
+            Some(Reject::TrolleyWorkspace),
+        ),
+        (
+            [12.0, 8.0],
+            [16.0, 8.0],
+            Some(3.0),
+            Some(Reject::TrolleyVelocity),
+        ),
+        ([15.0, 5.0], [11.0, 8.5], None, None),
+        (
+            [15.0, 5.0],
+            [11.0, 8.5],
+            Some(1.0),
+            Some(Reject::TrolleyWorkspace),
+        ),
+        (
+            [12.0, 8.0],
+            [24.0, 4.0],
+            None,
+            Some(Reject::TrolleyWorkspace),
+        ),
+        ([12.0, 8.0], [14.0, 9.5], None, Some(Reject::RopeWorkspace)),
+        ([12.0, 4.0], [12.0, 8.0], Some(0.6), Some(Reject::SlackRope)),
     ];
-    for (from, to, duration) in cases {
+    for (from, to, duration, expected) in cases {
         let y = 3.5;
         let flat = planar().plan_move(&planar_plan(from), to, duration, 0.0);
         let spatial = extruded(any_trolley).plan_move(
@@ -69,6 +91,7 @@ fn a_planar_move_is_the_3d_cranes_special_case() {
             duration,
             0.0,
         );
+        assert_eq!(flat.err(), expected, "{from:?} → {to:?}, {duration:?}");
         match (flat, spatial) {
             (Ok(a), Ok(b)) => assert_eq!(
                 (a.t_start(), a.duration()),
@@ -119,6 +142,16 @@ fn each_3d_axis_names_its_own_violation() {
     // The bridge too fast.
     assert_eq!(
         planner.plan_move(&start, [16.0, 2.0, 8.0], Some(3.0), 0.0),
+        Err(Reject::BridgeVelocity)
+    );
+    // Bridge and trolley both too fast: the bridge's reason first (12 before 7). The
+    // trolley's part alone is too fast too (its flat inverse does not depend on x).
+    assert_eq!(
+        planner.plan_move(&plan_3d([12.0, 2.0, 5.0]), [12.0, 3.0, 5.0], Some(3.0), 0.0),
+        Err(Reject::TrolleyVelocity)
+    );
+    assert_eq!(
+        planner.plan_move(&plan_3d([12.0, 2.0, 5.0]), [16.0, 3.0, 5.0], Some(3.0), 0.0),
         Err(Reject::BridgeVelocity)
     );
     // A diagonal move, as fast as the limits allow: every axis within its limits along
