@@ -9,6 +9,7 @@ mod common;
 use common::*;
 use controller::canopen::{self, NmtState};
 use controller::cia402::controlword as cw;
+use controller::cia402::pdo;
 use controller::commands::{request_frame, Request};
 use controller::commissioning::{CommissioningError, Phase};
 use controller::drive::Drive;
@@ -275,6 +276,39 @@ fn malformed_commands_are_ignored_counted_and_change_nothing() {
     }
     assert_eq!(noisy.c.counters().frames_ignored, 10 * 6);
     assert_eq!(noisy.c.counters().requests, 0, "none of them was answered");
+}
+
+/// Each TPDO counts once: received if the CiA 301 layer and the drive profile
+/// (CiA 402) understand it, ignored if either refuses it or no drive is at its node; a
+/// drive still being commissioned has its TPDO received and not acted on.
+#[test]
+fn tpdos_are_counted_received_or_ignored() {
+    let mut rig = Rig::new(HEALTHY, false);
+    rig.cycle();
+    assert_ne!(rig.c.commissioning(Drive::Trolley), Phase::Done);
+    let cases = [
+        // (frame, received, ignored)
+        (pdo::tpdo1(1, 0x0250, 0), 1, 0),    // drive not linked yet
+        (pdo::tpdo2(2, 8_000_000, 9), 1, 0), // drive not linked yet
+        (CanFrame::new(0x181, &[0x37, 0x02]).unwrap(), 0, 1), // TPDO1 too short
+        (CanFrame::new(0x282, &[0; 6]).unwrap(), 0, 1), // TPDO2 too long
+        (pdo::tpdo1(5, 0x0237, 0), 1, 1),    // no drive at node 5
+        (pdo::tpdo2(9, 0, 9), 1, 1),         // no drive at node 9
+    ];
+    for (frame, received, ignored) in cases {
+        let before = rig.c.counters();
+        rig.c.on_frame(&frame, rig.now.into());
+        let after = rig.c.counters();
+        assert_eq!(
+            (
+                after.frames_received - before.frames_received,
+                after.frames_ignored - before.frames_ignored
+            ),
+            (received, ignored),
+            "{frame:?}"
+        );
+    }
+    assert_eq!(rig.c.mode(), Mode::Enabling, "none of them is a fault");
 }
 
 #[test]
