@@ -15,8 +15,9 @@ pub const RESOLUTION: u16 = 0x6000;
 /// 0x6010 *slope long16*: the angle about the lateral axis, in resolution units.
 pub const SLOPE_LONG16: u16 = 0x6010;
 
-/// TPDO1's mapping entry (0x1A00): slope long16 (0x6010, 16 bit).
-pub const TPDO1_MAPPING: [u32; 1] = [0x6010_0010];
+/// TPDO1's mapping entry (0x1A00): slope long16 (0x6010, 16 bit), as CiA 301 writes an
+/// entry: index, sub-index 0, length in bits.
+pub const TPDO1_MAPPING: [u32; 1] = [(SLOPE_LONG16 as u32) << 16 | 16];
 
 /// TPDO1 of the inclinometer at `node`: *slope long16*. The controller only receives
 /// it; the encoder serves tests and the virtual bus.
@@ -41,6 +42,11 @@ pub fn decode_tpdo1(frame: &CanFrame) -> Result<i16, DecodeError> {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
+
+    #[test]
+    fn the_mapping_entry_is_slope_long16_in_16_bits() {
+        assert_eq!(TPDO1_MAPPING, [0x6010_0010]);
+    }
 
     #[test]
     fn slope_round_trips_and_a_wrong_length_is_refused() {

@@ -172,12 +172,6 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         Self { crane, limits }
     }
 
-    /// The crane.
-    #[must_use]
-    pub const fn crane(&self) -> &K {
-        &self.crane
-    }
-
     /// Each drive position's range `(min, max)`, m, in the model's input order.
     #[must_use]
     pub fn ranges(&self) -> [(f64, f64); A] {
