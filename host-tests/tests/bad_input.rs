@@ -112,6 +112,46 @@ fn unsupported_solver_settings_are_refused() {
     ));
 }
 
+/// Newton's settings are checked by the strategies that iterate; the closed-form
+/// strategies the firmware links read none of them (and link no check), so they accept
+/// any. The step's own settings are checked by every scheme.
+#[test]
+fn newton_settings_are_checked_where_newton_iterates() {
+    use solver_core::schemes::bdf::StructuredOf;
+    let m = crane();
+    let bad = SolverSettings {
+        newton: NewtonSettings {
+            max_iterations: 0,
+            rtol: f64::NAN,
+            ..NewtonSettings::default()
+        },
+        ..settings()
+    };
+    let iterated = crane_subs::Bdf::<f64, PointToPoint<f64, 2>, StructuredOf<f64, Subs, 7, 2>>::new(
+        &m, &bad, 4, 0.0,
+    );
+    assert!(matches!(
+        iterated.unwrap_err(),
+        Error::InvalidSetting {
+            name: "max_iterations",
+            ..
+        }
+    ));
+    assert!(crane_subs::StructuredBdf::<f64, _>::new(&m, &bad, 4, 0.0).is_ok());
+    assert!(crane_subs::StructuredBdfUncorrected::<f64, _>::new(&m, &bad, 4, 0.0).is_ok());
+    let radau5 = SolverSettings {
+        jacobian: JacobianMode::Transformed,
+        ..bad
+    };
+    assert!(crane_subs::StructuredRadau5::<f64, _>::new(&m, &radau5, 0.0).is_ok());
+    assert!(crane_subs::Radau5::<f64, _>::new(&m, &radau5, 0.0).is_err());
+    let h = SolverSettings { h: 0.0, ..bad };
+    assert!(matches!(
+        crane_subs::StructuredBdfUncorrected::<f64, _>::new(&m, &h, 4, 0.0).unwrap_err(),
+        Error::InvalidStepSize { .. }
+    ));
+}
+
 #[test]
 fn non_physical_crane_parameters_are_refused() {
     let z = crane_trajectory(4);

@@ -184,3 +184,55 @@ fn closed_form_start_keeps_the_accuracy_in_one_iteration_or_none() {
             .all(|s| s.iterations == corrections && s.converged));
     }
 }
+
+/// The closed form without its correction linked (`crane_subs::StructuredBdfUncorrected`,
+/// what the firmware links for a step size of 5 ms or more): from `CORRECT_BELOW_H` on
+/// the same steps as `StructuredBdf`, every state and every statistic bit for bit, on
+/// the firmware's plan type; below it refused rather than stepped uncorrected.
+#[test]
+fn uncorrected_closed_form_is_the_closed_form_from_5_ms_and_refuses_below() {
+    let plan = || {
+        let mut plan = Plan::at_rest([12.0, 8.0].into(), 4).unwrap();
+        plan.push(crane_trajectory(4)).unwrap();
+        plan
+    };
+    let model = CraneSubs::new(CraneParams::PAPER, plan()).unwrap();
+    for h in [CORRECT_BELOW_H, 0.01, 0.02, 0.05] {
+        let s = settings(h);
+        let closed = run_with(
+            &model,
+            crane_subs::StructuredBdf::new(&model, &s, 4, 0.0).unwrap(),
+            &s,
+            CRANE_T_END,
+        )
+        .unwrap();
+        let uncorrected = run_with(
+            &model,
+            crane_subs::StructuredBdfUncorrected::new(&model, &s, 4, 0.0).unwrap(),
+            &s,
+            CRANE_T_END,
+        )
+        .unwrap();
+        assert!(closed.failure.is_none() && uncorrected.failure.is_none());
+        let bits = |t: &Trace<{ crane_subs::N }, { crane_subs::NU }>| {
+            t.x.iter()
+                .flat_map(|x| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&closed), bits(&uncorrected), "h = {h}");
+        assert_eq!(closed.stats, uncorrected.stats, "h = {h}");
+    }
+    for h in [0.0005, 0.002, 0.004_999] {
+        let err = crane_subs::StructuredBdfUncorrected::<f64, Plan<f64, 2>>::new(
+            &model,
+            &settings(h),
+            4,
+            0.0,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(err, Error::InvalidSetting { value, .. } if value == h),
+            "h = {h}: {err:?}"
+        );
+    }
+}

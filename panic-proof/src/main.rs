@@ -145,19 +145,22 @@ fn main() -> ! {
         0 => prove!(Subs, |m| crane_subs::StructuredBdf::<f64, P>::new(
             m, &settings, k, t0
         )),
-        1 => prove!(Subs, |m| crane_subs::Bdf::<f64, P>::new(
+        1 => prove!(Subs, |m| crane_subs::StructuredBdfUncorrected::<f64, P>::new(
             m, &settings, k, t0
         )),
-        2 => prove!(Subs, |m| crane_subs::StructuredRadau5::<f64, P>::new(
-            m, &settings, t0
-        )),
-        3 => prove!(Subs, |m| crane_subs::RadauFull::<f64, P>::new(
-            m, &settings, t0
-        )),
-        4 => prove!(Proj, |m| crane_proj::Bdf::<f64, P>::new(
+        2 => prove!(Subs, |m| crane_subs::Bdf::<f64, P>::new(
             m, &settings, k, t0
         )),
-        5 => prove!(Proj, |m| crane_proj::Radau5::<f64, P>::new(
+        3 => prove!(Subs, |m| crane_subs::StructuredRadau5::<f64, P>::new(
+            m, &settings, t0
+        )),
+        4 => prove!(Subs, |m| crane_subs::RadauFull::<f64, P>::new(
+            m, &settings, t0
+        )),
+        5 => prove!(Proj, |m| crane_proj::Bdf::<f64, P>::new(
+            m, &settings, k, t0
+        )),
+        6 => prove!(Proj, |m| crane_proj::Radau5::<f64, P>::new(
             m, &settings, t0
         )),
         _ => prove!(Proj, |m| crane_proj::RadauFull::<f64, P>::new(

@@ -26,6 +26,7 @@ use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::reference::flat_crane3d;
 use solver_core::reference::mass_on_car::MassOnCarReference;
 use solver_core::scalar::c;
+use solver_core::schemes::bdf::CORRECT_BELOW_H;
 use solver_core::trajectory::PointToPoint;
 use solver_core::{DaeModel, Driven, Error, Integrator, Real, Scheme, SolverSettings};
 
@@ -172,11 +173,17 @@ pub trait FirmwareVisitor {
 /// The integrator the firmware links for a scene: the model, the scheme and the Newton
 /// strategy, a type, so the firmware links only the one its scene names. For the crane
 /// *subs* model BDF with the exact Jacobian and RADAU5's transformed Newton (its real and
-/// complex systems) take the structured elimination; everything else dense LUs.
+/// complex systems) take the structured elimination; everything else dense LUs. BDF's
+/// closed-form start is corrected below `CORRECT_BELOW_H` (5 ms) only: from there on
+/// the firmware does not link the correction.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FirmwareScheme {
-    /// *subs*, BDF k, the structured elimination.
+    /// *subs*, BDF k, the structured elimination (h below 5 ms: with the closed form's
+    /// correction).
     SubsStructuredBdf(usize),
+    /// *subs*, BDF k, the structured elimination, h from 5 ms on: the same steps, the
+    /// correction not linked.
+    SubsStructuredBdfUncorrected(usize),
     /// *subs*, BDF k, the run-time modes on a dense LU.
     SubsBdf(usize),
     /// *subs*, RADAU5, both stage systems by the structured elimination.
@@ -204,7 +211,11 @@ impl FirmwareScheme {
             (ModelSpec::CraneSubs(_), SchemeSpec::Bdf)
                 if s.jacobian == JacobianSpec::Exact && !transformed =>
             {
-                Self::SubsStructuredBdf(s.k)
+                if s.h >= CORRECT_BELOW_H {
+                    Self::SubsStructuredBdfUncorrected(s.k)
+                } else {
+                    Self::SubsStructuredBdf(s.k)
+                }
             }
             (ModelSpec::CraneSubs(_), SchemeSpec::Bdf) => Self::SubsBdf(s.k),
             (ModelSpec::CraneSubs(_), SchemeSpec::Radau) if transformed => {
@@ -230,7 +241,9 @@ impl FirmwareScheme {
     pub fn structured(self) -> bool {
         matches!(
             self,
-            Self::SubsStructuredBdf(_) | Self::SubsStructuredRadau5
+            Self::SubsStructuredBdf(_)
+                | Self::SubsStructuredBdfUncorrected(_)
+                | Self::SubsStructuredRadau5
         )
     }
 
@@ -242,6 +255,12 @@ impl FirmwareScheme {
         const PLAN: &str = "solver_core::plan::Plan<f64, 2>";
         let (module, model, alias, k) = match self {
             Self::SubsStructuredBdf(k) => ("crane_subs", "CraneSubs", "StructuredBdf", Some(k)),
+            Self::SubsStructuredBdfUncorrected(k) => (
+                "crane_subs",
+                "CraneSubs",
+                "StructuredBdfUncorrected",
+                Some(k),
+            ),
             Self::SubsBdf(k) => ("crane_subs", "CraneSubs", "Bdf", Some(k)),
             Self::SubsStructuredRadau5 => ("crane_subs", "CraneSubs", "StructuredRadau5", None),
             Self::SubsRadauFull => ("crane_subs", "CraneSubs", "RadauFull", None),
@@ -279,6 +298,12 @@ impl FirmwareScheme {
             Self::SubsStructuredBdf(k) => {
                 let model = CraneSubs::new(params, plan)?;
                 let i = crane_subs::StructuredBdf::<f64, P>::new(&model, settings, k, 0.0)?;
+                visit(visitor, model, i)
+            }
+            Self::SubsStructuredBdfUncorrected(k) => {
+                let model = CraneSubs::new(params, plan)?;
+                let i =
+                    crane_subs::StructuredBdfUncorrected::<f64, P>::new(&model, settings, k, 0.0)?;
                 visit(visitor, model, i)
             }
             Self::SubsBdf(k) => {
@@ -394,7 +419,7 @@ mod tests {
             (
                 "crane-subs",
                 "scheme = \"bdf\"\njacobian = \"exact\"",
-                FirmwareScheme::SubsStructuredBdf(4),
+                FirmwareScheme::SubsStructuredBdfUncorrected(4),
             ),
             (
                 "crane-subs",
@@ -437,6 +462,15 @@ mod tests {
             } else {
                 "CraneProj"
             }));
+        }
+        // Below 5 ms BDF's closed form is corrected, and the firmware links the correction.
+        for (h, expected) in [
+            (0.002, FirmwareScheme::SubsStructuredBdf(4)),
+            (0.005, FirmwareScheme::SubsStructuredBdfUncorrected(4)),
+        ] {
+            let mut s = scene("crane-subs", "scheme = \"bdf\"");
+            s.solver.h = h;
+            assert_eq!(FirmwareScheme::of(&s).unwrap(), expected, "h = {h}");
         }
         assert!(FirmwareScheme::of(&scene("mass-on-car", "scheme = \"bdf\"")).is_err());
         assert!(FirmwareScheme::of(&scene("crane3d-subs", "scheme = \"bdf\"")).is_err());

@@ -42,6 +42,12 @@ pub trait DaeModel<T: Real, const N: usize, const NU: usize> {
     const UNKNOWNS: [&'static str; N];
     /// `true` for the algebraic rows of `F` (no `ẋ` in them): scaled by `ρ = h^-p`.
     const ALGEBRAIC: [bool; N];
+    /// How many unknowns, from the first, are differential: their derivative `ẋ_j` enters
+    /// `F` (nonzero columns of `∂F/∂ẋ`). The ones after them (λ, the inputs) are
+    /// algebraic unknowns, whose `ẋ_j` no row reads, so a scheme may leave those
+    /// derivatives unformed where only `F` reads them (BDF's closed-form start skips
+    /// their share of Eq. 16's history sum). Default: every unknown.
+    const DIFFERENTIAL: usize = N;
     /// Position in `x` of each input `u_i`.
     const INPUTS: [usize; NU];
     /// Smallest trajectory smoothness n for which the inputs are continuous.
@@ -171,6 +177,9 @@ pub trait StepStart {
     /// `true`: from the model's closed-form step ([`StructuredJacobian::solve_step`])
     /// where it has one, the scheme's predictor otherwise.
     const ELIMINATE: bool;
+    /// Whether BDF may follow a closed-form start with its correction (below
+    /// [`CORRECT_BELOW_H`](crate::schemes::bdf::CORRECT_BELOW_H)); RADAU5 never corrects.
+    const CORRECT: bool;
 }
 
 /// Start from the scheme's predictor (BDF's extrapolation of its history, RADAU5's of
@@ -180,12 +189,29 @@ pub struct Predicted;
 
 impl StepStart for Predicted {
     const ELIMINATE: bool = false;
+    const CORRECT: bool = false;
 }
 
-/// Start from the model's closed-form step where it has one.
+/// Start from the model's closed-form step where it has one; BDF corrects it below
+/// [`CORRECT_BELOW_H`](crate::schemes::bdf::CORRECT_BELOW_H).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Eliminated;
 
 impl StepStart for Eliminated {
     const ELIMINATE: bool = true;
+    const CORRECT: bool = true;
+}
+
+/// [`Eliminated`] for step sizes from
+/// [`CORRECT_BELOW_H`](crate::schemes::bdf::CORRECT_BELOW_H) on, where it is not
+/// corrected either: the same steps, bit for bit, and BDF's correction is not linked (a
+/// firmware's scene names its step size at build time). Where the model has a closed
+/// form, BDF refuses a smaller `h` ([`Error::InvalidSetting`](crate::Error::InvalidSetting))
+/// rather than step it uncorrected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct EliminatedUncorrected;
+
+impl StepStart for EliminatedUncorrected {
+    const ELIMINATE: bool = true;
+    const CORRECT: bool = false;
 }

@@ -16,6 +16,10 @@
 //! [`Plan`](solver_core::plan::Plan) holding the scene's move, instead of the bare
 //! [`PointToPoint`](solver_core::trajectory::PointToPoint) the studies use: what a
 //! step costs on the MCU includes what the plan costs per evaluation (issue 20).
+//!
+//! `newton=structured` BDF is the type the firmware links for the scene's h: from
+//! `CORRECT_BELOW_H` (5 ms) on the closed form without its correction linked
+//! (`StructuredBdfUncorrected`), below it with (`StructuredBdf`).
 
 use std::process::ExitCode;
 
@@ -24,6 +28,7 @@ use host_tests::sweep::apply;
 use scene::{ModelSpec, ScalarSpec, Scene, SchemeSpec};
 use solver_core::models::crane3d::{self, Crane3dSubs};
 use solver_core::models::crane_subs::{self, CraneSubs};
+use solver_core::schemes::bdf::CORRECT_BELOW_H;
 use solver_core::trajectory::Trajectory;
 use solver_core::{DaeModel, Error, Integrator, SolverSettings};
 
@@ -180,6 +185,11 @@ fn step_all<Z: Trajectory<f64, 2>>(
 ) -> Result<u64, String> {
     let (s, k, n) = (&scene.settings(), scene.solver.k, scene.steps());
     match scene.solver.scheme {
+        SchemeSpec::Bdf if structured && s.h >= CORRECT_BELOW_H => step_with(
+            crane_subs::StructuredBdfUncorrected::new(model, s, k, 0.0),
+            model,
+            n,
+        ),
         SchemeSpec::Bdf if structured => {
             step_with(crane_subs::StructuredBdf::new(model, s, k, 0.0), model, n)
         }
@@ -204,6 +214,11 @@ fn step_all_3d(
     type Z = solver_core::trajectory::PointToPoint<f64, 3>;
     use crane3d::subs;
     match scene.solver.scheme {
+        SchemeSpec::Bdf if structured && s.h >= CORRECT_BELOW_H => step_with(
+            subs::StructuredBdfUncorrected::new(&model, s, k, 0.0),
+            &model,
+            n,
+        ),
         SchemeSpec::Bdf if structured => {
             step_with(subs::StructuredBdf::new(&model, s, k, 0.0), &model, n)
         }

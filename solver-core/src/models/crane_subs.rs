@@ -89,6 +89,8 @@ impl<T: Real, Z> Driven for CraneSubs<T, Z> {
 impl<T: Real, Z: Trajectory<T, 2>> DaeModel<T, N, 2> for CraneSubs<T, Z> {
     const UNKNOWNS: [&'static str; N] = ["x", "l", "vx", "vl", "lambda", "u1", "u2"];
     const ALGEBRAIC: [bool; N] = [false, false, false, false, true, true, true];
+    /// x, l, v_x, v_l; λ, u1, u2 have no derivative in F.
+    const DIFFERENTIAL: usize = 4;
     const INPUTS: [usize; 2] = [5, 6];
     /// `u` contains `z_d⁗`; with n ≥ 4 it is continuous (the paper's choice).
     const MIN_SMOOTHNESS: usize = 4;
@@ -386,6 +388,17 @@ mod tests {
         )
         .unwrap();
         CraneSubs::new(CraneParams::PAPER, z).unwrap()
+    }
+
+    /// x, l, v_x, v_l are the differential unknowns (`DIFFERENTIAL`), mid-move, off the
+    /// solution.
+    #[test]
+    fn the_first_four_unknowns_are_the_differential_ones() {
+        let m = model();
+        let s = m.sample(3.8);
+        let x = SVector::from([15.0, 6.5, 0.4, -0.3, -0.6, 0.5, -0.2]);
+        let xdot = SVector::from([0.3, -0.2, 0.1, 0.05, 0.7, -0.4, 0.9]);
+        crate::models::test_support::assert_differential_first(&m, &x, &xdot, &s);
     }
 
     /// The structured elimination solves the dense system built from the partials, at

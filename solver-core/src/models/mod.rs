@@ -29,12 +29,18 @@ macro_rules! schemes_of {
     };
     ($model:ident, structured) => {
         schemes_of!($model);
-        /// BDF with the structured elimination (the firmware's for the exact Jacobian),
-        /// each step from the model's closed-form step where it has one
+        /// BDF with the structured elimination (the firmware's for the exact Jacobian
+        /// below 5 ms), each step from the model's closed-form step where it has one
         /// ([`EliminatedOf`]($crate::schemes::bdf::EliminatedOf)), from the predictor
         /// otherwise.
         pub type StructuredBdf<T, Z> =
             Bdf<T, Z, $crate::schemes::bdf::EliminatedOf<T, $model<T, Z>, N, NU>>;
+        /// [`StructuredBdf`] for step sizes from
+        /// [`CORRECT_BELOW_H`]($crate::schemes::bdf::CORRECT_BELOW_H) on (smaller ones
+        /// refused): the same steps, without the correction linked
+        /// ([`EliminatedUncorrectedOf`]($crate::schemes::bdf::EliminatedUncorrectedOf)).
+        pub type StructuredBdfUncorrected<T, Z> =
+            Bdf<T, Z, $crate::schemes::bdf::EliminatedUncorrectedOf<T, $model<T, Z>, N, NU>>;
         /// RADAU5's transformed Newton with both stage systems by the structured
         /// elimination (the firmware's), the stages from the model's closed-form step
         /// where it has one
@@ -63,7 +69,33 @@ pub mod mass_on_car;
 pub(crate) mod test_support {
     use nalgebra::SVector;
 
-    use crate::model::DifferenceFormula;
+    use crate::model::{DaeModel, DifferenceFormula};
+
+    /// `M::DIFFERENTIAL` as the residual has it at `(x, ẋ, s)`: the first
+    /// `M::DIFFERENTIAL` unknowns' derivatives each change `F` and have a column of
+    /// `∂F/∂ẋ`, the others' change no bit of `F` and have a zero column.
+    pub(crate) fn assert_differential_first<
+        M: DaeModel<f64, N, NU>,
+        const N: usize,
+        const NU: usize,
+    >(
+        m: &M,
+        x: &SVector<f64, N>,
+        xdot: &SVector<f64, N>,
+        s: &M::Sample,
+    ) {
+        let f = m.residual(x, xdot, s);
+        let dxdot = m.partials(x, xdot, s).dxdot;
+        for j in 0..N {
+            let mut moved = *xdot;
+            moved[j] += 0.75 + moved[j].abs();
+            let changed = m.residual(x, &moved, s) != f;
+            let column = dxdot.column(j).iter().any(|v| *v != 0.0);
+            let differential = j < M::DIFFERENTIAL;
+            assert_eq!(changed, differential, "{}: F", M::UNKNOWNS[j]);
+            assert_eq!(column, differential, "{}: ∂F/∂ẋ", M::UNKNOWNS[j]);
+        }
+    }
 
     /// A difference formula as a scheme gives it: BDF-like (`K = 1`: `ẋ = (α₀ Δ + p)/h`)
     /// or Radau-like (`K = 3`: `X' = (A⁻¹/h) Z`), around an anchor, for a model with `N`

@@ -80,7 +80,8 @@ impl<
 {
     /// A k-step BDF starting at rest at `t0`.
     pub fn new(model: &M, settings: &SolverSettings, k: usize, t0: T) -> Result<Self> {
-        settings.validate()?;
+        // Newton's settings: by the strategy (`J::new`), if it iterates.
+        settings.validate_step()?;
         let row = k
             .checked_sub(1)
             .and_then(|r| ALPHA.get(r))
@@ -148,15 +149,31 @@ impl<
         let anchor = self.state();
         let mut past = SVector::<T, N>::zeros();
         let mut guess = anchor;
-        let newest_first = self.history.newest_first().take(self.k);
-        for ((x, a), p) in newest_first
-            .zip(self.alpha.iter().skip(1))
-            .zip(self.predictor.iter())
-        {
-            let d = x - anchor;
-            past += d * *a;
-            if J::PREDICTS {
+        if J::PREDICTS {
+            let newest_first = self.history.newest_first().take(self.k);
+            for ((x, a), p) in newest_first
+                .zip(self.alpha.iter().skip(1))
+                .zip(self.predictor.iter())
+            {
+                let d = x - anchor;
+                past += d * *a;
                 guess += d * *p;
+            }
+        } else {
+            // From the closed form: no predictor, and the sums of the model's differential
+            // unknowns only (`DaeModel::DIFFERENTIAL`, the first ones; no row reads the
+            // others' ẋ), from x_{n−2} on (x_{n−1}'s term α_1 (x_{n−1} − x_{n−1}) is +0, and
+            // +0 + (−0) = +0): each sum the same bits as above. The others' `past` stays 0.
+            let older = self.alpha.get(2..=self.k).unwrap_or_default();
+            for (i, a) in older.iter().enumerate() {
+                let Some(x) = self.history.back(i + 1) else {
+                    break;
+                };
+                let unknowns = past.as_mut_slice().iter_mut().zip(x.as_slice());
+                let unknowns = unknowns.zip(anchor.as_slice()).take(M::DIFFERENTIAL);
+                for ((p, xj), aj) in unknowns {
+                    *p += (*xj - *aj) * *a;
+                }
             }
         }
         let system = BdfStep {
@@ -189,7 +206,8 @@ pub struct BdfStep<'a, T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU:
     sample: M::Sample,
     /// `x_{n−1}`.
     anchor: SVector<T, N>,
-    /// `Σ_{i≥2} α_i (x_{n−i} − x_{n−1})`.
+    /// `Σ_{i≥2} α_i (x_{n−i} − x_{n−1})` (0 for the algebraic unknowns where the
+    /// strategy does not predict, [`BdfNewton::PREDICTS`]).
     past: SVector<T, N>,
     alpha0: T,
     inv_h: T,
@@ -247,10 +265,14 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> StepSystem
 pub trait BdfNewton<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize>:
     Sized
 {
-    /// The strategy for `settings`; refuses a Jacobian mode it cannot do.
+    /// The strategy for `settings`; refuses a Jacobian mode it cannot do, and Newton's
+    /// settings if it iterates ([`Bdf::new`] does not check them).
     fn new(settings: &SolverSettings) -> Result<Self>;
     /// Whether the strategy starts from the predictor: [`Bdf::step`] forms it with Eq.
-    /// 16's history sum only then (otherwise `xi` is `x_{n−1}`).
+    /// 16's history sum only then (otherwise `xi` is `x_{n−1}`, and the history sum is
+    /// formed for the model's differential unknowns only, [`DaeModel::DIFFERENTIAL`]:
+    /// the step's `ẋ` of the others is then not Eq. 16's, which only a strategy that
+    /// reads it through the model's `F` may accept).
     const PREDICTS: bool = true;
     /// Forgets what is carried from step to step (after a restart).
     fn forget(&mut self);
@@ -320,8 +342,12 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> BdfNewton<
 /// trajectory checks refuse up front, or the rope moving by more than 15 % of its length
 /// in one step) is refused ([`Error::SingularJacobian`], 0 iterations): the iteration is
 /// not a fall-back, so that a firmware starting from the closed form does not link it.
+/// [`EliminatedUncorrected`]: the same from 5 ms on, and smaller steps refused, so that
+/// the correction is not linked either (a firmware's scene fixes h at build time; 1.3 KiB
+/// of the default scene's flash).
 ///
 /// [`Eliminated`]: crate::model::Eliminated
+/// [`EliminatedUncorrected`]: crate::model::EliminatedUncorrected
 #[derive(Debug, Clone)]
 pub struct Structured<T: Real, F, S = Predicted> {
     settings: NewtonSettings,
@@ -364,12 +390,22 @@ pub type StructuredOf<T, M, const N: usize, const NU: usize> =
     Structured<T, <M as StructuredJacobian<T, N, NU>>::Factors>;
 
 /// The [`Structured`] strategy of a model `M` starting from the model's closed-form step
-/// (the firmware's: `StructuredBdf` of a model's scheme aliases). Against the predictor's
+/// (`StructuredBdf` of a model's scheme aliases; the firmware's for h below
+/// [`CORRECT_BELOW_H`], [`EliminatedUncorrectedOf`] from there on). Against the predictor's
 /// iteration its e_max and interior e_max on the paper's move stay within that
 /// iteration's rounding floor at every h from 0.5 to 50 ms (`host-tests/tests/
 /// step_accuracy.rs`, `ALLOWANCE`).
 pub type EliminatedOf<T, M, const N: usize, const NU: usize> =
     Structured<T, <M as StructuredJacobian<T, N, NU>>::Factors, crate::model::Eliminated>;
+
+/// [`EliminatedOf`] for `h ≥` [`CORRECT_BELOW_H`], without the correction linked
+/// ([`EliminatedUncorrected`](crate::model::EliminatedUncorrected); the firmware's for
+/// such a step size: `StructuredBdfUncorrected` of a model's scheme aliases).
+pub type EliminatedUncorrectedOf<T, M, const N: usize, const NU: usize> = Structured<
+    T,
+    <M as StructuredJacobian<T, N, NU>>::Factors,
+    crate::model::EliminatedUncorrected,
+>;
 
 impl<T: Real, F, S> Structured<T, F, S> {
     fn refresh<M, const N: usize, const NU: usize>(
@@ -436,18 +472,28 @@ where
     const PREDICTS: bool = !(S::ELIMINATE && M::CLOSED_FORM);
 
     fn new(settings: &SolverSettings) -> Result<Self> {
-        settings.newton.validate()?;
+        // The closed form (and its correction) reads none of Newton's settings.
+        if !(S::ELIMINATE && M::CLOSED_FORM) {
+            settings.newton.validate()?;
+        }
         if settings.jacobian != JacobianMode::Exact {
             return Err(Error::InvalidSetting {
                 name: "jacobian (structured Newton is exact only)",
                 value: f64::NAN,
             });
         }
+        let correct = settings.h < CORRECT_BELOW_H;
+        if correct && S::ELIMINATE && M::CLOSED_FORM && !S::CORRECT {
+            return Err(Error::InvalidSetting {
+                name: "h (below CORRECT_BELOW_H the closed form is corrected: start Eliminated)",
+                value: settings.h,
+            });
+        }
         Ok(Self {
             settings: settings.newton,
             factors: None,
             eta: 1.0,
-            correct: settings.h < CORRECT_BELOW_H,
+            correct,
             scalar: PhantomData,
         })
     }
@@ -476,7 +522,7 @@ where
                 });
             };
             let xi = step.anchor + increment;
-            if self.correct {
+            if S::CORRECT && self.correct {
                 return self.correct(step, xi);
             }
             ensure_finite(&xi, step.t, 0)?;

@@ -38,10 +38,25 @@ impl<T: Real, const N: usize, const K: usize> History<T, N, K> {
         if K == 0 {
             return;
         }
-        self.newest = (self.newest + 1) % K;
+        self.newest = if self.newest + 1 >= K {
+            0
+        } else {
+            self.newest + 1
+        };
         if let Some(slot) = self.values.get_mut(self.newest) {
             *slot = x;
         }
+    }
+
+    /// The value `i` steps before the newest (`i = 0`: the newest), if kept.
+    pub(crate) fn back(&self, i: usize) -> Option<&SVector<T, N>> {
+        if i >= K {
+            return None;
+        }
+        // `newest + K − i` lies in [newest + 1, newest + K]: one conditional subtraction
+        // instead of a remainder.
+        let j = self.newest + K - i;
+        self.values.get(if j >= K { j - K } else { j })
     }
 
     /// The values from the newest to the oldest.
@@ -69,5 +84,7 @@ mod tests {
             [Some(5.0), Some(4.0), Some(3.0), None]
         );
         assert_eq!(h.newest()[0], 5.0);
+        let back: [Option<f64>; 4] = core::array::from_fn(|i| h.back(i).map(|v| v[0]));
+        assert_eq!(back, [Some(5.0), Some(4.0), Some(3.0), None]);
     }
 }

@@ -175,6 +175,15 @@ impl SolverSettings {
 
     /// Refuses a non-finite or non-positive step and unsupported settings.
     pub fn validate(&self) -> Result<()> {
+        self.validate_step()?;
+        self.newton.validate()
+    }
+
+    /// [`SolverSettings::validate`] without Newton's settings, which the Newton strategies
+    /// that iterate validate themselves ([`NewtonSettings::validate`]): a strategy that
+    /// takes the model's closed-form step reads none of them, and a firmware linking
+    /// only it does not link their check either.
+    pub(crate) fn validate_step(&self) -> Result<()> {
         if !(self.h.is_finite() && self.h > 0.0) {
             return Err(Error::InvalidStepSize { h: self.h });
         }
@@ -184,7 +193,7 @@ impl SolverSettings {
                 value: f64::from(self.scaling_power),
             });
         }
-        self.newton.validate()
+        Ok(())
     }
 }
 

@@ -102,6 +102,8 @@ impl<T: Real, Z: Trajectory<T, NU>> DaeModel<T, N, NU> for Crane3dSubs<T, Z> {
     const ALGEBRAIC: [bool; N] = [
         false, false, false, false, false, false, true, true, true, true,
     ];
+    /// x, y, l and their velocities; λ, u1, u2, u3 have no derivative in F.
+    const DIFFERENTIAL: usize = 6;
     const INPUTS: [usize; NU] = [7, 8, 9];
     /// `u` contains `z_d⁗` (as the planar crane's); with n ≥ 4 it is continuous.
     const MIN_SMOOTHNESS: usize = 4;
@@ -452,6 +454,16 @@ mod tests {
     fn scaling(h: f64, p: i32) -> SVector<f64, N> {
         let rho = 1.0 / h.powi(p);
         SVector::<f64, N>::from_fn(|i, _| if Model::ALGEBRAIC[i] { rho } else { 1.0 })
+    }
+
+    /// The positions and velocities are the differential unknowns (`DIFFERENTIAL`),
+    /// mid-move, off the solution.
+    #[test]
+    fn the_first_six_unknowns_are_the_differential_ones() {
+        let m = model();
+        let s = m.sample(3.8);
+        let (x, xdot) = (state(&s, 1.0), state(&s, 2.0));
+        crate::models::test_support::assert_differential_first(&m, &x, &xdot, &s);
     }
 
     /// The exact partials against central differences of the residual, mid-way through

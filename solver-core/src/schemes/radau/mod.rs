@@ -115,7 +115,8 @@ impl<
     /// A Radau IIA integrator starting at rest at `t0`.
     pub fn new(model: &M, settings: &SolverSettings, t0: T) -> Result<Self> {
         let () = Self::STAGE_SYSTEM_IS_3N;
-        settings.validate()?;
+        // Newton's settings: by the strategy (`J::new`), if it iterates.
+        settings.validate_step()?;
         let h = c::<T>(settings.h);
         let x = model.rest_state(t0)?;
         Ok(Self {

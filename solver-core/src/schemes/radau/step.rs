@@ -20,7 +20,9 @@ pub trait RadauNewton<
     const S: usize,
 >: Sized
 {
-    /// The strategy for `settings` at step size `h`; refuses a Jacobian mode it cannot do.
+    /// The strategy for `settings` at step size `h`; refuses a Jacobian mode it cannot do,
+    /// and Newton's settings if it iterates ([`Radau::new`](super::Radau::new) does not
+    /// check them).
     fn new(settings: &SolverSettings, h: T) -> Result<Self>;
     /// Forgets what is carried from step to step (after a restart at rest).
     fn forget(&mut self);

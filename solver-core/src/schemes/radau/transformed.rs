@@ -345,7 +345,8 @@ pub struct Transformed<T: Real, const N: usize, L = DenseStages<T, N>> {
     last: Stages<T, N>,
     /// `A E A⁻¹`: the last step's collocation polynomial extrapolated to this step's
     /// nodes, in stage increments (`E` of [`extrapolation`] acts on derivatives:
-    /// `Z = hA X'`, `X' = (hA)⁻¹ Z`; h cancels).
+    /// `Z = hA X'`, `X' = (hA)⁻¹ Z`; h cancels). Zero where the stages come in closed
+    /// form (never read).
     continuation: [[T; 3]; 3],
 }
 
@@ -356,7 +357,11 @@ impl<T: Real, const N: usize, L> Transformed<T, N, L> {
         M: DaeModel<T, N, NU>,
         L: StageSystems<T, M, N, NU>,
     {
-        settings.validate()?;
+        // Stages in closed form: no iteration, so no settings to check and no
+        // continuation to start it from (neither is linked).
+        if !L::CLOSED_FORM {
+            settings.validate()?;
+        }
         let conv = |m: [[f64; 3]; 3]| m.map(|row| row.map(c::<T>));
         Ok(Self {
             settings,
@@ -372,7 +377,11 @@ impl<T: Real, const N: usize, L> Transformed<T, N, L> {
             t_inv: conv(T_INV),
             a_inv_h: A_INV.map(|row| row.map(|a| c::<T>(a) / h)),
             last: [SVector::zeros(); 3],
-            continuation: conv(mul3(&A, &mul3(&extrapolation(), &A_INV))),
+            continuation: if L::CLOSED_FORM {
+                [[T::zero(); 3]; 3]
+            } else {
+                conv(mul3(&A, &mul3(&extrapolation(), &A_INV)))
+            },
         })
     }
 
