@@ -2,9 +2,10 @@
 //! board and the host's run of the firmware on the virtual bus — written once, behind
 //! the one trait a board implements ([`CanPort`]).
 
-use crate::feedback::Correction;
-use crate::feedforward::{Feedforward, Replan};
+use crate::correction::AxesCorrection;
+use crate::feedforward::{Axes, Feedforward, ReferenceOf, Replan};
 use crate::frame::CanFrame;
+use crate::planner::Crane;
 use crate::{Controller, Cycle};
 
 /// What the cycle needs from a CAN controller: the board's own small trait, because the
@@ -35,17 +36,19 @@ pub trait CanPort {
 /// sent), the
 /// burst transmitted in order, and what the bus refused reported at once. `on_lost`
 /// sees every lost frame too (the boards log it).
-pub fn cycle<F, C, P>(
-    controller: &mut Controller<F, C>,
+pub fn cycle<F, C, K, P, const A: usize>(
+    controller: &mut Controller<F, C, K, A>,
     port: &mut P,
     now_ms: u64,
-    tick: impl FnOnce(&mut Controller<F, C>, &mut P) -> Option<Cycle>,
+    tick: impl FnOnce(&mut Controller<F, C, K, A>, &mut P) -> Option<Cycle<A>>,
     mut on_lost: impl FnMut(&CanFrame, &P::TxError),
-) -> Option<Cycle>
+) -> Option<Cycle<A>>
 where
-    F: Feedforward + Replan,
-    C: Correction,
+    F: Feedforward<A> + Replan<A>,
+    C: AxesCorrection<A>,
+    K: Crane<A>,
     P: CanPort,
+    Axes<A>: ReferenceOf,
 {
     report_lost(controller, port, now_ms, &mut on_lost);
     while let Some(frame) = port.receive(now_ms) {
@@ -63,15 +66,17 @@ where
 }
 
 /// Every frame the port lost since the last call, reported as itself.
-fn report_lost<F, C, P>(
-    controller: &mut Controller<F, C>,
+fn report_lost<F, C, K, P, const A: usize>(
+    controller: &mut Controller<F, C, K, A>,
     port: &mut P,
     now_ms: u64,
     on_lost: &mut impl FnMut(&CanFrame, &P::TxError),
 ) where
-    F: Feedforward + Replan,
-    C: Correction,
+    F: Feedforward<A> + Replan<A>,
+    C: AxesCorrection<A>,
+    K: Crane<A>,
     P: CanPort,
+    Axes<A>: ReferenceOf,
 {
     while let Some((frame, e)) = port.lost(now_ms) {
         on_lost(&frame, &e);

@@ -9,6 +9,9 @@ use crate::frame::CanFrame;
 pub const COMMAND_ID: u16 = command_id(CONTROLLER_NODE);
 /// COB-ID of status frames: TPDO1 of the controller (0x180 + its node id; 0x190 by default).
 pub const STATUS_ID: u16 = status_id(CONTROLLER_NODE);
+/// COB-ID of 3D move frames: RPDO2 of the controller (0x300 + its node id; 0x310 by
+/// default).
+pub const MOVE3D_ID: u16 = move3d_id(CONTROLLER_NODE);
 
 /// COB-ID of the command frames of the controller at `node`.
 #[must_use]
@@ -22,6 +25,12 @@ pub const fn status_id(node: u8) -> u16 {
     cob::TPDO1 + node as u16
 }
 
+/// COB-ID of the 3D move frames of the controller at `node`.
+#[must_use]
+pub const fn move3d_id(node: u8) -> u16 {
+    cob::RPDO2 + node as u16
+}
+
 /// A decoded request.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -33,6 +42,16 @@ pub enum Request {
         id: u8,
         /// Target load position, m.
         target: [f64; 2],
+        /// Duration, s.
+        duration: Option<f64>,
+    },
+    /// Move the load to `target` (`[x_C, y_C, z_C]`, m) in `duration` seconds (`None`:
+    /// as fast as the limits allow): the 3D crane's move, on its own frame (RPDO2).
+    Move3d {
+        /// Request id.
+        id: u8,
+        /// Target load position, m.
+        target: [f64; 3],
         /// Duration, s.
         duration: Option<f64>,
     },
@@ -53,7 +72,10 @@ impl Request {
     #[must_use]
     pub fn id(&self) -> u8 {
         match *self {
-            Request::Move { id, .. } | Request::Stop { id } | Request::Reset { id } => id,
+            Request::Move { id, .. }
+            | Request::Move3d { id, .. }
+            | Request::Stop { id }
+            | Request::Reset { id } => id,
         }
     }
 }
@@ -68,6 +90,21 @@ pub enum CommandError {
     UnknownCommand(u8),
     /// Non-zero bytes where *stop* and *reset* require zeros.
     TrailingBytes,
+}
+
+/// Decodes a 3D move frame's 8 bytes: request id, x_C, y_C, z_C (mm, u16 each) and the
+/// duration in whole seconds (0: as fast as the limits allow). One frame for the whole
+/// move — no state kept between two frames — which leaves one byte for the duration.
+pub fn decode_move3d(data: &[u8]) -> Result<Request, CommandError> {
+    let [id, x0, x1, y0, y1, z0, z1, seconds] = *data else {
+        return Err(CommandError::Length(data.len() as u8));
+    };
+    let mm = |a, b| f64::from(u16::from_le_bytes([a, b])) / 1000.0;
+    Ok(Request::Move3d {
+        id,
+        target: [mm(x0, x1), mm(y0, y1), mm(z0, z1)],
+        duration: (seconds != 0).then_some(f64::from(seconds)),
+    })
 }
 
 /// Ticks of a move's duration per second: the command frame carries durations in 10 ms
@@ -97,13 +134,23 @@ pub fn decode_request(data: &[u8]) -> Result<Request, CommandError> {
     }
 }
 
-/// A command frame (for the supervisor's side, the tests and the virtual bus).
-/// Targets are rounded to millimetres and clamped to the field's range.
+/// A command frame, or a 3D move frame (for the supervisor's side, the tests and the
+/// virtual bus). Targets are rounded to millimetres and clamped to the field's range; a
+/// 3D move's duration to whole seconds, 1..=255.
 #[must_use]
 pub fn request_frame(request: &Request) -> CanFrame {
     let mm =
         |m: f64| (libm::round(m * 1000.0).clamp(0.0, f64::from(u16::MAX)) as u16).to_le_bytes();
-    let data = match *request {
+    let (cob, data) = match *request {
+        Request::Move3d {
+            id,
+            target: [x, y, z],
+            duration,
+        } => {
+            let ([x0, x1], [y0, y1], [z0, z1]) = (mm(x), mm(y), mm(z));
+            let seconds = duration.map_or(0, |d| libm::round(d).clamp(1.0, 255.0) as u8);
+            (MOVE3D_ID, [id, x0, x1, y0, y1, z0, z1, seconds])
+        }
         Request::Move {
             id,
             target: [x, z],
@@ -115,12 +162,12 @@ pub fn request_frame(request: &Request) -> CanFrame {
                 libm::round(d * DURATION_TICKS_PER_S).clamp(1.0, f64::from(u16::MAX)) as u16
             });
             let [d0, d1] = ticks.to_le_bytes();
-            [id, 1, x0, x1, z0, z1, d0, d1]
+            (COMMAND_ID, [id, 1, x0, x1, z0, z1, d0, d1])
         }
-        Request::Stop { id } => [id, 2, 0, 0, 0, 0, 0, 0],
-        Request::Reset { id } => [id, 3, 0, 0, 0, 0, 0, 0],
+        Request::Stop { id } => (COMMAND_ID, [id, 2, 0, 0, 0, 0, 0, 0]),
+        Request::Reset { id } => (COMMAND_ID, [id, 3, 0, 0, 0, 0, 0, 0]),
     };
-    CanFrame::fixed(COMMAND_ID, &data)
+    CanFrame::fixed(cob, &data)
 }
 
 /// The answer to a request.
@@ -147,7 +194,7 @@ pub enum Reject {
     Busy = 1,
     /// Drives not enabled, or stopping/halted.
     NotReady = 2,
-    /// Zero or non-finite target, or a duration out of range.
+    /// Zero or non-finite target, a duration out of range, or a y for the planar crane.
     Invalid = 3,
     /// The trolley would leave its workspace.
     TrolleyWorkspace = 4,
@@ -236,6 +283,36 @@ mod tests {
             assert_eq!(f.id(), 0x210);
             assert_eq!(decode_request(f.data()), Ok(r));
         }
+    }
+
+    #[test]
+    fn move3d_frames_round_trip() {
+        for r in [
+            Request::Move3d {
+                id: 7,
+                target: [20.0, 6.5, 4.0],
+                duration: Some(9.0),
+            },
+            Request::Move3d {
+                id: 8,
+                target: [12.345, 0.001, 8.765],
+                duration: None,
+            },
+        ] {
+            let f = request_frame(&r);
+            assert_eq!(f.id(), 0x310);
+            assert_eq!(decode_move3d(f.data()), Ok(r));
+        }
+        assert_eq!(
+            request_frame(&Request::Move3d {
+                id: 1,
+                target: [1.0, 2.0, 3.0],
+                duration: Some(0.2)
+            })
+            .data(),
+            [1, 0xE8, 0x03, 0xD0, 0x07, 0xB8, 0x0B, 1]
+        );
+        assert_eq!(decode_move3d(&[1; 7]), Err(CommandError::Length(7)));
     }
 
     #[test]

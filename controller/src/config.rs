@@ -1,17 +1,15 @@
-//! The controller's configuration: timing, limits, the nodes it commissions and
-//! supervises, and the thresholds of its fault reactions (docs/COMMISSIONING.md).
+//! The controller's configuration: timing, the nodes it commissions and supervises, and
+//! the thresholds of its fault reactions (docs/COMMISSIONING.md). The drives' limits are
+//! the planner's ([`crate::planner::Planner::limits`]): one source for the moves it
+//! accepts and the set points the gate admits.
 
 use crate::commissioning::{DriveSetup, InclinometerSetup, NodeSetup, MAX_NODES};
 use crate::drive::Drive;
 use crate::node::Role;
-use crate::setpoint::DriveLimits;
 
-/// Timing, limits, the drives' commissioning table and the thresholds of the fault
-/// reactions.
+/// Timing, the drives' commissioning table and the thresholds of the fault reactions.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Config {
-    /// Drive limits enforced at the choke point and by the planner.
-    pub limits: DriveLimits,
     /// Cycle time, ms (the solver's h): the one owner of the cycle period.
     pub period_ms: u32,
     /// Core clock, Hz: a cycle's budget is one period of it ([`Config::cycle_budget`]).
@@ -60,7 +58,6 @@ impl Config {
     /// 100 Hz on a 400 MHz Cortex-M7, manager of the stock drives at nodes 1 and 2,
     /// heartbeats every 100 ms, drives lost after 300 ms (TPDOs after 50 ms).
     pub const DEFAULT: Self = Self {
-        limits: DriveLimits::LAB,
         period_ms: 10,
         core_hz: 400_000_000,
         node: 0x10,

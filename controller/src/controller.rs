@@ -19,17 +19,19 @@ use crate::cia410;
 use crate::commands::{self, status_frame, Answer, Reject, Request, Status};
 use crate::commissioning::{Commissioning, CommissioningError, Device, Phase, Progress};
 pub use crate::config::Config;
-use crate::drive::Drive;
+use crate::correction::{AxesCorrection, Measured};
+use crate::drive::{self, Drive};
 use crate::fault::Reaction;
 pub use crate::fault::{Fault, Implausibility};
-use crate::feedback::{Correction, Measurement, Mode as FeedbackMode, NoFeedback};
-use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
+use crate::feedback::{Mode as FeedbackMode, NoFeedback};
+use crate::feedforward::{Axes, Feedforward, FeedforwardStep, ReferenceOf, Replan};
 use crate::frame::CanFrame;
 use crate::links::{self, DriveLink, Heartbeat, Link, Links, Silent};
 use crate::node::{Dictionary, Node, Role, Snapshot, StagedRequest};
-use crate::planner::{MoveSearch, Planner, SAMPLES_PER_CYCLE};
+use crate::planner::{Crane, MoveSearch, Planner, SAMPLES_PER_CYCLE};
 use crate::requests::{AnswerRecord, PendingMove, Requests};
 use crate::setpoint::{Setpoint, SetpointGate, UNITS_PER_M_PER_S};
+use solver_core::models::crane::CraneParams;
 
 /// The supervisor state.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -119,27 +121,29 @@ const _: () = assert!(EMCY_QUEUE >= 2 * crate::commissioning::MAX_NODES + 2);
 /// EMCYs beyond what leaves room for them wait for the next cycle.
 const AFTER_EMCY: usize = 4;
 
-/// Everything one cycle produced.
+/// Everything one cycle of a crane with `A` driven axes produced.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Cycle {
+pub struct Cycle<const A: usize = 2> {
     /// Frames to transmit, in order: commissioning and SDO answers, RPDOs, EMCY,
     /// SYNC, heartbeat, status.
     pub frames: Vec<CanFrame, MAX_FRAMES>,
-    /// The set points sent, `[trolley, winch]` (zero to a drive that is not linked).
-    pub setpoints: [Setpoint; 2],
+    /// The set points sent, in the model's input order ([`Crane::DRIVES`]; planar
+    /// `[trolley, winch]`), zero to a drive that is not linked.
+    pub setpoints: [Setpoint; A],
     /// The inverse-model step of this cycle, if one was taken.
-    pub step: Option<FeedforwardStep>,
+    pub step: Option<FeedforwardStep<A>>,
     /// The supervisor state after the cycle.
     pub mode: Mode,
 }
 
 pub use crate::requests::{ANSWER_QUEUE, REPEAT_WINDOW_MS, STATUS_PER_CYCLE, STOP_ANSWERS};
 
-/// The crane controller: a CANopen node, manager (or slave) of the trolley and winch
-/// drives, with the inverse model `F` as feedforward and `C` between it and the drives
-/// (Fig. 1: [`NoFeedback`], or the state feedback with an inclinometer).
+/// The crane controller: a CANopen node, manager (or slave) of the drives of crane `K`
+/// (its `A` driven axes, [`Crane::DRIVES`]: the planar crane's trolley and winch by
+/// default), with the inverse model `F` as feedforward and `C` between it and the
+/// drives (Fig. 1: [`NoFeedback`], or the state feedback with an inclinometer).
 #[derive(Debug, Clone)]
-pub struct Controller<F, C = NoFeedback> {
+pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
     feedforward: F,
     correction: C,
     /// The loop is closed: a move was accepted since the last boot or fault. Before,
@@ -150,13 +154,14 @@ pub struct Controller<F, C = NoFeedback> {
     feedback_announced: Option<FeedbackMode>,
     config: Config,
     node: Node,
-    gate: SetpointGate,
-    planner: Planner,
+    /// The choke point, with the planner's drive limits.
+    gate: SetpointGate<A>,
+    planner: Planner<K, A>,
     /// The nodes on the bus, from `config.nodes`.
-    links: Links,
+    links: Links<A>,
     mode: Mode,
     /// The supervisor's requests, from arrival to answer.
-    requests: Requests,
+    requests: Requests<A>,
     counters: Counters,
     last_miss_cycle: Option<u32>,
     rpdo_failed: bool,
@@ -187,28 +192,26 @@ impl<F: Feedforward + Replan> Controller<F> {
     }
 }
 
-impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
+impl<F, C, K, const A: usize> Controller<F, C, K, A>
+where
+    F: Feedforward<A> + Replan<A>,
+    C: AxesCorrection<A>,
+    K: Crane<A>,
+    Axes<A>: ReferenceOf,
+{
     /// A controller whose set points are `feedforward`'s corrected by `correction`
-    /// (the state feedback measures the angle with the inclinometer of `config.nodes`).
+    /// (the state feedback measures the angle with the inclinometer of `config.nodes`),
+    /// its moves checked and its set points limited by `planner`.
     pub fn with_correction(
         feedforward: F,
         correction: C,
-        planner: Planner,
+        planner: Planner<K, A>,
         config: Config,
     ) -> Self {
-        let period_ms = u8::try_from(config.period_ms).unwrap_or(u8::MAX);
         let manager = config.role == Role::Manager;
         // Without the feedback the inclinometer is not linked (`C::ENABLED` is a
         // constant: none of its code is).
-        let links = Links::new(
-            &config.nodes,
-            config.node,
-            period_ms,
-            manager,
-            config.sdo_timeout_ms,
-            config.boot_time_ms,
-            C::ENABLED,
-        );
+        let links = Links::new(&config, K::DRIVES, C::ENABLED);
         Self {
             feedforward,
             correction,
@@ -229,7 +232,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 cycle_us: config.period_ms.saturating_mul(1000),
                 request: StagedRequest::default(),
             },
-            gate: SetpointGate::new(config.limits, config.period_s()),
+            gate: SetpointGate::with_axes(K::DRIVES, planner.limits(), config.period_s()),
             planner,
             links,
             mode: Mode::Enabling,
@@ -292,6 +295,12 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             unanswered: tally.unanswered,
             ..self.counters
         }
+    }
+
+    /// The crane's drives, in the model's input order ([`Crane::DRIVES`]).
+    #[must_use]
+    pub fn drives(&self) -> [Drive; A] {
+        K::DRIVES
     }
 
     /// The CiA 402 state of a drive as last reported.
@@ -479,7 +488,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                     self.sdo_answer = sdo::serve(&mut od, self.config.node, &data);
                     // A request written over SDO: taken as the command frame's.
                     if core::mem::take(&mut self.node.request.submitted) {
-                        if let Ok(request) = commands::decode_request(&self.node.request.bytes) {
+                        if let Ok(request) = self.node.request.request() {
                             self.on_request(request);
                         }
                     }
@@ -496,7 +505,16 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                     _ => self.ignore(),
                 }
             }
-            Incoming::Rpdo1 { .. } => {}
+            // The supervisor's 3D move frame: the controller's own RPDO2.
+            Incoming::Rpdo2 { node, frame } if node == self.node.id => {
+                match commands::decode_move3d(frame.data()) {
+                    Ok(request) if self.node.state == NmtState::Operational => {
+                        self.on_request(request);
+                    }
+                    _ => self.ignore(),
+                }
+            }
+            Incoming::Rpdo1 { .. } | Incoming::Rpdo2 { .. } => {}
         }
     }
 
@@ -710,7 +728,8 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         let link = self.link(drive)?;
         let setup = link.commissioning.setup();
         let metres = |u: i32| setup.position_offset + setup.position_scale * f64::from(u);
-        let (lo, hi) = *drive.of(&self.planner.ranges());
+        let (lo, hi) = *drive::of(&K::DRIVES, drive, &self.planner.ranges())?;
+        let max_velocity = self.gate.limits(drive)?.max_velocity;
         let tolerance = self.config.position_tolerance_m;
         let at = metres(units);
         if !(lo - tolerance..=hi + tolerance).contains(&at) {
@@ -723,14 +742,13 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
             .saturating_sub(last_ms)
             .max(u64::from(self.config.period_ms)) as f64
             / 1000.0;
-        let reach = self.config.overspeed * self.config.limits.of(drive).max_velocity * dt
-            + 0.1 * tolerance;
+        let reach = self.config.overspeed * max_velocity * dt + 0.1 * tolerance;
         ((at - metres(last)).abs() > reach).then_some(Implausibility::Jump)
     }
 
     fn on_status(&mut self, drive: Drive, sw: u16, velocity: i32, now_ms: u64) {
-        let overspeed =
-            self.config.overspeed * self.config.limits.of(drive).max_velocity * UNITS_PER_M_PER_S;
+        let max_velocity = self.gate.limits(drive).map_or(0.0, |l| l.max_velocity);
+        let overspeed = self.config.overspeed * max_velocity * UNITS_PER_M_PER_S;
         if f64::from(velocity).abs() > overspeed {
             self.fault(Fault::Implausible(drive, Implausibility::Velocity));
         }
@@ -820,7 +838,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     }
 
     /// One cycle at time `now_ms` (the start of the cycle; the model has been stepped to it).
-    pub fn tick(&mut self, now_ms: u64) -> Cycle {
+    pub fn tick(&mut self, now_ms: u64) -> Cycle<A> {
         self.now_ms = now_ms;
         let mut frames = Vec::new();
         let first = core::mem::take(&mut self.starting);
@@ -888,8 +906,9 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         if let Some(sensor) = self.links.sensor_mut() {
             sensor.fresh = false;
         }
-        let mut setpoints = [Setpoint::ZERO; 2];
-        for drive in Drive::ALL.into_iter().filter(|_| pdo) {
+        let mut setpoints = [Setpoint::ZERO; A];
+        for (i, drive) in K::DRIVES.into_iter().enumerate().filter(|_| pdo) {
+            let wanted = wanted.and_then(|u| u.get(i).copied());
             let (command, setpoint) = self.command_for(drive, wanted);
             // Only a commissioned drive gets PDOs: its mapping is known. A drive that
             // is being commissioned again (it rebooted, or said so) still gets the rest
@@ -903,7 +922,9 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 continue;
             };
             if linked || self.gate.last(drive) != Setpoint::ZERO {
-                *drive.of_mut(&mut setpoints) = setpoint;
+                if let Some(slot) = setpoints.get_mut(i) {
+                    *slot = setpoint;
+                }
                 self.push(&mut frames, pdo::rpdo1(node, command, setpoint));
             }
         }
@@ -1003,28 +1024,28 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     }
 
     /// What the drives and the inclinometer measured at the last SYNC (their TPDOs
-    /// arrive between cycles): trolley position and rope length from position actual
-    /// (0x6064) through the commissioned scaling, the angle if a fresh one came from a
-    /// healthy inclinometer. `None` when a position is not fresh.
-    fn measurement(&mut self) -> Option<Measurement> {
+    /// arrive between cycles): each drive's position (planar: trolley position and rope
+    /// length) from position actual (0x6064) through the commissioned scaling, the angle
+    /// if a fresh one came from a healthy inclinometer. `None` when a position is not
+    /// fresh.
+    fn measurement(&mut self) -> Option<Measured<A>> {
         let now_ms = self.now_ms;
         let phi = self.links.sensor_mut().and_then(|sensor| {
             let fresh = core::mem::take(&mut sensor.fresh);
             let healthy = sensor.healthy(now_ms, self.config.heartbeat_timeout_ms);
             sensor.angle.filter(|_| fresh && healthy)
         });
-        let mut position = [0.0; 2];
-        for drive in Drive::ALL {
+        let mut position = [0.0; A];
+        for (drive, slot) in K::DRIVES.into_iter().zip(position.iter_mut()) {
             let link = self.link(drive)?;
             let fresh = link
                 .last_position_ms
                 .is_some_and(|t| now_ms.saturating_sub(t) <= u64::from(self.config.period_ms));
             let setup = link.commissioning.setup();
-            *drive.of_mut(&mut position) = setup.position_offset
+            *slot = setup.position_offset
                 + setup.position_scale * f64::from(link.position.filter(|_| fresh)?);
         }
-        let [x, l] = position;
-        Some(Measurement { x, l, phi })
+        Some(Measured { position, phi })
     }
 
     /// This cycle's set points before the gate: the inverse model's `u_d`, corrected by
@@ -1032,18 +1053,18 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// is announced: the angle no longer used (the swing estimated from the positions,
     /// or feedforward only) by EMCY 0xFF20 with the reason (a warning: the move goes
     /// on), back to closed loop by nothing.
-    fn corrected(&mut self, step: &FeedforwardStep) -> [f64; 2] {
+    fn corrected(&mut self, step: &FeedforwardStep<A>) -> [f64; A] {
         if !C::ENABLED || !self.closed_loop || self.mode != Mode::Ready {
             return step.u;
         }
         let reference = self.feedforward.reference();
         let measured = self.measurement();
-        let last = Drive::ALL.map(|d| self.gate.last(d).metres_per_second());
-        let out = self
-            .correction
-            .correct(&reference, step.u, measured, last, &self.config.limits);
-        if self.feedback_announced != Some(out.mode) {
-            if let Some(reason) = out.mode.degraded() {
+        let last = self.gate.last_velocities();
+        let (u, mode) =
+            self.correction
+                .correct(&reference, step.u, measured, last, &self.planner.limits());
+        if self.feedback_announced != Some(mode) {
+            if let Some(reason) = mode.degraded() {
                 let node = self
                     .links
                     .sensor()
@@ -1055,9 +1076,9 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                     [15, node, reason.code(), 0, 0],
                 ));
             }
-            self.feedback_announced = Some(out.mode);
+            self.feedback_announced = Some(mode);
         }
-        out.u
+        u
     }
 
     /// What a commissioning step asks: the frame to send, if any, and the end of the
@@ -1098,7 +1119,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     }
 
     fn snapshot(&self) -> Snapshot {
-        let commissioned = Drive::ALL
+        let commissioned = K::DRIVES
             .iter()
             .enumerate()
             .filter(|(_, d)| self.link(**d).is_some_and(DriveLink::linked))
@@ -1131,7 +1152,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
 
     /// Whether every drive may be asked to move.
     fn drives_ready(&self) -> bool {
-        Drive::ALL
+        K::DRIVES
             .iter()
             .all(|d| self.link(*d).is_some_and(DriveLink::ready))
     }
@@ -1141,14 +1162,25 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     fn handle(&mut self, request: Request) {
         let answer = match request {
             Request::Move {
-                target, duration, ..
+                target: [x, z],
+                duration,
+                ..
+            }
+            | Request::Move3d {
+                target: [x, _, z],
+                duration,
+                ..
             } => {
+                let y = match request {
+                    Request::Move3d { target, .. } => target.get(1).copied(),
+                    _ => None,
+                };
                 let plan = self.feedforward.plan();
                 if !self.may_move() {
                     Err(Reject::NotReady)
                 } else if plan.has_queued() {
                     Err(Reject::Busy)
-                } else {
+                } else if let Some(target) = K::target(x, y, z, plan.final_position().into()) {
                     match MoveSearch::new(plan, target, duration) {
                         Ok(search) => {
                             self.requests.plan(PendingMove {
@@ -1160,6 +1192,9 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                         }
                         Err(r) => Err(r),
                     }
+                } else {
+                    // A y for a crane without one (the planar crane's 3D move frame).
+                    Err(Reject::Invalid)
                 }
             }
             // Answered on arrival and obeyed by `obey_stop`; never queued.
@@ -1256,12 +1291,12 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         self.closed_loop = true;
     }
 
-    /// Where the load hangs, from the drives' position actual (0x6064): trolley position
-    /// and rope length. `None` if a drive's position is unknown or stale, or a drive
-    /// still moves.
-    fn measured_rest(&self) -> Option<[f64; 2]> {
-        let mut position = [0.0; 2];
-        for drive in Drive::ALL {
+    /// Where the load hangs, from the drives' position actual (0x6064), in the model's
+    /// input order (planar: trolley position and rope length). `None` if a drive's
+    /// position is unknown or stale, or a drive still moves.
+    fn measured_rest(&self) -> Option<[f64; A]> {
+        let mut position = [0.0; A];
+        for (drive, slot) in K::DRIVES.into_iter().zip(position.iter_mut()) {
             let link = self.link(drive)?;
             let fresh = link.last_position_ms.is_some_and(|t| {
                 self.now_ms.saturating_sub(t) <= u64::from(self.config.tpdo_timeout_ms)
@@ -1273,8 +1308,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
                 return None;
             }
             let setup = link.commissioning.setup();
-            *drive.of_mut(&mut position) =
-                setup.position_offset + setup.position_scale * f64::from(link.position?);
+            *slot = setup.position_offset + setup.position_scale * f64::from(link.position?);
         }
         Some(position)
     }
@@ -1288,7 +1322,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         self.feedforward
             .restart_at_rest(position, self.now_s())
             .map_err(|_| Reject::Invalid)?;
-        for drive in Drive::ALL {
+        for drive in K::DRIVES {
             if self
                 .link(drive)
                 .is_some_and(|l| matches!(l.commissioning.phase(), Phase::Failed(_)))
@@ -1323,12 +1357,13 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     }
 
     /// Controlword and set point for one drive this cycle.
-    fn command_for(&mut self, drive: Drive, wanted: Option<[f64; 2]>) -> (u16, Setpoint) {
+    /// `wanted`: the drive's velocity after the correction, if a step was taken.
+    fn command_for(&mut self, drive: Drive, wanted: Option<f64>) -> (u16, Setpoint) {
         let ready = self.link(drive).is_some_and(DriveLink::ready);
         let state = self.drive_state(drive);
         match self.mode {
             Mode::Enabling | Mode::Ready => {
-                let wanted = wanted.map(|u| *drive.of(&u)).unwrap_or(0.0);
+                let wanted = wanted.unwrap_or(0.0);
                 let Some(command) = state.enable_command() else {
                     // A drive in fault: after a reset, the fault-reset sequence; otherwise
                     // it is a fault.
@@ -1380,7 +1415,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
     /// reported before the gap is no baseline for the next reading (they may have been
     /// moved meanwhile).
     fn restart_tpdo_clocks(&mut self, now_ms: u64) {
-        for drive in Drive::ALL {
+        for drive in K::DRIVES {
             if let Some(link) = self.link_mut(drive).filter(|l| l.last_tpdo_ms.is_some()) {
                 link.restart_clocks(now_ms);
             }
@@ -1392,7 +1427,7 @@ impl<F: Feedforward + Replan, C: Correction> Controller<F, C> {
         let late = |t: Option<u64>, limit: u32| {
             t.is_some_and(|t| now_ms.saturating_sub(t) > u64::from(limit))
         };
-        for drive in Drive::ALL {
+        for drive in K::DRIVES {
             let silent = self.link(drive).and_then(|l| {
                 l.silent(
                     now_ms,

@@ -141,14 +141,15 @@ impl Fault {
             Fault::Setpoint(
                 SetpointError::NonFinite { drive }
                 | SetpointError::OverSpeed { drive, .. }
-                | SetpointError::OverAcceleration { drive, .. },
+                | SetpointError::OverAcceleration { drive, .. }
+                | SetpointError::NoDrive { drive },
             ) => Some(drive),
             _ => None,
         }
     }
 
     /// The EMCY's third manufacturer byte: for a refused set point, why (1 non-finite,
-    /// 2 over speed, 3 over acceleration); for a solver failure, which (1 Newton did not
+    /// 2 over speed, 3 over acceleration, 4 no such drive); for a solver failure, which (1 Newton did not
     /// converge, 2 singular matrix, 3 non-finite value, 4 other); for a drive that left
     /// *operational*, the NMT state it reported; otherwise 0.
     pub(crate) fn detail(&self) -> u8 {
@@ -156,6 +157,7 @@ impl Fault {
             Fault::Setpoint(SetpointError::NonFinite { .. }) => 1,
             Fault::Setpoint(SetpointError::OverSpeed { .. }) => 2,
             Fault::Setpoint(SetpointError::OverAcceleration { .. }) => 3,
+            Fault::Setpoint(SetpointError::NoDrive { .. }) => 4,
             Fault::Solver(Error::NewtonNotConverged { .. }) => 1,
             Fault::Solver(Error::SingularJacobian { .. }) => 2,
             Fault::Solver(Error::NonFinite { .. }) => 3,

@@ -1,7 +1,7 @@
 //! The firmware's portable logic, tested on the host.
 //!
 //! * [`board`] — the 100 Hz cycle every board runs, behind the one trait a board implements;
-//! * [`drive`] — the driven axes (trolley, winch);
+//! * [`drive`] — the driven axes (bridge, trolley, winch) and each crane's order of them;
 //! * [`canopen`] — CiA 301 by specification: frames, NMT, EMCY codes;
 //! * [`setpoint`] — m/s to drive units through the one set-point choke point;
 //! * [`cia402`] — the drive state machine (enable sequence, quick stop, fault) and its PDOs;
@@ -10,6 +10,7 @@
 //! * [`commands`] — move, stop and reset requests, and the status answer;
 //! * [`planner`] — the checks a move or a stop passes before it is accepted;
 //! * `requests` — the supervisor's requests from arrival to answer (each answered once);
+//! * [`correction`] — what stands between the inverse model and the drives, per crane;
 //! * [`feedback`] — the state feedback around the inverse model (Fig. 1);
 //! * [`crate::reference`] — the reference state of a vertical plane, from the inverse model;
 //! * [`rope`] — the rope's true length learnt from the swing, a commissioning step;
@@ -39,6 +40,7 @@ pub mod commands;
 pub mod commissioning;
 pub mod config;
 pub mod controller;
+pub mod correction;
 mod derivatives;
 pub mod drive;
 pub mod fault;

@@ -8,9 +8,11 @@ use heapless::Vec;
 use crate::canopen::NmtState;
 use crate::cia402::{statusword, DriveState};
 use crate::commissioning::{Commissioning, InclinometerSetup, NodeSetup, Phase, MAX_NODES};
-use crate::drive::Drive;
+use crate::config::Config;
+use crate::drive::{Drive, Order};
 use crate::fault::Implausibility;
 use crate::frame::CanFrame;
+use crate::node::Role;
 
 /// One node on the bus.
 #[derive(Debug, Clone, PartialEq)]
@@ -21,42 +23,46 @@ pub(crate) enum Link {
     Inclinometer(SensorLink),
 }
 
-/// The nodes, in the commissioning file's order, with where each axis's drive and the
-/// inclinometer are in the list (looked up every cycle: no search).
+/// The nodes, in the commissioning file's order, with where each of the crane's `A`
+/// drives and the inclinometer are in the list.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) struct Links {
+pub(crate) struct Links<const A: usize = 2> {
     list: Vec<Link, MAX_NODES>,
-    axes: [Option<usize>; 2],
+    /// The crane's drives, in the model's input order: the order of `axes`.
+    drives: Order<A>,
+    /// Where each drive is in `list`.
+    axes: [Option<usize>; A],
     sensor: Option<usize>,
 }
 
-impl Links {
-    /// Links for `nodes`, each commissioned by the controller at node `controller`
-    /// cycling every `period_ms` (`manager`: it sends NMT commands); the inclinometer
-    /// only if `sensors` (a controller with the state feedback), the first of each axis.
+impl<const A: usize> Links<A> {
+    /// Links for the nodes of `config`, each commissioned by the controller it
+    /// configures: the first drive of each of the crane's `drives` (a row for a drive
+    /// the crane lacks is not linked), the inclinometer only if `sensors` (a controller
+    /// with the state feedback).
     ///
     /// Always inlined: `sensors` is the controller's `C::ENABLED`, a constant, so that a
     /// firmware without the feedback links none of the inclinometer's commissioning.
     #[inline(always)]
-    pub(crate) fn new(
-        nodes: &[Option<NodeSetup>; MAX_NODES],
-        controller: u8,
-        period_ms: u8,
-        manager: bool,
-        sdo_timeout_ms: u32,
-        boot_time_ms: u32,
-        sensors: bool,
-    ) -> Self {
+    pub(crate) fn new(config: &Config, drives: [Drive; A], sensors: bool) -> Self {
+        let controller = config.node;
+        let period_ms = u8::try_from(config.period_ms).unwrap_or(u8::MAX);
+        let manager = config.role == Role::Manager;
+        let (sdo_timeout_ms, boot_time_ms) = (config.sdo_timeout_ms, config.boot_time_ms);
+        let drives = Order::new(drives);
         let mut links = Self {
             list: Vec::new(),
-            axes: [None; 2],
+            drives,
+            axes: [None; A],
             sensor: None,
         };
-        for node in nodes.iter().flatten() {
+        for node in config.nodes.iter().flatten() {
             let at = Some(links.list.len());
             let link = match *node {
                 NodeSetup::Drive(axis, setup) => {
-                    let slot = axis.of_mut(&mut links.axes);
+                    let Some(slot) = drives.of_mut(axis, &mut links.axes) else {
+                        continue;
+                    };
                     if slot.is_some() {
                         continue;
                     }
@@ -122,7 +128,10 @@ impl Links {
 
     /// The drive of `axis`, if the commissioning file has one.
     pub(crate) fn drive(&self, axis: Drive) -> Option<&DriveLink> {
-        match self.list.get((*axis.of(&self.axes))?)? {
+        match self
+            .list
+            .get((*self.drives.of(axis, &self.axes)?)?)?
+        {
             Link::Drive(_, link) => Some(link),
             Link::Inclinometer(_) => None,
         }
@@ -130,7 +139,10 @@ impl Links {
 
     /// The drive of `axis`, to change.
     pub(crate) fn drive_mut(&mut self, axis: Drive) -> Option<&mut DriveLink> {
-        match self.list.get_mut((*axis.of(&self.axes))?)? {
+        match self
+            .list
+            .get_mut((*self.drives.of(axis, &self.axes)?)?)?
+        {
             Link::Drive(_, link) => Some(link),
             Link::Inclinometer(_) => None,
         }

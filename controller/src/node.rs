@@ -12,9 +12,10 @@
 //! | 0x1016:1 | consumer heartbeat time: supervisor node << 16 \| ms (0: not watched) | rw |
 //! | 0x1017 | producer heartbeat time, ms | rw |
 //! | 0x1018:1..=4 | identity: vendor, product, revision, serial | ro |
-//! | 0x1400:1..=2, 0x1600:1..=6 | RPDO1: the supervisor's command frame (0x210) | ro |
+//! | 0x1400:1..=2, 0x1600:1..=5 | RPDO1: the supervisor's command frame (0x210) | ro |
+//! | 0x1401:1..=2, 0x1601:1..=5 | RPDO2: the supervisor's 3D move frame (0x310) | ro |
 //! | 0x1800:1..=2, 0x1A00:1..=8 | TPDO1: the status frame (0x190) | ro |
-//! | 0x2000:1..=5 | the command frame's fields (request id, command, x, z, duration); writing the command submits a request | wo |
+//! | 0x2000:1..=7 | the command frames' fields (request id, command, x, z, duration in 10 ms; y and duration in s of the 3D move); writing the command submits a request (4: the 3D move) | wo |
 //! | 0x2001:1..=8 | the status frame's fields (docs/COMMANDS.md) | ro |
 //! | 0x2002:1..=5 | the last commissioning failure: node, index, sub, abort code, reason | ro |
 //! | 0x2003:1..=2 | NMT role (0 manager, 1 slave); drives' commissioning phase (bit per drive: done) | ro |
@@ -22,7 +23,9 @@
 
 use crate::canopen::sdo::{abort, Object, ObjectDictionary, Value};
 use crate::canopen::{NmtCommand, NmtState};
-use crate::commands::{command_id, decode_request, status_id, Status};
+use crate::commands::{
+    command_id, decode_move3d, decode_request, move3d_id, status_id, CommandError, Request, Status,
+};
 
 /// Who starts the drives.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -50,6 +53,19 @@ pub const COMMAND_MAPPING: [u32; 5] = [
     0x2000_0410,
     0x2000_0510,
 ];
+
+/// The 3D move frame's mapping (0x1601): request id, x, y, z, duration in seconds.
+pub const MOVE3D_MAPPING: [u32; 5] = [
+    0x2000_0108,
+    0x2000_0310,
+    0x2000_0610,
+    0x2000_0410,
+    0x2000_0708,
+];
+
+/// The command written over SDO (0x2000:2) that submits the 3D move of 0x2000:1, 3, 6,
+/// 4 and 7; its frame (RPDO2) carries no command byte.
+pub const MOVE3D_COMMAND: u8 = 4;
 
 /// The status frame's mapping (0x1A00): eight bytes of 0x2001.
 pub const STATUS_MAPPING: [u32; 8] = [
@@ -83,14 +99,31 @@ pub struct Node {
     pub request: StagedRequest,
 }
 
-/// A request written over SDO into 0x2000:1..=5, as the command frame's 8 bytes, for a
-/// supervisor that commands through the dictionary rather than the command PDO.
+/// A request written over SDO into 0x2000:1..=7, as the command frame's 8 bytes and the
+/// 3D move's y and seconds, for a supervisor that commands through the dictionary
+/// rather than the command PDOs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct StagedRequest {
     /// The command frame's bytes as written so far.
     pub bytes: [u8; 8],
+    /// The 3D move's y (mm, little-endian) and duration (s), 0x2000:6 and 7.
+    pub lateral: [u8; 3],
     /// The command (sub 2) was written: the controller takes it as a request.
     pub submitted: bool,
+}
+
+impl StagedRequest {
+    /// The request written: the command frame's, or for command 4 the 3D move frame's
+    /// fields.
+    pub fn request(&self) -> Result<Request, CommandError> {
+        let [id, command, x0, x1, z0, z1, ..] = self.bytes;
+        let [y0, y1, seconds] = self.lateral;
+        if command == MOVE3D_COMMAND {
+            decode_move3d(&[id, x0, x1, y0, y1, z0, z1, seconds])
+        } else {
+            decode_request(&self.bytes)
+        }
+    }
 }
 
 impl Node {
@@ -179,6 +212,14 @@ impl ObjectDictionary for Dictionary<'_> {
             0x1600 => sub_of(COMMAND_MAPPING.len(), &|k| {
                 COMMAND_MAPPING.get(k).map(|v| u32v(*v))
             }),
+            0x1401 => sub_of(2, &|k| match k {
+                0 => Some(u32v(u32::from(move3d_id(self.node.id)))),
+                1 => Some(value(&[0xFE])),
+                _ => None,
+            }),
+            0x1601 => sub_of(MOVE3D_MAPPING.len(), &|k| {
+                MOVE3D_MAPPING.get(k).map(|v| u32v(*v))
+            }),
             0x1800 => sub_of(2, &|k| match k {
                 0 => Some(u32v(u32::from(status_id(self.node.id)))),
                 1 => Some(value(&[0xFE])),
@@ -188,8 +229,8 @@ impl ObjectDictionary for Dictionary<'_> {
                 STATUS_MAPPING.get(k).map(|v| u32v(*v))
             }),
             // The command frame's fields: only mapped (write through the RPDO).
-            0x2000 if object.sub == 0 => Ok(value(&[5])),
-            0x2000 if object.sub <= 5 => Err(abort::WRITE_ONLY),
+            0x2000 if object.sub == 0 => Ok(value(&[7])),
+            0x2000 if object.sub <= 7 => Err(abort::WRITE_ONLY),
             0x2001 => sub_of(8, &|k| {
                 let bytes = [
                     status.last_id,
@@ -298,7 +339,11 @@ impl ObjectDictionary for Dictionary<'_> {
                     if self.node.state != NmtState::Operational {
                         return Err(abort::DEVICE_STATE);
                     }
-                    if decode_request(&bytes).is_err() {
+                    let staged = StagedRequest {
+                        bytes,
+                        ..self.node.request
+                    };
+                    if staged.request().is_err() {
                         return Err(abort::INVALID_VALUE);
                     }
                     self.node.request.submitted = true;
@@ -306,6 +351,23 @@ impl ObjectDictionary for Dictionary<'_> {
                 self.node.request.bytes = bytes;
                 Ok(())
             }
+            // The 3D move's y (as mapped into RPDO2, 0x1601) and its duration in s.
+            (0x2000, 6) => match *data {
+                [y0, y1] => {
+                    let [_, _, seconds] = self.node.request.lateral;
+                    self.node.request.lateral = [y0, y1, seconds];
+                    Ok(())
+                }
+                _ => Err(abort::LENGTH),
+            },
+            (0x2000, 7) => match *data {
+                [seconds] => {
+                    let [y0, y1, _] = self.node.request.lateral;
+                    self.node.request.lateral = [y0, y1, seconds];
+                    Ok(())
+                }
+                _ => Err(abort::LENGTH),
+            },
             _ => match self.read(object) {
                 Ok(_) => Err(abort::READ_ONLY),
                 Err(code) => Err(code),

@@ -20,6 +20,7 @@ use solver_core::reference::{flat_crane, flat_crane3d};
 use solver_core::trajectory::{PointToPoint, Trajectory};
 
 use crate::commands::{Reject, DURATION_TICKS_PER_S};
+use crate::drive::{self, Drive};
 use crate::setpoint::{AxisLimits, DriveLimits};
 
 /// Points per checked path segment (plus its end).
@@ -100,18 +101,26 @@ pub struct Flat<const A: usize> {
 /// position, and the reasons naming each axis. The last output is the load's depth
 /// z_C below the rail (Eq. 24's convention, in 3D too).
 pub trait Crane<const A: usize> {
+    /// Its drives, in the model's input order: the order of every per-drive array.
+    const DRIVES: [Drive; A];
     /// The reasons of each axis, in the model's input order.
     const REASONS: [AxisReasons; A];
     /// Gravity, m/s².
     fn g(&self) -> f64;
     /// Each drive position's range `(min, max)`, m.
     fn ranges(&self) -> [(f64, f64); A];
+    /// The load's target for a move command to `x_C`, `z_C` and, from the 3D move
+    /// frame, `y_C` (docs/COMMANDS.md), the plan ending with the load at `end`: what the
+    /// command does not name stays. `None`: the crane has no such target (a y for the
+    /// planar crane).
+    fn target(x: f64, y: Option<f64>, z: f64, end: [f64; A]) -> Option<[f64; A]>;
     /// The flat inverse at `t` of the load's path `z`.
     fn flat<Z: Trajectory<f64, A>>(&self, z: &Z, t: f64) -> Flat<A>;
 }
 
 /// The paper's planar crane: trolley x and rope length l (Eq. 24).
 impl Crane<2> for CraneParams {
+    const DRIVES: [Drive; 2] = drive::PLANAR;
     const REASONS: [AxisReasons; 2] = [TROLLEY, WINCH];
     fn g(&self) -> f64 {
         self.g
@@ -119,6 +128,9 @@ impl Crane<2> for CraneParams {
     fn ranges(&self) -> [(f64, f64); 2] {
         let w = &self.workspace;
         [(w.x_min, w.x_max), (w.l_min, w.l_max)]
+    }
+    fn target(x: f64, y: Option<f64>, z: f64, _end: [f64; 2]) -> Option<[f64; 2]> {
+        y.is_none().then_some([x, z])
     }
     fn flat<Z: Trajectory<f64, 2>>(&self, z: &Z, t: f64) -> Flat<2> {
         let f = flat_crane::flat_inverse(self, z, t);
@@ -132,6 +144,7 @@ impl Crane<2> for CraneParams {
 
 /// The 3D crane: bridge x, trolley y and rope length l.
 impl Crane<3> for Crane3dParams {
+    const DRIVES: [Drive; 3] = drive::SPATIAL;
     const REASONS: [AxisReasons; 3] = [BRIDGE, TROLLEY, WINCH];
     fn g(&self) -> f64 {
         self.g
@@ -139,6 +152,10 @@ impl Crane<3> for Crane3dParams {
     fn ranges(&self) -> [(f64, f64); 3] {
         let w = &self.workspace;
         [(w.x_min, w.x_max), (w.y_min, w.y_max), (w.l_min, w.l_max)]
+    }
+    /// A planar command moves the load in the x–z plane it hangs in: y stays.
+    fn target(x: f64, y: Option<f64>, z: f64, [_, y_end, _]: [f64; 3]) -> Option<[f64; 3]> {
+        Some([x, y.unwrap_or(y_end), z])
     }
     fn flat<Z: Trajectory<f64, 3>>(&self, z: &Z, t: f64) -> Flat<3> {
         let f = flat_crane3d::flat_inverse(self, z, t);
@@ -176,6 +193,13 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
     #[must_use]
     pub fn ranges(&self) -> [(f64, f64); A] {
         self.crane.ranges()
+    }
+
+    /// Each drive's limits, in the model's input order: the ones the set-point gate
+    /// enforces too.
+    #[must_use]
+    pub fn limits(&self) -> [AxisLimits; A] {
+        self.limits
     }
 
     /// The rules the desired output breaks at `t`: bit `i` set for `ORDER[i]`.

@@ -41,13 +41,13 @@ const WAITING: usize = 4;
 
 /// A move request whose duration is being searched.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct PendingMove {
+pub(crate) struct PendingMove<const A: usize = 2> {
     /// The request, as received (for its answer and for repeats).
     pub request: Request,
-    /// Where the load is to go, `[x_C, z_C]`.
-    pub target: [f64; 2],
+    /// Where the load is to go, in the crane's outputs (planar `[x_C, z_C]`).
+    pub target: [f64; A],
     /// The search for the move's duration, a share per cycle.
-    pub search: MoveSearch,
+    pub search: MoveSearch<A>,
 }
 
 /// What the request service counts (reported in [`crate::Counters`]).
@@ -63,11 +63,11 @@ pub(crate) struct Tally {
 
 /// The requests taken and not yet answered, and the answers not yet sent.
 #[derive(Debug, Clone)]
-pub(crate) struct Requests {
+pub(crate) struct Requests<const A: usize = 2> {
     /// Moves and resets, in order; stops are taken before them.
     waiting: Deque<Request, WAITING>,
     /// The move being planned, a share of its search per cycle.
-    pending: Option<PendingMove>,
+    pending: Option<PendingMove<A>>,
     /// A stop arrived since the last cycle: obeyed first thing in the next (however
     /// many arrived, whatever their ids).
     stop_due: bool,
@@ -84,7 +84,7 @@ pub(crate) struct Requests {
     tally: Tally,
 }
 
-impl Default for Requests {
+impl<const A: usize> Default for Requests<A> {
     fn default() -> Self {
         Self {
             waiting: Deque::new(),
@@ -99,7 +99,7 @@ impl Default for Requests {
     }
 }
 
-impl Requests {
+impl<const A: usize> Requests<A> {
     /// Takes a request off the bus at `now_ms`. A stop is obeyed whatever its id: never
     /// taken for a repeat, never queued behind anything, never refused for lack of room.
     /// A move or reset equal to one still waiting is that request again (its one answer
@@ -179,12 +179,12 @@ impl Requests {
     }
 
     /// The move being planned, taken out to advance its search.
-    pub fn take_pending(&mut self) -> Option<PendingMove> {
+    pub fn take_pending(&mut self) -> Option<PendingMove<A>> {
         self.pending.take()
     }
 
     /// The move being planned, put (back) to wait for the next cycle's share.
-    pub fn plan(&mut self, pending: PendingMove) {
+    pub fn plan(&mut self, pending: PendingMove<A>) {
         self.pending = Some(pending);
     }
 
@@ -199,7 +199,7 @@ impl Requests {
         }
         for _ in 0..self.waiting.len() {
             match self.waiting.pop_front() {
-                Some(r @ Request::Move { .. }) => {
+                Some(r @ (Request::Move { .. } | Request::Move3d { .. })) => {
                     lost += u32::from(!self.answer(r, Err(Reject::NotReady), now_ms));
                 }
                 Some(r @ Request::Reset { .. }) if resets => {

@@ -8,7 +8,7 @@
 //! beyond the drive's velocity limit, or one that changes faster than its
 //! acceleration limit cannot reach the bus.
 
-use crate::drive::Drive;
+use crate::drive::{Drive, Order, PLANAR};
 
 /// Drive velocity units (0x60FF, 0x606C) per m/s.
 pub const UNITS_PER_M_PER_S: f64 = 1e6;
@@ -23,7 +23,7 @@ pub struct AxisLimits {
     pub max_acceleration: f64,
 }
 
-/// Limits of both drives.
+/// Limits of the planar crane's two drives.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct DriveLimits {
@@ -47,13 +47,17 @@ impl DriveLimits {
         },
     };
 
-    /// The limits of one drive.
+    /// The limits in the planar crane's input order ([`PLANAR`]).
     #[must_use]
-    pub fn of(&self, drive: Drive) -> AxisLimits {
-        match drive {
-            Drive::Trolley => self.trolley,
-            Drive::Winch => self.winch,
-        }
+    pub const fn axes(&self) -> [AxisLimits; 2] {
+        [self.trolley, self.winch]
+    }
+
+    /// The planar limits of `axes`, in [`PLANAR`] order.
+    #[must_use]
+    pub const fn from_axes(axes: [AxisLimits; 2]) -> Self {
+        let [trolley, winch] = axes;
+        Self { trolley, winch }
     }
 }
 
@@ -106,42 +110,66 @@ pub enum SetpointError {
         /// Limit, m/s².
         limit: f64,
     },
+    /// The crane has no such drive (the gate knows no limits for it).
+    NoDrive {
+        /// Which drive.
+        drive: Drive,
+    },
 }
 
-/// The choke point: remembers what was last sent to each drive and admits only
-/// finite set points within the velocity and acceleration limits.
+/// The choke point: remembers what was last sent to each of the crane's `A` drives and
+/// admits only finite set points within the velocity and acceleration limits.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SetpointGate {
-    limits: DriveLimits,
+pub struct SetpointGate<const A: usize = 2> {
+    /// The drives, in the model's input order: the order of `limits` and `last`.
+    drives: Order<A>,
+    limits: [AxisLimits; A],
     /// Cycle time, s.
     period: f64,
-    last: [Setpoint; 2],
+    last: [Setpoint; A],
 }
 
 /// Rounding slack on the acceleration check: one drive unit per cycle.
 const ONE_UNIT: f64 = 1.0 / UNITS_PER_M_PER_S;
 
 impl SetpointGate {
-    /// A gate for drives with `limits`, transmitting every `period` seconds, both at standstill.
+    /// A gate for the planar crane's drives with `limits`, transmitting every `period`
+    /// seconds, both at standstill.
     #[must_use]
     pub fn new(limits: DriveLimits, period: f64) -> Self {
+        Self::with_axes(PLANAR, limits.axes(), period)
+    }
+}
+
+impl<const A: usize> SetpointGate<A> {
+    /// A gate for `drives` with `limits` (in the same order), transmitting every `period`
+    /// seconds, all at standstill.
+    #[must_use]
+    pub fn with_axes(drives: [Drive; A], limits: [AxisLimits; A], period: f64) -> Self {
         Self {
+            drives: Order::new(drives),
             limits,
             period,
-            last: [Setpoint::ZERO; 2],
+            last: [Setpoint::ZERO; A],
         }
     }
 
-    /// The limits enforced.
+    /// The limits of `drive` (`None`: the crane has no such drive).
     #[must_use]
-    pub fn limits(&self) -> DriveLimits {
-        self.limits
+    pub fn limits(&self, drive: Drive) -> Option<AxisLimits> {
+        self.drives.of(drive, &self.limits).copied()
     }
 
-    /// The set point last admitted for `drive`.
+    /// The set point last admitted for `drive` (standstill for a drive the crane lacks).
     #[must_use]
     pub fn last(&self, drive: Drive) -> Setpoint {
-        *drive.of(&self.last)
+        self.drives.of(drive, &self.last).map_or(Setpoint::ZERO, |s| *s)
+    }
+
+    /// Every drive's last set point, m/s, in the model's input order.
+    #[must_use]
+    pub fn last_velocities(&self) -> [f64; A] {
+        self.last.map(Setpoint::metres_per_second)
     }
 
     /// Admits `velocity` (m/s) for `drive`, or says why not. Nothing changes on refusal.
@@ -149,7 +177,7 @@ impl SetpointGate {
         if !velocity.is_finite() {
             return Err(SetpointError::NonFinite { drive });
         }
-        let limits = self.limits.of(drive);
+        let limits = self.limits(drive).ok_or(SetpointError::NoDrive { drive })?;
         if velocity.abs() > limits.max_velocity {
             return Err(SetpointError::OverSpeed {
                 drive,
@@ -168,13 +196,18 @@ impl SetpointGate {
         }
         // |units| ≤ max_velocity·1e6, far inside i32 for any plausible limit (< 2147 m/s).
         let setpoint = Setpoint(units as i32);
-        *drive.of_mut(&mut self.last) = setpoint;
+        if let Some(last) = self.drives.of_mut(drive, &mut self.last) {
+            *last = setpoint;
+        }
         Ok(setpoint)
     }
 
     /// The next set point of a ramp to standstill at the acceleration limit: always admissible.
     pub fn ramp_to_zero(&mut self, drive: Drive) -> Setpoint {
-        let step = self.limits.of(drive).max_acceleration * self.period;
+        let Some(limits) = self.limits(drive) else {
+            return Setpoint::ZERO;
+        };
+        let step = limits.max_acceleration * self.period;
         let last = self.last(drive).metres_per_second();
         let next = if last.abs() <= step {
             0.0
@@ -185,7 +218,7 @@ impl SetpointGate {
         self.admit(drive, next).unwrap_or(self.last(drive))
     }
 
-    /// Whether both drives were last sent standstill.
+    /// Whether every drive was last sent standstill.
     #[must_use]
     pub fn at_standstill(&self) -> bool {
         self.last.iter().all(|s| *s == Setpoint::ZERO)

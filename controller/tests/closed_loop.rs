@@ -163,13 +163,12 @@ fn assert_within_limits(run: &Run) {
     let limits = DriveLimits::LAB;
     let mut last = [0i32; 2];
     for c in &run.cycles {
-        for d in Drive::ALL {
-            let v = c.setpoints[d.index()].units();
-            let axis = limits.of(d);
+        for (i, axis) in limits.axes().into_iter().enumerate() {
+            let v = c.setpoints[i].units();
             assert!(f64::from(v.abs()) <= axis.max_velocity * 1e6 + 1.0);
-            let step = f64::from((v - last[d.index()]).abs());
+            let step = f64::from((v - last[i]).abs());
             assert!(step <= axis.max_acceleration * 0.01 * 1e6 + 1.0, "{step}");
-            last[d.index()] = v;
+            last[i] = v;
         }
     }
 }

@@ -10,9 +10,9 @@ use common::*;
 use controller::canopen::{self, NmtState};
 use controller::cia402::controlword as cw;
 use controller::cia402::pdo;
-use controller::commands::{request_frame, Request};
+use controller::commands::{request_frame, Answer, Reject, Request};
 use controller::commissioning::{CommissioningError, Phase};
-use controller::drive::Drive;
+use controller::drive::{Drive, PLANAR};
 use controller::setpoint::{SetpointError, UNITS_PER_M_PER_S};
 use controller::{CanFrame, Config, Fault, Mode, Replan};
 use nalgebra::SVector;
@@ -71,7 +71,7 @@ fn drives_are_walked_to_operation_enabled() {
     let words: Vec<[u16; 2]> = rig
         .run(4)
         .iter()
-        .map(|c| Drive::ALL.map(|d| rpdo(&c.frames, d).0))
+        .map(|c| PLANAR.map(|d| rpdo(&c.frames, d).0))
         .collect();
     // The first RPDO knew no state yet and sent *shutdown*; the drives answer each SYNC,
     // and each following cycle takes the next step.
@@ -83,8 +83,12 @@ fn drives_are_walked_to_operation_enabled() {
     ];
     assert_eq!(words, expected.map(|w| [w, w]).to_vec());
     rig.ready();
-    for d in Drive::ALL {
-        assert_eq!(rig.bus.drive(d).mode(), 9, "cyclic synchronous velocity");
+    for d in PLANAR {
+        assert_eq!(
+            rig.bus.drive(d).unwrap().mode(),
+            9,
+            "cyclic synchronous velocity"
+        );
     }
 }
 
@@ -95,12 +99,12 @@ fn set_points_carry_the_model_inputs_in_drive_units() {
     let mut moving = 0;
     for out in rig.run(1000) {
         let step = out.step.expect("a step every cycle while ready");
-        for d in Drive::ALL {
+        for (i, d) in PLANAR.into_iter().enumerate() {
             let (word, v) = rpdo(&out.frames, d);
             if out.mode == Mode::Ready {
                 assert_eq!(word, cw::ENABLE_OPERATION);
             }
-            assert_eq!(v, (step.u[d.index()] * UNITS_PER_M_PER_S).round() as i32);
+            assert_eq!(v, (step.u[i] * UNITS_PER_M_PER_S).round() as i32);
             moving += usize::from(v != 0);
         }
     }
@@ -385,11 +389,37 @@ fn a_stop_at_rest_is_accepted_and_changes_nothing() {
 fn a_drive_heartbeat_alone_keeps_it_alive() {
     let mut rig = Rig::new(HEALTHY, true);
     rig.ready();
-    for d in Drive::ALL {
+    for d in PLANAR {
         rig.c.on_frame(
             &canopen::heartbeat(d.node(), NmtState::Operational),
             rig.now.into(),
         );
     }
     assert_eq!(rig.cycle().mode, Mode::Ready);
+}
+
+/// The 3D move frame (RPDO2, 0x310) names a y the planar crane does not have: answered
+/// *rejected*, reason 3 (invalid), and nothing moves.
+#[test]
+fn the_planar_crane_rejects_a_3d_move() {
+    let mut rig = Rig::new(HEALTHY, false);
+    rig.ready();
+    rig.bus.inject(Action::Request(Request::Move3d {
+        id: 5,
+        target: [20.0, 1.0, 4.0],
+        duration: None,
+    }));
+    let out = rig.run(50);
+    assert_eq!(
+        rig.c.last_answer(),
+        (5, Answer::Rejected, Some(Reject::Invalid))
+    );
+    assert!(out
+        .iter()
+        .all(|c| c.setpoints.iter().all(|s| s.units() == 0)));
+    assert!(!rig
+        .c
+        .feedforward()
+        .plan()
+        .is_moving(f64::from(rig.now) / 1000.0));
 }

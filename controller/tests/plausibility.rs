@@ -60,7 +60,7 @@ fn a_position_outside_the_workspace_is_a_fault_and_no_basis_for_a_restart() {
 fn a_position_jump_mid_move_is_a_fault() {
     let mut rig = Rig::new(HEALTHY, true);
     rig.run(400);
-    let x = rig.bus.drive(Drive::Trolley).position();
+    let x = rig.bus.drive(Drive::Trolley).unwrap().position();
     // 0.5 m in 10 ms (50 m/s): no drive of 3 m/s moves so.
     rig.c.on_frame(&trolley_at(x + 0.5), u64::from(rig.now));
     let out = rig.run(2);

@@ -9,7 +9,7 @@ use controller::canopen::{self, nmt, NmtCommand, NmtState};
 use controller::cia402::pdo;
 use controller::commands::{Request, STATUS_ID};
 use controller::commissioning::{CommissioningError, Phase};
-use controller::drive::Drive;
+use controller::drive::{Drive, PLANAR};
 use controller::node::Role;
 use controller::{CanFrame, Config, Cycle, Fault, Mode};
 use sim::{Action, Quirk, HEALTHY};
@@ -48,21 +48,21 @@ fn move_and_arrive(rig: &mut Rig) {
     );
     let moved = rig.run(700);
     assert_eq!(answers(&moved), [(1, 1, 0)]);
-    assert!((rig.bus.drive(Drive::Trolley).position() - 16.0).abs() < 1e-3);
-    assert!((rig.bus.drive(Drive::Winch).position() - 6.0).abs() < 1e-3);
+    assert!((rig.bus.drive(Drive::Trolley).unwrap().position() - 16.0).abs() < 1e-3);
+    assert!((rig.bus.drive(Drive::Winch).unwrap().position() - 6.0).abs() < 1e-3);
 }
 
 #[test]
 fn drives_powered_after_the_controller_are_commissioned_when_they_boot_and_nothing_moves() {
     let mut rig = Rig::new(HEALTHY, false);
-    for d in Drive::ALL {
+    for d in PLANAR {
         rig.bus.inject(Action::PowerOff(d));
     }
     let waiting = rig.run(150);
     assert!(waiting.iter().all(|c| c.mode == Mode::Enabling));
     assert!(frames_with(&waiting, 0x201).is_empty() && frames_with(&waiting, 0x090).is_empty());
     // 1.5 s after the controller, the drives are powered: their boot-up starts it all.
-    for d in Drive::ALL {
+    for d in PLANAR {
         rig.bus.inject(Action::PowerOn(d));
     }
     let booting = rig.until(120, |c| c.mode == Mode::Ready);
@@ -71,8 +71,8 @@ fn drives_powered_after_the_controller_are_commissioned_when_they_boot_and_nothi
         [[0x80, 1], [0x80, 2], [0x01, 1], [0x01, 2]],
         "each drive switched and started by its own addressed NMT command"
     );
-    for d in Drive::ALL {
-        assert_eq!(rig.bus.drive(d).nmt(), NmtState::Operational);
+    for d in PLANAR {
+        assert_eq!(rig.bus.drive(d).unwrap().nmt(), NmtState::Operational);
         assert_eq!(rig.c.commissioning(d), Phase::Done);
     }
     // Ready, and nothing moves without a command.
@@ -89,13 +89,13 @@ fn drives_powered_after_the_controller_are_commissioned_when_they_boot_and_nothi
 fn drives_left_in_profile_position_mode_are_switched_to_csv_with_the_cycle_time() {
     let mut rig = Rig::new(HEALTHY, true);
     assert_eq!(
-        rig.bus.drive(Drive::Trolley).mode(),
+        rig.bus.drive(Drive::Trolley).unwrap().mode(),
         1,
         "profile position at boot"
     );
     rig.ready();
-    for d in Drive::ALL {
-        let sim = rig.bus.drive(d);
+    for d in PLANAR {
+        let sim = rig.bus.drive(d).unwrap();
         assert_eq!(sim.mode(), 9, "cyclic synchronous velocity");
         assert_eq!(sim.object(0x60C2, 1), 10, "interpolation period 10 (ms)");
         assert_eq!(sim.object(0x60C2, 2), 0xFD, "… × 10^-3 s");
@@ -110,8 +110,8 @@ fn drives_left_in_profile_position_mode_are_switched_to_csv_with_the_cycle_time(
     // The paper's move then reaches the drives as set points they follow.
     let cycles = rig.run(900);
     assert_within_limits(&cycles, &mut [0; 2]);
-    assert!((rig.bus.drive(Drive::Trolley).position() - 20.0).abs() < 1e-3);
-    assert!((rig.bus.drive(Drive::Winch).position() - 4.0).abs() < 1e-3);
+    assert!((rig.bus.drive(Drive::Trolley).unwrap().position() - 20.0).abs() < 1e-3);
+    assert!((rig.bus.drive(Drive::Winch).unwrap().position() - 4.0).abs() < 1e-3);
 }
 
 #[test]
@@ -498,8 +498,8 @@ fn the_restart_position_is_the_drives_position_actual_whatever_the_tpdos_said() 
     send(&mut rig, Request::Reset { id: 2 });
     assert_eq!(answers(&rig.run(1)), [(2, 1, 0)]);
     let restart = rig.drives();
-    for (i, d) in Drive::ALL.into_iter().enumerate() {
-        let actual = rig.bus.drive(d).position();
+    for (i, d) in PLANAR.into_iter().enumerate() {
+        let actual = rig.bus.drive(d).unwrap().position();
         assert!(
             (restart[i] - actual).abs() < 2e-6,
             "{d:?}: restarted at {} m, the drive is at {actual} m",
@@ -559,10 +559,10 @@ fn under_a_plc_as_nmt_master_the_controller_sends_no_nmt_and_waits_for_its_start
         "no PDO before the master's start"
     );
     // Commissioned by SDO all the same, and left pre-operational for the master.
-    for d in Drive::ALL {
+    for d in PLANAR {
         assert_eq!(rig.c.commissioning(d), Phase::Done);
-        assert_eq!(rig.bus.drive(d).mode(), 9);
-        assert_eq!(rig.bus.drive(d).nmt(), NmtState::PreOperational);
+        assert_eq!(rig.bus.drive(d).unwrap().mode(), 9);
+        assert_eq!(rig.bus.drive(d).unwrap().nmt(), NmtState::PreOperational);
     }
     // The PLC starts the network (broadcast): drives and controller go operational.
     let start = nmt::command(NmtCommand::Start, 0);
@@ -640,17 +640,23 @@ fn a_drive_stopped_by_someone_else_is_switched_back_commissioned_and_the_crane_r
     rig.until(300, |c| matches!(c.mode, Mode::Halted(_)));
     for _ in 0..150 {
         rig.cycle();
-        if rig.bus.drive(Drive::Trolley).nmt() == NmtState::Operational {
+        if rig.bus.drive(Drive::Trolley).unwrap().nmt() == NmtState::Operational {
             break;
         }
     }
-    assert_eq!(rig.bus.drive(Drive::Trolley).nmt(), NmtState::Operational);
+    assert_eq!(
+        rig.bus.drive(Drive::Trolley).unwrap().nmt(),
+        NmtState::Operational
+    );
     rig.run(20);
     send(&mut rig, Request::Reset { id: 5 });
     let out = rig.until(60, |c| c.mode == Mode::Ready);
     assert_eq!(answers(&out)[0], (5, 1, 0));
     assert_eq!(rig.c.commissioning(Drive::Trolley), Phase::Done);
-    assert_eq!(rig.bus.drive(Drive::Trolley).nmt(), NmtState::Operational);
+    assert_eq!(
+        rig.bus.drive(Drive::Trolley).unwrap().nmt(),
+        NmtState::Operational
+    );
 }
 
 #[test]

@@ -6,7 +6,7 @@ mod common;
 
 use common::*;
 use controller::cia402::controlword as cw;
-use controller::drive::Drive;
+use controller::drive::{Drive, PLANAR};
 use controller::{Fault, Mode, Replan};
 use sim::Scenario;
 use solver_core::Error;
@@ -269,7 +269,7 @@ fn bus_off_is_counted_then_halts_when_set_points_cannot_be_delivered() {
 fn assert_controlled_stop(cycles: &[controller::Cycle], from: usize) {
     let mut at_zero = false;
     for c in &cycles[from..] {
-        for d in Drive::ALL {
+        for d in PLANAR {
             let (word, v) = rpdo(&c.frames, d);
             if at_zero {
                 assert_eq!((word, v), (cw::QUICK_STOP, 0));

@@ -278,7 +278,7 @@ mod app {
     /// The identity (0x1018:1..=4) of every commissioned drive: which drive, by vendor,
     /// product, revision and serial number, is on the crane (a commissioning record).
     fn log_identities(controller: &Controller<Feedforward, scene::Correction>) {
-        for drive in controller::drive::Drive::ALL {
+        for drive in controller.drives() {
             if controller.commissioning(drive) == controller::commissioning::Phase::Done {
                 let [vendor, product, revision, serial] = controller.identity(drive);
                 defmt::info!(

@@ -4,7 +4,7 @@
 
 use controller::canopen::cob;
 use controller::commissioning::{InclinometerSetup, NodeSetup};
-use controller::drive::Drive;
+use controller::drive::PLANAR;
 use controller::feedback::{self, Correction, NoFeedback, StateFeedback};
 use controller::feedforward::command_plan;
 use controller::planner::Planner;
@@ -148,19 +148,19 @@ pub fn under_traffic<C: Correction>(
 pub fn assert_admissible(frames: &[CanFrame], last: &mut [i64; 2]) {
     let limits = DriveLimits::LAB;
     for f in frames {
-        for d in Drive::ALL {
+        for (i, d) in PLANAR.into_iter().enumerate() {
             if f.id() == cob::RPDO1 + u16::from(d.node()) {
                 let b = f.data();
                 assert_eq!(b.len(), 6, "RPDO length");
                 let v = i64::from(i32::from_le_bytes([b[2], b[3], b[4], b[5]]));
-                let l = limits.of(d);
+                let l = limits.axes()[i];
                 assert!(v.abs() as f64 <= l.max_velocity * 1e6, "{d:?} at {v}");
-                let step = (v - last[d.index()]).abs() as f64;
+                let step = (v - last[i]).abs() as f64;
                 assert!(
                     step <= l.max_acceleration * 0.01 * 1e6 + 1.0,
                     "{d:?} jumps by {step}"
                 );
-                last[d.index()] = v;
+                last[i] = v;
             }
         }
     }

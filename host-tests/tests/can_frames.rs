@@ -4,7 +4,7 @@
 use controller::canopen::{self, emcy, nmt, NmtCommand, NmtState, CONTROLLER_NODE};
 use controller::cia402::{controlword, pdo};
 use controller::commands::{
-    decode_request, request_frame, status_frame, Answer, Reject, Request, Status,
+    decode_move3d, decode_request, request_frame, status_frame, Answer, Reject, Request, Status,
 };
 use controller::commissioning::CommissioningError;
 use controller::drive::Drive;
@@ -25,7 +25,7 @@ fn decode(frame: &CanFrame) -> host_tests::dbc::Decoded {
 #[test]
 fn dbc_parses_and_covers_every_frame() {
     let dbc = Dbc::crane().unwrap();
-    assert_eq!(dbc.messages(), 27);
+    assert_eq!(dbc.messages(), 28);
     let frames = [
         nmt::command(NmtCommand::Start, 0),
         canopen::sync(),
@@ -62,6 +62,11 @@ fn dbc_parses_and_covers_every_frame() {
         canopen::heartbeat(3, NmtState::Operational),
         canopen::emcy(3, 0x5000, 0x01, [0; 5]),
         request_frame(&Request::Stop { id: 1 }),
+        request_frame(&Request::Move3d {
+            id: 2,
+            target: [20.0, 6.0, 4.0],
+            duration: None,
+        }),
         status_frame(
             CONTROLLER_NODE,
             &Status {
@@ -315,6 +320,24 @@ proptest! {
         prop_assert!((dbc.get("target_z").unwrap() - dz).abs() < 1e-9);
         prop_assert!((dbc.get("duration").unwrap() - duration.unwrap_or(0.0)).abs() < 1e-9);
         prop_assert!((dx - x).abs() <= 0.0005 + 1e-12 && (dz - z).abs() <= 0.0005 + 1e-12);
+    }
+
+    /// Any 3D move: the DBC reads back what the controller decodes (RPDO2, 0x310).
+    #[test]
+    fn move3d_frames_agree_with_the_dbc(id in any::<u8>(), x in 0.0..65.0f64, y in 0.0..65.0f64, z in 0.0..65.0f64, d in prop::option::of(1.0..255.0f64)) {
+        let f = request_frame(&Request::Move3d { id, target: [x, y, z], duration: d });
+        prop_assert_eq!(f.id(), 0x310);
+        let dbc = decode(&f);
+        prop_assert_eq!(dbc.message.as_str(), "Move3d_Controller");
+        let Ok(Request::Move3d { id: i, target, duration }) = decode_move3d(f.data()) else {
+            return Err(TestCaseError::fail("a 3D move decodes"));
+        };
+        prop_assert_eq!(dbc.get("request_id"), Some(f64::from(i)));
+        for (name, (v, asked)) in ["target_x", "target_y", "target_z"].into_iter().zip(target.into_iter().zip([x, y, z])) {
+            prop_assert!((dbc.get(name).unwrap() - v).abs() < 1e-9, "{}", name);
+            prop_assert!((v - asked).abs() <= 0.0005 + 1e-12);
+        }
+        prop_assert!((dbc.get("duration").unwrap() - duration.unwrap_or(0.0)).abs() < 1e-9);
     }
 }
 

@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 
 use controller::canopen::sdo::{abort, Object, ObjectDictionary};
 use controller::canopen::NmtState;
-use controller::commands::{Answer, Status, COMMAND_ID, STATUS_ID};
+use controller::commands::{Answer, Status, COMMAND_ID, MOVE3D_ID, STATUS_ID};
 use controller::node::{Dictionary, Node, Role, Snapshot, StagedRequest};
 use host_tests::dbc::Dbc;
 
@@ -172,7 +172,11 @@ fn rw_objects_take_writes_and_ro_ones_refuse_them() {
 fn the_pdo_descriptions_are_the_dbc_frames() {
     let s = sections(EDS);
     let dbc = Dbc::crane().unwrap();
-    for (comm, map, id) in [("1400", "1600", COMMAND_ID), ("1800", "1A00", STATUS_ID)] {
+    for (comm, map, id) in [
+        ("1400", "1600", COMMAND_ID),
+        ("1401", "1601", MOVE3D_ID),
+        ("1800", "1A00", STATUS_ID),
+    ] {
         assert_eq!(
             number(&s[&format!("{comm}sub1")]["DefaultValue"]),
             u64::from(id)

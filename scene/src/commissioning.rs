@@ -13,7 +13,7 @@
 //! sdo_timeout_ms = 100           # an SDO transfer that takes longer fails
 //!
 //! [[drive]]
-//! axis = "trolley"               # trolley | winch, each exactly once
+//! axis = "trolley"               # trolley | winch | bridge: each drive of the crane once
 //! node = 1
 //! mode = "csv"                   # csv | pv (pv only for drives without CSV)
 //! heartbeat_ms = 100             # written to the drive's 0x1017
@@ -41,9 +41,9 @@ use std::path::Path;
 use controller::commissioning::{
     DriveSetup, InclinometerSetup, NodeSetup, OperationMode, MAX_NODES,
 };
-use controller::drive::Drive;
+use controller::drive::{self, Drive, PLANAR};
 use controller::node::Role;
-use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
+use controller::setpoint::{AxisLimits, DriveLimits, UNITS_PER_M_PER_S};
 use controller::Config;
 use serde::Deserialize;
 
@@ -146,10 +146,24 @@ pub enum RoleSpec {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum AxisSpec {
-    /// Trolley (u1).
+    /// Trolley (the planar crane's x, the 3D crane's y).
     Trolley,
-    /// Winch (u2).
+    /// Winch (the rope length).
     Winch,
+    /// Bridge (the 3D crane's x).
+    Bridge,
+}
+
+impl AxisSpec {
+    /// The controller's drive.
+    #[must_use]
+    pub fn drive(self) -> Drive {
+        match self {
+            AxisSpec::Trolley => Drive::Trolley,
+            AxisSpec::Winch => Drive::Winch,
+            AxisSpec::Bridge => Drive::Bridge,
+        }
+    }
 }
 
 /// Mode of operation.
@@ -323,13 +337,29 @@ impl CommissioningFile {
         Ok(config)
     }
 
-    fn drive(&self, axis: AxisSpec) -> Option<(usize, &DriveSpec)> {
-        self.drives.iter().enumerate().find(|(_, d)| d.axis == axis)
+    fn drive(&self, axis: Drive) -> Option<(usize, &DriveSpec)> {
+        self.drives
+            .iter()
+            .enumerate()
+            .find(|(_, d)| d.axis.drive() == axis)
     }
 
-    /// The controller's configuration for drives with `limits` cycling every `period_ms`,
-    /// or the first field that cannot work, named with the reason.
+    /// The controller's configuration for the planar crane's drives with `limits` cycling
+    /// every `period_ms`, or the first field that cannot work, named with the reason.
     pub fn config(&self, limits: DriveLimits, period_ms: u32) -> Result<Config, SceneError> {
+        self.config_for(PLANAR, limits.axes(), period_ms)
+    }
+
+    /// The controller's configuration for a crane with `drives` (the model's input
+    /// order) and their `limits` (same order), cycling every `period_ms`: each of its
+    /// drives exactly once, no row for a drive it does not have; or the first field that
+    /// cannot work, named with the reason.
+    pub fn config_for<const A: usize>(
+        &self,
+        drives: [Drive; A],
+        limits: [AxisLimits; A],
+        period_ms: u32,
+    ) -> Result<Config, SceneError> {
         let c = &self.controller;
         if !(1..=127).contains(&c.node) {
             return Err(refuse("controller.node".into(), "a node id is 1..=127"));
@@ -359,17 +389,21 @@ impl CommissioningFile {
             ));
         }
         let mut nodes = BTreeSet::from([c.node]);
-        let mut setups = [DriveSetup::TROLLEY, DriveSetup::WINCH];
-        for (slot, axis) in setups.iter_mut().zip([AxisSpec::Trolley, AxisSpec::Winch]) {
-            let name = match axis {
-                AxisSpec::Trolley => "trolley",
-                AxisSpec::Winch => "winch",
-            };
+        // Each place is overwritten from its row below (or the file is refused).
+        let mut setups = drives.map(|d| DriveSetup::stock(d.node(), 0));
+        for ((slot, axis), limit) in setups.iter_mut().zip(drives).zip(limits) {
+            let name = axis.name();
             let Some((i, d)) = self.drive(axis) else {
                 return Err(refuse("drive".into(), format!("no drive moves the {name}")));
             };
             let field = |f: &str| format!("drive[{i}].{f}");
-            if self.drives.iter().filter(|d| d.axis == axis).count() > 1 {
+            if self
+                .drives
+                .iter()
+                .filter(|d| d.axis.drive() == axis)
+                .count()
+                > 1
+            {
                 return Err(refuse(field("axis"), format!("the {name} has two drives")));
             }
             if !(1..=127).contains(&d.node) || !nodes.insert(d.node) {
@@ -378,10 +412,6 @@ impl CommissioningFile {
                     format!("{} is not a free node id in 1..=127", d.node),
                 ));
             }
-            let limit = match axis {
-                AxisSpec::Trolley => limits.trolley,
-                AxisSpec::Winch => limits.winch,
-            };
             let units = |v: f64| (v * UNITS_PER_M_PER_S).round();
             let max_velocity = d.max_velocity.unwrap_or(limit.max_velocity * 1.1);
             if max_velocity.is_nan()
@@ -484,23 +514,29 @@ impl CommissioningFile {
                 position_offset: d.position_offset,
             };
         }
-        if self.drives.len() > 2 {
+        let names = || drives.map(Drive::name).join(", ");
+        if let Some((i, extra)) = self
+            .drives
+            .iter()
+            .enumerate()
+            .find(|(_, d)| !drives.contains(&d.axis.drive()))
+        {
             return Err(refuse(
-                "drive".into(),
-                "this crane has two drives: trolley and winch",
+                format!("drive[{i}].axis"),
+                format!(
+                    "this crane has no {}: its drives are {}",
+                    extra.axis.drive().name(),
+                    names()
+                ),
             ));
         }
         // The nodes in the file's order (the stock file: trolley, then winch).
-        let [trolley, winch] = setups;
         let mut list = [None; MAX_NODES];
         for (slot, d) in list.iter_mut().zip(&self.drives) {
-            *slot = Some(match d.axis {
-                AxisSpec::Trolley => NodeSetup::Drive(Drive::Trolley, trolley),
-                AxisSpec::Winch => NodeSetup::Drive(Drive::Winch, winch),
-            });
+            let axis = d.axis.drive();
+            *slot = drive::of(&drives, axis, &setups).map(|s| NodeSetup::Drive(axis, *s));
         }
         Ok(Config {
-            limits,
             period_ms,
             node: c.node,
             role: match c.role {
@@ -619,5 +655,46 @@ mod tests {
         let trolley = c.drive(Drive::Trolley).unwrap();
         assert_eq!(trolley.mode, OperationMode::ProfileVelocity);
         assert_eq!(trolley.profile_ramp, Some(30_000_000));
+    }
+
+    /// The 3D crane's file: a row per drive of the crane, in any order, each checked
+    /// against its own limits; a row for a drive the crane lacks, or none for one it
+    /// has, is refused with the row named.
+    #[test]
+    fn each_crane_takes_a_row_for_each_of_its_drives_and_no_other() {
+        use controller::drive::SPATIAL;
+        let lab = DriveLimits::LAB;
+        let limits = [lab.trolley, lab.trolley, lab.winch];
+        let spatial = "[[drive]]\naxis = \"trolley\"\nnode = 1\n\
+                       [[drive]]\naxis = \"winch\"\nnode = 2\n\
+                       [[drive]]\naxis = \"bridge\"\nnode = 4\nposition_offset = 1.5\n";
+        let file = CommissioningFile::parse(spatial).unwrap();
+        let c = file.config_for(SPATIAL, limits, 10).unwrap();
+        let bridge = c.drive(Drive::Bridge).unwrap();
+        assert_eq!((bridge.node, bridge.position_offset), (4, 1.5));
+        assert_eq!(c.drive(Drive::Winch).unwrap().node, 2);
+        // The file's order is the commissioning order.
+        let order: Vec<u8> = c.nodes.iter().flatten().map(NodeSetup::node).collect();
+        assert_eq!(order, [1, 2, 4]);
+        // The planar crane has no bridge.
+        let e = file.config(lab, 10).unwrap_err();
+        assert_eq!(e.field, "drive[2].axis", "{e}");
+        assert!(e.reason.contains("no bridge"), "{e}");
+        // The 3D crane without its bridge: nothing would move x.
+        let e = config_3d(
+            "[[drive]]\naxis = \"trolley\"\nnode = 1\n[[drive]]\naxis = \"winch\"\nnode = 2\n",
+        );
+        assert!(e.reason.contains("bridge"), "{e}");
+        // The bridge's own limit: a drive slower than its set points is refused.
+        let e = config_3d(&format!("{spatial}max_velocity = 2.0\n"));
+        assert_eq!(e.field, "drive[2].max_velocity", "{e}");
+
+        fn config_3d(text: &str) -> SceneError {
+            let lab = DriveLimits::LAB;
+            CommissioningFile::parse(text)
+                .unwrap()
+                .config_for(SPATIAL, [lab.trolley, lab.trolley, lab.winch], 10)
+                .unwrap_err()
+        }
     }
 }

@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 
 use controller::canopen::{cob, emcy};
 use controller::commands::STATUS_ID;
-use controller::drive::Drive;
+use controller::drive::PLANAR;
 use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
 use controller::Config;
 use sim::{Scenario, SOAK};
@@ -115,22 +115,22 @@ fn findings(m: &qemu::Measured) -> Findings {
     let mut last: [Option<i64>; 2] = [None, None];
     let mut last_answer = None;
     for tx in m.lines.iter().filter_map(|l| parse_tx(l)) {
-        for d in Drive::ALL {
+        for (i, d) in PLANAR.into_iter().enumerate() {
             if tx.id == cob::RPDO1 + u16::from(d.node()) && tx.data.len() == 6 {
                 let v = i64::from(i32::from_le_bytes([
                     tx.data[2], tx.data[3], tx.data[4], tx.data[5],
                 ]));
-                let l = limits.of(d);
+                let l = limits.axes()[i];
                 f.set_points += 1;
                 if v.abs() as f64 > l.max_velocity * UNITS_PER_M_PER_S {
                     f.over_speed += 1;
                 }
-                if let Some(prev) = last[d.index()] {
+                if let Some(prev) = last[i] {
                     if (v - prev).abs() as f64 > l.max_acceleration * h * UNITS_PER_M_PER_S + 1.0 {
                         f.over_acceleration += 1;
                     }
                 }
-                last[d.index()] = Some(v);
+                last[i] = Some(v);
             }
         }
         // A fault's EMCY, by its fault byte; not 0x0000 (error reset) nor the abort code

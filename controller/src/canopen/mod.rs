@@ -10,6 +10,7 @@
 //! | EMCY of node n | 0x080 + n | error code (u16), error register (u8), 5 bytes manufacturer |
 //! | TPDO1, TPDO2 of node n | 0x180 + n, 0x280 + n | its device profile's |
 //! | RPDO1 to node n | 0x200 + n | its device profile's |
+//! | RPDO2 to node n | 0x300 + n | the controller's: the 3D move frame |
 //! | SDO response of node n / request to node n | 0x580 + n / 0x600 + n | 8 bytes ([`sdo`]) |
 //! | heartbeat of node n | 0x700 + n | NMT state |
 //!
@@ -38,6 +39,8 @@ pub mod cob {
     pub const TPDO2: u16 = 0x280;
     /// First receive PDO (controller → drive), + node id.
     pub const RPDO1: u16 = 0x200;
+    /// Second receive PDO, + node id.
+    pub const RPDO2: u16 = 0x300;
     /// Heartbeat (NMT error control), + node id.
     pub const HEARTBEAT: u16 = 0x700;
     /// SDO response (server → client), + node id.
@@ -137,6 +140,13 @@ pub enum Incoming {
         /// The frame as received (its length is the receiver's to check).
         frame: CanFrame,
     },
+    /// An RPDO2 for `node` (the supervisor's 3D move frame, if it is the controller's).
+    Rpdo2 {
+        /// Addressee.
+        node: u8,
+        /// The frame as received (its length is the receiver's to check).
+        frame: CanFrame,
+    },
     /// An emergency message.
     Emergency {
         /// Sender.
@@ -205,6 +215,10 @@ pub fn decode(frame: &CanFrame) -> Result<Incoming, DecodeError> {
             frame: *frame,
         }),
         cob::RPDO1 => Ok(Incoming::Rpdo1 {
+            node,
+            frame: *frame,
+        }),
+        cob::RPDO2 => Ok(Incoming::Rpdo2 {
             node,
             frame: *frame,
         }),

@@ -3,7 +3,7 @@
 //! by a plan, behind the controller, on the virtual bus with its simulated drives.
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
-use controller::drive::Drive;
+use controller::drive::{Drive, PLANAR};
 use controller::planner::Planner;
 use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
 use controller::{Config, Controller, Cycle, Injectable, InverseModel, Mode, Replan};
@@ -134,20 +134,20 @@ impl Rig {
 /// changes faster than the acceleration limit allows (one drive unit of rounding).
 pub fn assert_within_limits(cycles: &[Cycle], last: &mut [i32; 2]) {
     let limits = DriveLimits::LAB;
-    for (i, out) in cycles.iter().enumerate() {
-        for d in Drive::ALL {
-            let v = out.setpoints[d.index()].units();
-            let l = limits.of(d);
+    for (n, out) in cycles.iter().enumerate() {
+        for (i, d) in PLANAR.into_iter().enumerate() {
+            let v = out.setpoints[i].units();
+            let l = limits.axes()[i];
             assert!(
                 f64::from(v.abs()) <= l.max_velocity * UNITS_PER_M_PER_S,
-                "cycle {i}: {d:?} at {v} units"
+                "cycle {n}: {d:?} at {v} units"
             );
-            let dv = f64::from(v - last[d.index()]);
+            let dv = f64::from(v - last[i]);
             assert!(
                 dv.abs() <= l.max_acceleration * 0.01 * UNITS_PER_M_PER_S + 1.0,
-                "cycle {i}: {d:?} jumps by {dv} units"
+                "cycle {n}: {d:?} jumps by {dv} units"
             );
-            last[d.index()] = v;
+            last[i] = v;
         }
     }
 }

@@ -28,10 +28,11 @@ use controller::commands::request_frame;
 #[cfg(feature = "plant")]
 use controller::commissioning::InclinometerSetup;
 use controller::controller::{Controller, Cycle};
-use controller::drive::Drive;
-use controller::feedback::Correction;
-use controller::feedforward::{Feedforward, Injectable, Replan};
+use controller::correction::AxesCorrection;
+use controller::drive::{self, Drive, PLANAR};
+use controller::feedforward::{Axes, Feedforward, Injectable, ReferenceOf, Replan};
 use controller::frame::CanFrame;
+use controller::planner::Crane;
 #[cfg(feature = "plant")]
 use solver_core::models::crane::CraneParams;
 
@@ -370,10 +371,13 @@ impl DriveSim {
     }
 }
 
-/// The bus: two drives, a scenario, and what is waiting to be received.
+/// The bus: a drive for each of the crane's `A` axes, a scenario, and what is waiting
+/// to be received. The plant and the inclinometer are the planar crane's (`A = 2`).
 #[derive(Debug, Clone)]
-pub struct VirtualBus {
-    drives: [DriveSim; 2],
+pub struct VirtualBus<const A: usize = 2> {
+    /// The crane's drives, in the model's input order: the order of `drives`.
+    order: [Drive; A],
+    drives: [DriveSim; A],
     #[cfg(feature = "plant")]
     plant: Option<Plant>,
     #[cfg(feature = "plant")]
@@ -405,19 +409,14 @@ pub struct BusOff;
 impl VirtualBus {
     /// Two freshly powered drives (nodes 1 and 2, about to send their boot-up messages)
     /// with the load resting at `start` (`[x_C, z_C]`: trolley position and rope
-    /// length), and the scenario.
+    /// length), and the scenario (with its plant and inclinometer, if it has one).
     #[must_use]
     pub fn new(scenario: Scenario, start: [f64; 2]) -> Self {
-        let [x, l] = start;
         #[cfg(feature = "plant")]
-        let crane = CraneParams::PAPER;
-        Self {
-            drives: [
-                DriveSim::new(Drive::Trolley.node(), x),
-                DriveSim::new(Drive::Winch.node(), l),
-            ],
-            #[cfg(feature = "plant")]
-            plant: scenario.plant.map(|mismatch| {
+        let (plant, inclinometer) = {
+            let [x, l] = start;
+            let crane = CraneParams::PAPER;
+            let plant = scenario.plant.map(|mismatch| {
                 Plant::at_rest(
                     x,
                     l,
@@ -427,11 +426,38 @@ impl VirtualBus {
                     crane.m,
                     mismatch,
                 )
-            }),
-            #[cfg(feature = "plant")]
-            inclinometer: scenario
+            });
+            let sensor = scenario
                 .plant
-                .map(|_| InclinometerSim::new(InclinometerSetup::STOCK.node)),
+                .map(|_| InclinometerSim::new(InclinometerSetup::STOCK.node));
+            (plant, sensor)
+        };
+        Self {
+            #[cfg(feature = "plant")]
+            plant,
+            #[cfg(feature = "plant")]
+            inclinometer,
+            ..VirtualBus::with_drives(scenario, PLANAR, start)
+        }
+    }
+}
+
+impl<const A: usize> VirtualBus<A> {
+    /// A freshly powered drive for each of `drives` (at its stock node, about to send
+    /// its boot-up message), the load resting with the drives at `start` (each drive's
+    /// position, same order), and the scenario's events — no plant: the drives follow
+    /// their set points exactly.
+    #[must_use]
+    pub fn with_drives(scenario: Scenario, drives: [Drive; A], start: [f64; A]) -> Self {
+        let mut at = start.into_iter();
+        Self {
+            order: drives,
+            drives: drives.map(|d| DriveSim::new(d.node(), at.next().unwrap_or(0.0))),
+            #[cfg(feature = "plant")]
+            plant: None,
+            #[cfg(feature = "plant")]
+            inclinometer: None,
+            traffic: scenario.random.map(Traffic::new),
             scenario,
             next_event: 0,
             inbox: Deque::new(),
@@ -439,7 +465,6 @@ impl VirtualBus {
             rx_until: None,
             rx_overflow: 0,
             injected: Deque::new(),
-            traffic: scenario.random.map(Traffic::new),
             solver_failure: false,
             hang: false,
             hangs: true,
@@ -454,14 +479,22 @@ impl VirtualBus {
         &self.scenario
     }
 
-    /// A simulated drive.
+    /// A simulated drive (`None`: the crane has no such drive).
     #[must_use]
-    pub fn drive(&self, drive: Drive) -> &DriveSim {
-        drive.of(&self.drives)
+    pub fn drive(&self, drive: Drive) -> Option<&DriveSim> {
+        drive::of(&self.order, drive, &self.drives)
     }
 
-    fn drive_mut(&mut self, drive: Drive) -> &mut DriveSim {
-        drive.of_mut(&mut self.drives)
+    fn drive_mut(&mut self, drive: Drive) -> Option<&mut DriveSim> {
+        drive::of_mut(&self.order, drive, &mut self.drives)
+    }
+
+    /// Does `act` to `drive`'s simulation; an event for a drive the bus does not
+    /// simulate (the bridge on the planar crane) does nothing.
+    fn on_drive(&mut self, drive: Drive, act: impl FnOnce(&mut DriveSim)) {
+        if let Some(d) = self.drive_mut(drive) {
+            act(d);
+        }
     }
 
     /// The plant, in scenarios with one.
@@ -535,11 +568,11 @@ impl VirtualBus {
                 }
             }
         }
-        for drive in Drive::ALL {
-            let (powered, node, nmt) = {
-                let d = self.drive(drive);
-                (d.powered, d.node, d.nmt)
+        for i in 0..self.drives.len() {
+            let Some(d) = self.drives.get_mut(i) else {
+                continue;
             };
+            let (powered, node, nmt) = (d.powered, d.node, d.nmt);
             if !powered {
                 continue;
             }
@@ -547,12 +580,11 @@ impl VirtualBus {
                 if let [command, addressee] = *data {
                     if addressee == 0 || addressee == node {
                         if let Some(command) = NmtCommand::from_byte(command) {
-                            self.drive_mut(drive).on_nmt(command);
+                            d.on_nmt(command);
                         }
                     }
                 }
             } else if id == sdo::REQUEST + u16::from(node) {
-                let d = self.drive_mut(drive);
                 if d.nmt != NmtState::Stopped && d.quirk != Some(Quirk::SdoMute) && !d.silent {
                     if let Some(answer) = sdo::serve(&mut d.od, node, data) {
                         self.deliver(answer);
@@ -560,7 +592,7 @@ impl VirtualBus {
                 }
             } else if id == cob::RPDO1 + u16::from(node) && nmt == NmtState::Operational {
                 if let [c0, c1, v0, v1, v2, v3] = *data {
-                    self.drive_mut(drive).command(
+                    d.command(
                         u16::from_le_bytes([c0, c1]),
                         i32::from_le_bytes([v0, v1, v2, v3]),
                     );
@@ -582,12 +614,10 @@ impl VirtualBus {
         #[cfg(feature = "plant")]
         let mut slope = None;
         #[cfg(feature = "plant")]
-        if let Some(plant) = self.plant.as_mut() {
-            let period_ms = self
-                .drives
-                .first()
-                .map_or(1, |d| d.od.get(0x60C2, 1).max(1));
-            let u = self.drives.each_ref().map(|d| {
+        if let (Some(plant), [trolley, winch]) = (self.plant.as_mut(), self.drives.as_mut_slice()) {
+            let period_ms = trolley.od.get(0x60C2, 1).max(1);
+            let drives = [trolley, winch];
+            let u = drives.each_ref().map(|d| {
                 if d.powered {
                     f64::from(d.velocity) * 1e-6
                 } else {
@@ -595,7 +625,7 @@ impl VirtualBus {
                 }
             });
             // A drive without power on its motor holds its axis by the brake.
-            let braked = self.drives.each_ref().map(|d| {
+            let braked = drives.each_ref().map(|d| {
                 !d.powered
                     || !matches!(
                         d.state,
@@ -605,14 +635,16 @@ impl VirtualBus {
             plant.advance_braked(u, f64::from(period_ms) * 1e-3, braked);
             let [x, l, phi] = plant.sense();
             let [_, _, _, vx, vl, _] = plant.y;
-            for (d, (position, velocity)) in self.drives.iter_mut().zip([(x, vx), (l, vl)]) {
+            for (d, (position, velocity)) in drives.into_iter().zip([(x, vx), (l, vl)]) {
                 d.position_nm = libm::round(position * 1e9) as i64;
                 d.actual_velocity = Some(libm::round(velocity * 1e6) as i32);
             }
             slope = Some(phi.to_degrees());
         }
-        for drive in Drive::ALL {
-            let d = self.drive(drive);
+        for i in 0..self.drives.len() {
+            let Some(d) = self.drives.get(i) else {
+                continue;
+            };
             if d.powered && d.nmt == NmtState::Operational && !d.silent {
                 let velocity = match d.quirk {
                     Some(Quirk::ReportsVelocity(v)) => v,
@@ -656,8 +688,7 @@ impl VirtualBus {
             traffic.cycle(up_to_ms, |a| self.apply(a, &mut fresh));
             self.traffic = Some(traffic);
         }
-        for drive in Drive::ALL {
-            let d = self.drive_mut(drive);
+        for d in self.drives.iter_mut() {
             if !d.powered || d.silent {
                 continue;
             }
@@ -711,28 +742,30 @@ impl VirtualBus {
                 }
             }
             Action::DriveFault(drive) => {
-                self.drive_mut(drive).state = DriveState::Fault;
-                let node = drive.node();
-                let _ = fresh.push_back(canopen::emcy(node, 0x2310, 0x03, [0; 5]));
+                if let Some(d) = self.drive_mut(drive) {
+                    d.state = DriveState::Fault;
+                    let _ = fresh.push_back(canopen::emcy(d.node, 0x2310, 0x03, [0; 5]));
+                }
             }
             Action::DriveWarning(drive) => {
                 // Temperature warning: error register without the generic bit.
                 let _ = fresh.push_back(canopen::emcy(drive.node(), 0x4210, 0x00, [0; 5]));
             }
-            Action::Silence(drive) => self.drive_mut(drive).silent = true,
-            Action::DropOut(drive) => self.drive_mut(drive).state = DriveState::SwitchOnDisabled,
-            Action::Revive(drive) => self.drive_mut(drive).silent = false,
-            Action::PowerOff(drive) => {
-                let d = self.drive_mut(drive);
+            Action::Silence(drive) => self.on_drive(drive, |d| d.silent = true),
+            Action::DropOut(drive) => {
+                self.on_drive(drive, |d| d.state = DriveState::SwitchOnDisabled);
+            }
+            Action::Revive(drive) => self.on_drive(drive, |d| d.silent = false),
+            Action::PowerOff(drive) => self.on_drive(drive, |d| {
                 d.powered = false;
                 d.boot_up_due = false;
                 d.nmt = NmtState::Stopped;
                 d.state = DriveState::NotReadyToSwitchOn;
                 d.velocity = 0;
-            }
-            Action::PowerOn(drive) => self.drive_mut(drive).reboot(),
-            Action::Nmt(drive, command) => self.drive_mut(drive).on_nmt(command),
-            Action::Quirk(drive, quirk) => self.drive_mut(drive).quirk(quirk),
+            }),
+            Action::PowerOn(drive) => self.on_drive(drive, DriveSim::reboot),
+            Action::Nmt(drive, command) => self.on_drive(drive, |d| d.on_nmt(command)),
+            Action::Quirk(drive, quirk) => self.on_drive(drive, |d| d.quirk(quirk)),
             Action::SolverFailure => self.solver_failure = true,
             Action::Hang => self.hang = self.hangs,
             Action::BusOff { cycles } => self.bus_off_cycles = cycles,
@@ -781,11 +814,11 @@ impl VirtualBus {
 /// scenario's events, the drives' boot-up messages and heartbeats, then the answers to
 /// the controller's last frames), and a transmitted frame reaches the drives at once —
 /// or, during a bus-off, is refused.
-impl CanPort for VirtualBus {
+impl<const A: usize> CanPort for VirtualBus<A> {
     type TxError = BusOff;
 
     fn transmit(&mut self, _now_ms: u64, frame: &CanFrame) -> Result<(), BusOff> {
-        VirtualBus::transmit(self, frame)
+        VirtualBus::<A>::transmit(self, frame)
     }
 
     fn lost(&mut self, _now_ms: u64) -> Option<(CanFrame, BusOff)> {
@@ -812,7 +845,7 @@ impl CanPort for VirtualBus {
     }
 }
 
-impl VirtualBus {
+impl<const A: usize> VirtualBus<A> {
     /// Frames that did not fit a cycle's receive window (0 in every scenario).
     #[must_use]
     pub fn rx_overflow(&self) -> u32 {
@@ -823,11 +856,17 @@ impl VirtualBus {
 /// One cycle of the firmware's loop on the virtual bus, on the host: [`board::cycle`]
 /// with the scenario's hang and solver failure injected before the tick, as the QEMU
 /// board does. `None`: the firmware hangs here, and its watchdog takes over.
-pub fn run_cycle<F: Feedforward + Replan, C: Correction>(
-    controller: &mut Controller<Injectable<F>, C>,
-    bus: &mut VirtualBus,
+pub fn run_cycle<F, C, K, const A: usize>(
+    controller: &mut Controller<Injectable<F>, C, K, A>,
+    bus: &mut VirtualBus<A>,
     now_ms: u32,
-) -> Option<Cycle> {
+) -> Option<Cycle<A>>
+where
+    F: Feedforward<A> + Replan<A>,
+    C: AxesCorrection<A>,
+    K: Crane<A>,
+    Axes<A>: ReferenceOf,
+{
     let now = u64::from(now_ms);
     board::cycle(
         controller,

@@ -1,0 +1,106 @@
+//! What the controller asks of whatever stands between the inverse model and the drives
+//! (Fig. 1), for a crane with `A` driven axes: nothing ([`NoFeedback`], any crane), or
+//! the planar state feedback ([`Correction`], the paper's crane).
+//!
+//! The controller speaks in per-drive arrays in the model's input order; a correction
+//! sees the measurements as its own crane's type. The planar feedback's interface
+//! ([`Correction`]) keeps its own types (`Measurement`, `DriveLimits`), so each
+//! planar correction is an [`AxesCorrection<2>`] through the one blanket impl here.
+
+use crate::feedback::{Correction, Degraded, Measurement, Mode, NoFeedback};
+use crate::feedforward::{Axes, ReferenceOf, ReferenceState};
+use crate::rope::RopeLength;
+use crate::setpoint::{AxisLimits, DriveLimits};
+
+/// What the drives and the inclinometer measured at the last SYNC.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Measured<const A: usize> {
+    /// Each drive's position actual, m, in the model's input order.
+    pub position: [f64; A],
+    /// The swing angle, rad, if a fresh one came from a healthy inclinometer.
+    pub phi: Option<f64>,
+}
+
+/// The correction of a crane with `A` driven axes between the inverse model and the
+/// set-point gate.
+pub trait AxesCorrection<const A: usize>
+where
+    Axes<A>: ReferenceOf,
+{
+    /// `false`: the controller never asks for a reference or measurements, and links
+    /// none of the inclinometer's code.
+    const ENABLED: bool;
+    /// One cycle: the set points to hand to the gate, and the mode after it.
+    fn correct(
+        &mut self,
+        reference: &ReferenceState<A>,
+        u_d: [f64; A],
+        measured: Option<Measured<A>>,
+        last: [f64; A],
+        limits: &[AxisLimits; A],
+    ) -> ([f64; A], Mode);
+    /// Back to closed loop, the observer to start from the next good measurement.
+    fn restart(&mut self);
+    /// What it is doing (`None`: there is no feedback).
+    fn mode(&self) -> Option<Mode>;
+    /// The rope calibration learnt from the swing (`None`: no inclinometer).
+    fn rope(&self) -> Option<&RopeLength>;
+}
+
+/// The planar crane's corrections: trolley x and rope length l.
+impl<C: Correction> AxesCorrection<2> for C {
+    const ENABLED: bool = C::ENABLED;
+    fn correct(
+        &mut self,
+        reference: &ReferenceState<2>,
+        u_d: [f64; 2],
+        measured: Option<Measured<2>>,
+        last: [f64; 2],
+        limits: &[AxisLimits; 2],
+    ) -> ([f64; 2], Mode) {
+        let measured = measured.map(|m| {
+            let [x, l] = m.position;
+            Measurement { x, l, phi: m.phi }
+        });
+        let out = Correction::correct(
+            self,
+            reference,
+            u_d,
+            measured,
+            last,
+            &DriveLimits::from_axes(*limits),
+        );
+        (out.u, out.mode)
+    }
+    fn restart(&mut self) {
+        Correction::restart(self);
+    }
+    fn mode(&self) -> Option<Mode> {
+        Correction::mode(self)
+    }
+    fn rope(&self) -> Option<&RopeLength> {
+        Correction::rope(self)
+    }
+}
+
+/// The 3D crane without the feedback: the inverse model's set points as they are.
+impl AxesCorrection<3> for NoFeedback {
+    const ENABLED: bool = false;
+    fn correct(
+        &mut self,
+        _reference: &ReferenceState<3>,
+        u_d: [f64; 3],
+        _measured: Option<Measured<3>>,
+        _last: [f64; 3],
+        _limits: &[AxisLimits; 3],
+    ) -> ([f64; 3], Mode) {
+        (u_d, Mode::FeedforwardOnly(Degraded::AngleLost))
+    }
+    fn restart(&mut self) {}
+    fn mode(&self) -> Option<Mode> {
+        None
+    }
+    fn rope(&self) -> Option<&RopeLength> {
+        None
+    }
+}

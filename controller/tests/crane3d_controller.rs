@@ -1,0 +1,286 @@
+//! The controller over three driven axes: the 3D crane (bridge, trolley, hoist) as a
+//! BDF4 inverse model behind the same controller as the planar crane, commissioning and
+//! driving three CiA 402 drives on the virtual bus. The move command's `[x_C, z_C]`
+//! moves the load in the vertical plane it hangs in (its y stays); a stop and a bridge
+//! drive's fault are met as on the planar crane.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing)]
+
+use controller::canopen::emcy;
+use controller::commands::{Answer, Request};
+use controller::commissioning::{DriveSetup, NodeSetup, Phase};
+use controller::drive::{Drive, SPATIAL};
+use controller::feedback::NoFeedback;
+use controller::planner::Planner;
+use controller::setpoint::{AxisLimits, DriveLimits, UNITS_PER_M_PER_S};
+use controller::{Config, Controller, Cycle, Fault, Injectable, InverseModel, Mode, Replan};
+use nalgebra::SVector;
+use sim::{run_cycle, Action, VirtualBus, HEALTHY};
+use solver_core::models::crane3d::subs as crane3d;
+use solver_core::models::crane3d::{Crane3dParams, Crane3dSubs};
+use solver_core::plan::Plan;
+use solver_core::{JacobianMode, SolverSettings};
+
+type Model = Crane3dSubs<f64, Plan<f64, 3>>;
+type Ff =
+    Injectable<InverseModel<Model, crane3d::StructuredBdf<f64, Plan<f64, 3>>, f64, { crane3d::N }>>;
+type Crane3dController = Controller<Ff, NoFeedback, Crane3dParams, 3>;
+
+/// Where the load rests at the start: bridge x, trolley y, rope length l, m.
+const HOME: [f64; 3] = [12.0, 3.0, 8.0];
+/// The bridge's stock node.
+const BRIDGE_NODE: u8 = 4;
+
+fn limits() -> [AxisLimits; 3] {
+    let lab = DriveLimits::LAB;
+    let trolley = AxisLimits {
+        max_velocity: 2.0,
+        max_acceleration: 2.0,
+    };
+    [lab.trolley, trolley, lab.winch]
+}
+
+/// The commissioning file of a 3D crane: bridge, trolley and winch drives.
+fn config() -> Config {
+    let bridge = DriveSetup {
+        node: BRIDGE_NODE,
+        ..DriveSetup::TROLLEY
+    };
+    let trolley = DriveSetup {
+        max_velocity: 2_200_000,
+        ..DriveSetup::TROLLEY
+    };
+    Config {
+        nodes: [
+            Some(NodeSetup::Drive(Drive::Bridge, bridge)),
+            Some(NodeSetup::Drive(Drive::Trolley, trolley)),
+            Some(NodeSetup::Drive(Drive::Winch, DriveSetup::WINCH)),
+        ],
+        ..Config::DEFAULT
+    }
+}
+
+struct Rig {
+    c: Crane3dController,
+    bus: VirtualBus<3>,
+    now: u32,
+}
+
+impl Rig {
+    fn new() -> Self {
+        let plan = Plan::at_rest(SVector::from(HOME), 5).unwrap();
+        let model = Crane3dSubs::new(Crane3dParams::EXAMPLE, plan).unwrap();
+        let settings = SolverSettings {
+            h: 0.01,
+            ..SolverSettings::paper(JacobianMode::Exact)
+        };
+        let integrator = crane3d::StructuredBdf::new(&model, &settings, 4, 0.0).unwrap();
+        let ff = Injectable::new(InverseModel::new(model, integrator));
+        let planner = Planner::with_axes(Crane3dParams::EXAMPLE, limits());
+        Self {
+            c: Controller::with_correction(ff, NoFeedback, planner, config()),
+            bus: VirtualBus::with_drives(HEALTHY, SPATIAL, HOME),
+            now: 0,
+        }
+    }
+
+    fn cycle(&mut self) -> Cycle<3> {
+        let out = run_cycle(&mut self.c, &mut self.bus, self.now).unwrap();
+        self.now += 10;
+        out
+    }
+
+    fn run(&mut self, n: usize) -> Vec<Cycle<3>> {
+        (0..n).map(|_| self.cycle()).collect()
+    }
+
+    fn ready(&mut self) {
+        for _ in 0..200 {
+            if self.cycle().mode == Mode::Ready {
+                return;
+            }
+        }
+        panic!("not ready: {:?}", self.c.mode());
+    }
+
+    fn positions(&self) -> [f64; 3] {
+        SPATIAL.map(|d| self.bus.drive(d).unwrap().position())
+    }
+}
+
+/// Every set point within its drive's limits, every RPDO to the drive it is for.
+fn assert_within_limits(cycles: &[Cycle<3>], last: &mut [i32; 3]) {
+    for out in cycles {
+        for (i, axis) in limits().iter().enumerate() {
+            let v = out.setpoints[i].units();
+            assert!(f64::from(v.abs()) <= axis.max_velocity * UNITS_PER_M_PER_S);
+            let dv = f64::from(v - last[i]);
+            assert!(dv.abs() <= axis.max_acceleration * 0.01 * UNITS_PER_M_PER_S + 1.0);
+            last[i] = v;
+        }
+        for f in &out.frames {
+            if let Some(node) = f.id().checked_sub(0x200).filter(|n| *n < 0x80) {
+                let i = SPATIAL.iter().position(|d| u16::from(d.node()) == node);
+                let i = i.unwrap_or_else(|| panic!("RPDO to node {node}, not a drive"));
+                let b = f.data();
+                let v = i32::from_le_bytes([b[2], b[3], b[4], b[5]]);
+                assert_eq!(v, out.setpoints[i].units());
+            }
+        }
+    }
+}
+
+fn command(rig: &mut Rig, request: Request) {
+    rig.bus.inject(Action::Request(request));
+}
+
+/// A move on the command frame: x_C to 20 m, z_C to 4 m, as fast as the limits allow.
+const PLANAR_MOVE: Request = Request::Move {
+    id: 1,
+    target: [20.0, 4.0],
+    duration: None,
+};
+
+/// The last cycle sent every drive standstill.
+fn assert_at_rest(cycles: &[Cycle<3>]) {
+    let last = cycles.last().expect("a cycle");
+    assert!(last.setpoints.iter().all(|s| s.units() == 0), "{last:?}");
+}
+
+#[test]
+fn three_drives_are_commissioned_and_a_move_in_the_x_z_plane_keeps_y() {
+    let mut rig = Rig::new();
+    rig.ready();
+    for d in SPATIAL {
+        assert_eq!(rig.c.commissioning(d), Phase::Done, "{d:?}");
+        assert_eq!(rig.bus.drive(d).unwrap().mode(), 9, "{d:?} in CSV");
+    }
+    command(&mut rig, PLANAR_MOVE);
+    let mut last = [0; 3];
+    let out = rig.run(1200);
+    assert_within_limits(&out, &mut last);
+    assert_eq!(rig.c.last_answer(), (1, Answer::Accepted, None));
+    assert_eq!(rig.c.mode(), Mode::Ready);
+    let [x, y, l] = rig.positions();
+    assert!((x - 20.0).abs() < 1e-3, "bridge at {x}");
+    assert!((y - 3.0).abs() < 1e-6, "trolley moved to {y}");
+    assert!((l - 4.0).abs() < 1e-3, "rope {l}");
+    assert!(out.iter().all(|c| c.setpoints[1].units() == 0));
+    assert!(out.iter().any(|c| c.setpoints[0].units() != 0));
+    assert_at_rest(&out);
+}
+
+#[test]
+fn a_stop_brings_the_3d_crane_to_rest_sooner_and_never_past_its_target() {
+    let mut rig = Rig::new();
+    rig.ready();
+    command(&mut rig, PLANAR_MOVE);
+    let mut last = [0; 3];
+    let before = rig.run(80);
+    assert_within_limits(&before, &mut last);
+    let planned_end = rig.c.feedforward().inner.plan().end_time().unwrap();
+    let moving = rig.positions();
+    assert!(moving[0] > HOME[0] + 0.01, "the bridge moves: {moving:?}");
+    command(&mut rig, Request::Stop { id: 2 });
+    let after = rig.run(1000);
+    assert_within_limits(&after, &mut last);
+    assert_eq!(rig.c.last_answer(), (2, Answer::Accepted, None));
+    // At rest before the move would have ended, between where the stop found it and
+    // the target: never past it.
+    let rest = after
+        .iter()
+        .rposition(|c| c.setpoints.iter().any(|s| s.units() != 0))
+        .unwrap();
+    let rest_s = f64::from(rig.now) / 1000.0 - (after.len() - rest) as f64 * 0.01;
+    assert!(
+        rest_s < planned_end,
+        "at rest at {rest_s} s, move to end at {planned_end} s"
+    );
+    let [x, y, l] = rig.positions();
+    assert!(x <= 20.0 + 1e-6 && x >= moving[0], "bridge at rest at {x}");
+    assert!(l >= 4.0 - 1e-6 && l <= moving[2] + 1e-9, "rope {l}");
+    assert!((y - 3.0).abs() < 1e-6);
+    assert_at_rest(&after);
+}
+
+#[test]
+fn a_bridge_drive_fault_stops_the_crane_and_names_the_bridge_node() {
+    let mut rig = Rig::new();
+    rig.ready();
+    command(&mut rig, PLANAR_MOVE);
+    let mut last = [0; 3];
+    assert_within_limits(&rig.run(100), &mut last);
+    rig.bus.inject(Action::DriveFault(Drive::Bridge));
+    let after = rig.run(300);
+    assert_within_limits(&after, &mut last);
+    assert!(
+        matches!(rig.c.mode(), Mode::Halted(Fault::DriveFault(Drive::Bridge))),
+        "{:?}",
+        rig.c.mode()
+    );
+    let announced = after.iter().flat_map(|c| &c.frames).any(|f| {
+        f.id() == 0x090
+            && u16::from_le_bytes([f.data()[0], f.data()[1]]) == emcy::DRIVE_FAULT
+            && f.data()[4] == BRIDGE_NODE
+    });
+    assert!(
+        announced,
+        "EMCY 0x{:04X} naming node {BRIDGE_NODE}",
+        emcy::DRIVE_FAULT
+    );
+    assert_at_rest(&after);
+}
+
+#[test]
+fn a_3d_move_frame_moves_the_load_in_all_three_directions() {
+    let mut rig = Rig::new();
+    rig.ready();
+    command(
+        &mut rig,
+        Request::Move3d {
+            id: 3,
+            target: [16.0, 5.0, 6.0],
+            duration: Some(10.0),
+        },
+    );
+    let mut last = [0; 3];
+    let out = rig.run(1100);
+    assert_within_limits(&out, &mut last);
+    assert_eq!(rig.c.last_answer(), (3, Answer::Accepted, None));
+    let [x, y, l] = rig.positions();
+    assert!((x - 16.0).abs() < 1e-3, "bridge at {x}");
+    assert!((y - 5.0).abs() < 1e-3, "trolley at {y}");
+    assert!((l - 6.0).abs() < 1e-3, "rope {l}");
+    // Every drive moved, and all three rest.
+    for i in 0..3 {
+        assert!(out.iter().any(|c| c.setpoints[i].units() != 0), "drive {i}");
+    }
+    assert_at_rest(&out);
+}
+
+/// A PLC without PDOs writes the 3D move into 0x2000 (id, x, y, z, seconds) and submits
+/// it with command 4.
+#[test]
+fn a_3d_move_written_over_sdo_is_taken_as_its_frame() {
+    let mut rig = Rig::new();
+    rig.ready();
+    let mut write = |sub: u8, value: &[u8]| {
+        let command = 0x23 | ((4 - value.len() as u8) << 2);
+        let mut data = [command, 0x00, 0x20, sub, 0, 0, 0, 0];
+        data[4..4 + value.len()].copy_from_slice(value);
+        rig.c
+            .on_frame(&controller::CanFrame::new(0x610, &data).unwrap(), 0);
+        let out = rig.cycle();
+        let answer = out.frames.iter().find(|f| f.id() == 0x590).unwrap();
+        answer.data()[0]
+    };
+    assert_eq!(write(1, &[9]), 0x60);
+    assert_eq!(write(3, &15_000u16.to_le_bytes()), 0x60);
+    assert_eq!(write(6, &1_500u16.to_le_bytes()), 0x60);
+    assert_eq!(write(4, &6_000u16.to_le_bytes()), 0x60);
+    assert_eq!(write(7, &[8]), 0x60);
+    assert_eq!(write(2, &[4]), 0x60);
+    rig.run(3);
+    assert_eq!(rig.c.last_answer(), (9, Answer::Accepted, None));
+    let end = rig.c.feedforward().inner.plan().final_position();
+    assert_eq!([end[0], end[1], end[2]], [15.0, 1.5, 6.0]);
+}
