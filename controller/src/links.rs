@@ -128,10 +128,7 @@ impl<const A: usize> Links<A> {
 
     /// The drive of `axis`, if the commissioning file has one.
     pub(crate) fn drive(&self, axis: Drive) -> Option<&DriveLink> {
-        match self
-            .list
-            .get((*self.drives.of(axis, &self.axes)?)?)?
-        {
+        match self.list.get((*self.drives.of(axis, &self.axes)?)?)? {
             Link::Drive(_, link) => Some(link),
             Link::Inclinometer(_) => None,
         }
@@ -139,10 +136,7 @@ impl<const A: usize> Links<A> {
 
     /// The drive of `axis`, to change.
     pub(crate) fn drive_mut(&mut self, axis: Drive) -> Option<&mut DriveLink> {
-        match self
-            .list
-            .get_mut((*self.drives.of(axis, &self.axes)?)?)?
-        {
+        match self.list.get_mut((*self.drives.of(axis, &self.axes)?)?)? {
             Link::Drive(_, link) => Some(link),
             Link::Inclinometer(_) => None,
         }

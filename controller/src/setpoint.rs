@@ -163,7 +163,9 @@ impl<const A: usize> SetpointGate<A> {
     /// The set point last admitted for `drive` (standstill for a drive the crane lacks).
     #[must_use]
     pub fn last(&self, drive: Drive) -> Setpoint {
-        self.drives.of(drive, &self.last).map_or(Setpoint::ZERO, |s| *s)
+        self.drives
+            .of(drive, &self.last)
+            .map_or(Setpoint::ZERO, |s| *s)
     }
 
     /// Every drive's last set point, m/s, in the model's input order.
