@@ -145,9 +145,9 @@ fn main() -> ! {
         0 => prove!(Subs, |m| crane_subs::StructuredBdf::<f64, P>::new(
             m, &settings, k, t0
         )),
-        1 => prove!(Subs, |m| crane_subs::StructuredBdfUncorrected::<f64, P>::new(
-            m, &settings, k, t0
-        )),
+        1 => prove!(Subs, |m| {
+            crane_subs::StructuredBdfUncorrected::<f64, P>::new(m, &settings, k, t0)
+        }),
         2 => prove!(Subs, |m| crane_subs::Bdf::<f64, P>::new(
             m, &settings, k, t0
         )),
