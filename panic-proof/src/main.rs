@@ -129,7 +129,7 @@ macro_rules! prove {
             halt()
         };
         let $m = &model;
-        let Ok(integrator) = $new else { halt() };
+        let Ok(integrator) = ($new) else { halt() };
         run(InverseModel::new(model, integrator))
     }};
 }
