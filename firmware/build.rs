@@ -12,7 +12,8 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use scene::commissioning::CommissioningFile;
-use scene::firmware::firmware_scene;
+use scene::dispatch::{firmware, Axes, FirmwareCrane, FirmwareCraneVisitor, ReferenceOf};
+use scene::firmware::FirmwareScene;
 use scene::{JacobianSpec, Scene};
 
 fn main() {
@@ -73,8 +74,36 @@ fn copy(from: &Path, to: &Path) {
 
 /// The Rust for one scene.
 fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, String> {
-    // The checks and the setup the host's run of the firmware loop shares.
-    let setup = firmware_scene(scene, commissioning)?;
+    // The checks and the setup the host's run of the firmware loop shares, as the
+    // scene's crane's type (`scene::dispatch::firmware`, the one place a scene's crane
+    // becomes a type).
+    firmware(scene, commissioning, Generate { scene })?
+}
+
+/// Writes the scene module for the scene's crane.
+struct Generate<'a> {
+    scene: &'a Scene,
+}
+
+impl FirmwareCraneVisitor for Generate<'_> {
+    type Output = Result<String, String>;
+
+    fn visit<K: FirmwareCrane<A>, const A: usize>(self, setup: FirmwareScene<K, A>) -> Self::Output
+    where
+        Axes<A>: ReferenceOf,
+    {
+        crane_module(self.scene, &setup)
+    }
+}
+
+/// The Rust of the scene module for crane `K` with `A` driven axes.
+fn crane_module<K: FirmwareCrane<A>, const A: usize>(
+    scene: &Scene,
+    setup: &FirmwareScene<K, A>,
+) -> Result<String, String>
+where
+    Axes<A>: ReferenceOf,
+{
     // The model, the scheme and the Newton strategy are types, so the firmware links
     // only the ones its scene names (`scene::dispatch::FirmwareScheme`, which the host's
     // run of the firmware builds too).
@@ -99,8 +128,6 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
     };
     let tr = &scene.trajectory;
     let nw = settings.newton;
-    let p = setup.params;
-    let w = p.workspace;
     let mut c = String::new();
     let _ = writeln!(
         c,
@@ -130,6 +157,11 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
     );
     let _ = writeln!(
         c,
+        "/// The crane's driven axes.\npub const AXES: usize = {A};\n/// The crane.\npub type Crane = {};",
+        K::TYPE
+    );
+    let _ = writeln!(
+        c,
         "/// The crane model, driven by a plan that changes on command.\npub type Model = {};",
         types.model
     );
@@ -149,7 +181,8 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
         Some(config) => {
             let _ = writeln!(
                 c,
-                "/// Between the inverse model and the drives: the state feedback (Fig. 1).\npub type Correction = controller::feedback::StateFeedback;\n/// Its configuration: the scene's `[feedback]`.\npub const FEEDBACK: controller::feedback::Config = {};\n/// The feedback, its gains designed from the scene's weights.\npub fn correction() -> Result<Correction, controller::feedback::DesignError> {{\n    Correction::new(FEEDBACK)\n}}",
+                "/// Between the inverse model and the drives: the state feedback (Fig. 1).\npub type Correction = {};\n/// Its configuration: the scene's `[feedback]`.\npub const FEEDBACK: controller::feedback::Config = {};\n/// The feedback, its gains designed from the scene's weights.\npub fn correction() -> Result<Correction, controller::feedback::DesignError> {{\n    Correction::new(FEEDBACK)\n}}",
+                K::FEEDBACK_TYPE,
                 scene::feedback::FeedbackSpec::source(config)
             );
         }
@@ -162,37 +195,44 @@ fn generate(scene: &Scene, commissioning: &CommissioningFile) -> Result<String, 
     }
     let _ = writeln!(
         c,
-        "/// Crane parameters.\npub const PARAMS: solver_core::models::crane::CraneParams = solver_core::models::crane::CraneParams {{ m: {:?}, g: {:?}, tau1: {:?}, tau2: {:?}, workspace: solver_core::models::crane::Workspace {{ x_min: {:?}, x_max: {:?}, l_min: {:?}, l_max: {:?} }}, min_tension_fraction: {:?} }};",
-        p.m, p.g, p.tau1, p.tau2, w.x_min, w.x_max, w.l_min, w.l_max, p.min_tension_fraction
+        "/// Crane parameters.\npub const PARAMS: Crane = {};",
+        setup.params.source()
     );
+    let limits = K::LIMITS
+        .map(|l| {
+            format!(
+                "controller::setpoint::AxisLimits {{ max_velocity: {:?}, max_acceleration: {:?} }}",
+                l.max_velocity, l.max_acceleration
+            )
+        })
+        .join(", ");
     let _ = writeln!(
         c,
-        "/// The planner of moves on command: this crane, the lab drives' limits.\npub const PLANNER: controller::planner::Planner = controller::planner::Planner::new(PARAMS, controller::setpoint::DriveLimits::LAB);"
+        "/// The planner of moves on command: this crane, its lab drives' limits (which the\n/// set-point gate enforces too).\npub const PLANNER: controller::planner::Planner<Crane, AXES> = controller::planner::Planner::with_axes(PARAMS, [{limits}]);"
     );
     let _ = writeln!(
         c,
         "/// Solver settings.\npub const SETTINGS: solver_core::SolverSettings = solver_core::SolverSettings {{ h: {:?}, jacobian: {jacobian}, scaling_power: {}, newton: solver_core::NewtonSettings {{ max_iterations: {}, rtol: {:?}, atol: {:?}, stall_ratio: {:?}, stall_limit: {:?}, accept_unconverged: false, broyden_refresh: true }} }};",
         settings.h, settings.scaling_power, nw.max_iterations, nw.rtol, nw.atol, nw.stall_ratio, nw.stall_limit
     );
-    let v = |x: &[f64]| {
-        let (a, b) = (
-            x.first().copied().unwrap_or(0.0),
-            x.get(1).copied().unwrap_or(0.0),
-        );
-        format!("[{a:?}_f64, {b:?}_f64]")
+    let v = |x: [f64; A]| {
+        let items = x.map(|a| format!("{a:?}_f64")).join(", ");
+        format!("[{items}]")
     };
-    let _ = writeln!(
-        c,
-        "/// Where the scene's move starts: the crane rests there at power-up (the virtual bus's drives,\n/// so only the QEMU build reads it).\n#[cfg_attr(not(feature = \"qemu\"), allow(dead_code))]\npub const START: [f64; 2] = {};",
-        v(&tr.start)
+    let (start, end): ([f64; A], [f64; A]) = (
+        setup.first_move.start().into(),
+        setup.first_move.end().into(),
     );
     let _ = writeln!(
         c,
-        "/// Builds the scene's inverse model at rest at t = 0, its move planned if\n/// `first_move` (checked against the planner's rules when the firmware was built).\npub fn inverse_model(first_move: bool) -> Result<Feedforward, solver_core::Error> {{\n    let mut plan = controller::feedforward::command_plan({}, {})?;\n    if first_move {{\n        plan.push(solver_core::trajectory::PointToPoint::new({}.into(), {}.into(), {:?}_f64, {:?}_f64, {})?)?;\n    }}\n    {}\n}}",
-        v(&tr.start),
+        "/// Where the scene's move starts: the crane rests there at power-up (the virtual bus's drives,\n/// so only the QEMU build reads it).\n#[cfg_attr(not(feature = \"qemu\"), allow(dead_code))]\npub const START: [f64; AXES] = {};",
+        v(start)
+    );
+    let _ = writeln!(
+        c,
+        "/// Builds the scene's inverse model at rest at t = 0, its move planned if\n/// `first_move` (checked against the planner's rules when the firmware was built).\npub fn inverse_model(first_move: bool) -> Result<Feedforward, solver_core::Error> {{\n    let mut plan = controller::feedforward::command_plan(START, {})?;\n    if first_move {{\n        plan.push(solver_core::trajectory::PointToPoint::new(START.into(), {}.into(), {:?}_f64, {:?}_f64, {})?)?;\n    }}\n    {}\n}}",
         tr.smoothness,
-        v(&tr.start),
-        v(&tr.end),
+        v(end),
         tr.t_start,
         tr.duration,
         tr.smoothness,

@@ -25,9 +25,10 @@ use crate::feedback::Reference;
 /// continuous and the computed ones stay within 0.5 % of the exact ones.
 pub const MIN_COMMAND_SMOOTHNESS: usize = 5;
 
-/// The plan of a crane that rests at `position`, for a scene of smoothness `n`: moves
-/// and stops are planned with `max(n, MIN_COMMAND_SMOOTHNESS)`.
-pub fn command_plan(position: [f64; 2], n: usize) -> Result<Plan<f64, 2>, Error> {
+/// The plan of a crane with `A` driven axes that rests at `position` (the load's, in
+/// the model's outputs), for a scene of smoothness `n`: moves and stops are planned
+/// with `max(n, MIN_COMMAND_SMOOTHNESS)`.
+pub fn command_plan<const A: usize>(position: [f64; A], n: usize) -> Result<Plan<f64, A>, Error> {
     Plan::at_rest(position.into(), n.max(MIN_COMMAND_SMOOTHNESS))
 }
 

@@ -47,6 +47,20 @@ impl DriveLimits {
         },
     };
 
+    /// The limits of the 3D crane's lab drives, in its input order
+    /// ([`SPATIAL`](crate::drive::SPATIAL): bridge, trolley, hoist): the bridge, the
+    /// heaviest axis, takes the planar trolley's drive, the hoist the planar winch's, and
+    /// the trolley across the bridge a lighter one (2 m/s, 2 m/s²). Assumed, as the 3D
+    /// crane's parameters are (`Crane3dParams::EXAMPLE`).
+    pub const LAB_3D: [AxisLimits; 3] = [
+        Self::LAB.trolley,
+        AxisLimits {
+            max_velocity: 2.0,
+            max_acceleration: 2.0,
+        },
+        Self::LAB.winch,
+    ];
+
     /// The limits in the planar crane's input order ([`PLANAR`]).
     #[must_use]
     pub const fn axes(&self) -> [AxisLimits; 2] {

@@ -31,12 +31,7 @@ const HOME: [f64; 3] = [12.0, 3.0, 8.0];
 const BRIDGE_NODE: u8 = 4;
 
 fn limits() -> [AxisLimits; 3] {
-    let lab = DriveLimits::LAB;
-    let trolley = AxisLimits {
-        max_velocity: 2.0,
-        max_acceleration: 2.0,
-    };
-    [lab.trolley, trolley, lab.winch]
+    DriveLimits::LAB_3D
 }
 
 /// The commissioning file of a 3D crane: bridge, trolley and winch drives.

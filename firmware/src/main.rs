@@ -25,6 +25,10 @@ type Feedforward = timed::Timed<controller::Injectable<scene::Feedforward>>;
 #[cfg(feature = "stm32h743")]
 type Feedforward = timed::Timed<scene::Feedforward>;
 
+/// The controller of the scene's crane (its `AXES` drives), with the scene's correction.
+type SceneController =
+    controller::Controller<Feedforward, scene::Correction, scene::Crane, { scene::AXES }>;
+
 #[cfg_attr(feature = "qemu", rtic::app(device = crate::board::pac, dispatchers = [UARTRX0]))]
 #[cfg_attr(feature = "stm32h743", rtic::app(device = crate::board::pac, dispatchers = [SPI1]))]
 mod app {
@@ -34,7 +38,7 @@ mod app {
     use rtic_monotonics::systick::prelude::*;
 
     use crate::board::{self, Board, CanPort};
-    use crate::{scene, Feedforward};
+    use crate::{scene, SceneController};
 
     rtic_monotonics::systick_monotonic!(Mono, 1_000);
 
@@ -48,7 +52,7 @@ mod app {
     #[local]
     struct Local {
         can_rx: board::CanRx,
-        controller: &'static mut Controller<Feedforward, scene::Correction>,
+        controller: &'static mut SceneController,
         board: &'static mut Board,
         /// Cycles to run: under QEMU the scenario's (or the scene's), on the board forever.
         cycles: Option<u32>,
@@ -57,7 +61,7 @@ mod app {
     }
 
     #[init(local = [
-        controller_slot: MaybeUninit<Controller<Feedforward, scene::Correction>> = MaybeUninit::uninit(),
+        controller_slot: MaybeUninit<SceneController> = MaybeUninit::uninit(),
         board_slot: MaybeUninit<Board> = MaybeUninit::uninit(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
@@ -71,10 +75,6 @@ mod app {
                 }
             };
             defmt::info!("scenario {=str}: {=str}", scenario.name, scenario.expect);
-            if scenario.plant.is_some() && !cfg!(feature = "plant") {
-                defmt::error!("this scenario moves a plant: build a scene with [feedback]");
-                board::finish(false)
-            }
             let cycles = if scenario.cycles == 0 {
                 scene::CYCLES
             } else {
@@ -192,8 +192,7 @@ mod app {
             // the tick; the burst queued in order (controller::transmit), a refused frame
             // reported at once, a frame the bus refuses as soon as it does.
             let (mut cost, mut solver) = (0, 0);
-            let tick = |controller: &mut Controller<Feedforward, scene::Correction>,
-                        board: &mut Board| {
+            let tick = |controller: &mut SceneController, board: &mut Board| {
                 #[cfg(feature = "qemu")]
                 if board.take_hang() {
                     defmt::warn!(
@@ -277,7 +276,7 @@ mod app {
 
     /// The identity (0x1018:1..=4) of every commissioned drive: which drive, by vendor,
     /// product, revision and serial number, is on the crane (a commissioning record).
-    fn log_identities(controller: &Controller<Feedforward, scene::Correction>) {
+    fn log_identities(controller: &SceneController) {
         for drive in controller.drives() {
             if controller.commissioning(drive) == controller::commissioning::Phase::Done {
                 let [vendor, product, revision, serial] = controller.identity(drive);

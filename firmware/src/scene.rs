@@ -12,18 +12,20 @@ include!(concat!(env!("OUT_DIR"), "/scene.rs"));
 #[cfg(feature = "stub-inverse-model")]
 #[derive(Debug, Clone)]
 pub struct Stub {
-    plan: solver_core::plan::Plan<f64, 2>,
+    plan: solver_core::plan::Plan<f64, AXES>,
     t: f64,
 }
 
 #[cfg(feature = "stub-inverse-model")]
-impl controller::Feedforward for Stub {
-    fn step(&mut self) -> Result<controller::feedforward::FeedforwardStep, solver_core::Error> {
+impl controller::Feedforward<AXES> for Stub {
+    fn step(
+        &mut self,
+    ) -> Result<controller::feedforward::FeedforwardStep<AXES>, solver_core::Error> {
         self.t += SETTINGS.h;
         Ok(core::hint::black_box(
             controller::feedforward::FeedforwardStep {
                 t: self.t,
-                u: [0.0; 2],
+                u: [0.0; AXES],
                 stats: solver_core::NewtonStats::default(),
             },
         ))
@@ -33,22 +35,22 @@ impl controller::Feedforward for Stub {
         self.t
     }
 
-    fn reference(&self) -> controller::feedback::Reference {
-        core::hint::black_box(controller::feedback::Reference::default())
+    fn reference(&self) -> controller::feedforward::ReferenceState<AXES> {
+        core::hint::black_box(Default::default())
     }
 }
 
 #[cfg(feature = "stub-inverse-model")]
-impl controller::Replan for Stub {
-    fn plan(&self) -> &solver_core::plan::Plan<f64, 2> {
+impl controller::Replan<AXES> for Stub {
+    fn plan(&self) -> &solver_core::plan::Plan<f64, AXES> {
         &self.plan
     }
 
-    fn plan_mut(&mut self) -> &mut solver_core::plan::Plan<f64, 2> {
+    fn plan_mut(&mut self) -> &mut solver_core::plan::Plan<f64, AXES> {
         &mut self.plan
     }
 
-    fn restart_at_rest(&mut self, position: [f64; 2], t: f64) -> Result<(), solver_core::Error> {
+    fn restart_at_rest(&mut self, position: [f64; AXES], t: f64) -> Result<(), solver_core::Error> {
         let n = self.plan.planned_smoothness();
         self.plan = solver_core::plan::Plan::at_rest(position.into(), n)?;
         self.t = t;

@@ -1,13 +1,14 @@
 //! The firmware's cycle, run on the host: the same controller, the same scene, the
 //! same virtual bus and scenario. The QEMU run must send exactly these frames.
 
-use controller::feedback::{Correction, StateFeedback};
-use controller::feedforward::command_plan;
+use controller::correction::AxesCorrection;
+use controller::feedforward::{command_plan, Axes, ReferenceOf};
+use controller::planner::Crane;
 use controller::setpoint::Setpoint;
 use controller::{CanFrame, Config, Controller, Feedforward, Injectable, Mode, Replan};
 use scene::commissioning::CommissioningFile;
-use scene::dispatch::FirmwareVisitor;
-use scene::firmware::{firmware_scene, FirmwareScene};
+use scene::dispatch::{firmware, FirmwareCrane, FirmwareCraneVisitor, FirmwareVisitor};
+use scene::firmware::FirmwareScene;
 use scene::Scene;
 use sim::{run_cycle, Scenario, VirtualBus};
 use solver_core::plan::Plan;
@@ -19,8 +20,9 @@ pub struct ReferenceCycle {
     pub now_ms: u32,
     /// Frames sent (including those the bus refused).
     pub frames: Vec<CanFrame>,
-    /// `[trolley, winch]` set points, drive units.
-    pub setpoints: [Setpoint; 2],
+    /// The set points, drive units, in the model's input order (planar `[trolley,
+    /// winch]`, 3D `[bridge, trolley, winch]`).
+    pub setpoints: Vec<Setpoint>,
     /// Supervisor state after the cycle.
     pub mode: Mode,
 }
@@ -33,157 +35,205 @@ pub fn controller_reference(
     commissioning: &CommissioningFile,
     scenario: &Scenario,
 ) -> Result<Vec<ReferenceCycle>, String> {
-    let f = firmware_scene(scene, commissioning)?;
-    let cycles = if scenario.cycles == 0 {
-        f.cycles
-    } else {
-        scenario.cycles
-    };
-    // The simulated crane rests where the scene's move starts.
-    let start: [f64; 2] = f.first_move.start().into();
-    let mut run = boot(
+    firmware(
         scene,
-        &f,
-        f.plan,
-        false,
-        VirtualBus::new(*scenario, start),
-        cycles,
-    )?;
-    if scenario.hang_at_ms().is_some() {
-        let at_rest = command_plan(f.first_move.start().into(), scene.trajectory.smoothness)
-            .map_err(|e| e.to_string())?;
-        let bus = VirtualBus::new(*scenario, start).without_hangs();
-        run.extend(boot(scene, &f, at_rest, true, bus, cycles)?);
+        commissioning,
+        RunScene {
+            scene,
+            scenario: *scenario,
+        },
+    )?
+}
+
+/// The host's run of the firmware on a scene, whatever its crane.
+struct RunScene<'a> {
+    scene: &'a Scene,
+    scenario: Scenario,
+}
+
+impl FirmwareCraneVisitor for RunScene<'_> {
+    type Output = Result<Vec<ReferenceCycle>, String>;
+
+    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output
+    where
+        Axes<A>: ReferenceOf,
+    {
+        let (scene, scenario) = (self.scene, &self.scenario);
+        let cycles = if scenario.cycles == 0 {
+            f.cycles
+        } else {
+            scenario.cycles
+        };
+        // The simulated crane rests where the scene's move starts.
+        let mut run = boot(scene, &f, f.plan, false, *scenario, cycles)?;
+        if scenario.hang_at_ms().is_some() {
+            let at_rest =
+                command_plan(f.start(), scene.trajectory.smoothness).map_err(|e| e.to_string())?;
+            run.extend(boot(scene, &f, at_rest, true, *scenario, cycles)?);
+        }
+        Ok(run)
     }
-    Ok(run)
+}
+
+/// The virtual bus the firmware's QEMU board builds for the scene: a stock drive for
+/// each of the crane's drives, at rest where the scene's move starts; refused if the
+/// scenario asks for a plant the bus does not simulate for this crane.
+pub fn virtual_bus<K: Crane<A>, const A: usize>(
+    f: &FirmwareScene<K, A>,
+    scenario: Scenario,
+) -> Result<VirtualBus<A>, String> {
+    let bus = VirtualBus::with_drives(scenario, K::DRIVES, f.start());
+    if bus.simulates_scenario() {
+        Ok(bus)
+    } else {
+        Err(format!(
+            "scenario {}: its plant is the planar crane's; this crane has {A} drives",
+            scenario.name
+        ))
+    }
 }
 
 /// What is done with the firmware's controller for a scene, whatever the types the
-/// scene gives it (model, scheme, Newton strategy, feedback).
+/// scene gives it (crane, model, scheme, Newton strategy, feedback).
 pub trait WithController {
     /// What it gives.
     type Output;
-    /// Does it with `controller`.
-    fn with<F: Feedforward + Replan, C: Correction>(
+    /// Does it with `controller`, the controller of crane `K` with `A` driven axes.
+    fn with<F, C, K, const A: usize>(
         self,
-        controller: Controller<Injectable<F>, C>,
-    ) -> Self::Output;
+        controller: Controller<Injectable<F>, C, K, A>,
+        f: &FirmwareScene<K, A>,
+    ) -> Self::Output
+    where
+        F: Feedforward<A> + Replan<A>,
+        C: AxesCorrection<A>,
+        K: FirmwareCrane<A>,
+        Axes<A>: ReferenceOf;
 }
 
 /// The one construction of the firmware's controller on the host, for the host's run
 /// of the firmware (the QEMU runs are compared with it) and the virtual ECU: the
-/// scene's model and scheme with the Newton strategy the firmware links
+/// scene's crane, model and scheme with the Newton strategy the firmware links
 /// (`FirmwareScheme`), following `plan`, the state feedback with the inclinometer for
 /// a scene with `[feedback]` (`f.config` then lists it), and `config` (the firmware's,
 /// or it with another role). A scene the firmware cannot run is refused.
-pub fn with_controller<V: WithController>(
+pub fn with_controller<K: FirmwareCrane<A>, V: WithController, const A: usize>(
     scene: &Scene,
-    f: &FirmwareScene,
-    plan: Plan<f64, 2>,
+    f: &FirmwareScene<K, A>,
+    plan: Plan<f64, A>,
     config: Config,
     visit: V,
-) -> Result<V::Output, String> {
+) -> Result<V::Output, String>
+where
+    Axes<A>: ReferenceOf,
+{
     let build = Build { f, config, visit };
-    f.scheme
-        .visit(f.params, plan, &scene.settings(), build)
+    f.params
+        .inverse_model(f.scheme, plan, &scene.settings(), build)
         .map_err(|e| e.to_string())?
 }
 
 /// The inverse model built; the controller around it next.
-struct Build<'a, V> {
-    f: &'a FirmwareScene,
+struct Build<'a, K, V, const A: usize> {
+    f: &'a FirmwareScene<K, A>,
     config: Config,
     visit: V,
 }
 
-impl<V: WithController> FirmwareVisitor for Build<'_, V> {
+impl<K: FirmwareCrane<A>, V: WithController, const A: usize> FirmwareVisitor<A>
+    for Build<'_, K, V, A>
+where
+    Axes<A>: ReferenceOf,
+{
     type Output = Result<V::Output, String>;
 
-    /// The firmware's controller around `feedforward`: with the state feedback if the
-    /// scene closes the loop.
-    fn visit<F: Feedforward + Replan>(self, feedforward: F) -> Self::Output {
+    /// The firmware's controller around `feedforward`: with the crane's state feedback
+    /// if the scene closes the loop.
+    fn visit<F: Feedforward<A> + Replan<A>>(self, feedforward: F) -> Self::Output {
         let feedforward = Injectable::new(feedforward);
-        let (planner, config) = (self.f.planner, self.config);
-        Ok(match self.f.feedback {
-            Some(feedback) => {
-                let feedback = StateFeedback::new(feedback).map_err(|e| format!("{e:?}"))?;
-                self.visit.with(Controller::with_correction(
+        let (f, planner, config) = (self.f, self.f.planner, self.config);
+        Ok(match f.feedback {
+            Some(feedback) => self.visit.with(
+                Controller::with_correction(feedforward, K::feedback(feedback)?, planner, config),
+                f,
+            ),
+            None => self.visit.with(
+                Controller::with_correction(
                     feedforward,
-                    feedback,
+                    K::FeedforwardOnly::default(),
                     planner,
                     config,
-                ))
-            }
-            None => self
-                .visit
-                .with(Controller::new(feedforward, planner, config)),
+                ),
+                f,
+            ),
         })
     }
 }
 
-/// One boot of the firmware with `plan`, until the cycles are done or it hangs.
-fn boot(
+/// One boot of the firmware with `plan`, until the cycles are done or it hangs: on a
+/// fresh virtual bus, whose hangs are left out after a watchdog restart.
+fn boot<K: FirmwareCrane<A>, const A: usize>(
     scene: &Scene,
-    f: &FirmwareScene,
-    plan: Plan<f64, 2>,
+    f: &FirmwareScene<K, A>,
+    plan: Plan<f64, A>,
     restarted: bool,
-    bus: VirtualBus,
+    scenario: Scenario,
     cycles: u32,
-) -> Result<Vec<ReferenceCycle>, String> {
+) -> Result<Vec<ReferenceCycle>, String>
+where
+    Axes<A>: ReferenceOf,
+{
     let run = Boot {
-        f,
         restarted,
-        bus,
+        scenario,
         cycles,
     };
-    with_controller(scene, f, plan, f.config, run)
+    with_controller(scene, f, plan, f.config, run)?
 }
 
 /// The firmware's loop on the virtual bus.
-struct Boot<'a> {
-    f: &'a FirmwareScene,
+struct Boot {
     restarted: bool,
-    bus: VirtualBus,
+    scenario: Scenario,
     cycles: u32,
 }
 
-impl WithController for Boot<'_> {
-    type Output = Vec<ReferenceCycle>;
+impl WithController for Boot {
+    type Output = Result<Vec<ReferenceCycle>, String>;
 
-    fn with<F: Feedforward + Replan, C: Correction>(
+    fn with<F, C, K, const A: usize>(
         self,
-        controller: Controller<Injectable<F>, C>,
-    ) -> Self::Output {
-        run_with(controller, self.f, self.restarted, self.bus, self.cycles)
+        mut controller: Controller<Injectable<F>, C, K, A>,
+        f: &FirmwareScene<K, A>,
+    ) -> Self::Output
+    where
+        F: Feedforward<A> + Replan<A>,
+        C: AxesCorrection<A>,
+        K: FirmwareCrane<A>,
+        Axes<A>: ReferenceOf,
+    {
+        let mut bus = virtual_bus(f, self.scenario)?;
+        if self.restarted {
+            controller.restarted_by_watchdog();
+            bus = bus.without_hangs();
+        } else {
+            // The scene's move, planned at boot, is the main job's command.
+            controller.demonstration_commanded();
+        }
+        let period_ms = f.config.period_ms;
+        let mut out = Vec::new();
+        for cycle in 0..self.cycles {
+            let now_ms = cycle * period_ms;
+            let Some(c) = run_cycle(&mut controller, &mut bus, now_ms) else {
+                break;
+            };
+            out.push(ReferenceCycle {
+                now_ms,
+                frames: c.frames.to_vec(),
+                setpoints: c.setpoints.to_vec(),
+                mode: c.mode,
+            });
+        }
+        Ok(out)
     }
-}
-
-fn run_with<F: Feedforward + Replan, C: Correction>(
-    mut controller: Controller<Injectable<F>, C>,
-    f: &FirmwareScene,
-    restarted: bool,
-    mut bus: VirtualBus,
-    cycles: u32,
-) -> Vec<ReferenceCycle> {
-    if restarted {
-        controller.restarted_by_watchdog();
-    } else {
-        // The scene's move, planned at boot, is the main job's command.
-        controller.demonstration_commanded();
-    }
-    let period_ms = f.config.period_ms;
-    let mut out = Vec::new();
-    for cycle in 0..cycles {
-        let now_ms = cycle * period_ms;
-        let Some(c) = run_cycle(&mut controller, &mut bus, now_ms) else {
-            break;
-        };
-        out.push(ReferenceCycle {
-            now_ms,
-            frames: c.frames.to_vec(),
-            setpoints: c.setpoints,
-            mode: c.mode,
-        });
-    }
-    out
 }

@@ -293,14 +293,14 @@ mod tests {
     #[test]
     fn the_defaults_are_the_study_s_and_link_the_inclinometer() {
         let s = scene("").unwrap();
-        let f = firmware_scene(&s, &CommissioningFile::default()).unwrap();
+        let f = firmware_scene::<CraneParams, 2>(&s, &CommissioningFile::default()).unwrap();
         assert_eq!(f.feedback, Some(Config::PAPER));
         assert!(f.config.inclinometer().is_some());
         // Without the section: no feedback, no inclinometer.
         let path =
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper-crane.toml");
         let plain = Scene::load(&path).unwrap();
-        let f = firmware_scene(&plain, &CommissioningFile::default()).unwrap();
+        let f = firmware_scene::<CraneParams, 2>(&plain, &CommissioningFile::default()).unwrap();
         assert_eq!((f.feedback, f.config.inclinometer()), (None, None));
     }
 

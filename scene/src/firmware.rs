@@ -4,16 +4,14 @@
 //! firmware's loop (`host_tests::firmware`), so both start from the same state.
 
 use controller::commissioning::NodeSetup;
-use controller::feedforward::command_plan;
+use controller::feedforward::{command_plan, Axes, ReferenceOf};
 use controller::planner::Planner;
-use controller::setpoint::DriveLimits;
 use controller::Config;
-use solver_core::models::crane::CraneParams;
 use solver_core::plan::Plan;
 use solver_core::trajectory::{PointToPoint, Trajectory};
 
 use crate::commissioning::CommissioningFile;
-use crate::dispatch::FirmwareScheme;
+use crate::dispatch::{trajectory, FirmwareCrane, FirmwareScheme};
 use crate::Scene;
 
 /// The firmware's watchdog period, ms: a cycle must be shorter.
@@ -42,19 +40,20 @@ pub fn commissioning_time(config: &Config) -> f64 {
     (exchanges as f64 * f64::from(config.period_ms) + heartbeat) / 1000.0
 }
 
-/// The firmware's setup of a crane scene.
+/// The firmware's setup of a crane scene: crane `K` with `A` driven axes.
 #[derive(Debug, Clone, Copy)]
-pub struct FirmwareScene {
+pub struct FirmwareScene<K, const A: usize> {
     /// Crane parameters.
-    pub params: CraneParams,
+    pub params: K,
     /// The scene's move.
-    pub first_move: PointToPoint<f64, 2>,
+    pub first_move: PointToPoint<f64, A>,
     /// The plan at t = 0: at rest at the move's start, the move planned. Moves on
     /// command have the smoothness `max(n, 5)` (`controller::feedforward::command_plan`).
-    pub plan: Plan<f64, 2>,
-    /// The planner of moves on command, with the lab drives' limits.
-    pub planner: Planner,
-    /// Timing and limits of the controller.
+    pub plan: Plan<f64, A>,
+    /// The planner of moves on command, with the crane's lab drives' limits
+    /// ([`FirmwareCrane::LIMITS`]).
+    pub planner: Planner<K, A>,
+    /// Timing and the nodes of the controller.
     pub config: Config,
     /// Cycles the scene runs (to its `t_end`).
     pub cycles: u32,
@@ -65,27 +64,38 @@ pub struct FirmwareScene {
     pub scheme: FirmwareScheme,
 }
 
-/// The firmware's setup of `scene` with the drives of `commissioning`, or why the
-/// firmware cannot run it: not a crane, not f64 ([`FirmwareScheme::of`]), a cycle the watchdog or the ms timer
-/// cannot keep, a run that is not a whole number of cycles, a bad commissioning file, a
-/// move that starts before the drives can be enabled, or one that breaks the planner's
-/// rules (docs/COMMANDS.md) — a scene's move must pass the checks every commanded move
-/// passes.
-pub fn firmware_scene(
+impl<K, const A: usize> FirmwareScene<K, A> {
+    /// Where the load rests at power-up: where the scene's move starts (`[x_C, z_C]`,
+    /// the 3D crane's `[x_C, y_C, z_C]`). At rest the drives stand there too (trolley
+    /// and bridge under the load, the rope as long as the load is deep).
+    #[must_use]
+    pub fn start(&self) -> [f64; A] {
+        self.first_move.start().into()
+    }
+}
+
+/// The firmware's setup of `scene` for crane `K` with the drives of `commissioning`, or
+/// why the firmware cannot run it: not this crane, not f64 ([`FirmwareScheme::of`]), a
+/// cycle the watchdog or the ms timer cannot keep, a run that is not a whole number of
+/// cycles, a bad commissioning file (a drive of the crane missing, a drive it does not
+/// have), a `[feedback]` the crane cannot honour, a move that starts before the drives
+/// can be enabled, or one that breaks the planner's rules (docs/COMMANDS.md) — a scene's
+/// move must pass the checks every commanded move passes. [`crate::dispatch::firmware`]
+/// picks `K` from the scene.
+pub fn firmware_scene<K: FirmwareCrane<A>, const A: usize>(
     scene: &Scene,
     commissioning: &CommissioningFile,
-) -> Result<FirmwareScene, String> {
+) -> Result<FirmwareScene<K, A>, String>
+where
+    Axes<A>: ReferenceOf,
+{
     let scheme = FirmwareScheme::of(scene)?;
-    let params = scene
-        .model
-        .crane()
-        .ok_or("the firmware drives a crane")?
-        .params();
-    let first_move = scene.trajectory2().map_err(|e| e.to_string())?;
+    let params = K::of(&scene.model).ok_or("the scene's model is not this crane's")?;
+    let first_move = trajectory::<f64, A>(scene).map_err(|e| e.to_string())?;
     let mut plan = command_plan(first_move.start().into(), scene.trajectory.smoothness)
         .map_err(|e| e.to_string())?;
     plan.push(first_move).map_err(|e| e.to_string())?;
-    let planner = Planner::new(params, DriveLimits::LAB);
+    let planner = Planner::with_axes(params, K::LIMITS);
     let (t0, t1) = first_move.active_span();
     planner.check(&first_move, t0, t1).map_err(|r| {
         format!("the scene's move breaks the planner's rule {r:?} (docs/COMMANDS.md)")
@@ -111,13 +121,12 @@ pub fn firmware_scene(
         ));
     }
     let config = commissioning
-        .config(DriveLimits::LAB, period_ms)
+        .config_for(K::DRIVES, K::LIMITS, period_ms)
         .map_err(|e| format!("commissioning file: {e}"))?;
     let feedback = scene
         .feedback
-        .map(|f| f.config(&params, scene.solver.h))
-        .transpose()
-        .map_err(|e| e.to_string())?;
+        .map(|f| K::feedback_config(&f, &params, scene.solver.h))
+        .transpose()?;
     let config = if feedback.is_some() {
         commissioning
             .with_inclinometer(config)
@@ -146,8 +155,9 @@ pub fn firmware_scene(
 
 /// `config` as a Rust constant expression, for the firmware's generated scene module:
 /// the same values the host's run of the firmware loop uses, built by the same
-/// [`CommissioningFile::config`]. (Drive limits and the fault thresholds are
-/// [`Config::DEFAULT`]'s; the check below refuses a config that differs there.)
+/// [`CommissioningFile::config_for`]. (The fault thresholds are [`Config::DEFAULT`]'s;
+/// the check below refuses a config that differs there. The drives' limits are the
+/// planner's, [`FirmwareCrane::LIMITS`].)
 pub fn config_source(config: &Config) -> Result<String, String> {
     let defaults = Config {
         period_ms: config.period_ms,
@@ -161,7 +171,7 @@ pub fn config_source(config: &Config) -> Result<String, String> {
         ..Config::DEFAULT
     };
     if defaults != *config {
-        return Err("the firmware takes limits and fault thresholds from Config::DEFAULT".into());
+        return Err("the firmware takes its fault thresholds from Config::DEFAULT".into());
     }
     let drive = |d: &controller::commissioning::DriveSetup| {
         let mode = match d.mode {

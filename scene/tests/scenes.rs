@@ -6,6 +6,7 @@ use controller::setpoint::DriveLimits;
 use scene::commissioning::{CommissioningFile, FILE_NAME};
 use scene::firmware::firmware_scene;
 use scene::Scene;
+use solver_core::models::crane::CraneParams;
 
 fn scenes_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes")
@@ -137,14 +138,17 @@ fn the_shipped_commissioning_file_is_the_stock_setup_and_the_firmware_scenes_pas
         "paper-crane-radau-exact",
     ] {
         let scene = Scene::load(&scenes_dir().join(format!("{name}.toml"))).unwrap();
-        firmware_scene(&scene, &commissioning).unwrap_or_else(|e| panic!("{name}: {e}"));
+        firmware_scene::<CraneParams, 2>(&scene, &commissioning)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
     }
 }
 
 #[test]
 fn scenes_the_firmware_cannot_run_are_refused_with_a_message() {
     let c = CommissioningFile::default();
-    let refused = |text: String| firmware_scene(&Scene::parse(&text).unwrap(), &c).unwrap_err();
+    let refused = |text: String| {
+        firmware_scene::<CraneParams, 2>(&Scene::parse(&text).unwrap(), &c).unwrap_err()
+    };
     let e = refused(with("h = 0.01", "h = 0.1"));
     assert!(e.contains("watchdog"), "{e}");
     let e = refused(with("t_end = 10.0", "t_end = 10.005"));
@@ -152,7 +156,7 @@ fn scenes_the_firmware_cannot_run_are_refused_with_a_message() {
     let e = refused(with("t_start = 1.0", "t_start = 0.5"));
     assert!(e.contains("before the drives can be commissioned"), "{e}");
     let bad = CommissioningFile::parse("[controller]\nnode = 200\n").unwrap();
-    let e = firmware_scene(&Scene::parse(PAPER).unwrap(), &bad).unwrap_err();
+    let e = firmware_scene::<CraneParams, 2>(&Scene::parse(PAPER).unwrap(), &bad).unwrap_err();
     assert!(e.contains("controller.node"), "{e}");
 }
 

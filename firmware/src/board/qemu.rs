@@ -28,6 +28,7 @@
 #![allow(unsafe_code)]
 
 use controller::board::CanPort;
+use controller::planner::Crane;
 use controller::transmit::{FifoModel, Loss, Queued, TxQueue, BURST};
 use controller::CanFrame;
 use heapless::Deque;
@@ -147,7 +148,7 @@ pub const TX_BUFFERS: usize = 3;
 
 /// The QEMU board.
 pub struct Board {
-    bus: VirtualBus,
+    bus: VirtualBus<{ crate::scene::AXES }>,
     watchdog_started: bool,
     /// Frames waiting for a transmit buffer, in order.
     tx_queue: TxQueue<BURST>,
@@ -213,7 +214,17 @@ impl Board {
             core::ptr::write_volatile((TIMER1 + VALUE) as *mut u32, u32::MAX);
             core::ptr::write_volatile((TIMER1 + CTRL) as *mut u32, 1);
         }
-        let bus = VirtualBus::new(scenario, crate::scene::START);
+        // A stock drive for each of the crane's drives, resting where the scene's move
+        // starts (the host's run builds the same: `host_tests::firmware::virtual_bus`).
+        let drives = <crate::scene::Crane as Crane<{ crate::scene::AXES }>>::DRIVES;
+        let bus = VirtualBus::with_drives(scenario, drives, crate::scene::START);
+        if !bus.simulates_scenario() {
+            defmt::error!(
+                "scenario {=str} moves a plant: the planar crane's, in a build with [feedback]",
+                scenario.name
+            );
+            finish(false)
+        }
         let bus = if restarted { bus.without_hangs() } else { bus };
         (
             Self {

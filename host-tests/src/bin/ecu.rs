@@ -35,13 +35,16 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use clap::{Parser, ValueEnum};
-use controller::feedback::Correction;
-use controller::feedforward::command_plan;
+use controller::commands::Request;
+use controller::correction::AxesCorrection;
+use controller::drive::Drive;
+use controller::feedforward::{command_plan, Axes, ReferenceOf};
 use controller::node::Role;
 use controller::{CanFrame, Controller, Feedforward, Injectable, Mode, Replan};
 use host_tests::firmware::{with_controller, WithController};
 use scene::commissioning::CommissioningFile;
-use scene::firmware::firmware_scene;
+use scene::dispatch::{firmware, FirmwareCrane, FirmwareCraneVisitor};
+use scene::firmware::FirmwareScene;
 use scene::Scene;
 
 #[derive(Parser, Debug)]
@@ -65,10 +68,11 @@ struct Cli {
     /// Write every frame, both directions, with timestamps, to this file.
     #[arg(long)]
     log: Option<PathBuf>,
-    /// No bus: print the set points (`trolley winch`, µm/s, one cycle a line) the same
-    /// controller sends for a move to X,Z (m) in DURATION s, on the virtual bus's stock
-    /// drives from the moment it is accepted — the host's computation that a run on
-    /// the bus is compared with.
+    /// No bus: print the set points (µm/s in the model's input order, one cycle a line:
+    /// `trolley winch`, the 3D crane's `bridge trolley winch`) the same controller sends
+    /// for a move to X,Z (the 3D crane: X,Y,Z; m) in DURATION s, on the virtual bus's
+    /// stock drives from the moment it is accepted — the host's computation that a run
+    /// on the bus is compared with.
     #[arg(long, value_name = "X,Z,DURATION")]
     reference: Option<String>,
 }
@@ -102,123 +106,183 @@ fn run(cli: &Cli) -> Result<(), String> {
     }
     let scene = Scene::load(&cli.scene).map_err(|e| format!("{}: {e}", cli.scene.display()))?;
     let commissioning = CommissioningFile::for_scene(&cli.scene).map_err(|e| e.to_string())?;
-    let f = firmware_scene(&scene, &commissioning)?;
-    // No motion without a command: the scene's move only when asked (as the QEMU main
-    // job asks for it); otherwise the crane rests where the scene's move starts.
-    let plan = if cli.demo {
-        f.plan
-    } else {
-        command_plan(f.first_move.start().into(), scene.trajectory.smoothness)
-            .map_err(|e| e.to_string())?
-    };
-    if let Some(spec) = &cli.reference {
-        let numbers: Vec<f64> = spec
-            .split(',')
-            .map(|v| v.trim().parse::<f64>())
-            .collect::<Result<_, _>>()
-            .map_err(|e| format!("--reference {spec}: {e}"))?;
-        let [x, z, duration] = numbers[..] else {
-            return Err(format!("--reference {spec}: X,Z,DURATION"));
-        };
-        let reference = Reference {
-            target: [x, z],
-            duration,
-            start: f.first_move.start().into(),
-        };
-        return with_controller(&scene, &f, plan, f.config, reference)?;
-    }
-    let listener = TcpListener::bind(("127.0.0.1", cli.port))
-        .map_err(|e| format!("cannot listen on 127.0.0.1:{}: {e}", cli.port))?;
-    let port = listener.local_addr().map_err(|e| e.to_string())?.port();
-    let log = match &cli.log {
-        Some(path) => {
-            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-                std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-            }
-            let file =
-                std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
-            Some(BufWriter::new(file))
-        }
-        None => None,
-    };
-    println!("listening on 127.0.0.1:{port}");
-    eprintln!(
-        "ecu: scene {} ({}), role {:?}, {}, {}, for {} s",
-        scene.name,
-        cli.scene.display(),
-        cli.role,
-        match f.config.inclinometer() {
-            Some(i) if f.feedback.is_some() => {
-                format!("state feedback with the inclinometer at node {}", i.node)
-            }
-            _ => "feedforward only".into(),
-        },
-        if cli.demo {
-            "with the scene's move"
+    // The scene's crane, as the firmware's build script makes it a type.
+    firmware(&scene, &commissioning, Ecu { cli, scene: &scene })?
+}
+
+/// The ECU for a scene, whatever its crane.
+struct Ecu<'a> {
+    cli: &'a Cli,
+    scene: &'a Scene,
+}
+
+impl FirmwareCraneVisitor for Ecu<'_> {
+    type Output = Result<(), String>;
+
+    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output
+    where
+        Axes<A>: ReferenceOf,
+    {
+        let (cli, scene) = (self.cli, self.scene);
+        // No motion without a command: the scene's move only when asked (as the QEMU
+        // main job asks for it); otherwise the crane rests where the scene's move starts.
+        let plan = if cli.demo {
+            f.plan
         } else {
-            "at rest until a command"
-        },
-        cli.seconds
-    );
-    let _ = std::io::stdout().flush();
-    let setup = Setup {
-        duration: Duration::from_secs_f64(cli.seconds),
-        listener,
-        bus: Arc::new(Mutex::new(Bus::new(log))),
-    };
-    let config = controller::Config {
-        role: match cli.role {
-            RoleArg::Manager => Role::Manager,
-            RoleArg::Slave => Role::Slave,
-        },
-        ..f.config
-    };
-    // The firmware's controller for the scene, built as the host's run of the
-    // firmware builds it (one construction: model, scheme, Newton strategy, feedback).
-    with_controller(&scene, &f, plan, config, setup)?
+            command_plan(f.start(), scene.trajectory.smoothness).map_err(|e| e.to_string())?
+        };
+        if let Some(spec) = &cli.reference {
+            let numbers: Vec<f64> = spec
+                .split(',')
+                .map(|v| v.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|e| format!("--reference {spec}: {e}"))?;
+            let axes = if A == 3 {
+                "X,Y,Z,DURATION"
+            } else {
+                "X,Z,DURATION"
+            };
+            let request = match numbers[..] {
+                [x, z, duration] if A == 2 => Request::Move {
+                    id: 1,
+                    target: [x, z],
+                    duration: Some(duration),
+                },
+                [x, y, z, duration] if A == 3 => Request::Move3d {
+                    id: 1,
+                    target: [x, y, z],
+                    duration: Some(duration),
+                },
+                _ => return Err(format!("--reference {spec}: {axes} for this crane")),
+            };
+            return with_controller(scene, &f, plan, f.config, Reference { request })?;
+        }
+        let listener = TcpListener::bind(("127.0.0.1", cli.port))
+            .map_err(|e| format!("cannot listen on 127.0.0.1:{}: {e}", cli.port))?;
+        let port = listener.local_addr().map_err(|e| e.to_string())?.port();
+        let log = match &cli.log {
+            Some(path) => {
+                if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+                }
+                let file =
+                    std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+                Some(BufWriter::new(file))
+            }
+            None => None,
+        };
+        println!("listening on 127.0.0.1:{port}");
+        eprintln!(
+            "ecu: scene {} ({}), role {:?}, drives {}, {}, {}, for {} s",
+            scene.name,
+            cli.scene.display(),
+            cli.role,
+            K::DRIVES
+                .map(|d| format!("{} (node {})", d.name(), node_of(&f.config, d)))
+                .join(", "),
+            match f.config.inclinometer() {
+                Some(i) if f.feedback.is_some() => {
+                    format!("state feedback with the inclinometer at node {}", i.node)
+                }
+                _ => "feedforward only".into(),
+            },
+            if cli.demo {
+                "with the scene's move"
+            } else {
+                "at rest until a command"
+            },
+            cli.seconds
+        );
+        let _ = std::io::stdout().flush();
+        let setup = Setup {
+            duration: Duration::from_secs_f64(cli.seconds),
+            listener,
+            bus: Arc::new(Mutex::new(Bus::new(log))),
+        };
+        let config = controller::Config {
+            role: match cli.role {
+                RoleArg::Manager => Role::Manager,
+                RoleArg::Slave => Role::Slave,
+            },
+            ..f.config
+        };
+        // The firmware's controller for the scene, built as the host's run of the
+        // firmware builds it (one construction: crane, model, scheme, Newton strategy,
+        // feedback).
+        with_controller(scene, &f, plan, config, setup)?
+    }
+}
+
+/// The node id the commissioning file gives `drive` (0: none).
+fn node_of(config: &controller::Config, drive: Drive) -> u8 {
+    config.drive(drive).map_or(0, |d| d.node)
 }
 
 /// Print the set points of one move on the virtual bus.
 struct Reference {
-    target: [f64; 2],
-    duration: f64,
-    /// Where the simulated crane rests.
-    start: [f64; 2],
+    /// The move, id 1.
+    request: Request,
 }
 
 impl WithController for Reference {
     type Output = Result<(), String>;
 
-    fn with<F: Feedforward + Replan, C: Correction>(
+    fn with<F, C, K, const A: usize>(
         self,
-        controller: Controller<Injectable<F>, C>,
-    ) -> Self::Output {
-        reference(controller, &self)
+        controller: Controller<Injectable<F>, C, K, A>,
+        f: &FirmwareScene<K, A>,
+    ) -> Self::Output
+    where
+        F: Feedforward<A> + Replan<A>,
+        C: AxesCorrection<A>,
+        K: FirmwareCrane<A>,
+        Axes<A>: ReferenceOf,
+    {
+        reference(controller, f, self.request)
     }
 }
 
 impl WithController for Setup {
     type Output = Result<(), String>;
 
-    fn with<F: Feedforward + Replan, C: Correction>(
+    fn with<F, C, K, const A: usize>(
         self,
-        controller: Controller<Injectable<F>, C>,
-    ) -> Self::Output {
+        controller: Controller<Injectable<F>, C, K, A>,
+        _: &FirmwareScene<K, A>,
+    ) -> Self::Output
+    where
+        F: Feedforward<A> + Replan<A>,
+        C: AxesCorrection<A>,
+        K: FirmwareCrane<A>,
+        Axes<A>: ReferenceOf,
+    {
         serve(controller, self)
     }
 }
 
 /// The set points of one move as the controller computes them on the virtual bus's
 /// stock CiA 402 drives (no real time, no TCP): ready, the move asked, then every
-/// cycle's set points from the one that answers it until the drives rest.
-fn reference<F: Feedforward + Replan, C: Correction>(
-    mut controller: Controller<Injectable<F>, C>,
-    r: &Reference,
-) -> Result<(), String> {
-    use controller::commands::{request_frame, Answer, Request};
-    use sim::{run_cycle, VirtualBus, HEALTHY};
-    let (target, duration) = (r.target, r.duration);
-    let mut bus = VirtualBus::new(HEALTHY, r.start);
+/// cycle's set points (µm/s, in the model's input order) from the one that answers it
+/// until the drives rest. A 3D move's duration goes over the wire in whole seconds.
+fn reference<F, C, K, const A: usize>(
+    mut controller: Controller<Injectable<F>, C, K, A>,
+    f: &FirmwareScene<K, A>,
+    request: Request,
+) -> Result<(), String>
+where
+    F: Feedforward<A> + Replan<A>,
+    C: AxesCorrection<A>,
+    K: FirmwareCrane<A>,
+    Axes<A>: ReferenceOf,
+{
+    use controller::commands::{request_frame, Answer};
+    use sim::{run_cycle, HEALTHY};
+    let duration = match request {
+        Request::Move { duration, .. } | Request::Move3d { duration, .. } => duration,
+        Request::Stop { .. } | Request::Reset { .. } => None,
+    }
+    .unwrap_or(0.0);
+    let mut bus = host_tests::firmware::virtual_bus(f, HEALTHY)?;
     let period = controller.config().period_ms;
     let limit = 100 * 1000 / period + (duration * 1000.0) as u32 / period;
     let (mut asked, mut answered) = (false, false);
@@ -226,11 +290,6 @@ fn reference<F: Feedforward + Replan, C: Correction>(
     for cycle in 0..limit {
         let now = cycle * period;
         if !asked && controller.mode() == Mode::Ready {
-            let request = Request::Move {
-                id: 1,
-                target,
-                duration: Some(duration),
-            };
             controller.on_frame(&request_frame(&request), u64::from(now));
             asked = true;
         }
@@ -242,13 +301,13 @@ fn reference<F: Feedforward + Replan, C: Correction>(
             _ => {}
         }
         if answered {
-            let [u1, u2] = out.setpoints.map(|s| s.units());
-            println!("{u1} {u2}");
+            let units = out.setpoints.map(|s| s.units());
+            println!("{}", units.map(|u| u.to_string()).join(" "));
             let moving = controller
                 .feedforward()
                 .plan()
                 .is_moving(f64::from(now) / 1e3);
-            rest = if u1 == 0 && u2 == 0 && !moving {
+            rest = if units.iter().all(|u| *u == 0) && !moving {
                 rest + 1
             } else {
                 0
@@ -271,10 +330,16 @@ struct Setup {
 /// The real-time loop: tick k at k·h after the start by the wall clock, the frames
 /// received since the last tick fed first (with the tick's time, as the firmware does);
 /// a late tick runs at once, so the controller's time stays k·h.
-fn serve<F: Feedforward + Replan, C: Correction>(
-    mut controller: Controller<Injectable<F>, C>,
+fn serve<F, C, K, const A: usize>(
+    mut controller: Controller<Injectable<F>, C, K, A>,
     setup: Setup,
-) -> Result<(), String> {
+) -> Result<(), String>
+where
+    F: Feedforward<A> + Replan<A>,
+    C: AxesCorrection<A>,
+    K: FirmwareCrane<A>,
+    Axes<A>: ReferenceOf,
+{
     let config = *controller.config();
     let period = Duration::from_millis(u64::from(config.period_ms));
     let stop = Arc::new(AtomicBool::new(false));

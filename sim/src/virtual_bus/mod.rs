@@ -412,12 +412,25 @@ impl VirtualBus {
     /// length), and the scenario (with its plant and inclinometer, if it has one).
     #[must_use]
     pub fn new(scenario: Scenario, start: [f64; 2]) -> Self {
+        VirtualBus::with_drives(scenario, PLANAR, start)
+    }
+}
+
+impl<const A: usize> VirtualBus<A> {
+    /// A freshly powered drive for each of `drives` (at its stock node, about to send
+    /// its boot-up message), the load resting with the drives at `start` (each drive's
+    /// position, same order: at rest the load hangs under trolley and bridge, as deep as
+    /// the rope is long), and the scenario's events. The scenario's plant and
+    /// inclinometer (feature `plant`) are the planar crane's (the paper's lab crane): on
+    /// another crane the drives follow their set points exactly, and
+    /// [`VirtualBus::simulates_scenario`] says the scenario is not what runs.
+    #[must_use]
+    pub fn with_drives(scenario: Scenario, drives: [Drive; A], start: [f64; A]) -> Self {
         #[cfg(feature = "plant")]
-        let (plant, inclinometer) = {
-            let [x, l] = start;
-            let crane = CraneParams::PAPER;
-            let plant = scenario.plant.map(|mismatch| {
-                Plant::at_rest(
+        let (plant, inclinometer) = match (scenario.plant, drives.as_slice(), start.as_slice()) {
+            (Some(mismatch), [Drive::Trolley, Drive::Winch], &[x, l]) => {
+                let crane = CraneParams::PAPER;
+                let plant = Plant::at_rest(
                     x,
                     l,
                     0.0,
@@ -425,38 +438,20 @@ impl VirtualBus {
                     crane.g,
                     crane.m,
                     mismatch,
-                )
-            });
-            let sensor = scenario
-                .plant
-                .map(|_| InclinometerSim::new(InclinometerSetup::STOCK.node));
-            (plant, sensor)
+                );
+                let sensor = InclinometerSim::new(InclinometerSetup::STOCK.node);
+                (Some(plant), Some(sensor))
+            }
+            _ => (None, None),
         };
-        Self {
-            #[cfg(feature = "plant")]
-            plant,
-            #[cfg(feature = "plant")]
-            inclinometer,
-            ..VirtualBus::with_drives(scenario, PLANAR, start)
-        }
-    }
-}
-
-impl<const A: usize> VirtualBus<A> {
-    /// A freshly powered drive for each of `drives` (at its stock node, about to send
-    /// its boot-up message), the load resting with the drives at `start` (each drive's
-    /// position, same order), and the scenario's events — no plant: the drives follow
-    /// their set points exactly.
-    #[must_use]
-    pub fn with_drives(scenario: Scenario, drives: [Drive; A], start: [f64; A]) -> Self {
         let mut at = start.into_iter();
         Self {
             order: drives,
             drives: drives.map(|d| DriveSim::new(d.node(), at.next().unwrap_or(0.0))),
             #[cfg(feature = "plant")]
-            plant: None,
+            plant,
             #[cfg(feature = "plant")]
-            inclinometer: None,
+            inclinometer,
             traffic: scenario.random.map(Traffic::new),
             scenario,
             next_event: 0,
@@ -477,6 +472,17 @@ impl<const A: usize> VirtualBus<A> {
     #[must_use]
     pub fn scenario(&self) -> &Scenario {
         &self.scenario
+    }
+
+    /// Whether the bus simulates what the scenario asks for: a scenario with a plant
+    /// needs the planar crane's drives and the feature `plant`.
+    #[must_use]
+    pub fn simulates_scenario(&self) -> bool {
+        #[cfg(feature = "plant")]
+        let plant = self.plant.is_some();
+        #[cfg(not(feature = "plant"))]
+        let plant = false;
+        self.scenario.plant.is_none() || plant
     }
 
     /// A simulated drive (`None`: the crane has no such drive).
