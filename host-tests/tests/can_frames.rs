@@ -25,7 +25,7 @@ fn decode(frame: &CanFrame) -> host_tests::dbc::Decoded {
 #[test]
 fn dbc_parses_and_covers_every_frame() {
     let dbc = Dbc::crane().unwrap();
-    assert_eq!(dbc.messages(), 28);
+    assert_eq!(dbc.messages(), 35);
     let frames = [
         nmt::command(NmtCommand::Start, 0),
         canopen::sync(),
@@ -61,6 +61,18 @@ fn dbc_parses_and_covers_every_frame() {
         CanFrame::new(0x583, &[0x43, 0, 0x10, 0, 0x9A, 1, 1, 0]).unwrap(),
         canopen::heartbeat(3, NmtState::Operational),
         canopen::emcy(3, 0x5000, 0x01, [0; 5]),
+        // The 3D crane's bridge drive (node 4): every frame of a drive.
+        pdo::rpdo1(
+            Drive::Bridge.node(),
+            0x000F,
+            controller::setpoint::Setpoint::ZERO,
+        ),
+        pdo::tpdo1(Drive::Bridge.node(), 0x0237, 0),
+        pdo::tpdo2(Drive::Bridge.node(), 14_000_000, 9),
+        CanFrame::new(0x604, &[0x40, 0, 0x10, 0, 0, 0, 0, 0]).unwrap(),
+        CanFrame::new(0x584, &[0x43, 0, 0x10, 0, 0x92, 1, 2, 0]).unwrap(),
+        canopen::heartbeat(Drive::Bridge.node(), NmtState::Operational),
+        canopen::emcy(Drive::Bridge.node(), 0x2310, 0x03, [0; 5]),
         request_frame(&Request::Stop { id: 1 }),
         request_frame(&Request::Move3d {
             id: 2,

@@ -99,5 +99,8 @@ fn every_crane_scene_gets_the_firmwares_controller() {
         spatial += usize::from(drives == 3);
         checked += 1;
     }
-    assert!(checked >= 5, "{checked} scenes, {spatial} in 3D");
+    assert!(
+        checked >= 6 && spatial >= 1,
+        "{checked} scenes, {spatial} in 3D"
+    );
 }

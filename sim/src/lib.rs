@@ -26,10 +26,10 @@ pub mod traffic;
 pub mod virtual_bus;
 
 pub use scenario::{
-    scenario, Action, Ending, Event, Quirk, RawFrame, Scenario, SensorFault, BUS_OFF, CLOSED_LOOP,
-    DRIVE_FAULT, FEEDBACK_SCENARIOS, GUST, HANG, HEALTHY, INCLINOMETER_LOST, INCLINOMETER_STUCK,
-    LOST_HEARTBEAT, MISMATCHED, NEWTON_FAILURE, REJECTIONS, SCENARIOS, SOAK, STOP, STORM,
-    TWO_MOVES,
+    scenario, Action, Ending, Event, Quirk, RawFrame, Scenario, SensorFault, BRIDGE_FAULT, BUS_OFF,
+    CLOSED_LOOP, CRANE3D_SCENARIOS, DRIVE_FAULT, FEEDBACK_SCENARIOS, GUST, HANG, HEALTHY,
+    INCLINOMETER_LOST, INCLINOMETER_STUCK, LOST_HEARTBEAT, MISMATCHED, NEWTON_FAILURE, REJECTIONS,
+    SCENARIOS, SOAK, STOP, STORM, TWO_MOVES,
 };
 #[cfg(feature = "plant")]
 pub use virtual_bus::InclinometerSim;

@@ -183,10 +183,10 @@ const fn at(at_ms: u32, action: Action) -> Event {
     Event { at_ms, action }
 }
 
-/// The paper's move and nothing else: healthy drives.
+/// The scene's move and nothing else: healthy drives.
 pub const HEALTHY: Scenario = Scenario {
     name: "healthy",
-    expect: "ready, at rest at (20, 4)",
+    expect: "ready, at rest at the move's target",
     events: &[],
     cycles: 0,
     random: None,
@@ -266,6 +266,21 @@ pub const DRIVE_FAULT: Scenario = Scenario {
     plant: None,
 };
 
+/// The 3D crane's bridge drive faults in the middle of the move: quick stop, halted;
+/// then a reset.
+pub const BRIDGE_FAULT: Scenario = Scenario {
+    name: "bridge-fault",
+    expect: "ready, at rest; the bridge's fault at 5 s: quick stop, halted, reset at 8 s",
+    events: &[
+        at(5_000, Action::DriveFault(Drive::Bridge)),
+        at(8_000, Action::Request(Request::Reset { id: 1 })),
+    ],
+    cycles: 1_000,
+    random: None,
+    ends: Ending::Ready,
+    plant: None,
+};
+
 /// The inverse model fails in the middle of the move: controlled stop, halted.
 pub const NEWTON_FAILURE: Scenario = Scenario {
     name: "newton-failure",
@@ -292,7 +307,7 @@ pub const LOST_HEARTBEAT: Scenario = Scenario {
 /// second before the move would have ended.
 pub const STOP: Scenario = Scenario {
     name: "stop",
-    expect: "ready, at rest short of (20, 4) after a smooth stop from 4 s to 8 s",
+    expect: "ready, at rest on the path short of the target after a smooth stop from 4 s to 8 s",
     events: &[at(4_000, Action::Request(Request::Stop { id: 1 }))],
     cycles: 0,
     random: None,
@@ -419,6 +434,11 @@ pub const INCLINOMETER_STUCK: Scenario = Scenario {
 pub const FEEDBACK_SCENARIOS: [Scenario; 4] =
     [CLOSED_LOOP, GUST, INCLINOMETER_LOST, INCLINOMETER_STUCK];
 
+/// The scenarios the 3D crane's scene is checked on besides its own move (healthy): a
+/// stop, the bridge drive's fault, a drive's lost heartbeat (the trolley's, which the
+/// 3D crane has too).
+pub const CRANE3D_SCENARIOS: [Scenario; 3] = [STOP, BRIDGE_FAULT, LOST_HEARTBEAT];
+
 /// The soak run: random valid and invalid requests, garbage and faults after the
 /// paper's move, for as many cycles as asked (`cargo xtask soak --minutes M`; one
 /// simulated minute by default).
@@ -438,6 +458,7 @@ pub fn scenario(name: &str) -> Option<Scenario> {
     SCENARIOS
         .into_iter()
         .chain(FEEDBACK_SCENARIOS)
+        .chain(CRANE3D_SCENARIOS)
         .chain([SOAK])
         .find(|s| s.name == name)
 }

@@ -303,8 +303,9 @@ fn decode_log(elf: &std::path::Path, log: &std::path::Path) -> Result<(), String
     Ok(())
 }
 
-/// Both scenes on the healthy bus, then the default scene through every scenario of
-/// the virtual bus (docs/COMMANDS.md).
+/// Every scene on the healthy bus, then the default scene through every scenario of the
+/// virtual bus (docs/COMMANDS.md), the feedback scene through its scenarios on the plant,
+/// and the 3D crane's scene through its own.
 fn qemu_checks(overwrite: bool) -> Result<(), String> {
     for scene in qemu::SCENES {
         let m = qemu::measure(scene)?;
@@ -319,6 +320,10 @@ fn qemu_checks(overwrite: bool) -> Result<(), String> {
     }
     for scenario in sim::FEEDBACK_SCENARIOS {
         let m = qemu::measure_scenario(qemu::FEEDBACK_SCENE, scenario)?;
+        qemu::check(&m, overwrite)?;
+    }
+    for scenario in sim::CRANE3D_SCENARIOS {
+        let m = qemu::measure_scenario(qemu::CRANE3D_SCENE, scenario)?;
         qemu::check(&m, overwrite)?;
     }
     Ok(())

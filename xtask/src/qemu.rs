@@ -19,8 +19,17 @@ use crate::firmware::{self, parse_cost, parse_tx, readable_log, root, Board, Ste
 /// The scenes the firmware is checked on: the default (BDF4) and the firmware's Radau,
 /// RADAU5's transformed Newton — under QEMU it beats the paper's J̃10 and the exact
 /// Jacobian in both the mean and the worst cycle (`cargo xtask qemu-bench`,
-/// docs/RESULTS.md).
-pub const SCENES: [&str; 2] = ["scenes/paper-crane.toml", "scenes/paper-crane-radau5.toml"];
+/// docs/RESULTS.md) — then the same two for the crane in three dimensions (bridge,
+/// trolley, hoist; its own folder, with its commissioning file).
+pub const SCENES: [&str; 4] = [
+    "scenes/paper-crane.toml",
+    "scenes/paper-crane-radau5.toml",
+    CRANE3D_SCENE,
+    "scenes/crane3d/crane3d-radau5.toml",
+];
+
+/// The 3D crane's default scene, on which its scenarios run (`sim::CRANE3D_SCENARIOS`).
+pub const CRANE3D_SCENE: &str = "scenes/crane3d/crane3d.toml";
 
 /// Scenes `qemu-bench` measures beside [`SCENES`], with no golden log or baseline:
 /// other solver configurations a user may choose for the MCU, among them the paper's
@@ -313,7 +322,8 @@ pub fn compare_with_host(m: &Measured) -> Result<(), String> {
     }
     let mut worst = 0i64;
     for ((t0, id0, d0), (t1, id1, d1)) in expected.iter().zip(&got) {
-        let rpdo = (cob::RPDO1 + 1..=cob::RPDO1 + 2).contains(id0);
+        // A drive's set point (RPDO1 of a drive node: 6 bytes, controlword and 0x60FF).
+        let rpdo = (cob::RPDO1 + 1..=cob::RPDO1 + 0x7F).contains(id0) && d0.len() == 6;
         let same_frame = t0 == t1 && id0 == id1 && d0.len() == d1.len();
         if rpdo && same_frame && d0.get(..2) == d1.get(..2) {
             let v = |d: &[u8]| i64::from(i32::from_le_bytes([d[2], d[3], d[4], d[5]]));
@@ -415,8 +425,17 @@ pub fn table(runs: &[Measured]) -> String {
         // The feedback scene has none: its QEMU build also links the simulated plant and
         // inclinometer, and the targets were set for the feedforward controller.
         let settings = &m.scene.solver;
+        let spatial = matches!(m.scene.model, scene::ModelSpec::Crane3dSubs(_));
         let target = match settings.scheme {
             _ if m.scene.feedback.is_some() => "— (feedback)",
+            // Issue 19's for the 3D crane's whole tick.
+            scene::SchemeSpec::Radau
+                if spatial && settings.newton == scene::NewtonSpec::Transformed =>
+            {
+                "20,000"
+            }
+            scene::SchemeSpec::Bdf if spatial && settings.k == 4 => "6,000",
+            _ if spatial => "—",
             scene::SchemeSpec::Radau if settings.newton == scene::NewtonSpec::Transformed => {
                 "25,000 (mean 12,000)"
             }
@@ -432,7 +451,7 @@ pub fn table(runs: &[Measured]) -> String {
         // Issue 20's targets for the inverse model's step alone (with the firmware's
         // `Plan`), BDF4 and RADAU5.
         let solver_target = match settings.scheme {
-            _ if m.scene.feedback.is_some() => "—",
+            _ if m.scene.feedback.is_some() || spatial => "—",
             scene::SchemeSpec::Radau if settings.newton == scene::NewtonSpec::Transformed => {
                 "1,600 / 2,500"
             }
