@@ -4,10 +4,12 @@
 //! so the link fails if any panicking branch survives optimisation. The binary drives
 //! every entry point the firmware calls — `Controller::restarted_by_watchdog`,
 //! `demonstration_commanded`, `on_frame`, `tick`, `record_cost`, `transmit_failed` — for
-//! every model and scheme a scene can choose (crane *subs* and *proj*, BDF — with the
-//! run-time modes and the structured exact Newton — and Radau IIA, every Jacobian mode
-//! through the settings), with and without the state feedback (its gain design
-//! included), with every input (frames, times, costs, settings, parameters, the first
+//! every model and scheme a scene can choose — the list comes from the firmware's one
+//! registration of them (`scene::dispatch::FirmwareScheme::every`, through the build
+//! script): the planar crane *subs* and *proj* and the 3D crane, BDF with the run-time
+//! modes and the structured exact Newton, Radau IIA, every Jacobian mode through the
+//! settings — with and without the state feedback (its gain design included; the 3D
+//! crane's controller feedforward only), with every input (frames, times, costs, settings, parameters, the first
 //! move) hidden behind `black_box`, so that nothing is proven for constants only.
 //! Built with the firmware's release profile for the drive's target:
 //! `cargo xtask panic-proof`. What it does not cover — the board, RTIC and defmt — is
@@ -17,10 +19,12 @@
 
 use core::hint::black_box;
 
-use controller::commissioning::{InclinometerSetup, NodeSetup};
-use controller::feedback::{self, Correction, StateFeedback};
-use controller::feedforward::command_plan;
-use controller::planner::Planner;
+use controller::commissioning::{DriveSetup, InclinometerSetup, NodeSetup};
+use controller::correction::AxesCorrection;
+use controller::drive::Drive;
+use controller::feedback::{self, NoFeedback, StateFeedback};
+use controller::feedforward::{command_plan, Axes, ReferenceOf};
+use controller::planner::{Crane, Planner};
 use controller::setpoint::DriveLimits;
 use controller::{CanFrame, Config, Controller, Feedforward, InverseModel, Replan};
 use cortex_m_rt::entry;
@@ -38,25 +42,35 @@ fn panic(_: &core::panic::PanicInfo) -> ! {
     }
 }
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_proj::{self, CraneProj};
-use solver_core::models::crane_subs::{self, CraneSubs};
+use solver_core::models::crane3d::Crane3dParams;
 use solver_core::plan::Plan;
 use solver_core::trajectory::PointToPoint;
 use solver_core::{Error, JacobianMode, SolverSettings};
 
-/// The firmware's plan.
-type P = Plan<f64, 2>;
-type Subs = CraneSubs<f64, P>;
-type Proj = CraneProj<f64, P>;
+/// A crane the firmware drives, as the proof runs it: its parameters, its first plan
+/// (rest, then a move) and its controller, all from opaque inputs.
+trait Proven<const A: usize>: Crane<A> + Sized
+where
+    Axes<A>: ReferenceOf,
+{
+    /// The crane's parameters, opaque.
+    fn params() -> Self;
+    /// The first plan: rest, then a move, from opaque inputs.
+    fn plan() -> Result<Plan<f64, A>, Error>;
+    /// The controller on `feedforward` (with the state feedback where the crane has one,
+    /// as the scene says), its entry points run on opaque inputs.
+    fn run<F: Feedforward<A> + Replan<A>>(feedforward: F) -> !;
+}
 
-/// The first plan: rest, then a move, all from opaque inputs.
-fn plan() -> Result<Plan<f64, 2>, Error> {
-    let [x0, z0, x1, z1, t0, d]: [f64; 6] = black_box([12.0, 8.0, 20.0, 4.0, 1.0, 8.0]);
+/// The first plan of a crane resting at `start`, moving to `end` (opaque).
+fn plan_of<const A: usize>(start: [f64; A], end: [f64; A]) -> Result<Plan<f64, A>, Error> {
+    let (start, end) = black_box((start, end));
+    let [t0, d]: [f64; 2] = black_box([1.0, 8.0]);
     let n: usize = black_box(4);
-    let mut plan = command_plan([x0, z0], n)?;
+    let mut plan = command_plan(start, n)?;
     plan.push(PointToPoint::new(
-        SVector::from([x0, z0]),
-        SVector::from([x1, z1]),
+        SVector::from(start),
+        SVector::from(end),
         t0,
         d,
         n,
@@ -64,31 +78,70 @@ fn plan() -> Result<Plan<f64, 2>, Error> {
     Ok(plan)
 }
 
-/// The controller on `feedforward`, with or without the state feedback (as the scene
-/// says), its entry points run on opaque inputs.
-fn run<F: Feedforward + Replan>(feedforward: F) -> ! {
-    let params: CraneParams = black_box(CraneParams::PAPER);
-    let limits: DriveLimits = black_box(DriveLimits::LAB);
-    let config: Config = black_box(Config::DEFAULT);
-    let planner = Planner::new(params, limits);
-    if black_box(true) {
-        let Ok(feedback) = StateFeedback::new(black_box(feedback::Config::PAPER)) else {
-            halt()
+impl Proven<2> for CraneParams {
+    fn params() -> Self {
+        black_box(CraneParams::PAPER)
+    }
+    fn plan() -> Result<Plan<f64, 2>, Error> {
+        plan_of([12.0, 8.0], [20.0, 4.0])
+    }
+    fn run<F: Feedforward + Replan>(feedforward: F) -> ! {
+        let limits: DriveLimits = black_box(DriveLimits::LAB);
+        let config: Config = black_box(Config::DEFAULT);
+        let planner = Planner::new(Self::params(), limits);
+        if black_box(true) {
+            let Ok(feedback) = StateFeedback::new(black_box(feedback::Config::PAPER)) else {
+                halt()
+            };
+            let config =
+                config.with_node(NodeSetup::Inclinometer(black_box(InclinometerSetup::STOCK)));
+            drive(Controller::with_correction(
+                feedforward,
+                feedback,
+                planner,
+                config,
+            ))
+        } else {
+            drive(Controller::new(feedforward, planner, config))
+        }
+    }
+}
+
+/// The 3D crane: feedforward only (its state feedback is not built yet).
+impl Proven<3> for Crane3dParams {
+    fn params() -> Self {
+        black_box(Crane3dParams::EXAMPLE)
+    }
+    fn plan() -> Result<Plan<f64, 3>, Error> {
+        plan_of([12.0, 3.0, 8.0], [20.0, 6.0, 4.0])
+    }
+    fn run<F: Feedforward<3> + Replan<3>>(feedforward: F) -> ! {
+        let limits = black_box(DriveLimits::LAB_3D);
+        let bridge = DriveSetup {
+            node: 4,
+            ..DriveSetup::TROLLEY
         };
-        let config = config.with_node(NodeSetup::Inclinometer(black_box(InclinometerSetup::STOCK)));
+        let config: Config = black_box(
+            Config::DEFAULT.with_node(NodeSetup::Drive(Drive::Bridge, black_box(bridge))),
+        );
+        let planner = Planner::with_axes(Self::params(), limits);
         drive(Controller::with_correction(
             feedforward,
-            feedback,
+            NoFeedback,
             planner,
             config,
         ))
-    } else {
-        drive(Controller::new(feedforward, planner, config))
     }
 }
 
 /// Runs the controller's entry points on opaque inputs, forever.
-fn drive<F: Feedforward + Replan, C: Correction>(mut controller: Controller<F, C>) -> ! {
+fn drive<F, C, K, const A: usize>(mut controller: Controller<F, C, K, A>) -> !
+where
+    F: Feedforward<A> + Replan<A>,
+    C: AxesCorrection<A>,
+    K: Crane<A>,
+    Axes<A>: ReferenceOf,
+{
     if black_box(false) {
         controller.restarted_by_watchdog();
     }
@@ -120,51 +173,31 @@ fn halt() -> ! {
     }
 }
 
-/// Builds the model on the first plan and the integrator `$integrator` on it, then runs
-/// the controller on them.
+/// Builds the crane `$crane`'s model `$model` on its first plan and the integrator
+/// `$integrator` on it (`$new`, with the model as `$m` and `settings`, `k`, `t0` in
+/// scope), then runs the controller on them.
 macro_rules! prove {
-    ($model:ty, |$m:ident| $new:expr) => {{
-        let Ok(plan) = plan() else { halt() };
-        let Ok(model) = <$model>::new(black_box(CraneParams::PAPER), plan) else {
+    ($crane:ty, $axes:literal, $model:ty, $integrator:ty, |$m:ident| $new:expr) => {{
+        type Integrator = $integrator;
+        let Ok(plan) = <$crane as Proven<$axes>>::plan() else {
             halt()
         };
-        let $m = &model;
+        let Ok($m) = <$model>::new(<$crane as Proven<$axes>>::params(), plan) else {
+            halt()
+        };
         let Ok(integrator) = ($new) else { halt() };
-        run(InverseModel::new(model, integrator))
+        <$crane as Proven<$axes>>::run(InverseModel::new($m, integrator))
     }};
 }
 
-/// Every integrator the firmware links, one per row of `scene::dispatch::FirmwareScheme`
-/// (the build script names them from there).
+include!(concat!(env!("OUT_DIR"), "/proofs.rs"));
+
+/// Every integrator the firmware can link (`scene::dispatch::FirmwareScheme::every`, the
+/// build script's list), for the crane it drives.
 #[entry]
 fn main() -> ! {
     let settings: SolverSettings = black_box(SolverSettings::paper(JacobianMode::Exact));
     let k: usize = black_box(4);
     let t0: f64 = black_box(0.0);
-    match black_box(0_u8) {
-        0 => prove!(Subs, |m| crane_subs::StructuredBdf::<f64, P>::new(
-            m, &settings, k, t0
-        )),
-        1 => prove!(Subs, |m| {
-            crane_subs::StructuredBdfUncorrected::<f64, P>::new(m, &settings, k, t0)
-        }),
-        2 => prove!(Subs, |m| crane_subs::Bdf::<f64, P>::new(
-            m, &settings, k, t0
-        )),
-        3 => prove!(Subs, |m| crane_subs::StructuredRadau5::<f64, P>::new(
-            m, &settings, t0
-        )),
-        4 => prove!(Subs, |m| crane_subs::RadauFull::<f64, P>::new(
-            m, &settings, t0
-        )),
-        5 => prove!(Proj, |m| crane_proj::Bdf::<f64, P>::new(
-            m, &settings, k, t0
-        )),
-        6 => prove!(Proj, |m| crane_proj::Radau5::<f64, P>::new(
-            m, &settings, t0
-        )),
-        _ => prove!(Proj, |m| crane_proj::RadauFull::<f64, P>::new(
-            m, &settings, t0
-        )),
-    }
+    prove_every(black_box(0), settings, k, t0)
 }

@@ -304,6 +304,48 @@ impl FirmwareScheme {
         Ok(Self { model, integrator })
     }
 
+    /// Every integrator the firmware can link, model by model (BDF with k = 4; the
+    /// proofs hold k opaque): what the link-time panic proof proves (`panic-proof/`'s
+    /// build script writes one arm per entry). [`FirmwareScheme::of`] names nothing else.
+    #[must_use]
+    pub fn every() -> Vec<FirmwareScheme> {
+        use FirmwareIntegrator as I;
+        [
+            FirmwareModel::CraneSubs,
+            FirmwareModel::CraneProj,
+            FirmwareModel::Crane3dSubs,
+        ]
+        .into_iter()
+        .flat_map(|model| {
+            let integrators: &[FirmwareIntegrator] = if model.structured() {
+                &[
+                    I::StructuredBdf(4),
+                    I::StructuredBdfUncorrected(4),
+                    I::Bdf(4),
+                    I::StructuredRadau5,
+                    I::RadauFull,
+                ]
+            } else {
+                &[I::Bdf(4), I::Radau5, I::RadauFull]
+            };
+            integrators
+                .iter()
+                .map(move |&integrator| FirmwareScheme { model, integrator })
+        })
+        .collect()
+    }
+
+    /// The crane's parameter type ([`FirmwareCrane::TYPE`]) and its driven axes.
+    #[must_use]
+    pub fn crane(self) -> (&'static str, usize) {
+        match self.model {
+            FirmwareModel::CraneSubs | FirmwareModel::CraneProj => {
+                (<CraneParams as FirmwareCrane<2>>::TYPE, 2)
+            }
+            FirmwareModel::Crane3dSubs => (<Crane3dParams as FirmwareCrane<3>>::TYPE, 3),
+        }
+    }
+
     /// Whether the Newton systems are solved by the model's structured elimination.
     #[must_use]
     pub fn structured(self) -> bool {
@@ -332,6 +374,7 @@ impl FirmwareScheme {
                 Some(k) => format!("Integrator::new(&model, &SETTINGS, {k}, 0.0)"),
                 None => "Integrator::new(&model, &SETTINGS, 0.0)".into(),
             },
+            multistep: k.is_some(),
             scheme: match k {
                 Some(k) => format!("BDF{k}"),
                 None => "Radau IIA".into(),
@@ -605,6 +648,8 @@ pub struct FirmwareTypes {
     pub unknowns: String,
     /// The expression that builds the integrator.
     pub new: String,
+    /// Whether it is BDF (its constructor takes k).
+    pub multistep: bool,
     /// The scheme, for logs.
     pub scheme: String,
 }
@@ -747,6 +792,53 @@ mod tests {
             );
         }
         assert!(FirmwareScheme::of(&scene("mass-on-car", "scheme = \"bdf\"")).is_err());
+    }
+
+    /// Whatever the scene's solver settings, the firmware's integrator is one of those
+    /// the panic proof proves ([`FirmwareScheme::every`], up to BDF's k).
+    #[test]
+    fn every_firmware_integrator_is_proven() {
+        let every = FirmwareScheme::every();
+        let mut seen = 0;
+        for kind in ["crane-subs", "crane-proj", "crane3d-subs"] {
+            for solver in [
+                "scheme = \"bdf\"\njacobian = \"exact\"",
+                "scheme = \"bdf\"\njacobian = \"fd\"",
+                "scheme = \"bdf\"\njacobian = \"broyden\"",
+                "scheme = \"radau\"\njacobian = \"exact\"",
+                "scheme = \"radau\"\njacobian = \"exact\"\nnewton = \"transformed\"",
+                "scheme = \"radau\"\njacobian = \"fd\"",
+            ] {
+                for h in [0.002, 0.01] {
+                    let mut s = scene(kind, solver);
+                    s.solver.h = h;
+                    let mut f = FirmwareScheme::of(&s).unwrap();
+                    f.integrator = match f.integrator {
+                        FirmwareIntegrator::StructuredBdf(_) => {
+                            FirmwareIntegrator::StructuredBdf(4)
+                        }
+                        FirmwareIntegrator::StructuredBdfUncorrected(_) => {
+                            FirmwareIntegrator::StructuredBdfUncorrected(4)
+                        }
+                        FirmwareIntegrator::Bdf(_) => FirmwareIntegrator::Bdf(4),
+                        other => other,
+                    };
+                    assert!(every.contains(&f), "{kind} {solver} h = {h}: {f:?}");
+                    seen += 1;
+                }
+            }
+        }
+        assert_eq!(seen, 36);
+        // And each is built for its own crane.
+        for f in every {
+            let (crane, axes) = f.crane();
+            assert_eq!(axes, f.model.axes());
+            assert!(crane.ends_with(if axes == 3 {
+                "Crane3dParams"
+            } else {
+                "CraneParams"
+            }));
+        }
     }
 
     /// Each crane builds the integrators of its own models only: another crane's scheme
