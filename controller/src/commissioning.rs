@@ -192,6 +192,33 @@ pub struct InclinometerSetup {
     pub sign: f64,
     /// The slope at φ = 0 (the load hanging still), degrees: the mounting offset.
     pub offset_deg: f64,
+    /// The second axis, *slope lateral16* (0x6020), of a two-axis inclinometer: the 3D
+    /// crane's swing across the bridge (the rope's slope in the y–z plane). `None`: one
+    /// axis (the planar crane's).
+    pub lateral: Option<LateralAxis>,
+}
+
+/// How *slope lateral16* becomes the swing in the y–z plane: its sign and mounting
+/// offset, as for the long axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LateralAxis {
+    /// +1° of slope is `sign · 1°` of the swing.
+    pub sign: f64,
+    /// The slope with the load hanging still, degrees.
+    pub offset_deg: f64,
+}
+
+/// The swing angles an inclinometer measured, rad: in the plane of the long axis (the
+/// planar crane's φ of Eq. 20; the 3D crane's x–z plane), and across it (the 3D
+/// crane's y–z plane) where the inclinometer has two axes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Swing {
+    /// From *slope long16*.
+    pub long: f64,
+    /// From *slope lateral16*.
+    pub lateral: Option<f64>,
 }
 
 impl InclinometerSetup {
@@ -203,13 +230,49 @@ impl InclinometerSetup {
         heartbeat_ms: 100,
         sign: 1.0,
         offset_deg: 0.0,
+        lateral: None,
+    };
+
+    /// A stock two-axis CiA 410 inclinometer at node 3 (the 3D crane's): as
+    /// [`InclinometerSetup::STOCK`], its lateral slope the swing across the bridge.
+    pub const STOCK_TWO_AXES: Self = Self {
+        lateral: Some(LateralAxis {
+            sign: 1.0,
+            offset_deg: 0.0,
+        }),
+        ..Self::STOCK
     };
 
     /// The swing angle φ, rad, from a *slope long16* value.
     #[must_use]
     pub fn angle(&self, slope: i16) -> f64 {
+        self.degrees_to_angle(slope, self.sign, self.offset_deg)
+    }
+
+    /// The swing angles from a TPDO1's slopes ([`cia410::Slopes`]): the lateral one
+    /// where both the setup and the frame have it.
+    #[must_use]
+    pub fn swing(&self, slopes: cia410::Slopes) -> Swing {
+        Swing {
+            long: self.angle(slopes.long),
+            lateral: match (self.lateral, slopes.lateral) {
+                (Some(axis), Some(slope)) => {
+                    Some(self.degrees_to_angle(slope, axis.sign, axis.offset_deg))
+                }
+                _ => None,
+            },
+        }
+    }
+
+    fn degrees_to_angle(&self, slope: i16, sign: f64, offset_deg: f64) -> f64 {
         let degrees = f64::from(slope) * f64::from(self.resolution) * 1e-3;
-        (self.sign * (degrees - self.offset_deg)).to_radians()
+        (sign * (degrees - offset_deg)).to_radians()
+    }
+
+    /// Whether TPDO1 maps both slopes.
+    #[must_use]
+    pub fn two_axes(&self) -> bool {
+        self.lateral.is_some()
     }
 }
 
@@ -218,17 +281,23 @@ impl Device for InclinometerSetup {
     fn node(&self) -> u8 {
         self.node
     }
-    /// 0x6000 *resolution*, TPDO1 (0x1800/0x1A00: *slope long16* 0x6010) synchronous on
-    /// every SYNC, heartbeat producer 0x1017.
+    /// 0x6000 *resolution*, TPDO1 (0x1800/0x1A00: *slope long16* 0x6010, and *slope
+    /// lateral16* 0x6020 for two axes) synchronous on every SYNC, heartbeat producer
+    /// 0x1017.
     fn configuration(&self, _controller: u8, _period_ms: u8) -> Vec<Write, MAX_WRITES> {
         let mut writes = Vec::new();
         let _ = writes.push(w(cia410::RESOLUTION, 0, u32::from(self.resolution), 2));
+        let mapping: &[u32] = if self.two_axes() {
+            &cia410::TPDO1_MAPPING_TWO_AXES
+        } else {
+            &cia410::TPDO1_MAPPING
+        };
         pdo(
             &mut writes,
             0x1800,
             0x1A00,
             0x180 + u32::from(self.node),
-            &cia410::TPDO1_MAPPING,
+            mapping,
         );
         let _ = writes.push(w(0x1017, 0, u32::from(self.heartbeat_ms), 2));
         writes
@@ -807,6 +876,50 @@ mod tests {
         // RPDO1 of node 2: disabled first, enabled last.
         assert_eq!(all[3], w(0x1400, 1, 0x8000_0202, 4));
         assert_eq!(all[9], w(0x1400, 1, 0x0000_0202, 4));
+    }
+
+    /// A two-axis inclinometer gets both slopes mapped into TPDO1 (long first, as the
+    /// controller decodes them); a one-axis one only slope long16. Its slopes become the
+    /// swing in both planes with each axis's own sign and offset.
+    #[test]
+    fn a_two_axis_inclinometer_maps_both_slopes() {
+        let one = InclinometerSetup::STOCK.configuration(0x10, 10);
+        let two = InclinometerSetup::STOCK_TWO_AXES.configuration(0x10, 10);
+        let mapped = |c: &Vec<Write, MAX_WRITES>| -> (u32, std::vec::Vec<u32>) {
+            let count = c
+                .iter()
+                .rev()
+                .find(|x| x.object == Object::new(0x1A00, 0))
+                .unwrap()
+                .value;
+            let entries = c
+                .iter()
+                .filter(|x| x.object.index == 0x1A00 && x.object.sub > 0)
+                .map(|x| x.value)
+                .collect();
+            (count, entries)
+        };
+        assert_eq!(mapped(&one), (1, vec![0x6010_0010]));
+        assert_eq!(mapped(&two), (2, vec![0x6010_0010, 0x6020_0010]));
+        let setup = InclinometerSetup {
+            lateral: Some(LateralAxis {
+                sign: -1.0,
+                offset_deg: 0.5,
+            }),
+            ..InclinometerSetup::STOCK
+        };
+        let swing = setup.swing(cia410::Slopes {
+            long: 150,
+            lateral: Some(250),
+        });
+        assert!((swing.long - 1.5_f64.to_radians()).abs() < 1e-15);
+        assert!((swing.lateral.unwrap() - (-2.0_f64).to_radians()).abs() < 1e-15);
+        // A one-axis setup reads no lateral swing, whatever the frame.
+        let one_axis = InclinometerSetup::STOCK.swing(cia410::Slopes {
+            long: 150,
+            lateral: Some(250),
+        });
+        assert_eq!(one_axis.lateral, None);
     }
 
     /// A drive that answers everything, but lies about one object.

@@ -529,9 +529,9 @@ where
         let node = u16::from(setup.node);
         let id = frame.id();
         if id == canopen::cob::TPDO1 + node {
-            match cia410::decode_tpdo1(frame) {
-                Ok(slope) if sensor.commissioning.phase() == Phase::Done => {
-                    sensor.angle = Some(setup.angle(slope));
+            match cia410::decode_tpdo1(frame, setup.two_axes()) {
+                Ok(slopes) if sensor.commissioning.phase() == Phase::Done => {
+                    sensor.angle = Some(setup.swing(slopes));
                     sensor.fresh = true;
                 }
                 Ok(_) => {}
@@ -1030,7 +1030,7 @@ where
     /// fresh.
     fn measurement(&mut self) -> Option<Measured<A>> {
         let now_ms = self.now_ms;
-        let phi = self.links.sensor_mut().and_then(|sensor| {
+        let swing = self.links.sensor_mut().and_then(|sensor| {
             let fresh = core::mem::take(&mut sensor.fresh);
             let healthy = sensor.healthy(now_ms, self.config.heartbeat_timeout_ms);
             sensor.angle.filter(|_| fresh && healthy)
@@ -1045,7 +1045,7 @@ where
             *slot = setup.position_offset
                 + setup.position_scale * f64::from(link.position.filter(|_| fresh)?);
         }
-        Some(Measured { position, phi })
+        Some(Measured { position, swing })
     }
 
     /// This cycle's set points before the gate: the inverse model's `u_d`, corrected by

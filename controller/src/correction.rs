@@ -7,6 +7,7 @@
 //! ([`Correction`]) keeps its own types (`Measurement`, `DriveLimits`), so each
 //! planar correction is an [`AxesCorrection<2>`] through the one blanket impl here.
 
+use crate::commissioning::Swing;
 use crate::feedback::{Correction, Degraded, Measurement, Mode, NoFeedback};
 use crate::feedforward::{Axes, ReferenceOf, ReferenceState};
 use crate::rope::RopeLength;
@@ -17,8 +18,10 @@ use crate::setpoint::{AxisLimits, DriveLimits};
 pub struct Measured<const A: usize> {
     /// Each drive's position actual, m, in the model's input order.
     pub position: [f64; A],
-    /// The swing angle, rad, if a fresh one came from a healthy inclinometer.
-    pub phi: Option<f64>,
+    /// The swing angles, rad, if fresh ones came from a healthy inclinometer: the planar
+    /// crane's φ (Eq. 20) is the long one, the 3D crane's swing in the x–z and y–z
+    /// planes the long and the lateral one.
+    pub swing: Option<Swing>,
 }
 
 /// The correction of a crane with `A` driven axes between the inverse model and the
@@ -60,7 +63,11 @@ impl<C: Correction> AxesCorrection<2> for C {
     ) -> ([f64; 2], Mode) {
         let measured = measured.map(|m| {
             let [x, l] = m.position;
-            Measurement { x, l, phi: m.phi }
+            Measurement {
+                x,
+                l,
+                phi: m.swing.map(|s| s.long),
+            }
         });
         let out = Correction::correct(
             self,

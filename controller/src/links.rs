@@ -7,7 +7,7 @@ use heapless::Vec;
 
 use crate::canopen::NmtState;
 use crate::cia402::{statusword, DriveState};
-use crate::commissioning::{Commissioning, InclinometerSetup, NodeSetup, Phase, MAX_NODES};
+use crate::commissioning::{Commissioning, InclinometerSetup, NodeSetup, Phase, Swing, MAX_NODES};
 use crate::config::Config;
 use crate::drive::{Drive, Order};
 use crate::fault::Implausibility;
@@ -341,8 +341,9 @@ pub(crate) struct SensorLink {
     pub(crate) commissioning: Commissioning<InclinometerSetup>,
     pub(crate) nmt: Option<NmtState>,
     pub(crate) last_heartbeat_ms: Option<u64>,
-    /// The angle of its last TPDO, rad, and whether it arrived since the last cycle.
-    pub(crate) angle: Option<f64>,
+    /// The swing angles of its last TPDO, rad, and whether it arrived since the last
+    /// cycle.
+    pub(crate) angle: Option<Swing>,
     pub(crate) fresh: bool,
     pub(crate) outbox: Option<CanFrame>,
     /// Seen operational since it was commissioned: a later pre-operational or stopped

@@ -33,13 +33,16 @@
 //! heartbeat_ms = 100             # written to its 0x1017
 //! sign = 1.0                     # +1 or -1: slope +1° is φ = sign · 1°
 //! offset_deg = 0.0               # the slope with the load hanging still
+//! axes = 1                       # 2: slope lateral16 (0x6020) too, mapped second in TPDO1
+//! lateral_sign = 1.0             # as sign, for the swing across (the 3D crane's y–z plane)
+//! lateral_offset_deg = 0.0       # as offset_deg, for the lateral slope
 //! ```
 
 use std::collections::BTreeSet;
 use std::path::Path;
 
 use controller::commissioning::{
-    DriveSetup, InclinometerSetup, NodeSetup, OperationMode, MAX_NODES,
+    DriveSetup, InclinometerSetup, LateralAxis, NodeSetup, OperationMode, MAX_NODES,
 };
 use controller::drive::{self, Drive, PLANAR};
 use controller::node::Role;
@@ -90,6 +93,11 @@ pub struct InclinometerSpec {
     pub heartbeat_ms: u16,
     pub sign: f64,
     pub offset_deg: f64,
+    /// 1: slope long16 only; 2: slope lateral16 too (the 3D crane's swing across the
+    /// bridge).
+    pub axes: u8,
+    pub lateral_sign: f64,
+    pub lateral_offset_deg: f64,
 }
 
 impl Default for InclinometerSpec {
@@ -101,6 +109,9 @@ impl Default for InclinometerSpec {
             heartbeat_ms: s.heartbeat_ms,
             sign: s.sign,
             offset_deg: s.offset_deg,
+            axes: 1,
+            lateral_sign: 1.0,
+            lateral_offset_deg: 0.0,
         }
     }
 }
@@ -288,7 +299,35 @@ impl CommissioningFile {
     /// `config` with the inclinometer of this file (for a scene with a state feedback),
     /// or the first of its fields that cannot work.
     pub fn with_inclinometer(&self, config: Config) -> Result<Config, SceneError> {
+        self.with_inclinometer_of(config, 1)
+    }
+
+    /// [`Self::with_inclinometer`] for a feedback that reads `axes` slopes (the 3D
+    /// crane's: 2, the swing in both vertical planes): an inclinometer with fewer is
+    /// refused.
+    pub fn with_inclinometer_of(&self, config: Config, axes: u8) -> Result<Config, SceneError> {
         let i = &self.inclinometer;
+        if !(1..=2).contains(&i.axes) {
+            return Err(refuse(
+                "inclinometer.axes".into(),
+                "1 (slope long16) or 2 (and slope lateral16)",
+            ));
+        }
+        if i.axes < axes {
+            return Err(refuse(
+                "inclinometer.axes".into(),
+                format!("this crane's feedback reads the swing in {axes} planes: a two-axis inclinometer, axes = 2"),
+            ));
+        }
+        if i.lateral_sign != 1.0 && i.lateral_sign != -1.0 {
+            return Err(refuse("inclinometer.lateral_sign".into(), "+1 or -1"));
+        }
+        if !(i.lateral_offset_deg.is_finite() && i.lateral_offset_deg.abs() < 90.0) {
+            return Err(refuse(
+                "inclinometer.lateral_offset_deg".into(),
+                "finite, within ±90°",
+            ));
+        }
         let taken =
             config.node == i.node || config.nodes.iter().flatten().any(|n| n.node() == i.node);
         if !(1..=127).contains(&i.node) || taken {
@@ -328,6 +367,10 @@ impl CommissioningFile {
             heartbeat_ms: i.heartbeat_ms,
             sign: i.sign,
             offset_deg: i.offset_deg,
+            lateral: (i.axes == 2).then_some(LateralAxis {
+                sign: i.lateral_sign,
+                offset_deg: i.lateral_offset_deg,
+            }),
         })) {
             return Err(refuse(
                 "inclinometer".into(),
@@ -590,6 +633,37 @@ mod tests {
         }
         let e = CommissioningFile::parse("[inclinometer]\nnod = 3").unwrap_err();
         assert!(e.to_string().contains("nod"), "{e}");
+    }
+
+    /// A feedback that reads the swing in both vertical planes (the 3D crane's) needs a
+    /// two-axis inclinometer; the lateral axis's fields are checked as the long one's.
+    #[test]
+    fn a_two_plane_feedback_needs_a_two_axis_inclinometer() {
+        let stock = CommissioningFile::parse("").unwrap();
+        let e = stock.with_inclinometer_of(Config::DEFAULT, 2).unwrap_err();
+        assert_eq!(e.field, "inclinometer.axes", "{e}");
+        let two = CommissioningFile::parse("[inclinometer]\naxes = 2\nlateral_offset_deg = 0.25")
+            .unwrap();
+        let c = two.with_inclinometer_of(Config::DEFAULT, 2).unwrap();
+        let lateral = c.inclinometer().unwrap().lateral.unwrap();
+        assert_eq!((lateral.sign, lateral.offset_deg), (1.0, 0.25));
+        // The planar feedback takes a two-axis inclinometer and reads its long axis.
+        assert!(two.with_inclinometer(Config::DEFAULT).is_ok());
+        for (text, field) in [
+            ("[inclinometer]\naxes = 3", "inclinometer.axes"),
+            (
+                "[inclinometer]\naxes = 2\nlateral_sign = 2.0",
+                "inclinometer.lateral_sign",
+            ),
+            (
+                "[inclinometer]\naxes = 2\nlateral_offset_deg = 91.0",
+                "inclinometer.lateral_offset_deg",
+            ),
+        ] {
+            let file = CommissioningFile::parse(text).unwrap();
+            let e = file.with_inclinometer_of(Config::DEFAULT, 2).unwrap_err();
+            assert_eq!(e.field, field, "{text}: {e}");
+        }
     }
 
     #[test]

@@ -206,8 +206,12 @@ pub fn config_source(config: &Config) -> Result<String, String> {
             format!("Some(controller::commissioning::NodeSetup::Drive(controller::drive::Drive::{axis:?}, {}))", drive(d))
         }
         Some(NodeSetup::Inclinometer(i)) => format!(
-            "Some(controller::commissioning::NodeSetup::Inclinometer(controller::commissioning::InclinometerSetup {{ node: {}, resolution: {}, heartbeat_ms: {}, sign: {:?}, offset_deg: {:?} }}))",
-            i.node, i.resolution, i.heartbeat_ms, i.sign, i.offset_deg
+            "Some(controller::commissioning::NodeSetup::Inclinometer(controller::commissioning::InclinometerSetup {{ node: {}, resolution: {}, heartbeat_ms: {}, sign: {:?}, offset_deg: {:?}, lateral: {} }}))",
+            i.node, i.resolution, i.heartbeat_ms, i.sign, i.offset_deg,
+            match i.lateral {
+                None => "None".to_string(),
+                Some(l) => format!("Some(controller::commissioning::LateralAxis {{ sign: {:?}, offset_deg: {:?} }})", l.sign, l.offset_deg),
+            }
         ),
     }
     };

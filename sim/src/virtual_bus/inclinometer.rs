@@ -76,8 +76,8 @@ pub struct InclinometerSim {
     boot_up_due: bool,
     od: Dictionary,
     fault: Option<SensorFault>,
-    /// The slope it reports, resolution units.
-    slope: i16,
+    /// The slopes it reports, long and lateral, resolution units.
+    slopes: [i16; 2],
     next_heartbeat_ms: u32,
 }
 
@@ -91,7 +91,7 @@ impl InclinometerSim {
             boot_up_due: true,
             od: Dictionary::new(node),
             fault: None,
-            slope: 0,
+            slopes: [0; 2],
             next_heartbeat_ms: 0,
         }
     }
@@ -143,9 +143,11 @@ impl InclinometerSim {
         sdo::serve(&mut self.od, self.node, data)
     }
 
-    /// SYNC: it samples `phi_deg` (the plant's sensed angle, °) and sends TPDO1 if
-    /// operational.
-    pub fn on_sync(&mut self, phi_deg: f64) -> Option<CanFrame> {
+    /// SYNC: it samples `slopes_deg` (the plant's sensed swing, °: in the plane of its
+    /// long axis, and across it) and sends TPDO1 if operational, with the slopes its
+    /// mapping (0x1A00, as the controller commissioned it) names: slope long16, and slope
+    /// lateral16 if mapped second. A fault offset tilts both axes alike.
+    pub fn on_sync(&mut self, slopes_deg: [f64; 2]) -> Option<CanFrame> {
         let offset_deg = match self.fault {
             Some(SensorFault::Lost) => return None,
             Some(SensorFault::Stuck) => None,
@@ -154,10 +156,19 @@ impl InclinometerSim {
         };
         if let Some(offset_deg) = offset_deg {
             let resolution = f64::from(self.od.get(0x6000, 0).max(1)) * 1e-3;
-            let slope = libm::round((phi_deg + offset_deg) / resolution);
-            self.slope = slope.clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16;
+            for (slope, deg) in self.slopes.iter_mut().zip(slopes_deg) {
+                let units = libm::round((deg + offset_deg) / resolution);
+                *slope = units.clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16;
+            }
         }
-        (self.nmt == NmtState::Operational).then(|| cia410::tpdo1(self.node, self.slope))
+        let [long, lateral] = self.slopes;
+        let two_axes = self.od.get(0x1A00, 0) >= 2
+            && self.od.get(0x1A00, 2) == cia410::TPDO1_MAPPING_TWO_AXES[1];
+        let slopes = cia410::Slopes {
+            long,
+            lateral: two_axes.then_some(lateral),
+        };
+        (self.nmt == NmtState::Operational).then(|| cia410::tpdo1(self.node, slopes))
     }
 
     /// Its boot-up message and heartbeats due by `now_ms`.

@@ -665,7 +665,8 @@ impl<const A: usize> VirtualBus<A> {
         }
         #[cfg(feature = "plant")]
         if let (Some(sensor), Some(phi_deg)) = (self.inclinometer.as_mut(), slope) {
-            if let Some(frame) = sensor.on_sync(phi_deg) {
+            // The planar crane swings in the plane of the long axis only.
+            if let Some(frame) = sensor.on_sync([phi_deg, 0.0]) {
                 self.deliver(frame);
             }
         }
