@@ -15,7 +15,8 @@ fuzz_target!(|input: (u16, Vec<u8>)| {
     };
     if let Ok(canopen::Incoming::Tpdo { frame, .. }) = canopen::decode(&frame) {
         let _ = cia402::pdo::Tpdo::decode(&frame);
-        let _ = cia410::decode_tpdo1(&frame);
+        let _ = cia410::decode_tpdo1(&frame, false);
+        let _ = cia410::decode_tpdo1(&frame, true);
     }
     if let Ok(request) = decode_request(frame.data()) {
         assert_eq!(request_frame(&request).data(), frame.data(), "{request:?}");
