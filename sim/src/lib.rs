@@ -8,7 +8,9 @@
 //!   CiA 410 inclinometer over a plant) that answer the controller frame by frame;
 //! * [`traffic`] — random traffic for the soak run, deterministic for a seed;
 //! * [`plant`] — a crane that is not the model (lags, friction, rope offset, gusts,
-//!   noisy late sensors) for the closed-loop runs.
+//!   noisy late sensors) for the closed-loop runs;
+//! * [`plant3d`] — the same for the 3D crane: bridge, trolley, hoist and a load
+//!   swinging in both planes, read by a two-axis inclinometer.
 
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
@@ -21,6 +23,7 @@
 )]
 
 pub mod plant;
+pub mod plant3d;
 pub mod scenario;
 pub mod traffic;
 pub mod virtual_bus;
