@@ -45,6 +45,7 @@ mod derivatives;
 pub mod drive;
 pub mod fault;
 pub mod feedback;
+pub mod feedback3d;
 pub mod feedforward;
 pub mod frame;
 mod links;

@@ -4,11 +4,14 @@
 pub mod crane3d_study;
 pub mod dbc;
 pub mod extremes;
+pub mod feedback3d_study;
 pub mod feedback_study;
 pub mod firmware;
 pub mod paper;
 /// The plant lives beside the virtual bus (the QEMU firmware runs it too).
 pub use sim::plant;
+/// The 3D crane's plant, beside the planar one.
+pub use sim::plant3d;
 pub mod plot;
 pub mod root_locus;
 pub mod run;
