@@ -181,9 +181,10 @@ where
         Some(config) => {
             let _ = writeln!(
                 c,
-                "/// Between the inverse model and the drives: the state feedback (Fig. 1).\npub type Correction = {};\n/// Its configuration: the scene's `[feedback]`.\npub const FEEDBACK: controller::feedback::Config = {};\n/// The feedback, its gains designed from the scene's weights.\npub fn correction() -> Result<Correction, controller::feedback::DesignError> {{\n    Correction::new(FEEDBACK)\n}}",
+                "/// Between the inverse model and the drives: the state feedback (Fig. 1).\npub type Correction = {};\n/// Its configuration: the scene's `[feedback]`.\npub const FEEDBACK: controller::feedback::Config = {};\n/// The feedback, its gains designed from the scene's weights.\npub fn correction() -> Result<Correction, controller::feedback::DesignError> {{\n    {}\n}}",
                 K::FEEDBACK_TYPE,
-                scene::feedback::FeedbackSpec::source(config)
+                scene::feedback::FeedbackSpec::source(config),
+                K::FEEDBACK_NEW
             );
         }
         None => {

@@ -116,11 +116,10 @@ impl DriveSetup {
     pub const WINCH: Self = Self::stock(2, 2_200_000);
 }
 
-/// The most nodes the controller commissions: the crane's two drives and the
-/// inclinometer. Each place costs the controller about 0.75 KiB of RAM (a node's
-/// commissioning table and state), so it is no larger than the crane needs; a crane with
-/// another node (a bridge drive) raises it.
-pub const MAX_NODES: usize = 3;
+/// The most nodes the controller commissions: the 3D crane's three drives and its
+/// inclinometer (the planar crane uses three of the four places). Each place costs the
+/// controller about 0.75 KiB of RAM (a node's commissioning table and state).
+pub const MAX_NODES: usize = 4;
 
 /// A node the controller commissions and supervises: a row of the commissioning file.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -233,9 +232,12 @@ impl InclinometerSetup {
         lateral: None,
     };
 
-    /// A stock two-axis CiA 410 inclinometer at node 3 (the 3D crane's): as
-    /// [`InclinometerSetup::STOCK`], its lateral slope the swing across the bridge.
+    /// A stock two-axis CiA 410 inclinometer (the 3D crane's) at node 5: as
+    /// [`InclinometerSetup::STOCK`], its lateral slope the swing across the bridge. A node
+    /// of its own, so that its 4-byte TPDO1 (0x185) and the one-axis sensor's 2-byte one
+    /// (0x183) are each one message of `can/crane.dbc`.
     pub const STOCK_TWO_AXES: Self = Self {
+        node: 5,
         lateral: Some(LateralAxis {
             sign: 1.0,
             offset_deg: 0.0,

@@ -70,6 +70,7 @@ impl Config {
             Some(NodeSetup::Drive(Drive::Trolley, DriveSetup::TROLLEY)),
             Some(NodeSetup::Drive(Drive::Winch, DriveSetup::WINCH)),
             None,
+            None,
         ],
         standstill_units: 1_000,
         position_tolerance_m: 0.5,

@@ -113,7 +113,7 @@ pub const MAX_FRAMES: usize = 16;
 
 /// EMCYs waiting to be sent at most. A commissioning failure takes two (0xFF10 and
 /// 0xFF12), so every node of the list can fail in one cycle with room to spare.
-pub const EMCY_QUEUE: usize = 8;
+pub const EMCY_QUEUE: usize = 10;
 
 const _: () = assert!(EMCY_QUEUE >= 2 * crate::commissioning::MAX_NODES + 2);
 

@@ -25,7 +25,8 @@ pub const SPATIAL: [Drive; 3] = [Drive::Bridge, Drive::Trolley, Drive::Winch];
 
 impl Drive {
     /// The stock CANopen node id of this drive (the commissioning file may choose
-    /// another): trolley 1, winch 2, bridge 4 (3 is the inclinometer's).
+    /// another): trolley 1, winch 2, bridge 4 (3 and 5 are the one- and two-axis
+    /// inclinometers').
     #[must_use]
     pub const fn node(self) -> u8 {
         match self {
@@ -143,7 +144,7 @@ mod tests {
     #[test]
     fn stock_node_ids_are_distinct_and_leave_the_inclinometer_its_own() {
         let nodes = SPATIAL.map(Drive::node);
-        assert!(!nodes.contains(&3));
+        assert!(!nodes.contains(&3) && !nodes.contains(&5));
         assert!(nodes
             .iter()
             .enumerate()

@@ -49,6 +49,7 @@ fn config() -> Config {
             Some(NodeSetup::Drive(Drive::Bridge, bridge)),
             Some(NodeSetup::Drive(Drive::Trolley, trolley)),
             Some(NodeSetup::Drive(Drive::Winch, DriveSetup::WINCH)),
+            None,
         ],
         ..Config::DEFAULT
     }

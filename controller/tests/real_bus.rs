@@ -706,7 +706,7 @@ fn a_watched_supervisor_that_falls_silent_during_a_move_stops_the_crane() {
 fn the_nodes_are_commissioned_in_the_order_of_the_list() {
     let [trolley, winch, ..] = Config::DEFAULT.nodes;
     let config = Config {
-        nodes: [winch, trolley, None],
+        nodes: [winch, trolley, None, None],
         ..Config::DEFAULT
     };
     let mut rig = Rig::configured(feedforward(HOME, None), HEALTHY, config);
@@ -731,7 +731,7 @@ fn the_nodes_are_commissioned_in_the_order_of_the_list() {
 fn an_axis_without_a_drive_in_the_list_is_never_ready_and_nothing_moves() {
     let [trolley, ..] = Config::DEFAULT.nodes;
     let config = Config {
-        nodes: [trolley, None, None],
+        nodes: [trolley, None, None, None],
         ..Config::DEFAULT
     };
     let mut rig = Rig::configured(feedforward(HOME, None), HEALTHY, config);

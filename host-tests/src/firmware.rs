@@ -154,7 +154,12 @@ where
         let (f, planner, config) = (self.f, self.f.planner, self.config);
         Ok(match f.feedback {
             Some(feedback) => self.visit.with(
-                Controller::with_correction(feedforward, K::feedback(feedback)?, planner, config),
+                Controller::with_correction(
+                    feedforward,
+                    f.params.feedback(feedback)?,
+                    planner,
+                    config,
+                ),
                 f,
             ),
             None => self.visit.with(

@@ -25,7 +25,7 @@ fn decode(frame: &CanFrame) -> host_tests::dbc::Decoded {
 #[test]
 fn dbc_parses_and_covers_every_frame() {
     let dbc = Dbc::crane().unwrap();
-    assert_eq!(dbc.messages(), 35);
+    assert_eq!(dbc.messages(), 40);
     let frames = [
         nmt::command(NmtCommand::Start, 0),
         canopen::sync(),
@@ -61,6 +61,19 @@ fn dbc_parses_and_covers_every_frame() {
         CanFrame::new(0x583, &[0x43, 0, 0x10, 0, 0x9A, 1, 1, 0]).unwrap(),
         canopen::heartbeat(3, NmtState::Operational),
         canopen::emcy(3, 0x5000, 0x01, [0; 5]),
+        // The 3D crane's two-axis inclinometer (CiA 410, node 5): both slopes, SDO,
+        // heartbeat, EMCY.
+        controller::cia410::tpdo1(
+            5,
+            controller::cia410::Slopes {
+                long: -1234,
+                lateral: Some(567),
+            },
+        ),
+        CanFrame::new(0x605, &[0x2B, 0x00, 0x60, 0, 10, 0, 0, 0]).unwrap(),
+        CanFrame::new(0x585, &[0x60, 0x00, 0x60, 0, 0, 0, 0, 0]).unwrap(),
+        canopen::heartbeat(5, NmtState::Operational),
+        canopen::emcy(5, 0x5000, 0x01, [0; 5]),
         // The 3D crane's bridge drive (node 4): every frame of a drive.
         pdo::rpdo1(
             Drive::Bridge.node(),
@@ -410,4 +423,22 @@ fn the_inclinometer_slope_decodes_to_the_angle_the_controller_uses() {
         let angle = InclinometerSetup::STOCK.angle(raw);
         assert!((degrees.to_radians() - angle).abs() < 1e-12, "{raw}");
     }
+}
+
+/// The two-axis inclinometer's TPDO1 (node 5, 4 bytes) decodes to both slopes in
+/// degrees, as the controller reads them at 0.01° per unit.
+#[test]
+fn the_two_axis_inclinometer_decodes_both_slopes() {
+    use controller::cia410::{tpdo1, Slopes};
+    let frame = tpdo1(
+        5,
+        Slopes {
+            long: -1234,
+            lateral: Some(567),
+        },
+    );
+    let d = decode(&frame);
+    assert_eq!(d.message, "TPDO1_Inclinometer2");
+    assert!((d.get("slope_long16").unwrap() + 12.34).abs() < 1e-9);
+    assert!((d.get("slope_lateral16").unwrap() - 5.67).abs() < 1e-9);
 }

@@ -692,6 +692,7 @@ mod tests {
             [
                 Some(NodeSetup::Drive(Drive::Winch, _)),
                 Some(NodeSetup::Drive(Drive::Trolley, _)),
+                None,
                 None
             ]
         ));

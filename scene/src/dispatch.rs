@@ -15,6 +15,7 @@
 
 use controller::correction::AxesCorrection;
 use controller::feedback::{Config as FeedbackConfig, NoFeedback, StateFeedback};
+use controller::feedback3d::SpatialFeedback;
 pub use controller::feedforward::{Axes, ReferenceOf};
 use controller::feedforward::{CraneReference, Feedforward, InverseModel, Replan};
 use controller::planner::Crane;
@@ -457,6 +458,12 @@ where
     type Feedback: AxesCorrection<A>;
     /// [`FirmwareCrane::Feedback`]'s type, as the build script writes it.
     const FEEDBACK_TYPE: &'static str;
+    /// The expression that builds it from `FEEDBACK` (and `PARAMS`), as the build script
+    /// writes it ([`FirmwareCrane::feedback`] builds the same).
+    const FEEDBACK_NEW: &'static str;
+    /// How many slopes its feedback reads (the planar crane's φ: 1; the 3D crane's
+    /// swing in both vertical planes: 2): the inclinometer must have as many axes.
+    const SWING_AXES: u8;
     /// The correction of a scene without `[feedback]`: none (`NoFeedback`, which is
     /// each crane's `AxesCorrection` on its own).
     type FeedforwardOnly: AxesCorrection<A> + Default;
@@ -468,8 +475,8 @@ where
     /// this crane cannot honour it.
     fn feedback_config(spec: &FeedbackSpec, crane: &Self, h: f64)
         -> Result<FeedbackConfig, String>;
-    /// The state feedback for `config` ([`FirmwareCrane::feedback_config`]'s).
-    fn feedback(config: FeedbackConfig) -> Result<Self::Feedback, String>;
+    /// The state feedback of this crane for `config` ([`FirmwareCrane::feedback_config`]'s).
+    fn feedback(&self, config: FeedbackConfig) -> Result<Self::Feedback, String>;
     /// The firmware's inverse model for `scheme` on `plan`, at rest at t = 0, handed to
     /// `visitor`: the types [`FirmwareScheme::rust`] names.
     fn inverse_model<V: FirmwareVisitor<A>>(
@@ -497,6 +504,8 @@ impl FirmwareCrane<2> for CraneParams {
     const LIMITS: [AxisLimits; 2] = DriveLimits::LAB.axes();
     type Feedback = StateFeedback;
     const FEEDBACK_TYPE: &'static str = "controller::feedback::StateFeedback";
+    const FEEDBACK_NEW: &'static str = "Correction::new(FEEDBACK)";
+    const SWING_AXES: u8 = 1;
     type FeedforwardOnly = NoFeedback;
     fn of(model: &ModelSpec) -> Option<Self> {
         model.crane().map(|c| c.params())
@@ -515,7 +524,7 @@ impl FirmwareCrane<2> for CraneParams {
     ) -> Result<FeedbackConfig, String> {
         spec.config(crane, h).map_err(|e| e.to_string())
     }
-    fn feedback(config: FeedbackConfig) -> Result<StateFeedback, String> {
+    fn feedback(&self, config: FeedbackConfig) -> Result<StateFeedback, String> {
         StateFeedback::new(config).map_err(|e| format!("{e:?}"))
     }
     fn inverse_model<V: FirmwareVisitor<2>>(
@@ -549,13 +558,15 @@ impl FirmwareCrane<2> for CraneParams {
     }
 }
 
-/// The crane in three dimensions: bridge, trolley and hoist. Feedforward only: its state
-/// feedback in both planes is not built yet, and a scene asking for it is refused.
+/// The crane in three dimensions: bridge, trolley and hoist; its state feedback per
+/// vertical plane ([`SpatialFeedback`]) with a two-axis inclinometer.
 impl FirmwareCrane<3> for Crane3dParams {
     const TYPE: &'static str = "solver_core::models::crane3d::Crane3dParams";
     const LIMITS: [AxisLimits; 3] = DriveLimits::LAB_3D;
-    type Feedback = NoFeedback;
-    const FEEDBACK_TYPE: &'static str = "controller::feedback::NoFeedback";
+    type Feedback = SpatialFeedback;
+    const FEEDBACK_TYPE: &'static str = "controller::feedback3d::SpatialFeedback";
+    const FEEDBACK_NEW: &'static str = "Correction::new(FEEDBACK, PARAMS.tau2)";
+    const SWING_AXES: u8 = 2;
     type FeedforwardOnly = NoFeedback;
     fn of(model: &ModelSpec) -> Option<Self> {
         match model {
@@ -570,11 +581,32 @@ impl FirmwareCrane<3> for Crane3dParams {
             self.m, self.g, self.tau1, self.tau2, self.tau3, w.x_min, w.x_max, w.y_min, w.y_max, w.l_min, w.l_max, self.min_tension_fraction
         )
     }
-    fn feedback_config(_: &FeedbackSpec, _: &Self, _: f64) -> Result<FeedbackConfig, String> {
-        Err("the 3D crane's state feedback (both planes, a two-axis inclinometer) is not built yet (issue 19): remove [feedback] for feedforward only".into())
+    /// The x–z plane's configuration (bridge and hoist: τ1, τ3) from the scene's
+    /// `[feedback]`; the y–z plane's is the same with the trolley's τ2
+    /// ([`SpatialFeedback::new`]).
+    fn feedback_config(
+        spec: &FeedbackSpec,
+        crane: &Self,
+        h: f64,
+    ) -> Result<FeedbackConfig, String> {
+        let w = crane.workspace;
+        let plane = CraneParams {
+            m: crane.m,
+            g: crane.g,
+            tau1: crane.tau1,
+            tau2: crane.tau3,
+            workspace: solver_core::models::crane::Workspace {
+                x_min: w.x_min,
+                x_max: w.x_max,
+                l_min: w.l_min,
+                l_max: w.l_max,
+            },
+            min_tension_fraction: crane.min_tension_fraction,
+        };
+        spec.config(&plane, h).map_err(|e| e.to_string())
     }
-    fn feedback(_: FeedbackConfig) -> Result<NoFeedback, String> {
-        Err("the 3D crane has no state feedback yet".into())
+    fn feedback(&self, config: FeedbackConfig) -> Result<SpatialFeedback, String> {
+        SpatialFeedback::new(config, self.tau2).map_err(|e| format!("{e:?}"))
     }
     fn inverse_model<V: FirmwareVisitor<3>>(
         self,

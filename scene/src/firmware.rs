@@ -129,7 +129,7 @@ where
         .transpose()?;
     let config = if feedback.is_some() {
         commissioning
-            .with_inclinometer(config)
+            .with_inclinometer_of(config, K::SWING_AXES)
             .map_err(|e| format!("commissioning file: {e}"))?
     } else {
         config

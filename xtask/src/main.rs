@@ -263,10 +263,10 @@ fn main_job() -> Result<(), String> {
     let runs = qemu::SCENES
         .iter()
         .map(|s| qemu::measure(s))
-        .chain([qemu::measure_scenario(
-            qemu::FEEDBACK_SCENE,
-            sim::CLOSED_LOOP,
-        )])
+        .chain([
+            qemu::measure_scenario(qemu::FEEDBACK_SCENE, sim::CLOSED_LOOP),
+            qemu::measure_scenario(qemu::CRANE3D_FEEDBACK_SCENE, sim::CLOSED_LOOP),
+        ])
         .collect::<Result<Vec<_>, _>>()?;
     let dbc = host_tests::dbc::Dbc::crane()?;
     if let Some(default) = runs.first() {
@@ -326,6 +326,10 @@ fn qemu_checks(overwrite: bool) -> Result<(), String> {
         let m = qemu::measure_scenario(qemu::CRANE3D_SCENE, scenario)?;
         qemu::check(&m, overwrite)?;
     }
+    for scenario in sim::CRANE3D_FEEDBACK_SCENARIOS {
+        let m = qemu::measure_scenario(qemu::CRANE3D_FEEDBACK_SCENE, scenario)?;
+        qemu::check(&m, overwrite)?;
+    }
     Ok(())
 }
 
@@ -333,7 +337,7 @@ fn qemu_checks(overwrite: bool) -> Result<(), String> {
 fn cycles_of(scenes: Vec<String>) -> Result<(), String> {
     let scenes = if scenes.is_empty() {
         qemu::feedforward_scenes()
-            .chain([qemu::FEEDBACK_SCENE])
+            .chain([qemu::FEEDBACK_SCENE, qemu::CRANE3D_FEEDBACK_SCENE])
             .map(str::to_string)
             .collect()
     } else {
@@ -345,11 +349,11 @@ fn cycles_of(scenes: Vec<String>) -> Result<(), String> {
 fn qemu_bench() -> Result<(), String> {
     let runs = qemu::feedforward_scenes()
         .map(qemu::measure)
-        // The state feedback's cost: its scene on the plant it closes the loop around.
-        .chain([qemu::measure_with_solver_flash(
-            qemu::FEEDBACK_SCENE,
-            sim::CLOSED_LOOP,
-        )])
+        // The state feedback's cost: its scenes on the plant they close the loop around.
+        .chain([
+            qemu::measure_with_solver_flash(qemu::FEEDBACK_SCENE, sim::CLOSED_LOOP),
+            qemu::measure_with_solver_flash(qemu::CRANE3D_FEEDBACK_SCENE, sim::CLOSED_LOOP),
+        ])
         .collect::<Result<Vec<_>, _>>()?;
     print!("{}", qemu::table(&runs));
     print!("{}", qemu::worst_steps(&runs, 8));

@@ -31,6 +31,11 @@ pub const SCENES: [&str; 4] = [
 /// The 3D crane's default scene, on which its scenarios run (`sim::CRANE3D_SCENARIOS`).
 pub const CRANE3D_SCENE: &str = "scenes/crane3d/crane3d.toml";
 
+/// The 3D crane's scene with the state feedback per vertical plane: checked on its
+/// scenarios (`sim::CRANE3D_FEEDBACK_SCENARIOS`: the 3D plant and the two-axis
+/// inclinometer), measured by `qemu-bench` on the first.
+pub const CRANE3D_FEEDBACK_SCENE: &str = "scenes/crane3d/crane3d-feedback.toml";
+
 /// Scenes `qemu-bench` measures beside [`SCENES`], with no golden log or baseline:
 /// other solver configurations a user may choose for the MCU, among them the paper's
 /// test-bench Radau (J̃10, Fig. 8e).

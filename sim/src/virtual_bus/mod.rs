@@ -18,6 +18,8 @@ use heapless::{Deque, LinearMap};
 
 #[cfg(feature = "plant")]
 use crate::plant::Plant;
+#[cfg(feature = "plant")]
+use crate::plant3d::{Mismatch3d, Plant3d};
 use crate::scenario::{Action, Quirk, Scenario};
 use crate::traffic::Traffic;
 use controller::board::{self, CanPort};
@@ -35,6 +37,8 @@ use controller::frame::CanFrame;
 use controller::planner::Crane;
 #[cfg(feature = "plant")]
 use solver_core::models::crane::CraneParams;
+#[cfg(feature = "plant")]
+use solver_core::models::crane3d::Crane3dParams;
 
 /// One simulated CiA 402 drive: NMT slave (boot-up message, pre-operational until
 /// started), SDO server of a small object dictionary (the objects commissioning writes,
@@ -380,6 +384,9 @@ pub struct VirtualBus<const A: usize = 2> {
     drives: [DriveSim; A],
     #[cfg(feature = "plant")]
     plant: Option<Plant>,
+    /// The 3D crane's plant, in scenarios with a plant on the 3D crane's drives.
+    #[cfg(feature = "plant")]
+    plant3d: Option<Plant3d>,
     #[cfg(feature = "plant")]
     inclinometer: Option<InclinometerSim>,
     scenario: Scenario,
@@ -427,29 +434,58 @@ impl<const A: usize> VirtualBus<A> {
     #[must_use]
     pub fn with_drives(scenario: Scenario, drives: [Drive; A], start: [f64; A]) -> Self {
         #[cfg(feature = "plant")]
-        let (plant, inclinometer) = match (scenario.plant, drives.as_slice(), start.as_slice()) {
-            (Some(mismatch), [Drive::Trolley, Drive::Winch], &[x, l]) => {
-                let crane = CraneParams::PAPER;
-                let plant = Plant::at_rest(
-                    x,
-                    l,
-                    0.0,
-                    [crane.tau1, crane.tau2],
-                    crane.g,
-                    crane.m,
-                    mismatch,
-                );
-                let sensor = InclinometerSim::new(InclinometerSetup::STOCK.node);
-                (Some(plant), Some(sensor))
-            }
-            _ => (None, None),
-        };
+        let (plant, plant3d, inclinometer) =
+            match (scenario.plant, drives.as_slice(), start.as_slice()) {
+                (Some(mismatch), [Drive::Trolley, Drive::Winch], &[x, l]) => {
+                    let crane = CraneParams::PAPER;
+                    let plant = Plant::at_rest(
+                        x,
+                        l,
+                        0.0,
+                        [crane.tau1, crane.tau2],
+                        crane.g,
+                        crane.m,
+                        mismatch,
+                    );
+                    let sensor = InclinometerSim::new(InclinometerSetup::STOCK.node);
+                    (Some(plant), None, Some(sensor))
+                }
+                // The planar scenario on the 3D crane (`Crane3dParams::EXAMPLE`): its drives'
+                // mismatch on bridge and hoist, its gust and its swinging start at 45°, so
+                // that both vertical planes swing.
+                (Some(mismatch), [Drive::Bridge, Drive::Trolley, Drive::Winch], &[x, y, l]) => {
+                    let crane = Crane3dParams::EXAMPLE;
+                    let planar = Mismatch3d::from_planar(&mismatch);
+                    let [s, _] = planar.swing0;
+                    let diagonal = Mismatch3d {
+                        gust_direction: core::f64::consts::FRAC_PI_4,
+                        swing0: [s, s]
+                            .map(|a| libm::atan(libm::tan(a) * core::f64::consts::FRAC_1_SQRT_2)),
+                        ..planar
+                    };
+                    let plant = Plant3d::at_rest(
+                        x,
+                        y,
+                        l,
+                        0.0,
+                        [crane.tau1, crane.tau2, crane.tau3],
+                        crane.g,
+                        crane.m,
+                        diagonal,
+                    );
+                    let sensor = InclinometerSim::new(InclinometerSetup::STOCK_TWO_AXES.node);
+                    (None, Some(plant), Some(sensor))
+                }
+                _ => (None, None, None),
+            };
         let mut at = start.into_iter();
         Self {
             order: drives,
             drives: drives.map(|d| DriveSim::new(d.node(), at.next().unwrap_or(0.0))),
             #[cfg(feature = "plant")]
             plant,
+            #[cfg(feature = "plant")]
+            plant3d,
             #[cfg(feature = "plant")]
             inclinometer,
             traffic: scenario.random.map(Traffic::new),
@@ -479,7 +515,7 @@ impl<const A: usize> VirtualBus<A> {
     #[must_use]
     pub fn simulates_scenario(&self) -> bool {
         #[cfg(feature = "plant")]
-        let plant = self.plant.is_some();
+        let plant = self.plant.is_some() || self.plant3d.is_some();
         #[cfg(not(feature = "plant"))]
         let plant = false;
         self.scenario.plant.is_none() || plant
@@ -508,6 +544,13 @@ impl<const A: usize> VirtualBus<A> {
     #[must_use]
     pub fn plant(&self) -> Option<&Plant> {
         self.plant.as_ref()
+    }
+
+    /// The 3D crane's plant, in scenarios with a plant on the 3D crane's drives.
+    #[cfg(feature = "plant")]
+    #[must_use]
+    pub fn plant3d(&self) -> Option<&Plant3d> {
+        self.plant3d.as_ref()
     }
 
     /// The inclinometer, in scenarios with a plant.
@@ -645,7 +688,36 @@ impl<const A: usize> VirtualBus<A> {
                 d.position_nm = libm::round(position * 1e9) as i64;
                 d.actual_velocity = Some(libm::round(velocity * 1e6) as i32);
             }
-            slope = Some(phi.to_degrees());
+            slope = Some([phi.to_degrees(), 0.0]);
+        }
+        #[cfg(feature = "plant")]
+        if let (Some(plant), [bridge, trolley, winch]) =
+            (self.plant3d.as_mut(), self.drives.as_mut_slice())
+        {
+            let period_ms = bridge.od.get(0x60C2, 1).max(1);
+            let drives = [bridge, trolley, winch];
+            let u = drives.each_ref().map(|d| {
+                if d.powered {
+                    f64::from(d.velocity) * 1e-6
+                } else {
+                    0.0
+                }
+            });
+            let braked = drives.each_ref().map(|d| {
+                !d.powered
+                    || !matches!(
+                        d.state,
+                        DriveState::OperationEnabled | DriveState::QuickStopActive
+                    )
+            });
+            plant.advance_braked(u, f64::from(period_ms) * 1e-3, braked);
+            let [x, y, l, long, lateral] = plant.sense();
+            let [_, _, _, _, _, vx, vy, vl, _, _] = plant.q;
+            for (d, (position, velocity)) in drives.into_iter().zip([(x, vx), (y, vy), (l, vl)]) {
+                d.position_nm = libm::round(position * 1e9) as i64;
+                d.actual_velocity = Some(libm::round(velocity * 1e6) as i32);
+            }
+            slope = Some([long.to_degrees(), lateral.to_degrees()]);
         }
         for i in 0..self.drives.len() {
             let Some(d) = self.drives.get(i) else {
@@ -664,9 +736,9 @@ impl<const A: usize> VirtualBus<A> {
             }
         }
         #[cfg(feature = "plant")]
-        if let (Some(sensor), Some(phi_deg)) = (self.inclinometer.as_mut(), slope) {
-            // The planar crane swings in the plane of the long axis only.
-            if let Some(frame) = sensor.on_sync([phi_deg, 0.0]) {
+        if let (Some(sensor), Some(slopes_deg)) = (self.inclinometer.as_mut(), slope) {
+            // The planar crane swings in the plane of the long axis only (lateral 0).
+            if let Some(frame) = sensor.on_sync(slopes_deg) {
                 self.deliver(frame);
             }
         }
