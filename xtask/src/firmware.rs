@@ -103,6 +103,36 @@ fn closes_loop(scene: &Path) -> Result<bool, String> {
         .is_some())
 }
 
+/// "Model only what a scene requires": the firmware built for `elf`'s scene links the
+/// model module `own` (a path component of its symbols, e.g. `crane_subs`) and none of
+/// `others` (every other crane's). Symbols of functions the optimiser inlined are gone,
+/// so the check sees what stays out of line — a module linked at all leaves some (its
+/// `rest_state` at least), which the positive half checks.
+pub fn links_only(elf: &Path, own: &str, others: &[&str]) -> Result<(), String> {
+    use object::{Object, ObjectSymbol};
+    let bytes = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let file = object::File::parse(&*bytes).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let names: Vec<String> = file
+        .symbols()
+        .filter_map(|s| s.name().ok().map(str::to_string))
+        .collect();
+    if !names.iter().any(|n| n.contains(own)) {
+        return Err(format!(
+            "{}: no symbol of {own}, the scene's model",
+            elf.display()
+        ));
+    }
+    for other in others {
+        if let Some(n) = names.iter().find(|n| n.contains(other)) {
+            return Err(format!(
+                "{}: links {other}, which its scene does not use ({n})",
+                elf.display()
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Clippy on the firmware for `board`.
 pub fn clippy(board: Board) -> Result<(), String> {
     let (mut cmd, _) = firmware_cargo("clippy", board, "clippy");

@@ -406,8 +406,15 @@ fn test() -> Result<(), String> {
     for board in [Board::Qemu, Board::Stm32h743] {
         firmware::clippy(board)?;
     }
-    // The real drive controller: CI can build it, not run it.
-    firmware::build(Board::Stm32h743, &firmware::root().join(qemu::SCENES[0]))?;
+    // The real drive controller, for the planar and the 3D crane: CI can build it, not
+    // run it. Each links its own crane's model and not the other's.
+    let planar = firmware::build(Board::Stm32h743, &firmware::root().join(qemu::SCENES[0]))?;
+    firmware::links_only(&planar, "crane_subs", &["crane3d"])?;
+    let spatial = firmware::build(
+        Board::Stm32h743,
+        &firmware::root().join(qemu::CRANE3D_SCENE),
+    )?;
+    firmware::links_only(&spatial, "crane3d", &["crane_subs", "crane_proj"])?;
     qemu_checks(false)?;
     // The Cortex-M7 estimate on the default scene: its trace windows must match the
     // firmware's own instruction counts step by step.
