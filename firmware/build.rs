@@ -109,16 +109,7 @@ where
     // run of the firmware builds too).
     let types = setup.scheme.rust();
     let s = &scene.solver;
-    let settings = scene.settings();
     let transformed = s.newton == scene::NewtonSpec::Transformed;
-    let jacobian = match (s.jacobian, s.reinit_every) {
-        _ if transformed => "solver_core::JacobianMode::Transformed".to_string(),
-        (JacobianSpec::Fd, _) => "solver_core::JacobianMode::FiniteDifference".to_string(),
-        (JacobianSpec::Exact, _) => "solver_core::JacobianMode::Exact".to_string(),
-        (JacobianSpec::Broyden, r) => {
-            format!("solver_core::JacobianMode::Broyden {{ reinit_every: {r:?} }}")
-        }
-    };
     let jacobian_label = match (s.jacobian, s.reinit_every) {
         _ if transformed => "RADAU5".to_string(),
         (JacobianSpec::Fd, _) => "J".to_string(),
@@ -127,7 +118,6 @@ where
         (JacobianSpec::Broyden, Some(m)) => format!("J~{m}"),
     };
     let tr = &scene.trajectory;
-    let nw = settings.newton;
     let mut c = String::new();
     let _ = writeln!(
         c,
@@ -213,8 +203,8 @@ where
     );
     let _ = writeln!(
         c,
-        "/// Solver settings.\npub const SETTINGS: solver_core::SolverSettings = solver_core::SolverSettings {{ h: {:?}, jacobian: {jacobian}, scaling_power: {}, newton: solver_core::NewtonSettings {{ max_iterations: {}, rtol: {:?}, atol: {:?}, stall_ratio: {:?}, stall_limit: {:?}, accept_unconverged: false, broyden_refresh: true }} }};",
-        settings.h, settings.scaling_power, nw.max_iterations, nw.rtol, nw.atol, nw.stall_ratio, nw.stall_limit
+        "/// Solver settings.\npub const SETTINGS: solver_core::SolverSettings = {};",
+        scene::firmware::settings_source(scene)
     );
     let v = |x: [f64; A]| {
         let items = x.map(|a| format!("{a:?}_f64")).join(", ");

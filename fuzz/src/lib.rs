@@ -12,23 +12,24 @@ use controller::setpoint::DriveLimits;
 use controller::{CanFrame, Config, Controller, Injectable, InverseModel};
 use nalgebra::SVector;
 use sim::{run_cycle, Scenario, VirtualBus, CLOSED_LOOP, HEALTHY};
-use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_subs::{self, CraneSubs};
-use solver_core::plan::Plan;
 use solver_core::trajectory::PointToPoint;
-use solver_core::{JacobianMode, NewtonSettings, SolverSettings};
 
-/// The inverse model the firmware runs by default.
-pub type Model = CraneSubs<f64, Plan<f64, 2>>;
+/// The default scene's model, integrator and settings as the firmware links them
+/// (`build.rs`, from `scene::dispatch`).
+mod default_scene {
+    #![allow(dead_code)]
+    include!(concat!(env!("OUT_DIR"), "/default_scene.rs"));
+}
+pub use default_scene::{Integrator, Model, SETTINGS};
+
 /// Model, integrator and the solver-failure injection.
-pub type Feedforward =
-    Injectable<InverseModel<Model, crane_subs::Bdf<f64, Plan<f64, 2>>, f64, { crane_subs::N }>>;
+pub type Feedforward = Injectable<InverseModel<Model, Integrator, f64, { default_scene::N }>>;
 
 /// Where the crane rests at power-up: the paper's start (x_C, z_C), m.
 pub const HOME: [f64; 2] = [12.0, 8.0];
 
 /// The planner with the lab drives' limits.
-pub const PLANNER: Planner = Planner::new(CraneParams::PAPER, DriveLimits::LAB);
+pub const PLANNER: Planner = Planner::new(default_scene::PARAMS, DriveLimits::LAB);
 
 /// The paper's move (12, 8) → (20, 4) from 1 s to 9 s, or rest at (12, 8).
 pub fn feedforward(paper_move: bool) -> Feedforward {
@@ -39,14 +40,8 @@ pub fn feedforward(paper_move: bool) -> Feedforward {
             .expect("the paper's move");
         plan.push(m).expect("fits the plan");
     }
-    let model = CraneSubs::new(CraneParams::PAPER, plan).expect("the paper's crane");
-    let settings = SolverSettings {
-        h: 0.01,
-        jacobian: JacobianMode::Exact,
-        scaling_power: 2,
-        newton: NewtonSettings::for_scalar::<f64>(),
-    };
-    let integrator = crane_subs::Bdf::new(&model, &settings, 4, 0.0).expect("BDF4");
+    let model = Model::new(default_scene::PARAMS, plan).expect("the default scene's crane");
+    let integrator = default_scene::integrator(&model).expect("the firmware's integrator");
     Injectable::new(InverseModel::new(model, integrator))
 }
 

@@ -153,6 +153,30 @@ where
     })
 }
 
+/// The scene's solver settings as a Rust constant expression (what the firmware's build
+/// script writes, and the fuzzer's: `scene.settings()` spelled out).
+#[must_use]
+pub fn settings_source(scene: &Scene) -> String {
+    let settings = scene.settings();
+    let nw = settings.newton;
+    let jacobian = match settings.jacobian {
+        solver_core::JacobianMode::Transformed => {
+            "solver_core::JacobianMode::Transformed".to_string()
+        }
+        solver_core::JacobianMode::FiniteDifference => {
+            "solver_core::JacobianMode::FiniteDifference".to_string()
+        }
+        solver_core::JacobianMode::Exact => "solver_core::JacobianMode::Exact".to_string(),
+        solver_core::JacobianMode::Broyden { reinit_every } => {
+            format!("solver_core::JacobianMode::Broyden {{ reinit_every: {reinit_every:?} }}")
+        }
+    };
+    format!(
+        "solver_core::SolverSettings {{ h: {:?}, jacobian: {jacobian}, scaling_power: {}, newton: solver_core::NewtonSettings {{ max_iterations: {}, rtol: {:?}, atol: {:?}, stall_ratio: {:?}, stall_limit: {:?}, accept_unconverged: {:?}, broyden_refresh: {:?} }} }}",
+        settings.h, settings.scaling_power, nw.max_iterations, nw.rtol, nw.atol, nw.stall_ratio, nw.stall_limit, nw.accept_unconverged, nw.broyden_refresh
+    )
+}
+
 /// `config` as a Rust constant expression, for the firmware's generated scene module:
 /// the same values the host's run of the firmware loop uses, built by the same
 /// [`CommissioningFile::config_for`]. (The fault thresholds are [`Config::DEFAULT`]'s;
