@@ -14,18 +14,35 @@ fn scenes_dir() -> PathBuf {
 
 const PAPER: &str = include_str!("../../scenes/paper-crane.toml");
 
+/// Every shipped scene, in `scenes/` and its folders (a crane's own folder holds its
+/// scenes and its commissioning file), and each folder's commissioning file.
 #[test]
 fn every_shipped_scene_loads() {
-    let mut n = 0;
-    for entry in std::fs::read_dir(scenes_dir()).unwrap() {
-        let path = entry.unwrap().path();
-        let commissioning = path.file_name().is_some_and(|n| n == FILE_NAME);
-        if path.extension().is_some_and(|e| e == "toml") && !commissioning {
-            Scene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-            n += 1;
+    fn walk(dir: &std::path::Path, scenes: &mut usize, files: &mut usize) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                walk(&path, scenes, files);
+                continue;
+            }
+            let commissioning = path.file_name().is_some_and(|n| n == FILE_NAME);
+            if commissioning {
+                let text = std::fs::read_to_string(&path).unwrap();
+                CommissioningFile::parse(&text)
+                    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                *files += 1;
+            } else if path.extension().is_some_and(|e| e == "toml") {
+                Scene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                *scenes += 1;
+            }
         }
     }
-    assert!(n >= 4, "only {n} scenes");
+    let (mut scenes, mut files) = (0, 0);
+    walk(&scenes_dir(), &mut scenes, &mut files);
+    assert!(
+        scenes >= 8 && files >= 2,
+        "{scenes} scenes, {files} commissioning files"
+    );
 }
 
 /// The paper scene with one line replaced.
@@ -189,4 +206,41 @@ fn a_3d_scene_is_checked_as_a_planar_one_is() {
         "kind = \"crane3d-subs\"\ntau3 = -1.0",
     ));
     assert_eq!(field, "model.tau3");
+}
+
+/// The 3D crane's scenes in their folder pass the firmware's checks with the folder's
+/// commissioning file (three drives, the two-axis inclinometer for the feedback), as
+/// the 3D crane; with the planar crane's file they are refused, naming the bridge.
+#[test]
+fn the_3d_scenes_pass_with_their_own_commissioning_file() {
+    use scene::dispatch::{firmware, Axes, FirmwareCrane, FirmwareCraneVisitor, ReferenceOf};
+    use scene::firmware::FirmwareScene;
+    struct Axes3;
+    impl FirmwareCraneVisitor for Axes3 {
+        type Output = (usize, bool);
+        fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output
+        where
+            Axes<A>: ReferenceOf,
+        {
+            (A, f.config.inclinometer().is_some_and(|i| i.two_axes()))
+        }
+    }
+    let dir = scenes_dir().join("crane3d");
+    for (name, feedback) in [
+        ("crane3d", false),
+        ("crane3d-radau5", false),
+        ("crane3d-feedback", true),
+    ] {
+        let path = dir.join(format!("{name}.toml"));
+        let scene = Scene::load(&path).unwrap();
+        let own = CommissioningFile::for_scene(&path).unwrap();
+        assert_eq!(
+            firmware(&scene, &own, Axes3).unwrap(),
+            (3, feedback),
+            "{name}"
+        );
+        let planar = CommissioningFile::for_scene(&scenes_dir().join("paper-crane.toml")).unwrap();
+        let e = firmware(&scene, &planar, Axes3).unwrap_err();
+        assert!(e.contains("bridge"), "{name}: {e}");
+    }
 }
