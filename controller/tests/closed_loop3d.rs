@@ -7,52 +7,37 @@
 //! with feedforward only and with the feedback.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing)]
 
+mod common3d;
+
+use common3d::{feedforward, Ff, HOME};
+
 use controller::canopen::NmtState;
 use controller::commands::Request;
-use controller::commissioning::{DriveSetup, InclinometerSetup, NodeSetup, Phase};
+use controller::commissioning::{InclinometerSetup, NodeSetup, Phase};
 use controller::correction::AxesCorrection;
-use controller::drive::{Drive, SPATIAL};
+use controller::drive::SPATIAL;
 use controller::feedback::{self, NoFeedback};
 use controller::feedback3d::SpatialFeedback;
 use controller::planner::Planner;
 use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
-use controller::{Config, Controller, Cycle, Injectable, InverseModel, Mode};
-use nalgebra::SVector;
+use controller::{Config, Controller, Cycle, Mode};
 use sim::plant::{Gust, Mismatch};
 use sim::{run_cycle, Action, Ending, Event, Scenario, SensorFault, VirtualBus};
-use solver_core::models::crane3d::subs as crane3d;
-use solver_core::models::crane3d::{Crane3dParams, Crane3dSubs};
-use solver_core::plan::Plan;
-use solver_core::{JacobianMode, SolverSettings};
+use solver_core::models::crane3d::Crane3dParams;
 
-type Model = Crane3dSubs<f64, Plan<f64, 3>>;
-type Ff =
-    Injectable<InverseModel<Model, crane3d::StructuredBdf<f64, Plan<f64, 3>>, f64, { crane3d::N }>>;
-
-/// Where the load rests at the start: bridge x, trolley y, rope length l, m.
-const HOME: [f64; 3] = [12.0, 3.0, 8.0];
 /// The move: to (20, 6, 4) in 9 s, asked at 1 s (it ends at 10 s).
 const TARGET: [f64; 3] = [20.0, 6.0, 4.0];
 const MOVE_END_S: f64 = 10.0;
 
-/// The plant's mismatch (the planar closed-loop test's; on the 3D crane its gust blows
-/// from 45°, `VirtualBus::with_drives`).
+/// The plant's mismatch: the QEMU scenarios' (`sim::MISMATCHED`) with an 8 N gust for
+/// 1.5 s mid-move, which on the 3D crane blows from 45° (`VirtualBus::with_drives`).
 const MISMATCH: Mismatch = Mismatch {
-    tau1: 0.3,
-    tau2: -0.3,
-    rope_offset: 0.08,
-    drum_scale: 0.015,
-    coulomb: [0.002, 0.002],
-    viscous: [0.02, 0.02],
     gust: Gust {
         start: 4.0,
         duration: 1.5,
         amplitude: 8.0,
     },
-    position_noise: Mismatch::SENSORS.0,
-    angle_noise: Mismatch::SENSORS.1,
-    noise_seed: 7,
-    swing0: 0.0,
+    ..sim::MISMATCHED
 };
 
 const MOVE: Event = Event {
@@ -78,35 +63,7 @@ const fn scenario(events: &'static [Event]) -> Scenario {
 
 /// The 3D crane's drives and its two-axis inclinometer.
 fn config() -> Config {
-    let bridge = DriveSetup {
-        node: 4,
-        ..DriveSetup::TROLLEY
-    };
-    let trolley = DriveSetup {
-        max_velocity: 2_200_000,
-        ..DriveSetup::TROLLEY
-    };
-    Config {
-        nodes: [
-            Some(NodeSetup::Drive(Drive::Bridge, bridge)),
-            Some(NodeSetup::Drive(Drive::Trolley, trolley)),
-            Some(NodeSetup::Drive(Drive::Winch, DriveSetup::WINCH)),
-            None,
-        ],
-        ..Config::DEFAULT
-    }
-    .with_node(NodeSetup::Inclinometer(InclinometerSetup::STOCK_TWO_AXES))
-}
-
-fn feedforward() -> Ff {
-    let plan = Plan::at_rest(SVector::from(HOME), 5).unwrap();
-    let model = Crane3dSubs::new(Crane3dParams::EXAMPLE, plan).unwrap();
-    let settings = SolverSettings {
-        h: 0.01,
-        ..SolverSettings::paper(JacobianMode::Exact)
-    };
-    let integrator = crane3d::StructuredBdf::new(&model, &settings, 4, 0.0).unwrap();
-    Injectable::new(InverseModel::new(model, integrator))
+    common3d::config().with_node(NodeSetup::Inclinometer(InclinometerSetup::STOCK_TWO_AXES))
 }
 
 fn feedback() -> SpatialFeedback {

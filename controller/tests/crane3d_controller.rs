@@ -5,54 +5,25 @@
 //! drive's fault are met as on the planar crane.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing)]
 
+mod common3d;
+
+use common3d::{config, feedforward, Ff, BRIDGE_NODE, HOME};
+
 use controller::canopen::emcy;
 use controller::commands::{Answer, Request};
-use controller::commissioning::{DriveSetup, NodeSetup, Phase};
+use controller::commissioning::Phase;
 use controller::drive::{Drive, SPATIAL};
 use controller::feedback::NoFeedback;
 use controller::planner::Planner;
 use controller::setpoint::{AxisLimits, DriveLimits, UNITS_PER_M_PER_S};
-use controller::{Config, Controller, Cycle, Fault, Injectable, InverseModel, Mode, Replan};
-use nalgebra::SVector;
+use controller::{Controller, Cycle, Fault, Mode, Replan};
 use sim::{run_cycle, Action, VirtualBus, HEALTHY};
-use solver_core::models::crane3d::subs as crane3d;
-use solver_core::models::crane3d::{Crane3dParams, Crane3dSubs};
-use solver_core::plan::Plan;
-use solver_core::{JacobianMode, SolverSettings};
+use solver_core::models::crane3d::Crane3dParams;
 
-type Model = Crane3dSubs<f64, Plan<f64, 3>>;
-type Ff =
-    Injectable<InverseModel<Model, crane3d::StructuredBdf<f64, Plan<f64, 3>>, f64, { crane3d::N }>>;
 type Crane3dController = Controller<Ff, NoFeedback, Crane3dParams, 3>;
-
-/// Where the load rests at the start: bridge x, trolley y, rope length l, m.
-const HOME: [f64; 3] = [12.0, 3.0, 8.0];
-/// The bridge's stock node.
-const BRIDGE_NODE: u8 = 4;
 
 fn limits() -> [AxisLimits; 3] {
     DriveLimits::LAB_3D
-}
-
-/// The commissioning file of a 3D crane: bridge, trolley and winch drives.
-fn config() -> Config {
-    let bridge = DriveSetup {
-        node: BRIDGE_NODE,
-        ..DriveSetup::TROLLEY
-    };
-    let trolley = DriveSetup {
-        max_velocity: 2_200_000,
-        ..DriveSetup::TROLLEY
-    };
-    Config {
-        nodes: [
-            Some(NodeSetup::Drive(Drive::Bridge, bridge)),
-            Some(NodeSetup::Drive(Drive::Trolley, trolley)),
-            Some(NodeSetup::Drive(Drive::Winch, DriveSetup::WINCH)),
-            None,
-        ],
-        ..Config::DEFAULT
-    }
 }
 
 struct Rig {
@@ -63,14 +34,7 @@ struct Rig {
 
 impl Rig {
     fn new() -> Self {
-        let plan = Plan::at_rest(SVector::from(HOME), 5).unwrap();
-        let model = Crane3dSubs::new(Crane3dParams::EXAMPLE, plan).unwrap();
-        let settings = SolverSettings {
-            h: 0.01,
-            ..SolverSettings::paper(JacobianMode::Exact)
-        };
-        let integrator = crane3d::StructuredBdf::new(&model, &settings, 4, 0.0).unwrap();
-        let ff = Injectable::new(InverseModel::new(model, integrator));
+        let ff = feedforward();
         let planner = Planner::with_axes(Crane3dParams::EXAMPLE, limits());
         Self {
             c: Controller::with_correction(ff, NoFeedback, planner, config()),

@@ -154,6 +154,21 @@ pub enum SlopeFault {
     LongFrozen(f64),
 }
 
+/// The plant of `case` at rest where `reference` starts (bridge, trolley, rope).
+fn plant_at_start(params: &Crane3dParams, reference: &ReferenceRun3, case: &Mismatch3d) -> Plant3d {
+    let [r_xz, r_yz] = reference.r.first().copied().unwrap_or_default();
+    Plant3d::at_rest(
+        r_xz.x,
+        r_yz.x,
+        r_xz.l,
+        reference.t0,
+        [params.tau1, params.tau2, params.tau3],
+        params.g,
+        params.m,
+        *case,
+    )
+}
+
 /// Runs `case` along `reference`, with the feedback when `gains` is given (and the
 /// inclinometer's lateral slope failing as `fault` says).
 pub fn simulate(
@@ -166,17 +181,11 @@ pub fn simulate(
     let limits: [AxisLimits; 3] = DriveLimits::LAB_3D;
     let h = reference.h;
     let mut fb = gains.map(|g| SpatialFeedback::with_gains(config(params, h), params.tau2, *g));
-    let [r_xz, r_yz] = reference.r.first().copied().unwrap_or_default();
-    let mut plant = Plant3d::at_rest(
-        r_xz.x,
-        r_yz.x,
-        r_xz.l,
-        reference.t0,
-        [params.tau1, params.tau2, params.tau3],
-        params.g,
-        params.m,
-        *case,
-    );
+    let r_xz = reference
+        .r
+        .first()
+        .map_or_else(Reference::default, |r| r[0]);
+    let mut plant = plant_at_start(params, reference, case);
     let (ts, te) = reference.span;
     let l_end = reference.r.last().map_or(r_xz.l, |r| r[0].l);
     let window = (te + 5.0, te + 5.0 + period(params.g, case.rope(l_end)));
@@ -480,17 +489,7 @@ fn swing_series(
     let limits = DriveLimits::LAB_3D;
     let h = reference.h;
     let mut fb = gains.map(|g| SpatialFeedback::with_gains(config(params, h), params.tau2, *g));
-    let [r_xz, r_yz] = reference.r.first().copied().unwrap_or_default();
-    let mut plant = Plant3d::at_rest(
-        r_xz.x,
-        r_yz.x,
-        r_xz.l,
-        0.0,
-        [params.tau1, params.tau2, params.tau3],
-        params.g,
-        params.m,
-        *case,
-    );
+    let mut plant = plant_at_start(params, reference, case);
     let mut last = [0.0; 3];
     let mut measured = None;
     let mut out = Vec::with_capacity(reference.r.len());

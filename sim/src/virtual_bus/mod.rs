@@ -664,59 +664,24 @@ impl<const A: usize> VirtualBus<A> {
         let mut slope = None;
         #[cfg(feature = "plant")]
         if let (Some(plant), [trolley, winch]) = (self.plant.as_mut(), self.drives.as_mut_slice()) {
-            let period_ms = trolley.od.get(0x60C2, 1).max(1);
             let drives = [trolley, winch];
-            let u = drives.each_ref().map(|d| {
-                if d.powered {
-                    f64::from(d.velocity) * 1e-6
-                } else {
-                    0.0
-                }
-            });
-            // A drive without power on its motor holds its axis by the brake.
-            let braked = drives.each_ref().map(|d| {
-                !d.powered
-                    || !matches!(
-                        d.state,
-                        DriveState::OperationEnabled | DriveState::QuickStopActive
-                    )
-            });
-            plant.advance_braked(u, f64::from(period_ms) * 1e-3, braked);
+            let (u, dt, braked) = plant_inputs(&drives);
+            plant.advance_braked(u, dt, braked);
             let [x, l, phi] = plant.sense();
             let [_, _, _, vx, vl, _] = plant.y;
-            for (d, (position, velocity)) in drives.into_iter().zip([(x, vx), (l, vl)]) {
-                d.position_nm = libm::round(position * 1e9) as i64;
-                d.actual_velocity = Some(libm::round(velocity * 1e6) as i32);
-            }
+            report_motion(drives, [(x, vx), (l, vl)]);
             slope = Some([phi.to_degrees(), 0.0]);
         }
         #[cfg(feature = "plant")]
         if let (Some(plant), [bridge, trolley, winch]) =
             (self.plant3d.as_mut(), self.drives.as_mut_slice())
         {
-            let period_ms = bridge.od.get(0x60C2, 1).max(1);
             let drives = [bridge, trolley, winch];
-            let u = drives.each_ref().map(|d| {
-                if d.powered {
-                    f64::from(d.velocity) * 1e-6
-                } else {
-                    0.0
-                }
-            });
-            let braked = drives.each_ref().map(|d| {
-                !d.powered
-                    || !matches!(
-                        d.state,
-                        DriveState::OperationEnabled | DriveState::QuickStopActive
-                    )
-            });
-            plant.advance_braked(u, f64::from(period_ms) * 1e-3, braked);
+            let (u, dt, braked) = plant_inputs(&drives);
+            plant.advance_braked(u, dt, braked);
             let [x, y, l, long, lateral] = plant.sense();
             let [_, _, _, _, _, vx, vy, vl, _, _] = plant.q;
-            for (d, (position, velocity)) in drives.into_iter().zip([(x, vx), (y, vy), (l, vl)]) {
-                d.position_nm = libm::round(position * 1e9) as i64;
-                d.actual_velocity = Some(libm::round(velocity * 1e6) as i32);
-            }
+            report_motion(drives, [(x, vx), (y, vy), (l, vl)]);
             slope = Some([long.to_degrees(), lateral.to_degrees()]);
         }
         for i in 0..self.drives.len() {
@@ -893,6 +858,39 @@ impl<const A: usize> VirtualBus<A> {
 /// scenario's events, the drives' boot-up messages and heartbeats, then the answers to
 /// the controller's last frames), and a transmitted frame reaches the drives at once —
 /// or, during a bus-off, is refused.
+/// What the plant gets from its drives this cycle: each drive's set point (m/s; zero
+/// without power), the cycle (0x60C2 of the first drive, s), and which axes are held by
+/// their brakes (a drive without power on its motor, or not enabled).
+#[cfg(feature = "plant")]
+fn plant_inputs<const N: usize>(drives: &[&mut DriveSim; N]) -> ([f64; N], f64, [bool; N]) {
+    let period_ms = drives.first().map_or(1, |d| d.od.get(0x60C2, 1).max(1));
+    let u = drives.each_ref().map(|d| {
+        if d.powered {
+            f64::from(d.velocity) * 1e-6
+        } else {
+            0.0
+        }
+    });
+    let braked = drives.each_ref().map(|d| {
+        !d.powered
+            || !matches!(
+                d.state,
+                DriveState::OperationEnabled | DriveState::QuickStopActive
+            )
+    });
+    (u, f64::from(period_ms) * 1e-3, braked)
+}
+
+/// The plant's sensed position and velocity of each axis become its drive's position
+/// and velocity actual.
+#[cfg(feature = "plant")]
+fn report_motion<const N: usize>(drives: [&mut DriveSim; N], motion: [(f64, f64); N]) {
+    for (d, (position, velocity)) in drives.into_iter().zip(motion) {
+        d.position_nm = libm::round(position * 1e9) as i64;
+        d.actual_velocity = Some(libm::round(velocity * 1e6) as i32);
+    }
+}
+
 impl<const A: usize> CanPort for VirtualBus<A> {
     type TxError = BusOff;
 
