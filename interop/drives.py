@@ -64,10 +64,12 @@ def controlword_command(state, cw, previous_cw):
         return state
     if cw & 0x02 == 0:  # disable voltage
         return "switch on disabled"
+    if state == "quick stop active":
+        # Left by disable voltage (transition 12); a quick stop repeated every cycle keeps
+        # it braking on its ramp (quick stop option 6 stays in quick stop active).
+        return state
     if cw & 0x04 == 0:  # quick stop
         return "quick stop active" if state == "operation enabled" else "switch on disabled"
-    if state == "quick stop active":
-        return state  # left by disable voltage (transition 12)
     if cw & 0x0F == 0x06:  # shutdown
         return "ready to switch on" if state != "not ready" else state
     if cw & 0x0F == 0x07:  # switch on / disable operation
