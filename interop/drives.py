@@ -1,5 +1,7 @@
-"""Two CiA 402 drives (node 1 trolley, node 2 winch) simulated with python-canopen's
-LocalNode on one SLCAN connection to the virtual ECU, in their own process.
+"""The crane's CiA 402 drives simulated with python-canopen's LocalNode on one SLCAN
+connection to the virtual ECU, in their own process: one per `[[drive]]` row of the
+commissioning file, with its node id (the planar crane's node 1 trolley and node 2 winch,
+the stock ones without a file; the 3D crane's node 4 bridge, 1 trolley, 2 hoist).
 
 python-canopen provides the object dictionary (cia402-drive.eds), the SDO server, the
 NMT slave with its heartbeat producer (0x1017), EMCY and the PDO maps; the glue here is
@@ -12,10 +14,15 @@ heartbeat consumer 0x1016 (the drive faults if the controller falls silent), and
 and PDOs only where CiA 301 allows them (no SDO in *stopped*, PDOs only in
 *operational*).
 
-The same process simulates the load (load.py): a pendulum under the trolley whose rope
-is the winch's position, stepped on every SYNC after the drives, and with
-`--inclinometer` the CiA 410 inclinometer on the hook block that measures its swing
-(node, sign and offset from the commissioning file's `[inclinometer]`).
+For the planar crane the same process simulates the load (load.py): a pendulum under the
+trolley whose rope is the winch's position, stepped on every SYNC after the drives, and
+with `--inclinometer` the CiA 410 inclinometer on the hook block that measures its swing
+(node, sign and offset from the commissioning file's `[inclinometer]`). The 3D crane
+(a `bridge` row) has no load model here: its scene is feedforward only.
+
+Each drive powers on where `--start` puts its axis (metres, the scene's start in the
+model's order: trolley, winch; the 3D crane's bridge, trolley, winch), through the
+commissioning file's scaling; `--trolley`, `--winch`, `--bridge` (increments) override.
 
 Run as `python drives.py --port N [options]`; it takes commands on stdin, one a line,
 and answers each with one JSON line on stdout (see `Drives.command`).
@@ -38,6 +45,10 @@ from node import SimulatedNode
 HERE = os.path.dirname(os.path.abspath(__file__))
 EDS = os.path.join(HERE, "cia402-drive.eds")
 COMMISSIONING = os.path.join(os.path.dirname(HERE), "scenes", "commissioning.toml")
+# Without a commissioning file: the stock nodes, and where the default scene's crane rests.
+STOCK_NODES = {"bridge": 4, "trolley": 1, "winch": 2}
+STOCK_POSITION = {"bridge": 12e6, "trolley": 12e6, "winch": 8e6}  # increments (µm)
+PLANAR, SPATIAL = ("trolley", "winch"), ("bridge", "trolley", "winch")
 
 # Statusword bits (CiA 402).
 RTSO, SO, OE, FAULT, VOLTAGE, QS, SOD, WARNING = 0x1, 0x2, 0x4, 0x8, 0x10, 0x20, 0x40, 0x80
@@ -64,10 +75,12 @@ def controlword_command(state, cw, previous_cw):
         return state
     if cw & 0x02 == 0:  # disable voltage
         return "switch on disabled"
+    if state == "quick stop active":
+        # Left by disable voltage (transition 12); a quick stop repeated every cycle keeps
+        # it braking on its ramp (quick stop option 6 stays in quick stop active).
+        return state
     if cw & 0x04 == 0:  # quick stop
         return "quick stop active" if state == "operation enabled" else "switch on disabled"
-    if state == "quick stop active":
-        return state  # left by disable voltage (transition 12)
     if cw & 0x0F == 0x06:  # shutdown
         return "ready to switch on" if state != "not ready" else state
     if cw & 0x0F == 0x07:  # switch on / disable operation
@@ -299,8 +312,30 @@ class Drives:
         )
         self.network = canopen.Network(bus)
         self.network.connect()
+        commissioning = {}  # without a file, the stock defaults (as the ECU reads it)
+        if os.path.exists(args.commissioning):
+            with open(args.commissioning, "rb") as f:
+                commissioning = tomllib.load(f)
+        rows = {row["axis"]: row for row in commissioning.get("drive", [])}
+        # The file's rows in its order (the order the controller commissions them).
+        order = [row["axis"] for row in commissioning.get("drive", [])] or list(PLANAR)
+        model = SPATIAL if "bridge" in order else PLANAR
+        scaling = {
+            axis: (rows.get(axis, {}).get("position_scale", 1e-6), rows.get(axis, {}).get("position_offset", 0.0))
+            for axis in order
+        }
+        if args.start and len(args.start) != len(model):
+            raise SystemExit(f"drives.py: --start needs {len(model)} coordinates for {', '.join(model)}")
+        start = dict(zip(model, args.start)) if args.start else {}
         self.drives = {}
-        for node_id, position in ((1, args.trolley), (2, args.winch)):
+        for axis in order:
+            node_id = rows.get(axis, {}).get("node", STOCK_NODES[axis])
+            position = getattr(args, axis)
+            if position is None and axis in start:
+                scale, offset = scaling[axis]
+                position = float(round((start[axis] - offset) / scale))  # a whole increment
+            if position is None:
+                position = STOCK_POSITION[axis]
             self.drives[node_id] = Drive(
                 self.network,
                 node_id,
@@ -309,25 +344,23 @@ class Drives:
                 sdo_mute=node_id in args.sdo_mute,
                 status_lag=args.status_lag if node_id in args.lagging else 0,
             )
-        commissioning = {}  # without a file, the stock defaults (as the ECU reads it)
-        if os.path.exists(args.commissioning):
-            with open(args.commissioning, "rb") as f:
-                commissioning = tomllib.load(f)
-        rows = {row["axis"]: row for row in commissioning.get("drive", [])}
-        axes = {
-            node_id: (rows.get(axis, {}).get("position_scale", 1e-6), rows.get(axis, {}).get("position_offset", 0.0))
-            for node_id, axis in ((1, "trolley"), (2, "winch"))
-        }
-        self.load = Load(self.drives[1], self.drives[2], axes, args.cycle_ms / 1000.0)
+        self.axes = {axis: rows.get(axis, {}).get("node", STOCK_NODES[axis]) for axis in order}
+        self.load = None
         self.inclinometer = None
-        if args.inclinometer:
-            row = commissioning.get("inclinometer", {})
-            self.inclinometer = Inclinometer(
-                self.network, row.get("node", 3), row.get("sign", 1.0), row.get("offset_deg", 0.0)
-            )
-        # After the drives' own: the load swings with the motion they have just taken.
-        self.network.subscribe(0x080, self._on_sync)
-        for node_id in (1, 2):
+        if model == PLANAR:
+            trolley, winch = self.axes["trolley"], self.axes["winch"]
+            axes = {node: scaling[axis] for axis, node in self.axes.items()}
+            self.load = Load(self.drives[trolley], self.drives[winch], axes, args.cycle_ms / 1000.0)
+            if args.inclinometer:
+                row = commissioning.get("inclinometer", {})
+                self.inclinometer = Inclinometer(
+                    self.network, row.get("node", 3), row.get("sign", 1.0), row.get("offset_deg", 0.0)
+                )
+            # After the drives' own: the load swings with the motion they have just taken.
+            self.network.subscribe(0x080, self._on_sync)
+        elif args.inclinometer:
+            raise SystemExit("drives.py: --inclinometer needs the planar crane's load (no bridge row)")
+        for node_id in self.drives:
             if node_id not in args.unpowered:
                 self.drives[node_id].boot()
         if self.inclinometer is not None:
@@ -348,6 +381,8 @@ class Drives:
         if not words:
             return {"ok": False}
         verb = words[0]
+        if verb in ("swing", "kick", "freeze", "lose", "heal") and self.load is None:
+            return {"ok": False, "error": "no load model for this crane"}
         if verb in ("swing", "kick"):
             state = getattr(self.load, verb)(float(words[1]))
             return {"ok": True, "load": state}
@@ -377,7 +412,7 @@ class Drives:
             return {
                 "ok": True,
                 "drives": [d.dump() for d in self.drives.values()],
-                "load": self.load.state(),
+                "load": self.load.state() if self.load is not None else None,
                 "inclinometer": self.inclinometer.dump() if self.inclinometer is not None else None,
             }
         return {"ok": True}
@@ -397,8 +432,14 @@ class Drives:
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--port", type=int, required=True)
-    p.add_argument("--trolley", type=float, default=12e6, help="position at power-on, um")
-    p.add_argument("--winch", type=float, default=8e6, help="position at power-on, um")
+    p.add_argument(
+        "--start",
+        type=lambda v: [float(x) for x in v.split(",")],
+        help="where the crane rests at power-on, m, in the model's order (the scene's start)",
+    )
+    p.add_argument("--trolley", type=float, help="trolley position at power-on, increments (12e6)")
+    p.add_argument("--winch", type=float, help="winch position at power-on, increments (8e6)")
+    p.add_argument("--bridge", type=float, help="bridge position at power-on, increments (12e6)")
     p.add_argument("--unpowered", type=int, nargs="*", default=[], help="nodes not powered at start")
     p.add_argument("--refuse-csv", type=int, nargs="*", default=[], help="nodes that abort 0x6060 = 9")
     p.add_argument("--sdo-mute", type=int, nargs="*", default=[], help="nodes that never answer SDO")

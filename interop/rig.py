@@ -1,9 +1,11 @@
 """One interop run: the virtual ECU (the real controller in real time, SLCAN over TCP)
-built for a scene (the default scene unless `scene` is given), the two simulated drives
-in their own process (drives.py; with the load they swing, and with `--inclinometer` the
-CiA 410 inclinometer that measures it, load.py), and a supervisor — a python-canopen
-network with the controller as a RemoteNode (can/crane-controller.eds) that reads its
-object dictionary over SDO and sends commands on 0x210.
+built for a scene (the default scene unless `scene` is given), the scene's simulated
+drives in their own process (drives.py, one per row of the commissioning file, resting
+where the scene's move starts; for the planar crane with the load they swing, and with
+`--inclinometer` the CiA 410 inclinometer that measures it, load.py), and a supervisor —
+a python-canopen network with the controller as a RemoteNode (can/crane-controller.eds)
+that reads its object dictionary over SDO and sends commands on 0x210 (the 3D crane's
+moves on 0x310, encoded by cantools from can/crane.dbc).
 
 Every frame of the run is in the ECU's log (both directions, with timestamps); at the
 end every one of them must decode with cantools against can/crane.dbc.
@@ -16,6 +18,7 @@ import subprocess
 import sys
 import threading
 import time
+import tomllib
 
 import can
 import canopen
@@ -29,9 +32,9 @@ ECU = os.environ.get("ECU_BIN", os.path.join(ROOT, "target", "debug", "ecu"))
 DEFAULT_SCENE = "scenes/paper-crane.toml"  # the ECU's without --scene
 
 CONTROLLER = 0x10
-STATUS, EMCY_CONTROLLER, COMMAND = 0x190, 0x090, 0x210
+STATUS, EMCY_CONTROLLER, COMMAND, MOVE3D = 0x190, 0x090, 0x210, 0x310
 MODE = {"enabling": 0, "ready": 1, "stopping": 2, "quick stop": 3, "halted": 4}
-MOVE, STOP, RESET = 1, 2, 3
+MOVE, STOP, RESET, SUBMIT3D = 1, 2, 3, 4  # 4: 0x2000:2 only (the 3D move in 0x2000)
 ACCEPTED, QUEUED, REJECTED = 1, 2, 3
 
 
@@ -105,11 +108,14 @@ class Rig:
         self.controller.sdo.RESPONSE_TIMEOUT = 1.0
         self.network.add_node(self.controller)
         self.drives_err = open(os.path.join(self.tmp, "drives.stderr"), "w")
-        # The commissioning file next to the scene: the drives' scaling, the inclinometer.
-        commissioning = os.path.join(ROOT, os.path.dirname(scene or DEFAULT_SCENE), "commissioning.toml")
+        # The commissioning file next to the scene: the drives (nodes, order, scaling), the
+        # inclinometer; the drives rest where the scene's crane rests until a command.
+        self.scene = scene or DEFAULT_SCENE
+        commissioning = os.path.join(ROOT, os.path.dirname(self.scene), "commissioning.toml")
+        start = ",".join(repr(float(v)) for v in scene_start(self.scene))
         self.drives = subprocess.Popen(
             [sys.executable, os.path.join(HERE, "drives.py"), "--port", str(self.port)]
-            + ["--commissioning", commissioning, *drive_args],
+            + ["--commissioning", commissioning, "--start", start, *drive_args],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=self.drives_err,
@@ -152,6 +158,30 @@ class Rig:
 
     def move(self, request_id, x, z, duration):
         self.command(request_id, MOVE, x, z, duration)
+
+    def move3d(self, request_id, x, y, z, duration):
+        """The 3D move frame (0x310), encoded by cantools from the DBC's Move3d_Controller
+        (x, y, z in m to the mm, the duration in whole seconds); returns its bytes."""
+        message = dbc().get_message_by_name("Move3d_Controller")
+        fields = {"request_id": request_id, "target_x": x, "target_y": y, "target_z": z, "duration": duration}
+        data = message.encode(fields)
+        self.network.send_message(message.frame_id, data)
+        return data
+
+    def request3d_sdo(self, request_id, x, y, z, duration):
+        """A 3D move written into the controller's 0x2000 over SDO, as a PLC without PDOs
+        does (docs/COMMANDS.md): 1 id, 3 x, 6 y, 4 z (mm), 7 seconds; `submit_sdo` sends it."""
+        sdo = self.controller.sdo
+        sdo.download(0x2000, 1, struct.pack("<B", request_id))
+        sdo.download(0x2000, 3, struct.pack("<H", round(x * 1000)))
+        sdo.download(0x2000, 6, struct.pack("<H", round(y * 1000)))
+        sdo.download(0x2000, 4, struct.pack("<H", round(z * 1000)))
+        sdo.download(0x2000, 7, struct.pack("<B", duration))
+
+    def submit_sdo(self, command=SUBMIT3D):
+        """Command `command` into 0x2000:2: the request written into 0x2000 is made (4: a
+        3D move; 1 a move, 2 stop, 3 reset as on the command frame)."""
+        self.controller.sdo.download(0x2000, 2, struct.pack("<B", command))
 
     def reset(self, first_id, timeout=2.0):
         """Resets the crane: a reset is refused (reason 2) until every drive's position
@@ -250,11 +280,28 @@ class Rig:
         return getattr(self, "drives", None) is not None and self.drives.poll() is None
 
 
+_DBC = []
+
+
+def dbc():
+    """can/crane.dbc, loaded by cantools once per process."""
+    if not _DBC:
+        _DBC.append(cantools.database.load_file(DBC))
+    return _DBC[0]
+
+
+def scene_start(scene):
+    """Where the scene's crane rests before its move (its trajectory's start, m): the
+    controller rests there until a command (the ECU without --demo)."""
+    with open(os.path.join(ROOT, scene), "rb") as f:
+        return tomllib.load(f)["trajectory"]["start"]
+
+
 class Log:
     """The ECU's frame log, each frame decoded with cantools against can/crane.dbc."""
 
     def __init__(self, path):
-        self.db = cantools.database.load_file(DBC)
+        self.db = dbc()
         self.frames = []  # (time, sender, id, data, decoded)
         self.undecodable = []
         with open(path) as f:
@@ -293,16 +340,22 @@ class Log:
     def setpoint_pairs(self):
         """(trolley, winch) target velocities of each cycle (the RPDOs before each SYNC;
         0 for a drive not sent one), µm/s."""
-        pairs, cycle = [], {}
+        return self.setpoint_rows((1, 2))
+
+    def setpoint_rows(self, nodes):
+        """The target velocities of each cycle to `nodes`, in that order (the RPDOs
+        before each SYNC; 0 for a drive not sent one), µm/s."""
+        cobs = [0x200 + n for n in nodes]
+        rows, cycle = [], {}
         for _, sender, can_id, data, _ in self.frames:
             if sender != "ecu":
                 continue
-            if can_id in (0x201, 0x202):
+            if can_id in cobs:
                 cycle[can_id] = struct.unpack_from("<Hi", data)[1]
             elif can_id == 0x080:
-                pairs.append((cycle.get(0x201, 0), cycle.get(0x202, 0)))
+                rows.append(tuple(cycle.get(c, 0) for c in cobs))
                 cycle = {}
-        return pairs
+        return rows
 
     def setpoints(self, node):
         """Target velocities sent to a drive, µm/s, in order."""

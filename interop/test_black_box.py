@@ -105,14 +105,14 @@ def answered_at(rig, request_id, answer):
 
 
 def wait_rest(rig, timeout):
-    """Both drives at standstill in two dumps 0.15 s apart, positions unchanged: the dump."""
+    """Every drive at standstill in two dumps 0.15 s apart, positions unchanged: the dump."""
     previous = None
 
     def still():
         nonlocal previous
         d = rig.dump()
-        now = (d[TROLLEY]["velocity"], d[WINCH]["velocity"], d[TROLLEY]["position"], d[WINCH]["position"])
-        ok = previous is not None and now[:2] == (0, 0) and now == previous
+        now = [(d[n]["velocity"], d[n]["position"]) for n in sorted(d)]
+        ok = previous is not None and all(v == 0 for (v, _) in now) and now == previous
         previous = now
         if not ok:
             time.sleep(0.1)
@@ -131,9 +131,9 @@ def cycles_between(log, t0, t1):
     return sum(1 for (t, _) in log.sent(SYNC) if t0 < t <= t1)
 
 
-def last_motion(log, start, end=float("inf")):
-    """The time of the last cycle in (start, end) with a non-zero set point to either drive."""
-    moving = [t for node in (TROLLEY, WINCH) for (t, d) in log.sent(0x200 + node)
+def last_motion(log, start, end=float("inf"), nodes=(TROLLEY, WINCH)):
+    """The time of the last cycle in (start, end) with a non-zero set point to any of `nodes`."""
+    moving = [t for node in nodes for (t, d) in log.sent(0x200 + node)
               if start < t < end and struct.unpack_from("<Hi", d)[1] != 0]
     return max(moving) if moving else None
 

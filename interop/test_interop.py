@@ -37,8 +37,9 @@ def rigs(tmp_path):
             rig.close(check=False)
 
 
-def expected_writes(node):
-    """What the controller writes into a stock drive, in order (the brief's list)."""
+def expected_writes(node, max_speed=MAX_SPEED):
+    """What the controller writes into a stock drive, in order (the brief's list);
+    `max_speed` maps each node to its 0x6080 (µm/s)."""
 
     def pdo(comm, mapping, cob, entries):
         out = [(comm, 1, 0x8000_0000 | cob), (mapping, 0, 0)]
@@ -56,7 +57,7 @@ def expected_writes(node):
             (0x605A, 0, 6),
             (0x6007, 0, 3),
             (0x6085, 0, 6_000_000),
-            (0x6080, 0, MAX_SPEED[node]),
+            (0x6080, 0, max_speed[node]),
         ]
     )
 
@@ -87,13 +88,13 @@ def commissioning_of(log, node):
     return collapsed
 
 
-def expected_commissioning(node, manager=True):
+def expected_commissioning(node, manager=True, max_speed=MAX_SPEED):
     # A manager switches the drive to pre-operational first (a stopped drive answers no
     # SDO); a presence check that found the drive may come before it.
     seq = [("nmt", 0x80, node)] if manager else []
     seq += [("r", 0x1000, 0)]
     seq += [("r", 0x1018, s) for s in (1, 2, 3, 4)]
-    for index, sub, value in expected_writes(node):
+    for index, sub, value in expected_writes(node, max_speed):
         seq += [("w", index, sub, value), ("r", index, sub)]
     seq.append(("r", 0x6061, 0))
     if manager:
@@ -105,12 +106,15 @@ def od_value(dump, key):
     return int.from_bytes(bytes.fromhex(dump["od"][key]), "little")
 
 
-def assert_setpoints_within_limits(log):
-    for node in (TROLLEY, WINCH):
+def assert_setpoints_within_limits(log, limits=None):
+    """Every set point sent within its drive's velocity limit, and each step from the one
+    before within its acceleration limit; `limits` maps a node to (m/s, m/s²)."""
+    limits = limits or {node: (LIMIT_V[node], LIMIT_A) for node in (TROLLEY, WINCH)}
+    for node, (limit_v, limit_a) in limits.items():
         v = [u / 1e6 for u in log.setpoints(node)]
-        assert all(abs(x) <= LIMIT_V[node] for x in v), f"node {node}: {max(map(abs, v))} m/s"
+        assert all(abs(x) <= limit_v for x in v), f"node {node}: {max(map(abs, v))} m/s"
         a = [abs(b - a) / H for a, b in zip(v, v[1:])]
-        assert max(a, default=0) <= LIMIT_A * (1 + 1e-6), f"node {node}: {max(a)} m/s²"
+        assert max(a, default=0) <= limit_a * (1 + 1e-6), f"node {node}: {max(a)} m/s²"
 
 
 def emcy(code, register, fault, node, detail=0, index=0):
@@ -164,27 +168,34 @@ def test_healthy_boot_and_a_move(rigs):
 
 def moving_part(pairs):
     """From the first non-zero set point to the last."""
-    moving = [i for i, p in enumerate(pairs) if p != (0, 0)]
+    moving = [i for i, p in enumerate(pairs) if any(p)]
     return pairs[moving[0] : moving[-1] + 1] if moving else []
 
 
-def assert_setpoints_equal_the_hosts(log, x, z, duration):
+def assert_setpoints_equal_the_hosts(log, *move, scene=None, nodes=(TROLLEY, WINCH), rows=None):
     """The set points sent on the bus are the ones the same controller computes on the
-    host for the same move (`ecu --reference`, the virtual bus's drives, no real time)."""
-    out = subprocess.run(
-        [ECU, "--reference", f"{x},{z},{duration}"], cwd=ROOT, capture_output=True, text=True, check=True
-    ).stdout
+    host for the same move (`ecu --reference`, the virtual bus's drives, no real time):
+    `move` is x, z, duration (the 3D crane's x, y, z, duration), `nodes` the drives in the
+    model's input order, `rows` the bus's set points per cycle if not the whole log's.
+    Both from the first cycle with a set point not zero to the last, cycle by cycle;
+    returns the largest difference, µm/s."""
+    command = [ECU, "--reference", ",".join(str(v) for v in move)] + (["--scene", scene] if scene else [])
+    out = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, check=True).stdout
     host = moving_part([tuple(int(v) for v in line.split()) for line in out.splitlines()])
-    bus = moving_part(log.setpoint_pairs())
+    bus = moving_part(log.setpoint_rows(nodes) if rows is None else rows)
+    assert host and len(host[0]) == len(nodes), host[:1]
     assert len(bus) == len(host), (len(bus), len(host))
     worst = max(abs(a - b) for p, q in zip(bus, host) for a, b in zip(p, q))
     assert worst <= 2, f"set points differ from the host's by up to {worst} um/s"
+    return worst
 
 
-def assert_commissioned_after_close(drives, log, manager=True):
-    for node in (TROLLEY, WINCH):
+def assert_commissioned_after_close(drives, log, manager=True, max_speed=MAX_SPEED):
+    """Each drive of `max_speed` (node: 0x6080) holds what the controller wrote, runs CSV,
+    operational and enabled, and was commissioned in the expected sequence."""
+    for node in max_speed:
         d = drives[node]
-        final = {(index, sub): value for index, sub, value in expected_writes(node)}
+        final = {(index, sub): value for index, sub, value in expected_writes(node, max_speed)}
         for (index, sub), value in final.items():
             assert od_value(d, f"{index:04X}:{sub}") == value, (node, hex(index), sub)
         assert d["mode"] == 9, "cyclic synchronous velocity"
@@ -192,7 +203,7 @@ def assert_commissioned_after_close(drives, log, manager=True):
         seq = commissioning_of(log, node)
         if manager and ("nmt", 0x80, node) in seq:
             seq = seq[seq.index(("nmt", 0x80, node)) :]
-        want = expected_commissioning(node, manager)
+        want = expected_commissioning(node, manager, max_speed)
         assert seq[: len(want)] == want, f"node {node}: {seq[:len(want)]}"
 
 

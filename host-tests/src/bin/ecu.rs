@@ -70,9 +70,9 @@ struct Cli {
     log: Option<PathBuf>,
     /// No bus: print the set points (µm/s in the model's input order, one cycle a line:
     /// `trolley winch`, the 3D crane's `bridge trolley winch`) the same controller sends
-    /// for a move to X,Z (the 3D crane: X,Y,Z; m) in DURATION s, on the virtual bus's
-    /// stock drives from the moment it is accepted — the host's computation that a run
-    /// on the bus is compared with.
+    /// for a move to X,Z (the 3D crane: X,Y,Z; m) in DURATION s (0: as fast as the limits
+    /// allow), on the virtual bus's stock drives from the moment it is accepted — the
+    /// host's computation that a run on the bus is compared with.
     #[arg(long, value_name = "X,Z,DURATION")]
     reference: Option<String>,
 }
@@ -132,29 +132,7 @@ impl FirmwareCraneVisitor for Ecu<'_> {
             command_plan(f.start(), scene.trajectory.smoothness).map_err(|e| e.to_string())?
         };
         if let Some(spec) = &cli.reference {
-            let numbers: Vec<f64> = spec
-                .split(',')
-                .map(|v| v.trim().parse::<f64>())
-                .collect::<Result<_, _>>()
-                .map_err(|e| format!("--reference {spec}: {e}"))?;
-            let axes = if A == 3 {
-                "X,Y,Z,DURATION"
-            } else {
-                "X,Z,DURATION"
-            };
-            let request = match numbers[..] {
-                [x, z, duration] if A == 2 => Request::Move {
-                    id: 1,
-                    target: [x, z],
-                    duration: Some(duration),
-                },
-                [x, y, z, duration] if A == 3 => Request::Move3d {
-                    id: 1,
-                    target: [x, y, z],
-                    duration: Some(duration),
-                },
-                _ => return Err(format!("--reference {spec}: {axes} for this crane")),
-            };
+            let request = reference_request(spec, A)?;
             return with_controller(scene, &f, plan, f.config, Reference { request })?;
         }
         let listener = TcpListener::bind(("127.0.0.1", cli.port))
@@ -210,6 +188,39 @@ impl FirmwareCraneVisitor for Ecu<'_> {
         // firmware builds it (one construction: crane, model, scheme, Newton strategy,
         // feedback).
         with_controller(scene, &f, plan, config, setup)?
+    }
+}
+
+/// The move `--reference` asks of a crane with `axes` driven axes, id 1: `X,Z,DURATION`
+/// (the 3D crane's `X,Y,Z,DURATION`). A duration of 0 asks, as on the frames, for the
+/// move as fast as the limits allow (`None`): `Some(0.0)` would go over the wire as the
+/// shortest duration the frame can carry (10 ms, 1 s for the 3D move) instead.
+fn reference_request(spec: &str, axes: usize) -> Result<Request, String> {
+    let numbers: Vec<f64> = spec
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("--reference {spec}: {e}"))?;
+    let given = |d: f64| (d != 0.0).then_some(d);
+    match numbers[..] {
+        [x, z, duration] if axes == 2 => Ok(Request::Move {
+            id: 1,
+            target: [x, z],
+            duration: given(duration),
+        }),
+        [x, y, z, duration] if axes == 3 => Ok(Request::Move3d {
+            id: 1,
+            target: [x, y, z],
+            duration: given(duration),
+        }),
+        _ => Err(format!(
+            "--reference {spec}: {} for this crane",
+            if axes == 3 {
+                "X,Y,Z,DURATION"
+            } else {
+                "X,Z,DURATION"
+            }
+        )),
     }
 }
 
@@ -782,6 +793,31 @@ mod tests {
             );
         }
         assert!(Frame::parse(b"t7FF0").is_some());
+    }
+
+    #[test]
+    fn a_reference_of_duration_0_is_the_move_as_fast_as_the_limits_allow() {
+        use controller::commands::request_frame;
+        // Duration 0 is `None`, which the frames carry as 0 (as fast as the limits
+        // allow); a `Some(0.0)` went out as 10 ms (planar: refused, invalid) and as 1 s
+        // (3D: refused, the bridge would leave its runway).
+        let planar = reference_request("13,7.5,0", 2).unwrap();
+        assert_eq!(
+            planar,
+            Request::Move {
+                id: 1,
+                target: [13.0, 7.5],
+                duration: None
+            }
+        );
+        assert_eq!(request_frame(&planar).data()[6..], [0, 0]);
+        let spatial = reference_request("13,3.5,7,0", 3).unwrap();
+        assert_eq!(request_frame(&spatial).data()[7], 0);
+        // A given duration stays given.
+        let timed = reference_request("13,3.5,7,4", 3).unwrap();
+        assert_eq!(request_frame(&timed).data()[7], 4);
+        assert!(reference_request("13,7.5,4", 3).is_err());
+        assert!(reference_request("13,3.5,7,4", 2).is_err());
     }
 
     #[test]
