@@ -8,18 +8,18 @@ the rope's exit at the trolley, `s = (x, y, 0)` with z down. Its place relative 
 `p = r_C − s` with `|p| = l`, is integrated in Cartesian coordinates (no angle is
 singular at the hanging rest, where the load spends its time):
 
-    p̈ = g ẑ − s̈ − λ p,    λ = (g p_z + |ṗ|² − l̇² − p·s̈) / l²   (λ l: the rope's pull per kg of load)
+    p̈ = g ẑ − s̈ − λ p,    λ = (g p_z + |ṗ|² − l̇² − p·s̈) / l²
 
-the constraint `|p|² = l²` differentiated twice with `l̈ = 0`. As in load.py (the planar
-crane), the drives in CSV hold their velocity from one SYNC to the next, so between SYNCs
-`s̈ = 0` and `l̇` is constant (RK4, 1 ms steps), and at a SYNC the drives' velocity steps
-are impulses: the load keeps its velocity across the rope, the rope takes up the
-difference along it (`ṗ` loses the step of `ṡ`, then its component along the rope is the
-new `l̇`). After each period the load is put back on the rope's length (the integration
-keeps it there to rounding: 4e-15 m seen). No lag, friction, noise or wind: a swing left
-alone keeps its energy. With the trolley still and the load in the x–z plane it is
-load.py's planar pendulum: under the same bridge and rope motion `α` was its `φ` to
-1e-15 rad.
+(`λ l` the rope's pull per kg of load) from the constraint `|p|² = l²` differentiated
+twice with `l̈ = 0`. As in load.py (the planar crane), the drives in CSV hold their
+velocity from one SYNC to the next, so between SYNCs `s̈ = 0` and `l̇` is constant (RK4,
+1 ms steps), and at a SYNC the drives' velocity steps are impulses: the load keeps its
+velocity across the rope, the rope takes up the difference along it (`ṗ` loses the step
+of `ṡ`, then its component along the rope is the new `l̇`). After each period the load
+is put back on the rope's length (the integration keeps it there to rounding: 4e-15 m
+seen). No lag, friction, noise or wind: a swing left alone keeps its energy. With the
+trolley still and the load in the x–z plane it is load.py's planar pendulum: under the
+same bridge and rope motion `α` was its `φ` to 1e-15 rad.
 
 The slopes are the controller's (`solver_core::reference::flat_crane3d`, sim/src/plant3d.rs):
 

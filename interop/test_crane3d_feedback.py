@@ -39,14 +39,13 @@ the drives' process: the judge is the plant, not the controller's estimate.
 """
 
 import math
-import struct
 import subprocess
 import time
 
 from rig import ACCEPTED, ECU, MODE, ROOT, dbc
 from test_black_box import cycles_between, wait_rest
-from test_crane3d import BRIDGE, HOIST, LIMITS, NODES, START, TROLLEY, setpoint_rows, rpdo_cycles
-from test_feedback import FEEDBACK_OFF, ANGLE_LOST, commissioning_of, feedback_off
+from test_crane3d import HOIST, LIMITS, NODES, rpdo_cycles, setpoint_rows
+from test_feedback import ANGLE_LOST, FEEDBACK_OFF, commissioning_of, feedback_off
 from test_interop import assert_setpoints_within_limits, moving_part, rigs  # noqa: F401
 
 FEEDBACK_SCENE = "scenes/crane3d/crane3d-feedback.toml"
