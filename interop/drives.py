@@ -14,11 +14,13 @@ heartbeat consumer 0x1016 (the drive faults if the controller falls silent), and
 and PDOs only where CiA 301 allows them (no SDO in *stopped*, PDOs only in
 *operational*).
 
-For the planar crane the same process simulates the load (load.py): a pendulum under the
-trolley whose rope is the winch's position, stepped on every SYNC after the drives, and
-with `--inclinometer` the CiA 410 inclinometer on the hook block that measures its swing
-(node, sign and offset from the commissioning file's `[inclinometer]`). The 3D crane
-(a `bridge` row) has no load model here: its scene is feedforward only.
+The same process simulates the load, stepped on every SYNC after the drives: for the
+planar crane a pendulum under the trolley whose rope is the winch's position (load.py),
+for the 3D crane (a `bridge` row) a spherical pendulum under bridge and trolley
+(load3d.py); with `--inclinometer` the CiA 410 inclinometer on the hook block that
+measures its swing (node, sign and offset from the commissioning file's
+`[inclinometer]`; with `axes = 2` the two-axis one, its lateral sign and offset too:
+the 3D crane's, node 5 unless the file says otherwise).
 
 Each drive powers on where `--start` puts its axis (metres, the scene's start in the
 model's order: trolley, winch; the 3D crane's bridge, trolley, winch), through the
@@ -40,6 +42,7 @@ import canopen
 from canopen.sdo import SdoAbortedError
 
 from load import Inclinometer, Load
+from load3d import SpatialLoad
 from node import SimulatedNode
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -345,21 +348,25 @@ class Drives:
                 status_lag=args.status_lag if node_id in args.lagging else 0,
             )
         self.axes = {axis: rows.get(axis, {}).get("node", STOCK_NODES[axis]) for axis in order}
-        self.load = None
         self.inclinometer = None
+        axes = {node: scaling[axis] for axis, node in self.axes.items()}
+        moved = [self.drives[self.axes[axis]] for axis in model]
         if model == PLANAR:
-            trolley, winch = self.axes["trolley"], self.axes["winch"]
-            axes = {node: scaling[axis] for axis, node in self.axes.items()}
-            self.load = Load(self.drives[trolley], self.drives[winch], axes, args.cycle_ms / 1000.0)
-            if args.inclinometer:
-                row = commissioning.get("inclinometer", {})
-                self.inclinometer = Inclinometer(
-                    self.network, row.get("node", 3), row.get("sign", 1.0), row.get("offset_deg", 0.0)
-                )
-            # After the drives' own: the load swings with the motion they have just taken.
-            self.network.subscribe(0x080, self._on_sync)
-        elif args.inclinometer:
-            raise SystemExit("drives.py: --inclinometer needs the planar crane's load (no bridge row)")
+            self.load = Load(*moved, axes, args.cycle_ms / 1000.0)
+        else:
+            self.load = SpatialLoad(*moved, axes, args.cycle_ms / 1000.0)
+        if args.inclinometer:
+            row = commissioning.get("inclinometer", {})
+            two_axes = row.get("axes", 1) == 2
+            self.inclinometer = Inclinometer(
+                self.network,
+                row.get("node", 5 if two_axes else 3),
+                row.get("sign", 1.0),
+                row.get("offset_deg", 0.0),
+                lateral=(row.get("lateral_sign", 1.0), row.get("lateral_offset_deg", 0.0)) if two_axes else None,
+            )
+        # After the drives' own: the load swings with the motion they have just taken.
+        self.network.subscribe(0x080, self._on_sync)
         for node_id in self.drives:
             if node_id not in args.unpowered:
                 self.drives[node_id].boot()
@@ -368,23 +375,24 @@ class Drives:
 
     def _on_sync(self, can_id, data, timestamp):
         with self.load.lock:  # a command sees the load and the reading of one SYNC
-            phi = self.load.on_sync()
+            slopes = self.load.on_sync()  # φ, or the 3D crane's (α, β)
             if self.inclinometer is not None:
-                self.inclinometer.sample(phi)
+                self.inclinometer.sample(*(slopes if isinstance(slopes, tuple) else (slopes,)))
 
     def command(self, line):
         """`power N`, `off N`, `reboot N`, `fault N`, `warn N`, `dump`; for the load
-        `swing DEG`, `kick DEG`, and for the inclinometer `freeze`, `lose`, `heal`: one
-        JSON answer (those of the load and the inclinometer with the load's state at
+        `swing DEG` (the 3D crane's `swing ALPHA BETA`, the rope's slopes in degrees),
+        `kick DEG` (the planar crane), and for the inclinometer `freeze`, `lose`, `heal`:
+        one JSON answer (those of the load and the inclinometer with the load's state at
         that moment, `load`)."""
         words = line.split()
         if not words:
             return {"ok": False}
         verb = words[0]
-        if verb in ("swing", "kick", "freeze", "lose", "heal") and self.load is None:
-            return {"ok": False, "error": "no load model for this crane"}
+        if verb == "kick" and not hasattr(self.load, "kick"):
+            return {"ok": False, "error": "no kick for this crane's load"}
         if verb in ("swing", "kick"):
-            state = getattr(self.load, verb)(float(words[1]))
+            state = getattr(self.load, verb)(*(float(w) for w in words[1:]))
             return {"ok": True, "load": state}
         if verb in ("freeze", "lose", "heal"):
             if self.inclinometer is None:
@@ -412,7 +420,7 @@ class Drives:
             return {
                 "ok": True,
                 "drives": [d.dump() for d in self.drives.values()],
-                "load": self.load.state() if self.load is not None else None,
+                "load": self.load.state(),
                 "inclinometer": self.inclinometer.dump() if self.inclinometer is not None else None,
             }
         return {"ok": True}

@@ -29,6 +29,8 @@ import threading
 from node import SimulatedNode
 
 EDS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cia410-inclinometer.eds")
+# The 3D crane's two-axis inclinometer (load3d.py): slope lateral16 (0x6020) as well.
+EDS_TWO_AXES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cia410-inclinometer-2axis.eds")
 G = 9.81  # m/s², Tab. 3
 SUBSTEPS = 10  # RK4 steps per SYNC period
 
@@ -134,7 +136,9 @@ class Load:
 
 
 class Inclinometer(SimulatedNode):
-    """A one-axis CiA 410 inclinometer on the hook block, on `network`.
+    """A one-axis CiA 410 inclinometer on the hook block, on `network`; with `lateral`
+    (its sign and offset, °) a two-axis one (cia410-inclinometer-2axis.eds: *slope
+    lateral16* 0x6020 as well, the 3D crane's swing in the y–z plane; load3d.py).
 
     python-canopen gives the object dictionary (cia410-inclinometer.eds), the SDO server,
     the NMT slave and the heartbeat producer (0x1017); the glue here is the rest, as for
@@ -144,15 +148,17 @@ class Inclinometer(SimulatedNode):
     as a sensor whose measuring cell hangs) and `lost` (TPDO1 stops; the node still
     answers and beats)."""
 
-    def __init__(self, network, node_id, sign=1.0, offset_deg=0.0):
+    def __init__(self, network, node_id, sign=1.0, offset_deg=0.0, lateral=None):
         self.sign, self.offset_deg = sign, offset_deg
+        self.lateral = lateral  # (sign, offset_deg) of slope lateral16, or None: one axis
         self.fault = None
-        super().__init__(network, node_id, EDS)
+        super().__init__(network, node_id, EDS if lateral is None else EDS_TWO_AXES)
         self._reset_application()
 
     def _reset_application(self):
         self.node.data_store.clear()
         self.slope = 0
+        self.lateral_slope = 0
         self.tpdo = None
         self.syncs = 0
         self.sent = 0
@@ -162,6 +168,8 @@ class Inclinometer(SimulatedNode):
     def _read(self, index, subindex, od):
         if index == 0x6010:
             return self.slope
+        if index == 0x6020 and self.lateral is not None:
+            return self.lateral_slope
         return None
 
     def _write(self, index, subindex, od, data):
@@ -185,8 +193,15 @@ class Inclinometer(SimulatedNode):
         self.tpdo = m if m.enabled and 1 <= m.trans_type <= 240 else None
         self.started_log.append([hex(m.cob_id), m.trans_type, [hex(v.index) for v in m]])
 
-    def sample(self, phi):
-        """SYNC: measure `phi` (rad) at the commissioned resolution, and send TPDO1."""
+    def _slope(self, angle, sign, offset_deg):
+        """The reading of `angle` (rad) at the commissioned resolution, as the controller
+        converts it back: `slope · resolution = angle / sign + offset`."""
+        degrees = math.degrees(angle) / sign + offset_deg
+        return max(-32768, min(32767, round(degrees / self.resolution_deg())))
+
+    def sample(self, phi, lateral=None):
+        """SYNC: measure `phi` (rad; the two-axis sensor's x–z slope, `lateral` its y–z
+        one) at the commissioned resolution, and send TPDO1."""
         with self.lock:
             if not self.powered:
                 return
@@ -195,9 +210,9 @@ class Inclinometer(SimulatedNode):
             if operational and self.pdo_changed:
                 self._configure_tpdo()
             if self.fault != "frozen":
-                degrees = math.degrees(phi) / self.sign + self.offset_deg
-                slope = round(degrees / self.resolution_deg())
-                self.slope = max(-32768, min(32767, slope))
+                self.slope = self._slope(phi, self.sign, self.offset_deg)
+                if self.lateral is not None and lateral is not None:
+                    self.lateral_slope = self._slope(lateral, *self.lateral)
             if not operational or self.tpdo is None or self.fault == "lost":
                 return
             if self.syncs % self.tpdo.trans_type:
@@ -220,6 +235,7 @@ class Inclinometer(SimulatedNode):
                 "nmt": self.node.nmt.state,
                 "fault": self.fault,
                 "slope": self.slope,
+                "lateral_slope": self.lateral_slope if self.lateral is not None else None,
                 "resolution_deg": self.resolution_deg(),
                 "syncs": self.syncs,
                 "sent": self.sent,

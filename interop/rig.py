@@ -142,7 +142,8 @@ class Rig:
         return {d["node"]: d for d in self.drive("dump")["drives"]}
 
     def load(self):
-        """The load under the trolley (load.py): swing angle, amplitude, position."""
+        """The load under the trolley (load.py; the 3D crane's load3d.py): swing angle,
+        amplitude (the 3D crane's per plane), position."""
         return self.drive("dump")["load"]
 
     def inclinometer(self):
