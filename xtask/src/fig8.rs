@@ -23,7 +23,8 @@ use crate::qemu::{self, Measured};
 
 /// The run of one scene as the figure needs it.
 pub struct Trace<'a> {
-    /// `BDF4 exact`, `Radau transformed`, … (the study's CSV labels).
+    /// `BDF4 exact`, `Radau transformed`, … (the study's CSV labels), `3D …` for the
+    /// crane in three dimensions.
     pub label: String,
     /// Whether the scheme is BDF (panel d) or Radau (panel e).
     pub bdf: bool,
@@ -164,7 +165,17 @@ fn trace<'a>(m: &'a Measured, e: &'a cycles::Estimate) -> Result<Trace<'a>, Stri
         e.worst_mismatch
     );
     Ok(Trace {
-        label: format!("{} {}", scheme_label(&m.scene), jacobian_label(&m.scene)),
+        label: format!(
+            "{}{} {}",
+            // The crane in three dimensions beside the paper's.
+            if matches!(m.scene.model, scene::ModelSpec::Crane3dSubs(_)) {
+                "3D "
+            } else {
+                ""
+            },
+            scheme_label(&m.scene),
+            jacobian_label(&m.scene)
+        ),
         bdf: m.scene.solver.scheme == SchemeSpec::Bdf,
         h: m.scene.solver.h,
         moving: (
