@@ -189,7 +189,9 @@ where
         "/// Crane parameters.\npub const PARAMS: Crane = {};",
         setup.params.source()
     );
-    let limits = K::LIMITS
+    let limits = setup
+        .planner
+        .limits()
         .map(|l| {
             format!(
                 "controller::setpoint::AxisLimits {{ max_velocity: {:?}, max_acceleration: {:?} }}",
@@ -199,7 +201,7 @@ where
         .join(", ");
     let _ = writeln!(
         c,
-        "/// The planner of moves on command: this crane, its lab drives' limits (which the\n/// set-point gate enforces too).\npub const PLANNER: controller::planner::Planner<Crane, AXES> = controller::planner::Planner::with_axes(PARAMS, [{limits}]);"
+        "/// The planner of moves on command: this crane, its drives' set-point limits (the\n/// commissioning file's; the set-point gate enforces them too).\npub const PLANNER: controller::planner::Planner<Crane, AXES> = controller::planner::Planner::with_axes(PARAMS, [{limits}]);"
     );
     let _ = writeln!(
         c,

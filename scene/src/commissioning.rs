@@ -26,6 +26,8 @@
 //! profile_acceleration = 30.0    # m/s², pv only (0x6083/0x6084): required there
 //! position_scale = 1e-6          # m per increment of 0x6064
 //! position_offset = 0.0          # m at increment 0
+//! velocity_limit = 3.0           # optional: the set points' limit, m/s (the crane's lab drive's)
+//! acceleration_limit = 3.0       # optional: m/s² (planner and set-point gate)
 //!
 //! [inclinometer]                 # CiA 410, for a scene with [feedback]
 //! node = 3
@@ -213,6 +215,11 @@ pub struct DriveSpec {
     pub position_scale: f64,
     #[serde(default)]
     pub position_offset: f64,
+    /// The set points' velocity limit for this drive, m/s (the planner's and the
+    /// gate's); the crane's lab drive's when absent.
+    pub velocity_limit: Option<f64>,
+    /// The set points' acceleration limit, m/s²; the crane's lab drive's when absent.
+    pub acceleration_limit: Option<f64>,
 }
 
 fn csv() -> ModeSpec {
@@ -254,6 +261,8 @@ fn stock_drives() -> Vec<DriveSpec> {
             profile_acceleration: None,
             position_scale: 1e-6,
             position_offset: 0.0,
+            velocity_limit: None,
+            acceleration_limit: None,
         })
         .collect()
 }
@@ -385,6 +394,43 @@ impl CommissioningFile {
             .iter()
             .enumerate()
             .find(|(_, d)| d.axis.drive() == axis)
+    }
+
+    /// The set-point limits of a crane with `drives` (the model's input order): each
+    /// drive's row's `velocity_limit` and `acceleration_limit`, `defaults`' (the crane's
+    /// lab drives', same order) where the row names none; a limit that is not a positive
+    /// number is refused with its field named. A drive without a row keeps the default
+    /// ([`Self::config_for`] refuses the file for it).
+    pub fn limits_for<const A: usize>(
+        &self,
+        drives: [Drive; A],
+        defaults: [AxisLimits; A],
+    ) -> Result<[AxisLimits; A], SceneError> {
+        let mut limits = defaults;
+        for (limit, axis) in limits.iter_mut().zip(drives) {
+            let Some((i, d)) = self.drive(axis) else {
+                continue;
+            };
+            for (name, value, slot) in [
+                ("velocity_limit", d.velocity_limit, &mut limit.max_velocity),
+                (
+                    "acceleration_limit",
+                    d.acceleration_limit,
+                    &mut limit.max_acceleration,
+                ),
+            ] {
+                if let Some(v) = value {
+                    if !(v.is_finite() && v > 0.0) {
+                        return Err(refuse(
+                            format!("drive[{i}].{name}"),
+                            "a positive number (m/s or m/s²)",
+                        ));
+                    }
+                    *slot = v;
+                }
+            }
+        }
+        Ok(limits)
     }
 
     /// The controller's configuration for the planar crane's drives with `limits` cycling

@@ -50,8 +50,8 @@ pub struct FirmwareScene<K, const A: usize> {
     /// The plan at t = 0: at rest at the move's start, the move planned. Moves on
     /// command have the smoothness `max(n, 5)` (`controller::feedforward::command_plan`).
     pub plan: Plan<f64, A>,
-    /// The planner of moves on command, with the crane's lab drives' limits
-    /// ([`FirmwareCrane::LIMITS`]).
+    /// The planner of moves on command, with each drive's set-point limits (the
+    /// commissioning file's, [`FirmwareCrane::LIMITS`] where it names none).
     pub planner: Planner<K, A>,
     /// Timing and the nodes of the controller.
     pub config: Config,
@@ -95,7 +95,12 @@ where
     let mut plan = command_plan(first_move.start().into(), scene.trajectory.smoothness)
         .map_err(|e| e.to_string())?;
     plan.push(first_move).map_err(|e| e.to_string())?;
-    let planner = Planner::with_axes(params, K::LIMITS);
+    // Each drive's set-point limits: its commissioning row's, the crane's lab drive's
+    // where the row names none — the planner's and the gate's.
+    let limits = commissioning
+        .limits_for(K::DRIVES, K::LIMITS)
+        .map_err(|e| format!("commissioning file: {e}"))?;
+    let planner = Planner::with_axes(params, limits);
     let (t0, t1) = first_move.active_span();
     planner.check(&first_move, t0, t1).map_err(|r| {
         format!("the scene's move breaks the planner's rule {r:?} (docs/COMMANDS.md)")
@@ -121,7 +126,7 @@ where
         ));
     }
     let config = commissioning
-        .config_for(K::DRIVES, K::LIMITS, period_ms)
+        .config_for(K::DRIVES, limits, period_ms)
         .map_err(|e| format!("commissioning file: {e}"))?;
     let feedback = scene
         .feedback

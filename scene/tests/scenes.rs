@@ -244,3 +244,46 @@ fn the_3d_scenes_pass_with_their_own_commissioning_file() {
         assert!(e.contains("bridge"), "{name}: {e}");
     }
 }
+
+/// Each drive's set-point limits come from its commissioning row where it names them
+/// (the planner's and the gate's), the crane's lab drive's otherwise: a slower bridge
+/// refuses the 3D scene's move by the bridge's rule; a bad limit is refused by name.
+#[test]
+fn a_drives_limits_are_its_commissioning_rows() {
+    use controller::setpoint::DriveLimits;
+    use scene::firmware::firmware_scene;
+    use solver_core::models::crane3d::Crane3dParams;
+    let path = scenes_dir().join("crane3d/crane3d.toml");
+    let scene = Scene::load(&path).unwrap();
+    let own = std::fs::read_to_string(scenes_dir().join("crane3d/commissioning.toml")).unwrap();
+    // The hoist's row with its own acceleration limit.
+    let hoist_row = own.replacen(
+        "axis = \"winch\"",
+        "axis = \"winch\"\nacceleration_limit = 2.5",
+        1,
+    );
+    let file = CommissioningFile::parse(&hoist_row).unwrap();
+    let f = firmware_scene::<Crane3dParams, 3>(&scene, &file).unwrap();
+    let [bridge, trolley, hoist] = f.planner.limits();
+    let lab = DriveLimits::LAB_3D;
+    assert_eq!((bridge, trolley), (lab[0], lab[1]));
+    assert_eq!(hoist.max_acceleration, 2.5);
+    assert_eq!(hoist.max_velocity, lab[2].max_velocity);
+    // The bridge limited to 1.5 m/s: the diagonal move needs about 2 m/s.
+    let slow = own.replacen(
+        "axis = \"bridge\"",
+        "axis = \"bridge\"\nvelocity_limit = 1.5",
+        1,
+    );
+    let e = firmware_scene::<Crane3dParams, 3>(&scene, &CommissioningFile::parse(&slow).unwrap())
+        .unwrap_err();
+    assert!(e.contains("BridgeVelocity"), "{e}");
+    let bad = own.replacen(
+        "axis = \"trolley\"",
+        "axis = \"trolley\"\nvelocity_limit = -1.0",
+        1,
+    );
+    let e = firmware_scene::<Crane3dParams, 3>(&scene, &CommissioningFile::parse(&bad).unwrap())
+        .unwrap_err();
+    assert!(e.contains("drive[1].velocity_limit"), "{e}");
+}
