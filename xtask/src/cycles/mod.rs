@@ -10,17 +10,24 @@
 //! bound, point estimate, upper bound).
 //!
 //! A step's window is the firmware's own cost window: `Board::counter` (never inlined
-//! on the QEMU board) is entered once before the tick and once after it, so the
-//! instructions between two entries are the ones the firmware's `cost` line counts
-//! from QEMU's virtual clock. The two counts are compared step by step and must agree
-//! within [`WINDOW_SLACK`] instructions — the check that the trace and the windows
-//! are read right.
+//! on the QEMU board) reads the timer once before the tick and once after it, so the
+//! instructions from one execution of that read to the next are the ones the
+//! firmware's `cost` line counts from QEMU's virtual clock. The windows are cut at the
+//! read itself, not at the function's entry: an interrupt taken between the entry and
+//! the read is inside the firmware's window when the read closes it and outside when
+//! the read opens it (cut at the entries, the feedback scene's step 499 lost the 30
+//! instructions of a SysTick handler to the next window). The read is the counter's
+//! one load that does not take a constant from the literal pool, found in the trace's
+//! disassembly of the counter's code (the symbol's address and size). The two counts
+//! are compared step by step and must agree within [`WINDOW_SLACK`] instructions — the
+//! check that the trace and the windows are read right.
 
 pub mod m7;
 
 use std::collections::HashMap;
 use std::fs::File;
 use std::io::{BufRead, BufReader, Write};
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
 use std::rc::Rc;
@@ -37,8 +44,9 @@ use crate::setup;
 pub const CLOCK_MHZ: f64 = 480.0;
 
 /// How far a step's instructions in the trace may lie from the firmware's own count:
-/// the counter's call and return are on different sides of the two readings, and the
-/// virtual clock rounds to 3.2 timer ticks per instruction.
+/// the virtual clock rounds to 3.2 timer ticks per instruction, so with the windows cut
+/// at the timer read every step of every scene agrees within 1 (the slack is the one
+/// set when the windows were cut at the counter's entry).
 pub const WINDOW_SLACK: i64 = 16;
 
 const SETTINGS: [Setting; 3] = [Setting::Lower, Setting::Point, Setting::Upper];
@@ -66,11 +74,17 @@ pub struct Traced {
     /// instruction (not counted), or rewound to an I/O access inside them (counted up
     /// to it).
     pub stopped_blocks: u64,
+    /// The address of `Board::counter`'s timer read (`None`: no disassembly of the
+    /// counter's code showed one).
+    pub read: Option<u32>,
 }
 
 /// The state carried through the trace.
 struct Reader {
-    counter: u32,
+    /// The code of `Board::counter`.
+    counter: Range<u32>,
+    /// The address of its timer read, once its disassembly was seen.
+    read: Option<u32>,
     by_host: HashMap<u64, Rc<[Insn]>>,
     by_pc: HashMap<u32, Rc<[Insn]>>,
     translating: Option<Vec<Insn>>,
@@ -86,9 +100,10 @@ struct Reader {
 }
 
 impl Reader {
-    fn new(counter: u32) -> Self {
+    fn new(counter: Range<u32>) -> Self {
         Self {
             counter,
+            read: None,
             by_host: HashMap::new(),
             by_pc: HashMap::new(),
             translating: None,
@@ -119,6 +134,12 @@ impl Reader {
         } else if line.is_empty() || line.starts_with("---") {
             if let Some(block) = self.translating.take().filter(|b| !b.is_empty()) {
                 let block: Rc<[Insn]> = block.into();
+                if self.read.is_none() {
+                    self.read = block
+                        .iter()
+                        .find(|i| self.counter.contains(&i.address) && reads_memory(i))
+                        .map(|i| i.address);
+                }
                 self.by_pc.insert(block[0].address, Rc::clone(&block));
                 self.translated = Some(block);
             }
@@ -190,32 +211,37 @@ impl Reader {
         }
     }
 
-    /// A block that ran: the outcome of the last one's branch, a window's end or
-    /// start, its instructions issued.
+    /// A block that ran: the outcome of the last one's branch, its instructions
+    /// issued, a window's end and the next one's start at the counter's timer read.
     fn execute(&mut self, block: Rc<[Insn]>) {
         let pc = block[0].address;
         if let Some(last) = self.previous.as_ref().and_then(|b| b.last()) {
             self.branch(*last, pc);
         }
-        if pc == self.counter {
-            match self.open.take() {
-                None => self.open = Some(self.now()),
-                Some(start) => {
-                    let end = self.now();
-                    self.out.steps.push(Step {
-                        instructions: end.instructions - start.instructions,
-                        cycles: [0, 1, 2].map(|i| end.cycles[i] - start.cycles[i]),
-                    });
-                }
-            }
-        }
         for insn in block.iter() {
+            if Some(insn.address) == self.read {
+                self.cut();
+            }
             for p in &mut self.pipelines {
                 p.issue(insn);
             }
+            self.out.instructions += 1;
         }
-        self.out.instructions += block.len() as u64;
         self.previous = Some(block);
+    }
+
+    /// The timer read is about to run: a window closes, or one opens.
+    fn cut(&mut self) {
+        match self.open.take() {
+            None => self.open = Some(self.now()),
+            Some(start) => {
+                let end = self.now();
+                self.out.steps.push(Step {
+                    instructions: end.instructions - start.instructions,
+                    cycles: [0, 1, 2].map(|i| end.cycles[i] - start.cycles[i]),
+                });
+            }
+        }
     }
 
     /// The outcome of the block's last instruction, a branch, seen from where
@@ -255,19 +281,27 @@ fn parse_trace(rest: &str) -> Option<(u64, u32)> {
     Some((host, u32::from_str_radix(pc, 16).ok()?))
 }
 
-/// Reads a trace.
-pub fn read_trace(input: impl BufRead, counter: u32) -> Result<Traced, String> {
+/// Whether `insn` reads memory other than a constant in the literal pool (`ldr r0,
+/// [pc, #8]`): in `Board::counter`, the timer read (its `pop` is a load multiple).
+fn reads_memory(insn: &Insn) -> bool {
+    matches!(insn.class, Class::Load | Class::LoadPair) && insn.address_reads & 1 << 15 == 0
+}
+
+/// Reads a trace; `counter` is the code of `Board::counter`, whose timer read cuts the
+/// windows.
+pub fn read_trace(input: impl BufRead, counter: Range<u32>) -> Result<Traced, String> {
     let mut reader = Reader::new(counter);
     for line in input.split(b'\n') {
         let line = line.map_err(|e| format!("reading the trace: {e}"))?;
         reader.line(String::from_utf8_lossy(&line).trim_end());
     }
     reader.finish();
+    reader.out.read = reader.read;
     Ok(reader.out)
 }
 
-/// The address of `firmware::board::qemu::Board::counter` in `elf`.
-fn counter_address(elf: &Path) -> Result<u32, String> {
+/// The code of `firmware::board::qemu::Board::counter` in `elf`: its address and size.
+fn counter_code(elf: &Path) -> Result<Range<u32>, String> {
     let bytes = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
     let file = object::File::parse(&*bytes).map_err(|e| e.to_string())?;
     let mut found = file.symbols().filter(|s| {
@@ -276,7 +310,14 @@ fn counter_address(elf: &Path) -> Result<u32, String> {
         })
     });
     match (found.next(), found.next()) {
-        (Some(s), None) => Ok((s.address() & !1) as u32),
+        (Some(s), None) if s.size() > 0 => {
+            let start = (s.address() & !1) as u32;
+            Ok(start..start + s.size() as u32)
+        }
+        (Some(_), None) => Err(format!(
+            "{}: Board::counter has no size in the symbol table",
+            elf.display()
+        )),
         (None, _) => Err(format!(
             "{}: no symbol firmware::board::qemu::Board::counter (inlined?)",
             elf.display()
@@ -297,10 +338,14 @@ pub struct Estimate {
 }
 
 /// Runs `scene`'s QEMU firmware with the execution trace and estimates every step's
-/// cycles: on the healthy bus, the feedback scene on the plant it closes the loop
-/// around (as `qemu-bench` measures them).
+/// cycles: on the healthy bus, the feedback scenes (planar and 3D) on the plant they
+/// close the loop around, with their inclinometer (as `qemu-bench` measures them).
 pub fn estimate(scene: &str) -> Result<Estimate, String> {
-    let scenario = if scene == crate::qemu::FEEDBACK_SCENE {
+    let feedback = [
+        crate::qemu::FEEDBACK_SCENE,
+        crate::qemu::CRANE3D_FEEDBACK_SCENE,
+    ];
+    let scenario = if feedback.contains(&scene) {
         sim::CLOSED_LOOP
     } else {
         HEALTHY
@@ -308,7 +353,7 @@ pub fn estimate(scene: &str) -> Result<Estimate, String> {
     setup::ensure_qemu()?;
     let path = root().join(scene);
     let elf = firmware::build(Board::Qemu, &path)?;
-    let counter = counter_address(&elf)?;
+    let counter = counter_code(&elf)?;
     let dir = elf.with_extension("cycles");
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let fifo = dir.join("trace.fifo");
@@ -330,12 +375,18 @@ pub fn estimate(scene: &str) -> Result<Estimate, String> {
         .spawn()
         .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
     let input = File::open(&fifo).map_err(|e| format!("{}: {e}", fifo.display()));
-    let traced = input.and_then(|f| read_trace(BufReader::with_capacity(1 << 20, f), counter));
+    let traced =
+        input.and_then(|f| read_trace(BufReader::with_capacity(1 << 20, f), counter.clone()));
     let status = child.wait().map_err(|e| e.to_string())?;
     let _ = std::fs::remove_file(&fifo);
     let traced = traced?;
     if !status.success() {
         return Err(format!("{scene}: QEMU exited with {status}"));
+    }
+    if traced.read.is_none() {
+        return Err(format!(
+            "{scene}: no timer read in the trace's disassembly of Board::counter ({counter:#x?})"
+        ));
     }
     if traced.unknown_blocks != 0 {
         return Err(format!(
@@ -462,11 +513,13 @@ mod tests {
     use super::*;
 
     /// A hand-written trace in QEMU's format: a loop of two blocks run three times,
-    /// with the counter's block entered before and after.
+    /// with the counter called before and after (its timer read at 0x104).
     const TRACE: &str = "\
 ----------------
 IN: counter
-0x00000100:  4770       bx       lr
+0x00000100:  f241 0004  movw     r0, #0x1004
+0x00000104:  6800       ldr      r0, [r0]
+0x00000106:  4770       bx       lr
 
 Trace 0: 0x7f0000000100 [00800408/00000100/00000110/ff020200] counter
 ----------------
@@ -486,18 +539,22 @@ Trace 0: 0x7f0000000300 [00800408/00000208/00000110/ff020200] after
 Trace 0: 0x7f0000000100 [00800408/00000100/00000110/ff020200] counter
 ";
 
+    /// The code of the counter in [`TRACE`].
+    const COUNTER: Range<u32> = 0x100..0x108;
+
+    /// From the first read to the second: the read and the return, the loop, `after`,
+    /// the second call up to its read.
+    const WINDOW: u64 = 2 + 9 + 1 + 1;
+
     #[test]
-    fn a_window_is_what_runs_between_two_counter_entries() {
-        let t = read_trace(TRACE.as_bytes(), 0x100).unwrap();
+    fn a_window_is_what_runs_between_two_timer_reads() {
+        let t = read_trace(TRACE.as_bytes(), COUNTER).unwrap();
         assert_eq!(t.unknown_blocks, 0);
-        assert_eq!(t.instructions, 1 + 9 + 1 + 1);
+        assert_eq!(t.read, Some(0x104));
+        assert_eq!(t.instructions, 3 + 9 + 1 + 3);
         assert_eq!(t.steps.len(), 1);
         let s = t.steps[0];
-        assert_eq!(
-            s.instructions,
-            1 + 9 + 1,
-            "counter's own block, loop, after"
-        );
+        assert_eq!(s.instructions, WINDOW);
         let [lower, point, upper] = s.cycles;
         assert!(lower <= point && point <= upper, "{:?}", s.cycles);
         // Each vmul.f64 depends on the last through d0 (7 cycles) in the point
@@ -505,6 +562,63 @@ Trace 0: 0x7f0000000100 [00800408/00000100/00000110/ff020200] counter
         assert!(point >= 3 * 7, "{point}");
         assert!(lower <= 8, "{lower}");
         assert!(s.instructions / 2 <= lower);
+    }
+
+    /// An interrupt taken inside the counter before its read (QEMU's instruction
+    /// budget ran out there: the block is stopped, its first instruction run as a block
+    /// of its own, then the handler): the firmware's clock counts the handler in the
+    /// window the read closes, not in the one it opens.
+    #[test]
+    fn an_interrupt_before_the_read_counts_in_the_window_the_read_closes() {
+        let interrupted = "\
+Trace 0: 0x7f0000000100 [00800408/00000100/00000110/ff020200] counter
+Stopped execution of TB chain before 0x7f0000000100 [00000100] counter
+----------------
+IN: counter
+0x00000100:  f241 0004  movw     r0, #0x1004
+
+Trace 0: 0x7f0000000500 [00800408/00000100/00000110/ff020203] counter
+----------------
+IN: SysTick
+0x00000600:  2000       movs     r0, #0
+0x00000602:  4770       bx       lr
+
+Trace 0: 0x7f0000000600 [0080040d/00000600/00000110/ff020200] SysTick
+----------------
+IN: counter
+0x00000104:  6800       ldr      r0, [r0]
+0x00000106:  4770       bx       lr
+
+Trace 0: 0x7f0000000700 [00800408/00000104/00000110/ff020200] counter
+";
+        let (first, rest) = TRACE.split_at(TRACE.find("Trace 0: 0x7f0000000100").unwrap());
+        let (rest, _) = rest.split_at(rest.rfind("Trace 0: 0x7f0000000100").unwrap());
+        let closing = format!("{first}{rest}{interrupted}");
+        let t = read_trace(closing.as_bytes(), COUNTER).unwrap();
+        assert_eq!(t.stopped_blocks, 1);
+        assert_eq!(t.steps.len(), 1);
+        assert_eq!(t.steps[0].instructions, WINDOW + 2, "the handler is in");
+        // The same interrupt in the call that opens the window: the handler runs before
+        // the clock is read.
+        let opening = format!(
+            "{}{interrupted}{}",
+            &TRACE[..TRACE.find("Trace 0").unwrap()],
+            &TRACE[TRACE.find("----------------\nIN: work").unwrap()..]
+        );
+        let t = read_trace(opening.as_bytes(), COUNTER).unwrap();
+        assert_eq!(t.steps.len(), 1);
+        assert_eq!(t.steps[0].instructions, WINDOW, "the handler is out");
+    }
+
+    #[test]
+    fn a_constant_from_the_literal_pool_is_not_the_timer_read() {
+        let literal = TRACE.replace(
+            "0x00000100:  f241 0004  movw     r0, #0x1004",
+            "0x00000100:  4801       ldr      r0, [pc, #4]\n0x00000102:  bf00       nop",
+        );
+        let t = read_trace(literal.as_bytes(), 0x100..0x10c).unwrap();
+        assert_eq!(t.read, Some(0x104));
+        assert_eq!(t.steps[0].instructions, WINDOW + 1);
     }
 
     #[test]
@@ -516,9 +630,9 @@ Trace 0: 0x7f0000000100 [00800408/00000100/00000110/ff020200] counter
              Trace 0: 0x7f0000000300 [00800408/00000208/00000110/ff020200] after\n",
             1,
         );
-        let t = read_trace(stopped.as_bytes(), 0x100).unwrap();
+        let t = read_trace(stopped.as_bytes(), COUNTER).unwrap();
         assert_eq!(t.stopped_blocks, 1);
-        assert_eq!(t.steps[0].instructions, 1 + 9 + 1);
+        assert_eq!(t.steps[0].instructions, WINDOW);
     }
 
     #[test]
@@ -530,9 +644,9 @@ Trace 0: 0x7f0000000100 [00800408/00000100/00000110/ff020200] counter
              Trace 0: 0x7f0000000300 [00800408/00000208/00000110/ff020200] after\n",
             1,
         );
-        let t = read_trace(rewound.as_bytes(), 0x100).unwrap();
+        let t = read_trace(rewound.as_bytes(), COUNTER).unwrap();
         assert_eq!(t.stopped_blocks, 1);
-        assert_eq!(t.steps[0].instructions, 1 + 9 + 1);
+        assert_eq!(t.steps[0].instructions, WINDOW);
         // Rewound to its third instruction: the first two ran.
         let mid = TRACE.replacen(
             "Trace 0: 0x7f0000000200 [00800408/00000200/00000110/ff020200] work\n",
@@ -540,18 +654,39 @@ Trace 0: 0x7f0000000100 [00800408/00000100/00000110/ff020200] counter
              cpu_io_recompile: rewound execution of TB to 00000206\n",
             1,
         );
-        let t = read_trace(mid.as_bytes(), 0x100).unwrap();
-        assert_eq!(t.steps[0].instructions, 1 + 2 + 6 + 1);
+        let t = read_trace(mid.as_bytes(), COUNTER).unwrap();
+        assert_eq!(t.steps[0].instructions, 2 + 2 + 6 + 1 + 1);
+        // The timer read itself, as QEMU runs it under -icount: the counter's block
+        // rewound to it, then the read alone as a block of its own. The window is cut
+        // where the read ran, once.
+        let io = TRACE.replace(
+            "Trace 0: 0x7f0000000100 [00800408/00000100/00000110/ff020200] counter\n",
+            "Trace 0: 0x7f0000000100 [00800408/00000100/00000110/ff020200] counter\n\
+             cpu_io_recompile: rewound execution of TB to 00000104\n\
+             ----------------\n\
+             IN: counter\n\
+             0x00000104:  6800       ldr      r0, [r0]\n\
+             \n\
+             Trace 0: 0x7f0000000400 [00800408/00000104/00000110/ff038201] counter\n\
+             ----------------\n\
+             IN: counter\n\
+             0x00000106:  4770       bx       lr\n\
+             \n\
+             Trace 0: 0x7f0000000480 [00800408/00000106/00000110/ff020200] counter\n",
+        );
+        let t = read_trace(io.as_bytes(), COUNTER).unwrap();
+        assert_eq!((t.stopped_blocks, t.steps.len()), (2, 1));
+        assert_eq!(t.steps[0].instructions, WINDOW);
     }
 
     #[test]
     fn a_block_without_disassembly_is_counted_not_guessed() {
         let t = read_trace(
             "Trace 0: 0x7f0000000900 [00800408/00000900/00000110/ff020200] x\n".as_bytes(),
-            0x100,
+            COUNTER,
         )
         .unwrap();
-        assert_eq!((t.unknown_blocks, t.instructions), (1, 0));
+        assert_eq!((t.unknown_blocks, t.instructions, t.read), (1, 0, None));
     }
 
     #[test]
