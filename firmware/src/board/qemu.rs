@@ -251,9 +251,10 @@ impl Board {
     }
 
     /// The free-running cost counter: timer ticks counting up (the timer counts down
-    /// and wraps every 172 s of virtual time). Never inlined: its entry address marks
-    /// the two ends of each step's cost window in QEMU's execution trace, where
-    /// `cargo xtask cycles` estimates the Cortex-M7's cycles.
+    /// and wraps every 172 s of virtual time). Never inlined: its timer read marks the
+    /// two ends of each step's cost window in QEMU's execution trace, where `cargo
+    /// xtask cycles` estimates the Cortex-M7's cycles (at the read, not the function's
+    /// entry: an interrupt between the two belongs where the timer puts it).
     #[inline(never)]
     pub fn counter(&self) -> u32 {
         // SAFETY: a volatile word read of the timer's VALUE register (see `init`).
@@ -460,8 +461,8 @@ unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
 /// The timer that [`Board::counter`] reads, read around the inverse model's steps
 /// (`crate::timed`) as it counts — down: [`solver_elapsed`] turns two readings into
 /// ticks. A function of its own, never inlined: `cargo xtask cycles` cuts the tick's
-/// windows at every entry into `Board::counter`, so the solver's window inside the tick
-/// must not enter it. Its body must differ from `Board::counter`'s too (the raw value,
+/// windows at every timer read of `Board::counter`, so the solver's window inside the
+/// tick must not call it. Its body must differ from `Board::counter`'s too (the raw value,
 /// not `u32::MAX −` it): identical functions are folded into one symbol by the
 /// optimiser, and `Board::counter`'s name would vanish from the ELF.
 #[inline(never)]
