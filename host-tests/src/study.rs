@@ -8,7 +8,7 @@
 use std::time::Instant;
 
 use scene::dispatch::{scheme, Exact, ModelVisitor};
-use scene::{JacobianSpec, ModelSpec, NewtonSpec, ScalarSpec, Scene, SceneError, SchemeSpec};
+use scene::{JacobianSpec, NewtonSpec, ScalarSpec, Scene, SceneError, SchemeSpec};
 use solver_core::scalar::to_f64;
 use solver_core::schemes::Chosen;
 use solver_core::{DaeModel, Error, Integrator, Real};
@@ -174,13 +174,10 @@ impl Observer for TimeSeries {
     }
 }
 
-/// The e_max above which a run counts as inaccurate, by model: 1 mm/s for the crane's
-/// velocity set points, 0.01 N for the mass-on-car's force.
+/// The e_max above which a run counts as inaccurate, by model
+/// ([`scene::dispatch::accuracy_threshold`]).
 pub fn default_threshold(scene: &Scene) -> f64 {
-    match scene.model {
-        ModelSpec::MassOnCar(_) => 1e-2,
-        _ => 1e-3,
-    }
+    scene::dispatch::accuracy_threshold(&scene.model)
 }
 
 /// Runs a scene, measures it against its reference, and times `repeats` further runs.

@@ -1,17 +1,20 @@
-//! The one place where a scene's model and scheme become types.
+//! The one place where a scene's crane, model and scheme become types.
 //!
 //! Every tool that runs a scene comes through here, so they cannot drift apart:
 //! - the studies, the sweep and the paper's figures, through [`model`], which builds the
 //!   scene's model on its move in the study's scalar and hands it to a
 //!   [`ModelVisitor`] (which steps it with any [`Scheme`] it likes), and [`Exact`], the
 //!   exact inputs Eq. 29 measures against;
-//! - the firmware's build script, the host's run of the firmware and the virtual ECU,
-//!   through [`FirmwareScheme`]: the integrator the firmware links for the scene, as the
-//!   Rust type the build script writes ([`FirmwareScheme::rust`]) and as the same type
-//!   built on the host ([`FirmwareScheme::visit`]).
+//! - the firmware's build script, the host's run of the firmware, the virtual ECU and the
+//!   fuzzer's build script, through [`firmware`], which hands the scene's setup to a
+//!   [`FirmwareCraneVisitor`] as its crane's type ([`FirmwareCrane`], one registration per
+//!   crane); [`FirmwareScheme`] is the integrator the firmware links for the scene, as
+//!   the Rust type the build scripts write ([`FirmwareScheme::rust`]) and as the same
+//!   type built on the host ([`FirmwareCrane::inverse_model`]);
+//! - the panic proof's build script, through [`FirmwareScheme::every`].
 //!
-//! A new model is one arm in [`model`] and [`Exact::new`], and its firmware rows in
-//! [`FirmwareScheme`] if the firmware can drive it (docs/MODELS.md).
+//! A new model is one arm in [`model`] and [`Exact::new`], and if the firmware drives it
+//! a [`FirmwareModel`] and its crane's [`FirmwareCrane`] (docs/MODELS.md).
 
 use controller::correction::AxesCorrection;
 use controller::feedback::{Config as FeedbackConfig, NoFeedback, StateFeedback};
@@ -33,7 +36,7 @@ use solver_core::reference::flat_crane3d;
 use solver_core::reference::mass_on_car::MassOnCarReference;
 use solver_core::scalar::c;
 use solver_core::schemes::bdf::CORRECT_BELOW_H;
-use solver_core::trajectory::PointToPoint;
+use solver_core::trajectory::{PointToPoint, Trajectory};
 use solver_core::{DaeModel, Driven, Error, Integrator, Real, Scheme, SolverSettings};
 
 use crate::commissioning::CommissioningFile;
@@ -105,6 +108,16 @@ pub(crate) fn trajectory<T: Real, const NZ: usize>(
         t.smoothness,
     )
     .map_err(|e| scene.field_of(e))
+}
+
+/// The e_max above which a run of `model` counts as inaccurate: 1 mm/s for the cranes'
+/// velocity set points, 0.01 N for the mass-on-car's force.
+#[must_use]
+pub fn accuracy_threshold(model: &ModelSpec) -> f64 {
+    match model {
+        ModelSpec::MassOnCar(_) => 1e-2,
+        ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) | ModelSpec::Crane3dSubs(_) => 1e-3,
+    }
 }
 
 /// The visitor that only builds the model: what [`Scene::validate`] asks of it.
@@ -384,43 +397,44 @@ impl FirmwareScheme {
     }
 }
 
-/// Builds the integrator `$alias` of the model module `$m` (a `schemes_of!` alias) on
-/// `$model` and hands both to `$visitor` as the controller's inverse model: one arm per
-/// [`FirmwareIntegrator`], the same types [`FirmwareScheme::rust`] names.
+/// Builds the integrator of the model module `$m` (a `schemes_of!` alias) that
+/// `$integrator` names on `$model` (driven by a `$plan`) and hands both to `$visit`
+/// (`$visitor`, model, integrator): one arm per [`FirmwareIntegrator`], the same types
+/// [`FirmwareScheme::rust`] names.
 macro_rules! integrators {
-    ($m:path, $integrator:expr, $model:expr, $settings:expr, $visitor:expr, $plan:ty) => {{
+    ($visit:ident, $m:path, $integrator:expr, $model:expr, $settings:expr, $visitor:expr, $plan:ty) => {{
         use $m as m;
         let model = $model;
         match $integrator {
             FirmwareIntegrator::StructuredBdf(k) => {
                 let i = m::StructuredBdf::<f64, $plan>::new(&model, $settings, k, 0.0)?;
-                visit($visitor, model, i)
+                $visit($visitor, model, i)
             }
             FirmwareIntegrator::StructuredBdfUncorrected(k) => {
                 let i = m::StructuredBdfUncorrected::<f64, $plan>::new(&model, $settings, k, 0.0)?;
-                visit($visitor, model, i)
+                $visit($visitor, model, i)
             }
             FirmwareIntegrator::Bdf(k) => {
                 let i = m::Bdf::<f64, $plan>::new(&model, $settings, k, 0.0)?;
-                visit($visitor, model, i)
+                $visit($visitor, model, i)
             }
             FirmwareIntegrator::StructuredRadau5 => {
                 let i = m::StructuredRadau5::<f64, $plan>::new(&model, $settings, 0.0)?;
-                visit($visitor, model, i)
+                $visit($visitor, model, i)
             }
             FirmwareIntegrator::Radau5 => {
                 let i = m::Radau5::<f64, $plan>::new(&model, $settings, 0.0)?;
-                visit($visitor, model, i)
+                $visit($visitor, model, i)
             }
             FirmwareIntegrator::RadauFull => {
                 let i = m::RadauFull::<f64, $plan>::new(&model, $settings, 0.0)?;
-                visit($visitor, model, i)
+                $visit($visitor, model, i)
             }
         }
     }};
     // A model without a structured elimination: its firmware integrators are the dense
     // ones ([`FirmwareScheme::of`] never names a structured one for it).
-    ($m:path, dense, $integrator:expr, $model:expr, $settings:expr, $visitor:expr, $plan:ty) => {{
+    ($visit:ident, $m:path, dense, $integrator:expr, $model:expr, $settings:expr, $visitor:expr, $plan:ty) => {{
         use $m as m;
         let model = $model;
         match $integrator {
@@ -428,15 +442,15 @@ macro_rules! integrators {
             | FirmwareIntegrator::StructuredBdf(k)
             | FirmwareIntegrator::StructuredBdfUncorrected(k) => {
                 let i = m::Bdf::<f64, $plan>::new(&model, $settings, k, 0.0)?;
-                visit($visitor, model, i)
+                $visit($visitor, model, i)
             }
             FirmwareIntegrator::Radau5 | FirmwareIntegrator::StructuredRadau5 => {
                 let i = m::Radau5::<f64, $plan>::new(&model, $settings, 0.0)?;
-                visit($visitor, model, i)
+                $visit($visitor, model, i)
             }
             FirmwareIntegrator::RadauFull => {
                 let i = m::RadauFull::<f64, $plan>::new(&model, $settings, 0.0)?;
-                visit($visitor, model, i)
+                $visit($visitor, model, i)
             }
         }
     }};
@@ -537,6 +551,7 @@ impl FirmwareCrane<2> for CraneParams {
         type P = Plan<f64, 2>;
         match scheme.model {
             FirmwareModel::CraneSubs => Ok(integrators!(
+                visit,
                 solver_core::models::crane_subs,
                 scheme.integrator,
                 CraneSubs::new(self, plan)?,
@@ -545,6 +560,7 @@ impl FirmwareCrane<2> for CraneParams {
                 P
             )),
             FirmwareModel::CraneProj => Ok(integrators!(
+                visit,
                 solver_core::models::crane_proj,
                 dense,
                 scheme.integrator,
@@ -618,6 +634,7 @@ impl FirmwareCrane<3> for Crane3dParams {
         type P = Plan<f64, 3>;
         match scheme.model {
             FirmwareModel::Crane3dSubs => Ok(integrators!(
+                visit,
                 solver_core::models::crane3d::subs,
                 scheme.integrator,
                 Crane3dSubs::new(self, plan)?,
@@ -656,6 +673,161 @@ pub fn firmware<V: FirmwareCraneVisitor>(
             visitor.visit(firmware_scene::<Crane3dParams, 3>(scene, commissioning)?)
         }
     })
+}
+
+/// What is done with the integrator the firmware links for a scene and the model it
+/// steps, whatever the trajectory type that drives it (the cost measurements of `cargo
+/// xtask instructions`, `host-tests/src/bin/steps.rs`).
+pub trait StepsVisitor {
+    /// What it gives.
+    type Output;
+    /// Does it with `model` and `integrator`, at rest at t = 0.
+    fn visit<
+        M: DaeModel<f64, N, NU>,
+        I: Integrator<f64, M, N, NU>,
+        const N: usize,
+        const NU: usize,
+    >(
+        self,
+        model: M,
+        integrator: I,
+    ) -> Self::Output;
+}
+
+/// The trajectory type a cost measurement drives the model by.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DrivenBy {
+    /// The scene's move as a `PointToPoint` (the studies' and the paper's).
+    PointToPoint,
+    /// The same move pushed onto a `Plan` at rest at its start: the firmware's type.
+    Plan,
+}
+
+/// The scene's model on its move (`driven`: bare, or on the firmware's `Plan` as the
+/// firmware builds it) and the integrator the firmware links for the scene
+/// ([`FirmwareScheme::of`]), handed to `visitor`.
+pub fn firmware_steps<V: StepsVisitor>(
+    scene: &Scene,
+    driven: DrivenBy,
+    visitor: V,
+) -> Result<V::Output, String> {
+    let scheme = FirmwareScheme::of(scene)?;
+    let settings = &scene.settings();
+    let i = scheme.integrator;
+    // The move as the firmware plans it: at rest at its start, the move pushed.
+    fn on_plan<const A: usize>(z: PointToPoint<f64, A>, n: usize) -> Result<Plan<f64, A>, Error> {
+        let mut plan = controller::feedforward::command_plan(z.start().into(), n)?;
+        plan.push(z)?;
+        Ok(plan)
+    }
+    let n = scene.trajectory.smoothness;
+    let planar = || {
+        let p = scene.model.crane().map(|c| c.params());
+        let p = p.ok_or_else(|| "the scene's model is not the planar crane".to_string())?;
+        Ok::<_, String>((p, trajectory::<f64, 2>(scene).map_err(|e| e.to_string())?))
+    };
+    let done = match (scheme.model, driven) {
+        (FirmwareModel::CraneSubs, DrivenBy::PointToPoint) => {
+            let (p, z) = planar()?;
+            subs_steps(p, z, i, settings, visitor)
+        }
+        (FirmwareModel::CraneSubs, DrivenBy::Plan) => {
+            let (p, z) = planar()?;
+            on_plan(z, n).and_then(|plan| subs_steps(p, plan, i, settings, visitor))
+        }
+        (FirmwareModel::CraneProj, DrivenBy::PointToPoint) => {
+            let (p, z) = planar()?;
+            proj_steps(p, z, i, settings, visitor)
+        }
+        (FirmwareModel::CraneProj, DrivenBy::Plan) => {
+            let (p, z) = planar()?;
+            on_plan(z, n).and_then(|plan| proj_steps(p, plan, i, settings, visitor))
+        }
+        (FirmwareModel::Crane3dSubs, driven) => {
+            let p = Crane3dParams::of(&scene.model)
+                .ok_or_else(|| "the scene's model is not the 3D crane".to_string())?;
+            let z = trajectory::<f64, 3>(scene).map_err(|e| e.to_string())?;
+            match driven {
+                DrivenBy::PointToPoint => crane3d_steps(p, z, i, settings, visitor),
+                DrivenBy::Plan => {
+                    on_plan(z, n).and_then(|plan| crane3d_steps(p, plan, i, settings, visitor))
+                }
+            }
+        }
+    };
+    done.map_err(|e| e.to_string())
+}
+
+/// The planar *subs* crane on `z` with the firmware's integrator `i`, to `visitor`.
+fn subs_steps<Z: Trajectory<f64, 2>, V: StepsVisitor>(
+    p: CraneParams,
+    z: Z,
+    i: FirmwareIntegrator,
+    settings: &SolverSettings,
+    visitor: V,
+) -> Result<V::Output, Error> {
+    Ok(integrators!(
+        step_visit,
+        solver_core::models::crane_subs,
+        i,
+        CraneSubs::new(p, z)?,
+        settings,
+        visitor,
+        Z
+    ))
+}
+
+/// The planar *proj* crane on `z` with the firmware's integrator `i`, to `visitor`.
+fn proj_steps<Z: Trajectory<f64, 2>, V: StepsVisitor>(
+    p: CraneParams,
+    z: Z,
+    i: FirmwareIntegrator,
+    settings: &SolverSettings,
+    visitor: V,
+) -> Result<V::Output, Error> {
+    Ok(integrators!(
+        step_visit,
+        solver_core::models::crane_proj,
+        dense,
+        i,
+        CraneProj::new(p, z)?,
+        settings,
+        visitor,
+        Z
+    ))
+}
+
+/// The 3D crane on `z` with the firmware's integrator `i`, to `visitor`.
+fn crane3d_steps<Z: Trajectory<f64, 3>, V: StepsVisitor>(
+    p: Crane3dParams,
+    z: Z,
+    i: FirmwareIntegrator,
+    settings: &SolverSettings,
+    visitor: V,
+) -> Result<V::Output, Error> {
+    Ok(integrators!(
+        step_visit,
+        solver_core::models::crane3d::subs,
+        i,
+        Crane3dSubs::new(p, z)?,
+        settings,
+        visitor,
+        Z
+    ))
+}
+
+/// `model` and `integrator` to a [`StepsVisitor`].
+fn step_visit<V, M, I, const N: usize, const NU: usize>(
+    visitor: V,
+    model: M,
+    integrator: I,
+) -> V::Output
+where
+    V: StepsVisitor,
+    M: DaeModel<f64, N, NU>,
+    I: Integrator<f64, M, N, NU>,
+{
+    visitor.visit(model, integrator)
 }
 
 /// `model` and `integrator` as the controller's inverse model, to `visitor`.

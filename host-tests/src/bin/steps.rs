@@ -17,20 +17,21 @@
 //! [`PointToPoint`](solver_core::trajectory::PointToPoint) the studies use: what a
 //! step costs on the MCU includes what the plan costs per evaluation (issue 20).
 //!
-//! `newton=structured` BDF is the type the firmware links for the scene's h: from
-//! `CORRECT_BELOW_H` (5 ms) on the closed form without its correction linked
-//! (`StructuredBdfUncorrected`), below it with (`StructuredBdf`).
+//! `newton=structured` measures the integrator the firmware links for the scene
+//! (`scene::dispatch::firmware_steps`, the firmware's build script's dispatch: BDF from
+//! 5 ms on the closed form without its correction linked, below it with; RADAU5's stages
+//! in closed form), on any crane the firmware drives; without it, the study's integrator
+//! for the scene (`scene::dispatch::model`, the scheme with the settings' Jacobian mode
+//! on dense LUs), on any model, bare move only.
 
 use std::process::ExitCode;
 
 use host_tests::study::{jacobian_label, scheme_label, whole_steps};
 use host_tests::sweep::apply;
-use scene::{ModelSpec, ScalarSpec, Scene, SchemeSpec};
-use solver_core::models::crane3d::{self, Crane3dSubs};
-use solver_core::models::crane_subs::{self, CraneSubs};
-use solver_core::schemes::bdf::CORRECT_BELOW_H;
-use solver_core::trajectory::Trajectory;
-use solver_core::{DaeModel, Error, Integrator, SolverSettings};
+use scene::dispatch::{firmware_steps, scheme, DrivenBy, ModelVisitor, StepsVisitor};
+use scene::{ScalarSpec, Scene, SchemeSpec};
+use solver_core::schemes::Chosen;
+use solver_core::{DaeModel, Error, Integrator};
 
 /// One step of any scheme on any model, the unit callgrind collects (never inlined, so
 /// that its monomorphisations carry its name).
@@ -54,16 +55,59 @@ fn step_with<
     const N: usize,
     const NU: usize,
 >(
-    integrator: Result<I, Error>,
+    mut integrator: I,
     model: &M,
     steps: usize,
 ) -> Result<u64, String> {
-    let mut integrator = integrator.map_err(|e| e.to_string())?;
     let mut iterations = 0_u64;
     for _ in 0..steps {
         iterations += u64::from(measured_step(&mut integrator, model).map_err(|e| e.to_string())?);
     }
     Ok(iterations)
+}
+
+/// The firmware's integrator for the scene (`scene::dispatch::firmware_steps`), stepped.
+struct Firmware {
+    steps: usize,
+}
+
+impl StepsVisitor for Firmware {
+    type Output = Result<u64, String>;
+    fn visit<
+        M: DaeModel<f64, N, NU>,
+        I: Integrator<f64, M, N, NU>,
+        const N: usize,
+        const NU: usize,
+    >(
+        self,
+        model: M,
+        integrator: I,
+    ) -> Self::Output {
+        step_with(integrator, &model, self.steps)
+    }
+}
+
+/// The study's integrator for the scene (`scene::dispatch::model`: the scheme the scene
+/// names with the settings' Jacobian mode on dense LUs), stepped.
+struct Study<'a> {
+    scene: &'a Scene,
+}
+
+impl ModelVisitor<f64> for Study<'_> {
+    type Output = Result<u64, String>;
+    fn visit<M: DaeModel<f64, N, NU>, const N: usize, const NU: usize, const S: usize>(
+        self,
+        model: M,
+    ) -> Self::Output {
+        let integrator = Chosen::<f64, M, N, NU, S>::new(
+            &model,
+            scheme(self.scene),
+            &self.scene.settings(),
+            0.0,
+        )
+        .map_err(|e| e.to_string())?;
+        step_with(integrator, &model, self.scene.steps())
+    }
 }
 
 fn main() -> ExitCode {
@@ -74,15 +118,6 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-/// The trajectory type the model is driven by (`trajectory=…`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Driven {
-    /// The scene's move as a `PointToPoint` (the studies' and the paper's).
-    PointToPoint,
-    /// The same move pushed onto a `Plan` at rest at its start: the firmware's type.
-    Plan,
 }
 
 fn run() -> Result<(), String> {
@@ -96,7 +131,7 @@ fn run() -> Result<(), String> {
     // firmware's Newton by the model's structured elimination, not a study axis.
     let mut structured = false;
     // `trajectory=plan`: the firmware's trajectory type, not a study axis either.
-    let mut driven = Driven::PointToPoint;
+    let mut driven = DrivenBy::PointToPoint;
     for setting in args {
         let (key, value) = setting
             .split_once('=')
@@ -108,8 +143,8 @@ fn run() -> Result<(), String> {
                     scene = apply(&scene, "jacobian", "exact")?;
                 }
             }
-            ("trajectory", "plan") => driven = Driven::Plan,
-            ("trajectory", "point-to-point") => driven = Driven::PointToPoint,
+            ("trajectory", "plan") => driven = DrivenBy::Plan,
+            ("trajectory", "point-to-point") => driven = DrivenBy::PointToPoint,
             ("trajectory", v) => {
                 return Err(format!("trajectory={v}: expected plan or point-to-point"))
             }
@@ -129,103 +164,52 @@ fn run() -> Result<(), String> {
     if scene.solver.scalar != ScalarSpec::F64 {
         return Err("only f64 is measured".into());
     }
-    let crane = match &scene.model {
-        ModelSpec::CraneSubs(crane) => crane,
-        ModelSpec::Crane3dSubs(crane) if driven == Driven::PointToPoint => {
-            let iterations = step_all_3d(&scene, crane.params(), structured)?;
-            return report(&scene, structured, driven, iterations);
+    let iterations = if structured {
+        // The firmware's integrator, through the one dispatch the firmware's build script
+        // uses: it must be the structured one the flag asks for.
+        let firmware = scene::dispatch::FirmwareScheme::of(&scene)?;
+        if !firmware.structured() {
+            return Err(format!(
+                "newton=structured: the firmware links {firmware:?} for this scene"
+            ));
         }
-        _ => {
-            return Err(
-                "only the crane *subs* models are measured (the 3D one on its bare move)".into(),
-            )
-        }
-    };
-    let trajectory = scene.trajectory2().map_err(|e| e.to_string())?;
-    let iterations = match driven {
-        Driven::PointToPoint => {
-            let model = CraneSubs::new(crane.params(), trajectory).map_err(|e| e.to_string())?;
-            step_all(&scene, &model, structured)?
-        }
-        Driven::Plan => {
-            // As the firmware builds it (`inverse_model` of firmware/build.rs): at rest at
-            // the move's start, the scene's move pushed as the running one.
-            let mut plan = controller::feedforward::command_plan(
-                trajectory.start().into(),
-                scene.trajectory.smoothness,
-            )
-            .map_err(|e| e.to_string())?;
-            plan.push(trajectory).map_err(|e| e.to_string())?;
-            let model = CraneSubs::new(crane.params(), plan).map_err(|e| e.to_string())?;
-            step_all(&scene, &model, structured)?
-        }
+        firmware_steps(
+            &scene,
+            driven,
+            Firmware {
+                steps: scene.steps(),
+            },
+        )??
+    } else if driven == DrivenBy::PointToPoint {
+        scene::dispatch::model::<f64, _>(&scene, Study { scene: &scene })
+            .map_err(|e| e.to_string())??
+    } else {
+        return Err(
+            "trajectory=plan measures the firmware's integrator: add newton=structured".into(),
+        );
     };
     report(&scene, structured, driven, iterations)
 }
 
 /// The line `cargo xtask instructions` reads the steps and iterations from.
-fn report(scene: &Scene, structured: bool, driven: Driven, iterations: u64) -> Result<(), String> {
+fn report(
+    scene: &Scene,
+    structured: bool,
+    driven: DrivenBy,
+    iterations: u64,
+) -> Result<(), String> {
     println!(
         "{} {}{}{} h = {}: steps {}, Newton iterations {iterations}",
         scheme_label(scene),
         jacobian_label(scene),
         if structured { " structured" } else { "" },
-        if driven == Driven::Plan { " plan" } else { "" },
+        if driven == DrivenBy::Plan {
+            " plan"
+        } else {
+            ""
+        },
         scene.solver.h,
         scene.steps()
     );
     Ok(())
-}
-
-/// Steps the scene from rest to its end with the scheme it names; the Newton iterations.
-fn step_all<Z: Trajectory<f64, 2>>(
-    scene: &Scene,
-    model: &CraneSubs<f64, Z>,
-    structured: bool,
-) -> Result<u64, String> {
-    let (s, k, n) = (&scene.settings(), scene.solver.k, scene.steps());
-    match scene.solver.scheme {
-        SchemeSpec::Bdf if structured && s.h >= CORRECT_BELOW_H => step_with(
-            crane_subs::StructuredBdfUncorrected::new(model, s, k, 0.0),
-            model,
-            n,
-        ),
-        SchemeSpec::Bdf if structured => {
-            step_with(crane_subs::StructuredBdf::new(model, s, k, 0.0), model, n)
-        }
-        SchemeSpec::Bdf => step_with(crane_subs::Bdf::<f64, Z>::new(model, s, k, 0.0), model, n),
-        SchemeSpec::Radau if structured => {
-            step_with(crane_subs::StructuredRadau5::new(model, s, 0.0), model, n)
-        }
-        SchemeSpec::Radau => step_with(crane_subs::Radau::<f64, Z>::new(model, s, 0.0), model, n),
-    }
-}
-
-/// [`step_all`] for the 3D crane on the scene's bare move.
-fn step_all_3d(
-    scene: &Scene,
-    params: crane3d::Crane3dParams,
-    structured: bool,
-) -> Result<u64, String> {
-    let model = Crane3dSubs::new(params, scene.trajectory3().map_err(|e| e.to_string())?)
-        .map_err(|e| e.to_string())?;
-    let (s, k, n): (&SolverSettings, usize, usize) =
-        (&scene.settings(), scene.solver.k, scene.steps());
-    type Z = solver_core::trajectory::PointToPoint<f64, 3>;
-    use crane3d::subs;
-    match scene.solver.scheme {
-        SchemeSpec::Bdf if structured && s.h >= CORRECT_BELOW_H => step_with(
-            subs::StructuredBdfUncorrected::new(&model, s, k, 0.0),
-            &model,
-            n,
-        ),
-        SchemeSpec::Bdf if structured => {
-            step_with(subs::StructuredBdf::new(&model, s, k, 0.0), &model, n)
-        }
-        SchemeSpec::Bdf => step_with(subs::Bdf::<f64, Z>::new(&model, s, k, 0.0), &model, n),
-        SchemeSpec::Radau if structured => {
-            step_with(subs::StructuredRadau5::new(&model, s, 0.0), &model, n)
-        }
-        SchemeSpec::Radau => step_with(subs::Radau::<f64, Z>::new(&model, s, 0.0), &model, n),
-    }
 }
