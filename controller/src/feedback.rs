@@ -740,9 +740,14 @@ struct Held {
     run: Option<(Vector4<f64>, u32)>,
     /// The trolley correction when the reading last changed, m/s.
     correction: f64,
-    /// The reading's offset when it started to repeat, rad: the estimate run on the
-    /// positions alone is compared with the repeated reading less it.
-    offset: f64,
+    /// The angle the position-only estimate started from (the reference's plus the
+    /// estimate the feedback acted on), rad: how far the crane's own motion has moved
+    /// the angle since is measured from it, not from the repeated reading. Under a gust
+    /// the observer's angle is a few hundredths of a degree off the reading (the wind is
+    /// a force its model does not have); measured against the reading, that gap counted
+    /// as motion and a healthy reading that repeated by chance for four cycles was
+    /// judged stuck (issue 18: one paper's-move case in 1000, 105 mm / 1.5° off).
+    start: f64,
     /// The offset shown but not yet taken out ([`StateFeedback::estimate`]) when it
     /// started to repeat, rad: a stuck reading under a moving load is no evidence of
     /// the offset.
@@ -754,7 +759,7 @@ impl Held {
         last: None,
         run: None,
         correction: 0.0,
-        offset: 0.0,
+        start: 0.0,
         left: 0.0,
     };
 }
@@ -975,22 +980,22 @@ impl StateFeedback {
             self.held.correction = self.applied[0];
             return false;
         }
-        let (Some(p), Some((run, cycles))) = (phi, self.held.run.as_mut()) else {
+        let Some((run, cycles)) = self.held.run.as_mut() else {
             // First repeat: watch from the estimate of this sample the feedback acts on
             // (the offset shown so far taken out).
             self.held.left = match self.unit {
                 Some(_) => self.zero.shown(),
                 None => 0.0,
             };
-            self.held.run = Some((self.estimate(), 0));
-            self.held.offset = self.read_offset();
+            let estimate = self.estimate();
+            self.held.run = Some((estimate, 0));
+            self.held.start = prev.phi + estimate.z;
             return false;
         };
         *run += position_only(obs, prev.l) * (ex - run.x);
         *cycles = cycles.saturating_add(1);
         *cycles >= self.cfg.max_frozen_cycles
-            && (prev.phi + run.z - (p - self.held.offset - self.held.left)).abs()
-                > self.cfg.frozen_motion
+            && (prev.phi + run.z - self.held.start).abs() > self.cfg.frozen_motion
     }
 
     /// This cycle's angle `m.phi` against the limits, the observer's prediction (once
