@@ -29,6 +29,16 @@
 //!   gains) corrects the estimate of the *previous* sample with the late measurement
 //!   and predicts it to now with the set-point deviation actually sent: the swing rate
 //!   is estimated from the model, not differentiated.
+//! * **The drive as it moves.** A drive under its own velocity loop is not the lag of
+//!   Eq. 22: friction droops it (or stops it: a proportional loop does not move below
+//!   its droop), its integral and the rope's pull push it. The observer's fifth state
+//!   is that velocity offset `d` (the set point moves the trolley as `u + d`, `d` a
+//!   random walk, [`Weights::drive_offset`]), estimated from the measured positions and
+//!   not fed back. Without it the lag model's predictions disagreed with a trolley
+//!   that did not move as asked, and the observer put the difference into the swing:
+//!   during a move its swing rate was 0.2°/s off, which a sensor failure then left in
+//!   the load, and a trolley stuck below a proportional loop's droop under a still
+//!   load was read as swinging (issue 18).
 //! * **Anti-windup.** `u_d + δu` is clamped to the velocity limit and to the change the
 //!   acceleration limit allows from the last set point ([`clamp_to_limits`]), i.e.
 //!   exactly what [`crate::setpoint::SetpointGate::admit`] accepts; the observer is
@@ -83,13 +93,30 @@
 
 pub use crate::reference::Reference;
 use nalgebra::{
-    Matrix2, Matrix2x1, Matrix4, Matrix4x1, Matrix4x2, RowVector2, RowVector4, SMatrix, Vector2,
-    Vector4,
+    Matrix2, Matrix2x1, Matrix4, Matrix4x1, Matrix4x2, Matrix5, RowVector2, RowVector4, SMatrix,
+    Vector2, Vector4, Vector5,
 };
 
 use crate::rope::RopeLength;
 use crate::setpoint::{AxisLimits, DriveLimits};
 use crate::zero::{self, Zero};
+
+/// The observer's state: the error `[x, ẋ, φ, φ̇]` and the drive's velocity offset `d`.
+type Observed = Vector5<f64>;
+/// The observer's gain (measured `x`, `φ`).
+type ObserverGain = SMatrix<f64, 5, 2>;
+
+/// The error part `[x, ẋ, φ, φ̇]` of the observer's state.
+fn four(v: &Observed) -> Vector4<f64> {
+    Vector4::new(v.x, v.y, v.z, v.w)
+}
+
+/// One cycle's prediction of the observer's state with the set-point correction `du`
+/// sent: the drive moves as asked plus its offset `d`, which stays.
+fn predict(model: &Discrete, v: &Observed, du: f64) -> Observed {
+    let n = model.a * four(v) + model.b * (du + v.a);
+    Vector5::new(n.x, n.y, n.z, n.w, v.a)
+}
 
 /// Number of rope lengths at which gains are designed.
 pub const GRID_POINTS: usize = 7;
@@ -116,6 +143,11 @@ pub struct Weights {
     pub drive_disturbance: f64,
     /// Process noise: unmodelled angular acceleration of the load (wind), rad/s² (1σ).
     pub swing_disturbance: f64,
+    /// Process noise: how fast the drive's velocity offset wanders (a random walk,
+    /// m/s per √s, 1σ) — the trolley moving otherwise than the first-order lag of
+    /// Eq. 22 says: its velocity loop's friction droop and integral, the rope's pull on
+    /// it, the lag's error while it accelerates.
+    pub drive_offset: f64,
     /// Position measurement noise, m (1σ).
     pub position_noise: f64,
     /// Angle measurement noise, rad (1σ, quantisation included).
@@ -133,6 +165,7 @@ impl Weights {
         winch_correction: 0.05,
         drive_disturbance: 0.5,
         swing_disturbance: 0.1,
+        drive_offset: 0.3,
         position_noise: 5e-4,
         angle_noise: 5e-4,
     };
@@ -389,8 +422,9 @@ pub struct GainPoint {
     pub k: RowVector4<f64>,
     /// Winch state feedback `δu2 = −k_w · [l, l̇]`.
     pub kw: RowVector2<f64>,
-    /// Observer gain of the trolley–swing block (measured `x`, `φ`).
-    pub obs: Matrix4x2<f64>,
+    /// Observer gain of the trolley–swing block and the drive's velocity offset
+    /// (measured `x`, `φ`).
+    pub obs: ObserverGain,
     /// Observer gain of the winch block (measured `l`).
     pub obs_w: Matrix2x1<f64>,
     /// The discrete model the gains were designed for.
@@ -422,6 +456,7 @@ impl Gains {
             w.winch_correction,
             w.drive_disturbance,
             w.swing_disturbance,
+            w.drive_offset,
             w.position_noise,
             w.angle_noise,
             cfg.g,
@@ -436,7 +471,7 @@ impl Gains {
             l: 0.0,
             k: RowVector4::zeros(),
             kw: RowVector2::zeros(),
-            obs: Matrix4x2::zeros(),
+            obs: ObserverGain::zeros(),
             obs_w: Matrix2x1::zeros(),
             model: discretise(cfg.g, cfg.tau1, cfg.tau2, 1.0, cfg.h),
         }; GRID_POINTS];
@@ -469,18 +504,31 @@ impl Gains {
         let (h, dd, ds) = (cfg.h, w.drive_disturbance, w.swing_disturbance);
         let g4 = Matrix4x2::new(0.5 * h * h, 0.0, h, 0.0, 0.0, 0.5 * h * h, 0.0, h);
         let noise = Matrix2::from_diagonal(&Vector2::new(dd * dd, ds * ds));
-        let qn = g4 * noise * g4.transpose() + Matrix4::identity() * 1e-14;
+        let q4 = g4 * noise * g4.transpose();
+        let sd = w.drive_offset;
+        let qn = Matrix5::from_fn(|i, j| match (i, j) {
+            (4, 4) => sd * sd * h,
+            (i, j) if i < 4 && j < 4 => q4.get((i, j)).copied().unwrap_or(0.0),
+            _ => 0.0,
+        }) + Matrix5::identity() * 1e-14;
+        // The drive's offset d enters as the set point does.
+        let a5 = Matrix5::from_fn(|i, j| match (i, j) {
+            (4, 4) => 1.0,
+            (i, 4) => model.b.get(i).copied().unwrap_or(0.0),
+            (i, j) if i < 4 && j < 4 => model.a.get((i, j)).copied().unwrap_or(0.0),
+            _ => 0.0,
+        });
         let rv = Matrix2::from_diagonal(&Vector2::new(
             w.position_noise * w.position_noise,
             w.angle_noise * w.angle_noise,
         ));
         // The trolley–swing block is measured in x and φ, the winch block in l.
         #[rustfmt::skip]
-        let c = nalgebra::Matrix2x4::new(
-            1.0, 0.0, 0.0, 0.0,
-            0.0, 0.0, 1.0, 0.0,
+        let c = nalgebra::Matrix2x5::new(
+            1.0, 0.0, 0.0, 0.0, 0.0,
+            0.0, 0.0, 1.0, 0.0, 0.0,
         );
-        let obs = kalman(model.a, c, qn, rv).ok_or(DesignError::NoConvergence { l })?;
+        let obs = kalman(a5, c, qn, rv).ok_or(DesignError::NoConvergence { l })?;
         let g2 = Vector2::new(0.5 * h * h, h);
         let qn2 = g2 * g2.transpose() * (dd * dd) + Matrix2::identity() * 1e-14;
         let rv_w = SMatrix::<f64, 1, 1>::new(w.position_noise * w.position_noise);
@@ -508,7 +556,7 @@ impl Gains {
                 l,
                 k: RowVector4::zeros(),
                 kw: RowVector2::zeros(),
-                obs: Matrix4x2::zeros(),
+                obs: ObserverGain::zeros(),
                 obs_w: Matrix2x1::zeros(),
                 model: discretise(9.81, 0.03, 0.02, l.max(1.0), 0.01),
             };
@@ -661,17 +709,18 @@ pub fn degraded_rule(
 }
 
 /// The observer's gain for a trolley position alone, at rope length `l`: the trolley's
-/// position and velocity are corrected as the observer's gain says, the load is not
-/// moved by it. The swing is not observable from the trolley's position (the drive does
-/// not feel the rope), so the two-measurement gain's swing rows would pull the swing
-/// estimate with every trolley residual; instead the load's position `x + lφ` and
-/// velocity `ẋ + lφ̇` stay, and the swing follows from the corrected trolley. The
-/// model's prediction then swings the load under the trolley's measured motion (the
-/// load's own dynamics, `d²(x + lφ)/dt² = −gφ`, are driven by the trolley's position).
-fn position_only(obs: &Matrix4x2<f64>, l: f64) -> Vector4<f64> {
-    let (gx, gv) = (obs.m11, obs.m21);
+/// position and velocity and the drive's offset are corrected as the observer's gain
+/// says, the load is not moved by it. The swing is not observable from the trolley's
+/// position (the drive does not feel the rope), so the two-measurement gain's swing
+/// rows would pull the swing estimate with every trolley residual; instead the load's
+/// position `x + lφ` and velocity `ẋ + lφ̇` stay, and the swing follows from the
+/// corrected trolley. The model's prediction then swings the load under the trolley's
+/// measured motion (the load's own dynamics, `d²(x + lφ)/dt² = −gφ`, are driven by the
+/// trolley's position).
+fn position_only(obs: &ObserverGain, l: f64) -> Observed {
+    let (gx, gv, gd) = (obs.m11, obs.m21, obs.m51);
     let l = l.max(0.1);
-    Vector4::new(gx, gv, -gx / l, -gv / l)
+    Vector5::new(gx, gv, -gx / l, -gv / l, gd)
 }
 
 /// `u` clamped to what the set-point gate admits after `last`: within the velocity limit
@@ -737,7 +786,7 @@ struct Held {
     /// The angle read last cycle.
     last: Option<f64>,
     /// While it repeats: the position-only error estimate and the cycles it has repeated.
-    run: Option<(Vector4<f64>, u32)>,
+    run: Option<(Observed, u32)>,
     /// The trolley correction when the reading last changed, m/s.
     correction: f64,
     /// The angle the position-only estimate started from (the reference's plus the
@@ -804,8 +853,9 @@ impl Swing {
 pub struct StateFeedback {
     cfg: Config,
     gains: Gains,
-    /// Predicted error `ê(k|k−1)` of the trolley–swing block.
-    e: Vector4<f64>,
+    /// Predicted error `ê(k|k−1)` of the trolley–swing block, and the drive's velocity
+    /// offset.
+    e: Observed,
     /// Predicted error of the winch block.
     ew: Vector2<f64>,
     /// The reference of the previous cycle (the measurement that arrives belongs to it).
@@ -837,7 +887,7 @@ pub struct StateFeedback {
     /// a unit offset of the reading since it started, to take the offset out of the
     /// estimate by superposition: as far as it is known yet for the feedback
     /// ([`Self::estimate`]), and for good when it is trusted ([`Self::trust`]).
-    unit: Option<Vector4<f64>>,
+    unit: Option<Observed>,
 }
 
 impl StateFeedback {
@@ -854,7 +904,7 @@ impl StateFeedback {
         Self {
             cfg,
             gains,
-            e: Vector4::zeros(),
+            e: Observed::zeros(),
             ew: Vector2::zeros(),
             previous: None,
             started: false,
@@ -925,7 +975,7 @@ impl StateFeedback {
     /// the start, then what the load's motion has not confirmed as a swing. So the
     /// feedback acts from the start on what the pendulum's physics has confirmed, and
     /// never on an offset; once trusted, the observer's.
-    fn estimate(&self) -> Vector4<f64> {
+    fn estimate(&self) -> Observed {
         match self.unit {
             Some(u) => self.e - u * self.shown(),
             None => self.e,
@@ -968,7 +1018,7 @@ impl StateFeedback {
         phi: Option<f64>,
         prev: &Reference,
         ex: f64,
-        obs: &Matrix4x2<f64>,
+        obs: &ObserverGain,
     ) -> bool {
         let repeated = phi.is_some() && phi == self.held.last;
         if phi.is_some() && self.held.last.is_some() && !repeated {
@@ -1011,7 +1061,7 @@ impl StateFeedback {
         m: &Measurement,
         prev: &Reference,
         ex: f64,
-        obs: &Matrix4x2<f64>,
+        obs: &ObserverGain,
         still: bool,
     ) -> AngleCheck {
         let phi = m.phi;
@@ -1221,11 +1271,11 @@ impl StateFeedback {
                         // already has (its rate follows from the next samples) — or the
                         // reading's offset: which, the zero's estimate tells once
                         // settled, and the trolley waits for it ([`Self::trust`]).
-                        self.e = Vector4::new(ex, 0.0, p - prev.phi, 0.0);
+                        self.e = Vector5::new(ex, 0.0, p - prev.phi, 0.0, 0.0);
                         self.ew = Vector2::new(m.l - prev.l, 0.0);
                         self.started = true;
                         self.held.last = Some(raw);
-                        self.unit = Some(Vector4::new(0.0, 0.0, 1.0, 0.0));
+                        self.unit = Some(Vector5::new(0.0, 0.0, 1.0, 0.0, 0.0));
                     }
                 }
                 _ => {
@@ -1255,20 +1305,21 @@ impl StateFeedback {
             }
         }
         // Predict to now with the correction actually sent.
-        self.e = point.model.a * self.e + point.model.b * app1;
+        self.e = predict(&point.model, &self.e, app1);
         if let Some(u) = self.unit.as_mut() {
-            *u = point.model.a * *u;
+            *u = predict(&point.model, u, 0.0);
         }
         self.trust();
         self.ew = point.model.aw * self.ew + point.model.bw * app2;
         if let Some((run, _)) = self.held.run.as_mut() {
-            *run = point.model.a * *run + point.model.b * app1;
+            *run = predict(&point.model, run, app1);
         }
         self.settle(reference, u_d);
         let (mut d1, d2) = match self.mode {
-            Mode::Closed | Mode::SwingEstimated(_) if self.started && !self.resting => {
-                ((-(point.k * self.estimate())).x, (-(point.kw * self.ew)).x)
-            }
+            Mode::Closed | Mode::SwingEstimated(_) if self.started && !self.resting => (
+                (-(point.k * four(&self.estimate()))).x,
+                (-(point.kw * self.ew)).x,
+            ),
             _ => (0.0, 0.0),
         };
         if self.held.run.is_some() {
@@ -1285,12 +1336,12 @@ impl StateFeedback {
             Mode::FeedforwardOnly(_) => [0.0; 2],
         };
         if let Mode::FeedforwardOnly(_) = self.mode {
-            self.e = Vector4::zeros();
+            self.e = Observed::zeros();
             self.ew = Vector2::zeros();
             self.held = Held::NEW;
         }
         self.previous = Some(*reference);
-        let [e0, e1, e2, e3]: [f64; 4] = self.e.into();
+        let [e0, e1, e2, e3]: [f64; 4] = four(&self.e).into();
         let [w0, w1]: [f64; 2] = self.ew.into();
         Output {
             u: [u1, u2],
@@ -1475,6 +1526,9 @@ mod tests {
         assert_eq!(Gains::design(&cfg), Err(DesignError::BadParameter));
         cfg = Config::PAPER;
         cfg.h = f64::NAN;
+        assert_eq!(Gains::design(&cfg), Err(DesignError::BadParameter));
+        cfg = Config::PAPER;
+        cfg.weights.drive_offset = f64::INFINITY;
         assert_eq!(Gains::design(&cfg), Err(DesignError::BadParameter));
     }
 

@@ -16,6 +16,7 @@
 //! # Kalman observer: what disturbs and how well it is measured (1σ).
 //! drive_disturbance = 0.5     # m/s², friction and lag errors
 //! swing_disturbance = 0.1     # rad/s², wind
+//! drive_offset = 0.3          # m/s per √s: how fast the drive's velocity offset wanders
 //! position_noise = 5e-4       # m
 //! angle_noise = 5e-4          # rad
 //! # The degraded-mode rule (docs/COMMANDS.md).
@@ -60,6 +61,7 @@ pub struct FeedbackSpec {
     pub winch_correction: f64,
     pub drive_disturbance: f64,
     pub swing_disturbance: f64,
+    pub drive_offset: f64,
     pub position_noise: f64,
     pub angle_noise: f64,
     pub max_angle: f64,
@@ -90,6 +92,7 @@ impl Default for FeedbackSpec {
             winch_correction: w.winch_correction,
             drive_disturbance: w.drive_disturbance,
             swing_disturbance: w.swing_disturbance,
+            drive_offset: w.drive_offset,
             position_noise: w.position_noise,
             angle_noise: w.angle_noise,
             max_angle: c.max_angle,
@@ -122,6 +125,7 @@ impl FeedbackSpec {
             ("winch_correction", self.winch_correction),
             ("drive_disturbance", self.drive_disturbance),
             ("swing_disturbance", self.swing_disturbance),
+            ("drive_offset", self.drive_offset),
             ("position_noise", self.position_noise),
             ("angle_noise", self.angle_noise),
             ("max_angle", self.max_angle),
@@ -207,6 +211,7 @@ impl FeedbackSpec {
                 winch_correction: self.winch_correction,
                 drive_disturbance: self.drive_disturbance,
                 swing_disturbance: self.swing_disturbance,
+                drive_offset: self.drive_offset,
                 position_noise: self.position_noise,
                 angle_noise: self.angle_noise,
             },
@@ -242,7 +247,7 @@ impl FeedbackSpec {
     pub fn source(config: &Config) -> String {
         let w = &config.weights;
         format!(
-            "controller::feedback::Config {{ weights: controller::feedback::Weights {{ load_position: {:?}, trolley_position: {:?}, swing_velocity: {:?}, trolley_correction: {:?}, rope_position: {:?}, winch_correction: {:?}, drive_disturbance: {:?}, swing_disturbance: {:?}, position_noise: {:?}, angle_noise: {:?} }}, g: {:?}, tau1: {:?}, tau2: {:?}, h: {:?}, max_angle: {:?}, max_innovation: {:?}, max_bad_angle_cycles: {}, max_frozen_cycles: {}, frozen_motion: {:?}, held_allowance: {:?}, rest_position: {:?}, rest_swing: {:?}, rest_hysteresis: {:?}, offset_dead_band: {:?}, offset_step: {:?}, max_offset: {:?}, offset_cycles: {} }}",
+            "controller::feedback::Config {{ weights: controller::feedback::Weights {{ load_position: {:?}, trolley_position: {:?}, swing_velocity: {:?}, trolley_correction: {:?}, rope_position: {:?}, winch_correction: {:?}, drive_disturbance: {:?}, swing_disturbance: {:?}, drive_offset: {:?}, position_noise: {:?}, angle_noise: {:?} }}, g: {:?}, tau1: {:?}, tau2: {:?}, h: {:?}, max_angle: {:?}, max_innovation: {:?}, max_bad_angle_cycles: {}, max_frozen_cycles: {}, frozen_motion: {:?}, held_allowance: {:?}, rest_position: {:?}, rest_swing: {:?}, rest_hysteresis: {:?}, offset_dead_band: {:?}, offset_step: {:?}, max_offset: {:?}, offset_cycles: {} }}",
             w.load_position,
             w.trolley_position,
             w.swing_velocity,
@@ -251,6 +256,7 @@ impl FeedbackSpec {
             w.winch_correction,
             w.drive_disturbance,
             w.swing_disturbance,
+            w.drive_offset,
             w.position_noise,
             w.angle_noise,
             config.g,
@@ -313,6 +319,7 @@ mod tests {
         for (text, field) in [
             ("load_position = -1.0", "feedback.load_position"),
             ("angle_noise = nan", "feedback.angle_noise"),
+            ("drive_offset = 0.0", "feedback.drive_offset"),
             ("max_angle = 2.0", "feedback.max_angle"),
             ("bridged_cycles = 50", "feedback.bridged_cycles"),
             ("frozen_cycles = 1", "feedback.frozen_cycles"),
