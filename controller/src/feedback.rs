@@ -73,11 +73,17 @@
 //!   read; not during a move, which the angle, its offset taken out, finishes better
 //!   than the positions alone (a gust after a fall-back mid-move is left to
 //!   feedforward).
-//! * **At rest.** With the reference still and the load within [`Config::rest_position`]
-//!   of it and swinging less than [`Config::rest_swing`] for 0.1 s — the swing the load
-//!   keeps once the trolley stands still, the angle trusted —, the feedback lets go:
-//!   the set points are the inverse model's, exactly zero, and the drives hold. It
-//!   takes hold again at [`Config::rest_hysteresis`] times either.
+//! * **At rest.** With the reference still the trolley's gains are the rest's
+//!   ([`GainPoint::k_rest`]): no path is left to follow, only the swing to damp, so
+//!   their weights add the load's velocity over the rail — the swing the load keeps
+//!   when the trolley stops, which the rest hold judges — and the slowest mode of the
+//!   nominal loop decays at 1.04 /s over the whole rope range, where a move's falls
+//!   from 0.98 /s at 3 m to 0.68 /s at 9 m. With the load within
+//!   [`Config::rest_position`] of the reference and swinging less than
+//!   [`Config::rest_swing`] for 0.1 s — the swing the load keeps once the trolley
+//!   stands still, the angle trusted —, the feedback lets go: the set points are the
+//!   inverse model's, exactly zero, and the drives hold. It takes hold again at
+//!   [`Config::rest_hysteresis`] times either.
 //! * **Degraded mode.** [`degraded_rule`]: the angle missing or implausible for more
 //!   than [`Config::max_bad_angle_cycles`] cycles, stuck, or offset →
 //!   [`Mode::SwingEstimated`]: the angle is no longer read, the swing is estimated from the trolley's measured
@@ -152,6 +158,18 @@ pub struct Weights {
     pub position_noise: f64,
     /// Angle measurement noise, rad (1σ, quantisation included).
     pub angle_noise: f64,
+    /// At rest (the reference still, [`GainPoint::k_rest`]): acceptable horizontal
+    /// load-position error `x + l φ`, m.
+    pub rest_load_position: f64,
+    /// At rest: acceptable trolley position error, m.
+    pub rest_trolley_position: f64,
+    /// At rest: acceptable swing-rate error `l φ̇` (load velocity relative to the
+    /// trolley), m/s.
+    pub rest_swing_velocity: f64,
+    /// At rest: acceptable velocity of the load over the rail `ẋ + l φ̇`, m/s — the
+    /// swing the load keeps when the trolley stops (`v/√(g l)` of amplitude), which is
+    /// what the rest hold judges ([`Config::rest_swing`]).
+    pub rest_load_velocity: f64,
 }
 
 impl Weights {
@@ -168,6 +186,10 @@ impl Weights {
         drive_offset: 0.3,
         position_noise: 5e-4,
         angle_noise: 5e-4,
+        rest_load_position: 0.03,
+        rest_trolley_position: 0.1,
+        rest_swing_velocity: 0.1,
+        rest_load_velocity: 0.03,
     };
 }
 
@@ -420,6 +442,10 @@ pub struct GainPoint {
     pub l: f64,
     /// Trolley state feedback `δu1 = −k · [x, ẋ, φ, φ̇]`.
     pub k: RowVector4<f64>,
+    /// Trolley state feedback at rest (the reference still), designed from the rest's
+    /// weights ([`Weights::rest_load_velocity`]): damping the swing fast is what is
+    /// left to do, not following a path.
+    pub k_rest: RowVector4<f64>,
     /// Winch state feedback `δu2 = −k_w · [l, l̇]`.
     pub kw: RowVector2<f64>,
     /// Observer gain of the trolley–swing block and the drive's velocity offset
@@ -459,6 +485,10 @@ impl Gains {
             w.drive_offset,
             w.position_noise,
             w.angle_noise,
+            w.rest_load_position,
+            w.rest_trolley_position,
+            w.rest_swing_velocity,
+            w.rest_load_velocity,
             cfg.g,
             cfg.tau1,
             cfg.tau2,
@@ -470,6 +500,7 @@ impl Gains {
         let mut points = [GainPoint {
             l: 0.0,
             k: RowVector4::zeros(),
+            k_rest: RowVector4::zeros(),
             kw: RowVector2::zeros(),
             obs: ObserverGain::zeros(),
             obs_w: Matrix2x1::zeros(),
@@ -496,6 +527,19 @@ impl Gains {
                 sq(w.swing_velocity) * l * l,
             ));
         let k = lqr(model.a, model.b, q, sq(w.trolley_correction))
+            .ok_or(DesignError::NoConvergence { l })?;
+        // At rest the same, with the rest's own weights and the load's velocity over
+        // the rail ẋ + lφ̇: the swing the load keeps when the trolley stops.
+        let over_rail = RowVector4::new(0.0, 1.0, 0.0, l);
+        let q_rest = load.transpose() * load * sq(w.rest_load_position)
+            + over_rail.transpose() * over_rail * sq(w.rest_load_velocity)
+            + Matrix4::from_diagonal(&Vector4::new(
+                sq(w.rest_trolley_position),
+                0.0,
+                0.0,
+                sq(w.rest_swing_velocity) * l * l,
+            ));
+        let k_rest = lqr(model.a, model.b, q_rest, sq(w.trolley_correction))
             .ok_or(DesignError::NoConvergence { l })?;
         let qw = Matrix2::from_diagonal(&Vector2::new(sq(w.rope_position), 0.0));
         let kw = lqr(model.aw, model.bw, qw, sq(w.winch_correction))
@@ -537,6 +581,7 @@ impl Gains {
         Ok(GainPoint {
             l,
             k,
+            k_rest,
             kw,
             obs,
             obs_w,
@@ -555,6 +600,7 @@ impl Gains {
             return GainPoint {
                 l,
                 k: RowVector4::zeros(),
+                k_rest: RowVector4::zeros(),
                 kw: RowVector2::zeros(),
                 obs: ObserverGain::zeros(),
                 obs_w: Matrix2x1::zeros(),
@@ -571,6 +617,7 @@ impl Gains {
                 return GainPoint {
                     l,
                     k: p.k.zip_map(&q.k, mix),
+                    k_rest: p.k_rest.zip_map(&q.k_rest, mix),
                     kw: p.kw.zip_map(&q.kw, mix),
                     obs: p.obs.zip_map(&q.obs, mix),
                     obs_w: p.obs_w.zip_map(&q.obs_w, mix),
@@ -1316,10 +1363,16 @@ impl StateFeedback {
         }
         self.settle(reference, u_d);
         let (mut d1, d2) = match self.mode {
-            Mode::Closed | Mode::SwingEstimated(_) if self.started && !self.resting => (
-                (-(point.k * four(&self.estimate()))).x,
-                (-(point.kw * self.ew)).x,
-            ),
+            Mode::Closed | Mode::SwingEstimated(_) if self.started && !self.resting => {
+                // At rest the rest's gains (GainPoint::k_rest): the swing damped
+                // faster, the long ropes' 1.5 times as fast.
+                let k = if still(reference, u_d) {
+                    point.k_rest
+                } else {
+                    point.k
+                };
+                ((-(k * four(&self.estimate()))).x, (-(point.kw * self.ew)).x)
+            }
             _ => (0.0, 0.0),
         };
         if self.held.run.is_some() {
@@ -1530,6 +1583,39 @@ mod tests {
         cfg = Config::PAPER;
         cfg.weights.drive_offset = f64::INFINITY;
         assert_eq!(Gains::design(&cfg), Err(DesignError::BadParameter));
+        cfg = Config::PAPER;
+        cfg.weights.rest_load_velocity = 0.0;
+        assert_eq!(Gains::design(&cfg), Err(DesignError::BadParameter));
+    }
+
+    #[test]
+    fn at_rest_the_swing_is_damped_faster_than_during_a_move() {
+        // The slowest mode of the nominal closed loop (model and gains at the same rope
+        // length): its decay rate, 1/s. During a move the load follows its path; at
+        // rest damping the swing is all that is left, and the rest's weights (the
+        // load's velocity over the rail among them) keep it at 1.04 /s over the whole
+        // rope range, where the move's falls from 0.98 /s at 3 m to 0.68 /s at 9 m
+        // (issue 18: that left the long ropes' swing after a late gust above the rest
+        // hold's 0.06° 5 s after the move).
+        let g = Gains::design(&Config::PAPER).unwrap();
+        let rate = |p: &GainPoint, k: &RowVector4<f64>| {
+            let m = p.model.a - p.model.b * k;
+            let rho = m
+                .complex_eigenvalues()
+                .iter()
+                .map(|z| z.re.hypot(z.im))
+                .fold(0.0, f64::max);
+            -libm::log(rho) / Config::PAPER.h
+        };
+        for p in &g.points {
+            let (moving, rest) = (rate(p, &p.k), rate(p, &p.k_rest));
+            let faster = if p.l >= 6.0 { 1.3 } else { 1.0 };
+            assert!(
+                rest > faster * moving && rest > 1.0,
+                "l = {}: {moving:.2} /s moving, {rest:.2} /s at rest",
+                p.l
+            );
+        }
     }
 
     #[test]
@@ -1681,12 +1767,15 @@ mod tests {
 
     #[test]
     fn a_stuck_angle_is_caught_at_rest_before_it_moves_the_trolley() {
-        // The load swings 6° after a gust; the reading sticks at 3 s (after the zero's
-        // estimate has settled, crate::zero), the load still swinging 2°. What the
-        // trolley's own motion makes the angle do betrays it within a few cycles, and
-        // meanwhile the unchanged reading may not push harder than before.
+        // The load swings 6° after a gust; the reading sticks at 2.2 s (after the
+        // zero's estimate has settled, crate::zero), the load still swinging 2.5°. What
+        // the trolley's own motion makes the angle do betrays it within a few cycles,
+        // and meanwhile the unchanged reading may not push harder than before. (At
+        // 3 s, where this test stuck it before the rest's gains, the swing is down to
+        // 0.5° and the feedback holds the load within 0.1° of the stuck reading for
+        // 2.5 s: a reading that right is not caught, and does no harm.)
         let l = 6.0;
-        let stuck_at = 300;
+        let stuck_at = 220;
         let stuck = core::cell::Cell::new(None);
         let run = linear_run(l, 0.0, 6f64.to_radians(), 1200, |k, p| {
             if k == stuck_at {

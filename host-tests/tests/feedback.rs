@@ -26,8 +26,8 @@ fn rho6(m: &SMatrix<f64, 6, 6>) -> f64 {
 
 /// The sampled closed loop with the one-cycle-late measurement and the predictor
 /// observer, state `[p_k, p_{k−1}, ê_{k−1|k−2}]`, for a plant whose lags and pendulum
-/// length differ from the model's; the gains are those scheduled at the reference `l`.
-/// The trolley's observer has a fifth
+/// length differ from the model's; the gains are those scheduled at the reference `l`,
+/// the move's and the rest's (`GainPoint::k_rest`). The trolley's observer has a fifth
 /// state, the drive's velocity offset, which enters as the set point does and is not
 /// fed back.
 #[test]
@@ -61,16 +61,18 @@ fn scheduled_closed_loop_is_stable_over_rope_and_mismatch_range() {
                     let mb = SMatrix::<f64, 5, 1>::from_fn(
                         |i, _| if i < 4 { gp.model.b[i] } else { 0.0 },
                     );
-                    let k5 =
-                        SMatrix::<f64, 1, 5>::from_fn(|_, j| if j < 4 { gp.k[j] } else { 0.0 });
-                    let m: SMatrix<f64, 13, 13> =
-                        closed_loop_observed(&p.a, &p.b, &ma, &mb, &k5, &gp.obs, &c4, &c5);
-                    let r = rho13(&m);
-                    assert!(
-                        r < 0.9995,
-                        "trolley loop unstable: l = {l}, τ1 {d1:+}, rope {rope:+}: ρ = {r}"
-                    );
-                    worst = worst.max(r);
+                    for (gains, k) in [("moving", &gp.k), ("at rest", &gp.k_rest)] {
+                        let k5 =
+                            SMatrix::<f64, 1, 5>::from_fn(|_, j| if j < 4 { k[j] } else { 0.0 });
+                        let m: SMatrix<f64, 13, 13> =
+                            closed_loop_observed(&p.a, &p.b, &ma, &mb, &k5, &gp.obs, &c4, &c5);
+                        let r = rho13(&m);
+                        assert!(
+                            r < 0.9995,
+                            "trolley loop unstable ({gains}): l = {l}, τ1 {d1:+}, rope {rope:+}: ρ = {r}"
+                        );
+                        worst = worst.max(r);
+                    }
                     let m: SMatrix<f64, 6, 6> = closed_loop(
                         &p.aw,
                         &p.bw,
@@ -417,8 +419,11 @@ fn a_biased_inclinometer_does_not_bias_the_learnt_rope() {
     for deg in [-3.0, -0.3, 0.3, 1.0, 3.0, 6.0] {
         let biased = learn(f64::to_radians(deg));
         println!("{deg}°: rope learnt {:.1} mm off", (biased - truth) * 1e3);
-        // The second-order `b ẍ φ` is left: 14 mm at 6°.
-        let tolerance = if f64::abs(deg) <= 3.0 { 0.01 } else { 0.015 };
+        // The second-order `b ẍ φ` is left: 15 mm at 6° (13 mm before the observer
+        // estimated the drive's velocity offset and the rest's gains damped the swing
+        // left after the move; the 6° rope is learnt where it was, within 0.1 mm, the
+        // true reading's 2 mm closer to the truth).
+        let tolerance = if f64::abs(deg) <= 3.0 { 0.01 } else { 0.016 };
         assert!(
             (biased - healthy).abs() < tolerance,
             "{deg}°: {:.1} mm from a true reading's",
