@@ -236,15 +236,16 @@ fn a_failed_inclinometer_leaves_what_it_saw_better_than_feedforward_alone() {
     // the median. A gust blowing after the failure no sensor sees, and feedforward
     // alone, blind to it as well, is sometimes the luckier of the two; stopped when
     // the sensor fails (what the failure costs on what the sensor saw), the fall-back
-    // is never worse than feedforward alone by more than 10 mm or 0.1° (the
-    // positions-only estimate's error over the rest of the move).
+    // is worse than feedforward alone only by the positions-only estimate's error over
+    // the rest of the move: at most 16.5 mm and 0.197° in the study's 1000 cases
+    // (`feedback_study`), asserted within 20 mm and 0.2° here.
     let gains = Gains::design(&Config::PAPER).unwrap();
     let faults = fault_study(11, 40, &gains);
     let mut mid = Vec::new();
     for f in &faults {
         for (ff, fb) in f.calm {
             assert!(
-                fb.distance <= ff.distance + 0.01 && fb.swing_deg <= ff.swing_deg + 0.1,
+                fb.distance <= ff.distance + 0.02 && fb.swing_deg <= ff.swing_deg + 0.2,
                 "the gust stopped at the failure: {fb:?}, feedforward only {ff:?}, case {:?}",
                 f.case
             );
