@@ -1609,6 +1609,10 @@ mod tests {
         };
         for p in &g.points {
             let (moving, rest) = (rate(p, &p.k), rate(p, &p.k_rest));
+            std::eprintln!(
+                "l = {} m: the slowest mode decays at {moving:.2} /s moving, {rest:.2} /s at rest",
+                p.l
+            );
             let faster = if p.l >= 6.0 { 1.3 } else { 1.0 };
             assert!(
                 rest > faster * moving && rest > 1.0,
