@@ -207,6 +207,26 @@ pub fn simulate_with_fault(
     limits: &DriveLimits,
     record: bool,
 ) -> (CaseResult, Series6) {
+    simulate_calm_from(params, reference, case, gains, fault, None, limits, record)
+}
+
+/// [`simulate_with_fault`] with the wind stopped from `calm_from` (s) on, if given: the
+/// counterfactual of a case whose gust would have ended when the inclinometer failed,
+/// which tells what a failure costs on what the sensor saw from what the gust does
+/// after it (which no sensor sees). The plant goes on from its state without the gust;
+/// its sensor noise starts its sequence again there, the same for every run of the
+/// case calmed at the same instant.
+#[allow(clippy::too_many_arguments)]
+pub fn simulate_calm_from(
+    params: &CraneParams,
+    reference: &ReferenceRun,
+    case: &Mismatch,
+    gains: Option<&Gains>,
+    fault: Option<SensorFault>,
+    calm_from: Option<f64>,
+    limits: &DriveLimits,
+    record: bool,
+) -> (CaseResult, Series6) {
     let cfg = Config {
         g: params.g,
         tau1: params.tau1,
@@ -234,8 +254,26 @@ pub fn simulate_with_fault(
     let mut last = [0.0; 2];
     let mut measured: Option<Measurement> = None;
     let mut held = None;
+    let mut calm = calm_from;
     for (k, (r, ud)) in reference.r.iter().zip(&reference.u).enumerate() {
         let t = reference.t0 + k as f64 * h;
+        if calm.is_some_and(|c| t >= c) {
+            calm = None;
+            let (y, integral, now) = (plant.y, plant.integral, plant.t);
+            plant = Plant::at_rest(
+                r0.x,
+                r0.l,
+                reference.t0,
+                [params.tau1, params.tau2],
+                params.g,
+                params.m,
+                Mismatch {
+                    gust: Gust::NONE,
+                    ..*case
+                },
+            );
+            (plant.y, plant.integral, plant.t) = (y, integral, now);
+        }
         let u = match fb.as_mut() {
             Some(fb) => {
                 let out = fb.cycle(r, *ud, measured, last, limits);
@@ -391,6 +429,9 @@ pub struct FaultCase {
     /// For each of [`FAULTS`]: feedforward only, and the feedback with the failing
     /// inclinometer, on the same plant.
     pub runs: [(CaseResult, CaseResult); 6],
+    /// The first two (frozen and lost mid-move) again with the gust stopped when the
+    /// inclinometer fails ([`simulate_calm_from`]), feedforward only likewise.
+    pub calm: [(CaseResult, CaseResult); 2],
     /// The offsets of the last two faults, rad: from power-up, and the step at rest.
     pub offsets: [f64; 2],
 }
@@ -451,6 +492,18 @@ pub fn fault_study(seed: u64, n: usize, gains: &Gains) -> Vec<FaultCase> {
             let run = |case: &Mismatch, g: Option<&Gains>, f: Option<SensorFault>| {
                 simulate_with_fault(&params, &reference, case, g, f, &limits, false).0
             };
+            let calm = |g: Option<&Gains>, f: Option<SensorFault>| {
+                let calm_from = Some(during);
+                simulate_calm_from(&params, &reference, &mid, g, f, calm_from, &limits, false).0
+            };
+            let ff_calm = calm(None, None);
+            let calm = [
+                (
+                    ff_calm,
+                    calm(Some(gains), Some(SensorFault::Frozen(during))),
+                ),
+                (ff_calm, calm(Some(gains), Some(SensorFault::Lost(during)))),
+            ];
             let ff_mid = run(&mid, None, None);
             let ff_rest = run(&rest, None, None);
             let from_power_up = sign(&mut offsets) * offsets.uniform(3.0, 10.0).to_radians();
@@ -499,6 +552,7 @@ pub fn fault_study(seed: u64, n: usize, gains: &Gains) -> Vec<FaultCase> {
                 case: mid,
                 fails_at: during,
                 runs: faults,
+                calm,
                 offsets: [from_power_up, step_at_rest],
             }
         })
@@ -535,8 +589,18 @@ pub fn table_row(name: &str, results: &[CaseResult]) -> String {
         .iter()
         .filter(|r| r.at_rest_u * controller::setpoint::UNITS_PER_M_PER_S < 0.5)
         .count();
+    // The feedback no longer reading a healthy inclinometer (a false alarm of the
+    // degraded-mode rule); "—" without feedback.
+    let fell_back = match results.iter().any(|r| r.mode.is_some()) {
+        true => results
+            .iter()
+            .filter(|r| r.mode.is_some_and(|m| m != Mode::Closed))
+            .count()
+            .to_string(),
+        false => "—".to_string(),
+    };
     format!(
-        "| {name} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.3} / {:.3} / {:.3} | {:.1} / {:.1} / {:.1} | {}/{} ({:.1} %) | {all} ({:.1} %) | {:.2}, {:.2} | {:.2}, {:.2} | {zero} ({:.1} %) | {rest:.3} |",
+        "| {name} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.3} / {:.3} / {:.3} | {:.1} / {:.1} / {:.1} | {}/{} ({:.1} %) | {all} ({:.1} %) | {:.2}, {:.2} | {:.2}, {:.2} | {zero} ({:.1} %) | {rest:.3} | {fell_back} |",
         quantile(&mut tr, 0.5),
         quantile(&mut tr, 1.0),
         quantile(&mut d, 0.5),
@@ -561,7 +625,7 @@ pub fn table_row(name: &str, results: &[CaseResult]) -> String {
 }
 
 /// The table's header.
-pub const TABLE_HEADER: &str = "| set, mode | tracking during the move, mm (median / max) | distance 5 s after, mm (median / p99 / max) | swing 5 s after, ° (median / p99 / max) | vertical 5 s after, mm (median / p99 / max) | within ±50 mm horizontally and < 0.1° | and within ±50 mm vertically | worst |u1|, |u2| m/s | worst |Δu1|/h, |Δu2|/h m/s² | set points zero (as the drives receive them) from 5 s after the move | largest set point then, mm/s |\n|---|---|---|---|---|---|---|---|---|---|---:|";
+pub const TABLE_HEADER: &str = "| set, mode | tracking during the move, mm (median / max) | distance 5 s after, mm (median / p99 / max) | swing 5 s after, ° (median / p99 / max) | vertical 5 s after, mm (median / p99 / max) | within ±50 mm horizontally and < 0.1° | and within ±50 mm vertically | worst |u1|, |u2| m/s | worst |Δu1|/h, |Δu2|/h m/s² | set points zero (as the drives receive them) from 5 s after the move | largest set point then, mm/s | fell back (a healthy inclinometer no longer read) |\n|---|---|---|---|---|---|---|---|---|---|---:|---:|";
 
 /// A gust at rest at rope length `l`: the swing amplitude two swing periods after its
 /// peak, relative to the peak (`(ratio with feedback, ratio feedforward only)`).

@@ -10,7 +10,7 @@ use host_tests::feedback_study::{fault_study, gust_at_rest, monte_carlo, paper_r
 use nalgebra::SMatrix;
 use solver_core::models::crane::CraneParams;
 
-fn rho12(m: &SMatrix<f64, 12, 12>) -> f64 {
+fn rho13(m: &SMatrix<f64, 13, 13>) -> f64 {
     m.complex_eigenvalues()
         .iter()
         .map(|z| z.re.hypot(z.im))
@@ -26,13 +26,17 @@ fn rho6(m: &SMatrix<f64, 6, 6>) -> f64 {
 
 /// The sampled closed loop with the one-cycle-late measurement and the predictor
 /// observer, state `[p_k, p_{k−1}, ê_{k−1|k−2}]`, for a plant whose lags and pendulum
-/// length differ from the model's; the gains are those scheduled at the reference `l`.
+/// length differ from the model's; the gains are those scheduled at the reference `l`,
+/// the move's and the rest's (`GainPoint::k_rest`). The trolley's observer has a fifth
+/// state, the drive's velocity offset, which enters as the set point does and is not
+/// fed back.
 #[test]
 fn scheduled_closed_loop_is_stable_over_rope_and_mismatch_range() {
     let cfg = Config::PAPER;
     let gains = Gains::design(&cfg).unwrap();
     let mut worst: f64 = 0.0;
     let c4 = SMatrix::<f64, 2, 4>::new(1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0);
+    let c5 = SMatrix::<f64, 2, 5>::new(1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0);
     let c2 = SMatrix::<f64, 1, 2>::new(1.0, 0.0);
     for i in 0..=24 {
         let l = 3.0 + 0.25 * f64::from(i);
@@ -47,14 +51,28 @@ fn scheduled_closed_loop_is_stable_over_rope_and_mismatch_range() {
                         l * (1.0 + rope),
                         cfg.h,
                     );
-                    let m: SMatrix<f64, 12, 12> =
-                        closed_loop(&p.a, &p.b, &gp.model.a, &gp.model.b, &gp.k, &gp.obs, &c4);
-                    let r = rho12(&m);
-                    assert!(
-                        r < 0.9995,
-                        "trolley loop unstable: l = {l}, τ1 {d1:+}, rope {rope:+}: ρ = {r}"
+                    // The observer's model: the drive's offset enters as the set point.
+                    let ma = SMatrix::<f64, 5, 5>::from_fn(|i, j| match (i, j) {
+                        (4, 4) => 1.0,
+                        (i, 4) => gp.model.b[i],
+                        (i, j) if i < 4 && j < 4 => gp.model.a[(i, j)],
+                        _ => 0.0,
+                    });
+                    let mb = SMatrix::<f64, 5, 1>::from_fn(
+                        |i, _| if i < 4 { gp.model.b[i] } else { 0.0 },
                     );
-                    worst = worst.max(r);
+                    for (gains, k) in [("moving", &gp.k), ("at rest", &gp.k_rest)] {
+                        let k5 =
+                            SMatrix::<f64, 1, 5>::from_fn(|_, j| if j < 4 { k[j] } else { 0.0 });
+                        let m: SMatrix<f64, 13, 13> =
+                            closed_loop_observed(&p.a, &p.b, &ma, &mb, &k5, &gp.obs, &c4, &c5);
+                        let r = rho13(&m);
+                        assert!(
+                            r < 0.9995,
+                            "trolley loop unstable ({gains}): l = {l}, τ1 {d1:+}, rope {rope:+}: ρ = {r}"
+                        );
+                        worst = worst.max(r);
+                    }
                     let m: SMatrix<f64, 6, 6> = closed_loop(
                         &p.aw,
                         &p.bw,
@@ -74,6 +92,50 @@ fn scheduled_closed_loop_is_stable_over_rope_and_mismatch_range() {
         }
     }
     println!("largest closed-loop eigenvalue modulus over the grid: {worst:.5}");
+}
+
+/// [`closed_loop`] with an observer of `O` states, `R = 2N + O`: the plant measured
+/// through `c`, the observer's model through `co`.
+#[allow(clippy::too_many_arguments)]
+fn closed_loop_observed<const N: usize, const O: usize, const M: usize, const R: usize>(
+    pa: &SMatrix<f64, N, N>,
+    pb: &SMatrix<f64, N, 1>,
+    ma: &SMatrix<f64, O, O>,
+    mb: &SMatrix<f64, O, 1>,
+    k: &SMatrix<f64, 1, O>,
+    obs: &SMatrix<f64, O, M>,
+    c: &SMatrix<f64, M, N>,
+    co: &SMatrix<f64, M, O>,
+) -> SMatrix<f64, R, R> {
+    assert_eq!(R, 2 * N + O);
+    let id = SMatrix::<f64, O, O>::identity();
+    // ê_{k|k−1} = ma (I − L co) ê_{k−1|k−2} + ma L c p_{k−1} − mb K ê_{k−1|k−2}
+    let e_e = ma * (id - obs * co) - mb * k;
+    let e_p1 = ma * obs * c;
+    // δu_k = −K ê_{k|k−1};  p_{k+1} = pa p_k + pb δu_k
+    let p_p1 = -(pb * k * e_p1);
+    let p_e = -(pb * k * e_e);
+    SMatrix::from_fn(|i, j| {
+        let block = |x: usize| {
+            if x < N {
+                (0, x)
+            } else if x < 2 * N {
+                (1, x - N)
+            } else {
+                (2, x - 2 * N)
+            }
+        };
+        let ((bi, ii), (bj, jj)) = (block(i), block(j));
+        match (bi, bj) {
+            (0, 0) => pa[(ii, jj)],
+            (0, 1) => p_p1[(ii, jj)],
+            (0, 2) => p_e[(ii, jj)],
+            (1, 0) if ii == jj => 1.0,
+            (2, 1) => e_p1[(ii, jj)],
+            (2, 2) => e_e[(ii, jj)],
+            _ => 0.0,
+        }
+    })
 }
 
 /// `z_{k+1} = M z_k` with `z_k = [p_k, p_{k−1}, ê_{k−1|k−2}]` (R = 3N).
@@ -171,11 +233,23 @@ fn a_failed_inclinometer_leaves_what_it_saw_better_than_feedforward_alone() {
     // sensor saw before it failed goes on being damped. At rest (a gust over before
     // the failure) the load is never worse off than with feedforward alone on the same
     // case; mid-move, where the gust was over when it failed, it is far better in
-    // the median (a gust blowing after the failure no sensor sees: not judged here).
+    // the median. A gust blowing after the failure no sensor sees, and feedforward
+    // alone, blind to it as well, is sometimes the luckier of the two; stopped when
+    // the sensor fails (what the failure costs on what the sensor saw), the fall-back
+    // is worse than feedforward alone only by the positions-only estimate's error over
+    // the rest of the move: at most 16.5 mm and 0.197° in the study's 1000 cases
+    // (`feedback_study`), asserted within 20 mm and 0.2° here.
     let gains = Gains::design(&Config::PAPER).unwrap();
     let faults = fault_study(11, 40, &gains);
     let mut mid = Vec::new();
     for f in &faults {
+        for (ff, fb) in f.calm {
+            assert!(
+                fb.distance <= ff.distance + 0.02 && fb.swing_deg <= ff.swing_deg + 0.2,
+                "the gust stopped at the failure: {fb:?}, feedforward only {ff:?}, case {:?}",
+                f.case
+            );
+        }
         let [frozen_mid, lost_mid, frozen_rest, lost_rest, ..] = f.runs;
         for (name, (ff, fb)) in [("frozen", frozen_rest), ("lost", lost_rest)] {
             assert!(
@@ -357,12 +431,60 @@ fn a_biased_inclinometer_does_not_bias_the_learnt_rope() {
     for deg in [-3.0, -0.3, 0.3, 1.0, 3.0, 6.0] {
         let biased = learn(f64::to_radians(deg));
         println!("{deg}°: rope learnt {:.1} mm off", (biased - truth) * 1e3);
-        // The second-order `b ẍ φ` is left: 13 mm at 6°.
-        let tolerance = if f64::abs(deg) <= 3.0 { 0.01 } else { 0.015 };
+        // The second-order `b ẍ φ` is left: 15 mm at 6° (13 mm before the observer
+        // estimated the drive's velocity offset and the rest's gains damped the swing
+        // left after the move; the 6° rope is learnt where it was, within 0.1 mm, the
+        // true reading's 2 mm closer to the truth).
+        let tolerance = if f64::abs(deg) <= 3.0 { 0.01 } else { 0.016 };
         assert!(
             (biased - healthy).abs() < tolerance,
             "{deg}°: {:.1} mm from a true reading's",
             (biased - healthy) * 1e3
         );
     }
+}
+
+/// A healthy inclinometer is never judged stuck. Case 314 of the study's paper's-move
+/// set (seed 2026): a 9.2 N gust blows while the load swings 6° near a turning point,
+/// and the reading, noisy and quantised, repeats 5.986° for five cycles by chance. The
+/// observer's angle is 0.06° off the reading then (the gust is a force its model does
+/// not have); the stuck-sensor watch measured the position-only estimate against the
+/// reading, counted that gap as motion and fell back to the positions alone mid-move
+/// (105 mm and 1.49° 5 s after the move; 245 mm / 3.48° with the rope calibrated,
+/// case 310). Measured as the motion of the estimate since the reading began to
+/// repeat, the feedback keeps the angle and the load ends on target.
+#[test]
+fn a_healthy_reading_that_repeats_by_chance_under_a_gust_is_not_stuck() {
+    use host_tests::feedback_study::simulate;
+    use host_tests::plant::{Gust, Mismatch};
+    let params = CraneParams::PAPER;
+    let gains = Gains::design(&Config::PAPER).unwrap();
+    let paper = paper_reference(&params);
+    let case = Mismatch {
+        tau1: 0.21696650122936917,
+        tau2: -0.11173577207835542,
+        rope_offset: -0.06145395888132285,
+        drum_scale: 0.00800919178335421,
+        coulomb: [0.007021529391728908, 0.0018745654371414905],
+        viscous: [0.02846057775523102, 0.016986147616902793],
+        gust: Gust {
+            start: 6.421163423469926,
+            duration: 1.7291133075817293,
+            amplitude: 9.208126294155075,
+        },
+        position_noise: Mismatch::SENSORS.0,
+        angle_noise: Mismatch::SENSORS.1,
+        noise_seed: 13531939154114236654,
+        swing0: 0.0387992074700055,
+    };
+    let (fb, _) = simulate(
+        &params,
+        &paper,
+        &case,
+        Some(&gains),
+        &DriveLimits::LAB,
+        false,
+    );
+    assert_eq!(fb.mode, Some(Mode::Closed), "{fb:?}");
+    assert!(fb.meets_target(), "{fb:?}");
 }

@@ -16,8 +16,15 @@
 //! # Kalman observer: what disturbs and how well it is measured (1σ).
 //! drive_disturbance = 0.5     # m/s², friction and lag errors
 //! swing_disturbance = 0.1     # rad/s², wind
+//! drive_offset = 0.3          # m/s per √s: how fast the drive's velocity offset wanders
 //! position_noise = 5e-4       # m
 //! angle_noise = 5e-4          # rad
+//! # At rest (the reference still) the trolley's gains are designed from these: the
+//! # swing damped fast, weighing the load's velocity over the rail ẋ + l φ̇ too.
+//! rest_load_position = 0.03   # m
+//! rest_trolley_position = 0.1 # m
+//! rest_swing_velocity = 0.1   # m/s, l φ̇
+//! rest_load_velocity = 0.03   # m/s, ẋ + l φ̇
 //! # The degraded-mode rule (docs/COMMANDS.md).
 //! max_angle = 0.35            # rad: beyond, the angle is implausible
 //! max_innovation = 0.035      # rad: further from the prediction, implausible
@@ -60,8 +67,13 @@ pub struct FeedbackSpec {
     pub winch_correction: f64,
     pub drive_disturbance: f64,
     pub swing_disturbance: f64,
+    pub drive_offset: f64,
     pub position_noise: f64,
     pub angle_noise: f64,
+    pub rest_load_position: f64,
+    pub rest_trolley_position: f64,
+    pub rest_swing_velocity: f64,
+    pub rest_load_velocity: f64,
     pub max_angle: f64,
     pub max_innovation: f64,
     pub bridged_cycles: u32,
@@ -90,8 +102,13 @@ impl Default for FeedbackSpec {
             winch_correction: w.winch_correction,
             drive_disturbance: w.drive_disturbance,
             swing_disturbance: w.swing_disturbance,
+            drive_offset: w.drive_offset,
             position_noise: w.position_noise,
             angle_noise: w.angle_noise,
+            rest_load_position: w.rest_load_position,
+            rest_trolley_position: w.rest_trolley_position,
+            rest_swing_velocity: w.rest_swing_velocity,
+            rest_load_velocity: w.rest_load_velocity,
             max_angle: c.max_angle,
             max_innovation: c.max_innovation,
             bridged_cycles: c.max_bad_angle_cycles,
@@ -122,8 +139,13 @@ impl FeedbackSpec {
             ("winch_correction", self.winch_correction),
             ("drive_disturbance", self.drive_disturbance),
             ("swing_disturbance", self.swing_disturbance),
+            ("drive_offset", self.drive_offset),
             ("position_noise", self.position_noise),
             ("angle_noise", self.angle_noise),
+            ("rest_load_position", self.rest_load_position),
+            ("rest_trolley_position", self.rest_trolley_position),
+            ("rest_swing_velocity", self.rest_swing_velocity),
+            ("rest_load_velocity", self.rest_load_velocity),
             ("max_angle", self.max_angle),
             ("max_innovation", self.max_innovation),
             ("frozen_motion", self.frozen_motion),
@@ -207,8 +229,13 @@ impl FeedbackSpec {
                 winch_correction: self.winch_correction,
                 drive_disturbance: self.drive_disturbance,
                 swing_disturbance: self.swing_disturbance,
+                drive_offset: self.drive_offset,
                 position_noise: self.position_noise,
                 angle_noise: self.angle_noise,
+                rest_load_position: self.rest_load_position,
+                rest_trolley_position: self.rest_trolley_position,
+                rest_swing_velocity: self.rest_swing_velocity,
+                rest_load_velocity: self.rest_load_velocity,
             },
             g: params.g,
             tau1: params.tau1,
@@ -242,7 +269,7 @@ impl FeedbackSpec {
     pub fn source(config: &Config) -> String {
         let w = &config.weights;
         format!(
-            "controller::feedback::Config {{ weights: controller::feedback::Weights {{ load_position: {:?}, trolley_position: {:?}, swing_velocity: {:?}, trolley_correction: {:?}, rope_position: {:?}, winch_correction: {:?}, drive_disturbance: {:?}, swing_disturbance: {:?}, position_noise: {:?}, angle_noise: {:?} }}, g: {:?}, tau1: {:?}, tau2: {:?}, h: {:?}, max_angle: {:?}, max_innovation: {:?}, max_bad_angle_cycles: {}, max_frozen_cycles: {}, frozen_motion: {:?}, held_allowance: {:?}, rest_position: {:?}, rest_swing: {:?}, rest_hysteresis: {:?}, offset_dead_band: {:?}, offset_step: {:?}, max_offset: {:?}, offset_cycles: {} }}",
+            "controller::feedback::Config {{ weights: controller::feedback::Weights {{ load_position: {:?}, trolley_position: {:?}, swing_velocity: {:?}, trolley_correction: {:?}, rope_position: {:?}, winch_correction: {:?}, drive_disturbance: {:?}, swing_disturbance: {:?}, drive_offset: {:?}, position_noise: {:?}, angle_noise: {:?}, rest_load_position: {:?}, rest_trolley_position: {:?}, rest_swing_velocity: {:?}, rest_load_velocity: {:?} }}, g: {:?}, tau1: {:?}, tau2: {:?}, h: {:?}, max_angle: {:?}, max_innovation: {:?}, max_bad_angle_cycles: {}, max_frozen_cycles: {}, frozen_motion: {:?}, held_allowance: {:?}, rest_position: {:?}, rest_swing: {:?}, rest_hysteresis: {:?}, offset_dead_band: {:?}, offset_step: {:?}, max_offset: {:?}, offset_cycles: {} }}",
             w.load_position,
             w.trolley_position,
             w.swing_velocity,
@@ -251,8 +278,13 @@ impl FeedbackSpec {
             w.winch_correction,
             w.drive_disturbance,
             w.swing_disturbance,
+            w.drive_offset,
             w.position_noise,
             w.angle_noise,
+            w.rest_load_position,
+            w.rest_trolley_position,
+            w.rest_swing_velocity,
+            w.rest_load_velocity,
             config.g,
             config.tau1,
             config.tau2,
@@ -313,6 +345,14 @@ mod tests {
         for (text, field) in [
             ("load_position = -1.0", "feedback.load_position"),
             ("angle_noise = nan", "feedback.angle_noise"),
+            ("rest_load_position = 0.0", "feedback.rest_load_position"),
+            (
+                "rest_trolley_position = -0.1",
+                "feedback.rest_trolley_position",
+            ),
+            ("rest_swing_velocity = inf", "feedback.rest_swing_velocity"),
+            ("rest_load_velocity = nan", "feedback.rest_load_velocity"),
+            ("drive_offset = 0.0", "feedback.drive_offset"),
             ("max_angle = 2.0", "feedback.max_angle"),
             ("bridged_cycles = 50", "feedback.bridged_cycles"),
             ("frozen_cycles = 1", "feedback.frozen_cycles"),

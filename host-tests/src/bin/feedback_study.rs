@@ -120,8 +120,8 @@ fn main() -> Result<(), String> {
     );
     println!();
     let faults = fault_study(FAULT_SEED, args.cases, &gains);
-    println!("| inclinometer (paper's move) | worse than feedforward alone on the same case | of them, the gust over when it failed | by at most: distance mm, swing ° | distance 5 s after, mm (median / max) | swing 5 s after, ° (median / max) | feedforward only: distance, mm (median / max) |");
-    println!("|---|---|---|---|---|---|---|");
+    println!("| inclinometer (paper's move) | worse than feedforward alone on the same case | of them, the gust over when it failed | by at most: distance mm, swing ° | the gust stopped at the failure: worse, by at most mm, ° | distance 5 s after, mm (median / max) | swing 5 s after, ° (median / max) | feedforward only: distance, mm (median / max) |");
+    println!("|---|---|---|---|---|---|---|---|");
     for (i, name) in FAULTS.iter().enumerate() {
         // The at-rest runs' gust is over 0.5 s before the failure.
         let seen = |f: &FaultCase| i >= 2 || !f.gust_after_failure();
@@ -145,8 +145,25 @@ fn main() -> Result<(), String> {
             .iter()
             .map(|(ff, fb)| fb.swing_deg - ff.swing_deg)
             .fold(0.0, f64::max);
+        // The mid-move failures again, the gust stopped when the sensor failed: what
+        // the failure costs on what the sensor saw.
+        let calm: Vec<_> = faults.iter().filter_map(|f| f.calm.get(i)).collect();
+        let calm = if calm.is_empty() {
+            "—".to_string()
+        } else {
+            let worse = calm.iter().filter(|(ff, fb)| fb.worse_than(ff)).count();
+            let by_d = calm
+                .iter()
+                .map(|(ff, fb)| (fb.distance - ff.distance) * 1e3)
+                .fold(0.0, f64::max);
+            let by_s = calm
+                .iter()
+                .map(|(ff, fb)| fb.swing_deg - ff.swing_deg)
+                .fold(0.0, f64::max);
+            format!("{worse}/{}, {by_d:.1}, {by_s:.3}", calm.len())
+        };
         println!(
-            "| {name} | {worse}/{} | {seen_worse}/{seen_all} | {excess_d:.1}, {excess_s:.3} | {:.1} / {:.1} | {:.3} / {:.3} | {:.1} / {:.1} |",
+            "| {name} | {worse}/{} | {seen_worse}/{seen_all} | {excess_d:.1}, {excess_s:.3} | {calm} | {:.1} / {:.1} | {:.3} / {:.3} | {:.1} / {:.1} |",
             pairs.len(),
             quantile(&mut d, 0.5),
             quantile(&mut d, 1.0),
