@@ -127,9 +127,11 @@ fn newton_settings_are_checked_where_newton_iterates() {
         },
         ..settings()
     };
-    let iterated = crane_subs::Bdf::<f64, PointToPoint<f64, 2>, StructuredOf<f64, Subs, 7, 2>>::new(
-        &m, &bad, 4, 0.0,
-    );
+    let iterated = crane_subs::Bdf::<
+        f64,
+        PointToPoint<f64, 2>,
+        StructuredOf<f64, Subs, { crane_subs::N }, { crane_subs::NU }>,
+    >::new(&m, &bad, 4, 0.0);
     assert!(matches!(
         iterated.unwrap_err(),
         Error::InvalidSetting {
