@@ -143,6 +143,11 @@ pub struct SetpointGate<const A: usize = 2> {
     last: [Setpoint; A],
 }
 
+/// The largest set-point velocity limit a drive may be given, m/s: 0x60FF's i32 in µm/s
+/// holds 2,147 m/s, and no crane drive comes near this (the commissioning file refuses a
+/// larger `velocity_limit`).
+pub const MAX_VELOCITY_LIMIT: f64 = 100.0;
+
 /// Rounding slack on the acceleration check: one drive unit per cycle.
 const ONE_UNIT: f64 = 1.0 / UNITS_PER_M_PER_S;
 
@@ -210,7 +215,17 @@ impl<const A: usize> SetpointGate<A> {
                 limit: limits.max_acceleration,
             });
         }
-        // |units| ≤ max_velocity·1e6, far inside i32 for any plausible limit (< 2147 m/s).
+        // |units| ≤ max_velocity·1e6 is inside i32 for any limit the commissioning file
+        // accepts (`MAX_VELOCITY_LIMIT`); a value outside it is refused, never saturated
+        // into a set point other than the one checked.
+        if !(f64::from(i32::MIN)..=f64::from(i32::MAX)).contains(&units) {
+            return Err(SetpointError::OverSpeed {
+                drive,
+                value: velocity,
+                limit: limits.max_velocity,
+            });
+        }
+        // A whole number within i32's range: the conversion is exact.
         let setpoint = Setpoint(units as i32);
         if let Some(last) = self.drives.of_mut(drive, &mut self.last) {
             *last = setpoint;
@@ -238,5 +253,43 @@ impl<const A: usize> SetpointGate<A> {
     #[must_use]
     pub fn at_standstill(&self) -> bool {
         self.last.iter().all(|s| *s == Setpoint::ZERO)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A set point outside 0x60FF's i32 is refused, never saturated into another one —
+    /// even where a (wrong) limit would admit it.
+    #[test]
+    fn a_set_point_outside_the_drive_units_range_is_refused() {
+        let huge = AxisLimits {
+            max_velocity: 5_000.0,
+            max_acceleration: 1e9,
+        };
+        let mut gate = SetpointGate::with_axes(PLANAR, [huge; 2], 0.01);
+        assert!(matches!(
+            gate.admit(Drive::Trolley, 2_500.0),
+            Err(SetpointError::OverSpeed { .. })
+        ));
+        assert_eq!(gate.last(Drive::Trolley), Setpoint::ZERO);
+        assert_eq!(
+            gate.admit(Drive::Trolley, 2_000.0).map(Setpoint::units),
+            Ok(2_000_000_000)
+        );
+    }
+
+    /// A drive the crane does not have is refused by name.
+    #[test]
+    fn a_drive_the_crane_lacks_is_refused() {
+        let mut gate = SetpointGate::new(DriveLimits::LAB, 0.01);
+        assert_eq!(
+            gate.admit(Drive::Bridge, 0.1),
+            Err(SetpointError::NoDrive {
+                drive: Drive::Bridge
+            })
+        );
+        assert_eq!(gate.ramp_to_zero(Drive::Bridge), Setpoint::ZERO);
     }
 }

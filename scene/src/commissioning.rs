@@ -48,7 +48,7 @@ use controller::commissioning::{
 };
 use controller::drive::{self, Drive, PLANAR};
 use controller::node::Role;
-use controller::setpoint::{AxisLimits, DriveLimits, UNITS_PER_M_PER_S};
+use controller::setpoint::{AxisLimits, DriveLimits, MAX_VELOCITY_LIMIT, UNITS_PER_M_PER_S};
 use controller::Config;
 use serde::Deserialize;
 
@@ -424,6 +424,12 @@ impl CommissioningFile {
                         return Err(refuse(
                             format!("drive[{i}].{name}"),
                             "a positive number (m/s or m/s²)",
+                        ));
+                    }
+                    if name == "velocity_limit" && v > MAX_VELOCITY_LIMIT {
+                        return Err(refuse(
+                            format!("drive[{i}].{name}"),
+                            format!("at most {MAX_VELOCITY_LIMIT} m/s"),
                         ));
                     }
                     *slot = v;

@@ -286,4 +286,16 @@ fn a_drives_limits_are_its_commissioning_rows() {
     let e = firmware_scene::<Crane3dParams, 3>(&scene, &CommissioningFile::parse(&bad).unwrap())
         .unwrap_err();
     assert!(e.contains("drive[1].velocity_limit"), "{e}");
+    // Beyond what 0x60FF's i32 of µm/s can carry with room to spare: refused.
+    let absurd = own.replacen(
+        "axis = \"trolley\"",
+        "axis = \"trolley\"\nvelocity_limit = 2500.0",
+        1,
+    );
+    let e = firmware_scene::<Crane3dParams, 3>(&scene, &CommissioningFile::parse(&absurd).unwrap())
+        .unwrap_err();
+    assert!(
+        e.contains("drive[1].velocity_limit") && e.contains("at most"),
+        "{e}"
+    );
 }
