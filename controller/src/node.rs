@@ -140,6 +140,10 @@ impl Node {
             NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
                 self.heartbeat_ms = heartbeat_ms;
                 self.supervisor = 0;
+                // The request fields of 0x2000 back to their power-on values (CiA 301: a
+                // reset restores the dictionary): a 3D move submitted after it carries
+                // only what was written since.
+                self.request = StagedRequest::default();
                 (NmtState::PreOperational, true)
             }
         };
@@ -408,11 +412,14 @@ mod tests {
         for reset in [NmtCommand::ResetCommunication, NmtCommand::ResetNode] {
             n.heartbeat_ms = 250;
             n.supervisor = 1;
+            n.request.lateral = [0x10, 0x27, 5];
+            n.request.bytes[1] = MOVE3D_COMMAND;
             assert!(n.on_nmt(reset, 100), "a boot-up message is due");
             assert_eq!(
                 (n.state, n.heartbeat_ms, n.supervisor),
                 (NmtState::PreOperational, 100, 0)
             );
+            assert_eq!(n.request, StagedRequest::default(), "0x2000 is cleared");
         }
     }
 
