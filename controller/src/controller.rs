@@ -1176,12 +1176,14 @@ where
                     _ => None,
                 };
                 let plan = self.feedforward.plan();
-                if !self.may_move() {
-                    Err(Reject::NotReady)
-                } else if plan.has_queued() {
-                    Err(Reject::Busy)
-                } else if let Some(target) = K::target(x, y, z, plan.final_position().into()) {
-                    match MoveSearch::new(plan, target, duration) {
+                // A request this crane cannot express (a y for the planar crane) is
+                // invalid whatever the crane's state: checked first, so the answer does
+                // not depend on when it was sent.
+                match K::target(x, y, z, plan.final_position().into()) {
+                    None => Err(Reject::Invalid),
+                    Some(_) if !self.may_move() => Err(Reject::NotReady),
+                    Some(_) if plan.has_queued() => Err(Reject::Busy),
+                    Some(target) => match MoveSearch::new(plan, target, duration) {
                         Ok(search) => {
                             self.requests.plan(PendingMove {
                                 request,
@@ -1191,10 +1193,7 @@ where
                             return;
                         }
                         Err(r) => Err(r),
-                    }
-                } else {
-                    // A y for a crane without one (the planar crane's 3D move frame).
-                    Err(Reject::Invalid)
+                    },
                 }
             }
             // Answered on arrival and obeyed by `obey_stop`; never queued.

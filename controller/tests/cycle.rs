@@ -403,6 +403,18 @@ fn a_drive_heartbeat_alone_keeps_it_alive() {
 #[test]
 fn the_planar_crane_rejects_a_3d_move() {
     let mut rig = Rig::new(HEALTHY, false);
+    // Invalid before the drives are ready too: the answer does not depend on when the
+    // request came (not "not ready" now and "invalid" later).
+    rig.bus.inject(Action::Request(Request::Move3d {
+        id: 4,
+        target: [20.0, 1.0, 4.0],
+        duration: None,
+    }));
+    rig.run(5);
+    assert_eq!(
+        rig.c.last_answer(),
+        (4, Answer::Rejected, Some(Reject::Invalid))
+    );
     rig.ready();
     rig.bus.inject(Action::Request(Request::Move3d {
         id: 5,
