@@ -187,4 +187,11 @@ fn the_pdo_descriptions_are_the_dbc_frames() {
             .collect();
         assert_eq!(Some(lengths), dbc.signal_sizes(id), "{map} against the DBC");
     }
+    // A configuration tool sizes its PDO tables from DeviceInfo's counts (CiA 306).
+    for (key, first) in [("NrOfRXPDO", 0x1400), ("NrOfTXPDO", 0x1800)] {
+        let described = (first..first + 0x200)
+            .take_while(|i| s.contains_key(&format!("{i:X}")))
+            .count() as u64;
+        assert_eq!(number(&s["DeviceInfo"][key]), described, "{key}");
+    }
 }
