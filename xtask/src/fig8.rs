@@ -168,11 +168,7 @@ fn trace<'a>(m: &'a Measured, e: &'a cycles::Estimate) -> Result<Trace<'a>, Stri
         label: format!(
             "{}{} {}",
             // The crane in three dimensions beside the paper's.
-            if matches!(m.scene.model, scene::ModelSpec::Crane3dSubs(_)) {
-                "3D "
-            } else {
-                ""
-            },
+            if m.scene.outputs() == 3 { "3D " } else { "" },
             scheme_label(&m.scene),
             jacobian_label(&m.scene)
         ),

@@ -430,7 +430,7 @@ pub fn table(runs: &[Measured]) -> String {
         // The feedback scene has none: its QEMU build also links the simulated plant and
         // inclinometer, and the targets were set for the feedforward controller.
         let settings = &m.scene.solver;
-        let spatial = matches!(m.scene.model, scene::ModelSpec::Crane3dSubs(_));
+        let spatial = m.scene.outputs() == 3;
         let target = match settings.scheme {
             _ if m.scene.feedback.is_some() => "— (feedback)",
             // Issue 19's for the 3D crane's whole tick.
