@@ -129,13 +129,15 @@ fn three_drives_are_commissioned_and_a_move_in_the_x_z_plane_keeps_y() {
     assert_at_rest(&out);
 }
 
-#[test]
-fn a_stop_brings_the_3d_crane_to_rest_sooner_and_never_past_its_target() {
+/// A stop mid-move: at rest before the move would have ended, every axis between where
+/// the stop found it and its target — never past it, on the command frame's planar move
+/// and on a diagonal 3D move alike.
+fn stop_mid_move(request: Request, target: [f64; 3], moving_for: usize) {
     let mut rig = Rig::new();
     rig.ready();
-    command(&mut rig, PLANAR_MOVE);
+    command(&mut rig, request);
     let mut last = [0; 3];
-    let before = rig.run(80);
+    let before = rig.run(moving_for);
     assert_within_limits(&before, &mut last);
     let planned_end = rig.c.feedforward().inner.plan().end_time().unwrap();
     let moving = rig.positions();
@@ -144,8 +146,6 @@ fn a_stop_brings_the_3d_crane_to_rest_sooner_and_never_past_its_target() {
     let after = rig.run(1000);
     assert_within_limits(&after, &mut last);
     assert_eq!(rig.c.last_answer(), (2, Answer::Accepted, None));
-    // At rest before the move would have ended, between where the stop found it and
-    // the target: never past it.
     let rest = after
         .iter()
         .rposition(|c| c.setpoints.iter().any(|s| s.units() != 0))
@@ -155,11 +155,36 @@ fn a_stop_brings_the_3d_crane_to_rest_sooner_and_never_past_its_target() {
         rest_s < planned_end,
         "at rest at {rest_s} s, move to end at {planned_end} s"
     );
-    let [x, y, l] = rig.positions();
-    assert!(x <= 20.0 + 1e-6 && x >= moving[0], "bridge at rest at {x}");
-    assert!(l >= 4.0 - 1e-6 && l <= moving[2] + 1e-9, "rope {l}");
-    assert!((y - 3.0).abs() < 1e-6);
+    let at_rest = rig.positions();
+    for i in 0..3 {
+        let (lo, hi) = (moving[i].min(target[i]), moving[i].max(target[i]));
+        assert!(
+            (lo - 1e-6..=hi + 1e-6).contains(&at_rest[i]),
+            "axis {i} at rest at {}, stopped at {} on the way to {}",
+            at_rest[i],
+            moving[i],
+            target[i]
+        );
+    }
     assert_at_rest(&after);
+}
+
+#[test]
+fn a_stop_brings_the_3d_crane_to_rest_sooner_and_never_past_its_target() {
+    stop_mid_move(PLANAR_MOVE, [20.0, HOME[1], 4.0], 80);
+}
+
+#[test]
+fn a_stop_on_a_diagonal_3d_move_leaves_every_axis_short_of_its_target() {
+    stop_mid_move(
+        Request::Move3d {
+            id: 1,
+            target: [16.0, 5.0, 6.0],
+            duration: Some(10.0),
+        },
+        [16.0, 5.0, 6.0],
+        300,
+    );
 }
 
 #[test]
