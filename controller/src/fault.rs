@@ -149,9 +149,9 @@ impl Fault {
     }
 
     /// The EMCY's third manufacturer byte: for a refused set point, why (1 non-finite,
-    /// 2 over speed, 3 over acceleration, 4 no such drive); for a solver failure, which (1 Newton did not
-    /// converge, 2 singular matrix, 3 non-finite value, 4 other); for a drive that left
-    /// *operational*, the NMT state it reported; otherwise 0.
+    /// 2 over speed, 3 over acceleration, 4 no such drive); for a solver failure, which
+    /// (1 Newton did not converge, 2 singular matrix, 3 non-finite value, 4 other); for
+    /// a drive that left *operational*, the NMT state it reported; otherwise 0.
     pub(crate) fn detail(&self) -> u8 {
         match self {
             Fault::Setpoint(SetpointError::NonFinite { .. }) => 1,

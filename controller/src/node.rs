@@ -167,7 +167,8 @@ pub struct Snapshot {
     pub error_register: u8,
     /// Last commissioning failure: node, index, sub, abort code, reason.
     pub commissioning_failure: (u8, u16, u8, u32, u8),
-    /// Bit per drive (trolley bit 0): commissioned.
+    /// Bit per drive, in the crane's drive order (bit 0 the first of `DRIVES`: the
+    /// planar crane's trolley, the 3D crane's bridge): commissioned.
     pub commissioned: u8,
     /// The rope calibration learnt so far: scaling error, ppm; offset, µm; samples;
     /// what was learnt (`crate::rope::Learnt`).
