@@ -1016,6 +1016,16 @@ impl StateFeedback {
         }
     }
 
+    /// The hoist's correction actually sent, when another feedback drives the hoist (the
+    /// 3D crane's y–z plane, [`crate::feedback3d`]): the rope-error observer learns it
+    /// in place of this feedback's own, which was never sent (anti-windup's rule, the
+    /// observer learns what was sent). Call after [`Self::cycle`].
+    pub(crate) fn winch_sent(&mut self, correction: f64) {
+        if !matches!(self.mode, Mode::FeedforwardOnly(_)) {
+            self.applied[1] = correction;
+        }
+    }
+
     /// The trolley–swing estimate the feedback acts on: until the angle is trusted, the
     /// observer's (run on the reading as it is) less its response to the offset the
     /// zero's estimate shows now beyond its dead band — all of the first reading, at
