@@ -9,8 +9,9 @@
 //! script): the planar crane *subs* and *proj* and the 3D crane, BDF with the run-time
 //! modes and the structured exact Newton, Radau IIA, every Jacobian mode through the
 //! settings — with and without the state feedback (its gain design included; the 3D
-//! crane's controller feedforward only), with every input (frames, times, costs, settings, parameters, the first
-//! move) hidden behind `black_box`, so that nothing is proven for constants only.
+//! crane's per vertical plane with the two-axis inclinometer), with every input
+//! (frames, times, costs, settings, parameters, the first move) hidden behind
+//! `black_box`, so that nothing is proven for constants only.
 //! Built with the firmware's release profile for the drive's target:
 //! `cargo xtask panic-proof`. What it does not cover — the board, RTIC and defmt — is
 //! listed path by path in docs/PANICS.md.
@@ -23,6 +24,7 @@ use controller::commissioning::{DriveSetup, InclinometerSetup, NodeSetup};
 use controller::correction::AxesCorrection;
 use controller::drive::Drive;
 use controller::feedback::{self, NoFeedback, StateFeedback};
+use controller::feedback3d::SpatialFeedback;
 use controller::feedforward::{command_plan, Axes, ReferenceOf};
 use controller::planner::{Crane, Planner};
 use controller::setpoint::DriveLimits;
@@ -107,7 +109,8 @@ impl Proven<2> for CraneParams {
     }
 }
 
-/// The 3D crane: feedforward only (its state feedback is not built yet).
+/// The 3D crane, with and without its state feedback per vertical plane (the
+/// two-axis inclinometer on node 5).
 impl Proven<3> for Crane3dParams {
     fn params() -> Self {
         black_box(Crane3dParams::EXAMPLE)
@@ -125,12 +128,30 @@ impl Proven<3> for Crane3dParams {
             Config::DEFAULT.with_node(NodeSetup::Drive(Drive::Bridge, black_box(bridge))),
         );
         let planner = Planner::with_axes(Self::params(), limits);
-        drive(Controller::with_correction(
-            feedforward,
-            NoFeedback,
-            planner,
-            config,
-        ))
+        if black_box(true) {
+            let tau_trolley: f64 = black_box(Self::params().tau2);
+            let Ok(feedback) =
+                SpatialFeedback::new(black_box(feedback::Config::PAPER), tau_trolley)
+            else {
+                halt()
+            };
+            let config = config.with_node(NodeSetup::Inclinometer(black_box(
+                InclinometerSetup::STOCK_TWO_AXES,
+            )));
+            drive(Controller::with_correction(
+                feedforward,
+                feedback,
+                planner,
+                config,
+            ))
+        } else {
+            drive(Controller::with_correction(
+                feedforward,
+                NoFeedback,
+                planner,
+                config,
+            ))
+        }
     }
 }
 
