@@ -208,18 +208,6 @@ fn feedback_brings_the_load_to_rest_at_the_target_where_feedforward_alone_does_n
     // Settled on the target, the feedback lets go: the set points are exactly zero and
     // the drives hold (5 s after the move to the end of the run).
     let settled = &closed.cycles[(MOVE_END_S as usize + 5) * 100..];
-    let first_zero = closed
-        .cycles
-        .iter()
-        .rposition(|c| c.setpoints.iter().any(|s| s.units() != 0));
-    eprintln!("closed last nonzero {first_zero:?}");
-    for (i, c) in closed.cycles.iter().enumerate().skip(900).step_by(20) {
-        eprintln!(
-            "{i} {:?} {:?}",
-            c.setpoints.map(|s| s.units()),
-            closed.load[i]
-        );
-    }
     assert!(settled
         .iter()
         .all(|c| c.setpoints.iter().all(|s| s.units() == 0)));

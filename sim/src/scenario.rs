@@ -417,7 +417,7 @@ pub const GUST: Scenario = Scenario {
 /// [`CLOSED_LOOP`] with the inclinometer falling silent at 5 s.
 pub const INCLINOMETER_LOST: Scenario = Scenario {
     name: "inclinometer-lost",
-    expect: "ready; feedforward only from 5 s (EMCY 0xFF20, angle lost), no fault",
+    expect: "ready; the angle lost at 5 s (EMCY 0xFF20, reason 1), the swing then estimated from the drives' positions, no fault",
     events: &[at(5_000, Action::Sensor(SensorFault::Lost))],
     ..CLOSED_LOOP
 };
@@ -425,7 +425,7 @@ pub const INCLINOMETER_LOST: Scenario = Scenario {
 /// [`CLOSED_LOOP`] with the inclinometer's value frozen from 3 s.
 pub const INCLINOMETER_STUCK: Scenario = Scenario {
     name: "inclinometer-stuck",
-    expect: "ready; feedforward only once the frozen angle is caught (EMCY 0xFF20, reason 4 stuck), no fault",
+    expect: "ready; the frozen angle caught (EMCY 0xFF20, reason 4 stuck), the swing then estimated from the drives' positions, no fault",
     events: &[at(3_000, Action::Sensor(SensorFault::Stuck))],
     ..CLOSED_LOOP
 };
