@@ -566,6 +566,7 @@ impl<const A: usize> MoveSearch<A> {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used)]
     use super::*;
 
     /// Every reason a crane names is one the planner ranks: a reason outside [`ORDER`]
@@ -582,5 +583,69 @@ mod tests {
     fn every_crane_reason_is_ranked() {
         assert!(ranked::<2, CraneParams>());
         assert!(ranked::<3, Crane3dParams>());
+    }
+
+    /// What the rule "never later than the move would have ended" (issue 17) costs in
+    /// stopping distance: at instants 0.1 s apart on three moves as fast as the limits
+    /// allow, the stop [`Planner::plan_stop`] finds beside the first candidate that rests
+    /// short of the target if it may end later. A study, not a check of the firmware
+    /// (`cargo test -p controller --release --lib stop_rule -- --ignored --nocapture`).
+    #[test]
+    #[ignore = "a study: prints what the stop rule costs in distance"]
+    fn stop_rule_distance_against_time() {
+        fn first_short_of_target<K: Crane<A>, const A: usize>(
+            planner: &Planner<K, A>,
+            plan: &Plan<f64, A>,
+            t: f64,
+        ) -> Option<Stop<f64, A>> {
+            STOP_DURATIONS.iter().find_map(|&d| {
+                STOP_STRETCH.iter().find_map(|&stretch| {
+                    let stop = plan.stop_candidate(t, d, stretch)?.ok()?;
+                    let clear = stop.stays_on_path()
+                        && stop.fraction() < 1.0
+                        && (0..=SAMPLES)
+                            .all(|k| planner.violations_at(&stop, sample_time(t, t + d, k)) == 0);
+                    clear.then_some(stop)
+                })
+            })
+        }
+        fn study<K: Crane<A>, const A: usize>(
+            planner: &Planner<K, A>,
+            from: [f64; A],
+            to: [f64; A],
+        ) {
+            let mut plan = Plan::at_rest(SVector::from(from), 5).unwrap();
+            plan.push(planner.plan_move(&plan, to, None, 0.0).unwrap())
+                .unwrap();
+            let end = plan.end_time().unwrap();
+            let length = (SVector::from(to) - SVector::from(from)).norm();
+            let (mut runs_on, mut could_stop, mut shorter, mut later) = (0, 0, 0.0_f64, 0.0_f64);
+            for i in 1..(end * 10.0) as usize {
+                let t = i as f64 * 0.1;
+                let stop = planner.plan_stop(&plan, t);
+                assert!(stop.is_none_or(|s| s.t_end() <= end && s.fraction() <= 1.0));
+                if stop.is_some() {
+                    continue;
+                }
+                runs_on += 1;
+                if let Some(alt) = first_short_of_target(planner, &plan, t) {
+                    could_stop += 1;
+                    shorter = shorter.max((1.0 - alt.fraction()) * length);
+                    later = later.max(alt.t_end() - end);
+                }
+            }
+            std::eprintln!(
+                "{from:?} -> {to:?} in {end:.2} s: the move runs on to its target at {runs_on} of {} instants; a stop allowed to end later would rest short of it at {could_stop}, up to {shorter:.2} m shorter, ending up to {later:.2} s after the move",
+                (end * 10.0) as usize - 1
+            );
+        }
+        let crane3d = Planner::with_axes(Crane3dParams::EXAMPLE, DriveLimits::LAB_3D);
+        study(&crane3d, [12.0, 3.0, 8.0], [16.0, 5.0, 6.0]);
+        study(&crane3d, [12.0, 3.0, 8.0], [20.0, 3.0, 4.0]);
+        study(
+            &Planner::new(CraneParams::PAPER, DriveLimits::LAB),
+            [12.0, 8.0],
+            [20.0, 4.0],
+        );
     }
 }
