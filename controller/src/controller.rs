@@ -531,7 +531,7 @@ where
         if id == canopen::cob::TPDO1 + node {
             match cia410::decode_tpdo1(frame, setup.two_axes()) {
                 Ok(slopes) if sensor.commissioning.phase() == Phase::Done => {
-                    sensor.angle = Some(setup.swing(slopes));
+                    sensor.swing = Some(setup.swing(slopes));
                     sensor.fresh = true;
                 }
                 Ok(_) => {}
@@ -555,12 +555,12 @@ where
                     self.node.role == Role::Manager,
                 );
                 if left {
-                    sensor.angle = None;
+                    sensor.swing = None;
                     sensor.seen_operational = false;
                 }
                 match action {
                     Heartbeat::Commission => {
-                        sensor.angle = None;
+                        sensor.swing = None;
                         sensor.seen_operational = false;
                         sensor.outbox = Some(sensor.commissioning.begin(now_ms));
                     }
@@ -590,7 +590,7 @@ where
                 register,
             } if node == setup.node => {
                 if emcy::is_fault(code, register) {
-                    sensor.angle = None;
+                    sensor.swing = None;
                     sensor.nmt = None;
                 }
                 true
@@ -1033,7 +1033,7 @@ where
         let swing = self.links.sensor_mut().and_then(|sensor| {
             let fresh = core::mem::take(&mut sensor.fresh);
             let healthy = sensor.healthy(now_ms, self.config.heartbeat_timeout_ms);
-            sensor.angle.filter(|_| fresh && healthy)
+            sensor.swing.filter(|_| fresh && healthy)
         });
         let mut position = [0.0; A];
         for (drive, slot) in K::DRIVES.into_iter().zip(position.iter_mut()) {

@@ -94,7 +94,7 @@ impl<const A: usize> Links<A> {
                         .with_boot_time(boot_time_ms),
                         nmt: None,
                         last_heartbeat_ms: None,
-                        angle: None,
+                        swing: None,
                         fresh: false,
                         outbox: None,
                         seen_operational: false,
@@ -343,7 +343,7 @@ pub(crate) struct SensorLink {
     pub(crate) last_heartbeat_ms: Option<u64>,
     /// The swing angles of its last TPDO, rad, and whether it arrived since the last
     /// cycle.
-    pub(crate) angle: Option<Swing>,
+    pub(crate) swing: Option<Swing>,
     pub(crate) fresh: bool,
     pub(crate) outbox: Option<CanFrame>,
     /// Seen operational since it was commissioned: a later pre-operational or stopped

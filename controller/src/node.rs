@@ -107,7 +107,7 @@ pub struct StagedRequest {
     /// The command frame's bytes as written so far.
     pub bytes: [u8; 8],
     /// The 3D move's y (mm, little-endian) and duration (s), 0x2000:6 and 7.
-    pub lateral: [u8; 3],
+    pub y_and_duration: [u8; 3],
     /// The command (sub 2) was written: the controller takes it as a request.
     pub submitted: bool,
 }
@@ -117,7 +117,7 @@ impl StagedRequest {
     /// fields.
     pub fn request(&self) -> Result<Request, CommandError> {
         let [id, command, x0, x1, z0, z1, ..] = self.bytes;
-        let [y0, y1, seconds] = self.lateral;
+        let [y0, y1, seconds] = self.y_and_duration;
         if command == MOVE3D_COMMAND {
             decode_move3d(&[id, x0, x1, y0, y1, z0, z1, seconds])
         } else {
@@ -359,16 +359,16 @@ impl ObjectDictionary for Dictionary<'_> {
             // The 3D move's y (as mapped into RPDO2, 0x1601) and its duration in s.
             (0x2000, 6) => match *data {
                 [y0, y1] => {
-                    let [_, _, seconds] = self.node.request.lateral;
-                    self.node.request.lateral = [y0, y1, seconds];
+                    let [_, _, seconds] = self.node.request.y_and_duration;
+                    self.node.request.y_and_duration = [y0, y1, seconds];
                     Ok(())
                 }
                 _ => Err(abort::LENGTH),
             },
             (0x2000, 7) => match *data {
                 [seconds] => {
-                    let [y0, y1, _] = self.node.request.lateral;
-                    self.node.request.lateral = [y0, y1, seconds];
+                    let [y0, y1, _] = self.node.request.y_and_duration;
+                    self.node.request.y_and_duration = [y0, y1, seconds];
                     Ok(())
                 }
                 _ => Err(abort::LENGTH),
@@ -413,7 +413,7 @@ mod tests {
         for reset in [NmtCommand::ResetCommunication, NmtCommand::ResetNode] {
             n.heartbeat_ms = 250;
             n.supervisor = 1;
-            n.request.lateral = [0x10, 0x27, 5];
+            n.request.y_and_duration = [0x10, 0x27, 5];
             n.request.bytes[1] = MOVE3D_COMMAND;
             assert!(n.on_nmt(reset, 100), "a boot-up message is due");
             assert_eq!(

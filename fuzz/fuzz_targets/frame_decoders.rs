@@ -31,14 +31,14 @@ fuzz_target!(|input: (u16, Vec<u8>)| {
     for (field, byte) in staged
         .bytes
         .iter_mut()
-        .chain(staged.lateral.iter_mut())
+        .chain(staged.y_and_duration.iter_mut())
         .zip(&data)
     {
         *field = *byte;
     }
     if let Ok(request) = staged.request() {
         let [id, command, x0, x1, z0, z1, ..] = staged.bytes;
-        let [y0, y1, seconds] = staged.lateral;
+        let [y0, y1, seconds] = staged.y_and_duration;
         let expected = if command == MOVE3D_COMMAND {
             [id, x0, x1, y0, y1, z0, z1, seconds]
         } else {
