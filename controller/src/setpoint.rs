@@ -162,12 +162,19 @@ impl SetpointGate {
 
 impl<const A: usize> SetpointGate<A> {
     /// A gate for `drives` with `limits` (in the same order), transmitting every `period`
-    /// seconds, all at standstill.
+    /// seconds, all at standstill. A velocity limit above [`MAX_VELOCITY_LIMIT`] (or not
+    /// a number) is taken as that: every admitted set point then fits 0x60FF's i32,
+    /// checked here once rather than on every set point. (The commissioning file
+    /// refuses such a limit with an error; this is the backstop for a gate built in
+    /// code.)
     #[must_use]
     pub fn with_axes(drives: [Drive; A], limits: [AxisLimits; A], period: f64) -> Self {
         Self {
             drives: Order::new(drives),
-            limits,
+            limits: limits.map(|l| AxisLimits {
+                max_velocity: l.max_velocity.min(MAX_VELOCITY_LIMIT),
+                ..l
+            }),
             period,
             last: [Setpoint::ZERO; A],
         }
@@ -215,17 +222,9 @@ impl<const A: usize> SetpointGate<A> {
                 limit: limits.max_acceleration,
             });
         }
-        // |units| ≤ max_velocity·1e6 is inside i32 for any limit the commissioning file
-        // accepts (`MAX_VELOCITY_LIMIT`); a value outside it is refused, never saturated
-        // into a set point other than the one checked.
-        if !(f64::from(i32::MIN)..=f64::from(i32::MAX)).contains(&units) {
-            return Err(SetpointError::OverSpeed {
-                drive,
-                value: velocity,
-                limit: limits.max_velocity,
-            });
-        }
-        // A whole number within i32's range: the conversion is exact.
+        // |units| ≤ max_velocity·1e6 ≤ 1e8 (`with_axes` caps the limit at
+        // `MAX_VELOCITY_LIMIT`): a whole number within i32's range, so the conversion is
+        // exact, never saturated into a set point other than the one checked.
         let setpoint = Setpoint(units as i32);
         if let Some(last) = self.drives.of_mut(drive, &mut self.last) {
             *last = setpoint;
@@ -261,23 +260,34 @@ mod tests {
     use super::*;
 
     /// A set point outside 0x60FF's i32 is refused, never saturated into another one —
-    /// even where a (wrong) limit would admit it.
+    /// even where a (wrong) limit would admit it: the gate caps the limit at
+    /// [`MAX_VELOCITY_LIMIT`], and a limit that is not a number too.
     #[test]
     fn a_set_point_outside_the_drive_units_range_is_refused() {
-        let huge = AxisLimits {
-            max_velocity: 5_000.0,
-            max_acceleration: 1e9,
-        };
-        let mut gate = SetpointGate::with_axes(PLANAR, [huge; 2], 0.01);
-        assert!(matches!(
-            gate.admit(Drive::Trolley, 2_500.0),
-            Err(SetpointError::OverSpeed { .. })
-        ));
-        assert_eq!(gate.last(Drive::Trolley), Setpoint::ZERO);
-        assert_eq!(
-            gate.admit(Drive::Trolley, 2_000.0).map(Setpoint::units),
-            Ok(2_000_000_000)
-        );
+        for wrong in [5_000.0, f64::INFINITY, f64::NAN] {
+            let limits = AxisLimits {
+                max_velocity: wrong,
+                max_acceleration: 1e9,
+            };
+            let mut gate = SetpointGate::with_axes(PLANAR, [limits; 2], 0.01);
+            for refused in [2_500.0, 100.001] {
+                assert_eq!(
+                    gate.admit(Drive::Trolley, refused),
+                    Err(SetpointError::OverSpeed {
+                        drive: Drive::Trolley,
+                        value: refused,
+                        limit: MAX_VELOCITY_LIMIT
+                    }),
+                    "limit {wrong}"
+                );
+            }
+            assert_eq!(gate.last(Drive::Trolley), Setpoint::ZERO);
+            assert_eq!(
+                gate.admit(Drive::Trolley, -MAX_VELOCITY_LIMIT)
+                    .map(Setpoint::units),
+                Ok(-100_000_000)
+            );
+        }
     }
 
     /// A drive the crane does not have is refused by name.
