@@ -40,9 +40,12 @@ pub fn settings_source(scene: &Scene) -> String {
 
 /// `config` as a Rust constant expression, for the firmware's generated scene module:
 /// the same values the host's run of the firmware loop uses, built by the same
-/// [`CommissioningFile::config_for`](crate::commissioning::CommissioningFile::config_for). (The fault thresholds are [`Config::DEFAULT`]'s;
+/// [`CommissioningFile::config_for`]. (The fault thresholds are [`Config::DEFAULT`]'s;
 /// the check below refuses a config that differs there. The drives' limits are the
-/// planner's, [`FirmwareCrane::LIMITS`](crate::dispatch::FirmwareCrane::LIMITS).)
+/// planner's, [`FirmwareCrane::LIMITS`].)
+///
+/// [`CommissioningFile::config_for`]: crate::commissioning::CommissioningFile::config_for
+/// [`FirmwareCrane::LIMITS`]: crate::dispatch::FirmwareCrane::LIMITS
 pub fn config_source(config: &Config) -> Result<String, String> {
     let defaults = Config {
         period_ms: config.period_ms,
