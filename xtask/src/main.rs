@@ -27,6 +27,8 @@
 //! * `report LOG [--scene SCENE] [--out DIR] [--eds NODE=FILE …]` — a recorded bus
 //!   (candump `-L` or Vector ASC) in, the crane's report out: one HTML page with its
 //!   figures, the figures as SVG, `summary.json` (docs/REPORT.md).
+//! * `report-check` — the committed example report made again and compared, its page
+//!   loaded in headless chromium (part of `test`).
 //! * `report-bench [--frames N]` — the report's seconds per million frames and peak
 //!   memory on a long log.
 //! * `study …` — the speed/accuracy studies (`run`, `sweep`, `paper`, `extremes`).
@@ -152,6 +154,9 @@ enum Cmd {
         #[arg(long, value_parser = report::parse_eds)]
         eds: Vec<(u8, PathBuf)>,
     },
+    /// The committed example report (docs/report-example) made again and compared, and
+    /// its page loaded in headless chromium (in `test`).
+    ReportCheck,
     /// The report's seconds per million frames and peak memory on a long log.
     ReportBench {
         /// Frames in the log.
@@ -253,6 +258,7 @@ fn main() -> ExitCode {
                 })
                 .map(|_| ())
             }
+            Cmd::ReportCheck => report::check_example(),
             Cmd::ReportBench { frames } => report::bench::bench(frames),
             Cmd::Study { args } => run(cargo()
                 .args([
@@ -549,6 +555,7 @@ mod tests {
                 "0x10=c.eds",
             ],
             &["report-bench"],
+            &["report-check"],
             &["report-bench", "--frames", "5000000"],
         ] {
             assert!(parse(args).is_ok(), "{args:?}: {:?}", parse(args).err());
