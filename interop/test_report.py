@@ -29,8 +29,10 @@ def close_enough(a, b, path="summary"):
             if k not in ("log", "format", "read"):
                 close_enough(a[k], b[k], f"{path}.{k}")
     elif path.endswith("histogram"):
-        # An interval within the rounding of a bin's edge may fall either side of it.
-        assert sum(a) == sum(b) and sum(abs(x - y) for x, y in zip(a, b)) <= 6, (path, a, b)
+        # An interval within the 2 µs of rounding of a bin's (0.5 ms) edge may fall either
+        # side of it: about 0.4 % of them, 8 of 1,926 seen.
+        moved = sum(abs(x - y) for x, y in zip(a, b))
+        assert sum(a) == sum(b) and moved <= max(6, sum(a) // 50), (path, a, b)
     elif isinstance(a, list):
         assert len(a) == len(b), (path, len(a), len(b))
         for i, (x, y) in enumerate(zip(a, b)):
@@ -83,16 +85,22 @@ def assert_emcys_are_the_ecus(summary, log):
     return reported
 
 
+def moving(rigs, duration=4.0, **rig):
+    """A rig recording, ready, the move (13, 7.5) in `duration` s accepted as request 1."""
+    r = rigs(**rig)
+    record(r)
+    r.wait_mode("ready")
+    r.move(1, 13.0, 7.5, duration)
+    assert r.answer(1) == (ACCEPTED, 0)
+    return r
+
+
 def answers(summary):
     return [(r["id"], [a[1] for a in r["answers"]]) for r in summary["requests"]["items"]]
 
 
 def test_a_healthy_move_reported_as_the_rig_ran_it(rigs, tmp_path):
-    rig = rigs()
-    record(rig)
-    rig.wait_mode("ready")
-    rig.move(1, 13.0, 7.5, 4.0)
-    assert rig.answer(1) == (ACCEPTED, 0)
+    rig = moving(rigs)
     time.sleep(4.0 + 5.0 + 5.8)  # the move, 5 s, a swing period at 7.5 m
     drives = rig.dump()
     s, log, page = reports(rig, tmp_path, "healthy")
@@ -122,11 +130,7 @@ def test_a_healthy_move_reported_as_the_rig_ran_it(rigs, tmp_path):
 
 
 def test_a_stop_reported_short_of_the_target(rigs, tmp_path):
-    rig = rigs()
-    record(rig)
-    rig.wait_mode("ready")
-    rig.move(1, 13.0, 7.5, 8.0)
-    assert rig.answer(1) == (ACCEPTED, 0)
+    rig = moving(rigs, 8.0)
     time.sleep(2.5)
     rig.command(2, 2)
     assert rig.answer(2) == (ACCEPTED, 0)
@@ -142,11 +146,7 @@ def test_a_stop_reported_short_of_the_target(rigs, tmp_path):
 
 
 def test_a_drive_fault_reported_with_its_reaction(rigs, tmp_path):
-    rig = rigs()
-    record(rig)
-    rig.wait_mode("ready")
-    rig.move(1, 13.0, 7.5, 4.0)
-    assert rig.answer(1) == (ACCEPTED, 0)
+    rig = moving(rigs)
     time.sleep(1.0)
     rig.drive("fault 2")
     rig.wait_mode("halted")
@@ -165,11 +165,7 @@ def test_a_drive_fault_reported_with_its_reaction(rigs, tmp_path):
 
 
 def test_a_lost_heartbeat_reported_with_its_gap(rigs, tmp_path):
-    rig = rigs()
-    record(rig)
-    rig.wait_mode("ready")
-    rig.move(1, 13.0, 7.5, 4.0)
-    assert rig.answer(1) == (ACCEPTED, 0)
+    rig = moving(rigs)
     time.sleep(1.0)
     # The winch's heartbeat producer switched off (0x1017 = 0) over SDO: its TPDOs go
     # on, its heartbeat stops.

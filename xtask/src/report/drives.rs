@@ -49,7 +49,7 @@ pub struct DriveRecord {
     pub over_velocity: u64,
     /// Steps above the acceleration limit.
     pub over_acceleration: u64,
-    /// Set points not finite (cannot happen in a frame; kept for symmetry with the gate).
+    /// Velocity actuals (TPDO1) received.
     pub velocity_actuals: u64,
     /// Largest |velocity actual|, m/s.
     pub max_velocity: f64,

@@ -559,8 +559,8 @@ fn requests_section(w: &mut String, s: &Summary) {
             "No manual-mode frames (0x410) in this log.".to_string()
         } else {
             format!(
-                "{} manual-mode frames (0x410); the DBC decodes {}.",
-                s.manual_frames, "what it describes"
+                "{} manual-mode frames (0x410): counted; their sessions are not analysed yet.",
+                s.manual_frames
             )
         }
     );

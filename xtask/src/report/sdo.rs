@@ -150,6 +150,17 @@ fn object(eds: Option<&Eds>, index: u16, sub: u8) -> String {
     }
 }
 
+/// The data of an expedited transfer (8-byte frame): bytes 4.. less the unused ones the
+/// command byte names when it indicates the size (CiA 301 §7.2.4.3.3).
+fn expedited(data: &[u8]) -> &[u8] {
+    let unused = if data[0] & 0x01 != 0 {
+        usize::from((data[0] >> 2) & 3)
+    } else {
+        0
+    };
+    data.get(4..8 - unused).unwrap_or_default()
+}
+
 fn value(data: &[u8]) -> String {
     let mut word = [0u8; 4];
     word.iter_mut().zip(data).for_each(|(w, d)| *w = *d);
@@ -160,27 +171,16 @@ fn value(data: &[u8]) -> String {
 impl Channel {
     /// A request from a client to this server.
     pub fn request(&mut self, t: f64, data: &[u8], eds: Option<&Eds>) {
-        if data.len() != 8 {
-            self.push(
-                t,
-                format!("request of {} bytes (not an SDO)", data.len()),
-                false,
-            );
+        let Some((index, sub)) = self.addressed(t, data, "request") else {
             return;
-        }
-        let (index, sub) = (u16::from_le_bytes([data[1], data[2]]), data[3]);
+        };
         let name = object(eds, index, sub);
         let ccs = data[0] >> 5;
         let text = match ccs {
             2 => format!("read {name}"),
             1 => {
                 if data[0] & 0x02 != 0 {
-                    let size = if data[0] & 0x01 != 0 {
-                        4 - usize::from((data[0] >> 2) & 3)
-                    } else {
-                        4
-                    };
-                    format!("write {name} = {}", value(&data[4..4 + size]))
+                    format!("write {name} = {}", value(expedited(data)))
                 } else {
                     format!("write {name} (segmented)")
                 }
@@ -208,25 +208,12 @@ impl Channel {
 
     /// An answer from this server.
     pub fn response(&mut self, t: f64, data: &[u8], eds: Option<&Eds>) {
-        if data.len() != 8 {
-            self.push(
-                t,
-                format!("answer of {} bytes (not an SDO)", data.len()),
-                false,
-            );
+        let Some((index, sub)) = self.addressed(t, data, "answer") else {
             return;
-        }
+        };
         let scs = data[0] >> 5;
-        let (index, sub) = (u16::from_le_bytes([data[1], data[2]]), data[3]);
         let (answer, abort) = match scs {
-            2 if data[0] & 0x02 != 0 => {
-                let size = if data[0] & 0x01 != 0 {
-                    4 - usize::from((data[0] >> 2) & 3)
-                } else {
-                    4
-                };
-                (value(&data[4..4 + size]), false)
-            }
+            2 if data[0] & 0x02 != 0 => (value(expedited(data)), false),
             2 => ("segmented answer".to_string(), false),
             3 => ("done".to_string(), false),
             4 => {
@@ -250,6 +237,17 @@ impl Channel {
                 abort,
             ),
         }
+    }
+
+    /// The object an 8-byte SDO frame addresses; a frame of another length is noted in
+    /// the transcript as `what` of that many bytes.
+    fn addressed(&mut self, t: f64, data: &[u8], what: &str) -> Option<(u16, u8)> {
+        if data.len() != 8 {
+            let text = format!("{what} of {} bytes (not an SDO)", data.len());
+            self.push(t, text, false);
+            return None;
+        }
+        Some((u16::from_le_bytes([data[1], data[2]]), data[3]))
     }
 
     /// The end of the log: a request still open is unanswered.
