@@ -1,0 +1,169 @@
+//! The network: the nodes seen, their boot-ups, NMT commands and states, heartbeats and
+//! their ages, and each node's SDO transcript (commissioning) by object name.
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use super::bus::{Cob, Crane};
+use super::sdo::{Channel, Eds};
+use super::series::{Capped, Stats};
+use super::Seen;
+
+/// One node as the log shows it.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Node {
+    /// Frames the node sent (EMCY, TPDO, SDO answers, heartbeats).
+    pub frames: u64,
+    /// First and last frame it sent, s.
+    pub first: f64,
+    /// Last frame it sent, s.
+    pub last: f64,
+    /// Boot-up messages (heartbeat state 0), s.
+    pub boot_ups: Vec<f64>,
+    /// Heartbeats seen.
+    pub heartbeats: u64,
+    /// Intervals between its heartbeats, s.
+    pub heartbeat_interval: Stats,
+    /// Heartbeat gaps longer than the controller's timeout: (when the next came, gap s).
+    pub heartbeat_gaps: Vec<(f64, f64)>,
+    /// Its last heartbeat, s (its age at the log's end is the end less this).
+    pub last_heartbeat: Option<f64>,
+    /// NMT states its heartbeat reported, in order, when they changed: (s, state).
+    pub states: Vec<(f64, String)>,
+}
+
+/// An NMT command seen on the bus.
+#[derive(Debug, Clone, Serialize)]
+pub struct NmtCommand {
+    /// When, s.
+    pub t: f64,
+    /// Its name (the DBC's value table).
+    pub command: String,
+    /// The node addressed (0: all).
+    pub node: u8,
+}
+
+/// What the network section reports.
+#[derive(Debug)]
+pub struct Network {
+    /// Nodes by id.
+    pub nodes: BTreeMap<u8, Node>,
+    /// NMT commands.
+    pub nmt: Capped<NmtCommand>,
+    /// SDO channels by server node.
+    pub sdo: BTreeMap<u8, Channel>,
+    /// Heartbeats of the controller's node id less than half its period apart: two
+    /// nodes beating with one id.
+    pub early_controller_heartbeats: u64,
+    eds: BTreeMap<u8, Eds>,
+    timeout: f64,
+    controller: u8,
+    controller_period: f64,
+}
+
+/// Most heartbeat gaps kept per node.
+const GAPS: usize = 50;
+/// Most NMT state changes kept per node.
+const STATES: usize = 100;
+
+impl Network {
+    /// For `crane`, with the object names of `eds` per node.
+    pub fn new(crane: &Crane, eds: BTreeMap<u8, Eds>) -> Self {
+        Self {
+            nodes: BTreeMap::new(),
+            nmt: Capped::new(200),
+            sdo: BTreeMap::new(),
+            early_controller_heartbeats: 0,
+            eds,
+            timeout: crane.heartbeat_timeout,
+            controller: crane.controller,
+            controller_period: crane.heartbeat,
+        }
+    }
+
+    /// The EDS used for `node`, if any.
+    pub fn eds_of(&self, node: u8) -> Option<&Eds> {
+        self.eds.get(&node)
+    }
+
+    /// One frame.
+    pub fn frame(&mut self, s: &Seen) {
+        let data = s.frame.bytes();
+        if let Some(node) = s.cob.node().filter(|_| s.cob.sent_by_node()) {
+            let n = self.nodes.entry(node).or_default();
+            if n.frames == 0 {
+                n.first = s.t;
+            }
+            n.frames += 1;
+            n.last = s.t;
+        }
+        match s.cob {
+            Cob::Nmt => {
+                let command = s
+                    .label("command")
+                    .unwrap_or_else(|| format!("0x{:02X}", data.first().copied().unwrap_or(0)));
+                self.nmt.push(NmtCommand {
+                    t: s.t,
+                    command,
+                    node: data.get(1).copied().unwrap_or(0),
+                });
+            }
+            Cob::Heartbeat(node) => self.heartbeat(s, node),
+            Cob::SdoRequest(node) => {
+                let eds = self.eds.get(&node);
+                self.sdo.entry(node).or_default().request(s.t, data, eds);
+            }
+            Cob::SdoResponse(node) => {
+                let eds = self.eds.get(&node);
+                self.sdo.entry(node).or_default().response(s.t, data, eds);
+            }
+            _ => {}
+        }
+    }
+
+    fn heartbeat(&mut self, s: &Seen, node: u8) {
+        let Some(&state) = s.frame.bytes().first() else {
+            return;
+        };
+        let (timeout, controller, period) = (self.timeout, self.controller, self.controller_period);
+        let n = self.nodes.entry(node).or_default();
+        n.heartbeats += 1;
+        if let Some(last) = n.last_heartbeat {
+            let gap = s.t - last;
+            n.heartbeat_interval.add(gap);
+            if gap > timeout && n.heartbeat_gaps.len() < GAPS {
+                n.heartbeat_gaps.push((s.t, gap));
+            }
+            if node == controller && gap < period / 2.0 {
+                self.early_controller_heartbeats += 1;
+            }
+        }
+        n.last_heartbeat = Some(s.t);
+        let name = match state & 0x7F {
+            0 => "boot-up".to_string(),
+            4 => "stopped".to_string(),
+            5 => "operational".to_string(),
+            127 => "pre-operational".to_string(),
+            other => format!("state {other} (not CiA 301)"),
+        };
+        if state & 0x7F == 0 {
+            n.boot_ups.push(s.t);
+        }
+        if n.states.last().is_none_or(|(_, last)| *last != name) && n.states.len() < STATES {
+            n.states.push((s.t, name));
+        }
+    }
+
+    /// The end of the log.
+    pub fn finish(&mut self) {
+        self.sdo.values_mut().for_each(Channel::finish);
+    }
+
+    /// Whether the controller was heard at all.
+    pub fn controller_heard(&self) -> bool {
+        self.nodes
+            .get(&self.controller)
+            .is_some_and(|n| n.frames > 0)
+    }
+}

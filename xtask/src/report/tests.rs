@@ -1,0 +1,169 @@
+//! Bad input, end to end: each case counted and shown in the report, never a crash; an
+//! unreadable file or an unknown format a clear error.
+
+use super::*;
+
+/// A candump `-L` log of `lines` (without time stamps: one every 1 ms from 1000 s).
+fn log(name: &str, lines: &[String]) -> (PathBuf, PathBuf) {
+    let dir = std::env::temp_dir().join(format!("report-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let text: String = lines
+        .iter()
+        .enumerate()
+        .map(|(i, l)| format!("({:.6}) can0 {l}\n", 1000.0 + i as f64 * 0.001))
+        .collect();
+    let path = dir.join(format!("{name}.log"));
+    std::fs::write(&path, text).unwrap();
+    (path, dir.join("out"))
+}
+
+fn run(path: &Path, out: &Path) -> Result<Summary, String> {
+    report(&Options {
+        log: path.to_path_buf(),
+        scene: root().join(DEFAULT_SCENE),
+        out: out.to_path_buf(),
+        eds: Vec::new(),
+    })
+}
+
+/// Ten cycles of a healthy planar bus: RPDOs, SYNC, TPDOs, heartbeats, a status.
+fn cycles(n: usize) -> Vec<String> {
+    let mut lines = Vec::new();
+    for k in 0..n {
+        lines.push("201#0F0000000000".to_string());
+        lines.push("202#0F0000000000".to_string());
+        lines.push("080#".to_string());
+        lines.push("181#37020000000000".chars().take(16).collect());
+        lines.push("182#370200000000".to_string());
+        lines.push("281#001BB70009".to_string());
+        lines.push("282#00127A0009".to_string());
+        if k % 10 == 0 {
+            lines.push("710#05".to_string());
+            lines.push("701#05".to_string());
+            lines.push("702#05".to_string());
+            lines.push("190#0000000100000000".to_string());
+        }
+    }
+    lines
+}
+
+#[test]
+fn truncated_lines_unknown_ids_and_undecodable_frames_are_counted_and_shown() {
+    let mut lines = cycles(20);
+    lines.insert(5, "21".to_string()); // "(t) can0 21": truncated
+    lines.insert(9, "7FF#0102".to_string()); // an id the DBC does not have
+    lines.insert(12, "181#01".to_string()); // TPDO1_Trolley of 1 byte
+    lines.insert(14, "210#0102".to_string()); // a command frame of 2 bytes
+    let (path, out) = log("bad", &lines);
+    let s = run(&path, &out).unwrap();
+    assert_eq!(s.read.unreadable, 1);
+    assert_eq!(s.decoding.unknown_ids.get("0x7FF"), Some(&1));
+    assert_eq!(s.decoding.undecodable.get("0x181").map(|u| u.0), Some(1));
+    assert_eq!(s.decoding.undecodable.get("0x210").map(|u| u.0), Some(1));
+    assert!(matches!(
+        s.requests.items[0].kind,
+        requests::Kind::Malformed(_)
+    ));
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(page.contains("0x7FF ×1"), "the unknown id is shown");
+    assert!(
+        page.contains("TPDO1_Trolley: 1 bytes, the DBC says 6"),
+        "the undecodable frame is shown"
+    );
+    assert!(
+        page.contains("line 6: (1000.005000) can0 21"),
+        "the truncated line is quoted"
+    );
+    assert!(s.controller_heard && s.two_controllers.is_empty());
+    assert_eq!(s.timing.syncs, 20);
+    assert_eq!(s.timing.rpdo_order[0], [20, 0, 0]);
+}
+
+#[test]
+fn a_log_without_the_controller_says_so() {
+    let lines: Vec<String> = (0..50).map(|k| format!("70{}#05", 1 + k % 2)).collect();
+    let (path, out) = log("silent", &lines);
+    let s = run(&path, &out).unwrap();
+    assert!(!s.controller_heard);
+    assert!(
+        s.cannot_answer[0].starts_with("no controller traffic in this log"),
+        "{:?}",
+        s.cannot_answer
+    );
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(page.contains("No controller traffic in this log."));
+    assert!(page.contains("no manual-mode frames (0x410) in this log"));
+}
+
+#[test]
+fn two_controllers_on_one_bus_are_shown() {
+    // Two SYNC producers and two heartbeats with the controller's id, 1 ms apart.
+    let mut lines = Vec::new();
+    for _ in 0..30 {
+        lines.extend([
+            "080#".to_string(),
+            "080#".to_string(),
+            "710#05".to_string(),
+            "710#05".to_string(),
+        ]);
+        lines.extend(std::iter::repeat_n("701#05".to_string(), 6));
+    }
+    let (path, out) = log("two", &lines);
+    let s = run(&path, &out).unwrap();
+    assert_eq!(s.two_controllers.len(), 2, "{:?}", s.two_controllers);
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(page.contains("Two controllers on one bus?"));
+}
+
+#[test]
+fn a_request_and_its_answer_and_a_refusal_with_its_reason() {
+    let mut lines = cycles(3);
+    // Move id 5 to (13, 7.5) in 4 s; then id 6 to (30, 7.5): rejected, reason 4.
+    lines.push("210#0501C832F81C9001".to_string());
+    lines.push("190#0501000100000000".to_string());
+    lines.push("210#0601307578F9001".chars().take(20).collect());
+    lines.push("210#060130752C1D9001".to_string());
+    lines.push("190#0603040100000000".to_string());
+    lines.push("190#0603040100000000".to_string()); // the periodic status repeats it
+    let (path, out) = log("requests", &lines);
+    let s = run(&path, &out).unwrap();
+    let answered: Vec<_> = s
+        .requests
+        .items
+        .iter()
+        .filter(|r| !matches!(r.kind, requests::Kind::Malformed(_)))
+        .map(|r| {
+            (
+                r.id,
+                r.answers
+                    .iter()
+                    .map(|a| (a.1.as_str(), a.2.as_str()))
+                    .collect::<Vec<_>>(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        answered,
+        [
+            (5, vec![("Accepted", "None")]),
+            (6, vec![("Rejected", "TrolleyWorkspace")])
+        ]
+    );
+    assert_eq!(s.moves.items.len(), 1);
+    assert!(
+        s.moves.items[0].verdict.starts_with("not judged"),
+        "{:?}",
+        s.moves.items[0]
+    );
+}
+
+#[test]
+fn an_unreadable_file_or_an_unknown_format_is_an_error() {
+    let e = run(Path::new("/no/such/log.log"), Path::new("/tmp/x")).unwrap_err();
+    assert!(e.contains("/no/such/log.log"), "{e}");
+    let (path, out) = log("junk", &[]);
+    std::fs::write(&path, "this is not a CAN log\n").unwrap();
+    let e = run(&path, &out).unwrap_err();
+    assert!(e.contains("unknown format"), "{e}");
+}
