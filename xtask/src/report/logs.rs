@@ -177,11 +177,7 @@ impl<R: BufRead> LogReader<R> {
             let buf = std::mem::take(&mut self.line);
             let frame = self.classify(&buf, too_long);
             self.line = buf;
-            if let Some(mut frame) = frame {
-                if self.relative {
-                    self.clock += frame.t;
-                    frame.t = self.clock;
-                }
+            if let Some(frame) = frame {
                 if self.last_t.is_some_and(|t| frame.t < t) {
                     self.stats.backwards += 1;
                 }
@@ -234,8 +230,21 @@ impl<R: BufRead> LogReader<R> {
             self.stats.other_lines += 1;
             return None;
         }
+        // `timestamps relative`: each line's stamp is the time since the line before,
+        // whatever that line is — an error frame, a CAN FD frame or an event moves the
+        // clock as a frame does.
+        if self.relative {
+            if let Some(dt) = asc_stamp(line) {
+                self.clock += dt;
+            }
+        }
         match asc_line(line, self.decimal) {
-            AscLine::Frame(f) => Some(f),
+            AscLine::Frame(mut f) => {
+                if self.relative {
+                    f.t = self.clock;
+                }
+                Some(f)
+            }
             AscLine::Error => {
                 self.stats.error_frames += 1;
                 None
@@ -375,6 +384,15 @@ enum AscLine {
     Other,
     /// It starts like a frame (time, channel, id, direction) but is not a whole one.
     Bad,
+}
+
+/// The time stamp an ASC line begins with, if it begins with one.
+fn asc_stamp(line: &str) -> Option<f64> {
+    line.split_ascii_whitespace()
+        .next()?
+        .parse::<f64>()
+        .ok()
+        .filter(|t| t.is_finite())
 }
 
 /// `time channel id Rx|Tx d dlc bytes… [extra columns]`, ids in hex (`x` after an
@@ -539,6 +557,25 @@ mod tests {
         assert_eq!(frames[0].id, 0x080);
         assert_eq!(frames[1].id, 0x191);
         assert!((frames[1].t - 0.020).abs() < 1e-12);
+    }
+
+    #[test]
+    fn relative_asc_stamps_count_from_every_event_not_only_frames() {
+        // `timestamps relative`: each stamp is the time since the line before, whatever
+        // that line was (an error frame, a CAN FD frame, a remote request).
+        let text = "base hex  timestamps relative\n\
+                    \x20  0.010000 1  80   Rx   d 0\n\
+                    \x20  0.005000 1  ErrorFrame\n\
+                    \x20  0.005000 1  80   Rx   d 0\n\
+                    \x20  0.004000 CANFD   1 Rx  123  1 0 d 8 01 02 03 04 05 06 07 08\n\
+                    \x20  0.006000 1  80   Rx   d 0\n";
+        let (frames, stats) = read(text, Format::Asc);
+        let t: Vec<f64> = frames.iter().map(|f| f.t).collect();
+        assert_eq!(t.len(), 3, "{frames:?}");
+        for (got, want) in t.iter().zip([0.010, 0.020, 0.030]) {
+            assert!((got - want).abs() < 1e-12, "{t:?}");
+        }
+        assert_eq!((stats.error_frames, stats.fd_frames), (1, 1));
     }
 
     #[test]
