@@ -395,8 +395,21 @@ fn asc_stamp(line: &str) -> Option<f64> {
         .filter(|t| t.is_finite())
 }
 
-/// `time channel id Rx|Tx d dlc bytes… [extra columns]`, ids in hex (`x` after an
-/// extended one) unless `decimal`.
+/// A DLC or data byte of an ASC frame: hex digits, or in a `base dec` log up to
+/// three decimal ones (Vector's tools and python-can's reader write ids, DLC and data in
+/// the header's base).
+fn number(word: &str, decimal: bool) -> Option<u8> {
+    if decimal {
+        (word.len() <= 3).then(|| word.parse().ok()).flatten()
+    } else {
+        (word.len() <= 2)
+            .then(|| u8::from_str_radix(word, 16).ok())
+            .flatten()
+    }
+}
+
+/// `time channel id Rx|Tx d dlc bytes… [extra columns]`, ids, DLC and data in hex (`x`
+/// after an extended id) unless `decimal`.
 fn asc_line(line: &str, decimal: bool) -> AscLine {
     let mut words = line.split_ascii_whitespace();
     let Some(t) = words.next().and_then(|w| w.parse::<f64>().ok()) else {
@@ -456,7 +469,7 @@ fn asc_line(line: &str, decimal: bool) -> AscLine {
         data: [0; 8],
     };
     let kind = words.next();
-    let Some(dlc) = words.next().and_then(|d| u8::from_str_radix(d, 16).ok()) else {
+    let Some(dlc) = words.next().and_then(|d| number(d, decimal)) else {
         return AscLine::Bad;
     };
     match kind {
@@ -467,11 +480,7 @@ fn asc_line(line: &str, decimal: bool) -> AscLine {
         }
         Some("d") if dlc <= 8 => {
             for slot in frame.data.iter_mut().take(usize::from(dlc)) {
-                match words.next().and_then(|b| {
-                    (b.len() == 2)
-                        .then(|| u8::from_str_radix(b, 16).ok())
-                        .flatten()
-                }) {
+                match words.next().and_then(|b| number(b, decimal)) {
                     Some(byte) => *slot = byte,
                     None => return AscLine::Bad,
                 }
@@ -576,6 +585,20 @@ mod tests {
             assert!((got - want).abs() < 1e-12, "{t:?}");
         }
         assert_eq!((stats.error_frames, stats.fd_frames), (1, 1));
+    }
+
+    #[test]
+    fn asc_in_base_dec_has_decimal_data_bytes_too() {
+        // Vector (and python-can's reader) write ids, DLC and data in the base the header
+        // names.
+        let text = "base dec  timestamps absolute\n\
+                    \x20  0.010000 1  400  Rx   d 3 10 128 255\n";
+        let (frames, stats) = read(text, Format::Asc);
+        assert_eq!(stats.unreadable, 0, "{stats:?}");
+        assert_eq!(
+            (frames[0].id, frames[0].bytes()),
+            (0x190, &[10, 128, 255][..])
+        );
     }
 
     #[test]
