@@ -458,6 +458,8 @@ fn asc_line(line: &str, decimal: bool) -> AscLine {
     };
     match words.next() {
         Some("Rx" | "Tx") => {}
+        // A transmit request: the frame itself follows as `Tx` once it is on the bus.
+        Some("TxRq") => return AscLine::Other,
         _ => return AscLine::Bad,
     }
     let mut frame = Frame {
@@ -469,16 +471,19 @@ fn asc_line(line: &str, decimal: bool) -> AscLine {
         data: [0; 8],
     };
     let kind = words.next();
-    let Some(dlc) = words.next().and_then(|d| number(d, decimal)) else {
-        return AscLine::Bad;
-    };
-    match kind {
-        Some("r") => {
+    let dlc = words.next().map(|d| number(d, decimal));
+    match (kind, dlc) {
+        // A remote frame's DLC is optional: older Vector tools write `r` alone.
+        (Some("r"), None) => {
+            frame.remote = true;
+            AscLine::Frame(frame)
+        }
+        (Some("r"), Some(Some(dlc))) => {
             frame.remote = true;
             frame.len = dlc.min(8);
             AscLine::Frame(frame)
         }
-        Some("d") if dlc <= 8 => {
+        (Some("d"), Some(Some(dlc))) if dlc <= 8 => {
             for slot in frame.data.iter_mut().take(usize::from(dlc)) {
                 match words.next().and_then(|b| number(b, decimal)) {
                     Some(byte) => *slot = byte,
@@ -599,6 +604,22 @@ mod tests {
             (frames[0].id, frames[0].bytes()),
             (0x190, &[10, 128, 255][..])
         );
+    }
+
+    #[test]
+    fn asc_remote_frames_without_a_dlc_and_transmit_requests() {
+        // `r` alone is a remote frame as older Vector tools write it; a `TxRq` line is
+        // the request to send, not a frame on the bus (its frame follows as `Tx`).
+        let text = "base hex  timestamps absolute\n\
+                    \x20  0.010000 1  701  Rx   r\n\
+                    \x20  0.020000 1  701  Rx   r 1\n\
+                    \x20  0.030000 1  210  TxRq d 2 01 02\n\
+                    \x20  0.030100 1  210  Tx   d 2 01 02\n";
+        let (frames, stats) = read(text, Format::Asc);
+        assert_eq!(stats.unreadable, 0, "{stats:?}");
+        assert_eq!(frames.len(), 3, "{frames:?}");
+        assert!(frames[0].remote && frames[1].remote && !frames[2].remote);
+        assert_eq!(stats.other_lines, 2, "the header and the transmit request");
     }
 
     #[test]
