@@ -242,6 +242,11 @@ fn input_section(w: &mut String, s: &Summary) {
             d.undecodable.values().map(|v| v.0).sum(),
             "bad",
         ),
+        (
+            "other lines (an ASC header, events, comments): skipped",
+            s.read.other_lines,
+            "",
+        ),
         ("error frames", s.read.error_frames, "bad"),
         ("CAN FD frames (not analysed)", s.read.fd_frames, ""),
         ("remote frames", d.remote, ""),

@@ -78,7 +78,8 @@ pub struct ReadStats {
     pub error_frames: u64,
     /// CAN FD frames (not CANopen classic: counted, not analysed).
     pub fd_frames: u64,
-    /// ASC lines that are neither frames nor errors (header, events): skipped.
+    /// Lines that are neither frames nor errors (an ASC header, events; comments):
+    /// skipped.
     pub other_lines: u64,
     /// Frames whose time stamp runs backwards (kept, counted).
     pub backwards: u64,
@@ -203,6 +204,11 @@ impl<R: BufRead> LogReader<R> {
             return None;
         }
         match self.format {
+            // A note written into the log by hand or by a script: no frame, not garbled.
+            Format::Candump if line.starts_with('#') || line.starts_with("//") => {
+                self.stats.other_lines += 1;
+                None
+            }
             Format::Candump => match candump_line(line) {
                 Some(Candump::Frame(f)) => Some(f),
                 Some(Candump::Error) => {
@@ -620,6 +626,16 @@ mod tests {
         assert_eq!(frames.len(), 3, "{frames:?}");
         assert!(frames[0].remote && frames[1].remote && !frames[2].remote);
         assert_eq!(stats.other_lines, 2, "the header and the transmit request");
+    }
+
+    #[test]
+    fn comment_lines_in_a_candump_log_are_no_unreadable_frames() {
+        let (frames, stats) = read(
+            "# recorded on the crane, can0\n(1.0) can0 080#\r\n// end\n",
+            Format::Candump,
+        );
+        assert_eq!(frames.len(), 1);
+        assert_eq!((stats.unreadable, stats.other_lines), (0, 2), "{stats:?}");
     }
 
     #[test]
