@@ -87,15 +87,25 @@ pub struct ReadStats {
     pub bytes: u64,
 }
 
+/// How much of a log's beginning tells its format, bytes.
+const HEAD: usize = 64 * 1024;
+
 /// The format of the log at `path`, from its first lines; an error names what was
 /// expected. An unreadable file is an error too.
 pub fn detect(path: &Path) -> Result<Format, String> {
     let file = File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut head = Vec::new();
-    file.take(64 * 1024)
+    file.take(HEAD as u64)
         .read_to_end(&mut head)
         .map_err(|e| format!("{}: {e}", path.display()))?;
     let text = String::from_utf8_lossy(&head);
+    // All of it read, and nothing but blanks.
+    if head.len() < HEAD && text.trim().is_empty() {
+        return Err(format!(
+            "{}: the log is empty: no line to read a frame from",
+            path.display()
+        ));
+    }
     for line in text
         .lines()
         .map(str::trim)
@@ -681,6 +691,10 @@ mod tests {
         );
         let e = detect(&write("c.txt", "hello\nworld\n")).unwrap_err();
         assert!(e.contains("unknown format"), "{e}");
+        let e = detect(&write("empty.log", "")).unwrap_err();
+        assert!(e.contains("empty.log") && e.contains("empty"), "{e}");
+        let e = detect(&write("blank.log", "\n \r\n")).unwrap_err();
+        assert!(e.contains("empty"), "{e}");
         let e = detect(&dir.join("missing.log")).unwrap_err();
         assert!(e.contains("missing.log"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
