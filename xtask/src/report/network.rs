@@ -21,13 +21,15 @@ pub struct Node {
     pub last: f64,
     /// Boot-up messages (heartbeat state 0), s.
     pub boot_ups: Vec<f64>,
-    /// Heartbeats seen.
+    /// Heartbeats seen (boot-up messages not counted).
     pub heartbeats: u64,
-    /// Intervals between its heartbeats, s.
+    /// Intervals between its heartbeats, s (none across a boot-up).
     pub heartbeat_interval: Stats,
-    /// Heartbeat gaps longer than the controller's timeout: (when the next came, gap s).
+    /// Heartbeat gaps longer than the controller's timeout: (when the next heartbeat or
+    /// boot-up came, gap s).
     pub heartbeat_gaps: Vec<(f64, f64)>,
-    /// Its last heartbeat, s (its age at the log's end is the end less this).
+    /// Its last heartbeat since its last boot-up, s (its age at the log's end is the
+    /// end less this).
     pub last_heartbeat: Option<f64>,
     /// NMT states its heartbeat reported, in order, when they changed: (s, state).
     pub states: Vec<(f64, String)>,
@@ -122,24 +124,37 @@ impl Network {
         }
     }
 
+    /// A frame of the NMT error control channel (0x700 + node): a boot-up message or a
+    /// heartbeat. A boot-up is no heartbeat: a node starts producing heartbeats only
+    /// once its producer time (0x1017) is set, and CiA 301 has a consumer watch a node
+    /// from its first heartbeat on — so the time from a boot-up to the first heartbeat
+    /// is no gap, while the silence from the last heartbeat to a reboot is one.
     fn heartbeat(&mut self, s: &Seen, node: u8) {
         let Some(&state) = s.frame.bytes().first() else {
             return;
         };
         let (timeout, controller, period) = (self.timeout, self.controller, self.controller_period);
         let n = self.nodes.entry(node).or_default();
-        n.heartbeats += 1;
+        let boot_up = state & 0x7F == 0;
         if let Some(last) = n.last_heartbeat {
             let gap = s.t - last;
-            n.heartbeat_interval.add(gap);
             if gap > timeout && n.heartbeat_gaps.len() < GAPS {
                 n.heartbeat_gaps.push((s.t, gap));
             }
-            if node == controller && gap < period / 2.0 {
-                self.early_controller_heartbeats += 1;
+            if !boot_up {
+                n.heartbeat_interval.add(gap);
+                if node == controller && gap < period / 2.0 {
+                    self.early_controller_heartbeats += 1;
+                }
             }
         }
-        n.last_heartbeat = Some(s.t);
+        if boot_up {
+            n.boot_ups.push(s.t);
+            n.last_heartbeat = None;
+        } else {
+            n.heartbeats += 1;
+            n.last_heartbeat = Some(s.t);
+        }
         let name = match state & 0x7F {
             0 => "boot-up".to_string(),
             4 => "stopped".to_string(),
@@ -147,9 +162,6 @@ impl Network {
             127 => "pre-operational".to_string(),
             other => format!("state {other} (not CiA 301)"),
         };
-        if state & 0x7F == 0 {
-            n.boot_ups.push(s.t);
-        }
         if n.states.last().is_none_or(|(_, last)| *last != name) && n.states.len() < STATES {
             n.states.push((s.t, name));
         }
@@ -165,5 +177,51 @@ impl Network {
         self.nodes
             .get(&self.controller)
             .is_some_and(|n| n.frames > 0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::firmware::root;
+    use crate::report::logs::Frame;
+
+    fn beat(network: &mut Network, t: f64, node: u8, state: u8) {
+        let frame = Frame {
+            t,
+            id: 0x700 + u32::from(node),
+            extended: false,
+            remote: false,
+            len: 1,
+            data: [state, 0, 0, 0, 0, 0, 0, 0],
+        };
+        network.frame(&Seen {
+            t,
+            frame: &frame,
+            cob: Cob::Heartbeat(node),
+            decoded: None,
+        });
+    }
+
+    #[test]
+    fn a_boot_up_is_no_heartbeat_and_the_wait_for_the_first_is_no_gap() {
+        let crane = Crane::load(&root().join("scenes/paper-crane.toml")).unwrap();
+        let mut network = Network::new(&crane, BTreeMap::new());
+        // Boot-up; commissioning sets 0x1017 and the first heartbeat comes 0.6 s later.
+        beat(&mut network, 0.0, 1, 0);
+        for k in 0..5 {
+            beat(&mut network, 0.6 + 0.1 * f64::from(k), 1, 0x7F);
+        }
+        // Silent for a second, then it reboots: that silence is a gap.
+        beat(&mut network, 2.0, 1, 0);
+        beat(&mut network, 2.7, 1, 0x7F);
+        let n = &network.nodes[&1];
+        assert_eq!(n.boot_ups, [0.0, 2.0]);
+        assert_eq!(n.heartbeats, 6);
+        assert_eq!(n.heartbeat_interval.count, 4);
+        assert!((n.heartbeat_interval.max - 0.1).abs() < 1e-9, "{n:?}");
+        assert_eq!(n.heartbeat_gaps.len(), 1, "{:?}", n.heartbeat_gaps);
+        assert!((n.heartbeat_gaps[0].1 - 1.0).abs() < 1e-9);
+        assert_eq!(n.last_heartbeat, Some(2.7));
     }
 }
