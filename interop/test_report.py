@@ -116,7 +116,7 @@ def test_a_healthy_move_reported_as_the_rig_ran_it(rigs, tmp_path):
     assert any("no inclinometer on the bus" in c for c in s["cannot_answer"])
     # The boot, as the drives were commissioned: boot-ups, NMT, the SDO transcripts.
     for node in (TROLLEY, WINCH):
-        assert len(s["nodes"][str(node)]["boot_ups"]) == 1
+        assert len(s["nodes"][str(node)]["boot_ups"]["items"]) == 1
         assert s["sdo"][str(node)][1] == 0, "no abort"
     assert "write 0x6060:0 Modes of operation = 0x09 (9) → done" in page
     starts = [c for c in s["nmt"]["items"] if c["command"] == "Start"]

@@ -76,6 +76,13 @@ pub fn write(out: &Path, s: &Summary, x: &Extras) -> Result<(), String> {
     Ok(())
 }
 
+/// "… and N more …" after a list the report kept to its first entries.
+fn more(list: &mut Vec<String>, dropped: u64, what: &str) {
+    if dropped > 0 {
+        list.push(format!("… and {dropped} more {what}"));
+    }
+}
+
 fn figure(w: &mut String, f: Option<&Figure>) {
     if let Some(f) = f {
         // The SVG's own XML declaration does not belong inside HTML.
@@ -326,17 +333,22 @@ fn network_section(w: &mut String, s: &Summary, x: &Extras) {
         x.crane.heartbeat_timeout * 1e3
     );
     for (node, n) in &s.nodes {
-        let states: Vec<String> = n
+        let mut states: Vec<String> = n
             .states
+            .items
             .iter()
             .map(|(t, st)| format!("{st} ({t:.2})"))
             .collect();
-        let boots: Vec<String> = n.boot_ups.iter().map(|t| format!("{t:.2}")).collect();
-        let gaps: Vec<String> = n
+        more(&mut states, n.states.dropped, "changes");
+        let mut boots: Vec<String> = n.boot_ups.items.iter().map(|t| format!("{t:.2}")).collect();
+        more(&mut boots, n.boot_ups.dropped, "boot-ups");
+        let mut gaps: Vec<String> = n
             .heartbeat_gaps
+            .items
             .iter()
             .map(|(t, g)| format!("{:.0} ms before {t:.2} s", g * 1e3))
             .collect();
+        more(&mut gaps, n.heartbeat_gaps.dropped, "gaps");
         let interval = if n.heartbeat_interval.count > 0 {
             format!(
                 "{:.1} / {:.1}",
