@@ -15,7 +15,9 @@ use super::sdo::abort_meaning;
 use super::series::Capped;
 use super::Seen;
 
-/// CiA 301's emergency error codes (Tab. 21), exact codes first, then the classes.
+/// An emergency error code's meaning: the exact codes a crane's nodes send (CiA 301's
+/// Tab. 21; 0x2310, 0x3210, 0x3220, 0x4210, 0x5530 and 0x6010 as CiA 402 names them for
+/// drives), then CiA 301's classes.
 pub fn error_code_meaning(code: u16) -> &'static str {
     match code {
         0x0000 => "error reset or no error",
@@ -56,6 +58,26 @@ pub fn error_code_meaning(code: u16) -> &'static str {
     }
 }
 
+/// The bits of an error register (0x1001) that are set, by name (CiA 301 §7.5.2.2;
+/// bit 6 is reserved).
+pub fn register_bits(register: u8) -> Vec<&'static str> {
+    [
+        "generic",
+        "current",
+        "voltage",
+        "temperature",
+        "communication",
+        "device profile specific",
+        "reserved bit 6",
+        "manufacturer specific",
+    ]
+    .into_iter()
+    .enumerate()
+    .filter(|(bit, _)| register & (1 << bit) != 0)
+    .map(|(_, name)| name)
+    .collect()
+}
+
 /// One EMCY.
 #[derive(Debug, Clone, Serialize)]
 pub struct Emcy {
@@ -67,8 +89,13 @@ pub struct Emcy {
     pub from: String,
     /// Error code.
     pub code: u16,
-    /// Error register.
+    /// Error register (0x1001).
     pub register: u8,
+    /// The error register's bits set, by name (CiA 301 §7.5.2.2).
+    pub register_bits: Vec<&'static str>,
+    /// The manufacturer-specific error field (bytes 3–7) as hex bytes: what a drive's
+    /// manual explains; the controller's are decoded in `meaning`.
+    pub manufacturer: String,
     /// What the code means (CiA 301), and for the controller's what its fault is.
     pub meaning: String,
     /// Fault (the controller's, the DBC's value table), if any.
@@ -167,12 +194,15 @@ impl Faults {
         }
         let code = u16::from_le_bytes([data[0], data[1]]);
         let register = data[2];
+        let manufacturer: Vec<String> = data[3..].iter().map(|b| format!("{b:02X}")).collect();
         let mut e = Emcy {
             t: s.t,
             node,
             from: crane.node_name(node),
             code,
             register,
+            register_bits: register_bits(register),
+            manufacturer: manufacturer.join(" "),
             meaning: error_code_meaning(code).to_string(),
             fault: None,
             fault_code: None,

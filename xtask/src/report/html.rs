@@ -719,16 +719,22 @@ fn faults_section(w: &mut String, s: &Summary) {
         let _ = write!(w, "<p>No EMCY in this log.</p>");
         return;
     }
-    let _ = write!(w, "<p>Reactions documented: {}.</p><table><tr><th>s</th><th>from</th><th>code</th><th>register</th><th>meaning</th><th>documented reaction</th><th>reaction taken (status)</th></tr>", esc(&s.reactions_source));
+    let _ = write!(w, "<p>Reactions documented: {}.</p><table><tr><th>s</th><th>from</th><th>code</th><th>error register</th><th>manufacturer bytes</th><th>meaning</th><th>documented reaction</th><th>reaction taken (status)</th></tr>", esc(&s.reactions_source));
     for e in &s.emcys.items {
+        let bits = if e.register_bits.is_empty() {
+            "none set".to_string()
+        } else {
+            e.register_bits.join(", ")
+        };
         let _ = write!(
             w,
-            "<tr><td>{:.2}</td><td>{}</td><td>0x{:04X}</td><td>0x{:02X}{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td>{:.2}</td><td>{}</td><td>0x{:04X}</td><td>0x{:02X}: {bits}{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             e.t,
             esc(&e.from),
             e.code,
             e.register,
-            if e.warning { " (warning)" } else { "" },
+            if e.warning { " (a warning: the generic bit clear)" } else { "" },
+            esc(&e.manufacturer),
             esc(&e.meaning),
             esc(e.documented.as_deref().unwrap_or("—")),
             esc(if e.taken.is_empty() { "—" } else { &e.taken })

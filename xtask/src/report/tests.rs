@@ -167,3 +167,26 @@ fn an_unreadable_file_or_an_unknown_format_is_an_error() {
     let e = run(&path, &out).unwrap_err();
     assert!(e.contains("unknown format"), "{e}");
 }
+
+#[test]
+fn an_emcy_shows_its_register_bits_and_manufacturer_bytes() {
+    let mut lines = cycles(3);
+    // The winch: continuous over current, register generic + current, five bytes of its
+    // own; then a warning (generic bit clear).
+    lines.push("082#1023030102030405".to_string());
+    lines.push("082#0042081122334455".to_string());
+    let (path, out) = log("emcy", &lines);
+    let s = run(&path, &out).unwrap();
+    let e = &s.emcys.items;
+    assert_eq!(e.len(), 2, "{e:?}");
+    assert_eq!(e[0].manufacturer, "01 02 03 04 05");
+    assert_eq!(e[0].register_bits, ["generic", "current"]);
+    assert!(!e[0].warning && e[1].warning);
+    assert_eq!(e[1].register_bits, ["temperature"]);
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(
+        page.contains("0x03: generic, current"),
+        "the register's bits"
+    );
+    assert!(page.contains("01 02 03 04 05"), "the manufacturer bytes");
+}
