@@ -273,12 +273,18 @@ impl Analyses {
         self.faults.frame(&seen, &self.crane);
         self.timing.frame(&seen, drive);
         self.drives.frame(&seen, drive);
+        let changes = self.requests.mode_changes;
         match self.requests.frame(&seen) {
             Some(Ok(a)) => self
                 .load
                 .accepted(a.t, a.id, a.target, a.duration, a.queued),
             Some(Err(t)) => self.load.stop(t),
             None => {}
+        }
+        if self.requests.mode_changes != changes {
+            if let Some((mode, fault)) = self.requests.mode_now() {
+                self.faults.mode(t, mode, fault);
+            }
         }
         match cob {
             Cob::Tpdo(1, n) if n == self.crane.controller => {
@@ -308,7 +314,7 @@ impl Analyses {
     fn finish(mut self, log: &Path, format: Format, read: ReadStats) -> (Summary, Extras) {
         self.network.finish();
         self.load.finish(self.t_last);
-        self.faults.finish(&self.requests.modes.items);
+        self.faults.finish(self.t_last);
         let mut two = Vec::new();
         // A loaded host's recorder (or a late cycle caught up at once) brings a few SYNCs
         // close together; a second producer brings every other one.

@@ -190,3 +190,26 @@ fn an_emcy_shows_its_register_bits_and_manufacturer_bytes() {
     );
     assert!(page.contains("01 02 03 04 05"), "the manufacturer bytes");
 }
+
+#[test]
+fn the_reaction_to_a_fault_is_read_however_many_mode_changes_came_before() {
+    // 600 changes of mode (more than the page lists), then the controller's EMCY for
+    // the winch's fault, the quick stop and halted.
+    let mut lines = cycles(1);
+    for k in 0..600 {
+        lines.push(format!("190#000000{:02X}00000000", k % 2));
+    }
+    lines.push("090#02FF810302000000".to_string());
+    lines.push("190#0000000303000000".to_string());
+    lines.push("190#0000000403000000".to_string());
+    let (path, out) = log("reaction", &lines);
+    let s = run(&path, &out).unwrap();
+    assert!(s.modes.dropped > 0, "the modes' list is full");
+    let e = s.emcys.items.iter().find(|e| e.node == 0x10).unwrap();
+    assert_eq!(e.fault.as_deref(), Some("DriveFault"));
+    assert!(
+        e.taken.contains("QuickStop") && e.taken.contains("Halted"),
+        "{}",
+        e.taken
+    );
+}
