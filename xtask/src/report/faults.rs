@@ -178,7 +178,7 @@ impl Faults {
     /// With the reactions of the fault table at `commands` (docs/COMMANDS.md).
     pub fn new(commands: &Path) -> Self {
         let (reactions, reactions_source) = match documented_reactions(commands) {
-            Ok(r) => (r, format!("the fault table of {}", commands.display())),
+            Ok(r) => (r, format!("the fault table of {}", super::shown(commands))),
             Err(e) => (BTreeMap::new(), format!("not read ({e})")),
         };
         Self {

@@ -213,3 +213,17 @@ fn the_reaction_to_a_fault_is_read_however_many_mode_changes_came_before() {
         e.taken
     );
 }
+
+#[test]
+fn the_report_names_the_repository_s_files_by_relative_paths() {
+    // The committed example's summary.json is compared byte for byte on every machine:
+    // no path of this checkout may be in it.
+    let (path, out) = log("paths", &cycles(2));
+    let s = run(&path, &out).unwrap();
+    assert_eq!(s.reactions_source, "the fault table of docs/COMMANDS.md");
+    assert_eq!(s.scene, DEFAULT_SCENE);
+    let json = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    let checkout = root().display().to_string();
+    assert!(!json.contains(&checkout) && !page.contains(&checkout));
+}
