@@ -19,6 +19,11 @@ fn esc(s: &str) -> String {
         .replace('>', "&gt;")
 }
 
+/// Seconds as milliseconds, or "—" where the log gave no number.
+fn ms(v: Option<f64>, digits: usize) -> String {
+    v.map_or("—".into(), |v| format!("{:.digits$}", v * 1e3))
+}
+
 fn opt(v: Option<f64>, unit: &str, scale: f64, digits: usize) -> String {
     v.map_or("—".into(), |v| format!("{:.digits$} {unit}", v * scale))
 }
@@ -606,12 +611,12 @@ fn drives_section<'a>(w: &mut String, s: &Summary, figs: &mut impl Iterator<Item
     for d in &s.drives {
         let _ = write!(
             w,
-            "<tr><td>{} (node {})</td><td>{}</td><td>{:.4} m/s (limit {})</td><td class=\"{}\">{}</td><td>{:.3} m/s² (limit {})</td><td class=\"{}\">{}</td><td>{:.4} m/s</td><td>{}</td><td>{}</td></tr>",
-            d.name, d.node, d.setpoints, d.max_setpoint, d.velocity_limit,
+            "<tr><td>{} (node {})</td><td>{}</td><td>{} (limit {})</td><td class=\"{}\">{}</td><td>{} (limit {})</td><td class=\"{}\">{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            d.name, d.node, d.setpoints, opt(d.max_setpoint, "m/s", 1.0, 4), d.velocity_limit,
             if d.over_velocity > 0 { "bad" } else { "" }, d.over_velocity,
-            d.max_acceleration, d.acceleration_limit,
+            opt(d.max_acceleration, "m/s²", 1.0, 3), d.acceleration_limit,
             if d.over_acceleration > 0 { "bad" } else { "" }, d.over_acceleration,
-            d.max_velocity,
+            opt(d.max_velocity, "m/s", 1.0, 4),
             if d.following_error.count > 0 { format!("{:.4} / {:.4} m/s", d.following_error.mean, d.following_error.max) } else { "—".into() },
             d.positions.map_or("—".into(), |(a, b)| format!("{a:.4} → {b:.4} m")),
         );
@@ -661,7 +666,11 @@ fn drives_section<'a>(w: &mut String, s: &Summary, figs: &mut impl Iterator<Item
 }
 
 fn load_section<'a>(w: &mut String, s: &Summary, figs: &mut impl Iterator<Item = &'a Figure>) {
-    let swing: Vec<String> = s.max_swing.iter().map(|v| format!("{v:.3}°")).collect();
+    let swing: Vec<String> = s
+        .max_swing
+        .iter()
+        .map(|v| v.map_or("not measured".into(), |v| format!("{v:.3}°")))
+        .collect();
     let _ = write!(
         w,
         "<p>Inclinometer readings: {}; largest swing {}; cycles without a fresh reading after the first: {}.</p>",
@@ -748,18 +757,22 @@ fn faults_section(w: &mut String, s: &Summary) {
 
 fn timing_section<'a>(w: &mut String, s: &Summary, figs: &mut impl Iterator<Item = &'a Figure>) {
     let t = &s.timing;
-    let _ = write!(
-        w,
-        "<p>SYNC: {} seen; interval mean {:.3} ms, standard deviation {:.3} ms, min {:.3} ms, max {:.3} ms (cycle {:.1} ms); missed cycles {}; SYNCs less than half a cycle apart {}.</p>",
-        t.syncs,
-        t.interval.mean * 1e3,
-        t.interval.std * 1e3,
-        t.interval.min * 1e3,
-        t.interval.max * 1e3,
-        t.period * 1e3,
-        t.missed_cycles,
-        t.doubled_syncs
-    );
+    let i = &t.interval;
+    let _ = match t.syncs {
+        0 => write!(w, "<p>SYNC: none in this log.</p>"),
+        1 => write!(w, "<p>SYNC: one in this log, no interval to measure.</p>"),
+        n => write!(
+            w,
+            "<p>SYNC: {n} seen; interval mean {} ms, standard deviation {} ms, min {} ms, max {} ms (cycle {:.1} ms); missed cycles {}; SYNCs less than half a cycle apart {}.</p>",
+            ms(i.get(|i| i.mean), 3),
+            ms((i.count > 1).then_some(i.std), 3),
+            ms(i.get(|i| i.min), 3),
+            ms(i.get(|i| i.max), 3),
+            t.period * 1e3,
+            t.missed_cycles,
+            t.doubled_syncs
+        ),
+    };
     figure(w, figs.next());
     figure(w, figs.next());
     if !t.gaps.items.is_empty() {
@@ -775,20 +788,20 @@ fn timing_section<'a>(w: &mut String, s: &Summary, figs: &mut impl Iterator<Item
     for ((d, order), tp) in s.drives.iter().zip(&t.rpdo_order).zip(&t.tpdo) {
         let _ = write!(
             w,
-            "<tr><td>{}</td><td>{}</td><td class=\"{}\">{}</td><td class=\"{}\">{}</td><td>{:.2} / {:.2}</td><td>{:.2}</td><td class=\"{}\">{}</td><td>{:.2} / {:.2}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td class=\"{}\">{}</td><td class=\"{}\">{}</td><td>{} / {}</td><td>{}</td><td class=\"{}\">{}</td><td>{} / {}</td></tr>",
             d.name,
             order[0],
             if order[1] > 0 { "bad" } else { "" },
             order[1],
             if order[2] > 0 { "bad" } else { "" },
             order[2],
-            tp.tpdo1_gap.mean * 1e3,
-            tp.tpdo1_gap.max * 1e3,
-            tp.tpdo2_gap.max * 1e3,
+            ms(tp.tpdo1_gap.get(|g| g.mean), 2),
+            ms(tp.tpdo1_gap.get(|g| g.max), 2),
+            ms(tp.tpdo2_gap.get(|g| g.max), 2),
             if tp.over_timeout > 0 { "bad" } else { "" },
             tp.over_timeout,
-            tp.after_sync.mean * 1e3,
-            tp.after_sync.max * 1e3
+            ms(tp.after_sync.get(|a| a.mean), 2),
+            ms(tp.after_sync.get(|a| a.max), 2)
         );
     }
     let _ = write!(w, "</table>");

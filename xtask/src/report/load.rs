@@ -85,8 +85,8 @@ pub struct Load {
     pub readings: u64,
     /// SYNCs after the first reading with none fresher than 0.1 s.
     pub stale_cycles: u64,
-    /// Largest swing seen per plane, degrees.
-    pub max_swing: [f64; 2],
+    /// Largest swing seen per plane, degrees (`None`: not read).
+    pub max_swing: [Option<f64>; 2],
     /// The moves judged.
     pub verdicts: Capped<Verdict>,
     /// Accepted moves not yet judged (the log may end first).
@@ -106,7 +106,7 @@ impl Load {
             position: [Series::new(), Series::new(), Series::new()],
             readings: 0,
             stale_cycles: 0,
-            max_swing: [0.0; 2],
+            max_swing: [None; 2],
             verdicts: Capped::new(500),
             tracks: Vec::new(),
             angle: [None; 2],
@@ -132,7 +132,8 @@ impl Load {
                 let swing = i.sign[plane] * (slope * rescale - i.offset_deg[plane]);
                 self.angle[plane] = Some(swing);
                 if plane < self.planes {
-                    self.max_swing[plane] = self.max_swing[plane].max(swing.abs());
+                    let max = &mut self.max_swing[plane];
+                    *max = Some(max.map_or(swing.abs(), |m| m.max(swing.abs())));
                     self.swing[plane].push(t, swing);
                 }
             }

@@ -143,8 +143,8 @@ pub struct Summary {
     pub drives: Vec<drives::DriveRecord>,
     /// Inclinometer readings.
     pub inclinometer_readings: u64,
-    /// Largest swing per plane, degrees.
-    pub max_swing: Vec<f64>,
+    /// Largest swing per plane, degrees (`None`: not read).
+    pub max_swing: Vec<Option<f64>>,
     /// SYNCs with no fresh inclinometer reading after the first.
     pub stale_inclinometer_cycles: u64,
     /// Move verdicts.

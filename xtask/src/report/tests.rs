@@ -227,3 +227,30 @@ fn the_report_names_the_repository_s_files_by_relative_paths() {
     let checkout = root().display().to_string();
     assert!(!json.contains(&checkout) && !page.contains(&checkout));
 }
+
+#[test]
+fn no_number_is_shown_where_the_log_has_none() {
+    // Heartbeats only: no set point, no velocity, no SYNC, no TPDO, no inclinometer.
+    let lines: Vec<String> = (0..30).map(|k| format!("70{}#05", 1 + k % 2)).collect();
+    let (path, out) = log("nothing", &lines);
+    run(&path, &out).unwrap();
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(json["max_swing"], serde_json::json!([null]));
+    for d in json["drives"].as_array().unwrap() {
+        for key in ["max_setpoint", "max_acceleration", "max_velocity"] {
+            assert!(d[key].is_null(), "{key}: {}", d[key]);
+        }
+    }
+    let interval = &json["timing"]["interval"];
+    assert_eq!(interval["count"], 0);
+    assert!(
+        interval["mean"].is_null() && interval["max"].is_null(),
+        "{interval}"
+    );
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    for number in ["0.0000 m/s", "0.000 m/s²", "mean 0.000 ms", "0.00 / 0.00"] {
+        assert!(!page.contains(number), "the page shows {number:?}");
+    }
+    assert!(page.contains("SYNC: none in this log"));
+}
