@@ -7,24 +7,26 @@
 //! the last one sent before the SYNC that TPDO follows: the following error is that set
 //! point less the velocity actual.
 
+use controller::cia402::DriveState;
 use serde::Serialize;
 
 use super::bus::{Cob, Crane, DriveInfo};
 use super::series::{Capped, Series, Stats};
 use super::Seen;
 
-/// The CiA 402 state a statusword shows (Tab. 30 of CiA 402-2).
+/// The CiA 402 state a statusword shows (Tab. 30 of CiA 402-2), decoded as the
+/// controller decodes it.
 pub fn cia402_state(statusword: u16) -> &'static str {
-    match statusword & 0x6F {
-        0x00 | 0x20 => "not ready to switch on",
-        0x40 | 0x60 => "switch on disabled",
-        0x21 => "ready to switch on",
-        0x23 => "switched on",
-        0x27 => "operation enabled",
-        0x07 => "quick stop active",
-        0x0F | 0x2F => "fault reaction active",
-        0x08 | 0x28 => "fault",
-        _ => "(no CiA 402 state)",
+    match DriveState::from_statusword(statusword) {
+        DriveState::NotReadyToSwitchOn => "not ready to switch on",
+        DriveState::SwitchOnDisabled => "switch on disabled",
+        DriveState::ReadyToSwitchOn => "ready to switch on",
+        DriveState::SwitchedOn => "switched on",
+        DriveState::OperationEnabled => "operation enabled",
+        DriveState::QuickStopActive => "quick stop active",
+        DriveState::FaultReactionActive => "fault reaction active",
+        DriveState::Fault => "fault",
+        DriveState::Unknown => "(no CiA 402 state)",
     }
 }
 

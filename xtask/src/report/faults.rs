@@ -8,10 +8,10 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use controller::canopen::{emcy, sdo::abort};
 use serde::Serialize;
 
 use super::bus::{Cob, Crane};
-use super::sdo::abort_meaning;
 use super::series::Capped;
 use super::Seen;
 
@@ -216,7 +216,7 @@ impl Faults {
             fault_code: None,
             documented: None,
             taken: String::new(),
-            warning: register & 1 == 0 && code != 0,
+            warning: code != emcy::NO_ERROR && !emcy::is_fault(code, register),
         };
         if node == crane.controller {
             if let Some(d) = s.decoded {
@@ -241,7 +241,7 @@ impl Faults {
                     let abort = abort as u32;
                     parts.push(format!(
                         "SDO abort 0x{abort:08X} ({})",
-                        abort_meaning(abort)
+                        abort::describe(abort)
                     ));
                 }
                 e.meaning = parts.join("; ");

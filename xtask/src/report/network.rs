@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 
+use controller::canopen::nmt::NmtState;
 use serde::Serialize;
 
 use super::bus::{Cob, Crane};
@@ -178,12 +179,13 @@ impl Network {
             n.heartbeats += 1;
             n.last_heartbeat = Some(s.t);
         }
-        let name = match state & 0x7F {
-            0 => "boot-up".to_string(),
-            4 => "stopped".to_string(),
-            5 => "operational".to_string(),
-            127 => "pre-operational".to_string(),
-            other => format!("state {other} (not CiA 301)"),
+        // Bit 7 is node guarding's toggle bit (its answers share 0x700 + node).
+        let name = match NmtState::from_byte(state & 0x7F) {
+            Some(NmtState::BootUp) => "boot-up".to_string(),
+            Some(NmtState::Stopped) => "stopped".to_string(),
+            Some(NmtState::Operational) => "operational".to_string(),
+            Some(NmtState::PreOperational) => "pre-operational".to_string(),
+            None => format!("state {} (not CiA 301)", state & 0x7F),
         };
         if n.state_now.as_ref() != Some(&name) {
             n.states.push((s.t, name.clone()));

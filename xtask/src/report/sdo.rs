@@ -6,10 +6,12 @@
 //! transfers (§7.2.4.3): a block's segments carry a sequence number where other frames
 //! carry a command, and are read as segments, never as commands; toggle bits are
 //! checked. Objects are named from each node's EDS (rust-ini reads it), abort codes by
-//! CiA 301's table.
+//! CiA 301's table as the controller names them (`controller::canopen::sdo::abort`).
 
 use std::collections::HashMap;
 use std::path::Path;
+
+use controller::canopen::sdo::abort;
 
 /// Object names from one EDS: `(index, sub) → name`, the sub-object's name prefixed with
 /// its object's ("Identity object: Vendor-ID").
@@ -67,46 +69,6 @@ impl Eds {
     /// The name of `index:sub`, if the EDS has it.
     pub fn name(&self, index: u16, sub: u8) -> Option<&str> {
         self.names.get(&(index, sub)).map(String::as_str)
-    }
-}
-
-/// CiA 301's SDO abort codes.
-pub fn abort_meaning(code: u32) -> &'static str {
-    match code {
-        0x0503_0000 => "toggle bit not alternated",
-        0x0504_0000 => "SDO protocol timed out",
-        0x0504_0001 => "client/server command specifier not valid or unknown",
-        0x0504_0002 => "invalid block size",
-        0x0504_0003 => "invalid sequence number",
-        0x0504_0004 => "CRC error",
-        0x0504_0005 => "out of memory",
-        0x0601_0000 => "unsupported access to an object",
-        0x0601_0001 => "attempt to read a write only object",
-        0x0601_0002 => "attempt to write a read only object",
-        0x0602_0000 => "object does not exist in the object dictionary",
-        0x0604_0041 => "object cannot be mapped to the PDO",
-        0x0604_0042 => "the number and length of the objects to be mapped would exceed PDO length",
-        0x0604_0043 => "general parameter incompatibility",
-        0x0604_0047 => "general internal incompatibility in the device",
-        0x0606_0000 => "access failed due to a hardware error",
-        0x0607_0010 => "data type does not match, length of service parameter does not match",
-        0x0607_0012 => "data type does not match, length of service parameter too high",
-        0x0607_0013 => "data type does not match, length of service parameter too low",
-        0x0609_0011 => "sub-index does not exist",
-        0x0609_0030 => "invalid value for parameter (download only)",
-        0x0609_0031 => "value of parameter written too high (download only)",
-        0x0609_0032 => "value of parameter written too low (download only)",
-        0x0609_0036 => "maximum value is less than minimum value",
-        0x060A_0023 => "resource not available: SDO connection",
-        0x0800_0000 => "general error",
-        0x0800_0020 => "data cannot be transferred or stored to the application",
-        0x0800_0021 => "data cannot be transferred or stored because of local control",
-        0x0800_0022 => "data cannot be transferred or stored because of the present device state",
-        0x0800_0023 => {
-            "object dictionary dynamic generation fails or no object dictionary is present"
-        }
-        0x0800_0024 => "no data available",
-        _ => "not a CiA 301 abort code",
     }
 }
 
@@ -381,7 +343,7 @@ fn value(data: &[u8]) -> String {
 /// The abort frame's text.
 fn abort_text(data: &[u8; 8]) -> String {
     let code = word(data);
-    format!("abort 0x{code:08X} ({})", abort_meaning(code))
+    format!("abort 0x{code:08X} ({})", abort::describe(code))
 }
 
 /// An SDO abort: command byte 0x80 exactly (its other bits are reserved), unlike a
@@ -745,7 +707,7 @@ mod tests {
             .starts_with("write 0x6060:0 Modes of operation = 0x09 (9) → done"));
         assert!(texts[2]
             .0
-            .ends_with("abort 0x06090030 (invalid value for parameter (download only))"));
+            .ends_with("abort 0x06090030 (invalid value for parameter)"));
         assert_eq!(texts[3], ("read 0x1000:0 Device type → no answer", 1));
         assert_eq!(c.aborts, 1);
         assert_eq!(c.exchanges, 5);
