@@ -59,7 +59,7 @@ pub fn write(out: &Path, s: &Summary, x: &Extras) -> Result<(), String> {
     );
     input_section(w, s);
     network_section(w, s, x);
-    requests_section(w, s);
+    requests_section(w, s, x.crane.controller);
     let mut figs = figures.iter();
     let _ = write!(w, "<h2>Drives</h2>");
     drives_section(w, s, &mut figs);
@@ -464,7 +464,8 @@ fn network_section(w: &mut String, s: &Summary, x: &Extras) {
     }
 }
 
-fn requests_section(w: &mut String, s: &Summary) {
+fn requests_section(w: &mut String, s: &Summary, controller: u8) {
+    let manual = 0x400 + u16::from(controller);
     let _ = write!(w, "<h2>Requests and answers</h2>");
     if s.requests.items.is_empty() {
         let _ = write!(w, "<p>No request in this log.</p>");
@@ -578,10 +579,10 @@ fn requests_section(w: &mut String, s: &Summary) {
         w,
         "<h3>Manual mode</h3><p>{}</p>",
         if s.manual_frames == 0 {
-            "No manual-mode frames (0x410) in this log.".to_string()
+            format!("No manual-mode frames (0x{manual:03X}) in this log.")
         } else {
             format!(
-                "{} manual-mode frames (0x410): counted; their sessions are not analysed yet.",
+                "{} manual-mode frames (0x{manual:03X}): counted; their sessions are not analysed yet.",
                 s.manual_frames
             )
         }

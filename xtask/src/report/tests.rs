@@ -254,3 +254,33 @@ fn no_number_is_shown_where_the_log_has_none() {
     }
     assert!(page.contains("SYNC: none in this log"));
 }
+
+#[test]
+fn a_controller_at_another_node_is_named_by_its_own_ids() {
+    // The commissioning file puts the controller at node 0x20: its manual-mode frames
+    // are 0x420, and the page says so.
+    let dir = std::env::temp_dir().join(format!("report-test-{}-scene", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("crane.toml");
+    std::fs::copy(root().join(DEFAULT_SCENE), &scene).unwrap();
+    let stock = std::fs::read_to_string(root().join("scenes/commissioning.toml")).unwrap();
+    let moved = stock.replacen("node = 16 ", "node = 32 ", 1);
+    assert_ne!(moved, stock);
+    std::fs::write(dir.join("commissioning.toml"), moved).unwrap();
+    let (path, out) = log("node", &["720#05".to_string(), "420#0000".to_string()]);
+    let s = report(&Options {
+        log: path,
+        scene,
+        out: out.clone(),
+        eds: Vec::new(),
+    })
+    .unwrap();
+    assert_eq!(s.manual_frames, 1);
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(
+        page.contains("1 manual-mode frames (0x420)"),
+        "the page names 0x420"
+    );
+    assert!(!page.contains("0x410"), "and never the stock 0x410");
+}
