@@ -777,13 +777,18 @@ fn timing_section<'a>(w: &mut String, s: &Summary, figs: &mut impl Iterator<Item
     figure(w, figs.next());
     figure(w, figs.next());
     if !t.gaps.items.is_empty() {
-        let list: Vec<String> = t
+        let mut list: Vec<String> = t
             .gaps
             .items
             .iter()
             .map(|(at, g)| format!("{:.1} ms before {at:.2} s", g * 1e3))
             .collect();
-        let _ = write!(w, "<p class=\"bad\">Gaps: {}</p>", list.join("; "));
+        more(&mut list, t.gaps.dropped, "gaps");
+        let _ = write!(
+            w,
+            "<p class=\"bad\">Gaps of more than 1.5 cycles between two SYNCs: {}</p>",
+            list.join("; ")
+        );
     }
     let _ = write!(w, "<table><tr><th>drive</th><th>cycles with its RPDO before the SYNC</th><th>without</th><th>with two</th><th>TPDO1 gap mean / max, ms</th><th>TPDO2 gap max, ms</th><th>gaps over the TPDO timeout</th><th>TPDO1 after SYNC mean / max, ms</th></tr>");
     for ((d, order), tp) in s.drives.iter().zip(&t.rpdo_order).zip(&t.tpdo) {

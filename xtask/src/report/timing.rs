@@ -48,7 +48,8 @@ pub struct Timing {
     pub histogram: Vec<u64>,
     /// Cycles missed: a gap of n periods misses n − 1.
     pub missed_cycles: u64,
-    /// The longest gaps: (when the SYNC came, gap s).
+    /// The gaps (more than 1.5 cycles between two SYNCs), the first 50 and the rest
+    /// counted: (when the SYNC came, gap s).
     pub gaps: Capped<(f64, f64)>,
     /// SYNCs less than half a period after the one before.
     pub doubled_syncs: u64,
