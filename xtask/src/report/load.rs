@@ -255,7 +255,7 @@ impl Load {
         }
         for k in ended.into_iter().rev() {
             let mut track = self.tracks.remove(k);
-            judge(&mut track, &self.crane, None);
+            judge(&mut track, None);
             self.verdicts.push(track.v);
         }
     }
@@ -285,7 +285,7 @@ impl Load {
     /// The end of the log: the moves still open are judged on what the log has.
     pub fn finish(&mut self, end: f64) {
         for mut track in std::mem::take(&mut self.tracks) {
-            judge(&mut track, &self.crane, Some(end));
+            judge(&mut track, Some(end));
             self.verdicts.push(track.v);
         }
     }
@@ -336,7 +336,7 @@ fn distance(target: &[f64], load: &[f64; 3]) -> (f64, f64) {
 }
 
 /// The verdict of a track, `log_end` when the log ended before its window did.
-fn judge(track: &mut Track, crane: &Crane, log_end: Option<f64>) {
+fn judge(track: &mut Track, log_end: Option<f64>) {
     let started = track.v.start.is_some();
     let v = &mut track.v;
     let Some(end) = v.end else {
@@ -404,7 +404,6 @@ fn judge(track: &mut Track, crane: &Crane, log_end: Option<f64>) {
     } else {
         ""
     };
-    let _ = crane;
     v.verdict = match (failed.is_empty(), unknown.is_empty()) {
         (true, true) => format!("pass{cut}"),
         (true, false) => format!(
