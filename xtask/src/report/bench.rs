@@ -1,5 +1,6 @@
-//! `cargo xtask report-bench [--frames N]`: seconds per million frames and peak memory
-//! of `cargo xtask report` on a long log — the committed example log's frames repeated,
+//! `cargo xtask report-bench [--frames N]`: seconds per million frames (wall clock, and
+//! the CPU time the report spent: the wall clock also counts whatever else the machine
+//! runs) and peak memory of `cargo xtask report` on a long log — the committed example log's frames repeated,
 //! each copy shifted by the example's length, into `target/report-bench/bench.log`,
 //! then the report run on it in a process of its own (its peak resident memory, VmHWM,
 //! is its own, not this one's).

@@ -284,3 +284,16 @@ fn a_controller_at_another_node_is_named_by_its_own_ids() {
     );
     assert!(!page.contains("0x410"), "and never the stock 0x410");
 }
+
+#[test]
+fn the_cpu_time_read_is_this_thread_s_and_grows_with_work() {
+    let before = cpu_seconds().unwrap();
+    let mut x = 0u64;
+    let began = std::time::Instant::now();
+    while began.elapsed().as_secs_f64() < 0.2 {
+        x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(1));
+    }
+    let spent = cpu_seconds().unwrap() - before;
+    // Busy for 0.2 s of wall clock: some CPU time, never more than the wall clock.
+    assert!(spent > 0.0 && spent <= 0.25, "{spent}");
+}
