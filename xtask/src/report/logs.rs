@@ -23,8 +23,9 @@ const QUOTED: usize = 8;
 /// One classic CAN frame from the log.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frame {
-    /// Time stamp as the log has it, s (candump: the epoch; ASC: since the start).
-    pub t: f64,
+    /// Time stamp as the log has it, ns (candump: since the epoch; ASC: since the
+    /// start), read exactly from its decimals ([`stamp_ns`]).
+    pub t: i64,
     /// Identifier (11 or 29 bits).
     pub id: u32,
     /// A 29-bit identifier.
@@ -141,8 +142,8 @@ pub struct LogReader<R> {
     decimal: bool,
     /// ASC: each time stamp relative to the one before (`timestamps relative`).
     relative: bool,
-    clock: f64,
-    last_t: Option<f64>,
+    clock: i64,
+    last_t: Option<i64>,
     line: Vec<u8>,
     /// What was read so far.
     pub stats: ReadStats,
@@ -169,7 +170,7 @@ impl<R: BufRead> LogReader<R> {
             format,
             decimal: false,
             relative: false,
-            clock: 0.0,
+            clock: 0,
             last_t: None,
             line: Vec::with_capacity(MAX_LINE),
             stats: ReadStats::default(),
@@ -251,7 +252,7 @@ impl<R: BufRead> LogReader<R> {
         // clock as a frame does.
         if self.relative {
             if let Some(dt) = asc_stamp(line) {
-                self.clock += dt;
+                self.clock = self.clock.saturating_add(dt);
             }
         }
         match asc_line(line, self.decimal) {
@@ -333,7 +334,7 @@ enum Candump {
 fn candump_line(line: &str) -> Option<Candump> {
     let mut words = line.split_ascii_whitespace();
     let stamp = words.next()?.strip_prefix('(')?.strip_suffix(')')?;
-    let t: f64 = stamp.parse().ok().filter(|t: &f64| t.is_finite())?;
+    let t = stamp_ns(stamp)?;
     let _interface = words.next()?;
     let frame = words.next()?;
     // python-can writes the direction (R received, T transmitted) after the frame.
@@ -403,12 +404,34 @@ enum AscLine {
 }
 
 /// The time stamp an ASC line begins with, if it begins with one.
-fn asc_stamp(line: &str) -> Option<f64> {
-    line.split_ascii_whitespace()
-        .next()?
-        .parse::<f64>()
-        .ok()
-        .filter(|t| t.is_finite())
+fn asc_stamp(line: &str) -> Option<i64> {
+    stamp_ns(line.split_ascii_whitespace().next()?)
+}
+
+/// A time stamp in decimal seconds (`1795857436.319260`, `0.010000`) as integer
+/// nanoseconds, exactly. Both formats write decimals — candump since the epoch, ASC
+/// since the first frame — and the difference of two f64 seconds since the epoch is off
+/// by up to a quarter of a microsecond: enough for one format to see an interval of
+/// exactly 1.5 cycles as a missed cycle and the other not. Digits beyond the
+/// nanosecond are dropped; anything but `digits[.digits]` is no stamp.
+pub fn stamp_ns(text: &str) -> Option<i64> {
+    let (whole, fraction) = text.split_once('.').unwrap_or((text, ""));
+    let digits = |s: &str| s.bytes().all(|b| b.is_ascii_digit());
+    if whole.is_empty() || !digits(whole) || !digits(fraction) {
+        return None;
+    }
+    let fraction = &fraction[..fraction.len().min(9)];
+    let scale = 10i64.pow(9 - u32::try_from(fraction.len()).ok()?);
+    let ns = if fraction.is_empty() {
+        0
+    } else {
+        fraction.parse::<i64>().ok()? * scale
+    };
+    whole
+        .parse::<i64>()
+        .ok()?
+        .checked_mul(1_000_000_000)?
+        .checked_add(ns)
 }
 
 /// A DLC or data byte of an ASC frame: hex digits, or in a `base dec` log up to
@@ -428,12 +451,12 @@ fn number(word: &str, decimal: bool) -> Option<u8> {
 /// after an extended id) unless `decimal`.
 fn asc_line(line: &str, decimal: bool) -> AscLine {
     let mut words = line.split_ascii_whitespace();
-    let Some(t) = words.next().and_then(|w| w.parse::<f64>().ok()) else {
-        return AscLine::Other;
+    let Some(first) = words.next().filter(|w| w.parse::<f64>().is_ok()) else {
+        return AscLine::Other; // a header, "Begin Triggerblock", a comment
     };
-    if !t.is_finite() {
-        return AscLine::Bad;
-    }
+    let Some(t) = stamp_ns(first) else {
+        return AscLine::Bad; // a number, but no time stamp (`inf`, `-1`, `1e3`)
+    };
     let Some(channel) = words.next() else {
         return AscLine::Bad;
     };
@@ -553,7 +576,7 @@ mod tests {
             (stats.error_frames, stats.fd_frames, stats.unreadable),
             (1, 1, 0)
         );
-        assert!((frames[1].t - 1_700_000_000.000_2).abs() < 1e-6);
+        assert_eq!(frames[1].t, 1_700_000_000_000_200_000);
     }
 
     #[test]
@@ -586,7 +609,7 @@ mod tests {
         let (frames, _) = read(text, Format::Asc);
         assert_eq!(frames[0].id, 0x080);
         assert_eq!(frames[1].id, 0x191);
-        assert!((frames[1].t - 0.020).abs() < 1e-12);
+        assert_eq!(frames[1].t, 20_000_000);
     }
 
     #[test]
@@ -600,11 +623,8 @@ mod tests {
                     \x20  0.004000 CANFD   1 Rx  123  1 0 d 8 01 02 03 04 05 06 07 08\n\
                     \x20  0.006000 1  80   Rx   d 0\n";
         let (frames, stats) = read(text, Format::Asc);
-        let t: Vec<f64> = frames.iter().map(|f| f.t).collect();
-        assert_eq!(t.len(), 3, "{frames:?}");
-        for (got, want) in t.iter().zip([0.010, 0.020, 0.030]) {
-            assert!((got - want).abs() < 1e-12, "{t:?}");
-        }
+        let t: Vec<i64> = frames.iter().map(|f| f.t).collect();
+        assert_eq!(t, [10_000_000, 20_000_000, 30_000_000], "{frames:?}");
         assert_eq!((stats.error_frames, stats.fd_frames), (1, 1));
     }
 

@@ -61,6 +61,9 @@ pub struct Options {
 pub struct Seen<'a> {
     /// Seconds from the log's first frame.
     pub t: f64,
+    /// Nanoseconds from the log's first frame, exact: for the thresholds an interval
+    /// of whole microseconds may sit on (1.5 cycles, a histogram bin's edge).
+    pub ns: i64,
     /// The frame.
     pub frame: &'a Frame,
     /// Its meaning by the predefined connection set.
@@ -191,7 +194,7 @@ struct Analyses {
     load: load::Load,
     faults: faults::Faults,
     timing: timing::Timing,
-    t0: Option<f64>,
+    t0: Option<i64>,
     t_last: f64,
 }
 
@@ -223,7 +226,8 @@ impl Analyses {
 
     fn frame(&mut self, frame: &Frame) {
         let t0 = *self.t0.get_or_insert(frame.t);
-        let t = frame.t - t0;
+        let ns = frame.t.saturating_sub(t0);
+        let t = ns as f64 / 1e9;
         self.t_last = self.t_last.max(t);
         if frame.extended {
             self.decoding.extended += 1;
@@ -264,6 +268,7 @@ impl Analyses {
         };
         let seen = Seen {
             t,
+            ns,
             frame,
             cob,
             decoded: decoded.as_ref(),

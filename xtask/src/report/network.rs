@@ -213,8 +213,9 @@ mod tests {
     use crate::report::logs::Frame;
 
     fn beat(network: &mut Network, t: f64, node: u8, state: u8) {
+        let ns = (t * 1e9).round() as i64;
         let frame = Frame {
-            t,
+            t: ns,
             id: 0x700 + u32::from(node),
             extended: false,
             remote: false,
@@ -223,6 +224,7 @@ mod tests {
         };
         network.frame(&Seen {
             t,
+            ns,
             frame: &frame,
             cob: Cob::Heartbeat(node),
             decoded: None,

@@ -297,3 +297,46 @@ fn the_cpu_time_read_is_this_thread_s_and_grows_with_work() {
     // Busy for 0.2 s of wall clock: some CPU time, never more than the wall clock.
     assert!(spent > 0.0 && spent <= 0.25, "{spent}");
 }
+
+#[test]
+fn both_formats_give_the_same_report_to_the_nanosecond() {
+    // SYNCs 10 ms apart and one gap of exactly 1.5 cycles, stamped as python-can's
+    // writers stamp them: candump since the epoch, ASC since the first frame.
+    let start_us: u64 = 1_795_857_436_319_260;
+    let mut at = vec![0u64];
+    for gap in [10_000, 10_000, 15_000, 10_000, 10_000, 15_000, 10_000] {
+        at.push(at[at.len() - 1] + gap);
+    }
+    let candump: Vec<String> = at
+        .iter()
+        .map(|us| {
+            let t = start_us + us;
+            format!("({}.{:06}) can0 080#", t / 1_000_000, t % 1_000_000)
+        })
+        .collect();
+    let asc: Vec<String> = at
+        .iter()
+        .map(|us| format!("{:9.6} 1  80    Rx   d 0", *us as f64 / 1e6))
+        .collect();
+    let dir = std::env::temp_dir().join(format!("report-test-{}-formats", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("a.log"), candump.join("\n")).unwrap();
+    std::fs::write(
+        dir.join("a.asc"),
+        format!(
+            "date x\nbase hex  timestamps absolute\n{}\n",
+            asc.join("\n")
+        ),
+    )
+    .unwrap();
+    let reports: Vec<Summary> = ["a.log", "a.asc"]
+        .iter()
+        .map(|name| run(&dir.join(name), &dir.join(format!("{name}-out"))).unwrap())
+        .collect();
+    let timing = |s: &Summary| serde_json::to_string(&s.timing).unwrap();
+    assert_eq!(timing(&reports[0]), timing(&reports[1]));
+    assert_eq!(reports[0].duration, 0.08);
+    // 15 ms is 1.5 cycles, not more: no cycle missed.
+    assert_eq!(reports[0].timing.missed_cycles, 0);
+}
