@@ -13,7 +13,7 @@ import time
 import canopen
 import pytest
 
-from record import record, report, write
+from record import record, recorded, report, write
 from rig import ACCEPTED, HERE
 from test_interop import rigs  # noqa: F401 (the fixture)
 
@@ -196,13 +196,28 @@ def test_a_swinging_start_with_the_feedback_reported_as_the_load_swung(rigs, tmp
     # the feedback has damped it).
     assert s["max_swing"][0] >= start["amplitude_deg"] - 0.01, (s["max_swing"], start)
     move = s["moves"]["items"][0]
-    assert move["verdict"] == "pass", move
+    if move["swing_cycles"] == move["cycles"]:
+        assert move["verdict"] == "pass", move
+    else:  # the recorder stalled in the window: the verdict says what it did not read
+        assert move["verdict"].startswith("pass where measured; not measured: the swing in "), move
     # The verdict's numbers against the simulated load at the window's end.
     assert move["swing"][0] < 0.1 and end["amplitude_deg"] < 0.1
     assert abs(end["load_x_m"] - 20.0) <= move["horizontal"] + 0.002, (end, move)
     assert move["horizontal"] < 0.05
     assert_setpoints_are_the_ecus(s, log, (TROLLEY, WINCH))
-    assert s["inclinometer_readings"] > 1000 and s["stale_inclinometer_cycles"] == 0
+    # The SYNCs without a reading fresher than 0.1 s, counted here from the recorded
+    # frames themselves: a loaded host's recorder can stall past 0.1 s (1 of about 1,900
+    # cycles seen at a load average of 10), and the report must count what the log has.
+    frames = recorded(rig)
+    readings = [t for (t, i, _, _) in frames if i == 0x183]
+    last, stale = None, 0
+    for t, i, _, _ in frames:
+        if i == 0x183:
+            last = t
+        elif i == 0x080 and last is not None and t - last > 0.1 + 1e-7:
+            stale += 1
+    assert s["inclinometer_readings"] == len(readings) > 1000, (s["inclinometer_readings"], len(readings))
+    assert s["stale_inclinometer_cycles"] == stale, (s["stale_inclinometer_cycles"], stale)
 
 
 def test_the_3d_crane_reported_with_its_three_drives(rigs, tmp_path):
