@@ -529,33 +529,60 @@ pub fn shown(path: &Path) -> String {
 /// scenes/paper-crane-feedback.toml --out docs/report-example`), and the page must load
 /// in headless chromium.
 pub fn check_example() -> Result<(), String> {
-    let committed = root().join("docs/report-example");
+    let committed = root().join(EXAMPLE_DIR);
     let out = crate::ecu::target_dir().join("report-example");
     let _ = std::fs::remove_dir_all(&out);
     report(&Options {
-        log: committed.join("healthy.log"),
+        log: committed.join(EXAMPLE_LOG),
         scene: root().join(EXAMPLE_SCENE),
         out: out.clone(),
         eds: Vec::new(),
     })?;
-    let mut files: Vec<_> = std::fs::read_dir(&out)
-        .map_err(|e| format!("{}: {e}", out.display()))?
-        .filter_map(Result::ok)
-        .map(|e| e.file_name())
-        .collect();
-    files.sort();
-    for name in files {
-        let made = std::fs::read(out.join(&name)).map_err(|e| e.to_string())?;
-        let kept = std::fs::read(committed.join(&name)).unwrap_or_default();
-        if made != kept {
+    same_files(&out, &committed, EXAMPLE_LOG).map_err(|what| {
+        format!(
+            "{what}: regenerate the example with `cargo xtask report docs/report-example/{EXAMPLE_LOG} \
+             --scene {EXAMPLE_SCENE} --out docs/report-example`"
+        )
+    })?;
+    browser::check(&out.join("index.html"))
+}
+
+/// Where the committed example is.
+const EXAMPLE_DIR: &str = "docs/report-example";
+/// The committed example's log (in [`EXAMPLE_DIR`]).
+const EXAMPLE_LOG: &str = "healthy.log";
+
+/// Whether the directory `committed` holds exactly the files the report `made`, byte
+/// for byte, besides its log `keep`: a file the report no longer makes (a figure renamed
+/// or dropped) is as stale as one it makes otherwise. The error names the file.
+fn same_files(made: &Path, committed: &Path, keep: &str) -> Result<(), String> {
+    let names = |dir: &Path| -> Result<Vec<std::ffi::OsString>, String> {
+        let mut names: Vec<_> = std::fs::read_dir(dir)
+            .map_err(|e| format!("{}: {e}", dir.display()))?
+            .filter_map(Result::ok)
+            .map(|e| e.file_name())
+            .filter(|n| n != keep)
+            .collect();
+        names.sort();
+        Ok(names)
+    };
+    let (made_names, kept_names) = (names(made)?, names(committed)?);
+    for name in &made_names {
+        let new = std::fs::read(made.join(name)).map_err(|e| e.to_string())?;
+        if std::fs::read(committed.join(name)).ok() != Some(new) {
             return Err(format!(
-                "docs/report-example/{} is not what the report makes now: regenerate it with \
-                 `cargo xtask report docs/report-example/healthy.log --scene {EXAMPLE_SCENE} --out docs/report-example`",
-                name.to_string_lossy()
+                "{} is not what the report makes now",
+                committed.join(name).display()
             ));
         }
     }
-    browser::check(&out.join("index.html"))
+    if let Some(stale) = kept_names.iter().find(|n| !made_names.contains(n)) {
+        return Err(format!(
+            "{} is not made by the report any more",
+            committed.join(stale).display()
+        ));
+    }
+    Ok(())
 }
 
 /// The scene of the committed example (the state feedback, with the inclinometer).

@@ -340,3 +340,29 @@ fn both_formats_give_the_same_report_to_the_nanosecond() {
     // 15 ms is 1.5 cycles, not more: no cycle missed.
     assert_eq!(reports[0].timing.missed_cycles, 0);
 }
+
+#[test]
+fn the_example_check_refuses_a_changed_a_missing_and_a_stale_file() {
+    let dir = std::env::temp_dir().join(format!("report-test-{}-same", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let (made, kept) = (dir.join("made"), dir.join("kept"));
+    for d in [&made, &kept] {
+        std::fs::create_dir_all(d).unwrap();
+        std::fs::write(d.join("index.html"), "page").unwrap();
+        std::fs::write(d.join("a.svg"), "figure").unwrap();
+    }
+    std::fs::write(kept.join("x.log"), "the log").unwrap();
+    assert_eq!(same_files(&made, &kept, "x.log"), Ok(()));
+    std::fs::write(kept.join("a.svg"), "old figure").unwrap();
+    let e = same_files(&made, &kept, "x.log").unwrap_err();
+    assert!(e.contains("a.svg is not what the report makes now"), "{e}");
+    std::fs::remove_file(kept.join("a.svg")).unwrap();
+    assert!(same_files(&made, &kept, "x.log").is_err(), "a file missing");
+    std::fs::write(kept.join("a.svg"), "figure").unwrap();
+    std::fs::write(kept.join("old.svg"), "a figure no longer made").unwrap();
+    let e = same_files(&made, &kept, "x.log").unwrap_err();
+    assert!(
+        e.contains("old.svg is not made by the report any more"),
+        "{e}"
+    );
+}
