@@ -385,7 +385,7 @@ impl Channel {
                 }
                 self.transfer = Some(x);
             }
-            // Initiate upload.
+            // Initiate upload: expedited unless the server's answer says segmented.
             2 => {
                 self.interrupted();
                 self.transfer = Some(Transfer::new(t, Op::Read, Mode::Expedited, name));
