@@ -40,17 +40,24 @@ def record(rig):
     rig.network.send_message = sending
 
 
+def recorded(rig):
+    """Every frame of the run so far as the logs have them: (time, id, data, received),
+    in order. Stamps on the microsecond grid: both writers print six decimals, candump
+    since the epoch and ASC since the first frame, and a stamp between two microseconds
+    would round to other intervals in the two files."""
+    received = [(round(t, 6), i, d, True) for (t, i, d) in list(rig.recorder.frames)]
+    sent = [(round(t, 6), i, d, False) for (t, i, d) in getattr(rig, "sent", [])]
+    return sorted(received + sent, key=lambda f: f[0])
+
+
 def write(rig, stem):
     """Writes every frame of the run so far through python-can's loggers: `stem.log`
     (candump -L) and `stem.asc` (Vector ASC); returns both paths."""
-    received = [(t, i, d, True) for (t, i, d) in list(rig.recorder.frames)]
-    sent = [(t, i, d, False) for (t, i, d) in getattr(rig, "sent", [])]
-    frames = sorted(received + sent, key=lambda f: f[0])
     paths = [stem + ".log", stem + ".asc"]
     for path in paths:
         writer = can.Logger(path)
         try:
-            for t, can_id, data, rx in frames:
+            for t, can_id, data, rx in recorded(rig):
                 writer.on_message_received(
                     can.Message(timestamp=t, arbitration_id=can_id, data=data, is_extended_id=False, is_rx=rx, channel="can0")
                 )

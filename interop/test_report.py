@@ -13,32 +13,27 @@ import time
 import canopen
 import pytest
 
-from record import record, report, write
+from record import record, recorded, report, write
 from rig import ACCEPTED, HERE
 from test_interop import rigs  # noqa: F401 (the fixture)
 
 TROLLEY, WINCH, BRIDGE = 1, 2, 4
 
 
-def close_enough(a, b, path="summary"):
-    """Both formats' summaries agree: equal, numbers within the 1 µs the formats round
-    their time stamps to (ASC is relative to its start, candump absolute)."""
+def same(a, b, path="summary"):
+    """Both formats' summaries are the same, number for number: record.py stamps the
+    frames on the microsecond grid both writers print, and the report reads the stamps
+    exactly, so ASC's time since the first frame and candump's since the epoch give the
+    same intervals (only what was read — lines, bytes, other lines — differs)."""
     if isinstance(a, dict):
         assert a.keys() == b.keys(), path
         for k in a:
             if k not in ("log", "format", "read"):
-                close_enough(a[k], b[k], f"{path}.{k}")
-    elif path.endswith("histogram"):
-        # An interval within the 2 µs of rounding of a bin's (0.5 ms) edge may fall either
-        # side of it: about 0.4 % of them, 8 of 1,926 seen.
-        moved = sum(abs(x - y) for x, y in zip(a, b))
-        assert sum(a) == sum(b) and moved <= max(6, sum(a) // 50), (path, a, b)
+                same(a[k], b[k], f"{path}.{k}")
     elif isinstance(a, list):
         assert len(a) == len(b), (path, len(a), len(b))
         for i, (x, y) in enumerate(zip(a, b)):
-            close_enough(x, y, f"{path}[{i}]")
-    elif isinstance(a, float) or isinstance(b, float):
-        assert math.isclose(a, b, rel_tol=1e-6, abs_tol=1e-5), (path, a, b)
+            same(x, y, f"{path}[{i}]")
     else:
         assert a == b, (path, a, b)
 
@@ -50,7 +45,7 @@ def reports(rig, tmp_path, name, scene=None):
     log.assert_decodes()
     paths = write(rig, str(tmp_path / name))
     summaries = [report(p, str(tmp_path / f"{name}-{p[-3:]}"), scene) for p in paths]
-    close_enough(summaries[0], summaries[1])
+    same(summaries[0], summaries[1])
     assert summaries[0]["format"] == "candump -L" and summaries[1]["format"] == "Vector ASC"
     assert summaries[0]["read"]["frames"] == summaries[1]["read"]["frames"]
     for s in summaries:
@@ -116,7 +111,7 @@ def test_a_healthy_move_reported_as_the_rig_ran_it(rigs, tmp_path):
     assert any("no inclinometer on the bus" in c for c in s["cannot_answer"])
     # The boot, as the drives were commissioned: boot-ups, NMT, the SDO transcripts.
     for node in (TROLLEY, WINCH):
-        assert len(s["nodes"][str(node)]["boot_ups"]) == 1
+        assert len(s["nodes"][str(node)]["boot_ups"]["items"]) == 1
         assert s["sdo"][str(node)][1] == 0, "no abort"
     assert "write 0x6060:0 Modes of operation = 0x09 (9) → done" in page
     starts = [c for c in s["nmt"]["items"] if c["command"] == "Start"]
@@ -201,13 +196,28 @@ def test_a_swinging_start_with_the_feedback_reported_as_the_load_swung(rigs, tmp
     # the feedback has damped it).
     assert s["max_swing"][0] >= start["amplitude_deg"] - 0.01, (s["max_swing"], start)
     move = s["moves"]["items"][0]
-    assert move["verdict"] == "pass", move
+    if move["swing_cycles"] == move["cycles"]:
+        assert move["verdict"] == "pass", move
+    else:  # the recorder stalled in the window: the verdict says what it did not read
+        assert move["verdict"].startswith("pass where measured; not measured: the swing in "), move
     # The verdict's numbers against the simulated load at the window's end.
     assert move["swing"][0] < 0.1 and end["amplitude_deg"] < 0.1
     assert abs(end["load_x_m"] - 20.0) <= move["horizontal"] + 0.002, (end, move)
     assert move["horizontal"] < 0.05
     assert_setpoints_are_the_ecus(s, log, (TROLLEY, WINCH))
-    assert s["inclinometer_readings"] > 1000 and s["stale_inclinometer_cycles"] == 0
+    # The SYNCs without a reading fresher than 0.1 s, counted here from the recorded
+    # frames themselves: a loaded host's recorder can stall past 0.1 s (1 of about 1,900
+    # cycles seen at a load average of 10), and the report must count what the log has.
+    frames = recorded(rig)
+    readings = [t for (t, i, _, _) in frames if i == 0x183]
+    last, stale = None, 0
+    for t, i, _, _ in frames:
+        if i == 0x183:
+            last = t
+        elif i == 0x080 and last is not None and t - last > 0.1 + 1e-7:
+            stale += 1
+    assert s["inclinometer_readings"] == len(readings) > 1000, (s["inclinometer_readings"], len(readings))
+    assert s["stale_inclinometer_cycles"] == stale, (s["stale_inclinometer_cycles"], stale)
 
 
 def test_the_3d_crane_reported_with_its_three_drives(rigs, tmp_path):

@@ -29,8 +29,8 @@
 //!   figures, the figures as SVG, `summary.json` (docs/REPORT.md).
 //! * `report-check` — the committed example report made again and compared, its page
 //!   loaded in headless chromium (part of `test`).
-//! * `report-bench [--frames N]` — the report's seconds per million frames and peak
-//!   memory on a long log.
+//! * `report-bench [--frames N]` — the report's seconds per million frames (wall clock
+//!   and CPU) and peak memory on a long log.
 //! * `study …` — the speed/accuracy studies (`run`, `sweep`, `paper`, `extremes`).
 //! * `bench` — criterion benchmarks of one step and whole runs on the host.
 //! * `instructions` — host instructions per step under callgrind (deterministic),

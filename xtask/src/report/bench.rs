@@ -1,8 +1,9 @@
-//! `cargo xtask report-bench [--frames N]`: seconds per million frames and peak memory
-//! of `cargo xtask report` on a long log — the committed example log's frames repeated,
-//! each copy shifted by the example's length, into `target/report-bench/bench.log`,
-//! then the report run on it in a process of its own (its peak resident memory, VmHWM,
-//! is its own, not this one's).
+//! `cargo xtask report-bench [--frames N]`: seconds per million frames (wall clock, and
+//! the CPU time the report spent: the wall clock also counts whatever else the machine
+//! runs) and peak memory of `cargo xtask report` on a long log — the committed example
+//! log's frames repeated, each copy shifted by the example's length, into
+//! `target/report-bench/bench.log`, then the report run on it in a process of its own
+//! (its peak resident memory, VmHWM, is its own, not this one's).
 
 use std::fs::File;
 use std::io::{BufRead, BufReader, BufWriter, Write};
@@ -11,12 +12,10 @@ use std::process::Command;
 use crate::ecu::target_dir;
 use crate::firmware::root;
 
-/// The log whose frames are repeated.
-pub const EXAMPLE_LOG: &str = "docs/report-example/healthy.log";
-
 /// Writes a log of at least `frames` frames and runs the report on it.
 pub fn bench(frames: u64) -> Result<(), String> {
-    let source = root().join(EXAMPLE_LOG);
+    // The committed example's log, whose frames are repeated.
+    let source = root().join(super::EXAMPLE_DIR).join(super::EXAMPLE_LOG);
     let lines: Vec<(f64, String)> =
         BufReader::new(File::open(&source).map_err(|e| format!("{}: {e}", source.display()))?)
             .lines()

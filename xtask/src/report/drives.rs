@@ -7,24 +7,26 @@
 //! the last one sent before the SYNC that TPDO follows: the following error is that set
 //! point less the velocity actual.
 
+use controller::cia402::DriveState;
 use serde::Serialize;
 
 use super::bus::{Cob, Crane, DriveInfo};
 use super::series::{Capped, Series, Stats};
 use super::Seen;
 
-/// The CiA 402 state a statusword shows (Tab. 30 of CiA 402-2).
+/// The CiA 402 state a statusword shows (Tab. 30 of CiA 402-2), decoded as the
+/// controller decodes it.
 pub fn cia402_state(statusword: u16) -> &'static str {
-    match statusword & 0x6F {
-        0x00 | 0x20 => "not ready to switch on",
-        0x40 | 0x60 => "switch on disabled",
-        0x21 => "ready to switch on",
-        0x23 => "switched on",
-        0x27 => "operation enabled",
-        0x07 => "quick stop active",
-        0x0F | 0x2F => "fault reaction active",
-        0x08 | 0x28 => "fault",
-        _ => "(no CiA 402 state)",
+    match DriveState::from_statusword(statusword) {
+        DriveState::NotReadyToSwitchOn => "not ready to switch on",
+        DriveState::SwitchOnDisabled => "switch on disabled",
+        DriveState::ReadyToSwitchOn => "ready to switch on",
+        DriveState::SwitchedOn => "switched on",
+        DriveState::OperationEnabled => "operation enabled",
+        DriveState::QuickStopActive => "quick stop active",
+        DriveState::FaultReactionActive => "fault reaction active",
+        DriveState::Fault => "fault",
+        DriveState::Unknown => "(no CiA 402 state)",
     }
 }
 
@@ -41,18 +43,19 @@ pub struct DriveRecord {
     pub acceleration_limit: f64,
     /// Set points sent.
     pub setpoints: u64,
-    /// Largest |set point|, m/s.
-    pub max_setpoint: f64,
-    /// Largest |step| between consecutive set points over the period, m/s².
-    pub max_acceleration: f64,
+    /// Largest |set point|, m/s (`None`: no set point in the log).
+    pub max_setpoint: Option<f64>,
+    /// Largest |step| between consecutive set points over the period, m/s² (`None`:
+    /// fewer than two).
+    pub max_acceleration: Option<f64>,
     /// Set points above the velocity limit.
     pub over_velocity: u64,
     /// Steps above the acceleration limit.
     pub over_acceleration: u64,
     /// Velocity actuals (TPDO1) received.
     pub velocity_actuals: u64,
-    /// Largest |velocity actual|, m/s.
-    pub max_velocity: f64,
+    /// Largest |velocity actual|, m/s (`None`: no TPDO1 in the log).
+    pub max_velocity: Option<f64>,
     /// |following error|: the applied set point less the velocity actual, m/s.
     pub following_error: Stats,
     /// Position actual at the first and the last TPDO2, m.
@@ -112,12 +115,12 @@ impl Drives {
                     velocity_limit: d.velocity_limit,
                     acceleration_limit: d.acceleration_limit,
                     setpoints: 0,
-                    max_setpoint: 0.0,
-                    max_acceleration: 0.0,
+                    max_setpoint: None,
+                    max_acceleration: None,
                     over_velocity: 0,
                     over_acceleration: 0,
                     velocity_actuals: 0,
-                    max_velocity: 0.0,
+                    max_velocity: None,
                     following_error: Stats::default(),
                     positions: None,
                     position_range: None,
@@ -161,13 +164,13 @@ impl Drives {
                     return;
                 };
                 drive.setpoints += 1;
-                drive.max_setpoint = drive.max_setpoint.max(v.abs());
+                drive.max_setpoint = Some(drive.max_setpoint.map_or(v.abs(), |m| m.max(v.abs())));
                 if v.abs() > drive.velocity_limit * (1.0 + 1e-9) {
                     drive.over_velocity += 1;
                 }
                 if let Some(last) = drive.last_sent {
                     let a = (v - last).abs() / drive.period;
-                    drive.max_acceleration = drive.max_acceleration.max(a);
+                    drive.max_acceleration = Some(drive.max_acceleration.map_or(a, |m| m.max(a)));
                     if a > drive.acceleration_limit * (1.0 + 1e-6) {
                         drive.over_acceleration += 1;
                     }
@@ -188,7 +191,7 @@ impl Drives {
                     return;
                 };
                 drive.velocity_actuals += 1;
-                drive.max_velocity = drive.max_velocity.max(v.abs());
+                drive.max_velocity = Some(drive.max_velocity.map_or(v.abs(), |m| m.max(v.abs())));
                 drive.velocity.push(s.t, v);
                 if let Some(applied) = drive.applied {
                     drive.following_error.add((applied - v).abs());

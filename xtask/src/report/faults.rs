@@ -8,14 +8,16 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use controller::canopen::{emcy, sdo::abort};
 use serde::Serialize;
 
 use super::bus::{Cob, Crane};
-use super::sdo::abort_meaning;
 use super::series::Capped;
 use super::Seen;
 
-/// CiA 301's emergency error codes (Tab. 21), exact codes first, then the classes.
+/// An emergency error code's meaning: the exact codes a crane's nodes send (CiA 301's
+/// Tab. 21; 0x2310, 0x3210, 0x3220, 0x4210, 0x5530 and 0x6010 as CiA 402 names them for
+/// drives), then CiA 301's classes.
 pub fn error_code_meaning(code: u16) -> &'static str {
     match code {
         0x0000 => "error reset or no error",
@@ -56,6 +58,26 @@ pub fn error_code_meaning(code: u16) -> &'static str {
     }
 }
 
+/// The bits of an error register (0x1001) that are set, by name (CiA 301 §7.5.2.2;
+/// bit 6 is reserved).
+pub fn register_bits(register: u8) -> Vec<&'static str> {
+    [
+        "generic",
+        "current",
+        "voltage",
+        "temperature",
+        "communication",
+        "device profile specific",
+        "reserved bit 6",
+        "manufacturer specific",
+    ]
+    .into_iter()
+    .enumerate()
+    .filter(|(bit, _)| register & (1 << bit) != 0)
+    .map(|(_, name)| name)
+    .collect()
+}
+
 /// One EMCY.
 #[derive(Debug, Clone, Serialize)]
 pub struct Emcy {
@@ -67,8 +89,13 @@ pub struct Emcy {
     pub from: String,
     /// Error code.
     pub code: u16,
-    /// Error register.
+    /// Error register (0x1001).
     pub register: u8,
+    /// The error register's bits set, by name (CiA 301 §7.5.2.2).
+    pub register_bits: Vec<&'static str>,
+    /// The manufacturer-specific error field (bytes 3–7) as hex bytes: what a drive's
+    /// manual explains; the controller's are decoded in `meaning`.
+    pub manufacturer: String,
     /// What the code means (CiA 301), and for the controller's what its fault is.
     pub meaning: String,
     /// Fault (the controller's, the DBC's value table), if any.
@@ -93,6 +120,12 @@ pub struct Faults {
     reactions: BTreeMap<u8, (String, String)>,
     /// Where the reactions were read, or why not.
     pub reactions_source: String,
+    /// The controller's EMCYs whose reaction is being watched (their 5 s are open):
+    /// the reaction is followed as the log streams by, not read afterwards from the
+    /// page's list of modes, which keeps only its first entries.
+    watching: Vec<Watch>,
+    /// The mode changes of the last [`BEFORE`] s.
+    recent: Vec<(f64, String)>,
 }
 
 /// The fault table of docs/COMMANDS.md: fault number → (what, reaction). The warning
@@ -145,7 +178,7 @@ impl Faults {
     /// With the reactions of the fault table at `commands` (docs/COMMANDS.md).
     pub fn new(commands: &Path) -> Self {
         let (reactions, reactions_source) = match documented_reactions(commands) {
-            Ok(r) => (r, format!("the fault table of {}", commands.display())),
+            Ok(r) => (r, format!("the fault table of {}", super::shown(commands))),
             Err(e) => (BTreeMap::new(), format!("not read ({e})")),
         };
         Self {
@@ -153,6 +186,8 @@ impl Faults {
             duplicate_node: 0,
             reactions,
             reactions_source,
+            watching: Vec::new(),
+            recent: Vec::new(),
         }
     }
 
@@ -167,18 +202,21 @@ impl Faults {
         }
         let code = u16::from_le_bytes([data[0], data[1]]);
         let register = data[2];
+        let manufacturer: Vec<String> = data[3..].iter().map(|b| format!("{b:02X}")).collect();
         let mut e = Emcy {
             t: s.t,
             node,
             from: crane.node_name(node),
             code,
             register,
+            register_bits: register_bits(register),
+            manufacturer: manufacturer.join(" "),
             meaning: error_code_meaning(code).to_string(),
             fault: None,
             fault_code: None,
             documented: None,
             taken: String::new(),
-            warning: register & 1 == 0 && code != 0,
+            warning: code != emcy::NO_ERROR && !emcy::is_fault(code, register),
         };
         if node == crane.controller {
             if let Some(d) = s.decoded {
@@ -203,7 +241,7 @@ impl Faults {
                     let abort = abort as u32;
                     parts.push(format!(
                         "SDO abort 0x{abort:08X} ({})",
-                        abort_meaning(abort)
+                        abort::describe(abort)
                     ));
                 }
                 e.meaning = parts.join("; ");
@@ -221,29 +259,102 @@ impl Faults {
                 }
             }
         }
+        let watch = e.fault_code.is_some();
+        let t = e.t;
         self.emcys.push(e);
+        let row = self.emcys.items.len() - 1;
+        if watch && self.emcys.dropped == 0 {
+            let mut w = Watch {
+                emcy: row,
+                changes: Vec::new(),
+                more: 0,
+            };
+            for (_, change) in self.recent.iter().filter(|(when, _)| t - when <= BEFORE) {
+                w.add(change);
+            }
+            self.watching.push(w);
+        }
     }
 
-    /// The end of the log: the reaction taken after each controller EMCY, from the
-    /// mode changes (s, mode, fault) the status frames showed.
-    pub fn finish(&mut self, modes: &[(f64, String, String)]) {
-        for e in self
-            .emcys
-            .items
-            .iter_mut()
-            .filter(|e| e.fault_code.is_some())
-        {
-            let after: Vec<String> = modes
-                .iter()
-                .filter(|(t, ..)| *t >= e.t - 0.02 && *t <= e.t + 5.0)
-                .map(|(t, mode, fault)| format!("{mode} (fault {fault}) at {t:.2} s"))
-                .collect();
-            e.taken = if after.is_empty() {
-                "no change of mode in the status frames within 5 s".into()
+    /// A change of the controller's mode or fault, as its status frame showed it: part
+    /// of the reaction to each EMCY of the last 5 s (and of one that follows within 20
+    /// ms: the recorder may log the status before the EMCY).
+    pub fn mode(&mut self, t: f64, mode: &str, fault: &str) {
+        let change = (t, format!("{mode} (fault {fault}) at {t:.2} s"));
+        let emcys = &mut self.emcys.items;
+        self.watching.retain(|w| {
+            let open = emcys.get(w.emcy).is_some_and(|e| t <= e.t + AFTER);
+            if !open {
+                if let Some(e) = emcys.get_mut(w.emcy) {
+                    e.taken = w.taken(AFTER);
+                }
+            }
+            open
+        });
+        for w in &mut self.watching {
+            w.add(&change.1);
+        }
+        self.recent.retain(|(when, _)| t - when <= BEFORE);
+        if self.recent.len() < RECENT {
+            self.recent.push(change);
+        }
+    }
+
+    /// The end of the log at `end`: the reactions still watched are what the log shows.
+    pub fn finish(&mut self, end: f64) {
+        for w in std::mem::take(&mut self.watching) {
+            if let Some(e) = self.emcys.items.get_mut(w.emcy) {
+                e.taken = w.taken((end - e.t).min(AFTER));
+            }
+        }
+    }
+}
+
+/// How long after an EMCY the status frames show the reaction to it, s.
+const AFTER: f64 = 5.0;
+/// How long before it a status frame may show it, s (the recorder's order).
+const BEFORE: f64 = 0.02;
+/// Mode changes kept from the last [`BEFORE`] s.
+const RECENT: usize = 16;
+/// Mode changes listed per reaction.
+const CHANGES: usize = 20;
+
+/// The reaction to one of the controller's EMCYs, watched while its window is open.
+#[derive(Debug)]
+struct Watch {
+    /// Its row in [`Faults::emcys`].
+    emcy: usize,
+    /// The mode changes seen, the first [`CHANGES`].
+    changes: Vec<String>,
+    /// Changes beyond those.
+    more: u64,
+}
+
+impl Watch {
+    fn add(&mut self, change: &str) {
+        if self.changes.len() < CHANGES {
+            self.changes.push(change.to_string());
+        } else {
+            self.more += 1;
+        }
+    }
+
+    /// The reaction as the page says it, over a window of `window` s.
+    fn taken(&self, window: f64) -> String {
+        if self.changes.is_empty() {
+            return if window < AFTER {
+                format!(
+                    "no change of mode in the status frames in the {window:.1} s until the log ends"
+                )
             } else {
-                after.join(" → ")
+                format!("no change of mode in the status frames within {AFTER:.0} s")
             };
         }
+        let mut text = self.changes.join(" → ");
+        if self.more > 0 {
+            text.push_str(&format!(" → … and {} more", self.more));
+        }
+        text
     }
 }
 

@@ -19,6 +19,11 @@ fn esc(s: &str) -> String {
         .replace('>', "&gt;")
 }
 
+/// Seconds as milliseconds, or "—" where the log gave no number.
+fn ms(v: Option<f64>, digits: usize) -> String {
+    v.map_or("—".into(), |v| format!("{:.digits$}", v * 1e3))
+}
+
 fn opt(v: Option<f64>, unit: &str, scale: f64, digits: usize) -> String {
     v.map_or("—".into(), |v| format!("{:.digits$} {unit}", v * scale))
 }
@@ -54,7 +59,7 @@ pub fn write(out: &Path, s: &Summary, x: &Extras) -> Result<(), String> {
     );
     input_section(w, s);
     network_section(w, s, x);
-    requests_section(w, s);
+    requests_section(w, s, x.crane.controller);
     let mut figs = figures.iter();
     let _ = write!(w, "<h2>Drives</h2>");
     drives_section(w, s, &mut figs);
@@ -74,6 +79,13 @@ pub fn write(out: &Path, s: &Summary, x: &Extras) -> Result<(), String> {
         std::fs::write(&path, &f.svg).map_err(|e| format!("{}: {e}", path.display()))?;
     }
     Ok(())
+}
+
+/// "… and N more …" after a list the report kept to its first entries.
+fn more(list: &mut Vec<String>, dropped: u64, what: &str) {
+    if dropped > 0 {
+        list.push(format!("… and {dropped} more {what}"));
+    }
 }
 
 fn figure(w: &mut String, f: Option<&Figure>) {
@@ -242,6 +254,11 @@ fn input_section(w: &mut String, s: &Summary) {
             d.undecodable.values().map(|v| v.0).sum(),
             "bad",
         ),
+        (
+            "other lines (an ASC header, events, comments): skipped",
+            s.read.other_lines,
+            "",
+        ),
         ("error frames", s.read.error_frames, "bad"),
         ("CAN FD frames (not analysed)", s.read.fd_frames, ""),
         ("remote frames", d.remote, ""),
@@ -321,17 +338,22 @@ fn network_section(w: &mut String, s: &Summary, x: &Extras) {
         x.crane.heartbeat_timeout * 1e3
     );
     for (node, n) in &s.nodes {
-        let states: Vec<String> = n
+        let mut states: Vec<String> = n
             .states
+            .items
             .iter()
             .map(|(t, st)| format!("{st} ({t:.2})"))
             .collect();
-        let boots: Vec<String> = n.boot_ups.iter().map(|t| format!("{t:.2}")).collect();
-        let gaps: Vec<String> = n
+        more(&mut states, n.states.dropped, "changes");
+        let mut boots: Vec<String> = n.boot_ups.items.iter().map(|t| format!("{t:.2}")).collect();
+        more(&mut boots, n.boot_ups.dropped, "boot-ups");
+        let mut gaps: Vec<String> = n
             .heartbeat_gaps
+            .items
             .iter()
             .map(|(t, g)| format!("{:.0} ms before {t:.2} s", g * 1e3))
             .collect();
+        more(&mut gaps, n.heartbeat_gaps.dropped, "gaps");
         let interval = if n.heartbeat_interval.count > 0 {
             format!(
                 "{:.1} / {:.1}",
@@ -442,7 +464,8 @@ fn network_section(w: &mut String, s: &Summary, x: &Extras) {
     }
 }
 
-fn requests_section(w: &mut String, s: &Summary) {
+fn requests_section(w: &mut String, s: &Summary, controller: u8) {
+    let manual = 0x400 + u16::from(controller);
     let _ = write!(w, "<h2>Requests and answers</h2>");
     if s.requests.items.is_empty() {
         let _ = write!(w, "<p>No request in this log.</p>");
@@ -556,10 +579,10 @@ fn requests_section(w: &mut String, s: &Summary) {
         w,
         "<h3>Manual mode</h3><p>{}</p>",
         if s.manual_frames == 0 {
-            "No manual-mode frames (0x410) in this log.".to_string()
+            format!("No manual-mode frames (0x{manual:03X}) in this log.")
         } else {
             format!(
-                "{} manual-mode frames (0x410): counted; their sessions are not analysed yet.",
+                "{} manual-mode frames (0x{manual:03X}): counted; their sessions are not analysed yet.",
                 s.manual_frames
             )
         }
@@ -589,12 +612,12 @@ fn drives_section<'a>(w: &mut String, s: &Summary, figs: &mut impl Iterator<Item
     for d in &s.drives {
         let _ = write!(
             w,
-            "<tr><td>{} (node {})</td><td>{}</td><td>{:.4} m/s (limit {})</td><td class=\"{}\">{}</td><td>{:.3} m/s² (limit {})</td><td class=\"{}\">{}</td><td>{:.4} m/s</td><td>{}</td><td>{}</td></tr>",
-            d.name, d.node, d.setpoints, d.max_setpoint, d.velocity_limit,
+            "<tr><td>{} (node {})</td><td>{}</td><td>{} (limit {})</td><td class=\"{}\">{}</td><td>{} (limit {})</td><td class=\"{}\">{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            d.name, d.node, d.setpoints, opt(d.max_setpoint, "m/s", 1.0, 4), d.velocity_limit,
             if d.over_velocity > 0 { "bad" } else { "" }, d.over_velocity,
-            d.max_acceleration, d.acceleration_limit,
+            opt(d.max_acceleration, "m/s²", 1.0, 3), d.acceleration_limit,
             if d.over_acceleration > 0 { "bad" } else { "" }, d.over_acceleration,
-            d.max_velocity,
+            opt(d.max_velocity, "m/s", 1.0, 4),
             if d.following_error.count > 0 { format!("{:.4} / {:.4} m/s", d.following_error.mean, d.following_error.max) } else { "—".into() },
             d.positions.map_or("—".into(), |(a, b)| format!("{a:.4} → {b:.4} m")),
         );
@@ -644,7 +667,11 @@ fn drives_section<'a>(w: &mut String, s: &Summary, figs: &mut impl Iterator<Item
 }
 
 fn load_section<'a>(w: &mut String, s: &Summary, figs: &mut impl Iterator<Item = &'a Figure>) {
-    let swing: Vec<String> = s.max_swing.iter().map(|v| format!("{v:.3}°")).collect();
+    let swing: Vec<String> = s
+        .max_swing
+        .iter()
+        .map(|v| v.map_or("not measured".into(), |v| format!("{v:.3}°")))
+        .collect();
     let _ = write!(
         w,
         "<p>Inclinometer readings: {}; largest swing {}; cycles without a fresh reading after the first: {}.</p>",
@@ -702,16 +729,22 @@ fn faults_section(w: &mut String, s: &Summary) {
         let _ = write!(w, "<p>No EMCY in this log.</p>");
         return;
     }
-    let _ = write!(w, "<p>Reactions documented: {}.</p><table><tr><th>s</th><th>from</th><th>code</th><th>register</th><th>meaning</th><th>documented reaction</th><th>reaction taken (status)</th></tr>", esc(&s.reactions_source));
+    let _ = write!(w, "<p>Reactions documented: {}.</p><table><tr><th>s</th><th>from</th><th>code</th><th>error register</th><th>manufacturer bytes</th><th>meaning</th><th>documented reaction</th><th>reaction taken (status)</th></tr>", esc(&s.reactions_source));
     for e in &s.emcys.items {
+        let bits = if e.register_bits.is_empty() {
+            "none set".to_string()
+        } else {
+            e.register_bits.join(", ")
+        };
         let _ = write!(
             w,
-            "<tr><td>{:.2}</td><td>{}</td><td>0x{:04X}</td><td>0x{:02X}{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td>{:.2}</td><td>{}</td><td>0x{:04X}</td><td>0x{:02X}: {bits}{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             e.t,
             esc(&e.from),
             e.code,
             e.register,
-            if e.warning { " (warning)" } else { "" },
+            if e.warning { " (a warning: the generic bit clear)" } else { "" },
+            esc(&e.manufacturer),
             esc(&e.meaning),
             esc(e.documented.as_deref().unwrap_or("—")),
             esc(if e.taken.is_empty() { "—" } else { &e.taken })
@@ -725,47 +758,56 @@ fn faults_section(w: &mut String, s: &Summary) {
 
 fn timing_section<'a>(w: &mut String, s: &Summary, figs: &mut impl Iterator<Item = &'a Figure>) {
     let t = &s.timing;
-    let _ = write!(
-        w,
-        "<p>SYNC: {} seen; interval mean {:.3} ms, standard deviation {:.3} ms, min {:.3} ms, max {:.3} ms (cycle {:.1} ms); missed cycles {}; SYNCs less than half a cycle apart {}.</p>",
-        t.syncs,
-        t.interval.mean * 1e3,
-        t.interval.std * 1e3,
-        t.interval.min * 1e3,
-        t.interval.max * 1e3,
-        t.period * 1e3,
-        t.missed_cycles,
-        t.doubled_syncs
-    );
+    let i = &t.interval;
+    let _ = match t.syncs {
+        0 => write!(w, "<p>SYNC: none in this log.</p>"),
+        1 => write!(w, "<p>SYNC: one in this log, no interval to measure.</p>"),
+        n => write!(
+            w,
+            "<p>SYNC: {n} seen; interval mean {} ms, standard deviation {} ms, min {} ms, max {} ms (cycle {:.1} ms); missed cycles {}; SYNCs less than half a cycle apart {}.</p>",
+            ms(i.get(|i| i.mean), 3),
+            ms((i.count > 1).then_some(i.std), 3),
+            ms(i.get(|i| i.min), 3),
+            ms(i.get(|i| i.max), 3),
+            t.period * 1e3,
+            t.missed_cycles,
+            t.doubled_syncs
+        ),
+    };
     figure(w, figs.next());
     figure(w, figs.next());
     if !t.gaps.items.is_empty() {
-        let list: Vec<String> = t
+        let mut list: Vec<String> = t
             .gaps
             .items
             .iter()
             .map(|(at, g)| format!("{:.1} ms before {at:.2} s", g * 1e3))
             .collect();
-        let _ = write!(w, "<p class=\"bad\">Gaps: {}</p>", list.join("; "));
+        more(&mut list, t.gaps.dropped, "gaps");
+        let _ = write!(
+            w,
+            "<p class=\"bad\">Gaps of more than 1.5 cycles between two SYNCs: {}</p>",
+            list.join("; ")
+        );
     }
     let _ = write!(w, "<table><tr><th>drive</th><th>cycles with its RPDO before the SYNC</th><th>without</th><th>with two</th><th>TPDO1 gap mean / max, ms</th><th>TPDO2 gap max, ms</th><th>gaps over the TPDO timeout</th><th>TPDO1 after SYNC mean / max, ms</th></tr>");
     for ((d, order), tp) in s.drives.iter().zip(&t.rpdo_order).zip(&t.tpdo) {
         let _ = write!(
             w,
-            "<tr><td>{}</td><td>{}</td><td class=\"{}\">{}</td><td class=\"{}\">{}</td><td>{:.2} / {:.2}</td><td>{:.2}</td><td class=\"{}\">{}</td><td>{:.2} / {:.2}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td class=\"{}\">{}</td><td class=\"{}\">{}</td><td>{} / {}</td><td>{}</td><td class=\"{}\">{}</td><td>{} / {}</td></tr>",
             d.name,
             order[0],
             if order[1] > 0 { "bad" } else { "" },
             order[1],
             if order[2] > 0 { "bad" } else { "" },
             order[2],
-            tp.tpdo1_gap.mean * 1e3,
-            tp.tpdo1_gap.max * 1e3,
-            tp.tpdo2_gap.max * 1e3,
+            ms(tp.tpdo1_gap.get(|g| g.mean), 2),
+            ms(tp.tpdo1_gap.get(|g| g.max), 2),
+            ms(tp.tpdo2_gap.get(|g| g.max), 2),
             if tp.over_timeout > 0 { "bad" } else { "" },
             tp.over_timeout,
-            tp.after_sync.mean * 1e3,
-            tp.after_sync.max * 1e3
+            ms(tp.after_sync.get(|a| a.mean), 2),
+            ms(tp.after_sync.get(|a| a.max), 2)
         );
     }
     let _ = write!(w, "</table>");

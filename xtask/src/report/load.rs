@@ -57,6 +57,8 @@ pub struct Verdict {
     pub swing: Vec<Option<f64>>,
     /// Cycles in the window with a set point not zero.
     pub moving_cycles: u64,
+    /// Cycles in the window with a fresh inclinometer reading.
+    pub swing_cycles: u64,
     /// Cycles in the window.
     pub cycles: u64,
     /// Pass, fail, or why it cannot be judged.
@@ -85,8 +87,8 @@ pub struct Load {
     pub readings: u64,
     /// SYNCs after the first reading with none fresher than 0.1 s.
     pub stale_cycles: u64,
-    /// Largest swing seen per plane, degrees.
-    pub max_swing: [f64; 2],
+    /// Largest swing seen per plane, degrees (`None`: not read).
+    pub max_swing: [Option<f64>; 2],
     /// The moves judged.
     pub verdicts: Capped<Verdict>,
     /// Accepted moves not yet judged (the log may end first).
@@ -106,7 +108,7 @@ impl Load {
             position: [Series::new(), Series::new(), Series::new()],
             readings: 0,
             stale_cycles: 0,
-            max_swing: [0.0; 2],
+            max_swing: [None; 2],
             verdicts: Capped::new(500),
             tracks: Vec::new(),
             angle: [None; 2],
@@ -132,7 +134,8 @@ impl Load {
                 let swing = i.sign[plane] * (slope * rescale - i.offset_deg[plane]);
                 self.angle[plane] = Some(swing);
                 if plane < self.planes {
-                    self.max_swing[plane] = self.max_swing[plane].max(swing.abs());
+                    let max = &mut self.max_swing[plane];
+                    *max = Some(max.map_or(swing.abs(), |m| m.max(swing.abs())));
                     self.swing[plane].push(t, swing);
                 }
             }
@@ -162,6 +165,7 @@ impl Load {
                 vertical: None,
                 swing: vec![None; self.planes],
                 moving_cycles: 0,
+                swing_cycles: 0,
                 cycles: 0,
                 verdict: String::new(),
             },
@@ -228,6 +232,7 @@ impl Load {
                 if t >= from && t <= to {
                     track.v.cycles += 1;
                     track.v.moving_cycles += u64::from(!at_rest);
+                    track.v.swing_cycles += u64::from(angles.iter().any(Option::is_some));
                     if let Some(load) = &load {
                         let (h, v) = distance(&track.v.target, load);
                         track.v.horizontal = Some(track.v.horizontal.unwrap_or(0.0).max(h));
@@ -254,7 +259,7 @@ impl Load {
         }
         for k in ended.into_iter().rev() {
             let mut track = self.tracks.remove(k);
-            judge(&mut track, &self.crane, None);
+            judge(&mut track, None);
             self.verdicts.push(track.v);
         }
     }
@@ -284,7 +289,7 @@ impl Load {
     /// The end of the log: the moves still open are judged on what the log has.
     pub fn finish(&mut self, end: f64) {
         for mut track in std::mem::take(&mut self.tracks) {
-            judge(&mut track, &self.crane, Some(end));
+            judge(&mut track, Some(end));
             self.verdicts.push(track.v);
         }
     }
@@ -335,7 +340,7 @@ fn distance(target: &[f64], load: &[f64; 3]) -> (f64, f64) {
 }
 
 /// The verdict of a track, `log_end` when the log ended before its window did.
-fn judge(track: &mut Track, crane: &Crane, log_end: Option<f64>) {
+fn judge(track: &mut Track, log_end: Option<f64>) {
     let started = track.v.start.is_some();
     let v = &mut track.v;
     let Some(end) = v.end else {
@@ -375,21 +380,31 @@ fn judge(track: &mut Track, crane: &Crane, log_end: Option<f64>) {
         }
     }
     let mut failed = Vec::new();
-    let mut unknown = Vec::new();
+    let mut unknown: Vec<String> = Vec::new();
     match v.horizontal {
         Some(h) if h > POSITION_TARGET => failed.push(format!("{:.0} mm from the target", h * 1e3)),
         Some(_) => {}
-        None => unknown.push("the drives' positions"),
+        None => unknown.push("the drives' positions".to_string()),
     }
     let swing = v
         .swing
         .iter()
         .flatten()
         .fold(None, |a: Option<f64>, b| Some(a.unwrap_or(0.0).max(*b)));
+    // Without a reading the load is taken hanging still below the trolley: its distance
+    // is then the trolley's, and the verdict says so.
     match swing {
         Some(s) if s >= SWING_TARGET_DEG => failed.push(format!("swinging {s:.3}°")),
+        Some(_) if v.swing_cycles < v.cycles => unknown.push(format!(
+            "the swing in {} of {} cycles (the inclinometer silent: the load taken hanging still)",
+            v.cycles - v.swing_cycles,
+            v.cycles
+        )),
         Some(_) => {}
-        None => unknown.push("the swing (no inclinometer frames)"),
+        None => unknown.push(
+            "the swing (no inclinometer frames): the load taken hanging still below the trolley"
+                .to_string(),
+        ),
     }
     if v.moving_cycles > 0 {
         failed.push(format!(
@@ -403,7 +418,6 @@ fn judge(track: &mut Track, crane: &Crane, log_end: Option<f64>) {
     } else {
         ""
     };
-    let _ = crane;
     v.verdict = match (failed.is_empty(), unknown.is_empty()) {
         (true, true) => format!("pass{cut}"),
         (true, false) => format!(
@@ -461,5 +475,52 @@ mod tests {
         assert_eq!(v.end, Some(5.0));
         assert_eq!(v.verdict, "pass", "{v:?}");
         assert!((v.horizontal.unwrap() - 0.01 - 7.5 * 0.02f64.to_radians().sin()).abs() < 1e-3);
+    }
+
+    /// The move of `a_move_is_judged_five_seconds_after_its_end`, the inclinometer read
+    /// until `readings_until` s; its verdict.
+    fn judged(readings_until: f64) -> Verdict {
+        let crane = Crane::load(&root().join("scenes/paper-crane.toml")).unwrap();
+        let mut load = Load::new(&crane);
+        load.accepted(1.0, 7, vec![13.0, 7.5], Some(4.0), false);
+        let mut t = 0.0;
+        while t < 20.0 {
+            let moving = (1.0..5.0).contains(&t);
+            if t < readings_until {
+                load.inclinometer(t, Some(0.02), None);
+            }
+            let x = 12.0 + (t - 1.0).clamp(0.0, 4.0) / 4.0;
+            let v = if moving { 0.25 } else { 0.0 };
+            load.cycle(t, &[Some(x), Some(7.5)], &[Some(v), Some(0.0)]);
+            t += 0.01;
+        }
+        load.finish(t);
+        load.verdicts.items[0].clone()
+    }
+
+    #[test]
+    fn a_verdict_says_what_it_did_not_measure() {
+        // The window is 10 s to 15.5 s (a swing period at 7.5 m).
+        let whole = judged(30.0);
+        assert_eq!(whole.verdict, "pass");
+        let part = judged(12.0);
+        // Read from 10 s to 12.1 s (a reading is fresh for 0.1 s) of the window.
+        assert!((205..=215).contains(&part.swing_cycles), "{part:?}");
+        assert_eq!(
+            part.verdict,
+            format!(
+                "pass where measured; not measured: the swing in {} of {} cycles (the \
+                 inclinometer silent: the load taken hanging still)",
+                part.cycles - part.swing_cycles,
+                part.cycles
+            )
+        );
+        let none = judged(-1.0);
+        assert!(
+            none.verdict.contains("the swing (no inclinometer frames)")
+                && none.verdict.contains("hanging still"),
+            "{}",
+            none.verdict
+        );
     }
 }

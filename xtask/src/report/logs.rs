@@ -23,8 +23,9 @@ const QUOTED: usize = 8;
 /// One classic CAN frame from the log.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frame {
-    /// Time stamp as the log has it, s (candump: the epoch; ASC: since the start).
-    pub t: f64,
+    /// Time stamp as the log has it, ns (candump: since the epoch; ASC: since the
+    /// start), read exactly from its decimals ([`stamp_ns`]).
+    pub t: i64,
     /// Identifier (11 or 29 bits).
     pub id: u32,
     /// A 29-bit identifier.
@@ -78,7 +79,8 @@ pub struct ReadStats {
     pub error_frames: u64,
     /// CAN FD frames (not CANopen classic: counted, not analysed).
     pub fd_frames: u64,
-    /// ASC lines that are neither frames nor errors (header, events): skipped.
+    /// Lines that are neither frames nor errors (an ASC header, events; comments):
+    /// skipped.
     pub other_lines: u64,
     /// Frames whose time stamp runs backwards (kept, counted).
     pub backwards: u64,
@@ -86,15 +88,25 @@ pub struct ReadStats {
     pub bytes: u64,
 }
 
+/// How much of a log's beginning tells its format, bytes.
+const HEAD: usize = 64 * 1024;
+
 /// The format of the log at `path`, from its first lines; an error names what was
 /// expected. An unreadable file is an error too.
 pub fn detect(path: &Path) -> Result<Format, String> {
     let file = File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut head = Vec::new();
-    file.take(64 * 1024)
+    file.take(HEAD as u64)
         .read_to_end(&mut head)
         .map_err(|e| format!("{}: {e}", path.display()))?;
     let text = String::from_utf8_lossy(&head);
+    // All of it read, and nothing but blanks.
+    if head.len() < HEAD && text.trim().is_empty() {
+        return Err(format!(
+            "{}: the log is empty: no line to read a frame from",
+            path.display()
+        ));
+    }
     for line in text
         .lines()
         .map(str::trim)
@@ -130,8 +142,8 @@ pub struct LogReader<R> {
     decimal: bool,
     /// ASC: each time stamp relative to the one before (`timestamps relative`).
     relative: bool,
-    clock: f64,
-    last_t: Option<f64>,
+    clock: i64,
+    last_t: Option<i64>,
     line: Vec<u8>,
     /// What was read so far.
     pub stats: ReadStats,
@@ -158,7 +170,7 @@ impl<R: BufRead> LogReader<R> {
             format,
             decimal: false,
             relative: false,
-            clock: 0.0,
+            clock: 0,
             last_t: None,
             line: Vec::with_capacity(MAX_LINE),
             stats: ReadStats::default(),
@@ -177,11 +189,7 @@ impl<R: BufRead> LogReader<R> {
             let buf = std::mem::take(&mut self.line);
             let frame = self.classify(&buf, too_long);
             self.line = buf;
-            if let Some(mut frame) = frame {
-                if self.relative {
-                    self.clock += frame.t;
-                    frame.t = self.clock;
-                }
+            if let Some(frame) = frame {
                 if self.last_t.is_some_and(|t| frame.t < t) {
                     self.stats.backwards += 1;
                 }
@@ -207,6 +215,11 @@ impl<R: BufRead> LogReader<R> {
             return None;
         }
         match self.format {
+            // A note written into the log by hand or by a script: no frame, not garbled.
+            Format::Candump if line.starts_with('#') || line.starts_with("//") => {
+                self.stats.other_lines += 1;
+                None
+            }
             Format::Candump => match candump_line(line) {
                 Some(Candump::Frame(f)) => Some(f),
                 Some(Candump::Error) => {
@@ -234,8 +247,21 @@ impl<R: BufRead> LogReader<R> {
             self.stats.other_lines += 1;
             return None;
         }
+        // `timestamps relative`: each line's stamp is the time since the line before,
+        // whatever that line is — an error frame, a CAN FD frame or an event moves the
+        // clock as a frame does.
+        if self.relative {
+            if let Some(dt) = asc_stamp(line) {
+                self.clock = self.clock.saturating_add(dt);
+            }
+        }
         match asc_line(line, self.decimal) {
-            AscLine::Frame(f) => Some(f),
+            AscLine::Frame(mut f) => {
+                if self.relative {
+                    f.t = self.clock;
+                }
+                Some(f)
+            }
             AscLine::Error => {
                 self.stats.error_frames += 1;
                 None
@@ -308,7 +334,7 @@ enum Candump {
 fn candump_line(line: &str) -> Option<Candump> {
     let mut words = line.split_ascii_whitespace();
     let stamp = words.next()?.strip_prefix('(')?.strip_suffix(')')?;
-    let t: f64 = stamp.parse().ok().filter(|t: &f64| t.is_finite())?;
+    let t = stamp_ns(stamp)?;
     let _interface = words.next()?;
     let frame = words.next()?;
     // python-can writes the direction (R received, T transmitted) after the frame.
@@ -377,16 +403,60 @@ enum AscLine {
     Bad,
 }
 
-/// `time channel id Rx|Tx d dlc bytes… [extra columns]`, ids in hex (`x` after an
-/// extended one) unless `decimal`.
+/// The time stamp an ASC line begins with, if it begins with one.
+fn asc_stamp(line: &str) -> Option<i64> {
+    stamp_ns(line.split_ascii_whitespace().next()?)
+}
+
+/// A time stamp in decimal seconds (`1795857436.319260`, `0.010000`) as integer
+/// nanoseconds, exactly. Both formats write decimals — candump since the epoch, ASC
+/// since the first frame — and the difference of two f64 seconds since the epoch is off
+/// by up to a quarter of a microsecond: enough for one format to see an interval of
+/// exactly 1.5 cycles as a missed cycle and the other not. Digits beyond the
+/// nanosecond are dropped; anything but `digits[.digits]` is no stamp.
+pub fn stamp_ns(text: &str) -> Option<i64> {
+    let (whole, fraction) = text.split_once('.').unwrap_or((text, ""));
+    let digits = |s: &str| s.bytes().all(|b| b.is_ascii_digit());
+    if whole.is_empty() || !digits(whole) || !digits(fraction) {
+        return None;
+    }
+    let fraction = &fraction[..fraction.len().min(9)];
+    let scale = 10i64.pow(9 - u32::try_from(fraction.len()).ok()?);
+    let ns = if fraction.is_empty() {
+        0
+    } else {
+        fraction.parse::<i64>().ok()? * scale
+    };
+    whole
+        .parse::<i64>()
+        .ok()?
+        .checked_mul(1_000_000_000)?
+        .checked_add(ns)
+}
+
+/// A DLC or data byte of an ASC frame: hex digits, or in a `base dec` log up to
+/// three decimal ones (Vector's tools and python-can's reader write ids, DLC and data in
+/// the header's base).
+fn number(word: &str, decimal: bool) -> Option<u8> {
+    if decimal {
+        (word.len() <= 3).then(|| word.parse().ok()).flatten()
+    } else {
+        (word.len() <= 2)
+            .then(|| u8::from_str_radix(word, 16).ok())
+            .flatten()
+    }
+}
+
+/// `time channel id Rx|Tx d dlc bytes… [extra columns]`, ids, DLC and data in hex (`x`
+/// after an extended id) unless `decimal`.
 fn asc_line(line: &str, decimal: bool) -> AscLine {
     let mut words = line.split_ascii_whitespace();
-    let Some(t) = words.next().and_then(|w| w.parse::<f64>().ok()) else {
-        return AscLine::Other;
+    let Some(first) = words.next().filter(|w| w.parse::<f64>().is_ok()) else {
+        return AscLine::Other; // a header, "Begin Triggerblock", a comment
     };
-    if !t.is_finite() {
-        return AscLine::Bad;
-    }
+    let Some(t) = stamp_ns(first) else {
+        return AscLine::Bad; // a number, but no time stamp (`inf`, `-1`, `1e3`)
+    };
     let Some(channel) = words.next() else {
         return AscLine::Bad;
     };
@@ -427,6 +497,8 @@ fn asc_line(line: &str, decimal: bool) -> AscLine {
     };
     match words.next() {
         Some("Rx" | "Tx") => {}
+        // A transmit request: the frame itself follows as `Tx` once it is on the bus.
+        Some("TxRq") => return AscLine::Other,
         _ => return AscLine::Bad,
     }
     let mut frame = Frame {
@@ -438,22 +510,21 @@ fn asc_line(line: &str, decimal: bool) -> AscLine {
         data: [0; 8],
     };
     let kind = words.next();
-    let Some(dlc) = words.next().and_then(|d| u8::from_str_radix(d, 16).ok()) else {
-        return AscLine::Bad;
-    };
-    match kind {
-        Some("r") => {
+    let dlc = words.next().map(|d| number(d, decimal));
+    match (kind, dlc) {
+        // A remote frame's DLC is optional: older Vector tools write `r` alone.
+        (Some("r"), None) => {
+            frame.remote = true;
+            AscLine::Frame(frame)
+        }
+        (Some("r"), Some(Some(dlc))) => {
             frame.remote = true;
             frame.len = dlc.min(8);
             AscLine::Frame(frame)
         }
-        Some("d") if dlc <= 8 => {
+        (Some("d"), Some(Some(dlc))) if dlc <= 8 => {
             for slot in frame.data.iter_mut().take(usize::from(dlc)) {
-                match words.next().and_then(|b| {
-                    (b.len() == 2)
-                        .then(|| u8::from_str_radix(b, 16).ok())
-                        .flatten()
-                }) {
+                match words.next().and_then(|b| number(b, decimal)) {
                     Some(byte) => *slot = byte,
                     None => return AscLine::Bad,
                 }
@@ -505,7 +576,7 @@ mod tests {
             (stats.error_frames, stats.fd_frames, stats.unreadable),
             (1, 1, 0)
         );
-        assert!((frames[1].t - 1_700_000_000.000_2).abs() < 1e-6);
+        assert_eq!(frames[1].t, 1_700_000_000_000_200_000);
     }
 
     #[test]
@@ -538,7 +609,63 @@ mod tests {
         let (frames, _) = read(text, Format::Asc);
         assert_eq!(frames[0].id, 0x080);
         assert_eq!(frames[1].id, 0x191);
-        assert!((frames[1].t - 0.020).abs() < 1e-12);
+        assert_eq!(frames[1].t, 20_000_000);
+    }
+
+    #[test]
+    fn relative_asc_stamps_count_from_every_event_not_only_frames() {
+        // `timestamps relative`: each stamp is the time since the line before, whatever
+        // that line was (an error frame, a CAN FD frame, a remote request).
+        let text = "base hex  timestamps relative\n\
+                    \x20  0.010000 1  80   Rx   d 0\n\
+                    \x20  0.005000 1  ErrorFrame\n\
+                    \x20  0.005000 1  80   Rx   d 0\n\
+                    \x20  0.004000 CANFD   1 Rx  123  1 0 d 8 01 02 03 04 05 06 07 08\n\
+                    \x20  0.006000 1  80   Rx   d 0\n";
+        let (frames, stats) = read(text, Format::Asc);
+        let t: Vec<i64> = frames.iter().map(|f| f.t).collect();
+        assert_eq!(t, [10_000_000, 20_000_000, 30_000_000], "{frames:?}");
+        assert_eq!((stats.error_frames, stats.fd_frames), (1, 1));
+    }
+
+    #[test]
+    fn asc_in_base_dec_has_decimal_data_bytes_too() {
+        // Vector (and python-can's reader) write ids, DLC and data in the base the header
+        // names.
+        let text = "base dec  timestamps absolute\n\
+                    \x20  0.010000 1  400  Rx   d 3 10 128 255\n";
+        let (frames, stats) = read(text, Format::Asc);
+        assert_eq!(stats.unreadable, 0, "{stats:?}");
+        assert_eq!(
+            (frames[0].id, frames[0].bytes()),
+            (0x190, &[10, 128, 255][..])
+        );
+    }
+
+    #[test]
+    fn asc_remote_frames_without_a_dlc_and_transmit_requests() {
+        // `r` alone is a remote frame as older Vector tools write it; a `TxRq` line is
+        // the request to send, not a frame on the bus (its frame follows as `Tx`).
+        let text = "base hex  timestamps absolute\n\
+                    \x20  0.010000 1  701  Rx   r\n\
+                    \x20  0.020000 1  701  Rx   r 1\n\
+                    \x20  0.030000 1  210  TxRq d 2 01 02\n\
+                    \x20  0.030100 1  210  Tx   d 2 01 02\n";
+        let (frames, stats) = read(text, Format::Asc);
+        assert_eq!(stats.unreadable, 0, "{stats:?}");
+        assert_eq!(frames.len(), 3, "{frames:?}");
+        assert!(frames[0].remote && frames[1].remote && !frames[2].remote);
+        assert_eq!(stats.other_lines, 2, "the header and the transmit request");
+    }
+
+    #[test]
+    fn comment_lines_in_a_candump_log_are_no_unreadable_frames() {
+        let (frames, stats) = read(
+            "# recorded on the crane, can0\n(1.0) can0 080#\r\n// end\n",
+            Format::Candump,
+        );
+        assert_eq!(frames.len(), 1);
+        assert_eq!((stats.unreadable, stats.other_lines), (0, 2), "{stats:?}");
     }
 
     #[test]
@@ -584,6 +711,10 @@ mod tests {
         );
         let e = detect(&write("c.txt", "hello\nworld\n")).unwrap_err();
         assert!(e.contains("unknown format"), "{e}");
+        let e = detect(&write("empty.log", "")).unwrap_err();
+        assert!(e.contains("empty.log") && e.contains("empty"), "{e}");
+        let e = detect(&write("blank.log", "\n \r\n")).unwrap_err();
+        assert!(e.contains("empty"), "{e}");
         let e = detect(&dir.join("missing.log")).unwrap_err();
         assert!(e.contains("missing.log"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();

@@ -61,6 +61,9 @@ pub struct Options {
 pub struct Seen<'a> {
     /// Seconds from the log's first frame.
     pub t: f64,
+    /// Nanoseconds from the log's first frame, exact: for the thresholds an interval
+    /// of whole microseconds may sit on (1.5 cycles, a histogram bin's edge).
+    pub ns: i64,
     /// The frame.
     pub frame: &'a Frame,
     /// Its meaning by the predefined connection set.
@@ -143,8 +146,8 @@ pub struct Summary {
     pub drives: Vec<drives::DriveRecord>,
     /// Inclinometer readings.
     pub inclinometer_readings: u64,
-    /// Largest swing per plane, degrees.
-    pub max_swing: Vec<f64>,
+    /// Largest swing per plane, degrees (`None`: not read).
+    pub max_swing: Vec<Option<f64>>,
     /// SYNCs with no fresh inclinometer reading after the first.
     pub stale_inclinometer_cycles: u64,
     /// Move verdicts.
@@ -191,7 +194,7 @@ struct Analyses {
     load: load::Load,
     faults: faults::Faults,
     timing: timing::Timing,
-    t0: Option<f64>,
+    t0: Option<i64>,
     t_last: f64,
 }
 
@@ -223,7 +226,8 @@ impl Analyses {
 
     fn frame(&mut self, frame: &Frame) {
         let t0 = *self.t0.get_or_insert(frame.t);
-        let t = frame.t - t0;
+        let ns = frame.t.saturating_sub(t0);
+        let t = ns as f64 / 1e9;
         self.t_last = self.t_last.max(t);
         if frame.extended {
             self.decoding.extended += 1;
@@ -264,6 +268,7 @@ impl Analyses {
         };
         let seen = Seen {
             t,
+            ns,
             frame,
             cob,
             decoded: decoded.as_ref(),
@@ -273,12 +278,18 @@ impl Analyses {
         self.faults.frame(&seen, &self.crane);
         self.timing.frame(&seen, drive);
         self.drives.frame(&seen, drive);
+        let changes = self.requests.mode_changes;
         match self.requests.frame(&seen) {
             Some(Ok(a)) => self
                 .load
                 .accepted(a.t, a.id, a.target, a.duration, a.queued),
             Some(Err(t)) => self.load.stop(t),
             None => {}
+        }
+        if self.requests.mode_changes != changes {
+            if let Some((mode, fault)) = self.requests.mode_now() {
+                self.faults.mode(t, mode, fault);
+            }
         }
         match cob {
             Cob::Tpdo(1, n) if n == self.crane.controller => {
@@ -308,7 +319,7 @@ impl Analyses {
     fn finish(mut self, log: &Path, format: Format, read: ReadStats) -> (Summary, Extras) {
         self.network.finish();
         self.load.finish(self.t_last);
-        self.faults.finish(&self.requests.modes.items);
+        self.faults.finish(self.t_last);
         let mut two = Vec::new();
         // A loaded host's recorder (or a late cycle caught up at once) brings a few SYNCs
         // close together; a second producer brings every other one.
@@ -448,6 +459,7 @@ pub fn report(options: &Options) -> Result<Summary, String> {
         bar
     });
     let began = Instant::now();
+    let cpu_began = cpu_seconds();
     while let Some(frame) = reader.next_frame()? {
         analyses.frame(&frame);
         if let Some(bar) = &progress {
@@ -460,6 +472,7 @@ pub fn report(options: &Options) -> Result<Summary, String> {
         bar.finish_and_clear();
     }
     let read_seconds = began.elapsed().as_secs_f64();
+    let cpu = cpu_seconds().zip(cpu_began).map(|(end, start)| end - start);
     let frames = reader.stats.frames;
     let (summary, extras) = analyses.finish(&options.log, format, reader.stats);
     std::fs::create_dir_all(&options.out).map_err(|e| format!("{}: {e}", options.out.display()))?;
@@ -467,11 +480,27 @@ pub fn report(options: &Options) -> Result<Summary, String> {
     let json = serde_json::to_string_pretty(&summary).map_err(|e| e.to_string())?;
     let path = options.out.join("summary.json");
     std::fs::write(&path, json).map_err(|e| format!("{}: {e}", path.display()))?;
+    // Wall-clock time depends on what else the machine runs; the CPU time this process
+    // spent reading is the cost of the report itself.
+    let per_million = |seconds: f64| {
+        (frames > 0).then(|| {
+            format!(
+                ", {:.2} s per million frames",
+                seconds * 1e6 / frames as f64
+            )
+        })
+    };
     eprintln!(
-        "report: {} frames in {read_seconds:.2} s ({:.2} s per million frames), peak memory {} — {}",
-        frames,
-        if frames > 0 { read_seconds * 1e6 / frames as f64 } else { 0.0 },
-        peak_memory().map_or("unknown".into(), |kib| format!("{:.1} MiB", kib as f64 / 1024.0)),
+        "report: {frames} frames read in {read_seconds:.2} s{} (CPU {}), peak memory {} — {}",
+        per_million(read_seconds).unwrap_or_default(),
+        cpu.map_or("unknown".into(), |c| format!(
+            "{c:.2} s{}",
+            per_million(c).unwrap_or_default()
+        )),
+        peak_memory().map_or("unknown".into(), |kib| format!(
+            "{:.1} MiB",
+            kib as f64 / 1024.0
+        )),
         options.out.join("index.html").display()
     );
     Ok(summary)
@@ -500,37 +529,72 @@ pub fn shown(path: &Path) -> String {
 /// scenes/paper-crane-feedback.toml --out docs/report-example`), and the page must load
 /// in headless chromium.
 pub fn check_example() -> Result<(), String> {
-    let committed = root().join("docs/report-example");
+    let committed = root().join(EXAMPLE_DIR);
     let out = crate::ecu::target_dir().join("report-example");
     let _ = std::fs::remove_dir_all(&out);
     report(&Options {
-        log: committed.join("healthy.log"),
+        log: committed.join(EXAMPLE_LOG),
         scene: root().join(EXAMPLE_SCENE),
         out: out.clone(),
         eds: Vec::new(),
     })?;
-    let mut files: Vec<_> = std::fs::read_dir(&out)
-        .map_err(|e| format!("{}: {e}", out.display()))?
-        .filter_map(Result::ok)
-        .map(|e| e.file_name())
-        .collect();
-    files.sort();
-    for name in files {
-        let made = std::fs::read(out.join(&name)).map_err(|e| e.to_string())?;
-        let kept = std::fs::read(committed.join(&name)).unwrap_or_default();
-        if made != kept {
+    same_files(&out, &committed, EXAMPLE_LOG).map_err(|what| {
+        format!(
+            "{what}: regenerate the example with `cargo xtask report docs/report-example/{EXAMPLE_LOG} \
+             --scene {EXAMPLE_SCENE} --out docs/report-example`"
+        )
+    })?;
+    browser::check(&out.join("index.html"))
+}
+
+/// Where the committed example is.
+const EXAMPLE_DIR: &str = "docs/report-example";
+/// The committed example's log (in [`EXAMPLE_DIR`]).
+const EXAMPLE_LOG: &str = "healthy.log";
+
+/// Whether the directory `committed` holds exactly the files the report `made`, byte
+/// for byte, besides its log `keep`: a file the report no longer makes (a figure renamed
+/// or dropped) is as stale as one it makes otherwise. The error names the file.
+fn same_files(made: &Path, committed: &Path, keep: &str) -> Result<(), String> {
+    let names = |dir: &Path| -> Result<Vec<std::ffi::OsString>, String> {
+        let mut names: Vec<_> = std::fs::read_dir(dir)
+            .map_err(|e| format!("{}: {e}", dir.display()))?
+            .filter_map(Result::ok)
+            .map(|e| e.file_name())
+            .filter(|n| n != keep)
+            .collect();
+        names.sort();
+        Ok(names)
+    };
+    let (made_names, kept_names) = (names(made)?, names(committed)?);
+    for name in &made_names {
+        let new = std::fs::read(made.join(name)).map_err(|e| e.to_string())?;
+        if std::fs::read(committed.join(name)).ok() != Some(new) {
             return Err(format!(
-                "docs/report-example/{} is not what the report makes now: regenerate it with \
-                 `cargo xtask report docs/report-example/healthy.log --scene {EXAMPLE_SCENE} --out docs/report-example`",
-                name.to_string_lossy()
+                "{} is not what the report makes now",
+                committed.join(name).display()
             ));
         }
     }
-    browser::check(&out.join("index.html"))
+    if let Some(stale) = kept_names.iter().find(|n| !made_names.contains(n)) {
+        return Err(format!(
+            "{} is not made by the report any more",
+            committed.join(stale).display()
+        ));
+    }
+    Ok(())
 }
 
 /// The scene of the committed example (the state feedback, with the inclinometer).
 pub const EXAMPLE_SCENE: &str = "scenes/paper-crane-feedback.toml";
+
+/// The CPU time this thread has run, s (the first field of `/proc/self/schedstat`,
+/// nanoseconds) — Linux.
+pub fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/schedstat").ok()?;
+    let ns: u64 = stat.split_whitespace().next()?.parse().ok()?;
+    Some(ns as f64 / 1e9)
+}
 
 /// The process's peak resident memory (VmHWM), KiB — Linux.
 pub fn peak_memory() -> Option<u64> {

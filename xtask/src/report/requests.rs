@@ -84,6 +84,8 @@ pub struct Requests {
     pub statuses: u64,
     /// Manual-mode frames (0x400 + controller).
     pub manual: u64,
+    /// Changes of mode or fault the status frames showed, all counted.
+    pub mode_changes: u64,
     pending: BTreeMap<u8, usize>,
     last_status: Option<(u8, u8, u8)>,
     last_mode: Option<(String, String)>,
@@ -102,6 +104,7 @@ impl Requests {
             last_counters: None,
             statuses: 0,
             manual: 0,
+            mode_changes: 0,
             pending: BTreeMap::new(),
             last_status: None,
             last_mode: None,
@@ -205,6 +208,13 @@ impl Requests {
         }
     }
 
+    /// The controller's mode and fault as its last status frame showed them.
+    pub fn mode_now(&self) -> Option<(&str, &str)> {
+        self.last_mode
+            .as_ref()
+            .map(|(mode, fault)| (mode.as_str(), fault.as_str()))
+    }
+
     fn status(&mut self, s: &Seen) -> Option<Result<Accepted, f64>> {
         let d = s.decoded?;
         self.statuses += 1;
@@ -222,6 +232,7 @@ impl Requests {
         );
         if self.last_mode.as_ref() != Some(&mode) {
             self.modes.push((s.t, mode.0.clone(), mode.1.clone()));
+            self.mode_changes += 1;
             self.last_mode = Some(mode);
         }
         let counters = [

@@ -82,8 +82,9 @@ impl<T> Capped<T> {
     }
 }
 
-/// Count, mean, spread and extremes of a stream of numbers.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+/// Count, mean, spread and extremes of a stream of numbers. In summary.json a number
+/// the stream did not give is `null` (no mean of nothing, no spread of one).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Stats {
     /// How many.
     pub count: u64,
@@ -95,8 +96,36 @@ pub struct Stats {
     pub min: f64,
     /// Largest.
     pub max: f64,
-    #[serde(skip)]
     m2: f64,
+}
+
+impl Serialize for Stats {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        #[derive(Serialize)]
+        struct Shown {
+            count: u64,
+            mean: Option<f64>,
+            std: Option<f64>,
+            min: Option<f64>,
+            max: Option<f64>,
+        }
+        let any = |v: f64| (self.count > 0).then_some(v);
+        Shown {
+            count: self.count,
+            mean: any(self.mean),
+            std: (self.count > 1).then_some(self.std),
+            min: any(self.min),
+            max: any(self.max),
+        }
+        .serialize(serializer)
+    }
+}
+
+impl Stats {
+    /// `f` of the numbers, if there were any.
+    pub fn get(&self, f: impl Fn(&Stats) -> f64) -> Option<f64> {
+        (self.count > 0).then(|| f(self))
+    }
 }
 
 impl Stats {

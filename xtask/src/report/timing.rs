@@ -48,7 +48,8 @@ pub struct Timing {
     pub histogram: Vec<u64>,
     /// Cycles missed: a gap of n periods misses n − 1.
     pub missed_cycles: u64,
-    /// The longest gaps: (when the SYNC came, gap s).
+    /// The gaps (more than 1.5 cycles between two SYNCs), the first 50 and the rest
+    /// counted: (when the SYNC came, gap s).
     pub gaps: Capped<(f64, f64)>,
     /// SYNCs less than half a period after the one before.
     pub doubled_syncs: u64,
@@ -60,6 +61,11 @@ pub struct Timing {
     pub(crate) intervals: Series,
     #[serde(skip)]
     last_sync: Option<f64>,
+    #[serde(skip)]
+    last_sync_ns: Option<i64>,
+    /// The nominal cycle, ns.
+    #[serde(skip)]
+    period_ns: i64,
     #[serde(skip)]
     rpdos: Vec<u32>,
     #[serde(skip)]
@@ -84,6 +90,8 @@ impl Timing {
             tpdo: vec![TpdoTiming::default(); n],
             intervals: Series::new(),
             last_sync: None,
+            last_sync_ns: None,
+            period_ns: ((crane.period * 1e9).round() as i64).max(1),
             rpdos: vec![0; n],
             sending: vec![false; n],
             tpdo_timeout: crane.tpdo_timeout,
@@ -93,7 +101,7 @@ impl Timing {
     /// One frame, `drive` the index of the drive it is of.
     pub fn frame(&mut self, s: &Seen, drive: Option<usize>) {
         match (s.cob, drive) {
-            (Cob::Sync, _) => self.sync(s.t),
+            (Cob::Sync, _) => self.sync(s.t, s.ns),
             (Cob::Rpdo(1, _), Some(i)) => {
                 self.rpdos[i] += 1;
                 self.sending[i] = true;
@@ -123,26 +131,32 @@ impl Timing {
         }
     }
 
-    fn sync(&mut self, t: f64) {
+    /// A SYNC at `t` s (`ns` exactly). The interval is judged in whole nanoseconds:
+    /// a recorder's stamps are whole microseconds, so an interval of exactly 1.5 cycles
+    /// or on a bin's edge is common, and f64 seconds would put it on either side.
+    fn sync(&mut self, t: f64, ns: i64) {
         self.syncs += 1;
-        if let Some(last) = self.last_sync {
-            let dt = t - last;
+        if let Some(last) = self.last_sync_ns {
+            let dt_ns = ns - last;
+            let dt = dt_ns as f64 / 1e9;
             self.interval.add(dt);
             self.intervals.push(t, dt * 1e3);
-            let deviation_ms = (dt - self.period) * 1e3;
-            let bin = ((deviation_ms + SPAN_MS) / BIN_MS)
-                .floor()
-                .clamp(0.0, (BINS - 1) as f64);
-            self.histogram[bin as usize] += 1;
-            if dt > 1.5 * self.period {
-                self.missed_cycles += ((dt / self.period).round() as u64).saturating_sub(1);
+            let period = self.period_ns;
+            let (bin_ns, span_ns) = ((BIN_MS * 1e6) as i64, (SPAN_MS * 1e6) as i64);
+            let bin = (dt_ns - period + span_ns).div_euclid(bin_ns);
+            self.histogram[bin.clamp(0, BINS as i64 - 1) as usize] += 1;
+            if 2 * dt_ns > 3 * period {
+                // A gap of n cycles (rounded) misses n − 1.
+                let cycles = (dt_ns + period / 2) / period;
+                self.missed_cycles += u64::try_from(cycles - 1).unwrap_or(0);
                 self.gaps.push((t, dt));
             }
-            if dt < 0.5 * self.period {
+            if 2 * dt_ns < period {
                 self.doubled_syncs += 1;
             }
         }
         self.last_sync = Some(t);
+        self.last_sync_ns = Some(ns);
         for (i, count) in self.rpdos.iter_mut().enumerate() {
             if self.sending[i] {
                 let slot = match *count {
