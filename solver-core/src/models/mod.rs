@@ -61,6 +61,7 @@ pub mod crane;
 pub mod crane3d;
 pub mod crane_proj;
 pub mod crane_subs;
+pub mod double_pendulum;
 pub mod mass_on_car;
 
 /// What the models' tests share.
