@@ -16,7 +16,7 @@
 //! run stopped with an error, printed below the row (Newton's increment does not fall
 //! below its stall limit where the rounding, amplified by the index, exceeds it).
 
-use host_tests::run::{run, Scheme, Trace};
+use host_tests::run::{run, run_with, Scheme, Trace};
 use nalgebra::SVector;
 use solver_core::models::double_pendulum::{
     self, DoublePendulumParams, DoublePendulumSubs, HOOK_MASS_RATIO, SLING_LENGTH,
@@ -184,6 +184,71 @@ fn corners() {
     }
 }
 
+/// The firmware's strategies: each step from the closed-form step
+/// (`StructuredJacobian::solve_step`), BDF4 corrected by Newton below 5 ms, RADAU5 not.
+fn closed_form() {
+    println!("\n### From the closed-form step (n = 8, f64): e_max / interior\n");
+    let header: Vec<String> = STEP_SIZES
+        .iter()
+        .map(|h| format!("{} ms", h * 1e3))
+        .collect();
+    println!("| strategy | {} |", header.join(" | "));
+    println!("|---|{}", "---:|".repeat(STEP_SIZES.len()));
+    let p = DoublePendulumParams::EXAMPLE;
+    let model =
+        DoublePendulumSubs::<f64, _>::new(p, trajectory::<f64>(8)).expect("the move is valid");
+    let z = trajectory::<f64>(8);
+    let show = |trace: Result<
+        Trace<{ double_pendulum::N }, { double_pendulum::NU }>,
+        solver_core::Error,
+    >| {
+        match trace {
+            Ok(t) if t.failure.is_none() => {
+                let e = e_max(
+                    &p,
+                    &z,
+                    t.t.iter().copied().zip(t.u.iter().copied()),
+                    INTERIOR,
+                );
+                format!("{:.2e} / {:.2e}", e.global, e.interior)
+            }
+            Ok(t) => format!(
+                "fails ({})",
+                t.failure.map_or(String::new(), |e| e.to_string())
+            ),
+            Err(e) => format!("refused ({e})"),
+        }
+    };
+    let cells: Vec<String> = STEP_SIZES
+        .iter()
+        .map(|&h| {
+            let s = SolverSettings {
+                h,
+                ..SolverSettings::paper(JacobianMode::Exact)
+            };
+            show(
+                double_pendulum::StructuredBdf::<f64, _>::new(&model, &s, 4, 0.0)
+                    .and_then(|i| run_with(&model, i, &s, T_END)),
+            )
+        })
+        .collect();
+    println!("| BDF4 structured | {} |", cells.join(" | "));
+    let cells: Vec<String> = STEP_SIZES
+        .iter()
+        .map(|&h| {
+            let s = SolverSettings {
+                h,
+                ..SolverSettings::paper(JacobianMode::Transformed)
+            };
+            show(
+                double_pendulum::StructuredRadau5::<f64, _>::new(&model, &s, 0.0)
+                    .and_then(|i| run_with(&model, i, &s, T_END)),
+            )
+        })
+        .collect();
+    println!("| RADAU5 structured | {} |", cells.join(" | "));
+}
+
 fn scaling() {
     println!("\n### The row scaling ρ = h^-p of Sec. 3.1.1 (n = 8, f64): e_max\n");
     let hs = [0.02, 0.01, 0.005, 0.002];
@@ -212,6 +277,7 @@ fn main() {
     convergence_table::<f64>(&p, 8, "f64, n = 8");
     convergence_table::<f64>(&p, 6, "f64, n = 6 (the least smoothness the model accepts)");
     convergence_table::<f32>(&p, 8, "f32, n = 8");
+    closed_form();
     scaling();
     corners();
 }
