@@ -292,6 +292,16 @@ fn every_scheme_and_jacobian_mode_runs_the_move() {
     )
     .unwrap();
     rows.push(("BDF4 structured".into(), measured(&structured_bdf)));
+    // From 5 ms on the firmware links the closed form without BDF's correction: the
+    // same steps, bit for bit.
+    let uncorrected = run_with(
+        &m,
+        double_pendulum::StructuredBdfUncorrected::<f64, Z>::new(&m, &s, 4, 0.0).unwrap(),
+        &s,
+        T_END,
+    )
+    .unwrap();
+    assert_eq!(uncorrected.x, structured_bdf.x);
     let s5 = settings(H, JacobianMode::Transformed);
     let structured_radau = run_with(
         &m,

@@ -445,7 +445,7 @@ impl<T: Real, Z: Trajectory<T, 2>> StructuredJacobian<T, N, NU> for DoublePendul
         *r = SVector::<T, N>::from(lanes.map(|v| v.re));
     }
 
-    /// The same elimination in complex arithmetic ([`eliminate`]): the shift `c + i b`
+    /// The same elimination in complex arithmetic (`eliminate`): the shift `c + i b`
     /// enters through F1–F8 only.
     fn solve_complex(
         f: &DoublePendulumFactors<T>,
