@@ -400,8 +400,9 @@ impl<T: Real> Lane<T> {
 /// complement `−2 (a² + b²)/λ2` for λ2; then λ1, x, l each have one pivot (`−2 z_H`,
 /// `2 λ1`, `−2 l`). None depends on the shift, so the real factors serve RADAU5's complex
 /// system too; they vanish only for a slack sling or rope, the hook at the load or at the
-/// rail, or a rope of zero length, all refused up front. About 10 divisions and 60
-/// multiply-adds instead of a 12×12 LU.
+/// rail, or a rope of zero length, all refused up front. Five pivots known in advance
+/// instead of a 12×12 LU with its pivot search (its cost not measured yet: the model is
+/// not in a firmware).
 impl<T: Real, Z: Trajectory<T, 2>> StructuredJacobian<T, N, NU> for DoublePendulumSubs<T, Z> {
     type Factors = DoublePendulumFactors<T>;
 
