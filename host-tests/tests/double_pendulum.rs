@@ -88,7 +88,7 @@ fn flat_state_satisfies_the_residual() {
     let mut worst = 0.0_f64;
     for i in 0..=10_000 {
         let t = f64::from(i) * 1e-3;
-        let flat = flat_inverse(&p, &z, t);
+        let flat = flat_inverse(&p, &z, t).unwrap();
         let r = m.residual(&flat.subs(), &flat.subs_dot(), &m.sample(t));
         worst = worst.max(r.amax());
     }
@@ -106,9 +106,9 @@ fn flat_rates_are_the_derivatives_of_its_values() {
     for i in 0..80 {
         let t = 1.05 + 0.1 * f64::from(i);
         let (a, b, m) = (
-            flat_inverse(&p, &z, t - eps),
-            flat_inverse(&p, &z, t + eps),
-            flat_inverse(&p, &z, t),
+            flat_inverse(&p, &z, t - eps).unwrap(),
+            flat_inverse(&p, &z, t + eps).unwrap(),
+            flat_inverse(&p, &z, t).unwrap(),
         );
         let fd =
             |f: fn(&solver_core::reference::double_pendulum::FlatDoublePendulum) -> [f64; 2]| {
@@ -146,7 +146,7 @@ fn forward_deviation(p: &DoublePendulumParams, u: impl Fn(f64) -> [f64; 2]) -> f
         .map(|i| SVector::from(u(f64::from(i) * h)))
         .collect();
     let input = SampledInput::new(0.0, h, &samples);
-    let y0 = flat_inverse(p, &z, 0.0).plant_state();
+    let y0 = flat_inverse(p, &z, 0.0).unwrap().plant_state();
     let mut worst = 0.0_f64;
     simulate(
         |y, u| plant_rhs(p, y, u),
@@ -170,7 +170,7 @@ fn the_plant_driven_by_the_flat_inputs_follows_the_path() {
     for (ratio, sling) in [(0.3, 1.0), (0.1, 0.5), (1.0, 2.0), (1.0, 0.5), (0.1, 2.0)] {
         let p = DoublePendulumParams::EXAMPLE.with(ratio, sling);
         let z = paper_move(8);
-        let worst = forward_deviation(&p, |t| flat_inverse(&p, &z, t).u);
+        let worst = forward_deviation(&p, |t| flat_inverse(&p, &z, t).unwrap().u);
         println!("m_h/m = {ratio}, l_s = {sling} m: load off the path by {worst:.2e} m");
         assert!(worst < 1e-6, "m_h/m = {ratio}, l_s = {sling}: {worst:e} m");
     }
@@ -196,7 +196,7 @@ fn a_light_hook_is_the_single_pendulum() {
             .map(|i| {
                 let t = f64::from(i) * 1e-2;
                 let (dp, single) = (
-                    flat_inverse(&p, &z, t),
+                    flat_inverse(&p, &z, t).unwrap(),
                     solver_core::reference::flat_crane::flat_inverse(&p.crane, &z, t),
                 );
                 [
@@ -390,6 +390,60 @@ fn orders_and_the_rounding_floor() {
     let p = orders(&hs, &e);
     println!("RADAU5: e_max {e:?}, orders {p:.2?}");
     assert!(p.iter().all(|p| p.abs() < 0.1), "{e:?} {p:?}");
+}
+
+/// The flat inverse is refused where it does not exist, and a sample compared with a
+/// refused reference counts as NaN: a sling that would push (the load falling faster
+/// than g), a rope that would (both masses falling faster than g on average), the hook
+/// above the rail, a non-finite path.
+#[test]
+fn the_flat_inverse_refuses_what_does_not_exist() {
+    use solver_core::reference::double_pendulum::{flat_state, input_error};
+    let p = DoublePendulumParams::EXAMPLE;
+    let at = |z: [f64; 2], a: [f64; 2]| {
+        let mut d = [SVector::<f64, 2>::zeros(); 8];
+        d[0] = SVector::from(z);
+        d[2] = SVector::from(a);
+        flat_state(&p, &d, 2.5)
+    };
+    assert!(at([15.0, 6.0], [1.0, 2.0]).is_ok());
+    assert!(matches!(
+        at([15.0, 6.0], [0.0, 9.81]),
+        Err(Error::RopeSlack { t: 2.5, .. })
+    ));
+    assert!(matches!(
+        at([15.0, 0.5], [0.0, 0.0]),
+        Err(Error::OutsideWorkspace {
+            coordinate: "z_H",
+            ..
+        })
+    ));
+    assert!(matches!(
+        at([f64::NAN, 6.0], [0.0, 0.0]),
+        Err(Error::NonFinite { .. })
+    ));
+    // The rope: the load at rest with a horizontal jerk of 100 m/s³ swings the sling,
+    // which throws the hook down at l_s x⃛_C²/g² ≈ 104 m/s² (mean 24 m/s² with 30 %).
+    let mut d = [SVector::<f64, 2>::zeros(); 8];
+    d[0] = SVector::from([15.0, 6.0]);
+    d[3] = SVector::from([100.0, 0.0]);
+    assert!(matches!(
+        flat_state(&p, &d, 1.0),
+        Err(Error::RopeSlack { .. })
+    ));
+    let z = PointToPoint::new(
+        SVector::from([15.0, 4.0]),
+        SVector::from([15.0, 8.0]),
+        1.0,
+        1.0,
+        8,
+    )
+    .unwrap();
+    let worst = (0..=100)
+        .map(|i| f64::from(i) * 0.02 + 1.0)
+        .find(|&t| flat_inverse(&p, &z, t).is_err())
+        .unwrap();
+    assert!(input_error(&p, &z, worst, &SVector::zeros()).is_nan());
 }
 
 /// The paper's C4 polynomial makes the inputs jump: refused, with both smoothnesses.

@@ -25,6 +25,7 @@
 
 use nalgebra::SVector;
 
+use crate::error::{Error, Result};
 use crate::models::double_pendulum::DoublePendulumParams;
 use crate::reference::emax::{self, Emax};
 use crate::trajectory::Trajectory;
@@ -219,9 +220,21 @@ impl FlatDoublePendulum {
 }
 
 /// `u_flat(t)` and the state that goes with it, from the load path's derivatives
-/// `[z, ż, …, z^(7)]` at one instant (see the module's comment).
-#[must_use]
-pub fn flat_state(p: &DoublePendulumParams, d: &[SVector<f64, 2>; 8]) -> FlatDoublePendulum {
+/// `[z, ż, …, z^(7)]` at the instant `t` (see the module's comment).
+///
+/// Refused where the inverse does not exist: the load's downward acceleration at or
+/// above `g` (the sling would push, [`Error::RopeSlack`] with it), the two masses' mean
+/// downward acceleration `(z̈_C + μ z̈_H)/(1 + μ)` at or above `g` (the rope would,
+/// [`Error::RopeSlack`] with the mean), the hook at or above the rail
+/// ([`Error::OutsideWorkspace`] naming `z_H`), and anything not finite (a non-finite
+/// parameter or path, [`Error::NonFinite`]). The model's checks
+/// ([`check_trajectory`](crate::models::double_pendulum::check_trajectory)) keep margins
+/// to these.
+pub fn flat_state(
+    p: &DoublePendulumParams,
+    d: &[SVector<f64, 2>; 8],
+    t: f64,
+) -> Result<FlatDoublePendulum> {
     let series = |axis: usize, from: usize| {
         Taylor::<L>::from_derivatives(core::array::from_fn(|k| {
             d.get(from + k)
@@ -256,7 +269,28 @@ pub fn flat_state(p: &DoublePendulumParams, d: &[SVector<f64, 2>; 8]) -> FlatDou
     let (sx, sz) = (xc - xh, zc - zh);
     let (tau1, tau2) = (p.crane.tau1, p.crane.tau2);
     let input = |q: &Taylor<L>, tau: f64, k: usize| tau * q.derivative(k + 2) + q.derivative(k + 1);
-    FlatDoublePendulum {
+    let g = p.crane.g;
+    let slack = |acc: f64| {
+        (acc >= g).then_some(Error::RopeSlack {
+            t,
+            vertical_acceleration: acc,
+            limit: g,
+        })
+    };
+    let mean = (azc.value() + mu * azh.value()) / (1.0 + mu);
+    if let Some(e) = slack(azc.value()).or_else(|| slack(mean)) {
+        return Err(e);
+    }
+    if zh.value() <= 0.0 {
+        return Err(Error::OutsideWorkspace {
+            t,
+            coordinate: "z_H",
+            value: zh.value(),
+            min: 0.0,
+            max: f64::INFINITY,
+        });
+    }
+    let flat = FlatDoublePendulum {
         x: x.value(),
         l: l.value(),
         hook: [xh.value(), zh.value()],
@@ -273,20 +307,31 @@ pub fn flat_state(p: &DoublePendulumParams, d: &[SVector<f64, 2>; 8]) -> FlatDou
         angle_rate: [rate(&dx, &zh), rate(&sx, &sz)],
         u: [input(&x, tau1, 0), input(&l, tau2, 0)],
         u_dot: [input(&x, tau1, 1), input(&l, tau2, 1)],
+    };
+    if flat
+        .subs()
+        .iter()
+        .chain(flat.u_dot.iter())
+        .all(|v| v.is_finite())
+    {
+        Ok(flat)
+    } else {
+        Err(Error::NonFinite { t, iterations: 0 })
     }
 }
 
-/// `u_flat(t)` and the state that goes with it, on the trajectory `z` at `t`.
-#[must_use]
+/// `u_flat(t)` and the state that goes with it, on the trajectory `z` at `t`; refused as
+/// [`flat_state`] refuses.
 pub fn flat_inverse<Z: Trajectory<f64, 2>>(
     p: &DoublePendulumParams,
     z: &Z,
     t: f64,
-) -> FlatDoublePendulum {
-    flat_state(p, &z.derivatives::<8>(t))
+) -> Result<FlatDoublePendulum> {
+    flat_state(p, &z.derivatives::<8>(t), t)
 }
 
-/// One sample's error of Eq. 29, `max_i |u_i − u_flat,i(t)|` (NaN if `u` is).
+/// One sample's error of Eq. 29, `max_i |u_i − u_flat,i(t)|` (NaN if `u` is, or where
+/// the reference is refused: a failed comparison must not look accurate).
 #[must_use]
 pub fn input_error<Z: Trajectory<f64, 2>>(
     p: &DoublePendulumParams,
@@ -294,7 +339,7 @@ pub fn input_error<Z: Trajectory<f64, 2>>(
     t: f64,
     u: &SVector<f64, 2>,
 ) -> f64 {
-    emax::input_error(u, &flat_inverse(p, z, t).u)
+    flat_inverse(p, z, t).map_or(f64::NAN, |flat| emax::input_error(u, &flat.u))
 }
 
 /// Eq. 29 over a run's samples `(t, u(t))`, globally and over the interior `[a, b]`.
