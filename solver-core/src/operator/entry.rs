@@ -1,0 +1,428 @@
+//! Starting from a moving load: the hand-over from a running automatic move.
+//!
+//! The generator's path is `K ∗ p₀`; a state it can continue exactly is one it could
+//! have reached. The entry takes the one of *steady acceleration*: the rate limiter as
+//! if it had accelerated at a constant `ā` (the move's acceleration, within the axis's
+//! limit) for longer than the filters remember. Its ring is then full of that
+//! acceleration's step, its running sums and B-spline coefficients hold their steady
+//! values, and with `τ̄`, `μ₂` the mean and second moment of the kernel from `p₀` to the
+//! virtual trolley `r` (the pendulum adds no lag: `ω²/(ω² + s²) = 1 − s²/ω² + …`):
+//!
+//! ```text
+//! p₀(t − s) = p₀ − v₀ s + ā s²/2,   d = r − p₀ = −v₀ τ̄ + ā μ₂/2,   ḋ = −ā τ̄,
+//! e = x_L − r = −ā/ω_g²,   ė = 0,    so   x_L = p₀ + d + e,  ẋ_L = v₀ − ā τ̄,  ẍ_L = ā.
+//! ```
+//!
+//! (The hoist the same without `e`.) Given the move's load position, speed and
+//! acceleration this fixes `v₀ = ẋ + ā τ̄` and the origin of `p₀`. What the steady
+//! state cannot represent — the move's third to fifth derivatives, the acceleration
+//! beyond the limit, the quanta's rounding — is added as a blend `E(t)` that starts with
+//! exactly those differences in derivatives 0..=5 and ends with all of them zero after
+//! [`Settings::entry_blend`]: the two-point Hermite basis of degree 11,
+//! `H_j(τ) = τ^j/j! · (1 − τ)⁶ · Σ_{k=0}^{5−j} C(5+k, k) τ^k` (`H_j^{(i)}(0) = δ_ij`,
+//! `H_j^{(i)}(1) = 0`, `i ≤ 5`). So the set points stay continuous with their
+//! accelerations at the hand-over, and the path is the generator's own once the blend
+//! has passed.
+//!
+//! Refused (the controller then lets the move stop on its path and hands over at rest):
+//! a state whose steady past or whose full-deceleration stop leaves an axis's range, or
+//! whose rope is longer than the virtual pendulum would be.
+
+use crate::error::{Error, Result};
+use crate::operator::limiter::{brake, round_i, MAX_STEP};
+use crate::operator::piece::Piece;
+use crate::operator::piece::{COEFFS, DEGREE};
+use crate::operator::settings::Quanta;
+use crate::trajectory::Trajectory;
+
+/// The derivatives that are continued: position to fifth.
+pub const ORDERS: usize = 6;
+
+/// A moving load's state: per output its position and first five derivatives.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Handover<const NH: usize> {
+    /// The horizontal outputs, `[z, ż, z̈, z⃛, z⁗, z⁽⁵⁾]` each.
+    pub horizontal: [[f64; ORDERS]; NH],
+    /// The load's depth and its derivatives.
+    pub hoist: [f64; ORDERS],
+}
+
+impl Handover<1> {
+    /// The planar path `[x_C, z_C]` at `t`.
+    #[must_use]
+    pub fn of<Z: Trajectory<f64, 2>>(path: &Z, t: f64) -> Self {
+        let d = path.derivatives::<ORDERS>(t).map(<[f64; 2]>::from);
+        Self {
+            horizontal: [d.map(|[x, _]| x)],
+            hoist: d.map(|[_, z]| z),
+        }
+    }
+}
+
+impl Handover<2> {
+    /// The 3D path `[x_C, y_C, z_C]` at `t`.
+    #[must_use]
+    pub fn of<Z: Trajectory<f64, 3>>(path: &Z, t: f64) -> Self {
+        let d = path.derivatives::<ORDERS>(t).map(<[f64; 3]>::from);
+        Self {
+            horizontal: [d.map(|[x, _, _]| x), d.map(|[_, y, _]| y)],
+            hoist: d.map(|[_, _, z]| z),
+        }
+    }
+}
+
+/// The blend `E(t)` per axis as monomial coefficients in `τ = (t − t_h)/T_b ∈ [0, 1]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Blend<const NH: usize> {
+    horizontal: [[f64; COEFFS]; NH],
+    hoist: [f64; COEFFS],
+    /// The cycle at which τ = 0.
+    start: u64,
+    /// Its length in cycles.
+    cycles: u64,
+}
+
+/// `C(n, k)`.
+fn binomial(n: usize, k: usize) -> f64 {
+    (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
+}
+
+/// The monomial coefficients of `H_j(τ)` (module documentation).
+fn hermite_basis(j: usize) -> [f64; COEFFS] {
+    // (1 − τ)⁶ Σ_{k ≤ 5−j} C(5+k, k) τ^k, then shifted by τ^j/j!.
+    let mut tail = [0.0; COEFFS];
+    for k in 0..=(ORDERS - 1 - j) {
+        let ck = binomial(5 + k, k);
+        for i in 0..=6 {
+            let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+            if let Some(slot) = tail.get_mut(i + k) {
+                *slot += ck * sign * binomial(6, i);
+            }
+        }
+    }
+    let factorial = (1..=j).fold(1.0, |acc, i| acc * i as f64);
+    let mut out = [0.0; COEFFS];
+    for (i, t) in tail.iter().enumerate() {
+        if let Some(slot) = out.get_mut(i + j) {
+            *slot = t / factorial;
+        }
+    }
+    out
+}
+
+/// The blend of one axis: differences `e[j]` in the j-th time derivative at its start,
+/// over `duration` seconds.
+fn blend_axis(e: &[f64; ORDERS], duration: f64) -> [f64; COEFFS] {
+    let mut out = [0.0; COEFFS];
+    let mut scale = 1.0;
+    for (j, ej) in e.iter().enumerate() {
+        let basis = hermite_basis(j);
+        for (o, b) in out.iter_mut().zip(basis) {
+            *o += ej * scale * b;
+        }
+        scale *= duration;
+    }
+    out
+}
+
+/// `p(τ₀ + s θ)` as coefficients in θ: the Taylor shift of a polynomial in τ.
+fn shifted(p: &[f64; COEFFS], tau0: f64, s: f64) -> [f64; COEFFS] {
+    let mut out = [0.0; COEFFS];
+    let mut s_j = 1.0;
+    let mut j_factorial = 1.0;
+    for (j, o) in out.iter_mut().enumerate() {
+        // p^(j)(τ₀)/j! · s^j, by Horner on k!/(k−j)! p_k τ₀^(k−j).
+        let mut acc = 0.0;
+        for k in (j..=DEGREE).rev() {
+            let falling = ((k - j + 1)..=k).fold(1.0, |a, i| a * i as f64);
+            acc = acc * tau0 + p.get(k).copied().unwrap_or(0.0) * falling;
+        }
+        *o = acc / j_factorial * s_j;
+        s_j *= s;
+        j_factorial *= (j + 1) as f64;
+    }
+    out
+}
+
+impl<const NH: usize> Blend<NH> {
+    /// Adds the blend's share on cycle `cycle` (coefficients in θ of that cycle, `h` long)
+    /// to the pieces; nothing outside the blend.
+    pub fn add(&self, cycle: u64, horizontal: &mut [Piece; NH], hoist: &mut Piece) {
+        let Some(i) = cycle.checked_sub(self.start).filter(|i| *i < self.cycles) else {
+            return;
+        };
+        let s = 1.0 / self.cycles as f64;
+        let tau0 = i as f64 * s;
+        for (piece, e) in horizontal.iter_mut().zip(self.horizontal.iter()) {
+            for (c, b) in piece.coeffs.iter_mut().zip(shifted(e, tau0, s)) {
+                *c += b;
+            }
+        }
+        for (c, b) in hoist.coeffs.iter_mut().zip(shifted(&self.hoist, tau0, s)) {
+            *c += b;
+        }
+    }
+
+    /// Whether the blend still acts on or after cycle `cycle`.
+    #[must_use]
+    pub fn active(&self, cycle: u64) -> bool {
+        cycle < self.start + self.cycles
+    }
+}
+
+/// The moments of a filter's kernel: mean and variance, s and s².
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Moments {
+    /// Mean lag τ̄.
+    pub mean: f64,
+    /// Variance.
+    pub variance: f64,
+}
+
+impl Moments {
+    /// Of a moving average over `t` seconds.
+    #[must_use]
+    pub fn window(t: f64) -> Self {
+        Self {
+            mean: t * 0.5,
+            variance: t * t / 12.0,
+        }
+    }
+
+    /// Of a zero-vibration pair with delay `t`.
+    #[must_use]
+    pub fn pair(t: f64) -> Self {
+        Self {
+            mean: t * 0.5,
+            variance: t * t * 0.25,
+        }
+    }
+
+    /// Of a convolution: means and variances add.
+    #[must_use]
+    pub fn then(self, o: Self) -> Self {
+        Self {
+            mean: self.mean + o.mean,
+            variance: self.variance + o.variance,
+        }
+    }
+
+    /// The second moment about zero.
+    #[must_use]
+    pub fn second(&self) -> f64 {
+        self.variance + self.mean * self.mean
+    }
+}
+
+/// One axis's steady state: the rate limiter's step and speed, and `d`, `ḋ` (and, for a
+/// pendulum, `e`) — from the path's position, speed and the steady acceleration.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Steady {
+    /// The acceleration step.
+    pub k: i8,
+    /// The speed in quanta, and the ideal speed's remainder.
+    pub n_v: i64,
+    /// The ideal speed's offset from `n_v`, quanta.
+    pub carry: f64,
+    /// `[d, ḋ]`.
+    pub lag: [f64; 2],
+    /// `[e, ė]`.
+    pub swing: [f64; 2],
+    /// `p₀`'s origin: the path's position minus `d + e`.
+    pub origin: f64,
+    /// The steady path's derivatives 0..=2 at the hand-over (3..=5 are zero).
+    pub path: [f64; 3],
+}
+
+impl Steady {
+    /// The steady state through a kernel of moments `m` (and a pendulum `ω_g`) at
+    /// position `x`, speed `v`, acceleration `a` (already within the limit).
+    #[must_use]
+    pub fn new(x: f64, v: f64, a: f64, q: &Quanta, m: Moments, omega: Option<f64>) -> Self {
+        let step = i64::from(MAX_STEP);
+        let k = round_i(a / q.acceleration).clamp(-step, step);
+        let a_q = k as f64 * q.acceleration;
+        let v0 = v + a_q * m.mean;
+        let ideal = v0 / q.velocity;
+        let n_v = round_i(ideal);
+        let v0_q = n_v as f64 * q.velocity;
+        let lag = [-v0_q * m.mean + a_q * m.second() * 0.5, -a_q * m.mean];
+        let swing = [omega.map_or(0.0, |w| -a_q / (w * w)), 0.0];
+        let origin = x - lag[0] - swing[0];
+        Self {
+            k: k as i8,
+            n_v,
+            carry: ideal - n_v as f64,
+            lag,
+            swing,
+            origin,
+            path: [x, v0_q + lag[1], a_q],
+        }
+    }
+
+    /// The steady past of `p₀` over `window` seconds, relative to the origin: its least and
+    /// largest value, m.
+    #[must_use]
+    pub fn past_range(&self, q: &Quanta, window: f64) -> (f64, f64) {
+        let (v, a) = (
+            self.n_v as f64 * q.velocity,
+            f64::from(self.k) * q.acceleration,
+        );
+        // p₀(−s) − p₀(0) = −v s + a s²/2 for s ∈ [0, window]: ends and vertex s = v/a.
+        let at = |s: f64| -v * s + a * s * s * 0.5;
+        let mut lo = 0.0_f64.min(at(window));
+        let mut hi = 0.0_f64.max(at(window));
+        if a != 0.0 {
+            let s = v / a;
+            if s > 0.0 && s < window {
+                lo = lo.min(at(s));
+                hi = hi.max(at(s));
+            }
+        }
+        (lo, hi)
+    }
+}
+
+/// The hoist's kernel moments: its four windows.
+pub(crate) fn hoist_moments(windows: &[f64; 4]) -> Moments {
+    windows.iter().fold(
+        Moments {
+            mean: 0.0,
+            variance: 0.0,
+        },
+        |m, t| m.then(Moments::window(*t)),
+    )
+}
+
+/// The horizontal kernel's moments from `p₀` to the virtual trolley: the two windows,
+/// the generator pendulum's pair (`m_g h`) and the robust pair.
+pub(crate) fn horizontal_moments(boxes: &[f64; 2], pair: f64, robust: Option<f64>) -> Moments {
+    let mut m = Moments::window(boxes[0])
+        .then(Moments::window(boxes[1]))
+        .then(Moments::pair(pair));
+    if let Some(r) = robust {
+        m = m.then(Moments::pair(r));
+    }
+    m
+}
+
+/// The acceleration within the limits, keeping its direction: `a · min(1, A_i/|a_i|)`.
+pub(crate) fn within<const W: usize>(a: [f64; W], limits: [f64; W]) -> [f64; W] {
+    let scale = a.iter().zip(limits).fold(1.0_f64, |s, (ai, l)| {
+        if libm::fabs(*ai) > l {
+            s.min(l / libm::fabs(*ai))
+        } else {
+            s
+        }
+    });
+    a.map(|ai| ai * scale)
+}
+
+/// Refuses an axis whose steady past or full stop leaves `[lo, hi]` (m, absolute).
+pub(crate) fn check_axis(
+    coordinate: &'static str,
+    steady: &Steady,
+    q: &Quanta,
+    window: f64,
+    (lo, hi): (f64, f64),
+    t: f64,
+) -> Result<()> {
+    let (past_lo, past_hi) = steady.past_range(q, window);
+    let p0 = steady.origin;
+    let stop = brake(steady.n_v) as f64 * q.position;
+    let back = brake(-steady.n_v) as f64 * q.position;
+    for value in [p0 + past_lo, p0 + past_hi, p0 + stop, p0 - back] {
+        if !(lo..=hi).contains(&value) {
+            return Err(Error::OutsideWorkspace {
+                t,
+                coordinate,
+                value,
+                min: lo,
+                max: hi,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The blend's length in cycles of `h`.
+pub(crate) fn blend_cycles(settings_blend: f64, h: f64) -> u64 {
+    libm::round(settings_blend / h).max(1.0) as u64
+}
+
+/// A blend over `cycles` cycles of `h` from cycle `start`, with the differences `e`.
+pub(crate) fn new_blend<const NH: usize>(
+    start: u64,
+    cycles: u64,
+    h: f64,
+    horizontal: &[[f64; ORDERS]; NH],
+    hoist: &[f64; ORDERS],
+) -> Blend<NH> {
+    let duration = cycles as f64 * h;
+    Blend {
+        horizontal: horizontal.map(|e| blend_axis(&e, duration)),
+        hoist: blend_axis(hoist, duration),
+        start,
+        cycles,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::indexing_slicing, clippy::unwrap_used)]
+    use super::*;
+
+    fn derivative_at(p: &[f64; COEFFS], tau: f64, j: usize) -> f64 {
+        (j..COEFFS).fold(0.0, |acc, k| {
+            let falling = ((k - j + 1)..=k).fold(1.0, |a, i| a * i as f64);
+            acc + p[k] * falling * tau.powi((k - j) as i32)
+        })
+    }
+
+    #[test]
+    fn hermite_basis_has_its_end_conditions() {
+        for j in 0..ORDERS {
+            let b = hermite_basis(j);
+            for i in 0..ORDERS {
+                let at0 = derivative_at(&b, 0.0, i);
+                let at1 = derivative_at(&b, 1.0, i);
+                assert!(
+                    (at0 - if i == j { 1.0 } else { 0.0 }).abs() < 1e-9,
+                    "H_{j}^({i})(0) = {at0}"
+                );
+                assert!(at1.abs() < 1e-7, "H_{j}^({i})(1) = {at1}");
+            }
+        }
+    }
+
+    #[test]
+    fn taylor_shift_is_the_polynomial_at_the_shifted_argument() {
+        let p = blend_axis(&[0.1, -0.3, 0.5, 0.2, -1.0, 0.7], 2.0);
+        let (tau0, s) = (0.37, 0.005);
+        let q = shifted(&p, tau0, s);
+        for theta in [0.0, 0.3, 1.0] {
+            let a = derivative_at(&p, tau0 + s * theta, 0);
+            let b = derivative_at(&q, theta, 0);
+            assert!((a - b).abs() < 1e-14, "θ {theta}: {a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn moments_of_the_steady_state_reproduce_the_path() {
+        // A window of 0.2 s: the mean of p₀(t − s) = p₀ − v s + a s²/2 over it.
+        let m = Moments::window(0.2);
+        let q = Quanta::new(0.5, 0.01);
+        let st = Steady::new(5.0, 0.8, 0.3, &q, m, None);
+        let (v, a) = (st.n_v as f64 * q.velocity, f64::from(st.k) * q.acceleration);
+        let p0 = st.origin;
+        let n = 2000;
+        let mean: f64 = (0..n)
+            .map(|i| {
+                let s = 0.2 * (i as f64 + 0.5) / n as f64;
+                p0 - v * s + 0.5 * a * s * s
+            })
+            .sum::<f64>()
+            / n as f64;
+        assert!((mean - 5.0).abs() < 1e-9, "{mean}");
+    }
+}

@@ -1,0 +1,328 @@
+//! The discrete half of the filters: moving averages and zero-vibration pairs applied to
+//! the rate limiter's accelerations, exactly, at a cost independent of their length.
+//!
+//! The rate limiter's acceleration `a₀(t)` is constant over each cycle, `a₀ = k δa` on
+//! `[t_n, t_n + h)`. A moving average over a window of `m` cycles, `B(mh)`, is the
+//! discrete mean of the last `m` values followed by a box of one cycle
+//! (`B(mh) = (1/m) Σ_{j<m} δ_{jh} ∗ B(h)`); a zero-vibration pair `½(δ₀ + δ_{mh})` is
+//! discrete already. So the filtered acceleration is a cardinal B-spline of degree `q`
+//! (the number of windows) whose coefficients are the discrete filter's output
+//! ([`crate::operator::piece`] evaluates it):
+//!
+//! ```text
+//! c[n] = D(z) k[n] · δa,     D(z) = Π_i (1 − z^{−m_i}) / (m_i (1 − z^{−1})) · Π_j (1 + z^{−m_j})/2.
+//! ```
+//!
+//! `D` is computed as its numerator — a handful of taps into a ring of past `k`
+//! ([`Taps`], [`Ring`]) — followed by `q` running sums. Everything is an integer: the
+//! running sums are exact, so once the ring holds only zeros the output is exactly
+//! zero (no drift, no creep), and the numerator never has more than 16 taps however
+//! long the windows are.
+
+/// Most taps of a filter's numerator: four factors, `2⁴` terms before merging.
+pub const MAX_TAPS: usize = 16;
+
+/// Most windows (running sums) of one filter: the hoist's four.
+pub const MAX_WINDOWS: usize = 4;
+
+/// One factor of the numerator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Factor {
+    /// A moving average over `m` cycles: `(1 − z^{−m})`, with one running sum and `1/m`.
+    Window(usize),
+    /// A zero-vibration pair with delay `m` cycles: `(1 + z^{−m})`, with `½`.
+    Pair(usize),
+}
+
+/// The numerator `Σ w_i z^{−d_i}` of a filter: delays in cycles and integer weights.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Taps {
+    delay: [u16; MAX_TAPS],
+    weight: [i16; MAX_TAPS],
+    len: usize,
+    /// How many factors are windows: the running sums after the taps.
+    windows: usize,
+    /// `Π m_i · 2^pairs`: the factors' normalisation.
+    norm: u64,
+}
+
+impl Taps {
+    /// The product of `factors` (at most four; further ones are ignored, and the
+    /// generator never passes more): equal delays merged, zero weights dropped.
+    #[must_use]
+    pub fn new(factors: &[Factor]) -> Self {
+        let mut delay = [0_u16; MAX_TAPS];
+        let mut weight = [0_i16; MAX_TAPS];
+        if let Some(w) = weight.first_mut() {
+            *w = 1;
+        }
+        let mut len = 1;
+        let mut windows = 0;
+        let mut norm: u64 = 1;
+        for f in factors.iter().take(MAX_WINDOWS) {
+            let (m, sign) = match *f {
+                Factor::Window(m) => {
+                    windows += 1;
+                    (m, -1)
+                }
+                Factor::Pair(m) => (m, 1),
+            };
+            norm = norm.saturating_mul(match *f {
+                Factor::Window(m) => m as u64,
+                Factor::Pair(_) => 2,
+            });
+            // Each existing term once as it is and once delayed by m with the sign (the
+            // existing terms as they were before this factor).
+            let (old_delay, old_weight, old) = (delay, weight, len);
+            for (&d, &w) in old_delay.iter().zip(old_weight.iter()).take(old) {
+                let shifted = d.saturating_add(u16::try_from(m).unwrap_or(u16::MAX));
+                len = add_term(&mut delay, &mut weight, len, shifted, sign * w);
+            }
+        }
+        Self {
+            delay,
+            weight,
+            len,
+            windows,
+            norm,
+        }
+    }
+
+    /// The longest delay, in cycles.
+    #[must_use]
+    pub fn longest(&self) -> usize {
+        self.terms().map(|(d, _)| d).max().unwrap_or(0)
+    }
+
+    /// How many running sums follow the taps (the spline's degree).
+    #[must_use]
+    pub fn windows(&self) -> usize {
+        self.windows
+    }
+
+    /// `Π m_i · 2^pairs`.
+    #[must_use]
+    pub fn norm(&self) -> u64 {
+        self.norm
+    }
+
+    /// The terms `(delay, weight)`.
+    pub fn terms(&self) -> impl Iterator<Item = (usize, i64)> + '_ {
+        self.delay
+            .iter()
+            .zip(self.weight.iter())
+            .take(self.len)
+            .map(|(d, w)| (usize::from(*d), i64::from(*w)))
+    }
+}
+
+/// Adds `w z^{−d}` to the sparse polynomial of `len` terms; returns the new length.
+fn add_term(
+    delay: &mut [u16; MAX_TAPS],
+    weight: &mut [i16; MAX_TAPS],
+    len: usize,
+    d: u16,
+    w: i16,
+) -> usize {
+    if let Some(i) = delay.iter().take(len).position(|x| *x == d) {
+        if let Some(slot) = weight.get_mut(i) {
+            *slot += w;
+        }
+        return len;
+    }
+    match (delay.get_mut(len), weight.get_mut(len)) {
+        (Some(ds), Some(ws)) => {
+            *ds = d;
+            *ws = w;
+            len + 1
+        }
+        _ => len,
+    }
+}
+
+/// The last `R` cycles' acceleration steps of a group of `W` axes, one byte each.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Ring<const W: usize, const R: usize> {
+    cells: [[i8; W]; R],
+    /// Where the newest cycle is.
+    head: usize,
+}
+
+impl<const W: usize, const R: usize> Ring<W, R> {
+    /// All zero: a history at rest.
+    #[must_use]
+    pub fn new() -> Self {
+        Self {
+            cells: [[0; W]; R],
+            head: 0,
+        }
+    }
+
+    /// Appends a cycle, forgetting the oldest.
+    pub fn push(&mut self, k: [i8; W]) {
+        self.head = if self.head + 1 >= R { 0 } else { self.head + 1 };
+        if let Some(cell) = self.cells.get_mut(self.head) {
+            *cell = k;
+        }
+    }
+
+    /// The cycle `delay` cycles before the newest (zero beyond the ring).
+    #[must_use]
+    pub fn get(&self, delay: usize) -> [i8; W] {
+        if delay >= R {
+            return [0; W];
+        }
+        let i = if delay <= self.head {
+            self.head - delay
+        } else {
+            self.head + R - delay
+        };
+        self.cells.get(i).copied().unwrap_or([0; W])
+    }
+
+    /// Fills `R` cycles with `k` (a history of constant acceleration).
+    pub fn fill(&mut self, k: [i8; W]) {
+        self.cells = [k; R];
+    }
+}
+
+impl<const W: usize, const R: usize> Default for Ring<W, R> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The running sums after the taps, per axis: the discrete filter's state besides the
+/// ring.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Sums<const W: usize> {
+    sums: [[i64; MAX_WINDOWS]; W],
+}
+
+impl<const W: usize> Sums<W> {
+    /// At rest.
+    pub const REST: Self = Self {
+        sums: [[0; MAX_WINDOWS]; W],
+    };
+
+    /// One cycle: the taps on the ring (whose newest cycle is this one's), then the
+    /// `windows` running sums; returns `D(z) k[n]` times the normalisation
+    /// ([`Taps::norm`]) per axis, an exact integer. Wrapping arithmetic: the true values
+    /// are bounded (127 · norm), so the result is exact whatever the intermediate sums.
+    pub fn advance<const R: usize>(&mut self, ring: &Ring<W, R>, taps: &Taps) -> [i64; W] {
+        let mut x = [0_i64; W];
+        for (d, w) in taps.terms() {
+            for (xi, ki) in x.iter_mut().zip(ring.get(d)) {
+                *xi = xi.wrapping_add(w.wrapping_mul(i64::from(ki)));
+            }
+        }
+        for (s, xi) in self.sums.iter_mut().zip(x.iter_mut()) {
+            for sum in s.iter_mut().take(taps.windows()) {
+                *sum = sum.wrapping_add(*xi);
+                *xi = *sum;
+            }
+        }
+        x
+    }
+
+    /// The state of a history of constant step `k` per axis: the last sum holds
+    /// `k · norm`, the others zero (a window's numerator vanishes on a constant).
+    #[must_use]
+    pub fn steady(k: [i8; W], taps: &Taps) -> Self {
+        let mut out = Self::REST;
+        for (s, ki) in out.sums.iter_mut().zip(k) {
+            if let Some(last) = taps.windows().checked_sub(1).and_then(|i| s.get_mut(i)) {
+                *last = i64::from(ki).wrapping_mul(taps.norm() as i64);
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::indexing_slicing, clippy::unwrap_used)]
+    use super::*;
+
+    /// The taps and sums against the filter applied directly: moving means and pairs on a
+    /// random integer sequence, in f64 from the definition.
+    #[test]
+    fn taps_and_sums_are_the_cascade_of_means_and_pairs() {
+        let factors = [
+            Factor::Window(7),
+            Factor::Window(3),
+            Factor::Pair(11),
+            Factor::Pair(5),
+        ];
+        let taps = Taps::new(&factors);
+        assert_eq!(taps.windows(), 2);
+        assert_eq!(taps.norm(), 7 * 3 * 4);
+        assert_eq!(taps.longest(), 7 + 3 + 11 + 5);
+        let mut ring = Ring::<1, 64>::new();
+        let mut sums = Sums::<1>::REST;
+        let mut seed = 7_u64;
+        let mut input = [0.0_f64; 500];
+        for n in 0..500_usize {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let k = if n < 400 {
+                ((seed >> 33) % 255) as i64 - 127
+            } else {
+                0
+            };
+            input[n] = k as f64;
+            ring.push([k as i8]);
+            let out = sums.advance(&ring, &taps)[0] as f64 / taps.norm() as f64;
+            // Direct: mean over 7, then mean over 3, then the pairs.
+            let x = |i: isize| -> f64 {
+                if i < 0 {
+                    0.0
+                } else {
+                    input[i as usize]
+                }
+            };
+            let mean7 = |i: isize| (0..7).map(|j| x(i - j)).sum::<f64>() / 7.0;
+            let mean3 = |i: isize| (0..3).map(|j| mean7(i - j)).sum::<f64>() / 3.0;
+            let pair11 = |i: isize| 0.5 * (mean3(i) + mean3(i - 11));
+            let n = n as isize;
+            let direct = 0.5 * (pair11(n) + pair11(n - 5));
+            assert!((out - direct).abs() < 1e-12, "n {n}: {out} vs {direct}");
+            if n > 400 + 30 {
+                assert_eq!(out, 0.0, "exactly zero once the ring has passed");
+            }
+        }
+    }
+
+    #[test]
+    fn equal_windows_merge_into_binomial_taps() {
+        let taps = Taps::new(&[Factor::Window(10); 4]);
+        let mut terms = [(0, 0); 5];
+        for (slot, t) in terms.iter_mut().zip(taps.terms()) {
+            *slot = t;
+        }
+        assert_eq!(taps.terms().count(), 5);
+        assert_eq!(terms, [(0, 1), (10, -4), (20, 6), (30, -4), (40, 1)]);
+    }
+
+    #[test]
+    fn steady_state_continues_a_constant_history() {
+        let taps = Taps::new(&[Factor::Window(4), Factor::Window(9), Factor::Pair(6)]);
+        let mut ring = Ring::<2, 32>::new();
+        ring.fill([5, -3]);
+        let mut sums = Sums::steady([5, -3], &taps);
+        for _ in 0..100 {
+            ring.push([5, -3]);
+            let out = sums.advance(&ring, &taps);
+            assert_eq!(out, [5 * taps.norm() as i64, -3 * taps.norm() as i64]);
+        }
+    }
+
+    #[test]
+    fn ring_reads_back_what_was_pushed() {
+        let mut ring = Ring::<1, 5>::new();
+        for k in 1..=12 {
+            ring.push([k]);
+        }
+        let back: [i8; 6] = core::array::from_fn(|d| ring.get(d)[0]);
+        assert_eq!(back, [12, 11, 10, 9, 8, 0]);
+    }
+}

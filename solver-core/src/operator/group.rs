@@ -1,0 +1,184 @@
+//! A group of axes that share one filter: the horizontal axes (one rate limiter for the
+//! vector, one ring, the virtual pendulum) or the hoist (its own limiter and windows).
+//! Each cycle: the limiter's steps, the discrete filter, one piece per axis.
+
+use crate::operator::filter::{Ring, Sums, Taps};
+use crate::operator::limiter::{self, Axis};
+use crate::operator::piece::{spline, Inputs, Piece};
+use crate::operator::settings::Quanta;
+
+/// One group of `W` axes with a ring of `R` cycles.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Group<const W: usize, const R: usize> {
+    /// The rate limiter's axes.
+    pub axes: [Axis; W],
+    /// Where each axis's position units count from, m.
+    pub origin: [f64; W],
+    /// Each axis's quanta.
+    pub quanta: [Quanta; W],
+    /// Each axis's range in position units from its origin.
+    pub bounds: [(i64, i64); W],
+    /// The last `R` cycles' steps.
+    ring: Ring<W, R>,
+    sums: Sums<W>,
+    taps: Taps,
+    /// `δa_i / norm`: a running sum's output in m/s².
+    scale: [f64; W],
+    /// The filtered acceleration's B-spline coefficients, newest first, m/s².
+    history: [[f64; 5]; W],
+    /// The path on the current cycle.
+    pub pieces: [Piece; W],
+    /// Cycles in a row with every step zero, this one included.
+    quiet: usize,
+    /// Quiet cycles after which a group at zero speed is exactly at rest: the numerator's
+    /// longest delay and one.
+    window: usize,
+    /// `ω_g h` of the virtual pendulum, if the group has one.
+    omega_h: Option<f64>,
+    /// Whether the current cycle's path is constant.
+    at_rest: bool,
+}
+
+impl<const W: usize, const R: usize> Group<W, R> {
+    /// At rest at `origin` with these quanta, bounds and filter.
+    #[must_use]
+    pub fn at_rest(
+        origin: [f64; W],
+        quanta: [Quanta; W],
+        bounds: [(i64, i64); W],
+        taps: Taps,
+        omega_h: Option<f64>,
+    ) -> Self {
+        let mut g = Self {
+            axes: [Axis::REST; W],
+            origin,
+            quanta,
+            bounds,
+            ring: Ring::new(),
+            sums: Sums::REST,
+            taps,
+            scale: [0.0; W],
+            history: [[0.0; 5]; W],
+            pieces: origin.map(Piece::rest),
+            quiet: usize::MAX,
+            window: 0,
+            omega_h,
+            at_rest: true,
+        };
+        g.set_filter(taps, omega_h);
+        g
+    }
+
+    /// A new filter (only at rest: the history is then all zero); clears the ring, whose
+    /// older cycles the new taps may reach.
+    pub fn set_filter(&mut self, taps: Taps, omega_h: Option<f64>) {
+        self.taps = taps;
+        self.omega_h = omega_h;
+        self.window = taps.longest() + 1;
+        let norm = taps.norm() as f64;
+        for (s, q) in self.scale.iter_mut().zip(self.quanta) {
+            *s = q.acceleration / norm;
+        }
+        self.ring.fill([0; W]);
+        self.sums = Sums::REST;
+        self.history = [[0.0; 5]; W];
+    }
+
+    /// A history of constant acceleration step `k` on every axis (a hand-over), the
+    /// pieces' filter states given.
+    pub fn set_steady(&mut self, k: [i8; W]) {
+        self.ring.fill(k);
+        self.sums = Sums::steady(k, &self.taps);
+        for (h, (ki, s)) in self.history.iter_mut().zip(k.iter().zip(self.scale)) {
+            let c = f64::from(*ki) * self.taps.norm() as f64 * s;
+            *h = [c; 5];
+        }
+        self.quiet = 0;
+        self.at_rest = false;
+    }
+
+    /// The filter's numerator.
+    #[must_use]
+    pub fn taps(&self) -> &Taps {
+        &self.taps
+    }
+
+    /// Whether the current cycle's path is constant (exactly: every derivative 0.0).
+    #[must_use]
+    pub fn is_at_rest(&self) -> bool {
+        self.at_rest
+    }
+
+    /// Each axis's rate-limiter position at the current cycle's start, m.
+    #[must_use]
+    pub fn positions(&self) -> [f64; W] {
+        let mut out = self.origin;
+        for (o, (a, q)) in out.iter_mut().zip(self.axes.iter().zip(self.quanta)) {
+            *o += a.n_p as f64 * q.position;
+        }
+        out
+    }
+
+    /// Each axis's rate-limiter speed, m/s.
+    #[must_use]
+    pub fn speeds(&self) -> [f64; W] {
+        let mut out = [0.0; W];
+        for (o, (a, q)) in out.iter_mut().zip(self.axes.iter().zip(self.quanta)) {
+            *o = a.n_v as f64 * q.velocity;
+        }
+        out
+    }
+
+    /// One cycle from the states at its start: the limiter towards `targets` (velocity
+    /// quanta) within `bounds`, the filter, the pieces. `h`, `inv_h`: the cycle.
+    pub fn cycle(&mut self, targets: [f64; W], bounds: [(i64, i64); W], h: f64, inv_h: f64) {
+        let p0 = self.positions();
+        let v0 = self.speeds();
+        let resting = self.axes.iter().all(|a| a.n_v == 0);
+        let k = limiter::step(&mut self.axes, targets, bounds);
+        self.ring.push(k);
+        let c = self.sums.advance(&self.ring, &self.taps);
+        for ((hist, ci), s) in self.history.iter_mut().zip(c).zip(self.scale) {
+            hist.rotate_right(1);
+            hist[0] = ci as f64 * s;
+        }
+        self.quiet = if k.iter().all(|k| *k == 0) {
+            self.quiet.saturating_add(1)
+        } else {
+            0
+        };
+        self.at_rest = resting && self.quiet >= self.window;
+        let q = self.taps.windows();
+        for (i, piece) in self.pieces.iter_mut().enumerate() {
+            let (Some(p), Some(v), Some(ki), Some(hist), Some(qa)) = (
+                p0.get(i),
+                v0.get(i),
+                k.get(i),
+                self.history.get(i),
+                self.quanta.get(i),
+            ) else {
+                continue;
+            };
+            if self.at_rest {
+                piece.settle(*p);
+            } else {
+                piece.build(&Inputs {
+                    p0: *p,
+                    v0: *v,
+                    a0: f64::from(*ki) * qa.acceleration,
+                    rho: spline(hist, q),
+                    h,
+                    inv_h,
+                    omega_h: self.omega_h,
+                });
+            }
+        }
+    }
+
+    /// Ends the current cycle: the pieces' end states become the next start.
+    pub fn finish(&mut self) {
+        for p in self.pieces.iter_mut() {
+            p.finish();
+        }
+    }
+}
