@@ -71,56 +71,67 @@ impl Handover<2> {
     }
 }
 
-/// The blend `E(t)` per axis as monomial coefficients in `τ = (t − t_h)/T_b ∈ [0, 1]`.
+/// The blend `E(t)`: per axis its derivatives with respect to `τ = (t − t_h)/T_b` at
+/// τ = 0, `e_j T_b^j` (what multiplies the basis [`HERMITE`]'s `H_j`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Blend<const NH: usize> {
-    horizontal: [[f64; COEFFS]; NH],
-    hoist: [f64; COEFFS],
+    horizontal: [[f64; ORDERS]; NH],
+    hoist: [f64; ORDERS],
     /// The cycle at which τ = 0.
     start: u64,
     /// Its length in cycles.
     cycles: u64,
 }
 
-/// `C(n, k)`.
-fn binomial(n: usize, k: usize) -> f64 {
-    (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
+/// `C(n, k)`, in const context.
+const fn binomial(n: usize, k: usize) -> f64 {
+    let mut r = 1.0;
+    let mut i = 0;
+    while i < k {
+        r = r * (n - i) as f64 / (i + 1) as f64;
+        i += 1;
+    }
+    r
 }
 
-/// The monomial coefficients of `H_j(τ)` (module documentation).
-fn hermite_basis(j: usize) -> [f64; COEFFS] {
-    // (1 − τ)⁶ Σ_{k ≤ 5−j} C(5+k, k) τ^k, then shifted by τ^j/j!.
-    let mut tail = [0.0; COEFFS];
-    for k in 0..=(ORDERS - 1 - j) {
-        let ck = binomial(5 + k, k);
-        for i in 0..=6 {
-            let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
-            if let Some(slot) = tail.get_mut(i + k) {
-                *slot += ck * sign * binomial(6, i);
+/// The monomial coefficients of the Hermite basis `H_j(τ)`, `j = 0..=5` (module
+/// documentation): `(1 − τ)⁶ Σ_{k ≤ 5−j} C(5+k, k) τ^k`, times `τ^j/j!`.
+pub const HERMITE: [[f64; COEFFS]; ORDERS] = hermite();
+
+#[allow(clippy::indexing_slicing)] // evaluated at compile time: an index out of range fails the build
+const fn hermite() -> [[f64; COEFFS]; ORDERS] {
+    let mut out = [[0.0; COEFFS]; ORDERS];
+    let mut j = 0;
+    while j < ORDERS {
+        let mut factorial = 1.0;
+        let mut f = 2;
+        while f <= j {
+            factorial *= f as f64;
+            f += 1;
+        }
+        let mut k = 0;
+        while k < ORDERS - j {
+            let ck = binomial(5 + k, k);
+            let mut i = 0;
+            while i <= 6 {
+                let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+                out[j][i + k + j] += ck * sign * binomial(6, i) / factorial;
+                i += 1;
             }
+            k += 1;
         }
-    }
-    let factorial = (1..=j).fold(1.0, |acc, i| acc * i as f64);
-    let mut out = [0.0; COEFFS];
-    for (i, t) in tail.iter().enumerate() {
-        if let Some(slot) = out.get_mut(i + j) {
-            *slot = t / factorial;
-        }
+        j += 1;
     }
     out
 }
 
-/// The blend of one axis: differences `e[j]` in the j-th time derivative at its start,
-/// over `duration` seconds.
-fn blend_axis(e: &[f64; ORDERS], duration: f64) -> [f64; COEFFS] {
+/// The blend of one axis as monomial coefficients in τ, from its τ-derivatives `e`.
+fn blend_axis(e: &[f64; ORDERS]) -> [f64; COEFFS] {
     let mut out = [0.0; COEFFS];
-    let mut scale = 1.0;
-    for (j, ej) in e.iter().enumerate() {
-        let basis = hermite_basis(j);
+    for (ej, basis) in e.iter().zip(HERMITE.iter()) {
         for (o, b) in out.iter_mut().zip(basis) {
-            *o += ej * scale * b;
+            *o += ej * b;
         }
-        scale *= duration;
     }
     out
 }
@@ -154,11 +165,19 @@ impl<const NH: usize> Blend<NH> {
         let s = 1.0 / self.cycles as f64;
         let tau0 = i as f64 * s;
         for (piece, e) in horizontal.iter_mut().zip(self.horizontal.iter()) {
-            for (c, b) in piece.coeffs.iter_mut().zip(shifted(e, tau0, s)) {
+            for (c, b) in piece
+                .coeffs
+                .iter_mut()
+                .zip(shifted(&blend_axis(e), tau0, s))
+            {
                 *c += b;
             }
         }
-        for (c, b) in hoist.coeffs.iter_mut().zip(shifted(&self.hoist, tau0, s)) {
+        for (c, b) in hoist
+            .coeffs
+            .iter_mut()
+            .zip(shifted(&blend_axis(&self.hoist), tau0, s))
+        {
             *c += b;
         }
     }
@@ -350,7 +369,8 @@ pub(crate) fn blend_cycles(settings_blend: f64, h: f64) -> u64 {
     libm::round(settings_blend / h).max(1.0) as u64
 }
 
-/// A blend over `cycles` cycles of `h` from cycle `start`, with the differences `e`.
+/// A blend over `cycles` cycles of `h` from cycle `start`, with the differences `e[j]` in
+/// the j-th time derivative at its start.
 pub(crate) fn new_blend<const NH: usize>(
     start: u64,
     cycles: u64,
@@ -359,9 +379,19 @@ pub(crate) fn new_blend<const NH: usize>(
     hoist: &[f64; ORDERS],
 ) -> Blend<NH> {
     let duration = cycles as f64 * h;
+    // d^j/dτ^j = T_b^j d^j/dt^j.
+    let in_tau = |e: &[f64; ORDERS]| {
+        let mut out = *e;
+        let mut scale = 1.0;
+        for o in out.iter_mut() {
+            *o *= scale;
+            scale *= duration;
+        }
+        out
+    };
     Blend {
-        horizontal: horizontal.map(|e| blend_axis(&e, duration)),
-        hoist: blend_axis(hoist, duration),
+        horizontal: horizontal.map(|e| in_tau(&e)),
+        hoist: in_tau(hoist),
         start,
         cycles,
     }
@@ -381,11 +411,10 @@ mod tests {
 
     #[test]
     fn hermite_basis_has_its_end_conditions() {
-        for j in 0..ORDERS {
-            let b = hermite_basis(j);
+        for (j, b) in HERMITE.iter().enumerate() {
             for i in 0..ORDERS {
-                let at0 = derivative_at(&b, 0.0, i);
-                let at1 = derivative_at(&b, 1.0, i);
+                let at0 = derivative_at(b, 0.0, i);
+                let at1 = derivative_at(b, 1.0, i);
                 assert!(
                     (at0 - if i == j { 1.0 } else { 0.0 }).abs() < 1e-9,
                     "H_{j}^({i})(0) = {at0}"
@@ -397,7 +426,7 @@ mod tests {
 
     #[test]
     fn taylor_shift_is_the_polynomial_at_the_shifted_argument() {
-        let p = blend_axis(&[0.1, -0.3, 0.5, 0.2, -1.0, 0.7], 2.0);
+        let p = blend_axis(&[0.1, -0.3, 0.5, 0.2, -1.0, 0.7]);
         let (tau0, s) = (0.37, 0.005);
         let q = shifted(&p, tau0, s);
         for theta in [0.0, 0.3, 1.0] {

@@ -38,10 +38,11 @@ pub enum Factor {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Taps {
     delay: [u16; MAX_TAPS],
-    weight: [i16; MAX_TAPS],
-    len: usize,
+    /// At most 6 in size (the binomial coefficients of four windows).
+    weight: [i8; MAX_TAPS],
+    len: u8,
     /// How many factors are windows: the running sums after the taps.
-    windows: usize,
+    windows: u8,
     /// `Π m_i · 2^pairs`: the factors' normalisation.
     norm: u64,
 }
@@ -52,7 +53,7 @@ impl Taps {
     #[must_use]
     pub fn new(factors: &[Factor]) -> Self {
         let mut delay = [0_u16; MAX_TAPS];
-        let mut weight = [0_i16; MAX_TAPS];
+        let mut weight = [0_i8; MAX_TAPS];
         if let Some(w) = weight.first_mut() {
             *w = 1;
         }
@@ -82,7 +83,7 @@ impl Taps {
         Self {
             delay,
             weight,
-            len,
+            len: len as u8,
             windows,
             norm,
         }
@@ -97,7 +98,7 @@ impl Taps {
     /// How many running sums follow the taps (the spline's degree).
     #[must_use]
     pub fn windows(&self) -> usize {
-        self.windows
+        usize::from(self.windows)
     }
 
     /// `Π m_i · 2^pairs`.
@@ -111,7 +112,7 @@ impl Taps {
         self.delay
             .iter()
             .zip(self.weight.iter())
-            .take(self.len)
+            .take(usize::from(self.len))
             .map(|(d, w)| (usize::from(*d), i64::from(*w)))
     }
 }
@@ -119,10 +120,10 @@ impl Taps {
 /// Adds `w z^{−d}` to the sparse polynomial of `len` terms; returns the new length.
 fn add_term(
     delay: &mut [u16; MAX_TAPS],
-    weight: &mut [i16; MAX_TAPS],
+    weight: &mut [i8; MAX_TAPS],
     len: usize,
     d: u16,
-    w: i16,
+    w: i8,
 ) -> usize {
     if let Some(i) = delay.iter().take(len).position(|x| *x == d) {
         if let Some(slot) = weight.get_mut(i) {
@@ -206,23 +207,55 @@ impl<const W: usize> Sums<W> {
     };
 
     /// One cycle: the taps on the ring (whose newest cycle is this one's), then the
-    /// `windows` running sums; returns `D(z) k[n]` times the normalisation
-    /// ([`Taps::norm`]) per axis, an exact integer. Wrapping arithmetic: the true values
-    /// are bounded (127 · norm), so the result is exact whatever the intermediate sums.
-    pub fn advance<const R: usize>(&mut self, ring: &Ring<W, R>, taps: &Taps) -> [i64; W] {
+    /// `q` running sums. Returns per axis the filter's last `q + 1` outputs `S[n − i]`,
+    /// newest first — `D(z) k` times the normalisation ([`Taps::norm`]), exact integers —
+    /// read off the running sums, which hold its backward differences
+    /// (`∇^j S[n]` is the `(q−j)`-th sum, `∇^q S[n]` the taps' output):
+    /// `S[n − i] = Σ_j (−1)^j C(i, j) ∇^j S[n]`. So the B-spline's coefficients need no
+    /// history of their own. Wrapping arithmetic: the true values are bounded
+    /// (127 · norm and their differences), so the results are exact whatever the
+    /// intermediate sums.
+    pub fn advance<const R: usize>(
+        &mut self,
+        ring: &Ring<W, R>,
+        taps: &Taps,
+    ) -> [[i64; MAX_WINDOWS + 1]; W] {
+        let q = taps.windows();
         let mut x = [0_i64; W];
         for (d, w) in taps.terms() {
             for (xi, ki) in x.iter_mut().zip(ring.get(d)) {
                 *xi = xi.wrapping_add(w.wrapping_mul(i64::from(ki)));
             }
         }
-        for (s, xi) in self.sums.iter_mut().zip(x.iter_mut()) {
-            for sum in s.iter_mut().take(taps.windows()) {
-                *sum = sum.wrapping_add(*xi);
-                *xi = *sum;
+        let mut out = [[0_i64; MAX_WINDOWS + 1]; W];
+        for ((s, xi), o) in self.sums.iter_mut().zip(x).zip(out.iter_mut()) {
+            let mut carry = xi;
+            for sum in s.iter_mut().take(q) {
+                *sum = sum.wrapping_add(carry);
+                carry = *sum;
+            }
+            let mut nabla = [0_i64; MAX_WINDOWS + 1];
+            for (j, n) in nabla.iter_mut().enumerate().take(q + 1) {
+                *n = match q.checked_sub(j + 1) {
+                    Some(i) => s.get(i).copied().unwrap_or(0),
+                    None => xi,
+                };
+            }
+            for (i, oi) in o.iter_mut().enumerate().take(q + 1) {
+                let (mut acc, mut binomial) = (0_i64, 1_i64);
+                for (j, n) in nabla.iter().enumerate().take(i + 1) {
+                    let term = binomial.wrapping_mul(*n);
+                    acc = if j % 2 == 0 {
+                        acc.wrapping_add(term)
+                    } else {
+                        acc.wrapping_sub(term)
+                    };
+                    binomial = binomial * (i - j) as i64 / (j + 1) as i64;
+                }
+                *oi = acc;
             }
         }
-        x
+        out
     }
 
     /// The state of a history of constant step `k` per axis: the last sum holds
@@ -262,6 +295,7 @@ mod tests {
         let mut sums = Sums::<1>::REST;
         let mut seed = 7_u64;
         let mut input = [0.0_f64; 500];
+        let mut outputs = [0_i64; 500];
         for n in 0..500_usize {
             seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
             let k = if n < 400 {
@@ -271,7 +305,15 @@ mod tests {
             };
             input[n] = k as f64;
             ring.push([k as i8]);
-            let out = sums.advance(&ring, &taps)[0] as f64 / taps.norm() as f64;
+            let all = sums.advance(&ring, &taps)[0];
+            let out = all[0] as f64 / taps.norm() as f64;
+            // The earlier outputs, read off the sums, are the earlier cycles' own.
+            for (i, earlier) in all.iter().enumerate().take(3).skip(1) {
+                if n >= i {
+                    assert_eq!(*earlier, outputs[n - i], "n {n}: S[n − {i}]");
+                }
+            }
+            outputs[n] = all[0];
             // Direct: mean over 7, then mean over 3, then the pairs.
             let x = |i: isize| -> f64 {
                 if i < 0 {
@@ -311,8 +353,11 @@ mod tests {
         let mut sums = Sums::steady([5, -3], &taps);
         for _ in 0..100 {
             ring.push([5, -3]);
-            let out = sums.advance(&ring, &taps);
-            assert_eq!(out, [5 * taps.norm() as i64, -3 * taps.norm() as i64]);
+            let [x, y] = sums.advance(&ring, &taps);
+            let norm = taps.norm() as i64;
+            for (a, b) in x.iter().zip(y).take(taps.windows() + 1) {
+                assert_eq!([*a, b], [5 * norm, -3 * norm]);
+            }
         }
     }
 

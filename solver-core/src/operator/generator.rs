@@ -96,7 +96,7 @@ pub struct Generator<const NH: usize, const RH: usize, const RV: usize> {
     t0: f64,
     /// Cycles since `t0`: the current piece starts at `t0 + cycles h`.
     cycles: u64,
-    /// Whether the current piece came from a cycle (and must be finished before the next).
+    /// Whether the current piece came from a cycle (the next one then starts at its end).
     built: bool,
     /// A stop is latched: every demand is taken as zero.
     stopping: bool,
@@ -208,7 +208,8 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         ];
         let hoist = Group::at_rest(
             [depth],
-            [zq],
+            [settings.hoist.acceleration],
+            h,
             [unit_bounds(settings.hoist.range, depth, &zq)],
             Taps::new(&hoist_windows),
             None,
@@ -221,7 +222,14 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             cycles: 0,
             built: false,
             stopping: false,
-            horizontal: Group::at_rest(horizontal, quanta, bounds, placeholder, None),
+            horizontal: Group::at_rest(
+                horizontal,
+                settings.horizontal.map(|a| a.acceleration),
+                h,
+                bounds,
+                placeholder,
+                None,
+            ),
             hoist,
             tuning: Tuning {
                 pendulum: 0.0,
@@ -278,7 +286,7 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             p
         };
         // The hoist: steady at its acceleration within the limit.
-        let zq = self.hoist.quanta[0];
+        let zq = self.hoist.quanta()[0];
         let [z, zv, za, ..] = state.hoist;
         let [za_limited] = within([za], [s.hoist.acceleration]);
         let hz = Steady::new(z, zv, za_limited, &zq, hoist_moments(&s.hoist_boxes), None);
@@ -325,9 +333,10 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         let mut ks = [0_i8; NH];
         let mut steady_paths = [[0.0; 3]; NH];
         for (i, ((d, a), name)) in state.horizontal.iter().zip(acc).zip(HORIZONTAL).enumerate() {
-            let (Some(q), Some(axis_settings)) =
-                (self.horizontal.quanta.get(i).copied(), s.horizontal.get(i))
-            else {
+            let (Some(q), Some(axis_settings)) = (
+                self.horizontal.quanta().get(i).copied(),
+                s.horizontal.get(i),
+            ) else {
                 continue;
             };
             let st = Steady::new(d[0], d[1], a, &q, moments, Some(omega));
@@ -392,7 +401,7 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         let s = &self.settings;
         let h = s.h;
         let axis = self.hoist.axes[0];
-        let zq = self.hoist.quanta[0];
+        let zq = self.hoist.quanta()[0];
         let reach = self.reach.max(axis.n_p + brake(axis.n_v));
         let allowance = libm::floor(s.lowering_allowance / zq.position) as i64;
         let cap_units = reach.saturating_add(allowance).min(self.hoist.bounds[0].1);
@@ -440,13 +449,11 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         out
     }
 
-    /// One cycle: finishes the current piece (if any) and builds the next one,
+    /// One cycle: moves on past the current piece (if any) and builds the next one,
     /// `[t, t + h]`, from the stick's `demand`. Call it once per cycle before the inverse
     /// model steps over that interval.
     pub fn advance(&mut self, demand: &Demand<NH>) -> Cycle {
         if self.built {
-            self.horizontal.finish();
-            self.hoist.finish();
             self.cycles += 1;
         }
         self.built = true;
@@ -462,11 +469,12 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         for ((t, d), (a, q)) in targets
             .iter_mut()
             .zip(demand.horizontal)
-            .zip(s.horizontal.iter().zip(self.horizontal.quanta))
+            .zip(s.horizontal.iter().zip(self.horizontal.quanta()))
         {
             *t = shape(d) * a.speed / q.velocity;
         }
-        let mut hoist_target = shape(demand.hoist) * s.hoist.speed / self.hoist.quanta[0].velocity;
+        let mut hoist_target =
+            shape(demand.hoist) * s.hoist.speed / self.hoist.quanta()[0].velocity;
         if self.stopping {
             targets = [0.0; NH];
             hoist_target = 0.0;

@@ -14,8 +14,10 @@ pub struct Group<const W: usize, const R: usize> {
     pub axes: [Axis; W],
     /// Where each axis's position units count from, m.
     pub origin: [f64; W],
-    /// Each axis's quanta.
-    pub quanta: [Quanta; W],
+    /// Each axis's acceleration limit, m/s²: its quanta with `h` ([`Group::quanta`]).
+    accelerations: [f64; W],
+    /// The cycle, s.
+    h: f64,
     /// Each axis's range in position units from its origin.
     pub bounds: [(i64, i64); W],
     /// The last `R` cycles' steps.
@@ -24,8 +26,6 @@ pub struct Group<const W: usize, const R: usize> {
     taps: Taps,
     /// `δa_i / norm`: a running sum's output in m/s².
     scale: [f64; W],
-    /// The filtered acceleration's B-spline coefficients, newest first, m/s².
-    history: [[f64; 5]; W],
     /// The path on the current cycle.
     pub pieces: [Piece; W],
     /// Cycles in a row with every step zero, this one included.
@@ -40,11 +40,12 @@ pub struct Group<const W: usize, const R: usize> {
 }
 
 impl<const W: usize, const R: usize> Group<W, R> {
-    /// At rest at `origin` with these quanta, bounds and filter.
+    /// At rest at `origin` with these acceleration limits (cycle `h`), bounds and filter.
     #[must_use]
     pub fn at_rest(
         origin: [f64; W],
-        quanta: [Quanta; W],
+        accelerations: [f64; W],
+        h: f64,
         bounds: [(i64, i64); W],
         taps: Taps,
         omega_h: Option<f64>,
@@ -52,13 +53,13 @@ impl<const W: usize, const R: usize> Group<W, R> {
         let mut g = Self {
             axes: [Axis::REST; W],
             origin,
-            quanta,
+            accelerations,
+            h,
             bounds,
             ring: Ring::new(),
             sums: Sums::REST,
             taps,
             scale: [0.0; W],
-            history: [[0.0; 5]; W],
             pieces: origin.map(Piece::rest),
             quiet: usize::MAX,
             window: 0,
@@ -76,25 +77,27 @@ impl<const W: usize, const R: usize> Group<W, R> {
         self.omega_h = omega_h;
         self.window = taps.longest() + 1;
         let norm = taps.norm() as f64;
-        for (s, q) in self.scale.iter_mut().zip(self.quanta) {
+        let quanta = self.quanta();
+        for (s, q) in self.scale.iter_mut().zip(quanta) {
             *s = q.acceleration / norm;
         }
         self.ring.fill([0; W]);
         self.sums = Sums::REST;
-        self.history = [[0.0; 5]; W];
     }
 
-    /// A history of constant acceleration step `k` on every axis (a hand-over), the
-    /// pieces' filter states given.
+    /// A history of constant acceleration step `k` on every axis (a hand-over); the
+    /// pieces' filter states are the caller's.
     pub fn set_steady(&mut self, k: [i8; W]) {
         self.ring.fill(k);
         self.sums = Sums::steady(k, &self.taps);
-        for (h, (ki, s)) in self.history.iter_mut().zip(k.iter().zip(self.scale)) {
-            let c = f64::from(*ki) * self.taps.norm() as f64 * s;
-            *h = [c; 5];
-        }
         self.quiet = 0;
         self.at_rest = false;
+    }
+
+    /// Each axis's quanta.
+    #[must_use]
+    pub fn quanta(&self) -> [Quanta; W] {
+        self.accelerations.map(|a| Quanta::new(a, self.h))
     }
 
     /// The filter's numerator.
@@ -113,7 +116,7 @@ impl<const W: usize, const R: usize> Group<W, R> {
     #[must_use]
     pub fn positions(&self) -> [f64; W] {
         let mut out = self.origin;
-        for (o, (a, q)) in out.iter_mut().zip(self.axes.iter().zip(self.quanta)) {
+        for (o, (a, q)) in out.iter_mut().zip(self.axes.iter().zip(self.quanta())) {
             *o += a.n_p as f64 * q.position;
         }
         out
@@ -123,7 +126,7 @@ impl<const W: usize, const R: usize> Group<W, R> {
     #[must_use]
     pub fn speeds(&self) -> [f64; W] {
         let mut out = [0.0; W];
-        for (o, (a, q)) in out.iter_mut().zip(self.axes.iter().zip(self.quanta)) {
+        for (o, (a, q)) in out.iter_mut().zip(self.axes.iter().zip(self.quanta())) {
             *o = a.n_v as f64 * q.velocity;
         }
         out
@@ -135,12 +138,19 @@ impl<const W: usize, const R: usize> Group<W, R> {
         let p0 = self.positions();
         let v0 = self.speeds();
         let resting = self.axes.iter().all(|a| a.n_v == 0);
+        let quanta = self.quanta();
         let k = limiter::step(&mut self.axes, targets, bounds);
         self.ring.push(k);
-        let c = self.sums.advance(&self.ring, &self.taps);
-        for ((hist, ci), s) in self.history.iter_mut().zip(c).zip(self.scale) {
-            hist.rotate_right(1);
-            hist[0] = ci as f64 * s;
+        // The filtered acceleration's B-spline coefficients c[n − i], newest first, m/s².
+        let mut history = [[0.0; 5]; W];
+        for ((hist, outputs), s) in history
+            .iter_mut()
+            .zip(self.sums.advance(&self.ring, &self.taps))
+            .zip(self.scale)
+        {
+            for (c, o) in hist.iter_mut().zip(outputs) {
+                *c = o as f64 * s;
+            }
         }
         self.quiet = if k.iter().all(|k| *k == 0) {
             self.quiet.saturating_add(1)
@@ -154,8 +164,8 @@ impl<const W: usize, const R: usize> Group<W, R> {
                 p0.get(i),
                 v0.get(i),
                 k.get(i),
-                self.history.get(i),
-                self.quanta.get(i),
+                history.get(i),
+                quanta.get(i),
             ) else {
                 continue;
             };
@@ -172,13 +182,6 @@ impl<const W: usize, const R: usize> Group<W, R> {
                     omega_h: self.omega_h,
                 });
             }
-        }
-    }
-
-    /// Ends the current cycle: the pieces' end states become the next start.
-    pub fn finish(&mut self) {
-        for p in self.pieces.iter_mut() {
-            p.finish();
         }
     }
 }

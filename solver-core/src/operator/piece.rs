@@ -16,8 +16,9 @@
 //!   leave `(ω_g h)¹²/12! < 10⁻²⁰` of the swing ([`MAX_OMEGA_H`](super::settings::MAX_OMEGA_H)),
 //!   so the piece is exact to rounding without a sine or cosine.
 //!
-//! The states `d, ḋ, e, ė` at the cycle's end are computed with the piece and become the
-//! next cycle's start ([`Piece::finish`]).
+//! The states `d, ḋ, e, ė` at the cycle's end are computed with the piece and kept in
+//! place of those at its start (only the piece's coefficients are evaluated): they are
+//! the next cycle's start.
 
 /// The piece's highest power of θ.
 pub const DEGREE: usize = 11;
@@ -149,14 +150,11 @@ pub type State = [f64; 2];
 pub struct Piece {
     /// The path's coefficients in θ.
     pub coeffs: [f64; COEFFS],
-    /// `d = r − p₀`, `ḋ` at the cycle's start.
+    /// `d = r − p₀`, `ḋ` at the start of the next cycle to build (once built: at the
+    /// current cycle's end).
     pub lag: State,
-    /// `e = x_L − r`, `ė` at the cycle's start (zero for the hoist).
+    /// `e = x_L − r`, `ė` likewise (zero for the hoist).
     pub swing: State,
-    /// `d, ḋ` at the cycle's end.
-    next_lag: State,
-    /// `e, ė` at the cycle's end.
-    next_swing: State,
 }
 
 /// What a cycle's piece is built from.
@@ -188,12 +186,11 @@ impl Piece {
             coeffs,
             lag: [0.0; 2],
             swing: [0.0; 2],
-            next_lag: [0.0; 2],
-            next_swing: [0.0; 2],
         }
     }
 
-    /// Builds the cycle from the states at its start (`self.lag`, `self.swing`).
+    /// Builds the cycle from the states at its start (`self.lag`, `self.swing`), which
+    /// it replaces by those at its end.
     pub fn build(&mut self, x: &Inputs) {
         let h2 = x.h * x.h;
         let [d, d_dot] = self.lag;
@@ -210,10 +207,10 @@ impl Piece {
             next_d += f;
             next_d_rate += j as f64 * f;
         }
-        self.next_lag = [next_d, next_d_rate * x.inv_h];
+        let next_lag = [next_d, next_d_rate * x.inv_h];
         // The pendulum's Taylor coefficients.
         let mut eps = [0.0; COEFFS];
-        if let Some(omega_h) = x.omega_h {
+        let next_swing = if let Some(omega_h) = x.omega_h {
             let w2 = omega_h * omega_h;
             eps[0] = e;
             eps[1] = e_dot * x.h;
@@ -229,10 +226,10 @@ impl Piece {
                 sum += v;
                 rate += j as f64 * v;
             }
-            self.next_swing = [sum, rate * x.inv_h];
+            [sum, rate * x.inv_h]
         } else {
-            self.next_swing = [0.0; 2];
-        }
+            [0.0; 2]
+        };
         // x = p₀ + d + e: from θ² on, p₀ + d is the filtered part alone.
         let mut coeffs = eps;
         coeffs[0] = x.p0 + d + e;
@@ -241,12 +238,8 @@ impl Piece {
             *c += f;
         }
         self.coeffs = coeffs;
-    }
-
-    /// Moves the states to the cycle's end: the next cycle's start.
-    pub fn finish(&mut self) {
-        self.lag = self.next_lag;
-        self.swing = self.next_swing;
+        self.lag = next_lag;
+        self.swing = next_swing;
     }
 
     /// At rest from here: the filter states are zero (exactly, once the windows have
@@ -351,7 +344,6 @@ mod tests {
                 y[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
             }
         }
-        p.finish();
         assert!((p.lag[0] - y[0]).abs() < 1e-15 && (p.lag[1] - y[1]).abs() < 1e-14);
         assert!((p.swing[0] - y[2]).abs() < 1e-15 && (p.swing[1] - y[3]).abs() < 1e-14);
         // The path at the end: p₀(h) + d + e.
