@@ -30,8 +30,7 @@
 
 use crate::error::{Error, Result};
 use crate::operator::limiter::{brake, round_i, MAX_STEP};
-use crate::operator::piece::Piece;
-use crate::operator::piece::{COEFFS, DEGREE};
+use crate::operator::piece::{Piece, COEFFS};
 use crate::operator::settings::Quanta;
 use crate::trajectory::Trajectory;
 
@@ -71,16 +70,15 @@ impl Handover<2> {
     }
 }
 
-/// The blend `E(t)`: per axis its derivatives with respect to `τ = (t − t_h)/T_b` at
-/// τ = 0, `e_j T_b^j` (what multiplies the basis [`HERMITE`]'s `H_j`).
+/// The blend `E(t)` on the current cycle: per axis its coefficients in
+/// `θ = (t − t_n)/h`, moved on by one cycle after each (a Taylor shift by 1 in θ:
+/// additions only), for the cycles it has left.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Blend<const NH: usize> {
-    horizontal: [[f64; ORDERS]; NH],
-    hoist: [f64; ORDERS],
-    /// The cycle at which τ = 0.
-    start: u64,
-    /// Its length in cycles.
-    cycles: u64,
+    horizontal: [[f64; COEFFS]; NH],
+    hoist: [f64; COEFFS],
+    /// Cycles left, this one included.
+    left: u64,
 }
 
 /// `C(n, k)`, in const context.
@@ -136,56 +134,49 @@ fn blend_axis(e: &[f64; ORDERS]) -> [f64; COEFFS] {
     out
 }
 
-/// `p(τ₀ + s θ)` as coefficients in θ: the Taylor shift of a polynomial in τ.
-fn shifted(p: &[f64; COEFFS], tau0: f64, s: f64) -> [f64; COEFFS] {
-    let mut out = [0.0; COEFFS];
-    let mut s_j = 1.0;
-    let mut j_factorial = 1.0;
-    for (j, o) in out.iter_mut().enumerate() {
-        // p^(j)(τ₀)/j! · s^j, by Horner on k!/(k−j)! p_k τ₀^(k−j).
-        let mut acc = 0.0;
-        for k in (j..=DEGREE).rev() {
-            let falling = ((k - j + 1)..=k).fold(1.0, |a, i| a * i as f64);
-            acc = acc * tau0 + p.get(k).copied().unwrap_or(0.0) * falling;
+/// `p(θ + 1)` in place: the Taylor shift by one by repeated synthetic division
+/// (Horner's scheme: `a_j += a_{j+1}` for every `j` from the top, once per coefficient —
+/// `n(n−1)/2` additions).
+fn shift_by_one(a: &mut [f64; COEFFS]) {
+    for i in 0..COEFFS - 1 {
+        for j in (i..COEFFS - 1).rev() {
+            let next = a.get(j + 1).copied().unwrap_or(0.0);
+            if let Some(slot) = a.get_mut(j) {
+                *slot += next;
+            }
         }
-        *o = acc / j_factorial * s_j;
-        s_j *= s;
-        j_factorial *= (j + 1) as f64;
     }
-    out
+}
+
+/// `p(s θ)`: the coefficients of `p(τ)` scaled by `s^j`.
+fn scaled(mut p: [f64; COEFFS], s: f64) -> [f64; COEFFS] {
+    let mut s_j = 1.0;
+    for c in p.iter_mut() {
+        *c *= s_j;
+        s_j *= s;
+    }
+    p
 }
 
 impl<const NH: usize> Blend<NH> {
-    /// Adds the blend's share on cycle `cycle` (coefficients in θ of that cycle, `h` long)
-    /// to the pieces; nothing outside the blend.
-    pub fn add(&self, cycle: u64, horizontal: &mut [Piece; NH], hoist: &mut Piece) {
-        let Some(i) = cycle.checked_sub(self.start).filter(|i| *i < self.cycles) else {
-            return;
-        };
-        let s = 1.0 / self.cycles as f64;
-        let tau0 = i as f64 * s;
-        for (piece, e) in horizontal.iter_mut().zip(self.horizontal.iter()) {
-            for (c, b) in piece
-                .coeffs
-                .iter_mut()
-                .zip(shifted(&blend_axis(e), tau0, s))
-            {
+    /// Adds the blend's share on the current cycle to the pieces and moves it on to the
+    /// next; returns whether it goes on after this cycle.
+    pub fn add(&mut self, horizontal: &mut [Piece; NH], hoist: &mut Piece) -> bool {
+        if self.left == 0 {
+            return false;
+        }
+        for (piece, e) in horizontal.iter_mut().zip(self.horizontal.iter_mut()) {
+            for (c, b) in piece.coeffs.iter_mut().zip(e.iter()) {
                 *c += b;
             }
+            shift_by_one(e);
         }
-        for (c, b) in hoist
-            .coeffs
-            .iter_mut()
-            .zip(shifted(&blend_axis(&self.hoist), tau0, s))
-        {
+        for (c, b) in hoist.coeffs.iter_mut().zip(self.hoist.iter()) {
             *c += b;
         }
-    }
-
-    /// Whether the blend still acts on or after cycle `cycle`.
-    #[must_use]
-    pub fn active(&self, cycle: u64) -> bool {
-        cycle < self.start + self.cycles
+        shift_by_one(&mut self.hoist);
+        self.left -= 1;
+        self.left > 0
     }
 }
 
@@ -369,31 +360,30 @@ pub(crate) fn blend_cycles(settings_blend: f64, h: f64) -> u64 {
     libm::round(settings_blend / h).max(1.0) as u64
 }
 
-/// A blend over `cycles` cycles of `h` from cycle `start`, with the differences `e[j]` in
-/// the j-th time derivative at its start.
+/// A blend over `cycles` cycles of `h` from the next cycle on, with the differences
+/// `e[j]` in the j-th time derivative at its start: `E(τ) = Σ_j e_j T_b^j H_j(τ)`, as
+/// coefficients in θ (`τ = θ/cycles`).
 pub(crate) fn new_blend<const NH: usize>(
-    start: u64,
     cycles: u64,
     h: f64,
     horizontal: &[[f64; ORDERS]; NH],
     hoist: &[f64; ORDERS],
 ) -> Blend<NH> {
     let duration = cycles as f64 * h;
-    // d^j/dτ^j = T_b^j d^j/dt^j.
-    let in_tau = |e: &[f64; ORDERS]| {
-        let mut out = *e;
+    // d^j/dτ^j = T_b^j d^j/dt^j, then E in θ.
+    let in_theta = |e: &[f64; ORDERS]| {
+        let mut tau = *e;
         let mut scale = 1.0;
-        for o in out.iter_mut() {
+        for o in tau.iter_mut() {
             *o *= scale;
             scale *= duration;
         }
-        out
+        scaled(blend_axis(&tau), 1.0 / cycles as f64)
     };
     Blend {
-        horizontal: horizontal.map(|e| in_tau(&e)),
-        hoist: in_tau(hoist),
-        start,
-        cycles,
+        horizontal: horizontal.map(|e| in_theta(&e)),
+        hoist: in_theta(hoist),
+        left: cycles,
     }
 }
 
@@ -424,15 +414,38 @@ mod tests {
         }
     }
 
+    /// A blend moved on cycle by cycle is the polynomial at the later argument: its
+    /// derivatives 0..=5 within 1e-9 of the largest each reaches over the blend (measured:
+    /// 1.6e-12 for the value, at most 1.4e-10 for the fourth derivative — the rounding of
+    /// the monomial form, whose coefficients reach ~10⁴ for values ≤ 1, in the reference
+    /// as in the blend, and of 400 cycles of additions).
     #[test]
     fn taylor_shift_is_the_polynomial_at_the_shifted_argument() {
         let p = blend_axis(&[0.1, -0.3, 0.5, 0.2, -1.0, 0.7]);
-        let (tau0, s) = (0.37, 0.005);
-        let q = shifted(&p, tau0, s);
-        for theta in [0.0, 0.3, 1.0] {
-            let a = derivative_at(&p, tau0 + s * theta, 0);
-            let b = derivative_at(&q, theta, 0);
-            assert!((a - b).abs() < 1e-14, "θ {theta}: {a} vs {b}");
+        let cycles = 400.0;
+        let s = 1.0 / cycles;
+        let mut largest = [0.0_f64; ORDERS];
+        let mut error = [0.0_f64; ORDERS];
+        let mut q = scaled(p, s);
+        for n in 0..=400 {
+            let tau0 = n as f64 * s;
+            for theta in [0.0, 0.3, 1.0] {
+                for j in 0..ORDERS {
+                    let a = derivative_at(&p, tau0 + theta * s, j);
+                    let b = derivative_at(&q, theta, j) / s.powi(j as i32);
+                    largest[j] = largest[j].max(a.abs());
+                    error[j] = error[j].max((a - b).abs());
+                }
+            }
+            shift_by_one(&mut q);
+        }
+        for j in 0..ORDERS {
+            assert!(
+                error[j] <= 1e-9 * largest[j],
+                "order {j}: {} of {}",
+                error[j],
+                largest[j]
+            );
         }
     }
 

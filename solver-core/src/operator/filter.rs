@@ -25,13 +25,12 @@ pub const MAX_TAPS: usize = 16;
 /// Most windows (running sums) of one filter: the hoist's four.
 pub const MAX_WINDOWS: usize = 4;
 
-/// One factor of the numerator.
+/// One factor of the numerator (the zero-vibration pairs are added by
+/// [`Taps::with_pairs`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Factor {
     /// A moving average over `m` cycles: `(1 − z^{−m})`, with one running sum and `1/m`.
     Window(usize),
-    /// A zero-vibration pair with delay `m` cycles: `(1 + z^{−m})`, with `½`.
-    Pair(usize),
 }
 
 /// The numerator `Σ w_i z^{−d_i}` of a filter: delays in cycles and integer weights.
@@ -48,8 +47,8 @@ pub struct Taps {
 }
 
 impl Taps {
-    /// The product of `factors` (at most four; further ones are ignored, and the
-    /// generator never passes more): equal delays merged, zero weights dropped.
+    /// The product of the windows `factors` (at most four; further ones are ignored, and
+    /// the generator never passes more): equal delays merged, zero weights dropped.
     #[must_use]
     pub fn new(factors: &[Factor]) -> Self {
         let mut delay = [0_u16; MAX_TAPS];
@@ -61,17 +60,10 @@ impl Taps {
         let mut windows = 0;
         let mut norm: u64 = 1;
         for f in factors.iter().take(MAX_WINDOWS) {
-            let (m, sign) = match *f {
-                Factor::Window(m) => {
-                    windows += 1;
-                    (m, -1)
-                }
-                Factor::Pair(m) => (m, 1),
-            };
-            norm = norm.saturating_mul(match *f {
-                Factor::Window(m) => m as u64,
-                Factor::Pair(_) => 2,
-            });
+            let Factor::Window(m) = *f;
+            let sign = -1;
+            windows += 1;
+            norm = norm.saturating_mul(m as u64);
             // Each existing term once as it is and once delayed by m with the sign (the
             // existing terms as they were before this factor).
             let (old_delay, old_weight, old) = (delay, weight, len);
@@ -87,6 +79,35 @@ impl Taps {
             windows,
             norm,
         }
+    }
+
+    /// These taps times zero-vibration pairs with the delays `pairs` (as many as fit
+    /// [`MAX_TAPS`]), without merging equal delays: a tap twice at one delay sums the
+    /// same. The cheap way to the horizontal filter when a motion starts (the windows'
+    /// taps merged once, the pairs' delays new each time).
+    #[must_use]
+    pub fn with_pairs(&self, pairs: &[usize]) -> Self {
+        let mut out = *self;
+        for m in pairs {
+            let len = usize::from(out.len);
+            if 2 * len > MAX_TAPS {
+                break;
+            }
+            let shift = u16::try_from(*m).unwrap_or(u16::MAX);
+            let (delay, weight) = (out.delay, out.weight);
+            for ((d, w), (sd, sw)) in delay
+                .iter()
+                .zip(weight)
+                .take(len)
+                .zip(out.delay.iter_mut().zip(out.weight.iter_mut()).skip(len))
+            {
+                *sd = d.saturating_add(shift);
+                *sw = w;
+            }
+            out.len = (2 * len) as u8;
+            out.norm = out.norm.saturating_mul(2);
+        }
+        out
     }
 
     /// The longest delay, in cycles.
@@ -147,6 +168,11 @@ pub struct Ring<const W: usize, const R: usize> {
     cells: [[i8; W]; R],
     /// Where the newest cycle is.
     head: usize,
+    /// How many of the newest cycles hold what was pushed since the ring was last
+    /// forgotten (up to `R`): older cells read as zero, so forgetting the history needs
+    /// no clearing (the start of a motion, the generator's most expensive cycle, would
+    /// otherwise write every cell).
+    valid: usize,
 }
 
 impl<const W: usize, const R: usize> Ring<W, R> {
@@ -156,6 +182,7 @@ impl<const W: usize, const R: usize> Ring<W, R> {
         Self {
             cells: [[0; W]; R],
             head: 0,
+            valid: 0,
         }
     }
 
@@ -165,12 +192,16 @@ impl<const W: usize, const R: usize> Ring<W, R> {
         if let Some(cell) = self.cells.get_mut(self.head) {
             *cell = k;
         }
+        if self.valid < R {
+            self.valid += 1;
+        }
     }
 
-    /// The cycle `delay` cycles before the newest (zero beyond the ring).
+    /// The cycle `delay` cycles before the newest (zero beyond what was pushed since the
+    /// ring was last forgotten).
     #[must_use]
     pub fn get(&self, delay: usize) -> [i8; W] {
-        if delay >= R {
+        if delay >= self.valid {
             return [0; W];
         }
         let i = if delay <= self.head {
@@ -181,9 +212,15 @@ impl<const W: usize, const R: usize> Ring<W, R> {
         self.cells.get(i).copied().unwrap_or([0; W])
     }
 
+    /// Forgets every cycle: from now on the history reads as all zero (a history at rest).
+    pub fn forget(&mut self) {
+        self.valid = 0;
+    }
+
     /// Fills `R` cycles with `k` (a history of constant acceleration).
     pub fn fill(&mut self, k: [i8; W]) {
         self.cells = [k; R];
+        self.valid = R;
     }
 }
 
@@ -191,6 +228,33 @@ impl<const W: usize, const R: usize> Default for Ring<W, R> {
     fn default() -> Self {
         Self::new()
     }
+}
+
+/// `(−1)^j C(i, j)` (zero for `j > i`): row `i` turns backward differences `∇^j S[n]`
+/// into `S[n − i]` (the tests' reading of the differences; the pieces fold it into their
+/// B-spline table).
+#[cfg(test)]
+pub const BACKWARD: [[i64; MAX_WINDOWS + 1]; MAX_WINDOWS + 1] = [
+    [1, 0, 0, 0, 0],
+    [1, -1, 0, 0, 0],
+    [1, -2, 1, 0, 0],
+    [1, -3, 3, -1, 0],
+    [1, -4, 6, -4, 1],
+];
+
+/// The last `q + 1` outputs `S[n − i]`, newest first, from the backward differences
+/// `∇^j S[n]`: `S[n − i] = Σ_j (−1)^j C(i, j) ∇^j S[n]`.
+#[cfg(test)]
+#[must_use]
+pub fn values(nabla: &[i64; MAX_WINDOWS + 1], q: usize) -> [i64; MAX_WINDOWS + 1] {
+    let mut out = [0_i64; MAX_WINDOWS + 1];
+    for (oi, row) in out.iter_mut().zip(BACKWARD.iter()).take(q + 1) {
+        *oi = nabla
+            .iter()
+            .zip(row)
+            .fold(0_i64, |acc, (n, b)| acc.wrapping_add(b.wrapping_mul(*n)));
+    }
+    out
 }
 
 /// The running sums after the taps, per axis: the discrete filter's state besides the
@@ -207,13 +271,12 @@ impl<const W: usize> Sums<W> {
     };
 
     /// One cycle: the taps on the ring (whose newest cycle is this one's), then the
-    /// `q` running sums. Returns per axis the filter's last `q + 1` outputs `S[n − i]`,
-    /// newest first — `D(z) k` times the normalisation ([`Taps::norm`]), exact integers —
-    /// read off the running sums, which hold its backward differences
-    /// (`∇^j S[n]` is the `(q−j)`-th sum, `∇^q S[n]` the taps' output):
-    /// `S[n − i] = Σ_j (−1)^j C(i, j) ∇^j S[n]`. So the B-spline's coefficients need no
-    /// history of their own. Wrapping arithmetic: the true values are bounded
-    /// (127 · norm and their differences), so the results are exact whatever the
+    /// `q` running sums. Returns per axis the backward differences of the filter's
+    /// output `S = D(z) k` times the normalisation ([`Taps::norm`]), exact integers:
+    /// the running sums hold them — `∇^j S[n]` is the `(q−j)`-th sum, `∇^q S[n]` the
+    /// taps' output — so the B-spline's coefficients need no history of their own
+    /// ([`values`] turns them into `S[n − i]`). Wrapping arithmetic: the true values are
+    /// bounded (127 · norm and their differences), so the results are exact whatever the
     /// intermediate sums.
     pub fn advance<const R: usize>(
         &mut self,
@@ -228,31 +291,17 @@ impl<const W: usize> Sums<W> {
             }
         }
         let mut out = [[0_i64; MAX_WINDOWS + 1]; W];
-        for ((s, xi), o) in self.sums.iter_mut().zip(x).zip(out.iter_mut()) {
+        for ((s, xi), nabla) in self.sums.iter_mut().zip(x).zip(out.iter_mut()) {
             let mut carry = xi;
             for sum in s.iter_mut().take(q) {
                 *sum = sum.wrapping_add(carry);
                 carry = *sum;
             }
-            let mut nabla = [0_i64; MAX_WINDOWS + 1];
             for (j, n) in nabla.iter_mut().enumerate().take(q + 1) {
                 *n = match q.checked_sub(j + 1) {
                     Some(i) => s.get(i).copied().unwrap_or(0),
                     None => xi,
                 };
-            }
-            for (i, oi) in o.iter_mut().enumerate().take(q + 1) {
-                let (mut acc, mut binomial) = (0_i64, 1_i64);
-                for (j, n) in nabla.iter().enumerate().take(i + 1) {
-                    let term = binomial.wrapping_mul(*n);
-                    acc = if j % 2 == 0 {
-                        acc.wrapping_add(term)
-                    } else {
-                        acc.wrapping_sub(term)
-                    };
-                    binomial = binomial * (i - j) as i64 / (j + 1) as i64;
-                }
-                *oi = acc;
             }
         }
         out
@@ -281,13 +330,7 @@ mod tests {
     /// random integer sequence, in f64 from the definition.
     #[test]
     fn taps_and_sums_are_the_cascade_of_means_and_pairs() {
-        let factors = [
-            Factor::Window(7),
-            Factor::Window(3),
-            Factor::Pair(11),
-            Factor::Pair(5),
-        ];
-        let taps = Taps::new(&factors);
+        let taps = Taps::new(&[Factor::Window(7), Factor::Window(3)]).with_pairs(&[11, 5]);
         assert_eq!(taps.windows(), 2);
         assert_eq!(taps.norm(), 7 * 3 * 4);
         assert_eq!(taps.longest(), 7 + 3 + 11 + 5);
@@ -305,7 +348,7 @@ mod tests {
             };
             input[n] = k as f64;
             ring.push([k as i8]);
-            let all = sums.advance(&ring, &taps)[0];
+            let all = values(&sums.advance(&ring, &taps)[0], taps.windows());
             let out = all[0] as f64 / taps.norm() as f64;
             // The earlier outputs, read off the sums, are the earlier cycles' own.
             for (i, earlier) in all.iter().enumerate().take(3).skip(1) {
@@ -347,13 +390,15 @@ mod tests {
 
     #[test]
     fn steady_state_continues_a_constant_history() {
-        let taps = Taps::new(&[Factor::Window(4), Factor::Window(9), Factor::Pair(6)]);
+        let taps = Taps::new(&[Factor::Window(4), Factor::Window(9)]).with_pairs(&[6]);
         let mut ring = Ring::<2, 32>::new();
         ring.fill([5, -3]);
         let mut sums = Sums::steady([5, -3], &taps);
         for _ in 0..100 {
             ring.push([5, -3]);
-            let [x, y] = sums.advance(&ring, &taps);
+            let [x, y] = sums
+                .advance(&ring, &taps)
+                .map(|n| values(&n, taps.windows()));
             let norm = taps.norm() as i64;
             for (a, b) in x.iter().zip(y).take(taps.windows() + 1) {
                 assert_eq!([*a, b], [5 * norm, -3 * norm]);
@@ -369,5 +414,12 @@ mod tests {
         }
         let back: [i8; 6] = core::array::from_fn(|d| ring.get(d)[0]);
         assert_eq!(back, [12, 11, 10, 9, 8, 0]);
+        // Forgotten: zero everywhere, then only what came since.
+        ring.forget();
+        assert!((0..6).all(|d| ring.get(d) == [0]));
+        ring.push([7]);
+        ring.push([8]);
+        let back: [i8; 4] = core::array::from_fn(|d| ring.get(d)[0]);
+        assert_eq!(back, [8, 7, 0, 0]);
     }
 }

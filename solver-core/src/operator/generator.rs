@@ -110,11 +110,17 @@ pub struct Generator<const NH: usize, const RH: usize, const RV: usize> {
     boxes: [usize; 2],
     /// A hand-over's blend, while it lasts.
     blend: Option<Blend<NH>>,
+    /// A stick's share beyond the deadband to velocity quanta per horizontal axis,
+    /// `V_i/(δv_i (1 − deadband))`.
+    full_stick: [f64; NH],
+    /// The same for the hoist.
+    full_hoist: f64,
 }
 
-/// The stick's demand through the deadband: zero inside it, the rest scaled so that full
-/// stick stays full; `None` for a value that is not finite.
-fn shaped(d: f64, deadband: f64) -> Option<f64> {
+/// The stick's demand through the deadband: zero inside it, the rest scaled by `full`
+/// (`1/(1 − deadband)` times full speed) so that full stick stays full; `None` for a value
+/// that is not finite.
+fn shaped(d: f64, deadband: f64, full: f64) -> Option<f64> {
     if !d.is_finite() {
         return None;
     }
@@ -122,7 +128,7 @@ fn shaped(d: f64, deadband: f64) -> Option<f64> {
     if a <= deadband {
         return Some(0.0);
     }
-    let s = (a - deadband) / (1.0 - deadband);
+    let s = (a - deadband) * full;
     Some(if d < 0.0 { -s } else { s })
 }
 
@@ -199,8 +205,11 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         }
         let zq = Quanta::new(settings.hoist.acceleration, h);
         let mut hoist_windows = [Factor::Window(1); 4];
+        let mut hoist_cycles = 0;
         for (f, b) in hoist_windows.iter_mut().zip(settings.hoist_boxes) {
-            *f = Factor::Window(cycles("hoist box", b, h)?);
+            let m = cycles("hoist box", b, h)?;
+            hoist_cycles += m;
+            *f = Factor::Window(m);
         }
         let boxes = [
             cycles("box", settings.boxes[0], h)?,
@@ -236,13 +245,17 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
                 half_period: 0,
                 robust_half_period: None,
                 lag: 0.0,
-                hoist_lag: 0.0,
+                hoist_lag: hoist_cycles as f64 * h * 0.5,
                 depth_cap: depth,
                 cap_units: 0,
             },
             reach: 0,
             boxes,
             blend: None,
+            full_stick: settings.horizontal.map(|a| {
+                a.speed / Quanta::new(a.acceleration, h).velocity / (1.0 - settings.deadband)
+            }),
+            full_hoist: settings.hoist.speed / zq.velocity / (1.0 - settings.deadband),
         };
         g.retune();
         Ok(g)
@@ -383,7 +396,6 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         }
         let hoist = difference(&state.hoist, &hz.path);
         self.blend = Some(new_blend(
-            0,
             blend_cycles(s.entry_blend, h),
             h,
             &horizontal,
@@ -415,38 +427,21 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             .robust
             .then(|| zv_cycles(depth_now, s.g, h, Rounding::Nearest));
         let [b1, b2] = self.boxes;
-        let mut factors = [
-            Factor::Window(b1),
-            Factor::Window(b2),
-            Factor::Pair(m_g),
-            Factor::Pair(1),
-        ];
-        let used = if let Some(m_r) = robust {
-            factors[3] = Factor::Pair(m_r);
-            4
-        } else {
-            3
+        let windows = Taps::new(&[Factor::Window(b1), Factor::Window(b2)]);
+        let taps = match robust {
+            Some(m_r) => windows.with_pairs(&[m_g, m_r]),
+            None => windows.with_pairs(&[m_g]),
         };
-        let taps = Taps::new(factors.get(..used).unwrap_or(&factors));
         self.horizontal.set_filter(taps, Some(omega_g * h));
-        let hoist_cycles: usize = self.hoist_windows().iter().sum();
         self.tuning = Tuning {
             pendulum: s.g / (omega_g * omega_g),
             half_period: m_g,
             robust_half_period: robust,
             lag: (m_g + robust.unwrap_or(0) + b1 + b2) as f64 * h * 0.5,
-            hoist_lag: hoist_cycles as f64 * h * 0.5,
             depth_cap,
             cap_units,
+            ..self.tuning
         };
-    }
-
-    fn hoist_windows(&self) -> [usize; 4] {
-        let mut out = [1; 4];
-        for (o, b) in out.iter_mut().zip(self.settings.hoist_boxes) {
-            *o = cycles("hoist box", b, self.settings.h).unwrap_or(1);
-        }
-        out
     }
 
     /// One cycle: moves on past the current piece (if any) and builds the next one,
@@ -459,22 +454,21 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         self.built = true;
         let s = self.settings;
         let mut refused = false;
-        let mut shape = |d: f64| {
-            shaped(d, s.deadband).unwrap_or_else(|| {
+        let mut shape = |d: f64, full: f64| {
+            shaped(d, s.deadband, full).unwrap_or_else(|| {
                 refused = true;
                 0.0
             })
         };
         let mut targets = [0.0; NH];
-        for ((t, d), (a, q)) in targets
+        for ((t, d), full) in targets
             .iter_mut()
             .zip(demand.horizontal)
-            .zip(s.horizontal.iter().zip(self.horizontal.quanta()))
+            .zip(self.full_stick)
         {
-            *t = shape(d) * a.speed / q.velocity;
+            *t = shape(d, full);
         }
-        let mut hoist_target =
-            shape(demand.hoist) * s.hoist.speed / self.hoist.quanta()[0].velocity;
+        let mut hoist_target = shape(demand.hoist, self.full_hoist);
         if self.stopping {
             targets = [0.0; NH];
             hoist_target = 0.0;
@@ -499,11 +493,9 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         };
         let bounds = self.horizontal.bounds;
         self.horizontal.cycle(targets, bounds, s.h, self.inv_h);
-        if let Some(b) = self.blend {
-            if b.active(self.cycles) {
-                let [hoist] = &mut self.hoist.pieces;
-                b.add(self.cycles, &mut self.horizontal.pieces, hoist);
-            } else {
+        if let Some(b) = self.blend.as_mut() {
+            let [hoist] = &mut self.hoist.pieces;
+            if !b.add(&mut self.horizontal.pieces, hoist) {
                 self.blend = None;
             }
         }

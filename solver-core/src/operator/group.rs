@@ -70,7 +70,7 @@ impl<const W: usize, const R: usize> Group<W, R> {
         g
     }
 
-    /// A new filter (only at rest: the history is then all zero); clears the ring, whose
+    /// A new filter (only at rest: the history is then all zero); forgets the ring, whose
     /// older cycles the new taps may reach.
     pub fn set_filter(&mut self, taps: Taps, omega_h: Option<f64>) {
         self.taps = taps;
@@ -81,7 +81,7 @@ impl<const W: usize, const R: usize> Group<W, R> {
         for (s, q) in self.scale.iter_mut().zip(quanta) {
             *s = q.acceleration / norm;
         }
-        self.ring.fill([0; W]);
+        self.ring.forget();
         self.sums = Sums::REST;
     }
 
@@ -112,16 +112,6 @@ impl<const W: usize, const R: usize> Group<W, R> {
         self.at_rest
     }
 
-    /// Each axis's rate-limiter position at the current cycle's start, m.
-    #[must_use]
-    pub fn positions(&self) -> [f64; W] {
-        let mut out = self.origin;
-        for (o, (a, q)) in out.iter_mut().zip(self.axes.iter().zip(self.quanta())) {
-            *o += a.n_p as f64 * q.position;
-        }
-        out
-    }
-
     /// Each axis's rate-limiter speed, m/s.
     #[must_use]
     pub fn speeds(&self) -> [f64; W] {
@@ -135,23 +125,37 @@ impl<const W: usize, const R: usize> Group<W, R> {
     /// One cycle from the states at its start: the limiter towards `targets` (velocity
     /// quanta) within `bounds`, the filter, the pieces. `h`, `inv_h`: the cycle.
     pub fn cycle(&mut self, targets: [f64; W], bounds: [(i64, i64); W], h: f64, inv_h: f64) {
-        let p0 = self.positions();
-        let v0 = self.speeds();
-        let resting = self.axes.iter().all(|a| a.n_v == 0);
+        if self.at_rest && targets.iter().all(|t| *t == 0.0) {
+            // Nothing moves: the steps would be zero, the ring's window is zero already
+            // and the running sums stay zero; the pieces are the rest positions again (a
+            // hand-over's blend may have been added to the last ones).
+            self.quiet = self.quiet.saturating_add(1);
+            for ((piece, o), (a, q)) in self
+                .pieces
+                .iter_mut()
+                .zip(self.origin)
+                .zip(self.axes.iter().zip(self.accelerations))
+            {
+                piece.settle(o + a.n_p as f64 * Quanta::new(q, self.h).position);
+            }
+            return;
+        }
         let quanta = self.quanta();
+        let mut p0 = self.origin;
+        let mut v0 = [0.0; W];
+        for ((p, v), (a, q)) in p0
+            .iter_mut()
+            .zip(v0.iter_mut())
+            .zip(self.axes.iter().zip(quanta))
+        {
+            *p += a.n_p as f64 * q.position;
+            *v = a.n_v as f64 * q.velocity;
+        }
+        let resting = self.axes.iter().all(|a| a.n_v == 0);
         let k = limiter::step(&mut self.axes, targets, bounds);
         self.ring.push(k);
-        // The filtered acceleration's B-spline coefficients c[n − i], newest first, m/s².
-        let mut history = [[0.0; 5]; W];
-        for ((hist, outputs), s) in history
-            .iter_mut()
-            .zip(self.sums.advance(&self.ring, &self.taps))
-            .zip(self.scale)
-        {
-            for (c, o) in hist.iter_mut().zip(outputs) {
-                *c = o as f64 * s;
-            }
-        }
+        // The filter output's backward differences: the B-spline on this cycle.
+        let nabla = self.sums.advance(&self.ring, &self.taps);
         self.quiet = if k.iter().all(|k| *k == 0) {
             self.quiet.saturating_add(1)
         } else {
@@ -160,12 +164,13 @@ impl<const W: usize, const R: usize> Group<W, R> {
         self.at_rest = resting && self.quiet >= self.window;
         let q = self.taps.windows();
         for (i, piece) in self.pieces.iter_mut().enumerate() {
-            let (Some(p), Some(v), Some(ki), Some(hist), Some(qa)) = (
+            let (Some(p), Some(v), Some(ki), Some(n), Some(qa), Some(scale)) = (
                 p0.get(i),
                 v0.get(i),
                 k.get(i),
-                history.get(i),
+                nabla.get(i),
                 quanta.get(i),
+                self.scale.get(i),
             ) else {
                 continue;
             };
@@ -176,7 +181,7 @@ impl<const W: usize, const R: usize> Group<W, R> {
                     p0: *p,
                     v0: *v,
                     a0: f64::from(*ki) * qa.acceleration,
-                    rho: spline(hist, q),
+                    rho: spline(n, q, *scale),
                     h,
                     inv_h,
                     omega_h: self.omega_h,

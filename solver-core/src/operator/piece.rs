@@ -75,14 +75,16 @@ const fn bspline(q: usize) -> [[f64; 5]; 5] {
 }
 
 /// The quadratic B-spline's pieces (two windows: the horizontal filter).
-pub const BSPLINE2: [[f64; 5]; 5] = bspline(2);
+#[cfg(test)]
+const BSPLINE2: [[f64; 5]; 5] = bspline(2);
 
 /// The quartic B-spline's pieces (four windows: the hoist's filter).
-pub const BSPLINE4: [[f64; 5]; 5] = bspline(4);
+#[cfg(test)]
+const BSPLINE4: [[f64; 5]; 5] = bspline(4);
 
 /// The pieces of degree `q` (2 or 4; any other is the quartic's, which no filter here has).
-#[must_use]
-pub fn bspline_of(q: usize) -> &'static [[f64; 5]; 5] {
+#[cfg(test)]
+fn bspline_of(q: usize) -> &'static [[f64; 5]; 5] {
     if q == 2 {
         &BSPLINE2
     } else {
@@ -128,16 +130,51 @@ const fn inv_pair() -> [f64; COEFFS] {
     out
 }
 
-/// The filtered acceleration on this cycle as a polynomial in θ: `Σ_i c[i] N_q(θ + i)`,
-/// `c[i] = c[n − i]` (newest first).
-#[must_use]
-pub fn spline(c: &[f64; 5], q: usize) -> [f64; 5] {
-    let table = bspline_of(q);
-    let mut rho = [0.0; 5];
-    for (ci, row) in c.iter().zip(table.iter()).take(q + 1) {
-        for (r, b) in rho.iter_mut().zip(row.iter()).take(q + 1) {
-            *r += ci * b;
+/// `j` as f64, `j = 0..COEFFS`: the factors of the first derivative.
+const INDEX: [f64; COEFFS] = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0];
+
+/// `Σ_i N_q(θ + i) (−1)^j C(i, j)`: row `j` of the map from the filter output's
+/// backward differences `∇^j S[n]` to the coefficients of θ^m of the B-spline on this
+/// cycle, `Σ_i S[n−i] N_q(θ + i)` — the B-spline's pieces and the differences'
+/// binomials in one table, entry `[m][j]`.
+#[allow(clippy::indexing_slicing)] // evaluated at compile time: an index out of range fails the build
+const fn spline_of_differences(q: usize) -> [[f64; 5]; 5] {
+    let b = bspline(q);
+    let mut out = [[0.0; 5]; 5];
+    let mut m = 0;
+    while m <= q {
+        let mut j = 0;
+        while j <= q {
+            let mut i = j;
+            while i <= q {
+                let sign = if j % 2 == 0 { 1.0 } else { -1.0 };
+                out[m][j] += b[i][m] * sign * binomial(i, j);
+                i += 1;
+            }
+            j += 1;
         }
+        m += 1;
+    }
+    out
+}
+
+/// [`spline_of_differences`] of the quadratic and the quartic B-spline.
+const DIFFERENCES2: [[f64; 5]; 5] = spline_of_differences(2);
+const DIFFERENCES4: [[f64; 5]; 5] = spline_of_differences(4);
+
+/// The filtered acceleration on this cycle as a polynomial in θ, from the filter
+/// output's backward differences `∇^j S[n]` (exact integers) and `scale`, the factor
+/// that makes them m/s²: `Σ_i c[n−i] N_q(θ + i)` with `c = scale · S`.
+#[must_use]
+pub fn spline(nabla: &[i64; 5], q: usize, scale: f64) -> [f64; 5] {
+    let table = if q == 2 { &DIFFERENCES2 } else { &DIFFERENCES4 };
+    let mut rho = [0.0; 5];
+    for (r, row) in rho.iter_mut().zip(table.iter()).take(q + 1) {
+        let mut acc = 0.0;
+        for (n, m) in nabla.iter().zip(row.iter()).take(q + 1) {
+            acc += *n as f64 * m;
+        }
+        *r = acc * scale;
     }
     rho
 }
@@ -192,39 +229,50 @@ impl Piece {
     /// Builds the cycle from the states at its start (`self.lag`, `self.swing`), which
     /// it replaces by those at its end.
     pub fn build(&mut self, x: &Inputs) {
-        let h2 = x.h * x.h;
+        // Written out term by term (constant indices): this runs for every axis every
+        // cycle, and the iterator chains cost three times as many instructions.
+        let (h, h2) = (x.h, x.h * x.h);
         let [d, d_dot] = self.lag;
         let [e, e_dot] = self.swing;
-        // d̈ = r̈ − a₀ and r̈ itself, integrated twice in θ: h² ρ_j θ^(j+2)/((j+1)(j+2)).
-        let mut filtered = [0.0; 7];
-        for ((f, rho), inv) in filtered.iter_mut().skip(2).zip(x.rho).zip(INV_PAIR) {
-            *f = h2 * rho * inv;
-        }
+        let [r0, r1, r2, r3, r4] = x.rho;
+        // r̈ integrated twice in θ: h² ρ_j θ^(j+2)/((j+1)(j+2)).
+        let f = [
+            h2 * r0 * INV_PAIR[0],
+            h2 * r1 * INV_PAIR[1],
+            h2 * r2 * INV_PAIR[2],
+            h2 * r3 * INV_PAIR[3],
+            h2 * r4 * INV_PAIR[4],
+        ];
+        // d̈ = r̈ − a₀: d at the cycle's end and its rate (times h).
         let lag_curvature = -h2 * x.a0 * 0.5;
-        let mut next_d = d + d_dot * x.h + lag_curvature;
-        let mut next_d_rate = d_dot * x.h + 2.0 * lag_curvature;
-        for (j, f) in filtered.iter().enumerate().skip(2) {
-            next_d += f;
-            next_d_rate += j as f64 * f;
-        }
-        let next_lag = [next_d, next_d_rate * x.inv_h];
-        // The pendulum's Taylor coefficients.
+        let next_d = d + d_dot * h + lag_curvature + f[0] + f[1] + f[2] + f[3] + f[4];
+        let next_d_rate = d_dot * h
+            + 2.0 * lag_curvature
+            + 2.0 * f[0]
+            + 3.0 * f[1]
+            + 4.0 * f[2]
+            + 5.0 * f[3]
+            + 6.0 * f[4];
+        // The pendulum's Taylor coefficients: (j+1)(j+2) ε_{j+2} = −(ω_g h)² ε_j − h² ρ_j.
         let mut eps = [0.0; COEFFS];
         let next_swing = if let Some(omega_h) = x.omega_h {
-            let w2 = omega_h * omega_h;
+            let w = -omega_h * omega_h;
             eps[0] = e;
-            eps[1] = e_dot * x.h;
-            for (j, inv) in INV_PAIR.iter().enumerate().take(COEFFS - 2) {
-                let rho = x.rho.get(j).copied().unwrap_or(0.0);
-                let ej = eps.get(j).copied().unwrap_or(0.0);
-                if let Some(slot) = eps.get_mut(j + 2) {
-                    *slot = (-w2 * ej - h2 * rho) * inv;
-                }
-            }
+            eps[1] = e_dot * h;
+            eps[2] = (w * eps[0] - h2 * r0) * INV_PAIR[0];
+            eps[3] = (w * eps[1] - h2 * r1) * INV_PAIR[1];
+            eps[4] = (w * eps[2] - h2 * r2) * INV_PAIR[2];
+            eps[5] = (w * eps[3] - h2 * r3) * INV_PAIR[3];
+            eps[6] = (w * eps[4] - h2 * r4) * INV_PAIR[4];
+            eps[7] = w * eps[5] * INV_PAIR[5];
+            eps[8] = w * eps[6] * INV_PAIR[6];
+            eps[9] = w * eps[7] * INV_PAIR[7];
+            eps[10] = w * eps[8] * INV_PAIR[8];
+            eps[11] = w * eps[9] * INV_PAIR[9];
             let (mut sum, mut rate) = (0.0, 0.0);
-            for (j, v) in eps.iter().enumerate() {
+            for (v, j) in eps.iter().zip(INDEX) {
                 sum += v;
-                rate += j as f64 * v;
+                rate += j * v;
             }
             [sum, rate * x.inv_h]
         } else {
@@ -233,12 +281,14 @@ impl Piece {
         // x = p₀ + d + e: from θ² on, p₀ + d is the filtered part alone.
         let mut coeffs = eps;
         coeffs[0] = x.p0 + d + e;
-        coeffs[1] = (x.v0 + d_dot + e_dot) * x.h;
-        for (c, f) in coeffs.iter_mut().zip(filtered).skip(2) {
-            *c += f;
-        }
+        coeffs[1] = (x.v0 + d_dot + e_dot) * h;
+        coeffs[2] += f[0];
+        coeffs[3] += f[1];
+        coeffs[4] += f[2];
+        coeffs[5] += f[3];
+        coeffs[6] += f[4];
         self.coeffs = coeffs;
-        self.lag = next_lag;
+        self.lag = [next_d, next_d_rate * x.inv_h];
         self.swing = next_swing;
     }
 
@@ -295,6 +345,25 @@ mod tests {
             for j in 0..=q {
                 let s: f64 = t.iter().take(q + 1).map(|row| row[j]).sum();
                 assert!((s - if j == 0 { 1.0 } else { 0.0 }).abs() < 1e-14);
+            }
+        }
+    }
+
+    /// The spline from the differences is the B-spline of the values they stand for.
+    #[test]
+    fn spline_from_differences_is_the_spline_of_the_values() {
+        use crate::operator::filter::values;
+        for q in [2, 4] {
+            let nabla = [123_456, -2_345, 678, -90, 12];
+            let s = values(&nabla, q);
+            let rho = spline(&nabla, q, 0.25);
+            let table = bspline_of(q);
+            for (m, r) in rho.iter().enumerate().take(q + 1) {
+                let want: f64 = (0..=q).map(|i| s[i] as f64 * 0.25 * table[i][m]).sum();
+                assert!(
+                    (r - want).abs() < 1e-9 * (1.0 + want.abs()),
+                    "q {q} θ^{m}: {r} vs {want}"
+                );
             }
         }
     }
