@@ -402,6 +402,19 @@ impl Extremes {
         self.last_u = Some(u);
     }
 
+    /// Takes another run's extremes into account.
+    pub fn merge(&mut self, o: &Self) {
+        for i in 0..3 {
+            self.u[i] = self.u[i].max(o.u[i]);
+            self.u_dot[i] = self.u_dot[i].max(o.u_dot[i]);
+            self.du[i] = self.du[i].max(o.du[i]);
+        }
+        self.outside = self.outside.max(o.outside);
+        self.down = self.down.max(o.down);
+        self.lambda = self.lambda.max(o.lambda);
+        self.non_finite |= o.non_finite;
+    }
+
     /// The largest share of a drive limit used: `max(|u|/V, |u̇|/A, |Δu|/(A h))` over the
     /// slots.
     #[must_use]
@@ -717,4 +730,62 @@ pub fn residual(motion: &Motion, from: usize, rest: [f64; 3]) -> ([f64; 3], [f64
         }
     }
     (dist, swing)
+}
+
+/// The property test's random sequences as the study prints them: the worst share of a
+/// drive limit, the nearest approach to a range's end (positive: outside), the largest
+/// λ (negative: tension).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RandomSummary {
+    /// Sequences run.
+    pub sequences: usize,
+    /// The worst of all.
+    pub worst: Extremes,
+    /// The largest share of a drive limit and the sequence it came from.
+    pub share: (f64, usize),
+}
+
+/// `sequences` random stick sequences of 12 s on `crane` from random starts (a tenth next
+/// to a limit) at random rope lengths, seeded by `seed`.
+#[must_use]
+pub fn random_sequences(crane: &Crane, seed: u64, sequences: usize) -> RandomSummary {
+    let planar = matches!(crane, Crane::Planar(_));
+    let mut rng = Rng::new(seed);
+    let ranges = crane.ranges();
+    let mut worst = Extremes::default();
+    let mut share = (0.0, 0);
+    for seq in 0..sequences {
+        let depth = rng.uniform(3.0, 8.95);
+        let mut at = |i: usize| {
+            let (lo, hi) = ranges[i];
+            if rng.unit() < 0.1 {
+                if rng.unit() < 0.5 {
+                    lo + rng.uniform(0.0, 0.3)
+                } else {
+                    hi - rng.uniform(0.0, 0.3)
+                }
+            } else {
+                rng.uniform(lo, hi)
+            }
+        };
+        let x = at(0);
+        let y = if planar { 0.0 } else { at(1) };
+        let Ok(mut g) = crane.start(false, [x, y, depth]) else {
+            worst.non_finite = true;
+            continue;
+        };
+        let mut stick = RandomStick::new(rng.next_u64(), planar);
+        let mut e = Extremes::default();
+        drive(crane, &mut g, 1200, |n| stick.at(n), |r| e.add(crane, r));
+        let s = e.share(crane);
+        if s > share.0 {
+            share = (s, seq);
+        }
+        worst.merge(&e);
+    }
+    RandomSummary {
+        sequences,
+        worst,
+        share,
+    }
 }

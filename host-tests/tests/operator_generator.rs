@@ -9,9 +9,10 @@
 //! the numbers it checks.
 
 use host_tests::operator::{
-    drive, flat_set_points, inverse_model_run, residual, simulate_plant, Crane, Extremes, Gen,
-    Hold, RandomStick, Record,
+    drive, flat_set_points, random_sequences, simulate_plant, Crane, Extremes, Gen, Hold,
+    RandomStick, RandomSummary, Record,
 };
+use host_tests::operator_study::study_depth;
 use nalgebra::SVector;
 use sim::plant::Rng;
 use solver_core::models::crane::CraneParams;
@@ -175,48 +176,12 @@ fn inverse_models_are_driven_by_the_generator_at_every_stage_time() {
 /// the workspace, the rope always in tension.
 #[test]
 fn random_sticks_keep_every_drive_within_its_limits_and_the_workspace() {
-    for crane in [Crane::PLANAR, Crane::SPATIAL] {
-        let planar = matches!(crane, Crane::Planar(_));
-        let mut rng = Rng::new(if planar { 2801 } else { 2802 });
-        let ranges = crane.ranges();
-        let mut worst = Extremes::default();
-        let mut worst_share = (0.0, 0);
-        let sequences = 10_000;
-        for seq in 0..sequences {
-            let depth = rng.uniform(3.0, 8.95);
-            let mut at = |i: usize| {
-                let (lo, hi) = ranges[i];
-                if rng.unit() < 0.1 {
-                    // Next to a limit.
-                    if rng.unit() < 0.5 {
-                        lo + rng.uniform(0.0, 0.3)
-                    } else {
-                        hi - rng.uniform(0.0, 0.3)
-                    }
-                } else {
-                    rng.uniform(lo, hi)
-                }
-            };
-            let x = at(0);
-            let y = if planar { 0.0 } else { at(1) };
-            let mut g = crane.start(false, [x, y, depth]).unwrap();
-            let mut stick = RandomStick::new(rng.next_u64(), planar);
-            let mut e = Extremes::default();
-            drive(&crane, &mut g, 1200, |n| stick.at(n), |r| e.add(&crane, r));
-            let share = e.share(&crane);
-            if share > worst_share.0 {
-                worst_share = (share, seq);
-            }
-            for i in 0..3 {
-                worst.u[i] = worst.u[i].max(e.u[i]);
-                worst.u_dot[i] = worst.u_dot[i].max(e.u_dot[i]);
-                worst.du[i] = worst.du[i].max(e.du[i]);
-            }
-            worst.outside = worst.outside.max(e.outside);
-            worst.down = worst.down.max(e.down);
-            worst.lambda = worst.lambda.max(e.lambda);
-            worst.non_finite |= e.non_finite;
-        }
+    for (crane, seed) in [(Crane::PLANAR, 2801), (Crane::SPATIAL, 2802)] {
+        let RandomSummary {
+            sequences,
+            worst,
+            share,
+        } = random_sequences(&crane, seed, 10_000);
         println!(
             "{}: {sequences} sequences: largest |u| {:.3?} m/s, |u̇| {:.3?} m/s², |Δu|/h {:.3?} m/s²; \
              largest share of a limit {:.3} (sequence {}); nearest approach to a range's end {:.2e} m \
@@ -225,18 +190,14 @@ fn random_sticks_keep_every_drive_within_its_limits_and_the_workspace() {
             worst.u,
             worst.u_dot,
             worst.du,
-            worst_share.0,
-            worst_share.1,
+            share.0,
+            share.1,
             worst.outside,
             worst.down,
             worst.lambda
         );
         assert!(!worst.non_finite);
-        assert!(
-            worst_share.0 <= 0.95,
-            "a drive limit's share {}",
-            worst_share.0
-        );
+        assert!(share.0 <= 0.95, "a drive limit's share {}", share.0);
         assert!(
             worst.outside <= 1e-9,
             "outside the workspace by {} m",
@@ -791,88 +752,98 @@ fn hand_over_from_a_running_move() {
     );
 }
 
-/// Model = plant: the inverse model (the firmware's structured BDF4 at 10 ms) driven by
-/// the generator, its set points into the crane's nonlinear plant (Eqs. 21–22, and the
-/// 3D crane's spherical pendulum) joined as the paper's check joins them: from the
-/// generator's rest on, the load stays within ±10 mm of its rest point and swings at
-/// most 0.1° in every plane, at every rope length, with the hoist idle, lowering and
-/// raising during travel.
+/// Every scripted profile of the study (`operator_study`: steps and releases at three
+/// speeds and five hold times, reversals, pulsing at 0.5–2 Hz, pendant levels, noise at
+/// the deadband, and on the 3D crane diagonal and circular sticks — each with the hoist
+/// idle, lowering and raising) at every rope length on both cranes:
+/// - every drive within 95 % of its limits (the exact flat inverse);
+/// - the release within its stopping bound;
+/// - model = plant: the inverse model (the firmware's structured BDF4 at 10 ms) driven by
+///   the generator, its set points into the crane's nonlinear plant (Eqs. 21–22; the 3D
+///   crane's spherical pendulum) joined as the paper's check joins them — from the
+///   generator's rest on the load stays within ±10 mm of its rest point and swings at
+///   most 0.1° in every plane, while hoisting too;
+/// - open loop against a plant whose pendulum is 10 % longer or shorter (rope + rigging),
+///   driven by the exact flat inverse of the path at the model's length: the robust
+///   setting leaves at most 0.1° of swing after the rest when the rope keeps its length
+///   during the travel, and less than the plain setting. (Hoisting during the travel
+///   moves the rope away from the length the robust pair was tuned for: the study
+///   reports that residual.)
 #[test]
-fn model_equals_plant_the_load_rests_where_the_path_does() {
-    let mut worst = (0.0_f64, 0.0_f64);
-    for crane in [Crane::PLANAR, Crane::SPATIAL] {
-        for depth in [3.0, 6.0, 8.95] {
-            for hoist in [0.0, 0.6, -0.6] {
-                if depth + hoist * 3.0 > 8.95 || depth + hoist * 3.0 < 3.0 {
-                    continue;
-                }
-                let from = start(&crane, depth);
-                let g = crane.start(false, from).unwrap();
-                let stick = |n: usize| {
-                    if n < 500 {
-                        [1.0, 0.6, if n > 100 { hoist } else { 0.0 }]
-                    } else {
-                        [0.0; 3]
-                    }
-                };
-                let (u, rest) = inverse_model_run(&crane, g, 1600, stick).unwrap();
-                let rest = rest.expect("comes to rest");
-                // Where the path rests.
-                let mut g = crane.start(false, from).unwrap();
-                let mut rest_point = [0.0; 3];
-                drive(&crane, &mut g, rest + 1, stick, |r| rest_point = r.load[0]);
-                let motion = simulate_plant(&crane, from, 0.0, &u, Hold::Cubic).unwrap();
-                let (dist, swing) = residual(&motion, rest + 1, rest_point);
-                let d = dist.iter().fold(0.0_f64, |a, b| a.max(*b));
-                let s = swing.iter().fold(0.0_f64, |a, b| a.max(*b)).to_degrees();
-                println!(
-                    "{} depth {depth} hoist {hoist}: from the rest instant the load within {:.1} µm of its rest point, swing at most {:.2e}°",
-                    crane.name(),
-                    d * 1e6,
-                    s
-                );
-                assert!(d <= 0.010 && s <= 0.1);
-                worst = (worst.0.max(d), worst.1.max(s));
-            }
-        }
-    }
-    println!("worst: {:.1} µm, {:.2e}°", worst.0 * 1e6, worst.1);
-}
-
-/// Open loop against a plant whose pendulum is 10 % longer or shorter than the model's
-/// (rope + rigging), the nonlinear plant driven by the exact flat inverse of the path at
-/// the model's length: the robust setting leaves at most 0.1° of swing after the
-/// generator's rest, at every rope length, for a full-stick move and a short jog.
-#[test]
-fn robust_setting_leaves_under_a_tenth_of_a_degree_at_ten_percent_length_error() {
+fn every_scripted_profile_at_every_rope_length() {
+    let mut runs = 0;
+    let mut worst = [0.0_f64; 5];
     for crane in [Crane::PLANAR, Crane::SPATIAL] {
         for depth in DEPTHS {
-            let mut plain_worst = 0.0_f64;
-            let mut robust_worst = 0.0_f64;
-            for hold in [60, 400] {
-                for robust in [false, true] {
-                    let from = start(&crane, depth);
-                    let stick = |n: usize| if n < hold { [1.0, -0.7, 0.0] } else { [0.0; 3] };
-                    let (_, r) = records(&crane, robust, from, hold + 1500, stick);
-                    let rest = r.iter().position(|x| x.at_rest && x.n > hold).unwrap();
-                    let u = flat_set_points(&r);
-                    for offset in [-0.1 * depth, 0.1 * depth] {
-                        let motion = simulate_plant(&crane, from, offset, &u, Hold::Cubic).unwrap();
-                        let (_, swing) = residual(&motion, rest, r[rest].load[0]);
-                        let s = swing[0].max(swing[1]).to_degrees();
-                        if robust {
-                            robust_worst = robust_worst.max(s);
-                        } else {
-                            plain_worst = plain_worst.max(s);
-                        }
-                    }
+            for (p, o) in study_depth(&crane, depth).unwrap() {
+                let what = format!(
+                    "{} rope {depth} {} hoist {}",
+                    crane.name(),
+                    p.shape.name(),
+                    p.hoist
+                );
+                assert!(o.share <= 0.95, "{what}: share {}", o.share);
+                assert!(
+                    o.stop_margin[0] <= 1e-9 && o.stop_margin[1] <= 1e-9,
+                    "{what}: {:?}",
+                    o.stop_margin
+                );
+                assert!(
+                    o.exact.0 <= 0.010 && o.exact.1 <= 0.1,
+                    "{what}: {:?}",
+                    o.exact
+                );
+                if p.hoist == 0.0 {
+                    assert!(o.mismatch[1] <= 0.1, "{what}: robust {}", o.mismatch[1]);
+                    assert!(o.mismatch[1] <= o.mismatch[0], "{what}: {:?}", o.mismatch);
+                    worst[3] = worst[3].max(o.mismatch[1]);
+                } else {
+                    worst[4] = worst[4].max(o.mismatch[1]);
                 }
+                worst[0] = worst[0].max(o.share);
+                worst[1] = worst[1].max(o.exact.0);
+                worst[2] = worst[2].max(o.exact.1);
+                runs += 1;
             }
-            println!("{} depth {depth}: ±10 % pendulum length: residual swing plain {plain_worst:.3}°, robust {robust_worst:.4}°", crane.name());
-            assert!(robust_worst <= 0.1, "{robust_worst}");
-            assert!(robust_worst < plain_worst);
         }
     }
+    println!(
+        "{runs} profile runs: drive limit share at most {:.3}; model = plant: {:.2e} m, {:.2e}°; \
+         ±10 %, robust: hoist idle at most {:.4}°, hoisting at most {:.4}°",
+        worst[0], worst[1], worst[2], worst[3], worst[4]
+    );
+}
+
+/// The 3D plant with the load in the x–z plane is the planar plant of Eqs. 21–22 (the
+/// nonlinear references the profiles are measured in agree).
+#[test]
+fn the_3d_plant_in_a_plane_is_the_planar_plant() {
+    let (planar, spatial) = (
+        Crane::PLANAR,
+        Crane::Spatial(Crane3dParams::extruded(&CraneParams::PAPER, 0.03, 0.0, 8.0)),
+    );
+    let (_, r) = records(&planar, false, [12.0, 0.0, 6.0], 1200, |n| {
+        if n < 300 {
+            [1.0, 0.0, 0.5]
+        } else {
+            [0.0; 3]
+        }
+    });
+    let u = flat_set_points(&r);
+    let a = simulate_plant(&planar, [12.0, 0.0, 6.0], 0.4, &u, Hold::Zero).unwrap();
+    let b = simulate_plant(&spatial, [12.0, 4.0, 6.0], 0.4, &u, Hold::Zero).unwrap();
+    let mut worst = 0.0_f64;
+    for (p, q) in a.load.iter().zip(&b.load) {
+        worst = worst
+            .max((p[0] - q[0]).abs())
+            .max((p[2] - q[2]).abs())
+            .max((q[1] - 4.0).abs());
+    }
+    for (p, q) in a.swing.iter().zip(&b.swing) {
+        worst = worst.max((p[0] - q[0]).abs()).max(q[1].abs());
+    }
+    println!("3D plant in a plane against the planar plant: largest difference {worst:.1e}");
+    assert!(worst < 1e-8, "{worst}");
 }
 
 /// The braking distance in quanta is what the docs' formula bounds, for the lab
