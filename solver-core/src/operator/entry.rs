@@ -30,7 +30,7 @@
 
 use crate::error::{Error, Result};
 use crate::operator::limiter::{brake, round_i, MAX_STEP};
-use crate::operator::piece::{Piece, COEFFS};
+use crate::operator::piece::{binomial, factorial, Piece, COEFFS};
 use crate::operator::settings::Quanta;
 use crate::trajectory::Trajectory;
 
@@ -81,17 +81,6 @@ pub struct Blend<const NH: usize> {
     left: u64,
 }
 
-/// `C(n, k)`, in const context.
-const fn binomial(n: usize, k: usize) -> f64 {
-    let mut r = 1.0;
-    let mut i = 0;
-    while i < k {
-        r = r * (n - i) as f64 / (i + 1) as f64;
-        i += 1;
-    }
-    r
-}
-
 /// The monomial coefficients of the Hermite basis `H_j(τ)`, `j = 0..=5` (module
 /// documentation): `(1 − τ)⁶ Σ_{k ≤ 5−j} C(5+k, k) τ^k`, times `τ^j/j!`.
 pub const HERMITE: [[f64; COEFFS]; ORDERS] = hermite();
@@ -101,19 +90,14 @@ const fn hermite() -> [[f64; COEFFS]; ORDERS] {
     let mut out = [[0.0; COEFFS]; ORDERS];
     let mut j = 0;
     while j < ORDERS {
-        let mut factorial = 1.0;
-        let mut f = 2;
-        while f <= j {
-            factorial *= f as f64;
-            f += 1;
-        }
+        let j_factorial = factorial(j);
         let mut k = 0;
         while k < ORDERS - j {
             let ck = binomial(5 + k, k);
             let mut i = 0;
             while i <= 6 {
                 let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
-                out[j][i + k + j] += ck * sign * binomial(6, i) / factorial;
+                out[j][i + k + j] += ck * sign * binomial(6, i) / j_factorial;
                 i += 1;
             }
             k += 1;
@@ -342,15 +326,26 @@ pub(crate) fn check_axis(
     let stop = brake(steady.n_v) as f64 * q.position;
     let back = brake(-steady.n_v) as f64 * q.position;
     for value in [p0 + past_lo, p0 + past_hi, p0 + stop, p0 - back] {
-        if !(lo..=hi).contains(&value) {
-            return Err(Error::OutsideWorkspace {
-                t,
-                coordinate,
-                value,
-                min: lo,
-                max: hi,
-            });
-        }
+        check_inside(coordinate, value, (lo, hi), t)?;
+    }
+    Ok(())
+}
+
+/// Refuses a position that is not a number or outside `[lo, hi]`, naming the coordinate.
+pub(crate) fn check_inside(
+    coordinate: &'static str,
+    value: f64,
+    (lo, hi): (f64, f64),
+    t: f64,
+) -> Result<()> {
+    if !(lo..=hi).contains(&value) {
+        return Err(Error::OutsideWorkspace {
+            t,
+            coordinate,
+            value,
+            min: lo,
+            max: hi,
+        });
     }
     Ok(())
 }

@@ -5,8 +5,8 @@ use nalgebra::SVector;
 
 use crate::error::{Error, Result};
 use crate::operator::entry::{
-    blend_cycles, check_axis, hoist_moments, horizontal_moments, new_blend, within, Blend,
-    Handover, Steady, ORDERS,
+    blend_cycles, check_axis, check_inside, hoist_moments, horizontal_moments, new_blend, within,
+    Blend, Handover, Steady, ORDERS,
 };
 use crate::operator::filter::{Factor, Taps};
 use crate::operator::group::Group;
@@ -138,20 +138,6 @@ fn unit_bounds((lo, hi): (f64, f64), origin: f64, q: &Quanta) -> (i64, i64) {
         libm::ceil((lo - origin) / q.position) as i64,
         libm::floor((hi - origin) / q.position) as i64,
     )
-}
-
-/// Refuses a start position that is not a number or outside its range.
-fn check_inside(coordinate: &'static str, value: f64, (lo, hi): (f64, f64), t: f64) -> Result<()> {
-    if !(lo..=hi).contains(&value) {
-        return Err(Error::OutsideWorkspace {
-            t,
-            coordinate,
-            value,
-            min: lo,
-            max: hi,
-        });
-    }
-    Ok(())
 }
 
 /// The horizontal axes' names in errors.

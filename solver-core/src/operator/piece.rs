@@ -26,13 +26,24 @@ pub const DEGREE: usize = 11;
 /// The piece's number of coefficients.
 pub const COEFFS: usize = DEGREE + 1;
 
-/// `C(n, k)` as f64, in const context.
-const fn binomial(n: usize, k: usize) -> f64 {
+/// `C(n, k)` as f64, in const context (the B-spline's and the Hermite basis' tables).
+pub(crate) const fn binomial(n: usize, k: usize) -> f64 {
     let mut r = 1.0;
     let mut i = 0;
     while i < k {
         r = r * (n - i) as f64 / (i + 1) as f64;
         i += 1;
+    }
+    r
+}
+
+/// `n!` as f64, in const context.
+pub(crate) const fn factorial(n: usize) -> f64 {
+    let mut r = 1.0;
+    let mut f = 2;
+    while f <= n {
+        r *= f as f64;
+        f += 1;
     }
     r
 }
@@ -43,12 +54,7 @@ const fn binomial(n: usize, k: usize) -> f64 {
 #[allow(clippy::indexing_slicing)] // evaluated at compile time: an index out of range fails the build
 const fn bspline(q: usize) -> [[f64; 5]; 5] {
     let mut out = [[0.0; 5]; 5];
-    let mut factorial = 1.0;
-    let mut f = 2;
-    while f <= q {
-        factorial *= f as f64;
-        f += 1;
-    }
+    let q_factorial = factorial(q);
     let mut i = 0;
     while i <= q {
         let mut m = 0;
@@ -64,7 +70,7 @@ const fn bspline(q: usize) -> [[f64; 5]; 5] {
                     power *= shift;
                     p += 1;
                 }
-                out[i][j] += sign * binomial(q + 1, m) * binomial(q, j) * power / factorial;
+                out[i][j] += sign * binomial(q + 1, m) * binomial(q, j) * power / q_factorial;
                 j += 1;
             }
             m += 1;
