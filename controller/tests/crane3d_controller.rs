@@ -7,65 +7,15 @@
 
 mod common3d;
 
-use common3d::{config, feedforward, Ff, BRIDGE_NODE, HOME};
+use common3d::{limits, Rig, BRIDGE_NODE, HOME};
 
 use controller::canopen::emcy;
 use controller::commands::{Answer, Request};
 use controller::commissioning::Phase;
 use controller::drive::{Drive, SPATIAL};
-use controller::feedback::NoFeedback;
-use controller::planner::Planner;
-use controller::setpoint::{AxisLimits, DriveLimits, UNITS_PER_M_PER_S};
-use controller::{Controller, Cycle, Fault, Mode, Replan};
-use sim::{run_cycle, Action, VirtualBus, HEALTHY};
-use solver_core::models::crane3d::Crane3dParams;
-
-type Crane3dController = Controller<Ff, NoFeedback, Crane3dParams, 3>;
-
-fn limits() -> [AxisLimits; 3] {
-    DriveLimits::LAB_3D
-}
-
-struct Rig {
-    c: Crane3dController,
-    bus: VirtualBus<3>,
-    now: u32,
-}
-
-impl Rig {
-    fn new() -> Self {
-        let ff = feedforward();
-        let planner = Planner::with_axes(Crane3dParams::EXAMPLE, limits());
-        Self {
-            c: Controller::with_correction(ff, NoFeedback, planner, config()),
-            bus: VirtualBus::with_drives(HEALTHY, SPATIAL, HOME),
-            now: 0,
-        }
-    }
-
-    fn cycle(&mut self) -> Cycle<3> {
-        let out = run_cycle(&mut self.c, &mut self.bus, self.now).unwrap();
-        self.now += 10;
-        out
-    }
-
-    fn run(&mut self, n: usize) -> Vec<Cycle<3>> {
-        (0..n).map(|_| self.cycle()).collect()
-    }
-
-    fn ready(&mut self) {
-        for _ in 0..200 {
-            if self.cycle().mode == Mode::Ready {
-                return;
-            }
-        }
-        panic!("not ready: {:?}", self.c.mode());
-    }
-
-    fn positions(&self) -> [f64; 3] {
-        SPATIAL.map(|d| self.bus.drive(d).unwrap().position())
-    }
-}
+use controller::setpoint::UNITS_PER_M_PER_S;
+use controller::{Cycle, Fault, Mode, Replan};
+use sim::Action;
 
 /// Every set point within its drive's limits, every RPDO to the drive it is for.
 fn assert_within_limits(cycles: &[Cycle<3>], last: &mut [i32; 3]) {
