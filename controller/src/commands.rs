@@ -216,6 +216,11 @@ pub enum Reject {
     BridgeVelocity = 12,
     /// Bridge acceleration above its limit (3D crane).
     BridgeAcceleration = 13,
+    /// A drive is not where the controller last brought it (position actual further
+    /// than its `in_place` window from where the model holds the crane), or its position
+    /// is not known: a move from the wrong start would end off its target. A reset takes
+    /// the drives' positions as the crane's.
+    NotInPlace = 14,
 }
 
 /// The status frame's contents.

@@ -22,11 +22,12 @@ pub use crate::config::Config;
 use crate::correction::{AxesCorrection, Measured};
 use crate::drive::{self, Drive};
 use crate::fault::Reaction;
-pub use crate::fault::{Fault, Implausibility};
+pub use crate::fault::{Fault, FollowingError, Foreign, Implausibility};
 use crate::feedback::{Mode as FeedbackMode, NoFeedback};
 use crate::feedforward::{Axes, Feedforward, FeedforwardStep, ReferenceOf, Replan};
 use crate::frame::CanFrame;
 use crate::links::{self, DriveLink, Heartbeat, Link, Links, Silent};
+use crate::motion::{self, Breach};
 use crate::node::{Dictionary, Node, Role, Snapshot, StagedRequest};
 use crate::planner::{Crane, MoveSearch, Planner, SAMPLES_PER_CYCLE};
 use crate::requests::{AnswerRecord, PendingMove, Requests};
@@ -159,6 +160,9 @@ pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
     planner: Planner<K, A>,
     /// The nodes on the bus, from `config.nodes`.
     links: Links<A>,
+    /// Each drive's lag τ (s) and the share of a set-point step it takes in a cycle, in
+    /// the model's input order: what the motion supervision expects ([`crate::motion`]).
+    lags: [(f64, f64); A],
     mode: Mode,
     /// The supervisor's requests, from arrival to answer.
     requests: Requests<A>,
@@ -233,6 +237,9 @@ where
                 request: StagedRequest::default(),
             },
             gate: SetpointGate::with_axes(K::DRIVES, planner.limits(), config.period_s()),
+            lags: planner
+                .lags()
+                .map(|tau| (tau, motion::lag_share(tau, config.period_s()))),
             planner,
             links,
             mode: Mode::Enabling,
@@ -514,7 +521,27 @@ where
                     _ => self.ignore(),
                 }
             }
-            Incoming::Rpdo1 { .. } | Incoming::Rpdo2 { .. } => {}
+            // A commissioned drive's RPDO1 is the controller's to send: while it sends
+            // it (operational), another node sending it is a second master moving the
+            // drive.
+            Incoming::Rpdo1 { node, .. } => {
+                let Some(drive) = self.drive_at(node) else {
+                    return;
+                };
+                if self.node.state == NmtState::Operational
+                    && self.link(drive).is_some_and(DriveLink::linked)
+                {
+                    self.fault(Fault::ForeignProducer(Foreign::Rpdo(drive)));
+                }
+            }
+            Incoming::Rpdo2 { .. } => {}
+            // The controller is the SYNC producer (0x1005): while it sends SYNC another
+            // producer's makes the drives apply set points and answer out of turn.
+            Incoming::Sync => {
+                if self.syncing {
+                    self.fault(Fault::ForeignProducer(Foreign::Sync));
+                }
+            }
         }
     }
 
@@ -864,6 +891,7 @@ where
         let sync = allowed.sync || finishing;
         self.supervise_delivery();
         self.supervise_drives(now_ms);
+        self.supervise_motion(now_ms);
         // A manager commissions and starts its nodes only while operational itself; a
         // slave commissions them by SDO in pre-operational too (its master starts them).
         if allowed.sdo && (self.node.role == Role::Slave || allowed.pdo) {
@@ -1182,6 +1210,7 @@ where
                 match K::target(x, y, z, plan.final_position().into()) {
                     None => Err(Reject::Invalid),
                     Some(_) if !self.may_move() => Err(Reject::NotReady),
+                    Some(_) if !self.in_place() => Err(Reject::NotInPlace),
                     Some(_) if plan.has_queued() => Err(Reject::Busy),
                     Some(target) => match MoveSearch::new(plan, target, duration) {
                         Ok(search) => {
@@ -1204,6 +1233,11 @@ where
             Request::Reset { .. } => match self.mode {
                 Mode::Halted(_) => self.reset().map(|()| Answer::Accepted),
                 Mode::Stopping(_) | Mode::QuickStop(_) => Err(Reject::NotReady),
+                // At rest a reset takes the drives' positions as where the crane is (after
+                // a move refused as not in place).
+                Mode::Enabling | Mode::Ready if !self.moving() => {
+                    self.read_positions().map(|()| Answer::Accepted)
+                }
                 Mode::Enabling | Mode::Ready => Ok(Answer::Accepted),
             },
         };
@@ -1317,10 +1351,7 @@ where
     /// where the load hangs, the enable sequence, EMCY 0x0000. Refused while a drive
     /// still moves or its position is not known.
     fn reset(&mut self) -> Result<(), Reject> {
-        let position = self.measured_rest().ok_or(Reject::NotReady)?;
-        self.feedforward
-            .restart_at_rest(position, self.now_s())
-            .map_err(|_| Reject::Invalid)?;
+        self.read_positions()?;
         for drive in K::DRIVES {
             if self
                 .link(drive)
@@ -1329,13 +1360,29 @@ where
                 self.recommission(drive, self.now_ms);
             }
         }
-        self.correction.restart();
-        self.feedback_announced = None;
         self.resetting = self.config.fault_reset_cycles;
         self.last_miss_cycle = None;
         self.failed_cycles = 0;
         self.mode = Mode::Enabling;
         self.send_emcy(canopen::emcy(self.node.id, emcy::NO_ERROR, 0, [0; 5]));
+        Ok(())
+    }
+
+    /// Takes the drives' position actual as where the crane is: the model restarts at rest
+    /// there, the motion supervision counts from there, and the feedback starts afresh.
+    /// Refused while a drive still moves or its position is not known.
+    fn read_positions(&mut self) -> Result<(), Reject> {
+        let position = self.measured_rest().ok_or(Reject::NotReady)?;
+        self.feedforward
+            .restart_at_rest(position, self.now_s())
+            .map_err(|_| Reject::Invalid)?;
+        for (drive, at) in K::DRIVES.into_iter().zip(position) {
+            if let Some(link) = self.link_mut(drive) {
+                link.motion.rebase(at);
+            }
+        }
+        self.correction.restart();
+        self.feedback_announced = None;
         Ok(())
     }
 
@@ -1453,6 +1500,70 @@ where
         }
     }
 
+    /// Each drive against what the controller commanded ([`crate::motion`]): while the
+    /// controller commands the drives — enabling, ready, a controlled stop. An enabled
+    /// drive is held to its following windows while it moves and to its standstill
+    /// window once it has rested; a drive not enabled (being enabled, dropped out) only to
+    /// its standstill window, if it rested before. In a quick stop the drives brake on
+    /// their own ramps, and halted nothing moves until a reset reads their positions again
+    /// ([`Controller::reset`]): not supervised.
+    fn supervise_motion(&mut self, now_ms: u64) {
+        let supervised = matches!(self.mode, Mode::Enabling | Mode::Ready | Mode::Stopping(_));
+        let period_ms = self.config.period_ms;
+        for (drive, lag) in K::DRIVES.into_iter().zip(self.lags) {
+            // The set point the drive applied at the last SYNC (this cycle's is not sent).
+            let sent = self.gate.last(drive).metres_per_second();
+            let Some(link) = self.links.drive_mut(drive) else {
+                continue;
+            };
+            let windows = link.commissioning.setup().motion;
+            let actual = link.actual(now_ms, period_ms);
+            let breach = if supervised && link.ready() {
+                link.motion.observe(sent, actual, &windows, lag, period_ms)
+            } else {
+                link.motion.pause();
+                actual
+                    .zip(link.motion.rest().filter(|_| supervised))
+                    .and_then(|(a, rest)| {
+                        ((a.position - rest).abs() > windows.standstill)
+                            .then_some(Breach::Standstill)
+                    })
+            };
+            match breach {
+                Some(Breach::Standstill) => self.fault(Fault::Standstill(drive)),
+                Some(Breach::Position) => {
+                    self.fault(Fault::FollowingError(drive, FollowingError::Position));
+                }
+                Some(Breach::Velocity) => {
+                    self.fault(Fault::FollowingError(drive, FollowingError::Velocity));
+                }
+                None => {}
+            }
+        }
+    }
+
+    /// Whether every drive is where the controller last brought it, for a move at rest:
+    /// position actual within its `in_place` window of where the model holds the crane
+    /// (at rest the load hangs below trolley and bridge, as deep as the rope is long). A
+    /// position not known is not in place. While the controller itself moves the crane
+    /// (a move, the feedback holding the load) the following windows vouch for the
+    /// drives instead.
+    fn in_place(&self) -> bool {
+        let plan = self.feedforward.plan();
+        if plan.is_moving(self.now_s()) || !self.gate.at_standstill() {
+            return true;
+        }
+        let rest: [f64; A] = plan.final_position().into();
+        K::DRIVES.into_iter().zip(rest).all(|(drive, at)| {
+            self.link(drive).is_some_and(|l| {
+                l.actual(self.now_ms, self.config.tpdo_timeout_ms)
+                    .is_some_and(|a| {
+                        (a.position - at).abs() <= l.commissioning.setup().motion.in_place
+                    })
+            })
+        })
+    }
+
     /// Three cycles in a row with a failed RPDO: the set points are not getting through.
     fn supervise_delivery(&mut self) {
         self.failed_cycles = if self.rpdo_failed {
@@ -1527,6 +1638,7 @@ where
                     | Fault::NotOperational
                     | Fault::SupervisorLost
                     | Fault::DuplicateNodeId
+                    | Fault::ForeignProducer(_)
             ) {
                 REGISTER_COMMUNICATION
             } else {

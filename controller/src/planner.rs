@@ -116,6 +116,9 @@ pub trait Crane<const A: usize> {
     fn target(x: f64, y: Option<f64>, z: f64, end: [f64; A]) -> Option<[f64; A]>;
     /// The flat inverse at `t` of the load's path `z`.
     fn flat<Z: Trajectory<f64, A>>(&self, z: &Z, t: f64) -> Flat<A>;
+    /// Each drive's lag τ, s (Eq. 24's `τ v̇ + v = u`): what the controller expects of
+    /// the set points it sends ([`crate::motion`]).
+    fn lags(&self) -> [f64; A];
 }
 
 /// The paper's planar crane: trolley x and rope length l (Eq. 24).
@@ -139,6 +142,9 @@ impl Crane<2> for CraneParams {
             u: f.u,
             u_dot: f.u_dot,
         }
+    }
+    fn lags(&self) -> [f64; 2] {
+        [self.tau1, self.tau2]
     }
 }
 
@@ -164,6 +170,9 @@ impl Crane<3> for Crane3dParams {
             u: f.u,
             u_dot: f.u_dot,
         }
+    }
+    fn lags(&self) -> [f64; 3] {
+        [self.tau1, self.tau2, self.tau3]
     }
 }
 
@@ -193,6 +202,12 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
     #[must_use]
     pub fn ranges(&self) -> [(f64, f64); A] {
         self.crane.ranges()
+    }
+
+    /// Each drive's lag τ, s, in the model's input order ([`Crane::lags`]).
+    #[must_use]
+    pub fn lags(&self) -> [f64; A] {
+        self.crane.lags()
     }
 
     /// Each drive's limits, in the model's input order: the ones the set-point gate

@@ -8,7 +8,7 @@ use controller::commands::{
 };
 use controller::commissioning::CommissioningError;
 use controller::drive::Drive;
-use controller::fault::Implausibility;
+use controller::fault::{FollowingError, Foreign, Implausibility};
 use controller::setpoint::SetpointError;
 use controller::setpoint::{DriveLimits, SetpointGate, UNITS_PER_M_PER_S};
 use controller::{CanFrame, Fault};
@@ -212,6 +212,9 @@ fn every_fault() -> Vec<Fault> {
         Fault::SupervisorLost,
         Fault::Implausible(d, Implausibility::Jump),
         Fault::DuplicateNodeId,
+        Fault::ForeignProducer(Foreign::Sync),
+        Fault::Standstill(d),
+        Fault::FollowingError(d, FollowingError::Velocity),
     ];
     for f in &all {
         match f {
@@ -230,7 +233,10 @@ fn every_fault() -> Vec<Fault> {
             | Fault::NotOperational
             | Fault::SupervisorLost
             | Fault::Implausible(..)
-            | Fault::DuplicateNodeId => {}
+            | Fault::DuplicateNodeId
+            | Fault::ForeignProducer(_)
+            | Fault::Standstill(_)
+            | Fault::FollowingError(..) => {}
         }
     }
     all
@@ -267,6 +273,37 @@ fn every_fault_code_is_in_the_dbc_fault_range() {
             "fault {code}"
         );
     }
+}
+
+/// Every EMCY error code the controller sends is named in the DBC's value table, so that
+/// a CAN tool shows it by the name CiA 301 and CiA 402 give it (0x8150 CAN-ID collision,
+/// 0x8500 position controller, 0x8611 following error, …).
+#[test]
+fn every_emcy_error_code_is_named_in_the_dbc() {
+    let label = |code: u16| {
+        decode(&canopen::emcy(
+            CONTROLLER_NODE,
+            code,
+            0x81,
+            [18, 1, 0, 0, 0],
+        ))
+        .signals
+        .into_iter()
+        .find(|s| s.name == "error_code")
+        .and_then(|s| s.label)
+    };
+    let faults = every_fault();
+    let sent = faults.iter().map(Fault::emcy_code).chain([
+        emcy::NO_ERROR,
+        emcy::COMMISSIONING_ABORT,
+        emcy::FEEDBACK_OFF,
+    ]);
+    for code in sent {
+        assert!(label(code).is_some(), "0x{code:04X} has no name in the DBC");
+    }
+    assert_eq!(label(0x8611).as_deref(), Some("FollowingError"));
+    assert_eq!(label(0x8500).as_deref(), Some("PositionController"));
+    assert_eq!(label(0x8150).as_deref(), Some("CanIdCollision"));
 }
 
 #[test]
@@ -308,6 +345,7 @@ fn every_reject_reason_is_named_in_the_dbc() {
         Reject::BridgeWorkspace,
         Reject::BridgeVelocity,
         Reject::BridgeAcceleration,
+        Reject::NotInPlace,
     ];
     for (code, reason) in (1u8..).zip(reasons) {
         assert_eq!(reason as u8, code, "{reason:?}");
