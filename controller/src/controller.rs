@@ -8,7 +8,7 @@
 //! [`Controller::tick`] every cycle, feed received frames to [`Controller::on_frame`],
 //! transmit what comes out, and report each cycle's cost and each failed transmission.
 
-use heapless::Vec;
+use heapless::{Deque, Vec};
 
 use crate::canopen::emcy::{self, REGISTER_COMMUNICATION, REGISTER_GENERIC, REGISTER_MANUFACTURER};
 use crate::canopen::sdo;
@@ -17,7 +17,7 @@ use crate::cia402::pdo::{self, Tpdo};
 use crate::cia402::{controlword, DriveState};
 use crate::cia410;
 use crate::commands::{self, status_frame, Answer, Reject, Request, Status};
-use crate::commissioning::{Commissioning, CommissioningError, Device, Phase, Progress};
+use crate::commissioning::{Commissioning, CommissioningError, Device, NodeSetup, Phase, Progress};
 pub use crate::config::Config;
 use crate::correction::{AxesCorrection, Measured};
 use crate::drive::{self, Drive};
@@ -112,6 +112,16 @@ pub struct Counters {
 /// The most frames one cycle hands out.
 pub const MAX_FRAMES: usize = 16;
 
+/// SDO answers waiting to be sent at most: every request to the controller's SDO server
+/// gets exactly one (CiA 301's SDO is a confirmed service: a client waits for its answer
+/// before the next request, so more wait only with several clients on the one channel).
+/// A request that finds them all taken is not served, and is counted as ignored.
+pub const SDO_ANSWERS: usize = 4;
+
+/// SDO answers a cycle sends at most (the oldest first), so that they never crowd out
+/// the cycle's EMCYs.
+pub const SDO_PER_CYCLE: usize = 2;
+
 /// EMCYs waiting to be sent at most. A commissioning failure takes two (0xFF10 and
 /// 0xFF12), so every node of the list can fail in one cycle with room to spare.
 pub const EMCY_QUEUE: usize = 10;
@@ -172,8 +182,9 @@ pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
     failed_cycles: u32,
     /// The EMCY producer: what is to be sent and what the last cycle sent.
     emcy: emcy::Producer<EMCY_QUEUE>,
-    /// The SDO server's answer to a request received between cycles.
-    sdo_answer: Option<CanFrame>,
+    /// The SDO server's answers to the requests received since the last cycle, in
+    /// order (each request is served on arrival).
+    sdo_answers: Deque<CanFrame, SDO_ANSWERS>,
     /// The last commissioning failure (0x2002): node, index, sub, abort code, reason.
     commissioning_failure: (u8, u16, u8, u32, u8),
     /// Cycles of the fault-reset sequence still to send after a reset.
@@ -235,6 +246,19 @@ where
                 supervisor: 0,
                 cycle_us: config.period_ms.saturating_mul(1000),
                 request: StagedRequest::default(),
+                drives_consumer_ms: config
+                    .nodes
+                    .iter()
+                    .flatten()
+                    .filter_map(|n| match n {
+                        NodeSetup::Drive(_, d) if d.controller_timeout_ms != 0 => {
+                            Some(d.controller_timeout_ms)
+                        }
+                        _ => None,
+                    })
+                    .min()
+                    .unwrap_or(0),
+                listed: config.nodes.map(|n| n.map_or(0, |n| n.node())),
             },
             gate: SetpointGate::with_axes(K::DRIVES, planner.limits(), config.period_s()),
             lags: planner
@@ -249,7 +273,7 @@ where
             rpdo_failed: false,
             failed_cycles: 0,
             emcy: emcy::Producer::default(),
-            sdo_answer: None,
+            sdo_answers: Deque::new(),
             commissioning_failure: (0, 0, 0, 0, 0),
             resetting: 0,
             last_supervisor_heartbeat_ms: None,
@@ -487,12 +511,21 @@ where
                 }
                 // CiA 301: SDO is served in pre-operational and operational, not stopped.
                 if self.node.state != NmtState::Stopped {
+                    // Served only if its answer has a place: a request is never acted
+                    // on unanswered (a client beyond SDO_ANSWERS waiting is counted).
+                    if self.sdo_answers.is_full() {
+                        self.ignore();
+                        return;
+                    }
                     let snapshot = self.snapshot();
                     let mut od = Dictionary {
                         node: &mut self.node,
                         snapshot,
                     };
-                    self.sdo_answer = sdo::serve(&mut od, self.config.node, &data);
+                    if let Some(answer) = sdo::serve(&mut od, self.config.node, &data) {
+                        // Not full: checked above.
+                        let _ = self.sdo_answers.push_back(answer);
+                    }
                     // A request written over SDO: taken as the command frame's.
                     if core::mem::take(&mut self.node.request.submitted) {
                         if let Ok(request) = self.node.request.request() {
@@ -880,7 +913,14 @@ where
                 self.node.state = NmtState::Operational;
             }
         }
-        if let Some(answer) = self.sdo_answer.take() {
+        // (An answer to a request served before an NMT stop waits: no SDO in stopped.)
+        for _ in 0..SDO_PER_CYCLE {
+            if !self.node.state.services().sdo {
+                break;
+            }
+            let Some(answer) = self.sdo_answers.pop_front() else {
+                break;
+            };
             self.push(&mut frames, answer);
         }
         // What the controller's own NMT state lets it send (CiA 301); bringing a moving
@@ -979,10 +1019,15 @@ where
             self.push(&mut frames, canopen::sync());
         }
         self.syncing = sync;
-        let periodic = u32::from(self.node.heartbeat_ms)
-            .checked_div(self.config.period_ms)
-            .unwrap_or(0);
-        let beat = !first && periodic != 0 && self.counters.cycles.is_multiple_of(periodic);
+        // Every `ms` on the cycle (0: never), from the second cycle on.
+        let every = |ms: u32| {
+            let cycles = ms.checked_div(self.config.period_ms).unwrap_or(0);
+            !first && cycles != 0 && self.counters.cycles.is_multiple_of(cycles)
+        };
+        // The heartbeat on 0x1017; the status on the commissioned period, whatever
+        // 0x1017 is set to (a supervisor reads the status, drives watch the heartbeat).
+        let beat = every(u32::from(self.node.heartbeat_ms));
+        let status_due = every(u32::from(self.config.heartbeat_period_ms));
         if beat {
             self.push(
                 &mut frames,
@@ -1001,7 +1046,7 @@ where
                 self.push(&mut frames, status_frame(self.node.id, &status));
                 sent += 1;
             }
-            if beat && sent == 0 {
+            if status_due && sent == 0 {
                 let status = self.status();
                 self.push(&mut frames, status_frame(self.node.id, &status));
             }

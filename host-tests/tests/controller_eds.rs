@@ -77,6 +77,8 @@ fn node() -> Node {
         supervisor: 0,
         cycle_us: 10_000,
         request: StagedRequest::default(),
+        drives_consumer_ms: 300,
+        listed: [1, 2, 0, 0],
     }
 }
 
