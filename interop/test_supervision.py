@@ -9,7 +9,7 @@ status frame, the controller's dictionary over SDO and the drives' own state.
   axis that creeps at rest (`drives.py`'s `creep`, a slipping brake) leaves its
   standstill window (fault 20); a drive that ignores its set point (`ignore`) its
   following window (fault 21); drives that are not where the controller's model rests
-  (powered elsewhere) get a move refused, reason 14, until a reset takes their
+  (powered elsewhere) get a move refused, reason 15, until a reset takes their
   positions. Planar and 3D crane.
 * No SDO write halts the crane: 0x1017 = 0, 310, 500 and 1000 ms are aborted with their
   CiA 301 codes while the drives watch the controller with 300 ms, and the drives run
@@ -32,7 +32,7 @@ SYNC, SDO_REQUEST, SDO_RESPONSE = 0x080, 0x610, 0x590
 BRIDGE = 4
 CRANE3D = "scenes/crane3d/crane3d.toml"
 MM = 1e3  # µm
-NOT_IN_PLACE = 14
+NOT_IN_PLACE = 15
 
 
 def foreign_rpdo(node, units):

@@ -220,7 +220,7 @@ pub enum Reject {
     /// than its `in_place` window from where the model holds the crane), or its position
     /// is not known: a move from the wrong start would end off its target. A reset takes
     /// the drives' positions as the crane's.
-    NotInPlace = 14,
+    NotInPlace = 15,
 }
 
 /// The status frame's contents.

@@ -27,7 +27,7 @@ use crate::feedback::{Mode as FeedbackMode, NoFeedback};
 use crate::feedforward::{Axes, Feedforward, FeedforwardStep, ReferenceOf, Replan};
 use crate::frame::CanFrame;
 use crate::links::{self, DriveLink, Heartbeat, Link, Links, Silent};
-use crate::motion::{self, Breach};
+use crate::motion::{self, Breach, Deviations};
 use crate::node::{Dictionary, Node, Role, Snapshot, StagedRequest};
 use crate::planner::{Crane, MoveSearch, Planner, SAMPLES_PER_CYCLE};
 use crate::requests::{AnswerRecord, PendingMove, Requests};
@@ -352,6 +352,17 @@ where
     pub fn identity(&self, drive: Drive) -> [u32; 4] {
         self.link(drive)
             .map_or([0; 4], |l| l.commissioning.identity())
+    }
+
+    /// The largest deviation each drive showed from what the controller commanded since
+    /// it started, against each motion supervision window ([`crate::motion`]), in the
+    /// model's input order.
+    #[must_use]
+    pub fn motion_deviations(&self) -> [Deviations; A] {
+        K::DRIVES.map(|d| {
+            self.link(d)
+                .map_or_else(Deviations::default, |l| l.motion.peaks())
+        })
     }
 
     /// The inverse model (and its plan).
@@ -1568,11 +1579,9 @@ where
             } else {
                 link.motion.pause();
                 actual
-                    .zip(link.motion.rest().filter(|_| supervised))
-                    .and_then(|(a, rest)| {
-                        ((a.position - rest).abs() > windows.standstill)
-                            .then_some(Breach::Standstill)
-                    })
+                    .filter(|_| supervised)
+                    .filter(|a| link.motion.left_standstill(a.position, &windows))
+                    .map(|_| Breach::Standstill)
             };
             match breach {
                 Some(Breach::Standstill) => self.fault(Fault::Standstill(drive)),

@@ -44,7 +44,7 @@ pub struct MotionWindows {
     /// … for at most this long, ms.
     pub following_time_ms: u16,
     /// Before a move is accepted at rest, how far position actual may be from where the
-    /// controller's model holds the crane, m: further, the move is refused (reason 14),
+    /// controller's model holds the crane, m: further, the move is refused (reason 15),
     /// and a reset takes the drives' positions as the model's.
     pub in_place: f64,
 }
@@ -77,6 +77,20 @@ pub enum Breach {
     Velocity = 3,
 }
 
+/// The largest deviation a drive showed from what the controller commanded since it
+/// started, against each window — what a commissioning engineer reads to judge the
+/// windows (each well above what a healthy crane shows), and what the tests show healthy
+/// runs use of them. 0 for a window never applied.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Deviations {
+    /// At rest, from where the drive came to rest, m.
+    pub standstill: f64,
+    /// Moving, position actual from where the set points put it, m.
+    pub position: f64,
+    /// Moving, velocity actual from the lag's velocity, m/s.
+    pub velocity: f64,
+}
+
 /// What a drive reported at the last SYNC, in metres and m/s.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Actual {
@@ -86,7 +100,7 @@ pub(crate) struct Actual {
 
 /// One drive's supervision: what the set points sent should have done, and where it
 /// came to rest.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct MotionWatch {
     /// Position and velocity the set points sent give through the lag, m and m/s
     /// (`None` until the drive is first measured).
@@ -99,6 +113,8 @@ pub(crate) struct MotionWatch {
     rest: Option<f64>,
     /// How long velocity actual has been outside its window, ms.
     velocity_out_ms: u32,
+    /// The largest deviation against each window so far.
+    peaks: Deviations,
 }
 
 /// The drive's lag over one period: the share `1 − e^(−h/τ)` of a set-point step its
@@ -112,8 +128,39 @@ pub(crate) fn lag_share(tau: f64, period_s: f64) -> f64 {
     }
 }
 
+impl Default for MotionWatch {
+    fn default() -> Self {
+        Self {
+            expected: None,
+            travel: 0.0,
+            zero_ms: 0,
+            rest: None,
+            velocity_out_ms: 0,
+            peaks: Deviations::default(),
+        }
+    }
+}
+
 impl MotionWatch {
+    /// The largest deviation against each window so far.
+    #[must_use]
+    pub(crate) fn peaks(&self) -> Deviations {
+        self.peaks
+    }
+
+    /// Whether `position` is outside the standstill window around where the drive came
+    /// to rest (noting the deviation); `false` while it is not kept.
+    pub(crate) fn left_standstill(&mut self, position: f64, windows: &MotionWindows) -> bool {
+        let Some(rest) = self.rest else {
+            return false;
+        };
+        let deviation = (position - rest).abs();
+        self.peaks.standstill = self.peaks.standstill.max(deviation);
+        deviation > windows.standstill
+    }
+
     /// Where the drive came to rest, if it is supervised at standstill.
+    #[cfg(test)]
     #[must_use]
     pub(crate) fn rest(&self) -> Option<f64> {
         self.rest
@@ -171,17 +218,19 @@ impl MotionWatch {
             // At rest: where it rests is kept, and the next move starts from there.
             self.rebase(actual.position);
         }
-        if let Some(rest) = self.rest {
-            return ((actual.position - rest).abs() > windows.standstill)
+        if self.rest.is_some() {
+            return self
+                .left_standstill(actual.position, windows)
                 .then_some(Breach::Standstill);
         }
         let (x, v) = self.expected?;
-        let position_window = windows.following + windows.following_drift * self.travel;
-        if (actual.position - x).abs() > position_window {
+        let (position, velocity) = ((actual.position - x).abs(), (actual.velocity - v).abs());
+        self.peaks.position = self.peaks.position.max(position);
+        self.peaks.velocity = self.peaks.velocity.max(velocity);
+        if position > windows.following + windows.following_drift * self.travel {
             return Some(Breach::Position);
         }
-        let velocity_window = windows.velocity + windows.following_drift * v.abs();
-        if (actual.velocity - v).abs() > velocity_window {
+        if velocity > windows.velocity + windows.following_drift * v.abs() {
             self.velocity_out_ms = self.velocity_out_ms.saturating_add(period_ms);
         } else {
             self.velocity_out_ms = 0;

@@ -34,7 +34,7 @@
 //! following_drift = 0.05         # … plus this share of the distance commanded since rest
 //! velocity_window = 0.3          # m/s: moving, velocity actual against them (plus the drift) …
 //! following_time_ms = 50         # … for at most this long
-//! in_place_window = 0.05         # m: before a move at rest, position actual against the model's (reason 14)
+//! in_place_window = 0.05         # m: before a move at rest, position actual against the model's (reason 15)
 //!
 //! [inclinometer]                 # CiA 410, for a scene with [feedback]
 //! node = 3
