@@ -157,6 +157,10 @@ fn a_creeping_drive_at_rest_leaves_its_standstill_window() {
         Mode::Halted(Fault::Standstill(Drive::Trolley))
     );
     // 20 mm at 20 mm/s: one second after the creep began at 10 s.
+    eprintln!(
+        "creeping 20 mm/s from 10 s: fault 20 at {} ms",
+        faulted * 10
+    );
     assert!(
         (1095..=1105).contains(&faulted),
         "fault at {} ms",
@@ -188,6 +192,7 @@ fn a_slowly_slipping_winch_brake_is_caught_by_position() {
         Mode::Halted(Fault::Standstill(Drive::Winch))
     );
     let seconds = out.len() as f64 / 100.0;
+    eprintln!("the winch slipping 0.5 mm/s at rest: fault 20 after {seconds} s");
     assert!((39.9..=40.2).contains(&seconds), "{seconds} s");
 }
 
@@ -209,6 +214,11 @@ fn a_drive_that_ignores_its_set_point_is_a_following_error() {
     );
     assert_eq!(emcys_of(&out), [(0x8611, 0x81, 21, 1, 2)]);
     let model = rig.drives()[0];
+    eprintln!(
+        "a trolley ignoring its set point from the start: fault 21 at {} ms, the model had it {:.1} mm along",
+        out.len() * 10,
+        (model - 12.0) * 1e3
+    );
     assert!(model - 12.0 < 0.1, "the model had the trolley at {model} m");
     assert!((rig.bus.drive(Drive::Trolley).unwrap().position() - 12.0).abs() < 1e-9);
 }
@@ -225,6 +235,10 @@ fn a_drive_that_stops_following_mid_move_is_caught_at_once() {
         out.last().unwrap().mode,
         Mode::QuickStop(Fault::FollowingError(Drive::Trolley, _))
     ));
+    eprintln!(
+        "a trolley that stops following at 5 s, mid-move: fault 21 {} cycles later",
+        out.len()
+    );
     assert!(out.len() <= 6, "{} cycles", out.len());
 }
 
