@@ -117,14 +117,33 @@ pub(crate) struct MotionWatch {
     peaks: Deviations,
 }
 
-/// The drive's lag over one period: the share `1 − e^(−h/τ)` of a set-point step its
-/// velocity takes in a cycle (Eq. 24's `τ v̇ + v = u` solved over a step; 1 without lag).
-#[must_use]
-pub(crate) fn lag_share(tau: f64, period_s: f64) -> f64 {
-    if tau > 0.0 && tau.is_finite() {
-        1.0 - libm::exp(-period_s / tau)
-    } else {
-        1.0
+/// A drive as the model has it, over one cycle: its lag τ (Eq. 24's `τ v̇ + v = u`) and
+/// the share `1 − e^(−h/τ)` of a set-point step its velocity takes in a cycle (1 without
+/// lag), computed once.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Lag {
+    tau: f64,
+    share: f64,
+    period_s: f64,
+    period_ms: u32,
+}
+
+impl Lag {
+    /// A drive of lag `tau` (s), cycled every `period_ms`.
+    #[must_use]
+    pub(crate) fn new(tau: f64, period_ms: u32) -> Self {
+        let period_s = f64::from(period_ms) / 1000.0;
+        let lagging = tau > 0.0 && tau.is_finite();
+        Self {
+            tau: if lagging { tau } else { 0.0 },
+            share: if lagging {
+                1.0 - libm::exp(-period_s / tau)
+            } else {
+                1.0
+            },
+            period_s,
+            period_ms,
+        }
     }
 }
 
@@ -185,23 +204,20 @@ impl MotionWatch {
 
     /// One cycle: `sent` (m/s) is the set point the drive applied at the last SYNC,
     /// `actual` what it reported then (`None`: not fresh — the expectation still
-    /// advances); `tau` the model's lag, `share` its [`lag_share`] over `period_ms`.
-    /// The window the drive left, if any.
+    /// advances), `lag` the drive as the model has it. The window the drive left, if any.
     pub(crate) fn observe(
         &mut self,
         sent: f64,
         actual: Option<Actual>,
         windows: &MotionWindows,
-        (tau, share): (f64, f64),
-        period_ms: u32,
+        lag: &Lag,
     ) -> Option<Breach> {
-        let period_s = f64::from(period_ms) / 1000.0;
+        let period_ms = lag.period_ms;
         // What the set point did over the period: the lag's exact response to a held
         // input, x += h u − τ Δv.
         if let Some((x, v)) = self.expected {
-            let next_v = v + (sent - v) * share;
-            let lagged = if share < 1.0 { tau * (next_v - v) } else { 0.0 };
-            let next_x = x + period_s * sent - lagged;
+            let next_v = v + (sent - v) * lag.share;
+            let next_x = x + lag.period_s * sent - lag.tau * (next_v - v);
             self.travel += (next_x - x).abs();
             self.expected = Some((next_x, next_v));
         } else if let Some(a) = actual {
@@ -248,8 +264,8 @@ mod tests {
     const W: MotionWindows = MotionWindows::STOCK;
     const TAU: f64 = 0.03;
 
-    fn lag() -> (f64, f64) {
-        (TAU, lag_share(TAU, 0.01))
+    fn lag() -> Lag {
+        Lag::new(TAU, 10)
     }
 
     /// A drive that follows its set points through the model's lag (simulated finely),
@@ -275,7 +291,7 @@ mod tests {
                 position: x,
                 velocity: v,
             };
-            assert_eq!(watch.observe(sent, Some(actual), &W, lag(), 10), None);
+            assert_eq!(watch.observe(sent, Some(actual), &W, &lag()), None);
         }
         assert!(watch.rest().is_some_and(|r| (r - x).abs() < 1e-9));
     }
@@ -293,11 +309,7 @@ mod tests {
                 position: x,
                 velocity: sent,
             };
-            assert_eq!(
-                watch.observe(sent, Some(actual), &W, lag(), 10),
-                None,
-                "{k}"
-            );
+            assert_eq!(watch.observe(sent, Some(actual), &W, &lag()), None, "{k}");
         }
     }
 
@@ -311,7 +323,7 @@ mod tests {
         let mut found = None;
         for k in 0..200 {
             let sent = (0.03 * f64::from(k)).min(3.0);
-            if let Some(b) = watch.observe(sent, Some(still), &W, lag(), 10) {
+            if let Some(b) = watch.observe(sent, Some(still), &W, &lag()) {
                 found = Some((k, b));
                 break;
             }
@@ -335,7 +347,7 @@ mod tests {
                 position: x,
                 velocity,
             };
-            if let Some(b) = watch.observe(0.0, Some(actual), &W, lag(), 10) {
+            if let Some(b) = watch.observe(0.0, Some(actual), &W, &lag()) {
                 found = Some((k, b));
                 break;
             }
@@ -354,14 +366,14 @@ mod tests {
             })
         };
         for _ in 0..60 {
-            watch.observe(0.0, at(12.0), &W, lag(), 10);
+            watch.observe(0.0, at(12.0), &W, &lag());
         }
         assert_eq!(
-            watch.observe(0.0, at(12.1), &W, lag(), 10),
+            watch.observe(0.0, at(12.1), &W, &lag()),
             Some(Breach::Standstill)
         );
         watch.pause();
         watch.rebase(12.1);
-        assert_eq!(watch.observe(0.0, at(12.1), &W, lag(), 10), None);
+        assert_eq!(watch.observe(0.0, at(12.1), &W, &lag()), None);
     }
 }
