@@ -60,14 +60,16 @@ fn a_stop_with_the_running_moves_id_is_obeyed() {
     let rest = rig.until(900, |c| {
         c.setpoints.iter().all(|s| s.units() == 0) && c.mode == Mode::Ready
     });
+    // Never faster than the move alone (the stop's rule; 0.2 % for the scheme's error),
+    // and at rest far short of the target.
     let peak = rest.iter().map(trolley).max().unwrap_or(0);
     assert!(
-        f64::from(peak) < 0.95 * f64::from(top),
-        "the trolley went on as if not stopped: {before} → {peak} µm/s (move alone {top})"
+        f64::from(peak) <= 1.002 * f64::from(top),
+        "the stop sped the trolley up: {before} → {peak} µm/s (move alone {top})"
     );
     let end = rig.c.feedforward().plan().final_position();
     assert!(
-        end[0] < TARGET[0] - 0.5,
+        end[0] < TARGET[0] - 2.0,
         "stopped short of the target, not run to it: {end:?}"
     );
 }
@@ -188,7 +190,7 @@ fn two_hundred_requests_in_under_a_third_of_a_second_are_each_answered_once() {
 #[test]
 fn beyond_the_answer_queue_requests_are_counted_and_a_stop_is_still_obeyed() {
     let mut rig = ready_with(a_move(0));
-    rig.run(300);
+    rig.run(200);
     let ignored = rig.c.counters().frames_ignored;
     // More requests between two cycles than answers can wait: the excess is counted.
     let burst = ANSWER_QUEUE + 10;

@@ -576,26 +576,6 @@ impl<T: Real, const NZ: usize> Plan<T, NZ> {
         Some(StopStart { t, path, sigma, n })
     }
 
-    /// A stop that takes over at `t` (not yet stepped) and comes to rest after
-    /// `duration` on the path of the segment running at `t`, at the fraction
-    /// `min(max(σ(t) + σ̇(t)·duration/2, σ_rise), 1)` of it: as far as a uniform
-    /// deceleration would carry it, but not nearer than the nearest end `σ_rise` that the
-    /// start's derivatives allow without turning back, and never past the target;
-    /// `stretch` ∈ [0, 1] moves that end towards the target (1: at it), for a gentler
-    /// deceleration in the same time. Check [`Stop::stays_on_path`] before using it.
-    /// `None` when nothing moves at or after `t`. Not yet part of the plan.
-    pub fn stop_candidate(&self, t: T, duration: T, stretch: T) -> Option<Result<Stop<T, NZ>>> {
-        let start = self.stop_start(t)?;
-        let [s0, s1, ..] = start.sigma;
-        // As far as a uniform deceleration carries it, but no nearer than the nearest end
-        // its start derivatives allow without turning back, and never past the target.
-        let reach = to_f64(s0 + s1 * duration * c::<T>(0.5));
-        let nearest = start.nearest_end(to_f64(duration)).unwrap_or(reach);
-        let base = reach.max(nearest).min(1.0);
-        let end = c::<T>(base + to_f64(stretch).clamp(0.0, 1.0) * (1.0 - base));
-        Some(start.stop(duration, end))
-    }
-
     /// Whether the segment running at `t` has not begun by then (a stop then simply
     /// drops it: the load is still at rest).
     #[must_use]
@@ -683,6 +663,24 @@ mod tests {
 
     type V = SVector<f64, 1>;
 
+    /// The stop taking over at `t` after `duration` at the rule of the stops before
+    /// issue 32: as far as a uniform deceleration carries the load, no nearer than the
+    /// nearest end, never past the target.
+    fn uniform_stop<const NZ: usize>(
+        plan: &Plan<f64, NZ>,
+        t: f64,
+        duration: f64,
+    ) -> Option<Result<Stop<f64, NZ>>> {
+        let start = plan.stop_start(t)?;
+        let reach = start.fraction() + start.rate() * duration * 0.5;
+        let end = start
+            .nearest_end(duration)
+            .unwrap_or(reach)
+            .max(reach)
+            .min(1.0);
+        Some(start.stop(duration, end))
+    }
+
     #[test]
     fn hermite_matches_its_boundary_conditions() {
         let start = [
@@ -742,7 +740,7 @@ mod tests {
         assert!(z[0][0] > 1.0 && z[0][0] < 3.0, "in the second move");
         // Stop at 3.5 s, inside the second move: continuous to order 4.
         let before: [V; 5] = plan.derivatives(3.5);
-        let stop = plan.stop_candidate(3.5, 1.0, 0.0).unwrap().unwrap();
+        let stop = uniform_stop(&plan, 3.5, 1.0).unwrap().unwrap();
         plan.apply_stop(stop);
         let after: [V; 5] = plan.derivatives(3.5);
         for j in 0..5 {
@@ -779,12 +777,47 @@ mod tests {
             };
             assert_eq!(z, want, "t = {t}");
         }
-        let stop = plan.stop_candidate(4.0, 2.0, 0.0).unwrap().unwrap();
+        let stop = uniform_stop(&plan, 4.0, 2.0).unwrap().unwrap();
         plan.apply_stop(stop);
         for t in [4.0, 4.7, 6.0, 12.0] {
             let (z, want): ([V2; 3], [V2; 3]) = (plan.derivatives(t), stop.derivatives(t));
             assert_eq!(z, want, "t = {t}");
         }
+    }
+
+    /// A stop that rests at its nearest end ([`StopStart::nearest_end`]) provably stays on
+    /// the path; one that rests a little nearer does not (it would have to turn back).
+    #[test]
+    fn the_nearest_end_is_the_nearest_a_stop_stays_on_the_path() {
+        type V2 = SVector<f64, 2>;
+        let mut plan = Plan::at_rest(V2::new(12.0, 8.0), 5).unwrap();
+        plan.push(plan.candidate(V2::new(20.0, 4.0), 1.0, 8.0).unwrap())
+            .unwrap();
+        let mut checked = 0;
+        for k in 1..40 {
+            let t = 1.0 + 8.0 * f64::from(k) / 40.0;
+            let start = plan.stop_start(t).unwrap();
+            for d in [0.5, 1.0, 2.0, 4.0] {
+                let Some(near) = start.nearest_end(d) else {
+                    continue;
+                };
+                assert!(near >= start.fraction(), "t {t} d {d}: behind the load");
+                let at_near = start.stop(d, near).unwrap();
+                if near > 1.0 {
+                    // Past the target: no stop of that duration rests on the path.
+                    assert!(!at_near.stays_on_path(), "t {t} d {d}");
+                    continue;
+                }
+                assert!(at_near.stays_on_path(), "t {t} d {d}");
+                let nearer = near - 1e-6 * (1.0 + near.abs());
+                assert!(
+                    !start.stop(d, nearer).unwrap().stays_on_path(),
+                    "t {t} d {d}"
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 100, "{checked}");
     }
 
     /// A stop at any instant of a move, for any duration, ends on the move's straight
@@ -802,7 +835,7 @@ mod tests {
             for k in 0..=80 {
                 let t = 1.0 + 8.0 * f64::from(k) / 80.0;
                 for d in [0.3, 0.5, 1.0, 2.0, 4.0, 8.0] {
-                    let Some(stop) = plan.stop_candidate(t, d, 0.0) else {
+                    let Some(stop) = uniform_stop(&plan, t, d) else {
                         continue;
                     };
                     let stop = stop.unwrap();
