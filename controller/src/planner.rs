@@ -339,12 +339,44 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         self.stop_ending_by(plan, t, running_until)
     }
 
+    /// Whether `stop`, taking over at `t` on `plan`'s running segment, keeps every rule
+    /// [`Planner::plan_stop`] keeps: on the path at or before the target, at rest no later
+    /// than the segment, every check of a move at [`Planner::check`]'s points, no drive
+    /// faster than the segment makes it. What the search finds passes; a test uses it to
+    /// ask whether a nearer stop would have (`tests/stop_property.rs`).
+    #[must_use]
+    pub fn stop_passes(&self, plan: &Plan<f64, A>, t: f64, stop: &Stop<f64, A>) -> bool {
+        let (Some(segment), Some(start)) = (plan.segment_at(t), plan.stop_start(t)) else {
+            return false;
+        };
+        let span = segment.span();
+        if stop.path() != start.path() || stop.t_end() > span.1 || !stop.stays_on_path() {
+            return false;
+        }
+        let mut budget = u32::MAX;
+        let caps = self.speed_caps(plan, t, span, &mut budget);
+        (0..=SAMPLES).all(|i| {
+            let (found, speeds) = self.judge(stop, sample_time(t, stop.t_end(), i));
+            found == 0 && speeds.iter().zip(caps).all(|(u, cap)| *u <= cap)
+        })
+    }
+
     /// [`Planner::plan_stop`] with the stop's end allowed up to `latest` instead of the
     /// running segment's end (the rule's cost is a study: `stop_rule_distance_against_time`).
     fn stop_ending_by(&self, plan: &Plan<f64, A>, t: f64, latest: f64) -> Option<Stop<f64, A>> {
+        self.stop_within(plan, t, latest, STOP_SAMPLES)
+    }
+
+    /// [`Planner::stop_ending_by`] within `budget` path samples.
+    fn stop_within(
+        &self,
+        plan: &Plan<f64, A>,
+        t: f64,
+        latest: f64,
+        mut budget: u32,
+    ) -> Option<Stop<f64, A>> {
         let span = plan.segment_at(t)?.span();
         let start = plan.stop_start(t)?;
-        let mut budget = STOP_SAMPLES;
         let caps = self.speed_caps(plan, t, span, &mut budget);
         let longest = longest_stop(&start, latest - t)?;
         let mut search = StopCheck {
@@ -355,39 +387,53 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         };
         // The shortest duration whose stops pass the coarse check: up from the shortest
         // in steps of STOP_SCAN until one passes, then a geometric bisection below it.
-        let mut lo = STOP_SHORTEST.min(longest);
-        let (mut hi, mut ends) = loop {
-            if let Some(found) = search.ends(lo)? {
-                break (lo, found);
-            }
-            if lo >= longest {
-                return None;
-            }
-            lo = (lo * STOP_SCAN).min(longest);
-        };
-        lo = hi / STOP_SCAN;
-        while hi / lo > STOP_RESOLUTION && hi > STOP_SHORTEST {
-            let mid = libm::sqrt(lo * hi);
-            match search.ends(mid)? {
-                Some(found) => (hi, ends) = (mid, found),
-                None => lo = mid,
-            }
-        }
-        // The full check of the nearest end, else of the middle of the ends (the coarse
-        // estimate is linear in the end, and sees only its points); else a little longer.
-        for longer in STOP_LONGER {
-            let d = (hi * longer).min(longest);
-            if longer > 1.0 {
-                ends = search.ends(d)??;
-            }
-            let (near, far) = ends;
-            for end in [near, 0.5 * (near + far)] {
-                if let Some(stop) = search.clears(d, end)? {
-                    return Some(stop);
+        let mut d = STOP_SHORTEST.min(longest);
+        let mut below = None;
+        loop {
+            let (mut hi, mut ends) = loop {
+                if let Some(found) = search.ends(d)? {
+                    break (d, found);
+                }
+                if d >= longest {
+                    return None;
+                }
+                below = Some(d);
+                d = (d * STOP_SCAN).min(longest);
+            };
+            if let Some(mut lo) = below {
+                while hi / lo > STOP_RESOLUTION {
+                    let mid = libm::sqrt(lo * hi);
+                    match search.ends(mid)? {
+                        Some(found) => (hi, ends) = (mid, found),
+                        None => lo = mid,
+                    }
                 }
             }
+            // The full check of the nearest end, else of the middle of the ends (the
+            // coarse estimate is linear in the end, and sees only its points); else a
+            // little longer.
+            for longer in STOP_LONGER {
+                d = (hi * longer).min(longest);
+                if longer > 1.0 {
+                    match search.ends(d)? {
+                        Some(found) => ends = found,
+                        None => continue,
+                    }
+                }
+                let (near, far) = ends;
+                for end in [near, near + 0.5 * (far - near)] {
+                    if let Some(stop) = search.clears(d, end)? {
+                        return Some(search.nearer(stop, d, longest));
+                    }
+                }
+            }
+            // The coarse check was too kind here: on up from the last duration tried.
+            if d >= longest {
+                return None;
+            }
+            below = None;
+            d = (d * STOP_SCAN).min(longest);
         }
-        None
     }
 
     /// Each drive's speed cap during a stop taking over at `t` on `plan`'s running
@@ -446,7 +492,7 @@ fn first_reason(found: u16) -> Result<(), Reject> {
 /// 22 for the speed caps, two per instant of each coarse check (16 instants; one that
 /// fails is left at its first failing instant) and 101 per full check. A search that would take more ends with the running segment as the stop
 /// (it was checked when it was accepted). Its cost: docs/RESULTS.md.
-pub const STOP_SAMPLES: u32 = 5 * SAMPLES_PER_CYCLE;
+pub const STOP_SAMPLES: u32 = 6 * SAMPLES_PER_CYCLE;
 
 /// Points of the running segment that give the drives' speed caps during a stop, less one.
 const CAP_SAMPLES: usize = 20;
@@ -458,15 +504,19 @@ const CAP_TOLERANCE: f64 = 1e-3;
 
 /// Instants of a stop at which its coarse check evaluates the path, each at two ends
 /// ([`StopCheck::ends`]).
-const COARSE_POINTS: usize = 16;
+const COARSE_POINTS: usize = 20;
 
 /// The share of each bound the coarse check allows, so that what it finds passes the
 /// full check, which it does not see between its points.
-const COARSE_SHARE: f64 = 0.97;
+const COARSE_SHARE: f64 = 0.98;
+
+/// The durations tried for a nearer stop once one passed, as shares of its duration
+/// ([`StopCheck::nearer`]).
+const STOP_NEARER: [f64; 7] = [0.94, 0.97, 1.0, 1.03, 1.06, 1.1, 1.15];
 
 /// The durations whose ends get the full check, as shares of the one the bisection
 /// found: the next if neither end of the last passed it.
-const STOP_LONGER: [f64; 3] = [1.0, 1.05, 1.15];
+const STOP_LONGER: [f64; 5] = [1.0, 1.03, 1.07, 1.15, 1.3];
 
 /// The shortest stop tried, s: the shortest move ([`DURATION_RANGE`]). A stop of a few
 /// cycles would leave the scheme's error in the computed set points beyond the checks'
@@ -559,6 +609,30 @@ impl<K: Crane<A>, const A: usize> StopCheck<'_, K, A> {
             }
         }
         Some(Some(ends.range))
+    }
+
+    /// `stop` (of duration `d`), or a nearer one: the coarse check is stricter than the
+    /// full one, and its estimate of the nearest end linear, so a stop a little shorter
+    /// or longer resting at its own nearest end (`σ_rise`, the nearest any stop of that
+    /// duration can rest) may pass the full check; the shortest of [`STOP_NEARER`] that
+    /// does, within the budget.
+    fn nearer(&mut self, stop: Stop<f64, A>, d: f64, longest: f64) -> Stop<f64, A> {
+        for longer in STOP_NEARER {
+            let d = (d * longer).clamp(STOP_SHORTEST.min(longest), longest);
+            let Some(end) = self.start.nearest_end(d) else {
+                continue;
+            };
+            if end >= stop.fraction() {
+                // σ_rise grows with the duration: no longer one rests nearer.
+                break;
+            }
+            match self.clears(d, end) {
+                Some(Some(nearer)) => return nearer,
+                Some(None) => {}
+                None => break,
+            }
+        }
+        stop
     }
 
     /// The stop of duration `d` that rests at the fraction `end` of the path, if it stays
