@@ -9,6 +9,7 @@
 //! transmit what comes out, and report each cycle's cost and each failed transmission.
 
 use heapless::{Deque, Vec};
+use nalgebra::SVector;
 
 use crate::canopen::emcy::{self, REGISTER_COMMUNICATION, REGISTER_GENERIC, REGISTER_MANUFACTURER};
 use crate::canopen::sdo;
@@ -98,9 +99,14 @@ pub struct Counters {
     /// Repeats (the same request, id and bytes, while it waits or within
     /// [`REPEAT_WINDOW_MS`] of its answer): answered again, not acted on.
     pub repeated_requests: u32,
-    /// Requests that found [`ANSWER_QUEUE`] answers waiting (a supervisor sending faster
-    /// than [`STATUS_PER_CYCLE`] a cycle for long): not answered and counted as ignored
-    /// (status byte 5) — a stop among them is still obeyed.
+    /// Requests that found no place for an answer of their own in the [`ANSWER_QUEUE`] (a
+    /// supervisor sending faster than [`STATUS_PER_CYCLE`] a cycle for long): answered by
+    /// an overload answer ([`Answer::Overload`]) and not acted on — a stop among them is
+    /// still obeyed.
+    pub overloaded: u32,
+    /// Requests that found no place even in an overload answer (more than a CAN bus
+    /// carries between two cycles): not answered, counted as ignored (status byte 5) — a
+    /// stop among them is still obeyed.
     pub unanswered: u32,
     /// Drive warnings: EMCYs classified as warnings, *internal limit active* (statusword
     /// bit 11) and statusword bit 7 rising.
@@ -121,6 +127,10 @@ pub const SDO_ANSWERS: usize = 4;
 /// SDO answers a cycle sends at most (the oldest first), so that they never crowd out
 /// the cycle's EMCYs.
 pub const SDO_PER_CYCLE: usize = 2;
+
+/// What may be left of a plan's way, in every axis, for the crane to be at rest once its
+/// set points round to zero, m: the drives' position resolution (1 µm).
+pub const REST_TRAVEL_M: f64 = 1e-6;
 
 /// EMCYs waiting to be sent at most. A commissioning failure takes two (0xFF10 and
 /// 0xFF12), so every node of the list can fail in one cycle with room to spare.
@@ -147,7 +157,9 @@ pub struct Cycle<const A: usize = 2> {
     pub mode: Mode,
 }
 
-pub use crate::requests::{ANSWER_QUEUE, REPEAT_WINDOW_MS, STATUS_PER_CYCLE, STOP_ANSWERS};
+pub use crate::requests::{
+    ANSWER_QUEUE, OVERLOAD_ANSWERS, REPEAT_WINDOW_MS, STATUS_PER_CYCLE, STOP_ANSWERS,
+};
 
 /// The crane controller: a CANopen node, manager (or slave) of the drives of crane `K`
 /// (its `A` driven axes, [`Crane::DRIVES`]: the planar crane's trolley and winch by
@@ -321,6 +333,7 @@ where
         Counters {
             requests: tally.answered,
             repeated_requests: tally.repeated,
+            overloaded: tally.overloaded,
             unanswered: tally.unanswered,
             ..self.counters
         }
@@ -383,7 +396,8 @@ where
     /// The last answer given: request id, answer, reason.
     #[must_use]
     pub fn last_answer(&self) -> (u8, Answer, Option<Reject>) {
-        self.requests.last()
+        let last = self.requests.last();
+        (last.id, last.answer, last.reason)
     }
 
     fn ignore(&mut self) {
@@ -954,9 +968,10 @@ where
         }
         // A stop goes first; then requests in order: the next one waits while a move
         // is planned.
+        self.requests.begun_by(self.now_s());
         if self.requests.stop_due() {
             self.obey_stop();
-            let lost = self.requests.after_stop(now_ms);
+            let lost = self.requests.after_stop(now_ms, self.now_s());
             self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(lost);
         } else if let Some(request) = self.requests.next() {
             self.handle(request);
@@ -965,10 +980,7 @@ where
 
         let step = if matches!(self.mode, Mode::Enabling | Mode::Ready) {
             match self.feedforward.step() {
-                Ok(step) => {
-                    self.feedforward.plan_mut().retire(step.t);
-                    Some(step)
-                }
+                Ok(step) => Some(self.settle(step)),
                 Err(e) => {
                     self.fault(Fault::Solver(e));
                     None
@@ -1187,11 +1199,12 @@ where
         self.status_with(self.requests.last())
     }
 
-    fn status_with(&self, (last_id, answer, reason): AnswerRecord) -> Status {
+    fn status_with(&self, answer: AnswerRecord) -> Status {
         Status {
-            last_id,
-            answer,
-            reason,
+            last_id: answer.id,
+            answer: answer.answer,
+            reason: answer.reason,
+            overload: answer.overload,
             mode: self.mode.code(),
             fault: self.mode.fault().map_or(0, |f| f.code()),
             ignored: self.counters.frames_ignored,
@@ -1287,15 +1300,50 @@ where
             Request::Reset { .. } => match self.mode {
                 Mode::Halted(_) => self.reset().map(|()| Answer::Accepted),
                 Mode::Stopping(_) | Mode::QuickStop(_) => Err(Reject::NotReady),
+                // None is taken while the crane moves (a move, or a stop still bringing
+                // it to rest): it is refused until rest.
+                Mode::Enabling | Mode::Ready if self.moving() => Err(Reject::Moving),
                 // At rest a reset takes the drives' positions as where the crane is (after
                 // a move refused as not in place).
-                Mode::Enabling | Mode::Ready if !self.moving() => {
-                    self.read_positions().map(|()| Answer::Accepted)
-                }
-                Mode::Enabling | Mode::Ready => Ok(Answer::Accepted),
+                Mode::Enabling | Mode::Ready => self.read_positions().map(|()| Answer::Accepted),
             },
         };
         self.give_answer(request, answer);
+    }
+
+    /// The plan after `step`: what has ended by `step.t` retired. Once the plan rests —
+    /// its last segment ended, or what is left of it can no longer be seen (set points
+    /// that round to zero, and less than [`REST_TRAVEL_M`] to go for every drive) — the
+    /// model starts again at rest where the plan ends, at `step.t`, and this step's set
+    /// points are the exact inverse's at rest: zero. A multistep scheme answers a move's
+    /// end with a few cycles of set points ringing around zero (±1–54 µm/s after the
+    /// paper's moves with BDF4), and a stop's last few hundredths of a second send zeros
+    /// while the plan still runs (a move sent then would wait for it): at rest, the set
+    /// points are exactly zero and a move starts at once (docs/COMMANDS.md, "Rest").
+    fn settle(&mut self, mut step: FeedforwardStep<A>) -> FeedforwardStep<A> {
+        let plan = self.feedforward.plan_mut();
+        let had_motion = plan.active().is_some();
+        plan.retire(step.t);
+        let plan = self.feedforward.plan();
+        let ended = had_motion && plan.active().is_none();
+        let zero = step
+            .u
+            .iter()
+            .all(|u| libm::round(u * UNITS_PER_M_PER_S) == 0.0);
+        // (The drives' positions, not the load's: the trolley's last swing-cancelling
+        // motion outlasts the load's by a tenth of a second.)
+        let unseen = zero && plan.active().is_some() && !plan.has_queued() && {
+            let here = SVector::from(self.planner.drive_positions(plan, step.t));
+            (plan.final_position() - here).amax() < REST_TRAVEL_M
+        };
+        if ended || unseen {
+            let rest = plan.final_position().into();
+            // (A restart that fails leaves the model as it was: its steps go on.)
+            if self.feedforward.restart_at_rest(rest, step.t).is_ok() {
+                step.u = [0.0; A];
+            }
+        }
+        step
     }
 
     /// Obeys the stops that arrived since the last cycle (one or many: the same stop).
@@ -1338,24 +1386,29 @@ where
         };
         let now = self.now_s();
         let at_rest = !self.moving();
-        let answer = result.and_then(|duration| {
+        let placed = result.and_then(|duration| {
             let plan = self.feedforward.plan_mut();
             let moving = plan.is_moving(now);
             // The search checked the path on [0, T]; it is placed now or after the
             // running move, which shifts it in time and changes nothing it checked.
-            plan.candidate(pending.target.into(), now, duration)
-                .and_then(|m| plan.push(m))
+            let m = plan
+                .candidate(pending.target.into(), now, duration)
                 .map_err(|_| Reject::Busy)?;
-            Ok(if moving {
+            plan.push(m).map_err(|_| Reject::Busy)?;
+            let answer = if moving {
                 Answer::Queued
             } else {
                 Answer::Accepted
-            })
+            };
+            Ok((answer, m.t_start()))
         });
-        if answer.is_ok() {
+        if placed.is_ok() {
             self.close_loop(at_rest);
         }
-        self.give_answer(pending.request, answer);
+        self.give_answer(pending.request, placed.map(|(answer, _)| answer));
+        if let Ok((_, t_start)) = placed {
+            self.requests.planned(pending.request, t_start);
+        }
     }
 
     /// A move was accepted (`at_rest`: the crane was at rest when it was): the feedback
@@ -1659,6 +1712,9 @@ where
             return;
         }
         self.closed_loop = false;
+        // The plan is given up: an accepted move that has not begun will not run.
+        let lost = self.requests.cancel_planned(self.now_s(), self.now_ms);
+        self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(lost);
         self.mode = match reaction {
             Reaction::Controlled => Mode::Stopping(fault),
             Reaction::Quick => Mode::QuickStop(fault),

@@ -228,7 +228,6 @@ impl ObjectDictionary for Dictionary<'_> {
     fn read(&self, object: Object) -> Result<Value, u32> {
         let s = &self.snapshot;
         let status = &s.status;
-        let sat = |v: u32| v.min(255) as u8;
         let (node, index, sub, code, reason) = s.commissioning_failure;
         let sub_of = |n: usize, f: &dyn Fn(usize) -> Option<Value>| -> Result<Value, u32> {
             match object.sub {
@@ -272,19 +271,7 @@ impl ObjectDictionary for Dictionary<'_> {
             // The command frame's fields: only mapped (write through the RPDO).
             0x2000 if object.sub == 0 => Ok(value(&[7])),
             0x2000 if object.sub <= 7 => Err(abort::WRITE_ONLY),
-            0x2001 => sub_of(8, &|k| {
-                let bytes = [
-                    status.last_id,
-                    status.answer as u8,
-                    status.reason.map_or(0, |r| r as u8),
-                    status.mode,
-                    status.fault,
-                    sat(status.ignored),
-                    sat(status.deadline_misses),
-                    sat(status.tx_failures),
-                ];
-                bytes.get(k).map(|b| value(&[*b]))
-            }),
+            0x2001 => sub_of(8, &|k| status.bytes().get(k).map(|b| value(&[*b]))),
             0x2002 => sub_of(5, &|k| match k {
                 0 => Some(value(&[node])),
                 1 => Some(value(&index.to_le_bytes())),
@@ -470,6 +457,7 @@ mod tests {
                 last_id: 7,
                 answer: Answer::Accepted,
                 reason: None,
+                overload: 0,
                 mode: 1,
                 fault: 0,
                 ignored: 300,
@@ -496,7 +484,8 @@ mod tests {
         );
         assert_eq!(od.read(Object::new(0x1018, 0)).unwrap(), value(&[4]));
         assert_eq!(od.read(Object::new(0x2001, 1)).unwrap(), value(&[7]));
-        assert_eq!(od.read(Object::new(0x2001, 6)).unwrap(), value(&[255]));
+        // The frames-ignored counter (300) modulo 256, as the status frame has it.
+        assert_eq!(od.read(Object::new(0x2001, 6)).unwrap(), value(&[44]));
         assert_eq!(
             od.read(Object::new(0x2004, 1)).unwrap(),
             value(&(-15_000i32).to_le_bytes())

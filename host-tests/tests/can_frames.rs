@@ -98,6 +98,7 @@ fn dbc_parses_and_covers_every_frame() {
                 last_id: 1,
                 answer: Answer::Accepted,
                 reason: None,
+                overload: 0,
                 mode: 1,
                 fault: 0,
                 ignored: 0,
@@ -314,6 +315,7 @@ fn status_names_its_answer_reason_mode_and_fault() {
             last_id: 7,
             answer: Answer::Rejected,
             reason: Some(Reject::WinchAcceleration),
+            overload: 0,
             mode: 4,
             fault: 6,
             ignored: 300,
@@ -324,7 +326,32 @@ fn status_names_its_answer_reason_mode_and_fault() {
     assert_eq!(
         s.to_string(),
         "Status_Controller last_id=7 answer=3(Rejected) reason=10(WinchAcceleration) mode=4(Halted) \
-         fault=6(Undeliverable) ignored=255 deadline_misses=2 tx_failures=1"
+         fault=6(Undeliverable) ignored=44 deadline_misses=2 tx_failures=1"
+    );
+}
+
+/// An overload answer: the last request it answers and how many, in byte 2 where a
+/// rejection has its reason (the DBC multiplexes byte 2 on the answer).
+#[test]
+fn an_overload_answer_names_how_many_requests_it_answers() {
+    let s = decode(&status_frame(
+        CONTROLLER_NODE,
+        &Status {
+            last_id: 200,
+            answer: Answer::Overload,
+            reason: None,
+            overload: 77,
+            mode: 1,
+            fault: 0,
+            ignored: 256,
+            deadline_misses: 0,
+            tx_failures: 0,
+        },
+    ));
+    assert_eq!(
+        s.to_string(),
+        "Status_Controller last_id=200 answer=4(Overload) overloaded=77 mode=1(Ready) \
+         fault=0(None) ignored=0 deadline_misses=0 tx_failures=0"
     );
 }
 
@@ -346,6 +373,7 @@ fn every_reject_reason_is_named_in_the_dbc() {
         Reject::BridgeVelocity,
         Reject::BridgeAcceleration,
         Reject::NotInPlace,
+        Reject::Moving,
     ];
     // Each its own code (14 is another rule's: a reset while the crane moves).
     let codes: std::collections::BTreeSet<u8> = reasons.iter().map(|r| *r as u8).collect();
@@ -358,6 +386,7 @@ fn every_reject_reason_is_named_in_the_dbc() {
                 last_id: 1,
                 answer: Answer::Rejected,
                 reason: Some(reason),
+                overload: 0,
                 mode: 1,
                 fault: 0,
                 ignored: 0,

@@ -88,6 +88,7 @@ fn snapshot() -> Snapshot {
             last_id: 0,
             answer: Answer::None,
             reason: None,
+            overload: 0,
             mode: 0,
             fault: 0,
             ignored: 0,
