@@ -102,6 +102,10 @@ class Drive(SimulatedNode):
         self.status_lag = status_lag
         # Physical: a reboot does not move the axis (an absolute encoder).
         self.position = position
+        # Misbehaviour the test asks for (`creep`, `ignore`): the axis moving faster than
+        # the drive drives it (a slipping brake), the drive standing whatever its target.
+        self.creep = 0
+        self.ignoring = False
         super().__init__(network, node_id, EDS)
         network.subscribe(0x080, self._on_sync)
         network.subscribe(0x200 + node_id, self._on_rpdo)
@@ -147,7 +151,7 @@ class Drive(SimulatedNode):
         if index == 0x6064:
             return int(round(self.position))
         if index == 0x606C:
-            return self.velocity
+            return self.velocity + self.creep
         if index == 0x6040:
             return self.controlword
         return None
@@ -250,9 +254,9 @@ class Drive(SimulatedNode):
                 self._apply(values)
             self._watch_controller(timestamp)
             dt = self.period_s()
-            self.position += self.velocity * dt
+            self.position += (self.velocity + self.creep) * dt
             if self.state == "operation enabled" and self.mode() == CSV:
-                self.velocity = self.target
+                self.velocity = 0 if self.ignoring else self.target
             elif self.state == "quick stop active":
                 step = struct.unpack("<I", self.node.get_data(0x6085, 0))[0] * dt
                 self.velocity = 0 if abs(self.velocity) <= step else self.velocity - step * (1 if self.velocity > 0 else -1)
@@ -380,7 +384,10 @@ class Drives:
                 self.inclinometer.sample(*(slopes if isinstance(slopes, tuple) else (slopes,)))
 
     def command(self, line):
-        """`power N`, `off N`, `reboot N`, `fault N`, `warn N`, `dump`; for the load
+        """`power N`, `off N`, `reboot N`, `fault N`, `warn N`, `dump`; `creep N UM_PER_S`
+        (the axis moves that much faster than the drive drives it, in every state while
+        powered: a slipping brake; 0 ends it), `ignore N` / `obey N` (the drive stands
+        whatever its target while its statusword says it follows, and back); for the load
         `swing DEG` (the 3D crane's `swing ALPHA BETA`, the rope's slopes in degrees),
         `kick DEG` (the planar crane), and for the inclinometer `freeze`, `lose`, `heal`:
         one JSON answer (those of the load and the inclinometer with the load's state at
@@ -400,6 +407,11 @@ class Drives:
             with self.load.lock:  # between two SYNCs: the state is the frozen reading's
                 self.inclinometer.fail({"freeze": "frozen", "lose": "lost", "heal": None}[verb])
                 return {"ok": True, "load": self.load.state()}
+        if verb == "creep":
+            drive = self.drives[int(words[1])]
+            with drive.lock:
+                drive.creep = int(words[2])
+            return {"ok": True}
         nodes = [int(w) for w in words[1:]]
         for n in nodes:
             drive = self.drives[n]
@@ -414,6 +426,9 @@ class Drives:
                 drive.fault()
             elif verb == "warn":
                 drive.warn()
+            elif verb in ("ignore", "obey"):
+                with drive.lock:
+                    drive.ignoring = verb == "ignore"
             else:
                 return {"ok": False, "error": f"unknown command {verb}"}
         if verb == "dump":

@@ -183,6 +183,11 @@ pub enum Answer {
     Queued = 2,
     /// Rejected; see the reason.
     Rejected = 3,
+    /// Requests that found no place for an answer of their own (a supervisor sending
+    /// faster than the status frames can answer): not acted on. The status frame names
+    /// the last of them (byte 0) and how many they are (byte 2); a stop among them is
+    /// obeyed all the same.
+    Overload = 4,
 }
 
 /// Why a request was rejected (docs/COMMANDS.md).
@@ -216,6 +221,14 @@ pub enum Reject {
     BridgeVelocity = 12,
     /// Bridge acceleration above its limit (3D crane).
     BridgeAcceleration = 13,
+    /// A reset while the crane still moves (a move, or a stop bringing it to rest):
+    /// taken only at rest.
+    Moving = 14,
+    /// A drive is not where the controller last brought it (position actual further
+    /// than its `in_place` window from where the model holds the crane), or its position
+    /// is not known: a move from the wrong start would end off its target. A reset takes
+    /// the drives' positions as the crane's.
+    NotInPlace = 15,
 }
 
 /// The status frame's contents.
@@ -228,6 +241,8 @@ pub struct Status {
     pub answer: Answer,
     /// The reason, if rejected.
     pub reason: Option<Reject>,
+    /// For [`Answer::Overload`]: how many requests it answers, 1–255 (status byte 2).
+    pub overload: u8,
     /// The mode code (docs/COMMANDS.md).
     pub mode: u8,
     /// The fault code, 0 for none.
@@ -240,21 +255,35 @@ pub struct Status {
     pub tx_failures: u32,
 }
 
+impl Status {
+    /// The status frame's 8 bytes (docs/COMMANDS.md; the controller's 0x2001:1..=8). The
+    /// counters go modulo 256: they roll over rather than stick at 255, so that the
+    /// difference between two status frames is what happened between them (fewer than
+    /// 256 events apart: the status goes out every 100 ms at least).
+    #[must_use]
+    pub fn bytes(&self) -> [u8; 8] {
+        let detail = match self.answer {
+            Answer::Overload => self.overload,
+            _ => self.reason.map_or(0, |r| r as u8),
+        };
+        let roll = |v: u32| (v % 256) as u8;
+        [
+            self.last_id,
+            self.answer as u8,
+            detail,
+            self.mode,
+            self.fault,
+            roll(self.ignored),
+            roll(self.deadline_misses),
+            roll(self.tx_failures),
+        ]
+    }
+}
+
 /// The status frame of the controller at `node`.
 #[must_use]
 pub fn status_frame(node: u8, s: &Status) -> CanFrame {
-    let sat = |v: u32| v.min(255) as u8;
-    let data = [
-        s.last_id,
-        s.answer as u8,
-        s.reason.map_or(0, |r| r as u8),
-        s.mode,
-        s.fault,
-        sat(s.ignored),
-        sat(s.deadline_misses),
-        sat(s.tx_failures),
-    ];
-    CanFrame::fixed(status_id(node), &data)
+    CanFrame::fixed(status_id(node), &s.bytes())
 }
 
 #[cfg(test)]

@@ -27,6 +27,7 @@ use crate::cia402::pdo as cia402_pdo;
 use crate::cia410;
 use crate::drive::Drive;
 use crate::frame::CanFrame;
+use crate::motion::MotionWindows;
 
 /// CiA 402 mode of operation (0x6060) the drive runs in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -86,6 +87,9 @@ pub struct DriveSetup {
     pub position_scale: f64,
     /// Metres at position actual 0 (trolley position; rope length for the winch).
     pub position_offset: f64,
+    /// How far the drive may be from what the controller commanded (nothing is written
+    /// into the drive: the controller supervises its motion, [`crate::motion`]).
+    pub motion: MotionWindows,
 }
 
 impl DriveSetup {
@@ -107,6 +111,7 @@ impl DriveSetup {
             profile_ramp: None,
             position_scale: 1e-6,
             position_offset: 0.0,
+            motion: MotionWindows::STOCK,
         }
     }
 

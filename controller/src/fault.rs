@@ -49,6 +49,36 @@ pub enum Fault {
     Implausible(Drive, Implausibility),
     /// Another node sends with the controller's own node id.
     DuplicateNodeId,
+    /// Another node produces what the controller produces: a SYNC, or a drive's set
+    /// points (a second master).
+    ForeignProducer(Foreign),
+    /// A drive at rest and commanded to stand still moved out of its standstill window
+    /// (a slipping brake, a creeping axis, someone else's set point).
+    Standstill(Drive),
+    /// A drive commanded to move does not do what it was commanded: its position or its
+    /// velocity left its following window.
+    FollowingError(Drive, FollowingError),
+}
+
+/// What another node produced that only the controller may (the EMCY's detail byte).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Foreign {
+    /// A SYNC (0x080) while the controller is the SYNC producer.
+    Sync,
+    /// A drive's RPDO1 (0x200 + its node), which the controller sends it.
+    Rpdo(Drive),
+}
+
+/// Which of a moving drive's windows it left (the EMCY's detail byte).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum FollowingError {
+    /// Position actual (0x6064) against where the set points sent put the drive.
+    Position = 1,
+    /// Velocity actual (0x606C) against the velocity they give it.
+    Velocity = 2,
 }
 
 /// What is implausible about what a drive reports (the EMCY's detail byte).
@@ -76,9 +106,9 @@ pub(crate) enum Reaction {
 
 impl Fault {
     /// The largest fault byte. `can/crane.dbc` multiplexes the EMCY's manufacturer
-    /// bytes on it: 0–15 and 17–18 a fault (15 the feedback warning), 16 the abort code
+    /// bytes on it: 0–15 and 17–21 a fault (15 the feedback warning), 16 the abort code
     /// that follows a commissioning failure (`emcy::ABORT_CODE_FOLLOWS`).
-    pub const MAX_CODE: u8 = 18;
+    pub const MAX_CODE: u8 = 21;
 
     /// The fault byte of the status frame and of the EMCY, 1 to [`Fault::MAX_CODE`].
     #[must_use]
@@ -101,6 +131,9 @@ impl Fault {
             // 15 and 16 are taken (emcy::FEEDBACK_OFF, emcy::ABORT_CODE_FOLLOWS).
             Fault::Implausible(..) => 17,
             Fault::DuplicateNodeId => 18,
+            Fault::ForeignProducer(_) => 19,
+            Fault::Standstill(_) => 20,
+            Fault::FollowingError(..) => 21,
         }
     }
 
@@ -122,7 +155,9 @@ impl Fault {
             Fault::DriveMode(_) => emcy::DRIVE_MODE,
             Fault::Commissioning(..) => emcy::COMMISSIONING,
             Fault::Implausible(..) => emcy::DRIVE_IMPLAUSIBLE,
-            Fault::DuplicateNodeId => emcy::CAN_ID_COLLISION,
+            Fault::DuplicateNodeId | Fault::ForeignProducer(_) => emcy::CAN_ID_COLLISION,
+            Fault::Standstill(_) => emcy::STANDSTILL,
+            Fault::FollowingError(..) => emcy::FOLLOWING_ERROR,
         }
     }
 
@@ -137,6 +172,9 @@ impl Fault {
             | Fault::TpdoTimeout(d)
             | Fault::DriveMode(d)
             | Fault::Implausible(d, _)
+            | Fault::Standstill(d)
+            | Fault::FollowingError(d, _)
+            | Fault::ForeignProducer(Foreign::Rpdo(d))
             | Fault::Commissioning(d, _) => Some(d),
             Fault::Setpoint(
                 SetpointError::NonFinite { drive }
@@ -151,7 +189,9 @@ impl Fault {
     /// The EMCY's third manufacturer byte: for a refused set point, why (1 non-finite,
     /// 2 over speed, 3 over acceleration, 4 no such drive); for a solver failure, which
     /// (1 Newton did not converge, 2 singular matrix, 3 non-finite value, 4 other); for
-    /// a drive that left *operational*, the NMT state it reported; otherwise 0.
+    /// a drive that left *operational*, the NMT state it reported; for implausible
+    /// feedback what was implausible; for a foreign producer 1 SYNC, 2 a drive's RPDO;
+    /// for a following error 1 position, 2 velocity; otherwise 0.
     pub(crate) fn detail(&self) -> u8 {
         match self {
             Fault::Setpoint(SetpointError::NonFinite { .. }) => 1,
@@ -164,6 +204,9 @@ impl Fault {
             Fault::Solver(_) => 4,
             Fault::DriveLeftOperational(_, state) => *state as u8,
             Fault::Implausible(_, what) => *what as u8,
+            Fault::ForeignProducer(Foreign::Sync) => 1,
+            Fault::ForeignProducer(Foreign::Rpdo(_)) => 2,
+            Fault::FollowingError(_, which) => *which as u8,
             _ => 0,
         }
     }
@@ -175,7 +218,10 @@ impl Fault {
             | Fault::DriveLeftOperational(..)
             | Fault::TpdoTimeout(_)
             | Fault::DriveMode(_)
-            | Fault::Implausible(..) => Reaction::Quick,
+            | Fault::Implausible(..)
+            | Fault::ForeignProducer(_)
+            | Fault::Standstill(_)
+            | Fault::FollowingError(..) => Reaction::Quick,
             Fault::Undeliverable | Fault::Watchdog | Fault::Commissioning(..) => Reaction::Halt,
             _ => Reaction::Controlled,
         }

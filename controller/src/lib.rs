@@ -49,6 +49,7 @@ pub mod feedback3d;
 pub mod feedforward;
 pub mod frame;
 mod links;
+pub mod motion;
 pub mod node;
 pub mod planner;
 pub mod reference;

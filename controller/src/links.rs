@@ -12,6 +12,7 @@ use crate::config::Config;
 use crate::drive::{Drive, Order};
 use crate::fault::Implausibility;
 use crate::frame::CanFrame;
+use crate::motion::{Actual, MotionWatch};
 use crate::node::Role;
 
 /// One node on the bus.
@@ -187,6 +188,9 @@ pub(crate) struct DriveLink {
     /// What was implausible about its last position actual, if anything (a reset is
     /// refused meanwhile).
     pub(crate) implausible: Option<Implausibility>,
+    /// What the set points sent should have done, and where it came to rest: kept when
+    /// it reboots (a drive moved meanwhile is caught when it reports again).
+    pub(crate) motion: MotionWatch,
 }
 
 impl DriveLink {
@@ -214,6 +218,7 @@ impl DriveLink {
             outbox: None,
             not_following: 0,
             implausible: None,
+            motion: MotionWatch::default(),
         }
     }
 
@@ -296,6 +301,23 @@ impl DriveLink {
         } else {
             None
         }
+    }
+
+    /// What it reported at the last SYNC (position actual through the commissioned
+    /// scaling, velocity actual in m/s), if both arrived within `fresh_ms` of `now_ms`
+    /// and the position was plausible.
+    pub(crate) fn actual(&self, now_ms: u64, fresh_ms: u32) -> Option<Actual> {
+        let fresh =
+            |t: Option<u64>| t.is_some_and(|t| now_ms.saturating_sub(t) <= u64::from(fresh_ms));
+        if !(fresh(self.last_position_ms) && fresh(self.last_tpdo_ms)) || self.implausible.is_some()
+        {
+            return None;
+        }
+        let setup = self.commissioning.setup();
+        Some(Actual {
+            position: setup.position_offset + setup.position_scale * f64::from(self.position?),
+            velocity: f64::from(self.velocity) / crate::setpoint::UNITS_PER_M_PER_S,
+        })
     }
 
     /// Forgets what the drive reported (it rebooted): the TPDO values are stale.

@@ -26,6 +26,7 @@ use crate::canopen::{NmtCommand, NmtState};
 use crate::commands::{
     command_id, decode_move3d, decode_request, move3d_id, status_id, CommandError, Request, Status,
 };
+use crate::commissioning::MAX_NODES;
 
 /// Who starts the drives.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -97,6 +98,13 @@ pub struct Node {
     /// A request written field by field over SDO into 0x2000 (the command frame's
     /// bytes); writing the command (sub 2) submits it.
     pub request: StagedRequest,
+    /// The shortest heartbeat consumer time the controller writes into its drives
+    /// (their 0x1016:1 for it), ms; 0 when none watches it. A producer time 0x1017 they
+    /// would not tolerate is refused: confirmed, it would make them stop by themselves.
+    pub drives_consumer_ms: u16,
+    /// The nodes of the commissioning list (drives, inclinometer; 0 for a free place):
+    /// their heartbeats are watched already, none can be the supervisor of 0x1016:1.
+    pub listed: [u8; MAX_NODES],
 }
 
 /// A request written over SDO into 0x2000:1..=7, as the command frame's 8 bytes and the
@@ -156,6 +164,34 @@ impl Node {
     pub fn cycle_ms(&self) -> u32 {
         self.cycle_us / 1000
     }
+
+    /// Whether the node can take `ms` as its heartbeat producer time 0x1017, or the
+    /// CiA 301 abort code that says why not:
+    ///
+    /// * 0 (off) while drives watch its heartbeat: 0x0604_0043, general parameter
+    ///   incompatibility — they would stop by themselves (their consumer times out);
+    /// * more than half the shortest consumer time its drives were given (the
+    ///   commissioning file's rule, `controller_timeout_ms` at least twice the
+    ///   heartbeat): 0x0609_0031, value too high — one late beat would trip them;
+    /// * not a whole number of cycles (it is sent on a cycle): 0x0609_0030.
+    pub fn heartbeat_producer_time(&self, ms: u16) -> Result<(), u32> {
+        let consumer = u32::from(self.drives_consumer_ms);
+        if ms == 0 {
+            return if consumer == 0 {
+                Ok(())
+            } else {
+                Err(abort::PARAMETER_INCOMPATIBLE)
+            };
+        }
+        let cycle_ms = self.cycle_ms();
+        if cycle_ms == 0 || u32::from(ms) % cycle_ms != 0 {
+            return Err(abort::INVALID_VALUE);
+        }
+        if consumer != 0 && 2 * u32::from(ms) > consumer {
+            return Err(abort::VALUE_TOO_HIGH);
+        }
+        Ok(())
+    }
 }
 
 /// The values the object dictionary reads from the controller at the time of a request.
@@ -192,7 +228,6 @@ impl ObjectDictionary for Dictionary<'_> {
     fn read(&self, object: Object) -> Result<Value, u32> {
         let s = &self.snapshot;
         let status = &s.status;
-        let sat = |v: u32| v.min(255) as u8;
         let (node, index, sub, code, reason) = s.commissioning_failure;
         let sub_of = |n: usize, f: &dyn Fn(usize) -> Option<Value>| -> Result<Value, u32> {
             match object.sub {
@@ -236,19 +271,7 @@ impl ObjectDictionary for Dictionary<'_> {
             // The command frame's fields: only mapped (write through the RPDO).
             0x2000 if object.sub == 0 => Ok(value(&[7])),
             0x2000 if object.sub <= 7 => Err(abort::WRITE_ONLY),
-            0x2001 => sub_of(8, &|k| {
-                let bytes = [
-                    status.last_id,
-                    status.answer as u8,
-                    status.reason.map_or(0, |r| r as u8),
-                    status.mode,
-                    status.fault,
-                    sat(status.ignored),
-                    sat(status.deadline_misses),
-                    sat(status.tx_failures),
-                ];
-                bytes.get(k).map(|b| value(&[*b]))
-            }),
+            0x2001 => sub_of(8, &|k| status.bytes().get(k).map(|b| value(&[*b]))),
             0x2002 => sub_of(5, &|k| match k {
                 0 => Some(value(&[node])),
                 1 => Some(value(&index.to_le_bytes())),
@@ -282,15 +305,10 @@ impl ObjectDictionary for Dictionary<'_> {
 
     fn write(&mut self, object: Object, data: &[u8]) -> Result<(), u32> {
         match (object.index, object.sub) {
-            // The heartbeat (and the status with it) goes out on a cycle: a period the
-            // node can produce is 0 (off) or a whole number of cycles.
             (0x1017, 0) => match *data {
                 [a, b] => {
                     let ms = u16::from_le_bytes([a, b]);
-                    let cycle_ms = self.node.cycle_ms();
-                    if ms != 0 && (cycle_ms == 0 || u32::from(ms) % cycle_ms != 0) {
-                        return Err(abort::INVALID_VALUE);
-                    }
+                    self.node.heartbeat_producer_time(ms)?;
                     self.node.heartbeat_ms = ms;
                     Ok(())
                 }
@@ -309,7 +327,14 @@ impl ObjectDictionary for Dictionary<'_> {
                     {
                         return Err(abort::INVALID_VALUE);
                     }
-                    if node != 0 && node == u32::from(self.node.id) {
+                    // Neither itself nor a node of its list (whose heartbeat the list's
+                    // timeout watches already: confirmed, it would never be honoured).
+                    let listed = self
+                        .node
+                        .listed
+                        .iter()
+                        .any(|n| *n != 0 && u32::from(*n) == node);
+                    if node != 0 && (node == u32::from(self.node.id) || listed) {
                         return Err(abort::PARAMETER_INCOMPATIBLE);
                     }
                     self.node.supervisor = v;
@@ -396,6 +421,8 @@ mod tests {
             supervisor: 0,
             cycle_us: 10_000,
             request: StagedRequest::default(),
+            drives_consumer_ms: 300,
+            listed: [1, 2, 0, 0],
         }
     }
 
@@ -430,6 +457,7 @@ mod tests {
                 last_id: 7,
                 answer: Answer::Accepted,
                 reason: None,
+                overload: 0,
                 mode: 1,
                 fault: 0,
                 ignored: 300,
@@ -456,7 +484,8 @@ mod tests {
         );
         assert_eq!(od.read(Object::new(0x1018, 0)).unwrap(), value(&[4]));
         assert_eq!(od.read(Object::new(0x2001, 1)).unwrap(), value(&[7]));
-        assert_eq!(od.read(Object::new(0x2001, 6)).unwrap(), value(&[255]));
+        // The frames-ignored counter (300) modulo 256, as the status frame has it.
+        assert_eq!(od.read(Object::new(0x2001, 6)).unwrap(), value(&[44]));
         assert_eq!(
             od.read(Object::new(0x2004, 1)).unwrap(),
             value(&(-15_000i32).to_le_bytes())
@@ -476,7 +505,7 @@ mod tests {
             od.write(Object::new(0x1000, 0), &[0; 4]),
             Err(abort::READ_ONLY)
         );
-        assert_eq!(od.write(Object::new(0x1017, 0), &[0xF4, 0x01]), Ok(()));
+        assert_eq!(od.write(Object::new(0x1017, 0), &[0x96, 0x00]), Ok(()));
         assert_eq!(od.write(Object::new(0x1017, 0), &[1]), Err(abort::LENGTH));
         assert_eq!(
             od.write(Object::new(0x1016, 1), &0x0080_0064u32.to_le_bytes()),
@@ -486,7 +515,7 @@ mod tests {
             od.write(Object::new(0x1016, 1), &0x0020_01F4u32.to_le_bytes()),
             Ok(())
         );
-        assert_eq!(n.heartbeat_ms, 500);
+        assert_eq!(n.heartbeat_ms, 150);
         assert_eq!(n.supervisor, 0x0020_01F4);
     }
 
@@ -507,10 +536,10 @@ mod tests {
                 "{ms} ms"
             );
         }
-        for ms in [0, 10, 20, 100, 65_530] {
+        for ms in [10, 20, 100, 150] {
             assert_eq!(od.write(Object::new(0x1017, 0), &heartbeat(ms)), Ok(()));
         }
-        assert_eq!(od.node.heartbeat_ms, 65_530);
+        assert_eq!(od.node.heartbeat_ms, 150);
         let consumer = |node: u32, ms: u32| (node << 16 | ms).to_le_bytes();
         assert_eq!(
             od.write(Object::new(0x1016, 1), &consumer(0x20, 5)),
@@ -527,5 +556,36 @@ mod tests {
             Ok(())
         );
         assert_eq!(od.write(Object::new(0x1016, 1), &consumer(0, 0)), Ok(()));
+        // A node of its own list is watched by the list already.
+        assert_eq!(
+            od.write(Object::new(0x1016, 1), &consumer(2, 300)),
+            Err(abort::PARAMETER_INCOMPATIBLE),
+            "the winch's node"
+        );
+    }
+
+    /// Issue 32, item 2: a heartbeat producer time the drives' consumers (300 ms, written
+    /// by the controller) do not tolerate is refused with the reason, never confirmed and
+    /// then tripping them — 0 (off), 310 ms, a configuration tool's usual 500 or 1000 ms;
+    /// up to half their time is taken. Without consumers any whole number of cycles is.
+    #[test]
+    fn a_heartbeat_the_drives_would_not_tolerate_is_refused() {
+        let mut n = node();
+        let mut od = Dictionary {
+            node: &mut n,
+            snapshot: snapshot(),
+        };
+        let write =
+            |od: &mut Dictionary, ms: u16| od.write(Object::new(0x1017, 0), &ms.to_le_bytes());
+        assert_eq!(write(&mut od, 0), Err(abort::PARAMETER_INCOMPATIBLE));
+        for ms in [160, 310, 500, 1000, 65_530] {
+            assert_eq!(write(&mut od, ms), Err(abort::VALUE_TOO_HIGH), "{ms} ms");
+        }
+        assert_eq!(od.node.heartbeat_ms, 100, "nothing changed");
+        assert_eq!(write(&mut od, 150), Ok(()));
+        od.node.drives_consumer_ms = 0;
+        for ms in [0, 310, 65_530] {
+            assert_eq!(write(&mut od, ms), Ok(()), "{ms} ms");
+        }
     }
 }

@@ -12,8 +12,34 @@ use heapless::Deque;
 use crate::commands::{Answer, Reject, Request};
 use crate::planner::MoveSearch;
 
-/// An answer: request id, answer, reason.
-pub(crate) type AnswerRecord = (u8, Answer, Option<Reject>);
+/// An answer as its status frame gives it (docs/COMMANDS.md, "Status").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct AnswerRecord {
+    /// The request's id; for an overload answer the last of the requests it answers.
+    pub id: u8,
+    /// The answer.
+    pub answer: Answer,
+    /// Why it was rejected.
+    pub reason: Option<Reject>,
+    /// For [`Answer::Overload`]: how many requests it answers, 1–255.
+    pub overload: u8,
+}
+
+impl AnswerRecord {
+    /// `request`'s answer.
+    fn of(id: u8, answer: Result<Answer, Reject>) -> Self {
+        let (answer, reason) = match answer {
+            Ok(a) => (a, None),
+            Err(r) => (Answer::Rejected, Some(r)),
+        };
+        Self {
+            id,
+            answer,
+            reason,
+            overload: 0,
+        }
+    }
+}
 
 /// Answers waiting for their status frame at most: a burst of this many requests between
 /// two cycles is answered in full.
@@ -22,6 +48,11 @@ pub const ANSWER_QUEUE: usize = 32;
 /// Places in [`ANSWER_QUEUE`] only stops' answers may take: a flood of moves cannot
 /// leave a stop unanswered.
 pub const STOP_ANSWERS: usize = 4;
+
+/// Places in [`ANSWER_QUEUE`] only overload answers may take (after the stops'): every
+/// request that finds no place for an answer of its own is counted in one
+/// ([`Answer::Overload`]).
+pub const OVERLOAD_ANSWERS: usize = 1;
 
 /// Status frames a cycle sends at most (one per answer), room permitting: a supervisor
 /// may send this many requests per cycle for as long as it likes.
@@ -57,7 +88,11 @@ pub(crate) struct Tally {
     pub answered: u32,
     /// Repeats answered again (or waiting already), not acted on.
     pub repeated: u32,
-    /// Requests that found no place for their answer: not answered.
+    /// Requests that found no place for an answer of their own: answered by an overload
+    /// answer, not acted on (a stop among them is still obeyed).
+    pub overloaded: u32,
+    /// Requests that found no place even in an overload answer (more than a bus carries
+    /// between two cycles): not answered.
     pub unanswered: u32,
 }
 
@@ -68,6 +103,10 @@ pub(crate) struct Requests<const A: usize = 2> {
     waiting: Deque<Request, WAITING>,
     /// The move being planned, a share of its search per cycle.
     pending: Option<PendingMove<A>>,
+    /// The last move accepted (or queued) and when it begins, s, until it has: a stop or
+    /// a fault before then cancels it, and it is answered again, refused (its place in
+    /// `unsent` kept meanwhile).
+    planned: Option<(Request, f64)>,
     /// A stop arrived since the last cycle: obeyed first thing in the next (however
     /// many arrived, whatever their ids).
     stop_due: bool,
@@ -89,11 +128,12 @@ impl<const A: usize> Default for Requests<A> {
         Self {
             waiting: Deque::new(),
             pending: None,
+            planned: None,
             stop_due: false,
             stop_ids: Deque::new(),
             answered: Deque::new(),
             unsent: Deque::new(),
-            last: (0, Answer::None, None),
+            last: AnswerRecord::of(0, Ok(Answer::None)),
             tally: Tally::default(),
         }
     }
@@ -105,19 +145,20 @@ impl<const A: usize> Requests<A> {
     /// A move or reset equal to one still waiting is that request again (its one answer
     /// comes when it is handled); equal to one answered within [`REPEAT_WINDOW_MS`], it
     /// gets that answer again; anything else is new, queued, or answered *busy* when
-    /// four wait. `false`: it found no place for its answer and is not answered (the
-    /// frame counts as ignored; a stop among them is still obeyed).
+    /// four wait. A request that finds no place for an answer of its own is counted in
+    /// an overload answer ([`Requests::overload`]) and not acted on (a stop is obeyed all
+    /// the same). `false`: not even that found a place — it is not answered (the frame
+    /// counts as ignored).
     pub fn take(&mut self, request: Request, now_ms: u64) -> bool {
         let id = request.id();
         if let Request::Stop { .. } = request {
             self.stop_due = true;
             // Its answer goes out once it is obeyed; its place is kept now.
-            if self.unsent.len() + self.promised() < ANSWER_QUEUE {
+            if self.free() > OVERLOAD_ANSWERS {
                 let _ = self.stop_ids.push_back(id);
                 return true;
             }
-            self.tally.unanswered = self.tally.unanswered.saturating_add(1);
-            return false;
+            return self.overload(id);
         }
         let waiting = self.waiting.iter().any(|r| *r == request)
             || self.pending.is_some_and(|p| p.request == request);
@@ -125,10 +166,9 @@ impl<const A: usize> Requests<A> {
             self.tally.repeated = self.tally.repeated.saturating_add(1);
             return true;
         }
-        if self.unsent.len() + self.promised() >= ANSWER_QUEUE - STOP_ANSWERS {
-            // No place left for its answer: counted, not acted on.
-            self.tally.unanswered = self.tally.unanswered.saturating_add(1);
-            return false;
+        if self.free() <= STOP_ANSWERS + OVERLOAD_ANSWERS {
+            // No place left for its answer: counted in an overload answer, not acted on.
+            return self.overload(id);
         }
         let answered = self
             .answered
@@ -151,20 +191,54 @@ impl<const A: usize> Requests<A> {
         true
     }
 
+    /// A request with id `id` found no place for an answer of its own: it is counted in
+    /// the overload answer at the back of the queue, if it is the last answer given and
+    /// counts fewer than 255, else in a new one (in the places only overload answers may
+    /// take). `false` when there is no place even for that: a 255 in the last overload
+    /// answer then means "255 or more", and the excess is counted as unanswered.
+    fn overload(&mut self, id: u8) -> bool {
+        self.tally.overloaded = self.tally.overloaded.saturating_add(1);
+        let last = self.last;
+        if let Some(back) = self
+            .unsent
+            .back_mut()
+            .filter(|b| b.answer == Answer::Overload && b.overload < u8::MAX && **b == last)
+        {
+            back.id = id;
+            back.overload += 1;
+            self.last = *back;
+            return true;
+        }
+        if self.free() > 0 {
+            return self.queue(AnswerRecord {
+                id,
+                answer: Answer::Overload,
+                reason: None,
+                overload: 1,
+            });
+        }
+        self.tally.overloaded = self.tally.overloaded.saturating_sub(1);
+        self.tally.unanswered = self.tally.unanswered.saturating_add(1);
+        false
+    }
+
     /// Whether a stop arrived since the last call.
     pub fn stop_due(&mut self) -> bool {
         core::mem::take(&mut self.stop_due)
     }
 
-    /// After a stop was obeyed: what was answered before it is a new request after it (a
-    /// move sent again is to move again); the move being planned and the moves waiting
-    /// are refused; then the stops are answered, last. Returns how many answers found no
-    /// place (each counted as unanswered; never for a request taken, whose place was kept).
-    pub fn after_stop(&mut self, now_ms: u64) -> u32 {
+    /// After a stop was obeyed at `t` (s): what was answered before it is a new request
+    /// after it (a move sent again is to move again); an accepted move that had not begun
+    /// by `t` (it waited behind the running one: the stop dropped it), the move being
+    /// planned and the moves waiting are refused; then the stops are answered, last.
+    /// Returns how many answers found no place (each counted as unanswered; never for a
+    /// request taken, whose place was kept).
+    pub fn after_stop(&mut self, now_ms: u64, t: f64) -> u32 {
         self.answered.clear();
-        let mut lost = self.refuse_waiting(false, now_ms);
+        let mut lost = self.cancel_planned(t, now_ms);
+        lost += self.refuse_waiting(false, now_ms);
         while let Some(id) = self.stop_ids.pop_front() {
-            lost += u32::from(!self.queue((id, Answer::Accepted, None)));
+            lost += u32::from(!self.queue(AnswerRecord::of(id, Ok(Answer::Accepted))));
             self.tally.answered = self.tally.answered.saturating_add(1);
         }
         lost
@@ -176,6 +250,31 @@ impl<const A: usize> Requests<A> {
             return None;
         }
         self.waiting.pop_front()
+    }
+
+    /// `request` was accepted as a move that begins at `t_start` (s): until it has, a
+    /// stop or a fault cancels it, and it is refused then ([`Requests::cancel_planned`]).
+    pub fn planned(&mut self, request: Request, t_start: f64) {
+        self.planned = Some((request, t_start));
+    }
+
+    /// The accepted move has begun by `t` (s): nothing cancels it any more.
+    pub fn begun_by(&mut self, t: f64) {
+        if self.planned.is_some_and(|(_, start)| start < t) {
+            self.planned = None;
+        }
+    }
+
+    /// The plan was given up at `t` (s) — a stop, a fault: an accepted move that had not
+    /// begun by then will not run, and is answered again, refused (reason 2: a stop or a
+    /// fault came while it waited). Returns how many answers found no place.
+    pub fn cancel_planned(&mut self, t: f64, now_ms: u64) -> u32 {
+        match self.planned.take() {
+            Some((request, start)) if start >= t => {
+                u32::from(!self.answer(request, Err(Reject::NotReady), now_ms))
+            }
+            _ => 0,
+        }
     }
 
     /// The move being planned, taken out to advance its search.
@@ -223,11 +322,7 @@ impl<const A: usize> Requests<A> {
         answer: Result<Answer, Reject>,
         now_ms: u64,
     ) -> bool {
-        let id = request.id();
-        let record = match answer {
-            Ok(a) => (id, a, None),
-            Err(r) => (id, Answer::Rejected, Some(r)),
-        };
+        let record = AnswerRecord::of(request.id(), answer);
         let queued = self.queue(record);
         if self.answered.is_full() {
             let _ = self.answered.pop_front();
@@ -252,10 +347,19 @@ impl<const A: usize> Requests<A> {
         self.tally
     }
 
+    /// Places in the answer queue neither taken nor kept.
+    fn free(&self) -> usize {
+        ANSWER_QUEUE.saturating_sub(self.unsent.len() + self.promised())
+    }
+
     /// Answers promised to requests taken but not answered yet (waiting, or being
-    /// planned): their places in the answer queue are kept.
+    /// planned), and the refusal an accepted move that has not begun would get if a stop
+    /// cancelled it: their places in the answer queue are kept.
     fn promised(&self) -> usize {
-        self.waiting.len() + usize::from(self.pending.is_some()) + self.stop_ids.len()
+        self.waiting.len()
+            + usize::from(self.pending.is_some())
+            + usize::from(self.planned.is_some())
+            + self.stop_ids.len()
     }
 
     /// Queues an answer for its status frame; with the queue full it is counted as
@@ -286,6 +390,21 @@ mod tests {
         core::iter::from_fn(|| r.next_unsent()).collect()
     }
 
+    /// The answer of the request `id`.
+    fn given(id: u8, answer: Result<Answer, Reject>) -> AnswerRecord {
+        AnswerRecord::of(id, answer)
+    }
+
+    /// An overload answer counting `count` requests, the last `id`.
+    fn overload(id: u8, count: u8) -> AnswerRecord {
+        AnswerRecord {
+            id,
+            answer: Answer::Overload,
+            reason: None,
+            overload: count,
+        }
+    }
+
     #[test]
     fn a_repeat_is_answered_again_and_not_acted_on() {
         let mut r = Requests::default();
@@ -300,7 +419,10 @@ mod tests {
         // Within the window: the answer again, nothing to act on.
         assert!(r.take(mv(7, 12.0), 10 + REPEAT_WINDOW_MS));
         assert_eq!(r.next(), None);
-        assert_eq!(answers(&mut r).as_slice(), &[(7, Answer::Accepted, None)]);
+        assert_eq!(
+            answers(&mut r).as_slice(),
+            &[given(7, Ok(Answer::Accepted))]
+        );
         // After it, or with other bytes: new.
         assert!(r.take(mv(7, 12.0), 11 + REPEAT_WINDOW_MS));
         assert_eq!(r.next(), Some(mv(7, 12.0)));
@@ -312,6 +434,8 @@ mod tests {
     #[test]
     fn a_stop_refuses_what_waits_and_is_answered_last() {
         let mut r = Requests::default();
+        // An accepted move that begins at 1 s, not yet begun at the stop (0.5 s).
+        r.planned(mv(9, 20.0), 1.0);
         assert!(r.take(mv(1, 12.0), 0));
         assert!(r.take(Request::Reset { id: 2 }, 0));
         assert!(r.take(mv(3, 14.0), 0));
@@ -319,49 +443,132 @@ mod tests {
         assert!(r.take(Request::Stop { id: 1 }, 0));
         assert!(r.stop_due());
         assert!(!r.stop_due(), "one stop obeyed once");
-        assert_eq!(r.after_stop(0), 0);
-        let given = answers(&mut r);
+        assert_eq!(r.after_stop(0, 0.5), 0);
         assert_eq!(
-            given.as_slice(),
+            answers(&mut r).as_slice(),
             &[
-                (1, Answer::Rejected, Some(Reject::NotReady)),
-                (3, Answer::Rejected, Some(Reject::NotReady)),
-                (1, Answer::Accepted, None),
+                given(9, Err(Reject::NotReady)),
+                given(1, Err(Reject::NotReady)),
+                given(3, Err(Reject::NotReady)),
+                given(1, Ok(Answer::Accepted)),
             ]
         );
         // The reset stays.
         assert_eq!(r.next(), Some(Request::Reset { id: 2 }));
-        assert_eq!(r.tally().answered, 3);
+        assert_eq!(r.tally().answered, 4);
     }
 
     #[test]
-    fn a_flood_of_moves_leaves_room_for_stops() {
+    fn a_move_that_has_begun_is_not_cancelled() {
         let mut r = Requests::default();
-        let mut refused = 0;
+        r.planned(mv(9, 20.0), 1.0);
+        r.begun_by(1.01);
+        assert_eq!(r.cancel_planned(1.01, 0), 0);
+        assert!(answers(&mut r).is_empty());
+        // Not begun at its own start: cancelled (as `Plan::cancel_from` drops it).
+        r.planned(mv(10, 20.0), 2.0);
+        r.begun_by(2.0);
+        assert_eq!(r.cancel_planned(2.0, 0), 0);
+        assert_eq!(
+            answers(&mut r).as_slice(),
+            &[given(10, Err(Reject::NotReady))]
+        );
+    }
+
+    #[test]
+    fn a_flood_is_answered_in_overload_answers_and_leaves_room_for_stops() {
+        let mut r = Requests::default();
         for i in 0..=u8::MAX {
-            if !r.take(mv(i, f64::from(i)), 0) {
-                refused += 1;
-            }
+            assert!(r.take(mv(i, f64::from(i)), 0), "request {i} unanswered");
             // Handled and answered at once, as a busy controller would.
             if let Some(request) = r.next() {
                 let _ = r.answer(request, Err(Reject::Busy), 0);
             }
         }
-        // Answered at once, the moves fill the queue up to the stops' places; every later
-        // one is refused (not acted on, not answered).
-        let moves_answered = ANSWER_QUEUE - STOP_ANSWERS;
-        assert_eq!(refused, 256 - moves_answered);
-        assert_eq!(r.tally().unanswered, refused as u32);
+        // Answered at once, the moves fill the queue up to the stops' and the overload
+        // answer's places; every later one is counted in one overload answer, the last
+        // id its own.
+        let own = ANSWER_QUEUE - STOP_ANSWERS - OVERLOAD_ANSWERS;
+        let counted = (256 - own) as u8;
+        assert_eq!(r.tally().overloaded, u32::from(counted));
+        assert_eq!(r.tally().unanswered, 0);
+        // Stops take the places left but the last (the overload answer's, taken), and
+        // beyond them are counted in the overload answer: obeyed, answered.
         for id in 0..STOP_ANSWERS as u8 {
-            assert!(r.take(Request::Stop { id }, 0), "stop {id} found no place");
+            assert!(r.take(Request::Stop { id }, 0), "stop {id} unanswered");
         }
-        // A stop beyond them is still obeyed, but cannot be answered.
-        assert!(!r.take(Request::Stop { id: 99 }, 0));
+        assert!(r.take(Request::Stop { id: 99 }, 0));
+        assert_eq!(r.tally().unanswered, 0);
         assert!(r.stop_due());
-        assert_eq!(r.after_stop(0), 0);
-        let given = answers(&mut r);
-        assert_eq!(given.len(), ANSWER_QUEUE);
-        assert_eq!(given.last(), Some(&(3, Answer::Accepted, None)));
+        assert_eq!(r.after_stop(0, 0.0), 0);
+        let given_now = answers(&mut r);
+        let stops = STOP_ANSWERS - OVERLOAD_ANSWERS;
+        assert_eq!(given_now.len(), own + 1 + stops);
+        assert_eq!(given_now.get(own), Some(&overload(99, counted + 2)));
+        assert_eq!(
+            given_now.last(),
+            Some(&given(stops as u8 - 1, Ok(Answer::Accepted)))
+        );
+        // With the queue sent, a request beyond the places again starts a new one.
+        for i in 0..40u8 {
+            assert!(r.take(mv(i, 1.0), 1_000_000));
+            if let Some(request) = r.next() {
+                let _ = r.answer(request, Err(Reject::Busy), 1_000_000);
+            }
+        }
+        let again = answers(&mut r);
+        assert_eq!(again.last(), Some(&overload(39, 40 - own as u8)));
+    }
+
+    #[test]
+    fn a_stop_beyond_its_places_is_counted_in_the_overload_answer() {
+        let mut r = Requests::default();
+        for i in 0..(ANSWER_QUEUE - OVERLOAD_ANSWERS) as u8 {
+            assert!(r.take(Request::Stop { id: i }, 0));
+        }
+        assert!(r.take(Request::Stop { id: 200 }, 0));
+        assert!(r.take(Request::Stop { id: 201 }, 0));
+        assert!(r.stop_due());
+        let _ = r.after_stop(0, 0.0);
+        let given_now = answers(&mut r);
+        assert_eq!(given_now.first(), Some(&overload(201, 2)));
+        assert_eq!(given_now.len(), ANSWER_QUEUE);
+    }
+
+    #[test]
+    fn an_overload_answer_counts_255_at_most_and_the_next_goes_on() {
+        let mut r = Requests::default();
+        let own = ANSWER_QUEUE - STOP_ANSWERS - OVERLOAD_ANSWERS;
+        for i in 0..own as u8 {
+            assert!(r.take(Request::Reset { id: i }, 0));
+            if let Some(request) = r.next() {
+                let _ = r.answer(request, Err(Reject::NotReady), 0);
+            }
+        }
+        // 300 more between two cycles (more than a CAN bus carries in 10 ms): 255 in the
+        // first overload answer, the other 45 in a second one.
+        assert!((0..300u16).all(|i| r.take(mv((i % 256) as u8, 1.0), 0)));
+        assert_eq!((r.tally().overloaded, r.tally().unanswered), (300, 0));
+        let given_now = answers(&mut r);
+        assert_eq!(
+            given_now.get(own..),
+            Some(&[overload(254, 255), overload(43, 45)][..])
+        );
+        // Only with every place taken (more than 1,200 requests between two cycles) is a
+        // request left unanswered — counted, its frame as ignored; a stop is still due.
+        for i in 0..own as u8 {
+            assert!(r.take(Request::Reset { id: i }, 1_000_000));
+            if let Some(request) = r.next() {
+                let _ = r.answer(request, Err(Reject::NotReady), 1_000_000);
+            }
+        }
+        let taken = (0..2000u16)
+            .filter(|i| r.take(mv((*i % 256) as u8, 1.0), 1_000_000))
+            .count();
+        assert_eq!(taken, (ANSWER_QUEUE - own) * 255);
+        assert!(!r.take(Request::Stop { id: 7 }, 1_000_000));
+        assert!(r.stop_due());
+        assert_eq!(r.tally().unanswered, 2000 - taken as u32 + 1);
     }
 
     #[test]
@@ -371,10 +578,7 @@ mod tests {
             assert!(r.take(mv(i, 12.0 + f64::from(i)), 0));
         }
         assert!(r.take(mv(4, 20.0), 0));
-        assert_eq!(
-            answers(&mut r).as_slice(),
-            &[(4, Answer::Rejected, Some(Reject::Busy))]
-        );
+        assert_eq!(answers(&mut r).as_slice(), &[given(4, Err(Reject::Busy))]);
         // The four are still handled, in order.
         for i in 0..4 {
             assert_eq!(r.next(), Some(mv(i, 12.0 + f64::from(i))));

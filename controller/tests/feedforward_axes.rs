@@ -97,12 +97,16 @@ fn the_3d_crane_steps_through_the_controllers_feedforward() {
 #[test]
 fn the_3d_plan_can_be_changed_and_restarted_at_rest() {
     let (mut ff, _) = inverse_model();
-    for _ in 0..300 {
+    for _ in 0..200 {
         Feedforward::<3>::step(&mut ff).unwrap();
     }
-    // A stop mid-move, as the controller plans it.
+    // A stop 1 s into the move, as the controller plans it. (Later in this move, which
+    // runs at the limits, no stop beats the move itself without speeding a drive up.)
     let now = ff.time();
-    let stop = planner().plan_stop(ff.plan(), now).expect("a quicker stop");
+    let stop = planner()
+        .plan_stop(ff.plan(), now)
+        .expect("a stop short of the target");
+    assert!(stop.fraction() < 0.9, "{}", stop.fraction());
     let plan = ff.plan_mut();
     plan.cancel_from(now);
     plan.apply_stop(stop);

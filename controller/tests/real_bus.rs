@@ -323,7 +323,8 @@ fn nmt_commands_to_the_controller_are_obeyed_and_its_dictionary_is_served() {
         ignored + 1,
         "only that move"
     );
-    // Its dictionary: identity, cycle period, heartbeat time (written and read back).
+    // Its dictionary: identity, cycle period, heartbeat time (written and read back:
+    // 150 ms, the most its drives' 300 ms consumers tolerate).
     assert_eq!(
         sdo_read(&mut rig, 0x1018, 0),
         [0x4F, 0x18, 0x10, 0, 4, 0, 0, 0]
@@ -332,7 +333,7 @@ fn nmt_commands_to_the_controller_are_obeyed_and_its_dictionary_is_served() {
         sdo_read(&mut rig, 0x1006, 0),
         [0x43, 0x06, 0x10, 0, 0x10, 0x27, 0, 0]
     );
-    let write = CanFrame::new(0x610, &[0x2B, 0x17, 0x10, 0, 0xC8, 0, 0, 0]).unwrap();
+    let write = CanFrame::new(0x610, &[0x2B, 0x17, 0x10, 0, 0x96, 0, 0, 0]).unwrap();
     rig.c.on_frame(&write, u64::from(rig.now));
     assert_eq!(
         frames_with(&[rig.cycle()], 0x590),
@@ -340,7 +341,7 @@ fn nmt_commands_to_the_controller_are_obeyed_and_its_dictionary_is_served() {
     );
     assert_eq!(
         sdo_read(&mut rig, 0x1017, 0),
-        [0x4B, 0x17, 0x10, 0, 0xC8, 0, 0, 0]
+        [0x4B, 0x17, 0x10, 0, 0x96, 0, 0, 0]
     );
     // A reset of communication: boot-up, the defaults again, operational (manager).
     rig.c.on_frame(

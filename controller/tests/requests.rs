@@ -9,7 +9,9 @@ use std::collections::BTreeMap;
 
 use common::*;
 use controller::commands::Request;
-use controller::controller::{ANSWER_QUEUE, REPEAT_WINDOW_MS, STATUS_PER_CYCLE, STOP_ANSWERS};
+use controller::controller::{
+    ANSWER_QUEUE, OVERLOAD_ANSWERS, REPEAT_WINDOW_MS, STATUS_PER_CYCLE, STOP_ANSWERS,
+};
 use controller::{Mode, Replan};
 use nalgebra::SVector;
 use sim::HEALTHY;
@@ -60,14 +62,16 @@ fn a_stop_with_the_running_moves_id_is_obeyed() {
     let rest = rig.until(900, |c| {
         c.setpoints.iter().all(|s| s.units() == 0) && c.mode == Mode::Ready
     });
+    // Never faster than the move alone (the stop's rule; 0.2 % for the scheme's error),
+    // and at rest far short of the target.
     let peak = rest.iter().map(trolley).max().unwrap_or(0);
     assert!(
-        f64::from(peak) < 0.95 * f64::from(top),
-        "the trolley went on as if not stopped: {before} → {peak} µm/s (move alone {top})"
+        f64::from(peak) <= 1.002 * f64::from(top),
+        "the stop sped the trolley up: {before} → {peak} µm/s (move alone {top})"
     );
     let end = rig.c.feedforward().plan().final_position();
     assert!(
-        end[0] < TARGET[0] - 0.5,
+        end[0] < TARGET[0] - 2.0,
         "stopped short of the target, not run to it: {end:?}"
     );
 }
@@ -88,9 +92,10 @@ fn a_stop_with_the_queued_moves_id_drops_it_and_is_answered() {
     assert_eq!(status(&queued.last().unwrap().frames).unwrap()[1], 2);
     send(&mut rig, Request::Stop { id: 7 });
     let out = rig.cycle();
+    // The queued move, refused (the stop cancels it), then the stop, both with id 7.
     assert_eq!(
-        status(&out.frames).map(|s| [s[0], s[1], s[2]]),
-        Some([7, 1, 0])
+        every_answer(std::slice::from_ref(&out)),
+        [(7, 3, 2), (7, 1, 0)]
     );
     assert!(!rig.c.feedforward().plan().has_queued());
     rig.run(1500);
@@ -186,23 +191,24 @@ fn two_hundred_requests_in_under_a_third_of_a_second_are_each_answered_once() {
 }
 
 #[test]
-fn beyond_the_answer_queue_requests_are_counted_and_a_stop_is_still_obeyed() {
+fn beyond_the_answer_queue_requests_are_answered_overloaded_and_a_stop_is_still_obeyed() {
     let mut rig = ready_with(a_move(0));
-    rig.run(300);
+    rig.run(200);
     let ignored = rig.c.counters().frames_ignored;
-    // More requests between two cycles than answers can wait: the excess is counted.
+    // More requests between two cycles than answers can wait.
     let burst = ANSWER_QUEUE + 10;
     for id in 1..=burst {
         send(&mut rig, a_move(id as u8));
     }
     send(&mut rig, Request::Stop { id: 250 });
     // Four moves wait for their turn (their answers' places kept); the rest are answered
-    // *busy* at once, until the answers promised fill what moves may take. The stop has
-    // a place kept for it.
-    let excess = (burst - (ANSWER_QUEUE - STOP_ANSWERS)) as u32;
+    // *busy* at once, until the answers promised fill what moves may take; every later
+    // one is counted in one overload answer. The stop has a place kept for it.
+    let own = ANSWER_QUEUE - STOP_ANSWERS - OVERLOAD_ANSWERS;
+    let excess = (burst - own) as u32;
     let c = rig.c.counters();
-    assert_eq!(c.unanswered, excess);
-    assert_eq!(c.frames_ignored, ignored + excess);
+    assert_eq!((c.overloaded, c.unanswered), (excess, 0));
+    assert_eq!(c.frames_ignored, ignored, "answered: none ignored");
     let outs = rig.run(20);
     // The stop was obeyed all the same: the move re-timed, nothing queued.
     let plan = rig.c.feedforward().plan();
@@ -214,11 +220,86 @@ fn beyond_the_answer_queue_requests_are_counted_and_a_stop_is_still_obeyed() {
     );
     let mut given = every_answer(&outs);
     given.dedup();
-    // Every answer that had room, the stop's, and the four waiting moves' (refused:
-    // the crane stops).
-    assert_eq!(given.len(), ANSWER_QUEUE - STOP_ANSWERS + 1, "{given:?}");
-    assert!(given.contains(&(250, 1, 0)), "the stop's answer");
-    // Status byte 5 (frames ignored) reports them.
-    let last = status(&outs.last().unwrap().frames);
-    assert!(last.is_none_or(|s| u32::from(s[5]) == (ignored + excess).min(255)));
+    // Every answer that had room, the overload answer naming the last of the excess
+    // and how many, the four waiting moves' (refused: the crane stops), the stop's.
+    assert_eq!(given.len(), own + 1 + 1, "{given:?}");
+    assert!(given.contains(&(burst as u8, 4, excess as u8)), "{given:?}");
+    assert_eq!(given.last(), Some(&(250, 1, 0)), "the stop's answer last");
+}
+
+/// Issue 32, case 3: 1,000 distinct move requests during a move, as fast as a 500 kbit/s
+/// bus carries them (an 8-byte frame takes 222–270 µs: 40 between two cycles), are each
+/// accounted for — answered by an answer of their own or counted in an overload answer —
+/// as a supervisor reads them: in the order the status frames come, an answer of its own
+/// answers the oldest open request with its id, an overload answer (id, n) the open
+/// request with that id sent last before it and the n − 1 open ones sent before that
+/// (the requests that found no place since the last overload answer; the ones taken
+/// before them, still waiting for their turn, are older). Every request is closed so,
+/// once; nothing is ignored, nothing unanswered; the running move goes on.
+#[test]
+fn a_thousand_requests_at_500_kbit_s_are_each_answered_or_counted() {
+    let mut rig = ready_with(a_move(0));
+    rig.run(100);
+    let ignored = rig.c.counters().frames_ignored;
+    // Distinct requests: ids 1..=255 again and again (an id comes back 6 cycles later,
+    // when its last request's answer has long gone out), each with its own target.
+    let sent: Vec<Request> = (0..1000u32)
+        .map(|i| Request::Move {
+            id: (i % 255 + 1) as u8,
+            target: [14.0 + f64::from(i) * 0.001, 6.0],
+            duration: Some(10.0),
+        })
+        .collect();
+    // The cycle before which each request was sent.
+    let mut sent_before = Vec::new();
+    let mut outs = Vec::new();
+    for burst in sent.chunks(40) {
+        for request in burst {
+            send(&mut rig, *request);
+            sent_before.push(outs.len());
+        }
+        outs.push(rig.cycle());
+    }
+    outs.extend(rig.run(100));
+    let mut open = vec![true; sent.len()];
+    let (mut own, mut counted, mut last) = (0, 0, None);
+    for (cycle, out) in outs.iter().enumerate() {
+        let statuses = out
+            .frames
+            .iter()
+            .filter(|f| f.id() == controller::commands::STATUS_ID);
+        for a in statuses.map(|f| (f.data()[0], f.data()[1], f.data()[2])) {
+            // The periodic status repeats the last answer: not a new one.
+            if Some(a) == last || a.1 == 0 {
+                continue;
+            }
+            last = Some(a);
+            let before = |i: &usize| sent_before[*i] <= cycle && open[*i];
+            let with_id = |i: &usize| sent[*i].id() == a.0;
+            if a.1 == 4 {
+                let named = (0..sent.len()).rev().filter(before).find(with_id);
+                let named = named.unwrap_or_else(|| panic!("{a:?} names no open request"));
+                let these: Vec<usize> = (0..=named).filter(before).collect();
+                let n = usize::from(a.2);
+                assert!(these.len() >= n, "{a:?}: {} open", these.len());
+                for i in &these[these.len() - n..] {
+                    open[*i] = false;
+                }
+                counted += n;
+            } else {
+                let i = (0..sent.len()).filter(before).find(with_id);
+                open[i.unwrap_or_else(|| panic!("{a:?} answers no open request"))] = false;
+                own += 1;
+            }
+        }
+    }
+    let still: Vec<usize> = (0..sent.len()).filter(|i| open[*i]).collect();
+    assert!(still.is_empty(), "unaccounted: {still:?}");
+    assert_eq!(own + counted, sent.len());
+    let c = rig.c.counters();
+    assert_eq!(c.overloaded as usize, counted);
+    assert!(counted > 500, "the queue took {own} of 1,000");
+    assert_eq!(c.unanswered, 0);
+    assert_eq!(c.frames_ignored, ignored);
+    assert_eq!(rig.c.mode(), Mode::Ready);
 }

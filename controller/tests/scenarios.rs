@@ -329,6 +329,21 @@ fn a_hang_restarts_the_controller_halted_until_a_reset() {
     assert!(sim::HANG.ends.admits(rig.c.mode()));
 }
 
+/// The trolley creeps at rest: fault 20 one second later, halted (more in
+/// `tests/supervision.rs`).
+#[test]
+fn a_creeping_trolley_halts_the_crane() {
+    let (rig, cycles) = play(sim::CREEP);
+    assert_eq!(
+        rig.c.mode(),
+        Mode::Halted(Fault::Standstill(Drive::Trolley))
+    );
+    let emcys = emcys(&cycles);
+    assert_eq!(emcys.len(), 1);
+    assert_eq!(emcys[0].1, (0x8500, 0x81, 20, 1));
+    assert!((11_000..=11_050).contains(&emcys[0].0), "{:?}", emcys[0]);
+}
+
 #[test]
 fn every_scenario_is_tested_here() {
     let names: Vec<_> = sim::SCENARIOS.iter().map(|s| s.name).collect();
@@ -344,7 +359,8 @@ fn every_scenario_is_tested_here() {
             "lost-heartbeat",
             "stop",
             "bus-off",
-            "hang"
+            "hang",
+            "creep"
         ]
     );
 }

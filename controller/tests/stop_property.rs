@@ -10,19 +10,32 @@
 //! * the crane driven by the set points actually sent (a forward simulation of
 //!   Eqs. 21-22) keeps its load at or before the target in every axis at every instant,
 //!   and brings it to rest there;
-//! * every set point is finite and within the limits.
+//! * every set point is finite and within the limits;
+//! * as short as the limits allow (issue 32): no drive is sent faster than the move
+//!   itself makes it (its flat inverse's peak, the scheme's error allowed); no stop that
+//!   rests at half the distance from where the load was — any duration from 0.5 s to
+//!   the move's end, in steps of 5 % — keeps the rules (`Planner::stop_passes`; the
+//!   search's stops are nearer the family's nearest than that, the study
+//!   `stop_search_against_a_fine_search` says how near); and the load
+//!   comes to rest within the published stopping distance (docs/COMMANDS.md, "Stopping
+//!   distance"): while the load decelerates, [`DECELERATING_S`] times its speed when the
+//!   stop arrives; in every case no farther than the rest of the move's path.
 //!
-//! 2,000 cases (`PROPTEST_CASES` overrides).
+//! 2,000 cases (`PROPTEST_CASES` overrides). It prints the stopping distance by the
+//! load's speed, the table of docs/COMMANDS.md.
 
 mod common;
 
 use common::*;
 use controller::commands::{request_frame, Request};
+use controller::setpoint::UNITS_PER_M_PER_S;
 use controller::{Mode, Replan};
 use nalgebra::SVector;
 use proptest::prelude::*;
 use proptest::test_runner::TestRunner;
 use sim::HEALTHY;
+use solver_core::models::crane::CraneParams;
+use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::reference::plant::crane_output;
 use solver_core::trajectory::Trajectory;
 use std::cell::RefCell;
@@ -30,6 +43,18 @@ use std::cell::RefCell;
 /// How far the simulated load may pass the target in an axis: the scheme's error on
 /// the set points and their rounding to µm/s.
 const PAST_TARGET_M: f64 = 2e-3;
+
+/// The stopping distance of a stop that arrives while the load decelerates, as a time
+/// at the load's speed then: the load rests within this many seconds' travel at that
+/// speed (docs/COMMANDS.md, "Stopping distance"; 2.1 s the most seen in 10,000 stops).
+const DECELERATING_S: f64 = 2.5;
+
+/// The speed bands of the stopping-distance table, m/s.
+const BANDS: [f64; 9] = [0.0, 0.1, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0];
+
+/// The share of the stop's distance at which a nearer stop is tried: none may keep the
+/// rules.
+const NEARER: f64 = 0.5;
 
 /// The stop instant as a fraction of the move's duration: anywhere, around the peak
 /// velocity, or while the crane still accelerates.
@@ -48,6 +73,12 @@ struct Tally {
     rejected_moves: u32,
     /// Σ (time to rest after the stop) / (time the move had left).
     time_share: f64,
+    /// Stops the search found none for (the move ran on) where one resting at half the
+    /// distance keeps the rules.
+    missed: u32,
+    /// Per speed band and phase (decelerating, accelerating): stops, the longest
+    /// stopping distance, m, and the longest as a time at the load's speed, s.
+    bands: [[(u32, f64, f64); 2]; BANDS.len()],
 }
 
 fn check_stop(
@@ -87,9 +118,10 @@ fn check_stop(
     while f64::from(rig.now) / 1000.0 < t_stop {
         outs.push(rig.cycle());
     }
-    // A fresh id, as an operator's stop button sends.
+    // A fresh id, as an operator's stop button sends; obeyed in the next cycle.
     rig.c
         .on_frame(&request_frame(&Request::Stop { id: 2 }), rig.now.into());
+    let t_obeyed = f64::from(rig.now) / 1000.0;
     let out = rig.cycle();
     prop_assert_eq!(
         status(&out.frames).map(|s| [s[0], s[1], s[2]]),
@@ -157,7 +189,69 @@ fn check_stop(
     );
     let off = ((last[0] - rest[0]).powi(2) + (last[1] - rest[1]).powi(2)).sqrt();
     prop_assert!(off < 1e-3, "the load rests {off:.2e} m from the stop's end");
+    // As short as the limits allow. No drive faster than the move makes it: the flat
+    // inverse's peak over the move, 0.5 % and two µm/s units for the scheme's error.
+    let params = CraneParams::PAPER;
+    let mut top = [0.0f64; 2];
+    for k in 0..=800 {
+        let f = flat_inverse(&params, &plan, start + (end - start) * f64::from(k) / 800.0);
+        for (top, u) in top.iter_mut().zip(f.u) {
+            *top = top.max(u.abs());
+        }
+    }
+    let stopped_at = outs.len() - cycles - 1;
+    for c in &outs[stopped_at..] {
+        for (i, (setpoint, top)) in c.setpoints.iter().zip(top).enumerate() {
+            let sent = f64::from(setpoint.units().abs());
+            prop_assert!(
+                sent <= top * UNITS_PER_M_PER_S * 1.005 + 2.0,
+                "drive {i} sent {sent} µm/s, the move's peak {:.0}",
+                top * UNITS_PER_M_PER_S
+            );
+        }
+    }
+    // No stop resting at half the distance keeps the rules — asserted of every stop
+    // the search found; where it found none and the move runs on to its target, counted
+    // (the search's coarse check can miss a narrow region of stops that pass).
+    let start_of_stop = plan.stop_start(t_obeyed).expect("moving");
+    let s0 = start_of_stop.fraction();
+    let nearer = s0 + NEARER * (sigma.min(1.0) - s0);
+    let planner = planner();
+    let mut d = controller::planner::STOP_SHORTEST;
+    let mut missed = false;
+    while t_obeyed + d <= end && !missed {
+        if let Ok(stop) = start_of_stop.stop(d, nearer) {
+            missed = planner.stop_passes(&plan, t_obeyed, &stop);
+            prop_assert!(
+                !missed || sigma >= 1.0 - 1e-9,
+                "a stop of {d:.2} s resting at σ = {nearer:.4} (found: {sigma:.4}) keeps the rules"
+            );
+        }
+        d *= 1.05;
+    }
+    // The stopping distance, by the load's speed when the stop arrived.
+    let [here, velocity, acceleration]: [SVector<f64, 2>; 3] = plan.derivatives(t_obeyed);
+    let speed = velocity.norm();
+    let distance = (SVector::from(rest) - here).norm();
+    let decelerating = acceleration.dot(&velocity) < 0.0;
+    let remaining = (SVector::from(to) - here).norm();
+    prop_assert!(
+        distance <= remaining + 1e-9,
+        "{distance} m, {remaining} m left"
+    );
+    if decelerating {
+        prop_assert!(
+            distance <= DECELERATING_S * speed,
+            "decelerating at {speed:.3} m/s: at rest {distance:.3} m on"
+        );
+    }
     let mut t = tally.borrow_mut();
+    t.missed += u32::from(missed);
+    let band = BANDS.iter().rposition(|v| speed >= *v).unwrap_or(0);
+    let cell = &mut t.bands[band][usize::from(!decelerating)];
+    cell.0 += 1;
+    cell.1 = cell.1.max(distance);
+    cell.2 = cell.2.max(distance / speed.max(1e-12));
     t.stopped += 1;
     if sigma < 1.0 - 1e-9 {
         t.short_of_target += 1;
@@ -192,6 +286,21 @@ fn a_stop_at_any_instant_rests_on_the_path_at_or_before_the_target() {
         t.rejected_moves,
         100.0 * t.time_share / f64::from(t.stopped.max(1)),
     );
+    println!(
+        "the move ran on where a stop at half the distance keeps the rules: {} of {}",
+        t.missed, t.stopped
+    );
+    println!(
+        "stopping distance by the load's speed when the stop arrived (most, m; most / speed, s):"
+    );
+    println!("| speed, m/s | decelerating: stops | m | s | accelerating: stops | m | s |");
+    for (i, [dec, acc]) in t.bands.iter().enumerate() {
+        let upper = BANDS.get(i + 1).map_or("…".into(), |v| format!("{v}"));
+        println!(
+            "| {}–{upper} | {} | {:.2} | {:.2} | {} | {:.2} | {:.2} |",
+            BANDS[i], dec.0, dec.1, dec.2, acc.0, acc.1, acc.2
+        );
+    }
     if cases >= 1_000 {
         assert!(
             t.stopped as usize >= cases as usize / 2,
@@ -200,6 +309,13 @@ fn a_stop_at_any_instant_rests_on_the_path_at_or_before_the_target() {
         assert!(
             t.short_of_target >= t.stopped / 3,
             "most stops must come to rest short of the target"
+        );
+        // The search misses a stop at half the distance for at most 1 % of the stops.
+        assert!(
+            t.missed * 100 <= t.stopped,
+            "{} of {} stops ran on where one at half the distance keeps the rules",
+            t.missed,
+            t.stopped
         );
     }
 }

@@ -84,13 +84,21 @@ impl Dbc {
         self.0.messages.len()
     }
 
-    /// The bit lengths of a message's signals, in the DBC's order.
+    /// The bit lengths of a message's fields, in the order of their start bits.
     pub fn signal_sizes(&self, id: u16) -> Option<Vec<u64>> {
         self.0
             .messages
             .iter()
             .find(|m| m.id == MessageId::Standard(id))
-            .map(|m| m.signals.iter().map(|s| s.size).collect())
+            .map(|m| {
+                // A field that multiplexed signals share (the status frame's byte 2:
+                // a reason, or an overload answer's count) is one field of the layout.
+                let mut fields: Vec<(u64, u64)> =
+                    m.signals.iter().map(|s| (s.start_bit, s.size)).collect();
+                fields.sort_unstable();
+                fields.dedup();
+                fields.into_iter().map(|(_, size)| size).collect()
+            })
     }
 
     /// Decodes a frame by the DBC's definition; refuses unknown ids and wrong lengths.

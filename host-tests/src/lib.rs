@@ -9,6 +9,7 @@ pub mod feedback_study;
 pub mod firmware;
 pub mod operator;
 pub mod operator_study;
+pub mod output;
 pub mod paper;
 /// The plant lives beside the virtual bus (the QEMU firmware runs it too).
 pub use sim::plant;

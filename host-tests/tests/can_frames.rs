@@ -8,7 +8,7 @@ use controller::commands::{
 };
 use controller::commissioning::CommissioningError;
 use controller::drive::Drive;
-use controller::fault::Implausibility;
+use controller::fault::{FollowingError, Foreign, Implausibility};
 use controller::setpoint::SetpointError;
 use controller::setpoint::{DriveLimits, SetpointGate, UNITS_PER_M_PER_S};
 use controller::{CanFrame, Fault};
@@ -98,6 +98,7 @@ fn dbc_parses_and_covers_every_frame() {
                 last_id: 1,
                 answer: Answer::Accepted,
                 reason: None,
+                overload: 0,
                 mode: 1,
                 fault: 0,
                 ignored: 0,
@@ -212,6 +213,9 @@ fn every_fault() -> Vec<Fault> {
         Fault::SupervisorLost,
         Fault::Implausible(d, Implausibility::Jump),
         Fault::DuplicateNodeId,
+        Fault::ForeignProducer(Foreign::Sync),
+        Fault::Standstill(d),
+        Fault::FollowingError(d, FollowingError::Velocity),
     ];
     for f in &all {
         match f {
@@ -230,7 +234,10 @@ fn every_fault() -> Vec<Fault> {
             | Fault::NotOperational
             | Fault::SupervisorLost
             | Fault::Implausible(..)
-            | Fault::DuplicateNodeId => {}
+            | Fault::DuplicateNodeId
+            | Fault::ForeignProducer(_)
+            | Fault::Standstill(_)
+            | Fault::FollowingError(..) => {}
         }
     }
     all
@@ -269,6 +276,37 @@ fn every_fault_code_is_in_the_dbc_fault_range() {
     }
 }
 
+/// Every EMCY error code the controller sends is named in the DBC's value table, so that
+/// a CAN tool shows it by the name CiA 301 and CiA 402 give it (0x8150 CAN-ID collision,
+/// 0x8500 position controller, 0x8611 following error, …).
+#[test]
+fn every_emcy_error_code_is_named_in_the_dbc() {
+    let label = |code: u16| {
+        decode(&canopen::emcy(
+            CONTROLLER_NODE,
+            code,
+            0x81,
+            [18, 1, 0, 0, 0],
+        ))
+        .signals
+        .into_iter()
+        .find(|s| s.name == "error_code")
+        .and_then(|s| s.label)
+    };
+    let faults = every_fault();
+    let sent = faults.iter().map(Fault::emcy_code).chain([
+        emcy::NO_ERROR,
+        emcy::COMMISSIONING_ABORT,
+        emcy::FEEDBACK_OFF,
+    ]);
+    for code in sent {
+        assert!(label(code).is_some(), "0x{code:04X} has no name in the DBC");
+    }
+    assert_eq!(label(0x8611).as_deref(), Some("FollowingError"));
+    assert_eq!(label(0x8500).as_deref(), Some("PositionController"));
+    assert_eq!(label(0x8150).as_deref(), Some("CanIdCollision"));
+}
+
 #[test]
 fn status_names_its_answer_reason_mode_and_fault() {
     let s = decode(&status_frame(
@@ -277,6 +315,7 @@ fn status_names_its_answer_reason_mode_and_fault() {
             last_id: 7,
             answer: Answer::Rejected,
             reason: Some(Reject::WinchAcceleration),
+            overload: 0,
             mode: 4,
             fault: 6,
             ignored: 300,
@@ -287,7 +326,32 @@ fn status_names_its_answer_reason_mode_and_fault() {
     assert_eq!(
         s.to_string(),
         "Status_Controller last_id=7 answer=3(Rejected) reason=10(WinchAcceleration) mode=4(Halted) \
-         fault=6(Undeliverable) ignored=255 deadline_misses=2 tx_failures=1"
+         fault=6(Undeliverable) ignored=44 deadline_misses=2 tx_failures=1"
+    );
+}
+
+/// An overload answer: the last request it answers and how many, in byte 2 where a
+/// rejection has its reason (the DBC multiplexes byte 2 on the answer).
+#[test]
+fn an_overload_answer_names_how_many_requests_it_answers() {
+    let s = decode(&status_frame(
+        CONTROLLER_NODE,
+        &Status {
+            last_id: 200,
+            answer: Answer::Overload,
+            reason: None,
+            overload: 77,
+            mode: 1,
+            fault: 0,
+            ignored: 256,
+            deadline_misses: 0,
+            tx_failures: 0,
+        },
+    ));
+    assert_eq!(
+        s.to_string(),
+        "Status_Controller last_id=200 answer=4(Overload) overloaded=77 mode=1(Ready) \
+         fault=0(None) ignored=0 deadline_misses=0 tx_failures=0"
     );
 }
 
@@ -308,15 +372,21 @@ fn every_reject_reason_is_named_in_the_dbc() {
         Reject::BridgeWorkspace,
         Reject::BridgeVelocity,
         Reject::BridgeAcceleration,
+        Reject::NotInPlace,
+        Reject::Moving,
     ];
-    for (code, reason) in (1u8..).zip(reasons) {
-        assert_eq!(reason as u8, code, "{reason:?}");
+    // Each its own code (14 is another rule's: a reset while the crane moves).
+    let codes: std::collections::BTreeSet<u8> = reasons.iter().map(|r| *r as u8).collect();
+    assert_eq!(codes.len(), reasons.len());
+    for reason in reasons {
+        let code = reason as u8;
         let s = decode(&status_frame(
             CONTROLLER_NODE,
             &Status {
                 last_id: 1,
                 answer: Answer::Rejected,
                 reason: Some(reason),
+                overload: 0,
                 mode: 1,
                 fault: 0,
                 ignored: 0,

@@ -77,6 +77,8 @@ fn node() -> Node {
         supervisor: 0,
         cycle_us: 10_000,
         request: StagedRequest::default(),
+        drives_consumer_ms: 300,
+        listed: [1, 2, 0, 0],
     }
 }
 
@@ -86,6 +88,7 @@ fn snapshot() -> Snapshot {
             last_id: 0,
             answer: Answer::None,
             reason: None,
+            overload: 0,
             mode: 0,
             fault: 0,
             ignored: 0,

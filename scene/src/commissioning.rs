@@ -28,6 +28,13 @@
 //! position_offset = 0.0          # m at increment 0
 //! velocity_limit = 3.0           # optional: the set points' limit, m/s (the crane's lab drive's)
 //! acceleration_limit = 3.0       # optional: m/s² (planner and set-point gate)
+//! standstill_window = 0.02       # m: at rest, how far position actual may move (fault 20)
+//! standstill_delay_ms = 500      # set points zero this long: at rest, its position kept
+//! following_window = 0.2         # m: moving, position actual against the set points sent (fault 21)
+//! following_drift = 0.05         # … plus this share of the distance commanded since rest
+//! velocity_window = 0.3          # m/s: moving, velocity actual against them (plus the drift) …
+//! following_time_ms = 50         # … for at most this long
+//! in_place_window = 0.05         # m: before a move at rest, position actual against the model's (reason 15)
 //!
 //! [inclinometer]                 # CiA 410, for a scene with [feedback]
 //! node = 3
@@ -47,6 +54,7 @@ use controller::commissioning::{
     DriveSetup, InclinometerSetup, LateralAxis, NodeSetup, OperationMode, MAX_NODES,
 };
 use controller::drive::{self, Drive, PLANAR};
+use controller::motion::MotionWindows;
 use controller::node::Role;
 use controller::setpoint::{AxisLimits, DriveLimits, MAX_VELOCITY_LIMIT, UNITS_PER_M_PER_S};
 use controller::Config;
@@ -220,6 +228,50 @@ pub struct DriveSpec {
     pub velocity_limit: Option<f64>,
     /// The set points' acceleration limit, m/s²; the crane's lab drive's when absent.
     pub acceleration_limit: Option<f64>,
+    /// Motion supervision (`controller::motion`): at rest, how far position actual may
+    /// move, m.
+    #[serde(default = "stock_standstill_window")]
+    pub standstill_window: f64,
+    /// Set points exactly zero this long before the drive counts as at rest, ms.
+    #[serde(default = "stock_standstill_delay_ms")]
+    pub standstill_delay_ms: u16,
+    /// Moving: position actual against where the set points sent put the drive, m …
+    #[serde(default = "stock_following_window")]
+    pub following_window: f64,
+    /// … plus this share of the distance commanded since it rested.
+    #[serde(default = "stock_following_drift")]
+    pub following_drift: f64,
+    /// Moving: velocity actual against the set points' (plus the drift), m/s …
+    #[serde(default = "stock_velocity_window")]
+    pub velocity_window: f64,
+    /// … for at most this long, ms.
+    #[serde(default = "stock_following_time_ms")]
+    pub following_time_ms: u16,
+    /// Before a move at rest: position actual against where the model holds the crane, m.
+    #[serde(default = "stock_in_place_window")]
+    pub in_place_window: f64,
+}
+
+fn stock_standstill_window() -> f64 {
+    MotionWindows::STOCK.standstill
+}
+fn stock_standstill_delay_ms() -> u16 {
+    MotionWindows::STOCK.standstill_delay_ms
+}
+fn stock_following_window() -> f64 {
+    MotionWindows::STOCK.following
+}
+fn stock_following_drift() -> f64 {
+    MotionWindows::STOCK.following_drift
+}
+fn stock_velocity_window() -> f64 {
+    MotionWindows::STOCK.velocity
+}
+fn stock_following_time_ms() -> u16 {
+    MotionWindows::STOCK.following_time_ms
+}
+fn stock_in_place_window() -> f64 {
+    MotionWindows::STOCK.in_place
 }
 
 fn csv() -> ModeSpec {
@@ -263,8 +315,67 @@ fn stock_drives() -> Vec<DriveSpec> {
             position_offset: 0.0,
             velocity_limit: None,
             acceleration_limit: None,
+            standstill_window: stock_standstill_window(),
+            standstill_delay_ms: stock_standstill_delay_ms(),
+            following_window: stock_following_window(),
+            following_drift: stock_following_drift(),
+            velocity_window: stock_velocity_window(),
+            following_time_ms: stock_following_time_ms(),
+            in_place_window: stock_in_place_window(),
         })
         .collect()
+}
+
+/// A drive row's motion supervision windows, or the field that cannot work and why: each
+/// window positive (the standstill window at least ten increments of position actual,
+/// or the drive's quantisation trips it), the drift a share below one, the times at least
+/// a cycle (what the controller sees of a drive comes once a cycle).
+fn motion_windows(d: &DriveSpec, period_ms: u32) -> Result<MotionWindows, (&'static str, String)> {
+    let positive = |name: &'static str, v: f64, unit: &str| {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err((name, format!("a positive number, {unit}")))
+        }
+    };
+    let standstill = positive("standstill_window", d.standstill_window, "m")?;
+    if standstill < 10.0 * d.position_scale.abs() {
+        return Err((
+            "standstill_window",
+            format!(
+                "at least ten increments of position actual ({} m): a drive's quantisation would trip it",
+                10.0 * d.position_scale.abs()
+            ),
+        ));
+    }
+    let following = positive("following_window", d.following_window, "m")?;
+    let velocity = positive("velocity_window", d.velocity_window, "m/s")?;
+    let in_place = positive("in_place_window", d.in_place_window, "m")?;
+    if !(0.0..1.0).contains(&d.following_drift) {
+        return Err((
+            "following_drift",
+            "a share of the distance commanded, 0 to below 1".into(),
+        ));
+    }
+    let cycle = |name: &'static str, ms: u16| {
+        if u32::from(ms) >= period_ms {
+            Ok(ms)
+        } else {
+            Err((
+                name,
+                format!("at least a cycle ({period_ms} ms): a drive reports once a cycle"),
+            ))
+        }
+    };
+    Ok(MotionWindows {
+        standstill,
+        standstill_delay_ms: cycle("standstill_delay_ms", d.standstill_delay_ms)?,
+        following,
+        following_drift: d.following_drift,
+        velocity,
+        following_time_ms: cycle("following_time_ms", d.following_time_ms)?,
+        in_place,
+    })
 }
 
 fn refuse(field: String, reason: impl Into<String>) -> SceneError {
@@ -594,6 +705,8 @@ impl CommissioningFile {
                     ))
                 }
             };
+            let motion =
+                motion_windows(d, period_ms).map_err(|(f, reason)| refuse(field(f), reason))?;
             *slot = DriveSetup {
                 node: d.node,
                 mode,
@@ -607,6 +720,7 @@ impl CommissioningFile {
                 profile_ramp,
                 position_scale: d.position_scale,
                 position_offset: d.position_offset,
+                motion,
             };
         }
         let names = || drives.map(Drive::name).join(", ");
@@ -782,6 +896,42 @@ mod tests {
         let trolley = c.drive(Drive::Trolley).unwrap();
         assert_eq!(trolley.mode, OperationMode::ProfileVelocity);
         assert_eq!(trolley.profile_ramp, Some(30_000_000));
+    }
+
+    /// The motion supervision windows are a drive row's (`controller::motion`): read as
+    /// written, the stock ones where absent, and a window that cannot work is refused by
+    /// name.
+    #[test]
+    fn a_drives_motion_windows_are_its_row() {
+        let c = config("[[drive]]\naxis = \"trolley\"\nnode = 1\nstandstill_window = 0.01\nfollowing_window = 0.3\nfollowing_time_ms = 100\nin_place_window = 0.02\n[[drive]]\naxis = \"winch\"\nnode = 2\n").unwrap();
+        let trolley = c.drive(Drive::Trolley).unwrap().motion;
+        assert_eq!(
+            (
+                trolley.standstill,
+                trolley.following,
+                trolley.following_time_ms,
+                trolley.in_place
+            ),
+            (0.01, 0.3, 100, 0.02)
+        );
+        assert_eq!(c.drive(Drive::Winch).unwrap().motion, MotionWindows::STOCK);
+        let row = |field: &str| {
+            format!("[[drive]]\naxis = \"trolley\"\nnode = 1\n{field}\n[[drive]]\naxis = \"winch\"\nnode = 2\n")
+        };
+        for (field, name) in [
+            ("standstill_window = 0.0", "standstill_window"),
+            // Ten increments of 1 µm: 10 µm; a window of 5 µm is the drive's noise.
+            ("standstill_window = 5e-6", "standstill_window"),
+            ("following_window = -0.1", "following_window"),
+            ("velocity_window = nan", "velocity_window"),
+            ("in_place_window = 0.0", "in_place_window"),
+            ("following_drift = 1.0", "following_drift"),
+            ("following_time_ms = 5", "following_time_ms"),
+            ("standstill_delay_ms = 0", "standstill_delay_ms"),
+        ] {
+            let e = config(&row(field)).unwrap_err();
+            assert_eq!(e.field, format!("drive[0].{name}"), "{field}: {e}");
+        }
     }
 
     /// The 3D crane's file: a row per drive of the crane, in any order, each checked

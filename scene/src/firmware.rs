@@ -69,7 +69,7 @@ pub fn config_source(config: &Config) -> Result<String, String> {
             controller::commissioning::OperationMode::ProfileVelocity => "ProfileVelocity",
         };
         format!(
-            "controller::commissioning::DriveSetup {{ node: {}, mode: controller::commissioning::OperationMode::{mode}, heartbeat_ms: {}, controller_timeout_ms: {}, quick_stop_option: {}, abort_connection_option: {}, quick_stop_deceleration: {}, max_velocity: {}, velocity_unit: {:?}, profile_ramp: {:?}, position_scale: {:?}, position_offset: {:?} }}",
+            "controller::commissioning::DriveSetup {{ node: {}, mode: controller::commissioning::OperationMode::{mode}, heartbeat_ms: {}, controller_timeout_ms: {}, quick_stop_option: {}, abort_connection_option: {}, quick_stop_deceleration: {}, max_velocity: {}, velocity_unit: {:?}, profile_ramp: {:?}, position_scale: {:?}, position_offset: {:?}, motion: controller::motion::MotionWindows {{ standstill: {:?}, standstill_delay_ms: {}, following: {:?}, following_drift: {:?}, velocity: {:?}, following_time_ms: {}, in_place: {:?} }} }}",
             d.node,
             d.heartbeat_ms,
             d.controller_timeout_ms,
@@ -80,7 +80,14 @@ pub fn config_source(config: &Config) -> Result<String, String> {
             d.velocity_unit,
             d.profile_ramp,
             d.position_scale,
-            d.position_offset
+            d.position_offset,
+            d.motion.standstill,
+            d.motion.standstill_delay_ms,
+            d.motion.following,
+            d.motion.following_drift,
+            d.motion.velocity,
+            d.motion.following_time_ms,
+            d.motion.in_place,
         )
     };
     let role = match config.role {

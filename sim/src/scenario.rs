@@ -75,6 +75,10 @@ pub enum Action {
     },
     /// The inclinometer (scenarios with a plant) fails so.
     Sensor(SensorFault),
+    /// Another node transmits this frame: the drives take it as they take the
+    /// controller's (a second master's RPDO moves a drive, a second SYNC producer's SYNC
+    /// makes them apply their set points and answer), and the controller receives it.
+    Foreign(RawFrame),
 }
 
 /// What can go wrong with it (the inclinometer) in a scenario.
@@ -169,6 +173,12 @@ pub enum Quirk {
     SdoMute,
     /// Its velocity actual reads this, whatever it does (a coasting axis, a bad encoder).
     ReportsVelocity(i32),
+    /// Its axis moves this much faster than the drive drives it, drive units (µm/s), in
+    /// every state while powered: a slipping brake, a load pulling a weak drive along.
+    Creeps(i32),
+    /// It stands whatever its set point, while its statusword says it follows (bit 12):
+    /// a drive that ignores its set point (a wrong mapping, a local stop input).
+    IgnoresSetpoint,
 }
 
 const fn move_to(id: u8, x: f64, z: f64, duration: f64) -> Action {
@@ -346,8 +356,24 @@ pub const HANG: Scenario = Scenario {
     plant: None,
 };
 
+/// The trolley's axis creeps at 20 mm/s from 10 s, a second after the paper's move has
+/// ended (a slipping brake, a drive that does not hold): the controller commands zero,
+/// the trolley leaves its 20 mm standstill window (fault 20), quick stop, halted.
+pub const CREEP: Scenario = Scenario {
+    name: "creep",
+    expect: "halted after the trolley crept out of its standstill window from 10 s (fault 20)",
+    events: &[at(
+        10_000,
+        Action::Quirk(Drive::Trolley, Quirk::Creeps(20_000)),
+    )],
+    cycles: 1_200,
+    random: None,
+    ends: Ending::Halted,
+    plant: None,
+};
+
 /// Every scenario, by name.
-pub const SCENARIOS: [Scenario; 10] = [
+pub const SCENARIOS: [Scenario; 11] = [
     HEALTHY,
     TWO_MOVES,
     REJECTIONS,
@@ -358,6 +384,7 @@ pub const SCENARIOS: [Scenario; 10] = [
     STOP,
     BUS_OFF,
     HANG,
+    CREEP,
 ];
 
 /// The lab crane as a plant that is not the model, for the state feedback's scenarios:

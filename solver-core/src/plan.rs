@@ -304,6 +304,83 @@ impl<T: Real, const NZ: usize> Trajectory<T, NZ> for Stop<T, NZ> {
     }
 }
 
+/// Where a stop takes over ([`Plan::stop_start`]): the instant, the straight path of the
+/// segment running then, and its timing σ with its first n derivatives — everything a
+/// stop of any duration and end is built from, computed once for a stop's search.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StopStart<T: Real, const NZ: usize> {
+    t: T,
+    path: (SVector<T, NZ>, SVector<T, NZ>),
+    sigma: [T; MAX_SMOOTHNESS + 1],
+    /// The stop's smoothness: one more than the moves'.
+    n: usize,
+}
+
+impl<T: Real, const NZ: usize> StopStart<T, NZ> {
+    /// The instant the stop takes over.
+    #[must_use]
+    pub fn t(&self) -> T {
+        self.t
+    }
+
+    /// σ there: the fraction of the path already travelled.
+    #[must_use]
+    pub fn fraction(&self) -> T {
+        self.sigma.first().copied().unwrap_or_else(T::zero)
+    }
+
+    /// σ̇ there, 1/s.
+    #[must_use]
+    pub fn rate(&self) -> T {
+        self.sigma.get(1).copied().unwrap_or_else(T::zero)
+    }
+
+    /// The path's start and target.
+    #[must_use]
+    pub fn path(&self) -> (SVector<T, NZ>, SVector<T, NZ>) {
+        self.path
+    }
+
+    /// The nearest end σ_rise at which a stop of `duration` provably never turns back
+    /// (its first n+1 Bernstein coefficients, fixed by the start, rise; the end must be
+    /// at least the last of them): `None` if no end makes a stop of that duration
+    /// monotone.
+    #[must_use]
+    pub fn nearest_end(&self, duration: f64) -> Option<f64> {
+        nearest_rising_end(&self.scaled(duration), self.n)
+    }
+
+    /// The stop of `duration` that comes to rest at the fraction `end` of the path.
+    /// Check [`Stop::stays_on_path`] before using it.
+    pub fn stop(&self, duration: T, end: T) -> Result<Stop<T, NZ>> {
+        let start: [SVector<T, 1>; MAX_SMOOTHNESS + 1] = self.sigma.map(|v| SVector::from([v]));
+        let (from, to) = self.path;
+        Hermite::new(
+            self.t,
+            duration,
+            start.get(..=self.n).unwrap_or(&start),
+            SVector::from([end]),
+        )
+        .map(|timing| Stop {
+            from,
+            to,
+            delta: to - from,
+            timing,
+        })
+    }
+
+    /// The τ-derivatives of σ for a stop of `duration`: `σ^(j) · duration^j`.
+    fn scaled(&self, duration: f64) -> [f64; MAX_SMOOTHNESS + 1] {
+        let mut d = [0.0; MAX_SMOOTHNESS + 1];
+        let mut t_power = 1.0;
+        for (dj, sj) in d.iter_mut().zip(self.sigma.iter()).take(self.n + 1) {
+            *dj = to_f64(*sj) * t_power;
+            t_power *= duration;
+        }
+        d
+    }
+}
+
 /// One piece of a plan.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[allow(clippy::large_enum_variant)]
@@ -483,51 +560,20 @@ impl<T: Real, const NZ: usize> Plan<T, NZ> {
         }
     }
 
-    /// A stop that takes over at `t` (not yet stepped) and comes to rest after
-    /// `duration` on the path of the segment running at `t`, at the fraction
-    /// `min(max(σ(t) + σ̇(t)·duration/2, σ_rise), 1)` of it: as far as a uniform
-    /// deceleration would carry it, but not nearer than the nearest end `σ_rise` that the
-    /// start's derivatives allow without turning back, and never past the target;
-    /// `stretch` ∈ [0, 1] moves that end towards the target (1: at it), for a gentler
-    /// deceleration in the same time. Check [`Stop::stays_on_path`] before using it.
-    /// `None` when nothing moves at or after `t`. Not yet part of the plan.
-    pub fn stop_candidate(&self, t: T, duration: T, stretch: T) -> Option<Result<Stop<T, NZ>>> {
+    /// Where a stop taking over at `t` (not yet stepped) starts: the path of the segment
+    /// running at `t` and its timing σ with its derivatives there ([`StopStart`]), from
+    /// which stops of any duration and end are built. `None` when nothing moves at or
+    /// after `t`.
+    #[must_use]
+    pub fn stop_start(&self, t: T) -> Option<StopStart<T, NZ>> {
         let segment = self.segment_at(t)?;
-        let ((from, to), sigma) = segment.path_timing::<{ MAX_SMOOTHNESS + 1 }>(t);
+        let (path, sigma) = segment.path_timing::<{ MAX_SMOOTHNESS + 1 }>(t);
         // One order smoother than the moves: the derivative that jumps where the stop
         // takes over is then the (n+2)-th, one beyond what the drives' accelerations
         // contain, so a multistep scheme meets no jump in them (a jump in the (n+1)-th
         // made BDF4's accelerations overshoot the checked ones by up to 8 %).
         let n = (self.smoothness + 1).min(MAX_SMOOTHNESS);
-        let start: [SVector<T, 1>; MAX_SMOOTHNESS + 1] = sigma.map(|v| SVector::from([v]));
-        let [s0, s1, ..] = sigma;
-        // As far as a uniform deceleration carries it, but no nearer than the nearest end
-        // its start derivatives allow without turning back, and never past the target.
-        let reach = to_f64(s0 + s1 * duration * c::<T>(0.5));
-        let big_t = to_f64(duration);
-        let mut d = [0.0; MAX_SMOOTHNESS + 1];
-        let mut t_power = 1.0;
-        for (dj, sj) in d.iter_mut().zip(sigma.iter()).take(n + 1) {
-            *dj = to_f64(*sj) * t_power;
-            t_power *= big_t;
-        }
-        let nearest = nearest_rising_end(&d, n).unwrap_or(reach);
-        let base = reach.max(nearest).min(1.0);
-        let end = c::<T>(base + to_f64(stretch).clamp(0.0, 1.0) * (1.0 - base));
-        Some(
-            Hermite::new(
-                t,
-                duration,
-                start.get(..=n).unwrap_or(&start),
-                SVector::from([end]),
-            )
-            .map(|timing| Stop {
-                from,
-                to,
-                delta: to - from,
-                timing,
-            }),
-        )
+        Some(StopStart { t, path, sigma, n })
     }
 
     /// Whether the segment running at `t` has not begun by then (a stop then simply
@@ -617,6 +663,24 @@ mod tests {
 
     type V = SVector<f64, 1>;
 
+    /// The stop taking over at `t` after `duration` at the rule of the stops before
+    /// issue 32: as far as a uniform deceleration carries the load, no nearer than the
+    /// nearest end, never past the target.
+    fn uniform_stop<const NZ: usize>(
+        plan: &Plan<f64, NZ>,
+        t: f64,
+        duration: f64,
+    ) -> Option<Result<Stop<f64, NZ>>> {
+        let start = plan.stop_start(t)?;
+        let reach = start.fraction() + start.rate() * duration * 0.5;
+        let end = start
+            .nearest_end(duration)
+            .unwrap_or(reach)
+            .max(reach)
+            .min(1.0);
+        Some(start.stop(duration, end))
+    }
+
     #[test]
     fn hermite_matches_its_boundary_conditions() {
         let start = [
@@ -676,7 +740,7 @@ mod tests {
         assert!(z[0][0] > 1.0 && z[0][0] < 3.0, "in the second move");
         // Stop at 3.5 s, inside the second move: continuous to order 4.
         let before: [V; 5] = plan.derivatives(3.5);
-        let stop = plan.stop_candidate(3.5, 1.0, 0.0).unwrap().unwrap();
+        let stop = uniform_stop(&plan, 3.5, 1.0).unwrap().unwrap();
         plan.apply_stop(stop);
         let after: [V; 5] = plan.derivatives(3.5);
         for j in 0..5 {
@@ -713,12 +777,47 @@ mod tests {
             };
             assert_eq!(z, want, "t = {t}");
         }
-        let stop = plan.stop_candidate(4.0, 2.0, 0.0).unwrap().unwrap();
+        let stop = uniform_stop(&plan, 4.0, 2.0).unwrap().unwrap();
         plan.apply_stop(stop);
         for t in [4.0, 4.7, 6.0, 12.0] {
             let (z, want): ([V2; 3], [V2; 3]) = (plan.derivatives(t), stop.derivatives(t));
             assert_eq!(z, want, "t = {t}");
         }
+    }
+
+    /// A stop that rests at its nearest end ([`StopStart::nearest_end`]) provably stays on
+    /// the path; one that rests a little nearer does not (it would have to turn back).
+    #[test]
+    fn the_nearest_end_is_the_nearest_a_stop_stays_on_the_path() {
+        type V2 = SVector<f64, 2>;
+        let mut plan = Plan::at_rest(V2::new(12.0, 8.0), 5).unwrap();
+        plan.push(plan.candidate(V2::new(20.0, 4.0), 1.0, 8.0).unwrap())
+            .unwrap();
+        let mut checked = 0;
+        for k in 1..40 {
+            let t = 1.0 + 8.0 * f64::from(k) / 40.0;
+            let start = plan.stop_start(t).unwrap();
+            for d in [0.5, 1.0, 2.0, 4.0] {
+                let Some(near) = start.nearest_end(d) else {
+                    continue;
+                };
+                assert!(near >= start.fraction(), "t {t} d {d}: behind the load");
+                let at_near = start.stop(d, near).unwrap();
+                if near > 1.0 {
+                    // Past the target: no stop of that duration rests on the path.
+                    assert!(!at_near.stays_on_path(), "t {t} d {d}");
+                    continue;
+                }
+                assert!(at_near.stays_on_path(), "t {t} d {d}");
+                let nearer = near - 1e-6 * (1.0 + near.abs());
+                assert!(
+                    !start.stop(d, nearer).unwrap().stays_on_path(),
+                    "t {t} d {d}"
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 100, "{checked}");
     }
 
     /// A stop at any instant of a move, for any duration, ends on the move's straight
@@ -736,7 +835,7 @@ mod tests {
             for k in 0..=80 {
                 let t = 1.0 + 8.0 * f64::from(k) / 80.0;
                 for d in [0.3, 0.5, 1.0, 2.0, 4.0, 8.0] {
-                    let Some(stop) = plan.stop_candidate(t, d, 0.0) else {
+                    let Some(stop) = uniform_stop(&plan, t, d) else {
                         continue;
                     };
                     let stop = stop.unwrap();

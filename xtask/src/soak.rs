@@ -158,6 +158,7 @@ fn findings(m: &qemu::Measured) -> Findings {
             let name = match (tx.data[1], tx.data[2]) {
                 (1, _) => "accepted".to_string(),
                 (2, _) => "queued".to_string(),
+                (4, _) => "overload".to_string(),
                 (_, r) => format!("rejected({r})"),
             };
             *f.answers.entry(name).or_default() += 1;

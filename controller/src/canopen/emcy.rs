@@ -15,8 +15,13 @@ pub const HEARTBEAT: u16 = 0x8130;
 /// Recovered from bus off (CiA 301) — not sent by this controller; named so that it is
 /// not used for anything else.
 pub const RECOVERED_FROM_BUS_OFF: u16 = 0x8140;
-/// CAN-ID collision: another node sends with the controller's own node id.
+/// CAN-ID collision: another node sends with the controller's own node id, or produces
+/// what the controller produces (SYNC, its drives' RPDOs).
 pub const CAN_ID_COLLISION: u16 = 0x8150;
+/// Position controller (CiA 402): a drive at rest left its standstill window.
+pub const STANDSTILL: u16 = 0x8500;
+/// Following error (CiA 402): a moving drive left its following window.
+pub const FOLLOWING_ERROR: u16 = 0x8611;
 /// RPDO timeout: a drive's TPDO (the controller's receive PDO) stopped arriving.
 pub const RPDO_TIMEOUT: u16 = 0x8250;
 /// Device specific: a second deadline miss.

@@ -98,6 +98,9 @@ pub fn emcy(node: u8, code: u16, register: u8, info: [u8; 5]) -> CanFrame {
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Incoming {
+    /// A SYNC (with or without its counter): the controller produces it, so another
+    /// node's is a second producer.
+    Sync,
     /// An NMT command for `node` (0: all nodes).
     Nmt {
         /// The command.
@@ -196,6 +199,14 @@ pub fn decode(frame: &CanFrame) -> Result<Incoming, DecodeError> {
         return NmtCommand::from_byte(command)
             .map(|command| Incoming::Nmt { command, node })
             .ok_or(DecodeError::BadNmtCommand(command));
+    }
+    if id == cob::SYNC {
+        // CiA 301: no data, or the 1-byte counter.
+        return if data.len() <= 1 {
+            Ok(Incoming::Sync)
+        } else {
+            Err(wrong(1))
+        };
     }
     if node == 0 {
         return Err(DecodeError::UnknownId(id));

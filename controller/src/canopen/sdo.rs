@@ -84,6 +84,8 @@ pub mod abort {
     /// Invalid value for parameter (download only; also named "value range of
     /// parameter exceeded").
     pub const INVALID_VALUE: u32 = 0x0609_0030;
+    /// Value of parameter written too high (download only).
+    pub const VALUE_TOO_HIGH: u32 = 0x0609_0031;
     /// General error.
     pub const GENERAL: u32 = 0x0800_0000;
     /// Data cannot be transferred or stored to the application.
@@ -116,7 +118,7 @@ pub mod abort {
             0x0607_0013 => "data type does not match, length of service parameter too low",
             NO_SUB => "sub-index does not exist",
             INVALID_VALUE => "invalid value for parameter",
-            0x0609_0031 => "value of parameter written too high",
+            VALUE_TOO_HIGH => "value of parameter written too high",
             0x0609_0032 => "value of parameter written too low",
             0x0609_0036 => "maximum value is less than minimum value",
             0x060A_0023 => "resource not available: SDO connection",
@@ -492,11 +494,21 @@ pub trait ObjectDictionary {
 /// The SDO server's answer to one request (expedited transfers; every object of the
 /// controller fits 4 bytes, so a segmented request is answered with an abort).
 /// `None` for a frame that is not 8 bytes long (CiA 301: such a request is ignored).
+///
+/// An abort carries the multiplexer (index, sub-index) of the transfer it ends (CiA 301
+/// 7.2.4.3.17). Only an initiate request names one (bytes 1–3); a segment's bytes 1–7
+/// are data. The server runs no transfer beyond the initiate's exchange, so a stray
+/// segment — download or upload, or a block transfer's sub-command — is aborted with
+/// 0x0504_0001 (command specifier not valid) naming no object: 0000h sub 0.
 pub fn serve(od: &mut impl ObjectDictionary, node: u8, request: &[u8]) -> Option<CanFrame> {
     let &[cs, i0, i1, sub, d0, d1, d2, d3] = request else {
         return None;
     };
-    let object = Object::new(u16::from_le_bytes([i0, i1]), sub);
+    let object = if initiates(cs) {
+        Object::new(u16::from_le_bytes([i0, i1]), sub)
+    } else {
+        Object::new(0, 0)
+    };
     let id = RESPONSE + u16::from(node);
     let abort = |code: u32| Some(abort_frame(id, object, code));
     match cs & 0xE0 {
@@ -532,6 +544,20 @@ pub fn serve(od: &mut impl ObjectDictionary, node: u8, request: &[u8]) -> Option
         // An abort from the client ends nothing here: every transfer is one exchange.
         0x80 => None,
         _ => abort(abort::COMMAND),
+    }
+}
+
+/// Whether a client's request with command byte `cs` initiates a transfer, and so names
+/// its object in bytes 1–3 (CiA 301 7.2.4.3): initiate download (ccs 1), initiate upload
+/// (2), block upload initiate (5, subcommand 0), block download initiate (6, cs bit 0
+/// clear). Segments (ccs 0, 3), the block transfers' other sub-commands and an unknown
+/// ccs (7) carry data or nothing there. An abort (ccs 4) names its object too.
+fn initiates(cs: u8) -> bool {
+    match cs >> 5 {
+        1 | 2 | 4 => true,
+        5 => cs & 0x03 == 0,
+        6 => cs & 0x01 == 0,
+        _ => false,
     }
 }
 
@@ -728,5 +754,28 @@ mod tests {
             abort::LENGTH
         );
         assert_eq!(serve(&mut od, 0x10, &[0x40, 0x17]), None);
+    }
+
+    /// A stray segment's bytes are data, not an object: its abort names none (issue 32,
+    /// item 7: the data bytes were echoed as index and sub-index).
+    #[test]
+    fn a_stray_segment_is_aborted_naming_no_object() {
+        let mut od = Od(100);
+        // Download segments (toggle 0 and 1, last or not), an upload segment request,
+        // a block download's end, a block upload's start, an unknown ccs.
+        for cs in [0x00, 0x0B, 0x10, 0x1F, 0x60, 0x70, 0xC1, 0xA3, 0xE0] {
+            let resp = serve(&mut od, 0x10, &[cs, 0x17, 0x10, 0x05, 1, 2, 3, 4]).unwrap();
+            assert_eq!(
+                resp.data(),
+                &[0x80, 0, 0, 0, 0x01, 0x00, 0x04, 0x05],
+                "cs 0x{cs:02X}"
+            );
+        }
+        // Block initiates name their object (and are not supported here).
+        for cs in [0xA0, 0xC0, 0xC6] {
+            let resp = serve(&mut od, 0x10, &[cs, 0x17, 0x10, 0, 0, 0, 0, 0]).unwrap();
+            assert_eq!(&resp.data()[..4], &[0x80, 0x17, 0x10, 0], "cs 0x{cs:02X}");
+        }
+        assert_eq!(od.0, 100, "nothing written");
     }
 }

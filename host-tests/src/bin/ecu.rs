@@ -313,7 +313,7 @@ where
         }
         if answered {
             let units = out.setpoints.map(|s| s.units());
-            println!("{}", units.map(|u| u.to_string()).join(" "));
+            host_tests::output::emit(&format!("{}\n", units.map(|u| u.to_string()).join(" ")))?;
             let moving = controller
                 .feedforward()
                 .plan()

@@ -12,12 +12,13 @@
 //! Also `cargo xtask study …`. Results and their reading: docs/RESULTS.md.
 
 use std::fs;
-use std::io::{self, BufWriter, Write};
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use clap::{Parser, Subcommand};
+use host_tests::output::emit;
 use host_tests::study::{
     default_threshold, readable_numbers, run_scene, run_scene_observed, Observer, Outcome,
     RunResult, Sample,
@@ -164,17 +165,6 @@ fn threshold(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
         _ => Err(format!("`{text}` is not a finite number > 0")),
-    }
-}
-
-/// Writes to standard output. A closed pipe (`study … | head`) ends the program
-/// quietly, as it ends other Unix tools, instead of panicking in `println!`.
-fn emit(text: &str) -> Result<(), String> {
-    let mut out = io::stdout().lock();
-    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
-        Ok(()) => Ok(()),
-        Err(e) if e.kind() == io::ErrorKind::BrokenPipe => std::process::exit(0),
-        Err(e) => Err(format!("standard output: {e}")),
     }
 }
 

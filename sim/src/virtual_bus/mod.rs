@@ -246,6 +246,14 @@ impl DriveSim {
         self.od.get(index, sub)
     }
 
+    /// How fast its axis moves, drive units: as it drives it, plus a creep.
+    fn moving(&self) -> i32 {
+        match self.quirk {
+            Some(Quirk::Creeps(creep)) => self.velocity.saturating_add(creep),
+            _ => self.velocity,
+        }
+    }
+
     fn statusword(&self) -> u16 {
         let csv = self.od.mode_display() == 9;
         match self.state {
@@ -279,7 +287,11 @@ impl DriveSim {
         match quirk {
             Quirk::RefusesCsv => self.od.refuses_csv = true,
             Quirk::ReportsMode(m) => self.od.reports_mode = Some(m),
-            Quirk::StatusLag(_) | Quirk::SdoMute | Quirk::ReportsVelocity(_) => {}
+            Quirk::StatusLag(_)
+            | Quirk::SdoMute
+            | Quirk::ReportsVelocity(_)
+            | Quirk::Creeps(_)
+            | Quirk::IgnoresSetpoint => {}
         }
     }
 
@@ -346,7 +358,8 @@ impl DriveSim {
         use DriveState::*;
         // In any mode but CSV or pv the target velocity means nothing (profile position
         // waits for a target position): the drive stands.
-        let follows = matches!(self.od.mode_display(), 9 | 3);
+        let follows =
+            matches!(self.od.mode_display(), 9 | 3) && self.quirk != Some(Quirk::IgnoresSetpoint);
         self.velocity = match self.state {
             OperationEnabled if follows => target,
             // Braking on its own ramp, SYNC by SYNC (see on_sync).
@@ -369,7 +382,7 @@ impl DriveSim {
         }
         let period_ms = i64::from(self.od.get(0x60C2, 1).max(1));
         // µm/s × ms = nm.
-        self.position_nm += i64::from(self.velocity) * period_ms;
+        self.position_nm += i64::from(self.moving()) * period_ms;
         let [a, b, c, _] = self.history;
         self.history = [self.statusword(), a, b, c];
     }
@@ -595,10 +608,18 @@ impl<const A: usize> VirtualBus<A> {
             }
             return Err(BusOff);
         }
+        self.on_bus(frame);
+        Ok(())
+    }
+
+    /// A frame on the bus, the controller's or another node's: the drives (and the
+    /// inclinometer) react — NMT, SDO, RPDO — and a SYNC makes them advance and answer.
+    fn on_bus(&mut self, frame: &CanFrame) {
+        let id = frame.id();
         let data = frame.data();
         if id == cob::SYNC {
             self.sync();
-            return Ok(());
+            return;
         }
         #[cfg(feature = "plant")]
         if let Some(sensor) = self.inclinometer.as_mut() {
@@ -648,7 +669,6 @@ impl<const A: usize> VirtualBus<A> {
                 }
             }
         }
-        Ok(())
     }
 
     /// SYNC: the drives advance one interpolation period — on their own, or moving the
@@ -691,7 +711,7 @@ impl<const A: usize> VirtualBus<A> {
             if d.powered && d.nmt == NmtState::Operational && !d.silent {
                 let velocity = match d.quirk {
                     Some(Quirk::ReportsVelocity(v)) => v,
-                    _ => d.actual_velocity.unwrap_or(d.velocity),
+                    _ => d.actual_velocity.unwrap_or(d.moving()),
                 };
                 let node = d.node;
                 let status = pdo::tpdo1(node, d.reported_statusword(), velocity);
@@ -821,6 +841,11 @@ impl<const A: usize> VirtualBus<A> {
             }
             #[cfg(not(feature = "plant"))]
             Action::Sensor(_) => {}
+            Action::Foreign(raw) => {
+                let frame = raw.frame();
+                self.on_bus(&frame);
+                let _ = fresh.push_back(frame);
+            }
         }
     }
 
@@ -866,7 +891,7 @@ fn plant_inputs<const N: usize>(drives: &[&mut DriveSim; N]) -> ([f64; N], f64, 
     let period_ms = drives.first().map_or(1, |d| d.od.get(0x60C2, 1).max(1));
     let u = drives.each_ref().map(|d| {
         if d.powered {
-            f64::from(d.velocity) * 1e-6
+            f64::from(d.moving()) * 1e-6
         } else {
             0.0
         }
