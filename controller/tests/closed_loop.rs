@@ -50,6 +50,7 @@ const MISMATCH: Mismatch = Mismatch {
     angle_noise: Mismatch::SENSORS.1,
     noise_seed: 7,
     swing0: 0.0,
+    ..Mismatch::NONE
 };
 
 const fn scenario(name: &'static str, events: &'static [Event]) -> Scenario {

@@ -476,6 +476,7 @@ fn a_healthy_reading_that_repeats_by_chance_under_a_gust_is_not_stuck() {
         angle_noise: Mismatch::SENSORS.1,
         noise_seed: 13531939154114236654,
         swing0: 0.0387992074700055,
+        ..Mismatch::NONE
     };
     let (fb, _) = simulate(
         &params,
