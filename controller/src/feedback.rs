@@ -103,7 +103,7 @@ use nalgebra::{
     Vector2, Vector4, Vector5,
 };
 
-use crate::rope::RopeLength;
+use crate::rope::{InclinometerLag, RopeLength};
 use crate::setpoint::{AxisLimits, DriveLimits};
 use crate::zero::{self, Zero};
 
@@ -249,6 +249,11 @@ pub struct Config {
     pub max_offset: f64,
     /// … for this many cycles in a row is announced ([`zero::OFFSET_CYCLES`]).
     pub offset_cycles: u32,
+    /// How late and how filtered the inclinometer reports the angle, as commissioned
+    /// (the commissioning file's `[inclinometer]` `delay_cycles` and `filter_ms`): the
+    /// rope calibration makes the positions as late before it pairs them with the
+    /// angle ([`crate::rope`]).
+    pub inclinometer: InclinometerLag,
 }
 
 impl Config {
@@ -294,6 +299,7 @@ impl Config {
         offset_step: zero::MAX_STEP,
         max_offset: zero::MAX_OFFSET,
         offset_cycles: zero::OFFSET_CYCLES,
+        inclinometer: InclinometerLag::NONE,
     };
 }
 
@@ -962,7 +968,7 @@ impl StateFeedback {
             held: Held::NEW,
             resting: false,
             swing: Swing::NEW,
-            rope: RopeLength::new(cfg.g, cfg.h),
+            rope: RopeLength::new(cfg.g, cfg.h, cfg.inclinometer),
             zero: Zero::new(cfg.g, cfg.h, cfg.zero_thresholds()),
             unit: None,
         }
@@ -1291,7 +1297,7 @@ impl StateFeedback {
                 // The reading as it is: its offset is the regression's constant term
                 // (crate::rope); taking out the zero's estimate instead was tried and
                 // is not steady enough during the calibration move (issue 18).
-                Some(p) => self.rope.sample(m.x, p, m.l),
+                Some(p) => self.rope.sample(m.x, p, m.l, &prev),
                 None => self.rope.gap(),
             }
             // What the observer reads: the angle less its offset — a DC component the

@@ -17,6 +17,7 @@ use solver_core::{Driven, Error, JacobianMode, SolverSettings};
 
 use crate::plant::{Gust, Mismatch, Plant, Rng};
 use crate::plot::{figure, Chart, Legend, Scale, Series};
+use controller::rope::{InclinometerLag, Learnt};
 
 /// The inverse model's solution over a whole run: what the controller has every cycle.
 #[derive(Debug, Clone)]
@@ -103,6 +104,9 @@ pub struct CaseResult {
     /// The rope's scaling error and offset the feedback learnt from the swing
     /// (`controller::rope`; zero without feedback).
     pub rope: (f64, f64),
+    /// What that estimate is worth, its uncertainty (m) and the angle's delay it
+    /// measured beyond the commissioned one (s) (`None` without feedback).
+    pub rope_worth: Option<(Learnt, f64, f64)>,
     /// Largest distance of the trolley from its reference from 5 s after the move
     /// over one swing period, m: where a wrong angle would have driven it.
     pub trolley: f64,
@@ -232,6 +236,9 @@ pub fn simulate_calm_from(
         tau1: params.tau1,
         tau2: params.tau2,
         h: reference.h,
+        // The inclinometer commissioned as it is (docs/COMMISSIONING.md), unless a
+        // calibration is run told otherwise (`calibrate_rope_told`).
+        inclinometer: TOLD.with(|t| t.get()).unwrap_or_else(|| commissioned(case)),
         ..Config::PAPER
     };
     let mut fb = gains.map(|g| StateFeedback::with_gains(cfg, *g));
@@ -323,7 +330,64 @@ pub fn simulate_calm_from(
         plant.advance(u, h);
     }
     res.rope = fb.map_or((0.0, 0.0), |fb| fb.rope().estimate());
+    res.rope_worth = fb.map(|fb| {
+        let r = fb.rope();
+        (r.learnt(), r.uncertainty(), r.delay())
+    });
     (res, series)
+}
+
+/// [`simulate`] of the feedback with the inclinometer commissioned as `told`.
+fn simulate_told(
+    params: &CraneParams,
+    reference: &ReferenceRun,
+    case: &Mismatch,
+    gains: Option<&Gains>,
+    told: InclinometerLag,
+    limits: &DriveLimits,
+) -> CaseResult {
+    TOLD.with(|t| t.set(Some(told)));
+    let r = simulate(params, reference, case, gains, limits, false).0;
+    TOLD.with(|t| t.set(None));
+    r
+}
+
+std::thread_local! {
+    /// What [`simulate_told`] tells the feedback, instead of the plant's timing.
+    static TOLD: std::cell::Cell<Option<InclinometerLag>> = const { std::cell::Cell::new(None) };
+}
+
+/// The inclinometer's timing as its commissioning file states it: the plant's
+/// (docs/COMMISSIONING.md, "The inclinometer's timing").
+pub fn commissioned(case: &Mismatch) -> InclinometerLag {
+    InclinometerLag {
+        delay: case.inclinometer.delay,
+        filter: case.inclinometer.filter,
+    }
+}
+
+/// A rope calibration's outcome (`controller::rope`, 0x2004).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Calibration {
+    /// Scaling error and offset learnt.
+    pub estimate: (f64, f64),
+    /// What it is worth: saved only when [`Learnt::Both`].
+    pub learnt: Learnt,
+    /// Its uncertainty, m (0x2004:5).
+    pub uncertainty: f64,
+    /// The angle's delay beyond the commissioned one it measured, s (0x2004:6).
+    pub delay: f64,
+}
+
+impl Calibration {
+    /// The crane `case` as commissioned after it: the winch's scaling corrected when the
+    /// estimate may be saved, as it was otherwise.
+    pub fn applied_to(&self, case: &Mismatch) -> Mismatch {
+        match self.learnt {
+            Learnt::Both => case.calibrated(self.estimate),
+            _ => *case,
+        }
+    }
 }
 
 /// The rope calibration, a commissioning step (`controller::rope`): the paper's move
@@ -334,16 +398,35 @@ pub fn calibrate_rope(
     paper: &ReferenceRun,
     case: &Mismatch,
     gains: &Gains,
-) -> (f64, f64) {
+) -> Calibration {
+    calibrate_rope_told(params, paper, case, gains, commissioned(case))
+}
+
+/// [`calibrate_rope`] with the inclinometer commissioned as `told` (which need not be
+/// what it is).
+pub fn calibrate_rope_told(
+    params: &CraneParams,
+    paper: &ReferenceRun,
+    case: &Mismatch,
+    gains: &Gains,
+    told: InclinometerLag,
+) -> Calibration {
     let calm = Mismatch {
         gust: Gust::NONE,
         swing0: 0.0,
         ..*case
     };
     let limits = DriveLimits::LAB;
-    simulate(params, paper, &calm, Some(gains), &limits, false)
-        .0
-        .rope
+    let r = simulate_told(params, paper, &calm, Some(gains), told, &limits);
+    let (learnt, uncertainty, delay) =
+        r.rope_worth
+            .unwrap_or((Learnt::Nothing, f64::INFINITY, 0.0));
+    Calibration {
+        estimate: r.rope,
+        learnt,
+        uncertainty,
+        delay,
+    }
 }
 
 /// A random move inside the workspace, from rest to rest, smoothness 5 (the controller's
@@ -412,7 +495,7 @@ pub fn monte_carlo(seed: u64, n: usize, random_moves: bool, gains: &Gains) -> Mo
         let case = Mismatch::random(&mut rng, l0, reference.span);
         let (ff, _) = simulate(&params, reference, &case, None, &limits, false);
         let (fb, _) = simulate(&params, reference, &case, Some(gains), &limits, false);
-        let calibrated = case.calibrated(calibrate_rope(&params, &paper, &case, gains));
+        let calibrated = calibrate_rope(&params, &paper, &case, gains).applied_to(&case);
         let (cal, _) = simulate(&params, reference, &calibrated, Some(gains), &limits, false);
         mc.cases.push((case, ff, fb, cal));
     }
@@ -480,7 +563,7 @@ pub fn fault_study(seed: u64, n: usize, gains: &Gains) -> Vec<FaultCase> {
             let mid = Mismatch::random(&mut rng, l0, reference.span);
             let during = rng.uniform(ts, te);
             // The crane as commissioned: its rope calibrated.
-            let mid = mid.calibrated(calibrate_rope(&params, &reference, &mid, gains));
+            let mid = calibrate_rope(&params, &reference, &mid, gains).applied_to(&mid);
             let rest = Mismatch {
                 gust: Gust {
                     start: te + 1.0,
@@ -793,4 +876,91 @@ pub fn plot_case(
         ],
         true,
     )
+}
+
+/// One case of the calibration set (issue 33): the crane, what its rope calibration
+/// learnt on the paper's move, and the case's own move on the crane as then commissioned.
+#[derive(Debug, Clone, Copy)]
+pub struct CalibrationCase {
+    /// The crane and its sensors.
+    pub case: Mismatch,
+    /// The calibration on the paper's move in calm air.
+    pub calibration: Calibration,
+    /// The learnt length's error at the rope range's ends (3 m, 9 m), m.
+    pub length_error: [f64; 2],
+    /// The case's move with the feedback, the rope calibrated if the estimate was offered.
+    pub run: CaseResult,
+}
+
+/// A random move inside the workspace with ropes in `ropes` (m), otherwise as
+/// [`random_move`].
+pub fn random_move_in(
+    rng: &mut Rng,
+    params: &CraneParams,
+    t0: f64,
+    ropes: (f64, f64),
+) -> (PointToPoint<f64, 2>, ReferenceRun) {
+    loop {
+        let a = [rng.uniform(11.0, 22.0), rng.uniform(ropes.0, ropes.1)];
+        let b = [rng.uniform(11.0, 22.0), rng.uniform(ropes.0, ropes.1)];
+        let dist = (b[0] - a[0]).abs() + (b[1] - a[1]).abs();
+        let duration = 3.0 + 0.5 * dist * rng.uniform(1.0, 1.5);
+        let Ok(z) = PointToPoint::new(a.into(), b.into(), t0 + 1.0, duration, 5) else {
+            continue;
+        };
+        let steps = steps_for((t0 + 1.0, t0 + 1.0 + duration), t0, b[1], 0.01);
+        if let Ok(run) = reference_run(*params, z, t0, steps) {
+            let fits = run.u.windows(2).all(|w| {
+                (0..2).all(|i| {
+                    let lim = if i == 0 { 3.0 } else { 2.0 };
+                    w[1][i].abs() < 0.9 * lim && (w[1][i] - w[0][i]).abs() / 0.01 < 2.7
+                })
+            });
+            if fits {
+                return (z, run);
+            }
+        }
+    }
+}
+
+/// The issue-33 set: `n` cranes with the drum's scaling off by up to ±2 %, the rope
+/// offset by up to ±0.1 m, a load of 0.5–2 times the model's, an inclinometer
+/// `delay` 0–5 cycles late (drawn, or as given), filtering with a time constant up to
+/// 20 ms and noisy up to 0.05° (1σ; 0.01° quantum), the study's drives, gusts and
+/// swinging starts; each calibrated on the paper's move in calm air with its
+/// inclinometer's timing commissioned, then a random move with ropes of 3–9 m on the
+/// crane as commissioned.
+pub fn calibration_study(seed: u64, n: usize, gains: &Gains) -> Vec<CalibrationCase> {
+    let params = CraneParams::PAPER;
+    let limits = DriveLimits::LAB;
+    let mut rng = Rng::new(seed);
+    let paper = paper_reference(&params);
+    (0..n)
+        .map(|_| {
+            let (_, reference) = random_move_in(&mut rng, &params, 0.0, (3.0, 9.0));
+            let l0 = reference.r.first().map_or(6.0, |r| r.l);
+            let base = Mismatch::random(&mut rng, l0, reference.span);
+            let case = Mismatch {
+                rope_offset: rng.uniform(-0.1, 0.1),
+                load_mass: rng.uniform(-0.5, 1.0),
+                angle_noise: (rng.uniform(0.0, 0.05).to_radians(), Mismatch::SENSORS.1 .1),
+                inclinometer: crate::plant::SensorLag {
+                    delay: (rng.unit() * 6.0).floor().min(5.0) as u8,
+                    filter: rng.uniform(0.0, 0.02),
+                },
+                ..base
+            };
+            let calibration = calibrate_rope(&params, &paper, &case, gains);
+            let (s, o) = calibration.estimate;
+            let length_error = [3.0, 9.0].map(|l| (1.0 + s) * l + o - case.rope(l));
+            let crane = calibration.applied_to(&case);
+            let (run, _) = simulate(&params, &reference, &crane, Some(gains), &limits, false);
+            CalibrationCase {
+                case,
+                calibration,
+                length_error,
+                run,
+            }
+        })
+        .collect()
 }
