@@ -5,14 +5,14 @@
 //! estimate then measures, and refuses).
 //! `cargo run --release -p host-tests --example rope_bias`.
 use controller::feedback::{Config, Gains};
-use host_tests::feedback_study::{calibrate_rope, paper_reference};
+use host_tests::feedback_study::{calibrate_rope, calibration_reference};
 use host_tests::plant::{Mismatch, SensorLag};
 use solver_core::models::crane::CraneParams;
 
 fn main() {
     let params = CraneParams::PAPER;
     let gains = Gains::design(&Config::PAPER).expect("the study's gains");
-    let paper = paper_reference(&params);
+    let paper = calibration_reference(&params);
     println!("| delay, cycles | noise, ° | timing commissioned | scale learnt | offset learnt, mm | length off at 4 m, mm | at 8 m, mm | uncertainty, mm | delay measured, ms | 0x2004:4 |");
     println!("|---:|---:|---|---:|---:|---:|---:|---:|---:|---|");
     for (delay, noise) in [

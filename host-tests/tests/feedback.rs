@@ -382,7 +382,8 @@ fn correction_is_zero_when_measurement_equals_reference() {
     }
 }
 
-/// The rope calibration (the paper's move in calm air, the first move after power-up)
+/// The rope calibration (the paper's move and back, three times, in calm air, the first
+/// moves after power-up: `calibration_reference`)
 /// on an inclinometer offset from power-up learns the rope a true reading teaches: the
 /// offset enters the pendulum's equation as a constant (`−g b`), which the regression's
 /// constant term takes up (`controller::rope`). Without it, in the closed loop, whose
@@ -394,7 +395,7 @@ fn a_biased_inclinometer_does_not_bias_the_learnt_rope() {
     use host_tests::plant::{Gust, Mismatch};
     let params = CraneParams::PAPER;
     let gains = Gains::design(&Config::PAPER).unwrap();
-    let paper = paper_reference(&params);
+    let paper = host_tests::feedback_study::calibration_reference(&params);
     let case = Mismatch {
         drum_scale: 0.015,
         rope_offset: 0.08,
