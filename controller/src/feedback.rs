@@ -316,6 +316,23 @@ pub enum DesignError {
     },
 }
 
+/// How much older than the positions the angle read is, beyond the one cycle both
+/// arrive late by, s: the inclinometer's commissioned delay and its filter's time
+/// constant ([`Config::inclinometer`]; a first-order lag delays a swing far below its
+/// corner by its time constant: at 1.8 rad/s and 20 ms, by 20 ms within 0.01 ms). The
+/// observer is designed for it and compares the reading with its estimate that much
+/// earlier (issue 33).
+#[must_use]
+pub fn angle_age(cfg: &Config) -> f64 {
+    let lag = cfg.inclinometer;
+    let filter = if lag.filter.is_finite() && lag.filter > 0.0 {
+        lag.filter
+    } else {
+        0.0
+    };
+    f64::from(lag.delay.min(crate::rope::MAX_DELAY_CYCLES)) * cfg.h + filter
+}
+
 /// The discrete model of one rope length.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Discrete {
@@ -572,11 +589,14 @@ impl Gains {
             w.position_noise * w.position_noise,
             w.angle_noise * w.angle_noise,
         ));
-        // The trolley–swing block is measured in x and φ, the winch block in l.
+        // The trolley–swing block is measured in x and φ, the winch block in l; the
+        // angle as the inclinometer reports it, `T` older than the positions
+        // ([`angle_age`]): `φ − T φ̇` ([`StateFeedback::reading_of`]).
+        let age = angle_age(cfg);
         #[rustfmt::skip]
         let c = nalgebra::Matrix2x5::new(
             1.0, 0.0, 0.0, 0.0, 0.0,
-            0.0, 0.0, 1.0, 0.0, 0.0,
+            0.0, 0.0, 1.0, -age, 0.0,
         );
         let obs = kalman(a5, c, qn, rv).ok_or(DesignError::NoConvergence { l })?;
         let g2 = Vector2::new(0.5 * h * h, h);
@@ -1022,6 +1042,14 @@ impl StateFeedback {
         }
     }
 
+    /// The angle the inclinometer reports for the previous sample's estimate: the
+    /// estimate's angle [`angle_age`] earlier, `φ − T φ̇` (issue 33: the observer
+    /// designed for a reading as old as the positions took the older one for them, and
+    /// at 2 cycles and 19 ms more under a lighter load the loop swung up during a move).
+    fn reading_of(&self, prev: &Reference) -> f64 {
+        prev.phi + self.e.z - angle_age(&self.cfg) * (prev.vphi + self.e.w)
+    }
+
     /// The hoist's correction actually sent, when another feedback drives the hoist (the
     /// 3D crane's y–z plane, [`crate::feedback3d`]): the rope-error observer learns it
     /// in place of this feedback's own, which was never sent (anti-windup's rule, the
@@ -1130,7 +1158,7 @@ impl StateFeedback {
         let phi = m.phi;
         // The prediction of the reading: of the angle, plus the offset believed.
         let predicted = if self.started {
-            prev.phi + self.e.z + self.read_offset()
+            self.reading_of(prev) + self.read_offset()
         } else {
             phi.unwrap_or(0.0)
         };
@@ -1151,7 +1179,7 @@ impl StateFeedback {
             0.0
         };
         let predicted = if self.started {
-            prev.phi + self.e.z + self.read_offset()
+            self.reading_of(prev) + self.read_offset()
         } else {
             predicted
         };
@@ -1345,9 +1373,10 @@ impl StateFeedback {
                     // Correct the estimate of the previous sample with its measurement;
                     // without a good angle, with the position only.
                     let residual_x = ex - self.e.x;
+                    let age = angle_age(&self.cfg);
                     match angle {
                         Some(p) => {
-                            let residual_phi = p - prev.phi - self.e.z;
+                            let residual_phi = p - self.reading_of(&prev);
                             self.e += point.obs * Vector2::new(residual_x, residual_phi);
                         }
                         None => self.e += position_only(&point.obs, prev.l) * residual_x,
@@ -1356,7 +1385,7 @@ impl StateFeedback {
                     // one higher, the positions the same).
                     if let Some(u) = self.unit.as_mut() {
                         *u += match angle {
-                            Some(_) => point.obs * Vector2::new(-u.x, 1.0 - u.z),
+                            Some(_) => point.obs * Vector2::new(-u.x, 1.0 - (u.z - age * u.w)),
                             None => position_only(&point.obs, prev.l) * -u.x,
                         };
                     }

@@ -39,12 +39,26 @@ fn main() {
             r.last().map_or(0.0, |v| v.0)
         );
     }
-    let mut order: Vec<usize> = (0..set.len()).collect();
-    order.sort_by(|&a, &b| set[b].run.vertical.total_cmp(&set[a].run.vertical));
-    for &i in order.iter().take(shown) {
-        let c = &set[i];
-        let k = &c.case;
-        println!(
+    let score =
+        |r: &host_tests::feedback_study::CaseResult| (r.distance / 0.05).max(r.swing_deg / 0.1);
+    for (name, by) in [
+        (
+            "vertical",
+            &(|c: &host_tests::feedback_study::CalibrationCase| c.run.vertical)
+                as &dyn Fn(&host_tests::feedback_study::CalibrationCase) -> f64,
+        ),
+        (
+            "horizontal and swing",
+            &|c: &host_tests::feedback_study::CalibrationCase| score(&c.run),
+        ),
+    ] {
+        println!("worst {name}:");
+        let mut order: Vec<usize> = (0..set.len()).collect();
+        order.sort_by(|&a, &b| by(&set[b]).total_cmp(&by(&set[a])));
+        for &i in order.iter().take(shown) {
+            let c = &set[i];
+            let k = &c.case;
+            println!(
             "case {i}: drum {:+.2} %, offset {:+.0} mm, mass {:+.2}, delay {}, filter {:.0} ms, noise {:.3}°, gust {:.1} N at {:.1} s, swing0 {:.1}° | learnt {:+.2} % {:+.0} mm {:?} unc {:.1} mm delay {:.1} ms, error {:.1}/{:.1} mm | vertical {:.1} mm, distance {:.1} mm, swing {:.3}°, mode {:?}",
             k.drum_scale * 100.0,
             k.rope_offset * 1e3,
@@ -67,5 +81,6 @@ fn main() {
             c.run.swing_deg,
             c.run.mode,
         );
+        }
     }
 }

@@ -236,6 +236,30 @@ pub fn simulate_calm_from(
     )
 }
 
+/// [`simulate`] of the feedback with the inclinometer's timing commissioned as `told`,
+/// which need not be what it is.
+pub fn simulate_told(
+    params: &CraneParams,
+    reference: &ReferenceRun,
+    case: &Mismatch,
+    gains: &Gains,
+    told: InclinometerLag,
+    limits: &DriveLimits,
+) -> CaseResult {
+    let (r, _) = run_told(
+        params,
+        reference,
+        case,
+        Some(gains),
+        None,
+        None,
+        Some(told),
+        limits,
+        false,
+    );
+    r
+}
+
 /// [`simulate_calm_from`] with the inclinometer's timing commissioned as `told`
 /// (`None`: as it is).
 #[allow(clippy::too_many_arguments)]
@@ -420,18 +444,7 @@ pub fn calibrate_rope_told(
         swing0: 0.0,
         ..*case
     };
-    let limits = DriveLimits::LAB;
-    let (r, _) = run_told(
-        params,
-        paper,
-        &calm,
-        Some(gains),
-        None,
-        None,
-        Some(told),
-        &limits,
-        false,
-    );
+    let r = simulate_told(params, paper, &calm, gains, told, &DriveLimits::LAB);
     let (learnt, uncertainty, delay) =
         r.rope_worth
             .unwrap_or((Learnt::Nothing, f64::INFINITY, 0.0));
