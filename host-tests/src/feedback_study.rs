@@ -962,6 +962,28 @@ pub struct CalibrationCase {
     pub length_error: [f64; 2],
     /// The case's move with the feedback, the rope calibrated if the estimate was offered.
     pub run: CaseResult,
+    /// The same with the case's gust moved to end anywhere from its duration after the
+    /// move's start to [`GUST_AFTER`] after its end ([`late_gust`]).
+    pub gust: CaseResult,
+}
+
+/// How long after the move's end the gust set's gusts may still blow, s: "a gust at any
+/// time during or after the move" (issue 33), measured 5 s after the move's end, leaves
+/// the feedback at least 4 s to damp what the last one left.
+pub const GUST_AFTER: f64 = 1.0;
+
+/// `case` with its gust (strength and duration as drawn) moved to end at a time drawn
+/// uniformly from its duration after the move's start to [`GUST_AFTER`] after its end.
+pub fn late_gust(rng: &mut Rng, case: &Mismatch, span: (f64, f64)) -> Mismatch {
+    let d = case.gust.duration;
+    let end = rng.uniform(span.0 + d, span.1 + GUST_AFTER);
+    Mismatch {
+        gust: Gust {
+            start: end - d,
+            ..case.gust
+        },
+        ..*case
+    }
 }
 
 /// A random move inside the workspace with ropes in `ropes` (m), otherwise as
@@ -1007,6 +1029,9 @@ pub fn calibration_study(seed: u64, n: usize, gains: &Gains) -> Vec<CalibrationC
     let limits = DriveLimits::LAB;
     let mut rng = Rng::new(seed);
     let moves = calibration_reference(&params);
+    // The late gusts' instants from their own generator: the cases are those of the
+    // same seed without them.
+    let mut gusts = Rng::new(seed ^ 0x6057);
     (0..n)
         .map(|_| {
             let (_, reference) = random_move_in(&mut rng, &params, 0.0, (3.0, 9.0));
@@ -1027,11 +1052,14 @@ pub fn calibration_study(seed: u64, n: usize, gains: &Gains) -> Vec<CalibrationC
             let length_error = [3.0, 9.0].map(|l| (1.0 + s) * l + o - case.rope(l));
             let crane = calibration.applied_to(&case);
             let (run, _) = simulate(&params, &reference, &crane, Some(gains), &limits, false);
+            let gusty = late_gust(&mut gusts, &crane, reference.span);
+            let (gust, _) = simulate(&params, &reference, &gusty, Some(gains), &limits, false);
             CalibrationCase {
                 case,
                 calibration,
                 length_error,
                 run,
+                gust,
             }
         })
         .collect()

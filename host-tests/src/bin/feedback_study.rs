@@ -146,6 +146,26 @@ fn calibration_tables(gains: &Gains, n: usize) {
         "| within ±50 mm horizontally and < 0.1° | {h} ({:.1} %) |",
         pct(h)
     );
+    let g = count(&|c| c.gust.meets_target());
+    let mut gd: Vec<f64> = set.iter().map(|c| c.gust.distance * 1e3).collect();
+    let mut gs: Vec<f64> = set.iter().map(|c| c.gust.swing_deg).collect();
+    println!(
+        "| the gust moved to end up to {} s after the move: distance 5 s after, mm (median / p99 / max) | {:.1} / {:.1} / {:.1} |",
+        host_tests::feedback_study::GUST_AFTER,
+        quantile(&mut gd, 0.5),
+        quantile(&mut gd, 0.99),
+        quantile(&mut gd, 1.0)
+    );
+    println!(
+        "| the same: swing 5 s after, ° (median / p99 / max) | {:.3} / {:.3} / {:.3} |",
+        quantile(&mut gs, 0.5),
+        quantile(&mut gs, 0.99),
+        quantile(&mut gs, 1.0)
+    );
+    println!(
+        "| the same: within ±50 mm horizontally and < 0.1° | {g} ({:.1} %) |",
+        pct(g)
+    );
     println!();
 }
 
