@@ -1,6 +1,8 @@
 //! One case of the calibration set (issue 33) run on the crane as it is (its rope not
 //! calibrated), with the feedback, its trace printed: a diagnostic.
-//! `cargo run --release -p host-tests --example calibration_case -- INDEX [EVERY]`.
+//! `cargo run --release -p host-tests --example calibration_case -- INDEX [EVERY] [DELAY]`
+//! (DELAY: the inclinometer's delay in cycles instead of the drawn one, commissioned as
+//! such: the same case with another sensor).
 use controller::feedback::{Config, Gains};
 use controller::setpoint::DriveLimits;
 use host_tests::feedback_study::{random_move_in, simulate};
@@ -11,6 +13,7 @@ fn main() {
     let mut args = std::env::args().skip(1).map(|a| a.parse::<usize>().ok());
     let index = args.next().flatten().unwrap_or(0);
     let every = args.next().flatten().unwrap_or(50);
+    let delay = args.next().flatten();
     let params = CraneParams::PAPER;
     let gains = Gains::design(&Config::PAPER).expect("the study's gains");
     // As `calibration_study` draws its cases.
@@ -32,9 +35,12 @@ fn main() {
         };
         drawn = Some((reference, case));
     }
-    let Some((reference, case)) = drawn else {
+    let Some((reference, mut case)) = drawn else {
         return;
     };
+    if let Some(d) = delay {
+        case.inclinometer.delay = u8::try_from(d).unwrap_or(u8::MAX);
+    }
     println!("{case:?}");
     println!(
         "move {:?} -> {:?}, span {:?}",

@@ -965,6 +965,12 @@ pub struct CalibrationCase {
     /// The same with the case's gust moved to end anywhere from its duration after the
     /// move's start to [`GUST_AFTER`] after its end ([`late_gust`]).
     pub gust: CaseResult,
+    /// That gust.
+    pub late: Gust,
+    /// The move's start and end, s.
+    pub span: (f64, f64),
+    /// The move's rope at its end as the drum reads it, m.
+    pub rope_end: f64,
 }
 
 /// How long after the move's end the gust set's gusts may still blow, s: "a gust at any
@@ -1060,6 +1066,9 @@ pub fn calibration_study(seed: u64, n: usize, gains: &Gains) -> Vec<CalibrationC
                 length_error,
                 run,
                 gust,
+                late: gusty.gust,
+                span: reference.span,
+                rope_end: reference.r.last().map_or(l0, |r| r.l),
             }
         })
         .collect()
