@@ -19,7 +19,7 @@
 //! | 0x2001:1..=8 | the status frame's fields (docs/COMMANDS.md) | ro |
 //! | 0x2002:1..=5 | the last commissioning failure: node, index, sub, abort code, reason | ro |
 //! | 0x2003:1..=2 | NMT role (0 manager, 1 slave); drives' commissioning phase (bit per drive: done) | ro |
-//! | 0x2004:1..=6 | rope calibration learnt from the swing (`crate::rope`): drum scaling error, ppm (i32); rope offset, µm (i32); samples taken (u32); what was learnt (u8: 0 nothing yet, 1 the offset at one length, 2 scaling and offset — to be saved, 3 at a bound, 4 refused: too uncertain, 5 refused: the angle's delay not as commissioned); the length's uncertainty, µm (u32, twice its standard deviation over 3–9 m; u32::MAX before anything is learnt); the angle's delay beyond the commissioned one, µs (i32) | ro |
+//! | 0x2004:1..=6 | rope calibration learnt from the swing (`crate::rope`): drum scaling error, ppm (i32); rope offset, µm (i32); samples taken (u32); what was learnt (u8: 0 nothing yet, 1 the offset at one length, 2 scaling and offset — to be saved, 3 at a bound, 4 refused: too uncertain, 5 refused: the angle's delay not as commissioned); the length's uncertainty, µm (u32, three standard deviations over 3–9 m plus 3 mm, `crate::rope::SIGMAS`, `MODEL_FLOOR`; u32::MAX before anything is learnt); the angle's delay beyond the commissioned one, µs (i32) | ro |
 
 use crate::canopen::sdo::{abort, Object, ObjectDictionary, Value};
 use crate::canopen::{NmtCommand, NmtState};

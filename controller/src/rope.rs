@@ -353,7 +353,8 @@ struct Solution {
     scale: f64,
     offset: f64,
     learnt: Learnt,
-    /// Twice the length's standard deviation, the largest over [`RANGE`], m.
+    /// [`SIGMAS`] standard deviations of the length, the largest over [`RANGE`], plus
+    /// [`MODEL_FLOOR`], m.
     uncertainty: f64,
     /// The angle's delay behind the positions beyond the commissioned one, s.
     delay: f64,
@@ -615,8 +616,9 @@ impl RopeLength {
         self.solve().learnt
     }
 
-    /// Twice the standard deviation of the rope's length under [`Self::estimate`], the
-    /// largest over [`RANGE`], m (0x2004:5; infinite before anything is learnt).
+    /// [`SIGMAS`] standard deviations of the rope's length under [`Self::estimate`], the
+    /// largest over [`RANGE`], plus [`MODEL_FLOOR`], m (0x2004:5; infinite before anything
+    /// is learnt).
     #[must_use]
     pub fn uncertainty(&self) -> f64 {
         self.solve().uncertainty
