@@ -1228,15 +1228,21 @@ where
             },
             commissioning_failure: self.commissioning_failure,
             commissioned,
-            rope: self.correction.rope().map_or((0, 0, 0, 0), |r| {
-                let (scale, offset) = r.estimate();
-                (
-                    libm::round(scale * 1e6) as i32,
-                    libm::round(offset * 1e6) as i32,
-                    r.samples(),
-                    r.learnt() as u8,
-                )
-            }),
+            rope: self
+                .correction
+                .rope()
+                .map_or((0, 0, 0, 0, u32::MAX, 0), |r| {
+                    let (scale, offset) = r.estimate();
+                    (
+                        libm::round(scale * 1e6) as i32,
+                        libm::round(offset * 1e6) as i32,
+                        r.samples(),
+                        r.learnt() as u8,
+                        // Saturating casts: an infinite uncertainty is u32::MAX.
+                        libm::round(r.uncertainty() * 1e6) as u32,
+                        libm::round(r.delay() * 1e6) as i32,
+                    )
+                }),
         }
     }
 

@@ -103,7 +103,7 @@ use nalgebra::{
     Vector2, Vector4, Vector5,
 };
 
-use crate::rope::RopeLength;
+use crate::rope::{InclinometerLag, RopeLength};
 use crate::setpoint::{AxisLimits, DriveLimits};
 use crate::zero::{self, Zero};
 
@@ -249,6 +249,11 @@ pub struct Config {
     pub max_offset: f64,
     /// … for this many cycles in a row is announced ([`zero::OFFSET_CYCLES`]).
     pub offset_cycles: u32,
+    /// How late and how filtered the inclinometer reports the angle, as commissioned
+    /// (the commissioning file's `[inclinometer]` `delay_cycles` and `filter_ms`): the
+    /// rope calibration makes the positions as late before it pairs them with the
+    /// angle ([`crate::rope`]).
+    pub inclinometer: InclinometerLag,
 }
 
 impl Config {
@@ -294,6 +299,7 @@ impl Config {
         offset_step: zero::MAX_STEP,
         max_offset: zero::MAX_OFFSET,
         offset_cycles: zero::OFFSET_CYCLES,
+        inclinometer: InclinometerLag::NONE,
     };
 }
 
@@ -308,6 +314,23 @@ pub enum DesignError {
         /// Rope length, m.
         l: f64,
     },
+}
+
+/// How much older than the positions the angle read is, beyond the one cycle both
+/// arrive late by, s: the inclinometer's commissioned delay and its filter's time
+/// constant ([`Config::inclinometer`]; a first-order lag delays a swing far below its
+/// corner by its time constant: at 1.8 rad/s and 20 ms, by 20 ms within 0.01 ms). The
+/// observer is designed for it and compares the reading with its estimate that much
+/// earlier (issue 33).
+#[must_use]
+pub fn angle_age(cfg: &Config) -> f64 {
+    let lag = cfg.inclinometer;
+    let filter = if lag.filter.is_finite() && lag.filter > 0.0 {
+        lag.filter
+    } else {
+        0.0
+    };
+    f64::from(lag.delay.min(crate::rope::MAX_DELAY_CYCLES)) * cfg.h + filter
 }
 
 /// The discrete model of one rope length.
@@ -566,11 +589,14 @@ impl Gains {
             w.position_noise * w.position_noise,
             w.angle_noise * w.angle_noise,
         ));
-        // The trolley–swing block is measured in x and φ, the winch block in l.
+        // The trolley–swing block is measured in x and φ, the winch block in l; the
+        // angle as the inclinometer reports it, `T` older than the positions
+        // ([`angle_age`]): `φ − T φ̇` ([`StateFeedback::reading_of`]).
+        let age = angle_age(cfg);
         #[rustfmt::skip]
         let c = nalgebra::Matrix2x5::new(
             1.0, 0.0, 0.0, 0.0, 0.0,
-            0.0, 0.0, 1.0, 0.0, 0.0,
+            0.0, 0.0, 1.0, -age, 0.0,
         );
         let obs = kalman(a5, c, qn, rv).ok_or(DesignError::NoConvergence { l })?;
         let g2 = Vector2::new(0.5 * h * h, h);
@@ -962,7 +988,7 @@ impl StateFeedback {
             held: Held::NEW,
             resting: false,
             swing: Swing::NEW,
-            rope: RopeLength::new(cfg.g, cfg.h),
+            rope: RopeLength::new(cfg.g, cfg.h, cfg.inclinometer),
             zero: Zero::new(cfg.g, cfg.h, cfg.zero_thresholds()),
             unit: None,
         }
@@ -1014,6 +1040,14 @@ impl StateFeedback {
             Some(_) => self.read_offset() + self.shown(),
             None => self.read_offset(),
         }
+    }
+
+    /// The angle the inclinometer reports for the previous sample's estimate: the
+    /// estimate's angle [`angle_age`] earlier, `φ − T φ̇` (issue 33: the observer
+    /// designed for a reading as old as the positions took the older one for them, and
+    /// at 2 cycles and 19 ms more under a lighter load the loop swung up during a move).
+    fn reading_of(&self, prev: &Reference) -> f64 {
+        prev.phi + self.e.z - angle_age(&self.cfg) * (prev.vphi + self.e.w)
     }
 
     /// The hoist's correction actually sent, when another feedback drives the hoist (the
@@ -1124,7 +1158,7 @@ impl StateFeedback {
         let phi = m.phi;
         // The prediction of the reading: of the angle, plus the offset believed.
         let predicted = if self.started {
-            prev.phi + self.e.z + self.read_offset()
+            self.reading_of(prev) + self.read_offset()
         } else {
             phi.unwrap_or(0.0)
         };
@@ -1145,7 +1179,7 @@ impl StateFeedback {
             0.0
         };
         let predicted = if self.started {
-            prev.phi + self.e.z + self.read_offset()
+            self.reading_of(prev) + self.read_offset()
         } else {
             predicted
         };
@@ -1291,7 +1325,7 @@ impl StateFeedback {
                 // The reading as it is: its offset is the regression's constant term
                 // (crate::rope); taking out the zero's estimate instead was tried and
                 // is not steady enough during the calibration move (issue 18).
-                Some(p) => self.rope.sample(m.x, p, m.l),
+                Some(p) => self.rope.sample(m.x, p, m.l, &prev),
                 None => self.rope.gap(),
             }
             // What the observer reads: the angle less its offset — a DC component the
@@ -1339,9 +1373,10 @@ impl StateFeedback {
                     // Correct the estimate of the previous sample with its measurement;
                     // without a good angle, with the position only.
                     let residual_x = ex - self.e.x;
+                    let age = angle_age(&self.cfg);
                     match angle {
                         Some(p) => {
-                            let residual_phi = p - prev.phi - self.e.z;
+                            let residual_phi = p - self.reading_of(&prev);
                             self.e += point.obs * Vector2::new(residual_x, residual_phi);
                         }
                         None => self.e += position_only(&point.obs, prev.l) * residual_x,
@@ -1350,7 +1385,7 @@ impl StateFeedback {
                     // one higher, the positions the same).
                     if let Some(u) = self.unit.as_mut() {
                         *u += match angle {
-                            Some(_) => point.obs * Vector2::new(-u.x, 1.0 - u.z),
+                            Some(_) => point.obs * Vector2::new(-u.x, 1.0 - (u.z - age * u.w)),
                             None => position_only(&point.obs, prev.l) * -u.x,
                         };
                     }

@@ -19,7 +19,7 @@
 //! | 0x2001:1..=8 | the status frame's fields (docs/COMMANDS.md) | ro |
 //! | 0x2002:1..=5 | the last commissioning failure: node, index, sub, abort code, reason | ro |
 //! | 0x2003:1..=2 | NMT role (0 manager, 1 slave); drives' commissioning phase (bit per drive: done) | ro |
-//! | 0x2004:1..=4 | rope calibration learnt from the swing (`crate::rope`): drum scaling error, ppm (i32); rope offset, µm (i32); samples taken (u32); what was learnt (u8: 0 nothing yet, 1 the offset at one length, 2 scaling and offset, 3 at a bound: not to be saved) | ro |
+//! | 0x2004:1..=6 | rope calibration learnt from the swing (`crate::rope`): drum scaling error, ppm (i32); rope offset, µm (i32); samples taken (u32); what was learnt (u8: 0 nothing yet, 1 the offset at one length, 2 scaling and offset — to be saved, 3 at a bound, 4 refused: too uncertain, 5 refused: the angle's delay not as commissioned); the length's uncertainty, µm (u32, three standard deviations over 3–9 m plus 3 mm, `crate::rope::SIGMAS`, `MODEL_FLOOR`; u32::MAX before anything is learnt); the angle's delay beyond the commissioned one, µs (i32) | ro |
 
 use crate::canopen::sdo::{abort, Object, ObjectDictionary, Value};
 use crate::canopen::{NmtCommand, NmtState};
@@ -207,8 +207,9 @@ pub struct Snapshot {
     /// planar crane's trolley, the 3D crane's bridge): commissioned.
     pub commissioned: u8,
     /// The rope calibration learnt so far: scaling error, ppm; offset, µm; samples;
-    /// what was learnt (`crate::rope::Learnt`).
-    pub rope: (i32, i32, u32, u8),
+    /// what was learnt (`crate::rope::Learnt`); the length's uncertainty, µm; the
+    /// angle's delay beyond the commissioned one, µs.
+    pub rope: (i32, i32, u32, u8, u32, i32),
 }
 
 /// The object dictionary at one moment: the node's parameters and a snapshot.
@@ -288,13 +289,15 @@ impl ObjectDictionary for Dictionary<'_> {
                 1 => Some(value(&[s.commissioned])),
                 _ => None,
             }),
-            0x2004 => sub_of(4, &|k| {
-                let (scale, offset, samples, learnt) = s.rope;
+            0x2004 => sub_of(6, &|k| {
+                let (scale, offset, samples, learnt, uncertainty, delay) = s.rope;
                 match k {
                     0 => Some(value(&scale.to_le_bytes())),
                     1 => Some(value(&offset.to_le_bytes())),
                     2 => Some(u32v(samples)),
                     3 => Some(value(&[learnt])),
+                    4 => Some(u32v(uncertainty)),
+                    5 => Some(value(&delay.to_le_bytes())),
                     _ => None,
                 }
             }),
@@ -467,7 +470,7 @@ mod tests {
             error_register: 0,
             commissioning_failure: (2, 0x6060, 0, 0x0609_0030, 1),
             commissioned: 0b01,
-            rope: (-15_000, 80_000, 1234, 2),
+            rope: (-15_000, 80_000, 1234, 2, 4_200, -300),
         }
     }
 
@@ -495,6 +498,14 @@ mod tests {
             value(&1234u32.to_le_bytes())
         );
         assert_eq!(od.read(Object::new(0x2004, 4)).unwrap(), value(&[2]));
+        assert_eq!(
+            od.read(Object::new(0x2004, 5)).unwrap(),
+            value(&4_200u32.to_le_bytes())
+        );
+        assert_eq!(
+            od.read(Object::new(0x2004, 6)).unwrap(),
+            value(&(-300i32).to_le_bytes())
+        );
         assert_eq!(
             od.read(Object::new(0x2002, 4)).unwrap(),
             value(&0x0609_0030u32.to_le_bytes())

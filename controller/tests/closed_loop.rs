@@ -50,6 +50,7 @@ const MISMATCH: Mismatch = Mismatch {
     angle_noise: Mismatch::SENSORS.1,
     noise_seed: 7,
     swing0: 0.0,
+    ..Mismatch::NONE
 };
 
 const fn scenario(name: &'static str, events: &'static [Event]) -> Scenario {
@@ -613,25 +614,37 @@ fn the_rope_is_learnt_from_the_swing_in_calm_air_and_read_from_0x2004() {
     };
     let (scale, offset) = (read(1) as f64 * 1e-6, read(2) as f64 * 1e-6);
     let samples = read(3);
-    assert_eq!(read(4), 2, "scaling and offset learnt (the rope varied)");
+    // Scaling and offset learnt (the rope varied); with the study's 0.02° of noise on
+    // this move the uncertainty stated is beyond the 10 mm the estimate is offered
+    // within (issue 33: refused as uncertain, 4), and the estimate is still close.
+    let learnt = read(4);
+    let uncertainty = read(5) as f64 * 1e-6;
+    let delay = read(6) as f64 * 1e-6;
+    assert!([2, 4].contains(&learnt), "learnt {learnt}");
+    assert!(
+        delay.abs() < 0.004,
+        "delay beyond the commissioned {delay} s"
+    );
     // The plant's rope: 1.5 % longer than the drum says, and 80 mm more.
     let truth = |l: f64| MISMATCH.rope(l);
-    let learnt = |l: f64| (1.0 + scale) * l + offset;
+    let length = |l: f64| (1.0 + scale) * l + offset;
     eprintln!(
-        "rope learnt in calm air from {samples} samples: scale {:+.4} (true {:+.4}), offset {:+.3} m (true {:+.3}); at 4 m off by {:.1} mm, at 8 m by {:.1} mm",
+        "rope learnt in calm air from {samples} samples (0x2004:4 = {learnt}, uncertainty {:.1} mm, delay {:.1} ms): scale {:+.4} (true {:+.4}), offset {:+.3} m (true {:+.3}); at 4 m off by {:.1} mm, at 8 m by {:.1} mm",
+        uncertainty * 1e3,
+        delay * 1e3,
         scale,
         MISMATCH.drum_scale,
         offset,
         MISMATCH.rope_offset,
-        (learnt(4.0) - truth(4.0)) * 1e3,
-        (learnt(8.0) - truth(8.0)) * 1e3
+        (length(4.0) - truth(4.0)) * 1e3,
+        (length(8.0) - truth(8.0)) * 1e3
     );
     assert!(samples > 500);
     for l in [4.0, 6.0, 8.0] {
         assert!(
-            (learnt(l) - truth(l)).abs() < 0.02,
+            (length(l) - truth(l)).abs() < 0.02 && (length(l) - truth(l)).abs() < uncertainty,
             "at {l} m: learnt {:.3}, true {:.3}",
-            learnt(l),
+            length(l),
             truth(l)
         );
     }

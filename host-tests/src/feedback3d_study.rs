@@ -15,9 +15,10 @@ use solver_core::models::crane3d::{subs, Crane3dParams, Crane3dSubs};
 use solver_core::trajectory::{PointToPoint, Trajectory};
 use solver_core::{Driven, Error, JacobianMode, SolverSettings};
 
-use crate::feedback_study::{period, quantile};
+use crate::feedback_study::{period, quantile, Calibration};
 use crate::plant::{Gust, Rng};
 use crate::plant3d::{Mismatch3d, Plant3d};
+use controller::rope::{InclinometerLag, Learnt};
 
 /// The 3D inverse model's solution over a whole run: what the controller has every cycle.
 #[derive(Debug, Clone)]
@@ -178,9 +179,22 @@ pub fn simulate(
     gains: Option<&[Gains; 2]>,
     fault: Option<SlopeFault>,
 ) -> CaseResult3 {
+    let fb =
+        gains.map(|g| SpatialFeedback::with_gains(config(params, reference.h), params.tau2, *g));
+    run(params, reference, case, fb, fault).0
+}
+
+/// [`simulate`] with the feedback `fb` as given (`None`: feedforward only); the feedback
+/// as it ends the run, for what its rope estimator learnt.
+fn run(
+    params: &Crane3dParams,
+    reference: &ReferenceRun3,
+    case: &Mismatch3d,
+    mut fb: Option<SpatialFeedback>,
+    fault: Option<SlopeFault>,
+) -> (CaseResult3, Option<SpatialFeedback>) {
     let limits: [AxisLimits; 3] = DriveLimits::LAB_3D;
     let h = reference.h;
-    let mut fb = gains.map(|g| SpatialFeedback::with_gains(config(params, h), params.tau2, *g));
     let r_xz = reference
         .r
         .first()
@@ -265,8 +279,10 @@ pub fn simulate(
         last = u;
         plant.advance(u, h);
     }
-    res.rope = fb.map_or((0.0, 0.0), |fb| fb.planes()[0].rope().estimate());
-    res
+    res.rope = fb
+        .as_ref()
+        .map_or((0.0, 0.0), |fb| fb.planes()[0].rope().estimate());
+    (res, fb)
 }
 
 /// The diagonal move of the firmware's 3D scene (`scenes/crane3d/crane3d.toml`): the
@@ -562,3 +578,126 @@ pub fn table_row(name: &str, results: &[CaseResult3]) -> String {
 
 /// The table's header.
 pub const TABLE_HEADER: &str = "| set, mode | horizontal tracking during the move, mm (median / max) | horizontal distance 5 s after (worse of x, y), mm (median / p99 / max) | swing 5 s after (worse plane), ° (median / p99 / max) | vertical 5 s after, mm (median / p99 / max) | within ±50 mm in x and y and < 0.1° in both planes | and within ±50 mm vertically | worst |u| bridge, trolley, hoist m/s | worst |Δu|/h bridge, trolley, hoist m/s² | set points zero (as the drives receive them) from 5 s after the move | largest set point then, mm/s |\n|---|---|---|---|---|---|---|---|---|---|---:|";
+
+/// The 3D crane's feedback for `case` with its inclinometer's timing commissioned
+/// (docs/COMMISSIONING.md, "The inclinometer's timing"): the gains designed for it, as
+/// the controller designs them from its configuration.
+fn commissioned_feedback(params: &Crane3dParams, h: f64, case: &Mismatch3d) -> SpatialFeedback {
+    let cfg = Config {
+        inclinometer: InclinometerLag {
+            delay: case.inclinometer.delay,
+            filter: case.inclinometer.filter,
+        },
+        ..config(params, h)
+    };
+    SpatialFeedback::new(cfg, params.tau2).expect("the 3D crane's gains")
+}
+
+/// The 3D rope calibration's moves: the diagonal move and back
+/// [`CALIBRATION_ROUNDS`](crate::feedback_study::CALIBRATION_ROUNDS) times, each leg from
+/// rest 1 s after the last one's end, the load left 3 s after it (as the planar
+/// [`calibration_reference`](crate::feedback_study::calibration_reference)).
+pub fn calibration_reference3(params: &Crane3dParams) -> ReferenceRun3 {
+    let (a, b) = ([12.0, 3.0, 8.0], [20.0, 6.0, 4.0]);
+    let (h, duration): (f64, f64) = (0.01, 8.0);
+    let steps = ((duration + 4.0) / h).round() as usize;
+    let mut all: Option<ReferenceRun3> = None;
+    for k in 0..2 * crate::feedback_study::CALIBRATION_ROUNDS {
+        let t0 = k as f64 * steps as f64 * h;
+        let (from, to) = if k % 2 == 0 { (a, b) } else { (b, a) };
+        let z = PointToPoint::new(from.into(), to.into(), t0 + 1.0, duration, 4)
+            .expect("the diagonal move is valid");
+        let leg = reference_run(*params, z, t0, steps).expect("the diagonal move runs");
+        match all.as_mut() {
+            None => all = Some(leg),
+            Some(all) => {
+                // Each leg starts where the last one ended, at rest.
+                all.r.extend(leg.r.iter().skip(1));
+                all.u.extend(leg.u.iter().skip(1));
+                all.z.extend(leg.z.iter().skip(1));
+                all.span.1 = leg.span.1;
+                all.target = leg.target;
+            }
+        }
+    }
+    all.expect("at least one leg")
+}
+
+/// One case of the 3D calibration set (issue 33).
+#[derive(Debug, Clone, Copy)]
+pub struct CalibrationCase3 {
+    /// The crane and its inclinometer.
+    pub case: Mismatch3d,
+    /// What the x–z plane's rope calibration learnt on [`calibration_reference3`].
+    pub calibration: Calibration,
+    /// The learnt length's error at the rope range's ends (3.5 m, 8.5 m), m.
+    pub length_error: [f64; 2],
+    /// The case's random move with the feedback, the rope calibrated if offered.
+    pub run: CaseResult3,
+}
+
+/// The issue-33 set for the 3D crane: the planar set's ranges (drum ±2 %, rope offset
+/// ±0.1 m, load 0.5–2×, inclinometer 0–5 cycles late, filter up to 20 ms, noise up to
+/// 0.05° on both slopes) on [`Mismatch3d::random`]'s drives and gusts; calibrated on
+/// [`calibration_reference3`] in calm air with the timing commissioned, then a random 3D
+/// move (ropes 3.5–8.5 m) on the crane as commissioned.
+pub fn calibration_study3(seed: u64, n: usize) -> Vec<CalibrationCase3> {
+    let params = Crane3dParams::EXAMPLE;
+    let mut rng = Rng::new(seed);
+    let moves = calibration_reference3(&params);
+    (0..n)
+        .map(|_| {
+            let (_, reference) = random_move(&mut rng, &params, 0.0);
+            let l0 = reference.r.first().map_or(6.0, |r| r[0].l);
+            let base = Mismatch3d::random(&mut rng, l0, reference.span);
+            let case = Mismatch3d {
+                rope_offset: rng.uniform(-0.1, 0.1),
+                load_mass: rng.uniform(-0.5, 1.0),
+                angle_noise: (rng.uniform(0.0, 0.05).to_radians(), base.angle_noise.1),
+                inclinometer: crate::plant::SensorLag {
+                    delay: (rng.unit() * 6.0).floor().min(5.0) as u8,
+                    filter: rng.uniform(0.0, 0.02),
+                },
+                ..base
+            };
+            let calm = Mismatch3d {
+                gust: Gust::NONE,
+                swing0: [0.0; 2],
+                ..case
+            };
+            let fb = commissioned_feedback(&params, moves.h, &case);
+            let (cal, fb) = run(&params, &moves, &calm, Some(fb), None);
+            let calibration = fb.map_or(
+                Calibration {
+                    estimate: (0.0, 0.0),
+                    learnt: Learnt::Nothing,
+                    uncertainty: f64::INFINITY,
+                    delay: 0.0,
+                },
+                |fb| {
+                    let rope = fb.planes()[0].rope();
+                    Calibration {
+                        estimate: cal.rope,
+                        learnt: rope.learnt(),
+                        uncertainty: rope.uncertainty(),
+                        delay: rope.delay(),
+                    }
+                },
+            );
+            let (s, o) = calibration.estimate;
+            let length_error = [3.5, 8.5].map(|l| (1.0 + s) * l + o - case.rope(l));
+            let crane = match calibration.learnt {
+                Learnt::Both => case.calibrated(calibration.estimate),
+                _ => case,
+            };
+            let fb = commissioned_feedback(&params, reference.h, &crane);
+            let (run, _) = run(&params, &reference, &crane, Some(fb), None);
+            CalibrationCase3 {
+                case,
+                calibration,
+                length_error,
+                run,
+            }
+        })
+        .collect()
+}

@@ -17,6 +17,7 @@ use solver_core::{Driven, Error, JacobianMode, SolverSettings};
 
 use crate::plant::{Gust, Mismatch, Plant, Rng};
 use crate::plot::{figure, Chart, Legend, Scale, Series};
+use controller::rope::{InclinometerLag, Learnt};
 
 /// The inverse model's solution over a whole run: what the controller has every cycle.
 #[derive(Debug, Clone)]
@@ -103,6 +104,9 @@ pub struct CaseResult {
     /// The rope's scaling error and offset the feedback learnt from the swing
     /// (`controller::rope`; zero without feedback).
     pub rope: (f64, f64),
+    /// What that estimate is worth, its uncertainty (m) and the angle's delay it
+    /// measured beyond the commissioned one (s) (`None` without feedback).
+    pub rope_worth: Option<(Learnt, f64, f64)>,
     /// Largest distance of the trolley from its reference from 5 s after the move
     /// over one swing period, m: where a wrong angle would have driven it.
     pub trolley: f64,
@@ -227,14 +231,65 @@ pub fn simulate_calm_from(
     limits: &DriveLimits,
     record: bool,
 ) -> (CaseResult, Series6) {
+    run_told(
+        params, reference, case, gains, fault, calm_from, None, limits, record,
+    )
+}
+
+/// [`simulate`] of the feedback with the inclinometer's timing commissioned as `told`,
+/// which need not be what it is.
+pub fn simulate_told(
+    params: &CraneParams,
+    reference: &ReferenceRun,
+    case: &Mismatch,
+    gains: &Gains,
+    told: InclinometerLag,
+    limits: &DriveLimits,
+) -> CaseResult {
+    let (r, _) = run_told(
+        params,
+        reference,
+        case,
+        Some(gains),
+        None,
+        None,
+        Some(told),
+        limits,
+        false,
+    );
+    r
+}
+
+/// [`simulate_calm_from`] with the inclinometer's timing commissioned as `told`
+/// (`None`: as it is).
+#[allow(clippy::too_many_arguments)]
+fn run_told(
+    params: &CraneParams,
+    reference: &ReferenceRun,
+    case: &Mismatch,
+    gains: Option<&Gains>,
+    fault: Option<SensorFault>,
+    calm_from: Option<f64>,
+    told: Option<InclinometerLag>,
+    limits: &DriveLimits,
+    record: bool,
+) -> (CaseResult, Series6) {
     let cfg = Config {
         g: params.g,
         tau1: params.tau1,
         tau2: params.tau2,
         h: reference.h,
+        // The inclinometer commissioned as it is (docs/COMMISSIONING.md), unless a
+        // calibration is run told otherwise (`calibrate_rope_told`).
+        inclinometer: told.unwrap_or_else(|| commissioned(case)),
         ..Config::PAPER
     };
-    let mut fb = gains.map(|g| StateFeedback::with_gains(cfg, *g));
+    // The observer designed for the inclinometer as commissioned (`feedback::angle_age`),
+    // as the controller designs it from its configuration.
+    let mut fb = gains.map(|g| match cfg.inclinometer == InclinometerLag::NONE {
+        true => StateFeedback::with_gains(cfg, *g),
+        false => StateFeedback::new(cfg).unwrap_or_else(|_| StateFeedback::with_gains(cfg, *g)),
+    });
     let r0 = reference.r.first().copied().unwrap_or_default();
     let mut plant = Plant::at_rest(
         r0.x,
@@ -323,27 +378,82 @@ pub fn simulate_calm_from(
         plant.advance(u, h);
     }
     res.rope = fb.map_or((0.0, 0.0), |fb| fb.rope().estimate());
+    res.rope_worth = fb.map(|fb| {
+        let r = fb.rope();
+        (r.learnt(), r.uncertainty(), r.delay())
+    });
     (res, series)
 }
 
-/// The rope calibration, a commissioning step (`controller::rope`): the paper's move
-/// (`paper`, [`paper_reference`]) on `case`'s crane in calm air with the load at rest,
-/// the feedback on; the scaling error and offset learnt from the swing.
+/// The inclinometer's timing as its commissioning file states it: the plant's
+/// (docs/COMMISSIONING.md, "The inclinometer's timing").
+pub fn commissioned(case: &Mismatch) -> InclinometerLag {
+    InclinometerLag {
+        delay: case.inclinometer.delay,
+        filter: case.inclinometer.filter,
+    }
+}
+
+/// A rope calibration's outcome (`controller::rope`, 0x2004).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Calibration {
+    /// Scaling error and offset learnt.
+    pub estimate: (f64, f64),
+    /// What it is worth: saved only when [`Learnt::Both`].
+    pub learnt: Learnt,
+    /// Its uncertainty, m (0x2004:5).
+    pub uncertainty: f64,
+    /// The angle's delay beyond the commissioned one it measured, s (0x2004:6).
+    pub delay: f64,
+}
+
+impl Calibration {
+    /// The crane `case` as commissioned after it: the winch's scaling corrected when the
+    /// estimate may be saved, as it was otherwise.
+    pub fn applied_to(&self, case: &Mismatch) -> Mismatch {
+        match self.learnt {
+            Learnt::Both => case.calibrated(self.estimate),
+            _ => *case,
+        }
+    }
+}
+
+/// The rope calibration, a commissioning step (`controller::rope`): the calibration
+/// moves (`moves`, [`calibration_reference`]) on `case`'s crane in calm air with the load
+/// at rest, the feedback on; the scaling error and offset learnt from the swing.
 pub fn calibrate_rope(
+    params: &CraneParams,
+    moves: &ReferenceRun,
+    case: &Mismatch,
+    gains: &Gains,
+) -> Calibration {
+    calibrate_rope_told(params, moves, case, gains, commissioned(case))
+}
+
+/// [`calibrate_rope`] with the inclinometer commissioned as `told` (which need not be
+/// what it is).
+pub fn calibrate_rope_told(
     params: &CraneParams,
     paper: &ReferenceRun,
     case: &Mismatch,
     gains: &Gains,
-) -> (f64, f64) {
+    told: InclinometerLag,
+) -> Calibration {
     let calm = Mismatch {
         gust: Gust::NONE,
         swing0: 0.0,
         ..*case
     };
-    let limits = DriveLimits::LAB;
-    simulate(params, paper, &calm, Some(gains), &limits, false)
-        .0
-        .rope
+    let r = simulate_told(params, paper, &calm, gains, told, &DriveLimits::LAB);
+    let (learnt, uncertainty, delay) =
+        r.rope_worth
+            .unwrap_or((Learnt::Nothing, f64::INFINITY, 0.0));
+    Calibration {
+        estimate: r.rope,
+        learnt,
+        uncertainty,
+        delay,
+    }
 }
 
 /// A random move inside the workspace, from rest to rest, smoothness 5 (the controller's
@@ -376,6 +486,49 @@ pub fn random_move(
     }
 }
 
+/// Rounds of the paper's move and back that make the rope calibration (docs/COMMISSIONING.md,
+/// "Rope calibration"): at 0.05° of noise one move learns the rope 10.7 mm (rms) off,
+/// four 4.3 mm, and their uncertainty falls as the square root of the moves (issue 33).
+pub const CALIBRATION_ROUNDS: usize = 3;
+
+/// The rope calibration's moves: the paper's move, (12, 8) → (20, 4) m in 8 s, and back,
+/// [`CALIBRATION_ROUNDS`] times, each leg from rest 1 s after the last one's end, the
+/// load left 3 s after it (the controller sums every sample since boot,
+/// `controller::rope`).
+pub fn calibration_reference(params: &CraneParams) -> ReferenceRun {
+    let (a, b) = (crate::scenes::CRANE_START, crate::scenes::CRANE_END);
+    let h = 0.01;
+    let leg = crate::scenes::CRANE_DURATION + 4.0;
+    let steps = (leg / h).round() as usize;
+    let mut all: Option<ReferenceRun> = None;
+    for k in 0..2 * CALIBRATION_ROUNDS {
+        let t0 = k as f64 * steps as f64 * h;
+        let (from, to) = if k % 2 == 0 { (a, b) } else { (b, a) };
+        let z = PointToPoint::new(
+            from.into(),
+            to.into(),
+            t0 + 1.0,
+            crate::scenes::CRANE_DURATION,
+            4,
+        )
+        .expect("the paper's move is valid");
+        let run = reference_run(*params, z, t0, steps).expect("the paper's move runs");
+        match all.as_mut() {
+            None => all = Some(run),
+            Some(all) => {
+                // Each leg starts where the last one ended, at rest: its first sample is
+                // the last one's last.
+                all.r.extend(run.r.iter().skip(1));
+                all.u.extend(run.u.iter().skip(1));
+                all.z.extend(run.z.iter().skip(1));
+                all.span.1 = run.span.1;
+                all.target = run.target;
+            }
+        }
+    }
+    all.expect("at least one leg")
+}
+
 /// The paper's move (`scenes/paper-crane.toml`), run long enough for the measures.
 pub fn paper_reference(params: &CraneParams) -> ReferenceRun {
     let z = crate::scenes::crane_trajectory(4);
@@ -396,8 +549,9 @@ pub fn monte_carlo(seed: u64, n: usize, random_moves: bool, gains: &Gains) -> Mo
     let params = CraneParams::PAPER;
     let limits = DriveLimits::LAB;
     let mut rng = Rng::new(seed);
-    // The paper's move: the set's move, or the calibration's.
+    // The paper's move: the set's move.
     let paper = paper_reference(&params);
+    let calibration = calibration_reference(&params);
     let mut mc = MonteCarlo::default();
     for _ in 0..n {
         let own;
@@ -412,7 +566,7 @@ pub fn monte_carlo(seed: u64, n: usize, random_moves: bool, gains: &Gains) -> Mo
         let case = Mismatch::random(&mut rng, l0, reference.span);
         let (ff, _) = simulate(&params, reference, &case, None, &limits, false);
         let (fb, _) = simulate(&params, reference, &case, Some(gains), &limits, false);
-        let calibrated = case.calibrated(calibrate_rope(&params, &paper, &case, gains));
+        let calibrated = calibrate_rope(&params, &calibration, &case, gains).applied_to(&case);
         let (cal, _) = simulate(&params, reference, &calibrated, Some(gains), &limits, false);
         mc.cases.push((case, ff, fb, cal));
     }
@@ -473,6 +627,7 @@ pub fn fault_study(seed: u64, n: usize, gains: &Gains) -> Vec<FaultCase> {
     let mut offsets = Rng::new(seed ^ 0x000F_F5E7);
     let sign = |rng: &mut Rng| if rng.unit() < 0.5 { -1.0 } else { 1.0 };
     let reference = paper_reference(&params);
+    let moves = calibration_reference(&params);
     let (ts, te) = reference.span;
     let l0 = reference.r.first().map_or(6.0, |r| r.l);
     (0..n)
@@ -480,7 +635,7 @@ pub fn fault_study(seed: u64, n: usize, gains: &Gains) -> Vec<FaultCase> {
             let mid = Mismatch::random(&mut rng, l0, reference.span);
             let during = rng.uniform(ts, te);
             // The crane as commissioned: its rope calibrated.
-            let mid = mid.calibrated(calibrate_rope(&params, &reference, &mid, gains));
+            let mid = calibrate_rope(&params, &moves, &mid, gains).applied_to(&mid);
             let rest = Mismatch {
                 gust: Gust {
                     start: te + 1.0,
@@ -793,4 +948,128 @@ pub fn plot_case(
         ],
         true,
     )
+}
+
+/// One case of the calibration set (issue 33): the crane, what its rope calibration
+/// learnt on the paper's move, and the case's own move on the crane as then commissioned.
+#[derive(Debug, Clone, Copy)]
+pub struct CalibrationCase {
+    /// The crane and its sensors.
+    pub case: Mismatch,
+    /// The calibration on the paper's move in calm air.
+    pub calibration: Calibration,
+    /// The learnt length's error at the rope range's ends (3 m, 9 m), m.
+    pub length_error: [f64; 2],
+    /// The case's move with the feedback, the rope calibrated if the estimate was offered.
+    pub run: CaseResult,
+    /// The same with the case's gust moved to end anywhere from its duration after the
+    /// move's start to [`GUST_AFTER`] after its end ([`late_gust`]).
+    pub gust: CaseResult,
+    /// That gust.
+    pub late: Gust,
+    /// The move's start and end, s.
+    pub span: (f64, f64),
+    /// The move's rope at its end as the drum reads it, m.
+    pub rope_end: f64,
+}
+
+/// How long after the move's end the gust set's gusts may still blow, s: "a gust at any
+/// time during or after the move" (issue 33), measured 5 s after the move's end, leaves
+/// the feedback at least 4 s to damp what the last one left.
+pub const GUST_AFTER: f64 = 1.0;
+
+/// `case` with its gust (strength and duration as drawn) moved to end at a time drawn
+/// uniformly from its duration after the move's start to [`GUST_AFTER`] after its end.
+pub fn late_gust(rng: &mut Rng, case: &Mismatch, span: (f64, f64)) -> Mismatch {
+    let d = case.gust.duration;
+    let end = rng.uniform(span.0 + d, span.1 + GUST_AFTER);
+    Mismatch {
+        gust: Gust {
+            start: end - d,
+            ..case.gust
+        },
+        ..*case
+    }
+}
+
+/// A random move inside the workspace with ropes in `ropes` (m), otherwise as
+/// [`random_move`].
+pub fn random_move_in(
+    rng: &mut Rng,
+    params: &CraneParams,
+    t0: f64,
+    ropes: (f64, f64),
+) -> (PointToPoint<f64, 2>, ReferenceRun) {
+    loop {
+        let a = [rng.uniform(11.0, 22.0), rng.uniform(ropes.0, ropes.1)];
+        let b = [rng.uniform(11.0, 22.0), rng.uniform(ropes.0, ropes.1)];
+        let dist = (b[0] - a[0]).abs() + (b[1] - a[1]).abs();
+        let duration = 3.0 + 0.5 * dist * rng.uniform(1.0, 1.5);
+        let Ok(z) = PointToPoint::new(a.into(), b.into(), t0 + 1.0, duration, 5) else {
+            continue;
+        };
+        let steps = steps_for((t0 + 1.0, t0 + 1.0 + duration), t0, b[1], 0.01);
+        if let Ok(run) = reference_run(*params, z, t0, steps) {
+            let fits = run.u.windows(2).all(|w| {
+                (0..2).all(|i| {
+                    let lim = if i == 0 { 3.0 } else { 2.0 };
+                    w[1][i].abs() < 0.9 * lim && (w[1][i] - w[0][i]).abs() / 0.01 < 2.7
+                })
+            });
+            if fits {
+                return (z, run);
+            }
+        }
+    }
+}
+
+/// The issue-33 set: `n` cranes with the drum's scaling off by up to ±2 %, the rope
+/// offset by up to ±0.1 m, a load of 0.5–2 times the model's, an inclinometer
+/// `delay` 0–5 cycles late (drawn, or as given), filtering with a time constant up to
+/// 20 ms and noisy up to 0.05° (1σ; 0.01° quantum), the study's drives, gusts and
+/// swinging starts; each calibrated on the paper's move in calm air with its
+/// inclinometer's timing commissioned, then a random move with ropes of 3–9 m on the
+/// crane as commissioned.
+pub fn calibration_study(seed: u64, n: usize, gains: &Gains) -> Vec<CalibrationCase> {
+    let params = CraneParams::PAPER;
+    let limits = DriveLimits::LAB;
+    let mut rng = Rng::new(seed);
+    let moves = calibration_reference(&params);
+    // The late gusts' instants from their own generator: the cases are those of the
+    // same seed without them.
+    let mut gusts = Rng::new(seed ^ 0x6057);
+    (0..n)
+        .map(|_| {
+            let (_, reference) = random_move_in(&mut rng, &params, 0.0, (3.0, 9.0));
+            let l0 = reference.r.first().map_or(6.0, |r| r.l);
+            let base = Mismatch::random(&mut rng, l0, reference.span);
+            let case = Mismatch {
+                rope_offset: rng.uniform(-0.1, 0.1),
+                load_mass: rng.uniform(-0.5, 1.0),
+                angle_noise: (rng.uniform(0.0, 0.05).to_radians(), Mismatch::SENSORS.1 .1),
+                inclinometer: crate::plant::SensorLag {
+                    delay: (rng.unit() * 6.0).floor().min(5.0) as u8,
+                    filter: rng.uniform(0.0, 0.02),
+                },
+                ..base
+            };
+            let calibration = calibrate_rope(&params, &moves, &case, gains);
+            let (s, o) = calibration.estimate;
+            let length_error = [3.0, 9.0].map(|l| (1.0 + s) * l + o - case.rope(l));
+            let crane = calibration.applied_to(&case);
+            let (run, _) = simulate(&params, &reference, &crane, Some(gains), &limits, false);
+            let gusty = late_gust(&mut gusts, &crane, reference.span);
+            let (gust, _) = simulate(&params, &reference, &gusty, Some(gains), &limits, false);
+            CalibrationCase {
+                case,
+                calibration,
+                length_error,
+                run,
+                gust,
+                late: gusty.gust,
+                span: reference.span,
+                rope_end: reference.r.last().map_or(l0, |r| r.l),
+            }
+        })
+        .collect()
 }

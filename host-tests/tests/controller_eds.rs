@@ -98,7 +98,7 @@ fn snapshot() -> Snapshot {
         error_register: 0,
         commissioning_failure: (0, 0, 0, 0, 0),
         commissioned: 0,
-        rope: (0, 0, 0, 0),
+        rope: (0, 0, 0, 0, u32::MAX, 0),
     }
 }
 

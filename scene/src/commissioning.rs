@@ -45,6 +45,8 @@
 //! axes = 1                       # 2: slope lateral16 (0x6020) too, mapped second in TPDO1
 //! lateral_sign = 1.0             # as sign, for the swing across (the 3D crane's y–z plane)
 //! lateral_offset_deg = 0.0       # as offset_deg, for the lateral slope
+//! delay_cycles = 0               # its sample is this many cycles older than the drives' (0–5)
+//! filter_ms = 0.0                # its own first-order filter's time constant (0: none)
 //! ```
 
 use std::collections::BTreeSet;
@@ -56,6 +58,7 @@ use controller::commissioning::{
 use controller::drive::{self, Drive, PLANAR};
 use controller::motion::MotionWindows;
 use controller::node::Role;
+use controller::rope::{InclinometerLag, MAX_DELAY_CYCLES};
 use controller::setpoint::{AxisLimits, DriveLimits, MAX_VELOCITY_LIMIT, UNITS_PER_M_PER_S};
 use controller::Config;
 use serde::Deserialize;
@@ -108,6 +111,11 @@ pub struct InclinometerSpec {
     pub axes: u8,
     pub lateral_sign: f64,
     pub lateral_offset_deg: f64,
+    /// Whole cycles the sample it sends is older than the drives' positions of the
+    /// same SYNC (docs/COMMISSIONING.md, "The inclinometer's timing"): 0–5.
+    pub delay_cycles: u8,
+    /// The time constant of its own first-order filter, ms (0: none).
+    pub filter_ms: f64,
 }
 
 impl Default for InclinometerSpec {
@@ -122,6 +130,8 @@ impl Default for InclinometerSpec {
             axes: 1,
             lateral_sign: 1.0,
             lateral_offset_deg: 0.0,
+            delay_cycles: 0,
+            filter_ms: 0.0,
         }
     }
 }
@@ -420,6 +430,28 @@ impl CommissioningFile {
     /// or the first of its fields that cannot work.
     pub fn with_inclinometer(&self, config: Config) -> Result<Config, SceneError> {
         self.with_inclinometer_of(config, 1)
+    }
+
+    /// The inclinometer's timing (`delay_cycles`, `filter_ms`) as the rope calibration
+    /// takes it (`controller::rope`), or the field that cannot be.
+    pub fn lag(&self) -> Result<InclinometerLag, SceneError> {
+        let i = &self.inclinometer;
+        if i.delay_cycles > MAX_DELAY_CYCLES {
+            return Err(refuse(
+                "inclinometer.delay_cycles".into(),
+                format!("0 to {MAX_DELAY_CYCLES} cycles (got {})", i.delay_cycles),
+            ));
+        }
+        if !(i.filter_ms.is_finite() && (0.0..=1000.0).contains(&i.filter_ms)) {
+            return Err(refuse(
+                "inclinometer.filter_ms".into(),
+                format!("a time constant from 0 to 1000 ms (got {})", i.filter_ms),
+            ));
+        }
+        Ok(InclinometerLag {
+            delay: i.delay_cycles,
+            filter: i.filter_ms * 1e-3,
+        })
     }
 
     /// [`Self::with_inclinometer`] for a feedback that reads `axes` slopes (the 3D

@@ -766,6 +766,13 @@ where
     let feedback = scene
         .feedback
         .map(|f| K::feedback_config(&f, &params, scene.solver.h))
+        .transpose()?
+        .map(|f| {
+            commissioning
+                .lag()
+                .map(|inclinometer| FeedbackConfig { inclinometer, ..f })
+                .map_err(|e| format!("commissioning file: {e}"))
+        })
         .transpose()?;
     let config = if feedback.is_some() {
         commissioning

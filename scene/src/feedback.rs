@@ -49,6 +49,7 @@
 //! here, not on the crane.
 
 use controller::feedback::{Config, Gains, Weights};
+use controller::rope::InclinometerLag;
 use serde::Deserialize;
 use solver_core::models::crane::CraneParams;
 
@@ -254,6 +255,8 @@ impl FeedbackSpec {
             offset_step: self.offset_step,
             max_offset: self.max_offset,
             offset_cycles: self.offset_cycles,
+            // The sensor's, from the commissioning file (`CommissioningFile::lag`).
+            inclinometer: InclinometerLag::NONE,
         };
         Gains::design(&config).map_err(|e| {
             refuse(
@@ -269,7 +272,7 @@ impl FeedbackSpec {
     pub fn source(config: &Config) -> String {
         let w = &config.weights;
         format!(
-            "controller::feedback::Config {{ weights: controller::feedback::Weights {{ load_position: {:?}, trolley_position: {:?}, swing_velocity: {:?}, trolley_correction: {:?}, rope_position: {:?}, winch_correction: {:?}, drive_disturbance: {:?}, swing_disturbance: {:?}, drive_offset: {:?}, position_noise: {:?}, angle_noise: {:?}, rest_load_position: {:?}, rest_trolley_position: {:?}, rest_swing_velocity: {:?}, rest_load_velocity: {:?} }}, g: {:?}, tau1: {:?}, tau2: {:?}, h: {:?}, max_angle: {:?}, max_innovation: {:?}, max_bad_angle_cycles: {}, max_frozen_cycles: {}, frozen_motion: {:?}, held_allowance: {:?}, rest_position: {:?}, rest_swing: {:?}, rest_hysteresis: {:?}, offset_dead_band: {:?}, offset_step: {:?}, max_offset: {:?}, offset_cycles: {} }}",
+            "controller::feedback::Config {{ weights: controller::feedback::Weights {{ load_position: {:?}, trolley_position: {:?}, swing_velocity: {:?}, trolley_correction: {:?}, rope_position: {:?}, winch_correction: {:?}, drive_disturbance: {:?}, swing_disturbance: {:?}, drive_offset: {:?}, position_noise: {:?}, angle_noise: {:?}, rest_load_position: {:?}, rest_trolley_position: {:?}, rest_swing_velocity: {:?}, rest_load_velocity: {:?} }}, g: {:?}, tau1: {:?}, tau2: {:?}, h: {:?}, max_angle: {:?}, max_innovation: {:?}, max_bad_angle_cycles: {}, max_frozen_cycles: {}, frozen_motion: {:?}, held_allowance: {:?}, rest_position: {:?}, rest_swing: {:?}, rest_hysteresis: {:?}, offset_dead_band: {:?}, offset_step: {:?}, max_offset: {:?}, offset_cycles: {}, inclinometer: controller::rope::InclinometerLag {{ delay: {}, filter: {:?} }} }}",
             w.load_position,
             w.trolley_position,
             w.swing_velocity,
@@ -301,7 +304,9 @@ impl FeedbackSpec {
             config.offset_dead_band,
             config.offset_step,
             config.max_offset,
-            config.offset_cycles
+            config.offset_cycles,
+            config.inclinometer.delay,
+            config.inclinometer.filter
         )
     }
 }

@@ -9,6 +9,8 @@
 //! * [`traffic`] — random traffic for the soak run, deterministic for a seed;
 //! * [`plant`] — a crane that is not the model (lags, friction, rope offset, gusts,
 //!   noisy late sensors) for the closed-loop runs;
+//! * [`angle_sensor`] — what a real inclinometer does to the swing it reports: a
+//!   filter and a delay of its own;
 //! * [`plant3d`] — the same for the 3D crane: bridge, trolley, hoist and a load
 //!   swinging in both planes, read by a two-axis inclinometer.
 
@@ -22,6 +24,7 @@
     clippy::indexing_slicing
 )]
 
+pub mod angle_sensor;
 pub mod plant;
 pub mod plant3d;
 pub mod scenario;

@@ -18,13 +18,19 @@
 //!   (rope diameter, layering) and it is longer by an offset of up to ±2 % of the initial
 //!   length (hook block, rope stretch): the pendulum has length `(1 + s) l + Δl`;
 //! * a wind gust: a horizontal force `F(t)` on the load (a sin² pulse);
+//! * a load heavier or lighter than the model's (the drives' loops are tuned to the
+//!   model's, and the load's share of each axis' inertia changes with it);
 //! * measurements sampled every cycle with noise and quantisation, delivered one
-//!   cycle (10 ms) late.
+//!   cycle (10 ms) late; the inclinometer's angle through its own first-order filter and
+//!   a delay of its own beyond that ([`crate::angle_sensor`]), as a real one reports it.
 //!
 //! Integrated with classical RK4 at 1 ms under the zero-order-held 10 ms set points.
 //!
 //! `no_std` and `libm` only: the QEMU firmware's virtual bus runs the same plant as the
 //! host (feature `sim`), so that QEMU and host compute the same frames.
+
+use crate::angle_sensor::AngleSensor;
+pub use crate::angle_sensor::SensorLag;
 
 /// A small deterministic generator (SplitMix64): the study's cases are fixed by a seed.
 #[derive(Debug, Clone)]
@@ -120,6 +126,10 @@ pub struct Mismatch {
     /// The swing the load already has when the run starts, rad (a gust before the
     /// command), at rest in the swing's turning point.
     pub swing0: f64,
+    /// Relative error of the load's mass (plant m = model m (1 + this)).
+    pub load_mass: f64,
+    /// The inclinometer's filter and its delay beyond the positions'.
+    pub inclinometer: SensorLag,
 }
 
 impl Mismatch {
@@ -136,6 +146,8 @@ impl Mismatch {
         angle_noise: (0.0, 0.0),
         noise_seed: 0,
         swing0: 0.0,
+        load_mass: 0.0,
+        inclinometer: SensorLag::NONE,
     };
 
     /// The sensors of the study: positions 0.2 mm noise, 0.1 mm quantum; the inclinometer
@@ -167,6 +179,8 @@ impl Mismatch {
             noise_seed: rng.next_u64(),
             swing0: rng.uniform(-5.0, 5.0).to_radians(),
             drum_scale: rng.uniform(-0.02, 0.02),
+            load_mass: 0.0,
+            inclinometer: SensorLag::NONE,
         }
     }
 
@@ -213,6 +227,8 @@ pub struct Plant {
     m: f64,
     mismatch: Mismatch,
     noise: Rng,
+    /// The inclinometer's filter and delay line.
+    sensor: AngleSensor<1>,
 }
 
 /// Integration step of the plant, s.
@@ -227,6 +243,7 @@ impl Plant {
         let [tau1, tau2] = tau;
         let (t1, t2) = (tau1 * (1.0 + mm.tau1), tau2 * (1.0 + mm.tau2));
         let k = 1.0 + mm.drum_scale;
+        let m = m * (1.0 + mm.load_mass);
         let kp = [(TROLLEY_MASS + m) / t1, (WINCH_MASS + m * k * k) / t2];
         let ki = [kp[0] / (INTEGRAL_TIME * t1), kp[1] / (INTEGRAL_TIME * t2)];
         let phi = mm.swing0;
@@ -243,6 +260,7 @@ impl Plant {
             m,
             mismatch: mm,
             noise: Rng::new(mm.noise_seed),
+            sensor: AngleSensor::new(mm.inclinometer, [phi]),
         }
     }
 
@@ -332,6 +350,7 @@ impl Plant {
             self.y = [n0, n1, n2, n3, n4, n5];
             self.integral = [n6, n7];
             self.t += h;
+            self.sensor.track([n2], h);
         }
     }
 
@@ -342,20 +361,30 @@ impl Plant {
         [x + len * libm::sin(phi), len * libm::cos(phi)]
     }
 
-    /// What the sensors read now: `[x, l_drum, φ]` with noise and quantisation.
+    /// What the sensors read now: `[x, l_drum, φ]` with noise and quantisation, the
+    /// angle as the inclinometer reports it: filtered, and sampled
+    /// [`SensorLag::delay`] cycles before the positions ([`crate::angle_sensor`]).
     pub fn sense(&mut self) -> [f64; 3] {
-        let [x, l, phi, ..] = self.y;
+        let [x, l, ..] = self.y;
         let (pn, pq) = self.mismatch.position_noise;
         let (an, aq) = self.mismatch.angle_noise;
+        let noise = &mut self.noise;
         let mut q = |v: f64, sigma: f64, quantum: f64| {
-            let v = v + sigma * self.noise.normal();
+            let v = v + sigma * noise.normal();
             if quantum > 0.0 {
                 libm::round(v / quantum) * quantum
             } else {
                 v
             }
         };
-        [q(x, pn, pq), q(l, pn, pq), q(phi, an, aq)]
+        let (x, l) = (q(x, pn, pq), q(l, pn, pq));
+        let [phi] = self.sensor.sample(|phi| q(phi, an, aq));
+        [x, l, phi]
+    }
+
+    /// The load's mass, kg (the model's with [`Mismatch::load_mass`]).
+    pub fn load_mass(&self) -> f64 {
+        self.m
     }
 }
 

@@ -92,6 +92,7 @@
 //!
 //! [`Plant`]: crate::plant::Plant
 
+use crate::angle_sensor::{AngleSensor, SensorLag};
 use crate::plant::{Gust, Mismatch, Rng, PLANT_STEP, TROLLEY_MASS, WINCH_MASS};
 
 /// The bridge's own mass, kg (assumed: a light EOT girder pair with end carriages, four
@@ -156,6 +157,8 @@ pub struct Mismatch3d {
     /// The slopes `[α, β]` the load has when the run starts, rad (a gust before the
     /// command), at rest in the swing's turning point.
     pub swing0: [f64; 2],
+    /// The inclinometer's filter and its delay beyond the positions' (both slopes).
+    pub inclinometer: SensorLag,
 }
 
 impl Mismatch3d {
@@ -173,6 +176,7 @@ impl Mismatch3d {
         angle_noise: (0.0, 0.0),
         noise_seed: 0,
         swing0: [0.0; 2],
+        inclinometer: SensorLag::NONE,
     };
 
     /// A random case with the planar study's ranges: τ within ±30 %, load mass within
@@ -233,6 +237,7 @@ impl Mismatch3d {
             angle_noise,
             noise_seed,
             swing0,
+            inclinometer: SensorLag::NONE,
         }
     }
 
@@ -244,7 +249,7 @@ impl Mismatch3d {
         let [b1, b2] = planar.viscous;
         Self {
             tau: [planar.tau1, 0.0, planar.tau2],
-            load_mass: 0.0,
+            load_mass: planar.load_mass,
             rope_offset: planar.rope_offset,
             drum_scale: planar.drum_scale,
             coulomb: [c1, 0.0, c2],
@@ -255,6 +260,7 @@ impl Mismatch3d {
             angle_noise: planar.angle_noise,
             noise_seed: planar.noise_seed,
             swing0: [planar.swing0, 0.0],
+            inclinometer: planar.inclinometer,
         }
     }
 
@@ -415,6 +421,8 @@ pub struct Plant3d {
     masses: Masses3d,
     mismatch: Mismatch3d,
     noise: Rng,
+    /// The inclinometer's filter and delay line (slopes long and lateral).
+    sensor: AngleSensor<2>,
     /// The previous cycle's sample, for [`Self::sense_late`].
     late: Option<[f64; 5]>,
 }
@@ -449,6 +457,7 @@ impl Plant3d {
             masses: Masses3d::EXAMPLE,
             mismatch,
             noise: Rng::new(mismatch.noise_seed),
+            sensor: AngleSensor::new(mismatch.inclinometer, [a, b]),
             late: None,
         };
         plant.tune();
@@ -619,6 +628,8 @@ impl Plant3d {
                 *dst = *src;
             }
             self.t += h;
+            let slopes = self.slopes();
+            self.sensor.track(slopes, h);
         }
     }
 
@@ -677,29 +688,28 @@ impl Plant3d {
     }
 
     /// What the sensors read now: `[x, y, l_drum, α, β]` (bridge, trolley, the drum's
-    /// rope as measured, slope long, slope lateral in rad) with noise and quantisation.
+    /// rope as measured, slope long, slope lateral in rad) with noise and quantisation,
+    /// the slopes as the inclinometer reports them: filtered, and sampled
+    /// [`SensorLag::delay`] cycles before the positions ([`crate::angle_sensor`]).
     /// As for the planar plant, the caller delivers it one cycle later (the sample taken
     /// at the end of a cycle is what the controller has in the next); [`Self::sense_late`]
     /// does that bookkeeping.
     pub fn sense(&mut self) -> [f64; 5] {
-        let [x, y, l, a, b, ..] = self.q;
+        let [x, y, l, ..] = self.q;
         let (pn, pq) = self.mismatch.position_noise;
         let (an, aq) = self.mismatch.angle_noise;
+        let noise = &mut self.noise;
         let mut read = |v: f64, sigma: f64, quantum: f64| {
-            let v = v + sigma * self.noise.normal();
+            let v = v + sigma * noise.normal();
             if quantum > 0.0 {
                 libm::round(v / quantum) * quantum
             } else {
                 v
             }
         };
-        [
-            read(x, pn, pq),
-            read(y, pn, pq),
-            read(l, pn, pq),
-            read(a, an, aq),
-            read(b, an, aq),
-        ]
+        let (x, y, l) = (read(x, pn, pq), read(y, pn, pq), read(l, pn, pq));
+        let [a, b] = self.sensor.sample(|v| read(v, an, aq));
+        [x, y, l, a, b]
     }
 
     /// Samples the sensors now ([`Self::sense`]) and returns the previous call's sample:

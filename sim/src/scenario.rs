@@ -403,6 +403,7 @@ pub const MISMATCHED: Mismatch = Mismatch {
     angle_noise: Mismatch::SENSORS.1,
     noise_seed: 7,
     swing0: 0.0,
+    ..Mismatch::NONE
 };
 
 /// The scene's move on [`MISMATCHED`] with an 8 N gust for 1.5 s in the middle of it.

@@ -11,8 +11,8 @@ use std::path::PathBuf;
 use clap::Parser;
 use controller::feedback::{Config, Degraded, Gains, Mode};
 use host_tests::feedback_study::{
-    fault_study, gust_at_rest, monte_carlo, paper_reference, plot_case, quantile, random_move,
-    table_row, CaseResult, FaultCase, FAULTS, TABLE_HEADER,
+    calibration_study, fault_study, gust_at_rest, monte_carlo, paper_reference, plot_case,
+    quantile, random_move, table_row, CalibrationCase, CaseResult, FaultCase, FAULTS, TABLE_HEADER,
 };
 use host_tests::plant::Rng;
 use solver_core::models::crane::CraneParams;
@@ -22,6 +22,12 @@ struct Args {
     /// Cases per set (paper's move, random moves).
     #[arg(long, default_value_t = 1000)]
     cases: usize,
+    /// Cases of the calibration set (issue 33).
+    #[arg(long, default_value_t = 1000)]
+    calibration_cases: usize,
+    /// Only the calibration set.
+    #[arg(long)]
+    calibration_only: bool,
     /// Where the SVG figures go.
     #[arg(long, default_value = "docs/figures")]
     figures: PathBuf,
@@ -31,11 +37,146 @@ struct Args {
 const PAPER_SEED: u64 = 2026;
 const RANDOM_SEED: u64 = 410;
 const FAULT_SEED: u64 = 3;
+const CALIBRATION_SEED: u64 = 33;
+
+/// The calibration set (issue 33): what the rope calibration offered, how far from the
+/// truth, and where the load ends on the crane as commissioned.
+fn calibration_tables(gains: &Gains, n: usize) {
+    use controller::rope::Learnt;
+    let set = calibration_study(CALIBRATION_SEED, n, gains);
+    let count = |f: &dyn Fn(&CalibrationCase) -> bool| set.iter().filter(|c| f(c)).count();
+    let pct = |k: usize| 100.0 * k as f64 / set.len().max(1) as f64;
+    println!(
+        "| rope calibration (issue 33), {} cases | count |",
+        set.len()
+    );
+    println!("|---|---:|");
+    for (name, learnt) in [
+        (
+            "offered (scaling and offset, within its uncertainty bound)",
+            Learnt::Both,
+        ),
+        ("refused: uncertain", Learnt::Uncertain),
+        ("refused: delay not as commissioned", Learnt::DelayMismatch),
+        ("at a bound", Learnt::Clamped),
+        ("offset only", Learnt::Offset),
+        ("nothing", Learnt::Nothing),
+    ] {
+        println!(
+            "| {name} | {} |",
+            count(&|c| c.calibration.learnt == learnt)
+        );
+    }
+    let offered: Vec<&CalibrationCase> = set
+        .iter()
+        .filter(|c| c.calibration.learnt == Learnt::Both)
+        .collect();
+    let mut err: Vec<f64> = offered
+        .iter()
+        .map(|c| c.length_error[0].abs().max(c.length_error[1].abs()) * 1e3)
+        .collect();
+    let mut unc: Vec<f64> = offered
+        .iter()
+        .map(|c| c.calibration.uncertainty * 1e3)
+        .collect();
+    let mut delay: Vec<f64> = set
+        .iter()
+        .map(|c| c.calibration.delay.abs() * 1e3)
+        .collect();
+    let covered = offered
+        .iter()
+        .filter(|c| {
+            c.length_error[0].abs().max(c.length_error[1].abs()) <= c.calibration.uncertainty
+        })
+        .count();
+    println!(
+        "| offered: length error at 3 m and 9 m, mm (median / p99 / max) | {:.1} / {:.1} / {:.1} |",
+        quantile(&mut err, 0.5),
+        quantile(&mut err, 0.99),
+        quantile(&mut err, 1.0)
+    );
+    println!(
+        "| offered: uncertainty reported, mm (median / p99 / max) | {:.1} / {:.1} / {:.1} |",
+        quantile(&mut unc, 0.5),
+        quantile(&mut unc, 0.99),
+        quantile(&mut unc, 1.0)
+    );
+    println!(
+        "| offered: error within the uncertainty reported | {covered}/{} |",
+        offered.len()
+    );
+    println!(
+        "| residual delay measured, all cases, ms (median / p99 / max) | {:.1} / {:.1} / {:.1} |",
+        quantile(&mut delay, 0.5),
+        quantile(&mut delay, 0.99),
+        quantile(&mut delay, 1.0)
+    );
+    let mut all_err: Vec<f64> = set
+        .iter()
+        .map(|c| c.length_error[0].abs().max(c.length_error[1].abs()) * 1e3)
+        .collect();
+    let mut ratio: Vec<f64> = set
+        .iter()
+        .map(|c| c.length_error[0].abs().max(c.length_error[1].abs()) / c.calibration.uncertainty)
+        .collect();
+    println!(
+        "| every case: length error at 3 m and 9 m, mm (median / p99 / max) | {:.1} / {:.1} / {:.1} |",
+        quantile(&mut all_err, 0.5),
+        quantile(&mut all_err, 0.99),
+        quantile(&mut all_err, 1.0)
+    );
+    println!(
+        "| every case: error / uncertainty (median / p99 / max) | {:.2} / {:.2} / {:.2} |",
+        quantile(&mut ratio, 0.5),
+        quantile(&mut ratio, 0.99),
+        quantile(&mut ratio, 1.0)
+    );
+    let runs: Vec<CaseResult> = set.iter().map(|c| c.run).collect();
+    let mut vert: Vec<f64> = runs.iter().map(|r| r.vertical * 1e3).collect();
+    let v20 = count(&|c| c.run.vertical <= 0.02);
+    let h = count(&|c| c.run.meets_target());
+    println!(
+        "| its random move (ropes 3–9 m) 5 s after: vertical, mm (median / p99 / max) | {:.1} / {:.1} / {:.1} |",
+        quantile(&mut vert, 0.5),
+        quantile(&mut vert, 0.99),
+        quantile(&mut vert, 1.0)
+    );
+    println!("| within ±20 mm vertically | {v20} ({:.1} %) |", pct(v20));
+    println!(
+        "| within ±50 mm horizontally and < 0.1° | {h} ({:.1} %) |",
+        pct(h)
+    );
+    let g = count(&|c| c.gust.meets_target());
+    let mut gd: Vec<f64> = set.iter().map(|c| c.gust.distance * 1e3).collect();
+    let mut gs: Vec<f64> = set.iter().map(|c| c.gust.swing_deg).collect();
+    println!(
+        "| the gust moved to end up to {} s after the move: distance 5 s after, mm (median / p99 / max) | {:.1} / {:.1} / {:.1} |",
+        host_tests::feedback_study::GUST_AFTER,
+        quantile(&mut gd, 0.5),
+        quantile(&mut gd, 0.99),
+        quantile(&mut gd, 1.0)
+    );
+    println!(
+        "| the same: swing 5 s after, ° (median / p99 / max) | {:.3} / {:.3} / {:.3} |",
+        quantile(&mut gs, 0.5),
+        quantile(&mut gs, 0.99),
+        quantile(&mut gs, 1.0)
+    );
+    println!(
+        "| the same: within ±50 mm horizontally and < 0.1° | {g} ({:.1} %) |",
+        pct(g)
+    );
+    println!();
+}
 
 fn main() -> Result<(), String> {
     let args = Args::parse();
     let cfg = Config::PAPER;
     let gains = Gains::design(&cfg).map_err(|e| format!("{e:?}"))?;
+    calibration_tables(&gains, args.calibration_cases);
+    if args.calibration_only {
+        return Ok(());
+    }
     println!("{TABLE_HEADER}");
     let mut worst_paper = None;
     for (name, seed, random) in [
