@@ -5,6 +5,7 @@ use host_tests::scenes::{crane_trajectory, mass_on_car_trajectory};
 use nalgebra::SVector;
 use proptest::prelude::*;
 use solver_core::models::crane::CraneParams;
+use solver_core::models::crane_ext::CraneExt;
 use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
 use solver_core::models::mass_on_car::{MassOnCar, MassOnCarParams};
@@ -46,6 +47,15 @@ proptest! {
         let m = CraneSubs::new(CraneParams::PAPER, crane_trajectory(4)).unwrap();
         let mut x = vector::<7>(x);
         x[0] += 15.0; // a trolley and rope inside the workspace
+        x[1] += 6.0;
+        prop_assert!(mismatch(&m, x, vector(xd), t) < 1e-7);
+    }
+
+    #[test]
+    fn crane_ext_partials_are_exact(x in prop::collection::vec(-2.0..2.0f64, 13), xd in prop::collection::vec(-2.0..2.0f64, 13), t in 1.0..9.0f64) {
+        let m = CraneExt::new(CraneParams::PAPER, crane_trajectory(4)).unwrap();
+        let mut x = vector::<13>(x);
+        x[0] += 15.0;
         x[1] += 6.0;
         prop_assert!(mismatch(&m, x, vector(xd), t) < 1e-7);
     }
@@ -125,4 +135,33 @@ fn flat_inverse_rates_are_the_derivatives_of_its_inputs() {
             );
         }
     }
+}
+
+/// The minimal extension checked against the original system's solution: along the
+/// paper's move (and at rest around it, every millisecond) the flat inverse with the
+/// extension's dummies (`flat_crane::extended_state`: `x' = ẋ`, `μ = λ̇`, `a_x = ẍ`, …)
+/// makes every row of *ext* vanish to a few roundings of its terms, and its first seven
+/// unknowns are the state on which *subs*' residual vanishes.
+#[test]
+fn flat_reference_satisfies_the_extended_residual() {
+    use solver_core::reference::flat_crane::{extended_state, flat_inverse};
+    let (p, z) = (CraneParams::PAPER, crane_trajectory(4));
+    let ext = CraneExt::new(p, z).unwrap();
+    let mut worst = 0.0_f64;
+    for i in 0..=10_000 {
+        let t = f64::from(i) * 1e-3;
+        let x = extended_state(&p, &z, t);
+        let s = ext.sample(t);
+        let r = ext.residual(&x, &SVector::zeros(), &s);
+        let j = ext.partials(&x, &x, &s).dx;
+        for row in 0..13 {
+            // |∂F/∂x_j x_j| counts every term with an unknown; the path's own terms
+            // (z's derivatives, g) are below 25 on this move.
+            let terms: f64 = (0..13).map(|c| (j[(row, c)] * x[c]).abs()).sum::<f64>() + 25.0;
+            worst = worst.max(r[row].abs() / terms);
+        }
+        let flat = flat_inverse(&p, &z, t);
+        assert_eq!(x.fixed_rows::<7>(0).into_owned(), flat.subs(), "t = {t}");
+    }
+    assert!(worst <= 8.0 * f64::EPSILON, "worst relative row {worst:e}");
 }

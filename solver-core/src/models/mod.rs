@@ -59,6 +59,8 @@ macro_rules! schemes_of {
 
 pub mod crane;
 pub mod crane3d;
+pub mod crane_ext;
+pub mod crane_hidden;
 pub mod crane_proj;
 pub mod crane_subs;
 pub mod mass_on_car;
