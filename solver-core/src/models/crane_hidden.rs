@@ -1,6 +1,6 @@
 //! The hidden constraints of the single-rope cranes, planar and in three dimensions:
-//! what their minimally extended formulations (the planar [`crane_ext`](super::crane_ext))
-//! share, one load equation at a time.
+//! what their minimally extended formulations ([`crane_ext`](super::crane_ext),
+//! [`crane3d::ext`](super::crane3d::ext)) share, one load equation at a time.
 //!
 //! ## The constraint chain
 //!
