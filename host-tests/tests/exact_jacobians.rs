@@ -10,6 +10,7 @@ use solver_core::models::crane_ext::CraneExt;
 use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
 use solver_core::models::mass_on_car::{MassOnCar, MassOnCarParams};
+use solver_core::models::mass_on_car_ext::MassOnCarExt;
 use solver_core::trajectory::PointToPoint;
 use solver_core::DaeModel;
 
@@ -82,6 +83,13 @@ proptest! {
         x[1] += 4.0;
         x[2] += 6.0;
         prop_assert!(mismatch(&m, x, vector(xd), t) < 1e-7);
+    }
+
+    #[test]
+    fn mass_on_car_ext_partials_are_exact(x in prop::collection::vec(-2.0..2.0f64, 7), xd in prop::collection::vec(-2.0..2.0f64, 7), t in 0.0..20.0f64, alpha in 1.0..89.0f64, d in 0.0..1.0f64) {
+        let p = MassOnCarParams { alpha: alpha.to_radians(), d, ..MassOnCarParams::PAPER };
+        let m = MassOnCarExt::new(p, mass_on_car_trajectory(4)).unwrap();
+        prop_assert!(mismatch(&m, vector(x), vector(xd), t) < 1e-7);
     }
 
     #[test]
@@ -216,4 +224,32 @@ fn flat_reference_satisfies_the_extended_3d_residual() {
         );
     }
     assert!(worst <= 8.0 * f64::EPSILON, "worst relative row {worst:e}");
+}
+
+/// The mass-on-car's *ext* residual along the reference (Eqs. 37–38 integrated at tight
+/// tolerance): with `x = z_d − s cos α`, `v_x = ż_d − ṡ cos α`, `x' = v_x`,
+/// `a_x = z̈_d − s̈ cos α` and `s̈` from Eq. 38, every row vanishes to rounding (Eq. 37's
+/// `F` and Eq. 38's `s̈` are the rows solved for them), every 10 ms of the 20 s scene.
+#[test]
+fn internal_dynamics_reference_satisfies_the_extended_residual() {
+    use solver_core::reference::dopri5::Dopri5Settings;
+    use solver_core::reference::mass_on_car::MassOnCarReference;
+    use solver_core::trajectory::Trajectory;
+    let p = MassOnCarParams::PAPER;
+    let z = mass_on_car_trajectory(4);
+    let m = MassOnCarExt::new(p, z).unwrap();
+    let mut reference = MassOnCarReference::new(p, z, 0.0, Dopri5Settings::default()).unwrap();
+    let (sin, cos) = p.alpha.sin_cos();
+    let mut worst = 0.0_f64;
+    for i in 0..=2000 {
+        let t = f64::from(i) * 0.01;
+        let r = reference.advance_to(t).unwrap();
+        let [[z0], [z1], [z2]] = z.derivatives::<3>(t).map(<[f64; 1]>::from);
+        let sdd = -(p.d * r.sdot + p.k * r.s + z2 * p.m2 * cos) / (p.m2 * sin * sin);
+        let vx = z1 - r.sdot * cos;
+        let x = SVector::<f64, 7>::from([z0 - r.s * cos, r.s, vx, r.sdot, r.f, vx, z2 - sdd * cos]);
+        let xdot = SVector::<f64, 7>::from([vx, r.sdot, z2 - sdd * cos, sdd, 0.0, 0.0, 0.0]);
+        worst = worst.max(m.residual(&x, &xdot, &m.sample(t)).amax());
+    }
+    assert!(worst <= 1e-14, "worst row {worst:e}");
 }

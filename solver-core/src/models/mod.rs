@@ -64,6 +64,7 @@ pub mod crane_hidden;
 pub mod crane_proj;
 pub mod crane_subs;
 pub mod mass_on_car;
+pub mod mass_on_car_ext;
 
 /// What the models' tests share.
 #[cfg(test)]
