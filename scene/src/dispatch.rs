@@ -28,10 +28,12 @@ use controller::setpoint::{AxisLimits, DriveLimits};
 use controller::Config;
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane3d::{Crane3dParams, Crane3dSubs};
+use solver_core::models::crane3d::{Crane3dExt, Crane3dParams, Crane3dSubs};
+use solver_core::models::crane_ext::{self, CraneExt};
 use solver_core::models::crane_proj::{self, CraneProj};
 use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::models::mass_on_car::MassOnCar;
+use solver_core::models::mass_on_car_ext::MassOnCarExt;
 use solver_core::plan::Plan;
 use solver_core::reference::dopri5::Dopri5Settings;
 use solver_core::reference::flat_crane::flat_inverse;
@@ -86,6 +88,22 @@ pub fn model<T: Real, V: ModelVisitor<T>>(
                 Crane3dSubs::new(c.params(), trajectory::<T, 3>(scene)?).map_err(err)?,
             )
         }
+        ModelSpec::CraneExt(c) => visitor
+            .visit::<_, { crane_ext::N }, { crane_ext::NU }, { crane_ext::S }>(
+                CraneExt::new(c.params(), trajectory::<T, 2>(scene)?).map_err(err)?,
+            ),
+        ModelSpec::MassOnCarExt(m) => {
+            use solver_core::models::mass_on_car_ext::{N, NU, S};
+            visitor.visit::<_, N, NU, S>(
+                MassOnCarExt::new(m.params(), trajectory::<T, 1>(scene)?).map_err(err)?,
+            )
+        }
+        ModelSpec::Crane3dExt(c) => {
+            use solver_core::models::crane3d::ext::{N, NU, S};
+            visitor.visit::<_, N, NU, S>(
+                Crane3dExt::new(c.params(), trajectory::<T, 3>(scene)?).map_err(err)?,
+            )
+        }
     })
 }
 
@@ -117,8 +135,12 @@ pub(crate) fn trajectory<T: Real, const NZ: usize>(
 #[must_use]
 pub fn accuracy_threshold(model: &ModelSpec) -> f64 {
     match model {
-        ModelSpec::MassOnCar(_) => 1e-2,
-        ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) | ModelSpec::Crane3dSubs(_) => 1e-3,
+        ModelSpec::MassOnCar(_) | ModelSpec::MassOnCarExt(_) => 1e-2,
+        ModelSpec::CraneSubs(_)
+        | ModelSpec::CraneProj(_)
+        | ModelSpec::CraneExt(_)
+        | ModelSpec::Crane3dSubs(_)
+        | ModelSpec::Crane3dExt(_) => 1e-3,
     }
 }
 
@@ -144,7 +166,7 @@ pub fn scheme(scene: &Scene) -> Scheme {
 /// a run against.
 #[derive(Debug, Clone)]
 pub enum Exact {
-    /// The crane's flat inverse (either formulation).
+    /// The crane's flat inverse (any formulation).
     Crane(CraneParams, PointToPoint<f64, 2>),
     /// The mass-on-car's internal dynamics integrated along (Eqs. 37–38).
     MassOnCar(MassOnCarReference<PointToPoint<f64, 1>>),
@@ -156,10 +178,10 @@ impl Exact {
     /// The reference of `scene`'s model and move.
     pub fn new(scene: &Scene) -> Result<Self, SceneError> {
         Ok(match &scene.model {
-            ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) => {
+            ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) | ModelSpec::CraneExt(c) => {
                 Exact::Crane(c.params(), trajectory::<f64, 2>(scene)?)
             }
-            ModelSpec::MassOnCar(m) => Exact::MassOnCar(
+            ModelSpec::MassOnCar(m) | ModelSpec::MassOnCarExt(m) => Exact::MassOnCar(
                 MassOnCarReference::new(
                     m.params(),
                     trajectory::<f64, 1>(scene)?,
@@ -168,7 +190,9 @@ impl Exact {
                 )
                 .map_err(|e| scene.field_of(e))?,
             ),
-            ModelSpec::Crane3dSubs(c) => Exact::Crane3d(c.params(), trajectory::<f64, 3>(scene)?),
+            ModelSpec::Crane3dSubs(c) | ModelSpec::Crane3dExt(c) => {
+                Exact::Crane3d(c.params(), trajectory::<f64, 3>(scene)?)
+            }
         })
     }
 
@@ -294,8 +318,11 @@ impl FirmwareScheme {
             ModelSpec::CraneSubs(_) => FirmwareModel::CraneSubs,
             ModelSpec::CraneProj(_) => FirmwareModel::CraneProj,
             ModelSpec::Crane3dSubs(_) => FirmwareModel::Crane3dSubs,
-            ModelSpec::MassOnCar(_) => {
+            ModelSpec::MassOnCar(_) | ModelSpec::MassOnCarExt(_) => {
                 return Err("the firmware drives a crane; this scene is the mass-on-car".into())
+            }
+            ModelSpec::CraneExt(_) | ModelSpec::Crane3dExt(_) => {
+                return Err("the firmware does not link the extended formulation (ext)".into())
             }
         };
         let s = &scene.solver;
@@ -587,10 +614,7 @@ impl FirmwareCrane<3> for Crane3dParams {
     const SWING_AXES: u8 = 2;
     type FeedforwardOnly = NoFeedback;
     fn of(model: &ModelSpec) -> Option<Self> {
-        match model {
-            ModelSpec::Crane3dSubs(c) => Some(c.params()),
-            ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) | ModelSpec::MassOnCar(_) => None,
-        }
+        model.crane3d().map(|c| c.params())
     }
     fn source(&self) -> String {
         let w = self.workspace;

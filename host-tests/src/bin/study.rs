@@ -52,7 +52,7 @@ enum Command {
         /// The scene file.
         scene: PathBuf,
         /// Axes: `key=v1|v2,…` with keys h, rho, k, scheme, jacobian (j, jt, jtN, exact,
-        /// transformed), formulation, scalar.
+        /// transformed), formulation (subs, proj, ext; the mass-on-car: direct, ext), scalar.
         #[arg(long, required = true)]
         vary: Vec<String>,
         /// CSV output (default: standard output).
