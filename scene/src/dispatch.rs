@@ -230,6 +230,10 @@ pub enum FirmwareModel {
     CraneProj,
     /// The crane in three dimensions, *subs*.
     Crane3dSubs,
+    /// The planar crane, *ext* (*subs* minimally extended to index 1).
+    CraneExt,
+    /// The crane in three dimensions, *ext*.
+    Crane3dExt,
 }
 
 impl FirmwareModel {
@@ -239,6 +243,8 @@ impl FirmwareModel {
             Self::CraneSubs => ("crane_subs", "CraneSubs"),
             Self::CraneProj => ("crane_proj", "CraneProj"),
             Self::Crane3dSubs => ("crane3d::subs", "Crane3dSubs"),
+            Self::CraneExt => ("crane_ext", "CraneExt"),
+            Self::Crane3dExt => ("crane3d::ext", "Crane3dExt"),
         }
     }
 
@@ -246,8 +252,8 @@ impl FirmwareModel {
     #[must_use]
     pub const fn axes(self) -> usize {
         match self {
-            Self::CraneSubs | Self::CraneProj => 2,
-            Self::Crane3dSubs => 3,
+            Self::CraneSubs | Self::CraneProj | Self::CraneExt => 2,
+            Self::Crane3dSubs | Self::Crane3dExt => 3,
         }
     }
 
@@ -255,7 +261,19 @@ impl FirmwareModel {
     /// closed-form step.
     #[must_use]
     pub const fn structured(self) -> bool {
-        matches!(self, Self::CraneSubs | Self::Crane3dSubs)
+        matches!(
+            self,
+            Self::CraneSubs | Self::Crane3dSubs | Self::CraneExt | Self::Crane3dExt
+        )
+    }
+
+    /// Whether the firmware runs it with its structured elimination only: the extended
+    /// cranes' closed-form step is their exact solution at every h, and a dense Newton on
+    /// 13 or 18 unknowns (39 or 54 in Radau's stage system) would cost more flash and
+    /// time for the same bits.
+    #[must_use]
+    pub const fn structured_only(self) -> bool {
+        matches!(self, Self::CraneExt | Self::Crane3dExt)
     }
 }
 
@@ -318,11 +336,10 @@ impl FirmwareScheme {
             ModelSpec::CraneSubs(_) => FirmwareModel::CraneSubs,
             ModelSpec::CraneProj(_) => FirmwareModel::CraneProj,
             ModelSpec::Crane3dSubs(_) => FirmwareModel::Crane3dSubs,
+            ModelSpec::CraneExt(_) => FirmwareModel::CraneExt,
+            ModelSpec::Crane3dExt(_) => FirmwareModel::Crane3dExt,
             ModelSpec::MassOnCar(_) | ModelSpec::MassOnCarExt(_) => {
                 return Err("the firmware drives a crane; this scene is the mass-on-car".into())
-            }
-            ModelSpec::CraneExt(_) | ModelSpec::Crane3dExt(_) => {
-                return Err("the firmware does not link the extended formulation (ext)".into())
             }
         };
         let s = &scene.solver;
@@ -344,7 +361,15 @@ impl FirmwareScheme {
             SchemeSpec::Radau if transformed => FirmwareIntegrator::Radau5,
             SchemeSpec::Radau => FirmwareIntegrator::RadauFull,
         };
-        Ok(Self { model, integrator })
+        let scheme = Self { model, integrator };
+        if model.structured_only() && !scheme.structured() {
+            return Err(
+                "the firmware runs the extended formulation (ext) with its structured Newton only: \
+                 BDF with jacobian = \"exact\", or Radau with newton = \"transformed\""
+                    .into(),
+            );
+        }
+        Ok(scheme)
     }
 
     /// Every integrator the firmware can link, model by model (BDF with k = 4; the
@@ -357,10 +382,18 @@ impl FirmwareScheme {
             FirmwareModel::CraneSubs,
             FirmwareModel::CraneProj,
             FirmwareModel::Crane3dSubs,
+            FirmwareModel::CraneExt,
+            FirmwareModel::Crane3dExt,
         ]
         .into_iter()
         .flat_map(|model| {
-            let integrators: &[FirmwareIntegrator] = if model.structured() {
+            let integrators: &[FirmwareIntegrator] = if model.structured_only() {
+                &[
+                    I::StructuredBdf(4),
+                    I::StructuredBdfUncorrected(4),
+                    I::StructuredRadau5,
+                ]
+            } else if model.structured() {
                 &[
                     I::StructuredBdf(4),
                     I::StructuredBdfUncorrected(4),
@@ -382,10 +415,12 @@ impl FirmwareScheme {
     #[must_use]
     pub fn crane(self) -> (&'static str, usize) {
         match self.model {
-            FirmwareModel::CraneSubs | FirmwareModel::CraneProj => {
+            FirmwareModel::CraneSubs | FirmwareModel::CraneProj | FirmwareModel::CraneExt => {
                 (<CraneParams as FirmwareCrane<2>>::TYPE, 2)
             }
-            FirmwareModel::Crane3dSubs => (<Crane3dParams as FirmwareCrane<3>>::TYPE, 3),
+            FirmwareModel::Crane3dSubs | FirmwareModel::Crane3dExt => {
+                (<Crane3dParams as FirmwareCrane<3>>::TYPE, 3)
+            }
         }
     }
 
@@ -598,7 +633,16 @@ impl FirmwareCrane<2> for CraneParams {
                 visitor,
                 P
             )),
-            FirmwareModel::Crane3dSubs => Err(other_crane(scheme)),
+            FirmwareModel::CraneExt => Ok(integrators!(
+                visit,
+                solver_core::models::crane_ext,
+                scheme.integrator,
+                CraneExt::new(self, plan)?,
+                settings,
+                visitor,
+                P
+            )),
+            FirmwareModel::Crane3dSubs | FirmwareModel::Crane3dExt => Err(other_crane(scheme)),
         }
     }
 }
@@ -668,7 +712,18 @@ impl FirmwareCrane<3> for Crane3dParams {
                 visitor,
                 P
             )),
-            FirmwareModel::CraneSubs | FirmwareModel::CraneProj => Err(other_crane(scheme)),
+            FirmwareModel::Crane3dExt => Ok(integrators!(
+                visit,
+                solver_core::models::crane3d::ext,
+                scheme.integrator,
+                Crane3dExt::new(self, plan)?,
+                settings,
+                visitor,
+                P
+            )),
+            FirmwareModel::CraneSubs | FirmwareModel::CraneProj | FirmwareModel::CraneExt => {
+                Err(other_crane(scheme))
+            }
         }
     }
 }
@@ -836,10 +891,10 @@ pub fn firmware<V: FirmwareCraneVisitor>(
     visitor: V,
 ) -> Result<V::Output, String> {
     Ok(match FirmwareScheme::of(scene)?.model {
-        FirmwareModel::CraneSubs | FirmwareModel::CraneProj => {
+        FirmwareModel::CraneSubs | FirmwareModel::CraneProj | FirmwareModel::CraneExt => {
             visitor.visit(firmware_scene::<CraneParams, 2>(scene, commissioning)?)
         }
-        FirmwareModel::Crane3dSubs => {
+        FirmwareModel::Crane3dSubs | FirmwareModel::Crane3dExt => {
             visitor.visit(firmware_scene::<Crane3dParams, 3>(scene, commissioning)?)
         }
     })
@@ -913,6 +968,14 @@ pub fn firmware_steps<V: StepsVisitor>(
             let (p, z) = planar()?;
             on_plan(z, n).and_then(|plan| proj_steps(p, plan, i, settings, visitor))
         }
+        (FirmwareModel::CraneExt, DrivenBy::PointToPoint) => {
+            let (p, z) = planar()?;
+            ext_steps(p, z, i, settings, visitor)
+        }
+        (FirmwareModel::CraneExt, DrivenBy::Plan) => {
+            let (p, z) = planar()?;
+            on_plan(z, n).and_then(|plan| ext_steps(p, plan, i, settings, visitor))
+        }
         (FirmwareModel::Crane3dSubs, driven) => {
             let p = Crane3dParams::of(&scene.model)
                 .ok_or_else(|| "the scene's model is not the 3D crane".to_string())?;
@@ -921,6 +984,17 @@ pub fn firmware_steps<V: StepsVisitor>(
                 DrivenBy::PointToPoint => crane3d_steps(p, z, i, settings, visitor),
                 DrivenBy::Plan => {
                     on_plan(z, n).and_then(|plan| crane3d_steps(p, plan, i, settings, visitor))
+                }
+            }
+        }
+        (FirmwareModel::Crane3dExt, driven) => {
+            let p = Crane3dParams::of(&scene.model)
+                .ok_or_else(|| "the scene's model is not the 3D crane".to_string())?;
+            let z = trajectory::<f64, 3>(scene).map_err(|e| e.to_string())?;
+            match driven {
+                DrivenBy::PointToPoint => crane3d_ext_steps(p, z, i, settings, visitor),
+                DrivenBy::Plan => {
+                    on_plan(z, n).and_then(|plan| crane3d_ext_steps(p, plan, i, settings, visitor))
                 }
             }
         }
@@ -980,6 +1054,44 @@ fn crane3d_steps<Z: Trajectory<f64, 3>, V: StepsVisitor>(
         solver_core::models::crane3d::subs,
         i,
         Crane3dSubs::new(p, z)?,
+        settings,
+        visitor,
+        Z
+    ))
+}
+
+/// The planar *ext* crane on `z` with the firmware's integrator `i`, to `visitor`.
+fn ext_steps<Z: Trajectory<f64, 2>, V: StepsVisitor>(
+    p: CraneParams,
+    z: Z,
+    i: FirmwareIntegrator,
+    settings: &SolverSettings,
+    visitor: V,
+) -> Result<V::Output, Error> {
+    Ok(integrators!(
+        step_visit,
+        solver_core::models::crane_ext,
+        i,
+        CraneExt::new(p, z)?,
+        settings,
+        visitor,
+        Z
+    ))
+}
+
+/// The 3D *ext* crane on `z` with the firmware's integrator `i`, to `visitor`.
+fn crane3d_ext_steps<Z: Trajectory<f64, 3>, V: StepsVisitor>(
+    p: Crane3dParams,
+    z: Z,
+    i: FirmwareIntegrator,
+    settings: &SolverSettings,
+    visitor: V,
+) -> Result<V::Output, Error> {
+    Ok(integrators!(
+        step_visit,
+        solver_core::models::crane3d::ext,
+        i,
+        Crane3dExt::new(p, z)?,
         settings,
         visitor,
         Z
@@ -1052,8 +1164,8 @@ mod tests {
             "jacobian = \"exact\"\n"
         };
         let (start, end) = match model {
-            "mass-on-car" => ("[0.0]", "[1.0]"),
-            "crane3d-subs" => ("[12.0, 3.0, 8.0]", "[20.0, 6.0, 4.0]"),
+            "mass-on-car" | "mass-on-car-ext" => ("[0.0]", "[1.0]"),
+            "crane3d-subs" | "crane3d-ext" => ("[12.0, 3.0, 8.0]", "[20.0, 6.0, 4.0]"),
             _ => ("[12.0, 8.0]", "[20.0, 4.0]"),
         };
         Scene::parse(&format!(
@@ -1069,6 +1181,9 @@ mod tests {
             ("crane-proj", "CraneProj", 8),
             ("mass-on-car", "MassOnCar", 5),
             ("crane3d-subs", "Crane3dSubs", 10),
+            ("crane-ext", "CraneExt", 13),
+            ("mass-on-car-ext", "MassOnCarExt", 7),
+            ("crane3d-ext", "Crane3dExt", 18),
         ] {
             let (ty, unknowns) = model::<f64, _>(&scene(kind, "scheme = \"bdf\""), Name).unwrap();
             assert!(ty.contains(name), "{ty}");
@@ -1135,6 +1250,24 @@ mod tests {
                 M::Crane3dSubs,
                 I::StructuredRadau5,
             ),
+            (
+                "crane-ext",
+                "scheme = \"bdf\"\njacobian = \"exact\"",
+                M::CraneExt,
+                I::StructuredBdfUncorrected(4),
+            ),
+            (
+                "crane-ext",
+                "scheme = \"radau\"\njacobian = \"exact\"\nnewton = \"transformed\"",
+                M::CraneExt,
+                I::StructuredRadau5,
+            ),
+            (
+                "crane3d-ext",
+                "scheme = \"radau\"\njacobian = \"exact\"\nnewton = \"transformed\"",
+                M::Crane3dExt,
+                I::StructuredRadau5,
+            ),
         ] {
             let s = scene(kind, solver);
             let f = FirmwareScheme::of(&s).unwrap();
@@ -1166,6 +1299,16 @@ mod tests {
             );
         }
         assert!(FirmwareScheme::of(&scene("mass-on-car", "scheme = \"bdf\"")).is_err());
+        assert!(FirmwareScheme::of(&scene("mass-on-car-ext", "scheme = \"bdf\"")).is_err());
+        // The extended cranes run on their structured Newton only.
+        for (kind, solver) in [
+            ("crane-ext", "scheme = \"radau\"\njacobian = \"fd\""),
+            ("crane3d-ext", "scheme = \"bdf\"\njacobian = \"broyden\""),
+            ("crane-ext", "scheme = \"radau\"\njacobian = \"exact\""),
+        ] {
+            let e = FirmwareScheme::of(&scene(kind, solver)).unwrap_err();
+            assert!(e.contains("structured Newton only"), "{kind} {solver}: {e}");
+        }
     }
 
     /// Whatever the scene's solver settings, the firmware's integrator is one of those
@@ -1174,7 +1317,13 @@ mod tests {
     fn every_firmware_integrator_is_proven() {
         let every = FirmwareScheme::every();
         let mut seen = 0;
-        for kind in ["crane-subs", "crane-proj", "crane3d-subs"] {
+        for kind in [
+            "crane-subs",
+            "crane-proj",
+            "crane3d-subs",
+            "crane-ext",
+            "crane3d-ext",
+        ] {
             for solver in [
                 "scheme = \"bdf\"\njacobian = \"exact\"",
                 "scheme = \"bdf\"\njacobian = \"fd\"",
@@ -1186,7 +1335,11 @@ mod tests {
                 for h in [0.002, 0.01] {
                     let mut s = scene(kind, solver);
                     s.solver.h = h;
-                    let mut f = FirmwareScheme::of(&s).unwrap();
+                    let Ok(mut f) = FirmwareScheme::of(&s) else {
+                        // The extended cranes refuse what is not their structured Newton.
+                        assert!(kind.ends_with("ext"), "{kind} {solver} h = {h}");
+                        continue;
+                    };
                     f.integrator = match f.integrator {
                         FirmwareIntegrator::StructuredBdf(_) => {
                             FirmwareIntegrator::StructuredBdf(4)
@@ -1202,7 +1355,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(seen, 36);
+        assert_eq!(seen, 44);
         // And each is built for its own crane.
         for f in every {
             let (crane, axes) = f.crane();
@@ -1247,5 +1400,23 @@ mod tests {
         );
         assert!(p2.inverse_model(spatial, plan2, &settings, Steps).is_err());
         assert!(p3.inverse_model(planar, plan3, &settings, Steps).is_err());
+        let planar_ext = FirmwareScheme::of(&scene("crane-ext", "scheme = \"bdf\"")).unwrap();
+        let spatial_ext = FirmwareScheme::of(&scene("crane3d-ext", "scheme = \"bdf\"")).unwrap();
+        assert_eq!(
+            p2.inverse_model(planar_ext, plan2, &settings, Steps)
+                .unwrap(),
+            [0.0; 2]
+        );
+        assert_eq!(
+            p3.inverse_model(spatial_ext, plan3, &settings, Steps)
+                .unwrap(),
+            [0.0; 3]
+        );
+        assert!(p2
+            .inverse_model(spatial_ext, plan2, &settings, Steps)
+            .is_err());
+        assert!(p3
+            .inverse_model(planar_ext, plan3, &settings, Steps)
+            .is_err());
     }
 }

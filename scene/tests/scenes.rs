@@ -302,7 +302,7 @@ fn a_drives_limits_are_its_commissioning_rows() {
 
 /// The extended formulations' scenes are checked as their direct ones are: a bad
 /// parameter, a move outside the workspace or too rough for the model, each refused
-/// naming the field; and the firmware, which does not link them, refuses them saying so.
+/// naming the field; the firmware takes the planar one as its crane's.
 #[test]
 fn the_extended_scenes_are_checked_as_the_direct_ones() {
     let read = |name: &str| std::fs::read_to_string(scenes_dir().join(name)).unwrap();
@@ -341,10 +341,11 @@ fn the_extended_scenes_are_checked_as_the_direct_ones() {
         assert_ne!(Scene::parse(&text).map(|_| ()), Ok(()), "{field}");
         assert_eq!(refused(&text).0, field);
     }
-    let e = firmware_scene::<CraneParams, 2>(
+    // The firmware links the extended cranes as it links subs.
+    let f = firmware_scene::<CraneParams, 2>(
         &Scene::parse(&planar).unwrap(),
         &CommissioningFile::default(),
     )
-    .unwrap_err();
-    assert!(e.contains("ext"), "{e}");
+    .unwrap();
+    assert_eq!(f.scheme.model, scene::dispatch::FirmwareModel::CraneExt);
 }
