@@ -348,7 +348,9 @@ impl FirmwareScheme {
             SchemeSpec::Bdf
                 if model.structured() && s.jacobian == JacobianSpec::Exact && !transformed =>
             {
-                if s.h >= CORRECT_BELOW_H {
+                // The extended cranes have no differential unknown: BDF never corrects
+                // their closed form (`bdf::Structured`), at any h.
+                if s.h >= CORRECT_BELOW_H || model.structured_only() {
                     FirmwareIntegrator::StructuredBdfUncorrected(s.k)
                 } else {
                     FirmwareIntegrator::StructuredBdf(s.k)
@@ -388,11 +390,7 @@ impl FirmwareScheme {
         .into_iter()
         .flat_map(|model| {
             let integrators: &[FirmwareIntegrator] = if model.structured_only() {
-                &[
-                    I::StructuredBdf(4),
-                    I::StructuredBdfUncorrected(4),
-                    I::StructuredRadau5,
-                ]
+                &[I::StructuredBdfUncorrected(4), I::StructuredRadau5]
             } else if model.structured() {
                 &[
                     I::StructuredBdf(4),
@@ -1298,6 +1296,13 @@ mod tests {
                 "h = {h}"
             );
         }
+        // ext's closed form is never corrected: the firmware links no correction at any h.
+        let mut s = scene("crane-ext", "scheme = \"bdf\"");
+        s.solver.h = 0.002;
+        assert_eq!(
+            FirmwareScheme::of(&s).unwrap().integrator,
+            I::StructuredBdfUncorrected(4)
+        );
         assert!(FirmwareScheme::of(&scene("mass-on-car", "scheme = \"bdf\"")).is_err());
         assert!(FirmwareScheme::of(&scene("mass-on-car-ext", "scheme = \"bdf\"")).is_err());
         // The extended cranes run on their structured Newton only.
