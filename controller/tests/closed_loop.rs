@@ -614,13 +614,22 @@ fn the_rope_is_learnt_from_the_swing_in_calm_air_and_read_from_0x2004() {
     };
     let (scale, offset) = (read(1) as f64 * 1e-6, read(2) as f64 * 1e-6);
     let samples = read(3);
-    // Scaling and offset learnt (the rope varied); with the study's 0.02° of noise on
-    // this move the uncertainty stated is beyond the 10 mm the estimate is offered
-    // within (issue 33: refused as uncertain, 4), and the estimate is still close.
+    // Scaling and offset learnt (the rope varied). One move is 6 of the 2 s blocks the
+    // uncertainty is measured over, fewer than the 10 it is believed from
+    // (`controller::rope::MIN_BLOCKS`): 0x2004:5 then says unknown (0xFFFFFFFF, an
+    // UNSIGNED32) and the estimate is refused as uncertain (4) — the calibration is the
+    // move and back three times (docs/COMMISSIONING.md) — while still close.
     let learnt = read(4);
-    let uncertainty = read(5) as f64 * 1e-6;
+    let uncertainty = match read(5) as u32 {
+        u32::MAX => f64::INFINITY,
+        um => f64::from(um) * 1e-6,
+    };
     let delay = read(6) as f64 * 1e-6;
     assert!([2, 4].contains(&learnt), "learnt {learnt}");
+    assert!(
+        uncertainty.is_finite() || learnt == 4,
+        "an unknown uncertainty is refused"
+    );
     assert!(
         delay.abs() < 0.004,
         "delay beyond the commissioned {delay} s"
