@@ -633,7 +633,8 @@ impl<K: Crane<A>, const A: usize> StopCheck<'_, K, A> {
     /// does, within the budget.
     fn nearer(&mut self, stop: Stop<f64, A>, d: f64, longest: f64) -> Stop<f64, A> {
         for longer in STOP_NEARER {
-            let d = (d * longer).clamp(STOP_SHORTEST.min(longest), longest);
+            // max/min, not clamp: clamp panics on bounds it cannot order (a NaN).
+            let d = (d * longer).max(STOP_SHORTEST.min(longest)).min(longest);
             let Some(end) = self.start.nearest_end(d) else {
                 continue;
             };
