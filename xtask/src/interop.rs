@@ -25,6 +25,11 @@ pub fn interop() -> Result<(), String> {
     run(Command::new(python)
         .current_dir(root())
         .env("ECU_BIN", ecu)
+        // `cargo xtask report`, run on the logs python-can records (test_report.py).
+        .env(
+            "REPORT_BIN",
+            std::env::current_exe().map_err(|e| format!("xtask's own path: {e}"))?,
+        )
         .args(["-m", "pytest", "-p", "no:cacheprovider", "-q", "-rxX"])
         .arg("--basetemp")
         .arg(runs.join("pytest"))

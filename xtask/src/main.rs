@@ -24,6 +24,13 @@
 //! * `ecu [--port N] [--role manager|slave] [--seconds S] …` — the controller in real
 //!   time, its CAN bus as SLCAN over TCP (docs/COMMISSIONING.md).
 //! * `interop` — python-canopen drives and a supervisor against the virtual ECU.
+//! * `report LOG [--scene SCENE] [--out DIR] [--eds NODE=FILE …]` — a recorded bus
+//!   (candump `-L` or Vector ASC) in, the crane's report out: one HTML page with its
+//!   figures, the figures as SVG, `summary.json` (docs/REPORT.md).
+//! * `report-check` — the committed example report made again and compared, its page
+//!   loaded in headless chromium (part of `test`).
+//! * `report-bench [--frames N]` — the report's seconds per million frames (wall clock
+//!   and CPU) and peak memory on a long log.
 //! * `study …` — the speed/accuracy studies (`run`, `sweep`, `paper`, `extremes`).
 //! * `bench` — criterion benchmarks of one step and whole runs on the host.
 //! * `instructions` — host instructions per step under callgrind (deterministic),
@@ -52,6 +59,7 @@ mod instructions;
 mod interop;
 mod panics;
 mod qemu;
+mod report;
 mod setup;
 mod soak;
 mod trade;
@@ -137,6 +145,29 @@ enum Cmd {
     },
     /// python-canopen drives and supervisor against the virtual ECU (in `test`).
     Interop,
+    /// A recorded bus in, the crane's report out: candump -L or Vector ASC (docs/REPORT.md).
+    Report {
+        /// The log (candump -L, `.log`; Vector ASC, `.asc`).
+        log: PathBuf,
+        /// The crane's scene; its commissioning file beside it says the node ids.
+        #[arg(long, default_value = report::DEFAULT_SCENE)]
+        scene: PathBuf,
+        /// Where the page, its figures and summary.json go (default: target/report/<log's name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// A node's EDS (object names in its SDO transcript), NODE=FILE; repeatable.
+        #[arg(long, value_parser = report::parse_eds)]
+        eds: Vec<(u8, PathBuf)>,
+    },
+    /// The committed example report (docs/report-example) made again and compared, and
+    /// its page loaded in headless chromium (in `test`).
+    ReportCheck,
+    /// The report's seconds per million frames and peak memory on a long log.
+    ReportBench {
+        /// Frames in the log.
+        #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..))]
+        frames: u64,
+    },
     /// The speed/accuracy studies: `run`, `sweep`, `paper`, `extremes` (`study --help`).
     #[command(disable_help_flag = true)]
     Study {
@@ -225,6 +256,28 @@ fn main() -> ExitCode {
             Cmd::Flash => flash(),
             Cmd::Ecu { args } => ecu::ecu(&args),
             Cmd::Interop => interop::interop(),
+            Cmd::Report {
+                log,
+                scene,
+                out,
+                eds,
+            } => {
+                let out = out.unwrap_or_else(|| {
+                    let stem = log
+                        .file_stem()
+                        .map_or("log".into(), |s| s.to_string_lossy().into_owned());
+                    ecu::target_dir().join("report").join(stem)
+                });
+                report::report(&report::Options {
+                    log,
+                    scene,
+                    out,
+                    eds,
+                })
+                .map(|_| ())
+            }
+            Cmd::ReportCheck => report::check_example(),
+            Cmd::ReportBench { frames } => report::bench::bench(frames),
             Cmd::Study { args } => run(cargo()
                 .args([
                     "run",
@@ -421,6 +474,9 @@ fn test() -> Result<(), String> {
         .args(["doc", "--workspace", "--no-deps"])
         .env("RUSTDOCFLAGS", "-D warnings"))?;
     interop::interop()?;
+    // The committed example report is what the report makes of its log, and its page
+    // loads in a browser.
+    report::check_example()?;
     // The numerics on the drive's target, as a `no_std` release build.
     run(cargo().args([
         "build",
@@ -508,6 +564,26 @@ mod tests {
             &["ecu"],
             &["ecu", "--port", "0", "--role", "slave", "--seconds", "5"],
             &["interop"],
+            &["report", "a.log"],
+            &[
+                "report",
+                "a.asc",
+                "--scene",
+                "scenes/crane3d/crane3d.toml",
+                "--out",
+                "/tmp/r",
+            ],
+            &[
+                "report",
+                "a.log",
+                "--eds",
+                "1=drive.eds",
+                "--eds",
+                "0x10=c.eds",
+            ],
+            &["report-bench"],
+            &["report-check"],
+            &["report-bench", "--frames", "5000000"],
         ] {
             assert!(parse(args).is_ok(), "{args:?}: {:?}", parse(args).err());
         }
@@ -534,6 +610,10 @@ mod tests {
             &["decode", "a.elf"],
             &["frobnicate"],
             &["instructions", "--quick"],
+            &["report"],
+            &["report", "a.log", "--eds", "200=x.eds"],
+            &["report", "a.log", "--eds", "x.eds"],
+            &["report-bench", "--frames", "0"],
             &[],
         ] {
             assert!(parse(args).is_err(), "{args:?} was accepted");

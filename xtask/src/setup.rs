@@ -1,5 +1,5 @@
 //! Installs what a fresh machine lacks: the Rust target (through rustup and the
-//! pinned toolchain), qemu-system-arm and valgrind from Debian's packages.
+//! pinned toolchain), qemu-system-arm, valgrind and chromium from Debian's packages.
 
 use std::process::Command;
 
@@ -32,6 +32,14 @@ pub fn ensure_qemu() -> Result<(), String> {
 /// it is not on the PATH.
 pub fn ensure_valgrind() -> Result<(), String> {
     ensure_debian_package("valgrind", "valgrind")
+}
+
+/// The headless browser the report's page is checked in (Debian's package `chromium`).
+pub const CHROMIUM: &str = "chromium";
+
+/// chromium from Debian's packages, if it is not on the PATH (the report's page check).
+pub fn ensure_chromium() -> Result<(), String> {
+    ensure_debian_package(CHROMIUM, "chromium")
 }
 
 /// `apt-get install package` (as root, or through sudo), if `program --version` does

@@ -63,6 +63,7 @@ pub mod crane_ext;
 pub mod crane_hidden;
 pub mod crane_proj;
 pub mod crane_subs;
+pub mod double_pendulum;
 pub mod mass_on_car;
 pub mod mass_on_car_ext;
 

@@ -11,6 +11,7 @@
 //! References run in `f64` whatever scalar the solver under test uses.
 
 pub mod dopri5;
+pub mod double_pendulum;
 pub mod emax;
 pub mod flat_crane;
 pub mod flat_crane3d;
