@@ -16,7 +16,7 @@
 //!
 //! over every sample of a good angle, `β q` the inclinometer's offset (below). Every term is filtered by
 //! the same `ω³/(s + ω)³`, whose states are the signal and its first two derivatives
-//! ([`ExactDerivatives`]); a linear filter commutes with the equation, so each term is
+//! (`ExactDerivatives`); a linear filter commutes with the equation, so each term is
 //! the filter of what the equation says, and the products are formed *before* filtering
 //! (`lφ`, `l̈ φ`, `ẍ (1 − cos φ)`). What issue 33 found, and what this design answers:
 //!
@@ -44,7 +44,7 @@
 //!   accelerations (the inverse model's, noise-free; the drives follow them within the
 //!   feedback's corrections, and both terms are small), not the positions'
 //!   differentiated twice.
-//! * **The filter's own discretisation.** The sub-stepped [`crate::derivatives::Derivatives`]
+//! * **The filter's own discretisation.** The sub-stepped `derivatives::Derivatives`
 //!   offsets its derivative states by a fraction of a sub-step, which the balance of
 //!   `g φ` against `ẍ` reads as a delay: 0.3 % of scale. The exact discretisation has
 //!   none.
@@ -72,7 +72,7 @@
 //! filter's memory, `3/ω`), neighbouring blocks' products weighted ½ (Bartlett) —
 //! the batch-means form of a heteroscedasticity-and-autocorrelation-consistent
 //! covariance. Each block leaves a 9-vector (its `Σ z y` and `Σ z zᵀ`), and only their
-//! outer products are kept ([`Spread`]), so the sandwich is evaluated at the final
+//! outer products are kept (`Spread`), so the sandwich is evaluated at the final
 //! estimate without storing the blocks. The reported uncertainty
 //! ([`RopeLength::uncertainty`], 0x2004:5) is [`SIGMAS`] standard deviations of the length
 //! `(1 + s) l + o`, the largest over the rope range [`RANGE`], plus what the equation
