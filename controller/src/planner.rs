@@ -394,6 +394,11 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         let start = plan.stop_start(t)?;
         let caps = self.speed_caps(plan, t, span, &mut budget);
         let longest = longest_stop(&start, latest - t)?;
+        // No stop shorter than the shortest move: its set points would leave the checks'
+        // margin. Where none that long fits, the running segment is the quickest rest.
+        if longest < STOP_SHORTEST {
+            return None;
+        }
         let mut search = StopCheck {
             planner: self,
             start,
@@ -402,7 +407,7 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         };
         // The shortest duration whose stops pass the coarse check: up from the shortest
         // in steps of STOP_SCAN until one passes, then a geometric bisection below it.
-        let mut d = STOP_SHORTEST.min(longest);
+        let mut d = STOP_SHORTEST;
         let mut below = None;
         loop {
             let (mut hi, mut ends) = loop {
@@ -634,7 +639,7 @@ impl<K: Crane<A>, const A: usize> StopCheck<'_, K, A> {
     fn nearer(&mut self, stop: Stop<f64, A>, d: f64, longest: f64) -> Stop<f64, A> {
         for longer in STOP_NEARER {
             // max/min, not clamp: clamp panics on bounds it cannot order (a NaN).
-            let d = (d * longer).max(STOP_SHORTEST.min(longest)).min(longest);
+            let d = (d * longer).max(STOP_SHORTEST).min(longest);
             let Some(end) = self.start.nearest_end(d) else {
                 continue;
             };
@@ -1002,6 +1007,42 @@ mod tests {
             &Planner::new(CraneParams::PAPER, DriveLimits::LAB),
             [12.0, 8.0],
             [20.0, 4.0],
+        );
+    }
+
+    /// No stop shorter than [`STOP_SHORTEST`], also in a move's last half second, where
+    /// the longest stop that fits is shorter: there the running segment is the rest.
+    #[test]
+    fn no_stop_is_shorter_than_the_shortest_move() {
+        fn every_stop_long_enough<K: Crane<A>, const A: usize>(
+            planner: &Planner<K, A>,
+            from: [f64; A],
+            to: [f64; A],
+        ) {
+            let mut plan = Plan::at_rest(SVector::from(from), 5).unwrap();
+            plan.push(planner.plan_move(&plan, to, None, 0.0).unwrap())
+                .unwrap();
+            let end = plan.end_time().unwrap();
+            for i in 0..=60 {
+                let t = end - 0.6 + f64::from(i) * 0.01;
+                if let Some(stop) = planner.plan_stop(&plan, t) {
+                    assert!(
+                        stop.t_end() - t >= STOP_SHORTEST - 1e-9,
+                        "a stop of {:.3} s at {t:.2} s of {end:.2}",
+                        stop.t_end() - t
+                    );
+                }
+            }
+        }
+        every_stop_long_enough(
+            &Planner::new(CraneParams::PAPER, DriveLimits::LAB),
+            [12.0, 8.0],
+            [20.0, 4.0],
+        );
+        every_stop_long_enough(
+            &Planner::with_axes(Crane3dParams::EXAMPLE, DriveLimits::LAB_3D),
+            [12.0, 3.0, 8.0],
+            [16.0, 5.0, 6.0],
         );
     }
 
