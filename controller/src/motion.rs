@@ -12,9 +12,10 @@
 //!
 //! * **following error** while the drive is commanded to move (and until it has settled):
 //!   position actual within [`MotionWindows::following`] plus
-//!   [`MotionWindows::following_drift`] of the distance commanded since it last rested
-//!   (a velocity loop's droop and scaling error accumulate with the travel, not with
-//!   time), velocity actual within [`MotionWindows::velocity`] plus the drift of the
+//!   [`MotionWindows::following_drift`] of the distance between where it is commanded to
+//!   be and where it last rested (a velocity loop's droop and scaling error accumulate with
+//!   the signed travel, not with time: back and forth they cancel, so the window does
+//!   not grow with a path's length either), velocity actual within [`MotionWindows::velocity`] plus the drift of the
 //!   expected velocity, the latter for [`MotionWindows::following_time_ms`];
 //! * **standstill** once the set points have been exactly zero for
 //!   [`MotionWindows::standstill_delay_ms`]: the position where the drive came to rest is
@@ -51,8 +52,8 @@ pub struct MotionWindows {
 
 impl MotionWindows {
     /// The stock windows (docs/COMMISSIONING.md): 20 mm at rest after 0.5 s at zero;
-    /// 0.2 m plus 5 % of the travel and 0.3 m/s (plus 5 %) for 50 ms while moving; 50 mm
-    /// before a move.
+    /// 0.2 m plus 5 % of the distance from where the drive rested and 0.3 m/s (plus 5 %)
+    /// for 50 ms while moving; 50 mm before a move.
     pub const STOCK: Self = Self {
         standstill: 0.02,
         standstill_delay_ms: 500,
@@ -105,8 +106,9 @@ pub(crate) struct MotionWatch {
     /// Position and velocity the set points sent give through the lag, m and m/s
     /// (`None` until the drive is first measured).
     expected: Option<(f64, f64)>,
-    /// Distance commanded since the drive last rested, m.
-    travel: f64,
+    /// Where the drive last rested or supervision took it up, m: the following window
+    /// grows with the distance from there.
+    origin: f64,
     /// How long the set points have been exactly zero, ms.
     zero_ms: u32,
     /// Where the drive came to rest, m: standstill is supervised while it is kept.
@@ -151,7 +153,7 @@ impl Default for MotionWatch {
     fn default() -> Self {
         Self {
             expected: None,
-            travel: 0.0,
+            origin: 0.0,
             zero_ms: 0,
             rest: None,
             velocity_out_ms: 0,
@@ -189,7 +191,7 @@ impl MotionWatch {
     /// what it was commanded before counts no more.
     pub(crate) fn rebase(&mut self, position: f64) {
         self.expected = Some((position, 0.0));
-        self.travel = 0.0;
+        self.origin = position;
         self.rest = Some(position);
         self.velocity_out_ms = 0;
     }
@@ -198,7 +200,6 @@ impl MotionWatch {
     /// a halt); where the drive rests is kept until a reset reads it again.
     pub(crate) fn pause(&mut self) {
         self.expected = None;
-        self.travel = 0.0;
         self.velocity_out_ms = 0;
     }
 
@@ -218,10 +219,10 @@ impl MotionWatch {
         if let Some((x, v)) = self.expected {
             let next_v = v + (sent - v) * lag.share;
             let next_x = x + lag.period_s * sent - lag.tau * (next_v - v);
-            self.travel += (next_x - x).abs();
             self.expected = Some((next_x, next_v));
         } else if let Some(a) = actual {
             self.expected = Some((a.position, a.velocity));
+            self.origin = a.position;
         }
         if sent == 0.0 {
             self.zero_ms = self.zero_ms.saturating_add(period_ms);
@@ -243,7 +244,7 @@ impl MotionWatch {
         let (position, velocity) = ((actual.position - x).abs(), (actual.velocity - v).abs());
         self.peaks.position = self.peaks.position.max(position);
         self.peaks.velocity = self.peaks.velocity.max(velocity);
-        if position > windows.following + windows.following_drift * self.travel {
+        if position > windows.following + windows.following_drift * (x - self.origin).abs() {
             return Some(Breach::Position);
         }
         if velocity > windows.velocity + windows.following_drift * v.abs() {
@@ -294,6 +295,40 @@ mod tests {
             assert_eq!(watch.observe(sent, Some(actual), &W, &lag()), None);
         }
         assert!(watch.rest().is_some_and(|r| (r - x).abs() < 1e-9));
+    }
+
+    /// Back and forth (8 m each way) without a rest, a drive that slips 2 % in one
+    /// direction only: its error grows 0.16 m a round trip. The window grows with the
+    /// distance from where the drive rested (at most 0.6 m here), not with the path's
+    /// length (which would grow it by 0.8 m a round trip, five times as fast as the error:
+    /// never caught), so the slip is caught within three round trips.
+    #[test]
+    fn a_one_way_slip_back_and_forth_is_caught_before_the_window_outgrows_it() {
+        let mut watch = MotionWatch::default();
+        let (mut x, mut v) = (12.0, 0.0);
+        let mut breach = None;
+        'trips: for trip in 0..10 {
+            for k in 0..800 {
+                let sent = if k < 400 { 2.0 } else { -2.0 };
+                let applied = if sent > 0.0 { 0.98 * sent } else { sent };
+                for _ in 0..100 {
+                    v += (applied - v) / TAU * 1e-4;
+                    x += v * 1e-4;
+                }
+                let actual = Actual {
+                    position: x,
+                    velocity: v,
+                };
+                if let Some(b) = watch.observe(sent, Some(actual), &W, &lag()) {
+                    breach = Some((trip, b));
+                    break 'trips;
+                }
+            }
+        }
+        assert!(breach.is_some(), "the slip was never caught");
+        let (trip, kind) = breach.unwrap();
+        assert_eq!(kind, Breach::Position);
+        assert!(trip < 3, "caught only in round trip {trip}");
     }
 
     /// A drive without lag (a stiff velocity loop) runs τ·v ahead: within the window.
