@@ -312,7 +312,15 @@ impl Spread {
                 .map(|(row, ui)| ui * row.iter().zip(u).map(|(x, uj)| x * uj).sum::<f64>())
                 .sum::<f64>()
         };
-        (form(&all.same) + form(&all.next)).max(0.0)
+        // Rounding may leave a true zero a hair below it; a NaN (sums that overflowed)
+        // must stay NaN — `max` would turn it into a certain 0 and the calibration into
+        // one offered as certain.
+        let variance = form(&all.same) + form(&all.next);
+        if variance < 0.0 {
+            0.0
+        } else {
+            variance
+        }
     }
 }
 
@@ -974,6 +982,21 @@ mod tests {
                 healthy * 1e3
             );
         }
+    }
+
+    /// Sums that overflowed give no variance (NaN, refused as uncertain), not a certain 0.
+    #[test]
+    fn an_overflowed_spread_is_no_certainty() {
+        let mut spread = Spread::EMPTY;
+        for _ in 0..3 * BLOCK {
+            spread.add([1e200, 1.0, 1.0], 1e200);
+        }
+        assert!(spread.variance([1.0, 1.0, 1.0], [1.0, 1.0, 1.0]).is_nan());
+        let mut fine = Spread::EMPTY;
+        for k in 0..3 * BLOCK {
+            fine.add([f64::from(k), 1.0, 0.5], 2.0);
+        }
+        assert!(fine.variance([1.0, 0.0, 0.0], [2.0, 0.0, 0.0]) >= 0.0);
     }
 
     #[test]
