@@ -33,7 +33,8 @@ def test_the_inclinometer_sdo_heartbeat_and_emcy_decode():
 
 def test_feedback_off_is_emcy_0xff20_fault_15_naming_the_inclinometer_and_the_reason():
     e = db().decode_message(0x090, bytes([0x20, 0xFF, 0x80, 15, 3, 1, 0, 0]))
-    assert e["error_code"] == 0xFF20
+    # The DBC names the controller's EMCY codes (VAL_ 144 error_code, issue 32).
+    assert (e["error_code"].value, e["error_code"].name) == (0xFF20, "FeedbackOff")
     assert e["error_register"] == 0x80, "a warning: no generic error bit"
     assert str(e["fault"]) == "FeedbackOff"
     assert (e["node"], e["detail"]) == (3, 1), "inclinometer, angle lost"
