@@ -7,6 +7,8 @@ pub mod extremes;
 pub mod feedback3d_study;
 pub mod feedback_study;
 pub mod firmware;
+pub mod operator;
+pub mod operator_study;
 pub mod paper;
 /// The plant lives beside the virtual bus (the QEMU firmware runs it too).
 pub use sim::plant;

@@ -10,6 +10,7 @@
 //! * [`trajectory`] — smooth point-to-point moves of degree 2n+1 (the paper's C4 polynomial is n = 4).
 //! * [`model`] — the [`DaeModel`] trait; [`models`] — crane *subs* and *proj*, mass-on-car.
 //! * [`schemes`] — BDF k = 1..6 (Eq. 16) and Radau IIA (Eqs. 13–15) with [`newton`] (J, J̃, exact).
+//! * [`operator`] — operator mode's generator: a master switch's demand turned into a smooth load path.
 //! * [`reference`](mod@reference) — the exact answers that prove the schemes right: the crane's flat
 //!   inverse, the mass-on-car's internal dynamics (Eqs. 37–38), forward simulations.
 //!
@@ -30,6 +31,7 @@ mod linalg;
 pub mod model;
 pub mod models;
 pub mod newton;
+pub mod operator;
 pub mod plan;
 pub mod reference;
 pub mod scalar;

@@ -1,0 +1,425 @@
+//! The discrete half of the filters: moving averages and zero-vibration pairs applied to
+//! the rate limiter's accelerations, exactly, at a cost independent of their length.
+//!
+//! The rate limiter's acceleration `a₀(t)` is constant over each cycle, `a₀ = k δa` on
+//! `[t_n, t_n + h)`. A moving average over a window of `m` cycles, `B(mh)`, is the
+//! discrete mean of the last `m` values followed by a box of one cycle
+//! (`B(mh) = (1/m) Σ_{j<m} δ_{jh} ∗ B(h)`); a zero-vibration pair `½(δ₀ + δ_{mh})` is
+//! discrete already. So the filtered acceleration is a cardinal B-spline of degree `q`
+//! (the number of windows) whose coefficients are the discrete filter's output
+//! ([`crate::operator::piece`] evaluates it):
+//!
+//! ```text
+//! c[n] = D(z) k[n] · δa,     D(z) = Π_i (1 − z^{−m_i}) / (m_i (1 − z^{−1})) · Π_j (1 + z^{−m_j})/2.
+//! ```
+//!
+//! `D` is computed as its numerator — a handful of taps into a ring of past `k`
+//! ([`Taps`], [`Ring`]) — followed by `q` running sums. Everything is an integer: the
+//! running sums are exact, so once the ring holds only zeros the output is exactly
+//! zero (no drift, no creep), and the numerator never has more than 16 taps however
+//! long the windows are.
+
+/// Most taps of a filter's numerator: four factors, `2⁴` terms before merging.
+pub const MAX_TAPS: usize = 16;
+
+/// Most windows (running sums) of one filter: the hoist's four.
+pub const MAX_WINDOWS: usize = 4;
+
+/// One factor of the numerator (the zero-vibration pairs are added by
+/// [`Taps::with_pairs`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Factor {
+    /// A moving average over `m` cycles: `(1 − z^{−m})`, with one running sum and `1/m`.
+    Window(usize),
+}
+
+/// The numerator `Σ w_i z^{−d_i}` of a filter: delays in cycles and integer weights.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Taps {
+    delay: [u16; MAX_TAPS],
+    /// At most 6 in size (the binomial coefficients of four windows).
+    weight: [i8; MAX_TAPS],
+    len: u8,
+    /// How many factors are windows: the running sums after the taps.
+    windows: u8,
+    /// `Π m_i · 2^pairs`: the factors' normalisation.
+    norm: u64,
+}
+
+impl Taps {
+    /// The product of the windows `factors` (at most four; further ones are ignored, and
+    /// the generator never passes more): equal delays merged, zero weights dropped.
+    #[must_use]
+    pub fn new(factors: &[Factor]) -> Self {
+        let mut delay = [0_u16; MAX_TAPS];
+        let mut weight = [0_i8; MAX_TAPS];
+        if let Some(w) = weight.first_mut() {
+            *w = 1;
+        }
+        let mut len = 1;
+        let mut windows = 0;
+        let mut norm: u64 = 1;
+        for f in factors.iter().take(MAX_WINDOWS) {
+            let Factor::Window(m) = *f;
+            let sign = -1;
+            windows += 1;
+            norm = norm.saturating_mul(m as u64);
+            // Each existing term once as it is and once delayed by m with the sign (the
+            // existing terms as they were before this factor).
+            let (old_delay, old_weight, old) = (delay, weight, len);
+            for (&d, &w) in old_delay.iter().zip(old_weight.iter()).take(old) {
+                let shifted = d.saturating_add(u16::try_from(m).unwrap_or(u16::MAX));
+                len = add_term(&mut delay, &mut weight, len, shifted, sign * w);
+            }
+        }
+        Self {
+            delay,
+            weight,
+            len: len as u8,
+            windows,
+            norm,
+        }
+    }
+
+    /// These taps times zero-vibration pairs with the delays `pairs` (as many as fit
+    /// [`MAX_TAPS`]), without merging equal delays: a tap twice at one delay sums the
+    /// same. The cheap way to the horizontal filter when a motion starts (the windows'
+    /// taps merged once, the pairs' delays new each time).
+    #[must_use]
+    pub fn with_pairs(&self, pairs: &[usize]) -> Self {
+        let mut out = *self;
+        for m in pairs {
+            let len = usize::from(out.len);
+            if 2 * len > MAX_TAPS {
+                break;
+            }
+            let shift = u16::try_from(*m).unwrap_or(u16::MAX);
+            let (delay, weight) = (out.delay, out.weight);
+            for ((d, w), (sd, sw)) in delay
+                .iter()
+                .zip(weight)
+                .take(len)
+                .zip(out.delay.iter_mut().zip(out.weight.iter_mut()).skip(len))
+            {
+                *sd = d.saturating_add(shift);
+                *sw = w;
+            }
+            out.len = (2 * len) as u8;
+            out.norm = out.norm.saturating_mul(2);
+        }
+        out
+    }
+
+    /// The longest delay, in cycles.
+    #[must_use]
+    pub fn longest(&self) -> usize {
+        self.terms().map(|(d, _)| d).max().unwrap_or(0)
+    }
+
+    /// How many running sums follow the taps (the spline's degree).
+    #[must_use]
+    pub fn windows(&self) -> usize {
+        usize::from(self.windows)
+    }
+
+    /// `Π m_i · 2^pairs`.
+    #[must_use]
+    pub fn norm(&self) -> u64 {
+        self.norm
+    }
+
+    /// The terms `(delay, weight)`.
+    pub fn terms(&self) -> impl Iterator<Item = (usize, i64)> + '_ {
+        self.delay
+            .iter()
+            .zip(self.weight.iter())
+            .take(usize::from(self.len))
+            .map(|(d, w)| (usize::from(*d), i64::from(*w)))
+    }
+}
+
+/// Adds `w z^{−d}` to the sparse polynomial of `len` terms; returns the new length.
+fn add_term(
+    delay: &mut [u16; MAX_TAPS],
+    weight: &mut [i8; MAX_TAPS],
+    len: usize,
+    d: u16,
+    w: i8,
+) -> usize {
+    if let Some(i) = delay.iter().take(len).position(|x| *x == d) {
+        if let Some(slot) = weight.get_mut(i) {
+            *slot += w;
+        }
+        return len;
+    }
+    match (delay.get_mut(len), weight.get_mut(len)) {
+        (Some(ds), Some(ws)) => {
+            *ds = d;
+            *ws = w;
+            len + 1
+        }
+        _ => len,
+    }
+}
+
+/// The last `R` cycles' acceleration steps of a group of `W` axes, one byte each.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Ring<const W: usize, const R: usize> {
+    cells: [[i8; W]; R],
+    /// Where the newest cycle is.
+    head: usize,
+    /// How many of the newest cycles hold what was pushed since the ring was last
+    /// forgotten (up to `R`): older cells read as zero, so forgetting the history needs
+    /// no clearing (the start of a motion, the generator's most expensive cycle, would
+    /// otherwise write every cell).
+    valid: usize,
+}
+
+impl<const W: usize, const R: usize> Ring<W, R> {
+    /// All zero: a history at rest.
+    #[must_use]
+    pub fn new() -> Self {
+        Self {
+            cells: [[0; W]; R],
+            head: 0,
+            valid: 0,
+        }
+    }
+
+    /// Appends a cycle, forgetting the oldest.
+    pub fn push(&mut self, k: [i8; W]) {
+        self.head = if self.head + 1 >= R { 0 } else { self.head + 1 };
+        if let Some(cell) = self.cells.get_mut(self.head) {
+            *cell = k;
+        }
+        if self.valid < R {
+            self.valid += 1;
+        }
+    }
+
+    /// The cycle `delay` cycles before the newest (zero beyond what was pushed since the
+    /// ring was last forgotten).
+    #[must_use]
+    pub fn get(&self, delay: usize) -> [i8; W] {
+        if delay >= self.valid {
+            return [0; W];
+        }
+        let i = if delay <= self.head {
+            self.head - delay
+        } else {
+            self.head + R - delay
+        };
+        self.cells.get(i).copied().unwrap_or([0; W])
+    }
+
+    /// Forgets every cycle: from now on the history reads as all zero (a history at rest).
+    pub fn forget(&mut self) {
+        self.valid = 0;
+    }
+
+    /// Fills `R` cycles with `k` (a history of constant acceleration).
+    pub fn fill(&mut self, k: [i8; W]) {
+        self.cells = [k; R];
+        self.valid = R;
+    }
+}
+
+impl<const W: usize, const R: usize> Default for Ring<W, R> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// `(−1)^j C(i, j)` (zero for `j > i`): row `i` turns backward differences `∇^j S[n]`
+/// into `S[n − i]` (the tests' reading of the differences; the pieces fold it into their
+/// B-spline table).
+#[cfg(test)]
+pub const BACKWARD: [[i64; MAX_WINDOWS + 1]; MAX_WINDOWS + 1] = [
+    [1, 0, 0, 0, 0],
+    [1, -1, 0, 0, 0],
+    [1, -2, 1, 0, 0],
+    [1, -3, 3, -1, 0],
+    [1, -4, 6, -4, 1],
+];
+
+/// The last `q + 1` outputs `S[n − i]`, newest first, from the backward differences
+/// `∇^j S[n]`: `S[n − i] = Σ_j (−1)^j C(i, j) ∇^j S[n]`.
+#[cfg(test)]
+#[must_use]
+pub fn values(nabla: &[i64; MAX_WINDOWS + 1], q: usize) -> [i64; MAX_WINDOWS + 1] {
+    let mut out = [0_i64; MAX_WINDOWS + 1];
+    for (oi, row) in out.iter_mut().zip(BACKWARD.iter()).take(q + 1) {
+        *oi = nabla
+            .iter()
+            .zip(row)
+            .fold(0_i64, |acc, (n, b)| acc.wrapping_add(b.wrapping_mul(*n)));
+    }
+    out
+}
+
+/// The running sums after the taps, per axis: the discrete filter's state besides the
+/// ring.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Sums<const W: usize> {
+    sums: [[i64; MAX_WINDOWS]; W],
+}
+
+impl<const W: usize> Sums<W> {
+    /// At rest.
+    pub const REST: Self = Self {
+        sums: [[0; MAX_WINDOWS]; W],
+    };
+
+    /// One cycle: the taps on the ring (whose newest cycle is this one's), then the
+    /// `q` running sums. Returns per axis the backward differences of the filter's
+    /// output `S = D(z) k` times the normalisation ([`Taps::norm`]), exact integers:
+    /// the running sums hold them — `∇^j S[n]` is the `(q−j)`-th sum, `∇^q S[n]` the
+    /// taps' output — so the B-spline's coefficients need no history of their own
+    /// ([`values`] turns them into `S[n − i]`). Wrapping arithmetic: the true values are
+    /// bounded (127 · norm and their differences), so the results are exact whatever the
+    /// intermediate sums.
+    pub fn advance<const R: usize>(
+        &mut self,
+        ring: &Ring<W, R>,
+        taps: &Taps,
+    ) -> [[i64; MAX_WINDOWS + 1]; W] {
+        let q = taps.windows();
+        let mut x = [0_i64; W];
+        for (d, w) in taps.terms() {
+            for (xi, ki) in x.iter_mut().zip(ring.get(d)) {
+                *xi = xi.wrapping_add(w.wrapping_mul(i64::from(ki)));
+            }
+        }
+        let mut out = [[0_i64; MAX_WINDOWS + 1]; W];
+        for ((s, xi), nabla) in self.sums.iter_mut().zip(x).zip(out.iter_mut()) {
+            let mut carry = xi;
+            for sum in s.iter_mut().take(q) {
+                *sum = sum.wrapping_add(carry);
+                carry = *sum;
+            }
+            for (j, n) in nabla.iter_mut().enumerate().take(q + 1) {
+                *n = match q.checked_sub(j + 1) {
+                    Some(i) => s.get(i).copied().unwrap_or(0),
+                    None => xi,
+                };
+            }
+        }
+        out
+    }
+
+    /// The state of a history of constant step `k` per axis: the last sum holds
+    /// `k · norm`, the others zero (a window's numerator vanishes on a constant).
+    #[must_use]
+    pub fn steady(k: [i8; W], taps: &Taps) -> Self {
+        let mut out = Self::REST;
+        for (s, ki) in out.sums.iter_mut().zip(k) {
+            if let Some(last) = taps.windows().checked_sub(1).and_then(|i| s.get_mut(i)) {
+                *last = i64::from(ki).wrapping_mul(taps.norm() as i64);
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::indexing_slicing, clippy::unwrap_used)]
+    use super::*;
+
+    /// The taps and sums against the filter applied directly: moving means and pairs on a
+    /// random integer sequence, in f64 from the definition.
+    #[test]
+    fn taps_and_sums_are_the_cascade_of_means_and_pairs() {
+        let taps = Taps::new(&[Factor::Window(7), Factor::Window(3)]).with_pairs(&[11, 5]);
+        assert_eq!(taps.windows(), 2);
+        assert_eq!(taps.norm(), 7 * 3 * 4);
+        assert_eq!(taps.longest(), 7 + 3 + 11 + 5);
+        let mut ring = Ring::<1, 64>::new();
+        let mut sums = Sums::<1>::REST;
+        let mut seed = 7_u64;
+        let mut input = [0.0_f64; 500];
+        let mut outputs = [0_i64; 500];
+        for n in 0..500_usize {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let k = if n < 400 {
+                ((seed >> 33) % 255) as i64 - 127
+            } else {
+                0
+            };
+            input[n] = k as f64;
+            ring.push([k as i8]);
+            let all = values(&sums.advance(&ring, &taps)[0], taps.windows());
+            let out = all[0] as f64 / taps.norm() as f64;
+            // The earlier outputs, read off the sums, are the earlier cycles' own.
+            for (i, earlier) in all.iter().enumerate().take(3).skip(1) {
+                if n >= i {
+                    assert_eq!(*earlier, outputs[n - i], "n {n}: S[n − {i}]");
+                }
+            }
+            outputs[n] = all[0];
+            // Direct: mean over 7, then mean over 3, then the pairs.
+            let x = |i: isize| -> f64 {
+                if i < 0 {
+                    0.0
+                } else {
+                    input[i as usize]
+                }
+            };
+            let mean7 = |i: isize| (0..7).map(|j| x(i - j)).sum::<f64>() / 7.0;
+            let mean3 = |i: isize| (0..3).map(|j| mean7(i - j)).sum::<f64>() / 3.0;
+            let pair11 = |i: isize| 0.5 * (mean3(i) + mean3(i - 11));
+            let n = n as isize;
+            let direct = 0.5 * (pair11(n) + pair11(n - 5));
+            assert!((out - direct).abs() < 1e-12, "n {n}: {out} vs {direct}");
+            if n > 400 + 30 {
+                assert_eq!(out, 0.0, "exactly zero once the ring has passed");
+            }
+        }
+    }
+
+    #[test]
+    fn equal_windows_merge_into_binomial_taps() {
+        let taps = Taps::new(&[Factor::Window(10); 4]);
+        let mut terms = [(0, 0); 5];
+        for (slot, t) in terms.iter_mut().zip(taps.terms()) {
+            *slot = t;
+        }
+        assert_eq!(taps.terms().count(), 5);
+        assert_eq!(terms, [(0, 1), (10, -4), (20, 6), (30, -4), (40, 1)]);
+    }
+
+    #[test]
+    fn steady_state_continues_a_constant_history() {
+        let taps = Taps::new(&[Factor::Window(4), Factor::Window(9)]).with_pairs(&[6]);
+        let mut ring = Ring::<2, 32>::new();
+        ring.fill([5, -3]);
+        let mut sums = Sums::steady([5, -3], &taps);
+        for _ in 0..100 {
+            ring.push([5, -3]);
+            let [x, y] = sums
+                .advance(&ring, &taps)
+                .map(|n| values(&n, taps.windows()));
+            let norm = taps.norm() as i64;
+            for (a, b) in x.iter().zip(y).take(taps.windows() + 1) {
+                assert_eq!([*a, b], [5 * norm, -3 * norm]);
+            }
+        }
+    }
+
+    #[test]
+    fn ring_reads_back_what_was_pushed() {
+        let mut ring = Ring::<1, 5>::new();
+        for k in 1..=12 {
+            ring.push([k]);
+        }
+        let back: [i8; 6] = core::array::from_fn(|d| ring.get(d)[0]);
+        assert_eq!(back, [12, 11, 10, 9, 8, 0]);
+        // Forgotten: zero everywhere, then only what came since.
+        ring.forget();
+        assert!((0..6).all(|d| ring.get(d) == [0]));
+        ring.push([7]);
+        ring.push([8]);
+        let back: [i8; 4] = core::array::from_fn(|d| ring.get(d)[0]);
+        assert_eq!(back, [8, 7, 0, 0]);
+    }
+}

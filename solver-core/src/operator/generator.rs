@@ -1,0 +1,616 @@
+//! The generator: the stick's demand in, once per cycle; the load path out, as a
+//! [`Trajectory`] the inverse models are driven by.
+
+use nalgebra::SVector;
+
+use crate::error::{Error, Result};
+use crate::operator::entry::{
+    blend_cycles, check_axis, check_inside, hoist_moments, horizontal_moments, new_blend, within,
+    Blend, Handover, Steady, ORDERS,
+};
+use crate::operator::filter::{Factor, Taps};
+use crate::operator::group::Group;
+use crate::operator::limiter::{brake, Axis};
+use crate::operator::piece::Piece;
+use crate::operator::settings::{cycles, zv_cycles, Quanta, Rounding, Settings};
+use crate::scalar::{c, to_f64, Real};
+use crate::trajectory::Trajectory;
+
+/// The load path's smoothness: derivatives 1..=5 are continuous — the crane models'
+/// `MIN_SMOOTHNESS` (4: continuous set points) and one more (continuous drive
+/// accelerations), what the controller plans its moves with.
+pub const SMOOTHNESS: usize = 5;
+
+/// One cycle's stick: per axis a demand in `[−1, 1]` of full stick (outside it: clamped;
+/// not finite: refused and taken as zero).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Demand<const NH: usize> {
+    /// The horizontal axes, in the model's output order (planar: x; 3D: x, y). A vector:
+    /// the load moves along the direction it points.
+    pub horizontal: [f64; NH],
+    /// The hoist: positive lowers the load (the depth `z_C` grows).
+    pub hoist: f64,
+}
+
+impl<const NH: usize> Demand<NH> {
+    /// The stick at zero.
+    pub const ZERO: Self = Self {
+        horizontal: [0.0; NH],
+        hoist: 0.0,
+    };
+}
+
+/// What a cycle did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[must_use]
+pub struct Cycle {
+    /// A demand was not finite and was taken as zero (the axis stops sway-free).
+    pub refused_demand: bool,
+    /// The path is at rest on this cycle: every derivative exactly 0.0.
+    pub at_rest: bool,
+}
+
+/// How the horizontal filter is tuned for the current horizontal motion (chosen when it
+/// starts from rest).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tuning {
+    /// The virtual pendulum's length `l_g`, m: `g (m_g h/π)²`, never shorter than the
+    /// load's effective pendulum while the horizontal axes move.
+    pub pendulum: f64,
+    /// Its half period in cycles, `m_g`: the zero-vibration pair's delay.
+    pub half_period: usize,
+    /// The robust pair's delay in cycles, tuned to the rope when the motion started.
+    pub robust_half_period: Option<usize>,
+    /// The horizontal path's mean lag behind the rate limiter, `τ̄ = (m_g + m_r + m_1 +
+    /// m_2) h/2`, s: the stopping distance's second term per m/s.
+    pub lag: f64,
+    /// The hoist path's mean lag, `(Σ m_z,i) h/2`, s.
+    pub hoist_lag: f64,
+    /// The deepest the load may go while the horizontal axes move, m.
+    pub depth_cap: f64,
+    /// The same in the hoist's position units.
+    cap_units: i64,
+}
+
+/// The distance a load moving at `speed` needs to stop once the stick is released (or a
+/// stop is commanded), m: the rate limiter's full-deceleration stop, at most
+/// `v²/(2A) + v h/2`, and the filters' lag, at most `v τ̄`, plus `v h/2` for the
+/// vector stop's rounding to whole cycles — `v²/(2A) + v (τ̄ + h)`, with `v` the largest
+/// speed of the rate limiter within the last `τ̄`-window (in steady motion the load's
+/// speed). For a vector `v` along a direction: per axis
+/// `|v_i| (max_j |v_j|/A_j / 2 + τ̄ + h)`.
+#[must_use]
+pub fn stopping_bound(speed: f64, acceleration: f64, lag: f64, h: f64) -> f64 {
+    let v = libm::fabs(speed);
+    v * v / (2.0 * acceleration) + v * (lag + h)
+}
+
+/// The operator-mode generator for a crane with `NH` horizontal axes and a hoist, its
+/// horizontal ring `RH` cycles long and the hoist's `RV`
+/// ([`Settings::ring_lengths`] gives the least lengths for a crane's settings).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Generator<const NH: usize, const RH: usize, const RV: usize> {
+    settings: Settings<NH>,
+    inv_h: f64,
+    /// Time of the first cycle, s.
+    t0: f64,
+    /// Cycles since `t0`: the current piece starts at `t0 + cycles h`.
+    cycles: u64,
+    /// Whether the current piece came from a cycle (the next one then starts at its end).
+    built: bool,
+    /// A stop is latched: every demand is taken as zero.
+    stopping: bool,
+    horizontal: Group<NH, RH>,
+    hoist: Group<1, RV>,
+    tuning: Tuning,
+    /// The hoist's deepest rate-limiter position since it last rested, in its units: no
+    /// load depth of the filtered path lies below it.
+    reach: i64,
+    /// The horizontal windows in cycles.
+    boxes: [usize; 2],
+    /// A hand-over's blend, while it lasts.
+    blend: Option<Blend<NH>>,
+    /// A stick's share beyond the deadband to velocity quanta per horizontal axis,
+    /// `V_i/(δv_i (1 − deadband))`.
+    full_stick: [f64; NH],
+    /// The same for the hoist.
+    full_hoist: f64,
+}
+
+/// The stick's demand through the deadband: zero inside it, the rest scaled by `full`
+/// (`1/(1 − deadband)` times full speed) so that full stick stays full; `None` for a value
+/// that is not finite.
+fn shaped(d: f64, deadband: f64, full: f64) -> Option<f64> {
+    if !d.is_finite() {
+        return None;
+    }
+    let a = libm::fabs(d).min(1.0);
+    if a <= deadband {
+        return Some(0.0);
+    }
+    let s = (a - deadband) * full;
+    Some(if d < 0.0 { -s } else { s })
+}
+
+/// `[min, max]` in position units from `origin`, rounded inwards.
+fn unit_bounds((lo, hi): (f64, f64), origin: f64, q: &Quanta) -> (i64, i64) {
+    (
+        libm::ceil((lo - origin) / q.position) as i64,
+        libm::floor((hi - origin) / q.position) as i64,
+    )
+}
+
+/// The horizontal axes' names in errors.
+const HORIZONTAL: [&str; 2] = ["x", "y"];
+
+impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
+    /// At rest at time `t0` with the load at `horizontal` and depth `depth` (its rest
+    /// position, exactly: the path starts there). Refuses invalid settings, rings shorter
+    /// than the settings need and a position outside the settings' ranges.
+    pub fn at_rest(
+        settings: Settings<NH>,
+        t0: f64,
+        horizontal: [f64; NH],
+        depth: f64,
+    ) -> Result<Self> {
+        settings.validate()?;
+        let (need_h, need_v) = settings.ring_lengths()?;
+        if need_h > RH || need_v > RV {
+            return Err(Error::InvalidSetting {
+                name: if need_h > RH {
+                    "horizontal ring length"
+                } else {
+                    "hoist ring length"
+                },
+                value: need_h.max(need_v) as f64,
+            });
+        }
+        if !t0.is_finite() {
+            return Err(Error::NonFiniteParameter {
+                name: "t0",
+                value: t0,
+            });
+        }
+        for ((x, a), name) in horizontal
+            .iter()
+            .zip(settings.horizontal.iter())
+            .zip(HORIZONTAL)
+        {
+            check_inside(name, *x, a.range, t0)?;
+        }
+        check_inside("z_C", depth, settings.hoist.range, t0)?;
+        let h = settings.h;
+        let quanta = settings.horizontal.map(|a| Quanta::new(a.acceleration, h));
+        let mut bounds = [(0, 0); NH];
+        for ((b, (a, q)), x) in bounds
+            .iter_mut()
+            .zip(settings.horizontal.iter().zip(quanta.iter()))
+            .zip(horizontal)
+        {
+            *b = unit_bounds(a.range, x, q);
+        }
+        let zq = Quanta::new(settings.hoist.acceleration, h);
+        let mut hoist_windows = [Factor::Window(1); 4];
+        let mut hoist_cycles = 0;
+        for (f, b) in hoist_windows.iter_mut().zip(settings.hoist_boxes) {
+            let m = cycles("hoist box", b, h)?;
+            hoist_cycles += m;
+            *f = Factor::Window(m);
+        }
+        let boxes = [
+            cycles("box", settings.boxes[0], h)?,
+            cycles("box", settings.boxes[1], h)?,
+        ];
+        let hoist = Group::at_rest(
+            [depth],
+            [settings.hoist.acceleration],
+            h,
+            [unit_bounds(settings.hoist.range, depth, &zq)],
+            Taps::new(&hoist_windows),
+            None,
+        );
+        let placeholder = Taps::new(&[Factor::Window(boxes[0]), Factor::Window(boxes[1])]);
+        let mut g = Self {
+            settings,
+            inv_h: 1.0 / h,
+            t0,
+            cycles: 0,
+            built: false,
+            stopping: false,
+            horizontal: Group::at_rest(
+                horizontal,
+                settings.horizontal.map(|a| a.acceleration),
+                h,
+                bounds,
+                placeholder,
+                None,
+            ),
+            hoist,
+            tuning: Tuning {
+                pendulum: 0.0,
+                half_period: 0,
+                robust_half_period: None,
+                lag: 0.0,
+                hoist_lag: hoist_cycles as f64 * h * 0.5,
+                depth_cap: depth,
+                cap_units: 0,
+            },
+            reach: 0,
+            boxes,
+            blend: None,
+            full_stick: settings.horizontal.map(|a| {
+                a.speed / Quanta::new(a.acceleration, h).velocity / (1.0 - settings.deadband)
+            }),
+            full_hoist: settings.hoist.speed / zq.velocity / (1.0 - settings.deadband),
+        };
+        g.retune();
+        Ok(g)
+    }
+
+    /// Takes over a moving load at time `t` (a hand-over from a running move): the path
+    /// continues `state` with its derivatives 0..=5 and becomes the stick's after
+    /// [`Settings::entry_blend`] ([`crate::operator`]'s `entry`: the generator starts in
+    /// the steady state of the move's acceleration, the rest is blended). Refuses invalid
+    /// settings and a state the generator cannot continue inside the workspace — one
+    /// whose steady past or full-deceleration stop leaves a range, or whose rope is
+    /// longer than the virtual pendulum may be — with
+    /// [`Error::OutsideWorkspace`] naming the coordinate.
+    pub fn take_over(settings: Settings<NH>, t: f64, state: &Handover<NH>) -> Result<Self> {
+        let all = state.horizontal.iter().flatten().chain(state.hoist.iter());
+        if let Some(bad) = all.copied().find(|v| !v.is_finite()) {
+            return Err(Error::NonFiniteParameter {
+                name: "hand-over state",
+                value: bad,
+            });
+        }
+        let positions = state.horizontal.map(|d| d[0]);
+        let mut g = Self::at_rest(settings, t, positions, state.hoist[0])?;
+        g.enter(state)?;
+        Ok(g)
+    }
+
+    /// The steady states of a hand-over (see [`Generator::take_over`]).
+    fn enter(&mut self, state: &Handover<NH>) -> Result<()> {
+        let s = self.settings;
+        let (h, t) = (s.h, self.t0);
+        // The path before the first cycle: the state itself.
+        let taylor = |d: &[f64; ORDERS]| {
+            let mut p = Piece::rest(d[0]);
+            let (mut scale, mut factorial) = (1.0, 1.0);
+            for (j, (c, dj)) in p.coeffs.iter_mut().zip(d).enumerate() {
+                *c = dj * scale / factorial;
+                scale *= h;
+                factorial *= (j + 1) as f64;
+            }
+            p
+        };
+        // The hoist: steady at its acceleration within the limit.
+        let zq = self.hoist.quanta()[0];
+        let [z, zv, za, ..] = state.hoist;
+        let [za_limited] = within([za], [s.hoist.acceleration]);
+        let hz = Steady::new(z, zv, za_limited, &zq, hoist_moments(&s.hoist_boxes), None);
+        let hoist_window = (self.hoist.taps().longest() + 1) as f64 * h;
+        check_axis("z_C", &hz, &zq, hoist_window, s.hoist.range, t)?;
+        self.hoist.origin = [hz.origin];
+        self.hoist.bounds = [unit_bounds(s.hoist.range, hz.origin, &zq)];
+        self.hoist.axes = [Axis {
+            n_v: hz.n_v,
+            n_p: 0,
+            carry: hz.carry,
+        }];
+        self.hoist.set_steady([hz.k]);
+        let mut piece = taylor(&state.hoist);
+        piece.lag = hz.lag;
+        self.hoist.pieces = [piece];
+        // The hoist's deepest point of its steady past: no load depth lies below it.
+        let (_, past_hi) = hz.past_range(&zq, hoist_window);
+        self.reach = (libm::ceil(past_hi / zq.position) as i64).max(0);
+        // The horizontal filter for the deepest load the hoist may reach.
+        self.retune();
+        let need = s.pendulum_for(z) * (s.g - s.hoist.acceleration) / (s.g - za.max(0.0));
+        if need > self.tuning.pendulum {
+            return Err(Error::OutsideWorkspace {
+                t,
+                coordinate: "l",
+                value: need,
+                min: 0.0,
+                max: self.tuning.pendulum,
+            });
+        }
+        let tuning = self.tuning;
+        let moments = horizontal_moments(
+            &s.boxes,
+            tuning.half_period as f64 * h,
+            tuning.robust_half_period.map(|m| m as f64 * h),
+        );
+        let omega = core::f64::consts::PI / (tuning.half_period as f64 * h);
+        let window = (self.horizontal.taps().longest() + 1) as f64 * h;
+        let acc = within(
+            state.horizontal.map(|d| d[2]),
+            s.horizontal.map(|a| a.acceleration),
+        );
+        let mut ks = [0_i8; NH];
+        let mut steady_paths = [[0.0; 3]; NH];
+        for (i, ((d, a), name)) in state.horizontal.iter().zip(acc).zip(HORIZONTAL).enumerate() {
+            let (Some(q), Some(axis_settings)) = (
+                self.horizontal.quanta().get(i).copied(),
+                s.horizontal.get(i),
+            ) else {
+                continue;
+            };
+            let st = Steady::new(d[0], d[1], a, &q, moments, Some(omega));
+            check_axis(name, &st, &q, window, axis_settings.range, t)?;
+            if let (Some(o), Some(b), Some(ax), Some(k), Some(p), Some(path)) = (
+                self.horizontal.origin.get_mut(i),
+                self.horizontal.bounds.get_mut(i),
+                self.horizontal.axes.get_mut(i),
+                ks.get_mut(i),
+                self.horizontal.pieces.get_mut(i),
+                steady_paths.get_mut(i),
+            ) {
+                *o = st.origin;
+                *b = unit_bounds(axis_settings.range, st.origin, &q);
+                *ax = Axis {
+                    n_v: st.n_v,
+                    n_p: 0,
+                    carry: st.carry,
+                };
+                *k = st.k;
+                let mut piece = taylor(d);
+                piece.lag = st.lag;
+                piece.swing = st.swing;
+                *p = piece;
+                *path = st.path;
+            }
+        }
+        self.horizontal.set_steady(ks);
+        // What the steady states leave out, blended.
+        let difference = |d: &[f64; ORDERS], path: &[f64; 3]| {
+            let mut e = *d;
+            for (ej, pj) in e.iter_mut().zip(path) {
+                *ej -= pj;
+            }
+            e
+        };
+        let mut horizontal = [[0.0; ORDERS]; NH];
+        for ((e, d), path) in horizontal
+            .iter_mut()
+            .zip(&state.horizontal)
+            .zip(&steady_paths)
+        {
+            *e = difference(d, path);
+        }
+        let hoist = difference(&state.hoist, &hz.path);
+        self.blend = Some(new_blend(
+            blend_cycles(s.entry_blend, h),
+            h,
+            &horizontal,
+            &hoist,
+        ));
+        Ok(())
+    }
+
+    /// Chooses the horizontal filter for a motion starting now (the horizontal axes at
+    /// rest): the virtual pendulum long enough for the deepest load the hoist may reach
+    /// while it lasts — where it would stop now, or its deepest since it last rested,
+    /// and the lowering allowance below that, within its range — and the robust pair at
+    /// the rope's current length.
+    fn retune(&mut self) {
+        let s = &self.settings;
+        let h = s.h;
+        let axis = self.hoist.axes[0];
+        let zq = self.hoist.quanta()[0];
+        let reach = self.reach.max(axis.n_p + brake(axis.n_v));
+        let allowance = libm::floor(s.lowering_allowance / zq.position) as i64;
+        let cap_units = reach.saturating_add(allowance).min(self.hoist.bounds[0].1);
+        let depth_cap = self.hoist.origin[0] + cap_units as f64 * zq.position;
+        let m_g = zv_cycles(s.pendulum_for(depth_cap), s.g, h, Rounding::Up);
+        let omega_g = core::f64::consts::PI / (m_g as f64 * h);
+        // The rope now: the load's depth at this cycle's start (it hangs straight at
+        // horizontal rest), within the range the ring is sized for.
+        let depth_now = self.hoist.pieces[0].coeffs[0].min(s.hoist.range.1);
+        let robust = s
+            .robust
+            .then(|| zv_cycles(depth_now, s.g, h, Rounding::Nearest));
+        let [b1, b2] = self.boxes;
+        let windows = Taps::new(&[Factor::Window(b1), Factor::Window(b2)]);
+        let taps = match robust {
+            Some(m_r) => windows.with_pairs(&[m_g, m_r]),
+            None => windows.with_pairs(&[m_g]),
+        };
+        self.horizontal.set_filter(taps, Some(omega_g * h));
+        self.tuning = Tuning {
+            pendulum: s.g / (omega_g * omega_g),
+            half_period: m_g,
+            robust_half_period: robust,
+            lag: (m_g + robust.unwrap_or(0) + b1 + b2) as f64 * h * 0.5,
+            depth_cap,
+            cap_units,
+            ..self.tuning
+        };
+    }
+
+    /// One cycle: moves on past the current piece (if any) and builds the next one,
+    /// `[t, t + h]`, from the stick's `demand`. Call it once per cycle before the inverse
+    /// model steps over that interval.
+    pub fn advance(&mut self, demand: &Demand<NH>) -> Cycle {
+        if self.built {
+            self.cycles += 1;
+        }
+        self.built = true;
+        let s = self.settings;
+        let mut refused = false;
+        let mut shape = |d: f64, full: f64| {
+            shaped(d, s.deadband, full).unwrap_or_else(|| {
+                refused = true;
+                0.0
+            })
+        };
+        let mut targets = [0.0; NH];
+        for ((t, d), full) in targets
+            .iter_mut()
+            .zip(demand.horizontal)
+            .zip(self.full_stick)
+        {
+            *t = shape(d, full);
+        }
+        let mut hoist_target = shape(demand.hoist, self.full_hoist);
+        if self.stopping {
+            targets = [0.0; NH];
+            hoist_target = 0.0;
+        }
+        let starts = self.horizontal.is_at_rest() && targets.iter().any(|t| *t != 0.0);
+        if starts {
+            self.retune();
+        }
+        // While the horizontal axes move, the hoist stays above the depth the pendulum
+        // was tuned for.
+        let mut hoist_bounds = self.hoist.bounds;
+        if starts || !self.horizontal.is_at_rest() {
+            hoist_bounds[0].1 = hoist_bounds[0].1.min(self.tuning.cap_units);
+        }
+        self.hoist
+            .cycle([hoist_target], hoist_bounds, s.h, self.inv_h);
+        let n_p = self.hoist.axes[0].n_p;
+        self.reach = if self.hoist.is_at_rest() {
+            n_p
+        } else {
+            self.reach.max(n_p)
+        };
+        let bounds = self.horizontal.bounds;
+        self.horizontal.cycle(targets, bounds, s.h, self.inv_h);
+        if let Some(b) = self.blend.as_mut() {
+            let [hoist] = &mut self.hoist.pieces;
+            if !b.add(&mut self.horizontal.pieces, hoist) {
+                self.blend = None;
+            }
+        }
+        Cycle {
+            refused_demand: refused,
+            at_rest: self.is_at_rest(),
+        }
+    }
+
+    /// Latches a stop: from the next cycle on every demand is taken as zero, so the load
+    /// comes to a sway-free rest along its current direction, within
+    /// [`stopping_bound`]. Kept until [`Generator::resume`].
+    pub fn stop(&mut self) {
+        self.stopping = true;
+    }
+
+    /// Lifts a latched stop: demands count again (the caller's interlock decides when).
+    pub fn resume(&mut self) {
+        self.stopping = false;
+    }
+
+    /// Whether a stop is latched.
+    #[must_use]
+    pub fn is_stopping(&self) -> bool {
+        self.stopping
+    }
+
+    /// Whether the path is at rest on the current cycle: every derivative exactly 0.0,
+    /// the position constant, until a demand moves it again.
+    #[must_use]
+    pub fn is_at_rest(&self) -> bool {
+        self.blend.is_none() && self.horizontal.is_at_rest() && self.hoist.is_at_rest()
+    }
+
+    /// Start of the current cycle, s.
+    #[must_use]
+    pub fn time(&self) -> f64 {
+        self.t0 + self.cycles as f64 * self.settings.h
+    }
+
+    /// The settings.
+    #[must_use]
+    pub fn settings(&self) -> &Settings<NH> {
+        &self.settings
+    }
+
+    /// The current tuning of the horizontal filter.
+    #[must_use]
+    pub fn tuning(&self) -> &Tuning {
+        &self.tuning
+    }
+
+    /// The rate limiter's speeds at the current cycle's end (the next one's start), m/s:
+    /// horizontal axes, hoist.
+    #[must_use]
+    pub fn demanded_speeds(&self) -> ([f64; NH], f64) {
+        (self.horizontal.speeds(), self.hoist.speeds()[0])
+    }
+
+    /// The path and its first `D − 1` derivatives at `t` (inside the current cycle; beyond
+    /// it the cycle's polynomial is continued): per horizontal axis, and the hoist's.
+    #[must_use]
+    pub fn evaluate<const D: usize>(&self, t: f64) -> ([[f64; D]; NH], [f64; D]) {
+        let theta = (t - self.time()) * self.inv_h;
+        let mut out = [[0.0; D]; NH];
+        for (o, p) in out.iter_mut().zip(self.horizontal.pieces.iter()) {
+            *o = p.eval(theta, self.inv_h);
+        }
+        (out, self.hoist.pieces[0].eval(theta, self.inv_h))
+    }
+
+    /// `(t_n, t_n + h)` while the path moves, `(t_n, t_n)` at rest: the trajectory is
+    /// known one cycle ahead.
+    fn span(&self) -> (f64, f64) {
+        let t = self.time();
+        if self.is_at_rest() {
+            (t, t)
+        } else {
+            (t, t + self.settings.h)
+        }
+    }
+}
+
+/// The outputs `[x_C, (y_C,) z_C]` and their derivatives as the models take them.
+fn outputs<T: Real, const NH: usize, const NZ: usize, const D: usize>(
+    (horizontal, hoist): ([[f64; D]; NH], [f64; D]),
+) -> [SVector<T, NZ>; D] {
+    let mut out = [SVector::<T, NZ>::zeros(); D];
+    for (j, o) in out.iter_mut().enumerate() {
+        for (i, slot) in o.iter_mut().enumerate() {
+            let v = if i < NH {
+                horizontal.get(i).and_then(|a| a.get(j))
+            } else {
+                hoist.get(j)
+            };
+            *slot = c(v.copied().unwrap_or(0.0));
+        }
+    }
+    out
+}
+
+/// The planar crane's load path `[x_C, z_C]`.
+impl<T: Real, const RH: usize, const RV: usize> Trajectory<T, 2> for Generator<1, RH, RV> {
+    fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, 2>; D] {
+        outputs(self.evaluate::<D>(to_f64(t)))
+    }
+
+    fn active_span(&self) -> (T, T) {
+        let (a, b) = self.span();
+        (c(a), c(b))
+    }
+
+    fn smoothness(&self) -> usize {
+        SMOOTHNESS
+    }
+}
+
+/// The 3D crane's load path `[x_C, y_C, z_C]`.
+impl<T: Real, const RH: usize, const RV: usize> Trajectory<T, 3> for Generator<2, RH, RV> {
+    fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, 3>; D] {
+        outputs(self.evaluate::<D>(to_f64(t)))
+    }
+
+    fn active_span(&self) -> (T, T) {
+        let (a, b) = self.span();
+        (c(a), c(b))
+    }
+
+    fn smoothness(&self) -> usize {
+        SMOOTHNESS
+    }
+}

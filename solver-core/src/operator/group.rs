@@ -1,0 +1,192 @@
+//! A group of axes that share one filter: the horizontal axes (one rate limiter for the
+//! vector, one ring, the virtual pendulum) or the hoist (its own limiter and windows).
+//! Each cycle: the limiter's steps, the discrete filter, one piece per axis.
+
+use crate::operator::filter::{Ring, Sums, Taps};
+use crate::operator::limiter::{self, Axis};
+use crate::operator::piece::{spline, Inputs, Piece};
+use crate::operator::settings::Quanta;
+
+/// One group of `W` axes with a ring of `R` cycles.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Group<const W: usize, const R: usize> {
+    /// The rate limiter's axes.
+    pub axes: [Axis; W],
+    /// Where each axis's position units count from, m.
+    pub origin: [f64; W],
+    /// Each axis's acceleration limit, m/s²: its quanta with `h` ([`Group::quanta`]).
+    accelerations: [f64; W],
+    /// The cycle, s.
+    h: f64,
+    /// Each axis's range in position units from its origin.
+    pub bounds: [(i64, i64); W],
+    /// The last `R` cycles' steps.
+    ring: Ring<W, R>,
+    sums: Sums<W>,
+    taps: Taps,
+    /// `δa_i / norm`: a running sum's output in m/s².
+    scale: [f64; W],
+    /// The path on the current cycle.
+    pub pieces: [Piece; W],
+    /// Cycles in a row with every step zero, this one included.
+    quiet: usize,
+    /// Quiet cycles after which a group at zero speed is exactly at rest: the numerator's
+    /// longest delay and one.
+    window: usize,
+    /// `ω_g h` of the virtual pendulum, if the group has one.
+    omega_h: Option<f64>,
+    /// Whether the current cycle's path is constant.
+    at_rest: bool,
+}
+
+impl<const W: usize, const R: usize> Group<W, R> {
+    /// At rest at `origin` with these acceleration limits (cycle `h`), bounds and filter.
+    #[must_use]
+    pub fn at_rest(
+        origin: [f64; W],
+        accelerations: [f64; W],
+        h: f64,
+        bounds: [(i64, i64); W],
+        taps: Taps,
+        omega_h: Option<f64>,
+    ) -> Self {
+        let mut g = Self {
+            axes: [Axis::REST; W],
+            origin,
+            accelerations,
+            h,
+            bounds,
+            ring: Ring::new(),
+            sums: Sums::REST,
+            taps,
+            scale: [0.0; W],
+            pieces: origin.map(Piece::rest),
+            quiet: usize::MAX,
+            window: 0,
+            omega_h,
+            at_rest: true,
+        };
+        g.set_filter(taps, omega_h);
+        g
+    }
+
+    /// A new filter (only at rest: the history is then all zero); forgets the ring, whose
+    /// older cycles the new taps may reach.
+    pub fn set_filter(&mut self, taps: Taps, omega_h: Option<f64>) {
+        self.taps = taps;
+        self.omega_h = omega_h;
+        self.window = taps.longest() + 1;
+        let norm = taps.norm() as f64;
+        let quanta = self.quanta();
+        for (s, q) in self.scale.iter_mut().zip(quanta) {
+            *s = q.acceleration / norm;
+        }
+        self.ring.forget();
+        self.sums = Sums::REST;
+    }
+
+    /// A history of constant acceleration step `k` on every axis (a hand-over); the
+    /// pieces' filter states are the caller's.
+    pub fn set_steady(&mut self, k: [i8; W]) {
+        self.ring.fill(k);
+        self.sums = Sums::steady(k, &self.taps);
+        self.quiet = 0;
+        self.at_rest = false;
+    }
+
+    /// Each axis's quanta.
+    #[must_use]
+    pub fn quanta(&self) -> [Quanta; W] {
+        self.accelerations.map(|a| Quanta::new(a, self.h))
+    }
+
+    /// The filter's numerator.
+    #[must_use]
+    pub fn taps(&self) -> &Taps {
+        &self.taps
+    }
+
+    /// Whether the current cycle's path is constant (exactly: every derivative 0.0).
+    #[must_use]
+    pub fn is_at_rest(&self) -> bool {
+        self.at_rest
+    }
+
+    /// Each axis's rate-limiter speed, m/s.
+    #[must_use]
+    pub fn speeds(&self) -> [f64; W] {
+        let mut out = [0.0; W];
+        for (o, (a, q)) in out.iter_mut().zip(self.axes.iter().zip(self.quanta())) {
+            *o = a.n_v as f64 * q.velocity;
+        }
+        out
+    }
+
+    /// One cycle from the states at its start: the limiter towards `targets` (velocity
+    /// quanta) within `bounds`, the filter, the pieces. `h`, `inv_h`: the cycle.
+    pub fn cycle(&mut self, targets: [f64; W], bounds: [(i64, i64); W], h: f64, inv_h: f64) {
+        if self.at_rest && targets.iter().all(|t| *t == 0.0) {
+            // Nothing moves: the steps would be zero, the ring's window is zero already
+            // and the running sums stay zero; the pieces are the rest positions again (a
+            // hand-over's blend may have been added to the last ones).
+            self.quiet = self.quiet.saturating_add(1);
+            for ((piece, o), (a, q)) in self
+                .pieces
+                .iter_mut()
+                .zip(self.origin)
+                .zip(self.axes.iter().zip(self.accelerations))
+            {
+                piece.settle(o + a.n_p as f64 * Quanta::new(q, self.h).position);
+            }
+            return;
+        }
+        let quanta = self.quanta();
+        let mut p0 = self.origin;
+        let mut v0 = [0.0; W];
+        for ((p, v), (a, q)) in p0
+            .iter_mut()
+            .zip(v0.iter_mut())
+            .zip(self.axes.iter().zip(quanta))
+        {
+            *p += a.n_p as f64 * q.position;
+            *v = a.n_v as f64 * q.velocity;
+        }
+        let resting = self.axes.iter().all(|a| a.n_v == 0);
+        let k = limiter::step(&mut self.axes, targets, bounds);
+        self.ring.push(k);
+        // The filter output's backward differences: the B-spline on this cycle.
+        let nabla = self.sums.advance(&self.ring, &self.taps);
+        self.quiet = if k.iter().all(|k| *k == 0) {
+            self.quiet.saturating_add(1)
+        } else {
+            0
+        };
+        self.at_rest = resting && self.quiet >= self.window;
+        let q = self.taps.windows();
+        for (i, piece) in self.pieces.iter_mut().enumerate() {
+            let (Some(p), Some(v), Some(ki), Some(n), Some(qa), Some(scale)) = (
+                p0.get(i),
+                v0.get(i),
+                k.get(i),
+                nabla.get(i),
+                quanta.get(i),
+                self.scale.get(i),
+            ) else {
+                continue;
+            };
+            if self.at_rest {
+                piece.settle(*p);
+            } else {
+                piece.build(&Inputs {
+                    p0: *p,
+                    v0: *v,
+                    a0: f64::from(*ki) * qa.acceleration,
+                    rho: spline(n, q, *scale),
+                    h,
+                    inv_h,
+                    omega_h: self.omega_h,
+                });
+            }
+        }
+    }
+}

@@ -1,0 +1,460 @@
+//! The continuous half of the filters: one cycle of the load path as a polynomial in
+//! `θ = (t − t_n)/h ∈ [0, 1]`, built once per cycle and evaluated at any time inside it.
+//!
+//! Per axis the path is `x = p₀ + d + e` ([`Piece::build`]):
+//!
+//! * `p₀` — the rate limiter's path, quadratic on the cycle;
+//! * `d = r − p₀` — what the windows and pairs take off it: `d̈ = r̈ − a₀`, where `r̈`, the
+//!   filtered acceleration, is the cardinal B-spline of degree `q` whose coefficients
+//!   the discrete filter gives ([`crate::operator::filter`]): on this cycle
+//!   `r̈(θ) = Σ_{i=0}^{q} c[n−i] N_q(θ + i)`, a polynomial of degree `q` ([`BSPLINE2`],
+//!   [`BSPLINE4`]). For the hoist `r` is the path (`e = 0`).
+//! * `e = x_L − r` — the horizontal axes' virtual pendulum of length `l_g`,
+//!   `ẍ_L = ω_g² (r − x_L)`, i.e. `ë = −ω_g² e − r̈`. Its Taylor coefficients in θ follow
+//!   from `e`, `ė` at the cycle's start by the recursion
+//!   `(j+1)(j+2) ε_{j+2} = −(ω_g h)² ε_j − h² ρ_j` (ρ_j those of `r̈`); twelve of them
+//!   leave `(ω_g h)¹²/12! < 10⁻²⁰` of the swing ([`MAX_OMEGA_H`](super::settings::MAX_OMEGA_H)),
+//!   so the piece is exact to rounding without a sine or cosine.
+//!
+//! The states `d, ḋ, e, ė` at the cycle's end are computed with the piece and kept in
+//! place of those at its start (only the piece's coefficients are evaluated): they are
+//! the next cycle's start.
+
+/// The piece's highest power of θ.
+pub const DEGREE: usize = 11;
+
+/// The piece's number of coefficients.
+pub const COEFFS: usize = DEGREE + 1;
+
+/// `C(n, k)` as f64, in const context (the B-spline's and the Hermite basis' tables).
+pub(crate) const fn binomial(n: usize, k: usize) -> f64 {
+    let mut r = 1.0;
+    let mut i = 0;
+    while i < k {
+        r = r * (n - i) as f64 / (i + 1) as f64;
+        i += 1;
+    }
+    r
+}
+
+/// `n!` as f64, in const context.
+pub(crate) const fn factorial(n: usize) -> f64 {
+    let mut r = 1.0;
+    let mut f = 2;
+    while f <= n {
+        r *= f as f64;
+        f += 1;
+    }
+    r
+}
+
+/// The pieces of the cardinal B-spline of degree `q ≤ 4` (knots at the integers, support
+/// `[0, q+1]`): row `i` holds the coefficients of `θ^j` of `N_q(θ + i)`, `θ ∈ [0, 1]`,
+/// from `N_q(x) = (1/q!) Σ_m (−1)^m C(q+1, m) (x − m)₊^q`.
+#[allow(clippy::indexing_slicing)] // evaluated at compile time: an index out of range fails the build
+const fn bspline(q: usize) -> [[f64; 5]; 5] {
+    let mut out = [[0.0; 5]; 5];
+    let q_factorial = factorial(q);
+    let mut i = 0;
+    while i <= q {
+        let mut m = 0;
+        while m <= i {
+            let sign = if m % 2 == 0 { 1.0 } else { -1.0 };
+            let shift = (i - m) as f64;
+            // (θ + shift)^q = Σ_j C(q, j) θ^j shift^(q−j).
+            let mut j = 0;
+            while j <= q {
+                let mut power = 1.0;
+                let mut p = 0;
+                while p < q - j {
+                    power *= shift;
+                    p += 1;
+                }
+                out[i][j] += sign * binomial(q + 1, m) * binomial(q, j) * power / q_factorial;
+                j += 1;
+            }
+            m += 1;
+        }
+        i += 1;
+    }
+    out
+}
+
+/// The quadratic B-spline's pieces (two windows: the horizontal filter).
+#[cfg(test)]
+const BSPLINE2: [[f64; 5]; 5] = bspline(2);
+
+/// The quartic B-spline's pieces (four windows: the hoist's filter).
+#[cfg(test)]
+const BSPLINE4: [[f64; 5]; 5] = bspline(4);
+
+/// The pieces of degree `q` (2 or 4; any other is the quartic's, which no filter here has).
+#[cfg(test)]
+fn bspline_of(q: usize) -> &'static [[f64; 5]; 5] {
+    if q == 2 {
+        &BSPLINE2
+    } else {
+        &BSPLINE4
+    }
+}
+
+/// `k!/(k−j)!` for `j, k < COEFFS` (0 for `k < j`): the factors of the j-th derivative.
+const FALLING: [[f64; COEFFS]; COEFFS] = falling();
+
+#[allow(clippy::indexing_slicing)] // evaluated at compile time
+const fn falling() -> [[f64; COEFFS]; COEFFS] {
+    let mut out = [[0.0; COEFFS]; COEFFS];
+    let mut j = 0;
+    while j < COEFFS {
+        let mut k = j;
+        while k < COEFFS {
+            let mut v = 1.0;
+            let mut i = 0;
+            while i < j {
+                v *= (k - i) as f64;
+                i += 1;
+            }
+            out[j][k] = v;
+            k += 1;
+        }
+        j += 1;
+    }
+    out
+}
+
+/// `1/((j+1)(j+2))`: what integrating `θ^j` twice divides by.
+const INV_PAIR: [f64; COEFFS] = inv_pair();
+
+#[allow(clippy::indexing_slicing)] // evaluated at compile time
+const fn inv_pair() -> [f64; COEFFS] {
+    let mut out = [0.0; COEFFS];
+    let mut j = 0;
+    while j < COEFFS {
+        out[j] = 1.0 / ((j + 1) * (j + 2)) as f64;
+        j += 1;
+    }
+    out
+}
+
+/// `j` as f64, `j = 0..COEFFS`: the factors of the first derivative.
+const INDEX: [f64; COEFFS] = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0];
+
+/// `Σ_i N_q(θ + i) (−1)^j C(i, j)`: row `j` of the map from the filter output's
+/// backward differences `∇^j S[n]` to the coefficients of θ^m of the B-spline on this
+/// cycle, `Σ_i S[n−i] N_q(θ + i)` — the B-spline's pieces and the differences'
+/// binomials in one table, entry `[m][j]`.
+#[allow(clippy::indexing_slicing)] // evaluated at compile time: an index out of range fails the build
+const fn spline_of_differences(q: usize) -> [[f64; 5]; 5] {
+    let b = bspline(q);
+    let mut out = [[0.0; 5]; 5];
+    let mut m = 0;
+    while m <= q {
+        let mut j = 0;
+        while j <= q {
+            let mut i = j;
+            while i <= q {
+                let sign = if j % 2 == 0 { 1.0 } else { -1.0 };
+                out[m][j] += b[i][m] * sign * binomial(i, j);
+                i += 1;
+            }
+            j += 1;
+        }
+        m += 1;
+    }
+    out
+}
+
+/// [`spline_of_differences`] of the quadratic and the quartic B-spline.
+const DIFFERENCES2: [[f64; 5]; 5] = spline_of_differences(2);
+const DIFFERENCES4: [[f64; 5]; 5] = spline_of_differences(4);
+
+/// The filtered acceleration on this cycle as a polynomial in θ, from the filter
+/// output's backward differences `∇^j S[n]` (exact integers) and `scale`, the factor
+/// that makes them m/s²: `Σ_i c[n−i] N_q(θ + i)` with `c = scale · S`.
+#[must_use]
+pub fn spline(nabla: &[i64; 5], q: usize, scale: f64) -> [f64; 5] {
+    let table = if q == 2 { &DIFFERENCES2 } else { &DIFFERENCES4 };
+    let mut rho = [0.0; 5];
+    for (r, row) in rho.iter_mut().zip(table.iter()).take(q + 1) {
+        let mut acc = 0.0;
+        for (n, m) in nabla.iter().zip(row.iter()).take(q + 1) {
+            acc += *n as f64 * m;
+        }
+        *r = acc * scale;
+    }
+    rho
+}
+
+/// A value and its rate at a cycle's start (`d, ḋ` or `e, ė`).
+pub type State = [f64; 2];
+
+/// One axis's path on the current cycle, and its filter states.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Piece {
+    /// The path's coefficients in θ.
+    pub coeffs: [f64; COEFFS],
+    /// `d = r − p₀`, `ḋ` at the start of the next cycle to build (once built: at the
+    /// current cycle's end).
+    pub lag: State,
+    /// `e = x_L − r`, `ė` likewise (zero for the hoist).
+    pub swing: State,
+}
+
+/// What a cycle's piece is built from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Inputs {
+    /// The rate limiter's position at the cycle's start, m.
+    pub p0: f64,
+    /// Its speed, m/s.
+    pub v0: f64,
+    /// Its acceleration on the cycle, m/s².
+    pub a0: f64,
+    /// The filtered acceleration's coefficients in θ (degree `q`).
+    pub rho: [f64; 5],
+    /// The cycle, s.
+    pub h: f64,
+    /// `1/h`.
+    pub inv_h: f64,
+    /// `ω_g h` of the virtual pendulum; `None` for the hoist.
+    pub omega_h: Option<f64>,
+}
+
+impl Piece {
+    /// At rest at `position`.
+    #[must_use]
+    pub fn rest(position: f64) -> Self {
+        let mut coeffs = [0.0; COEFFS];
+        coeffs[0] = position;
+        Self {
+            coeffs,
+            lag: [0.0; 2],
+            swing: [0.0; 2],
+        }
+    }
+
+    /// Builds the cycle from the states at its start (`self.lag`, `self.swing`), which
+    /// it replaces by those at its end.
+    pub fn build(&mut self, x: &Inputs) {
+        // Written out term by term (constant indices): this runs for every axis every
+        // cycle, and the iterator chains cost three times as many instructions.
+        let (h, h2) = (x.h, x.h * x.h);
+        let [d, d_dot] = self.lag;
+        let [e, e_dot] = self.swing;
+        let [r0, r1, r2, r3, r4] = x.rho;
+        // r̈ integrated twice in θ: h² ρ_j θ^(j+2)/((j+1)(j+2)).
+        let f = [
+            h2 * r0 * INV_PAIR[0],
+            h2 * r1 * INV_PAIR[1],
+            h2 * r2 * INV_PAIR[2],
+            h2 * r3 * INV_PAIR[3],
+            h2 * r4 * INV_PAIR[4],
+        ];
+        // d̈ = r̈ − a₀: d at the cycle's end and its rate (times h).
+        let lag_curvature = -h2 * x.a0 * 0.5;
+        let next_d = d + d_dot * h + lag_curvature + f[0] + f[1] + f[2] + f[3] + f[4];
+        let next_d_rate = d_dot * h
+            + 2.0 * lag_curvature
+            + 2.0 * f[0]
+            + 3.0 * f[1]
+            + 4.0 * f[2]
+            + 5.0 * f[3]
+            + 6.0 * f[4];
+        // The pendulum's Taylor coefficients: (j+1)(j+2) ε_{j+2} = −(ω_g h)² ε_j − h² ρ_j.
+        let mut eps = [0.0; COEFFS];
+        let next_swing = if let Some(omega_h) = x.omega_h {
+            let w = -omega_h * omega_h;
+            eps[0] = e;
+            eps[1] = e_dot * h;
+            eps[2] = (w * eps[0] - h2 * r0) * INV_PAIR[0];
+            eps[3] = (w * eps[1] - h2 * r1) * INV_PAIR[1];
+            eps[4] = (w * eps[2] - h2 * r2) * INV_PAIR[2];
+            eps[5] = (w * eps[3] - h2 * r3) * INV_PAIR[3];
+            eps[6] = (w * eps[4] - h2 * r4) * INV_PAIR[4];
+            eps[7] = w * eps[5] * INV_PAIR[5];
+            eps[8] = w * eps[6] * INV_PAIR[6];
+            eps[9] = w * eps[7] * INV_PAIR[7];
+            eps[10] = w * eps[8] * INV_PAIR[8];
+            eps[11] = w * eps[9] * INV_PAIR[9];
+            let (mut sum, mut rate) = (0.0, 0.0);
+            for (v, j) in eps.iter().zip(INDEX) {
+                sum += v;
+                rate += j * v;
+            }
+            [sum, rate * x.inv_h]
+        } else {
+            [0.0; 2]
+        };
+        // x = p₀ + d + e: from θ² on, p₀ + d is the filtered part alone.
+        let mut coeffs = eps;
+        coeffs[0] = x.p0 + d + e;
+        coeffs[1] = (x.v0 + d_dot + e_dot) * h;
+        coeffs[2] += f[0];
+        coeffs[3] += f[1];
+        coeffs[4] += f[2];
+        coeffs[5] += f[3];
+        coeffs[6] += f[4];
+        self.coeffs = coeffs;
+        self.lag = [next_d, next_d_rate * x.inv_h];
+        self.swing = next_swing;
+    }
+
+    /// At rest from here: the filter states are zero (exactly, once the windows have
+    /// passed; this drops the rounding they carry) and the path is `position`.
+    pub fn settle(&mut self, position: f64) {
+        *self = Self::rest(position);
+    }
+
+    /// The path and its first `D − 1` time derivatives at `θ`, `inv_h = 1/h`.
+    #[must_use]
+    pub fn eval<const D: usize>(&self, theta: f64, inv_h: f64) -> [f64; D] {
+        let mut out = [0.0; D];
+        let mut scale = 1.0;
+        for (j, (slot, factors)) in out.iter_mut().zip(FALLING.iter()).enumerate() {
+            let mut acc = 0.0;
+            for (c, f) in self.coeffs.iter().zip(factors.iter()).skip(j).rev() {
+                acc = acc * theta + c * f;
+            }
+            *slot = acc * scale;
+            scale *= inv_h;
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::indexing_slicing, clippy::unwrap_used)]
+    use super::*;
+
+    /// Cox–de Boor's recursion at a point, for the tables' check.
+    fn cox_de_boor(q: usize, x: f64) -> f64 {
+        if q == 0 {
+            return if (0.0..1.0).contains(&x) { 1.0 } else { 0.0 };
+        }
+        let qf = q as f64;
+        (x * cox_de_boor(q - 1, x) + (qf + 1.0 - x) * cox_de_boor(q - 1, x - 1.0)) / qf
+    }
+
+    #[test]
+    fn bspline_tables_are_the_b_splines() {
+        for q in [2, 4] {
+            let t = bspline_of(q);
+            for (i, row) in t.iter().enumerate().take(q + 1) {
+                for s in 0..10 {
+                    let theta = f64::from(s) / 10.0;
+                    let poly: f64 = (0..=q).map(|j| row[j] * theta.powi(j as i32)).sum();
+                    let want = cox_de_boor(q, theta + i as f64);
+                    assert!((poly - want).abs() < 1e-14, "q {q} piece {i} θ {theta}");
+                }
+            }
+            // Partition of unity: the pieces' sum is 1 at every θ.
+            for j in 0..=q {
+                let s: f64 = t.iter().take(q + 1).map(|row| row[j]).sum();
+                assert!((s - if j == 0 { 1.0 } else { 0.0 }).abs() < 1e-14);
+            }
+        }
+    }
+
+    /// The spline from the differences is the B-spline of the values they stand for.
+    #[test]
+    fn spline_from_differences_is_the_spline_of_the_values() {
+        use crate::operator::filter::values;
+        for q in [2, 4] {
+            let nabla = [123_456, -2_345, 678, -90, 12];
+            let s = values(&nabla, q);
+            let rho = spline(&nabla, q, 0.25);
+            let table = bspline_of(q);
+            for (m, r) in rho.iter().enumerate().take(q + 1) {
+                let want: f64 = (0..=q).map(|i| s[i] as f64 * 0.25 * table[i][m]).sum();
+                assert!(
+                    (r - want).abs() < 1e-9 * (1.0 + want.abs()),
+                    "q {q} θ^{m}: {r} vs {want}"
+                );
+            }
+        }
+    }
+
+    /// The pendulum piece satisfies `ẍ_L = ω² (r − x_L)` inside the cycle, and the end
+    /// states continue it: the difference to a fine RK4 integration of the same
+    /// equations is at rounding level.
+    #[test]
+    fn pendulum_piece_solves_its_equation() {
+        let h = 0.01;
+        let omega: f64 = 1.7;
+        let x = Inputs {
+            p0: 12.0,
+            v0: 0.4,
+            a0: 0.3,
+            rho: [0.2, -0.05, 0.01, 0.0, 0.0],
+            h,
+            inv_h: 1.0 / h,
+            omega_h: Some(omega * h),
+        };
+        let mut p = Piece::rest(0.0);
+        p.lag = [-0.6, 0.02];
+        p.swing = [0.03, -0.01];
+        p.build(&x);
+        // r = p₀ + d, with d̈ = r̈ − a₀, integrated by RK4 beside e.
+        let rdd = |th: f64| x.rho[0] + x.rho[1] * th + x.rho[2] * th * th;
+        let f = |th: f64, y: [f64; 4]| -> [f64; 4] {
+            // y = [d, ḋ, e, ė]
+            [y[1], rdd(th) - x.a0, y[3], -omega * omega * y[2] - rdd(th)]
+        };
+        let mut y = [-0.6, 0.02, 0.03, -0.01];
+        let n = 1000;
+        let dt = h / n as f64;
+        for i in 0..n {
+            let th = |s: f64| (i as f64 * dt + s) / h;
+            let k1 = f(th(0.0), y);
+            let k2 = f(
+                th(0.5 * dt),
+                core::array::from_fn(|j| y[j] + 0.5 * dt * k1[j]),
+            );
+            let k3 = f(
+                th(0.5 * dt),
+                core::array::from_fn(|j| y[j] + 0.5 * dt * k2[j]),
+            );
+            let k4 = f(th(dt), core::array::from_fn(|j| y[j] + dt * k3[j]));
+            for j in 0..4 {
+                y[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
+            }
+        }
+        assert!((p.lag[0] - y[0]).abs() < 1e-15 && (p.lag[1] - y[1]).abs() < 1e-14);
+        assert!((p.swing[0] - y[2]).abs() < 1e-15 && (p.swing[1] - y[3]).abs() < 1e-14);
+        // The path at the end: p₀(h) + d + e.
+        let p0_end = x.p0 + x.v0 * h + 0.5 * x.a0 * h * h;
+        let [v, _]: [f64; 2] = p.eval(1.0, 1.0 / h);
+        assert!((v - (p0_end + y[0] + y[2])).abs() < 1e-14);
+    }
+
+    #[test]
+    fn derivatives_match_finite_differences() {
+        let h = 0.01;
+        let mut p = Piece::rest(0.0);
+        p.lag = [-0.6, 0.02];
+        p.swing = [0.03, -0.01];
+        p.build(&Inputs {
+            p0: 3.0,
+            v0: -0.2,
+            a0: 0.1,
+            rho: [0.2, -0.05, 0.01, 0.003, -0.001],
+            h,
+            inv_h: 1.0 / h,
+            omega_h: Some(0.02),
+        });
+        let th = 0.37;
+        let e = 1e-4;
+        let lo: [f64; 7] = p.eval(th - e, 1.0 / h);
+        let hi: [f64; 7] = p.eval(th + e, 1.0 / h);
+        let mid: [f64; 7] = p.eval(th, 1.0 / h);
+        for j in 0..6 {
+            let fd = (hi[j] - lo[j]) / (2.0 * e * h);
+            assert!(
+                (fd - mid[j + 1]).abs() < 1e-5 * (1.0 + mid[j + 1].abs()),
+                "order {}: {fd} vs {}",
+                j + 1,
+                mid[j + 1]
+            );
+        }
+    }
+}
