@@ -2,7 +2,8 @@
 //! driven axis out (`A`: two for the planar crane, three for the 3D crane), and a plan
 //! it can change while the model runs.
 
-use solver_core::models::crane3d::Crane3dSubs;
+use solver_core::models::crane3d::{Crane3dExt, Crane3dSubs};
+use solver_core::models::crane_ext::CraneExt;
 use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
 use solver_core::plan::Plan;
@@ -122,6 +123,32 @@ impl<T: Real> CraneReference<2> for CraneProj<T, Plan<f64, 2>> {
 /// position, the rope, the rope's slope in the plane (what a two-axis inclinometer
 /// reports, `solver_core::reference::flat_crane3d::FlatState3d::slope`) and the rates.
 impl<T: Real> CraneReference<3> for Crane3dSubs<T, Plan<f64, 3>> {
+    fn reference(&self, y: &[f64], t: f64) -> [Reference; 2] {
+        let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
+        let [p, v] = self.trajectory().derivatives::<2>(t);
+        let [xc, yc, zc]: [f64; 3] = p.into();
+        let [vxc, vyc, vzc]: [f64; 3] = v.into();
+        let (l, vl) = (at(2), at(5));
+        [
+            Reference::from_subs([at(0), l, at(3), vl], [xc, zc], [vxc, vzc]),
+            Reference::from_subs([at(1), l, at(4), vl], [yc, zc], [vyc, vzc]),
+        ]
+    }
+}
+
+/// *ext* (*subs* minimally extended to index 1): its first unknowns are *subs*'
+/// `[x, l, ẋ, l̇, …]` in *subs*' order, so the reference is *subs*'.
+impl<T: Real> CraneReference<2> for CraneExt<T, Plan<f64, 2>> {
+    fn reference(&self, y: &[f64], t: f64) -> Reference {
+        let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
+        let [p, v] = self.trajectory().derivatives::<2>(t);
+        Reference::from_subs([at(0), at(1), at(2), at(3)], p.into(), v.into())
+    }
+}
+
+/// The 3D crane's *ext*: its first ten unknowns are the 3D *subs*' in its order, so the
+/// reference of each vertical plane is *subs*'.
+impl<T: Real> CraneReference<3> for Crane3dExt<T, Plan<f64, 3>> {
     fn reference(&self, y: &[f64], t: f64) -> [Reference; 2] {
         let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
         let [p, v] = self.trajectory().derivatives::<2>(t);

@@ -20,3 +20,4 @@ pub mod run;
 pub mod scenes;
 pub mod study;
 pub mod sweep;
+pub mod trade;

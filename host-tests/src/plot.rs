@@ -217,6 +217,88 @@ pub fn figure(
     root.present().map_err(|e| e.to_string())
 }
 
+/// A scatter chart: each series' points as small circles in its colour (clouds), and
+/// `front` as a black line through its points — the trade's figures, whose clouds have
+/// hundreds of points and no order.
+pub fn scatter(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    chart: &Chart<'_>,
+    clouds: &[Series],
+    front: &Series,
+) -> Result<(), String> {
+    let e = |e: &dyn std::fmt::Display| e.to_string();
+    let points = |s: &Series| {
+        s.points
+            .iter()
+            .copied()
+            .filter(|(x, y)| keep(chart.x_scale, *x) && keep(chart.y_scale, *y))
+            .collect::<Vec<_>>()
+    };
+    let all: Vec<(f64, f64)> = clouds.iter().chain([front]).flat_map(points).collect();
+    let (x0, x1) = range(all.iter().map(|p| p.0), chart.x_scale);
+    let (y0, y1) = range(all.iter().map(|p| p.1), chart.y_scale);
+    if chart.x_scale != Scale::Log || chart.y_scale != Scale::Log {
+        return Err("a scatter chart is log–log".into());
+    }
+    let mut ctx = ChartBuilder::on(area)
+        .caption(chart.title, ("sans-serif", 16))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+        .map_err(|x| e(&x))?;
+    ctx.configure_mesh()
+        .x_desc(chart.x_label)
+        .y_desc(chart.y_label)
+        .x_label_formatter(&|v| format!("{v:.0e}"))
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .draw()
+        .map_err(|x| e(&x))?;
+    for (i, s) in clouds.iter().enumerate() {
+        let color = COLORS[i % COLORS.len()];
+        ctx.draw_series(
+            points(s)
+                .into_iter()
+                .map(|p| Circle::new(p, 2, color.filled())),
+        )
+        .map_err(|x| e(&x))?
+        .label(s.name.as_str())
+        .legend(move |(x, y)| Circle::new((x + 9, y), 3, color.filled()));
+    }
+    let line = points(front);
+    ctx.draw_series(LineSeries::new(line.clone(), BLACK.stroke_width(2)))
+        .map_err(|x| e(&x))?
+        .label(front.name.as_str())
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(2)));
+    ctx.draw_series(
+        line.iter()
+            .map(|p| Circle::new(*p, 4, BLACK.stroke_width(1))),
+    )
+    .map_err(|x| e(&x))?;
+    ctx.configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|x| e(&x))
+}
+
+/// Scatter charts ([`scatter`]) in a grid of `columns`, in one SVG file.
+pub fn scatter_figure(
+    path: &Path,
+    panels: &[(Chart<'_>, Vec<Series>, Series)],
+    columns: usize,
+) -> Result<(), String> {
+    let columns = columns.max(1);
+    let rows = panels.len().div_ceil(columns).max(1);
+    let root = SVGBackend::new(path, (620 * columns as u32, 480 * rows as u32)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    for (area, (chart, clouds, front)) in root.split_evenly((rows, columns)).iter().zip(panels) {
+        scatter(area, chart, clouds, front)?;
+    }
+    root.present().map_err(|e| e.to_string())
+}
+
 /// The colour of an outcome in heat maps.
 pub fn outcome_color(o: Option<Outcome>) -> RGBColor {
     match o {

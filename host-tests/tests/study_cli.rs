@@ -195,6 +195,58 @@ fn crane3d_runs_quick() {
     }
 }
 
+/// `study condition` writes κ₁ per formulation and h: the extended cranes' rows do not
+/// change with h, *subs*' grow; and a sweep varies the planar crane over its three
+/// formulations, labelled as the CSV documents them.
+#[test]
+fn condition_and_the_formulation_axis() {
+    let dir = scratch("condition");
+    let status = study()
+        .args(["condition", "--out-dir"])
+        .arg(&dir)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    assert!(dir.join("condition.svg").exists());
+    let rows = csv(&dir.join("condition.csv"));
+    assert_eq!(rows[0], ["formulation", "h", "kappa1"]);
+    let kappa = |name: &str| -> Vec<f64> {
+        rows[1..]
+            .iter()
+            .filter(|r| r[0] == name)
+            .map(|r| r[2].parse().unwrap())
+            .collect()
+    };
+    for name in ["planar ext", "3D ext"] {
+        let k = kappa(name);
+        assert_eq!(k.len(), 7, "{name}");
+        assert!(
+            k.iter().all(|v| (v / k[0] - 1.0).abs() < 1e-9),
+            "{name}: {k:?}"
+        );
+    }
+    let subs = kappa("planar subs");
+    assert!(subs[6] / subs[0] > 1e4, "{subs:?}");
+    let out = study()
+        .args([
+            "sweep",
+            "scenes/paper-crane.toml",
+            "--repeats",
+            "0",
+            "--vary",
+            "formulation=subs|proj|ext,h=0.02",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    let rows: Vec<Vec<String>> = text.lines().map(split).collect();
+    let labels: Vec<&str> = rows[1..].iter().map(|r| r[1].as_str()).collect();
+    assert_eq!(labels, ["subs", "proj", "ext"]);
+    let e: f64 = rows[3][8].parse().unwrap();
+    assert!(e <= 1e-14, "ext e_max {e}");
+}
+
 /// A scene file: the paper's crane with `from` replaced by `to`.
 fn variant(name: &str, from: &str, to: &str) -> PathBuf {
     let text = std::fs::read_to_string(root().join("scenes/paper-crane.toml")).unwrap();

@@ -28,10 +28,12 @@ use controller::setpoint::{AxisLimits, DriveLimits};
 use controller::Config;
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane3d::{Crane3dParams, Crane3dSubs};
+use solver_core::models::crane3d::{Crane3dExt, Crane3dParams, Crane3dSubs};
+use solver_core::models::crane_ext::{self, CraneExt};
 use solver_core::models::crane_proj::{self, CraneProj};
 use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::models::mass_on_car::MassOnCar;
+use solver_core::models::mass_on_car_ext::MassOnCarExt;
 use solver_core::plan::Plan;
 use solver_core::reference::dopri5::Dopri5Settings;
 use solver_core::reference::flat_crane::flat_inverse;
@@ -86,6 +88,22 @@ pub fn model<T: Real, V: ModelVisitor<T>>(
                 Crane3dSubs::new(c.params(), trajectory::<T, 3>(scene)?).map_err(err)?,
             )
         }
+        ModelSpec::CraneExt(c) => visitor
+            .visit::<_, { crane_ext::N }, { crane_ext::NU }, { crane_ext::S }>(
+                CraneExt::new(c.params(), trajectory::<T, 2>(scene)?).map_err(err)?,
+            ),
+        ModelSpec::MassOnCarExt(m) => {
+            use solver_core::models::mass_on_car_ext::{N, NU, S};
+            visitor.visit::<_, N, NU, S>(
+                MassOnCarExt::new(m.params(), trajectory::<T, 1>(scene)?).map_err(err)?,
+            )
+        }
+        ModelSpec::Crane3dExt(c) => {
+            use solver_core::models::crane3d::ext::{N, NU, S};
+            visitor.visit::<_, N, NU, S>(
+                Crane3dExt::new(c.params(), trajectory::<T, 3>(scene)?).map_err(err)?,
+            )
+        }
     })
 }
 
@@ -117,8 +135,12 @@ pub(crate) fn trajectory<T: Real, const NZ: usize>(
 #[must_use]
 pub fn accuracy_threshold(model: &ModelSpec) -> f64 {
     match model {
-        ModelSpec::MassOnCar(_) => 1e-2,
-        ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) | ModelSpec::Crane3dSubs(_) => 1e-3,
+        ModelSpec::MassOnCar(_) | ModelSpec::MassOnCarExt(_) => 1e-2,
+        ModelSpec::CraneSubs(_)
+        | ModelSpec::CraneProj(_)
+        | ModelSpec::CraneExt(_)
+        | ModelSpec::Crane3dSubs(_)
+        | ModelSpec::Crane3dExt(_) => 1e-3,
     }
 }
 
@@ -144,7 +166,7 @@ pub fn scheme(scene: &Scene) -> Scheme {
 /// a run against.
 #[derive(Debug, Clone)]
 pub enum Exact {
-    /// The crane's flat inverse (either formulation).
+    /// The crane's flat inverse (any formulation).
     Crane(CraneParams, PointToPoint<f64, 2>),
     /// The mass-on-car's internal dynamics integrated along (Eqs. 37–38).
     MassOnCar(MassOnCarReference<PointToPoint<f64, 1>>),
@@ -156,10 +178,10 @@ impl Exact {
     /// The reference of `scene`'s model and move.
     pub fn new(scene: &Scene) -> Result<Self, SceneError> {
         Ok(match &scene.model {
-            ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) => {
+            ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) | ModelSpec::CraneExt(c) => {
                 Exact::Crane(c.params(), trajectory::<f64, 2>(scene)?)
             }
-            ModelSpec::MassOnCar(m) => Exact::MassOnCar(
+            ModelSpec::MassOnCar(m) | ModelSpec::MassOnCarExt(m) => Exact::MassOnCar(
                 MassOnCarReference::new(
                     m.params(),
                     trajectory::<f64, 1>(scene)?,
@@ -168,7 +190,9 @@ impl Exact {
                 )
                 .map_err(|e| scene.field_of(e))?,
             ),
-            ModelSpec::Crane3dSubs(c) => Exact::Crane3d(c.params(), trajectory::<f64, 3>(scene)?),
+            ModelSpec::Crane3dSubs(c) | ModelSpec::Crane3dExt(c) => {
+                Exact::Crane3d(c.params(), trajectory::<f64, 3>(scene)?)
+            }
         })
     }
 
@@ -206,6 +230,10 @@ pub enum FirmwareModel {
     CraneProj,
     /// The crane in three dimensions, *subs*.
     Crane3dSubs,
+    /// The planar crane, *ext* (*subs* minimally extended to index 1).
+    CraneExt,
+    /// The crane in three dimensions, *ext*.
+    Crane3dExt,
 }
 
 impl FirmwareModel {
@@ -215,6 +243,8 @@ impl FirmwareModel {
             Self::CraneSubs => ("crane_subs", "CraneSubs"),
             Self::CraneProj => ("crane_proj", "CraneProj"),
             Self::Crane3dSubs => ("crane3d::subs", "Crane3dSubs"),
+            Self::CraneExt => ("crane_ext", "CraneExt"),
+            Self::Crane3dExt => ("crane3d::ext", "Crane3dExt"),
         }
     }
 
@@ -222,8 +252,8 @@ impl FirmwareModel {
     #[must_use]
     pub const fn axes(self) -> usize {
         match self {
-            Self::CraneSubs | Self::CraneProj => 2,
-            Self::Crane3dSubs => 3,
+            Self::CraneSubs | Self::CraneProj | Self::CraneExt => 2,
+            Self::Crane3dSubs | Self::Crane3dExt => 3,
         }
     }
 
@@ -231,7 +261,19 @@ impl FirmwareModel {
     /// closed-form step.
     #[must_use]
     pub const fn structured(self) -> bool {
-        matches!(self, Self::CraneSubs | Self::Crane3dSubs)
+        matches!(
+            self,
+            Self::CraneSubs | Self::Crane3dSubs | Self::CraneExt | Self::Crane3dExt
+        )
+    }
+
+    /// Whether the firmware runs it with its structured elimination only: the extended
+    /// cranes' closed-form step is their exact solution at every h, and a dense Newton on
+    /// 13 or 18 unknowns (39 or 54 in Radau's stage system) would cost more flash and
+    /// time for the same bits.
+    #[must_use]
+    pub const fn structured_only(self) -> bool {
+        matches!(self, Self::CraneExt | Self::Crane3dExt)
     }
 }
 
@@ -294,7 +336,9 @@ impl FirmwareScheme {
             ModelSpec::CraneSubs(_) => FirmwareModel::CraneSubs,
             ModelSpec::CraneProj(_) => FirmwareModel::CraneProj,
             ModelSpec::Crane3dSubs(_) => FirmwareModel::Crane3dSubs,
-            ModelSpec::MassOnCar(_) => {
+            ModelSpec::CraneExt(_) => FirmwareModel::CraneExt,
+            ModelSpec::Crane3dExt(_) => FirmwareModel::Crane3dExt,
+            ModelSpec::MassOnCar(_) | ModelSpec::MassOnCarExt(_) => {
                 return Err("the firmware drives a crane; this scene is the mass-on-car".into())
             }
         };
@@ -304,7 +348,9 @@ impl FirmwareScheme {
             SchemeSpec::Bdf
                 if model.structured() && s.jacobian == JacobianSpec::Exact && !transformed =>
             {
-                if s.h >= CORRECT_BELOW_H {
+                // The extended cranes have no differential unknown: BDF never corrects
+                // their closed form (`bdf::Structured`), at any h.
+                if s.h >= CORRECT_BELOW_H || model.structured_only() {
                     FirmwareIntegrator::StructuredBdfUncorrected(s.k)
                 } else {
                     FirmwareIntegrator::StructuredBdf(s.k)
@@ -317,7 +363,15 @@ impl FirmwareScheme {
             SchemeSpec::Radau if transformed => FirmwareIntegrator::Radau5,
             SchemeSpec::Radau => FirmwareIntegrator::RadauFull,
         };
-        Ok(Self { model, integrator })
+        let scheme = Self { model, integrator };
+        if model.structured_only() && !scheme.structured() {
+            return Err(
+                "the firmware runs the extended formulation (ext) with its structured Newton only: \
+                 BDF with jacobian = \"exact\", or Radau with newton = \"transformed\""
+                    .into(),
+            );
+        }
+        Ok(scheme)
     }
 
     /// Every integrator the firmware can link, model by model (BDF with k = 4; the
@@ -330,10 +384,14 @@ impl FirmwareScheme {
             FirmwareModel::CraneSubs,
             FirmwareModel::CraneProj,
             FirmwareModel::Crane3dSubs,
+            FirmwareModel::CraneExt,
+            FirmwareModel::Crane3dExt,
         ]
         .into_iter()
         .flat_map(|model| {
-            let integrators: &[FirmwareIntegrator] = if model.structured() {
+            let integrators: &[FirmwareIntegrator] = if model.structured_only() {
+                &[I::StructuredBdfUncorrected(4), I::StructuredRadau5]
+            } else if model.structured() {
                 &[
                     I::StructuredBdf(4),
                     I::StructuredBdfUncorrected(4),
@@ -355,10 +413,12 @@ impl FirmwareScheme {
     #[must_use]
     pub fn crane(self) -> (&'static str, usize) {
         match self.model {
-            FirmwareModel::CraneSubs | FirmwareModel::CraneProj => {
+            FirmwareModel::CraneSubs | FirmwareModel::CraneProj | FirmwareModel::CraneExt => {
                 (<CraneParams as FirmwareCrane<2>>::TYPE, 2)
             }
-            FirmwareModel::Crane3dSubs => (<Crane3dParams as FirmwareCrane<3>>::TYPE, 3),
+            FirmwareModel::Crane3dSubs | FirmwareModel::Crane3dExt => {
+                (<Crane3dParams as FirmwareCrane<3>>::TYPE, 3)
+            }
         }
     }
 
@@ -571,7 +631,16 @@ impl FirmwareCrane<2> for CraneParams {
                 visitor,
                 P
             )),
-            FirmwareModel::Crane3dSubs => Err(other_crane(scheme)),
+            FirmwareModel::CraneExt => Ok(integrators!(
+                visit,
+                solver_core::models::crane_ext,
+                scheme.integrator,
+                CraneExt::new(self, plan)?,
+                settings,
+                visitor,
+                P
+            )),
+            FirmwareModel::Crane3dSubs | FirmwareModel::Crane3dExt => Err(other_crane(scheme)),
         }
     }
 }
@@ -587,10 +656,7 @@ impl FirmwareCrane<3> for Crane3dParams {
     const SWING_AXES: u8 = 2;
     type FeedforwardOnly = NoFeedback;
     fn of(model: &ModelSpec) -> Option<Self> {
-        match model {
-            ModelSpec::Crane3dSubs(c) => Some(c.params()),
-            ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) | ModelSpec::MassOnCar(_) => None,
-        }
+        model.crane3d().map(|c| c.params())
     }
     fn source(&self) -> String {
         let w = self.workspace;
@@ -644,7 +710,18 @@ impl FirmwareCrane<3> for Crane3dParams {
                 visitor,
                 P
             )),
-            FirmwareModel::CraneSubs | FirmwareModel::CraneProj => Err(other_crane(scheme)),
+            FirmwareModel::Crane3dExt => Ok(integrators!(
+                visit,
+                solver_core::models::crane3d::ext,
+                scheme.integrator,
+                Crane3dExt::new(self, plan)?,
+                settings,
+                visitor,
+                P
+            )),
+            FirmwareModel::CraneSubs | FirmwareModel::CraneProj | FirmwareModel::CraneExt => {
+                Err(other_crane(scheme))
+            }
         }
     }
 }
@@ -812,10 +889,10 @@ pub fn firmware<V: FirmwareCraneVisitor>(
     visitor: V,
 ) -> Result<V::Output, String> {
     Ok(match FirmwareScheme::of(scene)?.model {
-        FirmwareModel::CraneSubs | FirmwareModel::CraneProj => {
+        FirmwareModel::CraneSubs | FirmwareModel::CraneProj | FirmwareModel::CraneExt => {
             visitor.visit(firmware_scene::<CraneParams, 2>(scene, commissioning)?)
         }
-        FirmwareModel::Crane3dSubs => {
+        FirmwareModel::Crane3dSubs | FirmwareModel::Crane3dExt => {
             visitor.visit(firmware_scene::<Crane3dParams, 3>(scene, commissioning)?)
         }
     })
@@ -889,6 +966,14 @@ pub fn firmware_steps<V: StepsVisitor>(
             let (p, z) = planar()?;
             on_plan(z, n).and_then(|plan| proj_steps(p, plan, i, settings, visitor))
         }
+        (FirmwareModel::CraneExt, DrivenBy::PointToPoint) => {
+            let (p, z) = planar()?;
+            ext_steps(p, z, i, settings, visitor)
+        }
+        (FirmwareModel::CraneExt, DrivenBy::Plan) => {
+            let (p, z) = planar()?;
+            on_plan(z, n).and_then(|plan| ext_steps(p, plan, i, settings, visitor))
+        }
         (FirmwareModel::Crane3dSubs, driven) => {
             let p = Crane3dParams::of(&scene.model)
                 .ok_or_else(|| "the scene's model is not the 3D crane".to_string())?;
@@ -897,6 +982,17 @@ pub fn firmware_steps<V: StepsVisitor>(
                 DrivenBy::PointToPoint => crane3d_steps(p, z, i, settings, visitor),
                 DrivenBy::Plan => {
                     on_plan(z, n).and_then(|plan| crane3d_steps(p, plan, i, settings, visitor))
+                }
+            }
+        }
+        (FirmwareModel::Crane3dExt, driven) => {
+            let p = Crane3dParams::of(&scene.model)
+                .ok_or_else(|| "the scene's model is not the 3D crane".to_string())?;
+            let z = trajectory::<f64, 3>(scene).map_err(|e| e.to_string())?;
+            match driven {
+                DrivenBy::PointToPoint => crane3d_ext_steps(p, z, i, settings, visitor),
+                DrivenBy::Plan => {
+                    on_plan(z, n).and_then(|plan| crane3d_ext_steps(p, plan, i, settings, visitor))
                 }
             }
         }
@@ -956,6 +1052,44 @@ fn crane3d_steps<Z: Trajectory<f64, 3>, V: StepsVisitor>(
         solver_core::models::crane3d::subs,
         i,
         Crane3dSubs::new(p, z)?,
+        settings,
+        visitor,
+        Z
+    ))
+}
+
+/// The planar *ext* crane on `z` with the firmware's integrator `i`, to `visitor`.
+fn ext_steps<Z: Trajectory<f64, 2>, V: StepsVisitor>(
+    p: CraneParams,
+    z: Z,
+    i: FirmwareIntegrator,
+    settings: &SolverSettings,
+    visitor: V,
+) -> Result<V::Output, Error> {
+    Ok(integrators!(
+        step_visit,
+        solver_core::models::crane_ext,
+        i,
+        CraneExt::new(p, z)?,
+        settings,
+        visitor,
+        Z
+    ))
+}
+
+/// The 3D *ext* crane on `z` with the firmware's integrator `i`, to `visitor`.
+fn crane3d_ext_steps<Z: Trajectory<f64, 3>, V: StepsVisitor>(
+    p: Crane3dParams,
+    z: Z,
+    i: FirmwareIntegrator,
+    settings: &SolverSettings,
+    visitor: V,
+) -> Result<V::Output, Error> {
+    Ok(integrators!(
+        step_visit,
+        solver_core::models::crane3d::ext,
+        i,
+        Crane3dExt::new(p, z)?,
         settings,
         visitor,
         Z
@@ -1028,8 +1162,8 @@ mod tests {
             "jacobian = \"exact\"\n"
         };
         let (start, end) = match model {
-            "mass-on-car" => ("[0.0]", "[1.0]"),
-            "crane3d-subs" => ("[12.0, 3.0, 8.0]", "[20.0, 6.0, 4.0]"),
+            "mass-on-car" | "mass-on-car-ext" => ("[0.0]", "[1.0]"),
+            "crane3d-subs" | "crane3d-ext" => ("[12.0, 3.0, 8.0]", "[20.0, 6.0, 4.0]"),
             _ => ("[12.0, 8.0]", "[20.0, 4.0]"),
         };
         Scene::parse(&format!(
@@ -1045,6 +1179,9 @@ mod tests {
             ("crane-proj", "CraneProj", 8),
             ("mass-on-car", "MassOnCar", 5),
             ("crane3d-subs", "Crane3dSubs", 10),
+            ("crane-ext", "CraneExt", 13),
+            ("mass-on-car-ext", "MassOnCarExt", 7),
+            ("crane3d-ext", "Crane3dExt", 18),
         ] {
             let (ty, unknowns) = model::<f64, _>(&scene(kind, "scheme = \"bdf\""), Name).unwrap();
             assert!(ty.contains(name), "{ty}");
@@ -1111,6 +1248,24 @@ mod tests {
                 M::Crane3dSubs,
                 I::StructuredRadau5,
             ),
+            (
+                "crane-ext",
+                "scheme = \"bdf\"\njacobian = \"exact\"",
+                M::CraneExt,
+                I::StructuredBdfUncorrected(4),
+            ),
+            (
+                "crane-ext",
+                "scheme = \"radau\"\njacobian = \"exact\"\nnewton = \"transformed\"",
+                M::CraneExt,
+                I::StructuredRadau5,
+            ),
+            (
+                "crane3d-ext",
+                "scheme = \"radau\"\njacobian = \"exact\"\nnewton = \"transformed\"",
+                M::Crane3dExt,
+                I::StructuredRadau5,
+            ),
         ] {
             let s = scene(kind, solver);
             let f = FirmwareScheme::of(&s).unwrap();
@@ -1141,7 +1296,24 @@ mod tests {
                 "h = {h}"
             );
         }
+        // ext's closed form is never corrected: the firmware links no correction at any h.
+        let mut s = scene("crane-ext", "scheme = \"bdf\"");
+        s.solver.h = 0.002;
+        assert_eq!(
+            FirmwareScheme::of(&s).unwrap().integrator,
+            I::StructuredBdfUncorrected(4)
+        );
         assert!(FirmwareScheme::of(&scene("mass-on-car", "scheme = \"bdf\"")).is_err());
+        assert!(FirmwareScheme::of(&scene("mass-on-car-ext", "scheme = \"bdf\"")).is_err());
+        // The extended cranes run on their structured Newton only.
+        for (kind, solver) in [
+            ("crane-ext", "scheme = \"radau\"\njacobian = \"fd\""),
+            ("crane3d-ext", "scheme = \"bdf\"\njacobian = \"broyden\""),
+            ("crane-ext", "scheme = \"radau\"\njacobian = \"exact\""),
+        ] {
+            let e = FirmwareScheme::of(&scene(kind, solver)).unwrap_err();
+            assert!(e.contains("structured Newton only"), "{kind} {solver}: {e}");
+        }
     }
 
     /// Whatever the scene's solver settings, the firmware's integrator is one of those
@@ -1150,7 +1322,13 @@ mod tests {
     fn every_firmware_integrator_is_proven() {
         let every = FirmwareScheme::every();
         let mut seen = 0;
-        for kind in ["crane-subs", "crane-proj", "crane3d-subs"] {
+        for kind in [
+            "crane-subs",
+            "crane-proj",
+            "crane3d-subs",
+            "crane-ext",
+            "crane3d-ext",
+        ] {
             for solver in [
                 "scheme = \"bdf\"\njacobian = \"exact\"",
                 "scheme = \"bdf\"\njacobian = \"fd\"",
@@ -1162,7 +1340,11 @@ mod tests {
                 for h in [0.002, 0.01] {
                     let mut s = scene(kind, solver);
                     s.solver.h = h;
-                    let mut f = FirmwareScheme::of(&s).unwrap();
+                    let Ok(mut f) = FirmwareScheme::of(&s) else {
+                        // The extended cranes refuse what is not their structured Newton.
+                        assert!(kind.ends_with("ext"), "{kind} {solver} h = {h}");
+                        continue;
+                    };
                     f.integrator = match f.integrator {
                         FirmwareIntegrator::StructuredBdf(_) => {
                             FirmwareIntegrator::StructuredBdf(4)
@@ -1178,7 +1360,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(seen, 36);
+        assert_eq!(seen, 44);
         // And each is built for its own crane.
         for f in every {
             let (crane, axes) = f.crane();
@@ -1223,5 +1405,23 @@ mod tests {
         );
         assert!(p2.inverse_model(spatial, plan2, &settings, Steps).is_err());
         assert!(p3.inverse_model(planar, plan3, &settings, Steps).is_err());
+        let planar_ext = FirmwareScheme::of(&scene("crane-ext", "scheme = \"bdf\"")).unwrap();
+        let spatial_ext = FirmwareScheme::of(&scene("crane3d-ext", "scheme = \"bdf\"")).unwrap();
+        assert_eq!(
+            p2.inverse_model(planar_ext, plan2, &settings, Steps)
+                .unwrap(),
+            [0.0; 2]
+        );
+        assert_eq!(
+            p3.inverse_model(spatial_ext, plan3, &settings, Steps)
+                .unwrap(),
+            [0.0; 3]
+        );
+        assert!(p2
+            .inverse_model(spatial_ext, plan2, &settings, Steps)
+            .is_err());
+        assert!(p3
+            .inverse_model(planar_ext, plan3, &settings, Steps)
+            .is_err());
     }
 }

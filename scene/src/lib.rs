@@ -6,7 +6,8 @@
 //! description = "…"
 //!
 //! [model]
-//! kind = "crane-subs"        # crane-subs | crane-proj | mass-on-car | crane3d-subs
+//! kind = "crane-subs"        # crane-subs | crane-proj | crane-ext | mass-on-car |
+//!                            # mass-on-car-ext | crane3d-subs | crane3d-ext
 //! tau1 = 0.03                # optional parameters; the paper's values by default
 //!
 //! [trajectory]
@@ -110,35 +111,71 @@ pub enum ModelSpec {
     /// The crane in three dimensions (bridge, trolley, hoist), redundant coordinates
     /// with the servo-constraints substituted.
     Crane3dSubs(Crane3dSpec),
+    /// Crane, *subs* minimally extended to index 1 (the hidden constraints appended).
+    CraneExt(CraneSpec),
+    /// Mass-on-car, minimally extended to index 1.
+    MassOnCarExt(MassOnCarSpec),
+    /// The crane in three dimensions, *subs* minimally extended to index 1.
+    Crane3dExt(Crane3dSpec),
 }
 
 impl ModelSpec {
-    /// The crane's parameters, whatever the formulation (`None` for another model).
+    /// The planar crane's parameters, whatever the formulation (`None` for another model).
     #[must_use]
     pub fn crane(&self) -> Option<CraneSpec> {
         match self {
-            ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) => Some(*c),
-            ModelSpec::MassOnCar(_) | ModelSpec::Crane3dSubs(_) => None,
+            ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) | ModelSpec::CraneExt(c) => Some(*c),
+            ModelSpec::MassOnCar(_)
+            | ModelSpec::MassOnCarExt(_)
+            | ModelSpec::Crane3dSubs(_)
+            | ModelSpec::Crane3dExt(_) => None,
         }
     }
 
-    /// The mass-on-car's parameters (`None` for a crane).
+    /// The 3D crane's parameters, whatever the formulation (`None` for another model).
+    #[must_use]
+    pub fn crane3d(&self) -> Option<Crane3dSpec> {
+        match self {
+            ModelSpec::Crane3dSubs(c) | ModelSpec::Crane3dExt(c) => Some(*c),
+            ModelSpec::CraneSubs(_)
+            | ModelSpec::CraneProj(_)
+            | ModelSpec::CraneExt(_)
+            | ModelSpec::MassOnCar(_)
+            | ModelSpec::MassOnCarExt(_) => None,
+        }
+    }
+
+    /// The mass-on-car's parameters, whatever the formulation (`None` for a crane).
     #[must_use]
     pub fn mass_on_car(&self) -> Option<MassOnCarParams> {
+        self.mass_on_car_spec().map(|m| m.params())
+    }
+
+    /// The mass-on-car's scene parameters, whatever the formulation.
+    #[must_use]
+    pub fn mass_on_car_spec(&self) -> Option<MassOnCarSpec> {
         match self {
-            ModelSpec::MassOnCar(m) => Some(m.params()),
-            ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) | ModelSpec::Crane3dSubs(_) => None,
+            ModelSpec::MassOnCar(m) | ModelSpec::MassOnCarExt(m) => Some(*m),
+            ModelSpec::CraneSubs(_)
+            | ModelSpec::CraneProj(_)
+            | ModelSpec::CraneExt(_)
+            | ModelSpec::Crane3dSubs(_)
+            | ModelSpec::Crane3dExt(_) => None,
         }
     }
 
-    /// The model's short name in results: `subs`, `proj` or `mass-on-car`.
+    /// The model's short name in results: `subs`, `proj`, `ext`, `mass-on-car`,
+    /// `mass-on-car-ext`, `3d-subs` or `3d-ext`.
     #[must_use]
     pub fn label(&self) -> &'static str {
         match self {
             ModelSpec::CraneSubs(_) => "subs",
             ModelSpec::CraneProj(_) => "proj",
+            ModelSpec::CraneExt(_) => "ext",
             ModelSpec::MassOnCar(_) => "mass-on-car",
+            ModelSpec::MassOnCarExt(_) => "mass-on-car-ext",
             ModelSpec::Crane3dSubs(_) => "3d-subs",
+            ModelSpec::Crane3dExt(_) => "3d-ext",
         }
     }
 }
@@ -412,9 +449,9 @@ impl Scene {
     /// Number of output axes the model needs.
     pub fn outputs(&self) -> usize {
         match self.model {
-            ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) => 2,
-            ModelSpec::MassOnCar(_) => 1,
-            ModelSpec::Crane3dSubs(_) => 3,
+            ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) | ModelSpec::CraneExt(_) => 2,
+            ModelSpec::MassOnCar(_) | ModelSpec::MassOnCarExt(_) => 1,
+            ModelSpec::Crane3dSubs(_) | ModelSpec::Crane3dExt(_) => 3,
         }
     }
 

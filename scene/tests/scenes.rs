@@ -299,3 +299,53 @@ fn a_drives_limits_are_its_commissioning_rows() {
         "{e}"
     );
 }
+
+/// The extended formulations' scenes are checked as their direct ones are: a bad
+/// parameter, a move outside the workspace or too rough for the model, each refused
+/// naming the field; the firmware takes the planar one as its crane's.
+#[test]
+fn the_extended_scenes_are_checked_as_the_direct_ones() {
+    let read = |name: &str| std::fs::read_to_string(scenes_dir().join(name)).unwrap();
+    let (planar, spatial, car) = (
+        read("paper-crane-ext.toml"),
+        read("crane3d-diagonal-ext.toml"),
+        read("mass-on-car-ext.toml"),
+    );
+    let cases = [
+        (
+            planar.replacen(
+                "kind = \"crane-ext\"",
+                "kind = \"crane-ext\"\ntau2 = -1.0",
+                1,
+            ),
+            "model.tau2",
+        ),
+        (
+            planar.replacen("start = [12.0, 8.0]", "start = [12.0, 10.0]", 1),
+            "trajectory",
+        ),
+        (
+            planar.replacen("smoothness = 4", "smoothness = 3", 1),
+            "trajectory.smoothness",
+        ),
+        (
+            spatial.replacen("end = [20.0, 6.0, 4.0]", "end = [20.0, 9.0, 4.0]", 1),
+            "trajectory",
+        ),
+        (
+            car.replacen("alpha_deg = 15.0", "alpha_deg = 90.0", 1),
+            "model.alpha_deg",
+        ),
+    ];
+    for (text, field) in cases {
+        assert_ne!(Scene::parse(&text).map(|_| ()), Ok(()), "{field}");
+        assert_eq!(refused(&text).0, field);
+    }
+    // The firmware links the extended cranes as it links subs.
+    let f = firmware_scene::<CraneParams, 2>(
+        &Scene::parse(&planar).unwrap(),
+        &CommissioningFile::default(),
+    )
+    .unwrap();
+    assert_eq!(f.scheme.model, scene::dispatch::FirmwareModel::CraneExt);
+}

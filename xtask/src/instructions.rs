@@ -34,7 +34,9 @@ pub const STEP_SIZES: [&str; 2] = ["0.01", "0.001"];
 /// measured twice: on the bare move (`PointToPoint`, as the studies drive the model) and
 /// on the firmware's trajectory type, a `Plan` holding the same move — what the MCU
 /// steps on (issue 20: the plan once cost 28 % more per step than the move it holds).
-pub const CONFIGURATIONS: [(&str, &str, &[&str]); 10] = [
+/// The *ext* rows are the minimally extended formulations (issue 30) with the firmware's
+/// structured Newton, each step from the closed form.
+pub const CONFIGURATIONS: [(&str, &str, &[&str]); 15] = [
     ("BDF4 exact", SCENE, &["scheme=bdf4", "jacobian=exact"]),
     (
         "BDF4 exact, structured",
@@ -77,6 +79,46 @@ pub const CONFIGURATIONS: [(&str, &str, &[&str]); 10] = [
         "3D Radau transformed, structured",
         SCENE_3D,
         &["scheme=radau", "jacobian=transformed", "newton=structured"],
+    ),
+    (
+        "ext BDF4 exact, structured",
+        SCENE,
+        &["formulation=ext", "scheme=bdf4", "newton=structured"],
+    ),
+    (
+        "ext BDF4 exact, structured, Plan",
+        SCENE,
+        &[
+            "formulation=ext",
+            "scheme=bdf4",
+            "newton=structured",
+            "trajectory=plan",
+        ],
+    ),
+    (
+        "ext Radau transformed, structured",
+        SCENE,
+        &[
+            "formulation=ext",
+            "scheme=radau",
+            "jacobian=transformed",
+            "newton=structured",
+        ],
+    ),
+    (
+        "3D ext BDF4 exact, structured",
+        SCENE_3D,
+        &["formulation=ext", "scheme=bdf4", "newton=structured"],
+    ),
+    (
+        "3D ext Radau transformed, structured",
+        SCENE_3D,
+        &[
+            "formulation=ext",
+            "scheme=radau",
+            "jacobian=transformed",
+            "newton=structured",
+        ],
     ),
 ];
 
@@ -124,7 +166,12 @@ pub fn instructions() -> Result<(), String> {
 }
 
 /// Runs `steps` under callgrind for one configuration and step size.
-fn count(program: &PathBuf, scene: &str, settings: &[&str], h: &str) -> Result<Count, String> {
+pub(crate) fn count(
+    program: &PathBuf,
+    scene: &str,
+    settings: &[&str],
+    h: &str,
+) -> Result<Count, String> {
     // callgrind's profile is not used (the totals are on standard error); it is
     // written to the temporary directory, not into the work tree.
     let profile = std::env::temp_dir().join(format!("callgrind.steps.{}", std::process::id()));
@@ -193,7 +240,8 @@ pub fn table(rows: &[(&str, Vec<Count>)]) -> String {
         "\nHost instructions per step (valgrind callgrind, x86-64 release build; not time, not Cortex-M7 cycles),\n\
          the paper's crane move (scenes/paper-crane.toml, 10 s from rest), setup excluded; *Plan*: the model\n\
          driven by the firmware's trajectory type holding the same move, not the bare move; *3D*: the crane in\n\
-         three dimensions on its diagonal move (scenes/crane3d-diagonal.toml, 9 s from rest):\n\n\
+         three dimensions on its diagonal move (scenes/crane3d-diagonal.toml, 9 s from rest); *ext*: the minimally\n\
+         extended formulation (index 1):\n\n\
          | instructions per step | h = 10 ms | Newton iterations / step | h = 1 ms | Newton iterations / step |\n\
          |---|---:|---:|---:|---:|\n",
     );

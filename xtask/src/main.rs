@@ -35,6 +35,10 @@
 //! * `bench` — criterion benchmarks of one step and whole runs on the host.
 //! * `instructions` — host instructions per step under callgrind (deterministic),
 //!   BDF4 and Radau on the paper's crane move at h = 10 ms and 1 ms.
+//! * `trade [--quick] [--out-dir DIR]` — the speed/accuracy trade per crane: every
+//!   scheme × formulation × Jacobian mode × h, e_max against host instructions and
+//!   estimated Cortex-M7 µs per step, the Pareto front, and the Newton matrix's
+//!   condition number against h.
 //!
 //! Arguments are parsed by clap: an unknown command or flag is refused, not
 //! ignored. The commands that build the firmware for their own scenes refuse a
@@ -58,6 +62,7 @@ mod qemu;
 mod report;
 mod setup;
 mod soak;
+mod trade;
 
 use firmware::Board;
 
@@ -173,6 +178,17 @@ enum Cmd {
     /// Host instructions per step under valgrind's callgrind (deterministic): BDF4 and
     /// Radau on the paper's crane move at h = 10 ms and 1 ms.
     Instructions,
+    /// The speed/accuracy trade per crane: every scheme × formulation × Jacobian mode ×
+    /// h, e_max against host instructions and estimated Cortex-M7 µs per step, the
+    /// Pareto front, and the Newton matrix's condition number (about an hour).
+    Trade {
+        /// Output directory (default: docs/figures/trade; target/trade-quick with --quick).
+        #[arg(long)]
+        out_dir: Option<PathBuf>,
+        /// BDF4 and RADAU5 at 10 ms only (for tests).
+        #[arg(long)]
+        quick: bool,
+    },
     /// Criterion benchmarks of one step and whole runs on the host.
     #[command(disable_help_flag = true)]
     Bench {
@@ -195,6 +211,7 @@ impl Cmd {
                 | Cmd::QemuBench
                 | Cmd::Fig8 { .. }
                 | Cmd::Instructions
+                | Cmd::Trade { .. }
                 | Cmd::Soak { .. }
                 | Cmd::Flash
         )
@@ -209,6 +226,7 @@ fn refuse_scene(cmd: &Cmd, scene: Option<String>) -> Result<(), String> {
         Some(s) if cmd.builds_fixed_scenes() => {
             let what = match cmd {
                 Cmd::Instructions => format!("it measures {}", instructions::SCENE),
+                Cmd::Trade { .. } => "it measures the cranes' own scenes".into(),
                 _ => format!("it builds the firmware for {}", qemu::SCENES.join(" and ")),
             };
             Err(format!(
@@ -273,6 +291,15 @@ fn main() -> ExitCode {
                 ])
                 .args(args)),
             Cmd::Instructions => instructions::instructions(),
+            Cmd::Trade { out_dir, quick } => {
+                let default = if quick {
+                    "target/trade-quick"
+                } else {
+                    "docs/figures/trade"
+                };
+                let out = out_dir.unwrap_or_else(|| PathBuf::from(default));
+                trade::trade(&firmware::root().join(out), quick)
+            }
             Cmd::Bench { args } => run(cargo()
                 .args(["bench", "-p", "host-tests", "--bench", "step"])
                 .args(args)),

@@ -3,7 +3,8 @@
 //!
 //! ```text
 //! steps SCENE [key=value …]     keys as in `study sweep --vary` (h, scheme, jacobian, …),
-//!                               and newton=structured, trajectory=plan|point-to-point
+//!                               and newton=structured, trajectory=plan|point-to-point,
+//!                               emax=yes
 //! ```
 //!
 //! Each step goes through [`measured_step`], which is
@@ -23,13 +24,20 @@
 //! in closed form), on any crane the firmware drives; without it, the study's integrator
 //! for the scene (`scene::dispatch::model`, the scheme with the settings' Jacobian mode
 //! on dense LUs), on any model, bare move only.
+//!
+//! `emax=yes` also measures Eq. 29 against the scene's exact reference after every step
+//! (outside [`measured_step`], from the integrator's state) and prints it: `cargo xtask
+//! trade` runs each configuration once so for its accuracy and once under callgrind,
+//! without it, for its cost.
 
 use std::process::ExitCode;
 
 use host_tests::study::{jacobian_label, scheme_label, whole_steps};
 use host_tests::sweep::apply;
-use scene::dispatch::{firmware_steps, scheme, DrivenBy, ModelVisitor, StepsVisitor};
+use scene::dispatch::{firmware_steps, scheme, DrivenBy, Exact, ModelVisitor, StepsVisitor};
 use scene::{ScalarSpec, Scene, SchemeSpec};
+use solver_core::reference::emax::{input_error, Emax};
+use solver_core::scalar::to_f64;
 use solver_core::schemes::Chosen;
 use solver_core::{DaeModel, Error, Integrator};
 
@@ -48,7 +56,42 @@ fn measured_step<
     integrator.step(model).map(|r| r.stats.iterations)
 }
 
-/// Steps `integrator` `steps` times; the Newton iterations.
+/// Eq. 29 measured along a run: the scene's exact reference and the error so far.
+struct Accuracy {
+    exact: Exact,
+    emax: Emax,
+    reference: Vec<f64>,
+}
+
+impl Accuracy {
+    /// The reference of `scene`, nothing measured yet.
+    fn of(scene: &Scene) -> Result<Self, String> {
+        let (a, b) = scene.interior();
+        Ok(Self {
+            exact: Exact::new(scene).map_err(|e| e.to_string())?,
+            emax: Emax::over(a, b),
+            reference: Vec::new(),
+        })
+    }
+
+    /// Takes the inputs `u` at `t`.
+    fn add<const NU: usize>(
+        &mut self,
+        t: f64,
+        u: &nalgebra::SVector<f64, NU>,
+    ) -> Result<(), String> {
+        self.exact
+            .at(t, &mut self.reference)
+            .map_err(|e| e.to_string())?;
+        let reference: [f64; NU] =
+            core::array::from_fn(|i| self.reference.get(i).copied().unwrap_or(f64::NAN));
+        self.emax.add(t, input_error(u, &reference));
+        Ok(())
+    }
+}
+
+/// Steps `integrator` `steps` times; the Newton iterations, and Eq. 29 over the run if
+/// `accuracy` is given (from the rest state on, each step's state after it).
 fn step_with<
     M: DaeModel<f64, N, NU>,
     I: Integrator<f64, M, N, NU>,
@@ -58,21 +101,32 @@ fn step_with<
     mut integrator: I,
     model: &M,
     steps: usize,
-) -> Result<u64, String> {
+    mut accuracy: Option<Accuracy>,
+) -> Result<(u64, Option<Emax>), String> {
     let mut iterations = 0_u64;
+    if let Some(a) = accuracy.as_mut() {
+        a.add(to_f64(integrator.time()), &M::inputs(&integrator.state()))?;
+    }
     for _ in 0..steps {
         iterations += u64::from(measured_step(&mut integrator, model).map_err(|e| e.to_string())?);
+        if let Some(a) = accuracy.as_mut() {
+            a.add(to_f64(integrator.time()), &M::inputs(&integrator.state()))?;
+        }
     }
-    Ok(iterations)
+    Ok((iterations, accuracy.map(|a| a.emax)))
 }
+
+/// What a run gives: the Newton iterations, and e_max if it was measured.
+type Stepped = Result<(u64, Option<Emax>), String>;
 
 /// The firmware's integrator for the scene (`scene::dispatch::firmware_steps`), stepped.
 struct Firmware {
     steps: usize,
+    accuracy: Option<Accuracy>,
 }
 
 impl StepsVisitor for Firmware {
-    type Output = Result<u64, String>;
+    type Output = Stepped;
     fn visit<
         M: DaeModel<f64, N, NU>,
         I: Integrator<f64, M, N, NU>,
@@ -83,7 +137,7 @@ impl StepsVisitor for Firmware {
         model: M,
         integrator: I,
     ) -> Self::Output {
-        step_with(integrator, &model, self.steps)
+        step_with(integrator, &model, self.steps, self.accuracy)
     }
 }
 
@@ -91,10 +145,11 @@ impl StepsVisitor for Firmware {
 /// names with the settings' Jacobian mode on dense LUs), stepped.
 struct Study<'a> {
     scene: &'a Scene,
+    accuracy: Option<Accuracy>,
 }
 
 impl ModelVisitor<f64> for Study<'_> {
-    type Output = Result<u64, String>;
+    type Output = Stepped;
     fn visit<M: DaeModel<f64, N, NU>, const N: usize, const NU: usize, const S: usize>(
         self,
         model: M,
@@ -106,7 +161,7 @@ impl ModelVisitor<f64> for Study<'_> {
             0.0,
         )
         .map_err(|e| e.to_string())?;
-        step_with(integrator, &model, self.scene.steps())
+        step_with(integrator, &model, self.scene.steps(), self.accuracy)
     }
 }
 
@@ -132,6 +187,8 @@ fn run() -> Result<(), String> {
     let mut structured = false;
     // `trajectory=plan`: the firmware's trajectory type, not a study axis either.
     let mut driven = DrivenBy::PointToPoint;
+    // `emax=yes`: Eq. 29 measured along the run.
+    let mut measure = false;
     for setting in args {
         let (key, value) = setting
             .split_once('=')
@@ -148,6 +205,8 @@ fn run() -> Result<(), String> {
             ("trajectory", v) => {
                 return Err(format!("trajectory={v}: expected plan or point-to-point"))
             }
+            ("emax", "yes") => measure = true,
+            ("emax", v) => return Err(format!("emax={v}: expected yes")),
             _ => scene = apply(&scene, key, value)?,
         }
     }
@@ -164,7 +223,8 @@ fn run() -> Result<(), String> {
     if scene.solver.scalar != ScalarSpec::F64 {
         return Err("only f64 is measured".into());
     }
-    let iterations = if structured {
+    let accuracy = measure.then(|| Accuracy::of(&scene)).transpose()?;
+    let (iterations, emax) = if structured {
         // The firmware's integrator, through the one dispatch the firmware's build script
         // uses: it must be the structured one the flag asks for.
         let firmware = scene::dispatch::FirmwareScheme::of(&scene)?;
@@ -178,17 +238,24 @@ fn run() -> Result<(), String> {
             driven,
             Firmware {
                 steps: scene.steps(),
+                accuracy,
             },
         )??
     } else if driven == DrivenBy::PointToPoint {
-        scene::dispatch::model::<f64, _>(&scene, Study { scene: &scene })
-            .map_err(|e| e.to_string())??
+        scene::dispatch::model::<f64, _>(
+            &scene,
+            Study {
+                scene: &scene,
+                accuracy,
+            },
+        )
+        .map_err(|e| e.to_string())??
     } else {
         return Err(
             "trajectory=plan measures the firmware's integrator: add newton=structured".into(),
         );
     };
-    report(&scene, structured, driven, iterations)
+    report(&scene, structured, driven, iterations, emax)
 }
 
 /// The line `cargo xtask instructions` reads the steps and iterations from.
@@ -197,9 +264,13 @@ fn report(
     structured: bool,
     driven: DrivenBy,
     iterations: u64,
+    emax: Option<Emax>,
 ) -> Result<(), String> {
+    let accuracy = emax.map_or_else(String::new, |e| {
+        format!(", e_max {:e}, interior {:e}", e.global, e.interior)
+    });
     println!(
-        "{} {}{}{} h = {}: steps {}, Newton iterations {iterations}",
+        "{} {}{}{} h = {}: steps {}, Newton iterations {iterations}{accuracy}",
         scheme_label(scene),
         jacobian_label(scene),
         if structured { " structured" } else { "" },

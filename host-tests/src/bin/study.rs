@@ -7,6 +7,7 @@
 //! study extremes [--out-dir DIR] [--quick]     the stability map
 //! study crane3d [--out-dir DIR] [--quick]      the 3D crane: convergence, orders, f32/f64, stability map
 //! study root-locus [--out-dir DIR]             Fig. 10: the internal dynamics' eigenvalues over α
+//! study condition [--out-dir DIR]              κ₁ of BDF4's Newton matrix against h per formulation
 //! ```
 //!
 //! Also `cargo xtask study …`. Results and their reading: docs/RESULTS.md.
@@ -23,7 +24,7 @@ use host_tests::study::{
     RunResult, Sample,
 };
 use host_tests::sweep::{cross, csv_row, parse_vary, CSV_HEADER};
-use host_tests::{crane3d_study, extremes, paper, root_locus};
+use host_tests::{crane3d_study, extremes, paper, root_locus, trade};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use scene::Scene;
 
@@ -52,7 +53,7 @@ enum Command {
         /// The scene file.
         scene: PathBuf,
         /// Axes: `key=v1|v2,…` with keys h, rho, k, scheme, jacobian (j, jt, jtN, exact,
-        /// transformed), formulation, scalar.
+        /// transformed), formulation (subs, proj, ext; the mass-on-car: direct, ext), scalar.
         #[arg(long, required = true)]
         vary: Vec<String>,
         /// CSV output (default: standard output).
@@ -92,6 +93,13 @@ enum Command {
         #[arg(long, default_value = "docs/figures")]
         out_dir: PathBuf,
     },
+    /// The condition number κ₁ of BDF4's Newton matrix at mid-move against h, per crane
+    /// and formulation (subs, proj, ext), as CSV, SVG and a table on standard output.
+    Condition {
+        /// Output directory.
+        #[arg(long, default_value = "docs/figures/trade")]
+        out_dir: PathBuf,
+    },
     /// The stability map over schemes, Jacobians, step sizes, scalings, scalars and hard scenes.
     Extremes {
         /// Output directory.
@@ -123,6 +131,7 @@ fn main() -> ExitCode {
         Command::Crane3d { out_dir, quick } => {
             crane3d_study::regenerate(&out_dir, quick, &progress)
         }
+        Command::Condition { out_dir } => condition(&out_dir),
         Command::RootLocus { out_dir } => root_locus::write(&out_dir).map(|alpha_hat| {
             eprintln!(
                 "wrote {}: alpha^ = {alpha_hat:.3} deg (Eq. 39, d = 1 Ns/m)",
@@ -137,6 +146,28 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// `study condition`: κ₁ per formulation and h, written to `out` and printed.
+fn condition(out: &Path) -> Result<(), String> {
+    fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let rows = trade::write_conditions(out)?;
+    let mut text =
+        String::from("kappa1 of BDF4's Newton matrix at mid-move, rho = 1/h^2\nformulation");
+    for h in trade::STEP_SIZES {
+        text += &format!(" | h = {h} s");
+    }
+    text.push('\n');
+    for (name, values) in rows {
+        text += name;
+        for v in values {
+            text += &format!(" | {v:.3e}");
+        }
+        text.push('\n');
+    }
+    emit(&text)?;
+    eprintln!("wrote {}", out.join("condition.{csv,svg}").display());
+    Ok(())
 }
 
 /// A progress bar that appears only once the work has taken more than a second.

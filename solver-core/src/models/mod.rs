@@ -59,10 +59,13 @@ macro_rules! schemes_of {
 
 pub mod crane;
 pub mod crane3d;
+pub mod crane_ext;
+pub mod crane_hidden;
 pub mod crane_proj;
 pub mod crane_subs;
 pub mod double_pendulum;
 pub mod mass_on_car;
+pub mod mass_on_car_ext;
 
 /// What the models' tests share.
 #[cfg(test)]

@@ -79,3 +79,37 @@ pub fn flat_inverse<Z: Trajectory<f64, 2>>(p: &CraneParams, z: &Z, t: f64) -> Fl
         u_dot: [p.tau1 * x.d3 + x.d2, p.tau2 * l.d3 + l.d2],
     }
 }
+
+/// The exact solution in the *ext* unknowns
+/// (`[x, l, v_x, v_l, λ, u1, u2, x', l', μ, a_x, a_l, ν]`,
+/// [`CraneExt`](crate::models::crane_ext::CraneExt)): [`flat_inverse`]'s state with the
+/// dummies of the minimal extension, `x' = ẋ`, `l' = l̇`, `μ = λ̇`, `a_x = ẍ`, `a_l = l̈`,
+/// `ν = λ̈`, by the same [`Jet`] arithmetic (`λ` as a jet of its own). What the
+/// extended residual vanishes on along the move.
+#[must_use]
+pub fn extended_state<Z: Trajectory<f64, 2>>(p: &CraneParams, z: &Z, t: f64) -> SVector<f64, 13> {
+    let [[xc, zc], [xc1, zc1], [xc2, zc2], [xc3, zc3], [xc4, zc4], [xc5, zc5]] =
+        z.derivatives::<6>(t).map(<[f64; 2]>::from);
+    let (xc, zc) = (Jet::new(xc, xc1, xc2, xc3), Jet::new(zc, zc1, zc2, zc3));
+    let (xcdd, zcdd) = (Jet::new(xc2, xc3, xc4, xc5), Jet::new(zc2, zc3, zc4, zc5));
+    let g = Jet::constant(p.g);
+    let x = xc - xcdd * zc / (zcdd - g);
+    let dx = xc - x;
+    let l = (zc * zc + dx * dx).sqrt();
+    let lambda = (zcdd - g) / (Jet::constant(2.0) * zc);
+    SVector::from([
+        x.v,
+        l.v,
+        x.d1,
+        l.d1,
+        lambda.v,
+        p.tau1 * x.d2 + x.d1,
+        p.tau2 * l.d2 + l.d1,
+        x.d1,
+        l.d1,
+        lambda.d1,
+        x.d2,
+        l.d2,
+        lambda.d2,
+    ])
+}

@@ -139,6 +139,54 @@ pub fn flat_inverse<Z: Trajectory<f64, 3>>(p: &Crane3dParams, z: &Z, t: f64) -> 
     }
 }
 
+/// The exact solution in the 3D *ext* unknowns
+/// (`[x, y, l, v_x, v_y, v_l, λ, u1, u2, u3, x', y', l', μ, a_x, a_y, a_l, ν]`,
+/// [`Crane3dExt`](crate::models::crane3d::Crane3dExt)): [`flat_inverse`]'s state with the
+/// dummies of the minimal extension, `q' = q̇`, `μ = λ̇`, `a = q̈`, `ν = λ̈`, by the same
+/// [`Jet`] arithmetic. What the extended residual vanishes on along the move.
+#[must_use]
+pub fn extended_state<Z: Trajectory<f64, 3>>(p: &Crane3dParams, z: &Z, t: f64) -> SVector<f64, 18> {
+    let [[xc, yc, zc], [xc1, yc1, zc1], [xc2, yc2, zc2], [xc3, yc3, zc3], [xc4, yc4, zc4], [xc5, yc5, zc5]] =
+        z.derivatives::<6>(t).map(<[f64; 3]>::from);
+    let jet = |v, d1, d2, d3| Jet::new(v, d1, d2, d3);
+    let (xc, yc, zc) = (
+        jet(xc, xc1, xc2, xc3),
+        jet(yc, yc1, yc2, yc3),
+        jet(zc, zc1, zc2, zc3),
+    );
+    let (xcdd, ycdd, zcdd) = (
+        jet(xc2, xc3, xc4, xc5),
+        jet(yc2, yc3, yc4, yc5),
+        jet(zc2, zc3, zc4, zc5),
+    );
+    let g = Jet::constant(p.g);
+    let x = xc - xcdd * zc / (zcdd - g);
+    let y = yc - ycdd * zc / (zcdd - g);
+    let (dx, dy) = (xc - x, yc - y);
+    let l = (dx * dx + dy * dy + zc * zc).sqrt();
+    let lambda = (zcdd - g) / (Jet::constant(2.0) * zc);
+    SVector::from([
+        x.v,
+        y.v,
+        l.v,
+        x.d1,
+        y.d1,
+        l.d1,
+        lambda.v,
+        p.tau1 * x.d2 + x.d1,
+        p.tau2 * y.d2 + y.d1,
+        p.tau3 * l.d2 + l.d1,
+        x.d1,
+        y.d1,
+        l.d1,
+        lambda.d1,
+        x.d2,
+        y.d2,
+        l.d2,
+        lambda.d2,
+    ])
+}
+
 /// One sample's error of Eq. 29, `max_i |u_i − u_flat,i(t)|` (NaN if `u` is).
 #[must_use]
 pub fn input_error<Z: Trajectory<f64, 3>>(

@@ -337,7 +337,9 @@ impl<T: Real, M: DaeModel<T, N, NU>, const N: usize, const NU: usize> BdfNewton<
 /// them, which the index-3 step then differentiates twice — without it the interior error
 /// of the paper's move at 2 ms was 5 % above Newton's (1.84e-9 against 1.76e-9), with it
 /// 0.997–1.000 of Newton's from 0.5 to 2 ms. From 5 ms on the closed form is the step (no
-/// iteration, no matrix). A model without a closed form keeps the predictor and the
+/// iteration, no matrix); a model without differential unknowns (`DaeModel::DIFFERENTIAL`
+/// 0: the extended cranes, algebraic, their closed form exact at every node) is never
+/// corrected. A model without a closed form keeps the predictor and the
 /// iteration above. A step the closed form refuses (a slack rope, which the models'
 /// trajectory checks refuse up front, or the rope moving by more than 15 % of its length
 /// in one step) is refused ([`Error::SingularJacobian`], 0 iterations): the iteration is
@@ -482,7 +484,11 @@ where
                 value: f64::NAN,
             });
         }
-        let correct = settings.h < CORRECT_BELOW_H;
+        // The correction makes the positions, velocities and inputs agree as the residual
+        // rounds them before the index-3 step differentiates them; a model with no
+        // differential unknown (the minimally extended cranes, whose closed form is their
+        // exact solution at every node) has nothing to differentiate.
+        let correct = settings.h < CORRECT_BELOW_H && M::DIFFERENTIAL > 0;
         if correct && S::ELIMINATE && M::CLOSED_FORM && !S::CORRECT {
             return Err(Error::InvalidSetting {
                 name: "h (below CORRECT_BELOW_H the closed form is corrected: start Eliminated)",

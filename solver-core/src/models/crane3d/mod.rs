@@ -10,7 +10,8 @@
 //! (gravity `+g e_z`) as in the planar crane. The output is the load position, the
 //! 3D counterpart of Eq. 27; what this module holds is what every formulation of it
 //! shares — parameters, workspace, the position-level flat inverse and the check of a
-//! desired load path. The *subs* inverse model is [`subs`].
+//! desired load path. The *subs* inverse model is [`subs`], its minimal extension to
+//! index 1 [`ext`].
 //!
 //! ## The load's equations per unit mass (the 3D Eqs. 25–26)
 //!
@@ -50,8 +51,10 @@ use crate::models::crane::{check_load_path, CraneParams, Workspace};
 use crate::scalar::{c, to_f64, Real};
 use crate::trajectory::Trajectory;
 
+pub mod ext;
 pub mod subs;
 
+pub use ext::{Crane3dExt, Ext3dFactors};
 pub use subs::{Crane3dSubs, Subs3dFactors, N, NU};
 
 /// Where bridge, trolley and rope may go.
