@@ -219,22 +219,25 @@ impl FlatDoublePendulum {
     }
 }
 
-/// `u_flat(t)` and the state that goes with it, from the load path's derivatives
-/// `[z, ż, …, z^(7)]` at the instant `t` (see the module's comment).
-///
-/// Refused where the inverse does not exist: the load's downward acceleration at or
-/// above `g` (the sling would push, [`Error::RopeSlack`] with it), the two masses' mean
-/// downward acceleration `(z̈_C + μ z̈_H)/(1 + μ)` at or above `g` (the rope would,
-/// [`Error::RopeSlack`] with the mean), the hook at or above the rail
-/// ([`Error::OutsideWorkspace`] naming `z_H`), and anything not finite (a non-finite
-/// parameter or path, [`Error::NonFinite`]). The model's checks
-/// ([`check_trajectory`](crate::models::double_pendulum::check_trajectory)) keep margins
-/// to these.
-pub fn flat_state(
-    p: &DoublePendulumParams,
-    d: &[SVector<f64, 2>; 8],
-    t: f64,
-) -> Result<FlatDoublePendulum> {
+/// The flat inverse's Taylor series at one instant: the load, the hook, both forces, the
+/// trolley and the rope (see the module's comment).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct FlatSeries {
+    xc: Taylor<L>,
+    zc: Taylor<L>,
+    azc: Taylor<L>,
+    xh: Taylor<L>,
+    zh: Taylor<L>,
+    azh: Taylor<L>,
+    lambda1: Taylor<L>,
+    lambda2: Taylor<L>,
+    x: Taylor<L>,
+    dx: Taylor<L>,
+    l: Taylor<L>,
+}
+
+/// The series of [`FlatSeries`] from the load path's derivatives `[z, ż, …, z^(7)]`.
+fn flat_series(p: &DoublePendulumParams, d: &[SVector<f64, 2>; 8]) -> FlatSeries {
     let series = |axis: usize, from: usize| {
         Taylor::<L>::from_derivatives(core::array::from_fn(|k| {
             d.get(from + k)
@@ -261,6 +264,51 @@ pub fn flat_state(
     let x = xh - bx * zh / bz;
     let dx = xh - x;
     let l = (dx * dx + zh * zh).sqrt();
+    FlatSeries {
+        xc,
+        zc,
+        azc,
+        xh,
+        zh,
+        azh,
+        lambda1,
+        lambda2,
+        x,
+        dx,
+        l,
+    }
+}
+
+/// `u_flat(t)` and the state that goes with it, from the load path's derivatives
+/// `[z, ż, …, z^(7)]` at the instant `t` (see the module's comment).
+///
+/// Refused where the inverse does not exist: the load's downward acceleration at or
+/// above `g` (the sling would push, [`Error::RopeSlack`] with it), the two masses' mean
+/// downward acceleration `(z̈_C + μ z̈_H)/(1 + μ)` at or above `g` (the rope would,
+/// [`Error::RopeSlack`] with the mean), the hook at or above the rail
+/// ([`Error::OutsideWorkspace`] naming `z_H`), and anything not finite (a non-finite
+/// parameter or path, [`Error::NonFinite`]). The model's checks
+/// ([`check_trajectory`](crate::models::double_pendulum::check_trajectory)) keep margins
+/// to these.
+pub fn flat_state(
+    p: &DoublePendulumParams,
+    d: &[SVector<f64, 2>; 8],
+    t: f64,
+) -> Result<FlatDoublePendulum> {
+    let FlatSeries {
+        xc,
+        zc,
+        azc,
+        xh,
+        zh,
+        azh,
+        lambda1,
+        lambda2,
+        x,
+        dx,
+        l,
+    } = flat_series(p, d);
+    let mu = p.hook_mass / p.crane.m;
     // d/dt atan2(p, q) = (ṗ q − p q̇)/(p² + q²).
     let rate = |p: &Taylor<L>, q: &Taylor<L>| {
         (p.derivative(1) * q.value() - p.value() * q.derivative(1))
@@ -328,6 +376,52 @@ pub fn flat_inverse<Z: Trajectory<f64, 2>>(
     t: f64,
 ) -> Result<FlatDoublePendulum> {
     flat_state(p, &z.derivatives::<8>(t), t)
+}
+
+/// The exact state in the unknowns of the minimally extended formulation
+/// ([`double_pendulum_ext`](crate::models::double_pendulum_ext), its order): the *subs*
+/// state of [`flat_state`], then the rates the extension adds — `x', l', x_H', z_H'`, the
+/// trolley's, rope's and hook's accelerations, the hook's jerk and snap, `λ1', λ1''` and
+/// `λ2'` … `λ2''''` — from the same Taylor series (the hook and λ2 keep 6 exact
+/// coefficients, the trolley, the rope and λ1 4). Refused as [`flat_state`] refuses.
+pub fn extended_state(
+    p: &DoublePendulumParams,
+    d: &[SVector<f64, 2>; 8],
+    t: f64,
+) -> Result<SVector<f64, { crate::models::double_pendulum_ext::N }>> {
+    let flat = flat_state(p, d, t)?;
+    let FlatSeries {
+        xh,
+        zh,
+        lambda1,
+        lambda2,
+        x,
+        l,
+        ..
+    } = flat_series(p, d);
+    let added = [
+        x.derivative(1),
+        l.derivative(1),
+        xh.derivative(1),
+        zh.derivative(1),
+        x.derivative(2),
+        l.derivative(2),
+        xh.derivative(2),
+        zh.derivative(2),
+        xh.derivative(3),
+        zh.derivative(3),
+        xh.derivative(4),
+        zh.derivative(4),
+        lambda1.derivative(1),
+        lambda1.derivative(2),
+        lambda2.derivative(1),
+        lambda2.derivative(2),
+        lambda2.derivative(3),
+        lambda2.derivative(4),
+    ];
+    Ok(SVector::from_iterator(
+        flat.subs().iter().copied().chain(added),
+    ))
 }
 
 /// One sample's error of Eq. 29, `max_i |u_i − u_flat,i(t)|` (NaN if `u` is, or where
