@@ -172,17 +172,17 @@ impl Crane {
         let file = CommissioningFile::for_scene(scene_path)
             .map_err(|e| format!("{}: commissioning file: {e}", scene_path.display()))?;
         let (kind, drives, limits): (_, Vec<Drive>, Vec<AxisLimits>) = match scene.model {
-            ModelSpec::Crane3dSubs(_) => (
+            ModelSpec::Crane3dSubs(_) | ModelSpec::Crane3dExt(_) => (
                 "3D crane",
                 controller::drive::SPATIAL.to_vec(),
                 DriveLimits::LAB_3D.to_vec(),
             ),
-            ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) => (
+            ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) | ModelSpec::CraneExt(_) => (
                 "planar crane",
                 controller::drive::PLANAR.to_vec(),
                 vec![DriveLimits::LAB.trolley, DriveLimits::LAB.winch],
             ),
-            ModelSpec::MassOnCar(_) => {
+            ModelSpec::MassOnCar(_) | ModelSpec::MassOnCarExt(_) => {
                 return Err(format!(
                     "{}: a mass-on-car scene has no crane on a bus; give a crane's scene",
                     scene_path.display()
