@@ -188,7 +188,7 @@ pub(crate) fn zv_cycles(l: f64, g: f64, h: f64, rounding: Rounding) -> usize {
 
 /// One axis's quanta: the integer rate limiter moves in whole steps of these, so that a
 /// stop ends at exactly zero speed and the filters' history is exact integers
-/// ([`crate::operator::limiter`]).
+/// (`operator::limiter`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Quanta {
     /// Acceleration quantum `δa = A/127`, m/s².
