@@ -208,13 +208,6 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
 
     /// The rules the desired output breaks at `t`: bit `i` set for `ORDER[i]`.
     fn violations_at<Z: Trajectory<f64, A>>(&self, z: &Z, t: f64) -> u16 {
-        self.judge(z, t).0
-    }
-
-    /// The rules the desired output breaks at `t` (bit `i` set for `ORDER[i]`), and each
-    /// drive's speed |u| there (0 where the load's own checks failed before the flat
-    /// inverse was evaluated).
-    fn judge<Z: Trajectory<f64, A>>(&self, z: &Z, t: f64) -> (u16, [f64; A]) {
         let bit = |reason: Reject| {
             ORDER
                 .iter()
@@ -225,13 +218,13 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         let (zc, zcdd) = match (zd.as_slice().last(), zdd.as_slice().last()) {
             (Some(zc), Some(zcdd)) => (*zc, *zcdd),
             // No output at all: no load to hang.
-            _ => return (bit(Reject::RopeWorkspace), [0.0; A]),
+            _ => return bit(Reject::RopeWorkspace),
         };
         if zc.is_nan() || zc <= 0.0 {
-            return (bit(Reject::RopeWorkspace), [0.0; A]);
+            return bit(Reject::RopeWorkspace);
         }
         if zcdd.is_nan() || zcdd > MAX_DOWN_ACCELERATION * self.crane.g() {
-            return (bit(Reject::SlackRope), [0.0; A]);
+            return bit(Reject::SlackRope);
         }
         let f = self.crane.flat(z, t);
         let mut found = 0;
@@ -257,7 +250,7 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
                 found |= bit(reasons.acceleration);
             }
         }
-        (found, f.u.map(f64::abs))
+        found
     }
 
     /// What the checks bound at `t` of the path `z` ([`Quantities`]).
@@ -329,19 +322,20 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
     /// `σ_rise(d) ≤ σ_end ≤ 1`, `σ_rise(d)` the *nearest end* its start allows
     /// ([`StopStart::nearest_end`]), which grows with `d` (more time at the start's
     /// speed). A stop passes when it passes every check of a move — workspace, rope
-    /// tension, the drives' velocity and acceleration — and makes no drive faster than
-    /// the running segment does anywhere on its span (a stop never speeds a drive up
-    /// beyond what the move did or would have), and ends
-    /// no later than the running segment, `d ≤ end − t`.
+    /// tension, the drives' velocity and acceleration (the limits, not the move's own
+    /// speeds: a slow move may stop with its drives briefly faster than it ran, which is
+    /// what makes its stop short) — and ends no later than the running segment,
+    /// `d ≤ end − t`.
     ///
     /// Where the stops of the shortest durations pass, the nearest rest is near the
     /// shortest of them (a longer one may rest nearer only within its narrow first
     /// ends; a still longer one cannot rest nearer than its `σ_rise`). So the search
     /// scans the durations up from [`STOP_SHORTEST`] in steps of 25 % for the first whose
-    /// stops pass a coarse check (which ends pass, estimated at 16 instants), bisects
-    /// below it to 5 %, and gives the nearest end found the full check at every one of
-    /// [`Planner::check`]'s points — else the middle of the ends, else a little longer. On the cases it rests within a few per cent of the
-    /// nearest rest a fine search of durations and ends finds (the study
+    /// stops pass a coarse check (which ends pass, estimated at [`COARSE_POINTS`]
+    /// instants), bisects below it to 5 %, and gives the nearest end found the full check
+    /// at every one of [`Planner::check`]'s points — else the middle of the ends, else a
+    /// little longer. On the cases it rests within a few per cent of the nearest
+    /// rest a fine search of durations and ends finds (the study
     /// `stop_search_against_a_fine_search`).
     ///
     /// Never inlined (nor [`MoveSearch::advance`]): the flat inverse's jets at each
@@ -356,9 +350,9 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
 
     /// Whether `stop`, taking over at `t` on `plan`'s running segment, keeps every rule
     /// [`Planner::plan_stop`] keeps: on the path at or before the target, at rest no later
-    /// than the segment, every check of a move at [`Planner::check`]'s points, no drive
-    /// faster than the segment makes it. What the search finds passes; a test uses it to
-    /// ask whether a nearer stop would have (`tests/stop_property.rs`).
+    /// than the segment, every check of a move at [`Planner::check`]'s points. What the
+    /// search finds passes; a test uses it to ask whether a nearer stop would have
+    /// (`tests/stop_property.rs`).
     #[must_use]
     pub fn stop_passes(&self, plan: &Plan<f64, A>, t: f64, stop: &Stop<f64, A>) -> bool {
         let (Some(segment), Some(start)) = (plan.segment_at(t), plan.stop_start(t)) else {
@@ -368,12 +362,7 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         if stop.path() != start.path() || stop.t_end() > span.1 || !stop.stays_on_path() {
             return false;
         }
-        let mut budget = u32::MAX;
-        let caps = self.speed_caps(plan, t, span, &mut budget);
-        (0..=SAMPLES).all(|i| {
-            let (found, speeds) = self.judge(stop, sample_time(t, stop.t_end(), i));
-            found == 0 && speeds.iter().zip(caps).all(|(u, cap)| *u <= cap)
-        })
+        (0..=SAMPLES).all(|i| self.violations_at(stop, sample_time(t, stop.t_end(), i)) == 0)
     }
 
     /// [`Planner::plan_stop`] with the stop's end allowed up to `latest` instead of the
@@ -388,11 +377,9 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         plan: &Plan<f64, A>,
         t: f64,
         latest: f64,
-        mut budget: u32,
+        budget: u32,
     ) -> Option<Stop<f64, A>> {
-        let span = plan.segment_at(t)?.span();
         let start = plan.stop_start(t)?;
-        let caps = self.speed_caps(plan, t, span, &mut budget);
         let longest = longest_stop(&start, latest - t)?;
         // No stop shorter than the shortest move: its set points would leave the checks'
         // margin. Where none that long fits, the running segment is the quickest rest.
@@ -402,7 +389,6 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         let mut search = StopCheck {
             planner: self,
             start,
-            caps,
             budget,
         };
         // The shortest duration whose stops pass the coarse check: up from the shortest
@@ -455,33 +441,6 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
             d = (d * STOP_SCAN).min(longest);
         }
     }
-
-    /// Each drive's speed cap during a stop taking over at `t` on `plan`'s running
-    /// segment, which spans `span`: the highest |u| the segment itself gives the drive,
-    /// at `t` and at [`CAP_SAMPLES`] + 1 points of its span, plus [`CAP_TOLERANCE`]. A stop
-    /// never drives a drive faster than the move (or stop) it stops did or would have.
-    fn speed_caps(
-        &self,
-        plan: &Plan<f64, A>,
-        t: f64,
-        span: (f64, f64),
-        budget: &mut u32,
-    ) -> [f64; A] {
-        let mut caps = [0.0; A];
-        let (from, until) = span;
-        let points =
-            (0..=CAP_SAMPLES).map(|k| from + (until - from) * k as f64 / CAP_SAMPLES as f64);
-        for at in core::iter::once(t).chain(points) {
-            *budget = budget.saturating_sub(1);
-            for (cap, u) in caps.iter_mut().zip(self.crane.flat(plan, at).u) {
-                // (A speed that is not a number raises no cap: nothing then passes.)
-                if u.abs() > *cap {
-                    *cap = u.abs();
-                }
-            }
-        }
-        caps.map(|c| c * (1.0 + CAP_TOLERANCE))
-    }
 }
 
 /// Time of sample `i` of `[t0, t1]`.
@@ -509,18 +468,10 @@ fn first_reason(found: u16) -> Result<(), Reject> {
 }
 
 /// Path samples a stop's search may take (a stop is planned in the cycle it arrives):
-/// 22 for the speed caps, two per instant of each coarse check (16 instants; one that
-/// fails is left at its first failing instant) and 101 per full check. A search that would take more ends with the running segment as the stop
-/// (it was checked when it was accepted). Its cost: docs/RESULTS.md.
+/// two per instant of each coarse check ([`COARSE_POINTS`] instants; one that fails is
+/// left at its first failing instant) and 101 per full check. A search that would take
+/// more ends with the running segment as the stop (it was checked when it was accepted). Its cost: docs/RESULTS.md.
 pub const STOP_SAMPLES: u32 = 6 * SAMPLES_PER_CYCLE;
-
-/// Points of the running segment that give the drives' speed caps during a stop, less one.
-const CAP_SAMPLES: usize = 20;
-
-/// How much faster than the running segment a drive may be during a stop, as a share:
-/// the segment's own peak may lie between the cap's points, and a stop continues the
-/// segment's derivatives at its start.
-const CAP_TOLERANCE: f64 = 1e-3;
 
 /// Instants of a stop at which its coarse check evaluates the path, each at two ends
 /// ([`StopCheck::ends`]).
@@ -553,8 +504,6 @@ const STOP_RESOLUTION: f64 = 1.05;
 struct StopCheck<'a, K, const A: usize> {
     planner: &'a Planner<K, A>,
     start: StopStart<f64, A>,
-    /// Each drive's speed cap ([`Planner::speed_caps`]).
-    caps: [f64; A],
     budget: u32,
 }
 
@@ -602,14 +551,8 @@ impl<K: Crane<A>, const A: usize> StopCheck<'_, K, A> {
                 (qa.depth_acceleration, qb.depth_acceleration),
                 (f64::NEG_INFINITY, slack),
             );
-            let axes = planner
-                .crane
-                .ranges()
-                .into_iter()
-                .zip(limits)
-                .zip(self.caps)
-                .enumerate();
-            for (k, ((range, (velocity, acceleration)), cap)) in axes {
+            let axes = planner.crane.ranges().into_iter().zip(limits).enumerate();
+            for (k, (range, (speed, acceleration))) in axes {
                 let of = |q: &Quantities<A>| {
                     let f = &q.flat;
                     (
@@ -619,7 +562,6 @@ impl<K: Crane<A>, const A: usize> StopCheck<'_, K, A> {
                     )
                 };
                 let ((pa, ua, ra), (pb, ub, rb)) = (of(&qa), of(&qb));
-                let speed = velocity.min(cap);
                 ends.bound((pa, pb), range);
                 ends.bound((ua, ub), (-speed, speed));
                 ends.bound((ra, rb), (-acceleration, acceleration));
@@ -658,7 +600,7 @@ impl<K: Crane<A>, const A: usize> StopCheck<'_, K, A> {
 
     /// The stop of duration `d` that rests at the fraction `end` of the path, if it stays
     /// on the path at or before the target and passes every check at every one of
-    /// [`Planner::check`]'s points, the speed caps too (visited in the spread order, left
+    /// [`Planner::check`]'s points (visited in the spread order, left
     /// at the first violation); `None` (outer) when the budget runs out.
     fn clears(&mut self, d: f64, end: f64) -> Option<Option<Stop<f64, A>>> {
         let stop = match self.start.stop(d, end) {
@@ -668,9 +610,7 @@ impl<K: Crane<A>, const A: usize> StopCheck<'_, K, A> {
         let t = self.start.t();
         for i in (0..=SAMPLES).map(spread) {
             self.budget = self.budget.checked_sub(1)?;
-            let (found, speeds) = self.planner.judge(&stop, sample_time(t, t + d, i));
-            let faster = speeds.iter().zip(self.caps).any(|(u, cap)| *u > cap);
-            if found != 0 || faster {
+            if self.planner.violations_at(&stop, sample_time(t, t + d, i)) != 0 {
                 return Some(None);
             }
         }
@@ -1010,6 +950,67 @@ mod tests {
         );
     }
 
+    /// [`STOP_SAMPLES`] suffices: the smallest budget with which the search finds what it
+    /// finds without one, over stops at every 0.25 s of moves from one place to many, on
+    /// the planar and the 3D crane, stays within it (printed: `cargo test -p controller
+    /// --release --lib stop_budget -- --nocapture`). A search that needs more ends with
+    /// the running move as the stop — safe, but not as short as the limits allow.
+    #[test]
+    fn the_stop_budget_suffices() {
+        fn most_needed<K: Crane<A>, const A: usize>(
+            planner: &Planner<K, A>,
+            from: [f64; A],
+            targets: &[[f64; A]],
+        ) -> (u32, usize) {
+            let (mut most, mut stops) = (0, 0);
+            for to in targets {
+                let mut plan = Plan::at_rest(SVector::from(from), 5).unwrap();
+                plan.push(planner.plan_move(&plan, *to, None, 0.0).unwrap())
+                    .unwrap();
+                let end = plan.end_time().unwrap();
+                for i in 1..(end * 4.0) as usize {
+                    let t = i as f64 * 0.25;
+                    let unlimited = planner.stop_within(&plan, t, end, u32::MAX);
+                    // The search only ever stops early on its budget: bisect the least.
+                    let (mut lo, mut hi) = (0, 1 << 16);
+                    assert_eq!(planner.stop_within(&plan, t, end, hi), unlimited);
+                    while hi - lo > 1 {
+                        let mid = (lo + hi) / 2;
+                        if planner.stop_within(&plan, t, end, mid) == unlimited {
+                            hi = mid;
+                        } else {
+                            lo = mid;
+                        }
+                    }
+                    most = most.max(hi);
+                    stops += 1;
+                }
+            }
+            (most, stops)
+        }
+        let planar = Planner::new(CraneParams::PAPER, DriveLimits::LAB);
+        let planar_targets = [
+            [20.0, 5.0],
+            [20.0, 4.0],
+            [14.0, 7.0],
+            [19.0, 8.5],
+            [13.0, 4.0],
+        ];
+        let (planar_most, planar_stops) = most_needed(&planar, [12.0, 8.0], &planar_targets);
+        let crane3d = Planner::with_axes(Crane3dParams::EXAMPLE, DriveLimits::LAB_3D);
+        let targets_3d = [
+            [14.0, 4.5, 6.5],
+            [16.0, 5.0, 6.0],
+            [20.0, 3.0, 4.0],
+            [12.5, 6.0, 8.0],
+        ];
+        let (most_3d, stops_3d) = most_needed(&crane3d, [12.0, 3.0, 8.0], &targets_3d);
+        std::eprintln!(
+            "path samples a stop's search needed at most: planar {planar_most} ({planar_stops} stops), 3D {most_3d} ({stops_3d} stops); the budget {STOP_SAMPLES}"
+        );
+        assert!(planar_most <= STOP_SAMPLES && most_3d <= STOP_SAMPLES);
+    }
+
     /// No stop shorter than [`STOP_SHORTEST`], also in a move's last half second, where
     /// the longest stop that fits is shorter: there the running segment is the rest.
     #[test]
@@ -1047,8 +1048,8 @@ mod tests {
     }
 
     /// How near the stop [`Planner::plan_stop`] rests to the nearest rest of its family
-    /// under the same rules (on the path at or before the target, every check, no drive
-    /// faster than the move, no later than the move): a fine search — durations 20 ms
+    /// under the same rules (on the path at or before the target, every check, no later
+    /// than the move): a fine search — durations 20 ms
     /// apart, for each the nearest end 0.001 of the path apart that passes the full check
     /// — at instants of the moves. A study, not a check of the firmware (`cargo
     /// test -p controller --release --lib stop_search -- --ignored --nocapture`, about a
@@ -1070,13 +1071,10 @@ mod tests {
             for &t in instants {
                 let span = plan.segment_at(t).unwrap().span();
                 let start = plan.stop_start(t).unwrap();
-                let mut budget = u32::MAX;
-                let caps = planner.speed_caps(&plan, t, span, &mut budget);
                 let mut fine = StopCheck {
                     planner,
                     start,
-                    caps,
-                    budget,
+                    budget: u32::MAX,
                 };
                 let mut best: Option<(f64, f64)> = None;
                 let mut d = STOP_SHORTEST;
