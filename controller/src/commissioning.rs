@@ -115,6 +115,15 @@ impl DriveSetup {
         }
     }
 
+    /// Metres of position actual 0x6064 `increments`, through the commissioned scaling:
+    /// the trolley's position, the winch's rope length. (The one place the scaling is
+    /// applied: the plausibility check, the measured crane, the supervision and the
+    /// reset all read a drive's position through it.)
+    #[must_use]
+    pub fn metres(&self, increments: i32) -> f64 {
+        self.position_offset + self.position_scale * f64::from(increments)
+    }
+
     /// The default trolley drive: node 1, 3.3 m/s.
     pub const TROLLEY: Self = Self::stock(1, 3_300_000);
     /// The default winch drive: node 2, 2.2 m/s.

@@ -810,11 +810,10 @@ where
     fn judge_position(&self, drive: Drive, units: i32, now_ms: u64) -> Option<Implausibility> {
         let link = self.link(drive)?;
         let setup = link.commissioning.setup();
-        let metres = |u: i32| setup.position_offset + setup.position_scale * f64::from(u);
         let (lo, hi) = *drive::of(&K::DRIVES, drive, &self.planner.ranges())?;
         let max_velocity = self.gate.limits(drive)?.max_velocity;
         let tolerance = self.config.position_tolerance_m;
-        let at = metres(units);
+        let at = setup.metres(units);
         if !(lo - tolerance..=hi + tolerance).contains(&at) {
             return Some(Implausibility::Position);
         }
@@ -826,7 +825,7 @@ where
             .max(u64::from(self.config.period_ms)) as f64
             / 1000.0;
         let reach = self.config.overspeed * max_velocity * dt + 0.1 * tolerance;
-        ((at - metres(last)).abs() > reach).then_some(Implausibility::Jump)
+        ((at - setup.metres(last)).abs() > reach).then_some(Implausibility::Jump)
     }
 
     fn on_status(&mut self, drive: Drive, sw: u16, velocity: i32, now_ms: u64) {
@@ -1136,8 +1135,7 @@ where
                 .last_position_ms
                 .is_some_and(|t| now_ms.saturating_sub(t) <= u64::from(self.config.period_ms));
             let setup = link.commissioning.setup();
-            *slot = setup.position_offset
-                + setup.position_scale * f64::from(link.position.filter(|_| fresh)?);
+            *slot = setup.metres(link.position.filter(|_| fresh)?);
         }
         Some(Measured { position, swing })
     }
@@ -1454,7 +1452,7 @@ where
                 return None;
             }
             let setup = link.commissioning.setup();
-            *slot = setup.position_offset + setup.position_scale * f64::from(link.position?);
+            *slot = setup.metres(link.position?);
         }
         Some(position)
     }

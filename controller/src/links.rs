@@ -315,7 +315,7 @@ impl DriveLink {
         }
         let setup = self.commissioning.setup();
         Some(Actual {
-            position: setup.position_offset + setup.position_scale * f64::from(self.position?),
+            position: setup.metres(self.position?),
             velocity: f64::from(self.velocity) / crate::setpoint::UNITS_PER_M_PER_S,
         })
     }

@@ -902,6 +902,20 @@ mod tests {
         assert!(ranked::<3, Crane3dParams>());
     }
 
+    /// A plan at rest at `from` with the quickest move to `to` the planner allows, and
+    /// the time that move ends.
+    fn the_quickest_move<K: Crane<A>, const A: usize>(
+        planner: &Planner<K, A>,
+        from: [f64; A],
+        to: [f64; A],
+    ) -> (Plan<f64, A>, f64) {
+        let mut plan = Plan::at_rest(SVector::from(from), 5).unwrap();
+        plan.push(planner.plan_move(&plan, to, None, 0.0).unwrap())
+            .unwrap();
+        let end = plan.end_time().unwrap();
+        (plan, end)
+    }
+
     /// What the rule "never later than the move would have ended" (issue 17) costs in
     /// stopping distance: at instants 0.1 s apart on three moves as fast as the limits
     /// allow, the stop [`Planner::plan_stop`] finds beside the one it would find if it
@@ -915,10 +929,7 @@ mod tests {
             from: [f64; A],
             to: [f64; A],
         ) {
-            let mut plan = Plan::at_rest(SVector::from(from), 5).unwrap();
-            plan.push(planner.plan_move(&plan, to, None, 0.0).unwrap())
-                .unwrap();
-            let end = plan.end_time().unwrap();
+            let (plan, end) = the_quickest_move(planner, from, to);
             let length = (SVector::from(to) - SVector::from(from)).norm();
             let (mut runs_on, mut shorter_later, mut shorter, mut later) = (0, 0, 0.0_f64, 0.0_f64);
             for i in 1..(end * 10.0) as usize {
@@ -964,10 +975,7 @@ mod tests {
         ) -> (u32, usize) {
             let (mut most, mut stops) = (0, 0);
             for to in targets {
-                let mut plan = Plan::at_rest(SVector::from(from), 5).unwrap();
-                plan.push(planner.plan_move(&plan, *to, None, 0.0).unwrap())
-                    .unwrap();
-                let end = plan.end_time().unwrap();
+                let (plan, end) = the_quickest_move(planner, from, *to);
                 for i in 1..(end * 4.0) as usize {
                     let t = i as f64 * 0.25;
                     let unlimited = planner.stop_within(&plan, t, end, u32::MAX);
@@ -1020,10 +1028,7 @@ mod tests {
             from: [f64; A],
             to: [f64; A],
         ) {
-            let mut plan = Plan::at_rest(SVector::from(from), 5).unwrap();
-            plan.push(planner.plan_move(&plan, to, None, 0.0).unwrap())
-                .unwrap();
-            let end = plan.end_time().unwrap();
+            let (plan, end) = the_quickest_move(planner, from, to);
             for i in 0..=60 {
                 let t = end - 0.6 + f64::from(i) * 0.01;
                 if let Some(stop) = planner.plan_stop(&plan, t) {
