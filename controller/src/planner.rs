@@ -331,7 +331,7 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
     /// shortest of them (a longer one may rest nearer only within its narrow first
     /// ends; a still longer one cannot rest nearer than its `σ_rise`). So the search
     /// scans the durations up from [`STOP_SHORTEST`] in steps of 25 % for the first whose
-    /// stops pass a coarse check (which ends pass, estimated at [`COARSE_POINTS`]
+    /// stops pass a coarse check (which ends pass, estimated at `COARSE_POINTS`
     /// instants), bisects below it to 5 %, and gives the nearest end found the full check
     /// at every one of [`Planner::check`]'s points — else the middle of the ends, else a
     /// little longer. On the cases it rests within a few per cent of the nearest
@@ -468,7 +468,7 @@ fn first_reason(found: u16) -> Result<(), Reject> {
 }
 
 /// Path samples a stop's search may take (a stop is planned in the cycle it arrives):
-/// two per instant of each coarse check ([`COARSE_POINTS`] instants; one that fails is
+/// two per instant of each coarse check (`COARSE_POINTS` instants; one that fails is
 /// left at its first failing instant) and 101 per full check. A search that would take
 /// more ends with the running segment as the stop (it was checked when it was accepted). Its cost: docs/RESULTS.md.
 pub const STOP_SAMPLES: u32 = 6 * SAMPLES_PER_CYCLE;
@@ -516,7 +516,7 @@ impl<K: Crane<A>, const A: usize> StopCheck<'_, K, A> {
     /// the Hermite polynomial that rests at 0 plus the smooth step), so each quantity the
     /// checks bound is nearly affine in it too (exactly so for the planar crane's trolley
     /// at a constant rope length): evaluated at two ends, the nearest end the start allows
-    /// (`σ_rise`) and halfway from it to the target, at [`COARSE_POINTS`] instants, each
+    /// (`σ_rise`) and halfway from it to the target, at `COARSE_POINTS` instants, each
     /// bound gives an interval of ends, and the ends that pass are their intersection
     /// with `[σ_rise, 1]`. The bounds are [`COARSE_SHARE`] of the checks' own, so that
     /// the full check ([`StopCheck::clears`]) of what this finds passes.
