@@ -26,7 +26,6 @@ use controller::planner::Crane;
 use controller::planner::Planner;
 use controller::setpoint::{AxisLimits, DriveLimits};
 use controller::Config;
-use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::{Crane3dExt, Crane3dParams, Crane3dSubs};
 use solver_core::models::crane_ext::{self, CraneExt};
@@ -39,14 +38,15 @@ use solver_core::reference::dopri5::Dopri5Settings;
 use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::reference::flat_crane3d;
 use solver_core::reference::mass_on_car::MassOnCarReference;
-use solver_core::scalar::c;
 use solver_core::schemes::bdf::CORRECT_BELOW_H;
 use solver_core::trajectory::{PointToPoint, Trajectory};
 use solver_core::{DaeModel, Driven, Error, Integrator, Real, Scheme, SolverSettings};
 
 use crate::commissioning::CommissioningFile;
 use crate::feedback::FeedbackSpec;
-use crate::{JacobianSpec, ModelSpec, NewtonSpec, ScalarSpec, Scene, SceneError, SchemeSpec};
+use crate::{
+    trajectory, JacobianSpec, ModelSpec, NewtonSpec, ScalarSpec, Scene, SceneError, SchemeSpec,
+};
 
 /// What is done with a scene's model, whatever model it is (the studies).
 pub trait ModelVisitor<T: Real> {
@@ -105,29 +105,6 @@ pub fn model<T: Real, V: ModelVisitor<T>>(
             )
         }
     })
-}
-
-/// The scene's move in the scalar `T`, with its `NZ` output axes.
-pub(crate) fn trajectory<T: Real, const NZ: usize>(
-    scene: &Scene,
-) -> Result<PointToPoint<T, NZ>, SceneError> {
-    let t = &scene.trajectory;
-    for (field, v) in [("trajectory.start", &t.start), ("trajectory.end", &t.end)] {
-        if v.len() != NZ {
-            return Err(crate::refuse(
-                field,
-                format!("needs {NZ} values (one per output axis), has {}", v.len()),
-            ));
-        }
-    }
-    PointToPoint::new(
-        SVector::<T, NZ>::from_iterator(t.start.iter().map(|v| c::<T>(*v))),
-        SVector::<T, NZ>::from_iterator(t.end.iter().map(|v| c::<T>(*v))),
-        c(t.t_start),
-        c(t.duration),
-        t.smoothness,
-    )
-    .map_err(|e| scene.field_of(e))
 }
 
 /// The e_max above which a run of `model` counts as inaccurate: 1 mm/s for the cranes'
