@@ -204,9 +204,15 @@ def test_the_rope_calibration_with_a_late_noisy_inclinometer_sets_the_load_down_
     assert learnt["samples"] > 0, story
     assert learnt["learnt"] in (BOTH, UNCERTAIN, DELAY_MISMATCH), story
     if learnt["learnt"] == UNCERTAIN:
-        # Refused, with the reason it gives: not saved (no step 3).
+        # Refused, with the reason it gives, after every round trip the procedure allows:
+        # the issue's other outcome ("within a stated tolerance of the truth ..., or refused
+        # with a reason"). Honest only if the truth lies within what it states; not saved
+        # (no step 3), the engineer calibrates again. (Seen once with 5 cycles of delay, in
+        # seven runs: uncertainty 29.3 mm, error 7.1 mm, 5 round trips.)
         assert learnt["uncertainty_um"] > MAX_UNCERTAINTY_UM, story
-        pytest.fail(f"refused as uncertain after {ROUND_TRIPS + len(refusals)} round trips: {story}")
+        assert error <= learnt["uncertainty_um"] * 1e-3, story
+        print(f"refused as uncertain after {ROUND_TRIPS + len(refusals)} round trips: {story}")
+        return
     if learnt["learnt"] == DELAY_MISMATCH:
         pytest.fail(f"refused for its delay although the delay is commissioned: {story}")
     # Offered: within the uncertainty the controller states, over 3-9 m of rope.
