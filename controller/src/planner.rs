@@ -909,8 +909,19 @@ mod tests {
         from: [f64; A],
         to: [f64; A],
     ) -> (Plan<f64, A>, f64) {
+        a_move(planner, from, to, None)
+    }
+
+    /// A plan at rest at `from` with a move to `to` in `duration` s (`None`: the
+    /// quickest), and the time that move ends.
+    fn a_move<K: Crane<A>, const A: usize>(
+        planner: &Planner<K, A>,
+        from: [f64; A],
+        to: [f64; A],
+        duration: Option<f64>,
+    ) -> (Plan<f64, A>, f64) {
         let mut plan = Plan::at_rest(SVector::from(from), 5).unwrap();
-        plan.push(planner.plan_move(&plan, to, None, 0.0).unwrap())
+        plan.push(planner.plan_move(&plan, to, duration, 0.0).unwrap())
             .unwrap();
         let end = plan.end_time().unwrap();
         (plan, end)
@@ -962,8 +973,9 @@ mod tests {
     }
 
     /// [`STOP_SAMPLES`] suffices: the smallest budget with which the search finds what it
-    /// finds without one, over stops at every 0.25 s of moves from one place to many, on
-    /// the planar and the 3D crane, stays within it (printed: `cargo test -p controller
+    /// finds without one, over stops at every 0.25 s of moves from one place to many —
+    /// the quickest ones and the 8 s moves, whose longer spans the scan climbs
+    /// further — on the planar and the 3D crane, stays within it (printed: `cargo test -p controller
     /// --release --lib stop_budget -- --nocapture`). A search that needs more ends with
     /// the running move as the stop — safe, but not as short as the limits allow.
     #[test]
@@ -971,11 +983,11 @@ mod tests {
         fn most_needed<K: Crane<A>, const A: usize>(
             planner: &Planner<K, A>,
             from: [f64; A],
-            targets: &[[f64; A]],
+            moves: &[([f64; A], Option<f64>)],
         ) -> (u32, usize) {
             let (mut most, mut stops) = (0, 0);
-            for to in targets {
-                let (plan, end) = the_quickest_move(planner, from, *to);
+            for (to, duration) in moves {
+                let (plan, end) = a_move(planner, from, *to, *duration);
                 for i in 1..(end * 4.0) as usize {
                     let t = i as f64 * 0.25;
                     let unlimited = planner.stop_within(&plan, t, end, u32::MAX);
@@ -997,22 +1009,24 @@ mod tests {
             (most, stops)
         }
         let planar = Planner::new(CraneParams::PAPER, DriveLimits::LAB);
-        let planar_targets = [
-            [20.0, 5.0],
-            [20.0, 4.0],
-            [14.0, 7.0],
-            [19.0, 8.5],
-            [13.0, 4.0],
+        let planar_moves = [
+            ([20.0, 5.0], None),
+            ([20.0, 5.0], Some(8.0)),
+            ([20.0, 4.0], None),
+            ([14.0, 7.0], None),
+            ([19.0, 8.5], None),
+            ([14.0, 7.0], Some(10.0)),
         ];
-        let (planar_most, planar_stops) = most_needed(&planar, [12.0, 8.0], &planar_targets);
+        let (planar_most, planar_stops) = most_needed(&planar, [12.0, 8.0], &planar_moves);
         let crane3d = Planner::with_axes(Crane3dParams::EXAMPLE, DriveLimits::LAB_3D);
-        let targets_3d = [
-            [14.0, 4.5, 6.5],
-            [16.0, 5.0, 6.0],
-            [20.0, 3.0, 4.0],
-            [12.5, 6.0, 8.0],
+        let moves_3d = [
+            ([14.0, 4.5, 6.5], None),
+            ([14.0, 4.5, 6.5], Some(8.0)),
+            ([16.0, 5.0, 6.0], None),
+            ([20.0, 3.0, 4.0], None),
+            ([16.0, 5.0, 6.0], Some(10.0)),
         ];
-        let (most_3d, stops_3d) = most_needed(&crane3d, [12.0, 3.0, 8.0], &targets_3d);
+        let (most_3d, stops_3d) = most_needed(&crane3d, [12.0, 3.0, 8.0], &moves_3d);
         std::eprintln!(
             "path samples a stop's search needed at most: planar {planar_most} ({planar_stops} stops), 3D {most_3d} ({stops_3d} stops); the budget {STOP_SAMPLES}"
         );

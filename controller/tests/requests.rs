@@ -47,7 +47,8 @@ fn a_stop_with_the_running_moves_id_is_obeyed() {
     // Stopped 2 s after it was accepted (trolley at 0.8 m/s), with the move's id.
     let mut rig = ready_with(a_move(5));
     rig.run(199);
-    let before = trolley(&rig.cycle());
+    let last = rig.cycle();
+    let before = trolley(&last);
     assert!(before > 500_000, "{before}");
     send(&mut rig, Request::Stop { id: 5 });
     let out = rig.cycle();
@@ -56,10 +57,13 @@ fn a_stop_with_the_running_moves_id_is_obeyed() {
         Some([5, 1, 0]),
         "the stop's own answer"
     );
-    rig.until(900, |c| {
+    let mut stopping = vec![out];
+    stopping.extend(rig.until(900, |c| {
         c.setpoints.iter().all(|s| s.units() == 0) && c.mode == Mode::Ready
-    });
-    // At rest far short of the target.
+    }));
+    // Within the drives' limits (speed and acceleration) all the way, and at rest far
+    // short of the target.
+    assert_within_limits(&stopping, &mut last.setpoints.map(|s| s.units()));
     let end = rig.c.feedforward().plan().final_position();
     assert!(
         end[0] < TARGET[0] - 2.0,

@@ -49,7 +49,6 @@ use nalgebra::{SMatrix, SVector};
 use crate::error::{Error, Result};
 use crate::model::{DaeModel, DifferenceFormula, Driven, Partials, StructuredJacobian};
 use crate::models::crane_subs::rope_increment;
-use crate::models::double_pendulum_crane::check_trajectory;
 use crate::scalar::{c, Real};
 use crate::trajectory::{ensure_at_rest, Trajectory};
 
@@ -57,7 +56,7 @@ use crate::trajectory::{ensure_at_rest, Trajectory};
 /// ([`double_pendulum_crane`](crate::models::double_pendulum_crane)); named here too,
 /// where the studies and tests import them from.
 pub use crate::models::double_pendulum_crane::{
-    DoublePendulumParams, HOOK_MASS_RATIO, SLING_LENGTH,
+    check_trajectory, DoublePendulumParams, HOOK_MASS_RATIO, SLING_LENGTH,
 };
 
 /// Number of unknowns.

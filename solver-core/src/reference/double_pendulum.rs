@@ -21,7 +21,7 @@ use crate::models::double_pendulum_crane::{flat_series, DoublePendulumParams, Fl
 use crate::reference::emax::{self, Emax};
 use crate::trajectory::Trajectory;
 
-pub use crate::models::double_pendulum_crane::{flat_state, FlatDoublePendulum};
+pub use crate::models::double_pendulum_crane::{flat_state, FlatDoublePendulum, Taylor};
 
 /// `u_flat(t)` and the state that goes with it, on the trajectory `z` at `t`; refused as
 /// [`flat_state`] refuses.
