@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use std::{env, fs, path::PathBuf};
 
 use scene::commissioning::CommissioningFile;
-use scene::dispatch::{firmware, Axes, FirmwareCrane, FirmwareCraneVisitor, ReferenceOf};
+use scene::dispatch::{firmware, FirmwareCrane, FirmwareCraneVisitor};
 use scene::firmware::{settings_source, FirmwareScene};
 use scene::Scene;
 
@@ -18,8 +18,6 @@ impl FirmwareCraneVisitor for Generate<'_> {
     type Output = String;
 
     fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> String
-    where
-        Axes<A>: ReferenceOf,
     {
         // The fuzz targets drive the planar crane's controller.
         assert_eq!(

@@ -117,7 +117,11 @@ impl Run {
     }
 }
 
-fn run<C: AxesCorrection<3>>(correction: C, scenario: Scenario, seconds: u32) -> Run {
+fn run<C: AxesCorrection<3, [feedback::Reference; 2]>>(
+    correction: C,
+    scenario: Scenario,
+    seconds: u32,
+) -> Run {
     let planner = Planner::with_axes(Crane3dParams::EXAMPLE, DriveLimits::LAB_3D);
     let mut c: Controller<Ff, C, Crane3dParams, 3> =
         Controller::with_correction(feedforward(), correction, planner, config());

@@ -448,7 +448,7 @@ fn healthy_runs_use_less_than_half_of_every_window() {
     use controller::commissioning::{InclinometerSetup, NodeSetup};
     use controller::correction::AxesCorrection;
     use controller::feedback::{self, NoFeedback, StateFeedback};
-    use controller::feedforward::{Axes, Feedforward, ReferenceOf, Replan};
+    use controller::feedforward::{Feedforward, Replan};
     use controller::motion::{Deviations, MotionWindows};
     use controller::planner::{Crane, Planner};
     use controller::{Config, Controller, Injectable};
@@ -460,10 +460,9 @@ fn healthy_runs_use_less_than_half_of_every_window() {
         cycles: u32,
     ) -> [Deviations; A]
     where
-        F: Feedforward<A> + Replan<A>,
-        C: AxesCorrection<A>,
+        F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+        C: AxesCorrection<A, K::Reference>,
         K: Crane<A>,
-        Axes<A>: ReferenceOf,
     {
         for now in (0..cycles).map(|k| k * 10) {
             let out = run_cycle(&mut c, &mut bus, now).expect("no hang");
@@ -472,7 +471,7 @@ fn healthy_runs_use_less_than_half_of_every_window() {
         c.motion_deviations()
     }
     // The planar crane with the paper's move planned at boot, as the firmware runs it.
-    fn planar<C: AxesCorrection<2>>(
+    fn planar<C: AxesCorrection<2, feedback::Reference>>(
         correction: C,
         scenario: Scenario,
         cycles: u32,
@@ -485,7 +484,10 @@ fn healthy_runs_use_less_than_half_of_every_window() {
     }
     // The 3D crane, `scenario`'s events with a 3D move (12, 3, 8) → (20, 6, 4) in 9 s
     // asked at 1 s among them.
-    fn spatial<C: AxesCorrection<3>>(correction: C, scenario: Scenario) -> [Deviations; 3] {
+    fn spatial<C: AxesCorrection<3, [feedback::Reference; 2]>>(
+        correction: C,
+        scenario: Scenario,
+    ) -> [Deviations; 3] {
         use controller::drive::SPATIAL;
         use solver_core::models::crane3d::Crane3dParams;
         let planner = Planner::with_axes(Crane3dParams::EXAMPLE, crate::common3d::limits());

@@ -8,7 +8,7 @@
 //! step; the firmware logs the sum, in the units of `Board::cost`, beside the tick's cost. Nothing else changes: the
 //! controller, its frames and the plan see the inner feedforward.
 
-use controller::feedforward::{AroundStep, Axes, FeedforwardStep, ReferenceOf, Wrapped};
+use controller::feedforward::{AroundStep, FeedforwardStep, Wrapped};
 use controller::Feedforward;
 use solver_core::Error;
 
@@ -44,8 +44,6 @@ impl AroundStep for SolverTimer {
         &mut self,
         inner: &mut F,
     ) -> Result<FeedforwardStep<A>, Error>
-    where
-        Axes<A>: ReferenceOf,
     {
         let start = board::solver_counter();
         let out = inner.step();

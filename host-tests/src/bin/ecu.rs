@@ -37,8 +37,8 @@ use std::time::{Duration, Instant};
 use clap::{Parser, ValueEnum};
 use controller::commands::Request;
 use controller::correction::AxesCorrection;
+use controller::crane::command_plan;
 use controller::drive::Drive;
-use controller::feedforward::{command_plan, Axes, ReferenceOf};
 use controller::node::Role;
 use controller::{CanFrame, Controller, Feedforward, Injectable, Mode, Replan};
 use host_tests::firmware::{with_controller, WithController};
@@ -119,17 +119,15 @@ struct Ecu<'a> {
 impl FirmwareCraneVisitor for Ecu<'_> {
     type Output = Result<(), String>;
 
-    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output
-    where
-        Axes<A>: ReferenceOf,
-    {
+    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output {
         let (cli, scene) = (self.cli, self.scene);
         // No motion without a command: the scene's move only when asked (as the QEMU
         // main job asks for it); otherwise the crane rests where the scene's move starts.
         let plan = if cli.demo {
             f.plan
         } else {
-            command_plan(f.start(), scene.trajectory.smoothness).map_err(|e| e.to_string())?
+            command_plan::<K, A>(f.start(), scene.trajectory.smoothness)
+                .map_err(|e| e.to_string())?
         };
         if let Some(spec) = &cli.reference {
             let request = reference_request(spec, A)?;
@@ -244,10 +242,9 @@ impl WithController for Reference {
         f: &FirmwareScene<K, A>,
     ) -> Self::Output
     where
-        F: Feedforward<A> + Replan<A>,
-        C: AxesCorrection<A>,
+        F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+        C: AxesCorrection<A, K::Reference>,
         K: FirmwareCrane<A>,
-        Axes<A>: ReferenceOf,
     {
         reference(controller, f, self.request)
     }
@@ -262,10 +259,9 @@ impl WithController for Setup {
         _: &FirmwareScene<K, A>,
     ) -> Self::Output
     where
-        F: Feedforward<A> + Replan<A>,
-        C: AxesCorrection<A>,
+        F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+        C: AxesCorrection<A, K::Reference>,
         K: FirmwareCrane<A>,
-        Axes<A>: ReferenceOf,
     {
         serve(controller, self)
     }
@@ -281,10 +277,9 @@ fn reference<F, C, K, const A: usize>(
     request: Request,
 ) -> Result<(), String>
 where
-    F: Feedforward<A> + Replan<A>,
-    C: AxesCorrection<A>,
+    F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+    C: AxesCorrection<A, K::Reference>,
     K: FirmwareCrane<A>,
-    Axes<A>: ReferenceOf,
 {
     use controller::commands::{request_frame, Answer};
     use sim::{run_cycle, HEALTHY};
@@ -346,10 +341,9 @@ fn serve<F, C, K, const A: usize>(
     setup: Setup,
 ) -> Result<(), String>
 where
-    F: Feedforward<A> + Replan<A>,
-    C: AxesCorrection<A>,
+    F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+    C: AxesCorrection<A, K::Reference>,
     K: FirmwareCrane<A>,
-    Axes<A>: ReferenceOf,
 {
     let config = *controller.config();
     let period = Duration::from_millis(u64::from(config.period_ms));

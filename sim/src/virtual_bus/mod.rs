@@ -32,7 +32,7 @@ use controller::commissioning::InclinometerSetup;
 use controller::controller::{Controller, Cycle};
 use controller::correction::AxesCorrection;
 use controller::drive::{self, Drive, PLANAR};
-use controller::feedforward::{Axes, Feedforward, Injectable, ReferenceOf, Replan};
+use controller::feedforward::{Feedforward, Injectable, Replan};
 use controller::frame::CanFrame;
 use controller::planner::Crane;
 #[cfg(feature = "plant")]
@@ -964,10 +964,9 @@ pub fn run_cycle<F, C, K, const A: usize>(
     now_ms: u32,
 ) -> Option<Cycle<A>>
 where
-    F: Feedforward<A> + Replan<A>,
-    C: AxesCorrection<A>,
+    F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+    C: AxesCorrection<A, K::Reference>,
     K: Crane<A>,
-    Axes<A>: ReferenceOf,
 {
     let now = u64::from(now_ms);
     board::cycle(
