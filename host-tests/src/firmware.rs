@@ -3,13 +3,13 @@
 
 use controller::correction::AxesCorrection;
 use controller::crane::command_plan;
-use controller::planner::Crane;
 use controller::setpoint::Setpoint;
 use controller::{CanFrame, Config, Controller, Feedforward, Injectable, Mode, Replan};
 use scene::commissioning::CommissioningFile;
 use scene::dispatch::{firmware, FirmwareCrane, FirmwareCraneVisitor, FirmwareVisitor};
 use scene::firmware::FirmwareScene;
 use scene::Scene;
+use sim::simulated::Simulated;
 use sim::{run_cycle, Scenario, VirtualBus};
 use solver_core::plan::Plan;
 
@@ -75,16 +75,16 @@ impl FirmwareCraneVisitor for RunScene<'_> {
 /// The virtual bus the firmware's QEMU board builds for the scene: a stock drive for
 /// each of the crane's drives, at rest where the scene's move starts; refused if the
 /// scenario asks for a plant the bus does not simulate for this crane.
-pub fn virtual_bus<K: Crane<A>, const A: usize>(
+pub fn virtual_bus<K: Simulated<A>, const A: usize>(
     f: &FirmwareScene<K, A>,
     scenario: Scenario,
-) -> Result<VirtualBus<A>, String> {
-    let bus = VirtualBus::with_drives(scenario, K::DRIVES, f.start());
+) -> Result<VirtualBus<K, A>, String> {
+    let bus = VirtualBus::for_crane(scenario, &f.params, f.start());
     if bus.simulates_scenario() {
         Ok(bus)
     } else {
         Err(format!(
-            "scenario {}: its plant is the planar crane's; this crane has {A} drives",
+            "scenario {}: it moves a plant, and this build has no plant (feature `plant`)",
             scenario.name
         ))
     }

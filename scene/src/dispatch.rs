@@ -25,6 +25,7 @@ use controller::feedforward::{CraneReference, Feedforward, InverseModel, Replan}
 use controller::planner::Crane;
 use controller::planner::Planner;
 use controller::Config;
+use sim::simulated::Simulated;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::{Crane3dExt, Crane3dParams, Crane3dSubs};
 use solver_core::models::crane_ext::{self, CraneExt};
@@ -497,7 +498,7 @@ macro_rules! integrators {
 /// A crane the firmware drives, registered once: how a scene names it, the lab drives'
 /// limits, its parameters as the build script writes them, its firmware integrators
 /// and its state feedback. The planar crane (`A = 2`) and the 3D crane (`A = 3`).
-pub trait FirmwareCrane<const A: usize>: Crane<A> + Copy + core::fmt::Debug {
+pub trait FirmwareCrane<const A: usize>: Crane<A> + Simulated<A> + Copy + core::fmt::Debug {
     /// The parameters' type, as the build script writes it.
     const TYPE: &'static str;
     /// The correction a scene's `[feedback]` links.
