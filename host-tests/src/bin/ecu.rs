@@ -336,6 +336,16 @@ struct Setup {
 /// The real-time loop: tick k at k·h after the start by the wall clock, the frames
 /// received since the last tick fed first (with the tick's time, as the firmware does);
 /// a late tick runs at once, so the controller's time stays k·h.
+///
+/// A tick whose frames go out more than a period late (the host stalled this process: a
+/// loaded machine, a write waiting on the disk) makes the ticks after it keep the period
+/// from then: the schedule slips instead of running the missed ticks back to back. Run
+/// back to back, they sent their SYNCs within a millisecond and advanced the
+/// controller's clock by the stall while the drives had no time to answer one: a 60 ms
+/// stall of the ECU alone ended in fault 10, its drives' TPDOs "50 ms late" (interop
+/// README, "Keeping time"). The firmware on its own processor is not stalled by a host;
+/// its supervision (50 ms without a TPDO is a fault) is unchanged — the controller's
+/// clock only never runs ahead of the time its drives had.
 fn serve<F, C, K, const A: usize>(
     mut controller: Controller<Injectable<F>, C, K, A>,
     setup: Setup,
@@ -353,17 +363,17 @@ where
         let listener = setup.listener;
         std::thread::spawn(move || accept(&listener, &bus, &stop))
     };
-    let start = lock(&setup.bus).start;
+    // Tick k is due `k - anchor_k` periods after `anchor`: the start, or the last tick
+    // that ran more than a period late.
+    let (mut anchor, mut anchor_k) = (lock(&setup.bus).start, 0u64);
     let cycles = (setup.duration.as_nanos() / period.as_nanos()).max(1) as u64;
     let mut late = 0u64;
     let mut worst = Duration::ZERO;
     for k in 0..cycles {
-        let due = start + period * u32::try_from(k).unwrap_or(u32::MAX);
+        let due = anchor + period * u32::try_from(k - anchor_k).unwrap_or(u32::MAX);
         let now = Instant::now();
         if now < due {
             std::thread::sleep(due - now);
-        } else if now - due > period {
-            late += 1;
         }
         let now_ms = k * u64::from(config.period_ms);
         let received = std::mem::take(&mut lock(&setup.bus).inbox);
@@ -376,6 +386,13 @@ where
         let mut bus = lock(&setup.bus);
         for frame in &out.frames {
             bus.deliver(None, &Frame::from(frame));
+        }
+        // Late, whether the sleep overran or the tick waited for the bus: the next one
+        // a period after these frames went out.
+        let sent = Instant::now();
+        if sent.saturating_duration_since(due) > period {
+            late += 1;
+            (anchor, anchor_k) = (sent, k);
         }
         bus.flush_log();
     }
