@@ -88,8 +88,10 @@ struct Generate<'a> {
 impl FirmwareCraneVisitor for Generate<'_> {
     type Output = Result<String, String>;
 
-    fn visit<K: FirmwareCrane<A>, const A: usize>(self, setup: FirmwareScene<K, A>) -> Self::Output
-    {
+    fn visit<K: FirmwareCrane<A>, const A: usize>(
+        self,
+        setup: FirmwareScene<K, A>,
+    ) -> Self::Output {
         crane_module(self.scene, &setup)
     }
 }
@@ -98,8 +100,7 @@ impl FirmwareCraneVisitor for Generate<'_> {
 fn crane_module<K: FirmwareCrane<A>, const A: usize>(
     scene: &Scene,
     setup: &FirmwareScene<K, A>,
-) -> Result<String, String>
-{
+) -> Result<String, String> {
     // The model, the scheme and the Newton strategy are types, so the firmware links
     // only the ones its scene names (`scene::dispatch::FirmwareScheme`, which the host's
     // run of the firmware builds too).

@@ -17,8 +17,7 @@ struct Generate<'a>(&'a Scene);
 impl FirmwareCraneVisitor for Generate<'_> {
     type Output = String;
 
-    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> String
-    {
+    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> String {
         // The fuzz targets drive the planar crane's controller.
         assert_eq!(
             A, 2,

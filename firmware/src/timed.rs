@@ -43,8 +43,7 @@ impl AroundStep for SolverTimer {
     fn step<F: Feedforward<A>, const A: usize>(
         &mut self,
         inner: &mut F,
-    ) -> Result<FeedforwardStep<A>, Error>
-    {
+    ) -> Result<FeedforwardStep<A>, Error> {
         let start = board::solver_counter();
         let out = inner.step();
         let spent = board::solver_elapsed(start, board::solver_counter());

@@ -4,9 +4,9 @@
 
 use controller::canopen::cob;
 use controller::commissioning::{InclinometerSetup, NodeSetup};
+use controller::crane::command_plan;
 use controller::drive::PLANAR;
 use controller::feedback::{self, Correction, NoFeedback, StateFeedback};
-use controller::crane::command_plan;
 use controller::planner::Planner;
 use controller::setpoint::DriveLimits;
 use controller::{CanFrame, Config, Controller, Injectable, InverseModel};

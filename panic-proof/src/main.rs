@@ -22,10 +22,10 @@ use core::hint::black_box;
 
 use controller::commissioning::{DriveSetup, InclinometerSetup, NodeSetup};
 use controller::correction::AxesCorrection;
+use controller::crane::command_plan;
 use controller::drive::Drive;
 use controller::feedback::{self, NoFeedback, StateFeedback};
 use controller::feedback3d::SpatialFeedback;
-use controller::crane::command_plan;
 use controller::planner::{Crane, Planner};
 use controller::setpoint::DriveLimits;
 use controller::{CanFrame, Config, Controller, Feedforward, InverseModel, Replan};
@@ -62,7 +62,10 @@ trait Proven<const A: usize>: Crane<A> + Sized {
 }
 
 /// The first plan of a crane resting at `start`, moving to `end` (opaque).
-fn plan_of<K: Crane<A>, const A: usize>(start: [f64; A], end: [f64; A]) -> Result<Plan<f64, A>, Error> {
+fn plan_of<K: Crane<A>, const A: usize>(
+    start: [f64; A],
+    end: [f64; A],
+) -> Result<Plan<f64, A>, Error> {
     let (start, end) = black_box((start, end));
     let [t0, d]: [f64; 2] = black_box([1.0, 8.0]);
     let n: usize = black_box(4);
