@@ -12,6 +12,7 @@ use controller::setpoint::DriveLimits;
 use controller::{CanFrame, Config, Controller, Injectable, InverseModel};
 use nalgebra::SVector;
 use sim::{run_cycle, Scenario, VirtualBus, CLOSED_LOOP, HEALTHY};
+use solver_core::models::crane::CraneParams;
 use solver_core::trajectory::PointToPoint;
 
 /// The default scene's model, integrator and settings as the firmware links them
