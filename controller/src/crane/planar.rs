@@ -52,14 +52,20 @@ impl Crane<2> for CraneParams {
     }
 }
 
-/// *subs*: `y = [x, l, ẋ, l̇, λ, u1, u2]`; the angle and its rate from the desired
-/// load position and velocity (Eqs. 27–28).
+/// The reference from *subs*' first unknowns `y = [x, l, ẋ, l̇, …]` and the load's
+/// desired `path`: the angle and its rate from the desired load position and velocity
+/// (Eqs. 27–28).
+fn from_subs_unknowns(y: &[f64], path: &Plan<f64, 2>, t: f64) -> Reference {
+    let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
+    let [p, v] = path.derivatives::<2>(t);
+    Reference::from_subs([at(0), at(1), at(2), at(3)], p.into(), v.into())
+}
+
+/// *subs*: `y = [x, l, ẋ, l̇, λ, u1, u2]`.
 impl<T: Real> CraneReference for CraneSubs<T, Plan<f64, 2>> {
     type Reference = Reference;
     fn reference(&self, y: &[f64], t: f64) -> Reference {
-        let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
-        let [p, v] = self.trajectory().derivatives::<2>(t);
-        Reference::from_subs([at(0), at(1), at(2), at(3)], p.into(), v.into())
+        from_subs_unknowns(y, self.trajectory(), t)
     }
 }
 
@@ -84,8 +90,6 @@ impl<T: Real> CraneReference for CraneProj<T, Plan<f64, 2>> {
 impl<T: Real> CraneReference for CraneExt<T, Plan<f64, 2>> {
     type Reference = Reference;
     fn reference(&self, y: &[f64], t: f64) -> Reference {
-        let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
-        let [p, v] = self.trajectory().derivatives::<2>(t);
-        Reference::from_subs([at(0), at(1), at(2), at(3)], p.into(), v.into())
+        from_subs_unknowns(y, self.trajectory(), t)
     }
 }
