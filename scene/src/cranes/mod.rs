@@ -175,9 +175,6 @@ pub trait FirmwareCrane<const A: usize>: Crane<A> + Simulated<A> + Copy + fmt::D
     /// The expression that builds it from `FEEDBACK` (and `PARAMS`), as the build script
     /// writes it ([`FirmwareCrane::feedback`] builds the same).
     const FEEDBACK_NEW: &'static str;
-    /// How many slopes its feedback reads (the planar crane's φ: 1; the 3D crane's
-    /// swing in both vertical planes: 2): the inclinometer must have as many axes.
-    const SWING_AXES: u8;
     /// The correction of a scene without `[feedback]`: none (`NoFeedback`, which is
     /// each crane's `AxesCorrection` on its own).
     type FeedforwardOnly: AxesCorrection<A, Self::Reference> + Default;

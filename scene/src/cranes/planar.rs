@@ -30,7 +30,6 @@ impl FirmwareCrane<2> for CraneParams {
     type Feedback = StateFeedback;
     const FEEDBACK_TYPE: &'static str = "controller::feedback::StateFeedback";
     const FEEDBACK_NEW: &'static str = "Correction::new(FEEDBACK)";
-    const SWING_AXES: u8 = 1;
     type FeedforwardOnly = NoFeedback;
     fn of(model: &ModelSpec) -> Option<(Self, PlanarModel)> {
         match model {

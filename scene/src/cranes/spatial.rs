@@ -31,7 +31,6 @@ impl FirmwareCrane<3> for Crane3dParams {
     type Feedback = SpatialFeedback;
     const FEEDBACK_TYPE: &'static str = "controller::feedback3d::SpatialFeedback";
     const FEEDBACK_NEW: &'static str = "Correction::new(FEEDBACK, PARAMS.tau2)";
-    const SWING_AXES: u8 = 2;
     type FeedforwardOnly = NoFeedback;
     fn of(model: &ModelSpec) -> Option<(Self, SpatialModel)> {
         match model {
