@@ -148,7 +148,7 @@ impl<K: FirmwareCrane<A>, V: WithController, const A: usize> FirmwareVisitor<K, 
             Some(feedback) => self.visit.with(
                 Controller::with_correction(
                     feedforward,
-                    f.params.feedback(feedback)?,
+                    f.params.feedback(feedback).map_err(|e| format!("{e:?}"))?,
                     planner,
                     config,
                 ),

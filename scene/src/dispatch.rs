@@ -437,7 +437,8 @@ pub fn firmware_scene<K: FirmwareCrane<A>, const A: usize>(
     let feedback = scene
         .feedback
         .map(|f| K::feedback_config(&f, &params, scene.solver.h))
-        .transpose()?
+        .transpose()
+        .map_err(|e| e.to_string())?
         .map(|f| {
             commissioning
                 .lag()

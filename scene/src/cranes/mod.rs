@@ -15,7 +15,7 @@
 use core::fmt;
 
 use controller::correction::AxesCorrection;
-use controller::feedback::Config as FeedbackConfig;
+use controller::feedback::{Config as FeedbackConfig, DesignError};
 use controller::feedforward::{CraneReference, Feedforward, InverseModel, Replan};
 use controller::planner::Crane;
 use sim::simulated::Simulated;
@@ -24,7 +24,7 @@ use solver_core::trajectory::Trajectory;
 use solver_core::{DaeModel, Driven, Error, Integrator, SolverSettings};
 
 use crate::feedback::FeedbackSpec;
-use crate::ModelSpec;
+use crate::{ModelSpec, SceneError};
 
 pub mod planar;
 pub mod spatial;
@@ -184,10 +184,14 @@ pub trait FirmwareCrane<const A: usize>: Crane<A> + Simulated<A> + Copy + fmt::D
     fn source(&self) -> String;
     /// The scene's `[feedback]` as the controller's, for this crane and step `h`; or why
     /// this crane cannot honour it.
-    fn feedback_config(spec: &FeedbackSpec, crane: &Self, h: f64)
-        -> Result<FeedbackConfig, String>;
-    /// The state feedback of this crane for `config` ([`FirmwareCrane::feedback_config`]'s).
-    fn feedback(&self, config: FeedbackConfig) -> Result<Self::Feedback, String>;
+    fn feedback_config(
+        spec: &FeedbackSpec,
+        crane: &Self,
+        h: f64,
+    ) -> Result<FeedbackConfig, SceneError>;
+    /// The state feedback of this crane for `config` ([`FirmwareCrane::feedback_config`]'s),
+    /// or why its gains cannot be designed.
+    fn feedback(&self, config: FeedbackConfig) -> Result<Self::Feedback, DesignError>;
     /// The firmware's inverse model: formulation `model` on `plan` advanced by
     /// `integrator`, at rest at t = 0, handed to `visitor` — the types
     /// `FirmwareScheme::rust` names.

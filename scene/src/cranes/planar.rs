@@ -1,7 +1,7 @@
 //! The paper's planar crane (trolley and winch; Eqs. 24–28, Tab. 3) as the firmware
 //! drives it: its formulations and its [`FirmwareCrane`] registration.
 
-use controller::feedback::{Config as FeedbackConfig, NoFeedback, StateFeedback};
+use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback, StateFeedback};
 use solver_core::models::crane::CraneParams;
 use solver_core::plan::Plan;
 use solver_core::trajectory::Trajectory;
@@ -10,7 +10,7 @@ use solver_core::{Error, SolverSettings};
 use super::StepsVisitor;
 use super::{crane_models, integrators, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
 use crate::feedback::FeedbackSpec;
-use crate::ModelSpec;
+use crate::{ModelSpec, SceneError};
 
 crane_models! {
     /// The planar crane's formulations the firmware can drive.
@@ -53,11 +53,11 @@ impl FirmwareCrane<2> for CraneParams {
         spec: &FeedbackSpec,
         crane: &Self,
         h: f64,
-    ) -> Result<FeedbackConfig, String> {
-        spec.config(crane, h).map_err(|e| e.to_string())
+    ) -> Result<FeedbackConfig, SceneError> {
+        spec.config(crane, h)
     }
-    fn feedback(&self, config: FeedbackConfig) -> Result<StateFeedback, String> {
-        StateFeedback::new(config).map_err(|e| format!("{e:?}"))
+    fn feedback(&self, config: FeedbackConfig) -> Result<StateFeedback, DesignError> {
+        StateFeedback::new(config)
     }
     fn inverse_model<V: FirmwareVisitor<Self, 2>>(
         self,

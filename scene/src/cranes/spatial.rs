@@ -2,7 +2,7 @@
 //! its formulations and its [`FirmwareCrane`] registration, with its state feedback per
 //! vertical plane ([`SpatialFeedback`]) on a two-axis inclinometer.
 
-use controller::feedback::{Config as FeedbackConfig, NoFeedback};
+use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback};
 use controller::feedback3d::SpatialFeedback;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::Crane3dParams;
@@ -13,7 +13,7 @@ use solver_core::{Error, SolverSettings};
 use super::StepsVisitor;
 use super::{crane_models, integrators, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
 use crate::feedback::FeedbackSpec;
-use crate::ModelSpec;
+use crate::{ModelSpec, SceneError};
 
 crane_models! {
     /// The 3D crane's formulations the firmware can drive.
@@ -57,7 +57,7 @@ impl FirmwareCrane<3> for Crane3dParams {
         spec: &FeedbackSpec,
         crane: &Self,
         h: f64,
-    ) -> Result<FeedbackConfig, String> {
+    ) -> Result<FeedbackConfig, SceneError> {
         let w = crane.workspace;
         let plane = CraneParams {
             m: crane.m,
@@ -72,10 +72,10 @@ impl FirmwareCrane<3> for Crane3dParams {
             },
             min_tension_fraction: crane.min_tension_fraction,
         };
-        spec.config(&plane, h).map_err(|e| e.to_string())
+        spec.config(&plane, h)
     }
-    fn feedback(&self, config: FeedbackConfig) -> Result<SpatialFeedback, String> {
-        SpatialFeedback::new(config, self.tau2).map_err(|e| format!("{e:?}"))
+    fn feedback(&self, config: FeedbackConfig) -> Result<SpatialFeedback, DesignError> {
+        SpatialFeedback::new(config, self.tau2)
     }
     fn inverse_model<V: FirmwareVisitor<Self, 3>>(
         self,
