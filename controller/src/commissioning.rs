@@ -259,6 +259,18 @@ impl InclinometerSetup {
         ..Self::STOCK
     };
 
+    /// The stock inclinometer with `axes` slopes: [`InclinometerSetup::STOCK`] for one,
+    /// [`InclinometerSetup::STOCK_TWO_AXES`] for two (a crane's
+    /// [`crate::crane::Crane::SWING_AXES`]).
+    #[must_use]
+    pub const fn stock(axes: u8) -> Self {
+        if axes >= 2 {
+            Self::STOCK_TWO_AXES
+        } else {
+            Self::STOCK
+        }
+    }
+
     /// The swing angle φ, rad, from a *slope long16* value.
     #[must_use]
     pub fn angle(&self, slope: i16) -> f64 {

@@ -9,7 +9,6 @@ use scene::commissioning::CommissioningFile;
 use scene::dispatch::{firmware, FirmwareCrane, FirmwareCraneVisitor, FirmwareVisitor};
 use scene::firmware::FirmwareScene;
 use scene::Scene;
-use sim::simulated::Simulated;
 use sim::{run_cycle, Scenario, VirtualBus};
 use solver_core::plan::Plan;
 
@@ -75,7 +74,7 @@ impl FirmwareCraneVisitor for RunScene<'_> {
 /// The virtual bus the firmware's QEMU board builds for the scene: a stock drive for
 /// each of the crane's drives, at rest where the scene's move starts; refused if the
 /// scenario asks for a plant the bus does not simulate for this crane.
-pub fn virtual_bus<K: Simulated<A>, const A: usize>(
+pub fn virtual_bus<K: FirmwareCrane<A>, const A: usize>(
     f: &FirmwareScene<K, A>,
     scenario: Scenario,
 ) -> Result<VirtualBus<K, A>, String> {
@@ -121,13 +120,12 @@ pub fn with_controller<K: FirmwareCrane<A>, V: WithController, const A: usize>(
     visit: V,
 ) -> Result<V::Output, String> {
     let build = Build { f, config, visit };
-    f.params
-        .inverse_model(f.scheme, plan, &scene.settings(), build)
+    f.inverse_model(plan, &scene.settings(), build)
         .map_err(|e| e.to_string())?
 }
 
 /// The inverse model built; the controller around it next.
-struct Build<'a, K, V, const A: usize> {
+struct Build<'a, K: FirmwareCrane<A>, V, const A: usize> {
     f: &'a FirmwareScene<K, A>,
     config: Config,
     visit: V,
@@ -150,7 +148,7 @@ impl<K: FirmwareCrane<A>, V: WithController, const A: usize> FirmwareVisitor<K, 
             Some(feedback) => self.visit.with(
                 Controller::with_correction(
                     feedforward,
-                    f.params.feedback(feedback)?,
+                    f.params.feedback(feedback).map_err(|e| format!("{e:?}"))?,
                     planner,
                     config,
                 ),

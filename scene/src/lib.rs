@@ -36,6 +36,7 @@
 
 mod check;
 pub mod commissioning;
+pub mod cranes;
 pub mod dispatch;
 pub mod feedback;
 pub mod firmware;

@@ -347,5 +347,8 @@ fn the_extended_scenes_are_checked_as_the_direct_ones() {
         &CommissioningFile::default(),
     )
     .unwrap();
-    assert_eq!(f.scheme.model, scene::dispatch::FirmwareModel::CraneExt);
+    assert_eq!(
+        f.scheme.model,
+        scene::dispatch::FirmwareModel::Planar(scene::cranes::planar::PlanarModel::Ext)
+    );
 }

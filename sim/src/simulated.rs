@@ -4,7 +4,6 @@
 //! position actual and the inclinometer. The bus never decides by its drive list which
 //! crane it carries.
 
-use controller::commissioning::InclinometerSetup;
 use controller::crane::Crane;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::Crane3dParams;
@@ -36,8 +35,6 @@ pub trait CranePlant<const A: usize> {
 pub trait Simulated<const A: usize>: Crane<A> + Copy + core::fmt::Debug {
     /// Its plant.
     type Plant: CranePlant<A> + Clone + core::fmt::Debug;
-    /// The stock node of the inclinometer its feedback reads.
-    const INCLINOMETER_NODE: u8;
     /// The plant of this crane with the scenario's `mismatch`, at rest with the drives
     /// at `start` (model input order).
     fn plant(&self, mismatch: Mismatch, start: [f64; A]) -> Self::Plant;
@@ -60,7 +57,6 @@ impl CranePlant<2> for Plant {
 /// The planar crane: its plant with the one-axis inclinometer.
 impl Simulated<2> for CraneParams {
     type Plant = Plant;
-    const INCLINOMETER_NODE: u8 = InclinometerSetup::STOCK.node;
     fn plant(&self, mismatch: Mismatch, [x, l]: [f64; 2]) -> Plant {
         Plant::at_rest(x, l, 0.0, [self.tau1, self.tau2], self.g, self.m, mismatch)
     }
@@ -85,7 +81,6 @@ impl CranePlant<3> for Plant3d {
 /// swing.
 impl Simulated<3> for Crane3dParams {
     type Plant = Plant3d;
-    const INCLINOMETER_NODE: u8 = InclinometerSetup::STOCK_TWO_AXES.node;
     fn plant(&self, mismatch: Mismatch, [x, y, l]: [f64; 3]) -> Plant3d {
         let planar = Mismatch3d::from_planar(&mismatch);
         let [s, _] = planar.swing0;

@@ -76,6 +76,10 @@ pub trait Crane<const A: usize> {
     /// The lab drives' limits, in the model's input order: what the planner checks and
     /// the gate enforces where the commissioning file names none.
     const LAB_LIMITS: [AxisLimits; A];
+    /// How many slopes its swing has, as its feedback reads them (the planar crane's φ:
+    /// 1; the 3D crane's swing in both vertical planes: 2): its inclinometer must have as
+    /// many axes ([`crate::commissioning::InclinometerSetup::stock`]).
+    const SWING_AXES: u8;
     /// The least smoothness `n` of the moves and stops the controller plans for it
     /// ([`command_plan`]). Its inputs contain the load path's derivatives up to some
     /// order `k`, so the drives' accelerations contain order `k + 1`: a plan of
@@ -110,4 +114,25 @@ pub fn command_plan<K: Crane<A>, const A: usize>(
     n: usize,
 ) -> Result<Plan<f64, A>, Error> {
     Plan::at_rest(position.into(), n.max(K::MIN_COMMAND_SMOOTHNESS))
+}
+
+#[cfg(test)]
+mod tests {
+    use solver_core::models::crane::CraneParams;
+    use solver_core::models::crane3d::Crane3dParams;
+
+    use super::Crane;
+    use crate::commissioning::InclinometerSetup;
+
+    /// The stock inclinometer of each crane reads as many slopes as its swing has: the
+    /// one-axis sensor at node 3 for the planar crane, the two-axis one at node 5 for the
+    /// 3D crane (what the virtual bus simulates for it).
+    #[test]
+    fn each_crane_has_the_stock_inclinometer_of_its_swing() {
+        let axes = |i: InclinometerSetup| 1 + u8::from(i.lateral.is_some());
+        let planar = InclinometerSetup::stock(<CraneParams as Crane<2>>::SWING_AXES);
+        let spatial = InclinometerSetup::stock(<Crane3dParams as Crane<3>>::SWING_AXES);
+        assert_eq!((axes(planar), planar.node), (1, 3));
+        assert_eq!((axes(spatial), spatial.node), (2, 5));
+    }
 }

@@ -22,6 +22,7 @@ impl Crane<2> for CraneParams {
     const DRIVES: [Drive; 2] = drive::PLANAR;
     const REASONS: [AxisReasons; 2] = [AxisReasons::TROLLEY, AxisReasons::WINCH];
     const LAB_LIMITS: [AxisLimits; 2] = DriveLimits::LAB.axes();
+    const SWING_AXES: u8 = 1;
     /// The inputs contain `z⁗` (Eqs. 27–28), so the drives' accelerations `u̇` contain
     /// `z⁽⁵⁾`. With the paper's n = 4 the fifth derivative jumps at a move's ends: BDF4
     /// overshoots the planned peak acceleration by 9.7 %, BDF6 by a factor of up to

@@ -23,6 +23,7 @@ impl Crane<3> for Crane3dParams {
         AxisReasons::WINCH,
     ];
     const LAB_LIMITS: [AxisLimits; 3] = DriveLimits::LAB_3D;
+    const SWING_AXES: u8 = 2;
     /// As the planar crane's: its inputs contain the load path's fourth derivatives
     /// (the flat inverse, `solver_core::reference::flat_crane3d`), its accelerations the
     /// fifth.

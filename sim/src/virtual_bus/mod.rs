@@ -444,7 +444,9 @@ impl<K: Simulated<A>, const A: usize> VirtualBus<K, A> {
         let (plant, inclinometer) = match scenario.plant {
             Some(mismatch) => (
                 Some(crane.plant(mismatch, start)),
-                Some(InclinometerSim::new(K::INCLINOMETER_NODE)),
+                Some(InclinometerSim::new(
+                    controller::commissioning::InclinometerSetup::stock(K::SWING_AXES).node,
+                )),
             ),
             None => (None, None),
         };
