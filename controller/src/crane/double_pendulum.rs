@@ -6,7 +6,7 @@
 //!
 //! It has no state feedback yet: which sensor a loop would read (the rope's angle at
 //! the hook block, the sling's, or both) is open, so its only correction is
-//! [`NoFeedback`], and the planar loop — keyed on the planar [`crate::feedback::Reference`]
+//! [`crate::feedback::NoFeedback`], and the planar loop — keyed on the planar [`crate::feedback::Reference`]
 //! — is refused for it at compile time.
 
 use solver_core::models::double_pendulum::DoublePendulumSubs;
@@ -18,11 +18,8 @@ use solver_core::trajectory::Trajectory;
 use solver_core::Real;
 
 use super::{AxisReasons, Crane, Flat};
-use crate::correction::{AxesCorrection, Measured};
 use crate::drive::{self, Drive};
-use crate::feedback::{Degraded, Mode, NoFeedback};
 use crate::feedforward::CraneReference;
-use crate::rope::RopeLength;
 use crate::setpoint::{AxisLimits, DriveLimits};
 
 /// The hook-and-load crane's reference state: the drives and the hook block, with their
@@ -120,24 +117,5 @@ impl<T: Real> CraneReference for DoublePendulumExt<T, Plan<f64, 2>> {
     }
 }
 
-/// The hook-and-load crane without feedback: the inverse model's set points as they are.
-impl AxesCorrection<2, HookReference> for NoFeedback {
-    const ENABLED: bool = false;
-    fn correct(
-        &mut self,
-        _reference: &HookReference,
-        u_d: [f64; 2],
-        _measured: Option<Measured<2>>,
-        _last: [f64; 2],
-        _limits: &[AxisLimits; 2],
-    ) -> ([f64; 2], Mode) {
-        (u_d, Mode::FeedforwardOnly(Degraded::AngleLost))
-    }
-    fn restart(&mut self) {}
-    fn mode(&self) -> Option<Mode> {
-        None
-    }
-    fn rope(&self) -> Option<&RopeLength> {
-        None
-    }
-}
+// The hook-and-load crane without feedback: the inverse model's set points as they are.
+crate::correction::feedforward_only!(2, HookReference);
