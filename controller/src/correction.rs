@@ -1,5 +1,5 @@
 //! What the controller asks of whatever stands between the inverse model and the drives
-//! (Fig. 1), for a crane with `A` driven axes: nothing ([`NoFeedback`], any crane), or
+//! (Fig. 1), for a crane with `A` driven axes: nothing ([`crate::feedback::NoFeedback`], any crane), or
 //! the planar state feedback ([`Correction`], the paper's crane).
 //!
 //! The controller speaks in per-drive arrays in the model's input order; a correction
@@ -8,7 +8,7 @@
 //! planar correction is an `AxesCorrection<2, Reference>` through the one blanket impl here.
 
 use crate::commissioning::Swing;
-use crate::feedback::{Correction, Degraded, Measurement, Mode, NoFeedback, Reference};
+use crate::feedback::{Correction, Measurement, Mode, Reference};
 use crate::rope::RopeLength;
 use crate::setpoint::{AxisLimits, DriveLimits};
 
@@ -89,24 +89,37 @@ impl<C: Correction> AxesCorrection<2, Reference> for C {
     }
 }
 
-/// The 3D crane without the feedback: the inverse model's set points as they are.
-impl AxesCorrection<3, [Reference; 2]> for NoFeedback {
-    const ENABLED: bool = false;
-    fn correct(
-        &mut self,
-        _reference: &[Reference; 2],
-        u_d: [f64; 3],
-        _measured: Option<Measured<3>>,
-        _last: [f64; 3],
-        _limits: &[AxisLimits; 3],
-    ) -> ([f64; 3], Mode) {
-        (u_d, Mode::FeedforwardOnly(Degraded::AngleLost))
-    }
-    fn restart(&mut self) {}
-    fn mode(&self) -> Option<Mode> {
-        None
-    }
-    fn rope(&self) -> Option<&RopeLength> {
-        None
-    }
+/// [`crate::feedback::NoFeedback`] as the correction of a crane with `$axes` axes and reference `$reference`
+/// (one the planar blanket impl does not cover): the inverse model's set points as
+/// they are.
+macro_rules! feedforward_only {
+    ($axes:literal, $reference:ty) => {
+        impl $crate::correction::AxesCorrection<$axes, $reference>
+            for $crate::feedback::NoFeedback
+        {
+            const ENABLED: bool = false;
+            fn correct(
+                &mut self,
+                _reference: &$reference,
+                u_d: [f64; $axes],
+                _measured: Option<$crate::correction::Measured<$axes>>,
+                _last: [f64; $axes],
+                _limits: &[$crate::setpoint::AxisLimits; $axes],
+            ) -> ([f64; $axes], $crate::feedback::Mode) {
+                let degraded = $crate::feedback::Degraded::AngleLost;
+                (u_d, $crate::feedback::Mode::FeedforwardOnly(degraded))
+            }
+            fn restart(&mut self) {}
+            fn mode(&self) -> Option<$crate::feedback::Mode> {
+                None
+            }
+            fn rope(&self) -> Option<&$crate::rope::RopeLength> {
+                None
+            }
+        }
+    };
 }
+pub(crate) use feedforward_only;
+
+// The 3D crane without the feedback.
+feedforward_only!(3, [Reference; 2]);

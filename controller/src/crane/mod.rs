@@ -5,8 +5,8 @@
 //! so that a second crane with the same axes gets its own reference and its own loop
 //! (or none) instead of the first one's.
 //!
-//! Each crane's impls live in its own file: [`planar`] (the paper's crane, Eq. 24) and
-//! [`spatial`] (the 3D crane).
+//! Each crane's impls live in its own file: [`planar`] (the paper's crane, Eq. 24),
+//! [`spatial`] (the 3D crane) and [`double_pendulum`] (the hook-and-load crane).
 
 use solver_core::plan::Plan;
 use solver_core::trajectory::Trajectory;
@@ -16,6 +16,7 @@ use crate::commands::Reject;
 use crate::drive::Drive;
 use crate::setpoint::AxisLimits;
 
+pub mod double_pendulum;
 pub mod planar;
 pub mod spatial;
 

@@ -118,6 +118,30 @@ pub trait CraneModel: Copy + Eq + fmt::Debug + 'static {
     fn structure(self) -> Structure;
 }
 
+/// Builds crane `K`'s formulations with the integrator a scheme names (made by
+/// `crane_models!`, one arm list per crane).
+pub trait Formulation<K: Crane<A>, const A: usize>: CraneModel {
+    /// The firmware's inverse model: this formulation of `crane` on `plan` advanced by
+    /// `integrator`, at rest at t = 0, handed to `visitor`.
+    fn inverse_model<V: FirmwareVisitor<K, A>>(
+        self,
+        crane: K,
+        integrator: FirmwareIntegrator,
+        plan: Plan<f64, A>,
+        settings: &SolverSettings,
+        visitor: V,
+    ) -> Result<V::Output, Error>;
+    /// This formulation of `crane` on `z` with `integrator`, handed to `visitor`.
+    fn steps<Z: Trajectory<f64, A>, V: StepsVisitor>(
+        self,
+        crane: K,
+        z: Z,
+        integrator: FirmwareIntegrator,
+        settings: &SolverSettings,
+        visitor: V,
+    ) -> Result<V::Output, Error>;
+}
+
 /// Why the firmware cannot run a scene's model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FirmwareError {
@@ -167,7 +191,7 @@ pub trait FirmwareCrane<const A: usize>: Crane<A> + Simulated<A> + Copy + fmt::D
     /// The parameters' type, as the build script writes it.
     const TYPE: &'static str;
     /// Its formulations (`crane_models!`).
-    type Model: CraneModel;
+    type Model: Formulation<Self, A>;
     /// The correction a scene's `[feedback]` links.
     type Feedback: AxesCorrection<A, Self::Reference>;
     /// [`FirmwareCrane::Feedback`]'s type, as the build script writes it.
@@ -202,7 +226,9 @@ pub trait FirmwareCrane<const A: usize>: Crane<A> + Simulated<A> + Copy + fmt::D
         plan: Plan<f64, A>,
         settings: &SolverSettings,
         visitor: V,
-    ) -> Result<V::Output, Error>;
+    ) -> Result<V::Output, Error> {
+        model.inverse_model(self, integrator, plan, settings, visitor)
+    }
     /// Formulation `model` on `z` with `integrator`, handed to `visitor` (the cost
     /// measurements).
     fn steps<Z: Trajectory<f64, A>, V: StepsVisitor>(
@@ -212,7 +238,9 @@ pub trait FirmwareCrane<const A: usize>: Crane<A> + Simulated<A> + Copy + fmt::D
         integrator: FirmwareIntegrator,
         settings: &SolverSettings,
         visitor: V,
-    ) -> Result<V::Output, Error>;
+    ) -> Result<V::Output, Error> {
+        model.steps(self, z, integrator, settings, visitor)
+    }
 }
 
 /// What is done with a registered crane's type and one of its formulations.
@@ -283,10 +311,9 @@ macro_rules! integrators {
 
 /// A crane's formulations, listed once: `Variant => module::path, Type, Structure;`
 /// (the module under `solver_core::models`, its model type, and how its Newton systems
-/// can be solved: [`Structure`]). Makes the enum of them with [`CraneModel`], and the
-/// crane's `inverse_model` and `steps` bodies (`fn inverse_model_of`, `fn steps_of`),
-/// one arm per formulation, each building exactly the types `FirmwareScheme::rust`
-/// names from the same list. A `Structured` model whose module has no
+/// can be solved: [`Structure`]). Makes the enum of them with [`CraneModel`] and
+/// [`Formulation`]: one arm per formulation, each building exactly the types
+/// `FirmwareScheme::rust` names from the same list. A `Structured` model whose module has no
 /// `StructuredBdf` does not compile.
 macro_rules! crane_models {
     (
@@ -323,10 +350,10 @@ macro_rules! crane_models {
             }
         }
 
-        /// The firmware's inverse model of `model` on `plan` ([`FirmwareCrane::inverse_model`]).
-        fn inverse_model_of<V: $crate::cranes::FirmwareVisitor<$crane, $axes>>(
+        impl $crate::cranes::Formulation<$crane, $axes> for $name {
+        fn inverse_model<V: $crate::cranes::FirmwareVisitor<$crane, $axes>>(
+            self,
             crane: $crane,
-            model: $name,
             integrator: $crate::cranes::FirmwareIntegrator,
             plan: solver_core::plan::Plan<f64, $axes>,
             settings: &solver_core::SolverSettings,
@@ -334,7 +361,7 @@ macro_rules! crane_models {
         ) -> Result<V::Output, solver_core::Error> {
             use $crate::cranes::{visit, FirmwareIntegrator};
             type P = solver_core::plan::Plan<f64, $axes>;
-            Ok(match model {
+            Ok(match self {
                 $(
                     $name::$variant => integrators!(
                         $structure,
@@ -350,10 +377,9 @@ macro_rules! crane_models {
             })
         }
 
-        /// `model` on `z` with `integrator`, to `visitor` ([`FirmwareCrane::steps`]).
-        fn steps_of<Z, V>(
+        fn steps<Z, V>(
+            self,
             crane: $crane,
-            model: $name,
             z: Z,
             integrator: $crate::cranes::FirmwareIntegrator,
             settings: &solver_core::SolverSettings,
@@ -364,7 +390,7 @@ macro_rules! crane_models {
             V: $crate::cranes::StepsVisitor,
         {
             use $crate::cranes::{step_visit, FirmwareIntegrator};
-            Ok(match model {
+            Ok(match self {
                 $(
                     $name::$variant => integrators!(
                         $structure,
@@ -378,6 +404,7 @@ macro_rules! crane_models {
                     ),
                 )+
             })
+        }
         }
     };
 }

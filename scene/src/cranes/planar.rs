@@ -3,12 +3,8 @@
 
 use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback, StateFeedback};
 use solver_core::models::crane::CraneParams;
-use solver_core::plan::Plan;
-use solver_core::trajectory::Trajectory;
-use solver_core::{Error, SolverSettings};
 
-use super::StepsVisitor;
-use super::{crane_models, integrators, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
+use super::{crane_models, integrators, FirmwareCrane};
 use crate::feedback::FeedbackSpec;
 use crate::{ModelSpec, SceneError};
 
@@ -58,25 +54,5 @@ impl FirmwareCrane<2> for CraneParams {
     }
     fn feedback(&self, config: FeedbackConfig) -> Result<StateFeedback, DesignError> {
         StateFeedback::new(config)
-    }
-    fn inverse_model<V: FirmwareVisitor<Self, 2>>(
-        self,
-        model: PlanarModel,
-        integrator: FirmwareIntegrator,
-        plan: Plan<f64, 2>,
-        settings: &SolverSettings,
-        visitor: V,
-    ) -> Result<V::Output, Error> {
-        inverse_model_of(self, model, integrator, plan, settings, visitor)
-    }
-    fn steps<Z: Trajectory<f64, 2>, V: StepsVisitor>(
-        self,
-        model: PlanarModel,
-        z: Z,
-        integrator: FirmwareIntegrator,
-        settings: &SolverSettings,
-        visitor: V,
-    ) -> Result<V::Output, Error> {
-        steps_of(self, model, z, integrator, settings, visitor)
     }
 }

@@ -6,12 +6,8 @@ use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback};
 use controller::feedback3d::SpatialFeedback;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::Crane3dParams;
-use solver_core::plan::Plan;
-use solver_core::trajectory::Trajectory;
-use solver_core::{Error, SolverSettings};
 
-use super::StepsVisitor;
-use super::{crane_models, integrators, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
+use super::{crane_models, integrators, FirmwareCrane};
 use crate::feedback::FeedbackSpec;
 use crate::{ModelSpec, SceneError};
 
@@ -76,25 +72,5 @@ impl FirmwareCrane<3> for Crane3dParams {
     }
     fn feedback(&self, config: FeedbackConfig) -> Result<SpatialFeedback, DesignError> {
         SpatialFeedback::new(config, self.tau2)
-    }
-    fn inverse_model<V: FirmwareVisitor<Self, 3>>(
-        self,
-        model: SpatialModel,
-        integrator: FirmwareIntegrator,
-        plan: Plan<f64, 3>,
-        settings: &SolverSettings,
-        visitor: V,
-    ) -> Result<V::Output, Error> {
-        inverse_model_of(self, model, integrator, plan, settings, visitor)
-    }
-    fn steps<Z: Trajectory<f64, 3>, V: StepsVisitor>(
-        self,
-        model: SpatialModel,
-        z: Z,
-        integrator: FirmwareIntegrator,
-        settings: &SolverSettings,
-        visitor: V,
-    ) -> Result<V::Output, Error> {
-        steps_of(self, model, z, integrator, settings, visitor)
     }
 }
