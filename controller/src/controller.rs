@@ -793,12 +793,14 @@ where
             return;
         }
         let node = self.node_of(drive);
-        // A warning: error register without the generic bit (see emcy::is_fault).
+        // A warning: the fault's byte, but the error register without the generic bit
+        // (see emcy::is_fault).
+        let code = Fault::DriveLeftOperational(drive, state).code();
         self.send_emcy(canopen::emcy(
             self.node.id,
             emcy::HEARTBEAT,
             REGISTER_COMMUNICATION,
-            [9, node, state as u8, 0, 0],
+            [code, node, state as u8, 0, 0],
         ));
     }
 
@@ -1746,34 +1748,24 @@ where
     /// The EMCY announcing `fault`: manufacturer bytes fault code, node, detail, and for a
     /// commissioning failure the object's index (docs/COMMANDS.md).
     fn emcy_of(&self, fault: Fault) -> CanFrame {
+        let facts = fault.facts();
         let node = fault.drive().map_or(0, |d| self.node_of(d));
-        let register = REGISTER_GENERIC
-            | if matches!(
-                fault,
-                Fault::HeartbeatLost(_)
-                    | Fault::Undeliverable
-                    | Fault::TpdoTimeout(_)
-                    | Fault::DriveLeftOperational(..)
-                    | Fault::NotOperational
-                    | Fault::SupervisorLost
-                    | Fault::DuplicateNodeId
-                    | Fault::ForeignProducer(_)
-            ) {
-                REGISTER_COMMUNICATION
-            } else {
-                emcy::REGISTER_MANUFACTURER
-            };
         let info = match fault {
             // The object in the same layout: the sub-index as the detail, the index in
             // the last two bytes; the abort code follows in EMCY 0xFF12 (and 0x2002:4).
             Fault::Commissioning(_, error) => {
                 let object = error.object();
                 let [i0, i1] = object.index.to_le_bytes();
-                [fault.code(), node, object.sub, i0, i1]
+                [facts.code, node, object.sub, i0, i1]
             }
-            _ => [fault.code(), node, fault.detail(), 0, 0],
+            _ => [facts.code, node, fault.detail(), 0, 0],
         };
-        canopen::emcy(self.node.id, fault.emcy_code(), register, info)
+        canopen::emcy(
+            self.node.id,
+            facts.emcy_code,
+            REGISTER_GENERIC | facts.register,
+            info,
+        )
     }
 
     fn push(&mut self, frames: &mut Vec<CanFrame, MAX_FRAMES>, frame: CanFrame) {
