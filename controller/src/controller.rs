@@ -24,8 +24,8 @@ use crate::correction::{AxesCorrection, Measured};
 use crate::drive::{self, Drive};
 use crate::fault::Reaction;
 pub use crate::fault::{Fault, FollowingError, Foreign, Implausibility};
-use crate::feedback::{Mode as FeedbackMode, NoFeedback};
-use crate::feedforward::{Axes, Feedforward, FeedforwardStep, ReferenceOf, Replan};
+use crate::feedback::{Mode as FeedbackMode, NoFeedback, Reference};
+use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
 use crate::frame::CanFrame;
 use crate::links::{self, DriveLink, Heartbeat, Link, Links, Silent};
 use crate::motion::{Breach, Deviations, Lag};
@@ -211,7 +211,7 @@ pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
     syncing: bool,
 }
 
-impl<F: Feedforward + Replan> Controller<F> {
+impl<F: Feedforward<Reference = Reference> + Replan> Controller<F> {
     /// A controller that follows `feedforward` and checks moves with `planner`; it starts
     /// by commissioning the drives and holds them at standstill until a move is asked.
     pub fn new(feedforward: F, planner: Planner, config: Config) -> Self {
@@ -221,10 +221,9 @@ impl<F: Feedforward + Replan> Controller<F> {
 
 impl<F, C, K, const A: usize> Controller<F, C, K, A>
 where
-    F: Feedforward<A> + Replan<A>,
-    C: AxesCorrection<A>,
+    F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+    C: AxesCorrection<A, K::Reference>,
     K: Crane<A>,
-    Axes<A>: ReferenceOf,
 {
     /// A controller whose set points are `feedforward`'s corrected by `correction`
     /// (the state feedback measures the angle with the inclinometer of `config.nodes`),

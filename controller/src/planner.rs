@@ -14,14 +14,13 @@
 
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane3d::Crane3dParams;
 use solver_core::plan::{Plan, Stop, StopStart};
-use solver_core::reference::{flat_crane, flat_crane3d};
 use solver_core::trajectory::{PointToPoint, Trajectory};
 
 use crate::commands::{Reject, DURATION_TICKS_PER_S};
-use crate::drive::{self, Drive};
 use crate::setpoint::{AxisLimits, DriveLimits};
+
+pub use crate::crane::{AxisReasons, Crane, Flat};
 
 /// Points per checked path segment (plus its end).
 pub const SAMPLES: usize = 100;
@@ -46,124 +45,6 @@ const ORDER: [Reject; 10] = [
     Reject::TrolleyAcceleration,
     Reject::WinchAcceleration,
 ];
-
-/// The reasons naming one axis's violations.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct AxisReasons {
-    /// Its drive would leave its travel (the winch: the rope its length range).
-    pub workspace: Reject,
-    /// Its velocity above the limit.
-    pub velocity: Reject,
-    /// Its acceleration above the limit.
-    pub acceleration: Reject,
-}
-
-const BRIDGE: AxisReasons = AxisReasons {
-    workspace: Reject::BridgeWorkspace,
-    velocity: Reject::BridgeVelocity,
-    acceleration: Reject::BridgeAcceleration,
-};
-const TROLLEY: AxisReasons = AxisReasons {
-    workspace: Reject::TrolleyWorkspace,
-    velocity: Reject::TrolleyVelocity,
-    acceleration: Reject::TrolleyAcceleration,
-};
-const WINCH: AxisReasons = AxisReasons {
-    workspace: Reject::RopeWorkspace,
-    velocity: Reject::WinchVelocity,
-    acceleration: Reject::WinchAcceleration,
-};
-
-/// Where the drives stand and how they move when the load follows a path exactly (the
-/// flat inverse), `A` driven axes in the model's input order.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Flat<const A: usize> {
-    /// Each drive's position, m (trolley or bridge position, rope length).
-    pub position: [f64; A],
-    /// Each input u, m/s.
-    pub u: [f64; A],
-    /// Each input's rate u̇, m/s².
-    pub u_dot: [f64; A],
-}
-
-/// A crane the planner checks paths for: its flat inverse, the range of each drive's
-/// position, and the reasons naming each axis. The last output is the load's depth
-/// z_C below the rail (Eq. 24's convention, in 3D too).
-pub trait Crane<const A: usize> {
-    /// Its drives, in the model's input order: the order of every per-drive array.
-    const DRIVES: [Drive; A];
-    /// The reasons of each axis, in the model's input order.
-    const REASONS: [AxisReasons; A];
-    /// Gravity, m/s².
-    fn g(&self) -> f64;
-    /// Each drive position's range `(min, max)`, m.
-    fn ranges(&self) -> [(f64, f64); A];
-    /// The load's target for a move command to `x_C`, `z_C` and, from the 3D move
-    /// frame, `y_C` (docs/COMMANDS.md), the plan ending with the load at `end`: what the
-    /// command does not name stays. `None`: the crane has no such target (a y for the
-    /// planar crane).
-    fn target(x: f64, y: Option<f64>, z: f64, end: [f64; A]) -> Option<[f64; A]>;
-    /// The flat inverse at `t` of the load's path `z`.
-    fn flat<Z: Trajectory<f64, A>>(&self, z: &Z, t: f64) -> Flat<A>;
-    /// Each drive's lag τ, s (Eq. 24's `τ v̇ + v = u`): what the controller expects of
-    /// the set points it sends ([`crate::motion`]).
-    fn lags(&self) -> [f64; A];
-}
-
-/// The paper's planar crane: trolley x and rope length l (Eq. 24).
-impl Crane<2> for CraneParams {
-    const DRIVES: [Drive; 2] = drive::PLANAR;
-    const REASONS: [AxisReasons; 2] = [TROLLEY, WINCH];
-    fn g(&self) -> f64 {
-        self.g
-    }
-    fn ranges(&self) -> [(f64, f64); 2] {
-        let w = &self.workspace;
-        [(w.x_min, w.x_max), (w.l_min, w.l_max)]
-    }
-    fn target(x: f64, y: Option<f64>, z: f64, _end: [f64; 2]) -> Option<[f64; 2]> {
-        y.is_none().then_some([x, z])
-    }
-    fn flat<Z: Trajectory<f64, 2>>(&self, z: &Z, t: f64) -> Flat<2> {
-        let f = flat_crane::flat_inverse(self, z, t);
-        Flat {
-            position: [f.x, f.l],
-            u: f.u,
-            u_dot: f.u_dot,
-        }
-    }
-    fn lags(&self) -> [f64; 2] {
-        [self.tau1, self.tau2]
-    }
-}
-
-/// The 3D crane: bridge x, trolley y and rope length l.
-impl Crane<3> for Crane3dParams {
-    const DRIVES: [Drive; 3] = drive::SPATIAL;
-    const REASONS: [AxisReasons; 3] = [BRIDGE, TROLLEY, WINCH];
-    fn g(&self) -> f64 {
-        self.g
-    }
-    fn ranges(&self) -> [(f64, f64); 3] {
-        let w = &self.workspace;
-        [(w.x_min, w.x_max), (w.y_min, w.y_max), (w.l_min, w.l_max)]
-    }
-    /// A planar command moves the load in the x–z plane it hangs in: y stays.
-    fn target(x: f64, y: Option<f64>, z: f64, [_, y_end, _]: [f64; 3]) -> Option<[f64; 3]> {
-        Some([x, y.unwrap_or(y_end), z])
-    }
-    fn flat<Z: Trajectory<f64, 3>>(&self, z: &Z, t: f64) -> Flat<3> {
-        let f = flat_crane3d::flat_inverse(self, z, t);
-        Flat {
-            position: [f.x, f.y, f.l],
-            u: f.u,
-            u_dot: f.u_dot,
-        }
-    }
-    fn lags(&self) -> [f64; 3] {
-        [self.tau1, self.tau2, self.tau3]
-    }
-}
 
 /// Plans and checks moves for one crane `K` and its `A` drives.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -885,6 +766,7 @@ impl<const A: usize> MoveSearch<A> {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
+    use solver_core::models::crane3d::Crane3dParams;
 
     /// Every reason a crane names is one the planner ranks: a reason outside [`ORDER`]
     /// would have no bit, and its violation would pass unseen.

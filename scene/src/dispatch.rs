@@ -18,14 +18,14 @@
 
 use controller::commissioning::NodeSetup;
 use controller::correction::AxesCorrection;
+use controller::crane::command_plan;
 use controller::feedback::{Config as FeedbackConfig, NoFeedback, StateFeedback};
 use controller::feedback3d::SpatialFeedback;
-use controller::feedforward::{command_plan, CraneReference, Feedforward, InverseModel, Replan};
-pub use controller::feedforward::{Axes, ReferenceOf};
+use controller::feedforward::{CraneReference, Feedforward, InverseModel, Replan};
 use controller::planner::Crane;
 use controller::planner::Planner;
-use controller::setpoint::{AxisLimits, DriveLimits};
 use controller::Config;
+use sim::simulated::Simulated;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::{Crane3dExt, Crane3dParams, Crane3dSubs};
 use solver_core::models::crane_ext::{self, CraneExt};
@@ -187,15 +187,15 @@ impl Exact {
 
 /// What is done with the firmware's inverse model for a crane with `A` driven axes (the
 /// host's run of the firmware, the virtual ECU), whatever its types.
-pub trait FirmwareVisitor<const A: usize>
-where
-    Axes<A>: ReferenceOf,
-{
+pub trait FirmwareVisitor<K: Crane<A>, const A: usize> {
     /// What it gives.
     type Output;
     /// Does it with `feedforward`: the scene's model on the firmware's plan, advanced by
     /// the integrator the firmware links.
-    fn visit<F: Feedforward<A> + Replan<A>>(self, feedforward: F) -> Self::Output;
+    fn visit<F: Feedforward<A, Reference = K::Reference> + Replan<A>>(
+        self,
+        feedforward: F,
+    ) -> Self::Output;
 }
 
 /// A model the firmware can drive: a crane, in f64.
@@ -498,17 +498,11 @@ macro_rules! integrators {
 /// A crane the firmware drives, registered once: how a scene names it, the lab drives'
 /// limits, its parameters as the build script writes them, its firmware integrators
 /// and its state feedback. The planar crane (`A = 2`) and the 3D crane (`A = 3`).
-pub trait FirmwareCrane<const A: usize>: Crane<A> + Copy + core::fmt::Debug
-where
-    Axes<A>: ReferenceOf,
-{
+pub trait FirmwareCrane<const A: usize>: Crane<A> + Simulated<A> + Copy + core::fmt::Debug {
     /// The parameters' type, as the build script writes it.
     const TYPE: &'static str;
-    /// The drives' limits the planner checks moves against and the gate enforces, in
-    /// the model's input order.
-    const LIMITS: [AxisLimits; A];
     /// The correction a scene's `[feedback]` links.
-    type Feedback: AxesCorrection<A>;
+    type Feedback: AxesCorrection<A, Self::Reference>;
     /// [`FirmwareCrane::Feedback`]'s type, as the build script writes it.
     const FEEDBACK_TYPE: &'static str;
     /// The expression that builds it from `FEEDBACK` (and `PARAMS`), as the build script
@@ -519,7 +513,7 @@ where
     const SWING_AXES: u8;
     /// The correction of a scene without `[feedback]`: none (`NoFeedback`, which is
     /// each crane's `AxesCorrection` on its own).
-    type FeedforwardOnly: AxesCorrection<A> + Default;
+    type FeedforwardOnly: AxesCorrection<A, Self::Reference> + Default;
     /// This crane's parameters, if `model` is one of its models.
     fn of(model: &ModelSpec) -> Option<Self>;
     /// The parameters as a Rust constant expression.
@@ -532,7 +526,7 @@ where
     fn feedback(&self, config: FeedbackConfig) -> Result<Self::Feedback, String>;
     /// The firmware's inverse model for `scheme` on `plan`, at rest at t = 0, handed to
     /// `visitor`: the types [`FirmwareScheme::rust`] names.
-    fn inverse_model<V: FirmwareVisitor<A>>(
+    fn inverse_model<V: FirmwareVisitor<Self, A>>(
         self,
         scheme: FirmwareScheme,
         plan: Plan<f64, A>,
@@ -554,7 +548,6 @@ const fn other_crane(scheme: FirmwareScheme) -> Error {
 /// The paper's planar crane: trolley and winch (Eqs. 24–28, Tab. 3).
 impl FirmwareCrane<2> for CraneParams {
     const TYPE: &'static str = "solver_core::models::crane::CraneParams";
-    const LIMITS: [AxisLimits; 2] = DriveLimits::LAB.axes();
     type Feedback = StateFeedback;
     const FEEDBACK_TYPE: &'static str = "controller::feedback::StateFeedback";
     const FEEDBACK_NEW: &'static str = "Correction::new(FEEDBACK)";
@@ -580,7 +573,7 @@ impl FirmwareCrane<2> for CraneParams {
     fn feedback(&self, config: FeedbackConfig) -> Result<StateFeedback, String> {
         StateFeedback::new(config).map_err(|e| format!("{e:?}"))
     }
-    fn inverse_model<V: FirmwareVisitor<2>>(
+    fn inverse_model<V: FirmwareVisitor<Self, 2>>(
         self,
         scheme: FirmwareScheme,
         plan: Plan<f64, 2>,
@@ -626,7 +619,6 @@ impl FirmwareCrane<2> for CraneParams {
 /// vertical plane ([`SpatialFeedback`]) with a two-axis inclinometer.
 impl FirmwareCrane<3> for Crane3dParams {
     const TYPE: &'static str = "solver_core::models::crane3d::Crane3dParams";
-    const LIMITS: [AxisLimits; 3] = DriveLimits::LAB_3D;
     type Feedback = SpatialFeedback;
     const FEEDBACK_TYPE: &'static str = "controller::feedback3d::SpatialFeedback";
     const FEEDBACK_NEW: &'static str = "Correction::new(FEEDBACK, PARAMS.tau2)";
@@ -669,7 +661,7 @@ impl FirmwareCrane<3> for Crane3dParams {
     fn feedback(&self, config: FeedbackConfig) -> Result<SpatialFeedback, String> {
         SpatialFeedback::new(config, self.tau2).map_err(|e| format!("{e:?}"))
     }
-    fn inverse_model<V: FirmwareVisitor<3>>(
+    fn inverse_model<V: FirmwareVisitor<Self, 3>>(
         self,
         scheme: FirmwareScheme,
         plan: Plan<f64, 3>,
@@ -737,10 +729,11 @@ pub struct FirmwareScene<K, const A: usize> {
     /// The scene's move.
     pub first_move: PointToPoint<f64, A>,
     /// The plan at t = 0: at rest at the move's start, the move planned. Moves on
-    /// command have the smoothness `max(n, 5)` (`controller::feedforward::command_plan`).
+    /// command have the smoothness `max(n, K::MIN_COMMAND_SMOOTHNESS)`
+    /// (`controller::crane::command_plan`).
     pub plan: Plan<f64, A>,
     /// The planner of moves on command, with each drive's set-point limits (the
-    /// commissioning file's, [`FirmwareCrane::LIMITS`] where it names none).
+    /// commissioning file's, [`Crane::LAB_LIMITS`] where it names none).
     pub planner: Planner<K, A>,
     /// Timing and the nodes of the controller.
     pub config: Config,
@@ -774,20 +767,17 @@ impl<K, const A: usize> FirmwareScene<K, A> {
 pub fn firmware_scene<K: FirmwareCrane<A>, const A: usize>(
     scene: &Scene,
     commissioning: &CommissioningFile,
-) -> Result<FirmwareScene<K, A>, String>
-where
-    Axes<A>: ReferenceOf,
-{
+) -> Result<FirmwareScene<K, A>, String> {
     let scheme = FirmwareScheme::of(scene)?;
     let params = K::of(&scene.model).ok_or("the scene's model is not this crane's")?;
     let first_move = trajectory::<f64, A>(scene).map_err(|e| e.to_string())?;
-    let mut plan = command_plan(first_move.start().into(), scene.trajectory.smoothness)
+    let mut plan = command_plan::<K, A>(first_move.start().into(), scene.trajectory.smoothness)
         .map_err(|e| e.to_string())?;
     plan.push(first_move).map_err(|e| e.to_string())?;
     // Each drive's set-point limits: its commissioning row's, the crane's lab drive's
     // where the row names none — the planner's and the gate's.
     let limits = commissioning
-        .limits_for(K::DRIVES, K::LIMITS)
+        .limits_for(K::DRIVES, K::LAB_LIMITS)
         .map_err(|e| format!("commissioning file: {e}"))?;
     let planner = Planner::with_axes(params, limits);
     let (t0, t1) = first_move.active_span();
@@ -859,9 +849,7 @@ pub trait FirmwareCraneVisitor {
     /// What it gives.
     type Output;
     /// Does it with the setup of a crane `K` with `A` driven axes.
-    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output
-    where
-        Axes<A>: ReferenceOf;
+    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output;
 }
 
 /// The firmware's setup of `scene` with the drives of `commissioning`, as its own crane's
@@ -922,8 +910,13 @@ pub fn firmware_steps<V: StepsVisitor>(
     let settings = &scene.settings();
     let i = scheme.integrator;
     // The move as the firmware plans it: at rest at its start, the move pushed.
-    fn on_plan<const A: usize>(z: PointToPoint<f64, A>, n: usize) -> Result<Plan<f64, A>, Error> {
-        let mut plan = controller::feedforward::command_plan(z.start().into(), n)?;
+    // `crane` only names the crane whose command smoothness the plan takes.
+    fn on_plan<K: Crane<A>, const A: usize>(
+        _crane: &K,
+        z: PointToPoint<f64, A>,
+        n: usize,
+    ) -> Result<Plan<f64, A>, Error> {
+        let mut plan = command_plan::<K, A>(z.start().into(), n)?;
         plan.push(z)?;
         Ok(plan)
     }
@@ -940,7 +933,7 @@ pub fn firmware_steps<V: StepsVisitor>(
         }
         (FirmwareModel::CraneSubs, DrivenBy::Plan) => {
             let (p, z) = planar()?;
-            on_plan(z, n).and_then(|plan| subs_steps(p, plan, i, settings, visitor))
+            on_plan(&p, z, n).and_then(|plan| subs_steps(p, plan, i, settings, visitor))
         }
         (FirmwareModel::CraneProj, DrivenBy::PointToPoint) => {
             let (p, z) = planar()?;
@@ -948,7 +941,7 @@ pub fn firmware_steps<V: StepsVisitor>(
         }
         (FirmwareModel::CraneProj, DrivenBy::Plan) => {
             let (p, z) = planar()?;
-            on_plan(z, n).and_then(|plan| proj_steps(p, plan, i, settings, visitor))
+            on_plan(&p, z, n).and_then(|plan| proj_steps(p, plan, i, settings, visitor))
         }
         (FirmwareModel::CraneExt, DrivenBy::PointToPoint) => {
             let (p, z) = planar()?;
@@ -956,7 +949,7 @@ pub fn firmware_steps<V: StepsVisitor>(
         }
         (FirmwareModel::CraneExt, DrivenBy::Plan) => {
             let (p, z) = planar()?;
-            on_plan(z, n).and_then(|plan| ext_steps(p, plan, i, settings, visitor))
+            on_plan(&p, z, n).and_then(|plan| ext_steps(p, plan, i, settings, visitor))
         }
         (FirmwareModel::Crane3dSubs, driven) => {
             let p = Crane3dParams::of(&scene.model)
@@ -965,7 +958,7 @@ pub fn firmware_steps<V: StepsVisitor>(
             match driven {
                 DrivenBy::PointToPoint => crane3d_steps(p, z, i, settings, visitor),
                 DrivenBy::Plan => {
-                    on_plan(z, n).and_then(|plan| crane3d_steps(p, plan, i, settings, visitor))
+                    on_plan(&p, z, n).and_then(|plan| crane3d_steps(p, plan, i, settings, visitor))
                 }
             }
         }
@@ -975,9 +968,8 @@ pub fn firmware_steps<V: StepsVisitor>(
             let z = trajectory::<f64, 3>(scene).map_err(|e| e.to_string())?;
             match driven {
                 DrivenBy::PointToPoint => crane3d_ext_steps(p, z, i, settings, visitor),
-                DrivenBy::Plan => {
-                    on_plan(z, n).and_then(|plan| crane3d_ext_steps(p, plan, i, settings, visitor))
-                }
+                DrivenBy::Plan => on_plan(&p, z, n)
+                    .and_then(|plan| crane3d_ext_steps(p, plan, i, settings, visitor)),
             }
         }
     };
@@ -1095,12 +1087,18 @@ where
 }
 
 /// `model` and `integrator` as the controller's inverse model, to `visitor`.
-fn visit<V, M, I, const N: usize, const A: usize>(visitor: V, model: M, integrator: I) -> V::Output
+fn visit<K, V, M, I, const N: usize, const A: usize>(
+    visitor: V,
+    model: M,
+    integrator: I,
+) -> V::Output
 where
-    V: FirmwareVisitor<A>,
-    M: CraneReference<A> + DaeModel<f64, N, A> + Driven<Trajectory = Plan<f64, A>>,
+    K: Crane<A>,
+    V: FirmwareVisitor<K, A>,
+    M: CraneReference<Reference = K::Reference>
+        + DaeModel<f64, N, A>
+        + Driven<Trajectory = Plan<f64, A>>,
     I: Integrator<f64, M, N, A>,
-    Axes<A>: ReferenceOf,
 {
     visitor.visit(InverseModel::<M, I, f64, N>::new(model, integrator))
 }
@@ -1362,12 +1360,12 @@ mod tests {
     #[test]
     fn a_crane_builds_its_own_models_only() {
         struct Steps;
-        impl<const A: usize> FirmwareVisitor<A> for Steps
-        where
-            Axes<A>: ReferenceOf,
-        {
+        impl<K: Crane<A>, const A: usize> FirmwareVisitor<K, A> for Steps {
             type Output = [f64; A];
-            fn visit<F: Feedforward<A> + Replan<A>>(self, mut f: F) -> [f64; A] {
+            fn visit<F: Feedforward<A, Reference = K::Reference> + Replan<A>>(
+                self,
+                mut f: F,
+            ) -> [f64; A] {
                 f.step().unwrap().u
             }
         }
