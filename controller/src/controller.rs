@@ -921,6 +921,14 @@ where
     }
 
     /// One cycle at time `now_ms` (the start of the cycle; the model has been stepped to it).
+    ///
+    /// Never inlined: its one caller, the firmware's 100 Hz task, saves one call by it and
+    /// loses more. Inlined there (LLVM's choice after issue 29's C1/C2), the returned
+    /// [`Cycle`] landed 2 bytes off a word in the task's frame, so its 196-byte frame
+    /// list went through the generic `memcpy` (448 QEMU instructions a cycle) instead of
+    /// `__aeabi_memcpy4` (194), and the merged body cost about 160 more: crane3d-ext's
+    /// step took 4,404 instructions on average instead of 3,820 (its QEMU baseline: 3,781).
+    #[inline(never)]
     pub fn tick(&mut self, now_ms: u64) -> Cycle<A> {
         self.now_ms = now_ms;
         let mut frames = Vec::new();
