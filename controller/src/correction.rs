@@ -1,6 +1,8 @@
 //! What the controller asks of whatever stands between the inverse model and the drives
-//! (Fig. 1), for a crane with `A` driven axes: nothing ([`crate::feedback::NoFeedback`], any crane), or
-//! the planar state feedback ([`Correction`], the paper's crane).
+//! (Fig. 1), for a crane with `A` driven axes: nothing ([`crate::feedback::NoFeedback`]:
+//! the planar crane's through the blanket impl below, every other crane's through its
+//! `feedforward_only!` line), or the planar state feedback ([`Correction`], the paper's
+//! crane).
 //!
 //! The controller speaks in per-drive arrays in the model's input order; a correction
 //! sees the measurements as its own crane's type. The planar feedback's interface

@@ -206,8 +206,9 @@ impl<const A: usize> Requests<A> {
     /// the last overload answer not yet sent, if that counted the last request taken (the
     /// requests an overload answer counts are consecutive) and counts fewer than 255,
     /// else in a new one (in the places only overload answers may
-    /// take). `false` when there is no place even for that: a 255 in the last overload
-    /// answer then means "255 or more", and the excess is counted as unanswered.
+    /// take). `false` when there is no place even for that: the request is counted in
+    /// no answer (`Counters::unanswered`, a frame ignored), and a supervisor has to time
+    /// it out.
     fn overload(&mut self, id: u8) -> bool {
         self.tally.overloaded = self.tally.overloaded.saturating_add(1);
         let last = self.last;

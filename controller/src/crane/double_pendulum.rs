@@ -61,13 +61,13 @@ impl Crane<2> for DoublePendulumParams {
     const DRIVES: [Drive; 2] = drive::PLANAR;
     const REASONS: [AxisReasons; 2] = [AxisReasons::TROLLEY, AxisReasons::WINCH];
     const LAB_LIMITS: [AxisLimits; 2] = DriveLimits::LAB.axes();
-    /// An inclinometer on the hook block would read the rope's angle, one slope (the
-    /// sling's is not measured).
+    /// Provisional: no feedback reads it yet; the stock one-axis inclinometer (on the
+    /// hook block it would read the rope's angle; the sling's is not measured).
     const SWING_AXES: u8 = 1;
-    /// The inputs contain `z⁽⁶⁾` (index 5: the sling's constraints differentiated five
-    /// times, `solver_core::models::double_pendulum`), so the drives' accelerations `u̇`
-    /// contain `z⁽⁷⁾`: moves are planned with n ≥ 7, as the planar crane's with n ≥ 5
-    /// for its `z⁗`.
+    /// The inputs contain `z⁽⁶⁾` (the sling's constraints differentiated four times give
+    /// `u`, five times `u̇`: index 5, `solver_core::models::double_pendulum`), so the
+    /// drives' accelerations `u̇` contain `z⁽⁷⁾`: moves are planned with n ≥ 7, as the
+    /// planar crane's with n ≥ 5 for its `z⁗`.
     const MIN_COMMAND_SMOOTHNESS: usize = 7;
     type Reference = HookReference;
     fn g(&self) -> f64 {

@@ -363,7 +363,7 @@ macro_rules! crane_models {
             type P = solver_core::plan::Plan<f64, $axes>;
             Ok(match self {
                 $(
-                    $name::$variant => integrators!(
+                    $name::$variant => $crate::cranes::integrators!(
                         $structure,
                         visit,
                         solver_core::models::$module $(:: $sub)*,
@@ -392,7 +392,7 @@ macro_rules! crane_models {
             use $crate::cranes::{step_visit, FirmwareIntegrator};
             Ok(match self {
                 $(
-                    $name::$variant => integrators!(
+                    $name::$variant => $crate::cranes::integrators!(
                         $structure,
                         step_visit,
                         solver_core::models::$module $(:: $sub)*,

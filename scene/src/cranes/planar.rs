@@ -4,7 +4,7 @@
 use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback, StateFeedback};
 use solver_core::models::crane::CraneParams;
 
-use super::{crane_models, integrators, FirmwareCrane};
+use super::{crane_models, FirmwareCrane};
 use crate::feedback::FeedbackSpec;
 use crate::{ModelSpec, SceneError};
 
@@ -32,10 +32,8 @@ impl FirmwareCrane<2> for CraneParams {
             ModelSpec::CraneSubs(c) => Some((c.params(), PlanarModel::Subs)),
             ModelSpec::CraneProj(c) => Some((c.params(), PlanarModel::Proj)),
             ModelSpec::CraneExt(c) => Some((c.params(), PlanarModel::Ext)),
-            ModelSpec::MassOnCar(_)
-            | ModelSpec::MassOnCarExt(_)
-            | ModelSpec::Crane3dSubs(_)
-            | ModelSpec::Crane3dExt(_) => None,
+            // Another crane's or rig's model.
+            _ => None,
         }
     }
     fn source(&self) -> String {

@@ -7,7 +7,7 @@ use controller::feedback3d::SpatialFeedback;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::Crane3dParams;
 
-use super::{crane_models, integrators, FirmwareCrane};
+use super::{crane_models, FirmwareCrane};
 use crate::feedback::FeedbackSpec;
 use crate::{ModelSpec, SceneError};
 
@@ -32,11 +32,8 @@ impl FirmwareCrane<3> for Crane3dParams {
         match model {
             ModelSpec::Crane3dSubs(c) => Some((c.params(), SpatialModel::Subs)),
             ModelSpec::Crane3dExt(c) => Some((c.params(), SpatialModel::Ext)),
-            ModelSpec::CraneSubs(_)
-            | ModelSpec::CraneProj(_)
-            | ModelSpec::CraneExt(_)
-            | ModelSpec::MassOnCar(_)
-            | ModelSpec::MassOnCarExt(_) => None,
+            // Another crane's or rig's model.
+            _ => None,
         }
     }
     fn source(&self) -> String {
