@@ -606,11 +606,13 @@ mod tests {
         assert_eq!(given_now.len(), ANSWER_QUEUE);
     }
 
-    /// Requests taken, status frames sent and waiting requests handled in every order a
-    /// seeded generator makes (stops among them): a supervisor reading the answers as
-    /// docs/COMMANDS.md says — an answer of its own closes its request, an overload
-    /// answer (id, n) the open request `id` and the n − 1 newest open ones sent before it
-    /// — accounts for every request exactly once.
+    /// Requests taken, status frames sent and waiting requests handled (some queued
+    /// behind the running move, which a stop refuses again before it begins) in every
+    /// order a seeded generator makes (stops among them): a supervisor reading the answers
+    /// as docs/COMMANDS.md says — an answer of its own closes its request, an overload
+    /// answer (id, n) the open request `id` and the n − 1 newest open ones sent before it,
+    /// a refusal (reason 2) of a move answered *queued* is its second answer — accounts
+    /// for every request exactly once. (Repeats are not sent: ids are unique.)
     #[test]
     fn in_any_interleaving_every_request_is_accounted_for_as_a_supervisor_reads_it() {
         let mut seed = 0x2545_f491_4f6c_dd1d_u64;
@@ -620,12 +622,24 @@ mod tests {
             seed ^= seed << 17;
             seed % n
         };
+        // Queued moves a stop refused again: the path is exercised.
+        let mut second_answers = 0;
         for trial in 0..300 {
             let mut r = Requests::<2>::default();
             // The requests the supervisor awaits an answer to, in the order sent (ids
             // unique per trial).
             let mut open = heapless::Vec::<u8, 256>::new();
-            let read = |a: AnswerRecord, open: &mut heapless::Vec<u8, 256>| {
+            // The moves answered *queued*: a stop's refusal (reason 2) is their second answer.
+            let mut queued = heapless::Vec::<u8, 256>::new();
+            let mut read = |a: AnswerRecord, open: &mut heapless::Vec<u8, 256>| {
+                if a.reason == Some(Reject::NotReady) && queued.contains(&a.id) {
+                    queued.retain(|q| *q != a.id);
+                    second_answers += 1;
+                    return;
+                }
+                if a.answer == Answer::Queued {
+                    let _ = queued.push(a.id);
+                }
                 let Some(at) = open.iter().position(|i| *i == a.id) else {
                     unreachable!("trial {trial}: {a:?} closes nothing");
                 };
@@ -652,10 +666,12 @@ mod tests {
                 };
                 assert!(r.take(request, 0), "trial {trial}: request {id} unanswered");
                 let _ = open.push(id);
-                // Between two requests: status frames out, a waiting one handled, a
-                // stop obeyed — or nothing, most of the time (a flood).
+                // Between two requests: status frames out, a waiting one handled (queued
+                // behind the running move while none is, else busy), the queued move
+                // begun, a stop obeyed (it refuses a queued move not begun) — or nothing,
+                // most of the time (a flood).
                 for _ in 0..random(3) {
-                    match random(8) {
+                    match random(9) {
                         0..=3 => {
                             if let Some(a) = r.next_unsent() {
                                 read(a, &mut open);
@@ -663,10 +679,16 @@ mod tests {
                         }
                         4 => {
                             if let Some(request) = r.next() {
-                                let _ = r.answer(request, Err(Reject::Busy), 0);
+                                if r.planned.is_none() && random(2) == 0 {
+                                    let _ = r.answer(request, Ok(Answer::Queued), 0);
+                                    r.planned(request, 1.0);
+                                } else {
+                                    let _ = r.answer(request, Err(Reject::Busy), 0);
+                                }
                             }
                         }
                         5 if r.stop_due() => assert_eq!(r.after_stop(0, 0.0), 0),
+                        6 => r.begun_by(2.0),
                         _ => {}
                     }
                 }
@@ -683,6 +705,7 @@ mod tests {
             assert!(open.is_empty(), "trial {trial}: unaccounted {open:?}");
             assert_eq!(r.tally().unanswered, 0, "trial {trial}");
         }
+        assert!(second_answers > 10, "{second_answers}");
     }
 
     #[test]

@@ -910,5 +910,18 @@ mod tests {
             }
         }
         assert_eq!(built, FirmwareScheme::every().len());
+        // A structured integrator named for a model without a structured elimination is
+        // refused, never built as a dense one.
+        let plan = Plan::at_rest([12.0, 8.0].into(), 5).unwrap();
+        let settings = SolverSettings::paper(solver_core::JacobianMode::Exact);
+        let proj = crate::cranes::planar::PlanarModel::Proj;
+        for i in [
+            FirmwareIntegrator::StructuredBdf(4),
+            FirmwareIntegrator::StructuredBdfUncorrected(4),
+            FirmwareIntegrator::StructuredRadau5,
+        ] {
+            let built = CraneParams::PAPER.inverse_model(proj, i, plan, &settings, Steps);
+            assert!(built.is_err(), "{i:?}");
+        }
     }
 }

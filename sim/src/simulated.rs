@@ -7,9 +7,11 @@
 use controller::crane::Crane;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::Crane3dParams;
+use solver_core::models::double_pendulum_crane::DoublePendulumParams;
 
 use crate::plant::{Mismatch, Plant};
 use crate::plant3d::{Mismatch3d, Plant3d};
+use crate::plant_dp::PlantDp;
 
 /// What a plant's sensors read at the end of a cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -99,5 +101,29 @@ impl Simulated<3> for Crane3dParams {
             self.m,
             diagonal,
         )
+    }
+}
+
+impl CranePlant<2> for PlantDp {
+    fn advance_braked(&mut self, u: [f64; 2], dt: f64, braked: [bool; 2]) {
+        PlantDp::advance_braked(self, u, dt, braked);
+    }
+    fn sense(&mut self) -> Sensed<2> {
+        let [x, l, phi1] = PlantDp::sense(self);
+        let [_, _, _, _, vx, vl, _, _] = self.y;
+        Sensed {
+            motion: [(x, vx), (l, vl)],
+            slope_deg: [phi1.to_degrees(), 0.0],
+        }
+    }
+}
+
+/// The hook-and-load crane: its double pendulum with the one-axis inclinometer on the
+/// hook block. `start` is where the drives stand: at rest the rope is the sling's length
+/// shorter than the load is deep.
+impl Simulated<2> for DoublePendulumParams {
+    type Plant = PlantDp;
+    fn plant(&self, mismatch: Mismatch, start: [f64; 2]) -> PlantDp {
+        PlantDp::at_rest(*self, start, mismatch)
     }
 }

@@ -255,21 +255,29 @@ pub trait CraneVisitor {
 /// `$integrator` names on `$model` (driven by a `$plan`) and hands both to `$visit`
 /// (`$visitor`, model, integrator): one arm per [`FirmwareIntegrator`], the same types
 /// `FirmwareScheme::rust` names. A `Dense` model's firmware integrators are the dense
-/// ones (`FirmwareScheme::of` never names a structured one for it).
+/// ones (`FirmwareScheme::of` never names a structured one for it; one named is refused).
 macro_rules! integrators {
     (Dense, $visit:ident, $m:path, $integrator:expr, $model:expr, $settings:expr, $visitor:expr, $plan:ty) => {{
         use $m as m;
         let model = $model;
         match $integrator {
-            FirmwareIntegrator::Bdf(k)
-            | FirmwareIntegrator::StructuredBdf(k)
-            | FirmwareIntegrator::StructuredBdfUncorrected(k) => {
+            FirmwareIntegrator::Bdf(k) => {
                 let i = m::Bdf::<f64, $plan>::new(&model, $settings, k, 0.0)?;
                 $visit($visitor, model, i)
             }
-            FirmwareIntegrator::Radau5 | FirmwareIntegrator::StructuredRadau5 => {
+            FirmwareIntegrator::Radau5 => {
                 let i = m::Radau5::<f64, $plan>::new(&model, $settings, 0.0)?;
                 $visit($visitor, model, i)
+            }
+            // No structured elimination: never named for it (`FirmwareScheme::of`), and
+            // refused rather than built as something else.
+            FirmwareIntegrator::StructuredBdf(_)
+            | FirmwareIntegrator::StructuredBdfUncorrected(_)
+            | FirmwareIntegrator::StructuredRadau5 => {
+                return Err(solver_core::Error::InvalidSetting {
+                    name: "integrator (a structured one for a model without a structured elimination)",
+                    value: f64::NAN,
+                })
             }
             FirmwareIntegrator::RadauFull => {
                 let i = m::RadauFull::<f64, $plan>::new(&model, $settings, 0.0)?;
