@@ -104,7 +104,11 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         if zc.is_nan() || zc <= 0.0 {
             return bit(Reject::RopeWorkspace);
         }
-        if zcdd.is_nan() || zcdd > MAX_DOWN_ACCELERATION * self.crane.g() {
+        let max_down_acceleration = MAX_DOWN_ACCELERATION * self.crane.g();
+        if zcdd.is_nan()
+            || zcdd > max_down_acceleration
+            || self.crane.slack_rope(z, t, max_down_acceleration)
+        {
             return bit(Reject::SlackRope);
         }
         let f = self.crane.flat(z, t);

@@ -8,6 +8,7 @@ use controller::crane::double_pendulum::HookReference;
 use controller::crane::{command_plan, Crane};
 use controller::feedforward::CraneReference;
 use controller::planner::Planner;
+use controller::setpoint::AxisLimits;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::double_pendulum::DoublePendulumSubs;
 use solver_core::models::double_pendulum_crane::DoublePendulumParams;
@@ -69,6 +70,10 @@ fn its_moves_are_planned_with_its_own_smoothness_and_checks() {
     assert_eq!(at_rest([12.0, 8.0]).smoothness(), 7);
     let p = planner(HookAndLoad::EXAMPLE);
     let from = at_rest([12.0, 8.0]);
+    // At rest the drives stand where the flat inverse puts them: the rope a sling shorter.
+    let [x, l] = HookAndLoad::EXAMPLE.drives_at_rest([12.0, 8.0]);
+    let [fx, fl] = p.drive_positions(&from, 0.0);
+    assert!((x - fx).abs() < 1e-12 && (l - fl).abs() < 1e-12 && (l - 7.0).abs() < 1e-12);
     // As fast as the limits allow: accepted, and within the lab drives' limits.
     let fastest = p.plan_move(&from, [20.0, 5.0], None, 0.0).unwrap();
     let (t0, t1) = fastest.active_span();
@@ -86,6 +91,56 @@ fn its_moves_are_planned_with_its_own_smoothness_and_checks() {
             "{to:?} in {duration:?} s"
         );
     }
+}
+
+/// The rope carries hook and load: a quick short trolley move at constant depth (the
+/// load never accelerates vertically, so the load's own check passes) swings the hook up
+/// and down on its sling, and where the two masses' mean downward acceleration
+/// `(z̈_C + μ z̈_H)/(1 + μ)` exceeds half of g the planner refuses the move as a slack
+/// rope, with the same margin as the load's. With the lab drives such a move breaks the
+/// trolley's limits too, so the drives here are unbounded: the rope is the only check
+/// left. The planar crane takes the same move; a slower one passes.
+#[test]
+fn a_move_that_would_slacken_the_rope_to_the_hook_is_refused_as_such() {
+    let p = HookAndLoad::EXAMPLE;
+    let from = at_rest([12.0, 4.0]);
+    let (to, quick, slow) = ([13.0, 4.0], 1.5, 3.0);
+    let limit = 0.5 * p.crane.g;
+    let mu = p.hook_mass / p.crane.m;
+    // The largest load and mean downward accelerations along the move, from solver-core's
+    // flat inverse, independently of the planner.
+    let peaks = |d: f64| {
+        let mut plan = from;
+        let step = plan.candidate(to.into(), 0.0, d).unwrap();
+        plan.push(step).unwrap();
+        let (t0, t1) = step.active_span();
+        (0..=400).fold((f64::MIN, f64::MIN), |(load, mean), i| {
+            let t = t0 + (t1 - t0) * f64::from(i) / 400.0;
+            let [_, _, a] = plan.derivatives::<3>(t);
+            let hook = double_pendulum::flat_inverse(&p, &plan, t).unwrap().a_hook[1];
+            (load.max(a.y), mean.max((a.y + mu * hook) / (1.0 + mu)))
+        })
+    };
+    let (load, mean) = peaks(quick);
+    eprintln!("{quick} s: load {load:.3e}, mean {mean:.3} m/s^2 (limit {limit:.3})");
+    assert!(
+        load.abs() < 1e-9 && mean > 1.1 * limit,
+        "load {load}, mean {mean}"
+    );
+    let unbounded = [AxisLimits {
+        max_velocity: f64::MAX,
+        max_acceleration: f64::MAX,
+    }; 2];
+    let hook_and_load = Planner::with_axes(p, unbounded);
+    assert_eq!(
+        hook_and_load.plan_move(&from, to, Some(quick), 0.0).err(),
+        Some(Reject::SlackRope)
+    );
+    let planar = Planner::with_axes(p.crane, unbounded);
+    assert!(planar.plan_move(&from, to, Some(quick), 0.0).is_ok());
+    let (_, mean) = peaks(slow);
+    assert!(mean < 0.9 * limit, "mean {mean}");
+    assert!(hook_and_load.plan_move(&from, to, Some(slow), 0.0).is_ok());
 }
 
 /// *subs* and *ext* give the crane's own reference state from their unknowns: the

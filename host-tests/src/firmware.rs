@@ -78,7 +78,7 @@ pub fn virtual_bus<K: FirmwareCrane<A>, const A: usize>(
     f: &FirmwareScene<K, A>,
     scenario: Scenario,
 ) -> Result<VirtualBus<K, A>, String> {
-    let bus = VirtualBus::for_crane(scenario, &f.params, f.start());
+    let bus = VirtualBus::for_crane(scenario, &f.params, f.params.drives_at_rest(f.start()));
     if bus.simulates_scenario() {
         Ok(bus)
     } else {

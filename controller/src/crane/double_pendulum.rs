@@ -96,6 +96,29 @@ impl Crane<2> for DoublePendulumParams {
             },
         }
     }
+    /// The hook hangs a sling above the load: the rope is that much shorter.
+    fn drives_at_rest(&self, [x, z]: [f64; 2]) -> [f64; 2] {
+        [x, z - self.sling]
+    }
+    /// The rope carries hook and load: it stays taut while their mean downward
+    /// acceleration `(z̈_C + μ z̈_H)/(1 + μ)` (μ = m_h/m) stays below g, and keeps the
+    /// planner's margin below `max_down_acceleration`; the sling is the load's own rope,
+    /// which the planner checks for every crane. Where the flat inverse refuses a slack
+    /// rope or sling, slack; where it refuses anything else (the hook at the rail), the
+    /// flat's NaN is refused as that axis's violation.
+    fn slack_rope<Z: Trajectory<f64, 2>>(&self, z: &Z, t: f64, max_down_acceleration: f64) -> bool {
+        match double_pendulum::flat_inverse(self, z, t) {
+            Ok(f) => {
+                let [_, _, a_load] = z.derivatives::<3>(t);
+                let [_, a_hook] = f.a_hook;
+                let mu = self.hook_mass / self.crane.m;
+                let mean = (a_load.y + mu * a_hook) / (1.0 + mu);
+                mean.is_nan() || mean > max_down_acceleration
+            }
+            Err(solver_core::Error::RopeSlack { .. }) => true,
+            Err(_) => false,
+        }
+    }
     fn lags(&self) -> [f64; 2] {
         [self.crane.tau1, self.crane.tau2]
     }

@@ -102,6 +102,20 @@ pub trait Crane<const A: usize> {
     fn target(x: f64, y: Option<f64>, z: f64, end: [f64; A]) -> Option<[f64; A]>;
     /// The flat inverse at `t` of the load's path `z`.
     fn flat<Z: Trajectory<f64, A>>(&self, z: &Z, t: f64) -> Flat<A>;
+    /// Where the drives stand while the load rests at `load` (its outputs): the inverse
+    /// at rest. The planar and 3D crane's drives stand where the load hangs (trolley and
+    /// bridge above it, the rope as long as it is deep); the hook-and-load crane's rope
+    /// is a sling shorter. What the virtual bus powers its drives up at.
+    fn drives_at_rest(&self, load: [f64; A]) -> [f64; A];
+    /// Whether a rope other than the load's own goes slack, or keeps less tension than
+    /// the planner's margin, at `t` of `z`: the planner refuses the load's own downward
+    /// acceleration above `max_down_acceleration` (m/s²) for every crane, and asks this
+    /// of a crane with more than one rope. The planar and 3D crane's one rope carries
+    /// the load alone: never.
+    fn slack_rope<Z: Trajectory<f64, A>>(&self, z: &Z, t: f64, max_down_acceleration: f64) -> bool {
+        let _ = (z, t, max_down_acceleration);
+        false
+    }
     /// Each drive's lag τ, s (Eq. 24's `τ v̇ + v = u`): what the controller expects of
     /// the set points it sends ([`crate::motion`]).
     fn lags(&self) -> [f64; A];

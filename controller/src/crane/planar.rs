@@ -48,6 +48,9 @@ impl Crane<2> for CraneParams {
             u_dot: f.u_dot,
         }
     }
+    fn drives_at_rest(&self, load: [f64; 2]) -> [f64; 2] {
+        load
+    }
     fn lags(&self) -> [f64; 2] {
         [self.tau1, self.tau2]
     }

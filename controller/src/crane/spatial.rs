@@ -50,6 +50,9 @@ impl Crane<3> for Crane3dParams {
             u_dot: f.u_dot,
         }
     }
+    fn drives_at_rest(&self, load: [f64; 3]) -> [f64; 3] {
+        load
+    }
     fn lags(&self) -> [f64; 3] {
         [self.tau1, self.tau2, self.tau3]
     }

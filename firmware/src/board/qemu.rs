@@ -28,6 +28,7 @@
 #![allow(unsafe_code)]
 
 use controller::board::CanPort;
+use controller::crane::Crane as _;
 use controller::transmit::{FifoModel, Loss, Queued, TxQueue, BURST};
 use controller::CanFrame;
 use heapless::Deque;
@@ -215,7 +216,11 @@ impl Board {
         }
         // A stock drive for each of the crane's drives, resting where the scene's move
         // starts (the host's run builds the same: `host_tests::firmware::virtual_bus`).
-        let bus = VirtualBus::for_crane(scenario, &crate::scene::PARAMS, crate::scene::START);
+        let bus = VirtualBus::for_crane(
+            scenario,
+            &crate::scene::PARAMS,
+            crate::scene::PARAMS.drives_at_rest(crate::scene::START),
+        );
         if !bus.simulates_scenario() {
             defmt::error!(
                 "scenario {=str} moves a plant: only a build with [feedback] (feature `plant`) has one",
