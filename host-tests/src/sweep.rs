@@ -102,7 +102,8 @@ pub fn apply(scene: &Scene, key: &str, value: &str) -> Result<Scene, String> {
         }
         "formulation" => {
             // Each model's formulations: the planar crane's subs, proj and ext, the 3D
-            // crane's subs and ext, the mass-on-car's direct one (Eqs. 31–34) and ext.
+            // and the hook-and-load crane's subs and ext, the mass-on-car's direct one
+            // (Eqs. 31–34) and ext.
             s.model = if let Some(crane) = s.model.crane() {
                 match value {
                     "subs" => ModelSpec::CraneSubs(crane),
@@ -115,6 +116,12 @@ pub fn apply(scene: &Scene, key: &str, value: &str) -> Result<Scene, String> {
                     "subs" | "3d-subs" => ModelSpec::Crane3dSubs(crane),
                     "ext" | "3d-ext" => ModelSpec::Crane3dExt(crane),
                     _ => return Err(bad("the 3D crane's are subs and ext")),
+                }
+            } else if let Some(crane) = s.model.double_pendulum() {
+                match value {
+                    "subs" | "dp-subs" => ModelSpec::DoublePendulumSubs(crane),
+                    "ext" | "dp-ext" => ModelSpec::DoublePendulumExt(crane),
+                    _ => return Err(bad("the hook-and-load crane's are subs and ext")),
                 }
             } else if let Some(car) = s.model.mass_on_car_spec() {
                 match value {

@@ -28,13 +28,14 @@ use solver_core::models::crane3d::{Crane3dExt, Crane3dParams, Crane3dSubs};
 use solver_core::models::crane_ext::{self, CraneExt};
 use solver_core::models::crane_proj::{self, CraneProj};
 use solver_core::models::crane_subs::{self, CraneSubs};
+use solver_core::models::double_pendulum_crane::DoublePendulumParams;
 use solver_core::models::mass_on_car::MassOnCar;
 use solver_core::models::mass_on_car_ext::MassOnCarExt;
 use solver_core::plan::Plan;
 use solver_core::reference::dopri5::Dopri5Settings;
 use solver_core::reference::flat_crane::flat_inverse;
-use solver_core::reference::flat_crane3d;
 use solver_core::reference::mass_on_car::MassOnCarReference;
+use solver_core::reference::{double_pendulum, flat_crane3d};
 use solver_core::schemes::bdf::CORRECT_BELOW_H;
 use solver_core::trajectory::{PointToPoint, Trajectory};
 use solver_core::{DaeModel, Error, Real, Scheme, SolverSettings};
@@ -104,6 +105,18 @@ pub fn model<T: Real, V: ModelVisitor<T>>(
                 Crane3dExt::new(c.params(), trajectory::<T, 3>(scene)?).map_err(err)?,
             )
         }
+        ModelSpec::DoublePendulumSubs(c) => {
+            use solver_core::models::double_pendulum::{DoublePendulumSubs, N, NU, S};
+            visitor.visit::<_, N, NU, S>(
+                DoublePendulumSubs::new(c.params(), trajectory::<T, 2>(scene)?).map_err(err)?,
+            )
+        }
+        ModelSpec::DoublePendulumExt(c) => {
+            use solver_core::models::double_pendulum_ext::{DoublePendulumExt, N, NU, S};
+            visitor.visit::<_, N, NU, S>(
+                DoublePendulumExt::new(c.params(), trajectory::<T, 2>(scene)?).map_err(err)?,
+            )
+        }
     })
 }
 
@@ -117,7 +130,9 @@ pub fn accuracy_threshold(model: &ModelSpec) -> f64 {
         | ModelSpec::CraneProj(_)
         | ModelSpec::CraneExt(_)
         | ModelSpec::Crane3dSubs(_)
-        | ModelSpec::Crane3dExt(_) => 1e-3,
+        | ModelSpec::Crane3dExt(_)
+        | ModelSpec::DoublePendulumSubs(_)
+        | ModelSpec::DoublePendulumExt(_) => 1e-3,
     }
 }
 
@@ -149,6 +164,8 @@ pub enum Exact {
     MassOnCar(MassOnCarReference<PointToPoint<f64, 1>>),
     /// The 3D crane's flat inverse.
     Crane3d(Crane3dParams, PointToPoint<f64, 3>),
+    /// The hook-and-load crane's flat inverse.
+    DoublePendulum(DoublePendulumParams, PointToPoint<f64, 2>),
 }
 
 impl Exact {
@@ -170,6 +187,9 @@ impl Exact {
             ModelSpec::Crane3dSubs(c) | ModelSpec::Crane3dExt(c) => {
                 Exact::Crane3d(c.params(), trajectory::<f64, 3>(scene)?)
             }
+            ModelSpec::DoublePendulumSubs(c) | ModelSpec::DoublePendulumExt(c) => {
+                Exact::DoublePendulum(c.params(), trajectory::<f64, 2>(scene)?)
+            }
         })
     }
 
@@ -180,6 +200,7 @@ impl Exact {
             Exact::Crane(p, z) => out.extend(flat_inverse(p, z, t).u),
             Exact::MassOnCar(r) => out.push(r.advance_to(t)?.f),
             Exact::Crane3d(p, z) => out.extend(flat_crane3d::flat_inverse(p, z, t).u),
+            Exact::DoublePendulum(p, z) => out.extend(double_pendulum::flat_inverse(p, z, t)?.u),
         }
         Ok(())
     }
@@ -625,8 +646,14 @@ mod tests {
             "crane3d-subs" | "crane3d-ext" => ("[12.0, 3.0, 8.0]", "[20.0, 6.0, 4.0]"),
             _ => ("[12.0, 8.0]", "[20.0, 4.0]"),
         };
+        // The hook-and-load crane's inputs contain the path's sixth derivative.
+        let n = if model.starts_with("double-pendulum") {
+            7
+        } else {
+            4
+        };
         Scene::parse(&format!(
-            "name = \"t\"\n[model]\nkind = \"{model}\"\n[trajectory]\nstart = {start}\nend = {end}\nt_start = 1.0\nduration = 7.0\nsmoothness = 4\nt_end = 10.0\n[solver]\n{solver}\n{jacobian}h = 0.01\n"
+            "name = \"t\"\n[model]\nkind = \"{model}\"\n[trajectory]\nstart = {start}\nend = {end}\nt_start = 1.0\nduration = 7.0\nsmoothness = {n}\nt_end = 10.0\n[solver]\n{solver}\n{jacobian}h = 0.01\n"
         ))
         .unwrap()
     }
@@ -641,6 +668,8 @@ mod tests {
             ("crane-ext", "CraneExt", 13),
             ("mass-on-car-ext", "MassOnCarExt", 7),
             ("crane3d-ext", "Crane3dExt", 18),
+            ("double-pendulum-subs", "DoublePendulumSubs", 12),
+            ("double-pendulum-ext", "DoublePendulumExt", 30),
         ] {
             let (ty, unknowns) = model::<f64, _>(&scene(kind, "scheme = \"bdf\""), Name).unwrap();
             assert!(ty.contains(name), "{ty}");
@@ -809,6 +838,8 @@ mod tests {
             "crane3d-subs",
             "crane-ext",
             "crane3d-ext",
+            "double-pendulum-subs",
+            "double-pendulum-ext",
         ] {
             for solver in [
                 "scheme = \"bdf\"\njacobian = \"exact\"",
@@ -841,13 +872,14 @@ mod tests {
                 }
             }
         }
-        assert_eq!(seen, 44);
+        assert_eq!(seen, 60);
         // And each is built for its own crane.
         for f in every {
             let (crane, axes) = f.crane();
             let (expected, n) = match f.model {
                 FirmwareModel::Planar(_) => ("::CraneParams", 2),
                 FirmwareModel::Spatial(_) => ("::Crane3dParams", 3),
+                FirmwareModel::HookAndLoad(_) => ("::DoublePendulumParams", 2),
             };
             assert!(crane.ends_with(expected) && axes == n, "{f:?}");
         }
@@ -876,7 +908,7 @@ mod tests {
                 let (crane, own) = K::of(&self.0.model).unwrap();
                 assert_eq!(own, model);
                 let start = trajectory::<f64, A>(self.0).unwrap().start();
-                let plan = Plan::at_rest(start, 5).unwrap();
+                let plan = command_plan::<K, A>(start.into(), 5).unwrap();
                 let mode = match self.1 {
                     FirmwareIntegrator::StructuredRadau5 | FirmwareIntegrator::Radau5 => {
                         solver_core::JacobianMode::Transformed
@@ -896,6 +928,8 @@ mod tests {
             "crane-ext",
             "crane3d-subs",
             "crane3d-ext",
+            "double-pendulum-subs",
+            "double-pendulum-ext",
         ] {
             let s = scene(kind, "scheme = \"bdf\"");
             let model = FirmwareModel::of(&s.model).unwrap();

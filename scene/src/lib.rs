@@ -48,6 +48,7 @@ use nalgebra::SVector;
 use serde::Deserialize;
 use solver_core::models::crane::{CraneParams, Workspace};
 use solver_core::models::crane3d::{Crane3dParams, Workspace3d};
+use solver_core::models::double_pendulum_crane::DoublePendulumParams;
 use solver_core::models::mass_on_car::MassOnCarParams;
 use solver_core::scalar::c;
 use solver_core::trajectory::PointToPoint;
@@ -194,6 +195,11 @@ pub enum ModelSpec {
     MassOnCarExt(MassOnCarSpec),
     /// The crane in three dimensions, *subs* minimally extended to index 1.
     Crane3dExt(Crane3dSpec),
+    /// The hook-and-load crane (a double pendulum), redundant coordinates with the
+    /// servo-constraints substituted.
+    DoublePendulumSubs(DoublePendulumSpec),
+    /// The hook-and-load crane, *subs* minimally extended to index 1.
+    DoublePendulumExt(DoublePendulumSpec),
 }
 
 impl ModelSpec {
@@ -205,7 +211,9 @@ impl ModelSpec {
             ModelSpec::MassOnCar(_)
             | ModelSpec::MassOnCarExt(_)
             | ModelSpec::Crane3dSubs(_)
-            | ModelSpec::Crane3dExt(_) => None,
+            | ModelSpec::Crane3dExt(_)
+            | ModelSpec::DoublePendulumSubs(_)
+            | ModelSpec::DoublePendulumExt(_) => None,
         }
     }
 
@@ -218,7 +226,9 @@ impl ModelSpec {
             | ModelSpec::CraneProj(_)
             | ModelSpec::CraneExt(_)
             | ModelSpec::MassOnCar(_)
-            | ModelSpec::MassOnCarExt(_) => None,
+            | ModelSpec::MassOnCarExt(_)
+            | ModelSpec::DoublePendulumSubs(_)
+            | ModelSpec::DoublePendulumExt(_) => None,
         }
     }
 
@@ -237,12 +247,30 @@ impl ModelSpec {
             | ModelSpec::CraneProj(_)
             | ModelSpec::CraneExt(_)
             | ModelSpec::Crane3dSubs(_)
+            | ModelSpec::Crane3dExt(_)
+            | ModelSpec::DoublePendulumSubs(_)
+            | ModelSpec::DoublePendulumExt(_) => None,
+        }
+    }
+
+    /// The hook-and-load crane's parameters, whatever the formulation (`None` for another
+    /// model).
+    #[must_use]
+    pub fn double_pendulum(&self) -> Option<DoublePendulumSpec> {
+        match self {
+            ModelSpec::DoublePendulumSubs(c) | ModelSpec::DoublePendulumExt(c) => Some(*c),
+            ModelSpec::CraneSubs(_)
+            | ModelSpec::CraneProj(_)
+            | ModelSpec::CraneExt(_)
+            | ModelSpec::MassOnCar(_)
+            | ModelSpec::MassOnCarExt(_)
+            | ModelSpec::Crane3dSubs(_)
             | ModelSpec::Crane3dExt(_) => None,
         }
     }
 
     /// The model's short name in results: `subs`, `proj`, `ext`, `mass-on-car`,
-    /// `mass-on-car-ext`, `3d-subs` or `3d-ext`.
+    /// `mass-on-car-ext`, `3d-subs`, `3d-ext`, `dp-subs` or `dp-ext`.
     #[must_use]
     pub fn label(&self) -> &'static str {
         match self {
@@ -253,6 +281,8 @@ impl ModelSpec {
             ModelSpec::MassOnCarExt(_) => "mass-on-car-ext",
             ModelSpec::Crane3dSubs(_) => "3d-subs",
             ModelSpec::Crane3dExt(_) => "3d-ext",
+            ModelSpec::DoublePendulumSubs(_) => "dp-subs",
+            ModelSpec::DoublePendulumExt(_) => "dp-ext",
         }
     }
 }
@@ -369,6 +399,69 @@ impl CraneSpec {
                 l_max: self.l_max,
             },
             min_tension_fraction: self.min_tension_fraction,
+        }
+    }
+}
+
+/// The hook-and-load crane's parameters: the planar crane's (`CraneSpec`'s fields; the
+/// rope limits bound the rope to the hook block) and the hook block's mass and the
+/// sling's length (`DoublePendulumParams::EXAMPLE` by default: Tab. 3's crane, a hook of
+/// 30 % of the load's mass on a 1 m sling, the rope's shortest length 1.5 m).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+#[allow(missing_docs)]
+pub struct DoublePendulumSpec {
+    pub m: f64,
+    pub g: f64,
+    pub tau1: f64,
+    pub tau2: f64,
+    pub x_min: f64,
+    pub x_max: f64,
+    pub l_min: f64,
+    pub l_max: f64,
+    pub min_tension_fraction: f64,
+    pub hook_mass: f64,
+    pub sling: f64,
+}
+
+impl Default for DoublePendulumSpec {
+    fn default() -> Self {
+        let p = DoublePendulumParams::EXAMPLE;
+        let (c, w) = (p.crane, p.crane.workspace);
+        Self {
+            m: c.m,
+            g: c.g,
+            tau1: c.tau1,
+            tau2: c.tau2,
+            x_min: w.x_min,
+            x_max: w.x_max,
+            l_min: w.l_min,
+            l_max: w.l_max,
+            min_tension_fraction: c.min_tension_fraction,
+            hook_mass: p.hook_mass,
+            sling: p.sling,
+        }
+    }
+}
+
+impl DoublePendulumSpec {
+    /// The solver-core parameters.
+    pub fn params(&self) -> DoublePendulumParams {
+        let crane = CraneSpec {
+            m: self.m,
+            g: self.g,
+            tau1: self.tau1,
+            tau2: self.tau2,
+            x_min: self.x_min,
+            x_max: self.x_max,
+            l_min: self.l_min,
+            l_max: self.l_max,
+            min_tension_fraction: self.min_tension_fraction,
+        };
+        DoublePendulumParams {
+            crane: crane.params(),
+            hook_mass: self.hook_mass,
+            sling: self.sling,
         }
     }
 }
@@ -507,7 +600,11 @@ impl Scene {
     /// Number of output axes the model needs.
     pub fn outputs(&self) -> usize {
         match self.model {
-            ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) | ModelSpec::CraneExt(_) => 2,
+            ModelSpec::CraneSubs(_)
+            | ModelSpec::CraneProj(_)
+            | ModelSpec::CraneExt(_)
+            | ModelSpec::DoublePendulumSubs(_)
+            | ModelSpec::DoublePendulumExt(_) => 2,
             ModelSpec::MassOnCar(_) | ModelSpec::MassOnCarExt(_) => 1,
             ModelSpec::Crane3dSubs(_) | ModelSpec::Crane3dExt(_) => 3,
         }

@@ -352,3 +352,36 @@ fn the_extended_scenes_are_checked_as_the_direct_ones() {
         scene::dispatch::FirmwareModel::Planar(scene::cranes::planar::PlanarModel::Ext)
     );
 }
+
+/// The hook-and-load crane's scene passes the firmware's checks as its own crane (two
+/// drives, its own parameters and model); a `[feedback]` on it is refused by name (it has
+/// no loop yet), not run as the planar crane's.
+#[test]
+fn the_hook_and_load_scene_is_its_own_crane() {
+    use scene::dispatch::{firmware, FirmwareCrane, FirmwareCraneVisitor};
+    use scene::firmware::FirmwareScene;
+    struct Crane;
+    impl FirmwareCraneVisitor for Crane {
+        type Output = (usize, &'static str, &'static str);
+        fn visit<K: FirmwareCrane<A>, const A: usize>(
+            self,
+            f: FirmwareScene<K, A>,
+        ) -> Self::Output {
+            (A, K::TYPE, f.scheme.model.path().1)
+        }
+    }
+    let path = scenes_dir().join("hook-and-load.toml");
+    let scene = Scene::load(&path).unwrap();
+    let commissioning = CommissioningFile::for_scene(&path).unwrap();
+    let (axes, ty, model) = firmware(&scene, &commissioning, Crane).unwrap();
+    assert_eq!(axes, 2);
+    assert!(ty.ends_with("::DoublePendulumParams"), "{ty}");
+    assert_eq!(model, "DoublePendulumSubs");
+    let text = std::fs::read_to_string(&path).unwrap() + "\n[feedback]\n";
+    let with_feedback = Scene::parse(&text).unwrap();
+    let e = firmware(&with_feedback, &commissioning, Crane).unwrap_err();
+    assert!(
+        e.contains("hook-and-load crane has no state feedback"),
+        "{e}"
+    );
+}

@@ -1,6 +1,6 @@
 //! The cranes the firmware drives, one file each, and their one registration.
 //!
-//! A crane's file ([`planar`], [`spatial`]) holds everything the firmware's setup needs of
+//! A crane's file ([`planar`], [`spatial`], [`hook_and_load`]) holds everything the firmware's setup needs of
 //! that crane: its [`FirmwareCrane`] impl (how a scene names it, its parameters as the
 //! build script writes them, its state feedback) and the list of its formulations, made
 //! once with `crane_models!`: from that list follow the crane's entries in
@@ -26,6 +26,7 @@ use solver_core::{DaeModel, Driven, Error, Integrator, SolverSettings};
 use crate::feedback::FeedbackSpec;
 use crate::{ModelSpec, SceneError};
 
+pub mod hook_and_load;
 pub mod planar;
 pub mod spatial;
 
@@ -478,6 +479,9 @@ registry! {
     Planar(planar::PlanarModel) for solver_core::models::crane::CraneParams, 2;
     /// The crane in three dimensions: bridge, trolley and hoist.
     Spatial(spatial::SpatialModel) for solver_core::models::crane3d::Crane3dParams, 3;
+    /// The hook-and-load crane: trolley and winch, a hook block and the load on a sling.
+    HookAndLoad(hook_and_load::HookAndLoadModel)
+        for solver_core::models::double_pendulum_crane::DoublePendulumParams, 2;
 }
 
 /// `model` and `integrator` to a [`StepsVisitor`].

@@ -1,0 +1,64 @@
+//! The hook-and-load crane (trolley and winch; a hook block at the rope's end and the
+//! load on a sling below it, a double pendulum) as the firmware drives it: its
+//! formulations and its [`FirmwareCrane`] registration.
+//!
+//! It has no state feedback (`controller::crane::double_pendulum`): a scene with
+//! `[feedback]` is refused for it, and it runs feedforward only.
+
+use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback};
+use solver_core::models::double_pendulum_crane::DoublePendulumParams;
+
+use super::{crane_models, FirmwareCrane};
+use crate::feedback::FeedbackSpec;
+use crate::{refuse, ModelSpec, SceneError};
+
+crane_models! {
+    /// The hook-and-load crane's formulations the firmware can drive.
+    HookAndLoadModel for DoublePendulumParams, 2 {
+        /// *subs*: redundant coordinates, the servo-constraints substituted (index 5).
+        Subs => double_pendulum, DoublePendulumSubs, Structured;
+        /// *ext*: *subs* minimally extended to index 1 (30 unknowns: its structured
+        /// Newton only).
+        Ext => double_pendulum_ext, DoublePendulumExt, StructuredOnly;
+    }
+}
+
+impl FirmwareCrane<2> for DoublePendulumParams {
+    const TYPE: &'static str = "solver_core::models::double_pendulum_crane::DoublePendulumParams";
+    type Model = HookAndLoadModel;
+    type Feedback = NoFeedback;
+    const FEEDBACK_TYPE: &'static str = "controller::feedback::NoFeedback";
+    const FEEDBACK_NEW: &'static str = "NoFeedback";
+    type FeedforwardOnly = NoFeedback;
+    fn of(model: &ModelSpec) -> Option<(Self, HookAndLoadModel)> {
+        match model {
+            ModelSpec::DoublePendulumSubs(c) => Some((c.params(), HookAndLoadModel::Subs)),
+            ModelSpec::DoublePendulumExt(c) => Some((c.params(), HookAndLoadModel::Ext)),
+            // Another crane's or rig's model.
+            _ => None,
+        }
+    }
+    fn source(&self) -> String {
+        format!(
+            "solver_core::models::double_pendulum_crane::DoublePendulumParams {{ crane: {}, hook_mass: {:?}, sling: {:?} }}",
+            <solver_core::models::crane::CraneParams as FirmwareCrane<2>>::source(&self.crane),
+            self.hook_mass,
+            self.sling
+        )
+    }
+    /// No loop for it yet: which angle it would measure (the rope's at the hook block,
+    /// the sling's, or both) is open.
+    fn feedback_config(
+        _spec: &FeedbackSpec,
+        _crane: &Self,
+        _h: f64,
+    ) -> Result<FeedbackConfig, SceneError> {
+        Err(refuse(
+            "feedback",
+            "the hook-and-load crane has no state feedback yet; remove [feedback] (it runs feedforward only)",
+        ))
+    }
+    fn feedback(&self, _config: FeedbackConfig) -> Result<NoFeedback, DesignError> {
+        Ok(NoFeedback)
+    }
+}
