@@ -1341,7 +1341,8 @@ where
         // motion outlasts the load's by a tenth of a second.)
         let unseen = zero && plan.active().is_some() && !plan.has_queued() && {
             let here = SVector::from(self.planner.drive_positions(plan, step.t));
-            (plan.final_position() - here).amax() < REST_TRAVEL_M
+            let rest = SVector::from(self.planner.drives_at_rest(plan.final_position().into()));
+            (rest - here).amax() < REST_TRAVEL_M
         };
         if ended || unseen {
             let rest = plan.final_position().into();
@@ -1438,9 +1439,9 @@ where
         self.closed_loop = true;
     }
 
-    /// Where the load hangs, from the drives' position actual (0x6064), in the model's
-    /// input order (planar: trolley position and rope length). `None` if a drive's
-    /// position is unknown or stale, or a drive still moves.
+    /// The drives' position actual (0x6064) at standstill, in the model's input order
+    /// (planar: trolley position and rope length). `None` if a drive's position is
+    /// unknown or stale, or a drive still moves.
     fn measured_rest(&self) -> Option<[f64; A]> {
         let mut position = [0.0; A];
         for (drive, slot) in K::DRIVES.into_iter().zip(position.iter_mut()) {
@@ -1483,12 +1484,13 @@ where
     }
 
     /// Takes the drives' position actual as where the crane is: the model restarts at rest
-    /// there, the motion supervision counts from there, and the feedback starts afresh.
-    /// Refused while a drive still moves or its position is not known.
+    /// with the load where it hangs below them ([`Crane::load_at_rest`]), the motion
+    /// supervision counts from them, and the feedback starts afresh. Refused while a drive
+    /// still moves or its position is not known.
     fn read_positions(&mut self) -> Result<(), Reject> {
         let position = self.measured_rest().ok_or(Reject::NotReady)?;
         self.feedforward
-            .restart_at_rest(position, self.now_s())
+            .restart_at_rest(self.planner.load_at_rest(position), self.now_s())
             .map_err(|_| Reject::Invalid)?;
         for (drive, at) in K::DRIVES.into_iter().zip(position) {
             if let Some(link) = self.link_mut(drive) {
@@ -1661,7 +1663,7 @@ where
 
     /// Whether every drive is where the controller last brought it, for a move at rest:
     /// position actual within its `in_place` window of where the model holds the crane
-    /// (at rest the load hangs below trolley and bridge, as deep as the rope is long). A
+    /// (where the drives stand while the load rests: [`Crane::drives_at_rest`]). A
     /// position not known is not in place. While the controller itself moves the crane
     /// (a move, the feedback holding the load) the following windows vouch for the
     /// drives instead. Never inlined (asked only with a move request).
@@ -1671,7 +1673,7 @@ where
         if plan.is_moving(self.now_s()) || !self.gate.at_standstill() {
             return true;
         }
-        let rest: [f64; A] = plan.final_position().into();
+        let rest = self.planner.drives_at_rest(plan.final_position().into());
         K::DRIVES.into_iter().zip(rest).all(|(drive, at)| {
             self.link(drive).is_some_and(|l| {
                 l.actual(self.now_ms, self.config.tpdo_timeout_ms)

@@ -187,6 +187,18 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         }
     }
 
+    /// Where the drives stand while the load rests at `load` ([`Crane::drives_at_rest`]).
+    #[must_use]
+    pub fn drives_at_rest(&self, load: [f64; A]) -> [f64; A] {
+        self.crane.drives_at_rest(load)
+    }
+
+    /// Where the load rests while the drives stand at `drives` ([`Crane::load_at_rest`]).
+    #[must_use]
+    pub fn load_at_rest(&self, drives: [f64; A]) -> [f64; A] {
+        self.crane.load_at_rest(drives)
+    }
+
     /// Each drive's position (planar: trolley x and rope length l) where `plan` stands
     /// at `t` (the flat inverse: exact for the plan, which the model follows to the
     /// scheme's error).

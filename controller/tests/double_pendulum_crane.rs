@@ -138,6 +138,23 @@ fn a_move_that_would_slacken_the_rope_to_the_hook_is_refused_as_such() {
     );
     let planar = Planner::with_axes(p.crane, unbounded);
     assert!(planar.plan_move(&from, to, Some(quick), 0.0).is_ok());
+    // Quicker still, the rope would push (the mean reaches g: the flat inverse refuses
+    // it), and where it does the rope is slack too.
+    let mut plan = from;
+    let step = plan.candidate(to.into(), 0.0, 0.8).unwrap();
+    plan.push(step).unwrap();
+    let (t0, t1) = step.active_span();
+    let pushing: Vec<f64> = (0..=400)
+        .map(|i| t0 + (t1 - t0) * f64::from(i) / 400.0)
+        .filter(|t| {
+            matches!(
+                double_pendulum::flat_inverse(&p, &plan, *t),
+                Err(solver_core::Error::RopeSlack { .. })
+            )
+        })
+        .collect();
+    assert!(!pushing.is_empty());
+    assert!(pushing.iter().all(|t| p.slack_rope(&plan, *t, limit)));
     let (_, mean) = peaks(slow);
     assert!(mean < 0.9 * limit, "mean {mean}");
     assert!(hook_and_load.plan_move(&from, to, Some(slow), 0.0).is_ok());
@@ -171,4 +188,78 @@ fn its_inverse_models_give_its_own_reference() {
     let load = plan.derivatives::<1>(t)[0];
     let sling = ((load[0] - f.hook[0]).powi(2) + (load[1] - f.hook[1]).powi(2)).sqrt();
     assert!((sling - p.sling).abs() < 1e-9, "{sling}");
+}
+
+/// The controller drives the hook-and-load crane on the virtual bus (its plant-less
+/// drives, powered up where the flat inverse puts them: the rope a sling shorter than the
+/// load is deep): a commanded move at rest is taken (the drives are in place: their
+/// positions compared with where the drives stand at rest, not with the load's), ends
+/// with the drives where the load's target puts them; a Reset at rest takes the drives'
+/// positions as the crane's (the load a sling below the hook) and the next move lands on
+/// its target too, not a sling off.
+#[test]
+fn the_controller_moves_it_and_resets_it_where_its_drives_stand() {
+    use controller::commands::{Answer, Request};
+    use controller::drive::PLANAR;
+    use controller::feedback::NoFeedback;
+    use controller::{Config, Controller, Injectable, InverseModel, Mode};
+    use sim::{run_cycle, Action, VirtualBus, HEALTHY};
+    use solver_core::models::double_pendulum as subs;
+    use solver_core::{JacobianMode, SolverSettings};
+
+    let p = HookAndLoad::EXAMPLE;
+    let home = [12.0, 8.0];
+    let model = DoublePendulumSubs::new(p, at_rest(home)).unwrap();
+    let settings = SolverSettings {
+        h: 0.01,
+        ..SolverSettings::paper(JacobianMode::Exact)
+    };
+    let integrator = subs::StructuredBdf::new(&model, &settings, 4, 0.0).unwrap();
+    let ff = Injectable::new(InverseModel::new(model, integrator));
+    let mut c = Controller::with_correction(ff, NoFeedback, planner(p), Config::DEFAULT);
+    let mut bus = VirtualBus::for_crane(HEALTHY, &p, p.drives_at_rest(home));
+    let mut now = 0;
+    let mut run = |c: &mut Controller<_, NoFeedback, HookAndLoad, 2>,
+                   bus: &mut VirtualBus<HookAndLoad, 2>,
+                   n: usize| {
+        for _ in 0..n {
+            run_cycle(c, bus, now).unwrap();
+            now += 10;
+        }
+    };
+    run(&mut c, &mut bus, 200);
+    assert_eq!(c.mode(), Mode::Ready);
+    let drives =
+        |bus: &VirtualBus<HookAndLoad, 2>| PLANAR.map(|d| bus.drive(d).unwrap().position());
+    let near = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-3 && (a[1] - b[1]).abs() < 1e-3;
+
+    let first = [16.0, 6.0];
+    bus.inject(Action::Request(Request::Move {
+        id: 1,
+        target: first,
+        duration: Some(10.0),
+    }));
+    run(&mut c, &mut bus, 3);
+    assert_eq!(c.last_answer(), (1, Answer::Accepted, None));
+    run(&mut c, &mut bus, 1_100);
+    assert_eq!(c.mode(), Mode::Ready);
+    let at = drives(&bus);
+    assert!(near(at, p.drives_at_rest(first)), "drives at {at:?}");
+
+    bus.inject(Action::Request(Request::Reset { id: 2 }));
+    run(&mut c, &mut bus, 3);
+    assert_eq!(c.last_answer(), (2, Answer::Accepted, None));
+    run(&mut c, &mut bus, 100);
+    let second = [14.0, 7.0];
+    bus.inject(Action::Request(Request::Move {
+        id: 3,
+        target: second,
+        duration: Some(10.0),
+    }));
+    run(&mut c, &mut bus, 3);
+    assert_eq!(c.last_answer(), (3, Answer::Accepted, None));
+    run(&mut c, &mut bus, 1_100);
+    assert_eq!(c.mode(), Mode::Ready);
+    let at = drives(&bus);
+    assert!(near(at, p.drives_at_rest(second)), "drives at {at:?}");
 }

@@ -383,8 +383,9 @@ pub struct FirmwareScene<K: FirmwareCrane<A>, const A: usize> {
 
 impl<K: FirmwareCrane<A>, const A: usize> FirmwareScene<K, A> {
     /// Where the load rests at power-up: where the scene's move starts (`[x_C, z_C]`,
-    /// the 3D crane's `[x_C, y_C, z_C]`). At rest the drives stand there too (trolley
-    /// and bridge under the load, the rope as long as the load is deep).
+    /// the 3D crane's `[x_C, y_C, z_C]`). The drives stand where the crane's
+    /// `drives_at_rest` puts them (the planar and 3D crane's there too, the
+    /// hook-and-load crane's rope a sling shorter).
     #[must_use]
     pub fn start(&self) -> [f64; A] {
         self.first_move.start().into()

@@ -100,6 +100,9 @@ impl Crane<2> for DoublePendulumParams {
     fn drives_at_rest(&self, [x, z]: [f64; 2]) -> [f64; 2] {
         [x, z - self.sling]
     }
+    fn load_at_rest(&self, [x, l]: [f64; 2]) -> [f64; 2] {
+        [x, l + self.sling]
+    }
     /// The rope carries hook and load: it stays taut while their mean downward
     /// acceleration `(z̈_C + μ z̈_H)/(1 + μ)` (μ = m_h/m) stays below g, and keeps the
     /// planner's margin below `max_down_acceleration`; the sling is the load's own rope,

@@ -105,8 +105,13 @@ pub trait Crane<const A: usize> {
     /// Where the drives stand while the load rests at `load` (its outputs): the inverse
     /// at rest. The planar and 3D crane's drives stand where the load hangs (trolley and
     /// bridge above it, the rope as long as it is deep); the hook-and-load crane's rope
-    /// is a sling shorter. What the virtual bus powers its drives up at.
+    /// is a sling shorter. What the controller expects its drives' positions actual to
+    /// read at rest, and where the virtual bus powers them up.
     fn drives_at_rest(&self, load: [f64; A]) -> [f64; A];
+    /// Where the load rests while the drives stand at `drives`: the inverse of
+    /// [`Crane::drives_at_rest`]. Where the controller restarts its model from the
+    /// drives' positions actual (a reset).
+    fn load_at_rest(&self, drives: [f64; A]) -> [f64; A];
     /// Whether a rope other than the load's own goes slack, or keeps less tension than
     /// the planner's margin, at `t` of `z`: the planner refuses the load's own downward
     /// acceleration above `max_down_acceleration` (m/s²) for every crane, and asks this

@@ -51,6 +51,9 @@ impl Crane<2> for CraneParams {
     fn drives_at_rest(&self, load: [f64; 2]) -> [f64; 2] {
         load
     }
+    fn load_at_rest(&self, drives: [f64; 2]) -> [f64; 2] {
+        drives
+    }
     fn lags(&self) -> [f64; 2] {
         [self.tau1, self.tau2]
     }

@@ -53,6 +53,9 @@ impl Crane<3> for Crane3dParams {
     fn drives_at_rest(&self, load: [f64; 3]) -> [f64; 3] {
         load
     }
+    fn load_at_rest(&self, drives: [f64; 3]) -> [f64; 3] {
+        drives
+    }
     fn lags(&self) -> [f64; 3] {
         [self.tau1, self.tau2, self.tau3]
     }

@@ -432,9 +432,9 @@ impl VirtualBus {
 
 impl<K: Simulated<A>, const A: usize> VirtualBus<K, A> {
     /// A freshly powered drive for each of `crane`'s drives (at its stock node, about to
-    /// send its boot-up message), the load resting with the drives at `start` (each
-    /// drive's position, same order: at rest the load hangs under trolley and bridge, as
-    /// deep as the rope is long), and the scenario's events. A scenario with a plant
+    /// send its boot-up message), the crane resting with the drives at `start` (each
+    /// drive's position, same order: `Crane::drives_at_rest` of where the load rests),
+    /// and the scenario's events. A scenario with a plant
     /// (feature `plant`) runs on `crane`'s plant with its parameters, and its
     /// inclinometer at the stock node.
     #[must_use]
