@@ -45,6 +45,7 @@ fn panic(_: &core::panic::PanicInfo) -> ! {
 }
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::Crane3dParams;
+use solver_core::models::double_pendulum_crane::DoublePendulumParams;
 use solver_core::plan::Plan;
 use solver_core::trajectory::PointToPoint;
 use solver_core::{Error, JacobianMode, SolverSettings};
@@ -61,14 +62,16 @@ trait Proven<const A: usize>: Crane<A> + Sized {
     fn run<F: Feedforward<A, Reference = Self::Reference> + Replan<A>>(feedforward: F) -> !;
 }
 
-/// The first plan of a crane resting at `start`, moving to `end` (opaque).
+/// The first plan of a crane resting at `start`, moving to `end` with smoothness `n`
+/// (opaque).
 fn plan_of<K: Crane<A>, const A: usize>(
     start: [f64; A],
     end: [f64; A],
+    n: usize,
 ) -> Result<Plan<f64, A>, Error> {
     let (start, end) = black_box((start, end));
     let [t0, d]: [f64; 2] = black_box([1.0, 8.0]);
-    let n: usize = black_box(4);
+    let n: usize = black_box(n);
     let mut plan = command_plan::<K, A>(start, n)?;
     plan.push(PointToPoint::new(
         SVector::from(start),
@@ -85,7 +88,7 @@ impl Proven<2> for CraneParams {
         black_box(CraneParams::PAPER)
     }
     fn plan() -> Result<Plan<f64, 2>, Error> {
-        plan_of::<Self, 2>([12.0, 8.0], [20.0, 4.0])
+        plan_of::<Self, 2>([12.0, 8.0], [20.0, 4.0], 4)
     }
     fn run<F: Feedforward<Reference = Self::Reference> + Replan>(feedforward: F) -> ! {
         let limits: DriveLimits = black_box(DriveLimits::LAB);
@@ -116,7 +119,7 @@ impl Proven<3> for Crane3dParams {
         black_box(Crane3dParams::EXAMPLE)
     }
     fn plan() -> Result<Plan<f64, 3>, Error> {
-        plan_of::<Self, 3>([12.0, 3.0, 8.0], [20.0, 6.0, 4.0])
+        plan_of::<Self, 3>([12.0, 3.0, 8.0], [20.0, 6.0, 4.0], 4)
     }
     fn run<F: Feedforward<3, Reference = Self::Reference> + Replan<3>>(feedforward: F) -> ! {
         let limits = black_box(DriveLimits::LAB_3D);
@@ -152,6 +155,28 @@ impl Proven<3> for Crane3dParams {
                 config,
             ))
         }
+    }
+}
+
+/// The hook-and-load crane: feedforward only (it has no loop), its move of smoothness 7
+/// (its inputs contain the path's sixth derivative).
+impl Proven<2> for DoublePendulumParams {
+    fn params() -> Self {
+        black_box(DoublePendulumParams::EXAMPLE)
+    }
+    fn plan() -> Result<Plan<f64, 2>, Error> {
+        plan_of::<Self, 2>([12.0, 8.0], [20.0, 4.0], 7)
+    }
+    fn run<F: Feedforward<2, Reference = Self::Reference> + Replan<2>>(feedforward: F) -> ! {
+        let limits = black_box(<Self as Crane<2>>::LAB_LIMITS);
+        let config: Config = black_box(Config::DEFAULT);
+        let planner = Planner::with_axes(Self::params(), limits);
+        drive(Controller::with_correction(
+            feedforward,
+            NoFeedback,
+            planner,
+            config,
+        ))
     }
 }
 
