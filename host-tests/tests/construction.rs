@@ -72,6 +72,7 @@ fn scene_files(dir: &Path) -> Vec<PathBuf> {
 fn every_crane_scene_gets_the_firmwares_controller() {
     let mut checked = 0;
     let mut spatial = 0;
+    let mut hook_and_load = 0;
     for path in scene_files(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes")) {
         let scene = Scene::load(&path).unwrap();
         let commissioning = CommissioningFile::for_scene(&path).unwrap();
@@ -83,6 +84,7 @@ fn every_crane_scene_gets_the_firmwares_controller() {
         else {
             continue;
         };
+        hook_and_load += usize::from(model.contains("DoublePendulum"));
         assert_eq!(feedback, scene.feedback.is_some(), "{}", path.display());
         assert_eq!(
             model.contains("Structured"),
@@ -95,7 +97,7 @@ fn every_crane_scene_gets_the_firmwares_controller() {
         checked += 1;
     }
     assert!(
-        checked >= 6 && spatial >= 1,
-        "{checked} scenes, {spatial} in 3D"
+        checked >= 7 && spatial >= 1 && hook_and_load >= 1,
+        "{checked} scenes, {spatial} in 3D, {hook_and_load} hook-and-load"
     );
 }

@@ -15,6 +15,7 @@ use std::path::Path;
 
 use host_tests::plot::{figure, Chart, Legend, Scale, Series};
 use host_tests::study::{jacobian_label, scheme_label};
+use scene::dispatch::FirmwareModel;
 use scene::SchemeSpec;
 
 use crate::cycles::{self, CLOCK_MHZ};
@@ -167,8 +168,12 @@ fn trace<'a>(m: &'a Measured, e: &'a cycles::Estimate) -> Result<Trace<'a>, Stri
     Ok(Trace {
         label: format!(
             "{}{} {}",
-            // The crane in three dimensions beside the paper's.
-            if m.scene.outputs() == 3 { "3D " } else { "" },
+            // The other cranes beside the paper's.
+            match FirmwareModel::of(&m.scene.model) {
+                Ok(FirmwareModel::Spatial(_)) => "3D ",
+                Ok(FirmwareModel::HookAndLoad(_)) => "hook-and-load ",
+                Ok(FirmwareModel::Planar(_)) | Err(_) => "",
+            },
             scheme_label(&m.scene),
             jacobian_label(&m.scene)
         ),
