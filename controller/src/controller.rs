@@ -1232,15 +1232,16 @@ where
                 .correction
                 .rope()
                 .map_or((0, 0, 0, 0, u32::MAX, 0), |r| {
-                    let (scale, offset) = r.estimate();
+                    // One solve for all of it (review finding C1).
+                    let s = r.solution();
                     (
-                        libm::round(scale * 1e6) as i32,
-                        libm::round(offset * 1e6) as i32,
+                        libm::round(s.scale * 1e6) as i32,
+                        libm::round(s.offset * 1e6) as i32,
                         r.samples(),
-                        r.learnt() as u8,
+                        s.learnt as u8,
                         // Saturating casts: an infinite uncertainty is u32::MAX.
-                        libm::round(r.uncertainty() * 1e6) as u32,
-                        libm::round(r.delay() * 1e6) as i32,
+                        libm::round(s.uncertainty * 1e6) as u32,
+                        libm::round(s.delay * 1e6) as i32,
                     )
                 }),
         }

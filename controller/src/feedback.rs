@@ -1008,11 +1008,43 @@ impl StateFeedback {
 
     /// Back to [`Mode::Closed`], the observer to be started from the next measurement
     /// (call with the inverse model restarted at the measured position).
+    ///
+    /// Field by field, as [`Self::with_gains`] starts them, the gains and the rope's
+    /// calibration left in place: a new value built with them copied in and copied
+    /// back put both (~5 KB) on the control task's stack twice (review finding C1).
+    /// The pattern lists every field, so a field added fails to compile here.
     pub fn reset(&mut self) {
-        *self = Self {
-            rope: self.rope,
-            ..Self::with_gains(self.cfg, self.gains)
-        };
+        let Self {
+            cfg,
+            gains: _,
+            e,
+            ew,
+            previous,
+            started,
+            seen_change,
+            applied,
+            mode,
+            bad_angle_cycles,
+            held,
+            resting,
+            swing,
+            rope: _,
+            zero,
+            unit,
+        } = self;
+        *e = Observed::zeros();
+        *ew = Vector2::zeros();
+        *previous = None;
+        *started = false;
+        *seen_change = false;
+        *applied = [0.0; 2];
+        *mode = Mode::Closed;
+        *bad_angle_cycles = 0;
+        *held = Held::NEW;
+        *resting = false;
+        *swing = Swing::NEW;
+        *zero = Zero::new(cfg.g, cfg.h, cfg.zero_thresholds());
+        *unit = None;
     }
 
     /// The rope as the swing has shown it so far ([`crate::rope`]).
@@ -1758,6 +1790,37 @@ mod tests {
         assert_eq!(last, [0.0, 0.0]);
         fb.reset();
         assert_eq!(fb.mode(), Mode::Closed);
+    }
+
+    /// [`StateFeedback::reset`] starts every field as [`StateFeedback::with_gains`]
+    /// does, the rope's calibration kept (review finding C1 made it field by field).
+    #[test]
+    fn a_reset_is_a_new_feedback_that_keeps_the_rope() {
+        let mut fb = StateFeedback::new(Config::PAPER).unwrap();
+        let mut last = [0.0; 2];
+        // Past the rope filters' warm-up on a moving crane (6/ω, 4.3 s at 5 m).
+        for k in 0..800 {
+            let t = f64::from(k) * 0.01;
+            let r = Reference {
+                x: 15.0 + 0.2 * t,
+                l: 5.0,
+                vx: 0.2,
+                ..Reference::default()
+            };
+            let m = Measurement {
+                x: r.x + 0.01,
+                l: 5.0,
+                phi: (k % 50 != 7).then_some(0.01 * libm::sin(1.4 * t)),
+            };
+            last = fb.cycle(&r, [0.2, 0.0], Some(m), last, &DriveLimits::LAB).u;
+        }
+        assert!(fb.rope().samples() > 0);
+        let rope = fb.rope;
+        fb.reset();
+        let mut fresh = StateFeedback::with_gains(Config::PAPER, fb.gains);
+        assert_ne!(fresh, fb);
+        fresh.rope = rope;
+        assert_eq!(fresh, fb);
     }
 
     /// The linear trolley–swing crane of the model at rest at `(15 m, l)`, started

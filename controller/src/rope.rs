@@ -287,10 +287,10 @@ impl Spread {
     /// The variance of `Σ vᵀ g` over the blocks (the open one closed as it is), for the
     /// scores at `θ = [s, o, β]`: `uᵀ (S₀ + S₁) u` (Bartlett's ½ on both neighbours).
     fn variance(&self, v: [f64; 3], theta: [f64; 3]) -> f64 {
-        let mut all = *self;
-        if all.in_open > 0 {
-            all.close();
-        }
+        // The open block closed as `close` would, without copying the sums (1.5 KB,
+        // review finding C1): each entry is the stored one plus the open block's
+        // outer-product term, added as `outer_add` adds it (the same rounding).
+        let open = (self.in_open > 0).then_some(&self.open);
         // vᵀ g = vᵀ Σzy − vᵀ (Σzzᵀ) θ: the upper triangle's entries (i, j) weigh
         // v_i θ_j + v_j θ_i off the diagonal.
         let [v0, v1, v2] = v;
@@ -306,16 +306,39 @@ impl Spread {
             -(v1 * t2 + v2 * t1),
             -v2 * t2,
         ];
-        let form = |m: &[[f64; 9]; 9]| {
+        // `uᵀ (m + a bᵀ) u`, the term `a bᵀ` only when both are there.
+        let form = |m: &[[f64; 9]; 9], a: Option<&[f64; 9]>, b: Option<&[f64; 9]>| {
+            let extra = a.zip(b);
             m.iter()
                 .zip(u)
-                .map(|(row, ui)| ui * row.iter().zip(u).map(|(x, uj)| x * uj).sum::<f64>())
+                .enumerate()
+                .map(|(i, (row, ui))| {
+                    ui * row
+                        .iter()
+                        .zip(u)
+                        .enumerate()
+                        .map(|(j, (x, uj))| {
+                            let cell = match extra {
+                                Some((a, b)) => {
+                                    let ai = a.get(i).copied().unwrap_or(0.0);
+                                    let bj = b.get(j).copied().unwrap_or(0.0);
+                                    x + ai * bj
+                                }
+                                None => *x,
+                            };
+                            cell * uj
+                        })
+                        .sum::<f64>()
+                })
                 .sum::<f64>()
         };
+        // Closing the open block adds `h hᵀ` to `same` and, after a closed block,
+        // `h h₋₁ᵀ` to `next`.
+        let variance =
+            form(&self.same, open, open) + form(&self.next, open, open.and(self.last.as_ref()));
         // Rounding may leave a true zero a hair below it; a NaN (sums that overflowed)
         // must stay NaN — `max` would turn it into a certain 0 and the calibration into
         // one offered as certain.
-        let variance = form(&all.same) + form(&all.next);
         if variance < 0.0 {
             0.0
         } else {
@@ -355,17 +378,22 @@ pub enum Learnt {
     DelayMismatch = 5,
 }
 
-/// The estimate and what it is worth.
+/// The estimate and what it is worth, from one solve ([`RopeLength::solution`]; the
+/// status's 0x2004 entries read all of it at once).
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Solution {
-    scale: f64,
-    offset: f64,
-    learnt: Learnt,
+pub struct Solution {
+    /// The scaling error `s` ([`RopeLength::estimate`]).
+    pub scale: f64,
+    /// The offset `o`, m ([`RopeLength::estimate`]).
+    pub offset: f64,
+    /// What it is worth ([`RopeLength::learnt`]).
+    pub learnt: Learnt,
     /// [`SIGMAS`] standard deviations of the length, the largest over [`RANGE`], plus
-    /// [`MODEL_FLOOR`], m.
-    uncertainty: f64,
-    /// The angle's delay behind the positions beyond the commissioned one, s.
-    delay: f64,
+    /// [`MODEL_FLOOR`], m ([`RopeLength::uncertainty`]).
+    pub uncertainty: f64,
+    /// The angle's delay behind the positions beyond the commissioned one, s
+    /// ([`RopeLength::delay`]).
+    pub delay: f64,
 }
 
 impl Solution {
@@ -601,11 +629,36 @@ impl RopeLength {
         if self.missed <= MAX_BRIDGED {
             return;
         }
-        *self = Self {
-            taken: self.taken,
-            spread: self.spread,
-            ..Self::new(self.g, self.h, self.lag)
-        };
+        self.restart();
+    }
+
+    /// The filters and the alignment start again at the next sample; the sums (most of
+    /// the state, ~2.9 KB with [`Spread`]) stay where they are — built in place, not
+    /// as a new value with the sums copied in and the whole copied back (review
+    /// finding C1: the control task's stack). The fields listed are
+    /// [`Self::new`]'s less the sums (a field added there fails to compile here).
+    fn restart(&mut self) {
+        let Self {
+            g: _,
+            h,
+            lag,
+            align,
+            filters,
+            taken: _,
+            spread: _,
+            pending,
+            velocities,
+            warm,
+            started_at_rest,
+            missed,
+        } = self;
+        *align = Alignment::new(*lag, *h);
+        *filters = Filters::new(*h);
+        *pending = None;
+        *velocities = None;
+        *warm = 0;
+        *started_at_rest = false;
+        *missed = 0;
     }
 
     /// The scaling error and offset learnt, `(s, o)`, whatever they are worth
@@ -637,6 +690,13 @@ impl RopeLength {
     #[must_use]
     pub fn delay(&self) -> f64 {
         self.solve().delay
+    }
+
+    /// Estimate, verdict, uncertainty and delay together: one solve where the four
+    /// accessors make four (review finding C1: the status read on every SDO request).
+    #[must_use]
+    pub fn solution(&self) -> Solution {
+        self.solve()
     }
 
     fn solve(&self) -> Solution {
@@ -997,6 +1057,61 @@ mod tests {
             fine.add([f64::from(k), 1.0, 0.5], 2.0);
         }
         assert!(fine.variance([1.0, 0.0, 0.0], [2.0, 0.0, 0.0]) >= 0.0);
+    }
+
+    /// The variance with the open block closed in place is the one of a copy closed
+    /// (review finding C1 stopped copying): bit for bit, with and without an open block
+    /// and a closed one before it.
+    #[test]
+    fn the_variance_closes_the_open_block_as_a_closed_copy_would() {
+        let closed_copy = |spread: &Spread, v: [f64; 3], theta: [f64; 3]| {
+            let mut all = *spread;
+            if all.in_open > 0 {
+                all.close();
+            }
+            let mut probe = Spread::EMPTY;
+            probe.same = all.same;
+            probe.next = all.next;
+            probe.variance(v, theta)
+        };
+        let mut spread = Spread::EMPTY;
+        let mut k = 0.0;
+        for samples in [0, 1, 7, BLOCK - 8, 1, BLOCK, 3 * BLOCK + 5] {
+            for _ in 0..samples {
+                k += 1.0;
+                spread.add(
+                    [libm::sin(0.37 * k), 1.0 + libm::cos(0.11 * k), 0.3 * k],
+                    libm::sin(0.05 * k) - 0.2,
+                );
+            }
+            let (v, theta) = ([0.7, -1.3, 0.2], [0.01, -0.05, 0.002]);
+            assert_eq!(
+                spread.variance(v, theta).to_bits(),
+                closed_copy(&spread, v, theta).to_bits(),
+                "after {k} samples"
+            );
+        }
+    }
+
+    /// A gap longer than the filters bridge starts them again, the sums kept: as a new
+    /// estimate with the sums copied in (what it was before review finding C1).
+    #[test]
+    fn a_long_gap_restarts_the_filters_and_keeps_the_sums() {
+        let lag = InclinometerLag {
+            delay: 2,
+            filter: 0.02,
+        };
+        let mut est = learn(0.015, 0.08, TRUE, lag);
+        for _ in 0..=MAX_BRIDGED {
+            est.gap();
+        }
+        let fresh = RopeLength {
+            taken: est.taken,
+            spread: est.spread,
+            ..RopeLength::new(9.81, 0.01, lag)
+        };
+        assert_eq!(est, fresh);
+        assert!(est.samples() > 0);
     }
 
     #[test]
