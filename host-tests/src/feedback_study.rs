@@ -284,8 +284,9 @@ fn run_told(
         inclinometer: told.unwrap_or_else(|| commissioned(case)),
         ..Config::PAPER
     };
-    // The observer designed for the inclinometer as commissioned (`feedback::angle_age`),
-    // as the controller designs it from its configuration.
+    // The observer designed for the inclinometer as commissioned (its filter and delay
+    // as the observer's states, `feedback::SensorStates`), as the controller designs it
+    // from its configuration.
     let mut fb = gains.map(|g| match cfg.inclinometer == InclinometerLag::NONE {
         true => StateFeedback::with_gains(cfg, *g),
         false => StateFeedback::new(cfg).unwrap_or_else(|_| StateFeedback::with_gains(cfg, *g)),
