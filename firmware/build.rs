@@ -12,7 +12,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use scene::commissioning::CommissioningFile;
-use scene::dispatch::{firmware, Axes, FirmwareCrane, FirmwareCraneVisitor, ReferenceOf};
+use scene::dispatch::{firmware, FirmwareCrane, FirmwareCraneVisitor};
 use scene::firmware::FirmwareScene;
 use scene::{JacobianSpec, Scene};
 
@@ -88,10 +88,10 @@ struct Generate<'a> {
 impl FirmwareCraneVisitor for Generate<'_> {
     type Output = Result<String, String>;
 
-    fn visit<K: FirmwareCrane<A>, const A: usize>(self, setup: FirmwareScene<K, A>) -> Self::Output
-    where
-        Axes<A>: ReferenceOf,
-    {
+    fn visit<K: FirmwareCrane<A>, const A: usize>(
+        self,
+        setup: FirmwareScene<K, A>,
+    ) -> Self::Output {
         crane_module(self.scene, &setup)
     }
 }
@@ -100,10 +100,7 @@ impl FirmwareCraneVisitor for Generate<'_> {
 fn crane_module<K: FirmwareCrane<A>, const A: usize>(
     scene: &Scene,
     setup: &FirmwareScene<K, A>,
-) -> Result<String, String>
-where
-    Axes<A>: ReferenceOf,
-{
+) -> Result<String, String> {
     // The model, the scheme and the Newton strategy are types, so the firmware links
     // only the ones its scene names (`scene::dispatch::FirmwareScheme`, which the host's
     // run of the firmware builds too).
@@ -223,7 +220,7 @@ where
     );
     let _ = writeln!(
         c,
-        "/// Builds the scene's inverse model at rest at t = 0, its move planned if\n/// `first_move` (checked against the planner's rules when the firmware was built).\npub fn inverse_model(first_move: bool) -> Result<Feedforward, solver_core::Error> {{\n    let mut plan = controller::feedforward::command_plan(START, {})?;\n    if first_move {{\n        plan.push(solver_core::trajectory::PointToPoint::new(START.into(), {}.into(), {:?}_f64, {:?}_f64, {})?)?;\n    }}\n    {}\n}}",
+        "/// Builds the scene's inverse model at rest at t = 0, its move planned if\n/// `first_move` (checked against the planner's rules when the firmware was built).\npub fn inverse_model(first_move: bool) -> Result<Feedforward, solver_core::Error> {{\n    let mut plan = controller::crane::command_plan::<Crane, AXES>(START, {})?;\n    if first_move {{\n        plan.push(solver_core::trajectory::PointToPoint::new(START.into(), {}.into(), {:?}_f64, {:?}_f64, {})?)?;\n    }}\n    {}\n}}",
         tr.smoothness,
         v(end),
         tr.t_start,

@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use std::{env, fs, path::PathBuf};
 
 use scene::commissioning::CommissioningFile;
-use scene::dispatch::{firmware, Axes, FirmwareCrane, FirmwareCraneVisitor, ReferenceOf};
+use scene::dispatch::{firmware, FirmwareCrane, FirmwareCraneVisitor};
 use scene::firmware::{settings_source, FirmwareScene};
 use scene::Scene;
 
@@ -17,10 +17,7 @@ struct Generate<'a>(&'a Scene);
 impl FirmwareCraneVisitor for Generate<'_> {
     type Output = String;
 
-    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> String
-    where
-        Axes<A>: ReferenceOf,
-    {
+    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> String {
         // The fuzz targets drive the planar crane's controller.
         assert_eq!(
             A, 2,

@@ -20,7 +20,11 @@ for the 3D crane (a `bridge` row) a spherical pendulum under bridge and trolley
 (load3d.py); with `--inclinometer` the CiA 410 inclinometer on the hook block that
 measures its swing (node, sign and offset from the commissioning file's
 `[inclinometer]`; with `axes = 2` the two-axis one, its lateral sign and offset too:
-the 3D crane's, node 5 unless the file says otherwise).
+the 3D crane's, node 5 unless the file says otherwise). The one-axis inclinometer can be
+late, filtered and noisy as a real one (`--inclinometer-delay`, `--inclinometer-filter-ms`,
+`--inclinometer-noise`, `--inclinometer-seed`; load.SensorLag), and the planar crane's
+rope need not be what the commissioning file's scaling says (`--true-rope`): issue 33's
+rope calibration (test_rope_calibration.py).
 
 Each drive powers on where `--start` puts its axis (metres, the scene's start in the
 model's order: trolley, winch; the 3D crane's bridge, trolley, winch), through the
@@ -41,7 +45,7 @@ import can
 import canopen
 from canopen.sdo import SdoAbortedError
 
-from load import Inclinometer, Load
+from load import Inclinometer, Load, SensorLag
 from load3d import SpatialLoad
 from node import SimulatedNode
 
@@ -106,6 +110,11 @@ class Drive(SimulatedNode):
         # the drive drives it (a slipping brake), the drive standing whatever its target.
         self.creep = 0
         self.ignoring = False
+        # Increments its axis moves per unit of target velocity (0x60FF, µm/s): 1 for a
+        # drive whose own velocity scaling matches the commissioning file's 1 µm per
+        # increment; a winch whose drum scaling was corrected by the rope calibration has
+        # its velocity factor corrected too (docs/COMMISSIONING.md, step 3).
+        self.velocity_factor = 1.0
         super().__init__(network, node_id, EDS)
         network.subscribe(0x080, self._on_sync)
         network.subscribe(0x200 + node_id, self._on_rpdo)
@@ -254,7 +263,7 @@ class Drive(SimulatedNode):
                 self._apply(values)
             self._watch_controller(timestamp)
             dt = self.period_s()
-            self.position += (self.velocity + self.creep) * dt
+            self.position += (self.velocity * self.velocity_factor + self.creep) * dt
             if self.state == "operation enabled" and self.mode() == CSV:
                 self.velocity = 0 if self.ignoring else self.target
             elif self.state == "quick stop active":
@@ -355,9 +364,14 @@ class Drives:
         self.inclinometer = None
         axes = {node: scaling[axis] for axis, node in self.axes.items()}
         moved = [self.drives[self.axes[axis]] for axis in model]
+        if args.velocity_factor:
+            node, factor = args.velocity_factor
+            self.drives[int(node)].velocity_factor = factor
         if model == PLANAR:
-            self.load = Load(*moved, axes, args.cycle_ms / 1000.0)
+            self.load = Load(*moved, axes, args.cycle_ms / 1000.0, rope=args.true_rope)
         else:
+            if args.true_rope:
+                raise SystemExit("drives.py: --true-rope is the planar crane's")
             self.load = SpatialLoad(*moved, axes, args.cycle_ms / 1000.0)
         if args.inclinometer:
             row = commissioning.get("inclinometer", {})
@@ -368,6 +382,13 @@ class Drives:
                 row.get("sign", 1.0),
                 row.get("offset_deg", 0.0),
                 lateral=(row.get("lateral_sign", 1.0), row.get("lateral_offset_deg", 0.0)) if two_axes else None,
+                lag=SensorLag(
+                    args.inclinometer_delay,
+                    args.inclinometer_filter_ms / 1000.0,
+                    args.inclinometer_noise,
+                    args.inclinometer_seed,
+                    args.cycle_ms / 1000.0,
+                ),
             )
         # After the drives' own: the load swings with the motion they have just taken.
         self.network.subscribe(0x080, self._on_sync)
@@ -381,7 +402,10 @@ class Drives:
         with self.load.lock:  # a command sees the load and the reading of one SYNC
             slopes = self.load.on_sync()  # φ, or the 3D crane's (α, β)
             if self.inclinometer is not None:
-                self.inclinometer.sample(*(slopes if isinstance(slopes, tuple) else (slopes,)))
+                if isinstance(slopes, tuple):
+                    self.inclinometer.sample(*slopes)
+                else:  # the planar pendulum: its path over the period for the sensor's filter
+                    self.inclinometer.sample(slopes, path=self.load.path)
 
     def command(self, line):
         """`power N`, `off N`, `reboot N`, `fault N`, `warn N`, `dump`; `creep N UM_PER_S`
@@ -469,6 +493,21 @@ def main():
     p.add_argument("--lagging", type=int, nargs="*", default=[], help="nodes whose statusword lags")
     p.add_argument("--status-lag", type=int, default=1, help="SYNCs the statusword lags")
     p.add_argument("--inclinometer", action="store_true", help="the CiA 410 inclinometer on the hook block")
+    p.add_argument("--inclinometer-delay", type=int, default=0, help="SYNCs its reading is late (0-5)")
+    p.add_argument("--inclinometer-filter-ms", type=float, default=0.0, help="its first-order filter, ms (0: none)")
+    p.add_argument("--inclinometer-noise", type=float, default=0.0, help="its noise, degrees (1 sigma)")
+    p.add_argument("--inclinometer-seed", type=int, default=0, help="the seed of its noise")
+    p.add_argument(
+        "--true-rope",
+        type=lambda v: tuple(float(x) for x in v.split(",")),
+        help="SCALE,OFFSET: the rope's true m per winch increment and m at increment 0, where the "
+        "commissioning file's scaling is wrong (the planar crane)",
+    )
+    p.add_argument(
+        "--velocity-factor",
+        type=lambda v: (int(v.split(":")[0]), float(v.split(":")[1])),
+        help="NODE:F: that drive moves F increments per unit of its target velocity (1)",
+    )
     p.add_argument("--commissioning", default=COMMISSIONING, help="the scene's commissioning.toml: scaling, inclinometer")
     p.add_argument("--cycle-ms", type=float, default=10.0, help="the SYNC period the load is stepped by")
     args = p.parse_args()

@@ -21,8 +21,10 @@ resolution 0x6000 in 0.001° as commissioned, the sign and offset of the commiss
 file's `[inclinometer]`.
 """
 
+import collections
 import math
 import os
+import random
 import struct
 import threading
 
@@ -39,9 +41,13 @@ class Load:
     """The pendulum under the trolley; `trolley` and `winch` are drives.py's `Drive`s,
     `axes` maps each to (scale m per increment, offset m) from the commissioning file."""
 
-    def __init__(self, trolley, winch, axes, cycle_s):
+    def __init__(self, trolley, winch, axes, cycle_s, rope=None):
         self.trolley, self.winch = trolley, winch
         self.axes = axes
+        # The rope's true scaling (m per increment of the winch, m at increment 0), where
+        # it is not what the commissioning file says: a drum-scale error or a hook block
+        # of another length (issue 33's rope calibration). None: the file's.
+        self.true_rope = rope
         self.cycle_s = cycle_s
         self.lock = threading.RLock()
         self.phi = 0.0  # rad
@@ -59,10 +65,17 @@ class Load:
         return self._metres(self.trolley, self.trolley.position)
 
     def rope(self):
+        if self.true_rope is not None:
+            scale, offset = self.true_rope
+            return offset + scale * self.winch.position
         return self._metres(self.winch, self.winch.position)
 
     def _velocities(self):
-        return self.axes[self.trolley.id][0] * self.trolley.velocity, self.axes[self.winch.id][0] * self.winch.velocity
+        rope_scale = self.axes[self.winch.id][0] if self.true_rope is None else self.true_rope[0]
+        return (
+            self.axes[self.trolley.id][0] * self.trolley.velocity * self.trolley.velocity_factor,
+            rope_scale * self.winch.velocity * self.winch.velocity_factor,
+        )
 
     def _accelerations(self, t, phi, rate, l0):
         l = max(l0 + self.vl * t, 0.1)
@@ -75,6 +88,7 @@ class Load:
             self.syncs += 1
             h = self.cycle_s / SUBSTEPS
             l0, phi, rate = self.l, self.phi, self.rate
+            self.path = []
             for i in range(SUBSTEPS):
                 t = i * h
                 k1 = self._accelerations(t, phi, rate, l0)
@@ -83,6 +97,7 @@ class Load:
                 k4 = self._accelerations(t + h, phi + h * k3[0], rate + h * k3[1], l0)
                 phi += h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
                 rate += h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+                self.path.append(phi)
             self.l = max(self.rope(), 0.1)
             vx, vl = self._velocities()
             rate -= math.cos(phi) * (vx - self.vx) / self.l
@@ -135,6 +150,48 @@ class Load:
             }
 
 
+class SensorLag:
+    """What a real CiA 410 inclinometer does to the angle before it reports it (issue 33,
+    as sim/src/angle_sensor.rs does it for the study's plant): a first-order low-pass of
+    time constant `filter_s` that follows the angle at the pendulum's integration steps,
+    a sample taken at every SYNC with Gaussian noise of `noise_deg` (1σ; drawn from its
+    own `random.Random(seed)`, so a run is reproducible), and that sample reported
+    `delay_cycles` SYNCs later (0–5; before the first ones, the angle it started on). The
+    defaults are an ideal sensor: the angle of this SYNC as it is."""
+
+    MAX_DELAY = 5
+
+    def __init__(self, delay_cycles=0, filter_s=0.0, noise_deg=0.0, seed=0, cycle_s=0.01):
+        if not 0 <= delay_cycles <= self.MAX_DELAY:
+            raise ValueError(f"delay {delay_cycles} cycles: 0 to {self.MAX_DELAY}")
+        if filter_s < 0 or noise_deg < 0:
+            raise ValueError("the filter's time constant and the noise are not negative")
+        self.delay_cycles, self.filter_s, self.noise_deg = delay_cycles, filter_s, noise_deg
+        self.cycle_s = cycle_s
+        self.random = random.Random(seed)
+        self.filtered = None  # rad, the filter's output
+        self.line = collections.deque(maxlen=delay_cycles + 1)  # samples, newest last
+
+    def active(self):
+        return self.delay_cycles > 0 or self.filter_s > 0 or self.noise_deg > 0
+
+    def reading(self, phi, path=None):
+        """The angle (rad) the sensor reports at this SYNC, the true one being `phi`."""
+        if not self.active():
+            return phi
+        if self.filtered is None:  # at rest so long that the filter followed it
+            self.filtered = phi
+            self.line.extend([phi] * self.delay_cycles)
+        steps = path if path else [phi]
+        dt = self.cycle_s / len(steps)
+        follow = 1.0 - math.exp(-dt / self.filter_s) if self.filter_s > 0 else 1.0
+        for angle in steps:  # exact for the angle held over each step
+            self.filtered += follow * (angle - self.filtered)
+        noise = math.radians(self.random.gauss(0.0, self.noise_deg)) if self.noise_deg > 0 else 0.0
+        self.line.append(self.filtered + noise)
+        return self.line[0]
+
+
 class Inclinometer(SimulatedNode):
     """A one-axis CiA 410 inclinometer on the hook block, on `network`; with `lateral`
     (its sign and offset, °) a two-axis one (cia410-inclinometer-2axis.eds: *slope
@@ -146,11 +203,15 @@ class Inclinometer(SimulatedNode):
     started, sampled and sent on SYNC while operational, no SDO in *stopped*. Its faults:
     `frozen` (the reading sticks — TPDO1 repeats its last value, heartbeat and SDO go on,
     as a sensor whose measuring cell hangs) and `lost` (TPDO1 stops; the node still
-    answers and beats)."""
+    answers and beats). `lag` (`SensorLag`, one axis only): its filter, delay and noise;
+    without it, an ideal sensor."""
 
-    def __init__(self, network, node_id, sign=1.0, offset_deg=0.0, lateral=None):
+    def __init__(self, network, node_id, sign=1.0, offset_deg=0.0, lateral=None, lag=None):
         self.sign, self.offset_deg = sign, offset_deg
         self.lateral = lateral  # (sign, offset_deg) of slope lateral16, or None: one axis
+        self.lag = lag or SensorLag()
+        if lateral is not None and self.lag.active():
+            raise ValueError("a delayed, filtered or noisy inclinometer has one axis here")
         self.fault = None
         super().__init__(network, node_id, EDS if lateral is None else EDS_TWO_AXES)
         self._reset_application()
@@ -199,12 +260,15 @@ class Inclinometer(SimulatedNode):
         degrees = math.degrees(angle) / sign + offset_deg
         return max(-32768, min(32767, round(degrees / self.resolution_deg())))
 
-    def sample(self, phi, lateral=None):
+    def sample(self, phi, lateral=None, path=None):
         """SYNC: measure `phi` (rad; the two-axis sensor's x–z slope, `lateral` its y–z
-        one) at the commissioned resolution, and send TPDO1."""
+        one) at the commissioned resolution, and send TPDO1. `path`: the angle over the
+        period that ended at this SYNC (one value per integration step, the last `phi`),
+        which the sensor's filter follows (`SensorLag`); without one, `phi` held."""
         with self.lock:
             if not self.powered:
                 return
+            phi = self.lag.reading(phi, path)  # what the sensor reports now (its lag)
             self.syncs += 1
             operational = self.node.nmt.state == "OPERATIONAL"
             if operational and self.pdo_changed:

@@ -184,7 +184,16 @@ def assert_setpoints_equal_the_hosts(log, *move, scene=None, nodes=(TROLLEY, WIN
     host = moving_part([tuple(int(v) for v in line.split()) for line in out.splitlines()])
     bus = moving_part(log.setpoint_rows(nodes) if rows is None else rows)
     assert host and len(host[0]) == len(nodes), host[:1]
-    assert len(bus) == len(host), (len(bus), len(host))
+    # One cycle more or less at the end, within the tolerance: the last set point before
+    # rest can round to 1 µm/s on one side and to 0 on the other, and the plan rests where
+    # they round to zero. (Seen twice on issue 32's branch, test_crane3d.py's fastest move:
+    # the bus's last row (1, 1, 0), the host's none; the bus's model then started from its
+    # restart at rest after the previous move, the host's from power-up, so their states
+    # may differ by rounding.)
+    assert abs(len(bus) - len(host)) <= 1, (len(bus), len(host))
+    zeros = (0,) * len(nodes)
+    longest = max(len(bus), len(host))
+    bus, host = (rows + [zeros] * (longest - len(rows)) for rows in (bus, host))
     worst = max(abs(a - b) for p, q in zip(bus, host) for a, b in zip(p, q))
     assert worst <= 2, f"set points differ from the host's by up to {worst} um/s"
     return worst

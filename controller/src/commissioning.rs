@@ -21,7 +21,9 @@
 
 use heapless::Vec;
 
+use crate::canopen::cob;
 use crate::canopen::nmt::{self, NmtCommand};
+use crate::canopen::od::{self, device, Entry};
 use crate::canopen::sdo::{abort, Event, Object, SdoClient, SdoError};
 use crate::cia402::pdo as cia402_pdo;
 use crate::cia410;
@@ -32,24 +34,22 @@ use crate::motion::MotionWindows;
 /// CiA 402 mode of operation (0x6060) the drive runs in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(i8)]
 pub enum OperationMode {
     /// Cyclic synchronous velocity (9): the drive follows 0x60FF every SYNC without
     /// ramps of its own — the mode for set points the master computes every cycle.
-    CyclicSynchronousVelocity,
+    CyclicSynchronousVelocity = 9,
     /// Profile velocity (3), only for drives without CSV: every target passes the
     /// drive's own ramp 0x6083/0x6084, which must then be steeper than anything the
     /// inverse model asks (docs/COMMISSIONING.md).
-    ProfileVelocity,
+    ProfileVelocity = 3,
 }
 
 impl OperationMode {
     /// The value of 0x6060 / 0x6061.
     #[must_use]
     pub const fn code(self) -> i8 {
-        match self {
-            Self::CyclicSynchronousVelocity => 9,
-            Self::ProfileVelocity => 3,
-        }
+        self as i8
     }
 }
 
@@ -113,6 +113,15 @@ impl DriveSetup {
             position_offset: 0.0,
             motion: MotionWindows::STOCK,
         }
+    }
+
+    /// Metres of position actual 0x6064 `increments`, through the commissioned scaling:
+    /// the trolley's position, the winch's rope length. (The one place the scaling is
+    /// applied: the plausibility check, the measured crane, the supervision and the
+    /// reset all read a drive's position through it.)
+    #[must_use]
+    pub fn metres(&self, increments: i32) -> f64 {
+        self.position_offset + self.position_scale * f64::from(increments)
     }
 
     /// The default trolley drive: node 1, 3.3 m/s.
@@ -250,6 +259,18 @@ impl InclinometerSetup {
         ..Self::STOCK
     };
 
+    /// The stock inclinometer with `axes` slopes: [`InclinometerSetup::STOCK`] for one,
+    /// [`InclinometerSetup::STOCK_TWO_AXES`] for two (a crane's
+    /// [`crate::crane::Crane::SWING_AXES`]).
+    #[must_use]
+    pub const fn stock(axes: u8) -> Self {
+        if axes >= 2 {
+            Self::STOCK_TWO_AXES
+        } else {
+            Self::STOCK
+        }
+    }
+
     /// The swing angle φ, rad, from a *slope long16* value.
     #[must_use]
     pub fn angle(&self, slope: i16) -> f64 {
@@ -293,7 +314,7 @@ impl Device for InclinometerSetup {
     /// 0x1017.
     fn configuration(&self, _controller: u8, _period_ms: u8) -> Vec<Write, MAX_WRITES> {
         let mut writes = Vec::new();
-        let _ = writes.push(w(cia410::RESOLUTION, 0, u32::from(self.resolution), 2));
+        let _ = writes.push(w(device::RESOLUTION, u32::from(self.resolution)));
         let mapping: &[u32] = if self.two_axes() {
             &cia410::TPDO1_MAPPING_TWO_AXES
         } else {
@@ -301,50 +322,17 @@ impl Device for InclinometerSetup {
         };
         pdo(
             &mut writes,
-            0x1800,
-            0x1A00,
-            0x180 + u32::from(self.node),
+            od::TPDO1_COMMUNICATION,
+            od::TPDO1_MAPPING,
+            u32::from(cob::TPDO1) + u32::from(self.node),
             mapping,
         );
-        let _ = writes.push(w(0x1017, 0, u32::from(self.heartbeat_ms), 2));
+        let _ = writes.push(w(device::PRODUCER_HEARTBEAT, u32::from(self.heartbeat_ms)));
         writes
     }
     fn confirmed_mode(&self) -> Option<i8> {
         None
     }
-}
-
-/// Objects read or written (CiA 301, CiA 402), by name.
-pub mod object {
-    use crate::canopen::sdo::Object;
-    /// 0x1000 device type.
-    pub const DEVICE_TYPE: Object = Object::new(0x1000, 0);
-    /// 0x1018 identity: vendor id (sub 1) … serial number (sub 4).
-    pub const IDENTITY: u16 = 0x1018;
-    /// 0x1016:1 consumer heartbeat time.
-    pub const CONSUMER_HEARTBEAT: Object = Object::new(0x1016, 1);
-    /// 0x1017 producer heartbeat time.
-    pub const PRODUCER_HEARTBEAT: Object = Object::new(0x1017, 0);
-    /// 0x6060 modes of operation.
-    pub const MODES_OF_OPERATION: Object = Object::new(0x6060, 0);
-    /// 0x6061 modes of operation display.
-    pub const MODES_DISPLAY: Object = Object::new(0x6061, 0);
-    /// 0x605A quick stop option code.
-    pub const QUICK_STOP_OPTION: Object = Object::new(0x605A, 0);
-    /// 0x6085 quick stop deceleration.
-    pub const QUICK_STOP_DECELERATION: Object = Object::new(0x6085, 0);
-    /// 0x6080 max motor speed.
-    pub const MAX_MOTOR_SPEED: Object = Object::new(0x6080, 0);
-    /// 0x60A9 SI unit velocity.
-    pub const VELOCITY_UNIT: Object = Object::new(0x60A9, 0);
-    /// 0x6083 profile acceleration.
-    pub const PROFILE_ACCELERATION: Object = Object::new(0x6083, 0);
-    /// 0x6084 profile deceleration.
-    pub const PROFILE_DECELERATION: Object = Object::new(0x6084, 0);
-    /// 0x60C2:1 interpolation time period value.
-    pub const INTERPOLATION_PERIOD: Object = Object::new(0x60C2, 1);
-    /// 0x60C2:2 interpolation time index (power of ten of the value's unit, s).
-    pub const INTERPOLATION_INDEX: Object = Object::new(0x60C2, 2);
 }
 
 /// One value to write (and read back): object, value, size in bytes.
@@ -359,11 +347,12 @@ pub struct Write {
     pub size: u8,
 }
 
-const fn w(index: u16, sub: u8, value: u32, size: u8) -> Write {
+/// `value` into `entry`, in its data type's size.
+const fn w(entry: Entry, value: u32) -> Write {
     Write {
-        object: Object::new(index, sub),
+        object: entry.object,
         value,
-        size,
+        size: entry.size(),
     }
 }
 
@@ -378,15 +367,25 @@ fn pdo(writes: &mut Vec<Write, MAX_WRITES>, comm: u16, map: u16, cob: u32, entri
         // The configuration is built from a fixed list that fits MAX_WRITES.
         let _ = writes.push(x);
     };
-    push(w(comm, 1, 0x8000_0000 | cob, 4));
-    push(w(map, 0, 0, 1));
+    push(w(od::pdo_cob_id(comm), COB_ID_NOT_VALID | cob));
+    push(w(od::pdo_mapped_count(map), 0));
     for (sub, entry) in (1u8..).zip(entries) {
-        push(w(map, sub, *entry, 4));
+        push(w(od::pdo_mapped(map, sub), *entry));
     }
-    push(w(map, 0, entries.len() as u32, 1));
-    push(w(comm, 2, 1, 1));
-    push(w(comm, 1, cob, 4));
+    push(w(od::pdo_mapped_count(map), entries.len() as u32));
+    push(w(od::pdo_transmission_type(comm), SYNCHRONOUS));
+    push(w(od::pdo_cob_id(comm), cob));
 }
+
+/// A PDO's COB-ID with bit 31 set: the PDO is not valid (CiA 301), so that it may be
+/// mapped.
+const COB_ID_NOT_VALID: u32 = 0x8000_0000;
+
+/// The transmission type of a synchronous PDO sent on every SYNC (CiA 301).
+const SYNCHRONOUS: u32 = 1;
+
+/// The interpolation time index 0x60C2:2 for a period in ms: 10^-3 s.
+const MILLISECONDS: i8 = -3;
 
 /// Everything written into a drive, in order, for a controller at node `controller`
 /// cycling every `period_ms`.
@@ -396,10 +395,9 @@ pub fn configuration(setup: &DriveSetup, controller: u8, period_ms: u8) -> Vec<W
     let mut writes = Vec::new();
     let mode = setup.mode.code() as u8;
     let fixed = [
-        w(0x6060, 0, u32::from(mode), 1),
-        w(0x60C2, 1, u32::from(period_ms), 1),
-        // 10^-3 s: the value is in ms.
-        w(0x60C2, 2, u32::from((-3i8) as u8), 1),
+        w(device::MODES_OF_OPERATION, u32::from(mode)),
+        w(device::INTERPOLATION_PERIOD, u32::from(period_ms)),
+        w(device::INTERPOLATION_INDEX, u32::from(MILLISECONDS as u8)),
     ];
     for x in fixed {
         let _ = writes.push(x);
@@ -407,54 +405,56 @@ pub fn configuration(setup: &DriveSetup, controller: u8, period_ms: u8) -> Vec<W
     // RPDO1: controlword (0x6040, 16 bit), target velocity (0x60FF, 32 bit).
     pdo(
         &mut writes,
-        0x1400,
-        0x1600,
-        0x200 + n,
+        od::RPDO1_COMMUNICATION,
+        od::RPDO1_MAPPING,
+        u32::from(cob::RPDO1) + n,
         &cia402_pdo::RPDO1_MAPPING,
     );
     // TPDO1: statusword (0x6041), velocity actual (0x606C).
     pdo(
         &mut writes,
-        0x1800,
-        0x1A00,
-        0x180 + n,
+        od::TPDO1_COMMUNICATION,
+        od::TPDO1_MAPPING,
+        u32::from(cob::TPDO1) + n,
         &cia402_pdo::TPDO1_MAPPING,
     );
     // TPDO2: position actual (0x6064), modes of operation display (0x6061, 8 bit).
     pdo(
         &mut writes,
-        0x1801,
-        0x1A01,
-        0x280 + n,
+        od::TPDO2_COMMUNICATION,
+        od::TPDO2_MAPPING,
+        u32::from(cob::TPDO2) + n,
         &cia402_pdo::TPDO2_MAPPING,
     );
     let rest = [
-        w(0x1017, 0, u32::from(setup.heartbeat_ms), 2),
+        w(device::PRODUCER_HEARTBEAT, u32::from(setup.heartbeat_ms)),
         w(
-            0x1016,
-            1,
+            device::CONSUMER_HEARTBEAT,
             (u32::from(controller) << 16) | u32::from(setup.controller_timeout_ms),
-            4,
         ),
-        w(0x605A, 0, u32::from(setup.quick_stop_option as u16), 2),
         w(
-            0x6007,
-            0,
-            u32::from(setup.abort_connection_option as u16),
-            2,
+            device::QUICK_STOP_OPTION,
+            u32::from(setup.quick_stop_option as u16),
         ),
-        w(0x6085, 0, setup.quick_stop_deceleration, 4),
-        w(0x6080, 0, setup.max_velocity, 4),
+        w(
+            device::ABORT_CONNECTION_OPTION,
+            u32::from(setup.abort_connection_option as u16),
+        ),
+        w(
+            device::QUICK_STOP_DECELERATION,
+            setup.quick_stop_deceleration,
+        ),
+        w(device::MAX_MOTOR_SPEED, setup.max_velocity),
     ];
     for x in rest {
         let _ = writes.push(x);
     }
     if let Some(unit) = setup.velocity_unit {
-        let _ = writes.push(w(0x60A9, 0, unit, 4));
+        let _ = writes.push(w(device::VELOCITY_UNIT, unit));
     }
     if let (OperationMode::ProfileVelocity, Some(ramp)) = (setup.mode, setup.profile_ramp) {
-        let _ = writes.push(w(0x6083, 0, ramp, 4));
-        let _ = writes.push(w(0x6084, 0, ramp, 4));
+        let _ = writes.push(w(device::PROFILE_ACCELERATION, ramp));
+        let _ = writes.push(w(device::PROFILE_DECELERATION, ramp));
     }
     writes
 }
@@ -498,11 +498,11 @@ impl CommissioningError {
     pub fn object(&self) -> Object {
         match *self {
             Self::Sdo(e) => e.object(),
-            Self::DeviceType { .. } => object::DEVICE_TYPE,
+            Self::DeviceType { .. } => device::DEVICE_TYPE.object,
             Self::ReadBack { object, .. } => object,
-            Self::Mode { .. } => object::MODES_DISPLAY,
+            Self::Mode { .. } => device::MODES_DISPLAY.object,
             // What the presence check reads.
-            Self::NeverAppeared { .. } => object::DEVICE_TYPE,
+            Self::NeverAppeared { .. } => device::DEVICE_TYPE.object,
         }
     }
 
@@ -678,7 +678,7 @@ impl<D: Device> Commissioning<D> {
         } else {
             self.step = Step::DeviceType;
             self.nmt_due = false;
-            self.sdo.read(object::DEVICE_TYPE, now_ms)
+            self.sdo.read(device::DEVICE_TYPE.object, now_ms)
         }
     }
 
@@ -720,7 +720,9 @@ impl<D: Device> Commissioning<D> {
                 let since = *self.absent_since_ms.get_or_insert(now_ms);
                 if !self.sdo.busy() && now_ms >= since {
                     self.absent_since_ms = Some(now_ms.saturating_add(PRESENCE_RETRY_MS));
-                    return Some(Progress::Send(self.sdo.read(object::DEVICE_TYPE, now_ms)));
+                    return Some(Progress::Send(
+                        self.sdo.read(device::DEVICE_TYPE.object, now_ms),
+                    ));
                 }
                 // A presence check that times out only means "not there yet": nobody
                 // listens for its abort.
@@ -797,7 +799,7 @@ impl<D: Device> Commissioning<D> {
                         return self.fail(CommissioningError::Mode { found }, None);
                     }
                     self.step = Step::Mode(tries + 1);
-                    return Progress::Send(self.sdo.read(object::MODES_DISPLAY, now_ms));
+                    return Progress::Send(self.sdo.read(device::MODES_DISPLAY.object, now_ms));
                 }
             }
             _ => {}
@@ -835,7 +837,7 @@ impl<D: Device> Commissioning<D> {
                 Progress::Send(nmt::command(command, node))
             }
             Step::Identity(sub) => {
-                Progress::Send(self.sdo.read(Object::new(object::IDENTITY, sub), now_ms))
+                Progress::Send(self.sdo.read(device::identity(sub).object, now_ms))
             }
             Step::Write(i) | Step::ReadBack(i) => {
                 let Some(x) = self.writes.get(i).copied() else {
@@ -853,8 +855,8 @@ impl<D: Device> Commissioning<D> {
                     self.sdo.read(x.object, now_ms)
                 })
             }
-            Step::Mode(_) => Progress::Send(self.sdo.read(object::MODES_DISPLAY, now_ms)),
-            Step::DeviceType => Progress::Send(self.sdo.read(object::DEVICE_TYPE, now_ms)),
+            Step::Mode(_) => Progress::Send(self.sdo.read(device::MODES_DISPLAY.object, now_ms)),
+            Step::DeviceType => Progress::Send(self.sdo.read(device::DEVICE_TYPE.object, now_ms)),
         }
     }
 }
@@ -863,13 +865,22 @@ impl<D: Device> Commissioning<D> {
 mod tests {
     #![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
     use super::*;
+
+    /// A write spelled out, independently of the dictionary.
+    fn write(index: u16, sub: u8, value: u32, size: u8) -> Write {
+        Write {
+            object: Object::new(index, sub),
+            value,
+            size,
+        }
+    }
     use crate::canopen::sdo::{serve, ObjectDictionary, Value};
 
     #[test]
     fn the_largest_configuration_fits_and_starts_with_the_mode() {
         let stock = configuration(&DriveSetup::TROLLEY, 0x10, 10);
         assert_eq!(stock.len(), 3 + 3 * 7 + 6);
-        assert_eq!(stock[0], w(0x6060, 0, 9, 1));
+        assert_eq!(stock[0], write(0x6060, 0, 9, 1));
         let pv = DriveSetup {
             mode: OperationMode::ProfileVelocity,
             velocity_unit: Some(0xFA01_0300),
@@ -879,10 +890,10 @@ mod tests {
         let all = configuration(&pv, 0x10, 10);
         assert_eq!(all.len(), 3 + 3 * 7 + 6 + 3);
         assert!(all.len() < MAX_WRITES, "nothing is cut");
-        assert_eq!(all[0], w(0x6060, 0, 3, 1));
+        assert_eq!(all[0], write(0x6060, 0, 3, 1));
         // RPDO1 of node 2: disabled first, enabled last.
-        assert_eq!(all[3], w(0x1400, 1, 0x8000_0202, 4));
-        assert_eq!(all[9], w(0x1400, 1, 0x0000_0202, 4));
+        assert_eq!(all[3], write(0x1400, 1, 0x8000_0202, 4));
+        assert_eq!(all[9], write(0x1400, 1, 0x0000_0202, 4));
     }
 
     /// A two-axis inclinometer gets both slopes mapped into TPDO1 (long first, as the

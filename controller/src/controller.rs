@@ -24,8 +24,8 @@ use crate::correction::{AxesCorrection, Measured};
 use crate::drive::{self, Drive};
 use crate::fault::Reaction;
 pub use crate::fault::{Fault, FollowingError, Foreign, Implausibility};
-use crate::feedback::{Mode as FeedbackMode, NoFeedback};
-use crate::feedforward::{Axes, Feedforward, FeedforwardStep, ReferenceOf, Replan};
+use crate::feedback::{Mode as FeedbackMode, NoFeedback, Reference};
+use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
 use crate::frame::CanFrame;
 use crate::links::{self, DriveLink, Heartbeat, Link, Links, Silent};
 use crate::motion::{Breach, Deviations, Lag};
@@ -211,7 +211,7 @@ pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
     syncing: bool,
 }
 
-impl<F: Feedforward + Replan> Controller<F> {
+impl<F: Feedforward<Reference = Reference> + Replan> Controller<F> {
     /// A controller that follows `feedforward` and checks moves with `planner`; it starts
     /// by commissioning the drives and holds them at standstill until a move is asked.
     pub fn new(feedforward: F, planner: Planner, config: Config) -> Self {
@@ -221,10 +221,9 @@ impl<F: Feedforward + Replan> Controller<F> {
 
 impl<F, C, K, const A: usize> Controller<F, C, K, A>
 where
-    F: Feedforward<A> + Replan<A>,
-    C: AxesCorrection<A>,
+    F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+    C: AxesCorrection<A, K::Reference>,
     K: Crane<A>,
-    Axes<A>: ReferenceOf,
 {
     /// A controller whose set points are `feedforward`'s corrected by `correction`
     /// (the state feedback measures the angle with the inclinometer of `config.nodes`),
@@ -793,12 +792,14 @@ where
             return;
         }
         let node = self.node_of(drive);
-        // A warning: error register without the generic bit (see emcy::is_fault).
+        // A warning: the fault's byte, but the error register without the generic bit
+        // (see emcy::is_fault).
+        let code = Fault::DriveLeftOperational(drive, state).code();
         self.send_emcy(canopen::emcy(
             self.node.id,
             emcy::HEARTBEAT,
             REGISTER_COMMUNICATION,
-            [9, node, state as u8, 0, 0],
+            [code, node, state as u8, 0, 0],
         ));
     }
 
@@ -810,11 +811,10 @@ where
     fn judge_position(&self, drive: Drive, units: i32, now_ms: u64) -> Option<Implausibility> {
         let link = self.link(drive)?;
         let setup = link.commissioning.setup();
-        let metres = |u: i32| setup.position_offset + setup.position_scale * f64::from(u);
         let (lo, hi) = *drive::of(&K::DRIVES, drive, &self.planner.ranges())?;
         let max_velocity = self.gate.limits(drive)?.max_velocity;
         let tolerance = self.config.position_tolerance_m;
-        let at = metres(units);
+        let at = setup.metres(units);
         if !(lo - tolerance..=hi + tolerance).contains(&at) {
             return Some(Implausibility::Position);
         }
@@ -826,7 +826,7 @@ where
             .max(u64::from(self.config.period_ms)) as f64
             / 1000.0;
         let reach = self.config.overspeed * max_velocity * dt + 0.1 * tolerance;
-        ((at - metres(last)).abs() > reach).then_some(Implausibility::Jump)
+        ((at - setup.metres(last)).abs() > reach).then_some(Implausibility::Jump)
     }
 
     fn on_status(&mut self, drive: Drive, sw: u16, velocity: i32, now_ms: u64) {
@@ -923,13 +923,19 @@ where
     /// One cycle at time `now_ms` (the start of the cycle; the model has been stepped to it).
     pub fn tick(&mut self, now_ms: u64) -> Cycle<A> {
         self.now_ms = now_ms;
-        let mut frames = Vec::new();
+        // The frames are queued in the cycle that returns them: built whole at the end,
+        // the 196-byte list was copied into it every cycle (and, with this function
+        // inlined into the firmware's task, by the generic `memcpy`: issue 29, C1/C2).
+        let mut cycle = Cycle {
+            frames: Vec::new(),
+            setpoints: [Setpoint::ZERO; A],
+            step: None,
+            mode: self.mode,
+        };
+        let frames = &mut cycle.frames;
         let first = core::mem::take(&mut self.starting);
         if core::mem::take(&mut self.boot_up) {
-            self.push(
-                &mut frames,
-                canopen::heartbeat(self.node.id, NmtState::BootUp),
-            );
+            self.push(frames, canopen::heartbeat(self.node.id, NmtState::BootUp));
             // A manager starts itself after its boot-up (CiA 302); a slave waits for
             // its master's *start*.
             if self.node.role == Role::Manager {
@@ -944,7 +950,7 @@ where
             let Some(answer) = self.sdo_answers.pop_front() else {
                 break;
             };
-            self.push(&mut frames, answer);
+            self.push(frames, answer);
         }
         // What the controller's own NMT state lets it send (CiA 301); bringing a moving
         // load to rest is the one exception, for the RPDOs and the SYNC that apply them.
@@ -958,7 +964,7 @@ where
         // A manager commissions and starts its nodes only while operational itself; a
         // slave commissions them by SDO in pre-operational too (its master starts them).
         if allowed.sdo && (self.node.role == Role::Slave || allowed.pdo) {
-            self.commission(now_ms, &mut frames);
+            self.commission(now_ms, frames);
         } else {
             self.suspend_commissioning();
         }
@@ -1014,7 +1020,7 @@ where
                 if let Some(slot) = setpoints.get_mut(i) {
                     *slot = setpoint;
                 }
-                self.push(&mut frames, pdo::rpdo1(node, command, setpoint));
+                self.push(frames, pdo::rpdo1(node, command, setpoint));
             }
         }
         self.resetting = self.resetting.saturating_sub(1);
@@ -1030,14 +1036,14 @@ where
             let Some(emcy) = self.emcy.hand_out() else {
                 break;
             };
-            self.push(&mut frames, emcy);
+            self.push(frames, emcy);
         }
         if sync {
             if !self.syncing {
                 // SYNC resumes: the drives' TPDOs follow from now on.
                 self.restart_tpdo_clocks(now_ms);
             }
-            self.push(&mut frames, canopen::sync());
+            self.push(frames, canopen::sync());
         }
         self.syncing = sync;
         // Every `ms` on the cycle (0: never), from the second cycle on.
@@ -1050,10 +1056,7 @@ where
         let beat = every(u32::from(self.node.heartbeat_ms));
         let status_due = every(u32::from(self.config.heartbeat_period_ms));
         if beat {
-            self.push(
-                &mut frames,
-                canopen::heartbeat(self.node.id, self.node.state),
-            );
+            self.push(frames, canopen::heartbeat(self.node.id, self.node.state));
         }
         if self.node.state == NmtState::Operational {
             // One status frame per answer (STATUS_PER_CYCLE at most, room permitting),
@@ -1064,21 +1067,19 @@ where
                     break;
                 };
                 let status = self.status_with(answer);
-                self.push(&mut frames, status_frame(self.node.id, &status));
+                self.push(frames, status_frame(self.node.id, &status));
                 sent += 1;
             }
             if status_due && sent == 0 {
                 let status = self.status();
-                self.push(&mut frames, status_frame(self.node.id, &status));
+                self.push(frames, status_frame(self.node.id, &status));
             }
         }
         self.counters.cycles = self.counters.cycles.wrapping_add(1);
-        Cycle {
-            frames,
-            setpoints,
-            step,
-            mode: self.mode,
-        }
+        cycle.setpoints = setpoints;
+        cycle.step = step;
+        cycle.mode = self.mode;
+        cycle
     }
 
     /// Commissioning of each node, in the list's order: the frame answering a response
@@ -1136,8 +1137,7 @@ where
                 .last_position_ms
                 .is_some_and(|t| now_ms.saturating_sub(t) <= u64::from(self.config.period_ms));
             let setup = link.commissioning.setup();
-            *slot = setup.position_offset
-                + setup.position_scale * f64::from(link.position.filter(|_| fresh)?);
+            *slot = setup.metres(link.position.filter(|_| fresh)?);
         }
         Some(Measured { position, swing })
     }
@@ -1455,7 +1455,7 @@ where
                 return None;
             }
             let setup = link.commissioning.setup();
-            *slot = setup.position_offset + setup.position_scale * f64::from(link.position?);
+            *slot = setup.metres(link.position?);
         }
         Some(position)
     }
@@ -1748,34 +1748,24 @@ where
     /// The EMCY announcing `fault`: manufacturer bytes fault code, node, detail, and for a
     /// commissioning failure the object's index (docs/COMMANDS.md).
     fn emcy_of(&self, fault: Fault) -> CanFrame {
+        let facts = fault.facts();
         let node = fault.drive().map_or(0, |d| self.node_of(d));
-        let register = REGISTER_GENERIC
-            | if matches!(
-                fault,
-                Fault::HeartbeatLost(_)
-                    | Fault::Undeliverable
-                    | Fault::TpdoTimeout(_)
-                    | Fault::DriveLeftOperational(..)
-                    | Fault::NotOperational
-                    | Fault::SupervisorLost
-                    | Fault::DuplicateNodeId
-                    | Fault::ForeignProducer(_)
-            ) {
-                REGISTER_COMMUNICATION
-            } else {
-                emcy::REGISTER_MANUFACTURER
-            };
         let info = match fault {
             // The object in the same layout: the sub-index as the detail, the index in
             // the last two bytes; the abort code follows in EMCY 0xFF12 (and 0x2002:4).
             Fault::Commissioning(_, error) => {
                 let object = error.object();
                 let [i0, i1] = object.index.to_le_bytes();
-                [fault.code(), node, object.sub, i0, i1]
+                [facts.code, node, object.sub, i0, i1]
             }
-            _ => [fault.code(), node, fault.detail(), 0, 0],
+            _ => [facts.code, node, fault.detail(), 0, 0],
         };
-        canopen::emcy(self.node.id, fault.emcy_code(), register, info)
+        canopen::emcy(
+            self.node.id,
+            facts.emcy_code,
+            REGISTER_GENERIC | facts.register,
+            info,
+        )
     }
 
     fn push(&mut self, frames: &mut Vec<CanFrame, MAX_FRAMES>, frame: CanFrame) {

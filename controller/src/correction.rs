@@ -1,15 +1,16 @@
 //! What the controller asks of whatever stands between the inverse model and the drives
-//! (Fig. 1), for a crane with `A` driven axes: nothing ([`NoFeedback`], any crane), or
-//! the planar state feedback ([`Correction`], the paper's crane).
+//! (Fig. 1), for a crane with `A` driven axes: nothing ([`crate::feedback::NoFeedback`]:
+//! the planar crane's through the blanket impl below, every other crane's through its
+//! `feedforward_only!` line), or the planar state feedback ([`Correction`], the paper's
+//! crane).
 //!
 //! The controller speaks in per-drive arrays in the model's input order; a correction
 //! sees the measurements as its own crane's type. The planar feedback's interface
 //! ([`Correction`]) keeps its own types (`Measurement`, `DriveLimits`), so each
-//! planar correction is an [`AxesCorrection<2>`] through the one blanket impl here.
+//! planar correction is an `AxesCorrection<2, Reference>` through the one blanket impl here.
 
 use crate::commissioning::Swing;
-use crate::feedback::{Correction, Degraded, Measurement, Mode, NoFeedback};
-use crate::feedforward::{Axes, ReferenceOf, ReferenceState};
+use crate::feedback::{Correction, Measurement, Mode, Reference};
 use crate::rope::RopeLength;
 use crate::setpoint::{AxisLimits, DriveLimits};
 
@@ -24,19 +25,19 @@ pub struct Measured<const A: usize> {
     pub swing: Option<Swing>,
 }
 
-/// The correction of a crane with `A` driven axes between the inverse model and the
-/// set-point gate.
-pub trait AxesCorrection<const A: usize>
-where
-    Axes<A>: ReferenceOf,
-{
+/// The correction of a crane with `A` driven axes and the reference state `R` (its
+/// [`Crane::Reference`](crate::crane::Crane::Reference)) between the inverse model and
+/// the set-point gate. Keyed on the reference, not only on the axes: a second crane
+/// with two axes has its own reference, so the planar loop is refused for it at
+/// compile time.
+pub trait AxesCorrection<const A: usize, R> {
     /// `false`: the controller never asks for a reference or measurements, and links
     /// none of the inclinometer's code.
     const ENABLED: bool;
     /// One cycle: the set points to hand to the gate, and the mode after it.
     fn correct(
         &mut self,
-        reference: &ReferenceState<A>,
+        reference: &R,
         u_d: [f64; A],
         measured: Option<Measured<A>>,
         last: [f64; A],
@@ -51,11 +52,11 @@ where
 }
 
 /// The planar crane's corrections: trolley x and rope length l.
-impl<C: Correction> AxesCorrection<2> for C {
+impl<C: Correction> AxesCorrection<2, Reference> for C {
     const ENABLED: bool = C::ENABLED;
     fn correct(
         &mut self,
-        reference: &ReferenceState<2>,
+        reference: &Reference,
         u_d: [f64; 2],
         measured: Option<Measured<2>>,
         last: [f64; 2],
@@ -90,24 +91,37 @@ impl<C: Correction> AxesCorrection<2> for C {
     }
 }
 
-/// The 3D crane without the feedback: the inverse model's set points as they are.
-impl AxesCorrection<3> for NoFeedback {
-    const ENABLED: bool = false;
-    fn correct(
-        &mut self,
-        _reference: &ReferenceState<3>,
-        u_d: [f64; 3],
-        _measured: Option<Measured<3>>,
-        _last: [f64; 3],
-        _limits: &[AxisLimits; 3],
-    ) -> ([f64; 3], Mode) {
-        (u_d, Mode::FeedforwardOnly(Degraded::AngleLost))
-    }
-    fn restart(&mut self) {}
-    fn mode(&self) -> Option<Mode> {
-        None
-    }
-    fn rope(&self) -> Option<&RopeLength> {
-        None
-    }
+/// [`crate::feedback::NoFeedback`] as the correction of a crane with `$axes` axes and reference `$reference`
+/// (one the planar blanket impl does not cover): the inverse model's set points as
+/// they are.
+macro_rules! feedforward_only {
+    ($axes:literal, $reference:ty) => {
+        impl $crate::correction::AxesCorrection<$axes, $reference>
+            for $crate::feedback::NoFeedback
+        {
+            const ENABLED: bool = false;
+            fn correct(
+                &mut self,
+                _reference: &$reference,
+                u_d: [f64; $axes],
+                _measured: Option<$crate::correction::Measured<$axes>>,
+                _last: [f64; $axes],
+                _limits: &[$crate::setpoint::AxisLimits; $axes],
+            ) -> ([f64; $axes], $crate::feedback::Mode) {
+                let degraded = $crate::feedback::Degraded::AngleLost;
+                (u_d, $crate::feedback::Mode::FeedforwardOnly(degraded))
+            }
+            fn restart(&mut self) {}
+            fn mode(&self) -> Option<$crate::feedback::Mode> {
+                None
+            }
+            fn rope(&self) -> Option<&$crate::rope::RopeLength> {
+                None
+            }
+        }
+    };
 }
+pub(crate) use feedforward_only;
+
+// The 3D crane without the feedback.
+feedforward_only!(3, [Reference; 2]);

@@ -98,10 +98,31 @@ pub enum Implausibility {
 
 /// How a fault is met (docs/COMMANDS.md), mildest first.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
-pub(crate) enum Reaction {
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Reaction {
+    /// A controlled stop: the set points ramp the drives to standstill (mode *stopping*).
     Controlled,
+    /// A quick stop: the drives brake on their own ramps (mode *quick stop*).
     Quick,
+    /// At standstill, the drives held by quick stop until a reset (mode *halted*).
     Halt,
+}
+
+/// What is known of one kind of fault, whatever it carries: a row of [`Fault::facts`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Facts {
+    /// The fault byte of the status frame and of the EMCY, 1 to [`Fault::MAX_CODE`].
+    pub code: u8,
+    /// Its name in `can/crane.dbc`'s value tables of the fault byte (status and EMCY),
+    /// which is also the variant's.
+    pub name: &'static str,
+    /// The CiA 301 error code of its EMCY.
+    pub emcy_code: u16,
+    /// The error register's class bit (0x1001) the EMCY sets beside the generic one:
+    /// [`emcy::REGISTER_COMMUNICATION`] or [`emcy::REGISTER_MANUFACTURER`].
+    pub register: u8,
+    /// How it is met.
+    pub reaction: Reaction,
 }
 
 impl Fault {
@@ -110,55 +131,56 @@ impl Fault {
     /// that follows a commissioning failure (`emcy::ABORT_CODE_FOLLOWS`).
     pub const MAX_CODE: u8 = 21;
 
+    /// This fault's facts: the one table of every kind of fault (docs/COMMANDS.md,
+    /// "Faults"), one row each, so that a new kind is one row here.
+    #[must_use]
+    pub const fn facts(&self) -> Facts {
+        use emcy::{REGISTER_COMMUNICATION as COMM, REGISTER_MANUFACTURER as MANUF, *};
+        use Fault::*;
+        use Reaction::{Controlled, Halt, Quick};
+        #[rustfmt::skip]
+        let (code, name, emcy_code, register, reaction) = match self {
+            //                          code name (can/crane.dbc)     EMCY code          0x1001 reaction
+            Solver(_) =>                (1,  "Solver",               INTERNAL_SOFTWARE, MANUF, Controlled),
+            Setpoint(_) =>              (2,  "Setpoint",             SETPOINT_REFUSED,  MANUF, Controlled),
+            DriveFault(_) =>            (3,  "DriveFault",           DRIVE_FAULT,       MANUF, Quick),
+            HeartbeatLost(_) =>         (4,  "HeartbeatLost",        HEARTBEAT,         COMM,  Quick),
+            Deadline =>                 (5,  "Deadline",             DEADLINE,          MANUF, Controlled),
+            Undeliverable =>            (6,  "Undeliverable",        COMMUNICATION,     COMM,  Halt),
+            DriveNotReady(_) =>         (7,  "DriveNotReady",        DRIVE_NOT_READY,   MANUF, Controlled),
+            Watchdog =>                 (8,  "Watchdog",             SOFTWARE_RESET,    MANUF, Halt),
+            DriveLeftOperational(..) => (9,  "DriveLeftOperational", HEARTBEAT,         COMM,  Quick),
+            TpdoTimeout(_) =>           (10, "TpdoTimeout",          RPDO_TIMEOUT,      COMM,  Quick),
+            DriveMode(_) =>             (11, "DriveMode",            DRIVE_MODE,        MANUF, Quick),
+            Commissioning(..) =>        (12, "Commissioning",        COMMISSIONING,     MANUF, Halt),
+            NotOperational =>           (13, "NotOperational",       COMMUNICATION,     COMM,  Controlled),
+            SupervisorLost =>           (14, "SupervisorLost",       HEARTBEAT,         COMM,  Controlled),
+            // 15 and 16 are taken (emcy::FEEDBACK_OFF, emcy::ABORT_CODE_FOLLOWS).
+            Implausible(..) =>          (17, "Implausible",          DRIVE_IMPLAUSIBLE, MANUF, Quick),
+            DuplicateNodeId =>          (18, "DuplicateNodeId",      CAN_ID_COLLISION,  COMM,  Controlled),
+            ForeignProducer(_) =>       (19, "ForeignProducer",      CAN_ID_COLLISION,  COMM,  Quick),
+            Standstill(_) =>            (20, "Standstill",           STANDSTILL,        MANUF, Quick),
+            FollowingError(..) =>       (21, "FollowingError",       FOLLOWING_ERROR,   MANUF, Quick),
+        };
+        Facts {
+            code,
+            name,
+            emcy_code,
+            register,
+            reaction,
+        }
+    }
+
     /// The fault byte of the status frame and of the EMCY, 1 to [`Fault::MAX_CODE`].
     #[must_use]
-    pub fn code(&self) -> u8 {
-        match self {
-            Fault::Solver(_) => 1,
-            Fault::Setpoint(_) => 2,
-            Fault::DriveFault(_) => 3,
-            Fault::HeartbeatLost(_) => 4,
-            Fault::Deadline => 5,
-            Fault::Undeliverable => 6,
-            Fault::DriveNotReady(_) => 7,
-            Fault::Watchdog => 8,
-            Fault::DriveLeftOperational(..) => 9,
-            Fault::TpdoTimeout(_) => 10,
-            Fault::DriveMode(_) => 11,
-            Fault::Commissioning(..) => 12,
-            Fault::NotOperational => 13,
-            Fault::SupervisorLost => 14,
-            // 15 and 16 are taken (emcy::FEEDBACK_OFF, emcy::ABORT_CODE_FOLLOWS).
-            Fault::Implausible(..) => 17,
-            Fault::DuplicateNodeId => 18,
-            Fault::ForeignProducer(_) => 19,
-            Fault::Standstill(_) => 20,
-            Fault::FollowingError(..) => 21,
-        }
+    pub const fn code(&self) -> u8 {
+        self.facts().code
     }
 
     /// The CiA 301 error code of the EMCY.
     #[must_use]
-    pub fn emcy_code(&self) -> u16 {
-        match self {
-            Fault::Solver(_) => emcy::INTERNAL_SOFTWARE,
-            Fault::Setpoint(_) => emcy::SETPOINT_REFUSED,
-            Fault::DriveFault(_) => emcy::DRIVE_FAULT,
-            Fault::HeartbeatLost(_) | Fault::DriveLeftOperational(..) | Fault::SupervisorLost => {
-                emcy::HEARTBEAT
-            }
-            Fault::Deadline => emcy::DEADLINE,
-            Fault::Undeliverable | Fault::NotOperational => emcy::COMMUNICATION,
-            Fault::DriveNotReady(_) => emcy::DRIVE_NOT_READY,
-            Fault::Watchdog => emcy::SOFTWARE_RESET,
-            Fault::TpdoTimeout(_) => emcy::RPDO_TIMEOUT,
-            Fault::DriveMode(_) => emcy::DRIVE_MODE,
-            Fault::Commissioning(..) => emcy::COMMISSIONING,
-            Fault::Implausible(..) => emcy::DRIVE_IMPLAUSIBLE,
-            Fault::DuplicateNodeId | Fault::ForeignProducer(_) => emcy::CAN_ID_COLLISION,
-            Fault::Standstill(_) => emcy::STANDSTILL,
-            Fault::FollowingError(..) => emcy::FOLLOWING_ERROR,
-        }
+    pub const fn emcy_code(&self) -> u16 {
+        self.facts().emcy_code
     }
 
     /// The drive concerned, if any.
@@ -211,19 +233,9 @@ impl Fault {
         }
     }
 
-    pub(crate) fn reaction(&self) -> Reaction {
-        match self {
-            Fault::DriveFault(_)
-            | Fault::HeartbeatLost(_)
-            | Fault::DriveLeftOperational(..)
-            | Fault::TpdoTimeout(_)
-            | Fault::DriveMode(_)
-            | Fault::Implausible(..)
-            | Fault::ForeignProducer(_)
-            | Fault::Standstill(_)
-            | Fault::FollowingError(..) => Reaction::Quick,
-            Fault::Undeliverable | Fault::Watchdog | Fault::Commissioning(..) => Reaction::Halt,
-            _ => Reaction::Controlled,
-        }
+    /// How it is met (docs/COMMANDS.md).
+    #[must_use]
+    pub const fn reaction(&self) -> Reaction {
+        self.facts().reaction
     }
 }

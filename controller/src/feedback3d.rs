@@ -26,9 +26,8 @@
 use crate::commissioning::Swing;
 use crate::correction::{AxesCorrection, Measured};
 use crate::feedback::{
-    Config, Correction, DesignError, Gains, Measurement, Mode, Output, StateFeedback,
+    Config, Correction, DesignError, Gains, Measurement, Mode, Output, Reference, StateFeedback,
 };
-use crate::feedforward::ReferenceState;
 use crate::rope::RopeLength;
 use crate::setpoint::{AxisLimits, DriveLimits};
 
@@ -94,7 +93,7 @@ impl SpatialFeedback {
     /// plane's output (x–z, y–z).
     pub fn cycle(
         &mut self,
-        reference: &ReferenceState<3>,
+        reference: &[Reference; 2],
         u_d: [f64; 3],
         measured: Option<Measured<3>>,
         last: [f64; 3],
@@ -157,11 +156,11 @@ pub fn worse(a: Mode, b: Mode) -> Mode {
     }
 }
 
-impl AxesCorrection<3> for SpatialFeedback {
+impl AxesCorrection<3, [Reference; 2]> for SpatialFeedback {
     const ENABLED: bool = true;
     fn correct(
         &mut self,
-        reference: &ReferenceState<3>,
+        reference: &[Reference; 2],
         u_d: [f64; 3],
         measured: Option<Measured<3>>,
         last: [f64; 3],

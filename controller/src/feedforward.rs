@@ -2,36 +2,11 @@
 //! driven axis out (`A`: two for the planar crane, three for the 3D crane), and a plan
 //! it can change while the model runs.
 
-use solver_core::models::crane3d::{Crane3dExt, Crane3dSubs};
-use solver_core::models::crane_ext::CraneExt;
-use solver_core::models::crane_proj::CraneProj;
-use solver_core::models::crane_subs::CraneSubs;
 use solver_core::plan::Plan;
 use solver_core::scalar::{c, to_f64};
-use solver_core::trajectory::Trajectory;
 use solver_core::{DaeModel, Driven, Error, Integrator, NewtonStats, Real};
 
 use core::marker::PhantomData;
-
-use crate::feedback::Reference;
-
-/// The least smoothness `n` of the moves and stops the controller plans.
-///
-/// The inputs of the servo-constraint crane contain `z⁗`, so the drives' accelerations
-/// `u̇` contain `z⁽⁵⁾`. With the paper's n = 4 the fifth derivative jumps at a move's
-/// ends: the accelerations jump, and a multistep scheme answers the jump with a
-/// transient that no margin on the exact inverse covers (BDF4 overshoots the planned
-/// peak acceleration by 9.7 %, BDF6 by a factor of up to 3.3 —
-/// `cargo test -p controller --test smoothness`). With n ≥ 5 the accelerations are
-/// continuous and the computed ones stay within 0.5 % of the exact ones.
-pub const MIN_COMMAND_SMOOTHNESS: usize = 5;
-
-/// The plan of a crane with `A` driven axes that rests at `position` (the load's, in
-/// the model's outputs), for a scene of smoothness `n`: moves and stops are planned
-/// with `max(n, MIN_COMMAND_SMOOTHNESS)`.
-pub fn command_plan<const A: usize>(position: [f64; A], n: usize) -> Result<Plan<f64, A>, Error> {
-    Plan::at_rest(position.into(), n.max(MIN_COMMAND_SMOOTHNESS))
-}
 
 /// One step of the inverse model with `A` driven axes.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -45,121 +20,28 @@ pub struct FeedforwardStep<const A: usize = 2> {
     pub stats: NewtonStats,
 }
 
-/// A crane with `A` driven axes, as a type: what its reference state is
-/// ([`ReferenceOf`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Axes<const A: usize>;
-
-/// The reference state of a crane with a given number of driven axes: the planar
-/// crane's [`Reference`], the 3D crane's one per vertical plane (x–z, y–z).
-pub trait ReferenceOf {
-    /// The reference state.
-    type Reference;
-}
-
-impl ReferenceOf for Axes<2> {
-    type Reference = Reference;
-}
-
-impl ReferenceOf for Axes<3> {
-    type Reference = [Reference; 2];
-}
-
-/// The reference state of a crane with `A` driven axes ([`ReferenceOf`]).
-pub type ReferenceState<const A: usize> = <Axes<A> as ReferenceOf>::Reference;
-
 /// Anything that advances a crane inverse model with `A` driven axes one step per cycle.
-pub trait Feedforward<const A: usize = 2>
-where
-    Axes<A>: ReferenceOf,
-{
+pub trait Feedforward<const A: usize = 2> {
+    /// The reference state its solutions give the feedback: its crane's
+    /// ([`crate::crane::Crane::Reference`]).
+    type Reference;
     /// Advances one step. On error the model stays where it was.
     fn step(&mut self) -> Result<FeedforwardStep<A>, Error>;
     /// Model time of the newest solution, s.
     fn time(&self) -> f64;
     /// The reference state of the newest solution (positions, rope, angles and their
     /// rates) for the state feedback; asked only by a controller that corrects.
-    fn reference(&self) -> ReferenceState<A>;
+    fn reference(&self) -> Self::Reference;
 }
 
-/// The reference state `y_d, v_d` (Eqs. 7–10) of a crane with `A` driven axes from a
-/// solution of its inverse model: what the state feedback compares the measurements
-/// with.
-pub trait CraneReference<const A: usize = 2>
-where
-    Axes<A>: ReferenceOf,
-{
+/// The reference state `y_d, v_d` (Eqs. 7–10) of a crane from a solution of one of its
+/// inverse models: what the state feedback compares the measurements with. Each crane's
+/// file implements it for its models ([`crate::crane`]).
+pub trait CraneReference {
+    /// The crane's reference state ([`crate::crane::Crane::Reference`]).
+    type Reference;
     /// The reference at time `t` from the solution `y` (the scheme's unknowns).
-    fn reference(&self, y: &[f64], t: f64) -> ReferenceState<A>;
-}
-
-/// *subs*: `y = [x, l, ẋ, l̇, λ, u1, u2]`; the angle and its rate from the desired
-/// load position and velocity (Eqs. 27–28).
-impl<T: Real> CraneReference<2> for CraneSubs<T, Plan<f64, 2>> {
-    fn reference(&self, y: &[f64], t: f64) -> Reference {
-        let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
-        let [p, v] = self.trajectory().derivatives::<2>(t);
-        Reference::from_subs([at(0), at(1), at(2), at(3)], p.into(), v.into())
-    }
-}
-
-/// *proj*: `y = [x, l, φ, ẋ, l̇, φ̇, u1, u2]` holds the reference as it is.
-impl<T: Real> CraneReference<2> for CraneProj<T, Plan<f64, 2>> {
-    fn reference(&self, y: &[f64], _t: f64) -> Reference {
-        let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
-        Reference {
-            x: at(0),
-            l: at(1),
-            phi: at(2),
-            vx: at(3),
-            vl: at(4),
-            vphi: at(5),
-        }
-    }
-}
-
-/// The 3D crane (*subs*, `y = [x, y, l, ẋ, ẏ, l̇, λ, u1, u2, u3]`): the reference of
-/// each vertical plane, x–z then y–z, as the planar crane's in that plane — the drive's
-/// position, the rope, the rope's slope in the plane (what a two-axis inclinometer
-/// reports, `solver_core::reference::flat_crane3d::FlatState3d::slope`) and the rates.
-impl<T: Real> CraneReference<3> for Crane3dSubs<T, Plan<f64, 3>> {
-    fn reference(&self, y: &[f64], t: f64) -> [Reference; 2] {
-        let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
-        let [p, v] = self.trajectory().derivatives::<2>(t);
-        let [xc, yc, zc]: [f64; 3] = p.into();
-        let [vxc, vyc, vzc]: [f64; 3] = v.into();
-        let (l, vl) = (at(2), at(5));
-        [
-            Reference::from_subs([at(0), l, at(3), vl], [xc, zc], [vxc, vzc]),
-            Reference::from_subs([at(1), l, at(4), vl], [yc, zc], [vyc, vzc]),
-        ]
-    }
-}
-
-/// *ext* (*subs* minimally extended to index 1): its first unknowns are *subs*'
-/// `[x, l, ẋ, l̇, …]` in *subs*' order, so the reference is *subs*'.
-impl<T: Real> CraneReference<2> for CraneExt<T, Plan<f64, 2>> {
-    fn reference(&self, y: &[f64], t: f64) -> Reference {
-        let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
-        let [p, v] = self.trajectory().derivatives::<2>(t);
-        Reference::from_subs([at(0), at(1), at(2), at(3)], p.into(), v.into())
-    }
-}
-
-/// The 3D crane's *ext*: its first ten unknowns are the 3D *subs*' in its order, so the
-/// reference of each vertical plane is *subs*'.
-impl<T: Real> CraneReference<3> for Crane3dExt<T, Plan<f64, 3>> {
-    fn reference(&self, y: &[f64], t: f64) -> [Reference; 2] {
-        let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
-        let [p, v] = self.trajectory().derivatives::<2>(t);
-        let [xc, yc, zc]: [f64; 3] = p.into();
-        let [vxc, vyc, vzc]: [f64; 3] = v.into();
-        let (l, vl) = (at(2), at(5));
-        [
-            Reference::from_subs([at(0), l, at(3), vl], [xc, zc], [vxc, vzc]),
-            Reference::from_subs([at(1), l, at(4), vl], [yc, zc], [vyc, vzc]),
-        ]
-    }
+    fn reference(&self, y: &[f64], t: f64) -> Self::Reference;
 }
 
 /// An inverse model with `A` driven axes driven by a [`Plan`] that the controller may
@@ -198,14 +80,13 @@ impl<M, I, T, const N: usize> InverseModel<M, I, T, N> {
 
 impl<
         T: Real,
-        M: CraneReference<A> + DaeModel<T, N, A>,
+        M: CraneReference + DaeModel<T, N, A>,
         I: Integrator<T, M, N, A>,
         const N: usize,
         const A: usize,
     > Feedforward<A> for InverseModel<M, I, T, N>
-where
-    Axes<A>: ReferenceOf,
 {
+    type Reference = M::Reference;
     fn step(&mut self) -> Result<FeedforwardStep<A>, Error> {
         let r = self.integrator.step(&self.model)?;
         let u: [T; A] = r.u.into();
@@ -218,7 +99,7 @@ where
     fn time(&self) -> f64 {
         to_f64(self.integrator.time())
     }
-    fn reference(&self) -> ReferenceState<A> {
+    fn reference(&self) -> M::Reference {
         let y: [f64; N] = self.integrator.state().map(to_f64).into();
         self.model.reference(&y, self.time())
     }
@@ -253,9 +134,7 @@ pub trait AroundStep {
     fn step<F: Feedforward<A>, const A: usize>(
         &mut self,
         inner: &mut F,
-    ) -> Result<FeedforwardStep<A>, Error>
-    where
-        Axes<A>: ReferenceOf;
+    ) -> Result<FeedforwardStep<A>, Error>;
 }
 
 /// A feedforward with something done around each of its steps ([`AroundStep`]);
@@ -269,17 +148,15 @@ pub struct Wrapped<F, W> {
     pub around: W,
 }
 
-impl<F: Feedforward<A>, W: AroundStep, const A: usize> Feedforward<A> for Wrapped<F, W>
-where
-    Axes<A>: ReferenceOf,
-{
+impl<F: Feedforward<A>, W: AroundStep, const A: usize> Feedforward<A> for Wrapped<F, W> {
+    type Reference = F::Reference;
     fn step(&mut self) -> Result<FeedforwardStep<A>, Error> {
         self.around.step(&mut self.inner)
     }
     fn time(&self) -> f64 {
         self.inner.time()
     }
-    fn reference(&self) -> ReferenceState<A> {
+    fn reference(&self) -> F::Reference {
         self.inner.reference()
     }
 }
@@ -327,10 +204,7 @@ impl AroundStep for FailNext {
     fn step<F: Feedforward<A>, const A: usize>(
         &mut self,
         inner: &mut F,
-    ) -> Result<FeedforwardStep<A>, Error>
-    where
-        Axes<A>: ReferenceOf,
-    {
+    ) -> Result<FeedforwardStep<A>, Error> {
         if core::mem::take(&mut self.fail_next) {
             return Err(Error::NewtonNotConverged {
                 t: inner.time(),

@@ -8,6 +8,7 @@
 //! * [`cia410`] — the inclinometer's PDO;
 //! * [`feedforward`] — the inverse model behind a one-step-per-cycle trait, with its plan;
 //! * [`commands`] — move, stop and reset requests, and the status answer;
+//! * [`crane`] — what a crane is (drives, limits, reference, flat inverse), one file per crane;
 //! * [`planner`] — the checks a move or a stop passes before it is accepted;
 //! * `requests` — the supervisor's requests from arrival to answer (each answered once);
 //! * [`correction`] — what stands between the inverse model and the drives, per crane;
@@ -41,6 +42,7 @@ pub mod commissioning;
 pub mod config;
 pub mod controller;
 pub mod correction;
+pub mod crane;
 mod derivatives;
 pub mod drive;
 pub mod fault;

@@ -7,7 +7,9 @@ use heapless::Vec;
 
 use crate::canopen::NmtState;
 use crate::cia402::{statusword, DriveState};
-use crate::commissioning::{Commissioning, InclinometerSetup, NodeSetup, Phase, Swing, MAX_NODES};
+use crate::commissioning::{
+    Commissioning, InclinometerSetup, NodeSetup, OperationMode, Phase, Swing, MAX_NODES,
+};
 use crate::config::Config;
 use crate::drive::{Drive, Order};
 use crate::fault::Implausibility;
@@ -249,7 +251,7 @@ impl DriveLink {
     ) -> StatusReport {
         let limit_before = self.statusword & statusword::INTERNAL_LIMIT;
         let warning_before = self.statusword & statusword::WARNING;
-        let csv = self.commissioning.setup().mode.code() == 9;
+        let csv = self.commissioning.setup().mode == OperationMode::CyclicSynchronousVelocity;
         self.statusword = sw;
         self.state = DriveState::from_statusword(sw);
         self.velocity = velocity;
@@ -315,7 +317,7 @@ impl DriveLink {
         }
         let setup = self.commissioning.setup();
         Some(Actual {
-            position: setup.position_offset + setup.position_scale * f64::from(self.position?),
+            position: setup.metres(self.position?),
             velocity: f64::from(self.velocity) / crate::setpoint::UNITS_PER_M_PER_S,
         })
     }

@@ -1,7 +1,9 @@
 //! The controller as a CANopen node (CiA 301): its NMT slave state machine, its object
-//! dictionary and the values its SDO server answers with. `can/crane-controller.eds`
-//! describes the same objects for a PLC's configuration tool; a host test checks the
-//! two against each other.
+//! dictionary and the values its SDO server answers with. Which objects exist, their
+//! types and access are declared once in [`crate::canopen::od::CONTROLLER`], which the
+//! server reads; `can/crane-controller.eds` describes the same objects for a PLC's
+//! configuration tool, and a host test checks the two against each other. What they
+//! hold:
 //!
 //! | index | name | access |
 //! |---|---|---|
@@ -21,6 +23,7 @@
 //! | 0x2003:1..=2 | NMT role (0 manager, 1 slave); drives' commissioning phase (bit per drive: done) | ro |
 //! | 0x2004:1..=6 | rope calibration learnt from the swing (`crate::rope`): drum scaling error, ppm (i32); rope offset, µm (i32); samples taken (u32); what was learnt (u8: 0 nothing yet, 1 the offset at one length, 2 scaling and offset — to be saved, 3 at a bound, 4 refused: too uncertain, 5 refused: the angle's delay not as commissioned); the length's uncertainty, µm (u32, three standard deviations over 3–9 m plus 3 mm, `crate::rope::SIGMAS`, `MODEL_FLOOR`; u32::MAX before anything is learnt); the angle's delay beyond the commissioned one, µs (i32) | ro |
 
+use crate::canopen::od::{self, REQUEST_FIELDS, STATUS_FIELDS};
 use crate::canopen::sdo::{abort, Object, ObjectDictionary, Value};
 use crate::canopen::{NmtCommand, NmtState};
 use crate::commands::{
@@ -46,22 +49,29 @@ pub const IDENTITY: [u32; 4] = [0, 0x0000_C4A1, 0x0001_0000, 0];
 /// CiA 301 device type of the controller: no standard device profile.
 pub const DEVICE_TYPE: u32 = 0;
 
+/// Its COB-ID SYNC (0x1005): bit 30, the controller produces SYNC, on COB-ID 0x080.
+pub const COB_ID_SYNC: u32 = 0x4000_0000 | crate::canopen::cob::SYNC as u32;
+
+/// The transmission type of its PDOs (0x1400:2, 0x1401:2, 0x1800:2): event-driven,
+/// manufacturer specific (CiA 301: 0xFE).
+pub const EVENT_DRIVEN: u8 = 0xFE;
+
 /// The command frame's mapping (0x1600): request id, command, x, z, duration.
 pub const COMMAND_MAPPING: [u32; 5] = [
-    0x2000_0108,
-    0x2000_0208,
-    0x2000_0310,
-    0x2000_0410,
-    0x2000_0510,
+    REQUEST_FIELDS[0].mapping(),
+    REQUEST_FIELDS[1].mapping(),
+    REQUEST_FIELDS[2].mapping(),
+    REQUEST_FIELDS[3].mapping(),
+    REQUEST_FIELDS[4].mapping(),
 ];
 
 /// The 3D move frame's mapping (0x1601): request id, x, y, z, duration in seconds.
 pub const MOVE3D_MAPPING: [u32; 5] = [
-    0x2000_0108,
-    0x2000_0310,
-    0x2000_0610,
-    0x2000_0410,
-    0x2000_0708,
+    REQUEST_FIELDS[0].mapping(),
+    REQUEST_FIELDS[2].mapping(),
+    REQUEST_FIELDS[5].mapping(),
+    REQUEST_FIELDS[3].mapping(),
+    REQUEST_FIELDS[6].mapping(),
 ];
 
 /// The command written over SDO (0x2000:2) that submits the 3D move of 0x2000:1, 3, 6,
@@ -70,14 +80,14 @@ pub const MOVE3D_COMMAND: u8 = 4;
 
 /// The status frame's mapping (0x1A00): eight bytes of 0x2001.
 pub const STATUS_MAPPING: [u32; 8] = [
-    0x2001_0108,
-    0x2001_0208,
-    0x2001_0308,
-    0x2001_0408,
-    0x2001_0508,
-    0x2001_0608,
-    0x2001_0708,
-    0x2001_0808,
+    STATUS_FIELDS[0].mapping(),
+    STATUS_FIELDS[1].mapping(),
+    STATUS_FIELDS[2].mapping(),
+    STATUS_FIELDS[3].mapping(),
+    STATUS_FIELDS[4].mapping(),
+    STATUS_FIELDS[5].mapping(),
+    STATUS_FIELDS[6].mapping(),
+    STATUS_FIELDS[7].mapping(),
 ];
 
 /// The controller's own NMT state and the parameters a master may change.
@@ -225,90 +235,90 @@ fn value(bytes: &[u8]) -> Value {
     crate::canopen::sdo::value(bytes)
 }
 
-impl ObjectDictionary for Dictionary<'_> {
-    fn read(&self, object: Object) -> Result<Value, u32> {
+impl Dictionary<'_> {
+    /// The value of a readable object of the table ([`od::CONTROLLER`]) but a record's
+    /// sub-index 0; `None` for one the table holds and this does not (a host test reads
+    /// every entry of the table, so there is none).
+    fn value_of(&self, object: Object) -> Option<Value> {
         let s = &self.snapshot;
-        let status = &s.status;
         let (node, index, sub, code, reason) = s.commissioning_failure;
-        let sub_of = |n: usize, f: &dyn Fn(usize) -> Option<Value>| -> Result<Value, u32> {
-            match object.sub {
-                0 => Ok(value(&[n as u8])),
-                k => f(usize::from(k) - 1).ok_or(abort::NO_SUB),
-            }
-        };
         let u32v = |v: u32| value(&v.to_le_bytes());
-        match object.index {
-            0x1000 if object.sub == 0 => Ok(u32v(DEVICE_TYPE)),
-            0x1001 if object.sub == 0 => Ok(value(&[s.error_register])),
-            0x1005 if object.sub == 0 => Ok(u32v(0x4000_0080)),
-            0x1006 if object.sub == 0 => Ok(u32v(self.node.cycle_us)),
-            0x1016 => sub_of(1, &|k| (k == 0).then(|| u32v(self.node.supervisor))),
-            0x1017 if object.sub == 0 => Ok(value(&self.node.heartbeat_ms.to_le_bytes())),
-            0x1018 => sub_of(4, &|k| IDENTITY.get(k).map(|v| u32v(*v))),
-            0x1400 => sub_of(2, &|k| match k {
-                0 => Some(u32v(u32::from(command_id(self.node.id)))),
-                1 => Some(value(&[0xFE])),
-                _ => None,
-            }),
-            0x1600 => sub_of(COMMAND_MAPPING.len(), &|k| {
-                COMMAND_MAPPING.get(k).map(|v| u32v(*v))
-            }),
-            0x1401 => sub_of(2, &|k| match k {
-                0 => Some(u32v(u32::from(move3d_id(self.node.id)))),
-                1 => Some(value(&[0xFE])),
-                _ => None,
-            }),
-            0x1601 => sub_of(MOVE3D_MAPPING.len(), &|k| {
-                MOVE3D_MAPPING.get(k).map(|v| u32v(*v))
-            }),
-            0x1800 => sub_of(2, &|k| match k {
-                0 => Some(u32v(u32::from(status_id(self.node.id)))),
-                1 => Some(value(&[0xFE])),
-                _ => None,
-            }),
-            0x1A00 => sub_of(STATUS_MAPPING.len(), &|k| {
-                STATUS_MAPPING.get(k).map(|v| u32v(*v))
-            }),
-            // The command frame's fields: only mapped (write through the RPDO).
-            0x2000 if object.sub == 0 => Ok(value(&[7])),
-            0x2000 if object.sub <= 7 => Err(abort::WRITE_ONLY),
-            0x2001 => sub_of(8, &|k| status.bytes().get(k).map(|b| value(&[*b]))),
-            0x2002 => sub_of(5, &|k| match k {
-                0 => Some(value(&[node])),
-                1 => Some(value(&index.to_le_bytes())),
-                2 => Some(value(&[sub])),
-                3 => Some(u32v(code)),
-                4 => Some(value(&[reason])),
-                _ => None,
-            }),
-            0x2003 => sub_of(2, &|k| match k {
-                0 => Some(value(&[match self.node.role {
-                    Role::Manager => 0,
-                    Role::Slave => 1,
-                }])),
-                1 => Some(value(&[s.commissioned])),
-                _ => None,
-            }),
-            0x2004 => sub_of(6, &|k| {
+        let k = usize::from(object.sub).checked_sub(1);
+        match (object.index, object.sub) {
+            (od::DEVICE_TYPE, 0) => Some(u32v(DEVICE_TYPE)),
+            (od::ERROR_REGISTER, 0) => Some(value(&[s.error_register])),
+            (od::COB_ID_SYNC, 0) => Some(u32v(COB_ID_SYNC)),
+            (od::CYCLE_PERIOD, 0) => Some(u32v(self.node.cycle_us)),
+            (od::CONSUMER_HEARTBEAT, 1) => Some(u32v(self.node.supervisor)),
+            (od::PRODUCER_HEARTBEAT, 0) => Some(value(&self.node.heartbeat_ms.to_le_bytes())),
+            (od::IDENTITY, _) => k.and_then(|k| IDENTITY.get(k)).map(|v| u32v(*v)),
+            (od::RPDO1_COMMUNICATION, 1) => Some(u32v(u32::from(command_id(self.node.id)))),
+            (od::RPDO2_COMMUNICATION, 1) => Some(u32v(u32::from(move3d_id(self.node.id)))),
+            (od::TPDO1_COMMUNICATION, 1) => Some(u32v(u32::from(status_id(self.node.id)))),
+            (od::RPDO1_COMMUNICATION | od::RPDO2_COMMUNICATION | od::TPDO1_COMMUNICATION, 2) => {
+                Some(value(&[EVENT_DRIVEN]))
+            }
+            (od::RPDO1_MAPPING, _) => k.and_then(|k| COMMAND_MAPPING.get(k)).map(|v| u32v(*v)),
+            (od::RPDO2_MAPPING, _) => k.and_then(|k| MOVE3D_MAPPING.get(k)).map(|v| u32v(*v)),
+            (od::TPDO1_MAPPING, _) => k.and_then(|k| STATUS_MAPPING.get(k)).map(|v| u32v(*v)),
+            (od::STATUS, _) => k
+                .and_then(|k| s.status.bytes().get(k).copied())
+                .map(|b| value(&[b])),
+            (od::COMMISSIONING_FAILURE, 1) => Some(value(&[node])),
+            (od::COMMISSIONING_FAILURE, 2) => Some(value(&index.to_le_bytes())),
+            (od::COMMISSIONING_FAILURE, 3) => Some(value(&[sub])),
+            (od::COMMISSIONING_FAILURE, 4) => Some(u32v(code)),
+            (od::COMMISSIONING_FAILURE, 5) => Some(value(&[reason])),
+            (od::NETWORK, 1) => Some(value(&[match self.node.role {
+                Role::Manager => 0,
+                Role::Slave => 1,
+            }])),
+            (od::NETWORK, 2) => Some(value(&[s.commissioned])),
+            (od::ROPE_CALIBRATION, _) => {
                 let (scale, offset, samples, learnt, uncertainty, delay) = s.rope;
-                match k {
-                    0 => Some(value(&scale.to_le_bytes())),
-                    1 => Some(value(&offset.to_le_bytes())),
-                    2 => Some(u32v(samples)),
-                    3 => Some(value(&[learnt])),
-                    4 => Some(u32v(uncertainty)),
-                    5 => Some(value(&delay.to_le_bytes())),
+                match object.sub {
+                    1 => Some(value(&scale.to_le_bytes())),
+                    2 => Some(value(&offset.to_le_bytes())),
+                    3 => Some(u32v(samples)),
+                    4 => Some(value(&[learnt])),
+                    5 => Some(u32v(uncertainty)),
+                    6 => Some(value(&delay.to_le_bytes())),
                     _ => None,
                 }
-            }),
-            0x1000 | 0x1001 | 0x1005 | 0x1006 | 0x1017 | 0x2000 => Err(abort::NO_SUB),
-            _ => Err(abort::NO_OBJECT),
+            }
+            _ => None,
         }
     }
+}
 
+impl ObjectDictionary for Dictionary<'_> {
+    /// The table ([`od::CONTROLLER`]) says whether the object exists and may be read;
+    /// a record's sub-index 0 is its highest sub-index there.
+    fn read(&self, object: Object) -> Result<Value, u32> {
+        let entry = od::controller_entry(object)?;
+        if !entry.access.readable() {
+            return Err(abort::WRITE_ONLY);
+        }
+        if object.sub == 0 {
+            if let Some(highest) = od::highest_sub(object.index) {
+                return Ok(value(&[highest]));
+            }
+        }
+        self.value_of(object).ok_or(abort::NO_OBJECT)
+    }
+
+    /// The table ([`od::CONTROLLER`]) says whether the object exists, may be written,
+    /// and how long its value is.
     fn write(&mut self, object: Object, data: &[u8]) -> Result<(), u32> {
+        let entry = od::controller_entry(object)?;
+        if !entry.access.writable() {
+            return Err(abort::READ_ONLY);
+        }
+        if data.len() != usize::from(entry.size()) {
+            return Err(abort::LENGTH);
+        }
         match (object.index, object.sub) {
-            (0x1017, 0) => match *data {
+            (od::PRODUCER_HEARTBEAT, 0) => match *data {
                 [a, b] => {
                     let ms = u16::from_le_bytes([a, b]);
                     self.node.heartbeat_producer_time(ms)?;
@@ -317,7 +327,7 @@ impl ObjectDictionary for Dictionary<'_> {
                 }
                 _ => Err(abort::LENGTH),
             },
-            (0x1016, 1) => match *data {
+            (od::CONSUMER_HEARTBEAT, 1) => match *data {
                 [a, b, c, d] => {
                     let v = u32::from_le_bytes([a, b, c, d]);
                     // Bits 31..24 are reserved; a node id above 127 is invalid; the
@@ -348,7 +358,7 @@ impl ObjectDictionary for Dictionary<'_> {
             // The command frame's fields, as mapped into RPDO1 (0x1600): bytes 0, 1,
             // 2–3, 4–5, 6–7. The command (sub 2) submits what was written, checked as
             // a command frame is; only in operational, as the command PDO.
-            (0x2000, sub @ 1..=5) => {
+            (od::REQUEST, sub @ 1..=5) => {
                 let (at, size) = match sub {
                     1 => (0, 1),
                     2 => (1, 1),
@@ -385,7 +395,7 @@ impl ObjectDictionary for Dictionary<'_> {
                 Ok(())
             }
             // The 3D move's y (as mapped into RPDO2, 0x1601) and its duration in s.
-            (0x2000, 6) => match *data {
+            (od::REQUEST, 6) => match *data {
                 [y0, y1] => {
                     let [_, _, seconds] = self.node.request.y_and_duration;
                     self.node.request.y_and_duration = [y0, y1, seconds];
@@ -393,7 +403,7 @@ impl ObjectDictionary for Dictionary<'_> {
                 }
                 _ => Err(abort::LENGTH),
             },
-            (0x2000, 7) => match *data {
+            (od::REQUEST, 7) => match *data {
                 [seconds] => {
                     let [y0, y1, _] = self.node.request.y_and_duration;
                     self.node.request.y_and_duration = [y0, y1, seconds];
@@ -401,10 +411,9 @@ impl ObjectDictionary for Dictionary<'_> {
                 }
                 _ => Err(abort::LENGTH),
             },
-            _ => match self.read(object) {
-                Ok(_) => Err(abort::READ_ONLY),
-                Err(code) => Err(code),
-            },
+            // A writable entry of the table this does not take (a host test writes every
+            // one, so there is none).
+            _ => Err(abort::READ_ONLY),
         }
     }
 }

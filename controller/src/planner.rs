@@ -14,14 +14,13 @@
 
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane3d::Crane3dParams;
 use solver_core::plan::{Plan, Stop, StopStart};
-use solver_core::reference::{flat_crane, flat_crane3d};
 use solver_core::trajectory::{PointToPoint, Trajectory};
 
 use crate::commands::{Reject, DURATION_TICKS_PER_S};
-use crate::drive::{self, Drive};
 use crate::setpoint::{AxisLimits, DriveLimits};
+
+pub use crate::crane::{AxisReasons, Crane, Flat};
 
 /// Points per checked path segment (plus its end).
 pub const SAMPLES: usize = 100;
@@ -46,124 +45,6 @@ const ORDER: [Reject; 10] = [
     Reject::TrolleyAcceleration,
     Reject::WinchAcceleration,
 ];
-
-/// The reasons naming one axis's violations.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct AxisReasons {
-    /// Its drive would leave its travel (the winch: the rope its length range).
-    pub workspace: Reject,
-    /// Its velocity above the limit.
-    pub velocity: Reject,
-    /// Its acceleration above the limit.
-    pub acceleration: Reject,
-}
-
-const BRIDGE: AxisReasons = AxisReasons {
-    workspace: Reject::BridgeWorkspace,
-    velocity: Reject::BridgeVelocity,
-    acceleration: Reject::BridgeAcceleration,
-};
-const TROLLEY: AxisReasons = AxisReasons {
-    workspace: Reject::TrolleyWorkspace,
-    velocity: Reject::TrolleyVelocity,
-    acceleration: Reject::TrolleyAcceleration,
-};
-const WINCH: AxisReasons = AxisReasons {
-    workspace: Reject::RopeWorkspace,
-    velocity: Reject::WinchVelocity,
-    acceleration: Reject::WinchAcceleration,
-};
-
-/// Where the drives stand and how they move when the load follows a path exactly (the
-/// flat inverse), `A` driven axes in the model's input order.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Flat<const A: usize> {
-    /// Each drive's position, m (trolley or bridge position, rope length).
-    pub position: [f64; A],
-    /// Each input u, m/s.
-    pub u: [f64; A],
-    /// Each input's rate u̇, m/s².
-    pub u_dot: [f64; A],
-}
-
-/// A crane the planner checks paths for: its flat inverse, the range of each drive's
-/// position, and the reasons naming each axis. The last output is the load's depth
-/// z_C below the rail (Eq. 24's convention, in 3D too).
-pub trait Crane<const A: usize> {
-    /// Its drives, in the model's input order: the order of every per-drive array.
-    const DRIVES: [Drive; A];
-    /// The reasons of each axis, in the model's input order.
-    const REASONS: [AxisReasons; A];
-    /// Gravity, m/s².
-    fn g(&self) -> f64;
-    /// Each drive position's range `(min, max)`, m.
-    fn ranges(&self) -> [(f64, f64); A];
-    /// The load's target for a move command to `x_C`, `z_C` and, from the 3D move
-    /// frame, `y_C` (docs/COMMANDS.md), the plan ending with the load at `end`: what the
-    /// command does not name stays. `None`: the crane has no such target (a y for the
-    /// planar crane).
-    fn target(x: f64, y: Option<f64>, z: f64, end: [f64; A]) -> Option<[f64; A]>;
-    /// The flat inverse at `t` of the load's path `z`.
-    fn flat<Z: Trajectory<f64, A>>(&self, z: &Z, t: f64) -> Flat<A>;
-    /// Each drive's lag τ, s (Eq. 24's `τ v̇ + v = u`): what the controller expects of
-    /// the set points it sends ([`crate::motion`]).
-    fn lags(&self) -> [f64; A];
-}
-
-/// The paper's planar crane: trolley x and rope length l (Eq. 24).
-impl Crane<2> for CraneParams {
-    const DRIVES: [Drive; 2] = drive::PLANAR;
-    const REASONS: [AxisReasons; 2] = [TROLLEY, WINCH];
-    fn g(&self) -> f64 {
-        self.g
-    }
-    fn ranges(&self) -> [(f64, f64); 2] {
-        let w = &self.workspace;
-        [(w.x_min, w.x_max), (w.l_min, w.l_max)]
-    }
-    fn target(x: f64, y: Option<f64>, z: f64, _end: [f64; 2]) -> Option<[f64; 2]> {
-        y.is_none().then_some([x, z])
-    }
-    fn flat<Z: Trajectory<f64, 2>>(&self, z: &Z, t: f64) -> Flat<2> {
-        let f = flat_crane::flat_inverse(self, z, t);
-        Flat {
-            position: [f.x, f.l],
-            u: f.u,
-            u_dot: f.u_dot,
-        }
-    }
-    fn lags(&self) -> [f64; 2] {
-        [self.tau1, self.tau2]
-    }
-}
-
-/// The 3D crane: bridge x, trolley y and rope length l.
-impl Crane<3> for Crane3dParams {
-    const DRIVES: [Drive; 3] = drive::SPATIAL;
-    const REASONS: [AxisReasons; 3] = [BRIDGE, TROLLEY, WINCH];
-    fn g(&self) -> f64 {
-        self.g
-    }
-    fn ranges(&self) -> [(f64, f64); 3] {
-        let w = &self.workspace;
-        [(w.x_min, w.x_max), (w.y_min, w.y_max), (w.l_min, w.l_max)]
-    }
-    /// A planar command moves the load in the x–z plane it hangs in: y stays.
-    fn target(x: f64, y: Option<f64>, z: f64, [_, y_end, _]: [f64; 3]) -> Option<[f64; 3]> {
-        Some([x, y.unwrap_or(y_end), z])
-    }
-    fn flat<Z: Trajectory<f64, 3>>(&self, z: &Z, t: f64) -> Flat<3> {
-        let f = flat_crane3d::flat_inverse(self, z, t);
-        Flat {
-            position: [f.x, f.y, f.l],
-            u: f.u,
-            u_dot: f.u_dot,
-        }
-    }
-    fn lags(&self) -> [f64; 3] {
-        [self.tau1, self.tau2, self.tau3]
-    }
-}
 
 /// Plans and checks moves for one crane `K` and its `A` drives.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -208,13 +89,6 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
 
     /// The rules the desired output breaks at `t`: bit `i` set for `ORDER[i]`.
     fn violations_at<Z: Trajectory<f64, A>>(&self, z: &Z, t: f64) -> u16 {
-        self.judge(z, t).0
-    }
-
-    /// The rules the desired output breaks at `t` (bit `i` set for `ORDER[i]`), and each
-    /// drive's speed |u| there (0 where the load's own checks failed before the flat
-    /// inverse was evaluated).
-    fn judge<Z: Trajectory<f64, A>>(&self, z: &Z, t: f64) -> (u16, [f64; A]) {
         let bit = |reason: Reject| {
             ORDER
                 .iter()
@@ -225,13 +99,13 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         let (zc, zcdd) = match (zd.as_slice().last(), zdd.as_slice().last()) {
             (Some(zc), Some(zcdd)) => (*zc, *zcdd),
             // No output at all: no load to hang.
-            _ => return (bit(Reject::RopeWorkspace), [0.0; A]),
+            _ => return bit(Reject::RopeWorkspace),
         };
         if zc.is_nan() || zc <= 0.0 {
-            return (bit(Reject::RopeWorkspace), [0.0; A]);
+            return bit(Reject::RopeWorkspace);
         }
         if zcdd.is_nan() || zcdd > MAX_DOWN_ACCELERATION * self.crane.g() {
-            return (bit(Reject::SlackRope), [0.0; A]);
+            return bit(Reject::SlackRope);
         }
         let f = self.crane.flat(z, t);
         let mut found = 0;
@@ -257,7 +131,7 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
                 found |= bit(reasons.acceleration);
             }
         }
-        (found, f.u.map(f64::abs))
+        found
     }
 
     /// What the checks bound at `t` of the path `z` ([`Quantities`]).
@@ -329,19 +203,20 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
     /// `σ_rise(d) ≤ σ_end ≤ 1`, `σ_rise(d)` the *nearest end* its start allows
     /// ([`StopStart::nearest_end`]), which grows with `d` (more time at the start's
     /// speed). A stop passes when it passes every check of a move — workspace, rope
-    /// tension, the drives' velocity and acceleration — and makes no drive faster than
-    /// the running segment does anywhere on its span (a stop never speeds a drive up
-    /// beyond what the move did or would have), and ends
-    /// no later than the running segment, `d ≤ end − t`.
+    /// tension, the drives' velocity and acceleration (the limits, not the move's own
+    /// speeds: a slow move may stop with its drives briefly faster than it ran, which is
+    /// what makes its stop short) — and ends no later than the running segment,
+    /// `d ≤ end − t`.
     ///
     /// Where the stops of the shortest durations pass, the nearest rest is near the
     /// shortest of them (a longer one may rest nearer only within its narrow first
     /// ends; a still longer one cannot rest nearer than its `σ_rise`). So the search
     /// scans the durations up from [`STOP_SHORTEST`] in steps of 25 % for the first whose
-    /// stops pass a coarse check (which ends pass, estimated at 16 instants), bisects
-    /// below it to 5 %, and gives the nearest end found the full check at every one of
-    /// [`Planner::check`]'s points — else the middle of the ends, else a little longer. On the issue's cases it rests within a few per cent of the
-    /// nearest rest a fine search of durations and ends finds (the study
+    /// stops pass a coarse check (which ends pass, estimated at `COARSE_POINTS`
+    /// instants), bisects below it to 5 %, and gives the nearest end found the full check
+    /// at every one of [`Planner::check`]'s points — else the middle of the ends, else a
+    /// little longer. On the issue's cases it rests within a few per cent of the nearest
+    /// rest a fine search of durations and ends finds (the study
     /// `stop_search_against_a_fine_search`).
     ///
     /// Never inlined (nor [`MoveSearch::advance`]): the flat inverse's jets at each
@@ -356,9 +231,9 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
 
     /// Whether `stop`, taking over at `t` on `plan`'s running segment, keeps every rule
     /// [`Planner::plan_stop`] keeps: on the path at or before the target, at rest no later
-    /// than the segment, every check of a move at [`Planner::check`]'s points, no drive
-    /// faster than the segment makes it. What the search finds passes; a test uses it to
-    /// ask whether a nearer stop would have (`tests/stop_property.rs`).
+    /// than the segment, every check of a move at [`Planner::check`]'s points. What the
+    /// search finds passes; a test uses it to ask whether a nearer stop would have
+    /// (`tests/stop_property.rs`).
     #[must_use]
     pub fn stop_passes(&self, plan: &Plan<f64, A>, t: f64, stop: &Stop<f64, A>) -> bool {
         let (Some(segment), Some(start)) = (plan.segment_at(t), plan.stop_start(t)) else {
@@ -368,12 +243,7 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         if stop.path() != start.path() || stop.t_end() > span.1 || !stop.stays_on_path() {
             return false;
         }
-        let mut budget = u32::MAX;
-        let caps = self.speed_caps(plan, t, span, &mut budget);
-        (0..=SAMPLES).all(|i| {
-            let (found, speeds) = self.judge(stop, sample_time(t, stop.t_end(), i));
-            found == 0 && speeds.iter().zip(caps).all(|(u, cap)| *u <= cap)
-        })
+        (0..=SAMPLES).all(|i| self.violations_at(stop, sample_time(t, stop.t_end(), i)) == 0)
     }
 
     /// [`Planner::plan_stop`] with the stop's end allowed up to `latest` instead of the
@@ -388,11 +258,9 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         plan: &Plan<f64, A>,
         t: f64,
         latest: f64,
-        mut budget: u32,
+        budget: u32,
     ) -> Option<Stop<f64, A>> {
-        let span = plan.segment_at(t)?.span();
         let start = plan.stop_start(t)?;
-        let caps = self.speed_caps(plan, t, span, &mut budget);
         let longest = longest_stop(&start, latest - t)?;
         // No stop shorter than the shortest move: its set points would leave the checks'
         // margin. Where none that long fits, the running segment is the quickest rest.
@@ -402,7 +270,6 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         let mut search = StopCheck {
             planner: self,
             start,
-            caps,
             budget,
         };
         // The shortest duration whose stops pass the coarse check: up from the shortest
@@ -455,33 +322,6 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
             d = (d * STOP_SCAN).min(longest);
         }
     }
-
-    /// Each drive's speed cap during a stop taking over at `t` on `plan`'s running
-    /// segment, which spans `span`: the highest |u| the segment itself gives the drive,
-    /// at `t` and at [`CAP_SAMPLES`] + 1 points of its span, plus [`CAP_TOLERANCE`]. A stop
-    /// never drives a drive faster than the move (or stop) it stops did or would have.
-    fn speed_caps(
-        &self,
-        plan: &Plan<f64, A>,
-        t: f64,
-        span: (f64, f64),
-        budget: &mut u32,
-    ) -> [f64; A] {
-        let mut caps = [0.0; A];
-        let (from, until) = span;
-        let points =
-            (0..=CAP_SAMPLES).map(|k| from + (until - from) * k as f64 / CAP_SAMPLES as f64);
-        for at in core::iter::once(t).chain(points) {
-            *budget = budget.saturating_sub(1);
-            for (cap, u) in caps.iter_mut().zip(self.crane.flat(plan, at).u) {
-                // (A speed that is not a number raises no cap: nothing then passes.)
-                if u.abs() > *cap {
-                    *cap = u.abs();
-                }
-            }
-        }
-        caps.map(|c| c * (1.0 + CAP_TOLERANCE))
-    }
 }
 
 /// Time of sample `i` of `[t0, t1]`.
@@ -509,18 +349,10 @@ fn first_reason(found: u16) -> Result<(), Reject> {
 }
 
 /// Path samples a stop's search may take (a stop is planned in the cycle it arrives):
-/// 22 for the speed caps, two per instant of each coarse check (16 instants; one that
-/// fails is left at its first failing instant) and 101 per full check. A search that would take more ends with the running segment as the stop
-/// (it was checked when it was accepted). Its cost: docs/RESULTS.md.
+/// two per instant of each coarse check (`COARSE_POINTS` instants; one that fails is
+/// left at its first failing instant) and 101 per full check. A search that would take
+/// more ends with the running segment as the stop (it was checked when it was accepted). Its cost: docs/RESULTS.md.
 pub const STOP_SAMPLES: u32 = 6 * SAMPLES_PER_CYCLE;
-
-/// Points of the running segment that give the drives' speed caps during a stop, less one.
-const CAP_SAMPLES: usize = 20;
-
-/// How much faster than the running segment a drive may be during a stop, as a share:
-/// the segment's own peak may lie between the cap's points, and a stop continues the
-/// segment's derivatives at its start.
-const CAP_TOLERANCE: f64 = 1e-3;
 
 /// Instants of a stop at which its coarse check evaluates the path, each at two ends
 /// ([`StopCheck::ends`]).
@@ -553,8 +385,6 @@ const STOP_RESOLUTION: f64 = 1.05;
 struct StopCheck<'a, K, const A: usize> {
     planner: &'a Planner<K, A>,
     start: StopStart<f64, A>,
-    /// Each drive's speed cap ([`Planner::speed_caps`]).
-    caps: [f64; A],
     budget: u32,
 }
 
@@ -567,7 +397,7 @@ impl<K: Crane<A>, const A: usize> StopCheck<'_, K, A> {
     /// the Hermite polynomial that rests at 0 plus the smooth step), so each quantity the
     /// checks bound is nearly affine in it too (exactly so for the planar crane's trolley
     /// at a constant rope length): evaluated at two ends, the nearest end the start allows
-    /// (`σ_rise`) and halfway from it to the target, at [`COARSE_POINTS`] instants, each
+    /// (`σ_rise`) and halfway from it to the target, at `COARSE_POINTS` instants, each
     /// bound gives an interval of ends, and the ends that pass are their intersection
     /// with `[σ_rise, 1]`. The bounds are [`COARSE_SHARE`] of the checks' own, so that
     /// the full check ([`StopCheck::clears`]) of what this finds passes.
@@ -602,14 +432,8 @@ impl<K: Crane<A>, const A: usize> StopCheck<'_, K, A> {
                 (qa.depth_acceleration, qb.depth_acceleration),
                 (f64::NEG_INFINITY, slack),
             );
-            let axes = planner
-                .crane
-                .ranges()
-                .into_iter()
-                .zip(limits)
-                .zip(self.caps)
-                .enumerate();
-            for (k, ((range, (velocity, acceleration)), cap)) in axes {
+            let axes = planner.crane.ranges().into_iter().zip(limits).enumerate();
+            for (k, (range, (speed, acceleration))) in axes {
                 let of = |q: &Quantities<A>| {
                     let f = &q.flat;
                     (
@@ -619,7 +443,6 @@ impl<K: Crane<A>, const A: usize> StopCheck<'_, K, A> {
                     )
                 };
                 let ((pa, ua, ra), (pb, ub, rb)) = (of(&qa), of(&qb));
-                let speed = velocity.min(cap);
                 ends.bound((pa, pb), range);
                 ends.bound((ua, ub), (-speed, speed));
                 ends.bound((ra, rb), (-acceleration, acceleration));
@@ -658,7 +481,7 @@ impl<K: Crane<A>, const A: usize> StopCheck<'_, K, A> {
 
     /// The stop of duration `d` that rests at the fraction `end` of the path, if it stays
     /// on the path at or before the target and passes every check at every one of
-    /// [`Planner::check`]'s points, the speed caps too (visited in the spread order, left
+    /// [`Planner::check`]'s points (visited in the spread order, left
     /// at the first violation); `None` (outer) when the budget runs out.
     fn clears(&mut self, d: f64, end: f64) -> Option<Option<Stop<f64, A>>> {
         let stop = match self.start.stop(d, end) {
@@ -668,9 +491,7 @@ impl<K: Crane<A>, const A: usize> StopCheck<'_, K, A> {
         let t = self.start.t();
         for i in (0..=SAMPLES).map(spread) {
             self.budget = self.budget.checked_sub(1)?;
-            let (found, speeds) = self.planner.judge(&stop, sample_time(t, t + d, i));
-            let faster = speeds.iter().zip(self.caps).any(|(u, cap)| *u > cap);
-            if found != 0 || faster {
+            if self.planner.violations_at(&stop, sample_time(t, t + d, i)) != 0 {
                 return Some(None);
             }
         }
@@ -945,6 +766,7 @@ impl<const A: usize> MoveSearch<A> {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
+    use solver_core::models::crane3d::Crane3dParams;
 
     /// Every reason a crane names is one the planner ranks: a reason outside [`ORDER`]
     /// would have no bit, and its violation would pass unseen.
@@ -962,6 +784,31 @@ mod tests {
         assert!(ranked::<3, Crane3dParams>());
     }
 
+    /// A plan at rest at `from` with the quickest move to `to` the planner allows, and
+    /// the time that move ends.
+    fn the_quickest_move<K: Crane<A>, const A: usize>(
+        planner: &Planner<K, A>,
+        from: [f64; A],
+        to: [f64; A],
+    ) -> (Plan<f64, A>, f64) {
+        a_move(planner, from, to, None)
+    }
+
+    /// A plan at rest at `from` with a move to `to` in `duration` s (`None`: the
+    /// quickest), and the time that move ends.
+    fn a_move<K: Crane<A>, const A: usize>(
+        planner: &Planner<K, A>,
+        from: [f64; A],
+        to: [f64; A],
+        duration: Option<f64>,
+    ) -> (Plan<f64, A>, f64) {
+        let mut plan = Plan::at_rest(SVector::from(from), 5).unwrap();
+        plan.push(planner.plan_move(&plan, to, duration, 0.0).unwrap())
+            .unwrap();
+        let end = plan.end_time().unwrap();
+        (plan, end)
+    }
+
     /// What the rule "never later than the move would have ended" (issue 17) costs in
     /// stopping distance: at instants 0.1 s apart on three moves as fast as the limits
     /// allow, the stop [`Planner::plan_stop`] finds beside the one it would find if it
@@ -975,10 +822,7 @@ mod tests {
             from: [f64; A],
             to: [f64; A],
         ) {
-            let mut plan = Plan::at_rest(SVector::from(from), 5).unwrap();
-            plan.push(planner.plan_move(&plan, to, None, 0.0).unwrap())
-                .unwrap();
-            let end = plan.end_time().unwrap();
+            let (plan, end) = the_quickest_move(planner, from, to);
             let length = (SVector::from(to) - SVector::from(from)).norm();
             let (mut runs_on, mut shorter_later, mut shorter, mut later) = (0, 0, 0.0_f64, 0.0_f64);
             for i in 1..(end * 10.0) as usize {
@@ -1010,6 +854,67 @@ mod tests {
         );
     }
 
+    /// [`STOP_SAMPLES`] suffices: the smallest budget with which the search finds what it
+    /// finds without one, over stops at every 0.25 s of moves from one place to many —
+    /// the quickest ones and the issue's 8 s moves, whose longer spans the scan climbs
+    /// further — on the planar and the 3D crane, stays within it (printed: `cargo test -p controller
+    /// --release --lib stop_budget -- --nocapture`). A search that needs more ends with
+    /// the running move as the stop — safe, but not as short as the limits allow.
+    #[test]
+    fn the_stop_budget_suffices() {
+        fn most_needed<K: Crane<A>, const A: usize>(
+            planner: &Planner<K, A>,
+            from: [f64; A],
+            moves: &[([f64; A], Option<f64>)],
+        ) -> (u32, usize) {
+            let (mut most, mut stops) = (0, 0);
+            for (to, duration) in moves {
+                let (plan, end) = a_move(planner, from, *to, *duration);
+                for i in 1..(end * 4.0) as usize {
+                    let t = i as f64 * 0.25;
+                    let unlimited = planner.stop_within(&plan, t, end, u32::MAX);
+                    // The search only ever stops early on its budget: bisect the least.
+                    let (mut lo, mut hi) = (0, 1 << 16);
+                    assert_eq!(planner.stop_within(&plan, t, end, hi), unlimited);
+                    while hi - lo > 1 {
+                        let mid = (lo + hi) / 2;
+                        if planner.stop_within(&plan, t, end, mid) == unlimited {
+                            hi = mid;
+                        } else {
+                            lo = mid;
+                        }
+                    }
+                    most = most.max(hi);
+                    stops += 1;
+                }
+            }
+            (most, stops)
+        }
+        let planar = Planner::new(CraneParams::PAPER, DriveLimits::LAB);
+        let planar_moves = [
+            ([20.0, 5.0], None),
+            ([20.0, 5.0], Some(8.0)),
+            ([20.0, 4.0], None),
+            ([14.0, 7.0], None),
+            ([19.0, 8.5], None),
+            ([14.0, 7.0], Some(10.0)),
+        ];
+        let (planar_most, planar_stops) = most_needed(&planar, [12.0, 8.0], &planar_moves);
+        let crane3d = Planner::with_axes(Crane3dParams::EXAMPLE, DriveLimits::LAB_3D);
+        let moves_3d = [
+            ([14.0, 4.5, 6.5], None),
+            ([14.0, 4.5, 6.5], Some(8.0)),
+            ([16.0, 5.0, 6.0], None),
+            ([20.0, 3.0, 4.0], None),
+            ([16.0, 5.0, 6.0], Some(10.0)),
+        ];
+        let (most_3d, stops_3d) = most_needed(&crane3d, [12.0, 3.0, 8.0], &moves_3d);
+        std::eprintln!(
+            "path samples a stop's search needed at most: planar {planar_most} ({planar_stops} stops), 3D {most_3d} ({stops_3d} stops); the budget {STOP_SAMPLES}"
+        );
+        assert!(planar_most <= STOP_SAMPLES && most_3d <= STOP_SAMPLES);
+    }
+
     /// No stop shorter than [`STOP_SHORTEST`], also in a move's last half second, where
     /// the longest stop that fits is shorter: there the running segment is the rest.
     #[test]
@@ -1019,10 +924,7 @@ mod tests {
             from: [f64; A],
             to: [f64; A],
         ) {
-            let mut plan = Plan::at_rest(SVector::from(from), 5).unwrap();
-            plan.push(planner.plan_move(&plan, to, None, 0.0).unwrap())
-                .unwrap();
-            let end = plan.end_time().unwrap();
+            let (plan, end) = the_quickest_move(planner, from, to);
             for i in 0..=60 {
                 let t = end - 0.6 + f64::from(i) * 0.01;
                 if let Some(stop) = planner.plan_stop(&plan, t) {
@@ -1047,8 +949,8 @@ mod tests {
     }
 
     /// How near the stop [`Planner::plan_stop`] rests to the nearest rest of its family
-    /// under the same rules (on the path at or before the target, every check, no drive
-    /// faster than the move, no later than the move): a fine search — durations 20 ms
+    /// under the same rules (on the path at or before the target, every check, no later
+    /// than the move): a fine search — durations 20 ms
     /// apart, for each the nearest end 0.001 of the path apart that passes the full check
     /// — at instants of the issue's moves. A study, not a check of the firmware (`cargo
     /// test -p controller --release --lib stop_search -- --ignored --nocapture`, about a
@@ -1070,13 +972,10 @@ mod tests {
             for &t in instants {
                 let span = plan.segment_at(t).unwrap().span();
                 let start = plan.stop_start(t).unwrap();
-                let mut budget = u32::MAX;
-                let caps = planner.speed_caps(&plan, t, span, &mut budget);
                 let mut fine = StopCheck {
                     planner,
                     start,
-                    caps,
-                    budget,
+                    budget: u32::MAX,
                 };
                 let mut best: Option<(f64, f64)> = None;
                 let mut d = STOP_SHORTEST;

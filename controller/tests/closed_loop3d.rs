@@ -30,7 +30,7 @@ const TARGET: [f64; 3] = [20.0, 6.0, 4.0];
 const MOVE_END_S: f64 = 10.0;
 
 /// The plant's mismatch: the QEMU scenarios' (`sim::MISMATCHED`) with an 8 N gust for
-/// 1.5 s mid-move, which on the 3D crane blows from 45° (`VirtualBus::with_drives`).
+/// 1.5 s mid-move, which on the 3D crane blows from 45° (`sim::simulated::Simulated` for `Crane3dParams`).
 const MISMATCH: Mismatch = Mismatch {
     gust: Gust {
         start: 4.0,
@@ -80,7 +80,7 @@ fn feedback() -> SpatialFeedback {
 struct Run {
     cycles: Vec<Cycle<3>>,
     plant: Vec<(f64, [f64; 3], [f64; 2])>,
-    bus: VirtualBus<3>,
+    bus: VirtualBus<Crane3dParams, 3>,
 }
 
 impl Run {
@@ -117,21 +117,25 @@ impl Run {
     }
 }
 
-fn run<C: AxesCorrection<3>>(correction: C, scenario: Scenario, seconds: u32) -> Run {
+fn run<C: AxesCorrection<3, [feedback::Reference; 2]>>(
+    correction: C,
+    scenario: Scenario,
+    seconds: u32,
+) -> Run {
     let planner = Planner::with_axes(Crane3dParams::EXAMPLE, DriveLimits::LAB_3D);
     let mut c: Controller<Ff, C, Crane3dParams, 3> =
         Controller::with_correction(feedforward(), correction, planner, config());
-    let mut bus = VirtualBus::with_drives(scenario, SPATIAL, HOME);
+    let mut bus = VirtualBus::for_crane(scenario, &Crane3dParams::EXAMPLE, HOME);
     assert!(bus.simulates_scenario());
     let mut out = Run {
         cycles: Vec::new(),
         plant: Vec::new(),
-        bus: VirtualBus::with_drives(scenario, SPATIAL, HOME),
+        bus: VirtualBus::for_crane(scenario, &Crane3dParams::EXAMPLE, HOME),
     };
     for k in 0..seconds * 100 {
         out.cycles
             .push(run_cycle(&mut c, &mut bus, k * 10).unwrap());
-        let p = bus.plant3d().unwrap();
+        let p = bus.plant().unwrap();
         out.plant
             .push((f64::from(k + 1) * 0.01, p.load(), p.slopes()));
     }

@@ -16,6 +16,7 @@ use controller::drive::{Drive, SPATIAL};
 use controller::setpoint::UNITS_PER_M_PER_S;
 use controller::{Cycle, Fault, Mode, Replan};
 use sim::Action;
+use solver_core::trajectory::Trajectory;
 
 /// Every set point within its drive's limits, every RPDO to the drive it is for.
 fn assert_within_limits(cycles: &[Cycle<3>], last: &mut [i32; 3]) {
@@ -220,10 +221,74 @@ fn a_3d_move_written_over_sdo_is_taken_as_its_frame() {
     assert_eq!([end[0], end[1], end[2]], [15.0, 1.5, 6.0]);
 }
 
+/// A stop at every 0.25 s of the issue's 8 s 3D move and of the quickest move to the
+/// same target keeps every set point within the drives' limits (speed and the step a
+/// cycle may make) and rests at or before the target in every axis: the stop search
+/// bounds only the flat inverse, within the 5 % margin, so the scheme's set points are
+/// checked here at every instant, not only at the issue's three.
+#[test]
+fn every_stop_of_a_3d_move_keeps_the_limits_and_rests_short() {
+    let target = [14.0, 4.5, 6.5];
+    for duration in [Some(8.0), None] {
+        let the_move = Request::Move3d {
+            id: 1,
+            target,
+            duration,
+        };
+        let mut alone = Rig::new();
+        alone.ready();
+        command(&mut alone, the_move);
+        // (The quickest move's duration is searched over a few cycles.)
+        let mut waited = 0;
+        while alone.c.feedforward().inner.plan().end_time().is_none() {
+            assert!(waited < 30, "{duration:?}: the move not accepted");
+            alone.cycle();
+            waited += 1;
+        }
+        let plan = *alone.c.feedforward().inner.plan();
+        let end = plan.end_time().unwrap();
+        let start = plan.active_span().0;
+        let mut stop_after = 0.25;
+        let mut stops = 0;
+        while start + stop_after < end {
+            stops += 1;
+            let mut rig = Rig::new();
+            rig.ready();
+            command(&mut rig, the_move);
+            let mut outs = rig.run(2);
+            while f64::from(rig.now) / 1000.0 < start + stop_after {
+                outs.push(rig.cycle());
+            }
+            command(&mut rig, Request::Stop { id: 2 });
+            outs.extend(rig.run(1100));
+            let what = format!("{duration:?} stopped {stop_after} s in");
+            assert_eq!(rig.c.mode(), Mode::Ready, "{what}");
+            assert_within_limits(&outs, &mut [0; 3]);
+            let rest = rig.c.feedforward().inner.plan().final_position();
+            for i in 0..3 {
+                let way = target[i] - HOME[i];
+                assert!(
+                    (target[i] - rest[i]) * way.signum() >= -1e-9,
+                    "{what}: axis {i} rests at {} past {}",
+                    rest[i],
+                    target[i]
+                );
+            }
+            assert_at_rest(&outs);
+            stop_after += 0.25;
+        }
+        eprintln!("{duration:?}: {stops} stops from {start} s to {end} s");
+        assert!(
+            stops >= 12,
+            "{duration:?}: {stops} stops from {start} to {end}"
+        );
+    }
+}
+
 /// Issue 32, cases 5–7 on the 3D crane: the 3D move (12, 3, 8) → (14, 4.5, 6.5) in 8 s
 /// stopped 3.9–6.5 s in came to rest at the target. Now it rests short of the target in
-/// every axis (0.1 mm at least; the later the stop, the nearer), no drive faster than
-/// the move alone makes it; a reset while the stop moves the crane is refused (reason
+/// every axis (0.1 mm at least; the later the stop, the nearer), every set point within
+/// the drives' limits; a reset while the stop moves the crane is refused (reason
 /// 14); from its first all-zero cycle every set point is exactly zero; a move sent then
 /// is accepted.
 #[test]
@@ -234,19 +299,6 @@ fn a_stop_of_a_3d_move_rests_short_of_the_target_then_exactly_zero() {
         target,
         duration: Some(8.0),
     };
-    let peaks = |cycles: &[Cycle<3>]| {
-        let mut peak = [0; 3];
-        for c in cycles {
-            for (p, s) in peak.iter_mut().zip(c.setpoints) {
-                *p = (*p).max(s.units().abs());
-            }
-        }
-        peak
-    };
-    let mut alone = Rig::new();
-    alone.ready();
-    command(&mut alone, the_move);
-    let top = peaks(&alone.run(1000));
     for stop_after in [3.9, 5.0, 6.5] {
         let mut rig = Rig::new();
         rig.ready();
@@ -282,15 +334,6 @@ fn a_stop_of_a_3d_move_rests_short_of_the_target_then_exactly_zero() {
                 "{what}: axis {i} at rest at {} (target {})",
                 rest[i],
                 target[i]
-            );
-        }
-        let peak = peaks(&outs);
-        for i in 0..3 {
-            assert!(
-                f64::from(peak[i]) <= f64::from(top[i]) * 1.002 + 1.0,
-                "{what}: drive {i} {} µm/s, the move alone {}",
-                peak[i],
-                top[i]
             );
         }
         assert_within_limits(&outs, &mut [0; 3]);

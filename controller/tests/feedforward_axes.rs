@@ -3,7 +3,8 @@
 //! three set points out, a plan the controller can change, and the reference state of
 //! each vertical plane for the state feedback.
 
-use controller::feedforward::{command_plan, Feedforward, InverseModel, Replan};
+use controller::crane::command_plan;
+use controller::feedforward::{Feedforward, InverseModel, Replan};
 use controller::planner::Planner;
 use controller::setpoint::{AxisLimits, DriveLimits};
 use nalgebra::SVector;
@@ -128,7 +129,7 @@ fn the_3d_plan_can_be_changed_and_restarted_at_rest() {
 #[test]
 fn the_planar_crane_keeps_its_two_axes() {
     // The planar feedforward is the default: two set points, the planar reference.
-    let plan = command_plan([12.0, 8.0], 4).unwrap();
+    let plan = command_plan::<CraneParams, 2>([12.0, 8.0], 4).unwrap();
     let model = solver_core::models::crane_subs::CraneSubs::new(CraneParams::PAPER, plan).unwrap();
     let settings = SolverSettings {
         h: 0.01,

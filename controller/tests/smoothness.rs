@@ -1,4 +1,4 @@
-//! Why commanded moves are planned with n ≥ 5 (`feedforward::MIN_COMMAND_SMOOTHNESS`):
+//! Why commanded moves are planned with n ≥ 5 (`Crane::MIN_COMMAND_SMOOTHNESS`, controller/src/crane):
 //! the drives' accelerations `u̇` contain `z⁽⁵⁾`, which a C4 polynomial (n = 4) makes
 //! jump at the move's ends. The BDF schemes answer that jump with a transient in the
 //! computed inputs: the set points then change faster than the exact inverse's peak

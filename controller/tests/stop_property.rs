@@ -11,8 +11,7 @@
 //!   Eqs. 21-22) keeps its load at or before the target in every axis at every instant,
 //!   and brings it to rest there;
 //! * every set point is finite and within the limits;
-//! * as short as the limits allow (issue 32): no drive is sent faster than the move
-//!   itself makes it (its flat inverse's peak, the scheme's error allowed); no stop that
+//! * as short as the limits allow (issue 32): no stop that
 //!   rests at half the distance from where the load was — any duration from 0.5 s to
 //!   the move's end, in steps of 5 % — keeps the rules (`Planner::stop_passes`; the
 //!   search's stops are nearer the family's nearest than that, the study
@@ -28,14 +27,11 @@ mod common;
 
 use common::*;
 use controller::commands::{request_frame, Request};
-use controller::setpoint::UNITS_PER_M_PER_S;
 use controller::{Mode, Replan};
 use nalgebra::SVector;
 use proptest::prelude::*;
 use proptest::test_runner::TestRunner;
 use sim::HEALTHY;
-use solver_core::models::crane::CraneParams;
-use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::reference::plant::crane_output;
 use solver_core::trajectory::Trajectory;
 use std::cell::RefCell;
@@ -189,27 +185,7 @@ fn check_stop(
     );
     let off = ((last[0] - rest[0]).powi(2) + (last[1] - rest[1]).powi(2)).sqrt();
     prop_assert!(off < 1e-3, "the load rests {off:.2e} m from the stop's end");
-    // As short as the limits allow. No drive faster than the move makes it: the flat
-    // inverse's peak over the move, 0.5 % and two µm/s units for the scheme's error.
-    let params = CraneParams::PAPER;
-    let mut top = [0.0f64; 2];
-    for k in 0..=800 {
-        let f = flat_inverse(&params, &plan, start + (end - start) * f64::from(k) / 800.0);
-        for (top, u) in top.iter_mut().zip(f.u) {
-            *top = top.max(u.abs());
-        }
-    }
-    let stopped_at = outs.len() - cycles - 1;
-    for c in &outs[stopped_at..] {
-        for (i, (setpoint, top)) in c.setpoints.iter().zip(top).enumerate() {
-            let sent = f64::from(setpoint.units().abs());
-            prop_assert!(
-                sent <= top * UNITS_PER_M_PER_S * 1.005 + 2.0,
-                "drive {i} sent {sent} µm/s, the move's peak {:.0}",
-                top * UNITS_PER_M_PER_S
-            );
-        }
-    }
+    // As short as the limits allow.
     // No stop resting at half the distance keeps the rules — asserted of every stop
     // the search found; where it found none and the move runs on to its target, counted
     // (the search's coarse check can miss a narrow region of stops that pass).

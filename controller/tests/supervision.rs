@@ -324,8 +324,8 @@ fn a_reset_at_rest_takes_the_drives_positions() {
 mod crane3d {
     use super::*;
     use crate::common3d::{Rig, HOME};
-    use controller::drive::SPATIAL;
     use sim::VirtualBus;
+    use solver_core::models::crane3d::Crane3dParams;
 
     fn resting() -> Rig {
         let mut rig = Rig::new();
@@ -405,7 +405,11 @@ mod crane3d {
     #[test]
     fn a_move_is_refused_while_the_drives_are_not_where_the_model_rests() {
         let mut rig = Rig::new();
-        rig.bus = VirtualBus::with_drives(HEALTHY, SPATIAL, [HOME[0] + 0.2, HOME[1], HOME[2]]);
+        rig.bus = VirtualBus::for_crane(
+            HEALTHY,
+            &Crane3dParams::EXAMPLE,
+            [HOME[0] + 0.2, HOME[1], HOME[2]],
+        );
         rig.ready();
         rig.run(60);
         let to = |id| Request::Move3d {
@@ -448,22 +452,21 @@ fn healthy_runs_use_less_than_half_of_every_window() {
     use controller::commissioning::{InclinometerSetup, NodeSetup};
     use controller::correction::AxesCorrection;
     use controller::feedback::{self, NoFeedback, StateFeedback};
-    use controller::feedforward::{Axes, Feedforward, ReferenceOf, Replan};
+    use controller::feedforward::{Feedforward, Replan};
     use controller::motion::{Deviations, MotionWindows};
-    use controller::planner::{Crane, Planner};
+    use controller::planner::Planner;
     use controller::{Config, Controller, Injectable};
     use sim::{run_cycle, Event, Scenario, VirtualBus};
 
     fn run<F, C, K, const A: usize>(
         mut c: Controller<Injectable<F>, C, K, A>,
-        mut bus: VirtualBus<A>,
+        mut bus: VirtualBus<K, A>,
         cycles: u32,
     ) -> [Deviations; A]
     where
-        F: Feedforward<A> + Replan<A>,
-        C: AxesCorrection<A>,
-        K: Crane<A>,
-        Axes<A>: ReferenceOf,
+        F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+        C: AxesCorrection<A, K::Reference>,
+        K: sim::simulated::Simulated<A>,
     {
         for now in (0..cycles).map(|k| k * 10) {
             let out = run_cycle(&mut c, &mut bus, now).expect("no hang");
@@ -472,7 +475,7 @@ fn healthy_runs_use_less_than_half_of_every_window() {
         c.motion_deviations()
     }
     // The planar crane with the paper's move planned at boot, as the firmware runs it.
-    fn planar<C: AxesCorrection<2>>(
+    fn planar<C: AxesCorrection<2, feedback::Reference>>(
         correction: C,
         scenario: Scenario,
         cycles: u32,
@@ -485,8 +488,10 @@ fn healthy_runs_use_less_than_half_of_every_window() {
     }
     // The 3D crane, `scenario`'s events with a 3D move (12, 3, 8) → (20, 6, 4) in 9 s
     // asked at 1 s among them.
-    fn spatial<C: AxesCorrection<3>>(correction: C, scenario: Scenario) -> [Deviations; 3] {
-        use controller::drive::SPATIAL;
+    fn spatial<C: AxesCorrection<3, [feedback::Reference; 2]>>(
+        correction: C,
+        scenario: Scenario,
+    ) -> [Deviations; 3] {
         use solver_core::models::crane3d::Crane3dParams;
         let planner = Planner::with_axes(Crane3dParams::EXAMPLE, crate::common3d::limits());
         let config = crate::common3d::config()
@@ -499,7 +504,7 @@ fn healthy_runs_use_less_than_half_of_every_window() {
         );
         run(
             c,
-            VirtualBus::with_drives(scenario, SPATIAL, crate::common3d::HOME),
+            VirtualBus::for_crane(scenario, &Crane3dParams::EXAMPLE, crate::common3d::HOME),
             1_600,
         )
     }

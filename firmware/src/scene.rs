@@ -18,6 +18,8 @@ pub struct Stub {
 
 #[cfg(feature = "stub-inverse-model")]
 impl controller::Feedforward<AXES> for Stub {
+    type Reference = <Crane as controller::crane::Crane<AXES>>::Reference;
+
     fn step(
         &mut self,
     ) -> Result<controller::feedforward::FeedforwardStep<AXES>, solver_core::Error> {
@@ -35,7 +37,7 @@ impl controller::Feedforward<AXES> for Stub {
         self.t
     }
 
-    fn reference(&self) -> controller::feedforward::ReferenceState<AXES> {
+    fn reference(&self) -> Self::Reference {
         core::hint::black_box(Default::default())
     }
 }

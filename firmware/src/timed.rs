@@ -8,7 +8,7 @@
 //! step; the firmware logs the sum, in the units of `Board::cost`, beside the tick's cost. Nothing else changes: the
 //! controller, its frames and the plan see the inner feedforward.
 
-use controller::feedforward::{AroundStep, Axes, FeedforwardStep, ReferenceOf, Wrapped};
+use controller::feedforward::{AroundStep, FeedforwardStep, Wrapped};
 use controller::Feedforward;
 use solver_core::Error;
 
@@ -43,10 +43,7 @@ impl AroundStep for SolverTimer {
     fn step<F: Feedforward<A>, const A: usize>(
         &mut self,
         inner: &mut F,
-    ) -> Result<FeedforwardStep<A>, Error>
-    where
-        Axes<A>: ReferenceOf,
-    {
+    ) -> Result<FeedforwardStep<A>, Error> {
         let start = board::solver_counter();
         let out = inner.step();
         let spent = board::solver_elapsed(start, board::solver_counter());

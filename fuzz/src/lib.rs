@@ -4,14 +4,15 @@
 
 use controller::canopen::cob;
 use controller::commissioning::{InclinometerSetup, NodeSetup};
+use controller::crane::command_plan;
 use controller::drive::PLANAR;
 use controller::feedback::{self, Correction, NoFeedback, StateFeedback};
-use controller::feedforward::command_plan;
 use controller::planner::Planner;
 use controller::setpoint::DriveLimits;
 use controller::{CanFrame, Config, Controller, Injectable, InverseModel};
 use nalgebra::SVector;
 use sim::{run_cycle, Scenario, VirtualBus, CLOSED_LOOP, HEALTHY};
+use solver_core::models::crane::CraneParams;
 use solver_core::trajectory::PointToPoint;
 
 /// The default scene's model, integrator and settings as the firmware links them
@@ -34,7 +35,7 @@ pub const PLANNER: Planner = Planner::new(default_scene::PARAMS, DriveLimits::LA
 /// The paper's move (12, 8) → (20, 4) from 1 s to 9 s, or rest at (12, 8).
 pub fn feedforward(paper_move: bool) -> Feedforward {
     let home = HOME;
-    let mut plan = command_plan(home, 4).expect("valid plan");
+    let mut plan = command_plan::<CraneParams, 2>(home, 4).expect("valid plan");
     if paper_move {
         let m = PointToPoint::new(SVector::from(home), SVector::from([20.0, 4.0]), 1.0, 8.0, 4)
             .expect("the paper's move");

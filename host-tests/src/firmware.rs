@@ -2,8 +2,7 @@
 //! same virtual bus and scenario. The QEMU run must send exactly these frames.
 
 use controller::correction::AxesCorrection;
-use controller::feedforward::{command_plan, Axes, ReferenceOf};
-use controller::planner::Crane;
+use controller::crane::command_plan;
 use controller::setpoint::Setpoint;
 use controller::{CanFrame, Config, Controller, Feedforward, Injectable, Mode, Replan};
 use scene::commissioning::CommissioningFile;
@@ -54,10 +53,7 @@ struct RunScene<'a> {
 impl FirmwareCraneVisitor for RunScene<'_> {
     type Output = Result<Vec<ReferenceCycle>, String>;
 
-    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output
-    where
-        Axes<A>: ReferenceOf,
-    {
+    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output {
         let (scene, scenario) = (self.scene, &self.scenario);
         let cycles = if scenario.cycles == 0 {
             f.cycles
@@ -67,8 +63,8 @@ impl FirmwareCraneVisitor for RunScene<'_> {
         // The simulated crane rests where the scene's move starts.
         let mut run = boot(scene, &f, f.plan, false, *scenario, cycles)?;
         if scenario.hang_at_ms().is_some() {
-            let at_rest =
-                command_plan(f.start(), scene.trajectory.smoothness).map_err(|e| e.to_string())?;
+            let at_rest = command_plan::<K, A>(f.start(), scene.trajectory.smoothness)
+                .map_err(|e| e.to_string())?;
             run.extend(boot(scene, &f, at_rest, true, *scenario, cycles)?);
         }
         Ok(run)
@@ -78,16 +74,16 @@ impl FirmwareCraneVisitor for RunScene<'_> {
 /// The virtual bus the firmware's QEMU board builds for the scene: a stock drive for
 /// each of the crane's drives, at rest where the scene's move starts; refused if the
 /// scenario asks for a plant the bus does not simulate for this crane.
-pub fn virtual_bus<K: Crane<A>, const A: usize>(
+pub fn virtual_bus<K: FirmwareCrane<A>, const A: usize>(
     f: &FirmwareScene<K, A>,
     scenario: Scenario,
-) -> Result<VirtualBus<A>, String> {
-    let bus = VirtualBus::with_drives(scenario, K::DRIVES, f.start());
+) -> Result<VirtualBus<K, A>, String> {
+    let bus = VirtualBus::for_crane(scenario, &f.params, f.start());
     if bus.simulates_scenario() {
         Ok(bus)
     } else {
         Err(format!(
-            "scenario {}: its plant is the planar crane's; this crane has {A} drives",
+            "scenario {}: it moves a plant, and this build has no plant (feature `plant`)",
             scenario.name
         ))
     }
@@ -105,10 +101,9 @@ pub trait WithController {
         f: &FirmwareScene<K, A>,
     ) -> Self::Output
     where
-        F: Feedforward<A> + Replan<A>,
-        C: AxesCorrection<A>,
-        K: FirmwareCrane<A>,
-        Axes<A>: ReferenceOf;
+        F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+        C: AxesCorrection<A, K::Reference>,
+        K: FirmwareCrane<A>;
 }
 
 /// The one construction of the firmware's controller on the host, for the host's run
@@ -123,40 +118,37 @@ pub fn with_controller<K: FirmwareCrane<A>, V: WithController, const A: usize>(
     plan: Plan<f64, A>,
     config: Config,
     visit: V,
-) -> Result<V::Output, String>
-where
-    Axes<A>: ReferenceOf,
-{
+) -> Result<V::Output, String> {
     let build = Build { f, config, visit };
-    f.params
-        .inverse_model(f.scheme, plan, &scene.settings(), build)
+    f.inverse_model(plan, &scene.settings(), build)
         .map_err(|e| e.to_string())?
 }
 
 /// The inverse model built; the controller around it next.
-struct Build<'a, K, V, const A: usize> {
+struct Build<'a, K: FirmwareCrane<A>, V, const A: usize> {
     f: &'a FirmwareScene<K, A>,
     config: Config,
     visit: V,
 }
 
-impl<K: FirmwareCrane<A>, V: WithController, const A: usize> FirmwareVisitor<A>
+impl<K: FirmwareCrane<A>, V: WithController, const A: usize> FirmwareVisitor<K, A>
     for Build<'_, K, V, A>
-where
-    Axes<A>: ReferenceOf,
 {
     type Output = Result<V::Output, String>;
 
     /// The firmware's controller around `feedforward`: with the crane's state feedback
     /// if the scene closes the loop.
-    fn visit<F: Feedforward<A> + Replan<A>>(self, feedforward: F) -> Self::Output {
+    fn visit<F: Feedforward<A, Reference = K::Reference> + Replan<A>>(
+        self,
+        feedforward: F,
+    ) -> Self::Output {
         let feedforward = Injectable::new(feedforward);
         let (f, planner, config) = (self.f, self.f.planner, self.config);
         Ok(match f.feedback {
             Some(feedback) => self.visit.with(
                 Controller::with_correction(
                     feedforward,
-                    f.params.feedback(feedback)?,
+                    f.params.feedback(feedback).map_err(|e| format!("{e:?}"))?,
                     planner,
                     config,
                 ),
@@ -184,10 +176,7 @@ fn boot<K: FirmwareCrane<A>, const A: usize>(
     restarted: bool,
     scenario: Scenario,
     cycles: u32,
-) -> Result<Vec<ReferenceCycle>, String>
-where
-    Axes<A>: ReferenceOf,
-{
+) -> Result<Vec<ReferenceCycle>, String> {
     let run = Boot {
         restarted,
         scenario,
@@ -212,10 +201,9 @@ impl WithController for Boot {
         f: &FirmwareScene<K, A>,
     ) -> Self::Output
     where
-        F: Feedforward<A> + Replan<A>,
-        C: AxesCorrection<A>,
+        F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+        C: AxesCorrection<A, K::Reference>,
         K: FirmwareCrane<A>,
-        Axes<A>: ReferenceOf,
     {
         let mut bus = virtual_bus(f, self.scenario)?;
         if self.restarted {

@@ -8,7 +8,7 @@ use controller::commands::{
 };
 use controller::commissioning::CommissioningError;
 use controller::drive::Drive;
-use controller::fault::{FollowingError, Foreign, Implausibility};
+use controller::fault::{FollowingError, Foreign, Implausibility, Reaction};
 use controller::setpoint::SetpointError;
 use controller::setpoint::{DriveLimits, SetpointGate, UNITS_PER_M_PER_S};
 use controller::{CanFrame, Fault};
@@ -282,16 +282,10 @@ fn every_fault_code_is_in_the_dbc_fault_range() {
 #[test]
 fn every_emcy_error_code_is_named_in_the_dbc() {
     let label = |code: u16| {
-        decode(&canopen::emcy(
-            CONTROLLER_NODE,
-            code,
-            0x81,
-            [18, 1, 0, 0, 0],
-        ))
-        .signals
-        .into_iter()
-        .find(|s| s.name == "error_code")
-        .and_then(|s| s.label)
+        label(
+            &canopen::emcy(CONTROLLER_NODE, code, 0x81, [18, 1, 0, 0, 0]),
+            "error_code",
+        )
     };
     let faults = every_fault();
     let sent = faults.iter().map(Fault::emcy_code).chain([
@@ -305,6 +299,111 @@ fn every_emcy_error_code_is_named_in_the_dbc() {
     assert_eq!(label(0x8611).as_deref(), Some("FollowingError"));
     assert_eq!(label(0x8500).as_deref(), Some("PositionController"));
     assert_eq!(label(0x8150).as_deref(), Some("CanIdCollision"));
+}
+
+/// The label the DBC gives `signal` in `frame`.
+fn label(frame: &CanFrame, signal: &str) -> Option<String> {
+    decode(frame)
+        .signals
+        .into_iter()
+        .find(|s| s.name == signal)
+        .and_then(|s| s.label)
+}
+
+/// Each row of the fault table (`Fault::facts`) is what the DBC says of its code: the
+/// same name in the EMCY's and the status frame's value tables (and the variant's), an
+/// EMCY error code the DBC names; and the error register's class bit is CiA 301's for
+/// that code: communication for the 0x81xx and 0x82xx codes, manufacturer otherwise.
+#[test]
+fn every_fault_s_facts_agree_with_the_dbc() {
+    for fault in every_fault() {
+        let facts = fault.facts();
+        let register = emcy::REGISTER_GENERIC | facts.register;
+        let sent = canopen::emcy(
+            CONTROLLER_NODE,
+            facts.emcy_code,
+            register,
+            [facts.code, 1, 0, 0, 0],
+        );
+        assert_eq!(
+            label(&sent, "fault").as_deref(),
+            Some(facts.name),
+            "{fault:?}"
+        );
+        assert!(label(&sent, "error_code").is_some(), "{fault:?}");
+        let status = status_frame(
+            CONTROLLER_NODE,
+            &Status {
+                last_id: 0,
+                answer: Answer::None,
+                reason: None,
+                overload: 0,
+                mode: 4,
+                fault: facts.code,
+                ignored: 0,
+                deadline_misses: 0,
+                tx_failures: 0,
+            },
+        );
+        assert_eq!(
+            label(&status, "fault").as_deref(),
+            Some(facts.name),
+            "{fault:?}"
+        );
+        let variant = format!("{fault:?}");
+        assert_eq!(
+            variant.split('(').next(),
+            Some(facts.name),
+            "{fault:?} named {}",
+            facts.name
+        );
+        let communication = matches!(facts.emcy_code & 0xFF00, 0x8100 | 0x8200);
+        let expected = if communication {
+            emcy::REGISTER_COMMUNICATION
+        } else {
+            emcy::REGISTER_MANUFACTURER
+        };
+        assert_eq!(facts.register, expected, "{fault:?}");
+    }
+}
+
+/// docs/COMMANDS.md's fault table ("## Faults": code, reaction, EMCY code) says what
+/// the fault table of the code (`Fault::facts`) says, row for row.
+#[test]
+fn the_documented_fault_table_is_the_code_s() {
+    let doc = include_str!("../../docs/COMMANDS.md");
+    let table = doc
+        .split("\n## Faults\n")
+        .nth(1)
+        .expect("docs/COMMANDS.md has a section \"## Faults\"");
+    let rows: Vec<Vec<&str>> = table
+        .lines()
+        .skip_while(|l| !l.starts_with('|'))
+        .take_while(|l| l.starts_with('|'))
+        .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
+        .collect();
+    let faults = every_fault();
+    let mut documented = 0;
+    for row in &rows {
+        let Some(code) = row[0].split(' ').next().and_then(|c| c.parse::<u8>().ok()) else {
+            continue;
+        };
+        documented += 1;
+        let fault = faults
+            .iter()
+            .find(|f| f.code() == code)
+            .unwrap_or_else(|| panic!("fault {code} of the docs is not the code's"));
+        let facts = fault.facts();
+        let reaction = match facts.reaction {
+            Reaction::Controlled => "controlled stop",
+            Reaction::Quick => "quick stop",
+            Reaction::Halt => "halted",
+        };
+        assert!(row[1].starts_with(reaction), "fault {code}: {}", row[1]);
+        let emcy_code = format!("0x{:04X}", facts.emcy_code);
+        assert!(row[2].starts_with(&emcy_code), "fault {code}: {}", row[2]);
+    }
+    assert_eq!(documented, faults.len(), "faults in docs/COMMANDS.md");
 }
 
 #[test]

@@ -7,7 +7,6 @@
 use std::path::{Path, PathBuf};
 
 use controller::correction::AxesCorrection;
-use controller::feedforward::{Axes, ReferenceOf};
 use controller::{Controller, Feedforward, Injectable, Replan};
 use host_tests::firmware::{with_controller, WithController};
 use scene::commissioning::CommissioningFile;
@@ -27,10 +26,9 @@ impl WithController for Probe {
         _: &FirmwareScene<K, A>,
     ) -> Self::Output
     where
-        F: Feedforward<A> + Replan<A>,
-        C: AxesCorrection<A>,
+        F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+        C: AxesCorrection<A, K::Reference>,
         K: FirmwareCrane<A>,
-        Axes<A>: ReferenceOf,
     {
         (
             controller.feedback_mode().is_some(),
@@ -47,10 +45,7 @@ struct Build<'a>(&'a Scene);
 impl FirmwareCraneVisitor for Build<'_> {
     type Output = Result<((bool, String, usize), bool), String>;
 
-    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output
-    where
-        Axes<A>: ReferenceOf,
-    {
+    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output {
         let built = with_controller(self.0, &f, f.plan, f.config, Probe)?;
         Ok((built, f.scheme.structured()))
     }

@@ -1,12 +1,14 @@
 //! `can/crane-controller.eds` — what a PLC's configuration tool imports — against the
-//! controller's object dictionary (`controller/src/node.rs`, served over SDO) and the
-//! DBC: every object in the EDS answers with its data type's size and, where it is a
-//! constant, its default value; every object the controller answers is in the EDS; the
-//! PDO mappings are the DBC's frames. (python-canopen's parser reads the same file in
-//! the interop test.)
+//! controller's object dictionary, declared once in `controller/src/canopen/od.rs`
+//! (`od::CONTROLLER`) and served over SDO by `controller/src/node.rs`, and against the
+//! DBC: the EDS and the table hold the same objects with the same data type, access and
+//! name; the server answers exactly the table's objects, each with its data type's size
+//! and, read at its defaults, the EDS's default value; the PDO mappings are the DBC's
+//! frames. (python-canopen's parser reads the same file in the interop test.)
 
 use std::collections::BTreeMap;
 
+use controller::canopen::od::{self, Entry};
 use controller::canopen::sdo::{abort, Object, ObjectDictionary};
 use controller::canopen::NmtState;
 use controller::commands::{Answer, Status, COMMAND_ID, MOVE3D_ID, STATUS_ID};
@@ -68,6 +70,105 @@ fn variables() -> Vec<(Object, usize, String, u64)> {
     out
 }
 
+/// Every variable of the EDS as the table spells it: object, data type code, access,
+/// name.
+fn described() -> BTreeMap<Object, (u16, String, String)> {
+    let mut out = BTreeMap::new();
+    for (name, keys) in sections(EDS) {
+        if keys.get("ObjectType").map(String::as_str) != Some("0x7") {
+            continue;
+        }
+        let (index, sub) = match name.split_once("sub") {
+            Some((i, sub)) => (i.to_string(), u8::from_str_radix(sub, 16).unwrap()),
+            None => (name.clone(), 0),
+        };
+        let object = Object::new(u16::from_str_radix(&index, 16).unwrap(), sub);
+        let data_type = u16::try_from(number(&keys["DataType"])).unwrap();
+        out.insert(
+            object,
+            (
+                data_type,
+                keys["AccessType"].clone(),
+                keys["ParameterName"].clone(),
+            ),
+        );
+    }
+    out
+}
+
+/// The table of the code and the EDS hold the same objects, each with the same data
+/// type, access and name.
+#[test]
+fn the_eds_is_the_dictionary_table() {
+    let eds = described();
+    let table: BTreeMap<Object, (u16, String, String)> = od::CONTROLLER
+        .iter()
+        .map(|e: &Entry| {
+            (
+                e.object,
+                (
+                    e.data_type.code(),
+                    e.access.eds().to_string(),
+                    e.name.to_string(),
+                ),
+            )
+        })
+        .collect();
+    assert_eq!(table.len(), od::CONTROLLER.len(), "each object once");
+    for (object, facts) in &table {
+        assert_eq!(eds.get(object), Some(facts), "{object:?} in the EDS");
+    }
+    for object in eds.keys() {
+        assert!(
+            table.contains_key(object),
+            "{object:?} of the EDS not in the table"
+        );
+    }
+}
+
+/// The server answers each object of the table with its data type's size, refuses to
+/// read a write-only one and to write a read-only one, and answers no other object.
+#[test]
+fn the_server_answers_exactly_the_table() {
+    let mut n = node();
+    let mut od = Dictionary {
+        node: &mut n,
+        snapshot: snapshot(),
+    };
+    for entry in &od::CONTROLLER {
+        let read = od.read(entry.object);
+        if entry.access.readable() {
+            let value = read.unwrap_or_else(|code| panic!("{entry:?}: abort {code:#010x}"));
+            assert_eq!(value.len(), usize::from(entry.size()), "{entry:?}");
+        } else {
+            assert_eq!(read, Err(abort::WRITE_ONLY), "{entry:?}");
+        }
+        if !entry.access.writable() {
+            assert_eq!(
+                od.write(entry.object, &[0; 4][..usize::from(entry.size())]),
+                Err(abort::READ_ONLY),
+                "{entry:?}"
+            );
+        }
+    }
+    for index in 0x1000..=0x2FFF {
+        for sub in 0..=16 {
+            let object = Object::new(index, sub);
+            let known = od::CONTROLLER.iter().any(|e| e.object == object);
+            let read = od.read(object);
+            if !known {
+                let expected = if od::CONTROLLER.iter().any(|e| e.object.index == index) {
+                    abort::NO_SUB
+                } else {
+                    abort::NO_OBJECT
+                };
+                assert_eq!(read, Err(expected), "{object:?}");
+                assert_eq!(od.write(object, &[0]), Err(expected), "{object:?}");
+            }
+        }
+    }
+}
+
 fn node() -> Node {
     Node {
         id: 0x10,
@@ -123,27 +224,6 @@ fn every_eds_object_answers_with_its_size_and_default() {
         word[..size].copy_from_slice(&value);
         // The dictionary is read at its defaults: a fresh controller, no fault, no request.
         assert_eq!(u64::from_le_bytes(word), default, "{object:?}: value");
-    }
-}
-
-#[test]
-fn every_object_the_controller_answers_is_in_the_eds() {
-    let mut n = node();
-    let od = Dictionary {
-        node: &mut n,
-        snapshot: snapshot(),
-    };
-    let eds: Vec<Object> = variables().into_iter().map(|v| v.0).collect();
-    for index in 0x1000..=0x2FFF {
-        for sub in 0..=16 {
-            let object = Object::new(index, sub);
-            if od.read(object).is_ok() || od.read(object) == Err(abort::WRITE_ONLY) {
-                assert!(
-                    eds.contains(&object),
-                    "{object:?} answers but is not in the EDS"
-                );
-            }
-        }
     }
 }
 

@@ -22,10 +22,10 @@ use core::hint::black_box;
 
 use controller::commissioning::{DriveSetup, InclinometerSetup, NodeSetup};
 use controller::correction::AxesCorrection;
+use controller::crane::command_plan;
 use controller::drive::Drive;
 use controller::feedback::{self, NoFeedback, StateFeedback};
 use controller::feedback3d::SpatialFeedback;
-use controller::feedforward::{command_plan, Axes, ReferenceOf};
 use controller::planner::{Crane, Planner};
 use controller::setpoint::DriveLimits;
 use controller::{CanFrame, Config, Controller, Feedforward, InverseModel, Replan};
@@ -51,25 +51,25 @@ use solver_core::{Error, JacobianMode, SolverSettings};
 
 /// A crane the firmware drives, as the proof runs it: its parameters, its first plan
 /// (rest, then a move) and its controller, all from opaque inputs.
-trait Proven<const A: usize>: Crane<A> + Sized
-where
-    Axes<A>: ReferenceOf,
-{
+trait Proven<const A: usize>: Crane<A> + Sized {
     /// The crane's parameters, opaque.
     fn params() -> Self;
     /// The first plan: rest, then a move, from opaque inputs.
     fn plan() -> Result<Plan<f64, A>, Error>;
     /// The controller on `feedforward` (with the state feedback where the crane has one,
     /// as the scene says), its entry points run on opaque inputs.
-    fn run<F: Feedforward<A> + Replan<A>>(feedforward: F) -> !;
+    fn run<F: Feedforward<A, Reference = Self::Reference> + Replan<A>>(feedforward: F) -> !;
 }
 
 /// The first plan of a crane resting at `start`, moving to `end` (opaque).
-fn plan_of<const A: usize>(start: [f64; A], end: [f64; A]) -> Result<Plan<f64, A>, Error> {
+fn plan_of<K: Crane<A>, const A: usize>(
+    start: [f64; A],
+    end: [f64; A],
+) -> Result<Plan<f64, A>, Error> {
     let (start, end) = black_box((start, end));
     let [t0, d]: [f64; 2] = black_box([1.0, 8.0]);
     let n: usize = black_box(4);
-    let mut plan = command_plan(start, n)?;
+    let mut plan = command_plan::<K, A>(start, n)?;
     plan.push(PointToPoint::new(
         SVector::from(start),
         SVector::from(end),
@@ -85,9 +85,9 @@ impl Proven<2> for CraneParams {
         black_box(CraneParams::PAPER)
     }
     fn plan() -> Result<Plan<f64, 2>, Error> {
-        plan_of([12.0, 8.0], [20.0, 4.0])
+        plan_of::<Self, 2>([12.0, 8.0], [20.0, 4.0])
     }
-    fn run<F: Feedforward + Replan>(feedforward: F) -> ! {
+    fn run<F: Feedforward<Reference = Self::Reference> + Replan>(feedforward: F) -> ! {
         let limits: DriveLimits = black_box(DriveLimits::LAB);
         let config: Config = black_box(Config::DEFAULT);
         let planner = Planner::new(Self::params(), limits);
@@ -116,9 +116,9 @@ impl Proven<3> for Crane3dParams {
         black_box(Crane3dParams::EXAMPLE)
     }
     fn plan() -> Result<Plan<f64, 3>, Error> {
-        plan_of([12.0, 3.0, 8.0], [20.0, 6.0, 4.0])
+        plan_of::<Self, 3>([12.0, 3.0, 8.0], [20.0, 6.0, 4.0])
     }
-    fn run<F: Feedforward<3> + Replan<3>>(feedforward: F) -> ! {
+    fn run<F: Feedforward<3, Reference = Self::Reference> + Replan<3>>(feedforward: F) -> ! {
         let limits = black_box(DriveLimits::LAB_3D);
         let bridge = DriveSetup {
             node: 4,
@@ -158,10 +158,9 @@ impl Proven<3> for Crane3dParams {
 /// Runs the controller's entry points on opaque inputs, forever.
 fn drive<F, C, K, const A: usize>(mut controller: Controller<F, C, K, A>) -> !
 where
-    F: Feedforward<A> + Replan<A>,
-    C: AxesCorrection<A>,
+    F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+    C: AxesCorrection<A, K::Reference>,
     K: Crane<A>,
-    Axes<A>: ReferenceOf,
 {
     if black_box(false) {
         controller.restarted_by_watchdog();

@@ -7,26 +7,22 @@
 //!   exact inputs Eq. 29 measures against;
 //! - the firmware's build script, the host's run of the firmware, the virtual ECU and the
 //!   fuzzer's build script, through [`firmware`], which hands the scene's setup to a
-//!   [`FirmwareCraneVisitor`] as its crane's type ([`FirmwareCrane`], one registration per
-//!   crane); [`FirmwareScheme`] is the integrator the firmware links for the scene, as
-//!   the Rust type the build scripts write ([`FirmwareScheme::rust`]) and as the same
-//!   type built on the host ([`FirmwareCrane::inverse_model`]);
+//!   [`FirmwareCraneVisitor`] as its crane's type (the cranes registered in
+//!   [`crate::cranes`], one file each); [`FirmwareScheme`] is the integrator the firmware
+//!   links for the scene, as the Rust type the build scripts write
+//!   ([`FirmwareScheme::rust`]) and as the same type built on the host
+//!   ([`FirmwareScene::inverse_model`]);
 //! - the panic proof's build script, through [`FirmwareScheme::every`].
 //!
 //! A new model is one arm in [`model`] and [`Exact::new`], and if the firmware drives it
-//! a [`FirmwareModel`] and its crane's [`FirmwareCrane`] (docs/MODELS.md).
+//! one line in its crane's list of formulations (`crane_models!` in its file under
+//! `scene/src/cranes/`; docs/MODELS.md).
 
 use controller::commissioning::NodeSetup;
-use controller::correction::AxesCorrection;
-use controller::feedback::{Config as FeedbackConfig, NoFeedback, StateFeedback};
-use controller::feedback3d::SpatialFeedback;
-use controller::feedforward::{command_plan, CraneReference, Feedforward, InverseModel, Replan};
-pub use controller::feedforward::{Axes, ReferenceOf};
-use controller::planner::Crane;
+use controller::crane::command_plan;
+use controller::feedback::Config as FeedbackConfig;
 use controller::planner::Planner;
-use controller::setpoint::{AxisLimits, DriveLimits};
 use controller::Config;
-use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::{Crane3dExt, Crane3dParams, Crane3dSubs};
 use solver_core::models::crane_ext::{self, CraneExt};
@@ -39,14 +35,18 @@ use solver_core::reference::dopri5::Dopri5Settings;
 use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::reference::flat_crane3d;
 use solver_core::reference::mass_on_car::MassOnCarReference;
-use solver_core::scalar::c;
 use solver_core::schemes::bdf::CORRECT_BELOW_H;
 use solver_core::trajectory::{PointToPoint, Trajectory};
-use solver_core::{DaeModel, Driven, Error, Integrator, Real, Scheme, SolverSettings};
+use solver_core::{DaeModel, Error, Real, Scheme, SolverSettings};
 
 use crate::commissioning::CommissioningFile;
-use crate::feedback::FeedbackSpec;
-use crate::{JacobianSpec, ModelSpec, NewtonSpec, ScalarSpec, Scene, SceneError, SchemeSpec};
+pub use crate::cranes::{
+    visit_crane, CraneModel, CraneVisitor, FirmwareCrane, FirmwareError, FirmwareIntegrator,
+    FirmwareModel, FirmwareVisitor, StepsVisitor, Structure,
+};
+use crate::{
+    trajectory, JacobianSpec, ModelSpec, NewtonSpec, ScalarSpec, Scene, SceneError, SchemeSpec,
+};
 
 /// What is done with a scene's model, whatever model it is (the studies).
 pub trait ModelVisitor<T: Real> {
@@ -105,29 +105,6 @@ pub fn model<T: Real, V: ModelVisitor<T>>(
             )
         }
     })
-}
-
-/// The scene's move in the scalar `T`, with its `NZ` output axes.
-pub(crate) fn trajectory<T: Real, const NZ: usize>(
-    scene: &Scene,
-) -> Result<PointToPoint<T, NZ>, SceneError> {
-    let t = &scene.trajectory;
-    for (field, v) in [("trajectory.start", &t.start), ("trajectory.end", &t.end)] {
-        if v.len() != NZ {
-            return Err(crate::refuse(
-                field,
-                format!("needs {NZ} values (one per output axis), has {}", v.len()),
-            ));
-        }
-    }
-    PointToPoint::new(
-        SVector::<T, NZ>::from_iterator(t.start.iter().map(|v| c::<T>(*v))),
-        SVector::<T, NZ>::from_iterator(t.end.iter().map(|v| c::<T>(*v))),
-        c(t.t_start),
-        c(t.duration),
-        t.smoothness,
-    )
-    .map_err(|e| scene.field_of(e))
 }
 
 /// The e_max above which a run of `model` counts as inaccurate: 1 mm/s for the cranes'
@@ -208,109 +185,6 @@ impl Exact {
     }
 }
 
-/// What is done with the firmware's inverse model for a crane with `A` driven axes (the
-/// host's run of the firmware, the virtual ECU), whatever its types.
-pub trait FirmwareVisitor<const A: usize>
-where
-    Axes<A>: ReferenceOf,
-{
-    /// What it gives.
-    type Output;
-    /// Does it with `feedforward`: the scene's model on the firmware's plan, advanced by
-    /// the integrator the firmware links.
-    fn visit<F: Feedforward<A> + Replan<A>>(self, feedforward: F) -> Self::Output;
-}
-
-/// A model the firmware can drive: a crane, in f64.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FirmwareModel {
-    /// The planar crane, *subs* (Eqs. 24–28).
-    CraneSubs,
-    /// The planar crane, *proj* (Eqs. 21–22, 27–28).
-    CraneProj,
-    /// The crane in three dimensions, *subs*.
-    Crane3dSubs,
-    /// The planar crane, *ext* (*subs* minimally extended to index 1).
-    CraneExt,
-    /// The crane in three dimensions, *ext*.
-    Crane3dExt,
-}
-
-impl FirmwareModel {
-    /// The model's module under `solver_core::models` and its type's name.
-    const fn path(self) -> (&'static str, &'static str) {
-        match self {
-            Self::CraneSubs => ("crane_subs", "CraneSubs"),
-            Self::CraneProj => ("crane_proj", "CraneProj"),
-            Self::Crane3dSubs => ("crane3d::subs", "Crane3dSubs"),
-            Self::CraneExt => ("crane_ext", "CraneExt"),
-            Self::Crane3dExt => ("crane3d::ext", "Crane3dExt"),
-        }
-    }
-
-    /// Its driven axes.
-    #[must_use]
-    pub const fn axes(self) -> usize {
-        match self {
-            Self::CraneSubs | Self::CraneProj | Self::CraneExt => 2,
-            Self::Crane3dSubs | Self::Crane3dExt => 3,
-        }
-    }
-
-    /// Whether it has a structured elimination (`StructuredJacobian`) and a
-    /// closed-form step.
-    #[must_use]
-    pub const fn structured(self) -> bool {
-        matches!(
-            self,
-            Self::CraneSubs | Self::Crane3dSubs | Self::CraneExt | Self::Crane3dExt
-        )
-    }
-
-    /// Whether the firmware runs it with its structured elimination only: the extended
-    /// cranes' closed-form step is their exact solution at every h, and a dense Newton on
-    /// 13 or 18 unknowns (39 or 54 in Radau's stage system) would cost more flash and
-    /// time for the same bits.
-    #[must_use]
-    pub const fn structured_only(self) -> bool {
-        matches!(self, Self::CraneExt | Self::Crane3dExt)
-    }
-}
-
-/// The scheme and Newton strategy the firmware links, one of each model's scheme
-/// aliases (`schemes_of!` in solver-core's `models`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FirmwareIntegrator {
-    /// BDF k, the structured elimination (h below 5 ms: with the closed form's
-    /// correction).
-    StructuredBdf(usize),
-    /// BDF k, the structured elimination, h from 5 ms on: the same steps, the correction
-    /// not linked.
-    StructuredBdfUncorrected(usize),
-    /// BDF k, the run-time Jacobian modes on a dense LU.
-    Bdf(usize),
-    /// RADAU5, both stage systems by the structured elimination.
-    StructuredRadau5,
-    /// RADAU5 on dense LUs.
-    Radau5,
-    /// Radau IIA with the paper's modes on the 3N×3N system.
-    RadauFull,
-}
-
-impl FirmwareIntegrator {
-    /// The alias's name and BDF's k.
-    const fn alias(self) -> (&'static str, Option<usize>) {
-        match self {
-            Self::StructuredBdf(k) => ("StructuredBdf", Some(k)),
-            Self::StructuredBdfUncorrected(k) => ("StructuredBdfUncorrected", Some(k)),
-            Self::Bdf(k) => ("Bdf", Some(k)),
-            Self::StructuredRadau5 => ("StructuredRadau5", None),
-            Self::Radau5 => ("Radau5", None),
-            Self::RadauFull => ("RadauFull", None),
-        }
-    }
-}
-
 /// The integrator the firmware links for a scene: the model, the scheme and the Newton
 /// strategy, a type, so the firmware links only the one its scene names. For the crane
 /// *subs* models (planar and 3D) BDF with the exact Jacobian and RADAU5's transformed
@@ -328,98 +202,72 @@ pub struct FirmwareScheme {
 impl FirmwareScheme {
     /// The firmware's integrator for `scene`, or why the firmware cannot run it (the
     /// firmware drives a crane, in f64).
-    pub fn of(scene: &Scene) -> Result<Self, String> {
+    pub fn of(scene: &Scene) -> Result<Self, FirmwareError> {
         if scene.solver.scalar != ScalarSpec::F64 {
-            return Err("the firmware plans moves in f64; this scene computes in f32".into());
+            return Err(FirmwareError::F32Scene);
         }
-        let model = match scene.model {
-            ModelSpec::CraneSubs(_) => FirmwareModel::CraneSubs,
-            ModelSpec::CraneProj(_) => FirmwareModel::CraneProj,
-            ModelSpec::Crane3dSubs(_) => FirmwareModel::Crane3dSubs,
-            ModelSpec::CraneExt(_) => FirmwareModel::CraneExt,
-            ModelSpec::Crane3dExt(_) => FirmwareModel::Crane3dExt,
-            ModelSpec::MassOnCar(_) | ModelSpec::MassOnCarExt(_) => {
-                return Err("the firmware drives a crane; this scene is the mass-on-car".into())
-            }
-        };
+        let model = FirmwareModel::of(&scene.model)?;
+        let structured = model.structure() != Structure::Dense;
+        let structured_only = model.structure() == Structure::StructuredOnly;
         let s = &scene.solver;
         let transformed = s.newton == NewtonSpec::Transformed;
         let integrator = match s.scheme {
-            SchemeSpec::Bdf
-                if model.structured() && s.jacobian == JacobianSpec::Exact && !transformed =>
-            {
+            SchemeSpec::Bdf if structured && s.jacobian == JacobianSpec::Exact && !transformed => {
                 // The extended cranes have no differential unknown: BDF never corrects
                 // their closed form (`bdf::Structured`), at any h.
-                if s.h >= CORRECT_BELOW_H || model.structured_only() {
+                if s.h >= CORRECT_BELOW_H || structured_only {
                     FirmwareIntegrator::StructuredBdfUncorrected(s.k)
                 } else {
                     FirmwareIntegrator::StructuredBdf(s.k)
                 }
             }
             SchemeSpec::Bdf => FirmwareIntegrator::Bdf(s.k),
-            SchemeSpec::Radau if transformed && model.structured() => {
-                FirmwareIntegrator::StructuredRadau5
-            }
+            SchemeSpec::Radau if transformed && structured => FirmwareIntegrator::StructuredRadau5,
             SchemeSpec::Radau if transformed => FirmwareIntegrator::Radau5,
             SchemeSpec::Radau => FirmwareIntegrator::RadauFull,
         };
         let scheme = Self { model, integrator };
-        if model.structured_only() && !scheme.structured() {
-            return Err(
-                "the firmware runs the extended formulation (ext) with its structured Newton only: \
-                 BDF with jacobian = \"exact\", or Radau with newton = \"transformed\""
-                    .into(),
-            );
+        if structured_only && !scheme.structured() {
+            return Err(FirmwareError::StructuredOnly {
+                model: scene.model.label(),
+            });
         }
         Ok(scheme)
     }
 
-    /// Every integrator the firmware can link, model by model (BDF with k = 4; the
-    /// proofs hold k opaque): what the link-time panic proof proves (`panic-proof/`'s
-    /// build script writes one arm per entry). [`FirmwareScheme::of`] names nothing else.
+    /// Every integrator the firmware can link, formulation by formulation of every
+    /// registered crane (BDF with k = 4; the proofs hold k opaque): what the link-time
+    /// panic proof proves (`panic-proof/`'s build script writes one arm per entry).
+    /// [`FirmwareScheme::of`] names nothing else.
     #[must_use]
     pub fn every() -> Vec<FirmwareScheme> {
         use FirmwareIntegrator as I;
-        [
-            FirmwareModel::CraneSubs,
-            FirmwareModel::CraneProj,
-            FirmwareModel::Crane3dSubs,
-            FirmwareModel::CraneExt,
-            FirmwareModel::Crane3dExt,
-        ]
-        .into_iter()
-        .flat_map(|model| {
-            let integrators: &[FirmwareIntegrator] = if model.structured_only() {
-                &[I::StructuredBdfUncorrected(4), I::StructuredRadau5]
-            } else if model.structured() {
-                &[
-                    I::StructuredBdf(4),
-                    I::StructuredBdfUncorrected(4),
-                    I::Bdf(4),
-                    I::StructuredRadau5,
-                    I::RadauFull,
-                ]
-            } else {
-                &[I::Bdf(4), I::Radau5, I::RadauFull]
-            };
-            integrators
-                .iter()
-                .map(move |&integrator| FirmwareScheme { model, integrator })
-        })
-        .collect()
+        FirmwareModel::every()
+            .flat_map(|model| {
+                let integrators: &[FirmwareIntegrator] = match model.structure() {
+                    Structure::StructuredOnly => {
+                        &[I::StructuredBdfUncorrected(4), I::StructuredRadau5]
+                    }
+                    Structure::Structured => &[
+                        I::StructuredBdf(4),
+                        I::StructuredBdfUncorrected(4),
+                        I::Bdf(4),
+                        I::StructuredRadau5,
+                        I::RadauFull,
+                    ],
+                    Structure::Dense => &[I::Bdf(4), I::Radau5, I::RadauFull],
+                };
+                integrators
+                    .iter()
+                    .map(move |&integrator| FirmwareScheme { model, integrator })
+            })
+            .collect()
     }
 
     /// The crane's parameter type ([`FirmwareCrane::TYPE`]) and its driven axes.
     #[must_use]
     pub fn crane(self) -> (&'static str, usize) {
-        match self.model {
-            FirmwareModel::CraneSubs | FirmwareModel::CraneProj | FirmwareModel::CraneExt => {
-                (<CraneParams as FirmwareCrane<2>>::TYPE, 2)
-            }
-            FirmwareModel::Crane3dSubs | FirmwareModel::Crane3dExt => {
-                (<Crane3dParams as FirmwareCrane<3>>::TYPE, 3)
-            }
-        }
+        self.model.crane()
     }
 
     /// Whether the Newton systems are solved by the model's structured elimination.
@@ -440,7 +288,7 @@ impl FirmwareScheme {
     pub fn rust(self) -> FirmwareTypes {
         let (module, model) = self.model.path();
         let (alias, k) = self.integrator.alias();
-        let plan = format!("solver_core::plan::Plan<f64, {}>", self.model.axes());
+        let plan = format!("solver_core::plan::Plan<f64, {}>", self.crane().1);
         let path = format!("solver_core::models::{module}");
         FirmwareTypes {
             model: format!("{path}::{model}<f64, {plan}>"),
@@ -455,273 +303,6 @@ impl FirmwareScheme {
                 Some(k) => format!("BDF{k}"),
                 None => "Radau IIA".into(),
             },
-        }
-    }
-}
-
-/// Builds the integrator of the model module `$m` (a `schemes_of!` alias) that
-/// `$integrator` names on `$model` (driven by a `$plan`) and hands both to `$visit`
-/// (`$visitor`, model, integrator): one arm per [`FirmwareIntegrator`], the same types
-/// [`FirmwareScheme::rust`] names.
-macro_rules! integrators {
-    ($visit:ident, $m:path, $integrator:expr, $model:expr, $settings:expr, $visitor:expr, $plan:ty) => {{
-        use $m as m;
-        let model = $model;
-        match $integrator {
-            FirmwareIntegrator::StructuredBdf(k) => {
-                let i = m::StructuredBdf::<f64, $plan>::new(&model, $settings, k, 0.0)?;
-                $visit($visitor, model, i)
-            }
-            FirmwareIntegrator::StructuredBdfUncorrected(k) => {
-                let i = m::StructuredBdfUncorrected::<f64, $plan>::new(&model, $settings, k, 0.0)?;
-                $visit($visitor, model, i)
-            }
-            FirmwareIntegrator::Bdf(k) => {
-                let i = m::Bdf::<f64, $plan>::new(&model, $settings, k, 0.0)?;
-                $visit($visitor, model, i)
-            }
-            FirmwareIntegrator::StructuredRadau5 => {
-                let i = m::StructuredRadau5::<f64, $plan>::new(&model, $settings, 0.0)?;
-                $visit($visitor, model, i)
-            }
-            FirmwareIntegrator::Radau5 => {
-                let i = m::Radau5::<f64, $plan>::new(&model, $settings, 0.0)?;
-                $visit($visitor, model, i)
-            }
-            FirmwareIntegrator::RadauFull => {
-                let i = m::RadauFull::<f64, $plan>::new(&model, $settings, 0.0)?;
-                $visit($visitor, model, i)
-            }
-        }
-    }};
-    // A model without a structured elimination: its firmware integrators are the dense
-    // ones ([`FirmwareScheme::of`] never names a structured one for it).
-    ($visit:ident, $m:path, dense, $integrator:expr, $model:expr, $settings:expr, $visitor:expr, $plan:ty) => {{
-        use $m as m;
-        let model = $model;
-        match $integrator {
-            FirmwareIntegrator::Bdf(k)
-            | FirmwareIntegrator::StructuredBdf(k)
-            | FirmwareIntegrator::StructuredBdfUncorrected(k) => {
-                let i = m::Bdf::<f64, $plan>::new(&model, $settings, k, 0.0)?;
-                $visit($visitor, model, i)
-            }
-            FirmwareIntegrator::Radau5 | FirmwareIntegrator::StructuredRadau5 => {
-                let i = m::Radau5::<f64, $plan>::new(&model, $settings, 0.0)?;
-                $visit($visitor, model, i)
-            }
-            FirmwareIntegrator::RadauFull => {
-                let i = m::RadauFull::<f64, $plan>::new(&model, $settings, 0.0)?;
-                $visit($visitor, model, i)
-            }
-        }
-    }};
-}
-
-/// A crane the firmware drives, registered once: how a scene names it, the lab drives'
-/// limits, its parameters as the build script writes them, its firmware integrators
-/// and its state feedback. The planar crane (`A = 2`) and the 3D crane (`A = 3`).
-pub trait FirmwareCrane<const A: usize>: Crane<A> + Copy + core::fmt::Debug
-where
-    Axes<A>: ReferenceOf,
-{
-    /// The parameters' type, as the build script writes it.
-    const TYPE: &'static str;
-    /// The drives' limits the planner checks moves against and the gate enforces, in
-    /// the model's input order.
-    const LIMITS: [AxisLimits; A];
-    /// The correction a scene's `[feedback]` links.
-    type Feedback: AxesCorrection<A>;
-    /// [`FirmwareCrane::Feedback`]'s type, as the build script writes it.
-    const FEEDBACK_TYPE: &'static str;
-    /// The expression that builds it from `FEEDBACK` (and `PARAMS`), as the build script
-    /// writes it ([`FirmwareCrane::feedback`] builds the same).
-    const FEEDBACK_NEW: &'static str;
-    /// How many slopes its feedback reads (the planar crane's φ: 1; the 3D crane's
-    /// swing in both vertical planes: 2): the inclinometer must have as many axes.
-    const SWING_AXES: u8;
-    /// The correction of a scene without `[feedback]`: none (`NoFeedback`, which is
-    /// each crane's `AxesCorrection` on its own).
-    type FeedforwardOnly: AxesCorrection<A> + Default;
-    /// This crane's parameters, if `model` is one of its models.
-    fn of(model: &ModelSpec) -> Option<Self>;
-    /// The parameters as a Rust constant expression.
-    fn source(&self) -> String;
-    /// The scene's `[feedback]` as the controller's, for this crane and step `h`; or why
-    /// this crane cannot honour it.
-    fn feedback_config(spec: &FeedbackSpec, crane: &Self, h: f64)
-        -> Result<FeedbackConfig, String>;
-    /// The state feedback of this crane for `config` ([`FirmwareCrane::feedback_config`]'s).
-    fn feedback(&self, config: FeedbackConfig) -> Result<Self::Feedback, String>;
-    /// The firmware's inverse model for `scheme` on `plan`, at rest at t = 0, handed to
-    /// `visitor`: the types [`FirmwareScheme::rust`] names.
-    fn inverse_model<V: FirmwareVisitor<A>>(
-        self,
-        scheme: FirmwareScheme,
-        plan: Plan<f64, A>,
-        settings: &SolverSettings,
-        visitor: V,
-    ) -> Result<V::Output, Error>;
-}
-
-/// A scheme for another crane's model (never built: [`FirmwareScheme::of`] names the
-/// scene's own model).
-const fn other_crane(scheme: FirmwareScheme) -> Error {
-    let _ = scheme;
-    Error::InvalidSetting {
-        name: "model (the firmware scheme names another crane's model)",
-        value: f64::NAN,
-    }
-}
-
-/// The paper's planar crane: trolley and winch (Eqs. 24–28, Tab. 3).
-impl FirmwareCrane<2> for CraneParams {
-    const TYPE: &'static str = "solver_core::models::crane::CraneParams";
-    const LIMITS: [AxisLimits; 2] = DriveLimits::LAB.axes();
-    type Feedback = StateFeedback;
-    const FEEDBACK_TYPE: &'static str = "controller::feedback::StateFeedback";
-    const FEEDBACK_NEW: &'static str = "Correction::new(FEEDBACK)";
-    const SWING_AXES: u8 = 1;
-    type FeedforwardOnly = NoFeedback;
-    fn of(model: &ModelSpec) -> Option<Self> {
-        model.crane().map(|c| c.params())
-    }
-    fn source(&self) -> String {
-        let w = self.workspace;
-        format!(
-            "solver_core::models::crane::CraneParams {{ m: {:?}, g: {:?}, tau1: {:?}, tau2: {:?}, workspace: solver_core::models::crane::Workspace {{ x_min: {:?}, x_max: {:?}, l_min: {:?}, l_max: {:?} }}, min_tension_fraction: {:?} }}",
-            self.m, self.g, self.tau1, self.tau2, w.x_min, w.x_max, w.l_min, w.l_max, self.min_tension_fraction
-        )
-    }
-    fn feedback_config(
-        spec: &FeedbackSpec,
-        crane: &Self,
-        h: f64,
-    ) -> Result<FeedbackConfig, String> {
-        spec.config(crane, h).map_err(|e| e.to_string())
-    }
-    fn feedback(&self, config: FeedbackConfig) -> Result<StateFeedback, String> {
-        StateFeedback::new(config).map_err(|e| format!("{e:?}"))
-    }
-    fn inverse_model<V: FirmwareVisitor<2>>(
-        self,
-        scheme: FirmwareScheme,
-        plan: Plan<f64, 2>,
-        settings: &SolverSettings,
-        visitor: V,
-    ) -> Result<V::Output, Error> {
-        type P = Plan<f64, 2>;
-        match scheme.model {
-            FirmwareModel::CraneSubs => Ok(integrators!(
-                visit,
-                solver_core::models::crane_subs,
-                scheme.integrator,
-                CraneSubs::new(self, plan)?,
-                settings,
-                visitor,
-                P
-            )),
-            FirmwareModel::CraneProj => Ok(integrators!(
-                visit,
-                solver_core::models::crane_proj,
-                dense,
-                scheme.integrator,
-                CraneProj::new(self, plan)?,
-                settings,
-                visitor,
-                P
-            )),
-            FirmwareModel::CraneExt => Ok(integrators!(
-                visit,
-                solver_core::models::crane_ext,
-                scheme.integrator,
-                CraneExt::new(self, plan)?,
-                settings,
-                visitor,
-                P
-            )),
-            FirmwareModel::Crane3dSubs | FirmwareModel::Crane3dExt => Err(other_crane(scheme)),
-        }
-    }
-}
-
-/// The crane in three dimensions: bridge, trolley and hoist; its state feedback per
-/// vertical plane ([`SpatialFeedback`]) with a two-axis inclinometer.
-impl FirmwareCrane<3> for Crane3dParams {
-    const TYPE: &'static str = "solver_core::models::crane3d::Crane3dParams";
-    const LIMITS: [AxisLimits; 3] = DriveLimits::LAB_3D;
-    type Feedback = SpatialFeedback;
-    const FEEDBACK_TYPE: &'static str = "controller::feedback3d::SpatialFeedback";
-    const FEEDBACK_NEW: &'static str = "Correction::new(FEEDBACK, PARAMS.tau2)";
-    const SWING_AXES: u8 = 2;
-    type FeedforwardOnly = NoFeedback;
-    fn of(model: &ModelSpec) -> Option<Self> {
-        model.crane3d().map(|c| c.params())
-    }
-    fn source(&self) -> String {
-        let w = self.workspace;
-        format!(
-            "solver_core::models::crane3d::Crane3dParams {{ m: {:?}, g: {:?}, tau1: {:?}, tau2: {:?}, tau3: {:?}, workspace: solver_core::models::crane3d::Workspace3d {{ x_min: {:?}, x_max: {:?}, y_min: {:?}, y_max: {:?}, l_min: {:?}, l_max: {:?} }}, min_tension_fraction: {:?} }}",
-            self.m, self.g, self.tau1, self.tau2, self.tau3, w.x_min, w.x_max, w.y_min, w.y_max, w.l_min, w.l_max, self.min_tension_fraction
-        )
-    }
-    /// The x–z plane's configuration (bridge and hoist: τ1, τ3) from the scene's
-    /// `[feedback]`; the y–z plane's is the same with the trolley's τ2
-    /// ([`SpatialFeedback::new`]).
-    fn feedback_config(
-        spec: &FeedbackSpec,
-        crane: &Self,
-        h: f64,
-    ) -> Result<FeedbackConfig, String> {
-        let w = crane.workspace;
-        let plane = CraneParams {
-            m: crane.m,
-            g: crane.g,
-            tau1: crane.tau1,
-            tau2: crane.tau3,
-            workspace: solver_core::models::crane::Workspace {
-                x_min: w.x_min,
-                x_max: w.x_max,
-                l_min: w.l_min,
-                l_max: w.l_max,
-            },
-            min_tension_fraction: crane.min_tension_fraction,
-        };
-        spec.config(&plane, h).map_err(|e| e.to_string())
-    }
-    fn feedback(&self, config: FeedbackConfig) -> Result<SpatialFeedback, String> {
-        SpatialFeedback::new(config, self.tau2).map_err(|e| format!("{e:?}"))
-    }
-    fn inverse_model<V: FirmwareVisitor<3>>(
-        self,
-        scheme: FirmwareScheme,
-        plan: Plan<f64, 3>,
-        settings: &SolverSettings,
-        visitor: V,
-    ) -> Result<V::Output, Error> {
-        type P = Plan<f64, 3>;
-        match scheme.model {
-            FirmwareModel::Crane3dSubs => Ok(integrators!(
-                visit,
-                solver_core::models::crane3d::subs,
-                scheme.integrator,
-                Crane3dSubs::new(self, plan)?,
-                settings,
-                visitor,
-                P
-            )),
-            FirmwareModel::Crane3dExt => Ok(integrators!(
-                visit,
-                solver_core::models::crane3d::ext,
-                scheme.integrator,
-                Crane3dExt::new(self, plan)?,
-                settings,
-                visitor,
-                P
-            )),
-            FirmwareModel::CraneSubs | FirmwareModel::CraneProj | FirmwareModel::CraneExt => {
-                Err(other_crane(scheme))
-            }
         }
     }
 }
@@ -754,16 +335,19 @@ pub fn commissioning_time(config: &Config) -> f64 {
 
 /// The firmware's setup of a crane scene: crane `K` with `A` driven axes.
 #[derive(Debug, Clone, Copy)]
-pub struct FirmwareScene<K, const A: usize> {
+pub struct FirmwareScene<K: FirmwareCrane<A>, const A: usize> {
     /// Crane parameters.
     pub params: K,
+    /// The scene's formulation of it.
+    pub model: K::Model,
     /// The scene's move.
     pub first_move: PointToPoint<f64, A>,
     /// The plan at t = 0: at rest at the move's start, the move planned. Moves on
-    /// command have the smoothness `max(n, 5)` (`controller::feedforward::command_plan`).
+    /// command have the smoothness `max(n, K::MIN_COMMAND_SMOOTHNESS)`
+    /// (`controller::crane::command_plan`).
     pub plan: Plan<f64, A>,
     /// The planner of moves on command, with each drive's set-point limits (the
-    /// commissioning file's, [`FirmwareCrane::LIMITS`] where it names none).
+    /// commissioning file's, [`controller::crane::Crane::LAB_LIMITS`] where it names none).
     pub planner: Planner<K, A>,
     /// Timing and the nodes of the controller.
     pub config: Config,
@@ -776,13 +360,26 @@ pub struct FirmwareScene<K, const A: usize> {
     pub scheme: FirmwareScheme,
 }
 
-impl<K, const A: usize> FirmwareScene<K, A> {
+impl<K: FirmwareCrane<A>, const A: usize> FirmwareScene<K, A> {
     /// Where the load rests at power-up: where the scene's move starts (`[x_C, z_C]`,
     /// the 3D crane's `[x_C, y_C, z_C]`). At rest the drives stand there too (trolley
     /// and bridge under the load, the rope as long as the load is deep).
     #[must_use]
     pub fn start(&self) -> [f64; A] {
         self.first_move.start().into()
+    }
+
+    /// The firmware's inverse model on `plan`, at rest at t = 0: the scene's formulation
+    /// advanced by the integrator the firmware links, handed to `visitor` — the types
+    /// [`FirmwareScheme::rust`] names.
+    pub fn inverse_model<V: FirmwareVisitor<K, A>>(
+        &self,
+        plan: Plan<f64, A>,
+        settings: &SolverSettings,
+        visitor: V,
+    ) -> Result<V::Output, Error> {
+        self.params
+            .inverse_model(self.model, self.scheme.integrator, plan, settings, visitor)
     }
 }
 
@@ -797,20 +394,17 @@ impl<K, const A: usize> FirmwareScene<K, A> {
 pub fn firmware_scene<K: FirmwareCrane<A>, const A: usize>(
     scene: &Scene,
     commissioning: &CommissioningFile,
-) -> Result<FirmwareScene<K, A>, String>
-where
-    Axes<A>: ReferenceOf,
-{
+) -> Result<FirmwareScene<K, A>, String> {
     let scheme = FirmwareScheme::of(scene)?;
-    let params = K::of(&scene.model).ok_or("the scene's model is not this crane's")?;
+    let (params, model) = K::of(&scene.model).ok_or("the scene's model is not this crane's")?;
     let first_move = trajectory::<f64, A>(scene).map_err(|e| e.to_string())?;
-    let mut plan = command_plan(first_move.start().into(), scene.trajectory.smoothness)
+    let mut plan = command_plan::<K, A>(first_move.start().into(), scene.trajectory.smoothness)
         .map_err(|e| e.to_string())?;
     plan.push(first_move).map_err(|e| e.to_string())?;
     // Each drive's set-point limits: its commissioning row's, the crane's lab drive's
     // where the row names none — the planner's and the gate's.
     let limits = commissioning
-        .limits_for(K::DRIVES, K::LIMITS)
+        .limits_for(K::DRIVES, K::LAB_LIMITS)
         .map_err(|e| format!("commissioning file: {e}"))?;
     let planner = Planner::with_axes(params, limits);
     let (t0, t1) = first_move.active_span();
@@ -843,7 +437,8 @@ where
     let feedback = scene
         .feedback
         .map(|f| K::feedback_config(&f, &params, scene.solver.h))
-        .transpose()?
+        .transpose()
+        .map_err(|e| e.to_string())?
         .map(|f| {
             commissioning
                 .lag()
@@ -867,6 +462,7 @@ where
     }
     Ok(FirmwareScene {
         params,
+        model,
         first_move,
         plan,
         planner,
@@ -882,9 +478,7 @@ pub trait FirmwareCraneVisitor {
     /// What it gives.
     type Output;
     /// Does it with the setup of a crane `K` with `A` driven axes.
-    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output
-    where
-        Axes<A>: ReferenceOf;
+    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output;
 }
 
 /// The firmware's setup of `scene` with the drives of `commissioning`, as its own crane's
@@ -895,33 +489,28 @@ pub fn firmware<V: FirmwareCraneVisitor>(
     commissioning: &CommissioningFile,
     visitor: V,
 ) -> Result<V::Output, String> {
-    Ok(match FirmwareScheme::of(scene)?.model {
-        FirmwareModel::CraneSubs | FirmwareModel::CraneProj | FirmwareModel::CraneExt => {
-            visitor.visit(firmware_scene::<CraneParams, 2>(scene, commissioning)?)
+    /// The registered crane, as its type.
+    struct Setup<'a, V> {
+        scene: &'a Scene,
+        commissioning: &'a CommissioningFile,
+        visitor: V,
+    }
+    impl<V: FirmwareCraneVisitor> CraneVisitor for Setup<'_, V> {
+        type Output = Result<V::Output, String>;
+        fn visit<K: FirmwareCrane<A>, const A: usize>(self, _: K::Model) -> Self::Output {
+            let setup = firmware_scene::<K, A>(self.scene, self.commissioning)?;
+            Ok(self.visitor.visit(setup))
         }
-        FirmwareModel::Crane3dSubs | FirmwareModel::Crane3dExt => {
-            visitor.visit(firmware_scene::<Crane3dParams, 3>(scene, commissioning)?)
-        }
-    })
-}
-
-/// What is done with the integrator the firmware links for a scene and the model it
-/// steps, whatever the trajectory type that drives it (the cost measurements of `cargo
-/// xtask instructions`, `host-tests/src/bin/steps.rs`).
-pub trait StepsVisitor {
-    /// What it gives.
-    type Output;
-    /// Does it with `model` and `integrator`, at rest at t = 0.
-    fn visit<
-        M: DaeModel<f64, N, NU>,
-        I: Integrator<f64, M, N, NU>,
-        const N: usize,
-        const NU: usize,
-    >(
-        self,
-        model: M,
-        integrator: I,
-    ) -> Self::Output;
+    }
+    let model = FirmwareScheme::of(scene)?.model;
+    visit_crane(
+        model,
+        Setup {
+            scene,
+            commissioning,
+            visitor,
+        },
+    )
 }
 
 /// The trajectory type a cost measurement drives the model by.
@@ -941,191 +530,52 @@ pub fn firmware_steps<V: StepsVisitor>(
     driven: DrivenBy,
     visitor: V,
 ) -> Result<V::Output, String> {
-    let scheme = FirmwareScheme::of(scene)?;
-    let settings = &scene.settings();
-    let i = scheme.integrator;
-    // The move as the firmware plans it: at rest at its start, the move pushed.
-    fn on_plan<const A: usize>(z: PointToPoint<f64, A>, n: usize) -> Result<Plan<f64, A>, Error> {
-        let mut plan = controller::feedforward::command_plan(z.start().into(), n)?;
-        plan.push(z)?;
-        Ok(plan)
+    /// The registered crane, as its type: its formulation on the move, bare or planned.
+    struct Steps<'a, V> {
+        scene: &'a Scene,
+        integrator: FirmwareIntegrator,
+        driven: DrivenBy,
+        visitor: V,
     }
-    let n = scene.trajectory.smoothness;
-    let planar = || {
-        let p = scene.model.crane().map(|c| c.params());
-        let p = p.ok_or_else(|| "the scene's model is not the planar crane".to_string())?;
-        Ok::<_, String>((p, trajectory::<f64, 2>(scene).map_err(|e| e.to_string())?))
-    };
-    let done = match (scheme.model, driven) {
-        (FirmwareModel::CraneSubs, DrivenBy::PointToPoint) => {
-            let (p, z) = planar()?;
-            subs_steps(p, z, i, settings, visitor)
-        }
-        (FirmwareModel::CraneSubs, DrivenBy::Plan) => {
-            let (p, z) = planar()?;
-            on_plan(z, n).and_then(|plan| subs_steps(p, plan, i, settings, visitor))
-        }
-        (FirmwareModel::CraneProj, DrivenBy::PointToPoint) => {
-            let (p, z) = planar()?;
-            proj_steps(p, z, i, settings, visitor)
-        }
-        (FirmwareModel::CraneProj, DrivenBy::Plan) => {
-            let (p, z) = planar()?;
-            on_plan(z, n).and_then(|plan| proj_steps(p, plan, i, settings, visitor))
-        }
-        (FirmwareModel::CraneExt, DrivenBy::PointToPoint) => {
-            let (p, z) = planar()?;
-            ext_steps(p, z, i, settings, visitor)
-        }
-        (FirmwareModel::CraneExt, DrivenBy::Plan) => {
-            let (p, z) = planar()?;
-            on_plan(z, n).and_then(|plan| ext_steps(p, plan, i, settings, visitor))
-        }
-        (FirmwareModel::Crane3dSubs, driven) => {
-            let p = Crane3dParams::of(&scene.model)
-                .ok_or_else(|| "the scene's model is not the 3D crane".to_string())?;
-            let z = trajectory::<f64, 3>(scene).map_err(|e| e.to_string())?;
-            match driven {
-                DrivenBy::PointToPoint => crane3d_steps(p, z, i, settings, visitor),
+    impl<V: StepsVisitor> CraneVisitor for Steps<'_, V> {
+        type Output = Result<V::Output, String>;
+        fn visit<K: FirmwareCrane<A>, const A: usize>(self, model: K::Model) -> Self::Output {
+            let Steps {
+                scene,
+                integrator,
+                driven,
+                visitor,
+            } = self;
+            let settings = &scene.settings();
+            let (crane, _) = K::of(&scene.model).ok_or("the scene's model is not this crane's")?;
+            let z = trajectory::<f64, A>(scene).map_err(|e| e.to_string())?;
+            let done = match driven {
+                DrivenBy::PointToPoint => crane.steps(model, z, integrator, settings, visitor),
                 DrivenBy::Plan => {
-                    on_plan(z, n).and_then(|plan| crane3d_steps(p, plan, i, settings, visitor))
+                    // The move as the firmware plans it: at rest at its start, the move
+                    // pushed.
+                    let plan = |z: PointToPoint<f64, A>| {
+                        let mut plan =
+                            command_plan::<K, A>(z.start().into(), scene.trajectory.smoothness)?;
+                        plan.push(z)?;
+                        Ok::<_, Error>(plan)
+                    };
+                    plan(z).and_then(|p| crane.steps(model, p, integrator, settings, visitor))
                 }
-            }
+            };
+            done.map_err(|e| e.to_string())
         }
-        (FirmwareModel::Crane3dExt, driven) => {
-            let p = Crane3dParams::of(&scene.model)
-                .ok_or_else(|| "the scene's model is not the 3D crane".to_string())?;
-            let z = trajectory::<f64, 3>(scene).map_err(|e| e.to_string())?;
-            match driven {
-                DrivenBy::PointToPoint => crane3d_ext_steps(p, z, i, settings, visitor),
-                DrivenBy::Plan => {
-                    on_plan(z, n).and_then(|plan| crane3d_ext_steps(p, plan, i, settings, visitor))
-                }
-            }
-        }
-    };
-    done.map_err(|e| e.to_string())
-}
-
-/// The planar *subs* crane on `z` with the firmware's integrator `i`, to `visitor`.
-fn subs_steps<Z: Trajectory<f64, 2>, V: StepsVisitor>(
-    p: CraneParams,
-    z: Z,
-    i: FirmwareIntegrator,
-    settings: &SolverSettings,
-    visitor: V,
-) -> Result<V::Output, Error> {
-    Ok(integrators!(
-        step_visit,
-        solver_core::models::crane_subs,
-        i,
-        CraneSubs::new(p, z)?,
-        settings,
-        visitor,
-        Z
-    ))
-}
-
-/// The planar *proj* crane on `z` with the firmware's integrator `i`, to `visitor`.
-fn proj_steps<Z: Trajectory<f64, 2>, V: StepsVisitor>(
-    p: CraneParams,
-    z: Z,
-    i: FirmwareIntegrator,
-    settings: &SolverSettings,
-    visitor: V,
-) -> Result<V::Output, Error> {
-    Ok(integrators!(
-        step_visit,
-        solver_core::models::crane_proj,
-        dense,
-        i,
-        CraneProj::new(p, z)?,
-        settings,
-        visitor,
-        Z
-    ))
-}
-
-/// The 3D crane on `z` with the firmware's integrator `i`, to `visitor`.
-fn crane3d_steps<Z: Trajectory<f64, 3>, V: StepsVisitor>(
-    p: Crane3dParams,
-    z: Z,
-    i: FirmwareIntegrator,
-    settings: &SolverSettings,
-    visitor: V,
-) -> Result<V::Output, Error> {
-    Ok(integrators!(
-        step_visit,
-        solver_core::models::crane3d::subs,
-        i,
-        Crane3dSubs::new(p, z)?,
-        settings,
-        visitor,
-        Z
-    ))
-}
-
-/// The planar *ext* crane on `z` with the firmware's integrator `i`, to `visitor`.
-fn ext_steps<Z: Trajectory<f64, 2>, V: StepsVisitor>(
-    p: CraneParams,
-    z: Z,
-    i: FirmwareIntegrator,
-    settings: &SolverSettings,
-    visitor: V,
-) -> Result<V::Output, Error> {
-    Ok(integrators!(
-        step_visit,
-        solver_core::models::crane_ext,
-        i,
-        CraneExt::new(p, z)?,
-        settings,
-        visitor,
-        Z
-    ))
-}
-
-/// The 3D *ext* crane on `z` with the firmware's integrator `i`, to `visitor`.
-fn crane3d_ext_steps<Z: Trajectory<f64, 3>, V: StepsVisitor>(
-    p: Crane3dParams,
-    z: Z,
-    i: FirmwareIntegrator,
-    settings: &SolverSettings,
-    visitor: V,
-) -> Result<V::Output, Error> {
-    Ok(integrators!(
-        step_visit,
-        solver_core::models::crane3d::ext,
-        i,
-        Crane3dExt::new(p, z)?,
-        settings,
-        visitor,
-        Z
-    ))
-}
-
-/// `model` and `integrator` to a [`StepsVisitor`].
-fn step_visit<V, M, I, const N: usize, const NU: usize>(
-    visitor: V,
-    model: M,
-    integrator: I,
-) -> V::Output
-where
-    V: StepsVisitor,
-    M: DaeModel<f64, N, NU>,
-    I: Integrator<f64, M, N, NU>,
-{
-    visitor.visit(model, integrator)
-}
-
-/// `model` and `integrator` as the controller's inverse model, to `visitor`.
-fn visit<V, M, I, const N: usize, const A: usize>(visitor: V, model: M, integrator: I) -> V::Output
-where
-    V: FirmwareVisitor<A>,
-    M: CraneReference<A> + DaeModel<f64, N, A> + Driven<Trajectory = Plan<f64, A>>,
-    I: Integrator<f64, M, N, A>,
-    Axes<A>: ReferenceOf,
-{
-    visitor.visit(InverseModel::<M, I, f64, N>::new(model, integrator))
+    }
+    let scheme = FirmwareScheme::of(scene)?;
+    visit_crane(
+        scheme.model,
+        Steps {
+            scene,
+            integrator: scheme.integrator,
+            driven,
+            visitor,
+        },
+    )
 }
 
 /// The Rust the firmware's build script writes for a [`FirmwareScheme`].
@@ -1148,6 +598,8 @@ pub struct FirmwareTypes {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use controller::feedforward::{Feedforward, Replan};
+    use controller::planner::Crane;
 
     /// The study's visitor that only names the model's type.
     struct Name;
@@ -1196,81 +648,88 @@ mod tests {
         }
     }
 
+    /// The label of the model `kind` names.
+    fn s_label(kind: &str) -> &'static str {
+        scene(kind, "scheme = \"bdf\"").model.label()
+    }
+
     #[test]
     fn the_firmware_names_the_types_it_builds() {
+        use crate::cranes::planar::PlanarModel;
+        use crate::cranes::spatial::SpatialModel;
         use FirmwareIntegrator as I;
         use FirmwareModel as M;
         for (kind, solver, model, integrator) in [
             (
                 "crane-subs",
                 "scheme = \"bdf\"\njacobian = \"exact\"",
-                M::CraneSubs,
+                M::Planar(PlanarModel::Subs),
                 I::StructuredBdfUncorrected(4),
             ),
             (
                 "crane-subs",
                 "scheme = \"bdf\"\njacobian = \"fd\"",
-                M::CraneSubs,
+                M::Planar(PlanarModel::Subs),
                 I::Bdf(4),
             ),
             (
                 "crane-subs",
                 "scheme = \"radau\"\njacobian = \"exact\"\nnewton = \"transformed\"",
-                M::CraneSubs,
+                M::Planar(PlanarModel::Subs),
                 I::StructuredRadau5,
             ),
             (
                 "crane-subs",
                 "scheme = \"radau\"\njacobian = \"exact\"",
-                M::CraneSubs,
+                M::Planar(PlanarModel::Subs),
                 I::RadauFull,
             ),
             (
                 "crane-proj",
                 "scheme = \"bdf\"\njacobian = \"exact\"",
-                M::CraneProj,
+                M::Planar(PlanarModel::Proj),
                 I::Bdf(4),
             ),
             (
                 "crane-proj",
                 "scheme = \"radau\"\njacobian = \"exact\"\nnewton = \"transformed\"",
-                M::CraneProj,
+                M::Planar(PlanarModel::Proj),
                 I::Radau5,
             ),
             (
                 "crane-proj",
                 "scheme = \"radau\"\njacobian = \"fd\"",
-                M::CraneProj,
+                M::Planar(PlanarModel::Proj),
                 I::RadauFull,
             ),
             (
                 "crane3d-subs",
                 "scheme = \"bdf\"\njacobian = \"exact\"",
-                M::Crane3dSubs,
+                M::Spatial(SpatialModel::Subs),
                 I::StructuredBdfUncorrected(4),
             ),
             (
                 "crane3d-subs",
                 "scheme = \"radau\"\njacobian = \"exact\"\nnewton = \"transformed\"",
-                M::Crane3dSubs,
+                M::Spatial(SpatialModel::Subs),
                 I::StructuredRadau5,
             ),
             (
                 "crane-ext",
                 "scheme = \"bdf\"\njacobian = \"exact\"",
-                M::CraneExt,
+                M::Planar(PlanarModel::Ext),
                 I::StructuredBdfUncorrected(4),
             ),
             (
                 "crane-ext",
                 "scheme = \"radau\"\njacobian = \"exact\"\nnewton = \"transformed\"",
-                M::CraneExt,
+                M::Planar(PlanarModel::Ext),
                 I::StructuredRadau5,
             ),
             (
                 "crane3d-ext",
                 "scheme = \"radau\"\njacobian = \"exact\"\nnewton = \"transformed\"",
-                M::Crane3dExt,
+                M::Spatial(SpatialModel::Ext),
                 I::StructuredRadau5,
             ),
         ] {
@@ -1287,7 +746,7 @@ mod tests {
                 "{}",
                 rust.integrator
             );
-            let plan = format!("Plan<f64, {}>", model.axes());
+            let plan = format!("Plan<f64, {}>", model.crane().1);
             assert!(rust.model.contains(&plan) && rust.integrator.contains(&plan));
         }
         // Below 5 ms BDF's closed form is corrected, and the firmware links the correction.
@@ -1310,8 +769,14 @@ mod tests {
             FirmwareScheme::of(&s).unwrap().integrator,
             I::StructuredBdfUncorrected(4)
         );
-        assert!(FirmwareScheme::of(&scene("mass-on-car", "scheme = \"bdf\"")).is_err());
-        assert!(FirmwareScheme::of(&scene("mass-on-car-ext", "scheme = \"bdf\"")).is_err());
+        // A model of no registered crane is named in the refusal.
+        for (kind, model) in [
+            ("mass-on-car", "mass-on-car"),
+            ("mass-on-car-ext", "mass-on-car-ext"),
+        ] {
+            let e = FirmwareScheme::of(&scene(kind, "scheme = \"bdf\"")).unwrap_err();
+            assert_eq!(e, FirmwareError::NotACrane { model });
+        }
         // The extended cranes run on their structured Newton only.
         for (kind, solver) in [
             ("crane-ext", "scheme = \"radau\"\njacobian = \"fd\""),
@@ -1319,7 +784,16 @@ mod tests {
             ("crane-ext", "scheme = \"radau\"\njacobian = \"exact\""),
         ] {
             let e = FirmwareScheme::of(&scene(kind, solver)).unwrap_err();
-            assert!(e.contains("structured Newton only"), "{kind} {solver}: {e}");
+            assert_eq!(
+                e,
+                FirmwareError::StructuredOnly {
+                    model: s_label(kind)
+                }
+            );
+            assert!(
+                e.to_string().contains("structured Newton only"),
+                "{kind} {solver}: {e}"
+            );
         }
     }
 
@@ -1371,64 +845,83 @@ mod tests {
         // And each is built for its own crane.
         for f in every {
             let (crane, axes) = f.crane();
-            assert_eq!(axes, f.model.axes());
-            assert!(crane.ends_with(if axes == 3 {
-                "Crane3dParams"
-            } else {
-                "CraneParams"
-            }));
+            let (expected, n) = match f.model {
+                FirmwareModel::Planar(_) => ("::CraneParams", 2),
+                FirmwareModel::Spatial(_) => ("::Crane3dParams", 3),
+            };
+            assert!(crane.ends_with(expected) && axes == n, "{f:?}");
         }
     }
 
-    /// Each crane builds the integrators of its own models only: another crane's scheme
-    /// is refused, never built as something else.
+    /// Every formulation of every registered crane is built on the host with every
+    /// integrator the panic proof proves (the types `rust()` names), at rest with zero
+    /// set points, by its own crane: another crane's formulation cannot be named
+    /// (`FirmwareCrane::Model`), so it is never built as something else.
     #[test]
-    fn a_crane_builds_its_own_models_only() {
+    fn every_registered_formulation_is_built_by_its_crane() {
         struct Steps;
-        impl<const A: usize> FirmwareVisitor<A> for Steps
-        where
-            Axes<A>: ReferenceOf,
-        {
-            type Output = [f64; A];
-            fn visit<F: Feedforward<A> + Replan<A>>(self, mut f: F) -> [f64; A] {
-                f.step().unwrap().u
+        impl<K: Crane<A>, const A: usize> FirmwareVisitor<K, A> for Steps {
+            type Output = Vec<f64>;
+            fn visit<F: Feedforward<A, Reference = K::Reference> + Replan<A>>(
+                self,
+                mut f: F,
+            ) -> Vec<f64> {
+                f.step().unwrap().u.to_vec()
             }
         }
+        struct AtRest<'a>(&'a Scene, FirmwareIntegrator);
+        impl CraneVisitor for AtRest<'_> {
+            type Output = Vec<f64>;
+            fn visit<K: FirmwareCrane<A>, const A: usize>(self, model: K::Model) -> Vec<f64> {
+                let (crane, own) = K::of(&self.0.model).unwrap();
+                assert_eq!(own, model);
+                let start = trajectory::<f64, A>(self.0).unwrap().start();
+                let plan = Plan::at_rest(start, 5).unwrap();
+                let mode = match self.1 {
+                    FirmwareIntegrator::StructuredRadau5 | FirmwareIntegrator::Radau5 => {
+                        solver_core::JacobianMode::Transformed
+                    }
+                    _ => solver_core::JacobianMode::Exact,
+                };
+                let settings = SolverSettings::paper(mode);
+                crane
+                    .inverse_model(model, self.1, plan, &settings, Steps)
+                    .unwrap()
+            }
+        }
+        let mut built = 0;
+        for kind in [
+            "crane-subs",
+            "crane-proj",
+            "crane-ext",
+            "crane3d-subs",
+            "crane3d-ext",
+        ] {
+            let s = scene(kind, "scheme = \"bdf\"");
+            let model = FirmwareModel::of(&s.model).unwrap();
+            for f in FirmwareScheme::every()
+                .into_iter()
+                .filter(|f| f.model == model)
+            {
+                let u = visit_crane(model, AtRest(&s, f.integrator));
+                assert_eq!(u.len(), f.crane().1, "{f:?}");
+                assert!(u.iter().all(|u| *u == 0.0), "{f:?}: {u:?}");
+                built += 1;
+            }
+        }
+        assert_eq!(built, FirmwareScheme::every().len());
+        // A structured integrator named for a model without a structured elimination is
+        // refused, never built as a dense one.
+        let plan = Plan::at_rest([12.0, 8.0].into(), 5).unwrap();
         let settings = SolverSettings::paper(solver_core::JacobianMode::Exact);
-        let planar = FirmwareScheme::of(&scene("crane-subs", "scheme = \"bdf\"")).unwrap();
-        let spatial = FirmwareScheme::of(&scene("crane3d-subs", "scheme = \"bdf\"")).unwrap();
-        let plan2 = Plan::at_rest([12.0, 8.0].into(), 5).unwrap();
-        let plan3 = Plan::at_rest([12.0, 3.0, 8.0].into(), 5).unwrap();
-        let p2 = CraneParams::PAPER;
-        let p3 = Crane3dParams::EXAMPLE;
-        // At rest the inverse model's set points are zero.
-        assert_eq!(
-            p2.inverse_model(planar, plan2, &settings, Steps).unwrap(),
-            [0.0; 2]
-        );
-        assert_eq!(
-            p3.inverse_model(spatial, plan3, &settings, Steps).unwrap(),
-            [0.0; 3]
-        );
-        assert!(p2.inverse_model(spatial, plan2, &settings, Steps).is_err());
-        assert!(p3.inverse_model(planar, plan3, &settings, Steps).is_err());
-        let planar_ext = FirmwareScheme::of(&scene("crane-ext", "scheme = \"bdf\"")).unwrap();
-        let spatial_ext = FirmwareScheme::of(&scene("crane3d-ext", "scheme = \"bdf\"")).unwrap();
-        assert_eq!(
-            p2.inverse_model(planar_ext, plan2, &settings, Steps)
-                .unwrap(),
-            [0.0; 2]
-        );
-        assert_eq!(
-            p3.inverse_model(spatial_ext, plan3, &settings, Steps)
-                .unwrap(),
-            [0.0; 3]
-        );
-        assert!(p2
-            .inverse_model(spatial_ext, plan2, &settings, Steps)
-            .is_err());
-        assert!(p3
-            .inverse_model(planar_ext, plan3, &settings, Steps)
-            .is_err());
+        let proj = crate::cranes::planar::PlanarModel::Proj;
+        for i in [
+            FirmwareIntegrator::StructuredBdf(4),
+            FirmwareIntegrator::StructuredBdfUncorrected(4),
+            FirmwareIntegrator::StructuredRadau5,
+        ] {
+            let built = CraneParams::PAPER.inverse_model(proj, i, plan, &settings, Steps);
+            assert!(built.is_err(), "{i:?}");
+        }
     }
 }

@@ -50,82 +50,12 @@
 
 use controller::feedback::{Config, Gains, Weights};
 use controller::rope::InclinometerLag;
-use serde::Deserialize;
 use solver_core::models::crane::CraneParams;
 
+/// `[feedback]` as read lives with the scene's other sections (`lib.rs`, so that the
+/// scene's types import nothing above them); this module checks it and designs from it.
+pub use crate::FeedbackSpec;
 use crate::{refuse, SceneError};
-
-/// `[feedback]` as read.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-#[allow(missing_docs)]
-pub struct FeedbackSpec {
-    pub load_position: f64,
-    pub trolley_position: f64,
-    pub swing_velocity: f64,
-    pub trolley_correction: f64,
-    pub rope_position: f64,
-    pub winch_correction: f64,
-    pub drive_disturbance: f64,
-    pub swing_disturbance: f64,
-    pub drive_offset: f64,
-    pub position_noise: f64,
-    pub angle_noise: f64,
-    pub rest_load_position: f64,
-    pub rest_trolley_position: f64,
-    pub rest_swing_velocity: f64,
-    pub rest_load_velocity: f64,
-    pub max_angle: f64,
-    pub max_innovation: f64,
-    pub bridged_cycles: u32,
-    pub frozen_cycles: u32,
-    pub frozen_motion: f64,
-    pub held_allowance: f64,
-    pub rest_position: f64,
-    pub rest_swing: f64,
-    pub rest_hysteresis: f64,
-    pub offset_dead_band: f64,
-    pub offset_step: f64,
-    pub max_offset: f64,
-    pub offset_cycles: u32,
-}
-
-impl Default for FeedbackSpec {
-    fn default() -> Self {
-        let w = Weights::DEFAULT;
-        let c = Config::PAPER;
-        Self {
-            load_position: w.load_position,
-            trolley_position: w.trolley_position,
-            swing_velocity: w.swing_velocity,
-            trolley_correction: w.trolley_correction,
-            rope_position: w.rope_position,
-            winch_correction: w.winch_correction,
-            drive_disturbance: w.drive_disturbance,
-            swing_disturbance: w.swing_disturbance,
-            drive_offset: w.drive_offset,
-            position_noise: w.position_noise,
-            angle_noise: w.angle_noise,
-            rest_load_position: w.rest_load_position,
-            rest_trolley_position: w.rest_trolley_position,
-            rest_swing_velocity: w.rest_swing_velocity,
-            rest_load_velocity: w.rest_load_velocity,
-            max_angle: c.max_angle,
-            max_innovation: c.max_innovation,
-            bridged_cycles: c.max_bad_angle_cycles,
-            frozen_cycles: c.max_frozen_cycles,
-            frozen_motion: c.frozen_motion,
-            held_allowance: c.held_allowance,
-            rest_position: c.rest_position,
-            rest_swing: c.rest_swing,
-            rest_hysteresis: c.rest_hysteresis,
-            offset_dead_band: c.offset_dead_band,
-            offset_step: c.offset_step,
-            max_offset: c.max_offset,
-            offset_cycles: c.offset_cycles,
-        }
-    }
-}
 
 impl FeedbackSpec {
     /// The feedback's configuration for the crane `params` cycling every `h` s, or the

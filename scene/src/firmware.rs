@@ -42,10 +42,10 @@ pub fn settings_source(scene: &Scene) -> String {
 /// the same values the host's run of the firmware loop uses, built by the same
 /// [`CommissioningFile::config_for`]. (The fault thresholds are [`Config::DEFAULT`]'s;
 /// the check below refuses a config that differs there. The drives' limits are the
-/// planner's, [`FirmwareCrane::LIMITS`].)
+/// planner's, [`Crane::LAB_LIMITS`].)
 ///
 /// [`CommissioningFile::config_for`]: crate::commissioning::CommissioningFile::config_for
-/// [`FirmwareCrane::LIMITS`]: crate::dispatch::FirmwareCrane::LIMITS
+/// [`Crane::LAB_LIMITS`]: controller::crane::Crane::LAB_LIMITS
 pub fn config_source(config: &Config) -> Result<String, String> {
     let defaults = Config {
         period_ms: config.period_ms,

@@ -32,22 +32,26 @@
 //! ```
 //!
 //! A malformed or physically impossible scene is refused with a [`SceneError`]
-//! that names the field and the reason.
+//! that names the field and the reason (the checks of a whole scene: `check.rs`).
 
+mod check;
 pub mod commissioning;
+pub mod cranes;
 pub mod dispatch;
 pub mod feedback;
 pub mod firmware;
 
 use std::fmt;
-use std::path::Path;
 
+use controller::feedback::{Config, Weights};
+use nalgebra::SVector;
 use serde::Deserialize;
 use solver_core::models::crane::{CraneParams, Workspace};
 use solver_core::models::crane3d::{Crane3dParams, Workspace3d};
 use solver_core::models::mass_on_car::MassOnCarParams;
+use solver_core::scalar::c;
 use solver_core::trajectory::PointToPoint;
-use solver_core::{Error, JacobianMode, NewtonSettings, SolverSettings};
+use solver_core::{Error, JacobianMode, NewtonSettings, Real, SolverSettings};
 
 /// Why a scene was refused: the field (dotted path) and the reason.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -93,9 +97,82 @@ pub struct Scene {
     /// How to solve.
     pub solver: SolverSpec,
     /// The state feedback around the inverse model (Fig. 1), if the scene closes the
-    /// loop (`feedback::FeedbackSpec`).
+    /// loop (checked and designed in `feedback.rs`).
     #[serde(default)]
-    pub feedback: Option<feedback::FeedbackSpec>,
+    pub feedback: Option<FeedbackSpec>,
+}
+
+/// `[feedback]` as read: its fields, units and defaults are described in the
+/// `feedback` module, which checks them and designs the gains from them.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+#[allow(missing_docs)]
+pub struct FeedbackSpec {
+    pub load_position: f64,
+    pub trolley_position: f64,
+    pub swing_velocity: f64,
+    pub trolley_correction: f64,
+    pub rope_position: f64,
+    pub winch_correction: f64,
+    pub drive_disturbance: f64,
+    pub swing_disturbance: f64,
+    pub drive_offset: f64,
+    pub position_noise: f64,
+    pub angle_noise: f64,
+    pub rest_load_position: f64,
+    pub rest_trolley_position: f64,
+    pub rest_swing_velocity: f64,
+    pub rest_load_velocity: f64,
+    pub max_angle: f64,
+    pub max_innovation: f64,
+    pub bridged_cycles: u32,
+    pub frozen_cycles: u32,
+    pub frozen_motion: f64,
+    pub held_allowance: f64,
+    pub rest_position: f64,
+    pub rest_swing: f64,
+    pub rest_hysteresis: f64,
+    pub offset_dead_band: f64,
+    pub offset_step: f64,
+    pub max_offset: f64,
+    pub offset_cycles: u32,
+}
+
+impl Default for FeedbackSpec {
+    fn default() -> Self {
+        let w = Weights::DEFAULT;
+        let c = Config::PAPER;
+        Self {
+            load_position: w.load_position,
+            trolley_position: w.trolley_position,
+            swing_velocity: w.swing_velocity,
+            trolley_correction: w.trolley_correction,
+            rope_position: w.rope_position,
+            winch_correction: w.winch_correction,
+            drive_disturbance: w.drive_disturbance,
+            swing_disturbance: w.swing_disturbance,
+            drive_offset: w.drive_offset,
+            position_noise: w.position_noise,
+            angle_noise: w.angle_noise,
+            rest_load_position: w.rest_load_position,
+            rest_trolley_position: w.rest_trolley_position,
+            rest_swing_velocity: w.rest_swing_velocity,
+            rest_load_velocity: w.rest_load_velocity,
+            max_angle: c.max_angle,
+            max_innovation: c.max_innovation,
+            bridged_cycles: c.max_bad_angle_cycles,
+            frozen_cycles: c.max_frozen_cycles,
+            frozen_motion: c.frozen_motion,
+            held_allowance: c.held_allowance,
+            rest_position: c.rest_position,
+            rest_swing: c.rest_swing,
+            rest_hysteresis: c.rest_hysteresis,
+            offset_dead_band: c.offset_dead_band,
+            offset_step: c.offset_step,
+            max_offset: c.max_offset,
+            offset_cycles: c.offset_cycles,
+        }
+    }
 }
 
 /// Which model, with optional parameters (the paper's values by default).
@@ -427,25 +504,6 @@ fn default_scalar() -> ScalarSpec {
 }
 
 impl Scene {
-    /// Reads and checks a scene file.
-    pub fn load(path: &Path) -> Result<Self, SceneError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| refuse("", format!("cannot read {}: {e}", path.display())))?;
-        Self::parse(&text)
-    }
-
-    /// Parses and checks a scene from TOML text.
-    pub fn parse(text: &str) -> Result<Self, SceneError> {
-        let scene: Scene = toml::from_str(text).map_err(|e| {
-            // toml names the key path in its message; keep its first line as the reason.
-            let message = e.message().to_string();
-            let field = e.span().map(|s| key_at(text, s.start)).unwrap_or_default();
-            refuse(&field, message)
-        })?;
-        scene.validate()?;
-        Ok(scene)
-    }
-
     /// Number of output axes the model needs.
     pub fn outputs(&self) -> usize {
         match self.model {
@@ -512,61 +570,7 @@ impl Scene {
     }
 
     fn trajectory_n<const NZ: usize>(&self) -> Result<PointToPoint<f64, NZ>, SceneError> {
-        dispatch::trajectory::<f64, NZ>(self)
-    }
-
-    /// Every check that does not need a run: types, ranges, and the model built
-    /// from its parameters and trajectory (rope slack, workspace, smoothness).
-    /// Call it again after changing a scene's fields.
-    pub fn validate(&self) -> Result<(), SceneError> {
-        let t = &self.trajectory;
-        if !(t.t_end.is_finite() && t.t_end > 0.0) {
-            return Err(refuse(
-                "trajectory.t_end",
-                format!("must be finite and > 0 (got {})", t.t_end),
-            ));
-        }
-        if t.t_start < 0.0 {
-            return Err(refuse(
-                "trajectory.t_start",
-                "must be ≥ 0: the run starts at rest at t = 0",
-            ));
-        }
-        let s = &self.solver;
-        if s.scheme == SchemeSpec::Bdf && !(1..=6).contains(&s.k) {
-            return Err(refuse(
-                "solver.k",
-                format!("BDF needs k in 1..=6 (got {})", s.k),
-            ));
-        }
-        if s.reinit_every.is_some() && s.jacobian != JacobianSpec::Broyden {
-            return Err(refuse(
-                "solver.reinit_every",
-                "only applies to jacobian = \"broyden\"",
-            ));
-        }
-        if s.newton == NewtonSpec::Transformed
-            && (s.scheme != SchemeSpec::Radau || s.jacobian != JacobianSpec::Exact)
-        {
-            return Err(refuse(
-                "solver.newton",
-                "\"transformed\" needs scheme = \"radau\" and jacobian = \"exact\"",
-            ));
-        }
-        if s.reinit_every == Some(0) {
-            return Err(refuse(
-                "solver.reinit_every",
-                "must be ≥ 1 (omit it for continuous updating)",
-            ));
-        }
-        self.settings().validate().map_err(|e| self.field_of(e))?;
-        if self.steps() == 0 {
-            return Err(refuse(
-                "solver.h",
-                "longer than the whole run (trajectory.t_end)",
-            ));
-        }
-        dispatch::model::<f64, _>(self, dispatch::Built)
+        trajectory::<f64, NZ>(self)
     }
 
     /// Maps a solver-core error to the scene field it comes from.
@@ -596,6 +600,29 @@ impl Scene {
         };
         refuse(&field, e.to_string())
     }
+}
+
+/// The scene's move in the scalar `T`, with its `NZ` output axes.
+pub(crate) fn trajectory<T: Real, const NZ: usize>(
+    scene: &Scene,
+) -> Result<PointToPoint<T, NZ>, SceneError> {
+    let t = &scene.trajectory;
+    for (field, v) in [("trajectory.start", &t.start), ("trajectory.end", &t.end)] {
+        if v.len() != NZ {
+            return Err(refuse(
+                field,
+                format!("needs {NZ} values (one per output axis), has {}", v.len()),
+            ));
+        }
+    }
+    PointToPoint::new(
+        SVector::<T, NZ>::from_iterator(t.start.iter().map(|v| c::<T>(*v))),
+        SVector::<T, NZ>::from_iterator(t.end.iter().map(|v| c::<T>(*v))),
+        c(t.t_start),
+        c(t.duration),
+        t.smoothness,
+    )
+    .map_err(|e| scene.field_of(e))
 }
 
 /// The dotted key on the line that holds byte `pos` (best effort, for messages):

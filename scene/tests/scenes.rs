@@ -213,15 +213,15 @@ fn a_3d_scene_is_checked_as_a_planar_one_is() {
 /// the 3D crane; with the planar crane's file they are refused, naming the bridge.
 #[test]
 fn the_3d_scenes_pass_with_their_own_commissioning_file() {
-    use scene::dispatch::{firmware, Axes, FirmwareCrane, FirmwareCraneVisitor, ReferenceOf};
+    use scene::dispatch::{firmware, FirmwareCrane, FirmwareCraneVisitor};
     use scene::firmware::FirmwareScene;
     struct Axes3;
     impl FirmwareCraneVisitor for Axes3 {
         type Output = (usize, bool);
-        fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output
-        where
-            Axes<A>: ReferenceOf,
-        {
+        fn visit<K: FirmwareCrane<A>, const A: usize>(
+            self,
+            f: FirmwareScene<K, A>,
+        ) -> Self::Output {
             (A, f.config.inclinometer().is_some_and(|i| i.two_axes()))
         }
     }
@@ -347,5 +347,8 @@ fn the_extended_scenes_are_checked_as_the_direct_ones() {
         &CommissioningFile::default(),
     )
     .unwrap();
-    assert_eq!(f.scheme.model, scene::dispatch::FirmwareModel::CraneExt);
+    assert_eq!(
+        f.scheme.model,
+        scene::dispatch::FirmwareModel::Planar(scene::cranes::planar::PlanarModel::Ext)
+    );
 }

@@ -12,7 +12,10 @@
 //! * [`angle_sensor`] — what a real inclinometer does to the swing it reports: a
 //!   filter and a delay of its own;
 //! * [`plant3d`] — the same for the 3D crane: bridge, trolley, hoist and a load
-//!   swinging in both planes, read by a two-axis inclinometer.
+//!   swinging in both planes, read by a two-axis inclinometer;
+//! * [`plant_dp`] — the hook-and-load crane: a double pendulum under trolley and winch,
+//!   its inclinometer on the hook block;
+//! * [`simulated`] — which plant each crane type runs on, built from its parameters.
 
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
@@ -27,7 +30,9 @@
 pub mod angle_sensor;
 pub mod plant;
 pub mod plant3d;
+pub mod plant_dp;
 pub mod scenario;
+pub mod simulated;
 pub mod traffic;
 pub mod virtual_bus;
 

@@ -63,6 +63,7 @@ pub mod cob {
 
 pub mod emcy;
 pub mod nmt;
+pub mod od;
 pub mod sdo;
 
 pub use nmt::{NmtCommand, NmtState};

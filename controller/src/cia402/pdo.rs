@@ -11,19 +11,22 @@
 //! All values little endian (CiA 301), in the drive's units (1 µm/s, 1 µm by default;
 //! see [`crate::setpoint`]).
 
+use crate::canopen::od::device::{
+    CONTROLWORD, MODES_DISPLAY, POSITION_ACTUAL, STATUSWORD, TARGET_VELOCITY, VELOCITY_ACTUAL,
+};
 use crate::canopen::{cob, DecodeError};
 use crate::frame::CanFrame;
 use crate::setpoint::Setpoint;
 
 /// RPDO1's mapping entries (0x1600): controlword (0x6040, 16 bit), target velocity
 /// (0x60FF, 32 bit).
-pub const RPDO1_MAPPING: [u32; 2] = [0x6040_0010, 0x60FF_0020];
+pub const RPDO1_MAPPING: [u32; 2] = [CONTROLWORD.mapping(), TARGET_VELOCITY.mapping()];
 /// TPDO1's mapping entries (0x1A00): statusword (0x6041, 16 bit), velocity actual
 /// (0x606C, 32 bit).
-pub const TPDO1_MAPPING: [u32; 2] = [0x6041_0010, 0x606C_0020];
+pub const TPDO1_MAPPING: [u32; 2] = [STATUSWORD.mapping(), VELOCITY_ACTUAL.mapping()];
 /// TPDO2's mapping entries (0x1A01): position actual (0x6064, 32 bit), modes of
 /// operation display (0x6061, 8 bit).
-pub const TPDO2_MAPPING: [u32; 2] = [0x6064_0020, 0x6061_0008];
+pub const TPDO2_MAPPING: [u32; 2] = [POSITION_ACTUAL.mapping(), MODES_DISPLAY.mapping()];
 
 /// RPDO1 to the drive at `node`: controlword (0x6040) and target velocity (0x60FF). The
 /// velocity is a [`Setpoint`], so it has passed the choke point of [`crate::setpoint`].
@@ -100,6 +103,15 @@ impl Tpdo {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
+
+    /// The mappings CiA 402 drives are commissioned with, spelled out: index, sub-index,
+    /// bits.
+    #[test]
+    fn mappings_are_the_profile_s_objects() {
+        assert_eq!(RPDO1_MAPPING, [0x6040_0010, 0x60FF_0020]);
+        assert_eq!(TPDO1_MAPPING, [0x6041_0010, 0x606C_0020]);
+        assert_eq!(TPDO2_MAPPING, [0x6064_0020, 0x6061_0008]);
+    }
 
     #[test]
     fn tpdos_round_trip() {

@@ -37,7 +37,7 @@ pub fn planner() -> Planner {
 
 /// The inverse model at rest at `home` from t = 0, with `first` (end, start, duration) planned.
 pub fn feedforward(home: [f64; 2], first: Option<([f64; 2], f64, f64)>) -> Ff {
-    let mut plan = controller::feedforward::command_plan(home, 4).unwrap();
+    let mut plan = controller::crane::command_plan::<CraneParams, 2>(home, 4).unwrap();
     if let Some((end, t_start, duration)) = first {
         let m = PointToPoint::new(
             SVector::from(home),

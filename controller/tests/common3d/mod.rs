@@ -70,7 +70,7 @@ pub fn limits() -> [AxisLimits; 3] {
 /// The controller, the bus with the three drives at [`HOME`], and the clock.
 pub struct Rig {
     pub c: Crane3dController,
-    pub bus: VirtualBus<3>,
+    pub bus: VirtualBus<Crane3dParams, 3>,
     /// Time of the next cycle, ms.
     pub now: u32,
 }
@@ -81,7 +81,7 @@ impl Rig {
         let planner = Planner::with_axes(Crane3dParams::EXAMPLE, limits());
         Self {
             c: Controller::with_correction(ff, NoFeedback, planner, config()),
-            bus: VirtualBus::with_drives(HEALTHY, SPATIAL, HOME),
+            bus: VirtualBus::for_crane(HEALTHY, &Crane3dParams::EXAMPLE, HOME),
             now: 0,
         }
     }

@@ -28,7 +28,6 @@
 #![allow(unsafe_code)]
 
 use controller::board::CanPort;
-use controller::planner::Crane;
 use controller::transmit::{FifoModel, Loss, Queued, TxQueue, BURST};
 use controller::CanFrame;
 use heapless::Deque;
@@ -148,7 +147,7 @@ pub const TX_BUFFERS: usize = 3;
 
 /// The QEMU board.
 pub struct Board {
-    bus: VirtualBus<{ crate::scene::AXES }>,
+    bus: VirtualBus<crate::scene::Crane, { crate::scene::AXES }>,
     watchdog_started: bool,
     /// Frames waiting for a transmit buffer, in order.
     tx_queue: TxQueue<BURST>,
@@ -216,11 +215,10 @@ impl Board {
         }
         // A stock drive for each of the crane's drives, resting where the scene's move
         // starts (the host's run builds the same: `host_tests::firmware::virtual_bus`).
-        let drives = <crate::scene::Crane as Crane<{ crate::scene::AXES }>>::DRIVES;
-        let bus = VirtualBus::with_drives(scenario, drives, crate::scene::START);
+        let bus = VirtualBus::for_crane(scenario, &crate::scene::PARAMS, crate::scene::START);
         if !bus.simulates_scenario() {
             defmt::error!(
-                "scenario {=str} moves a plant: the planar crane's, in a build with [feedback]",
+                "scenario {=str} moves a plant: only a build with [feedback] (feature `plant`) has one",
                 scenario.name
             );
             finish(false)

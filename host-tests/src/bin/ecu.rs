@@ -37,8 +37,8 @@ use std::time::{Duration, Instant};
 use clap::{Parser, ValueEnum};
 use controller::commands::Request;
 use controller::correction::AxesCorrection;
+use controller::crane::command_plan;
 use controller::drive::Drive;
-use controller::feedforward::{command_plan, Axes, ReferenceOf};
 use controller::node::Role;
 use controller::{CanFrame, Controller, Feedforward, Injectable, Mode, Replan};
 use host_tests::firmware::{with_controller, WithController};
@@ -119,17 +119,15 @@ struct Ecu<'a> {
 impl FirmwareCraneVisitor for Ecu<'_> {
     type Output = Result<(), String>;
 
-    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output
-    where
-        Axes<A>: ReferenceOf,
-    {
+    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output {
         let (cli, scene) = (self.cli, self.scene);
         // No motion without a command: the scene's move only when asked (as the QEMU
         // main job asks for it); otherwise the crane rests where the scene's move starts.
         let plan = if cli.demo {
             f.plan
         } else {
-            command_plan(f.start(), scene.trajectory.smoothness).map_err(|e| e.to_string())?
+            command_plan::<K, A>(f.start(), scene.trajectory.smoothness)
+                .map_err(|e| e.to_string())?
         };
         if let Some(spec) = &cli.reference {
             let request = reference_request(spec, A)?;
@@ -244,10 +242,9 @@ impl WithController for Reference {
         f: &FirmwareScene<K, A>,
     ) -> Self::Output
     where
-        F: Feedforward<A> + Replan<A>,
-        C: AxesCorrection<A>,
+        F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+        C: AxesCorrection<A, K::Reference>,
         K: FirmwareCrane<A>,
-        Axes<A>: ReferenceOf,
     {
         reference(controller, f, self.request)
     }
@@ -262,10 +259,9 @@ impl WithController for Setup {
         _: &FirmwareScene<K, A>,
     ) -> Self::Output
     where
-        F: Feedforward<A> + Replan<A>,
-        C: AxesCorrection<A>,
+        F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+        C: AxesCorrection<A, K::Reference>,
         K: FirmwareCrane<A>,
-        Axes<A>: ReferenceOf,
     {
         serve(controller, self)
     }
@@ -281,10 +277,9 @@ fn reference<F, C, K, const A: usize>(
     request: Request,
 ) -> Result<(), String>
 where
-    F: Feedforward<A> + Replan<A>,
-    C: AxesCorrection<A>,
+    F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+    C: AxesCorrection<A, K::Reference>,
     K: FirmwareCrane<A>,
-    Axes<A>: ReferenceOf,
 {
     use controller::commands::{request_frame, Answer};
     use sim::{run_cycle, HEALTHY};
@@ -341,15 +336,24 @@ struct Setup {
 /// The real-time loop: tick k at k·h after the start by the wall clock, the frames
 /// received since the last tick fed first (with the tick's time, as the firmware does);
 /// a late tick runs at once, so the controller's time stays k·h.
+///
+/// A tick whose frames go out more than a period late (the host stalled this process: a
+/// loaded machine, a write waiting on the disk) makes the ticks after it keep the period
+/// from then: the schedule slips instead of running the missed ticks back to back. Run
+/// back to back, they sent their SYNCs within a millisecond and advanced the
+/// controller's clock by the stall while the drives had no time to answer one: a 60 ms
+/// stall of the ECU alone ended in fault 10, its drives' TPDOs "50 ms late" (interop
+/// README, "Keeping time"). The firmware on its own processor is not stalled by a host;
+/// its supervision (50 ms without a TPDO is a fault) is unchanged — the controller's
+/// clock only never runs ahead of the time its drives had.
 fn serve<F, C, K, const A: usize>(
     mut controller: Controller<Injectable<F>, C, K, A>,
     setup: Setup,
 ) -> Result<(), String>
 where
-    F: Feedforward<A> + Replan<A>,
-    C: AxesCorrection<A>,
+    F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+    C: AxesCorrection<A, K::Reference>,
     K: FirmwareCrane<A>,
-    Axes<A>: ReferenceOf,
 {
     let config = *controller.config();
     let period = Duration::from_millis(u64::from(config.period_ms));
@@ -359,17 +363,17 @@ where
         let listener = setup.listener;
         std::thread::spawn(move || accept(&listener, &bus, &stop))
     };
-    let start = lock(&setup.bus).start;
+    // Tick k is due `k - anchor_k` periods after `anchor`: the start, or the last tick
+    // that ran more than a period late.
+    let (mut anchor, mut anchor_k) = (lock(&setup.bus).start, 0u64);
     let cycles = (setup.duration.as_nanos() / period.as_nanos()).max(1) as u64;
     let mut late = 0u64;
     let mut worst = Duration::ZERO;
     for k in 0..cycles {
-        let due = start + period * u32::try_from(k).unwrap_or(u32::MAX);
+        let due = anchor + period * u32::try_from(k - anchor_k).unwrap_or(u32::MAX);
         let now = Instant::now();
         if now < due {
             std::thread::sleep(due - now);
-        } else if now - due > period {
-            late += 1;
         }
         let now_ms = k * u64::from(config.period_ms);
         let received = std::mem::take(&mut lock(&setup.bus).inbox);
@@ -382,6 +386,13 @@ where
         let mut bus = lock(&setup.bus);
         for frame in &out.frames {
             bus.deliver(None, &Frame::from(frame));
+        }
+        // Late, whether the sleep overran or the tick waited for the bus: the next one
+        // a period after these frames went out.
+        let sent = Instant::now();
+        if sent.saturating_duration_since(due) > period {
+            late += 1;
+            (anchor, anchor_k) = (sent, k);
         }
         bus.flush_log();
     }

@@ -16,29 +16,23 @@ pub use inclinometer::InclinometerSim;
 
 use heapless::{Deque, LinearMap};
 
-#[cfg(feature = "plant")]
-use crate::plant::Plant;
-#[cfg(feature = "plant")]
-use crate::plant3d::{Mismatch3d, Plant3d};
 use crate::scenario::{Action, Quirk, Scenario};
+#[cfg(feature = "plant")]
+use crate::simulated::CranePlant;
+use crate::simulated::Simulated;
 use crate::traffic::Traffic;
 use controller::board::{self, CanPort};
 use controller::canopen::sdo::{self, abort, Object, ObjectDictionary, Value};
 use controller::canopen::{self, cob, NmtCommand, NmtState};
 use controller::cia402::{controlword, pdo, DriveState};
 use controller::commands::request_frame;
-#[cfg(feature = "plant")]
-use controller::commissioning::InclinometerSetup;
 use controller::controller::{Controller, Cycle};
 use controller::correction::AxesCorrection;
-use controller::drive::{self, Drive, PLANAR};
-use controller::feedforward::{Axes, Feedforward, Injectable, ReferenceOf, Replan};
+use controller::drive::{self, Drive};
+use controller::feedforward::{Feedforward, Injectable, Replan};
 use controller::frame::CanFrame;
-use controller::planner::Crane;
-#[cfg(feature = "plant")]
+use core::marker::PhantomData;
 use solver_core::models::crane::CraneParams;
-#[cfg(feature = "plant")]
-use solver_core::models::crane3d::Crane3dParams;
 
 /// One simulated CiA 402 drive: NMT slave (boot-up message, pre-operational until
 /// started), SDO server of a small object dictionary (the objects commissioning writes,
@@ -388,18 +382,17 @@ impl DriveSim {
     }
 }
 
-/// The bus: a drive for each of the crane's `A` axes, a scenario, and what is waiting
-/// to be received. The plant and the inclinometer are the planar crane's (`A = 2`).
+/// The bus of crane `K` with `A` driven axes: a drive for each axis, a scenario, and
+/// what is waiting to be received; in scenarios with a plant (feature `plant`), the
+/// crane's plant ([`Simulated`]) and its inclinometer.
 #[derive(Debug, Clone)]
-pub struct VirtualBus<const A: usize = 2> {
+pub struct VirtualBus<K: Simulated<A> = CraneParams, const A: usize = 2> {
     /// The crane's drives, in the model's input order: the order of `drives`.
     order: [Drive; A],
     drives: [DriveSim; A],
     #[cfg(feature = "plant")]
-    plant: Option<Plant>,
-    /// The 3D crane's plant, in scenarios with a plant on the 3D crane's drives.
-    #[cfg(feature = "plant")]
-    plant3d: Option<Plant3d>,
+    plant: Option<K::Plant>,
+    crane: PhantomData<fn() -> K>,
     #[cfg(feature = "plant")]
     inclinometer: Option<InclinometerSim>,
     scenario: Scenario,
@@ -429,76 +422,43 @@ pub struct BusOff;
 impl VirtualBus {
     /// Two freshly powered drives (nodes 1 and 2, about to send their boot-up messages)
     /// with the load resting at `start` (`[x_C, z_C]`: trolley position and rope
-    /// length), and the scenario (with its plant and inclinometer, if it has one).
+    /// length), and the scenario (with its plant, the paper's lab crane
+    /// `CraneParams::PAPER`, and inclinometer, if it has one).
     #[must_use]
     pub fn new(scenario: Scenario, start: [f64; 2]) -> Self {
-        VirtualBus::with_drives(scenario, PLANAR, start)
+        VirtualBus::for_crane(scenario, &CraneParams::PAPER, start)
     }
 }
 
-impl<const A: usize> VirtualBus<A> {
-    /// A freshly powered drive for each of `drives` (at its stock node, about to send
-    /// its boot-up message), the load resting with the drives at `start` (each drive's
-    /// position, same order: at rest the load hangs under trolley and bridge, as deep as
-    /// the rope is long), and the scenario's events. The scenario's plant and
-    /// inclinometer (feature `plant`) are the planar crane's (the paper's lab crane): on
-    /// another crane the drives follow their set points exactly, and
-    /// [`VirtualBus::simulates_scenario`] says the scenario is not what runs.
+impl<K: Simulated<A>, const A: usize> VirtualBus<K, A> {
+    /// A freshly powered drive for each of `crane`'s drives (at its stock node, about to
+    /// send its boot-up message), the load resting with the drives at `start` (each
+    /// drive's position, same order: at rest the load hangs under trolley and bridge, as
+    /// deep as the rope is long), and the scenario's events. A scenario with a plant
+    /// (feature `plant`) runs on `crane`'s plant with its parameters, and its
+    /// inclinometer at the stock node.
     #[must_use]
-    pub fn with_drives(scenario: Scenario, drives: [Drive; A], start: [f64; A]) -> Self {
+    pub fn for_crane(scenario: Scenario, crane: &K, start: [f64; A]) -> Self {
+        let drives = K::DRIVES;
         #[cfg(feature = "plant")]
-        let (plant, plant3d, inclinometer) =
-            match (scenario.plant, drives.as_slice(), start.as_slice()) {
-                (Some(mismatch), [Drive::Trolley, Drive::Winch], &[x, l]) => {
-                    let crane = CraneParams::PAPER;
-                    let plant = Plant::at_rest(
-                        x,
-                        l,
-                        0.0,
-                        [crane.tau1, crane.tau2],
-                        crane.g,
-                        crane.m,
-                        mismatch,
-                    );
-                    let sensor = InclinometerSim::new(InclinometerSetup::STOCK.node);
-                    (Some(plant), None, Some(sensor))
-                }
-                // The planar scenario on the 3D crane (`Crane3dParams::EXAMPLE`): its drives'
-                // mismatch on bridge and hoist, its gust and its swinging start at 45°, so
-                // that both vertical planes swing.
-                (Some(mismatch), [Drive::Bridge, Drive::Trolley, Drive::Winch], &[x, y, l]) => {
-                    let crane = Crane3dParams::EXAMPLE;
-                    let planar = Mismatch3d::from_planar(&mismatch);
-                    let [s, _] = planar.swing0;
-                    let diagonal = Mismatch3d {
-                        gust_direction: core::f64::consts::FRAC_PI_4,
-                        swing0: [s, s]
-                            .map(|a| libm::atan(libm::tan(a) * core::f64::consts::FRAC_1_SQRT_2)),
-                        ..planar
-                    };
-                    let plant = Plant3d::at_rest(
-                        x,
-                        y,
-                        l,
-                        0.0,
-                        [crane.tau1, crane.tau2, crane.tau3],
-                        crane.g,
-                        crane.m,
-                        diagonal,
-                    );
-                    let sensor = InclinometerSim::new(InclinometerSetup::STOCK_TWO_AXES.node);
-                    (None, Some(plant), Some(sensor))
-                }
-                _ => (None, None, None),
-            };
+        let (plant, inclinometer) = match scenario.plant {
+            Some(mismatch) => (
+                Some(crane.plant(mismatch, start)),
+                Some(InclinometerSim::new(
+                    controller::commissioning::InclinometerSetup::stock(K::SWING_AXES).node,
+                )),
+            ),
+            None => (None, None),
+        };
+        #[cfg(not(feature = "plant"))]
+        let _ = crane;
         let mut at = start.into_iter();
         Self {
             order: drives,
             drives: drives.map(|d| DriveSim::new(d.node(), at.next().unwrap_or(0.0))),
             #[cfg(feature = "plant")]
             plant,
-            #[cfg(feature = "plant")]
-            plant3d,
+            crane: PhantomData,
             #[cfg(feature = "plant")]
             inclinometer,
             traffic: scenario.random.map(Traffic::new),
@@ -524,11 +484,11 @@ impl<const A: usize> VirtualBus<A> {
     }
 
     /// Whether the bus simulates what the scenario asks for: a scenario with a plant
-    /// needs the planar crane's drives and the feature `plant`.
+    /// needs the feature `plant`.
     #[must_use]
     pub fn simulates_scenario(&self) -> bool {
         #[cfg(feature = "plant")]
-        let plant = self.plant.is_some() || self.plant3d.is_some();
+        let plant = self.plant.is_some();
         #[cfg(not(feature = "plant"))]
         let plant = false;
         self.scenario.plant.is_none() || plant
@@ -555,15 +515,8 @@ impl<const A: usize> VirtualBus<A> {
     /// The plant, in scenarios with one.
     #[cfg(feature = "plant")]
     #[must_use]
-    pub fn plant(&self) -> Option<&Plant> {
+    pub fn plant(&self) -> Option<&K::Plant> {
         self.plant.as_ref()
-    }
-
-    /// The 3D crane's plant, in scenarios with a plant on the 3D crane's drives.
-    #[cfg(feature = "plant")]
-    #[must_use]
-    pub fn plant3d(&self) -> Option<&Plant3d> {
-        self.plant3d.as_ref()
     }
 
     /// The inclinometer, in scenarios with a plant.
@@ -683,26 +636,13 @@ impl<const A: usize> VirtualBus<A> {
         #[cfg(feature = "plant")]
         let mut slope = None;
         #[cfg(feature = "plant")]
-        if let (Some(plant), [trolley, winch]) = (self.plant.as_mut(), self.drives.as_mut_slice()) {
-            let drives = [trolley, winch];
+        if let Some(plant) = self.plant.as_mut() {
+            let drives = self.drives.each_mut();
             let (u, dt, braked) = plant_inputs(&drives);
             plant.advance_braked(u, dt, braked);
-            let [x, l, phi] = plant.sense();
-            let [_, _, _, vx, vl, _] = plant.y;
-            report_motion(drives, [(x, vx), (l, vl)]);
-            slope = Some([phi.to_degrees(), 0.0]);
-        }
-        #[cfg(feature = "plant")]
-        if let (Some(plant), [bridge, trolley, winch]) =
-            (self.plant3d.as_mut(), self.drives.as_mut_slice())
-        {
-            let drives = [bridge, trolley, winch];
-            let (u, dt, braked) = plant_inputs(&drives);
-            plant.advance_braked(u, dt, braked);
-            let [x, y, l, long, lateral] = plant.sense();
-            let [_, _, _, _, _, vx, vy, vl, _, _] = plant.q;
-            report_motion(drives, [(x, vx), (y, vy), (l, vl)]);
-            slope = Some([long.to_degrees(), lateral.to_degrees()]);
+            let sensed = plant.sense();
+            report_motion(drives, sensed.motion);
+            slope = Some(sensed.slope_deg);
         }
         for i in 0..self.drives.len() {
             let Some(d) = self.drives.get(i) else {
@@ -916,11 +856,11 @@ fn report_motion<const N: usize>(drives: [&mut DriveSim; N], motion: [(f64, f64)
     }
 }
 
-impl<const A: usize> CanPort for VirtualBus<A> {
+impl<K: Simulated<A>, const A: usize> CanPort for VirtualBus<K, A> {
     type TxError = BusOff;
 
     fn transmit(&mut self, _now_ms: u64, frame: &CanFrame) -> Result<(), BusOff> {
-        VirtualBus::<A>::transmit(self, frame)
+        VirtualBus::<K, A>::transmit(self, frame)
     }
 
     fn lost(&mut self, _now_ms: u64) -> Option<(CanFrame, BusOff)> {
@@ -947,7 +887,7 @@ impl<const A: usize> CanPort for VirtualBus<A> {
     }
 }
 
-impl<const A: usize> VirtualBus<A> {
+impl<K: Simulated<A>, const A: usize> VirtualBus<K, A> {
     /// Frames that did not fit a cycle's receive window (0 in every scenario).
     #[must_use]
     pub fn rx_overflow(&self) -> u32 {
@@ -960,14 +900,13 @@ impl<const A: usize> VirtualBus<A> {
 /// board does. `None`: the firmware hangs here, and its watchdog takes over.
 pub fn run_cycle<F, C, K, const A: usize>(
     controller: &mut Controller<Injectable<F>, C, K, A>,
-    bus: &mut VirtualBus<A>,
+    bus: &mut VirtualBus<K, A>,
     now_ms: u32,
 ) -> Option<Cycle<A>>
 where
-    F: Feedforward<A> + Replan<A>,
-    C: AxesCorrection<A>,
-    K: Crane<A>,
-    Axes<A>: ReferenceOf,
+    F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+    C: AxesCorrection<A, K::Reference>,
+    K: Simulated<A>,
 {
     let now = u64::from(now_ms);
     board::cycle(

@@ -39,136 +39,31 @@
 //! **Singular** where a rope or the sling goes slack (λ1 or λ2 → 0), the hook reaches the
 //! rail (`z_H = 0`) or a rope has zero length: [`DoublePendulumSubs::new`] checks the whole
 //! move up front against tension margins on both and the workspace (the exact flat
-//! inverse, [`reference::double_pendulum`](crate::reference::double_pendulum), gives the
-//! configuration). Where the hook's mass vanishes the rope and sling are collinear and the
-//! model is the planar crane with a rope `l + l_s` (`host-tests/tests/double_pendulum.rs`
-//! checks that limit).
+//! inverse, [`flat_state`](crate::models::double_pendulum_crane::flat_state), gives the
+//! configuration). Where the hook's mass vanishes the rope and sling are collinear and
+//! the model is the planar crane with a rope `l + l_s`
+//! (`host-tests/tests/double_pendulum.rs` checks that limit).
 
 use nalgebra::{SMatrix, SVector};
 
-use crate::error::{check_positive, Error, Result};
+use crate::error::{Error, Result};
 use crate::model::{DaeModel, DifferenceFormula, Driven, Partials, StructuredJacobian};
-use crate::models::crane::{CraneParams, Workspace, CHECK_SAMPLES};
 use crate::models::crane_subs::rope_increment;
-use crate::reference::double_pendulum::flat_state;
-use crate::scalar::{c, to_f64, Real};
+use crate::scalar::{c, Real};
 use crate::trajectory::{ensure_at_rest, Trajectory};
+
+/// The crane's parameters and realistic ranges, shared with *ext* and the reference
+/// ([`double_pendulum_crane`](crate::models::double_pendulum_crane)); named here too,
+/// where the studies and tests import them from.
+pub use crate::models::double_pendulum_crane::{
+    check_trajectory, DoublePendulumParams, HOOK_MASS_RATIO, SLING_LENGTH,
+};
 
 /// Number of unknowns.
 pub const N: usize = 12;
 /// Number of inputs.
 pub const NU: usize = 2;
 schemes_of!(DoublePendulumSubs, structured);
-
-/// The realistic range of the hook's mass as a fraction of the load's (10–100 %).
-pub const HOOK_MASS_RATIO: (f64, f64) = (0.1, 1.0);
-/// The realistic range of the sling's length, m.
-pub const SLING_LENGTH: (f64, f64) = (0.5, 2.0);
-
-/// The double pendulum's parameters: the planar crane's and the hook and sling.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DoublePendulumParams {
-    /// The crane: load mass, gravity, drive lags, workspace (its rope limits bound `l`,
-    /// the rope to the hook), and the tension margin both ropes must keep.
-    pub crane: CraneParams,
-    /// The hook block's mass m_h, kg.
-    pub hook_mass: f64,
-    /// The sling's length l_s, m.
-    pub sling: f64,
-}
-
-impl DoublePendulumParams {
-    /// Tab. 3's crane with a hook block of 30 % of the load's mass on a 1 m sling; the
-    /// rope's shortest length lowered from 3 m to 1.5 m, since the hook hangs `l_s` above
-    /// the load (the paper's move ends with the load 4 m below the rail: a 2 m sling
-    /// leaves a 2 m rope).
-    pub const EXAMPLE: Self = Self {
-        crane: CraneParams {
-            workspace: Workspace {
-                l_min: 1.5,
-                ..Workspace::PAPER
-            },
-            ..CraneParams::PAPER
-        },
-        hook_mass: 0.3 * CraneParams::PAPER.m,
-        sling: 1.0,
-    };
-
-    /// The example with another hook mass ratio `m_h/m` and sling length.
-    #[must_use]
-    pub fn with(self, hook_mass_ratio: f64, sling: f64) -> Self {
-        Self {
-            hook_mass: hook_mass_ratio * self.crane.m,
-            sling,
-            ..self
-        }
-    }
-
-    /// Refuses non-finite or non-physical values (any positive hook mass and sling: the
-    /// realistic ranges [`HOOK_MASS_RATIO`], [`SLING_LENGTH`] are what the studies sweep,
-    /// and the light-hook limit is tested below them).
-    pub fn validate(&self) -> Result<()> {
-        self.crane.validate()?;
-        check_positive("hook_mass", self.hook_mass)?;
-        check_positive("sling", self.sling)
-    }
-}
-
-/// Checks a load path against both ropes' tension margins, the hook below the rail and
-/// the workspace, at [`CHECK_SAMPLES`]` + 1` points of its active span, with the exact
-/// flat inverse: the sling stays taut while the load's downward acceleration is below
-/// `(1 − f) g` ([`Error::RopeSlack`] with it), the rope while the two masses' mean
-/// downward acceleration `(z̈_C + μ z̈_H)/(1 + μ)` is ([`Error::RopeSlack`] with that mean);
-/// `z_C`, `z_H` must be positive and `x`, `l` within the workspace
-/// ([`Error::OutsideWorkspace`] naming `z_C`, `z_H`, `x` or `l`).
-pub fn check_trajectory<T: Real, Z: Trajectory<T, 2>>(
-    p: &DoublePendulumParams,
-    z: &Z,
-) -> Result<()> {
-    let (t0, t1) = z.active_span();
-    let limit = p.crane.g * (1.0 - p.crane.min_tension_fraction);
-    let mu = p.hook_mass / p.crane.m;
-    let w = &p.crane.workspace;
-    for i in 0..=CHECK_SAMPLES {
-        let t = t0 + (t1 - t0) * c::<T>(i as f64 / CHECK_SAMPLES as f64);
-        let tf = to_f64(t);
-        let d = z.derivatives::<8>(t).map(|v| v.map(to_f64));
-        let [[_, zc], _, [_, zcdd], ..] = d.map(<[f64; 2]>::from);
-        let slack = |acc: f64| {
-            (acc.is_nan() || acc > limit).then_some(Error::RopeSlack {
-                t: tf,
-                vertical_acceleration: acc,
-                limit,
-            })
-        };
-        if let Some(e) = slack(zcdd) {
-            return Err(e);
-        }
-        let flat = flat_state(p, &d, tf)?;
-        let [_, zh] = flat.hook;
-        let [_, zhdd] = flat.a_hook;
-        if let Some(e) = slack((zcdd + mu * zhdd) / (1.0 + mu)) {
-            return Err(e);
-        }
-        for (coordinate, value, min, max) in [
-            ("z_C", zc, f64::MIN_POSITIVE, f64::INFINITY),
-            ("z_H", zh, f64::MIN_POSITIVE, f64::INFINITY),
-            ("x", flat.x, w.x_min, w.x_max),
-            ("l", flat.l, w.l_min, w.l_max),
-        ] {
-            if !(min..=max).contains(&value) {
-                return Err(Error::OutsideWorkspace {
-                    t: tf,
-                    coordinate,
-                    value,
-                    min,
-                    max,
-                });
-            }
-        }
-    }
-    Ok(())
-}
 
 /// The double pendulum *subs* inverse model, driven by a load trajectory `Z`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -469,7 +364,7 @@ impl<T: Real, Z: Trajectory<T, 2>> StructuredJacobian<T, N, NU> for DoublePendul
     const CLOSED_FORM: bool = true;
 
     /// The step by forward substitution in the matrix's order — the flat inverse
-    /// ([`reference::double_pendulum`](crate::reference::double_pendulum)) with the
+    /// ([`flat_state`](crate::models::double_pendulum_crane::flat_state)) with the
     /// scheme's difference formula in place of each time derivative:
     ///
     /// ```text
@@ -623,7 +518,7 @@ fn eliminate<T: Real>(f: &DoublePendulumFactors<T>, b: T, r: [Lane<T>; N]) -> [L
 mod tests {
     #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
     use super::*;
-    use crate::reference::double_pendulum::flat_inverse;
+    use crate::models::double_pendulum_crane::flat_state;
     use crate::trajectory::PointToPoint;
 
     type Model = DoublePendulumSubs<f64, PointToPoint<f64, 2>>;
@@ -789,7 +684,8 @@ mod tests {
             // rope hang on the hook's acceleration from the difference formula, which turns
             // an anchor's offset δ into about δ/h² (Radau's A⁻¹ has entries near 10): at
             // 1 ms an offset of 1e-6 m gives the hook 10 m/s² and slackens the rope.
-            let exact = |t: f64| flat_inverse(m.params(), m.trajectory(), t).unwrap();
+            let exact =
+                |t: f64| flat_state(m.params(), &m.trajectory().derivatives::<8>(t), t).unwrap();
             let anchor = exact(t - h).subs()
                 + SVector::<f64, N>::from_fn(|j, _| 1e-10 * k * (j as f64 - 5.0));
             let w = 25.0 / 12.0 / h;

@@ -67,7 +67,7 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::error::{Error, Result};
 use crate::model::{DaeModel, Driven, Partials, StructuredJacobian};
-use crate::models::double_pendulum::{check_trajectory, DoublePendulumParams};
+use crate::models::double_pendulum_crane::{check_trajectory, DoublePendulumParams};
 use crate::scalar::{c, is_finite, Real};
 use crate::trajectory::{ensure_at_rest, Trajectory};
 

@@ -64,6 +64,7 @@ pub mod crane_hidden;
 pub mod crane_proj;
 pub mod crane_subs;
 pub mod double_pendulum;
+pub mod double_pendulum_crane;
 pub mod double_pendulum_ext;
 pub mod mass_on_car;
 pub mod mass_on_car_ext;

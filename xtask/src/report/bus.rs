@@ -11,9 +11,10 @@
 use std::path::{Path, PathBuf};
 
 use controller::drive::Drive;
-use controller::setpoint::{AxisLimits, DriveLimits};
+use controller::setpoint::AxisLimits;
 use scene::commissioning::CommissioningFile;
-use scene::{ModelSpec, Scene};
+use scene::dispatch::{visit_crane, CraneVisitor, FirmwareCrane, FirmwareModel};
+use scene::Scene;
 
 /// The stock node ids the DBC's messages are written for (docs/COMMISSIONING.md).
 const STOCK_CONTROLLER: u8 = 0x10;
@@ -59,8 +60,11 @@ pub struct InclinometerInfo {
 pub struct Crane {
     /// The scene file.
     pub scene: PathBuf,
-    /// "planar crane" or "3D crane".
+    /// The crane's name (`controller::crane::Crane::NAME`: "planar crane", "3D crane").
     pub kind: &'static str,
+    /// Its swing planes, as many as the slopes its feedback reads (1 planar, 2 for the
+    /// 3D crane).
+    pub planes: usize,
     /// The controller's node id.
     pub controller: u8,
     /// The drives, in the model's input order.
@@ -163,6 +167,22 @@ impl Cob {
     }
 }
 
+/// What the report reads of a registered crane: its name, its drives in the model's
+/// input order, its lab drives' limits, and the slopes its feedback reads.
+struct Facts;
+
+impl CraneVisitor for Facts {
+    type Output = (&'static str, Vec<Drive>, Vec<AxisLimits>, u8);
+    fn visit<K: FirmwareCrane<A>, const A: usize>(self, _: K::Model) -> Self::Output {
+        (
+            K::NAME,
+            K::DRIVES.to_vec(),
+            K::LAB_LIMITS.to_vec(),
+            K::SWING_AXES,
+        )
+    }
+}
+
 impl Crane {
     /// The crane of `scene` with the commissioning file beside it (the stock one when
     /// there is none), as the controller's build reads them.
@@ -171,40 +191,22 @@ impl Crane {
             Scene::load(scene_path).map_err(|e| format!("{}: {e}", scene_path.display()))?;
         let file = CommissioningFile::for_scene(scene_path)
             .map_err(|e| format!("{}: commissioning file: {e}", scene_path.display()))?;
-        let (kind, drives, limits): (_, Vec<Drive>, Vec<AxisLimits>) = match scene.model {
-            ModelSpec::Crane3dSubs(_) | ModelSpec::Crane3dExt(_) => (
-                "3D crane",
-                controller::drive::SPATIAL.to_vec(),
-                DriveLimits::LAB_3D.to_vec(),
-            ),
-            ModelSpec::CraneSubs(_) | ModelSpec::CraneProj(_) | ModelSpec::CraneExt(_) => (
-                "planar crane",
-                controller::drive::PLANAR.to_vec(),
-                vec![DriveLimits::LAB.trolley, DriveLimits::LAB.winch],
-            ),
-            ModelSpec::MassOnCar(_) | ModelSpec::MassOnCarExt(_) => {
-                return Err(format!(
-                    "{}: a mass-on-car scene has no crane on a bus; give a crane's scene",
-                    scene_path.display()
-                ))
-            }
-        };
+        let model = FirmwareModel::of(&scene.model).map_err(|_| {
+            format!(
+                "{}: a {} scene has no crane on a bus; give a crane's scene",
+                scene_path.display(),
+                scene.model.label()
+            )
+        })?;
+        let (kind, drives, limits, planes) = visit_crane(model, Facts);
         let drives = drives
             .into_iter()
             .zip(limits)
             .map(|(axis, limit)| {
                 let row = file.drives.iter().find(|d| d.axis.drive() == axis);
-                let stock = match axis {
-                    Drive::Trolley => 1,
-                    Drive::Winch => 2,
-                    Drive::Bridge => 4,
-                };
+                let stock = axis.node();
                 DriveInfo {
-                    name: match axis {
-                        Drive::Trolley => "trolley",
-                        Drive::Winch => "winch",
-                        Drive::Bridge => "bridge",
-                    },
+                    name: axis.name(),
                     node: row.map_or(stock, |r| r.node),
                     scale: row.map_or(1e-6, |r| r.position_scale),
                     offset: row.map_or(0.0, |r| r.position_offset),
@@ -223,6 +225,7 @@ impl Crane {
         Ok(Crane {
             scene: scene_path.to_path_buf(),
             kind,
+            planes: usize::from(planes),
             controller: c.node,
             drives,
             inclinometer: InclinometerInfo {

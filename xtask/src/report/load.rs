@@ -114,7 +114,7 @@ impl Load {
             angle: [None; 2],
             angle_t: None,
             crane: crane.clone(),
-            planes: if crane.drives.len() == 3 { 2 } else { 1 },
+            planes: crane.planes,
             fault_now: false,
         }
     }

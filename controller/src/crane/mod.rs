@@ -1,0 +1,139 @@
+//! What a crane is to the controller, as one trait ([`Crane`]): its drives, what names
+//! each axis's violations, its lab drives' limits, the reference state its feedback
+//! compares with, how smooth its commanded moves must be, and its flat inverse. Generic
+//! code is keyed on the crane type `K`, never on the number of axes or the drive list,
+//! so that a second crane with the same axes gets its own reference and its own loop
+//! (or none) instead of the first one's.
+//!
+//! Each crane's impls live in its own file: [`planar`] (the paper's crane, Eq. 24),
+//! [`spatial`] (the 3D crane) and [`double_pendulum`] (the hook-and-load crane).
+
+use solver_core::plan::Plan;
+use solver_core::trajectory::Trajectory;
+use solver_core::Error;
+
+use crate::commands::Reject;
+use crate::drive::Drive;
+use crate::setpoint::AxisLimits;
+
+pub mod double_pendulum;
+pub mod planar;
+pub mod spatial;
+
+/// The reasons naming one axis's violations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AxisReasons {
+    /// Its drive would leave its travel (the winch: the rope its length range).
+    pub workspace: Reject,
+    /// Its velocity above the limit.
+    pub velocity: Reject,
+    /// Its acceleration above the limit.
+    pub acceleration: Reject,
+}
+
+impl AxisReasons {
+    /// The bridge's (the 3D crane's x axis).
+    pub const BRIDGE: Self = Self {
+        workspace: Reject::BridgeWorkspace,
+        velocity: Reject::BridgeVelocity,
+        acceleration: Reject::BridgeAcceleration,
+    };
+    /// The trolley's.
+    pub const TROLLEY: Self = Self {
+        workspace: Reject::TrolleyWorkspace,
+        velocity: Reject::TrolleyVelocity,
+        acceleration: Reject::TrolleyAcceleration,
+    };
+    /// The winch's: its workspace is the rope's length range.
+    pub const WINCH: Self = Self {
+        workspace: Reject::RopeWorkspace,
+        velocity: Reject::WinchVelocity,
+        acceleration: Reject::WinchAcceleration,
+    };
+}
+
+/// Where the drives stand and how they move when the load follows a path exactly (the
+/// flat inverse), `A` driven axes in the model's input order.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Flat<const A: usize> {
+    /// Each drive's position, m (trolley or bridge position, rope length).
+    pub position: [f64; A],
+    /// Each input u, m/s.
+    pub u: [f64; A],
+    /// Each input's rate u̇, m/s².
+    pub u_dot: [f64; A],
+}
+
+/// A crane with `A` driven axes: everything the controller, the planner and the
+/// registry ask of it. The last output is the load's depth z_C below the rail (Eq. 24's
+/// convention, in 3D too).
+pub trait Crane<const A: usize> {
+    /// How errors and reports name it ("planar crane").
+    const NAME: &'static str;
+    /// Its drives, in the model's input order: the order of every per-drive array.
+    const DRIVES: [Drive; A];
+    /// The reasons of each axis, in the model's input order.
+    const REASONS: [AxisReasons; A];
+    /// The lab drives' limits, in the model's input order: what the planner checks and
+    /// the gate enforces where the commissioning file names none.
+    const LAB_LIMITS: [AxisLimits; A];
+    /// How many slopes its swing has, as its feedback reads them (the planar crane's φ:
+    /// 1; the 3D crane's swing in both vertical planes: 2): its inclinometer must have as
+    /// many axes ([`crate::commissioning::InclinometerSetup::stock`]).
+    const SWING_AXES: u8;
+    /// The least smoothness `n` of the moves and stops the controller plans for it
+    /// ([`command_plan`]). Its inputs contain the load path's derivatives up to some
+    /// order `k`, so the drives' accelerations contain order `k + 1`: a plan of
+    /// smoothness `n ≤ k` makes them jump at a move's ends, and a multistep scheme
+    /// answers the jump with a transient that no margin on the exact inverse covers
+    /// (`cargo test -p controller --test smoothness`).
+    const MIN_COMMAND_SMOOTHNESS: usize;
+    /// The reference state its feedback compares the measurements with, from a solution
+    /// of its inverse model ([`crate::feedforward::CraneReference`]).
+    type Reference: Copy + Default + PartialEq + core::fmt::Debug;
+    /// Gravity, m/s².
+    fn g(&self) -> f64;
+    /// Each drive position's range `(min, max)`, m.
+    fn ranges(&self) -> [(f64, f64); A];
+    /// The load's target for a move command to `x_C`, `z_C` and, from the 3D move
+    /// frame, `y_C` (docs/COMMANDS.md), the plan ending with the load at `end`: what the
+    /// command does not name stays. `None`: the crane has no such target (a y for the
+    /// planar crane).
+    fn target(x: f64, y: Option<f64>, z: f64, end: [f64; A]) -> Option<[f64; A]>;
+    /// The flat inverse at `t` of the load's path `z`.
+    fn flat<Z: Trajectory<f64, A>>(&self, z: &Z, t: f64) -> Flat<A>;
+    /// Each drive's lag τ, s (Eq. 24's `τ v̇ + v = u`): what the controller expects of
+    /// the set points it sends ([`crate::motion`]).
+    fn lags(&self) -> [f64; A];
+}
+
+/// The plan of crane `K` that rests at `position` (the load's, in the model's outputs),
+/// for a scene of smoothness `n`: moves and stops are planned with
+/// `max(n, K::MIN_COMMAND_SMOOTHNESS)`.
+pub fn command_plan<K: Crane<A>, const A: usize>(
+    position: [f64; A],
+    n: usize,
+) -> Result<Plan<f64, A>, Error> {
+    Plan::at_rest(position.into(), n.max(K::MIN_COMMAND_SMOOTHNESS))
+}
+
+#[cfg(test)]
+mod tests {
+    use solver_core::models::crane::CraneParams;
+    use solver_core::models::crane3d::Crane3dParams;
+
+    use super::Crane;
+    use crate::commissioning::InclinometerSetup;
+
+    /// The stock inclinometer of each crane reads as many slopes as its swing has: the
+    /// one-axis sensor at node 3 for the planar crane, the two-axis one at node 5 for the
+    /// 3D crane (what the virtual bus simulates for it).
+    #[test]
+    fn each_crane_has_the_stock_inclinometer_of_its_swing() {
+        let axes = |i: InclinometerSetup| 1 + u8::from(i.lateral.is_some());
+        let planar = InclinometerSetup::stock(<CraneParams as Crane<2>>::SWING_AXES);
+        let spatial = InclinometerSetup::stock(<Crane3dParams as Crane<3>>::SWING_AXES);
+        assert_eq!((axes(planar), planar.node), (1, 3));
+        assert_eq!((axes(spatial), spatial.node), (2, 5));
+    }
+}

@@ -1,0 +1,512 @@
+//! The cranes the firmware drives, one file each, and their one registration.
+//!
+//! A crane's file ([`planar`], [`spatial`]) holds everything the firmware's setup needs of
+//! that crane: its [`FirmwareCrane`] impl (how a scene names it, its parameters as the
+//! build script writes them, its state feedback) and the list of its formulations, made
+//! once with `crane_models!`: from that list follow the crane's entries in
+//! `FirmwareScheme::every()` (what the panic proof proves), the model type each names
+//! for the build scripts, whether it has a structured elimination, and the code that
+//! builds it with the integrator a scheme names, on the host as on the firmware. The
+//! `registry!` below lists the cranes: [`FirmwareModel`] (which crane, which of its
+//! formulations) and the dispatch to a crane's type ([`visit_crane`]) follow from it.
+//! Adding a crane is its file and one line there; a formulation, one line in its crane's
+//! list (docs/MODELS.md).
+
+use core::fmt;
+
+use controller::correction::AxesCorrection;
+use controller::feedback::{Config as FeedbackConfig, DesignError};
+use controller::feedforward::{CraneReference, Feedforward, InverseModel, Replan};
+use controller::planner::Crane;
+use sim::simulated::Simulated;
+use solver_core::plan::Plan;
+use solver_core::trajectory::Trajectory;
+use solver_core::{DaeModel, Driven, Error, Integrator, SolverSettings};
+
+use crate::feedback::FeedbackSpec;
+use crate::{ModelSpec, SceneError};
+
+pub mod planar;
+pub mod spatial;
+
+/// What is done with the firmware's inverse model for a crane with `A` driven axes (the
+/// host's run of the firmware, the virtual ECU), whatever its types.
+pub trait FirmwareVisitor<K: Crane<A>, const A: usize> {
+    /// What it gives.
+    type Output;
+    /// Does it with `feedforward`: the scene's model on the firmware's plan, advanced by
+    /// the integrator the firmware links.
+    fn visit<F: Feedforward<A, Reference = K::Reference> + Replan<A>>(
+        self,
+        feedforward: F,
+    ) -> Self::Output;
+}
+
+/// What is done with the integrator the firmware links for a scene and the model it
+/// steps, whatever the trajectory type that drives it (the cost measurements of `cargo
+/// xtask instructions`, `host-tests/src/bin/steps.rs`).
+pub trait StepsVisitor {
+    /// What it gives.
+    type Output;
+    /// Does it with `model` and `integrator`, at rest at t = 0.
+    fn visit<
+        M: DaeModel<f64, N, NU>,
+        I: Integrator<f64, M, N, NU>,
+        const N: usize,
+        const NU: usize,
+    >(
+        self,
+        model: M,
+        integrator: I,
+    ) -> Self::Output;
+}
+
+/// The scheme and Newton strategy the firmware links, one of each model's scheme
+/// aliases (`schemes_of!` in solver-core's `models`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FirmwareIntegrator {
+    /// BDF k, the structured elimination (h below 5 ms: with the closed form's
+    /// correction).
+    StructuredBdf(usize),
+    /// BDF k, the structured elimination, h from 5 ms on: the same steps, the correction
+    /// not linked.
+    StructuredBdfUncorrected(usize),
+    /// BDF k, the run-time Jacobian modes on a dense LU.
+    Bdf(usize),
+    /// RADAU5, both stage systems by the structured elimination.
+    StructuredRadau5,
+    /// RADAU5 on dense LUs.
+    Radau5,
+    /// Radau IIA with the paper's modes on the 3N×3N system.
+    RadauFull,
+}
+
+impl FirmwareIntegrator {
+    /// The alias's name and BDF's k.
+    pub(crate) const fn alias(self) -> (&'static str, Option<usize>) {
+        match self {
+            Self::StructuredBdf(k) => ("StructuredBdf", Some(k)),
+            Self::StructuredBdfUncorrected(k) => ("StructuredBdfUncorrected", Some(k)),
+            Self::Bdf(k) => ("Bdf", Some(k)),
+            Self::StructuredRadau5 => ("StructuredRadau5", None),
+            Self::Radau5 => ("Radau5", None),
+            Self::RadauFull => ("RadauFull", None),
+        }
+    }
+}
+
+/// How a formulation's Newton systems can be solved.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Structure {
+    /// Dense LUs only (no `StructuredJacobian`).
+    Dense,
+    /// A structured elimination and a closed-form step, or dense LUs.
+    Structured,
+    /// The structured elimination only: the extended cranes' closed-form step is their
+    /// exact solution at every h, and a dense Newton on 13 or 18 unknowns (39 or 54 in
+    /// Radau's stage system) would cost more flash and time for the same bits.
+    StructuredOnly,
+}
+
+/// One crane's formulations the firmware can drive (made by `crane_models!`).
+pub trait CraneModel: Copy + Eq + fmt::Debug + 'static {
+    /// Every one, in the order listed.
+    const ALL: &'static [Self];
+    /// The model's module under `solver_core::models` and its type's name.
+    fn path(self) -> (&'static str, &'static str);
+    /// How its Newton systems can be solved.
+    fn structure(self) -> Structure;
+}
+
+/// Builds crane `K`'s formulations with the integrator a scheme names (made by
+/// `crane_models!`, one arm list per crane).
+pub trait Formulation<K: Crane<A>, const A: usize>: CraneModel {
+    /// The firmware's inverse model: this formulation of `crane` on `plan` advanced by
+    /// `integrator`, at rest at t = 0, handed to `visitor`.
+    fn inverse_model<V: FirmwareVisitor<K, A>>(
+        self,
+        crane: K,
+        integrator: FirmwareIntegrator,
+        plan: Plan<f64, A>,
+        settings: &SolverSettings,
+        visitor: V,
+    ) -> Result<V::Output, Error>;
+    /// This formulation of `crane` on `z` with `integrator`, handed to `visitor`.
+    fn steps<Z: Trajectory<f64, A>, V: StepsVisitor>(
+        self,
+        crane: K,
+        z: Z,
+        integrator: FirmwareIntegrator,
+        settings: &SolverSettings,
+        visitor: V,
+    ) -> Result<V::Output, Error>;
+}
+
+/// Why the firmware cannot run a scene's model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FirmwareError {
+    /// The scene computes in f32; the firmware plans moves in f64.
+    F32Scene,
+    /// The scene's model is no registered crane's (`model`: its label).
+    NotACrane {
+        /// The model's label.
+        model: &'static str,
+    },
+    /// A formulation the firmware runs with its structured Newton only, with a scheme
+    /// that is not.
+    StructuredOnly {
+        /// The model's label.
+        model: &'static str,
+    },
+}
+
+impl fmt::Display for FirmwareError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::F32Scene => write!(f, "the firmware plans moves in f64; this scene computes in f32"),
+            Self::NotACrane { model } => {
+                write!(f, "the firmware drives a crane; this scene is the {model}")
+            }
+            Self::StructuredOnly { model } => write!(
+                f,
+                "the firmware runs the extended formulation ({model}) with its structured Newton only: \
+                 BDF with jacobian = \"exact\", or Radau with newton = \"transformed\""
+            ),
+        }
+    }
+}
+
+impl std::error::Error for FirmwareError {}
+
+impl From<FirmwareError> for String {
+    fn from(e: FirmwareError) -> Self {
+        e.to_string()
+    }
+}
+
+/// A crane the firmware drives, registered once: how a scene names it, the lab drives'
+/// limits, its parameters as the build script writes them, its formulations and its
+/// state feedback.
+pub trait FirmwareCrane<const A: usize>: Crane<A> + Simulated<A> + Copy + fmt::Debug {
+    /// The parameters' type, as the build script writes it.
+    const TYPE: &'static str;
+    /// Its formulations (`crane_models!`).
+    type Model: Formulation<Self, A>;
+    /// The correction a scene's `[feedback]` links.
+    type Feedback: AxesCorrection<A, Self::Reference>;
+    /// [`FirmwareCrane::Feedback`]'s type, as the build script writes it.
+    const FEEDBACK_TYPE: &'static str;
+    /// The expression that builds it from `FEEDBACK` (and `PARAMS`), as the build script
+    /// writes it ([`FirmwareCrane::feedback`] builds the same).
+    const FEEDBACK_NEW: &'static str;
+    /// The correction of a scene without `[feedback]`: none (`NoFeedback`, which is
+    /// each crane's `AxesCorrection` on its own).
+    type FeedforwardOnly: AxesCorrection<A, Self::Reference> + Default;
+    /// This crane's parameters and formulation, if `model` is one of its models.
+    fn of(model: &ModelSpec) -> Option<(Self, Self::Model)>;
+    /// The parameters as a Rust constant expression.
+    fn source(&self) -> String;
+    /// The scene's `[feedback]` as the controller's, for this crane and step `h`; or why
+    /// this crane cannot honour it.
+    fn feedback_config(
+        spec: &FeedbackSpec,
+        crane: &Self,
+        h: f64,
+    ) -> Result<FeedbackConfig, SceneError>;
+    /// The state feedback of this crane for `config` ([`FirmwareCrane::feedback_config`]'s),
+    /// or why its gains cannot be designed.
+    fn feedback(&self, config: FeedbackConfig) -> Result<Self::Feedback, DesignError>;
+    /// The firmware's inverse model: formulation `model` on `plan` advanced by
+    /// `integrator`, at rest at t = 0, handed to `visitor` — the types
+    /// `FirmwareScheme::rust` names.
+    fn inverse_model<V: FirmwareVisitor<Self, A>>(
+        self,
+        model: Self::Model,
+        integrator: FirmwareIntegrator,
+        plan: Plan<f64, A>,
+        settings: &SolverSettings,
+        visitor: V,
+    ) -> Result<V::Output, Error> {
+        model.inverse_model(self, integrator, plan, settings, visitor)
+    }
+    /// Formulation `model` on `z` with `integrator`, handed to `visitor` (the cost
+    /// measurements).
+    fn steps<Z: Trajectory<f64, A>, V: StepsVisitor>(
+        self,
+        model: Self::Model,
+        z: Z,
+        integrator: FirmwareIntegrator,
+        settings: &SolverSettings,
+        visitor: V,
+    ) -> Result<V::Output, Error> {
+        model.steps(self, z, integrator, settings, visitor)
+    }
+}
+
+/// What is done with a registered crane's type and one of its formulations.
+pub trait CraneVisitor {
+    /// What it gives.
+    type Output;
+    /// Does it with crane `K` (`A` driven axes) and its formulation `model`.
+    fn visit<K: FirmwareCrane<A>, const A: usize>(self, model: K::Model) -> Self::Output;
+}
+
+/// Builds the integrator of the model module `$m` (a `schemes_of!` alias) that
+/// `$integrator` names on `$model` (driven by a `$plan`) and hands both to `$visit`
+/// (`$visitor`, model, integrator): one arm per [`FirmwareIntegrator`], the same types
+/// `FirmwareScheme::rust` names. A `Dense` model's firmware integrators are the dense
+/// ones (`FirmwareScheme::of` never names a structured one for it; one named is refused).
+macro_rules! integrators {
+    (Dense, $visit:ident, $m:path, $integrator:expr, $model:expr, $settings:expr, $visitor:expr, $plan:ty) => {{
+        use $m as m;
+        let model = $model;
+        match $integrator {
+            FirmwareIntegrator::Bdf(k) => {
+                let i = m::Bdf::<f64, $plan>::new(&model, $settings, k, 0.0)?;
+                $visit($visitor, model, i)
+            }
+            FirmwareIntegrator::Radau5 => {
+                let i = m::Radau5::<f64, $plan>::new(&model, $settings, 0.0)?;
+                $visit($visitor, model, i)
+            }
+            // No structured elimination: never named for it (`FirmwareScheme::of`), and
+            // refused rather than built as something else.
+            FirmwareIntegrator::StructuredBdf(_)
+            | FirmwareIntegrator::StructuredBdfUncorrected(_)
+            | FirmwareIntegrator::StructuredRadau5 => {
+                return Err(solver_core::Error::InvalidSetting {
+                    name: "integrator (a structured one for a model without a structured elimination)",
+                    value: f64::NAN,
+                })
+            }
+            FirmwareIntegrator::RadauFull => {
+                let i = m::RadauFull::<f64, $plan>::new(&model, $settings, 0.0)?;
+                $visit($visitor, model, i)
+            }
+        }
+    }};
+    ($structure:ident, $visit:ident, $m:path, $integrator:expr, $model:expr, $settings:expr, $visitor:expr, $plan:ty) => {{
+        use $m as m;
+        let model = $model;
+        match $integrator {
+            FirmwareIntegrator::StructuredBdf(k) => {
+                let i = m::StructuredBdf::<f64, $plan>::new(&model, $settings, k, 0.0)?;
+                $visit($visitor, model, i)
+            }
+            FirmwareIntegrator::StructuredBdfUncorrected(k) => {
+                let i = m::StructuredBdfUncorrected::<f64, $plan>::new(&model, $settings, k, 0.0)?;
+                $visit($visitor, model, i)
+            }
+            FirmwareIntegrator::Bdf(k) => {
+                let i = m::Bdf::<f64, $plan>::new(&model, $settings, k, 0.0)?;
+                $visit($visitor, model, i)
+            }
+            FirmwareIntegrator::StructuredRadau5 => {
+                let i = m::StructuredRadau5::<f64, $plan>::new(&model, $settings, 0.0)?;
+                $visit($visitor, model, i)
+            }
+            FirmwareIntegrator::Radau5 => {
+                let i = m::Radau5::<f64, $plan>::new(&model, $settings, 0.0)?;
+                $visit($visitor, model, i)
+            }
+            FirmwareIntegrator::RadauFull => {
+                let i = m::RadauFull::<f64, $plan>::new(&model, $settings, 0.0)?;
+                $visit($visitor, model, i)
+            }
+        }
+    }};
+}
+
+/// A crane's formulations, listed once: `Variant => module::path, Type, Structure;`
+/// (the module under `solver_core::models`, its model type, and how its Newton systems
+/// can be solved: [`Structure`]). Makes the enum of them with [`CraneModel`] and
+/// [`Formulation`]: one arm per formulation, each building exactly the types
+/// `FirmwareScheme::rust` names from the same list. A `Structured` model whose module has no
+/// `StructuredBdf` does not compile.
+macro_rules! crane_models {
+    (
+        $(#[$enum_doc:meta])*
+        $name:ident for $crane:ty, $axes:literal {
+            $(
+                $(#[$doc:meta])*
+                $variant:ident => $module:ident $(:: $sub:ident)*, $model:ident, $structure:ident;
+            )+
+        }
+    ) => {
+        $(#[$enum_doc])*
+        #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+        pub enum $name {
+            $( $(#[$doc])* $variant, )+
+        }
+
+        impl $crate::cranes::CraneModel for $name {
+            const ALL: &'static [Self] = &[$(Self::$variant),+];
+            fn path(self) -> (&'static str, &'static str) {
+                match self {
+                    $(
+                        Self::$variant => (
+                            concat!(stringify!($module) $(, "::", stringify!($sub))*),
+                            stringify!($model),
+                        ),
+                    )+
+                }
+            }
+            fn structure(self) -> $crate::cranes::Structure {
+                match self {
+                    $( Self::$variant => $crate::cranes::Structure::$structure, )+
+                }
+            }
+        }
+
+        impl $crate::cranes::Formulation<$crane, $axes> for $name {
+        fn inverse_model<V: $crate::cranes::FirmwareVisitor<$crane, $axes>>(
+            self,
+            crane: $crane,
+            integrator: $crate::cranes::FirmwareIntegrator,
+            plan: solver_core::plan::Plan<f64, $axes>,
+            settings: &solver_core::SolverSettings,
+            visitor: V,
+        ) -> Result<V::Output, solver_core::Error> {
+            use $crate::cranes::{visit, FirmwareIntegrator};
+            type P = solver_core::plan::Plan<f64, $axes>;
+            Ok(match self {
+                $(
+                    $name::$variant => $crate::cranes::integrators!(
+                        $structure,
+                        visit,
+                        solver_core::models::$module $(:: $sub)*,
+                        integrator,
+                        solver_core::models::$module $(:: $sub)* :: $model::new(crane, plan)?,
+                        settings,
+                        visitor,
+                        P
+                    ),
+                )+
+            })
+        }
+
+        fn steps<Z, V>(
+            self,
+            crane: $crane,
+            z: Z,
+            integrator: $crate::cranes::FirmwareIntegrator,
+            settings: &solver_core::SolverSettings,
+            visitor: V,
+        ) -> Result<V::Output, solver_core::Error>
+        where
+            Z: solver_core::trajectory::Trajectory<f64, $axes>,
+            V: $crate::cranes::StepsVisitor,
+        {
+            use $crate::cranes::{step_visit, FirmwareIntegrator};
+            Ok(match self {
+                $(
+                    $name::$variant => $crate::cranes::integrators!(
+                        $structure,
+                        step_visit,
+                        solver_core::models::$module $(:: $sub)*,
+                        integrator,
+                        solver_core::models::$module $(:: $sub)* :: $model::new(crane, z)?,
+                        settings,
+                        visitor,
+                        Z
+                    ),
+                )+
+            })
+        }
+        }
+    };
+}
+pub(crate) use crane_models;
+pub(crate) use integrators;
+
+/// The registered cranes, listed once: `Variant(ModelEnum) for Params, axes;`. Makes
+/// [`FirmwareModel`] (which crane, which of its formulations), its list of every
+/// formulation, and [`visit_crane`], the one `match` that turns a crane into its type.
+macro_rules! registry {
+    ( $( $(#[$doc:meta])* $variant:ident($models:ty) for $crane:ty, $axes:literal; )+ ) => {
+        /// A formulation the firmware can drive: which crane, which of its models.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+        pub enum FirmwareModel {
+            $( $(#[$doc])* $variant($models), )+
+        }
+
+        impl FirmwareModel {
+            /// Every formulation of every crane, crane by crane in the order registered.
+            pub fn every() -> impl Iterator<Item = FirmwareModel> {
+                core::iter::empty()
+                    $( .chain(<$models as CraneModel>::ALL.iter().map(|m| FirmwareModel::$variant(*m))) )+
+            }
+
+            /// The scene's model as a registered crane's formulation.
+            pub fn of(model: &ModelSpec) -> Result<Self, FirmwareError> {
+                $(
+                    if let Some((_, m)) = <$crane as FirmwareCrane<$axes>>::of(model) {
+                        return Ok(FirmwareModel::$variant(m));
+                    }
+                )+
+                Err(FirmwareError::NotACrane { model: model.label() })
+            }
+
+            /// The model's module under `solver_core::models` and its type's name.
+            #[must_use]
+            pub fn path(self) -> (&'static str, &'static str) {
+                match self { $( Self::$variant(m) => m.path(), )+ }
+            }
+
+            /// How its Newton systems can be solved.
+            #[must_use]
+            pub fn structure(self) -> Structure {
+                match self { $( Self::$variant(m) => m.structure(), )+ }
+            }
+
+            /// Its crane's parameter type ([`FirmwareCrane::TYPE`]) and driven axes.
+            #[must_use]
+            pub fn crane(self) -> (&'static str, usize) {
+                match self { $( Self::$variant(_) => (<$crane as FirmwareCrane<$axes>>::TYPE, $axes), )+ }
+            }
+        }
+
+        /// Hands `model`'s crane, as its type, and its formulation to `visitor`.
+        pub fn visit_crane<V: CraneVisitor>(model: FirmwareModel, visitor: V) -> V::Output {
+            match model { $( FirmwareModel::$variant(m) => visitor.visit::<$crane, $axes>(m), )+ }
+        }
+    };
+}
+
+registry! {
+    /// The paper's planar crane: trolley and winch.
+    Planar(planar::PlanarModel) for solver_core::models::crane::CraneParams, 2;
+    /// The crane in three dimensions: bridge, trolley and hoist.
+    Spatial(spatial::SpatialModel) for solver_core::models::crane3d::Crane3dParams, 3;
+}
+
+/// `model` and `integrator` to a [`StepsVisitor`].
+pub(crate) fn step_visit<V, M, I, const N: usize, const NU: usize>(
+    visitor: V,
+    model: M,
+    integrator: I,
+) -> V::Output
+where
+    V: StepsVisitor,
+    M: DaeModel<f64, N, NU>,
+    I: Integrator<f64, M, N, NU>,
+{
+    visitor.visit(model, integrator)
+}
+
+/// `model` and `integrator` as the controller's inverse model, to `visitor`.
+pub(crate) fn visit<K, V, M, I, const N: usize, const A: usize>(
+    visitor: V,
+    model: M,
+    integrator: I,
+) -> V::Output
+where
+    K: Crane<A>,
+    V: FirmwareVisitor<K, A>,
+    M: CraneReference<Reference = K::Reference>
+        + DaeModel<f64, N, A>
+        + Driven<Trajectory = Plan<f64, A>>,
+    I: Integrator<f64, M, N, A>,
+{
+    visitor.visit(InverseModel::<M, I, f64, N>::new(model, integrator))
+}

@@ -1,0 +1,73 @@
+//! The crane in three dimensions (bridge, trolley and hoist) as the firmware drives it:
+//! its formulations and its [`FirmwareCrane`] registration, with its state feedback per
+//! vertical plane ([`SpatialFeedback`]) on a two-axis inclinometer.
+
+use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback};
+use controller::feedback3d::SpatialFeedback;
+use solver_core::models::crane::CraneParams;
+use solver_core::models::crane3d::Crane3dParams;
+
+use super::{crane_models, FirmwareCrane};
+use crate::feedback::FeedbackSpec;
+use crate::{ModelSpec, SceneError};
+
+crane_models! {
+    /// The 3D crane's formulations the firmware can drive.
+    SpatialModel for Crane3dParams, 3 {
+        /// *subs*: redundant coordinates, the servo-constraints substituted.
+        Subs => crane3d::subs, Crane3dSubs, Structured;
+        /// *ext*: *subs* minimally extended to index 1.
+        Ext => crane3d::ext, Crane3dExt, StructuredOnly;
+    }
+}
+
+impl FirmwareCrane<3> for Crane3dParams {
+    const TYPE: &'static str = "solver_core::models::crane3d::Crane3dParams";
+    type Model = SpatialModel;
+    type Feedback = SpatialFeedback;
+    const FEEDBACK_TYPE: &'static str = "controller::feedback3d::SpatialFeedback";
+    const FEEDBACK_NEW: &'static str = "Correction::new(FEEDBACK, PARAMS.tau2)";
+    type FeedforwardOnly = NoFeedback;
+    fn of(model: &ModelSpec) -> Option<(Self, SpatialModel)> {
+        match model {
+            ModelSpec::Crane3dSubs(c) => Some((c.params(), SpatialModel::Subs)),
+            ModelSpec::Crane3dExt(c) => Some((c.params(), SpatialModel::Ext)),
+            // Another crane's or rig's model.
+            _ => None,
+        }
+    }
+    fn source(&self) -> String {
+        let w = self.workspace;
+        format!(
+            "solver_core::models::crane3d::Crane3dParams {{ m: {:?}, g: {:?}, tau1: {:?}, tau2: {:?}, tau3: {:?}, workspace: solver_core::models::crane3d::Workspace3d {{ x_min: {:?}, x_max: {:?}, y_min: {:?}, y_max: {:?}, l_min: {:?}, l_max: {:?} }}, min_tension_fraction: {:?} }}",
+            self.m, self.g, self.tau1, self.tau2, self.tau3, w.x_min, w.x_max, w.y_min, w.y_max, w.l_min, w.l_max, self.min_tension_fraction
+        )
+    }
+    /// The x–z plane's configuration (bridge and hoist: τ1, τ3) from the scene's
+    /// `[feedback]`; the y–z plane's is the same with the trolley's τ2
+    /// ([`SpatialFeedback::new`]).
+    fn feedback_config(
+        spec: &FeedbackSpec,
+        crane: &Self,
+        h: f64,
+    ) -> Result<FeedbackConfig, SceneError> {
+        let w = crane.workspace;
+        let plane = CraneParams {
+            m: crane.m,
+            g: crane.g,
+            tau1: crane.tau1,
+            tau2: crane.tau3,
+            workspace: solver_core::models::crane::Workspace {
+                x_min: w.x_min,
+                x_max: w.x_max,
+                l_min: w.l_min,
+                l_max: w.l_max,
+            },
+            min_tension_fraction: crane.min_tension_fraction,
+        };
+        spec.config(&plane, h)
+    }
+    fn feedback(&self, config: FeedbackConfig) -> Result<SpatialFeedback, DesignError> {
+        SpatialFeedback::new(config, self.tau2)
+    }
+}
