@@ -62,8 +62,8 @@ fn main() {
     let mut rng = Rng::new(33);
     let mut fixed = [[0usize; VARIANTS.len()]; 2];
     let mut missed = [0usize; 2];
-    println!("| case | run | delay, cycles | filter, ms | noise, ° | distance, mm | swing, ° | meets the target without |");
-    println!("|---:|---|---:|---:|---:|---:|---:|---|");
+    println!("| case | run | delay, cycles | filter, ms | noise, ° | distance, mm | swing, ° | mode at the end | meets the target without |");
+    println!("|---:|---|---:|---:|---:|---:|---:|---|---|");
     for (i, c) in set.iter().enumerate() {
         let (reference, case) = draw_calibration_case(&mut rng, &params);
         assert_eq!(
@@ -109,12 +109,13 @@ fn main() {
                 }
             }
             println!(
-                "| {i} | {run} | {} | {:.1} | {:.3} | {:.1} | {:.3} | {} |",
+                "| {i} | {run} | {} | {:.1} | {:.3} | {:.1} | {:.3} | {:?} | {} |",
                 case.inclinometer.delay,
                 case.inclinometer.filter * 1e3,
                 case.angle_noise.0.to_degrees(),
                 result.distance * 1e3,
                 result.swing_deg,
+                result.mode,
                 without.join(", ")
             );
         }
