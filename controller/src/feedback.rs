@@ -24,11 +24,19 @@
 //!   linearly in `l` every cycle — weights are data (a scene or commissioning file can
 //!   fill them), gains follow from them.
 //! * **Angle rate, noise and delay.** The inclinometer gives the angle only, quantised,
-//!   noisy and one cycle late; the drives give positions only. A predictor-form
-//!   observer on the error state (steady-state Kalman gain, scheduled like the LQR
-//!   gains) corrects the estimate of the *previous* sample with the late measurement
-//!   and predicts it to now with the set-point deviation actually sent: the swing rate
-//!   is estimated from the model, not differentiated.
+//!   noisy, through its own first-order filter and one cycle late or more; the drives
+//!   give positions only. A predictor-form observer on the error state (steady-state
+//!   Kalman gain, scheduled like the LQR gains) corrects the estimate of the *previous*
+//!   sample with the late measurement and predicts it to now with the set-point
+//!   deviation actually sent: the swing rate is estimated from the model, not
+//!   differentiated. The inclinometer's filter and delay line are states of the
+//!   observer ([`SensorStates`]: the filter's output and up to [`MAX_DELAY_CYCLES`] of
+//!   its past outputs, as commissioned, [`Config::inclinometer`]), designed with it as
+//!   one Kalman filter for the angle's noise ([`Weights::angle_noise`]): the reading is
+//!   compared with what the sensor reports of the estimate, at every frequency (issue
+//!   33: the first-order model `φ − T φ̇` it replaces was right at the swing's
+//!   frequency, not at the noise's, and the trolley chattered at 3.5 Hz on the noise
+//!   after the move, worse the later the sensor).
 //! * **The drive as it moves.** A drive under its own velocity loop is not the lag of
 //!   Eq. 22: friction droops it (or stops it: a proportional loop does not move below
 //!   its droop), its integral and the rope's pull push it. The observer's fifth state
@@ -100,10 +108,10 @@
 pub use crate::reference::Reference;
 use nalgebra::{
     Matrix2, Matrix2x1, Matrix4, Matrix4x1, Matrix4x2, Matrix5, RowVector2, RowVector4, SMatrix,
-    Vector2, Vector4, Vector5,
+    SVector, Vector2, Vector4, Vector5,
 };
 
-use crate::rope::{InclinometerLag, RopeLength};
+use crate::rope::{InclinometerLag, RopeLength, MAX_DELAY_CYCLES};
 use crate::setpoint::{AxisLimits, DriveLimits};
 use crate::zero::{self, Zero};
 
@@ -111,6 +119,56 @@ use crate::zero::{self, Zero};
 type Observed = Vector5<f64>;
 /// The observer's gain (measured `x`, `φ`).
 type ObserverGain = SMatrix<f64, 5, 2>;
+
+/// The inclinometer's states in the observer (issue 33): its filter's output `y` and the
+/// outputs it took in the last [`MAX_DELAY_CYCLES`] cycles and has yet to report,
+/// newest first, `[y, y₋₁, …, y₋₅]` — what it will report, estimated. Entry `d` is the
+/// reading of a sensor `d` cycles late. Absolute angles, rad (the reference's angle
+/// included: the reading is of the load, not of the error).
+pub type SensorStates = SVector<f64, SENSOR_STATES>;
+/// The filter's output and the longest delay line.
+pub const SENSOR_STATES: usize = 1 + MAX_DELAY_CYCLES as usize;
+/// The observer's gain of the inclinometer's states (measured `x`, `φ`).
+pub type SensorGain = SMatrix<f64, SENSOR_STATES, 2>;
+/// The observer's design state: [`Observed`] and [`SensorStates`].
+const AUGMENTED: usize = 5 + SENSOR_STATES;
+
+/// The inclinometer's first-order filter over one cycle, `y' = a y + b₀ φ' + b₁ φ`: its
+/// exact response to an angle linear between samples (the sensor filters continuously),
+/// and the delay of the sample it reports, cycles ([`Config::inclinometer`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct SensorModel {
+    a: f64,
+    b0: f64,
+    b1: f64,
+    delay: usize,
+}
+
+impl SensorModel {
+    fn of(cfg: &Config) -> Self {
+        let (a, b0, b1) = crate::rope::first_order_hold(cfg.inclinometer.filter, cfg.h);
+        Self {
+            a,
+            b0,
+            b1,
+            delay: usize::from(cfg.inclinometer.delay.min(MAX_DELAY_CYCLES)),
+        }
+    }
+
+    /// The reading the sensor's states `s` make.
+    fn reading(&self, s: &SensorStates) -> f64 {
+        s.get(self.delay).copied().unwrap_or(0.0)
+    }
+
+    /// One cycle on: the filter takes the angle from `before` to `after`, its last
+    /// output moves into the line.
+    fn predict(&self, s: &SensorStates, before: f64, after: f64) -> SensorStates {
+        SensorStates::from_fn(|i, _| match i {
+            0 => self.a * s.x + self.b0 * after + self.b1 * before,
+            i => s.get(i - 1).copied().unwrap_or(0.0),
+        })
+    }
+}
 
 /// The error part `[x, ẋ, φ, φ̇]` of the observer's state.
 fn four(v: &Observed) -> Vector4<f64> {
@@ -252,7 +310,8 @@ pub struct Config {
     /// How late and how filtered the inclinometer reports the angle, as commissioned
     /// (the commissioning file's `[inclinometer]` `delay_cycles` and `filter_ms`): the
     /// rope calibration makes the positions as late before it pairs them with the
-    /// angle ([`crate::rope`]).
+    /// angle ([`crate::rope`]); the observer has the filter and the delay line as states
+    /// ([`SensorStates`]).
     pub inclinometer: InclinometerLag,
 }
 
@@ -314,23 +373,6 @@ pub enum DesignError {
         /// Rope length, m.
         l: f64,
     },
-}
-
-/// How much older than the positions the angle read is, beyond the one cycle both
-/// arrive late by, s: the inclinometer's commissioned delay and its filter's time
-/// constant ([`Config::inclinometer`]; a first-order lag delays a swing far below its
-/// corner by its time constant: at 1.8 rad/s and 20 ms, by 20 ms within 0.01 ms). The
-/// observer is designed for it and compares the reading with its estimate that much
-/// earlier (issue 33).
-#[must_use]
-pub fn angle_age(cfg: &Config) -> f64 {
-    let lag = cfg.inclinometer;
-    let filter = if lag.filter.is_finite() && lag.filter > 0.0 {
-        lag.filter
-    } else {
-        0.0
-    };
-    f64::from(lag.delay.min(crate::rope::MAX_DELAY_CYCLES)) * cfg.h + filter
 }
 
 /// The discrete model of one rope length.
@@ -458,6 +500,55 @@ fn kalman<const N: usize, const M: usize>(
     None
 }
 
+/// The steady-state Kalman gain of the trolley–swing block `a5` (process noise `qn`,
+/// measurement noise `rv` of `x` and the reading) with the inclinometer's states
+/// appended ([`SensorStates`]): `y' = a y + b₀ φ' + b₁ φ` (so the swing's process noise
+/// reaches the filter through `b₀`), the line shifting `y` in, the reading entry
+/// [`SensorModel::delay`] of it. Split into the error's and the sensor's rows.
+fn augmented_kalman(
+    a5: &Matrix5<f64>,
+    qn: &Matrix5<f64>,
+    rv: &Matrix2<f64>,
+    sensor: &SensorModel,
+) -> Option<(ObserverGain, SensorGain)> {
+    const PHI: usize = 2;
+    let at5 = |m: &Matrix5<f64>, i: usize, j: usize| m.get((i, j)).copied().unwrap_or(0.0);
+    let a = SMatrix::<f64, AUGMENTED, AUGMENTED>::from_fn(|i, j| match (i, j) {
+        (i, j) if i < 5 && j < 5 => at5(a5, i, j),
+        (i, _) if i < 5 => 0.0,
+        // The filter: b₀ times the predicted angle, b₁ times the angle now.
+        (5, j) if j < 5 => sensor.b0 * at5(a5, PHI, j) + if j == PHI { sensor.b1 } else { 0.0 },
+        (5, 5) => sensor.a,
+        (5, _) => 0.0,
+        // The line: entry i takes entry i − 1.
+        (i, j) => {
+            if j + 1 == i {
+                1.0
+            } else {
+                0.0
+            }
+        }
+    });
+    // The process noise enters the error, and the filter through the angle's.
+    let t = SMatrix::<f64, AUGMENTED, 5>::from_fn(|i, j| match (i, j) {
+        (i, j) if i == j => 1.0,
+        (5, PHI) => sensor.b0,
+        _ => 0.0,
+    });
+    let q = t * qn * t.transpose() + SMatrix::<f64, AUGMENTED, AUGMENTED>::identity() * 1e-14;
+    let c = SMatrix::<f64, 2, AUGMENTED>::from_fn(|i, j| match (i, j) {
+        (0, 0) => 1.0,
+        (1, j) if j == 5 + sensor.delay => 1.0,
+        _ => 0.0,
+    });
+    let gain = kalman(a, c, q, *rv)?;
+    let at = |i: usize, j: usize| gain.get((i, j)).copied().unwrap_or(0.0);
+    Some((
+        ObserverGain::from_fn(&at),
+        SensorGain::from_fn(|i, j| at(i + 5, j)),
+    ))
+}
+
 /// The gains at one rope length.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GainPoint {
@@ -474,6 +565,9 @@ pub struct GainPoint {
     /// Observer gain of the trolley–swing block and the drive's velocity offset
     /// (measured `x`, `φ`).
     pub obs: ObserverGain,
+    /// Observer gain of the inclinometer's filter and delay line (measured `x`, `φ`):
+    /// designed with [`Self::obs`] as one Kalman filter (issue 33).
+    pub obs_sensor: SensorGain,
     /// Observer gain of the winch block (measured `l`).
     pub obs_w: Matrix2x1<f64>,
     /// The discrete model the gains were designed for.
@@ -526,6 +620,7 @@ impl Gains {
             k_rest: RowVector4::zeros(),
             kw: RowVector2::zeros(),
             obs: ObserverGain::zeros(),
+            obs_sensor: SensorGain::zeros(),
             obs_w: Matrix2x1::zeros(),
             model: discretise(cfg.g, cfg.tau1, cfg.tau2, 1.0, cfg.h),
         }; GRID_POINTS];
@@ -590,15 +685,13 @@ impl Gains {
             w.angle_noise * w.angle_noise,
         ));
         // The trolley–swing block is measured in x and φ, the winch block in l; the
-        // angle as the inclinometer reports it, `T` older than the positions
-        // ([`angle_age`]): `φ − T φ̇` ([`StateFeedback::reading_of`]).
-        let age = angle_age(cfg);
-        #[rustfmt::skip]
-        let c = nalgebra::Matrix2x5::new(
-            1.0, 0.0, 0.0, 0.0, 0.0,
-            0.0, 0.0, 1.0, -age, 0.0,
-        );
-        let obs = kalman(a5, c, qn, rv).ok_or(DesignError::NoConvergence { l })?;
+        // angle as the inclinometer reports it: through its filter and its delay line,
+        // states of the observer ([`SensorStates`], issue 33). The first-order model
+        // `φ − T φ̇` it replaces was right at the swing's frequency, not at the
+        // noise's: the trolley chattered at 3.5 Hz on it after the move.
+        let sensor = SensorModel::of(cfg);
+        let (obs, obs_sensor) =
+            augmented_kalman(&a5, &qn, &rv, &sensor).ok_or(DesignError::NoConvergence { l })?;
         let g2 = Vector2::new(0.5 * h * h, h);
         let qn2 = g2 * g2.transpose() * (dd * dd) + Matrix2::identity() * 1e-14;
         let rv_w = SMatrix::<f64, 1, 1>::new(w.position_noise * w.position_noise);
@@ -610,6 +703,7 @@ impl Gains {
             k_rest,
             kw,
             obs,
+            obs_sensor,
             obs_w,
             model,
         })
@@ -629,6 +723,7 @@ impl Gains {
                 k_rest: RowVector4::zeros(),
                 kw: RowVector2::zeros(),
                 obs: ObserverGain::zeros(),
+                obs_sensor: SensorGain::zeros(),
                 obs_w: Matrix2x1::zeros(),
                 model: discretise(9.81, 0.03, 0.02, l.max(1.0), 0.01),
             };
@@ -646,6 +741,7 @@ impl Gains {
                     k_rest: p.k_rest.zip_map(&q.k_rest, mix),
                     kw: p.kw.zip_map(&q.kw, mix),
                     obs: p.obs.zip_map(&q.obs, mix),
+                    obs_sensor: p.obs_sensor.zip_map(&q.obs_sensor, mix),
                     obs_w: p.obs_w.zip_map(&q.obs_w, mix),
                     model: Discrete {
                         a: p.model.a.zip_map(&q.model.a, mix),
@@ -921,14 +1017,27 @@ impl Swing {
     };
 }
 
+/// The observer's response to a unit offset of the reading (see [`StateFeedback`]'s
+/// `unit`): of the error and of the inclinometer's states.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Unit {
+    e: Observed,
+    sensor: SensorStates,
+}
+
 /// The state feedback with its observer: one [`StateFeedback::cycle`] per 100 Hz cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StateFeedback {
     cfg: Config,
     gains: Gains,
+    /// The inclinometer's filter and delay as commissioned ([`Config::inclinometer`]).
+    sensor_model: SensorModel,
     /// Predicted error `ê(k|k−1)` of the trolley–swing block, and the drive's velocity
     /// offset.
     e: Observed,
+    /// The inclinometer's states predicted alike, `[y, y₋₁, …]` ([`SensorStates`]): what
+    /// it reports of the angle less its offset.
+    sensor: SensorStates,
     /// Predicted error of the winch block.
     ew: Vector2<f64>,
     /// The reference of the previous cycle (the measurement that arrives belongs to it).
@@ -960,7 +1069,7 @@ pub struct StateFeedback {
     /// a unit offset of the reading since it started, to take the offset out of the
     /// estimate by superposition: as far as it is known yet for the feedback
     /// ([`Self::estimate`]), and for good when it is trusted ([`Self::trust`]).
-    unit: Option<Observed>,
+    unit: Option<Unit>,
 }
 
 impl StateFeedback {
@@ -977,7 +1086,9 @@ impl StateFeedback {
         Self {
             cfg,
             gains,
+            sensor_model: SensorModel::of(&cfg),
             e: Observed::zeros(),
+            sensor: SensorStates::zeros(),
             ew: Vector2::zeros(),
             previous: None,
             started: false,
@@ -1017,7 +1128,9 @@ impl StateFeedback {
         let Self {
             cfg,
             gains: _,
+            sensor_model: _,
             e,
+            sensor,
             ew,
             previous,
             started,
@@ -1033,6 +1146,7 @@ impl StateFeedback {
             unit,
         } = self;
         *e = Observed::zeros();
+        *sensor = SensorStates::zeros();
         *ew = Vector2::zeros();
         *previous = None;
         *started = false;
@@ -1074,12 +1188,14 @@ impl StateFeedback {
         }
     }
 
-    /// The angle the inclinometer reports for the previous sample's estimate: the
-    /// estimate's angle [`angle_age`] earlier, `φ − T φ̇` (issue 33: the observer
-    /// designed for a reading as old as the positions took the older one for them, and
-    /// at 2 cycles and 19 ms more under a lighter load the loop swung up during a move).
-    fn reading_of(&self, prev: &Reference) -> f64 {
-        prev.phi + self.e.z - angle_age(&self.cfg) * (prev.vphi + self.e.w)
+    /// The angle the inclinometer reports for the previous sample's estimate: its
+    /// states' entry of the commissioned delay ([`SensorStates`]; issue 33: the
+    /// observer designed for a reading as old as the positions took the older one for
+    /// them, and at 2 cycles and 19 ms more under a lighter load the loop swung up
+    /// during a move; the first-order model `φ − T φ̇` that followed fed the angle's
+    /// noise into the trolley at 3.5 Hz).
+    fn reading(&self) -> f64 {
+        self.sensor_model.reading(&self.sensor)
     }
 
     /// The hoist's correction actually sent, when another feedback drives the hoist (the
@@ -1100,7 +1216,7 @@ impl StateFeedback {
     /// never on an offset; once trusted, the observer's.
     fn estimate(&self) -> Observed {
         match self.unit {
-            Some(u) => self.e - u * self.shown(),
+            Some(u) => self.e - u.e * self.shown(),
             None => self.e,
         }
     }
@@ -1124,7 +1240,8 @@ impl StateFeedback {
         if let (Some(u), true, Mode::Closed) = (self.unit, self.zero.steady_at_rest(), self.mode) {
             self.zero.fix();
             let c = self.zero.removed() - self.zero.steps();
-            self.e -= u * c;
+            self.e -= u.e * c;
+            self.sensor -= u.sensor * c;
             // A repeating reading is watched again from the next repeat, on the
             // estimate now read.
             self.held.run = None;
@@ -1190,7 +1307,7 @@ impl StateFeedback {
         let phi = m.phi;
         // The prediction of the reading: of the angle, plus the offset believed.
         let predicted = if self.started {
-            self.reading_of(prev) + self.read_offset()
+            self.reading() + self.read_offset()
         } else {
             phi.unwrap_or(0.0)
         };
@@ -1211,7 +1328,7 @@ impl StateFeedback {
             0.0
         };
         let predicted = if self.started {
-            self.reading_of(prev) + self.read_offset()
+            self.reading() + self.read_offset()
         } else {
             predicted
         };
@@ -1370,7 +1487,8 @@ impl StateFeedback {
                 // estimate, a stuck one from this one — with a gust's push read as
                 // offset before trust, more than 0.25° or 50 mm apart 5 s after the
                 // move in 35 of 1000 mid-move failures, issue 18).
-                self.e -= u * shown;
+                self.e -= u.e * shown;
+                self.sensor -= u.sensor * shown;
                 self.unit = None;
             } else if let (Mode::Closed, Mode::SwingEstimated(Degraded::AngleOffset)) =
                 (was, self.mode)
@@ -1396,30 +1514,40 @@ impl StateFeedback {
                         // settled, and the trolley waits for it ([`Self::trust`]).
                         self.e = Vector5::new(ex, 0.0, p - prev.phi, 0.0, 0.0);
                         self.ew = Vector2::new(m.l - prev.l, 0.0);
+                        // The sensor has long reported this angle.
+                        self.sensor = SensorStates::repeat(p);
                         self.started = true;
                         self.held.last = Some(raw);
-                        self.unit = Some(Vector5::new(0.0, 0.0, 1.0, 0.0, 0.0));
+                        self.unit = Some(Unit {
+                            e: Vector5::new(0.0, 0.0, 1.0, 0.0, 0.0),
+                            sensor: SensorStates::repeat(1.0),
+                        });
                     }
                 }
                 _ => {
                     // Correct the estimate of the previous sample with its measurement;
                     // without a good angle, with the position only.
                     let residual_x = ex - self.e.x;
-                    let age = angle_age(&self.cfg);
                     match angle {
                         Some(p) => {
-                            let residual_phi = p - self.reading_of(&prev);
-                            self.e += point.obs * Vector2::new(residual_x, residual_phi);
+                            let residual = Vector2::new(residual_x, p - self.reading());
+                            self.e += point.obs * residual;
+                            self.sensor += point.obs_sensor * residual;
                         }
                         None => self.e += position_only(&point.obs, prev.l) * residual_x,
                     }
                     // The same correction of the response to a unit offset (a reading
                     // one higher, the positions the same).
                     if let Some(u) = self.unit.as_mut() {
-                        *u += match angle {
-                            Some(_) => point.obs * Vector2::new(-u.x, 1.0 - (u.z - age * u.w)),
-                            None => position_only(&point.obs, prev.l) * -u.x,
-                        };
+                        match angle {
+                            Some(_) => {
+                                let read = self.sensor_model.reading(&u.sensor);
+                                let residual = Vector2::new(-u.e.x, 1.0 - read);
+                                u.e += point.obs * residual;
+                                u.sensor += point.obs_sensor * residual;
+                            }
+                            None => u.e += position_only(&point.obs, prev.l) * -u.e.x,
+                        }
                     }
                     self.ew += point.obs_w * (m.l - prev.l - self.ew.x);
                 }
@@ -1428,10 +1556,17 @@ impl StateFeedback {
                 self.held = Held::NEW;
             }
         }
-        // Predict to now with the correction actually sent.
+        // Predict to now with the correction actually sent; the sensor's filter takes
+        // the angle from the previous sample's to this one's.
+        let before = self.previous.map_or(reference.phi, |p| p.phi) + self.e.z;
         self.e = predict(&point.model, &self.e, app1);
+        self.sensor = self
+            .sensor_model
+            .predict(&self.sensor, before, reference.phi + self.e.z);
         if let Some(u) = self.unit.as_mut() {
-            *u = predict(&point.model, u, 0.0);
+            let before = u.e.z;
+            u.e = predict(&point.model, &u.e, 0.0);
+            u.sensor = self.sensor_model.predict(&u.sensor, before, u.e.z);
         }
         self.trust();
         self.ew = point.model.aw * self.ew + point.model.bw * app2;
@@ -1834,7 +1969,18 @@ mod tests {
         cycles: usize,
         read: impl Fn(usize, f64) -> Option<f64>,
     ) -> Vec<(Vector4<f64>, Output)> {
-        let cfg = Config::PAPER;
+        linear_run_with(Config::PAPER, l, x0, phi0, cycles, read)
+    }
+
+    /// [`linear_run`] with the feedback configured by `cfg`.
+    fn linear_run_with(
+        cfg: Config,
+        l: f64,
+        x0: f64,
+        phi0: f64,
+        cycles: usize,
+        read: impl Fn(usize, f64) -> Option<f64>,
+    ) -> Vec<(Vector4<f64>, Output)> {
         let mut fb = StateFeedback::new(cfg).unwrap();
         let model = discretise(cfg.g, cfg.tau1, cfg.tau2, l, cfg.h);
         let r = at_rest(15.0, l);
@@ -1875,6 +2021,54 @@ mod tests {
             "swing after two periods {:.3}°",
             amplitude(end, l).to_degrees()
         );
+    }
+
+    /// A sensor 0–5 cycles late behind a 20 ms filter, commissioned: the observer's
+    /// sensor states ([`SensorStates`]) read it as the sensor reports the load, so the
+    /// swing is damped as with a fresh reading.
+    #[test]
+    fn a_late_filtered_reading_as_commissioned_is_damped_as_a_fresh_one() {
+        let l = 6.0;
+        let period = 2.0 * core::f64::consts::PI * libm::sqrt(l / 9.81);
+        let cycles = (2.0 * period / 0.01) as usize + 1;
+        let fresh = linear_run(l, 0.0, 3f64.to_radians(), cycles, |_, p| Some(p));
+        let fresh = amplitude(&fresh.last().unwrap().0, l);
+        for delay in [0u8, 1, 3, 5] {
+            let lag = InclinometerLag {
+                delay,
+                filter: 0.02,
+            };
+            let (a, b0, b1) = crate::rope::first_order_hold(lag.filter, 0.01);
+            // The sensor: the filter on the true angle, then the delay line.
+            let sensor = core::cell::RefCell::new((None::<(f64, f64)>, [0.0; 6]));
+            let read = |_, p: f64| {
+                let mut s = sensor.borrow_mut();
+                let y = match s.0 {
+                    None => p,
+                    Some((y, before)) => a * y + b0 * p + b1 * before,
+                };
+                if s.0.is_none() {
+                    s.1 = [p; 6];
+                }
+                s.0 = Some((y, p));
+                s.1.rotate_right(1);
+                s.1[0] = y;
+                Some(s.1[usize::from(delay)])
+            };
+            let cfg = Config {
+                inclinometer: lag,
+                ..Config::PAPER
+            };
+            let run = linear_run_with(cfg, l, 0.0, 3f64.to_radians(), cycles, read);
+            assert!(run.iter().all(|(_, o)| o.mode == Mode::Closed));
+            let left = amplitude(&run.last().unwrap().0, l);
+            assert!(
+                left < 0.1 * 3f64.to_radians() && left < 2.0 * fresh + 1e-4,
+                "{delay} cycles: {:.4}° left after two periods, {:.4}° with a fresh reading",
+                left.to_degrees(),
+                fresh.to_degrees()
+            );
+        }
     }
 
     #[test]

@@ -406,6 +406,20 @@ impl Solution {
     };
 }
 
+/// The first-order filter `1/(τ s + 1)` over one period `h`, `y' = a y + b₀ u' + b₁ u`:
+/// its exact response to an input linear between samples (`τ` 0 or not finite: none,
+/// `y' = u'`). The inclinometer's filter as the rope calibration and the feedback's
+/// observer model it.
+pub(crate) fn first_order_hold(tau: f64, h: f64) -> (f64, f64, f64) {
+    if tau > 0.0 && tau.is_finite() {
+        let a = libm::exp(-h / tau);
+        let c = tau / h * (1.0 - a);
+        (a, 1.0 - c, c - a)
+    } else {
+        (0.0, 1.0, 0.0)
+    }
+}
+
 /// The positions and the reference's accelerations on their way to meet the angle:
 /// delayed by whole cycles, then through the sensor's first-order filter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -424,15 +438,7 @@ struct Alignment {
 
 impl Alignment {
     fn new(lag: InclinometerLag, h: f64) -> Self {
-        let tau = lag.filter;
-        let (a, b0, b1) = if tau > 0.0 && tau.is_finite() {
-            // The exact response of `1/(τ s + 1)` to an input linear between samples.
-            let a = libm::exp(-h / tau);
-            let c = tau / h * (1.0 - a);
-            (a, 1.0 - c, c - a)
-        } else {
-            (0.0, 1.0, 0.0)
-        };
+        let (a, b0, b1) = first_order_hold(lag.filter, h);
         Self {
             lag,
             line: [[0.0; 4]; LINE],

@@ -5,8 +5,8 @@
 //! such: the same case with another sensor).
 use controller::feedback::{Config, Gains};
 use controller::setpoint::DriveLimits;
-use host_tests::feedback_study::{random_move_in, simulate};
-use host_tests::plant::{Mismatch, Rng, SensorLag};
+use host_tests::feedback_study::{draw_calibration_case, simulate};
+use host_tests::plant::Rng;
 use solver_core::models::crane::CraneParams;
 
 fn main() {
@@ -20,20 +20,7 @@ fn main() {
     let mut rng = Rng::new(33);
     let mut drawn = None;
     for _ in 0..=index {
-        let (_, reference) = random_move_in(&mut rng, &params, 0.0, (3.0, 9.0));
-        let l0 = reference.r.first().map_or(6.0, |r| r.l);
-        let base = Mismatch::random(&mut rng, l0, reference.span);
-        let case = Mismatch {
-            rope_offset: rng.uniform(-0.1, 0.1),
-            load_mass: rng.uniform(-0.5, 1.0),
-            angle_noise: (rng.uniform(0.0, 0.05).to_radians(), Mismatch::SENSORS.1 .1),
-            inclinometer: SensorLag {
-                delay: (rng.unit() * 6.0).floor().min(5.0) as u8,
-                filter: rng.uniform(0.0, 0.02),
-            },
-            ..base
-        };
-        drawn = Some((reference, case));
+        drawn = Some(draw_calibration_case(&mut rng, &params));
     }
     let Some((reference, mut case)) = drawn else {
         return;

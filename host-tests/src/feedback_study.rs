@@ -284,8 +284,9 @@ fn run_told(
         inclinometer: told.unwrap_or_else(|| commissioned(case)),
         ..Config::PAPER
     };
-    // The observer designed for the inclinometer as commissioned (`feedback::angle_age`),
-    // as the controller designs it from its configuration.
+    // The observer designed for the inclinometer as commissioned (its filter and delay
+    // as the observer's states, `feedback::SensorStates`), as the controller designs it
+    // from its configuration.
     let mut fb = gains.map(|g| match cfg.inclinometer == InclinometerLag::NONE {
         true => StateFeedback::with_gains(cfg, *g),
         false => StateFeedback::new(cfg).unwrap_or_else(|_| StateFeedback::with_gains(cfg, *g)),
@@ -1023,6 +1024,26 @@ pub fn random_move_in(
     }
 }
 
+/// One case of the issue-33 set ([`calibration_study`]) as drawn from `rng`: its random
+/// move with ropes of 3–9 m and its crane. The diagnostics draw the set's cases again
+/// with it from the set's seed.
+pub fn draw_calibration_case(rng: &mut Rng, params: &CraneParams) -> (ReferenceRun, Mismatch) {
+    let (_, reference) = random_move_in(rng, params, 0.0, (3.0, 9.0));
+    let l0 = reference.r.first().map_or(6.0, |r| r.l);
+    let base = Mismatch::random(rng, l0, reference.span);
+    let case = Mismatch {
+        rope_offset: rng.uniform(-0.1, 0.1),
+        load_mass: rng.uniform(-0.5, 1.0),
+        angle_noise: (rng.uniform(0.0, 0.05).to_radians(), Mismatch::SENSORS.1 .1),
+        inclinometer: crate::plant::SensorLag {
+            delay: (rng.unit() * 6.0).floor().min(5.0) as u8,
+            filter: rng.uniform(0.0, 0.02),
+        },
+        ..base
+    };
+    (reference, case)
+}
+
 /// The issue-33 set: `n` cranes with the drum's scaling off by up to ±2 %, the rope
 /// offset by up to ±0.1 m, a load of 0.5–2 times the model's, an inclinometer
 /// `delay` 0–5 cycles late (drawn, or as given), filtering with a time constant up to
@@ -1040,19 +1061,8 @@ pub fn calibration_study(seed: u64, n: usize, gains: &Gains) -> Vec<CalibrationC
     let mut gusts = Rng::new(seed ^ 0x6057);
     (0..n)
         .map(|_| {
-            let (_, reference) = random_move_in(&mut rng, &params, 0.0, (3.0, 9.0));
+            let (reference, case) = draw_calibration_case(&mut rng, &params);
             let l0 = reference.r.first().map_or(6.0, |r| r.l);
-            let base = Mismatch::random(&mut rng, l0, reference.span);
-            let case = Mismatch {
-                rope_offset: rng.uniform(-0.1, 0.1),
-                load_mass: rng.uniform(-0.5, 1.0),
-                angle_noise: (rng.uniform(0.0, 0.05).to_radians(), Mismatch::SENSORS.1 .1),
-                inclinometer: crate::plant::SensorLag {
-                    delay: (rng.unit() * 6.0).floor().min(5.0) as u8,
-                    filter: rng.uniform(0.0, 0.02),
-                },
-                ..base
-            };
             let calibration = calibrate_rope(&params, &moves, &case, gains);
             let (s, o) = calibration.estimate;
             let length_error = [3.0, 9.0].map(|l| (1.0 + s) * l + o - case.rope(l));

@@ -166,6 +166,22 @@ fn calibration_tables(gains: &Gains, n: usize) {
         "| the same: within ±50 mm horizontally and < 0.1° | {g} ({:.1} %) |",
         pct(g)
     );
+    // Where the misses are: by the inclinometer's delay (issue 33, the observer's limit).
+    let by_delay = |missed: &dyn Fn(&CalibrationCase) -> bool| {
+        (0..=controller::rope::MAX_DELAY_CYCLES)
+            .map(|d| {
+                let of = set.iter().filter(|c| c.case.inclinometer.delay == d);
+                let all = of.clone().count();
+                format!("{}/{all}", of.filter(|c| missed(c)).count())
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    println!(
+        "| missing ±50 mm or 0.1° by the inclinometer's delay 0–5 cycles: own move; gust late | {}; {} |",
+        by_delay(&|c| !c.run.meets_target()),
+        by_delay(&|c| !c.gust.meets_target())
+    );
     println!();
 }
 
