@@ -23,14 +23,17 @@ use crate::firmware::{self, parse_cost, parse_tx, readable_log, root, Board, Ste
 /// docs/RESULTS.md) — then the same two for the crane in three dimensions (bridge,
 /// trolley, hoist; its own folder, with its commissioning file), then BDF4 on the
 /// minimally extended formulation (*ext*, index 1: the flat inverse to rounding, the
-/// trade's best, docs/RESULTS.md), planar and 3D.
-pub const SCENES: [&str; 6] = [
+/// trade's best, docs/RESULTS.md), planar and 3D; then the hook-and-load crane (a
+/// double pendulum): its structured BDF4 on *subs* (index 5) and on *ext*.
+pub const SCENES: [&str; 8] = [
     "scenes/paper-crane.toml",
     "scenes/paper-crane-radau5.toml",
     CRANE3D_SCENE,
     "scenes/crane3d/crane3d-radau5.toml",
     "scenes/paper-crane-ext.toml",
     "scenes/crane3d/crane3d-ext.toml",
+    "scenes/hook-and-load.toml",
+    "scenes/hook-and-load-ext.toml",
 ];
 
 /// The 3D crane's default scene, on which its scenarios run (`sim::CRANE3D_SCENARIOS`).
