@@ -35,13 +35,15 @@ pub fn root() -> PathBuf {
         .unwrap_or_default()
 }
 
-/// `cargo <subcommand>` on the firmware for `board`, release, for the drive's target,
-/// in its own target directory `target/firmware/<board>-<name>` (scenes do not
-/// invalidate each other's builds).
-fn firmware_cargo(subcommand: &str, board: Board, name: &str) -> (Command, PathBuf) {
-    let target_dir = root()
-        .join("target/firmware")
-        .join(format!("{}-{name}", board.feature()));
+/// `cargo <subcommand>` on the firmware for `board`, release, for the drive's target.
+///
+/// Every scene and both boards build in one target directory, `target/firmware/cargo`:
+/// the dependencies and the build's host tools (proc macros, build scripts) are compiled
+/// once. A directory per scene held them once per scene, 18 times over, some 9 GB: more
+/// than a CI machine's disk may have to spare. The firmware crate itself is rebuilt when
+/// the scene changes, so [`build`] copies each scene's ELF out to a place of its own.
+fn firmware_cargo(subcommand: &str, board: Board) -> (Command, PathBuf) {
+    let target_dir = root().join("target/firmware/cargo");
     let mut cmd = cargo();
     cmd.current_dir(root())
         .env("DEFMT_LOG", "info")
@@ -59,19 +61,42 @@ fn firmware_cargo(subcommand: &str, board: Board, name: &str) -> (Command, PathB
     (cmd, target_dir)
 }
 
+/// Runs the firmware build `cmd` for `scene` and copies its ELF to
+/// `target/firmware/<board>-<name>/firmware`, where it stays while other scenes build (the
+/// QEMU runs' logs are written beside it). Returns that path.
+fn build_into(
+    mut cmd: Command,
+    target_dir: &Path,
+    scene: &Path,
+    own: &str,
+) -> Result<PathBuf, String> {
+    run(cmd.env("SCENE", scene))?;
+    let built = target_dir.join(setup::TARGET).join("release/firmware");
+    let dir = root().join("target/firmware").join(own);
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let elf = dir.join("firmware");
+    std::fs::copy(&built, &elf)
+        .map_err(|e| format!("{} -> {}: {e}", built.display(), elf.display()))?;
+    Ok(elf)
+}
+
+/// The file name's stem of `scene`, which names its build.
+fn scene_name(scene: &Path) -> &str {
+    scene
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("scene")
+}
+
 /// Builds the release firmware for `board` and `scene`; returns the ELF's path.
 pub fn build(board: Board, scene: &Path) -> Result<PathBuf, String> {
     setup::ensure_target()?;
-    let name = scene
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or("scene");
-    let (mut cmd, target_dir) = firmware_cargo("build", board, name);
+    let (mut cmd, target_dir) = firmware_cargo("build", board);
     if board == Board::Qemu && closes_loop(scene)? {
         cmd.args(["--features", "plant"]);
     }
-    run(cmd.env("SCENE", scene))?;
-    Ok(target_dir.join(setup::TARGET).join("release/firmware"))
+    let own = format!("{}-{}", board.feature(), scene_name(scene));
+    build_into(cmd, &target_dir, scene, &own)
 }
 
 /// Builds the QEMU firmware for `scene` with the inverse model stubbed out (feature
@@ -79,19 +104,13 @@ pub fn build(board: Board, scene: &Path) -> Result<PathBuf, String> {
 /// flash subtracted from the real build's is the solver's share. Returns the ELF's path.
 pub fn build_without_inverse_model(scene: &Path) -> Result<PathBuf, String> {
     setup::ensure_target()?;
-    let name = scene
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or("scene");
-    let (mut cmd, target_dir) =
-        firmware_cargo("build", Board::Qemu, &format!("{name}-stub-inverse-model"));
+    let (mut cmd, target_dir) = firmware_cargo("build", Board::Qemu);
     if closes_loop(scene)? {
         cmd.args(["--features", "plant"]);
     }
-    run(cmd
-        .args(["--features", "stub-inverse-model"])
-        .env("SCENE", scene))?;
-    Ok(target_dir.join(setup::TARGET).join("release/firmware"))
+    cmd.args(["--features", "stub-inverse-model"]);
+    let own = format!("qemu-{}-stub-inverse-model", scene_name(scene));
+    build_into(cmd, &target_dir, scene, &own)
 }
 
 /// Whether `scene` closes the loop: its QEMU scenarios run on the virtual bus's plant
@@ -135,7 +154,7 @@ pub fn links_only(elf: &Path, own: &str, others: &[&str]) -> Result<(), String> 
 
 /// Clippy on the firmware for `board`.
 pub fn clippy(board: Board) -> Result<(), String> {
-    let (mut cmd, _) = firmware_cargo("clippy", board, "clippy");
+    let (mut cmd, _) = firmware_cargo("clippy", board);
     if board == Board::Qemu {
         cmd.args(["--features", "plant"]);
     }

@@ -335,7 +335,11 @@ fn describe(cmd: &Command) -> String {
 
 /// The cargo that runs xtask.
 pub fn cargo() -> Command {
-    Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+    let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    // xtask's builds are whole runs, which an incremental cache does not speed up but
+    // doubles on disk.
+    cmd.env("CARGO_INCREMENTAL", "0");
+    cmd
 }
 
 /// The main job: the default scene's decoded log, then the cost table of both scenes.
