@@ -91,7 +91,10 @@
 //!   [`Config::rest_swing`] for 0.1 s — the swing the load keeps once the trolley
 //!   stands still, the angle trusted —, the feedback lets go: the set points are the
 //!   inverse model's, exactly zero, and the drives hold. It takes hold again at
-//!   [`Config::rest_hysteresis`] times either.
+//!   [`Config::rest_hysteresis`] times either. Once the angle is trusted, the observer
+//!   at rest is designed for a noisier angle ([`Weights::rest_angle_noise`],
+//!   [`GainPoint::obs_rest`]): with the move's, the trolley hunted on a 0.05° noise
+//!   at up to 190 mm/s after the move (issue 33).
 //! * **Degraded mode.** [`degraded_rule`]: the angle missing or implausible for more
 //!   than [`Config::max_bad_angle_cycles`] cycles, stuck, or offset →
 //!   [`Mode::SwingEstimated`]: the angle is no longer read, the swing is estimated from the trolley's measured
@@ -228,6 +231,12 @@ pub struct Weights {
     /// swing the load keeps when the trolley stops (`v/√(g l)` of amplitude), which is
     /// what the rest hold judges ([`Config::rest_swing`]).
     pub rest_load_velocity: f64,
+    /// At rest, once the angle is trusted: the angle's noise the observer is designed
+    /// for, rad (1σ; [`GainPoint::obs_rest`]). Above [`Self::angle_noise`]: with the
+    /// move's observer the swing rate followed a reading's noise at 2.7 rad/s per rad
+    /// (4 m), which the rest's gains turned into 50–85 mm/s of trolley set point per
+    /// 0.05° sample, and the trolley hunted on the noise after the move (issue 33).
+    pub rest_angle_noise: f64,
 }
 
 impl Weights {
@@ -248,6 +257,7 @@ impl Weights {
         rest_trolley_position: 0.1,
         rest_swing_velocity: 0.1,
         rest_load_velocity: 0.03,
+        rest_angle_noise: 3e-3,
     };
 }
 
@@ -568,6 +578,13 @@ pub struct GainPoint {
     /// Observer gain of the inclinometer's filter and delay line (measured `x`, `φ`):
     /// designed with [`Self::obs`] as one Kalman filter (issue 33).
     pub obs_sensor: SensorGain,
+    /// At rest (the reference still, the angle trusted), [`Self::obs`] and
+    /// [`Self::obs_sensor`] designed for the angle's noise at rest
+    /// ([`Weights::rest_angle_noise`]): a swing to damp, no path to follow, so the
+    /// reading's noise need not be followed as closely.
+    pub obs_rest: ObserverGain,
+    /// See [`Self::obs_rest`].
+    pub obs_sensor_rest: SensorGain,
     /// Observer gain of the winch block (measured `l`).
     pub obs_w: Matrix2x1<f64>,
     /// The discrete model the gains were designed for.
@@ -606,6 +623,7 @@ impl Gains {
             w.rest_trolley_position,
             w.rest_swing_velocity,
             w.rest_load_velocity,
+            w.rest_angle_noise,
             cfg.g,
             cfg.tau1,
             cfg.tau2,
@@ -621,6 +639,8 @@ impl Gains {
             kw: RowVector2::zeros(),
             obs: ObserverGain::zeros(),
             obs_sensor: SensorGain::zeros(),
+            obs_rest: ObserverGain::zeros(),
+            obs_sensor_rest: SensorGain::zeros(),
             obs_w: Matrix2x1::zeros(),
             model: discretise(cfg.g, cfg.tau1, cfg.tau2, 1.0, cfg.h),
         }; GRID_POINTS];
@@ -692,6 +712,12 @@ impl Gains {
         let sensor = SensorModel::of(cfg);
         let (obs, obs_sensor) =
             augmented_kalman(&a5, &qn, &rv, &sensor).ok_or(DesignError::NoConvergence { l })?;
+        let rv_rest = Matrix2::from_diagonal(&Vector2::new(
+            w.position_noise * w.position_noise,
+            w.rest_angle_noise * w.rest_angle_noise,
+        ));
+        let (obs_rest, obs_sensor_rest) = augmented_kalman(&a5, &qn, &rv_rest, &sensor)
+            .ok_or(DesignError::NoConvergence { l })?;
         let g2 = Vector2::new(0.5 * h * h, h);
         let qn2 = g2 * g2.transpose() * (dd * dd) + Matrix2::identity() * 1e-14;
         let rv_w = SMatrix::<f64, 1, 1>::new(w.position_noise * w.position_noise);
@@ -704,6 +730,8 @@ impl Gains {
             kw,
             obs,
             obs_sensor,
+            obs_rest,
+            obs_sensor_rest,
             obs_w,
             model,
         })
@@ -724,6 +752,8 @@ impl Gains {
                 kw: RowVector2::zeros(),
                 obs: ObserverGain::zeros(),
                 obs_sensor: SensorGain::zeros(),
+                obs_rest: ObserverGain::zeros(),
+                obs_sensor_rest: SensorGain::zeros(),
                 obs_w: Matrix2x1::zeros(),
                 model: discretise(9.81, 0.03, 0.02, l.max(1.0), 0.01),
             };
@@ -742,6 +772,8 @@ impl Gains {
                     kw: p.kw.zip_map(&q.kw, mix),
                     obs: p.obs.zip_map(&q.obs, mix),
                     obs_sensor: p.obs_sensor.zip_map(&q.obs_sensor, mix),
+                    obs_rest: p.obs_rest.zip_map(&q.obs_rest, mix),
+                    obs_sensor_rest: p.obs_sensor_rest.zip_map(&q.obs_sensor_rest, mix),
                     obs_w: p.obs_w.zip_map(&q.obs_w, mix),
                     model: Discrete {
                         a: p.model.a.zip_map(&q.model.a, mix),
@@ -1429,7 +1461,17 @@ impl StateFeedback {
         let [ud1, ud2] = u_d;
         let [last1, last2] = last;
         let [app1, app2] = self.applied;
-        let point = self.gains.at(reference.l);
+        let mut point = self.gains.at(reference.l);
+        // At rest, once the angle is trusted, the observer designed for the rest
+        // (GainPoint::obs_rest): the reading's noise is not turned into the trolley's
+        // set points. Not before: the offset shown at power-up is taken out by the
+        // observer's response to it (Self::unit), which the zero's estimate is judged
+        // steady on with the move's observer (with the rest's, a 5° offset from
+        // power-up put the trolley 340 mm off, closed_loop.rs).
+        if still(reference, u_d) && self.started && self.unit.is_none() {
+            point.obs = point.obs_rest;
+            point.obs_sensor = point.obs_sensor_rest;
+        }
         let reads_positions = !matches!(self.mode, Mode::FeedforwardOnly(_));
         // The offset shown so far, as the feedback acted on it last cycle: a missing
         // angle resets the zero's estimate once it is no longer bridged (in this

@@ -25,6 +25,7 @@
 //! rest_trolley_position = 0.1 # m
 //! rest_swing_velocity = 0.1   # m/s, l φ̇
 //! rest_load_velocity = 0.03   # m/s, ẋ + l φ̇
+//! rest_angle_noise = 3e-3     # rad, the angle's noise the observer at rest is designed for
 //! # The degraded-mode rule (docs/COMMANDS.md).
 //! max_angle = 0.35            # rad: beyond, the angle is implausible
 //! max_innovation = 0.035      # rad: further from the prediction, implausible
@@ -77,6 +78,7 @@ impl FeedbackSpec {
             ("rest_trolley_position", self.rest_trolley_position),
             ("rest_swing_velocity", self.rest_swing_velocity),
             ("rest_load_velocity", self.rest_load_velocity),
+            ("rest_angle_noise", self.rest_angle_noise),
             ("max_angle", self.max_angle),
             ("max_innovation", self.max_innovation),
             ("frozen_motion", self.frozen_motion),
@@ -167,6 +169,7 @@ impl FeedbackSpec {
                 rest_trolley_position: self.rest_trolley_position,
                 rest_swing_velocity: self.rest_swing_velocity,
                 rest_load_velocity: self.rest_load_velocity,
+                rest_angle_noise: self.rest_angle_noise,
             },
             g: params.g,
             tau1: params.tau1,
@@ -202,7 +205,7 @@ impl FeedbackSpec {
     pub fn source(config: &Config) -> String {
         let w = &config.weights;
         format!(
-            "controller::feedback::Config {{ weights: controller::feedback::Weights {{ load_position: {:?}, trolley_position: {:?}, swing_velocity: {:?}, trolley_correction: {:?}, rope_position: {:?}, winch_correction: {:?}, drive_disturbance: {:?}, swing_disturbance: {:?}, drive_offset: {:?}, position_noise: {:?}, angle_noise: {:?}, rest_load_position: {:?}, rest_trolley_position: {:?}, rest_swing_velocity: {:?}, rest_load_velocity: {:?} }}, g: {:?}, tau1: {:?}, tau2: {:?}, h: {:?}, max_angle: {:?}, max_innovation: {:?}, max_bad_angle_cycles: {}, max_frozen_cycles: {}, frozen_motion: {:?}, held_allowance: {:?}, rest_position: {:?}, rest_swing: {:?}, rest_hysteresis: {:?}, offset_dead_band: {:?}, offset_step: {:?}, max_offset: {:?}, offset_cycles: {}, inclinometer: controller::rope::InclinometerLag {{ delay: {}, filter: {:?} }} }}",
+            "controller::feedback::Config {{ weights: controller::feedback::Weights {{ load_position: {:?}, trolley_position: {:?}, swing_velocity: {:?}, trolley_correction: {:?}, rope_position: {:?}, winch_correction: {:?}, drive_disturbance: {:?}, swing_disturbance: {:?}, drive_offset: {:?}, position_noise: {:?}, angle_noise: {:?}, rest_load_position: {:?}, rest_trolley_position: {:?}, rest_swing_velocity: {:?}, rest_load_velocity: {:?}, rest_angle_noise: {:?} }}, g: {:?}, tau1: {:?}, tau2: {:?}, h: {:?}, max_angle: {:?}, max_innovation: {:?}, max_bad_angle_cycles: {}, max_frozen_cycles: {}, frozen_motion: {:?}, held_allowance: {:?}, rest_position: {:?}, rest_swing: {:?}, rest_hysteresis: {:?}, offset_dead_band: {:?}, offset_step: {:?}, max_offset: {:?}, offset_cycles: {}, inclinometer: controller::rope::InclinometerLag {{ delay: {}, filter: {:?} }} }}",
             w.load_position,
             w.trolley_position,
             w.swing_velocity,
@@ -218,6 +221,7 @@ impl FeedbackSpec {
             w.rest_trolley_position,
             w.rest_swing_velocity,
             w.rest_load_velocity,
+            w.rest_angle_noise,
             config.g,
             config.tau1,
             config.tau2,
