@@ -81,16 +81,7 @@ mod tests {
     }
 
     fn record(id: u8, answer: Result<Answer, Reject>) -> AnswerRecord {
-        let (answer, reason) = match answer {
-            Ok(a) => (a, None),
-            Err(r) => (Answer::Rejected, Some(r)),
-        };
-        AnswerRecord {
-            id,
-            answer,
-            reason,
-            overload: 0,
-        }
+        AnswerRecord::of(id, answer)
     }
 
     fn clock(cycle: u32) -> Clock {
