@@ -32,9 +32,9 @@ use crate::motion::{Breach, Deviations, Lag};
 use crate::node::{Dictionary, Node, Role, Snapshot, StagedRequest};
 use crate::planner::{Crane, MoveSearch, Planner, SAMPLES_PER_CYCLE};
 use crate::requests::{PendingMove, Requests};
+use crate::services;
 use crate::services::nmt::NmtSlave;
 use crate::services::status::StatusProducer;
-use crate::services::{self};
 use crate::setpoint::{Setpoint, SetpointGate, UNITS_PER_M_PER_S};
 use solver_core::models::crane::CraneParams;
 

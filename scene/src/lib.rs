@@ -210,8 +210,7 @@ macro_rules! model_specs {
                 }
             )+
 
-            /// The model's short name in results: `subs`, `proj`, `ext`, `mass-on-car`,
-            /// `mass-on-car-ext`, `3d-subs`, `3d-ext`, `dp-subs` or `dp-ext`.
+            /// The model's short name in results (the table's label for its kind).
             #[must_use]
             pub fn label(&self) -> &'static str {
                 match self {

@@ -410,9 +410,22 @@ fn every_model_kind_has_its_label_and_one_kind_of_parameters() {
         ),
         ("double-pendulum-ext", "dp-ext", [false, false, false, true]),
     ];
+    // A model added to the table and not here does not compile.
+    let listed = |m: &ModelSpec| match m {
+        ModelSpec::CraneSubs(_)
+        | ModelSpec::CraneProj(_)
+        | ModelSpec::CraneExt(_)
+        | ModelSpec::MassOnCar(_)
+        | ModelSpec::MassOnCarExt(_)
+        | ModelSpec::Crane3dSubs(_)
+        | ModelSpec::Crane3dExt(_)
+        | ModelSpec::DoublePendulumSubs(_)
+        | ModelSpec::DoublePendulumExt(_) => true,
+    };
     for (kind, label, params) in kinds {
         let model: ModelSpec =
             toml::from_str(&format!("kind = \"{kind}\"")).unwrap_or_else(|e| panic!("{kind}: {e}"));
+        assert!(listed(&model));
         assert_eq!(model.label(), label, "{kind}");
         let found = [
             model.crane().is_some(),

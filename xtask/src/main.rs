@@ -400,13 +400,15 @@ fn qemu_checks(overwrite: bool) -> Result<(), String> {
         .chain(sim::CRANE3D_SCENARIOS.map(|s| (qemu::CRANE3D_SCENE, s)))
         .chain(sim::CRANE3D_FEEDBACK_SCENARIOS.map(|s| (qemu::CRANE3D_FEEDBACK_SCENE, s)))
         .map(|(scene, scenario)| qemu::measure_scenario(scene, scenario));
-    // Every run is checked, and every failure reported: one differing golden log does
-    // not hide what the others would say.
-    let failures: Vec<String> = scenes
-        .chain(scenarios)
-        .filter_map(|m| m.and_then(|m| qemu::check(&m, overwrite)).err())
-        .inspect(|e| eprintln!("xtask qemu: {e}"))
-        .collect();
+    // Every run is checked, and every failed check reported: one differing golden log
+    // does not hide what the others would say. A run that cannot be made (a build, QEMU)
+    // ends the checks: the next would fail the same way.
+    let mut failures = Vec::new();
+    for measured in scenes.chain(scenarios) {
+        if let Err(e) = qemu::check(&measured?, overwrite) {
+            failures.push(e);
+        }
+    }
     if failures.is_empty() {
         Ok(())
     } else {

@@ -22,9 +22,10 @@ pub(crate) struct Clock {
 }
 
 impl Clock {
-    /// Whether a message produced every `ms` (0: never) is due: on the cycles that are
-    /// whole multiples of it, from the second cycle on. A period shorter than the cycle
-    /// is never due: the dictionary refuses it (`Node::heartbeat_producer_time`).
+    /// Whether a message produced every `ms` (0: never) is due: every ⌊ms / period⌋
+    /// cycles, from the second cycle on; a period shorter than the cycle, never (the
+    /// dictionary refuses such a heartbeat producer time 0x1017, and one that is not a
+    /// whole number of cycles: `Node::heartbeat_producer_time`).
     pub fn due(&self, ms: u32) -> bool {
         let cycles = ms.checked_div(self.period_ms).unwrap_or(0);
         !self.first && cycles != 0 && self.cycle.is_multiple_of(cycles)

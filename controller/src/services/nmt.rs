@@ -28,7 +28,7 @@ impl NmtSlave {
             node,
             boot_up_due: true,
             starting: true,
-            first_cycle: false,
+            first_cycle: true,
         }
     }
 

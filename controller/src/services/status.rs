@@ -15,7 +15,8 @@ pub(crate) struct StatusProducer {
     /// The period, ms: the commissioned one, whatever the heartbeat's 0x1017 is set to
     /// (a supervisor reads the status, drives watch the heartbeat).
     period_ms: u16,
-    /// Answers sent in the cycle under way.
+    /// Answers sent in the cycle under way ([`StatusProducer::end_cycle`] closes every
+    /// cycle in which [`StatusProducer::answer`] was asked).
     sent: usize,
 }
 
@@ -80,10 +81,6 @@ mod tests {
         }
     }
 
-    fn record(id: u8, answer: Result<Answer, Reject>) -> AnswerRecord {
-        AnswerRecord::of(id, answer)
-    }
-
     fn clock(cycle: u32) -> Clock {
         Clock {
             cycle,
@@ -95,7 +92,7 @@ mod tests {
     #[test]
     fn each_answer_goes_out_in_its_own_frame_with_the_controllers_state() {
         let mut producer = StatusProducer::new(100);
-        let rejected = record(9, Err(Reject::Busy));
+        let rejected = AnswerRecord::of(9, Err(Reject::Busy));
         let frame = producer.answer(NODE, &status(), || Some(rejected));
         let expected = Status {
             last_id: 9,
@@ -120,7 +117,9 @@ mod tests {
         let mut sent = 0;
         while producer
             .answer(NODE, &status(), || {
-                waiting.next().map(|id| record(id, Ok(Answer::Queued)))
+                waiting
+                    .next()
+                    .map(|id| AnswerRecord::of(id, Ok(Answer::Queued)))
             })
             .is_some()
         {
@@ -134,7 +133,10 @@ mod tests {
         );
         let _ = producer.end_cycle(NODE, &status(), clock(11));
         assert!(producer
-            .answer(NODE, &status(), || Some(record(30, Ok(Answer::Queued))))
+            .answer(NODE, &status(), || Some(AnswerRecord::of(
+                30,
+                Ok(Answer::Queued)
+            )))
             .is_some());
     }
 

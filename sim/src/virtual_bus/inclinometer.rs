@@ -12,7 +12,9 @@ use controller::canopen::{self, NmtCommand, NmtState};
 use controller::cia410;
 use controller::frame::CanFrame;
 
-use super::{get, identity, key, pdo_parameter, refuse_write, sdo_word, store, stored, Objects};
+use super::{
+    get, identity_value, key, pdo_parameter, refuse_write, sdo_word, store, stored, Objects,
+};
 use crate::scenario::SensorFault;
 
 /// The objects it holds: (index, sub) → (value, size).
@@ -50,7 +52,7 @@ impl ObjectDictionary for Dictionary {
     fn read(&self, object: Object) -> Result<Value, u32> {
         let node = u32::from(self.node);
         let ids = [0x0000_0B2C, 0x0410_0000 | node, 0x0001_0000, 2000 + node];
-        if let Some(value) = identity(object, ids) {
+        if let Some(value) = identity_value(object, ids) {
             return Ok(value);
         }
         if object == device::DEVICE_TYPE.object {

@@ -148,8 +148,8 @@ fn pdo_parameter(object: Object, communication: &[u16], mapping: &[u16]) -> bool
         || (mapping.contains(&index) && sub <= MAPPED_AT_MOST)
 }
 
-/// The objects a simulated device's PDO maps at most (CiA 301 allows 64; eight bytes of
-/// data take no more than eight).
+/// The objects a simulated device's PDO maps at most: its objects are whole bytes, so
+/// eight bytes of data hold eight at most (CiA 301 allows 64, bit by bit).
 const MAPPED_AT_MOST: u8 = 8;
 
 /// The key of `object` in a device's stored objects.
@@ -164,7 +164,7 @@ fn get<const N: usize>(entries: &Objects<N>, object: Object) -> u32 {
 
 /// The identity object 0x1018 of a simulated device: highest sub-index 4, then vendor
 /// id, product code, revision and serial number.
-fn identity(object: Object, [vendor, product, revision, serial]: [u32; 4]) -> Option<Value> {
+fn identity_value(object: Object, [vendor, product, revision, serial]: [u32; 4]) -> Option<Value> {
     if object.index != od::IDENTITY {
         return None;
     }
@@ -224,7 +224,7 @@ impl ObjectDictionary for SimDictionary {
     fn read(&self, object: Object) -> Result<Value, u32> {
         let node = u32::from(self.node);
         let ids = [0x0000_0A1B, 0x0402_0000 | node, 0x0001_0003, 1000 + node];
-        if let Some(value) = identity(object, ids) {
+        if let Some(value) = identity_value(object, ids) {
             return Ok(value);
         }
         if object == device::DEVICE_TYPE.object {
