@@ -105,13 +105,12 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
             return bit(Reject::RopeWorkspace);
         }
         let max_down_acceleration = MAX_DOWN_ACCELERATION * self.crane.g();
-        if zcdd.is_nan()
-            || zcdd > max_down_acceleration
-            || self.crane.slack_rope(z, t, max_down_acceleration)
-        {
+        if zcdd.is_nan() || zcdd > max_down_acceleration {
             return bit(Reject::SlackRope);
         }
-        let f = self.crane.flat(z, t);
+        let Some(f) = self.crane.taut_flat(z, t, zcdd, max_down_acceleration) else {
+            return bit(Reject::SlackRope);
+        };
         let mut found = 0;
         let axes = K::REASONS
             .iter()

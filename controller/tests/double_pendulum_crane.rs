@@ -154,9 +154,24 @@ fn a_move_that_would_slacken_the_rope_to_the_hook_is_refused_as_such() {
         })
         .collect();
     assert!(!pushing.is_empty());
-    assert!(pushing.iter().all(|t| p.slack_rope(&plan, *t, limit)));
+    assert!(pushing.iter().all(|t| {
+        let a_load = plan.derivatives::<3>(*t)[2].y;
+        p.taut_flat(&plan, *t, a_load, limit).is_none()
+    }));
     let (_, mean) = peaks(slow);
     assert!(mean < 0.9 * limit, "mean {mean}");
+    // Where the rope stays taut, the one flat inverse the planner computes per sample is
+    // the crane's flat, bit for bit.
+    let mut plan = from;
+    let step = plan.candidate(to.into(), 0.0, slow).unwrap();
+    plan.push(step).unwrap();
+    let (t0, t1) = step.active_span();
+    for i in 0..=100 {
+        let t = t0 + (t1 - t0) * f64::from(i) / 100.0;
+        let a_load = plan.derivatives::<3>(t)[2].y;
+        let taut = p.taut_flat(&plan, t, a_load, limit);
+        assert_eq!(taut, Some(p.flat(&plan, t)), "at {t} s");
+    }
     assert!(hook_and_load.plan_move(&from, to, Some(slow), 0.0).is_ok());
 }
 
@@ -262,4 +277,46 @@ fn the_controller_moves_it_and_resets_it_where_its_drives_stand() {
     assert_eq!(c.mode(), Mode::Ready);
     let at = drives(&bus);
     assert!(near(at, p.drives_at_rest(second)), "drives at {at:?}");
+}
+
+/// The load's path, counting the flat inverses taken on it: each evaluates the path's
+/// derivatives to order 7 (8 values) once, nothing else asks for that many.
+struct Counted<'a> {
+    plan: &'a Plan<f64, 2>,
+    flat_inverses: std::cell::Cell<usize>,
+}
+
+impl Trajectory<f64, 2> for Counted<'_> {
+    fn derivatives<const D: usize>(&self, t: f64) -> [nalgebra::SVector<f64, 2>; D] {
+        if D >= 8 {
+            self.flat_inverses.set(self.flat_inverses.get() + 1);
+        }
+        self.plan.derivatives::<D>(t)
+    }
+    fn active_span(&self) -> (f64, f64) {
+        self.plan.active_span()
+    }
+    fn smoothness(&self) -> usize {
+        self.plan.smoothness()
+    }
+}
+
+/// The planner takes the flat inverse once per path sample, the rope check and the
+/// drives' checks from the same one: a check of a move is 101 samples, 101 flat inverses
+/// (202 while the rope check took its own).
+#[test]
+fn the_planner_takes_one_flat_inverse_per_sample() {
+    let p = planner(HookAndLoad::EXAMPLE);
+    let mut plan = at_rest([12.0, 8.0]);
+    let step = p.plan_move(&plan, [20.0, 5.0], Some(8.0), 0.0).unwrap();
+    plan.push(step).unwrap();
+    let (t0, t1) = step.active_span();
+    let counted = Counted {
+        plan: &plan,
+        flat_inverses: std::cell::Cell::new(0),
+    };
+    assert_eq!(p.check(&counted, t0, t1), Ok(()));
+    let per_check = counted.flat_inverses.get();
+    eprintln!("flat inverses per check of a move: {per_check}");
+    assert_eq!(per_check, controller::planner::SAMPLES + 1);
 }
