@@ -279,6 +279,64 @@ fn the_controller_moves_it_and_resets_it_where_its_drives_stand() {
     assert!(near(at, p.drives_at_rest(second)), "drives at {at:?}");
 }
 
+/// A stop mid-move brings the crane to rest, ready, without a fault. Known defect
+/// (issue 29's interop work found it; on main too): stopped 1.5–4.2 s into (12, 8) →
+/// (16, 6) in 8 s, the stop's plan passes the planner (the exact inverse's trolley
+/// `|u̇|` at most 2.84 m/s², under 0.95 · 3), but near the stop's end the BDF4 set points
+/// oscillate cycle to cycle and one exceeds the trolley's 3 m/s² (3.0–3.8 m/s²): the
+/// gate refuses it, fault 2, halted. `cargo test -p controller --test
+/// double_pendulum_crane -- --ignored --nocapture` prints each case.
+#[test]
+#[ignore = "known defect: a hook-and-load stop mid-move ends in fault 2 (over acceleration)"]
+fn a_stop_mid_move_comes_to_rest_without_a_fault() {
+    use controller::commands::{Answer, Request};
+    use controller::feedback::NoFeedback;
+    use controller::{Config, Controller, Injectable, InverseModel, Mode};
+    use sim::{run_cycle, Action, VirtualBus, HEALTHY};
+    use solver_core::models::double_pendulum as subs;
+    use solver_core::{JacobianMode, SolverSettings};
+
+    let p = HookAndLoad::EXAMPLE;
+    let home = [12.0, 8.0];
+    let mut faulted = Vec::new();
+    for stop_after in [150, 200, 250, 300, 340, 420] {
+        let model = DoublePendulumSubs::new(p, at_rest(home)).unwrap();
+        let settings = SolverSettings {
+            h: 0.01,
+            ..SolverSettings::paper(JacobianMode::Exact)
+        };
+        let integrator = subs::StructuredBdf::new(&model, &settings, 4, 0.0).unwrap();
+        let ff = Injectable::new(InverseModel::new(model, integrator));
+        let mut c = Controller::with_correction(ff, NoFeedback, planner(p), Config::DEFAULT);
+        let mut bus = VirtualBus::for_crane(HEALTHY, &p, p.drives_at_rest(home));
+        let mut now = 0;
+        let mut run = |c: &mut Controller<_, NoFeedback, HookAndLoad, 2>,
+                       bus: &mut VirtualBus<HookAndLoad, 2>,
+                       n: usize| {
+            for _ in 0..n {
+                run_cycle(c, bus, now).unwrap();
+                now += 10;
+            }
+        };
+        run(&mut c, &mut bus, 200);
+        bus.inject(Action::Request(Request::Move {
+            id: 1,
+            target: [16.0, 6.0],
+            duration: Some(8.0),
+        }));
+        run(&mut c, &mut bus, stop_after);
+        bus.inject(Action::Request(Request::Stop { id: 2 }));
+        run(&mut c, &mut bus, 3);
+        assert_eq!(c.last_answer(), (2, Answer::Accepted, None));
+        run(&mut c, &mut bus, 1_000);
+        eprintln!("stopped {stop_after} cycles in: {:?}", c.mode());
+        if c.mode() != Mode::Ready {
+            faulted.push((stop_after, c.mode()));
+        }
+    }
+    assert!(faulted.is_empty(), "{faulted:?}");
+}
+
 /// The load's path, counting the flat inverses taken on it: each evaluates the path's
 /// derivatives to order 7 (8 values) once, nothing else asks for that many.
 struct Counted<'a> {
