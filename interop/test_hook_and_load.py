@@ -20,7 +20,9 @@ pendulum on the winch's rope; nothing here reads it (the crane has no feedback).
 * From there a move that would slacken the rope to the hook — 1 m sideways in 1.5 s: the
   hook's swing takes the hook and load's mean downward acceleration above half of g, the
   load's own stays 0 — is refused with reason 6 (slack rope), in the status frame as
-  cantools decodes it and in 0x2001:1..=3 read by SDO, as a PLC reads it; nothing moves.
+  cantools decodes it and in 0x2001:1..=3 read by SDO, as a PLC reads it; the load to
+  0.8 m below the rail refused with reason 16 (hook at the rail; cantools names it
+  `HookAtRail` from the DBC), the same in 0x2001; nothing moves.
   (From the scene's start, 8 m deep, the quick sideways moves tried — 1 to 6 m in 1 to
   2.5 s, `ecu --scene scenes/hook-and-load.toml --reference X,8,D` — are refused for the
   trolley first, reason 4 or 7: on 7 m of rope it swings out further.)
@@ -42,7 +44,7 @@ import time
 
 import pytest
 
-from rig import ACCEPTED, MODE, REJECTED, STOP, drives_at_rest
+from rig import ACCEPTED, MODE, REJECTED, STOP, dbc, drives_at_rest
 from test_black_box import (
     answered_at,
     answers,
@@ -67,7 +69,7 @@ from test_interop import (
 
 SCENE = "scenes/hook-and-load.toml"
 NODES = (TROLLEY, WINCH)  # the model's inputs u1, u2
-SLACK_ROPE = 6  # the rejection reason (docs/COMMANDS.md)
+SLACK_ROPE, HOOK_AT_RAIL = 6, 16  # rejection reasons (docs/COMMANDS.md)
 # How far the bus's set points may be from the host's, µm/s. The planar crane's 2 µm/s is
 # rounding; this crane's BDF4 on its index-5 model answers the last-bit difference of the
 # move's time between the bus's run and the host's (the cycle of the controller's clock
@@ -114,6 +116,13 @@ def test_commissioned_a_move_ends_where_the_drives_stand_for_its_target_and_a_sl
     rig.move(9, *slack_target, slack_duration)
     assert rig.answer(9) == (REJECTED, SLACK_ROPE)
     assert [rig.sdo_u(0x2001, s) for s in (1, 2, 3)] == [9, REJECTED, SLACK_ROPE], "0x2001 by SDO"
+    # The load 0.8 m below the rail: its hook, a sling (1 m) above it, would reach the
+    # rail — its own reason, not the trolley's end stop (4) nor the rope's range (5).
+    off_beat(rig)
+    rail = command_bytes(10, 1, target[0], 0.8, duration)
+    rig.move(10, target[0], 0.8, duration)
+    assert rig.answer(10) == (REJECTED, HOOK_AT_RAIL)
+    assert [rig.sdo_u(0x2001, s) for s in (1, 2, 3)] == [10, REJECTED, HOOK_AT_RAIL], "0x2001 by SDO"
     time.sleep(0.3)
     after = rig.dump()
     status = rig.status()
@@ -140,7 +149,13 @@ def test_commissioned_a_move_ends_where_the_drives_stand_for_its_target_and_a_sl
     refused = [m for (_, m) in log.decoded(0x190) if m["last_id"] == 9]
     assert refused and refused[0]["reason"] == SLACK_ROPE, refused[:1]
     after_slack = [struct.unpack_from("<Hi", d)[1] for n in NODES for (t, d) in log.sent(0x200 + n) if t > t_slack]
-    assert after_slack and not any(after_slack), "a set point after the refused move"
+    assert after_slack and not any(after_slack), "a set point after the refused moves"
+    # The hook at the rail, answered once; cantools names the reason from the DBC.
+    assert_answered_once(log, 10, arrival(log, rail), (REJECTED, HOOK_AT_RAIL))
+    named = [
+        dbc().get_message_by_frame_id(0x190).decode(d)["reason"] for (_, d) in log.sent(0x190) if d[0] == 10
+    ]
+    assert named and str(named[0]) == "HookAtRail", named[:1]
     assert where(after) == where(end), "nothing moved"
     assert_setpoints_within_limits(log)
 

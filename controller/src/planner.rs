@@ -33,9 +33,10 @@ pub const MAX_DOWN_ACCELERATION: f64 = 0.5;
 pub const DURATION_RANGE: (f64, f64) = (0.5, 600.0);
 /// The checks, in the order of precedence of their reasons (a planar crane never
 /// meets the bridge's).
-const ORDER: [Reject; 10] = [
+const ORDER: [Reject; 11] = [
     Reject::BridgeWorkspace,
     Reject::TrolleyWorkspace,
+    Reject::HookAtRail,
     Reject::RopeWorkspace,
     Reject::SlackRope,
     Reject::BridgeVelocity,
@@ -108,8 +109,9 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         if zcdd.is_nan() || zcdd > max_down_acceleration {
             return bit(Reject::SlackRope);
         }
-        let Some(f) = self.crane.taut_flat(z, t, zcdd, max_down_acceleration) else {
-            return bit(Reject::SlackRope);
+        let f = match self.crane.taut_flat(z, t, zcdd, max_down_acceleration) {
+            Ok(f) => f,
+            Err(reason) => return bit(reason),
         };
         let mut found = 0;
         let axes = K::REASONS

@@ -83,6 +83,9 @@ fn its_moves_are_planned_with_its_own_smoothness_and_checks() {
         ([16.0, 8.0], Some(3.0), Reject::TrolleyVelocity),
         ([12.0, 10.5], None, Reject::RopeWorkspace),
         ([24.0, 8.0], None, Reject::TrolleyWorkspace),
+        // The load 0.8 m below the rail: its hook, a 1 m sling above it, would reach the
+        // rail (the rope's range is left on the way too; the hook's reason comes first).
+        ([12.0, 0.8], None, Reject::HookAtRail),
     ];
     for (to, duration, expected) in cases {
         assert_eq!(
@@ -156,7 +159,7 @@ fn a_move_that_would_slacken_the_rope_to_the_hook_is_refused_as_such() {
     assert!(!pushing.is_empty());
     assert!(pushing.iter().all(|t| {
         let a_load = plan.derivatives::<3>(*t)[2].y;
-        p.taut_flat(&plan, *t, a_load, limit).is_none()
+        p.taut_flat(&plan, *t, a_load, limit) == Err(Reject::SlackRope)
     }));
     let (_, mean) = peaks(slow);
     assert!(mean < 0.9 * limit, "mean {mean}");
@@ -170,7 +173,7 @@ fn a_move_that_would_slacken_the_rope_to_the_hook_is_refused_as_such() {
         let t = t0 + (t1 - t0) * f64::from(i) / 100.0;
         let a_load = plan.derivatives::<3>(t)[2].y;
         let taut = p.taut_flat(&plan, t, a_load, limit);
-        assert_eq!(taut, Some(p.flat(&plan, t)), "at {t} s");
+        assert_eq!(taut, Ok(p.flat(&plan, t)), "at {t} s");
     }
     assert!(hook_and_load.plan_move(&from, to, Some(slow), 0.0).is_ok());
 }

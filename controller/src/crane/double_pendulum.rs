@@ -18,6 +18,7 @@ use solver_core::trajectory::Trajectory;
 use solver_core::Real;
 
 use super::{AxisReasons, Crane, Flat};
+use crate::commands::Reject;
 use crate::drive::{self, Drive};
 use crate::feedforward::CraneReference;
 use crate::setpoint::{AxisLimits, DriveLimits};
@@ -96,25 +97,34 @@ impl Crane<2> for DoublePendulumParams {
     /// acceleration `(z̈_C + μ z̈_H)/(1 + μ)` (μ = m_h/m) stays below g, and keeps the
     /// planner's margin below `max_down_acceleration`; the sling is the load's own rope,
     /// which the planner checks for every crane. Where the flat inverse refuses a slack
-    /// rope or sling, slack; where it refuses anything else (the hook at the rail), the
-    /// undefined flat, whose NaN the planner refuses as that axis's violation. One flat
-    /// inverse serves both the rope check and the drives' checks.
+    /// rope or sling, slack; where it refuses the hook at the rail
+    /// (`solver_core::Error::OutsideWorkspace` naming `z_H`), [`Reject::HookAtRail`];
+    /// anything else it refuses (a non-finite path), the undefined flat, whose NaN the
+    /// planner refuses as each axis's violation. One flat inverse serves both the rope
+    /// check and the drives' checks.
     fn taut_flat<Z: Trajectory<f64, 2>>(
         &self,
         z: &Z,
         t: f64,
         load_down_acceleration: f64,
         max_down_acceleration: f64,
-    ) -> Option<Flat<2>> {
+    ) -> Result<Flat<2>, Reject> {
         match double_pendulum::flat_inverse(self, z, t) {
             Ok(f) => {
                 let [_, a_hook] = f.a_hook;
                 let mu = self.hook_mass / self.crane.m;
                 let mean = (load_down_acceleration + mu * a_hook) / (1.0 + mu);
-                (!mean.is_nan() && mean <= max_down_acceleration).then(|| drives(&f))
+                if mean.is_nan() || mean > max_down_acceleration {
+                    Err(Reject::SlackRope)
+                } else {
+                    Ok(drives(&f))
+                }
             }
-            Err(solver_core::Error::RopeSlack { .. }) => None,
-            Err(_) => Some(Flat::UNDEFINED),
+            Err(solver_core::Error::RopeSlack { .. }) => Err(Reject::SlackRope),
+            Err(solver_core::Error::OutsideWorkspace {
+                coordinate: "z_H", ..
+            }) => Err(Reject::HookAtRail),
+            Err(_) => Ok(Flat::UNDEFINED),
         }
     }
     fn lags(&self) -> [f64; 2] {

@@ -123,22 +123,29 @@ pub trait Crane<const A: usize> {
     /// drives' positions actual (a reset).
     fn load_at_rest(&self, drives: [f64; A]) -> [f64; A];
     /// The flat inverse at `t` of `z` where every rope other than the load's own stays
-    /// taut with the planner's margin; `None` where one goes slack or keeps less tension
-    /// than that margin. `load_down_acceleration` is the load's own `z̈_C` at `t` (m/s²),
-    /// which the planner has already checked against `max_down_acceleration` for every
-    /// crane. The planner asks this once per sample instead of [`Crane::flat`], so that a
-    /// crane whose rope check needs its flat inverse (the hook-and-load crane's hook)
-    /// computes that inverse once. The planar and 3D crane's one rope carries the load
-    /// alone: always their flat.
+    /// taut with the planner's margin and the crane's own geometry allows it; otherwise
+    /// the reason the planner gives for that sample alone: [`Reject::SlackRope`] where a
+    /// rope goes slack or keeps less tension than that margin, [`Reject::HookAtRail`]
+    /// where the hook-and-load crane's hook block would reach the rail.
+    /// `load_down_acceleration` is the load's own `z̈_C` at `t` (m/s²), which the planner
+    /// has already checked against `max_down_acceleration` for every crane. The planner
+    /// asks this once per sample instead of [`Crane::flat`], so that a crane whose rope
+    /// check needs its flat inverse (the hook-and-load crane's hook) computes that
+    /// inverse once. The planar and 3D crane's one rope carries the load alone: always
+    /// their flat.
+    ///
+    /// # Errors
+    ///
+    /// The reason of this sample, as above.
     fn taut_flat<Z: Trajectory<f64, A>>(
         &self,
         z: &Z,
         t: f64,
         load_down_acceleration: f64,
         max_down_acceleration: f64,
-    ) -> Option<Flat<A>> {
+    ) -> Result<Flat<A>, Reject> {
         let _ = (load_down_acceleration, max_down_acceleration);
-        Some(self.flat(z, t))
+        Ok(self.flat(z, t))
     }
     /// Each drive's lag τ, s (Eq. 24's `τ v̇ + v = u`): what the controller expects of
     /// the set points it sends ([`crate::motion`]).
