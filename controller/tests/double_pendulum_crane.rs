@@ -83,6 +83,9 @@ fn its_moves_are_planned_with_its_own_smoothness_and_checks() {
         ([16.0, 8.0], Some(3.0), Reject::TrolleyVelocity),
         ([12.0, 10.5], None, Reject::RopeWorkspace),
         ([24.0, 8.0], None, Reject::TrolleyWorkspace),
+        // The load 0.8 m below the rail: its hook, a 1 m sling above it, would reach the
+        // rail (the rope's range is left on the way too; the hook's reason comes first).
+        ([12.0, 0.8], None, Reject::HookAtRail),
     ];
     for (to, duration, expected) in cases {
         assert_eq!(
@@ -154,9 +157,24 @@ fn a_move_that_would_slacken_the_rope_to_the_hook_is_refused_as_such() {
         })
         .collect();
     assert!(!pushing.is_empty());
-    assert!(pushing.iter().all(|t| p.slack_rope(&plan, *t, limit)));
+    assert!(pushing.iter().all(|t| {
+        let a_load = plan.derivatives::<3>(*t)[2].y;
+        p.taut_flat(&plan, *t, a_load, limit) == Err(Reject::SlackRope)
+    }));
     let (_, mean) = peaks(slow);
     assert!(mean < 0.9 * limit, "mean {mean}");
+    // Where the rope stays taut, the one flat inverse the planner computes per sample is
+    // the crane's flat, bit for bit.
+    let mut plan = from;
+    let step = plan.candidate(to.into(), 0.0, slow).unwrap();
+    plan.push(step).unwrap();
+    let (t0, t1) = step.active_span();
+    for i in 0..=100 {
+        let t = t0 + (t1 - t0) * f64::from(i) / 100.0;
+        let a_load = plan.derivatives::<3>(t)[2].y;
+        let taut = p.taut_flat(&plan, t, a_load, limit);
+        assert_eq!(taut, Ok(p.flat(&plan, t)), "at {t} s");
+    }
     assert!(hook_and_load.plan_move(&from, to, Some(slow), 0.0).is_ok());
 }
 
@@ -262,4 +280,104 @@ fn the_controller_moves_it_and_resets_it_where_its_drives_stand() {
     assert_eq!(c.mode(), Mode::Ready);
     let at = drives(&bus);
     assert!(near(at, p.drives_at_rest(second)), "drives at {at:?}");
+}
+
+/// A stop mid-move brings the crane to rest, ready, without a fault. Known defect
+/// (issue 29's interop work found it; on main too): stopped 1.5–4.2 s into (12, 8) →
+/// (16, 6) in 8 s, the stop's plan passes the planner (the exact inverse's trolley
+/// `|u̇|` at most 2.84 m/s², under 0.95 · 3), but near the stop's end the BDF4 set points
+/// oscillate cycle to cycle and one exceeds the trolley's 3 m/s² (3.0–3.8 m/s²): the
+/// gate refuses it, fault 2, halted. `cargo test -p controller --test
+/// double_pendulum_crane -- --ignored --nocapture` prints each case.
+#[test]
+#[ignore = "known defect: a hook-and-load stop mid-move ends in fault 2 (over acceleration)"]
+fn a_stop_mid_move_comes_to_rest_without_a_fault() {
+    use controller::commands::{Answer, Request};
+    use controller::feedback::NoFeedback;
+    use controller::{Config, Controller, Injectable, InverseModel, Mode};
+    use sim::{run_cycle, Action, VirtualBus, HEALTHY};
+    use solver_core::models::double_pendulum as subs;
+    use solver_core::{JacobianMode, SolverSettings};
+
+    let p = HookAndLoad::EXAMPLE;
+    let home = [12.0, 8.0];
+    let mut faulted = Vec::new();
+    for stop_after in [150, 200, 250, 300, 340, 420] {
+        let model = DoublePendulumSubs::new(p, at_rest(home)).unwrap();
+        let settings = SolverSettings {
+            h: 0.01,
+            ..SolverSettings::paper(JacobianMode::Exact)
+        };
+        let integrator = subs::StructuredBdf::new(&model, &settings, 4, 0.0).unwrap();
+        let ff = Injectable::new(InverseModel::new(model, integrator));
+        let mut c = Controller::with_correction(ff, NoFeedback, planner(p), Config::DEFAULT);
+        let mut bus = VirtualBus::for_crane(HEALTHY, &p, p.drives_at_rest(home));
+        let mut now = 0;
+        let mut run = |c: &mut Controller<_, NoFeedback, HookAndLoad, 2>,
+                       bus: &mut VirtualBus<HookAndLoad, 2>,
+                       n: usize| {
+            for _ in 0..n {
+                run_cycle(c, bus, now).unwrap();
+                now += 10;
+            }
+        };
+        run(&mut c, &mut bus, 200);
+        bus.inject(Action::Request(Request::Move {
+            id: 1,
+            target: [16.0, 6.0],
+            duration: Some(8.0),
+        }));
+        run(&mut c, &mut bus, stop_after);
+        bus.inject(Action::Request(Request::Stop { id: 2 }));
+        run(&mut c, &mut bus, 3);
+        assert_eq!(c.last_answer(), (2, Answer::Accepted, None));
+        run(&mut c, &mut bus, 1_000);
+        eprintln!("stopped {stop_after} cycles in: {:?}", c.mode());
+        if c.mode() != Mode::Ready {
+            faulted.push((stop_after, c.mode()));
+        }
+    }
+    assert!(faulted.is_empty(), "{faulted:?}");
+}
+
+/// The load's path, counting the flat inverses taken on it: each evaluates the path's
+/// derivatives to order 7 (8 values) once, nothing else asks for that many.
+struct Counted<'a> {
+    plan: &'a Plan<f64, 2>,
+    flat_inverses: std::cell::Cell<usize>,
+}
+
+impl Trajectory<f64, 2> for Counted<'_> {
+    fn derivatives<const D: usize>(&self, t: f64) -> [nalgebra::SVector<f64, 2>; D] {
+        if D >= 8 {
+            self.flat_inverses.set(self.flat_inverses.get() + 1);
+        }
+        self.plan.derivatives::<D>(t)
+    }
+    fn active_span(&self) -> (f64, f64) {
+        self.plan.active_span()
+    }
+    fn smoothness(&self) -> usize {
+        self.plan.smoothness()
+    }
+}
+
+/// The planner takes the flat inverse once per path sample, the rope check and the
+/// drives' checks from the same one: a check of a move is 101 samples, 101 flat inverses
+/// (202 while the rope check took its own).
+#[test]
+fn the_planner_takes_one_flat_inverse_per_sample() {
+    let p = planner(HookAndLoad::EXAMPLE);
+    let mut plan = at_rest([12.0, 8.0]);
+    let step = p.plan_move(&plan, [20.0, 5.0], Some(8.0), 0.0).unwrap();
+    plan.push(step).unwrap();
+    let (t0, t1) = step.active_span();
+    let counted = Counted {
+        plan: &plan,
+        flat_inverses: std::cell::Cell::new(0),
+    };
+    assert_eq!(p.check(&counted, t0, t1), Ok(()));
+    let per_check = counted.flat_inverses.get();
+    eprintln!("flat inverses per check of a move: {per_check}");
+    assert_eq!(per_check, controller::planner::SAMPLES + 1);
 }
