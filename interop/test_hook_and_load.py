@@ -53,10 +53,9 @@ from test_black_box import (
     cycles_between,
     last_motion,
     off_beat,
-    positions,
     wait_rest,
 )
-from test_crane3d import assert_answered_once
+from test_crane3d import assert_answered_once, stopped_short
 from test_interop import (
     TROLLEY,
     WINCH,
@@ -190,18 +189,9 @@ def test_a_stop_mid_move_is_obeyed_at_once_and_never_carries_the_load_past_its_t
     t_end = last_motion(log, t_accept)
     cycles = cycles_between(log, t_accept, t_end)
     assert cycles <= duration * 100, f"ended {cycles} cycles after the answer: later than the move"
-    tol = 5 * MM  # the planar black-box test's
-    fractions = []
-    for i, n in enumerate(NODES):
-        x0, x1, x = rest_start[i] * UM, rest_target[i] * UM, rest[n]["position"]
-        sign = 1 if x1 > x0 else -1
-        # At rest, and on the way (position actual, every SYNC), never past where the
-        # drive stands for the target: at rest the load hangs below the drives, so it is
-        # not past its target either.
-        assert sign * (x - x1) <= tol, f"node {n} rests at {x / UM:.4f} m, for the target {rest_target[i]}"
-        way = positions(log, n, t_accept, t_end + 0.5)
-        assert max(sign * (v - x1) for v in way) <= tol, f"node {n} passed where it stands for the target"
-        fractions.append((x - x0) / (x1 - x0))
+    # Never past where the drives stand for the target: at rest the load hangs below
+    # them, so it is not past its target either.
+    fractions = stopped_short(log, rest, rest_start, rest_target, t_accept, t_end, nodes=NODES)
     print(f"at rest {fractions} of the way, {cycles} cycles after the answer")
     # On the load's straight path: the drives stand above it, the rope a sling shorter,
     # so both are the same fraction of their way.
