@@ -26,8 +26,9 @@ late, filtered and noisy as a real one (`--inclinometer-delay`, `--inclinometer-
 rope need not be what the commissioning file's scaling says (`--true-rope`): issue 33's
 rope calibration (test_rope_calibration.py).
 
-Each drive powers on where `--start` puts its axis (metres, the scene's start in the
-model's order: trolley, winch; the 3D crane's bridge, trolley, winch), through the
+Each drive powers on where `--start` puts its axis (metres, in the model's input order:
+trolley, winch; the 3D crane's bridge, trolley, winch: where the crane's drives stand
+while the load rests at the scene's start, `rig.drives_at_rest`), through the
 commissioning file's scaling; `--trolley`, `--winch`, `--bridge` (increments) override.
 
 Run as `python drives.py --port N [options]`; it takes commands on stdin, one a line,
@@ -482,7 +483,7 @@ def main():
     p.add_argument(
         "--start",
         type=lambda v: [float(x) for x in v.split(",")],
-        help="where the crane rests at power-on, m, in the model's order (the scene's start)",
+        help="where each drive stands at power-on, m, in the model's input order (rig.drives_at_rest)",
     )
     p.add_argument("--trolley", type=float, help="trolley position at power-on, increments (12e6)")
     p.add_argument("--winch", type=float, help="winch position at power-on, increments (8e6)")

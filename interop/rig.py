@@ -1,7 +1,8 @@
 """One interop run: the virtual ECU (the real controller in real time, SLCAN over TCP)
 built for a scene (the default scene unless `scene` is given), the scene's simulated
-drives in their own process (drives.py, one per row of the commissioning file, resting
-where the scene's move starts; for the planar crane with the load they swing, and with
+drives in their own process (drives.py, one per row of the commissioning file, standing
+where the crane holds them while the load rests at the scene's move's start, as the ECU
+says (`drives_at_rest`); for the planar crane with the load they swing, and with
 `--inclinometer` the CiA 410 inclinometer that measures it, load.py), and a supervisor —
 a python-canopen network with the controller as a RemoteNode (can/crane-controller.eds)
 that reads its object dictionary over SDO and sends commands on 0x210 (the 3D crane's
@@ -18,7 +19,6 @@ import subprocess
 import sys
 import threading
 import time
-import tomllib
 
 import can
 import canopen
@@ -109,10 +109,11 @@ class Rig:
         self.network.add_node(self.controller)
         self.drives_err = open(os.path.join(self.tmp, "drives.stderr"), "w")
         # The commissioning file next to the scene: the drives (nodes, order, scaling), the
-        # inclinometer; the drives rest where the scene's crane rests until a command.
+        # inclinometer; the drives stand where the scene's crane holds them while the load
+        # rests at the move's start, until a command.
         self.scene = scene or DEFAULT_SCENE
         commissioning = os.path.join(ROOT, os.path.dirname(self.scene), "commissioning.toml")
-        start = ",".join(repr(float(v)) for v in scene_start(self.scene))
+        start = ",".join(repr(v) for v in drives_at_rest(self.scene))
         self.drives = subprocess.Popen(
             [sys.executable, os.path.join(HERE, "drives.py"), "--port", str(self.port)]
             + ["--commissioning", commissioning, "--start", start, *drive_args],
@@ -291,11 +292,17 @@ def dbc():
     return _DBC[0]
 
 
-def scene_start(scene):
-    """Where the scene's crane rests before its move (its trajectory's start, m): the
-    controller rests there until a command (the ECU without --demo)."""
-    with open(os.path.join(ROOT, scene), "rb") as f:
-        return tomllib.load(f)["trajectory"]["start"]
+def drives_at_rest(scene, load=None):
+    """Where the scene's crane's drives stand while its load rests at `load` (m, the
+    model's outputs; the scene's start if None), in the model's input order, m — asked of
+    the ECU (`ecu --drives-at-rest`, the controller's own `Crane::drives_at_rest`), so
+    that no crane's geometry is written here a second time: the planar and 3D crane's
+    drives stand where the load hangs, the hook-and-load crane's rope is a sling shorter."""
+    command = [ECU, "--scene", scene, "--drives-at-rest"]
+    if load is not None:
+        command.append(",".join(repr(float(v)) for v in load))
+    out = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, check=True)
+    return [float(v) for v in out.stdout.split()]
 
 
 class Log:

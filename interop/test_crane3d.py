@@ -266,22 +266,31 @@ def test_a_stop_mid_move_rests_on_the_path_short_of_the_target_never_past_it(rig
     t_accept = next(t for (t, k) in answers(log) if k == (1, ACCEPTED, 0))
     t_end = last_motion(log, t_accept, nodes=NODES)
     assert cycles_between(log, t_accept, t_end) <= duration * 100, "never later than the move"
-    tol = 5 * MM  # the planar black-box test's
-    fractions = []
-    for i, n in enumerate(NODES):
-        x0, x1, x = START[i] * UM, target[i] * UM, rest[n]["position"]
-        sign = 1 if x1 > x0 else -1
-        # Never past the target: at rest, nor on the way (position actual, every SYNC).
-        assert sign * (x - x1) <= tol, f"node {n} rests at {x / UM:.4f} m, target {target[i]}"
-        way = positions(log, n, t_accept, t_end + 0.5)
-        assert max(sign * (v - x1) for v in way) <= tol, f"node {n} passed its target"
-        fractions.append((x - x0) / (x1 - x0))
+    fractions = stopped_short(log, rest, START, target, t_accept, t_end)
     # On the move's straight path (the load hangs still under the trolley at rest): the
     # same fraction of the way in every axis, and well short of the target.
     assert max(fractions) - min(fractions) < 0.01, f"off the straight path: {fractions}"
     print(f"at rest {fractions[0]:.4f} of the way, {cycles_between(log, t_accept, t_end)} cycles after the answer")
     assert 0.2 < fractions[0] < 0.9, f"stopped {fractions[0]:.3f} of the way"
     assert_setpoints_within_limits(log, LIMITS)
+
+
+def stopped_short(log, rest, start, target, t_accept, t_end, nodes=NODES):
+    """Each drive of `nodes`, stopped on its way from `start` to where it stands for
+    `target` (m, in the nodes' order): never past that, at rest (`rest`, as `wait_rest`
+    read it) nor on the way (position actual, every SYNC from `t_accept` to half a
+    second after `t_end`), within the planar black-box test's 5 mm. Returns the fraction
+    of its way each drive rests at."""
+    tol = 5 * MM
+    fractions = []
+    for i, n in enumerate(nodes):
+        x0, x1, x = start[i] * UM, target[i] * UM, rest[n]["position"]
+        sign = 1 if x1 > x0 else -1
+        assert sign * (x - x1) <= tol, f"node {n} rests at {x / UM:.4f} m, for the target {target[i]}"
+        way = positions(log, n, t_accept, t_end + 0.5)
+        assert max(sign * (v - x1) for v in way) <= tol, f"node {n} passed where it stands for the target"
+        fractions.append((x - x0) / (x1 - x0))
+    return fractions
 
 
 # --- 4: the bridge drive faults --------------------------------------------------------------

@@ -229,6 +229,10 @@ pub enum Reject {
     /// is not known: a move from the wrong start would end off its target. A reset takes
     /// the drives' positions as the crane's.
     NotInPlace = 15,
+    /// The hook-and-load crane's hook block would reach the rail (the flat inverse has no
+    /// hook below it): not the trolley's end stop nor the rope's range, which a PLC would
+    /// look for elsewhere.
+    HookAtRail = 16,
 }
 
 /// The status frame's contents.

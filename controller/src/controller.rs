@@ -17,7 +17,7 @@ use crate::canopen::{self, nmt, Incoming, NmtCommand, NmtState};
 use crate::cia402::pdo::{self, Tpdo};
 use crate::cia402::{controlword, DriveState};
 use crate::cia410;
-use crate::commands::{self, status_frame, Answer, Reject, Request, Status};
+use crate::commands::{self, Answer, Reject, Request, Status};
 use crate::commissioning::{Commissioning, CommissioningError, Device, NodeSetup, Phase, Progress};
 pub use crate::config::Config;
 use crate::correction::{AxesCorrection, Measured};
@@ -31,7 +31,10 @@ use crate::links::{self, DriveLink, Heartbeat, Link, Links, Silent};
 use crate::motion::{Breach, Deviations, Lag};
 use crate::node::{Dictionary, Node, Role, Snapshot, StagedRequest};
 use crate::planner::{Crane, MoveSearch, Planner, SAMPLES_PER_CYCLE};
-use crate::requests::{AnswerRecord, PendingMove, Requests};
+use crate::requests::{PendingMove, Requests};
+use crate::services;
+use crate::services::nmt::NmtSlave;
+use crate::services::status::StatusProducer;
 use crate::setpoint::{Setpoint, SetpointGate, UNITS_PER_M_PER_S};
 use solver_core::models::crane::CraneParams;
 
@@ -176,7 +179,10 @@ pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
     /// The feedback mode last announced (EMCY 0xFF20 when it stops reading the angle).
     feedback_announced: Option<FeedbackMode>,
     config: Config,
-    node: Node,
+    /// The NMT slave: the controller's own node, its boot-up and heartbeat.
+    nmt: NmtSlave,
+    /// The status frames: one per answer, and every period.
+    status_producer: StatusProducer,
     /// The choke point, with the planner's drive limits.
     gate: SetpointGate<A>,
     planner: Planner<K, A>,
@@ -203,10 +209,6 @@ pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
     resetting: u8,
     last_supervisor_heartbeat_ms: Option<u64>,
     now_ms: u64,
-    /// The first cycle has not run yet (the boot-up message is due).
-    starting: bool,
-    /// A boot-up message is due (first cycle, or an NMT reset of this node).
-    boot_up: bool,
     /// SYNC was sent in the last cycle (the drives' TPDOs are due).
     syncing: bool,
 }
@@ -244,7 +246,7 @@ where
             closed_loop: false,
             feedback_announced: None,
             config,
-            node: Node {
+            nmt: NmtSlave::new(Node {
                 id: config.node,
                 role: config.role,
                 // A manager starts itself (CiA 302); a slave waits for its master.
@@ -270,7 +272,8 @@ where
                     .min()
                     .unwrap_or(0),
                 listed: config.nodes.map(|n| n.map_or(0, |n| n.node())),
-            },
+            }),
+            status_producer: StatusProducer::new(config.heartbeat_period_ms),
             gate: SetpointGate::with_axes(K::DRIVES, planner.limits(), config.period_s()),
             lags: planner.lags().map(|tau| Lag::new(tau, config.period_ms)),
             planner,
@@ -287,8 +290,6 @@ where
             resetting: 0,
             last_supervisor_heartbeat_ms: None,
             now_ms: 0,
-            starting: true,
-            boot_up: true,
             syncing: false,
         }
     }
@@ -322,7 +323,7 @@ where
     /// The controller's own NMT state.
     #[must_use]
     pub fn nmt_state(&self) -> NmtState {
-        self.node.state
+        self.nmt.node.state
     }
 
     /// Diagnostics.
@@ -410,7 +411,7 @@ where
     /// Takes one received frame. Frames it does not understand are ignored and counted:
     /// they never change a set point.
     pub fn on_frame(&mut self, frame: &CanFrame, now_ms: u64) {
-        if canopen::cob::produced_by(self.node.id, frame.id()) {
+        if canopen::cob::produced_by(self.nmt.node.id, frame.id()) {
             self.counters.frames_received = self.counters.frames_received.saturating_add(1);
             self.fault(Fault::DuplicateNodeId);
             return;
@@ -439,7 +440,7 @@ where
         self.counters.frames_received = self.counters.frames_received.saturating_add(1);
         match incoming {
             Incoming::Nmt { command, node } => {
-                if node == 0 || node == self.node.id {
+                if node == 0 || node == self.nmt.node.id {
                     self.on_nmt(command);
                 }
             }
@@ -527,12 +528,12 @@ where
                 }
             }
             Incoming::SdoRequest { node, data } => {
-                if node != self.node.id {
+                if node != self.nmt.node.id {
                     // Another server's traffic: not for us.
                     return;
                 }
                 // CiA 301: SDO is served in pre-operational and operational, not stopped.
-                if self.node.state != NmtState::Stopped {
+                if self.nmt.node.state != NmtState::Stopped {
                     // Served only if its answer has a place: a request is never acted
                     // on unanswered (a client beyond SDO_ANSWERS waiting is counted).
                     if self.sdo_answers.is_full() {
@@ -541,7 +542,7 @@ where
                     }
                     let snapshot = self.snapshot();
                     let mut od = Dictionary {
-                        node: &mut self.node,
+                        node: &mut self.nmt.node,
                         snapshot,
                     };
                     if let Some(answer) = sdo::serve(&mut od, self.config.node, &data) {
@@ -549,8 +550,8 @@ where
                         let _ = self.sdo_answers.push_back(answer);
                     }
                     // A request written over SDO: taken as the command frame's.
-                    if core::mem::take(&mut self.node.request.submitted) {
-                        if let Ok(request) = self.node.request.request() {
+                    if core::mem::take(&mut self.nmt.node.request.submitted) {
+                        if let Ok(request) = self.nmt.node.request.request() {
                             self.on_request(request);
                         }
                     }
@@ -558,19 +559,19 @@ where
             }
             // The supervisor's command frame: the controller's own RPDO1. (Another
             // node's RPDO1 — a PLC's to its own devices — is not ours.)
-            Incoming::Rpdo1 { node, frame } if node == self.node.id => {
+            Incoming::Rpdo1 { node, frame } if node == self.nmt.node.id => {
                 match commands::decode_request(frame.data()) {
                     // PDOs are processed only in *operational* (CiA 301).
-                    Ok(request) if self.node.state == NmtState::Operational => {
+                    Ok(request) if self.nmt.node.state == NmtState::Operational => {
                         self.on_request(request);
                     }
                     _ => self.ignore(),
                 }
             }
             // The supervisor's 3D move frame: the controller's own RPDO2.
-            Incoming::Rpdo2 { node, frame } if node == self.node.id => {
+            Incoming::Rpdo2 { node, frame } if node == self.nmt.node.id => {
                 match commands::decode_move3d(frame.data()) {
-                    Ok(request) if self.node.state == NmtState::Operational => {
+                    Ok(request) if self.nmt.node.state == NmtState::Operational => {
                         self.on_request(request);
                     }
                     _ => self.ignore(),
@@ -583,7 +584,7 @@ where
                 let Some(drive) = self.drive_at(node) else {
                     return;
                 };
-                if self.node.state == NmtState::Operational
+                if self.nmt.node.state == NmtState::Operational
                     && self.link(drive).is_some_and(DriveLink::linked)
                 {
                     self.fault(Fault::ForeignProducer(Foreign::Rpdo(drive)));
@@ -634,7 +635,7 @@ where
                     state,
                     sensor.commissioning.phase(),
                     sensor.seen_operational,
-                    self.node.role == Role::Manager,
+                    self.nmt.node.role == Role::Manager,
                 );
                 if left {
                     sensor.swing = None;
@@ -705,8 +706,8 @@ where
     }
 
     fn supervisor_node(&self) -> Option<u8> {
-        let node = ((self.node.supervisor >> 16) & 0x7F) as u8;
-        (node != 0 && self.node.supervisor & 0xFFFF != 0).then_some(node)
+        let node = ((self.nmt.node.supervisor >> 16) & 0x7F) as u8;
+        (node != 0 && self.nmt.node.supervisor & 0xFFFF != 0).then_some(node)
     }
 
     fn warn(&mut self) {
@@ -717,10 +718,9 @@ where
     /// ([`Node::on_nmt`]); outside *operational*, what waits is refused and a move is a
     /// fault.
     fn on_nmt(&mut self, command: NmtCommand) {
-        if self.node.on_nmt(command, self.config.heartbeat_period_ms) {
-            self.boot_up = true;
-        }
-        if self.node.state != NmtState::Operational {
+        self.nmt
+            .on_command(command, self.config.heartbeat_period_ms);
+        if self.nmt.node.state != NmtState::Operational {
             // Requests are process data: none taken in operational is acted on outside
             // it — each waiting one is refused (answered when the status may go out).
             self.refuse_waiting(true);
@@ -735,7 +735,7 @@ where
     /// stopped one (configuration intact) by NMT *start* from a manager or its master,
     /// any other by commissioning it again. Whatever it reported before counts no more.
     fn on_heartbeat(&mut self, drive: Drive, state: NmtState, now_ms: u64) {
-        let manager = self.node.role == Role::Manager;
+        let manager = self.nmt.node.role == Role::Manager;
         let Some(link) = self.link_mut(drive) else {
             return;
         };
@@ -788,7 +788,7 @@ where
         if self.mode == Mode::Ready {
             self.mode = Mode::Enabling;
         }
-        if self.node.state != NmtState::Operational {
+        if self.nmt.node.state != NmtState::Operational {
             return;
         }
         let node = self.node_of(drive);
@@ -796,7 +796,7 @@ where
         // (see emcy::is_fault).
         let code = Fault::DriveLeftOperational(drive, state).code();
         self.send_emcy(canopen::emcy(
-            self.node.id,
+            self.nmt.node.id,
             emcy::HEARTBEAT,
             REGISTER_COMMUNICATION,
             [code, node, state as u8, 0, 0],
@@ -909,7 +909,7 @@ where
         {
             self.rpdo_failed = true;
         }
-        if id == canopen::cob::EMCY + u16::from(self.node.id) && !self.emcy.lost(frame) {
+        if id == canopen::cob::EMCY + u16::from(self.nmt.node.id) && !self.emcy.lost(frame) {
             self.ignore();
         }
     }
@@ -933,18 +933,12 @@ where
             mode: self.mode,
         };
         let frames = &mut cycle.frames;
-        let first = core::mem::take(&mut self.starting);
-        if core::mem::take(&mut self.boot_up) {
-            self.push(frames, canopen::heartbeat(self.node.id, NmtState::BootUp));
-            // A manager starts itself after its boot-up (CiA 302); a slave waits for
-            // its master's *start*.
-            if self.node.role == Role::Manager {
-                self.node.state = NmtState::Operational;
-            }
+        if let Some(boot_up) = self.nmt.begin_cycle() {
+            self.push(frames, boot_up);
         }
         // (An answer to a request served before an NMT stop waits: no SDO in stopped.)
         for _ in 0..SDO_PER_CYCLE {
-            if !self.node.state.services().sdo {
+            if !self.nmt.node.state.services().sdo {
                 break;
             }
             let Some(answer) = self.sdo_answers.pop_front() else {
@@ -954,7 +948,7 @@ where
         }
         // What the controller's own NMT state lets it send (CiA 301); bringing a moving
         // load to rest is the one exception, for the RPDOs and the SYNC that apply them.
-        let allowed = self.node.state.services();
+        let allowed = self.nmt.node.state.services();
         let finishing = self.moving();
         let pdo = allowed.pdo || finishing;
         let sync = allowed.sync || finishing;
@@ -963,7 +957,7 @@ where
         self.supervise_motion(now_ms);
         // A manager commissions and starts its nodes only while operational itself; a
         // slave commissions them by SDO in pre-operational too (its master starts them).
-        if allowed.sdo && (self.node.role == Role::Slave || allowed.pdo) {
+        if allowed.sdo && (self.nmt.node.role == Role::Slave || allowed.pdo) {
             self.commission(now_ms, frames);
         } else {
             self.suspend_commissioning();
@@ -1046,33 +1040,22 @@ where
             self.push(frames, canopen::sync());
         }
         self.syncing = sync;
-        // Every `ms` on the cycle (0: never), from the second cycle on.
-        let every = |ms: u32| {
-            let cycles = ms.checked_div(self.config.period_ms).unwrap_or(0);
-            !first && cycles != 0 && self.counters.cycles.is_multiple_of(cycles)
-        };
-        // The heartbeat on 0x1017; the status on the commissioned period, whatever
-        // 0x1017 is set to (a supervisor reads the status, drives watch the heartbeat).
-        let beat = every(u32::from(self.node.heartbeat_ms));
-        let status_due = every(u32::from(self.config.heartbeat_period_ms));
-        if beat {
-            self.push(frames, canopen::heartbeat(self.node.id, self.node.state));
+        let clock = self.nmt.clock(self.counters.cycles, self.config.period_ms);
+        if let Some(heartbeat) = self.nmt.heartbeat(clock) {
+            self.push(frames, heartbeat);
         }
-        if self.node.state == NmtState::Operational {
-            // One status frame per answer (STATUS_PER_CYCLE at most, room permitting),
-            // and every period.
-            let mut sent = 0;
-            while sent < STATUS_PER_CYCLE && frames.len() < MAX_FRAMES {
-                let Some(answer) = self.requests.next_unsent() else {
+        if self.nmt.node.state == NmtState::Operational {
+            // One status frame per answer (room permitting), and every period.
+            let (node, status) = (self.nmt.node.id, self.status());
+            while frames.len() < MAX_FRAMES {
+                let next_unsent = || self.requests.next_unsent();
+                let Some(frame) = self.status_producer.answer(node, &status, next_unsent) else {
                     break;
                 };
-                let status = self.status_with(answer);
-                self.push(frames, status_frame(self.node.id, &status));
-                sent += 1;
+                self.push(frames, frame);
             }
-            if status_due && sent == 0 {
-                let status = self.status();
-                self.push(frames, status_frame(self.node.id, &status));
+            if let Some(frame) = self.status_producer.end_cycle(node, &status, clock) {
+                self.push(frames, frame);
             }
         }
         self.counters.cycles = self.counters.cycles.wrapping_add(1);
@@ -1164,7 +1147,7 @@ where
                     .sensor()
                     .map_or(0, |s| s.commissioning.setup().node);
                 self.send_emcy(canopen::emcy(
-                    self.node.id,
+                    self.nmt.node.id,
                     emcy::FEEDBACK_OFF,
                     REGISTER_MANUFACTURER,
                     [15, node, reason.code(), 0, 0],
@@ -1196,10 +1179,7 @@ where
     /// The status frame's contents now.
     #[must_use]
     pub fn status(&self) -> Status {
-        self.status_with(self.requests.last())
-    }
-
-    fn status_with(&self, answer: AnswerRecord) -> Status {
+        let answer = self.requests.last();
         Status {
             last_id: answer.id,
             answer: answer.answer,
@@ -1301,7 +1281,7 @@ where
             }
             // Answered on arrival and obeyed by `obey_stop`; never queued.
             Request::Stop { .. } => Ok(Answer::Accepted),
-            Request::Reset { .. } if self.node.state != NmtState::Operational => {
+            Request::Reset { .. } if self.nmt.node.state != NmtState::Operational => {
                 Err(Reject::NotReady)
             }
             Request::Reset { .. } => match self.mode {
@@ -1374,7 +1354,9 @@ where
     /// Whether a move may be accepted: ready, every drive ready, and the controller
     /// operational (a move is process data, and a stop frame is one too).
     fn may_move(&self) -> bool {
-        self.mode == Mode::Ready && self.drives_ready() && self.node.state == NmtState::Operational
+        self.mode == Mode::Ready
+            && self.drives_ready()
+            && self.nmt.node.state == NmtState::Operational
     }
 
     /// Advances the move being planned by this cycle's share of samples; places it in
@@ -1479,7 +1461,7 @@ where
         self.last_miss_cycle = None;
         self.failed_cycles = 0;
         self.mode = Mode::Enabling;
-        self.send_emcy(canopen::emcy(self.node.id, emcy::NO_ERROR, 0, [0; 5]));
+        self.send_emcy(canopen::emcy(self.nmt.node.id, emcy::NO_ERROR, 0, [0; 5]));
         Ok(())
     }
 
@@ -1608,7 +1590,7 @@ where
         if self.supervisor_node().is_some()
             && late(
                 self.last_supervisor_heartbeat_ms,
-                self.node.supervisor & 0xFFFF,
+                self.nmt.node.supervisor & 0xFFFF,
             )
             && self.moving()
         {
@@ -1732,42 +1714,14 @@ where
         self.announce(fault);
     }
 
-    /// The EMCY of `fault`; for a commissioning failure a second one, EMCY 0xFF12 with
-    /// the SDO abort code, which does not fit beside the drive and the object.
+    /// The EMCYs announcing `fault` ([`services::emcy::announcement`]).
     fn announce(&mut self, fault: Fault) {
-        self.send_emcy(self.emcy_of(fault));
-        if let Fault::Commissioning(_, error) = fault {
-            let [a0, a1, a2, a3] = error.abort_code().to_le_bytes();
-            self.send_emcy(canopen::emcy(
-                self.node.id,
-                emcy::COMMISSIONING_ABORT,
-                REGISTER_GENERIC | REGISTER_MANUFACTURER,
-                [emcy::ABORT_CODE_FOLLOWS, a0, a1, a2, a3],
-            ));
+        let drive_node = fault.drive().map_or(0, |d| self.node_of(d));
+        let (emcy, abort) = services::emcy::announcement(self.nmt.node.id, fault, drive_node);
+        self.send_emcy(emcy);
+        if let Some(abort) = abort {
+            self.send_emcy(abort);
         }
-    }
-
-    /// The EMCY announcing `fault`: manufacturer bytes fault code, node, detail, and for a
-    /// commissioning failure the object's index (docs/COMMANDS.md).
-    fn emcy_of(&self, fault: Fault) -> CanFrame {
-        let facts = fault.facts();
-        let node = fault.drive().map_or(0, |d| self.node_of(d));
-        let info = match fault {
-            // The object in the same layout: the sub-index as the detail, the index in
-            // the last two bytes; the abort code follows in EMCY 0xFF12 (and 0x2002:4).
-            Fault::Commissioning(_, error) => {
-                let object = error.object();
-                let [i0, i1] = object.index.to_le_bytes();
-                [facts.code, node, object.sub, i0, i1]
-            }
-            _ => [facts.code, node, fault.detail(), 0, 0],
-        };
-        canopen::emcy(
-            self.node.id,
-            facts.emcy_code,
-            REGISTER_GENERIC | facts.register,
-            info,
-        )
     }
 
     fn push(&mut self, frames: &mut Vec<CanFrame, MAX_FRAMES>, frame: CanFrame) {

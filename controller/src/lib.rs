@@ -57,6 +57,7 @@ pub mod planner;
 pub mod reference;
 mod requests;
 pub mod rope;
+mod services;
 pub mod setpoint;
 pub mod transmit;
 pub mod zero;

@@ -33,9 +33,10 @@ pub const MAX_DOWN_ACCELERATION: f64 = 0.5;
 pub const DURATION_RANGE: (f64, f64) = (0.5, 600.0);
 /// The checks, in the order of precedence of their reasons (a planar crane never
 /// meets the bridge's).
-const ORDER: [Reject; 10] = [
+const ORDER: [Reject; 11] = [
     Reject::BridgeWorkspace,
     Reject::TrolleyWorkspace,
+    Reject::HookAtRail,
     Reject::RopeWorkspace,
     Reject::SlackRope,
     Reject::BridgeVelocity,
@@ -105,13 +106,13 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
             return bit(Reject::RopeWorkspace);
         }
         let max_down_acceleration = MAX_DOWN_ACCELERATION * self.crane.g();
-        if zcdd.is_nan()
-            || zcdd > max_down_acceleration
-            || self.crane.slack_rope(z, t, max_down_acceleration)
-        {
+        if zcdd.is_nan() || zcdd > max_down_acceleration {
             return bit(Reject::SlackRope);
         }
-        let f = self.crane.flat(z, t);
+        let f = match self.crane.taut_flat(z, t, zcdd, max_down_acceleration) {
+            Ok(f) => f,
+            Err(reason) => return bit(reason),
+        };
         let mut found = 0;
         let axes = K::REASONS
             .iter()

@@ -27,7 +27,7 @@ pub(crate) struct AnswerRecord {
 
 impl AnswerRecord {
     /// `request`'s answer.
-    fn of(id: u8, answer: Result<Answer, Reject>) -> Self {
+    pub(crate) fn of(id: u8, answer: Result<Answer, Reject>) -> Self {
         let (answer, reason) = match answer {
             Ok(a) => (a, None),
             Err(r) => (Answer::Rejected, Some(r)),

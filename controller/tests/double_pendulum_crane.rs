@@ -6,7 +6,7 @@
 use controller::commands::Reject;
 use controller::crane::double_pendulum::HookReference;
 use controller::crane::{command_plan, Crane};
-use controller::feedforward::CraneReference;
+use controller::feedforward::{CraneReference, Feedforward, Replan};
 use controller::planner::Planner;
 use controller::setpoint::AxisLimits;
 use solver_core::models::crane::CraneParams;
@@ -26,6 +26,53 @@ fn planner(p: HookAndLoad) -> Planner<HookAndLoad, 2> {
 /// The load at rest at `at`, planned as the controller plans this crane's moves.
 fn at_rest(at: [f64; 2]) -> Plan<f64, 2> {
     command_plan::<HookAndLoad, 2>(at, 4).unwrap()
+}
+
+/// The controller driving the hook-and-load crane `p` on the virtual bus (*subs*, BDF4
+/// with its structured Newton, 10 ms), its drives powered up where they stand for the
+/// load at rest at `home`, and the bus's time, ms.
+struct OnBus<F> {
+    c: controller::Controller<
+        controller::Injectable<F>,
+        controller::feedback::NoFeedback,
+        HookAndLoad,
+        2,
+    >,
+    bus: sim::VirtualBus<HookAndLoad, 2>,
+    now: u32,
+}
+
+impl<F: Feedforward<2, Reference = HookReference> + Replan<2>> OnBus<F> {
+    /// `n` cycles of 10 ms.
+    fn run(&mut self, n: usize) {
+        for _ in 0..n {
+            sim::run_cycle(&mut self.c, &mut self.bus, self.now).unwrap();
+            self.now += 10;
+        }
+    }
+}
+
+fn on_bus(
+    p: HookAndLoad,
+    home: [f64; 2],
+) -> OnBus<impl Feedforward<2, Reference = HookReference> + Replan<2>> {
+    use controller::feedback::NoFeedback;
+    use controller::{Config, Controller, Injectable, InverseModel};
+    use solver_core::models::double_pendulum as subs;
+    use solver_core::{JacobianMode, SolverSettings};
+
+    let model = DoublePendulumSubs::new(p, at_rest(home)).unwrap();
+    let settings = SolverSettings {
+        h: 0.01,
+        ..SolverSettings::paper(JacobianMode::Exact)
+    };
+    let integrator = subs::StructuredBdf::new(&model, &settings, 4, 0.0).unwrap();
+    let ff = Injectable::new(InverseModel::new(model, integrator));
+    OnBus {
+        c: Controller::with_correction(ff, NoFeedback, planner(p), Config::DEFAULT),
+        bus: sim::VirtualBus::for_crane(sim::HEALTHY, &p, p.drives_at_rest(home)),
+        now: 0,
+    }
 }
 
 /// With a hook of a millionth of the load's mass on a 0.5 m sling, rope and sling hang
@@ -83,6 +130,9 @@ fn its_moves_are_planned_with_its_own_smoothness_and_checks() {
         ([16.0, 8.0], Some(3.0), Reject::TrolleyVelocity),
         ([12.0, 10.5], None, Reject::RopeWorkspace),
         ([24.0, 8.0], None, Reject::TrolleyWorkspace),
+        // The load 0.8 m below the rail: its hook, a 1 m sling above it, would reach the
+        // rail (the rope's range is left on the way too; the hook's reason comes first).
+        ([12.0, 0.8], None, Reject::HookAtRail),
     ];
     for (to, duration, expected) in cases {
         assert_eq!(
@@ -154,9 +204,24 @@ fn a_move_that_would_slacken_the_rope_to_the_hook_is_refused_as_such() {
         })
         .collect();
     assert!(!pushing.is_empty());
-    assert!(pushing.iter().all(|t| p.slack_rope(&plan, *t, limit)));
+    assert!(pushing.iter().all(|t| {
+        let a_load = plan.derivatives::<3>(*t)[2].y;
+        p.taut_flat(&plan, *t, a_load, limit) == Err(Reject::SlackRope)
+    }));
     let (_, mean) = peaks(slow);
     assert!(mean < 0.9 * limit, "mean {mean}");
+    // Where the rope stays taut, the one flat inverse the planner computes per sample is
+    // the crane's flat, bit for bit.
+    let mut plan = from;
+    let step = plan.candidate(to.into(), 0.0, slow).unwrap();
+    plan.push(step).unwrap();
+    let (t0, t1) = step.active_span();
+    for i in 0..=100 {
+        let t = t0 + (t1 - t0) * f64::from(i) / 100.0;
+        let a_load = plan.derivatives::<3>(t)[2].y;
+        let taut = p.taut_flat(&plan, t, a_load, limit);
+        assert_eq!(taut, Ok(p.flat(&plan, t)), "at {t} s");
+    }
     assert!(hook_and_load.plan_move(&from, to, Some(slow), 0.0).is_ok());
 }
 
@@ -201,65 +266,123 @@ fn its_inverse_models_give_its_own_reference() {
 fn the_controller_moves_it_and_resets_it_where_its_drives_stand() {
     use controller::commands::{Answer, Request};
     use controller::drive::PLANAR;
-    use controller::feedback::NoFeedback;
-    use controller::{Config, Controller, Injectable, InverseModel, Mode};
-    use sim::{run_cycle, Action, VirtualBus, HEALTHY};
-    use solver_core::models::double_pendulum as subs;
-    use solver_core::{JacobianMode, SolverSettings};
+    use controller::Mode;
+    use sim::{Action, VirtualBus};
 
     let p = HookAndLoad::EXAMPLE;
-    let home = [12.0, 8.0];
-    let model = DoublePendulumSubs::new(p, at_rest(home)).unwrap();
-    let settings = SolverSettings {
-        h: 0.01,
-        ..SolverSettings::paper(JacobianMode::Exact)
-    };
-    let integrator = subs::StructuredBdf::new(&model, &settings, 4, 0.0).unwrap();
-    let ff = Injectable::new(InverseModel::new(model, integrator));
-    let mut c = Controller::with_correction(ff, NoFeedback, planner(p), Config::DEFAULT);
-    let mut bus = VirtualBus::for_crane(HEALTHY, &p, p.drives_at_rest(home));
-    let mut now = 0;
-    let mut run = |c: &mut Controller<_, NoFeedback, HookAndLoad, 2>,
-                   bus: &mut VirtualBus<HookAndLoad, 2>,
-                   n: usize| {
-        for _ in 0..n {
-            run_cycle(c, bus, now).unwrap();
-            now += 10;
-        }
-    };
-    run(&mut c, &mut bus, 200);
-    assert_eq!(c.mode(), Mode::Ready);
+    let mut r = on_bus(p, [12.0, 8.0]);
+    r.run(200);
+    assert_eq!(r.c.mode(), Mode::Ready);
     let drives =
         |bus: &VirtualBus<HookAndLoad, 2>| PLANAR.map(|d| bus.drive(d).unwrap().position());
     let near = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-3 && (a[1] - b[1]).abs() < 1e-3;
 
     let first = [16.0, 6.0];
-    bus.inject(Action::Request(Request::Move {
+    r.bus.inject(Action::Request(Request::Move {
         id: 1,
         target: first,
         duration: Some(10.0),
     }));
-    run(&mut c, &mut bus, 3);
-    assert_eq!(c.last_answer(), (1, Answer::Accepted, None));
-    run(&mut c, &mut bus, 1_100);
-    assert_eq!(c.mode(), Mode::Ready);
-    let at = drives(&bus);
+    r.run(3);
+    assert_eq!(r.c.last_answer(), (1, Answer::Accepted, None));
+    r.run(1_100);
+    assert_eq!(r.c.mode(), Mode::Ready);
+    let at = drives(&r.bus);
     assert!(near(at, p.drives_at_rest(first)), "drives at {at:?}");
 
-    bus.inject(Action::Request(Request::Reset { id: 2 }));
-    run(&mut c, &mut bus, 3);
-    assert_eq!(c.last_answer(), (2, Answer::Accepted, None));
-    run(&mut c, &mut bus, 100);
+    r.bus.inject(Action::Request(Request::Reset { id: 2 }));
+    r.run(3);
+    assert_eq!(r.c.last_answer(), (2, Answer::Accepted, None));
+    r.run(100);
     let second = [14.0, 7.0];
-    bus.inject(Action::Request(Request::Move {
+    r.bus.inject(Action::Request(Request::Move {
         id: 3,
         target: second,
         duration: Some(10.0),
     }));
-    run(&mut c, &mut bus, 3);
-    assert_eq!(c.last_answer(), (3, Answer::Accepted, None));
-    run(&mut c, &mut bus, 1_100);
-    assert_eq!(c.mode(), Mode::Ready);
-    let at = drives(&bus);
+    r.run(3);
+    assert_eq!(r.c.last_answer(), (3, Answer::Accepted, None));
+    r.run(1_100);
+    assert_eq!(r.c.mode(), Mode::Ready);
+    let at = drives(&r.bus);
     assert!(near(at, p.drives_at_rest(second)), "drives at {at:?}");
+}
+
+/// A stop mid-move brings the crane to rest, ready, without a fault. Known defect
+/// (issue 29's interop work found it; on main too): stopped 1.5–4.2 s into (12, 8) →
+/// (16, 6) in 8 s, the stop's plan passes the planner (the exact inverse's trolley
+/// `|u̇|` at most 2.84 m/s², under 0.95 · 3), but near the stop's end the BDF4 set points
+/// oscillate cycle to cycle and one exceeds the trolley's 3 m/s² (3.0–3.8 m/s²): the
+/// gate refuses it, fault 2, halted. `cargo test -p controller --test
+/// double_pendulum_crane -- --ignored --nocapture` prints each case.
+#[test]
+#[ignore = "known defect: a hook-and-load stop mid-move ends in fault 2 (over acceleration)"]
+fn a_stop_mid_move_comes_to_rest_without_a_fault() {
+    use controller::commands::{Answer, Request};
+    use controller::Mode;
+    use sim::Action;
+
+    let p = HookAndLoad::EXAMPLE;
+    let mut faulted = Vec::new();
+    for stop_after in [150, 200, 250, 300, 340, 420] {
+        let mut r = on_bus(p, [12.0, 8.0]);
+        r.run(200);
+        r.bus.inject(Action::Request(Request::Move {
+            id: 1,
+            target: [16.0, 6.0],
+            duration: Some(8.0),
+        }));
+        r.run(stop_after);
+        r.bus.inject(Action::Request(Request::Stop { id: 2 }));
+        r.run(3);
+        assert_eq!(r.c.last_answer(), (2, Answer::Accepted, None));
+        r.run(1_000);
+        eprintln!("stopped {stop_after} cycles in: {:?}", r.c.mode());
+        if r.c.mode() != Mode::Ready {
+            faulted.push((stop_after, r.c.mode()));
+        }
+    }
+    assert!(faulted.is_empty(), "{faulted:?}");
+}
+
+/// The load's path, counting the flat inverses taken on it: each evaluates the path's
+/// derivatives to order 7 (8 values) once, nothing else asks for that many.
+struct Counted<'a> {
+    plan: &'a Plan<f64, 2>,
+    flat_inverses: std::cell::Cell<usize>,
+}
+
+impl Trajectory<f64, 2> for Counted<'_> {
+    fn derivatives<const D: usize>(&self, t: f64) -> [nalgebra::SVector<f64, 2>; D] {
+        if D >= 8 {
+            self.flat_inverses.set(self.flat_inverses.get() + 1);
+        }
+        self.plan.derivatives::<D>(t)
+    }
+    fn active_span(&self) -> (f64, f64) {
+        self.plan.active_span()
+    }
+    fn smoothness(&self) -> usize {
+        self.plan.smoothness()
+    }
+}
+
+/// The planner takes the flat inverse once per path sample, the rope check and the
+/// drives' checks from the same one: a check of a move is 101 samples, 101 flat inverses
+/// (202 while the rope check took its own).
+#[test]
+fn the_planner_takes_one_flat_inverse_per_sample() {
+    let p = planner(HookAndLoad::EXAMPLE);
+    let mut plan = at_rest([12.0, 8.0]);
+    let step = p.plan_move(&plan, [20.0, 5.0], Some(8.0), 0.0).unwrap();
+    plan.push(step).unwrap();
+    let (t0, t1) = step.active_span();
+    let counted = Counted {
+        plan: &plan,
+        flat_inverses: std::cell::Cell::new(0),
+    };
+    assert_eq!(p.check(&counted, t0, t1), Ok(()));
+    let per_check = counted.flat_inverses.get();
+    eprintln!("flat inverses per check of a move: {per_check}");
+    assert_eq!(per_check, controller::planner::SAMPLES + 1);
 }

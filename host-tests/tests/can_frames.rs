@@ -473,6 +473,7 @@ fn every_reject_reason_is_named_in_the_dbc() {
         Reject::BridgeAcceleration,
         Reject::NotInPlace,
         Reject::Moving,
+        Reject::HookAtRail,
     ];
     // Each its own code (14 is another rule's: a reset while the crane moves).
     let codes: std::collections::BTreeSet<u8> = reasons.iter().map(|r| *r as u8).collect();

@@ -178,114 +178,92 @@ impl Default for FeedbackSpec {
     }
 }
 
-/// Which model, with optional parameters (the paper's values by default).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(tag = "kind", rename_all = "kebab-case")]
-pub enum ModelSpec {
-    /// Crane, redundant coordinates with the servo-constraints substituted.
-    CraneSubs(CraneSpec),
-    /// Crane, minimal coordinates projected after Blajer.
-    CraneProj(CraneSpec),
-    /// Mass-on-car with internal dynamics.
-    MassOnCar(MassOnCarSpec),
-    /// The crane in three dimensions (bridge, trolley, hoist), redundant coordinates
-    /// with the servo-constraints substituted.
-    Crane3dSubs(Crane3dSpec),
-    /// Crane, *subs* minimally extended to index 1 (the hidden constraints appended).
-    CraneExt(CraneSpec),
-    /// Mass-on-car, minimally extended to index 1.
-    MassOnCarExt(MassOnCarSpec),
-    /// The crane in three dimensions, *subs* minimally extended to index 1.
-    Crane3dExt(Crane3dSpec),
-    /// The hook-and-load crane (a double pendulum), redundant coordinates with the
-    /// servo-constraints substituted.
-    DoublePendulumSubs(DoublePendulumSpec),
-    /// The hook-and-load crane, *subs* minimally extended to index 1.
-    DoublePendulumExt(DoublePendulumSpec),
+/// The models a scene names, listed once by the parameters they take: makes
+/// [`ModelSpec`] (its `kind`s are the variants' names in kebab case), one accessor per
+/// parameter type (the parameters whatever the formulation, `None` for another model) and
+/// [`ModelSpec::label`]. A new model is one line here and its file elsewhere; a new crane,
+/// one group.
+macro_rules! model_specs {
+    (
+        $(
+            $(#[$group_doc:meta])*
+            $accessor:ident($spec:ty) {
+                $( $(#[$doc:meta])* $variant:ident => $label:literal, )+
+            }
+        )+
+    ) => {
+        /// Which model, with optional parameters (the paper's values by default).
+        #[derive(Debug, Clone, PartialEq, Deserialize)]
+        #[serde(tag = "kind", rename_all = "kebab-case")]
+        pub enum ModelSpec {
+            $( $( $(#[$doc])* $variant($spec), )+ )+
+        }
+
+        impl ModelSpec {
+            $(
+                $(#[$group_doc])*
+                #[must_use]
+                pub fn $accessor(&self) -> Option<$spec> {
+                    match self {
+                        $( ModelSpec::$variant(p) )|+ => Some(*p),
+                        #[allow(unreachable_patterns)]
+                        _ => None,
+                    }
+                }
+            )+
+
+            /// The model's short name in results (the table's label for its kind).
+            #[must_use]
+            pub fn label(&self) -> &'static str {
+                match self {
+                    $( $( ModelSpec::$variant(_) => $label, )+ )+
+                }
+            }
+        }
+    };
+}
+
+model_specs! {
+    /// The planar crane's parameters, whatever the formulation (`None` for another model).
+    crane(CraneSpec) {
+        /// Crane, redundant coordinates with the servo-constraints substituted.
+        CraneSubs => "subs",
+        /// Crane, minimal coordinates projected after Blajer.
+        CraneProj => "proj",
+        /// Crane, *subs* minimally extended to index 1 (the hidden constraints appended).
+        CraneExt => "ext",
+    }
+    /// The mass-on-car's scene parameters, whatever the formulation.
+    mass_on_car_spec(MassOnCarSpec) {
+        /// Mass-on-car with internal dynamics.
+        MassOnCar => "mass-on-car",
+        /// Mass-on-car, minimally extended to index 1.
+        MassOnCarExt => "mass-on-car-ext",
+    }
+    /// The 3D crane's parameters, whatever the formulation (`None` for another model).
+    crane3d(Crane3dSpec) {
+        /// The crane in three dimensions (bridge, trolley, hoist), redundant coordinates
+        /// with the servo-constraints substituted.
+        Crane3dSubs => "3d-subs",
+        /// The crane in three dimensions, *subs* minimally extended to index 1.
+        Crane3dExt => "3d-ext",
+    }
+    /// The hook-and-load crane's parameters, whatever the formulation (`None` for another
+    /// model).
+    double_pendulum(DoublePendulumSpec) {
+        /// The hook-and-load crane (a double pendulum), redundant coordinates with the
+        /// servo-constraints substituted.
+        DoublePendulumSubs => "dp-subs",
+        /// The hook-and-load crane, *subs* minimally extended to index 1.
+        DoublePendulumExt => "dp-ext",
+    }
 }
 
 impl ModelSpec {
-    /// The planar crane's parameters, whatever the formulation (`None` for another model).
-    #[must_use]
-    pub fn crane(&self) -> Option<CraneSpec> {
-        match self {
-            ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) | ModelSpec::CraneExt(c) => Some(*c),
-            ModelSpec::MassOnCar(_)
-            | ModelSpec::MassOnCarExt(_)
-            | ModelSpec::Crane3dSubs(_)
-            | ModelSpec::Crane3dExt(_)
-            | ModelSpec::DoublePendulumSubs(_)
-            | ModelSpec::DoublePendulumExt(_) => None,
-        }
-    }
-
-    /// The 3D crane's parameters, whatever the formulation (`None` for another model).
-    #[must_use]
-    pub fn crane3d(&self) -> Option<Crane3dSpec> {
-        match self {
-            ModelSpec::Crane3dSubs(c) | ModelSpec::Crane3dExt(c) => Some(*c),
-            ModelSpec::CraneSubs(_)
-            | ModelSpec::CraneProj(_)
-            | ModelSpec::CraneExt(_)
-            | ModelSpec::MassOnCar(_)
-            | ModelSpec::MassOnCarExt(_)
-            | ModelSpec::DoublePendulumSubs(_)
-            | ModelSpec::DoublePendulumExt(_) => None,
-        }
-    }
-
     /// The mass-on-car's parameters, whatever the formulation (`None` for a crane).
     #[must_use]
     pub fn mass_on_car(&self) -> Option<MassOnCarParams> {
         self.mass_on_car_spec().map(|m| m.params())
-    }
-
-    /// The mass-on-car's scene parameters, whatever the formulation.
-    #[must_use]
-    pub fn mass_on_car_spec(&self) -> Option<MassOnCarSpec> {
-        match self {
-            ModelSpec::MassOnCar(m) | ModelSpec::MassOnCarExt(m) => Some(*m),
-            ModelSpec::CraneSubs(_)
-            | ModelSpec::CraneProj(_)
-            | ModelSpec::CraneExt(_)
-            | ModelSpec::Crane3dSubs(_)
-            | ModelSpec::Crane3dExt(_)
-            | ModelSpec::DoublePendulumSubs(_)
-            | ModelSpec::DoublePendulumExt(_) => None,
-        }
-    }
-
-    /// The hook-and-load crane's parameters, whatever the formulation (`None` for another
-    /// model).
-    #[must_use]
-    pub fn double_pendulum(&self) -> Option<DoublePendulumSpec> {
-        match self {
-            ModelSpec::DoublePendulumSubs(c) | ModelSpec::DoublePendulumExt(c) => Some(*c),
-            ModelSpec::CraneSubs(_)
-            | ModelSpec::CraneProj(_)
-            | ModelSpec::CraneExt(_)
-            | ModelSpec::MassOnCar(_)
-            | ModelSpec::MassOnCarExt(_)
-            | ModelSpec::Crane3dSubs(_)
-            | ModelSpec::Crane3dExt(_) => None,
-        }
-    }
-
-    /// The model's short name in results: `subs`, `proj`, `ext`, `mass-on-car`,
-    /// `mass-on-car-ext`, `3d-subs`, `3d-ext`, `dp-subs` or `dp-ext`.
-    #[must_use]
-    pub fn label(&self) -> &'static str {
-        match self {
-            ModelSpec::CraneSubs(_) => "subs",
-            ModelSpec::CraneProj(_) => "proj",
-            ModelSpec::CraneExt(_) => "ext",
-            ModelSpec::MassOnCar(_) => "mass-on-car",
-            ModelSpec::MassOnCarExt(_) => "mass-on-car-ext",
-            ModelSpec::Crane3dSubs(_) => "3d-subs",
-            ModelSpec::Crane3dExt(_) => "3d-ext",
-            ModelSpec::DoublePendulumSubs(_) => "dp-subs",
-            ModelSpec::DoublePendulumExt(_) => "dp-ext",
-        }
     }
 }
 

@@ -385,3 +385,55 @@ fn the_hook_and_load_scene_is_its_own_crane() {
         "{e}"
     );
 }
+
+/// Every model a scene can name: its `kind`, its label in results, and its parameters
+/// through the one accessor of their type (`model_specs!` in lib.rs).
+#[test]
+fn every_model_kind_has_its_label_and_one_kind_of_parameters() {
+    use scene::ModelSpec;
+    let kinds = [
+        ("crane-subs", "subs", [true, false, false, false]),
+        ("crane-proj", "proj", [true, false, false, false]),
+        ("crane-ext", "ext", [true, false, false, false]),
+        ("mass-on-car", "mass-on-car", [false, true, false, false]),
+        (
+            "mass-on-car-ext",
+            "mass-on-car-ext",
+            [false, true, false, false],
+        ),
+        ("crane3d-subs", "3d-subs", [false, false, true, false]),
+        ("crane3d-ext", "3d-ext", [false, false, true, false]),
+        (
+            "double-pendulum-subs",
+            "dp-subs",
+            [false, false, false, true],
+        ),
+        ("double-pendulum-ext", "dp-ext", [false, false, false, true]),
+    ];
+    // A model added to the table and not here does not compile.
+    let listed = |m: &ModelSpec| match m {
+        ModelSpec::CraneSubs(_)
+        | ModelSpec::CraneProj(_)
+        | ModelSpec::CraneExt(_)
+        | ModelSpec::MassOnCar(_)
+        | ModelSpec::MassOnCarExt(_)
+        | ModelSpec::Crane3dSubs(_)
+        | ModelSpec::Crane3dExt(_)
+        | ModelSpec::DoublePendulumSubs(_)
+        | ModelSpec::DoublePendulumExt(_) => true,
+    };
+    for (kind, label, params) in kinds {
+        let model: ModelSpec =
+            toml::from_str(&format!("kind = \"{kind}\"")).unwrap_or_else(|e| panic!("{kind}: {e}"));
+        assert!(listed(&model));
+        assert_eq!(model.label(), label, "{kind}");
+        let found = [
+            model.crane().is_some(),
+            model.mass_on_car_spec().is_some() && model.mass_on_car().is_some(),
+            model.crane3d().is_some(),
+            model.double_pendulum().is_some(),
+        ];
+        assert_eq!(found, params, "{kind}");
+    }
+    assert!(toml::from_str::<ModelSpec>("kind = \"crane\"").is_err());
+}

@@ -391,30 +391,33 @@ fn decode_log(elf: &std::path::Path, log: &std::path::Path) -> Result<(), String
 /// virtual bus (docs/COMMANDS.md), the feedback scene through its scenarios on the plant,
 /// and the 3D crane's scene through its own.
 fn qemu_checks(overwrite: bool) -> Result<(), String> {
-    for scene in qemu::SCENES {
-        let m = qemu::measure(scene)?;
-        qemu::check(&m, overwrite)?;
-    }
-    for scenario in sim::SCENARIOS
+    let scenes = qemu::SCENES.iter().map(|scene| qemu::measure(scene));
+    let scenarios = sim::SCENARIOS
         .into_iter()
         .filter(|s| s.name != sim::HEALTHY.name)
-    {
-        let m = qemu::measure_scenario(qemu::SCENARIO_SCENE, scenario)?;
-        qemu::check(&m, overwrite)?;
+        .map(|s| (qemu::SCENARIO_SCENE, s))
+        .chain(sim::FEEDBACK_SCENARIOS.map(|s| (qemu::FEEDBACK_SCENE, s)))
+        .chain(sim::CRANE3D_SCENARIOS.map(|s| (qemu::CRANE3D_SCENE, s)))
+        .chain(sim::CRANE3D_FEEDBACK_SCENARIOS.map(|s| (qemu::CRANE3D_FEEDBACK_SCENE, s)))
+        .map(|(scene, scenario)| qemu::measure_scenario(scene, scenario));
+    // Every run is checked, and every failed check reported: one differing golden log
+    // does not hide what the others would say. A run that cannot be made (a build, QEMU)
+    // ends the checks: the next would fail the same way.
+    let mut failures = Vec::new();
+    for measured in scenes.chain(scenarios) {
+        if let Err(e) = qemu::check(&measured?, overwrite) {
+            failures.push(e);
+        }
     }
-    for scenario in sim::FEEDBACK_SCENARIOS {
-        let m = qemu::measure_scenario(qemu::FEEDBACK_SCENE, scenario)?;
-        qemu::check(&m, overwrite)?;
+    if failures.is_empty() {
+        Ok(())
+    } else {
+        Err(format!(
+            "{} QEMU check(s) failed:\n{}",
+            failures.len(),
+            failures.join("\n")
+        ))
     }
-    for scenario in sim::CRANE3D_SCENARIOS {
-        let m = qemu::measure_scenario(qemu::CRANE3D_SCENE, scenario)?;
-        qemu::check(&m, overwrite)?;
-    }
-    for scenario in sim::CRANE3D_FEEDBACK_SCENARIOS {
-        let m = qemu::measure_scenario(qemu::CRANE3D_FEEDBACK_SCENE, scenario)?;
-        qemu::check(&m, overwrite)?;
-    }
-    Ok(())
 }
 
 /// `cargo xtask cycles`: the named scenes, or those of `qemu-bench`.

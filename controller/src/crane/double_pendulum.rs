@@ -13,11 +13,12 @@ use solver_core::models::double_pendulum::DoublePendulumSubs;
 use solver_core::models::double_pendulum_crane::DoublePendulumParams;
 use solver_core::models::double_pendulum_ext::DoublePendulumExt;
 use solver_core::plan::Plan;
-use solver_core::reference::double_pendulum;
+use solver_core::reference::double_pendulum::{self, FlatDoublePendulum};
 use solver_core::trajectory::Trajectory;
 use solver_core::Real;
 
 use super::{AxisReasons, Crane, Flat};
+use crate::commands::Reject;
 use crate::drive::{self, Drive};
 use crate::feedforward::CraneReference;
 use crate::setpoint::{AxisLimits, DriveLimits};
@@ -83,18 +84,7 @@ impl Crane<2> for DoublePendulumParams {
     /// The exact flat inverse; where it has none (a rope or the sling slack, the hook at
     /// the rail) every value is NaN, which the planner refuses as a violation.
     fn flat<Z: Trajectory<f64, 2>>(&self, z: &Z, t: f64) -> Flat<2> {
-        match double_pendulum::flat_inverse(self, z, t) {
-            Ok(f) => Flat {
-                position: [f.x, f.l],
-                u: f.u,
-                u_dot: f.u_dot,
-            },
-            Err(_) => Flat {
-                position: [f64::NAN; 2],
-                u: [f64::NAN; 2],
-                u_dot: [f64::NAN; 2],
-            },
-        }
+        double_pendulum::flat_inverse(self, z, t).map_or(Flat::UNDEFINED, |f| drives(&f))
     }
     /// The hook hangs a sling above the load: the rope is that much shorter.
     fn drives_at_rest(&self, [x, z]: [f64; 2]) -> [f64; 2] {
@@ -107,23 +97,48 @@ impl Crane<2> for DoublePendulumParams {
     /// acceleration `(z̈_C + μ z̈_H)/(1 + μ)` (μ = m_h/m) stays below g, and keeps the
     /// planner's margin below `max_down_acceleration`; the sling is the load's own rope,
     /// which the planner checks for every crane. Where the flat inverse refuses a slack
-    /// rope or sling, slack; where it refuses anything else (the hook at the rail), the
-    /// flat's NaN is refused as that axis's violation.
-    fn slack_rope<Z: Trajectory<f64, 2>>(&self, z: &Z, t: f64, max_down_acceleration: f64) -> bool {
+    /// rope or sling, slack; where it refuses the hook at the rail
+    /// (`solver_core::Error::OutsideWorkspace` naming `z_H`), [`Reject::HookAtRail`];
+    /// anything else it refuses (a non-finite path), the undefined flat, whose NaN the
+    /// planner refuses as each axis's violation. One flat inverse serves both the rope
+    /// check and the drives' checks.
+    fn taut_flat<Z: Trajectory<f64, 2>>(
+        &self,
+        z: &Z,
+        t: f64,
+        load_down_acceleration: f64,
+        max_down_acceleration: f64,
+    ) -> Result<Flat<2>, Reject> {
         match double_pendulum::flat_inverse(self, z, t) {
             Ok(f) => {
-                let [_, _, a_load] = z.derivatives::<3>(t);
                 let [_, a_hook] = f.a_hook;
                 let mu = self.hook_mass / self.crane.m;
-                let mean = (a_load.y + mu * a_hook) / (1.0 + mu);
-                mean.is_nan() || mean > max_down_acceleration
+                let mean = (load_down_acceleration + mu * a_hook) / (1.0 + mu);
+                if mean.is_nan() || mean > max_down_acceleration {
+                    Err(Reject::SlackRope)
+                } else {
+                    Ok(drives(&f))
+                }
             }
-            Err(solver_core::Error::RopeSlack { .. }) => true,
-            Err(_) => false,
+            Err(solver_core::Error::RopeSlack { .. }) => Err(Reject::SlackRope),
+            Err(solver_core::Error::OutsideWorkspace {
+                coordinate: "z_H", ..
+            }) => Err(Reject::HookAtRail),
+            Err(_) => Ok(Flat::UNDEFINED),
         }
     }
     fn lags(&self) -> [f64; 2] {
         [self.crane.tau1, self.crane.tau2]
+    }
+}
+
+/// The drives' part of the exact double-pendulum state: trolley and rope, their inputs
+/// and the inputs' rates.
+fn drives(f: &FlatDoublePendulum) -> Flat<2> {
+    Flat {
+        position: [f.x, f.l],
+        u: f.u,
+        u_dot: f.u_dot,
     }
 }
 

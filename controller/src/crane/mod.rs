@@ -64,6 +64,16 @@ pub struct Flat<const A: usize> {
     pub u_dot: [f64; A],
 }
 
+impl<const A: usize> Flat<A> {
+    /// Where a crane has no flat inverse: every value NaN, which the planner refuses as
+    /// a violation of each axis.
+    pub const UNDEFINED: Self = Self {
+        position: [f64::NAN; A],
+        u: [f64::NAN; A],
+        u_dot: [f64::NAN; A],
+    };
+}
+
 /// A crane with `A` driven axes: everything the controller, the planner and the
 /// registry ask of it. The last output is the load's depth z_C below the rail (Eq. 24's
 /// convention, in 3D too).
@@ -112,14 +122,30 @@ pub trait Crane<const A: usize> {
     /// [`Crane::drives_at_rest`]. Where the controller restarts its model from the
     /// drives' positions actual (a reset).
     fn load_at_rest(&self, drives: [f64; A]) -> [f64; A];
-    /// Whether a rope other than the load's own goes slack, or keeps less tension than
-    /// the planner's margin, at `t` of `z`: the planner refuses the load's own downward
-    /// acceleration above `max_down_acceleration` (m/s²) for every crane, and asks this
-    /// of a crane with more than one rope. The planar and 3D crane's one rope carries
-    /// the load alone: never.
-    fn slack_rope<Z: Trajectory<f64, A>>(&self, z: &Z, t: f64, max_down_acceleration: f64) -> bool {
-        let _ = (z, t, max_down_acceleration);
-        false
+    /// The flat inverse at `t` of `z` where every rope other than the load's own stays
+    /// taut with the planner's margin and the crane's own geometry allows it; otherwise
+    /// the reason the planner gives for that sample alone: [`Reject::SlackRope`] where a
+    /// rope goes slack or keeps less tension than that margin, [`Reject::HookAtRail`]
+    /// where the hook-and-load crane's hook block would reach the rail.
+    /// `load_down_acceleration` is the load's own `z̈_C` at `t` (m/s²), which the planner
+    /// has already checked against `max_down_acceleration` for every crane. The planner
+    /// asks this once per sample instead of [`Crane::flat`], so that a crane whose rope
+    /// check needs its flat inverse (the hook-and-load crane's hook) computes that
+    /// inverse once. The planar and 3D crane's one rope carries the load alone: always
+    /// their flat.
+    ///
+    /// # Errors
+    ///
+    /// The reason of this sample, as above.
+    fn taut_flat<Z: Trajectory<f64, A>>(
+        &self,
+        z: &Z,
+        t: f64,
+        load_down_acceleration: f64,
+        max_down_acceleration: f64,
+    ) -> Result<Flat<A>, Reject> {
+        let _ = (load_down_acceleration, max_down_acceleration);
+        Ok(self.flat(z, t))
     }
     /// Each drive's lag τ, s (Eq. 24's `τ v̇ + v = u`): what the controller expects of
     /// the set points it sends ([`crate::motion`]).

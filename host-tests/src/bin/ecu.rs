@@ -6,6 +6,8 @@
 //!
 //! ```text
 //! ecu [--scene FILE] [--port N] [--role manager|slave] [--demo] [--seconds S] [--log FILE]
+//! ecu [--scene FILE] --reference X,Z,DURATION
+//! ecu [--scene FILE] --drives-at-rest [X,Z]
 //! ```
 //!
 //! Every TCP client is a node on one CAN bus: a frame a client sends reaches the
@@ -75,6 +77,14 @@ struct Cli {
     /// host's computation that a run on the bus is compared with.
     #[arg(long, value_name = "X,Z,DURATION")]
     reference: Option<String>,
+    /// No bus: print where the scene's crane's drives stand while the load rests at X,Z
+    /// (the 3D crane: X,Y,Z; m), without a value where the scene's move starts: one
+    /// line, each drive's position in m in the model's input order (`trolley winch`, the
+    /// 3D crane's `bridge trolley winch`) — the crane's `drives_at_rest`, where the
+    /// interop suite's drives power up (the hook-and-load crane's rope a sling shorter
+    /// than the load is deep).
+    #[arg(long, value_name = "X,Z", num_args = 0..=1, default_missing_value = "start")]
+    drives_at_rest: Option<String>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -129,6 +139,18 @@ impl FirmwareCraneVisitor for Ecu<'_> {
             command_plan::<K, A>(f.start(), scene.trajectory.smoothness)
                 .map_err(|e| e.to_string())?
         };
+        if let Some(spec) = &cli.drives_at_rest {
+            let load = if spec == "start" {
+                f.start()
+            } else {
+                load_position::<A>(spec)?
+            };
+            let drives = f.planner.drives_at_rest(load);
+            return host_tests::output::emit(&format!(
+                "{}\n",
+                drives.map(|p| p.to_string()).join(" ")
+            ));
+        }
         if let Some(spec) = &cli.reference {
             let request = reference_request(spec, A)?;
             return with_controller(scene, &f, plan, f.config, Reference { request })?;
@@ -218,6 +240,23 @@ fn reference_request(spec: &str, axes: usize) -> Result<Request, String> {
             } else {
                 "X,Z,DURATION"
             }
+        )),
+    }
+}
+
+/// The load's position `--drives-at-rest` names for a crane with `A` driven axes:
+/// `X,Z` (the 3D crane's `X,Y,Z`), m, each finite.
+fn load_position<const A: usize>(spec: &str) -> Result<[f64; A], String> {
+    let numbers: Vec<f64> = spec
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("--drives-at-rest {spec}: {e}"))?;
+    match <[f64; A]>::try_from(numbers) {
+        Ok(load) if load.iter().all(|v| v.is_finite()) => Ok(load),
+        _ => Err(format!(
+            "--drives-at-rest {spec}: {} finite numbers for this crane",
+            if A == 3 { "X,Y,Z: three" } else { "X,Z: two" }
         )),
     }
 }

@@ -6,12 +6,15 @@
 
 use heapless::LinearMap;
 
+use controller::canopen::od::{self, device, Entry};
 use controller::canopen::sdo::{self, abort, Object, ObjectDictionary, Value};
 use controller::canopen::{self, NmtCommand, NmtState};
 use controller::cia410;
 use controller::frame::CanFrame;
 
-use super::{refuse_write, sdo_word, store, stored, Objects};
+use super::{
+    get, identity_value, key, pdo_parameter, refuse_write, sdo_word, store, stored, Objects,
+};
 use crate::scenario::SensorFault;
 
 /// The objects it holds: (index, sub) → (value, size).
@@ -25,43 +28,45 @@ impl Dictionary {
     fn new(node: u8) -> Self {
         let mut entries = LinearMap::new();
         // 0.1° by default (as many sensors ship); heartbeat off.
-        let _ = entries.insert((0x6000, 0), (100, 2));
-        let _ = entries.insert((0x1017, 0), (0, 2));
+        for (entry, value) in [(device::RESOLUTION, 100), (device::PRODUCER_HEARTBEAT, 0)] {
+            let _ = entries.insert(key(entry.object), (value, entry.size()));
+        }
         Self { entries, node }
     }
 
-    fn get(&self, index: u16, sub: u8) -> u32 {
-        self.entries.get(&(index, sub)).map_or(0, |(v, _)| *v)
+    fn get(&self, entry: Entry) -> u32 {
+        get(&self.entries, entry.object)
     }
 
-    fn writable(index: u16, sub: u8) -> bool {
-        matches!(
-            (index, sub),
-            (0x6000 | 0x1017, 0) | (0x1800, 1..=2) | (0x1A00, 0..=8)
-        )
+    /// Whether it accepts writes to `object`: its resolution, its heartbeat and its
+    /// TPDO1's parameters.
+    fn writable(object: Object) -> bool {
+        [device::RESOLUTION, device::PRODUCER_HEARTBEAT]
+            .iter()
+            .any(|e| e.object == object)
+            || pdo_parameter(object, &[od::TPDO1_COMMUNICATION], &[od::TPDO1_MAPPING])
     }
 }
 
 impl ObjectDictionary for Dictionary {
     fn read(&self, object: Object) -> Result<Value, u32> {
-        let word = sdo_word;
-        match (object.index, object.sub) {
+        let node = u32::from(self.node);
+        let ids = [0x0000_0B2C, 0x0410_0000 | node, 0x0001_0000, 2000 + node];
+        if let Some(value) = identity_value(object, ids) {
+            return Ok(value);
+        }
+        if object == device::DEVICE_TYPE.object {
             // CiA 410, one axis, 16 bit (additional information 0x0001).
-            (0x1000, 0) => Ok(word(0x0001_019A, 4)),
-            (0x1018, 0) => Ok(word(4, 1)),
-            (0x1018, 1) => Ok(word(0x0000_0B2C, 4)),
-            (0x1018, 2) => Ok(word(0x0410_0000 | u32::from(self.node), 4)),
-            (0x1018, 3) => Ok(word(0x0001_0000, 4)),
-            (0x1018, 4) => Ok(word(2000 + u32::from(self.node), 4)),
-            (index, sub) if Dictionary::writable(index, sub) => {
-                Ok(stored(&self.entries, index, sub))
-            }
-            _ => Err(abort::NO_OBJECT),
+            Ok(sdo_word(0x0001_019A, 4))
+        } else if Dictionary::writable(object) {
+            Ok(stored(&self.entries, object))
+        } else {
+            Err(abort::NO_OBJECT)
         }
     }
 
     fn write(&mut self, object: Object, data: &[u8]) -> Result<(), u32> {
-        if !Dictionary::writable(object.index, object.sub) {
+        if !Dictionary::writable(object) {
             return Err(refuse_write(self.read(object)));
         }
         store(&mut self.entries, object, data)
@@ -111,7 +116,7 @@ impl InclinometerSim {
     /// A value of its object dictionary, as written.
     #[must_use]
     pub fn object(&self, index: u16, sub: u8) -> u32 {
-        self.od.get(index, sub)
+        get(&self.od.entries, Object::new(index, sub))
     }
 
     /// From now on it has `fault` ([`SensorFault::Back`]: none).
@@ -155,15 +160,16 @@ impl InclinometerSim {
             None | Some(SensorFault::Back) => Some(0.0),
         };
         if let Some(offset_deg) = offset_deg {
-            let resolution = f64::from(self.od.get(0x6000, 0).max(1)) * 1e-3;
+            let resolution = f64::from(self.od.get(device::RESOLUTION).max(1)) * 1e-3;
             for (slope, deg) in self.slopes.iter_mut().zip(slopes_deg) {
                 let units = libm::round((deg + offset_deg) / resolution);
                 *slope = units.clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16;
             }
         }
         let [long, lateral] = self.slopes;
-        let two_axes = self.od.get(0x1A00, 0) >= 2
-            && self.od.get(0x1A00, 2) == cia410::TPDO1_MAPPING_TWO_AXES[1];
+        let two_axes = self.od.get(od::pdo_mapped_count(od::TPDO1_MAPPING)) >= 2
+            && self.od.get(od::pdo_mapped(od::TPDO1_MAPPING, 2))
+                == cia410::TPDO1_MAPPING_TWO_AXES[1];
         let slopes = cia410::Slopes {
             long,
             lateral: two_axes.then_some(lateral),
@@ -180,7 +186,7 @@ impl InclinometerSim {
             self.next_heartbeat_ms = now_ms;
             return Some(canopen::heartbeat(self.node, NmtState::BootUp));
         }
-        let period = self.od.get(0x1017, 0);
+        let period = self.od.get(device::PRODUCER_HEARTBEAT);
         if period > 0 && now_ms >= self.next_heartbeat_ms {
             self.next_heartbeat_ms = now_ms.saturating_add(period);
             return Some(canopen::heartbeat(self.node, self.nmt));

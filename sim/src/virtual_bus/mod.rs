@@ -22,10 +22,12 @@ use crate::simulated::CranePlant;
 use crate::simulated::Simulated;
 use crate::traffic::Traffic;
 use controller::board::{self, CanPort};
+use controller::canopen::od::{self, device, Entry};
 use controller::canopen::sdo::{self, abort, Object, ObjectDictionary, Value};
 use controller::canopen::{self, cob, NmtCommand, NmtState};
 use controller::cia402::{controlword, pdo, DriveState};
 use controller::commands::request_frame;
+use controller::commissioning::OperationMode;
 use controller::controller::{Controller, Cycle};
 use controller::correction::AxesCorrection;
 use controller::drive::{self, Drive};
@@ -74,9 +76,13 @@ impl SimDictionary {
         let mut entries = LinearMap::new();
         // Profile position, left from another machine; heartbeat off (CiA 301 default);
         // abort connection option 1, fault (a common factory setting).
-        let _ = entries.insert((0x6060, 0), (1, 1));
-        let _ = entries.insert((0x1017, 0), (0, 2));
-        let _ = entries.insert((0x6007, 0), (1, 2));
+        for (entry, value) in [
+            (device::MODES_OF_OPERATION, 1),
+            (device::PRODUCER_HEARTBEAT, 0),
+            (device::ABORT_CONNECTION_OPTION, 1),
+        ] {
+            let _ = entries.insert(key(entry.object), (value, entry.size()));
+        }
         Self {
             entries,
             refuses_csv: false,
@@ -85,27 +91,92 @@ impl SimDictionary {
         }
     }
 
-    fn get(&self, index: u16, sub: u8) -> u32 {
-        self.entries.get(&(index, sub)).map_or(0, |(v, _)| *v)
+    fn get(&self, entry: Entry) -> u32 {
+        get(&self.entries, entry.object)
     }
 
     fn mode_display(&self) -> i8 {
-        self.reports_mode.unwrap_or(self.get(0x6060, 0) as u8 as i8)
+        self.reports_mode
+            .unwrap_or(self.get(device::MODES_OF_OPERATION) as u8 as i8)
     }
 
-    /// Whether the drive accepts writes to `index:sub`.
-    fn writable(index: u16, sub: u8) -> bool {
-        matches!(
-            (index, sub),
-            (
-                0x6060 | 0x1017 | 0x605A | 0x6007 | 0x6085 | 0x6080 | 0x60A9 | 0x6083 | 0x6084,
-                0
-            ) | (0x60C2, 1..=2)
-                | (0x1016, 1)
-                | (0x1400 | 0x1401 | 0x1800 | 0x1801, 1..=2)
-                | (0x1600 | 0x1601 | 0x1A00 | 0x1A01, 0..=8)
-        )
+    /// Whether the drive accepts writes to `object`: the parameters commissioning writes
+    /// and its PDOs' communication and mapping parameters.
+    fn writable(object: Object) -> bool {
+        const PARAMETERS: [Entry; 12] = [
+            device::MODES_OF_OPERATION,
+            device::PRODUCER_HEARTBEAT,
+            device::QUICK_STOP_OPTION,
+            device::ABORT_CONNECTION_OPTION,
+            device::QUICK_STOP_DECELERATION,
+            device::MAX_MOTOR_SPEED,
+            device::VELOCITY_UNIT,
+            device::PROFILE_ACCELERATION,
+            device::PROFILE_DECELERATION,
+            device::INTERPOLATION_PERIOD,
+            device::INTERPOLATION_INDEX,
+            device::CONSUMER_HEARTBEAT,
+        ];
+        PARAMETERS.iter().any(|e| e.object == object)
+            || pdo_parameter(
+                object,
+                &[
+                    od::RPDO1_COMMUNICATION,
+                    od::RPDO2_COMMUNICATION,
+                    od::TPDO1_COMMUNICATION,
+                    od::TPDO2_COMMUNICATION,
+                ],
+                &[
+                    od::RPDO1_MAPPING,
+                    od::RPDO2_MAPPING,
+                    od::TPDO1_MAPPING,
+                    od::TPDO2_MAPPING,
+                ],
+            )
     }
+}
+
+/// Whether `object` is a parameter of one of a device's PDOs: sub 1 (COB-ID) or 2
+/// (transmission type) of one of its `communication` parameters, or sub 0 to 8 (the
+/// count and the mapped objects) of one of its `mapping` parameters.
+fn pdo_parameter(object: Object, communication: &[u16], mapping: &[u16]) -> bool {
+    let Object { index, sub } = object;
+    (communication.contains(&index)
+        && [od::pdo_cob_id(index), od::pdo_transmission_type(index)]
+            .iter()
+            .any(|e| e.object.sub == sub))
+        || (mapping.contains(&index) && sub <= MAPPED_AT_MOST)
+}
+
+/// The objects a simulated device's PDO maps at most: its objects are whole bytes, so
+/// eight bytes of data hold eight at most (CiA 301 allows 64, bit by bit).
+const MAPPED_AT_MOST: u8 = 8;
+
+/// The key of `object` in a device's stored objects.
+fn key(object: Object) -> (u16, u8) {
+    (object.index, object.sub)
+}
+
+/// The value of `object` as written (0 if it never was).
+fn get<const N: usize>(entries: &Objects<N>, object: Object) -> u32 {
+    entries.get(&key(object)).map_or(0, |(v, _)| *v)
+}
+
+/// The identity object 0x1018 of a simulated device: highest sub-index 4, then vendor
+/// id, product code, revision and serial number.
+fn identity_value(object: Object, [vendor, product, revision, serial]: [u32; 4]) -> Option<Value> {
+    if object.index != od::IDENTITY {
+        return None;
+    }
+    let value = match object.sub {
+        0 => sdo_word(4, 1),
+        1 => sdo_word(vendor, 4),
+        2 => sdo_word(product, 4),
+        3 => sdo_word(revision, 4),
+        4 => sdo_word(serial, 4),
+        _ => return None,
+    };
+    Some(value)
 }
 
 /// A simulated device's stored objects: (index, sub) → (value, size in bytes).
@@ -118,8 +189,8 @@ fn sdo_word(v: u32, size: usize) -> Value {
 }
 
 /// A stored object as written (0 in 4 bytes if it never was).
-fn stored<const N: usize>(entries: &Objects<N>, index: u16, sub: u8) -> Value {
-    let (v, size) = entries.get(&(index, sub)).copied().unwrap_or((0, 4));
+fn stored<const N: usize>(entries: &Objects<N>, object: Object) -> Value {
+    let (v, size) = entries.get(&key(object)).copied().unwrap_or((0, 4));
     sdo_word(v, usize::from(size))
 }
 
@@ -135,10 +206,7 @@ fn written_value(data: &[u8]) -> u32 {
 /// Stores a write the device accepted.
 fn store<const N: usize>(entries: &mut Objects<N>, object: Object, data: &[u8]) -> Result<(), u32> {
     entries
-        .insert(
-            (object.index, object.sub),
-            (written_value(data), data.len().min(4) as u8),
-        )
+        .insert(key(object), (written_value(data), data.len().min(4) as u8))
         .map(|_| ())
         .map_err(|_| abort::OUT_OF_MEMORY)
 }
@@ -154,29 +222,31 @@ fn refuse_write(read: Result<Value, u32>) -> u32 {
 
 impl ObjectDictionary for SimDictionary {
     fn read(&self, object: Object) -> Result<Value, u32> {
-        let word = sdo_word;
-        match (object.index, object.sub) {
+        let node = u32::from(self.node);
+        let ids = [0x0000_0A1B, 0x0402_0000 | node, 0x0001_0003, 1000 + node];
+        if let Some(value) = identity_value(object, ids) {
+            return Ok(value);
+        }
+        if object == device::DEVICE_TYPE.object {
             // CiA 402, servo drive (additional information 0x0002).
-            (0x1000, 0) => Ok(word(0x0002_0192, 4)),
-            (0x1018, 0) => Ok(word(4, 1)),
-            (0x1018, 1) => Ok(word(0x0000_0A1B, 4)),
-            (0x1018, 2) => Ok(word(0x0402_0000 | u32::from(self.node), 4)),
-            (0x1018, 3) => Ok(word(0x0001_0003, 4)),
-            (0x1018, 4) => Ok(word(1000 + u32::from(self.node), 4)),
-            (0x6061, 0) => Ok(word(u32::from(self.mode_display() as u8), 1)),
-            (index, sub) if SimDictionary::writable(index, sub) => {
-                Ok(stored(&self.entries, index, sub))
-            }
-            _ => Err(abort::NO_OBJECT),
+            Ok(sdo_word(0x0002_0192, 4))
+        } else if object == device::MODES_DISPLAY.object {
+            Ok(sdo_word(u32::from(self.mode_display() as u8), 1))
+        } else if SimDictionary::writable(object) {
+            Ok(stored(&self.entries, object))
+        } else {
+            Err(abort::NO_OBJECT)
         }
     }
 
     fn write(&mut self, object: Object, data: &[u8]) -> Result<(), u32> {
-        let (index, sub) = (object.index, object.sub);
-        if !SimDictionary::writable(index, sub) {
+        if !SimDictionary::writable(object) {
             return Err(refuse_write(self.read(object)));
         }
-        if (index, sub) == (0x6060, 0) && self.refuses_csv && written_value(data) == 9 {
+        if object == device::MODES_OF_OPERATION.object
+            && self.refuses_csv
+            && written_value(data) == OperationMode::CyclicSynchronousVelocity as u32
+        {
             return Err(abort::INVALID_VALUE);
         }
         store(&mut self.entries, object, data)
@@ -219,7 +289,7 @@ impl DriveSim {
     /// Its mode of operation (0x6060).
     #[must_use]
     pub fn mode(&self) -> i8 {
-        self.od.get(0x6060, 0) as u8 as i8
+        self.od.get(device::MODES_OF_OPERATION) as u8 as i8
     }
 
     /// Position actual, m.
@@ -237,7 +307,7 @@ impl DriveSim {
     /// A value of its object dictionary, as written.
     #[must_use]
     pub fn object(&self, index: u16, sub: u8) -> u32 {
-        self.od.get(index, sub)
+        get(&self.od.entries, Object::new(index, sub))
     }
 
     /// How fast its axis moves, drive units: as it drives it, plus a creep.
@@ -316,7 +386,7 @@ impl DriveSim {
             // A drive that leaves operational loses its RPDOs: it reacts as its abort
             // connection option 0x6007 says (CiA 402): 1 fault, 2 disable voltage,
             // 3 quick stop, 0 nothing.
-            self.state = match self.od.get(0x6007, 0) as u16 as i16 {
+            self.state = match self.od.get(device::ABORT_CONNECTION_OPTION) as u16 as i16 {
                 1 => DriveState::Fault,
                 2 => DriveState::SwitchOnDisabled,
                 3 => DriveState::QuickStopActive,
@@ -369,12 +439,13 @@ impl DriveSim {
             // The quick-stop deceleration 0x6085 (units/s) over one interpolation period
             // 0x60C2 (ms), both as commissioned — whatever its NMT state: the drive's
             // motion control does not wait for PDOs to brake.
-            let per_cycle =
-                u64::from(self.od.get(0x6085, 0)) * u64::from(self.od.get(0x60C2, 1).max(1)) / 1000;
+            let per_cycle = u64::from(self.od.get(device::QUICK_STOP_DECELERATION))
+                * u64::from(self.od.get(device::INTERPOLATION_PERIOD).max(1))
+                / 1000;
             let step = i32::try_from(per_cycle).unwrap_or(i32::MAX).max(1);
             self.velocity -= self.velocity.clamp(-step, step);
         }
-        let period_ms = i64::from(self.od.get(0x60C2, 1).max(1));
+        let period_ms = i64::from(self.od.get(device::INTERPOLATION_PERIOD).max(1));
         // µm/s × ms = nm.
         self.position_nm += i64::from(self.moving()) * period_ms;
         let [a, b, c, _] = self.history;
@@ -701,7 +772,7 @@ impl<K: Simulated<A>, const A: usize> VirtualBus<K, A> {
                 d.next_heartbeat_ms = up_to_ms;
             }
             // Heartbeat every 0x1017 ms once it is set.
-            let period = d.od.get(0x1017, 0);
+            let period = d.od.get(device::PRODUCER_HEARTBEAT);
             if period > 0 && up_to_ms >= d.next_heartbeat_ms {
                 let beat = canopen::heartbeat(d.node, d.nmt);
                 d.next_heartbeat_ms = up_to_ms.saturating_add(period);
@@ -828,7 +899,9 @@ impl<K: Simulated<A>, const A: usize> VirtualBus<K, A> {
 /// their brakes (a drive without power on its motor, or not enabled).
 #[cfg(feature = "plant")]
 fn plant_inputs<const N: usize>(drives: &[&mut DriveSim; N]) -> ([f64; N], f64, [bool; N]) {
-    let period_ms = drives.first().map_or(1, |d| d.od.get(0x60C2, 1).max(1));
+    let period_ms = drives
+        .first()
+        .map_or(1, |d| d.od.get(device::INTERPOLATION_PERIOD).max(1));
     let u = drives.each_ref().map(|d| {
         if d.powered {
             f64::from(d.moving()) * 1e-6
