@@ -74,8 +74,10 @@
 //!   Once the estimate is steady at rest the angle is trusted: the offset is fixed and
 //!   taken out of every reading (within [`Config::offset_dead_band`], nothing is taken
 //!   out: a healthy crane is read as before). A reading that leaves the prediction by
-//!   more than [`Config::offset_step`] is a step of the zero (no pendulum jumps), taken
-//!   out at once. An offset beyond [`Config::max_offset`] for longer than a gust
+//!   more than [`Config::offset_step`] the same way in [`zero::STEP_CYCLES`] readings in
+//!   a row is a step of the zero (no pendulum jumps), taken out then; the readings
+//!   before are held back and bridged, so a noise outlier is neither a swing nor a
+//!   step. An offset beyond [`Config::max_offset`] for longer than a gust
 //!   ([`Config::offset_cycles`]) is announced once the crane rests
 //!   ([`Degraded::AngleOffset`], EMCY 0xFF20 reason 5) and the angle is no longer
 //!   read; not during a move, which the angle, its offset taken out, finishes better
@@ -311,7 +313,8 @@ pub struct Config {
     /// in the reading, rad ([`zero::DEAD_BAND`], the default).
     pub offset_dead_band: f64,
     /// A reading further than this from the observer's prediction (and within
-    /// [`Config::max_innovation`]) is a step of the zero, rad ([`zero::MAX_STEP`]).
+    /// [`Config::max_innovation`]) in [`zero::STEP_CYCLES`] readings in a row, the same
+    /// way, is a step of the zero, rad ([`zero::MAX_STEP`]).
     pub offset_step: f64,
     /// An offset beyond this, rad ([`zero::MAX_OFFSET`]) …
     pub max_offset: f64,
@@ -1324,8 +1327,9 @@ impl StateFeedback {
     /// started: until then the load may be swinging, only the range is checked), the
     /// stuck-sensor watch ([`Self::watch_frozen`]) and the inclinometer's zero
     /// ([`crate::zero`]): a reading that leaves the prediction by more than
-    /// [`Config::offset_step`] (but not by an implausible [`Config::max_innovation`]) is a
-    /// step of the zero, not a swing; a good reading feeds the zero's estimate, whose
+    /// [`Config::offset_step`] (but not by an implausible [`Config::max_innovation`]) is
+    /// held back ([`AngleCheck::Implausible`], bridged) until [`zero::STEP_CYCLES`] in a
+    /// row confirm a step of the zero, never a swing; a good reading feeds the zero's estimate, whose
     /// offset lasting beyond [`Config::max_offset`] for [`Config::offset_cycles`] is
     /// [`AngleCheck::Offset`].
     fn judge_angle(
@@ -1349,7 +1353,14 @@ impl StateFeedback {
                 && miss.abs() <= self.cfg.max_innovation
                 && (p - self.known_offset()).abs() <= self.cfg.max_angle
             {
-                self.zero.step(miss);
+                // A step of the zero once it persists (zero::STEP_CYCLES); until then
+                // the reading is held back and bridged, neither swing nor step.
+                if !self.zero.off_prediction(miss) {
+                    self.zero.gap();
+                    return AngleCheck::Implausible;
+                }
+            } else {
+                self.zero.on_prediction();
             }
         }
         // Judged as the angle it reads, the offset known taken out: a 10° offset does
@@ -2259,6 +2270,36 @@ mod tests {
         );
         let last = run.last().unwrap().1;
         assert!((last.offset - b).abs() < 0.05f64.to_radians());
+    }
+
+    #[test]
+    fn a_noise_outlier_is_no_step_of_the_zero() {
+        // Issue 33 (interop `delay-2-filter-10ms`): one reading 0.27° off the
+        // prediction (a 5 σ outlier of a 0.05° noise), the next 0.03° off the same way,
+        // while the load swings 1°. Taken for a step at once — and not stepped back, the
+        // next miss being 0.24°, inside the threshold — it stayed as a 0.27° offset: the
+        // feedback held the load where the reading less the offset put it, the trolley
+        // 22 mm off, never let go (with STEP_CYCLES = 1 this test fails so). A step
+        // must persist (zero::STEP_CYCLES).
+        let l = 5.0;
+        let spike = 0.27f64.to_radians();
+        let back = 0.03f64.to_radians();
+        let read = |k: usize, p: f64| {
+            Some(match k {
+                600 => p + spike,
+                601 => p + back,
+                _ => p,
+            })
+        };
+        let run = linear_run(l, 0.04, 1f64.to_radians(), 2500, read);
+        let (end, last) = run.last().unwrap();
+        assert_eq!(last.mode, Mode::Closed);
+        assert!(
+            end.x.abs() < 0.005,
+            "the trolley held {:.1} mm off",
+            end.x * 1e3
+        );
+        assert!(last.resting && last.u == [0.0; 2], "{last:?}");
     }
 
     #[test]
