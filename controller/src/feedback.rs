@@ -865,6 +865,11 @@ pub enum AngleCheck {
     Missing,
     /// Out of range, non-finite, or too far from the prediction.
     Implausible,
+    /// Off the prediction by more than [`Config::offset_step`], not (yet) confirmed as
+    /// a step of the zero ([`zero::STEP_CYCLES`]): bridged like a missing reading, but
+    /// not counted against [`Config::max_bad_angle_cycles`] — at most
+    /// `STEP_CYCLES − 1` in a row, and a noise outlier is no fault of the sensor's.
+    HeldBack,
     /// Stuck: unchanged while the crane's own motion moved it ([`Config::frozen_motion`]).
     Frozen,
     /// Offset: a DC component beyond [`Config::max_offset`] for longer than a gust
@@ -906,6 +911,7 @@ pub fn degraded_rule(
         (Mode::Closed, AngleCheck::Good) => Mode::Closed,
         (Mode::Closed, AngleCheck::Frozen) => Mode::SwingEstimated(Degraded::AngleFrozen),
         (Mode::Closed, AngleCheck::Offset) => Mode::SwingEstimated(Degraded::AngleOffset),
+        (Mode::Closed, AngleCheck::HeldBack) => Mode::Closed,
         (Mode::Closed, _) if bad_cycles <= cfg.max_bad_angle_cycles => Mode::Closed,
         (Mode::Closed, AngleCheck::Missing) => Mode::SwingEstimated(Degraded::AngleLost),
         (Mode::Closed, _) => Mode::SwingEstimated(Degraded::AngleImplausible),
@@ -1328,7 +1334,7 @@ impl StateFeedback {
     /// stuck-sensor watch ([`Self::watch_frozen`]) and the inclinometer's zero
     /// ([`crate::zero`]): a reading that leaves the prediction by more than
     /// [`Config::offset_step`] (but not by an implausible [`Config::max_innovation`]) is
-    /// held back ([`AngleCheck::Implausible`], bridged) until [`zero::STEP_CYCLES`] in a
+    /// held back ([`AngleCheck::HeldBack`], bridged) until [`zero::STEP_CYCLES`] in a
     /// row confirm a step of the zero, never a swing; a good reading feeds the zero's estimate, whose
     /// offset lasting beyond [`Config::max_offset`] for [`Config::offset_cycles`] is
     /// [`AngleCheck::Offset`].
@@ -1349,18 +1355,16 @@ impl StateFeedback {
         };
         if let (Some(p), true) = (phi, self.started) {
             let miss = p - predicted;
-            if miss.abs() > self.zero.max_step()
-                && miss.abs() <= self.cfg.max_innovation
-                && (p - self.known_offset()).abs() <= self.cfg.max_angle
-            {
-                // A step of the zero once it persists (zero::STEP_CYCLES); until then
-                // the reading is held back and bridged, neither swing nor step.
-                if !self.zero.off_prediction(miss) {
-                    self.zero.gap();
-                    return AngleCheck::Implausible;
-                }
-            } else {
+            let plausible = miss.abs() <= self.cfg.max_innovation
+                && (p - self.known_offset()).abs() <= self.cfg.max_angle;
+            if miss.abs() <= self.zero.max_step() {
                 self.zero.on_prediction();
+            } else if plausible && !self.zero.off_prediction(miss) {
+                // A step of the zero once it persists (zero::STEP_CYCLES); until then
+                // the reading is held back and bridged, neither swing nor step. An
+                // implausible reading neither counts towards a step nor ends the row.
+                self.zero.gap();
+                return AngleCheck::HeldBack;
             }
         }
         // Judged as the angle it reads, the offset known taken out: a 10° offset does
@@ -1501,6 +1505,7 @@ impl StateFeedback {
             };
             self.bad_angle_cycles = match check {
                 AngleCheck::Good => 0,
+                AngleCheck::HeldBack => self.bad_angle_cycles,
                 _ => self.bad_angle_cycles.saturating_add(1),
             };
             let was = self.mode;
@@ -1907,6 +1912,8 @@ mod tests {
             degraded_rule(&c, Closed, Frozen, 1, true),
             SwingEstimated(Degraded::AngleFrozen)
         );
+        // A reading held back as a step not yet confirmed is bridged and never counts.
+        assert_eq!(degraded_rule(&c, Closed, HeldBack, n + 1, true), Closed);
         assert_eq!(
             degraded_rule(&c, Closed, Offset, 1, true),
             SwingEstimated(Degraded::AngleOffset)
@@ -2242,7 +2249,7 @@ mod tests {
     }
 
     #[test]
-    fn a_step_of_the_zero_at_rest_is_taken_out_at_once_and_announced() {
+    fn a_step_of_the_zero_at_rest_is_taken_out_and_announced() {
         // The crane rests on its target, let go; at 10 s the reading steps by 1.5° (a
         // knock on the sensor). No pendulum jumps: the step is the zero's, so the
         // trolley is not moved (read as a swing, it drove the trolley 50–90 mm off) and
@@ -2270,6 +2277,33 @@ mod tests {
         );
         let last = run.last().unwrap().1;
         assert!((last.offset - b).abs() < 0.05f64.to_radians());
+    }
+
+    #[test]
+    fn a_knock_among_lost_frames_is_a_step_and_keeps_the_loop_closed() {
+        // Two frames lost, the knock (1.5°), one more lost, the knock confirmed: 3
+        // missing readings, bridged. The two held back as a step not yet confirmed are
+        // not counted (counted, the fourth bad cycle left the angle unread for good).
+        let l = 5.0;
+        let b = 1.5f64.to_radians();
+        let read = |k: usize, p: f64| match k {
+            998 | 999 | 1001 => None,
+            k if k >= 1000 => Some(p + b),
+            _ => Some(p),
+        };
+        let run = linear_run(l, 0.04, 0.5f64.to_radians(), 1400, read);
+        assert!(run[997].1.resting, "let go before the knock");
+        let x0 = run[997].0.x;
+        for (k, (t, o)) in run.iter().enumerate().skip(990) {
+            assert_eq!(o.mode, Mode::Closed, "cycle {k}");
+            assert!((t.x - x0).abs() < 1e-3, "cycle {k}: the trolley moved");
+        }
+        let last = run.last().unwrap().1;
+        assert!(
+            (last.offset - b).abs() < 0.05f64.to_radians(),
+            "offset {:.3}°",
+            last.offset.to_degrees()
+        );
     }
 
     #[test]
