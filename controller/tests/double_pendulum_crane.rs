@@ -308,15 +308,13 @@ fn the_controller_moves_it_and_resets_it_where_its_drives_stand() {
     assert!(near(at, p.drives_at_rest(second)), "drives at {at:?}");
 }
 
-/// A stop mid-move brings the crane to rest, ready, without a fault. Known defect
-/// (issue 29's interop work found it; on main too): stopped 1.5–4.2 s into (12, 8) →
-/// (16, 6) in 8 s, the stop's plan passes the planner (the exact inverse's trolley
-/// `|u̇|` at most 2.84 m/s², under 0.95 · 3), but near the stop's end the BDF4 set points
-/// oscillate cycle to cycle and one exceeds the trolley's 3 m/s² (3.0–3.8 m/s²): the
-/// gate refuses it, fault 2, halted. `cargo test -p controller --test
-/// double_pendulum_crane -- --ignored --nocapture` prints each case.
+/// A stop mid-move brings the crane to rest, ready, without a fault: stopped 1.5–4.2 s
+/// into (12, 8) → (16, 6) in 8 s. Before issue 29's fix these ended in fault 2: the
+/// stop's timing, evaluated by Horner's rule on its monomial coefficients, carried
+/// rounding noise growing towards its rest (`solver_core::plan`), which the index-5
+/// inverse model turned into BDF4 set points alternating cycle to cycle, one over the
+/// trolley's 3 m/s² (3.0–3.3 m/s²): the gate refused it, halted.
 #[test]
-#[ignore = "known defect: a hook-and-load stop mid-move ends in fault 2 (over acceleration)"]
 fn a_stop_mid_move_comes_to_rest_without_a_fault() {
     use controller::commands::{Answer, Request};
     use controller::Mode;
