@@ -361,7 +361,7 @@ pub struct StopStart<T: Real, const NZ: usize> {
     t: T,
     path: (SVector<T, NZ>, SVector<T, NZ>),
     sigma: [T; MAX_SMOOTHNESS + 1],
-    /// The stop's smoothness: one more than the moves'.
+    /// The stop's smoothness: the moves' and [`Plan::stop_start`]'s `above`.
     n: usize,
 }
 
@@ -611,17 +611,20 @@ impl<T: Real, const NZ: usize> Plan<T, NZ> {
 
     /// Where a stop taking over at `t` (not yet stepped) starts: the path of the segment
     /// running at `t` and its timing σ with its derivatives there ([`StopStart`]), from
-    /// which stops of any duration and end are built. `None` when nothing moves at or
-    /// after `t`.
+    /// which stops of any duration and end are built, `above` orders smoother than the
+    /// moves (at most [`MAX_SMOOTHNESS`]). `None` when nothing moves at or after `t`.
+    ///
+    /// The derivative of the path that jumps where a stop of smoothness `n + above` takes
+    /// over is the (n + above + 1)-th. With `above = 1` it is one beyond what the planar
+    /// crane's drive accelerations contain, so a multistep scheme meets no jump in them
+    /// (a jump in the (n+1)-th made BDF4's accelerations overshoot the checked ones by up
+    /// to 8 %); the controller takes `above` per crane
+    /// (`controller::crane::Crane::STOP_SMOOTHNESS_ABOVE_MOVES`).
     #[must_use]
-    pub fn stop_start(&self, t: T) -> Option<StopStart<T, NZ>> {
+    pub fn stop_start(&self, t: T, above: usize) -> Option<StopStart<T, NZ>> {
         let segment = self.segment_at(t)?;
         let (path, sigma) = segment.path_timing::<{ MAX_SMOOTHNESS + 1 }>(t);
-        // One order smoother than the moves: the derivative that jumps where the stop
-        // takes over is then the (n+2)-th, one beyond what the drives' accelerations
-        // contain, so a multistep scheme meets no jump in them (a jump in the (n+1)-th
-        // made BDF4's accelerations overshoot the checked ones by up to 8 %).
-        let n = (self.smoothness + 1).min(MAX_SMOOTHNESS);
+        let n = self.smoothness.saturating_add(above).min(MAX_SMOOTHNESS);
         Some(StopStart { t, path, sigma, n })
     }
 
@@ -720,7 +723,7 @@ mod tests {
         t: f64,
         duration: f64,
     ) -> Option<Result<Stop<f64, NZ>>> {
-        let start = plan.stop_start(t)?;
+        let start = plan.stop_start(t, 1)?;
         let reach = start.fraction() + start.rate() * duration * 0.5;
         let end = start
             .nearest_end(duration)
@@ -845,7 +848,7 @@ mod tests {
         let mut checked = 0;
         for k in 1..40 {
             let t = 1.0 + 8.0 * f64::from(k) / 40.0;
-            let start = plan.stop_start(t).unwrap();
+            let start = plan.stop_start(t, 1).unwrap();
             for d in [0.5, 1.0, 2.0, 4.0] {
                 let Some(near) = start.nearest_end(d) else {
                     continue;
@@ -975,7 +978,7 @@ mod tests {
             plan.push(plan.candidate(V2::new(16.0, 6.0), 2.0, 8.0).unwrap())
                 .unwrap();
             for (t0, d) in [(3.5, 1.0), (5.0, 3.25), (7.0, 2.0), (4.0, 6.0)] {
-                let start = plan.stop_start(t0).unwrap();
+                let start = plan.stop_start(t0, 1).unwrap();
                 let stop = uniform_stop(&plan, t0, d).unwrap().unwrap();
                 let m = 2 * start.n + 1;
                 let mut beta = start_bernstein(&start.scaled(d), start.n);
