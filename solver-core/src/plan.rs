@@ -39,11 +39,10 @@ pub struct Hermite<T: Real, const NZ: usize> {
     /// `1/duration`: the chain rule's factor per order.
     inv_duration: T,
     n: usize,
-    /// The start value `p(0)` per axis (the value's Bernstein sum is added to it).
-    origin: SVector<T, NZ>,
-    /// Bernstein coefficients in τ of the travel from the start, per axis:
-    /// `p(τ) − p(0) = Σ β_k C(m,k) τ^k (1−τ)^(m−k)`, `m = 2n+1`.
-    bernstein: [[T; MAX_COEFFS]; NZ],
+    /// Bernstein coefficients in τ of the way still to go, per axis:
+    /// `p(τ) − p(1) = Σ δ_k C(m,k) τ^k (1−τ)^(m−k)`, `m = 2n+1`; `δ_k = 0` for `k > n`
+    /// (all derivatives vanish at the end), kept with one zero after `δ_n`.
+    bernstein: [[T; MAX_SMOOTHNESS + 2]; NZ],
     end: SVector<T, NZ>,
     /// Every axis's Bernstein coefficients run monotonically from its start value to its
     /// end: then (convex hull, and a derivative whose Bernstein coefficients are the
@@ -122,7 +121,7 @@ impl<T: Real, const NZ: usize> Hermite<T, NZ> {
         }
         let m = 2 * n + 1;
         let big_t = to_f64(duration);
-        let mut bernstein = [[T::zero(); MAX_COEFFS]; NZ];
+        let mut bernstein = [[T::zero(); MAX_SMOOTHNESS + 2]; NZ];
         let mut monotone = true;
         for (axis, out) in bernstein.iter_mut().enumerate() {
             // Derivatives with respect to τ: z^(j) · T^j.
@@ -159,16 +158,17 @@ impl<T: Real, const NZ: usize> Hermite<T, NZ> {
                 .take(m + 1)
                 .zip(beta.iter().skip(1).take(m))
                 .all(|(a, b)| if rising { b >= a } else { b <= a });
-            // Evaluated from the start value on: the coefficients of `p − p(0)`, from
-            // the recursion without the start value (which would leave its rounding,
-            // ~2^j ε|p(0)|, in every difference Δ^j β the derivatives are summed from).
+            // Evaluated from the end: the coefficients of `p − p(1)`, zero after the
+            // first n + 1, from the recursion without the start value (which would
+            // leave its rounding, ~2^j ε|p(0)|, in every difference the derivatives are
+            // summed from) less the travel.
             let origin = d.first().copied().unwrap_or(0.0);
             if let Some(d0) = d.first_mut() {
                 *d0 = 0.0;
             }
             let travel = start_bernstein(&d, n);
-            for (k, (o, b)) in out.iter_mut().zip(travel.iter()).take(m + 1).enumerate() {
-                *o = c(if k <= n { *b } else { e - origin });
+            for (o, b) in out.iter_mut().zip(travel.iter()).take(n + 1) {
+                *o = c(*b - (e - origin));
             }
         }
         Ok(Self {
@@ -176,7 +176,6 @@ impl<T: Real, const NZ: usize> Hermite<T, NZ> {
             duration,
             inv_duration: T::one() / duration,
             n,
-            origin: start.first().copied().unwrap_or(end),
             bernstein,
             end,
             monotone,
@@ -218,45 +217,52 @@ impl<T: Real, const NZ: usize> Trajectory<T, NZ> for Hermite<T, NZ> {
         let tau = tau.max(T::zero());
         let m = 2 * self.n + 1;
         let s = T::one() - tau;
-        for (axis, beta) in self.bernstein.iter().enumerate() {
-            // The j-th derivative is m!/(m−j)!/T^j Σ_i Δ^j β_i B_{i,m−j}(τ): `diff` holds
-            // Δ^j β, differenced in place from one order to the next.
-            let mut diff = *beta;
+        let n = self.n;
+        for (axis, delta) in self.bernstein.iter().enumerate() {
+            // The j-th derivative is m!/(m−j)!/T^j Σ_i Δ^j δ_i B_{i,m−j}(τ), the value the
+            // end plus that sum at j = 0. δ_i vanishes for i > n, so every Δ^j δ_i with
+            // i > n does too: each order sums the first n + 1 terms at most. `diff` holds
+            // Δ^j δ_0..=n, differenced in place from one order to the next (Δ^j δ_{n+1}
+            // is 0).
+            let mut diff = *delta;
             let mut scale = T::one();
             for (j, slot) in out.iter_mut().enumerate() {
                 let Some(k) = m.checked_sub(j) else {
                     break;
                 };
-                let k32 = u32::try_from(k).unwrap_or(0);
-                // Σ_i Δ^j β_i C(k, i) τ^i (1−τ)^(k−i) by Horner's rule in τ from i = k
-                // down, with (1−τ)^(k−i) and C(k, i) carried along (all the basis'
-                // weights positive, no table of powers on the stack). C(k, i) is exact in
-                // integers (C(25, 12)·13 < 2³²; `checked_*` only so that no panic is
-                // linked).
+                let last = n.min(k);
+                // Σ_{i ≤ last} Δ^j δ_i C(k, i) τ^i (1−τ)^(last−i) by Horner's rule in 1−τ
+                // from i = 0 up, τ^i and C(k, i) carried along (the basis' weights all
+                // positive, no table of powers), then times (1−τ)^(k−last). C(k, i) is
+                // exact in integers (C(25, 12)·13 < 2³²; `checked_*` only so that no
+                // panic is linked).
                 let mut acc = T::zero();
-                let mut s_power = T::one();
+                let mut tau_power = T::one();
                 let mut binom: u32 = 1;
-                for (i, d) in (0..=k32).rev().zip(diff.iter().take(k + 1).rev()) {
-                    acc = acc * tau + *d * c::<T>(f64::from(binom)) * s_power;
-                    s_power *= s;
-                    // C(k, i − 1) = C(k, i) · i / (k − i + 1).
+                let k32 = u32::try_from(k).unwrap_or(0);
+                for (i, d) in (0u32..).zip(diff.iter().take(last + 1)) {
+                    acc = acc * s + *d * c::<T>(f64::from(binom)) * tau_power;
+                    tau_power *= tau;
+                    // C(k, i + 1) = C(k, i) · (k − i) / (i + 1).
                     binom = binom
-                        .checked_mul(i)
-                        .and_then(|v| v.checked_div(k32.saturating_sub(i).saturating_add(1)))
+                        .checked_mul(k32.saturating_sub(i))
+                        .and_then(|v| v.checked_div(i.saturating_add(1)))
                         .unwrap_or(0);
+                }
+                for _ in last..k {
+                    acc *= s;
                 }
                 if let Some(v) = slot.get_mut(axis) {
                     *v = if j == 0 {
-                        self.origin.get(axis).copied().unwrap_or_else(T::zero) + acc
+                        self.end.get(axis).copied().unwrap_or_else(T::zero) + acc
                     } else {
                         acc * scale
                     };
                 }
-                for i in 0..k {
-                    if let Some(&next) = diff.get(i + 1) {
-                        if let Some(d) = diff.get_mut(i) {
-                            *d = next - *d;
-                        }
+                for i in 0..=last {
+                    let next = diff.get(i + 1).copied().unwrap_or_else(T::zero);
+                    if let Some(d) = diff.get_mut(i) {
+                        *d = next - *d;
                     }
                 }
                 scale *= c::<T>(k as f64) * self.inv_duration;
@@ -959,8 +965,8 @@ mod tests {
     /// inverse model differences into its set points) against that of de Casteljau's
     /// evaluation stays within 1e-13 at every sample. Evaluated by Horner's rule on the
     /// stop's monomial coefficients (before issue 29's fix) it grew towards the stop's
-    /// rest to 6.5e-11, 1.1e-10 and 5.7e-10 (the Bernstein sums: 1.1e-14, 6.4e-15,
-    /// 4.0e-15), noise that the hook-and-load crane's BDF4 set points carried as an
+    /// rest to 6.5e-11, 1.1e-10 and 5.7e-10 (the Bernstein sums: 1.1e-14, 6.0e-15,
+    /// 3.4e-15), noise that the hook-and-load crane's BDF4 set points carried as an
     /// alternation of up to ±0.02 m/s near the stop's rest, and fault 2.
     #[test]
     fn a_stop_is_smooth_to_rounding_up_to_its_rest() {
