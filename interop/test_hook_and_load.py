@@ -29,11 +29,11 @@ pendulum on the winch's rope; nothing here reads it (the crane has no feedback).
 * A stop 2 s into a move (12, 8) → (16, 6) in 8 s: answered in the cycle it arrives,
   the crane rests before the move would have ended, ready and without a fault, short of
   the target, never past it on the way (each drive's position actual against where it
-  stands for the target). Expected to fail (strict xfail) until a known defect is fixed:
-  near the stop's end the controller's BDF4 set points oscillate and one exceeds the
-  trolley's 3 m/s², fault 2, halted (EMCY 0xFF03 naming node 1, detail 3) — the crane
-  did rest short of the target (0.49 of the way), never past it. The same on the host,
-  deterministic: `cargo test -p controller --test double_pendulum_crane -- --ignored`.
+  stands for the target). Before issue 29's fix it ended in fault 2 (EMCY 0xFF03 naming
+  node 1): near the stop's rest the controller's BDF4 set points alternated and one
+  exceeded the trolley's 3 m/s² — the stop's timing, evaluated by Horner's rule, carried
+  rounding noise that the index-5 inverse model amplified. The host's sweep of stop
+  instants: `cargo test -p controller --test double_pendulum_crane a_stop`.
 
 Every set point is within the lab drives' limits (`DriveLimits::LAB`), every frame decodes
 against can/crane.dbc, and no EMCY is sent.
@@ -41,8 +41,6 @@ against can/crane.dbc, and no EMCY is sent.
 
 import struct
 import time
-
-import pytest
 
 from rig import ACCEPTED, MODE, REJECTED, STOP, dbc, drives_at_rest
 from test_black_box import (
@@ -159,13 +157,6 @@ def test_commissioned_a_move_ends_where_the_drives_stand_for_its_target_and_a_sl
     assert_setpoints_within_limits(log)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="known defect: a hook-and-load stop 1.5-4.2 s into this move ends in fault 2 "
-    "(a trolley set point over 3 m/s^2 near the stop's end), halted; the same on the host: "
-    "cargo test -p controller --test double_pendulum_crane -- --ignored",
-)
 def test_a_stop_mid_move_is_obeyed_at_once_and_never_carries_the_load_past_its_target(rigs):
     target, duration, stop_after = (16.0, 6.0), 8.0, 2.0
     rest_start, rest_target = drives_at_rest(SCENE), drives_at_rest(SCENE, target)

@@ -246,6 +246,14 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         self.stop_ending_by(plan, t, running_until)
     }
 
+    /// Where a stop taking over at `t` on `plan` starts, as smooth as this crane's stops
+    /// are ([`Crane::STOP_SMOOTHNESS_ABOVE_MOVES`] orders above its moves): the start of
+    /// every stop [`Planner::plan_stop`] tries.
+    #[must_use]
+    pub fn stop_start(&self, plan: &Plan<f64, A>, t: f64) -> Option<StopStart<f64, A>> {
+        plan.stop_start(t, K::STOP_SMOOTHNESS_ABOVE_MOVES)
+    }
+
     /// Whether `stop`, taking over at `t` on `plan`'s running segment, keeps every rule
     /// [`Planner::plan_stop`] keeps: on the path at or before the target, at rest no later
     /// than the segment, every check of a move at [`Planner::check`]'s points. What the
@@ -253,7 +261,7 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
     /// (`tests/stop_property.rs`).
     #[must_use]
     pub fn stop_passes(&self, plan: &Plan<f64, A>, t: f64, stop: &Stop<f64, A>) -> bool {
-        let (Some(segment), Some(start)) = (plan.segment_at(t), plan.stop_start(t)) else {
+        let (Some(segment), Some(start)) = (plan.segment_at(t), self.stop_start(plan, t)) else {
             return false;
         };
         let span = segment.span();
@@ -277,7 +285,7 @@ impl<K: Crane<A>, const A: usize> Planner<K, A> {
         latest: f64,
         budget: u32,
     ) -> Option<Stop<f64, A>> {
-        let start = plan.stop_start(t)?;
+        let start = self.stop_start(plan, t)?;
         let longest = longest_stop(&start, latest - t)?;
         // No stop shorter than the shortest move: its set points would leave the checks'
         // margin. Where none that long fits, the running segment is the quickest rest.
@@ -988,7 +996,7 @@ mod tests {
             let length = (SVector::from(to) - SVector::from(from)).norm();
             for &t in instants {
                 let span = plan.segment_at(t).unwrap().span();
-                let start = plan.stop_start(t).unwrap();
+                let start = planner.stop_start(&plan, t).unwrap();
                 let mut fine = StopCheck {
                     planner,
                     start,

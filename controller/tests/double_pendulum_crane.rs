@@ -45,10 +45,18 @@ struct OnBus<F> {
 impl<F: Feedforward<2, Reference = HookReference> + Replan<2>> OnBus<F> {
     /// `n` cycles of 10 ms.
     fn run(&mut self, n: usize) {
-        for _ in 0..n {
-            sim::run_cycle(&mut self.c, &mut self.bus, self.now).unwrap();
-            self.now += 10;
-        }
+        self.record(n);
+    }
+
+    /// `n` cycles of 10 ms, and what each sent.
+    fn record(&mut self, n: usize) -> Vec<controller::Cycle<2>> {
+        (0..n)
+            .map(|_| {
+                let cycle = sim::run_cycle(&mut self.c, &mut self.bus, self.now).unwrap();
+                self.now += 10;
+                cycle
+            })
+            .collect()
     }
 }
 
@@ -308,23 +316,130 @@ fn the_controller_moves_it_and_resets_it_where_its_drives_stand() {
     assert!(near(at, p.drives_at_rest(second)), "drives at {at:?}");
 }
 
-/// A stop mid-move brings the crane to rest, ready, without a fault. Known defect
-/// (issue 29's interop work found it; on main too): stopped 1.5–4.2 s into (12, 8) →
-/// (16, 6) in 8 s, the stop's plan passes the planner (the exact inverse's trolley
-/// `|u̇|` at most 2.84 m/s², under 0.95 · 3), but near the stop's end the BDF4 set points
-/// oscillate cycle to cycle and one exceeds the trolley's 3 m/s² (3.0–3.8 m/s²): the
-/// gate refuses it, fault 2, halted. `cargo test -p controller --test
-/// double_pendulum_crane -- --ignored --nocapture` prints each case.
+/// A stop at any instant of a move brings the hook-and-load crane to rest, ready,
+/// without a fault: the stop request sent every 0.1 s from the move's request to past
+/// its end ((12, 8) → (16, 6) in 8 s, on the virtual bus). In every run the stop is
+/// accepted; no cycle leaves *ready*; every set point is within the lab drives' limits
+/// (speed, and the change from the last set point over one cycle: what the gate
+/// checks); the load's path never passes the target nor leaves the straight line; the
+/// drives come to rest where they stand for the plan's end, no later than the move would
+/// have; and a stop sent before the move's last quarter rests short of the target.
+/// Issue 29: before its fixes the stops sent 1.5–4.2 s in ended in fault 2 (the stop's
+/// timing summed by Horner's rule, `solver_core::plan`), and with the stops one order
+/// smoother than the moves (as the planar crane's), the one sent 0.4 s in
+/// ([`Crane::STOP_SMOOTHNESS_ABOVE_MOVES`]). `-- --nocapture` prints each stop.
 #[test]
-#[ignore = "known defect: a hook-and-load stop mid-move ends in fault 2 (over acceleration)"]
-fn a_stop_mid_move_comes_to_rest_without_a_fault() {
+fn a_stop_at_any_instant_of_a_move_rests_short_of_the_target_without_a_fault() {
     use controller::commands::{Answer, Request};
+    use controller::setpoint::UNITS_PER_M_PER_S;
     use controller::Mode;
     use sim::Action;
 
     let p = HookAndLoad::EXAMPLE;
-    let mut faulted = Vec::new();
-    for stop_after in [150, 200, 250, 300, 340, 420] {
+    let (home, target) = ([12.0, 8.0], [16.0, 6.0]);
+    let limits = <HookAndLoad as Crane<2>>::LAB_LIMITS;
+    // The fraction of the way from home to the target, and the distance from the
+    // straight line, m.
+    let along = |z: [f64; 2]| {
+        let (dx, dz) = (target[0] - home[0], target[1] - home[1]);
+        let (ax, az) = (z[0] - home[0], z[1] - home[1]);
+        let len2 = dx * dx + dz * dz;
+        (
+            (ax * dx + az * dz) / len2,
+            (ax * dz - az * dx).abs() / len2.sqrt(),
+        )
+    };
+    // The worst speed and change of speed against their limits, over every run.
+    let (mut speed, mut acceleration) = (0.0f64, 0.0f64);
+    let mut failures = Vec::new();
+    for k in 0..=85 {
+        let stop_after = 10 * k;
+        let mut r = on_bus(p, home);
+        r.run(200);
+        r.bus.inject(Action::Request(Request::Move {
+            id: 1,
+            target,
+            duration: Some(8.0),
+        }));
+        let mut cycles = r.record(stop_after);
+        r.bus.inject(Action::Request(Request::Stop { id: 2 }));
+        cycles.extend(r.record(3));
+        assert_eq!(r.c.last_answer(), (2, Answer::Accepted, None));
+        cycles.extend(r.record(1_000));
+        let mut failed = Vec::new();
+        let mut last = [0.0; 2];
+        let mut moved_until = 0;
+        for (i, cycle) in cycles.iter().enumerate() {
+            if cycle.mode != Mode::Ready {
+                failed.push(format!("cycle {i}: {:?}", cycle.mode));
+            }
+            for (axis, (s, limit)) in cycle.setpoints.iter().zip(limits).enumerate() {
+                let v = f64::from(s.units()) / UNITS_PER_M_PER_S;
+                let a = (v - last[axis]) / 0.01;
+                speed = speed.max(v.abs() / limit.max_velocity);
+                acceleration = acceleration.max(a.abs() / limit.max_acceleration);
+                if v.abs() > limit.max_velocity || a.abs() > limit.max_acceleration {
+                    failed.push(format!("cycle {i}, axis {axis}: {v} m/s, {a} m/s²"));
+                }
+                if v != 0.0 {
+                    moved_until = i;
+                }
+                last[axis] = v;
+            }
+            if let Some(step) = cycle.step {
+                let z = r.c.feedforward().plan().derivatives::<1>(step.t)[0];
+                let (fraction, off) = along([z[0], z[1]]);
+                if fraction > 1.0 || off > 1e-9 {
+                    failed.push(format!(
+                        "at {} s: {fraction} of the way, {off} m off",
+                        step.t
+                    ));
+                }
+            }
+        }
+        let rest = r.c.feedforward().plan().final_position();
+        let (fraction, _) = along([rest[0], rest[1]]);
+        let stands = p.drives_at_rest([rest[0], rest[1]]);
+        let at = controller::drive::PLANAR.map(|d| r.bus.drive(d).unwrap().position());
+        if (at[0] - stands[0]).abs() > 1e-3 || (at[1] - stands[1]).abs() > 1e-3 {
+            failed.push(format!("drives at {at:?}, the plan rests at {rest:?}"));
+        }
+        // The move is accepted in the cycle after its request and runs 800 cycles.
+        if moved_until > 801 {
+            failed.push(format!("the last set point in cycle {moved_until}"));
+        }
+        if stop_after < 600 && fraction >= 1.0 {
+            failed.push(format!("at rest {fraction} of the way"));
+        }
+        eprintln!(
+            "stopped {stop_after} cycles in: at rest {fraction:.6} of the way, the last \
+             set point {moved_until} cycles in {failed:?}"
+        );
+        if !failed.is_empty() {
+            failed.truncate(3);
+            failures.push((stop_after, failed));
+        }
+    }
+    eprintln!("86 stops: set points within {speed:.3} of the speed limits, {acceleration:.3} of the acceleration limits");
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// How far BDF4's set points stray from the exact inverse's where a stop takes over:
+/// the largest `|u − u_exact|` (either drive, m/s) in each stop's first 15 cycles and
+/// after, for stops sent every 0.1 s in the first 7 s of (12, 8) → (16, 6) in 8 s (a run
+/// that leaves *ready* is measured up to there). A study of
+/// [`Crane::STOP_SMOOTHNESS_ABOVE_MOVES`] (`cargo test -p controller --test
+/// double_pendulum_crane stop_takeover -- --ignored --nocapture`).
+#[test]
+#[ignore = "a study: prints the set points' error where a stop takes over"]
+fn stop_takeover_transient_against_the_exact_inverse() {
+    use controller::commands::Request;
+    use controller::Mode;
+    use sim::Action;
+
+    let p = HookAndLoad::EXAMPLE;
+    let mut worst = [0.0f64; 2];
+    for k in 0..=70 {
         let mut r = on_bus(p, [12.0, 8.0]);
         r.run(200);
         r.bus.inject(Action::Request(Request::Move {
@@ -332,17 +447,27 @@ fn a_stop_mid_move_comes_to_rest_without_a_fault() {
             target: [16.0, 6.0],
             duration: Some(8.0),
         }));
-        r.run(stop_after);
+        r.run(10 * k);
         r.bus.inject(Action::Request(Request::Stop { id: 2 }));
-        r.run(3);
-        assert_eq!(r.c.last_answer(), (2, Answer::Accepted, None));
-        r.run(1_000);
-        eprintln!("stopped {stop_after} cycles in: {:?}", r.c.mode());
-        if r.c.mode() != Mode::Ready {
-            faulted.push((stop_after, r.c.mode()));
+        for i in 0..1_000 {
+            let cycle = r.record(1).pop().unwrap();
+            if cycle.mode != Mode::Ready {
+                break;
+            }
+            let Some(step) = cycle.step else { continue };
+            if let Ok(exact) = double_pendulum::flat_inverse(&p, r.c.feedforward().plan(), step.t) {
+                let error = (0..2)
+                    .map(|a| (step.u[a] - exact.u[a]).abs())
+                    .fold(0.0, f64::max);
+                let w = &mut worst[usize::from(i >= 15)];
+                *w = w.max(error);
+            }
         }
     }
-    assert!(faulted.is_empty(), "{faulted:?}");
+    eprintln!(
+        "|u - u_exact| in a stop's first 15 cycles at most {:.2e} m/s, after {:.2e} m/s",
+        worst[0], worst[1]
+    );
 }
 
 /// The load's path, counting the flat inverses taken on it: each evaluates the path's

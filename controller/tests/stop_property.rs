@@ -189,10 +189,10 @@ fn check_stop(
     // No stop resting at half the distance keeps the rules — asserted of every stop
     // the search found; where it found none and the move runs on to its target, counted
     // (the search's coarse check can miss a narrow region of stops that pass).
-    let start_of_stop = plan.stop_start(t_obeyed).expect("moving");
+    let planner = planner();
+    let start_of_stop = planner.stop_start(&plan, t_obeyed).expect("moving");
     let s0 = start_of_stop.fraction();
     let nearer = s0 + NEARER * (sigma.min(1.0) - s0);
-    let planner = planner();
     let mut d = controller::planner::STOP_SHORTEST;
     let mut missed = false;
     while t_obeyed + d <= end && !missed {

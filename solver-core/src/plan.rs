@@ -12,7 +12,16 @@
 //! and first n derivatives match the current trajectory at the start, and it ends at
 //! rest. It is constructed in Bernstein form — the first and last n+1 Bernstein
 //! coefficients follow from the end derivatives by triangular recursions — and
-//! evaluated by Horner's rule on its monomial coefficients in `τ ∈ [0, 1]`.
+//! evaluated in Bernstein form too, as the moves' smooth step is
+//! ([`crate::trajectory`]): each derivative from the differences of those coefficients,
+//! summed over the Bernstein basis (all terms positive). Its monomial coefficients are
+//! large and alternate (|c_k| summing to 2·10⁵ for an n = 8 stop, for values in
+//! [0, 1]): Horner's rule on them lost digits towards the stop's rest — up to 6·10⁻¹⁰
+//! in σ and 9·10⁻⁹ in σ̈ against de Casteljau's evaluation, as noise from one sample to
+//! the next — which the hook-and-load crane's index-5 inverse model differences four
+//! times into its set points: near the rest of its stops BDF4's trolley set points
+//! alternated by up to ±0.02 m/s, over 3 m/s² from one cycle to the next (fault 2,
+//! issue 29). The test `a_stop_is_smooth_to_rounding_up_to_its_rest` pins the noise.
 
 use nalgebra::SVector;
 
@@ -30,8 +39,10 @@ pub struct Hermite<T: Real, const NZ: usize> {
     /// `1/duration`: the chain rule's factor per order.
     inv_duration: T,
     n: usize,
-    /// Monomial coefficients in τ, per axis: `p(τ) = Σ c_k τ^k`.
-    coeffs: [[T; MAX_COEFFS]; NZ],
+    /// Bernstein coefficients in τ of the way still to go, per axis:
+    /// `p(τ) − p(1) = Σ δ_k C(m,k) τ^k (1−τ)^(m−k)`, `m = 2n+1`; `δ_k = 0` for `k > n`
+    /// (all derivatives vanish at the end), kept with one zero after `δ_n`.
+    bernstein: [[T; MAX_SMOOTHNESS + 2]; NZ],
     end: SVector<T, NZ>,
     /// Every axis's Bernstein coefficients run monotonically from its start value to its
     /// end: then (convex hull, and a derivative whose Bernstein coefficients are the
@@ -110,9 +121,9 @@ impl<T: Real, const NZ: usize> Hermite<T, NZ> {
         }
         let m = 2 * n + 1;
         let big_t = to_f64(duration);
-        let mut coeffs = [[T::zero(); MAX_COEFFS]; NZ];
+        let mut bernstein = [[T::zero(); MAX_SMOOTHNESS + 2]; NZ];
         let mut monotone = true;
-        for (axis, out) in coeffs.iter_mut().enumerate() {
+        for (axis, out) in bernstein.iter_mut().enumerate() {
             // Derivatives with respect to τ: z^(j) · T^j.
             let mut d = [0.0; MAX_SMOOTHNESS + 1];
             let mut t_power = 1.0;
@@ -147,15 +158,17 @@ impl<T: Real, const NZ: usize> Hermite<T, NZ> {
                 .take(m + 1)
                 .zip(beta.iter().skip(1).take(m))
                 .all(|(a, b)| if rising { b >= a } else { b <= a });
-            // Bernstein → monomial: c_k = C(m,k) Σ_{i≤k} (−1)^(k−i) C(k,i) β_i.
-            for (k, ck) in out.iter_mut().enumerate().take(m + 1) {
-                let s: f64 = beta
-                    .iter()
-                    .take(k + 1)
-                    .enumerate()
-                    .map(|(i, b)| sign(k - i) * binomial(k, i) * b)
-                    .sum();
-                *ck = c(binomial(m, k) * s);
+            // Evaluated from the end: the coefficients of `p − p(1)`, zero after the
+            // first n + 1, from the recursion without the start value (which would
+            // leave its rounding, ~2^j ε|p(0)|, in every difference the derivatives are
+            // summed from) less the travel.
+            let origin = d.first().copied().unwrap_or(0.0);
+            if let Some(d0) = d.first_mut() {
+                *d0 = 0.0;
+            }
+            let travel = start_bernstein(&d, n);
+            for (o, b) in out.iter_mut().zip(travel.iter()).take(n + 1) {
+                *o = c(*b - (e - origin));
             }
         }
         Ok(Self {
@@ -163,7 +176,7 @@ impl<T: Real, const NZ: usize> Hermite<T, NZ> {
             duration,
             inv_duration: T::one() / duration,
             n,
-            coeffs,
+            bernstein,
             end,
             monotone,
         })
@@ -203,19 +216,56 @@ impl<T: Real, const NZ: usize> Trajectory<T, NZ> for Hermite<T, NZ> {
         // Before its start a segment is only ever asked at its start (τ = 0).
         let tau = tau.max(T::zero());
         let m = 2 * self.n + 1;
-        for (axis, coeffs) in self.coeffs.iter().enumerate() {
+        let s = T::one() - tau;
+        let n = self.n;
+        for (axis, delta) in self.bernstein.iter().enumerate() {
+            // The j-th derivative is m!/(m−j)!/T^j Σ_i Δ^j δ_i B_{i,m−j}(τ), the value the
+            // end plus that sum at j = 0. δ_i vanishes for i > n, so every Δ^j δ_i with
+            // i > n does too: each order sums the first n + 1 terms at most. `diff` holds
+            // Δ^j δ_0..=n, differenced in place from one order to the next (Δ^j δ_{n+1}
+            // is 0).
+            let mut diff = *delta;
             let mut scale = T::one();
             for (j, slot) in out.iter_mut().enumerate() {
-                // Horner on the j-th derivative's coefficients c_k · k!/(k−j)!.
+                let Some(k) = m.checked_sub(j) else {
+                    break;
+                };
+                let last = n.min(k);
+                // Σ_{i ≤ last} Δ^j δ_i C(k, i) τ^i (1−τ)^(last−i) by Horner's rule in 1−τ
+                // from i = 0 up, τ^i and C(k, i) carried along (the basis' weights all
+                // positive, no table of powers), then times (1−τ)^(k−last). C(k, i) is
+                // exact in integers (C(25, 12)·13 < 2³²; `checked_*` only so that no
+                // panic is linked).
                 let mut acc = T::zero();
-                for k in (j..=m).rev() {
-                    let ck = coeffs.get(k).copied().unwrap_or_else(T::zero);
-                    acc = acc * tau + ck * c::<T>(falling(k, j));
+                let mut tau_power = T::one();
+                let mut binom: u32 = 1;
+                let k32 = u32::try_from(k).unwrap_or(0);
+                for (i, d) in (0u32..).zip(diff.iter().take(last + 1)) {
+                    acc = acc * s + *d * c::<T>(f64::from(binom)) * tau_power;
+                    tau_power *= tau;
+                    // C(k, i + 1) = C(k, i) · (k − i) / (i + 1).
+                    binom = binom
+                        .checked_mul(k32.saturating_sub(i))
+                        .and_then(|v| v.checked_div(i.saturating_add(1)))
+                        .unwrap_or(0);
+                }
+                for _ in last..k {
+                    acc *= s;
                 }
                 if let Some(v) = slot.get_mut(axis) {
-                    *v = acc * scale;
+                    *v = if j == 0 {
+                        self.end.get(axis).copied().unwrap_or_else(T::zero) + acc
+                    } else {
+                        acc * scale
+                    };
                 }
-                scale *= self.inv_duration;
+                for i in 0..=last {
+                    let next = diff.get(i + 1).copied().unwrap_or_else(T::zero);
+                    if let Some(d) = diff.get_mut(i) {
+                        *d = next - *d;
+                    }
+                }
+                scale *= c::<T>(k as f64) * self.inv_duration;
             }
         }
         out
@@ -312,7 +362,7 @@ pub struct StopStart<T: Real, const NZ: usize> {
     t: T,
     path: (SVector<T, NZ>, SVector<T, NZ>),
     sigma: [T; MAX_SMOOTHNESS + 1],
-    /// The stop's smoothness: one more than the moves'.
+    /// The stop's smoothness: the moves' and [`Plan::stop_start`]'s `above`.
     n: usize,
 }
 
@@ -562,17 +612,20 @@ impl<T: Real, const NZ: usize> Plan<T, NZ> {
 
     /// Where a stop taking over at `t` (not yet stepped) starts: the path of the segment
     /// running at `t` and its timing σ with its derivatives there ([`StopStart`]), from
-    /// which stops of any duration and end are built. `None` when nothing moves at or
-    /// after `t`.
+    /// which stops of any duration and end are built, `above` orders smoother than the
+    /// moves (at most [`MAX_SMOOTHNESS`]). `None` when nothing moves at or after `t`.
+    ///
+    /// The derivative of the path that jumps where a stop of smoothness `n + above` takes
+    /// over is the (n + above + 1)-th. With `above = 1` it is one beyond what the planar
+    /// crane's drive accelerations contain, so a multistep scheme meets no jump in them
+    /// (a jump in the (n+1)-th made BDF4's accelerations overshoot the checked ones by up
+    /// to 8 %); the controller takes `above` per crane
+    /// (`controller::crane::Crane::STOP_SMOOTHNESS_ABOVE_MOVES`).
     #[must_use]
-    pub fn stop_start(&self, t: T) -> Option<StopStart<T, NZ>> {
+    pub fn stop_start(&self, t: T, above: usize) -> Option<StopStart<T, NZ>> {
         let segment = self.segment_at(t)?;
         let (path, sigma) = segment.path_timing::<{ MAX_SMOOTHNESS + 1 }>(t);
-        // One order smoother than the moves: the derivative that jumps where the stop
-        // takes over is then the (n+2)-th, one beyond what the drives' accelerations
-        // contain, so a multistep scheme meets no jump in them (a jump in the (n+1)-th
-        // made BDF4's accelerations overshoot the checked ones by up to 8 %).
-        let n = (self.smoothness + 1).min(MAX_SMOOTHNESS);
+        let n = self.smoothness.saturating_add(above).min(MAX_SMOOTHNESS);
         Some(StopStart { t, path, sigma, n })
     }
 
@@ -671,7 +724,7 @@ mod tests {
         t: f64,
         duration: f64,
     ) -> Option<Result<Stop<f64, NZ>>> {
-        let start = plan.stop_start(t)?;
+        let start = plan.stop_start(t, 1)?;
         let reach = start.fraction() + start.rate() * duration * 0.5;
         let end = start
             .nearest_end(duration)
@@ -796,7 +849,7 @@ mod tests {
         let mut checked = 0;
         for k in 1..40 {
             let t = 1.0 + 8.0 * f64::from(k) / 40.0;
-            let start = plan.stop_start(t).unwrap();
+            let start = plan.stop_start(t, 1).unwrap();
             for d in [0.5, 1.0, 2.0, 4.0] {
                 let Some(near) = start.nearest_end(d) else {
                     continue;
@@ -850,8 +903,8 @@ mod tests {
                         continue;
                     }
                     accepted += 1;
-                    // The Bernstein test proves it of the exact polynomial; evaluated in
-                    // monomial form (degree up to 15) it carries rounding of about 1e-9.
+                    // The Bernstein test proves it of the exact polynomial; evaluated
+                    // (degree up to 15) it carries rounding.
                     let s0: [f64; 1] = stop.timing(t);
                     let mut last = s0[0];
                     for i in 0..=400 {
@@ -880,5 +933,74 @@ mod tests {
             }
         }
         assert!(accepted > 100, "only {accepted} stops passed");
+    }
+
+    /// The stop's σ and its derivatives of `order` at τ by de Casteljau's algorithm on
+    /// the Bernstein coefficients `beta` of degree `m` (differenced `order` times first),
+    /// for a stop of `duration`: the textbook evaluation, stable, and slow.
+    fn de_casteljau(
+        beta: &[f64; MAX_COEFFS],
+        m: usize,
+        tau: f64,
+        order: usize,
+        duration: f64,
+    ) -> f64 {
+        let mut b = *beta;
+        for _ in 0..order {
+            for k in 0..m {
+                b[k] = b[k + 1] - b[k];
+            }
+        }
+        let degree = m - order;
+        for r in 1..=degree {
+            for k in 0..=(degree - r) {
+                b[k] += tau * (b[k + 1] - b[k]);
+            }
+        }
+        b[0] * falling(m, order) / duration.powi(order as i32)
+    }
+
+    /// A stop's timing is smooth to rounding from its start to its rest: at the
+    /// controller's 10 ms, the fourth difference of its σ, σ̇ and σ̈ (what an index-5
+    /// inverse model differences into its set points) against that of de Casteljau's
+    /// evaluation stays within 1e-13 at every sample. Evaluated by Horner's rule on the
+    /// stop's monomial coefficients (before issue 29's fix) it grew towards the stop's
+    /// rest to 6.5e-11, 1.1e-10 and 5.7e-10 (the Bernstein sums: 1.1e-14, 6.0e-15,
+    /// 3.4e-15), noise that the hook-and-load crane's BDF4 set points carried as an
+    /// alternation of up to ±0.02 m/s near the stop's rest, and fault 2.
+    #[test]
+    fn a_stop_is_smooth_to_rounding_up_to_its_rest() {
+        type V2 = SVector<f64, 2>;
+        let h = 0.01;
+        let mut worst = [0.0f64; 3];
+        // Moves of n = 4, 5, 7: the paper's, the planar crane's, the hook-and-load's.
+        for n in [4, 5, 7] {
+            let mut plan = Plan::at_rest(V2::new(12.0, 8.0), n).unwrap();
+            plan.push(plan.candidate(V2::new(16.0, 6.0), 2.0, 8.0).unwrap())
+                .unwrap();
+            for (t0, d) in [(3.5, 1.0), (5.0, 3.25), (7.0, 2.0), (4.0, 6.0)] {
+                let start = plan.stop_start(t0, 1).unwrap();
+                let stop = uniform_stop(&plan, t0, d).unwrap().unwrap();
+                let m = 2 * start.n + 1;
+                let mut beta = start_bernstein(&start.scaled(d), start.n);
+                for b in beta.iter_mut().take(m + 1).skip(start.n + 1) {
+                    *b = stop.fraction();
+                }
+                let steps = (d / h).round() as usize;
+                let error = |k: usize, order: usize| {
+                    let t = t0 + h * k as f64;
+                    let s: [f64; 3] = stop.timing(t);
+                    s[order] - de_casteljau(&beta, m, (t - t0) / d, order, d)
+                };
+                for k in 0..steps.saturating_sub(4) {
+                    for (order, w) in worst.iter_mut().enumerate() {
+                        let e = [0, 1, 2, 3, 4].map(|i| error(k + i, order));
+                        let fourth = e[0] - 4.0 * e[1] + 6.0 * e[2] - 4.0 * e[3] + e[4];
+                        *w = w.max(fourth.abs());
+                    }
+                }
+            }
+        }
+        assert!(worst.iter().all(|w| *w < 1e-13), "σ, σ̇, σ̈: {worst:?}");
     }
 }

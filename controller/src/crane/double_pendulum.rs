@@ -70,6 +70,18 @@ impl Crane<2> for DoublePendulumParams {
     /// drives' accelerations `u̇` contain `z⁽⁷⁾`: moves are planned with n ≥ 7, as the
     /// planar crane's with n ≥ 5 for its `z⁗`.
     const MIN_COMMAND_SMOOTHNESS: usize = 7;
+    /// Two: its stops have n = 9, the path's 10th derivative jumps where one takes over.
+    /// With one (n = 8, the 9th jumping) BDF4's set points answered the takeover with a
+    /// transient alternating cycle to cycle, up to 9.0e-3 m/s from the exact inverse's in
+    /// a stop's first 15 cycles (3.6e-3 with two; 7.4e-4 and 7.1e-4 after them: `cargo
+    /// test -p controller --test double_pendulum_crane stop_takeover -- --ignored
+    /// --nocapture`, stops every 0.1 s of (12, 8) → (16, 6) in 8 s), and the stop sent
+    /// 0.4 s into that move — 0.58 s long — sent a trolley set point 3.66 m/s² from the
+    /// last where the exact inverse's acceleration was 1.6–1.9 m/s²: fault 2. With two
+    /// every stop of the sweep every 0.1 s rests ready, its set points within 0.950 of the
+    /// acceleration limits (`cargo test -p controller --test double_pendulum_crane a_stop
+    /// -- --nocapture`; three: 0.948).
+    const STOP_SMOOTHNESS_ABOVE_MOVES: usize = 2;
     type Reference = HookReference;
     fn g(&self) -> f64 {
         self.crane.g

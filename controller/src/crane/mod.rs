@@ -98,6 +98,13 @@ pub trait Crane<const A: usize> {
     /// answers the jump with a transient that no margin on the exact inverse covers
     /// (`cargo test -p controller --test smoothness`).
     const MIN_COMMAND_SMOOTHNESS: usize;
+    /// How many orders smoother than its moves a stop is (`solver_core::plan::
+    /// Plan::stop_start`): the path's derivative that jumps where a stop takes over must
+    /// lie far enough beyond what its inverse model differences into the set points that
+    /// the scheme's transient there stays inside the checks' margin. One for the planar
+    /// and 3D cranes (index 3); cranes whose inverse is of higher index may need more
+    /// (`cargo test -p controller --test double_pendulum_crane a_stop`).
+    const STOP_SMOOTHNESS_ABOVE_MOVES: usize = 1;
     /// The reference state its feedback compares the measurements with, from a solution
     /// of its inverse model ([`crate::feedforward::CraneReference`]).
     type Reference: Copy + Default + PartialEq + core::fmt::Debug;
