@@ -30,6 +30,7 @@ use crate::frame::CanFrame;
 use crate::links::{self, DriveLink, Heartbeat, Link, Links, Silent};
 use crate::motion::{Breach, Deviations, Lag};
 use crate::node::{Dictionary, Node, Role, Snapshot, StagedRequest};
+use crate::operator::{self, OperatorFrame};
 use crate::planner::{Crane, MoveSearch, Planner, SAMPLES_PER_CYCLE};
 use crate::requests::{PendingMove, Requests};
 use crate::services;
@@ -259,6 +260,7 @@ where
                 supervisor: 0,
                 cycle_us: config.period_ms.saturating_mul(1000),
                 request: StagedRequest::default(),
+                operator: Default::default(),
                 drives_consumer_ms: config
                     .nodes
                     .iter()
@@ -555,6 +557,12 @@ where
                             self.on_request(request);
                         }
                     }
+                    // An operator frame written over SDO (0x2010): taken as RPDO3's.
+                    if core::mem::take(&mut self.nmt.node.operator.submitted) {
+                        if let Ok(operator) = self.nmt.node.operator.frame() {
+                            self.on_operator(operator, now_ms);
+                        }
+                    }
                 }
             }
             // The supervisor's command frame: the controller's own RPDO1. (Another
@@ -577,6 +585,18 @@ where
                     _ => self.ignore(),
                 }
             }
+            // The operator's speed demand: the controller's own RPDO3. A frame the crane
+            // cannot follow (a demand along y to the planar crane) is malformed for it.
+            Incoming::Rpdo3 { node, frame } if node == self.nmt.node.id => {
+                match operator::decode_operator(frame.data()) {
+                    Ok(operator) if self.nmt.node.state == NmtState::Operational => {
+                        self.on_operator(operator, now_ms);
+                    }
+                    _ => self.ignore(),
+                }
+            }
+            // Another node's RPDO3 (a PLC's to its own devices) is not ours.
+            Incoming::Rpdo3 { .. } => {}
             // A commissioned drive's RPDO1 is the controller's to send: while it sends
             // it (operational), another node sending it is a second master moving the
             // drive.
@@ -598,6 +618,14 @@ where
                     self.fault(Fault::ForeignProducer(Foreign::Sync));
                 }
             }
+        }
+    }
+
+    /// An operator frame (RPDO3, or 0x2010 written over SDO), well-formed. One the crane
+    /// cannot follow is ignored and counted, as a malformed one.
+    fn on_operator(&mut self, frame: OperatorFrame, _now_ms: u64) {
+        if frame.fits(A.saturating_sub(1)).is_err() {
+            self.ignore();
         }
     }
 
