@@ -444,6 +444,26 @@ fn status_names_its_answer_reason_mode_and_fault() {
     );
 }
 
+/// Manual mode's status byte (issue 28) is named in the DBC, additive to modes 0–4.
+#[test]
+fn status_names_manual_mode() {
+    let s = decode(&status_frame(
+        CONTROLLER_NODE,
+        &Status {
+            last_id: 0,
+            answer: Answer::None,
+            reason: None,
+            overload: 0,
+            mode: controller::operator::MANUAL_MODE_CODE,
+            fault: 0,
+            ignored: 0,
+            deadline_misses: 0,
+            tx_failures: 0,
+        },
+    ));
+    assert!(s.to_string().contains("mode=5(Manual)"), "{s}");
+}
+
 /// An overload answer: the last request it answers and how many, in byte 2 where a
 /// rejection has its reason (the DBC multiplexes byte 2 on the answer).
 #[test]
