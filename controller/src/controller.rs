@@ -636,9 +636,9 @@ where
 
     /// Manual mode, once a cycle before the model's step (docs/COMMANDS.md, "Manual
     /// mode"): entered at rest when a live operator asks for it; the stick's demand
-    /// (zero while interlocked) advances the generator; a dead-man loss latches its
-    /// sway-free stop; manual mode is left at rest once the operator is lost or no
-    /// longer asks for it. A crane whose model follows plans only never enters it.
+    /// (zero while interlocked) advances the generator; a dead-man loss or the request
+    /// withdrawn latches its sway-free stop and interlocks the stick; manual mode is
+    /// left at rest once the operator is lost or no longer asks for it. A crane whose model follows plans only never enters it.
     fn steer_manual(&mut self) {
         let state = self.deadman.state(self.now_ms);
         let frame = self.deadman.frame();
@@ -664,13 +664,16 @@ where
             return;
         }
         let stick = match (state, frame) {
-            (Stick::Live, Some(f)) => f.stick::<2>().ok(),
+            (Stick::Live, Some(f)) if asked => f.stick::<2>().ok(),
             _ => None,
         };
-        match state {
-            Stick::Lost(_) => path.stop(),
-            Stick::Live if path.is_stopping() => path.resume(),
-            _ => {}
+        if !asked {
+            // A dead-man loss, or the request withdrawn: the sway-free stop, and the
+            // stick centred before it moves the crane again.
+            path.stop();
+            self.deadman.interlock();
+        } else if state == Stick::Live && path.is_stopping() {
+            path.resume();
         }
         let ([x, y], z) = stick.unwrap_or(([0.0; 2], 0.0));
         let _ = path.advance([x, y], z);

@@ -299,6 +299,28 @@ fn a_dead_man_drop_stops_and_leaves_manual_mode_at_rest() {
     assert!(back.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]));
 }
 
+/// The manual request withdrawn while travelling (the stick still held) is the same
+/// stop: at rest, manual mode is left.
+#[test]
+fn withdrawing_the_manual_request_stops_and_leaves_manual_mode() {
+    let off = Flags {
+        manual: false,
+        ..HELD
+    };
+    let mut rig = moving(300);
+    let (cycles, rested) = until_rest(&mut rig, 2000, |r, n| {
+        if n % 3 == 0 {
+            r.send(off, [FULL_SCALE, 0, 0]);
+        }
+    });
+    assert!(
+        cycles[0].setpoints[0].units() > 100_000,
+        "travelling when withdrawn"
+    );
+    assert!(rested, "at rest with the stick held");
+    assert_eq!(rig.mode_byte(), 1, "manual mode left");
+}
+
 /// A released dead-man switch (enable = 0) and a frozen counter are the same stop.
 #[test]
 fn a_released_switch_or_a_frozen_counter_stops() {
