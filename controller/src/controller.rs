@@ -30,6 +30,7 @@ use crate::frame::CanFrame;
 use crate::links::{self, DriveLink, Heartbeat, Link, Links, Silent};
 use crate::motion::{Breach, Deviations, Lag};
 use crate::node::{Dictionary, Node, Role, Snapshot, StagedRequest};
+use crate::operator::{self, Deadman, OperatorFrame, State as Stick};
 use crate::planner::{Crane, MoveSearch, Planner, SAMPLES_PER_CYCLE};
 use crate::requests::{PendingMove, Requests};
 use crate::services;
@@ -211,6 +212,8 @@ pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
     now_ms: u64,
     /// SYNC was sent in the last cycle (the drives' TPDOs are due).
     syncing: bool,
+    /// The operator's dead-man: whether the stick may move the crane (manual mode).
+    deadman: Deadman,
 }
 
 impl<F: Feedforward<Reference = Reference> + Replan> Controller<F> {
@@ -259,6 +262,7 @@ where
                 supervisor: 0,
                 cycle_us: config.period_ms.saturating_mul(1000),
                 request: StagedRequest::default(),
+                operator: Default::default(),
                 drives_consumer_ms: config
                     .nodes
                     .iter()
@@ -291,6 +295,7 @@ where
             last_supervisor_heartbeat_ms: None,
             now_ms: 0,
             syncing: false,
+            deadman: Deadman::new(operator::DEADLINE_MS, operator::DEADBAND),
         }
     }
 
@@ -555,6 +560,12 @@ where
                             self.on_request(request);
                         }
                     }
+                    // An operator frame written over SDO (0x2010): taken as RPDO3's.
+                    if core::mem::take(&mut self.nmt.node.operator.submitted) {
+                        if let Ok(operator) = self.nmt.node.operator.frame() {
+                            self.on_operator(operator, now_ms);
+                        }
+                    }
                 }
             }
             // The supervisor's command frame: the controller's own RPDO1. (Another
@@ -577,6 +588,18 @@ where
                     _ => self.ignore(),
                 }
             }
+            // The operator's speed demand: the controller's own RPDO3. A frame the crane
+            // cannot follow (a demand along y to the planar crane) is malformed for it.
+            Incoming::Rpdo3 { node, frame } if node == self.nmt.node.id => {
+                match operator::decode_operator(frame.data()) {
+                    Ok(operator) if self.nmt.node.state == NmtState::Operational => {
+                        self.on_operator(operator, now_ms);
+                    }
+                    _ => self.ignore(),
+                }
+            }
+            // Another node's RPDO3 (a PLC's to its own devices) is not ours.
+            Incoming::Rpdo3 { .. } => {}
             // A commissioned drive's RPDO1 is the controller's to send: while it sends
             // it (operational), another node sending it is a second master moving the
             // drive.
@@ -598,6 +621,74 @@ where
                     self.fault(Fault::ForeignProducer(Foreign::Sync));
                 }
             }
+        }
+    }
+
+    /// An operator frame (RPDO3, or 0x2010 written over SDO), well-formed. One the crane
+    /// cannot follow is ignored and counted, as a malformed one.
+    fn on_operator(&mut self, frame: OperatorFrame, now_ms: u64) {
+        if frame.fits(A.saturating_sub(1)).is_err() {
+            self.ignore();
+            return;
+        }
+        self.deadman.on_frame(&frame, now_ms);
+    }
+
+    /// Manual mode, once a cycle before the model's step (docs/COMMANDS.md, "Manual
+    /// mode"): entered at rest when a live operator asks for it; the stick's demand
+    /// (zero while interlocked) advances the generator; a dead-man loss or the request
+    /// withdrawn latches its sway-free stop and interlocks the stick; manual mode is
+    /// left at rest once the operator is lost or no longer asks for it. A crane whose model follows plans only never enters it.
+    // Kept out of line: inlined into the cycle it changed the firmware's inlining
+    // (QEMU: the RADAU5 scene's control-task stack grew by 1,200 bytes).
+    #[inline(never)]
+    fn steer_manual(&mut self) {
+        let state = self.deadman.state(self.now_ms);
+        let frame = self.deadman.frame();
+        let asked = !matches!(state, Stick::Lost(_)) && frame.is_some_and(|f| f.flags.manual);
+        if !self.feedforward.in_manual() {
+            if asked && self.may_move() && !self.moving() {
+                let t = self.feedforward.time();
+                if self.feedforward.enter_manual(t).is_ok() {
+                    self.close_loop(true);
+                }
+            }
+            return;
+        }
+        if self.mode != Mode::Ready {
+            return;
+        }
+        let Some(path) = self.feedforward.manual_mut() else {
+            return;
+        };
+        if !asked && path.is_at_rest() {
+            // (Refused only while it moves: checked just now.)
+            let _ = self.feedforward.leave_manual();
+            return;
+        }
+        let stick = match (state, frame) {
+            (Stick::Live, Some(f)) if asked => f.stick::<2>().ok(),
+            _ => None,
+        };
+        if !asked {
+            // A dead-man loss, or the request withdrawn: the sway-free stop, and the
+            // stick centred before it moves the crane again.
+            path.stop();
+            self.deadman.interlock();
+        } else if state == Stick::Live && path.is_stopping() {
+            path.resume();
+        }
+        let ([x, y], z) = stick.unwrap_or(([0.0; 2], 0.0));
+        let _ = path.advance([x, y], z);
+    }
+
+    /// The status frame's mode byte: the supervisor state's, or
+    /// [`operator::MANUAL_MODE_CODE`] while manual mode runs.
+    fn mode_code(&self) -> u8 {
+        if self.mode == Mode::Ready && self.feedforward.in_manual() {
+            operator::MANUAL_MODE_CODE
+        } else {
+            self.mode.code()
         }
     }
 
@@ -914,9 +1005,12 @@ where
         }
     }
 
-    /// Whether the load is being moved (or the drives were last sent motion).
+    /// Whether the load is being moved (or the drives were last sent motion). Manual
+    /// mode counts as moving until it is left (at rest): the stick may move the crane
+    /// at any cycle, so nothing that needs rest (a reset, a move) is taken meanwhile.
     fn moving(&self) -> bool {
-        (self.mode == Mode::Ready && self.feedforward.plan().is_moving(self.now_s()))
+        (self.mode == Mode::Ready
+            && (self.feedforward.plan().is_moving(self.now_s()) || self.feedforward.in_manual()))
             || !self.gate.at_standstill()
     }
 
@@ -977,6 +1071,7 @@ where
             self.handle(request);
         }
         self.plan_pending();
+        self.steer_manual();
 
         let step = if matches!(self.mode, Mode::Enabling | Mode::Ready) {
             match self.feedforward.step() {
@@ -1185,7 +1280,7 @@ where
             answer: answer.answer,
             reason: answer.reason,
             overload: answer.overload,
-            mode: self.mode.code(),
+            mode: self.mode_code(),
             fault: self.mode.fault().map_or(0, |f| f.code()),
             ignored: self.counters.frames_ignored,
             deadline_misses: self.counters.deadline_misses,
@@ -1341,6 +1436,15 @@ where
     /// halted, there is nothing to stop.
     fn obey_stop(&mut self) {
         let now = self.now_s();
+        // Manual mode: the generator's sway-free stop, and the stick has to be centred
+        // before it moves the crane again (the zero-position interlock).
+        self.deadman.interlock();
+        if self.mode == Mode::Ready {
+            if let Some(path) = self.feedforward.manual_mut() {
+                path.stop();
+                return;
+            }
+        }
         if self.mode == Mode::Ready && self.feedforward.plan().is_moving(now) {
             let stop = self.planner.plan_stop(self.feedforward.plan(), now);
             let plan = self.feedforward.plan_mut();
@@ -1357,6 +1461,7 @@ where
         self.mode == Mode::Ready
             && self.drives_ready()
             && self.nmt.node.state == NmtState::Operational
+            && !self.feedforward.in_manual()
     }
 
     /// Advances the move being planned by this cycle's share of samples; places it in
@@ -1703,6 +1808,8 @@ where
             return;
         }
         self.closed_loop = false;
+        // After the fault the stick has to be centred before it moves the crane again.
+        self.deadman.interlock();
         // The plan is given up: an accepted move that has not begun will not run.
         let lost = self.requests.cancel_planned(self.now_s(), self.now_ms);
         self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(lost);

@@ -8,6 +8,8 @@ use solver_core::{DaeModel, Driven, Error, Integrator, NewtonStats, Real};
 
 use core::marker::PhantomData;
 
+use crate::operator::path::{ManualError, ManualPath, Planned};
+
 /// One step of the inverse model with `A` driven axes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FeedforwardStep<const A: usize = 2> {
@@ -51,8 +53,26 @@ pub trait Replan<const A: usize = 2> {
     fn plan(&self) -> &Plan<f64, A>;
     /// The plan, to change what has not been stepped yet (checked by the planner first).
     fn plan_mut(&mut self) -> &mut Plan<f64, A>;
-    /// Starts again at rest with the load at `position` at time `t` (after a halt).
+    /// Starts again at rest with the load at `position` at time `t` (after a halt);
+    /// manual mode, if it ran, is left.
     fn restart_at_rest(&mut self, position: [f64; A], t: f64) -> Result<(), Error>;
+    /// Manual mode: the operator's generator takes over the model at rest at time `t`
+    /// (`crate::operator::path`). A model that follows plans only refuses.
+    fn enter_manual(&mut self, _t: f64) -> Result<(), ManualError> {
+        Err(ManualError::Unsupported)
+    }
+    /// Manual mode left at rest: the plan takes over where the generator rests.
+    fn leave_manual(&mut self) -> Result<(), ManualError> {
+        Err(ManualError::Unsupported)
+    }
+    /// The generator, while manual mode runs.
+    fn manual_mut(&mut self) -> Option<&mut dyn ManualPath> {
+        None
+    }
+    /// Whether manual mode runs.
+    fn in_manual(&self) -> bool {
+        false
+    }
 }
 
 /// A model together with the integrator that advances it, in the integrator's scalar
@@ -107,22 +127,36 @@ impl<
 
 impl<
         T: Real,
-        M: Driven<Trajectory = Plan<f64, A>> + DaeModel<T, N, A>,
+        M: Driven + DaeModel<T, N, A>,
         I: Integrator<T, M, N, A>,
         const N: usize,
         const A: usize,
     > Replan<A> for InverseModel<M, I, T, N>
+where
+    M::Trajectory: Planned<A>,
 {
     fn plan(&self) -> &Plan<f64, A> {
-        self.model.trajectory()
+        self.model.trajectory().plan()
     }
     fn plan_mut(&mut self) -> &mut Plan<f64, A> {
-        self.model.trajectory_mut()
+        self.model.trajectory_mut().plan_mut()
     }
     fn restart_at_rest(&mut self, position: [f64; A], t: f64) -> Result<(), Error> {
-        let n = self.model.trajectory().planned_smoothness();
-        *self.model.trajectory_mut() = Plan::at_rest(position.into(), n)?;
+        let n = self.plan().planned_smoothness();
+        self.model.trajectory_mut().rest_at(position, n)?;
         self.integrator.restart(&self.model, c(t))
+    }
+    fn enter_manual(&mut self, t: f64) -> Result<(), ManualError> {
+        self.model.trajectory_mut().enter_manual(t)
+    }
+    fn leave_manual(&mut self) -> Result<(), ManualError> {
+        self.model.trajectory_mut().leave_manual()
+    }
+    fn manual_mut(&mut self) -> Option<&mut dyn ManualPath> {
+        self.model.trajectory_mut().manual_mut()
+    }
+    fn in_manual(&self) -> bool {
+        self.model.trajectory().in_manual()
     }
 }
 
@@ -170,6 +204,18 @@ impl<F: Replan<A>, W, const A: usize> Replan<A> for Wrapped<F, W> {
     }
     fn restart_at_rest(&mut self, position: [f64; A], t: f64) -> Result<(), Error> {
         self.inner.restart_at_rest(position, t)
+    }
+    fn enter_manual(&mut self, t: f64) -> Result<(), ManualError> {
+        self.inner.enter_manual(t)
+    }
+    fn leave_manual(&mut self) -> Result<(), ManualError> {
+        self.inner.leave_manual()
+    }
+    fn manual_mut(&mut self) -> Option<&mut dyn ManualPath> {
+        self.inner.manual_mut()
+    }
+    fn in_manual(&self) -> bool {
+        self.inner.in_manual()
     }
 }
 

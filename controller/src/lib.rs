@@ -8,6 +8,7 @@
 //! * [`cia410`] — the inclinometer's PDO;
 //! * [`feedforward`] — the inverse model behind a one-step-per-cycle trait, with its plan;
 //! * [`commands`] — move, stop and reset requests, and the status answer;
+//! * [`operator`] — the operator's speed-demand frame and its dead-man (manual mode);
 //! * [`crane`] — what a crane is (drives, limits, reference, flat inverse), one file per crane;
 //! * [`planner`] — the checks a move or a stop passes before it is accepted;
 //! * `requests` — the supervisor's requests from arrival to answer (each answered once);
@@ -53,6 +54,7 @@ pub mod frame;
 mod links;
 pub mod motion;
 pub mod node;
+pub mod operator;
 pub mod planner;
 pub mod reference;
 mod requests;

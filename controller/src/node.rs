@@ -16,20 +16,23 @@
 //! | 0x1018:1..=4 | identity: vendor, product, revision, serial | ro |
 //! | 0x1400:1..=2, 0x1600:1..=5 | RPDO1: the supervisor's command frame (0x210) | ro |
 //! | 0x1401:1..=2, 0x1601:1..=5 | RPDO2: the supervisor's 3D move frame (0x310) | ro |
+//! | 0x1402:1..=2, 0x1602:1..=5 | RPDO3: the operator's speed demand (0x410) | ro |
 //! | 0x1800:1..=2, 0x1A00:1..=8 | TPDO1: the status frame (0x190) | ro |
 //! | 0x2000:1..=7 | the command frames' fields (request id, command, x, z, duration in 10 ms; y and duration in s of the 3D move); writing the command submits a request (4: the 3D move) | wo |
 //! | 0x2001:1..=8 | the status frame's fields (docs/COMMANDS.md) | ro |
 //! | 0x2002:1..=5 | the last commissioning failure: node, index, sub, abort code, reason | ro |
 //! | 0x2003:1..=2 | NMT role (0 manager, 1 slave); drives' commissioning phase (bit per drive: done) | ro |
 //! | 0x2004:1..=6 | rope calibration learnt from the swing (`crate::rope`): drum scaling error, ppm (i32); rope offset, µm (i32); samples taken (u32); what was learnt (u8: 0 nothing yet, 1 the offset at one length, 2 scaling and offset — to be saved, 3 at a bound, 4 refused: too uncertain, 5 refused: the angle's delay not as commissioned); the length's uncertainty, µm (u32, three standard deviations over 3–9 m plus 3 mm, `crate::rope::SIGMAS`, `MODEL_FLOOR`; u32::MAX before anything is learnt); the angle's delay beyond the commissioned one, µs (i32) | ro |
+//! | 0x2010:1..=5 | the operator frame's fields (alive counter, flags, demand x, y, z; `crate::operator::frame`); writing the counter submits them as one frame | wo |
 
-use crate::canopen::od::{self, REQUEST_FIELDS, STATUS_FIELDS};
+use crate::canopen::od::{self, OPERATOR_FIELDS, REQUEST_FIELDS, STATUS_FIELDS};
 use crate::canopen::sdo::{abort, Object, ObjectDictionary, Value};
 use crate::canopen::{NmtCommand, NmtState};
 use crate::commands::{
     command_id, decode_move3d, decode_request, move3d_id, status_id, CommandError, Request, Status,
 };
 use crate::commissioning::MAX_NODES;
+use crate::operator::{decode_operator, operator_id, OperatorError, OperatorFrame};
 
 /// Who starts the drives.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -74,6 +77,15 @@ pub const MOVE3D_MAPPING: [u32; 5] = [
     REQUEST_FIELDS[6].mapping(),
 ];
 
+/// The operator frame's mapping (0x1602): alive counter, flags, demand x, y, z.
+pub const OPERATOR_MAPPING: [u32; 5] = [
+    OPERATOR_FIELDS[0].mapping(),
+    OPERATOR_FIELDS[1].mapping(),
+    OPERATOR_FIELDS[2].mapping(),
+    OPERATOR_FIELDS[3].mapping(),
+    OPERATOR_FIELDS[4].mapping(),
+];
+
 /// The command written over SDO (0x2000:2) that submits the 3D move of 0x2000:1, 3, 6,
 /// 4 and 7; its frame (RPDO2) carries no command byte.
 pub const MOVE3D_COMMAND: u8 = 4;
@@ -108,6 +120,9 @@ pub struct Node {
     /// A request written field by field over SDO into 0x2000 (the command frame's
     /// bytes); writing the command (sub 2) submits it.
     pub request: StagedRequest,
+    /// The operator frame written field by field over SDO into 0x2010; writing the
+    /// alive counter (sub 1) submits it.
+    pub operator: StagedOperator,
     /// The shortest heartbeat consumer time the controller writes into its drives
     /// (their 0x1016:1 for it), ms; 0 when none watches it. A producer time 0x1017 they
     /// would not tolerate is refused: confirmed, it would make them stop by themselves.
@@ -144,6 +159,23 @@ impl StagedRequest {
     }
 }
 
+/// The operator frame written over SDO into 0x2010:1..=5, as its 8 bytes, for an
+/// operator's PLC without PDOs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct StagedOperator {
+    /// The frame's bytes as written so far.
+    pub bytes: [u8; 8],
+    /// The counter (sub 1) was written: the controller takes the bytes as a frame.
+    pub submitted: bool,
+}
+
+impl StagedOperator {
+    /// The frame written.
+    pub fn frame(&self) -> Result<OperatorFrame, OperatorError> {
+        decode_operator(&self.bytes)
+    }
+}
+
 impl Node {
     /// Obeys an NMT command addressed to it (CiA 301's NMT slave state machine). A reset
     /// of the node or its communication brings the communication parameters back to
@@ -162,6 +194,7 @@ impl Node {
                 // reset restores the dictionary): a 3D move submitted after it carries
                 // only what was written since.
                 self.request = StagedRequest::default();
+                self.operator = StagedOperator::default();
                 (NmtState::PreOperational, true)
             }
         };
@@ -255,11 +288,17 @@ impl Dictionary<'_> {
             (od::RPDO1_COMMUNICATION, 1) => Some(u32v(u32::from(command_id(self.node.id)))),
             (od::RPDO2_COMMUNICATION, 1) => Some(u32v(u32::from(move3d_id(self.node.id)))),
             (od::TPDO1_COMMUNICATION, 1) => Some(u32v(u32::from(status_id(self.node.id)))),
-            (od::RPDO1_COMMUNICATION | od::RPDO2_COMMUNICATION | od::TPDO1_COMMUNICATION, 2) => {
-                Some(value(&[EVENT_DRIVEN]))
-            }
+            (od::RPDO3_COMMUNICATION, 1) => Some(u32v(u32::from(operator_id(self.node.id)))),
+            (
+                od::RPDO1_COMMUNICATION
+                | od::RPDO2_COMMUNICATION
+                | od::RPDO3_COMMUNICATION
+                | od::TPDO1_COMMUNICATION,
+                2,
+            ) => Some(value(&[EVENT_DRIVEN])),
             (od::RPDO1_MAPPING, _) => k.and_then(|k| COMMAND_MAPPING.get(k)).map(|v| u32v(*v)),
             (od::RPDO2_MAPPING, _) => k.and_then(|k| MOVE3D_MAPPING.get(k)).map(|v| u32v(*v)),
+            (od::RPDO3_MAPPING, _) => k.and_then(|k| OPERATOR_MAPPING.get(k)).map(|v| u32v(*v)),
             (od::TPDO1_MAPPING, _) => k.and_then(|k| STATUS_MAPPING.get(k)).map(|v| u32v(*v)),
             (od::STATUS, _) => k
                 .and_then(|k| s.status.bytes().get(k).copied())
@@ -411,6 +450,31 @@ impl ObjectDictionary for Dictionary<'_> {
                 }
                 _ => Err(abort::LENGTH),
             },
+            // The operator frame's fields, as mapped into RPDO3 (0x1602): bytes 0, 1,
+            // 2–3, 4–5, 6–7. The counter (sub 1) submits what was written, checked as an
+            // operator frame is; only in operational, as the PDO.
+            (od::OPERATOR, sub @ 1..=5) => {
+                let at = match sub {
+                    1 => 0,
+                    2 => 1,
+                    k => 2 * usize::from(k) - 4,
+                };
+                let mut bytes = self.node.operator.bytes;
+                if let Some(field) = bytes.get_mut(at..at + data.len()) {
+                    field.copy_from_slice(data);
+                }
+                if sub == 1 {
+                    if self.node.state != NmtState::Operational {
+                        return Err(abort::DEVICE_STATE);
+                    }
+                    if decode_operator(&bytes).is_err() {
+                        return Err(abort::INVALID_VALUE);
+                    }
+                    self.node.operator.submitted = true;
+                }
+                self.node.operator.bytes = bytes;
+                Ok(())
+            }
             // A writable entry of the table this does not take (a host test writes every
             // one, so there is none).
             _ => Err(abort::READ_ONLY),
@@ -433,6 +497,7 @@ mod tests {
             supervisor: 0,
             cycle_us: 10_000,
             request: StagedRequest::default(),
+            operator: StagedOperator::default(),
             drives_consumer_ms: 300,
             listed: [1, 2, 0, 0],
         }
@@ -461,6 +526,64 @@ mod tests {
             );
             assert_eq!(n.request, StagedRequest::default(), "0x2000 is cleared");
         }
+    }
+
+    /// 0x2010 takes the operator frame's fields; writing the counter submits them as one
+    /// frame, checked as RPDO3's, only in operational; RPDO3's parameters name 0x410 and
+    /// the fields in the frame's order.
+    #[test]
+    fn the_operator_frame_is_written_field_by_field() {
+        use crate::operator::{Flags, OperatorFrame};
+        let mut n = node();
+        let mut od = Dictionary {
+            node: &mut n,
+            snapshot: snapshot(),
+        };
+        let o = |sub| Object::new(0x2010, sub);
+        assert_eq!(od.write(o(2), &[0b011]), Ok(()));
+        assert_eq!(od.write(o(3), &1000i16.to_le_bytes()), Ok(()));
+        assert_eq!(od.write(o(5), &(-2000i16).to_le_bytes()), Ok(()));
+        assert!(!od.node.operator.submitted, "only the counter submits");
+        assert_eq!(od.write(o(1), &[9]), Ok(()));
+        assert!(od.node.operator.submitted);
+        assert_eq!(
+            od.node.operator.frame(),
+            Ok(OperatorFrame {
+                counter: 9,
+                flags: Flags {
+                    enable: true,
+                    manual: true,
+                    micro: false
+                },
+                demand: [1000, 0, -2000],
+            })
+        );
+        assert_eq!(od.read(o(1)), Err(abort::WRITE_ONLY));
+        assert_eq!(od.write(o(3), &[1]), Err(abort::LENGTH));
+        // A malformed frame is refused when submitted, and not taken.
+        od.node.operator.submitted = false;
+        assert_eq!(od.write(o(2), &[0x80]), Ok(()));
+        assert_eq!(od.write(o(1), &[10]), Err(abort::INVALID_VALUE));
+        assert!(!od.node.operator.submitted);
+        assert_eq!(od.write(o(2), &[1]), Ok(()));
+        od.node.state = NmtState::PreOperational;
+        assert_eq!(od.write(o(1), &[11]), Err(abort::DEVICE_STATE));
+        assert!(!od.node.operator.submitted);
+        assert_eq!(
+            od.read(Object::new(0x1402, 1)).unwrap(),
+            value(&0x410u32.to_le_bytes())
+        );
+        assert_eq!(od.read(Object::new(0x1402, 2)).unwrap(), value(&[0xFE]));
+        assert_eq!(
+            od.read(Object::new(0x1602, 3)).unwrap(),
+            value(&0x2010_0310u32.to_le_bytes())
+        );
+        assert!(od.node.on_nmt(NmtCommand::ResetCommunication, 100));
+        assert_eq!(
+            od.node.operator,
+            StagedOperator::default(),
+            "0x2010 is cleared"
+        );
     }
 
     fn snapshot() -> Snapshot {

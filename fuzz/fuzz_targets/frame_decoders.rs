@@ -1,11 +1,13 @@
 //! Every frame decoder on arbitrary frames: no panic; a command or 3D move that decodes
 //! encodes back to the same bytes; the request staged in 0x2000 (a PLC without PDOs)
 //! from arbitrary field values: no panic, and what it decodes to encodes back to its
-//! fields (the command frame's, or for command 4 the 3D move frame's).
+//! fields (the command frame's, or for command 4 the 3D move frame's); an operator frame
+//! (RPDO3) that decodes encodes back to the same bytes.
 #![no_main]
 
 use controller::commands::{decode_move3d, decode_request, request_frame};
 use controller::node::{StagedRequest, MOVE3D_COMMAND};
+use controller::operator::decode_operator;
 use controller::CanFrame;
 use controller::{canopen, cia402, cia410};
 use libfuzzer_sys::fuzz_target;
@@ -26,6 +28,9 @@ fuzz_target!(|input: (u16, Vec<u8>)| {
     }
     if let Ok(request) = decode_move3d(frame.data()) {
         assert_eq!(request_frame(&request).data(), frame.data(), "{request:?}");
+    }
+    if let Ok(operator) = decode_operator(frame.data()) {
+        assert_eq!(operator.bytes(), frame.data(), "{operator:?}");
     }
     let mut staged = StagedRequest::default();
     for (field, byte) in staged

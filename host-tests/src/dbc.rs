@@ -84,7 +84,8 @@ impl Dbc {
         self.0.messages.len()
     }
 
-    /// The bit lengths of a message's fields, in the order of their start bits.
+    /// The bit lengths of a message's fields, in the order of their start bits (a
+    /// byte of bit signals is one 8-bit field).
     pub fn signal_sizes(&self, id: u16) -> Option<Vec<u64>> {
         self.0
             .messages
@@ -93,8 +94,22 @@ impl Dbc {
             .map(|m| {
                 // A field that multiplexed signals share (the status frame's byte 2:
                 // a reason, or an overload answer's count) is one field of the layout.
-                let mut fields: Vec<(u64, u64)> =
-                    m.signals.iter().map(|s| (s.start_bit, s.size)).collect();
+                // Bits that share one byte (the operator frame's flags) are that byte,
+                // one mapped UNSIGNED8.
+                let mut fields: Vec<(u64, u64)> = m
+                    .signals
+                    .iter()
+                    .map(|s| {
+                        let in_one_byte = s.size > 0
+                            && s.size < 8
+                            && s.start_bit / 8 == (s.start_bit + s.size - 1) / 8;
+                        if in_one_byte {
+                            (s.start_bit / 8 * 8, 8)
+                        } else {
+                            (s.start_bit, s.size)
+                        }
+                    })
+                    .collect();
                 fields.sort_unstable();
                 fields.dedup();
                 fields.into_iter().map(|(_, size)| size).collect()

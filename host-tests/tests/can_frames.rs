@@ -9,6 +9,9 @@ use controller::commands::{
 use controller::commissioning::CommissioningError;
 use controller::drive::Drive;
 use controller::fault::{FollowingError, Foreign, Implausibility, Reaction};
+use controller::operator::{
+    decode_operator, operator_frame, Flags, OperatorFrame, FULL_SCALE, OPERATOR_ID,
+};
 use controller::setpoint::SetpointError;
 use controller::setpoint::{DriveLimits, SetpointGate, UNITS_PER_M_PER_S};
 use controller::{CanFrame, Fault};
@@ -25,7 +28,7 @@ fn decode(frame: &CanFrame) -> host_tests::dbc::Decoded {
 #[test]
 fn dbc_parses_and_covers_every_frame() {
     let dbc = Dbc::crane().unwrap();
-    assert_eq!(dbc.messages(), 40);
+    assert_eq!(dbc.messages(), 41);
     let frames = [
         nmt::command(NmtCommand::Start, 0),
         canopen::sync(),
@@ -92,6 +95,18 @@ fn dbc_parses_and_covers_every_frame() {
             target: [20.0, 6.0, 4.0],
             duration: None,
         }),
+        operator_frame(
+            CONTROLLER_NODE,
+            &OperatorFrame {
+                counter: 1,
+                flags: Flags {
+                    enable: true,
+                    manual: true,
+                    micro: false,
+                },
+                demand: [FULL_SCALE, 0, -100],
+            },
+        ),
         status_frame(
             CONTROLLER_NODE,
             &Status {
@@ -429,6 +444,26 @@ fn status_names_its_answer_reason_mode_and_fault() {
     );
 }
 
+/// Manual mode's status byte (issue 28) is named in the DBC, additive to modes 0–4.
+#[test]
+fn status_names_manual_mode() {
+    let s = decode(&status_frame(
+        CONTROLLER_NODE,
+        &Status {
+            last_id: 0,
+            answer: Answer::None,
+            reason: None,
+            overload: 0,
+            mode: controller::operator::MANUAL_MODE_CODE,
+            fault: 0,
+            ignored: 0,
+            deadline_misses: 0,
+            tx_failures: 0,
+        },
+    ));
+    assert!(s.to_string().contains("mode=5(Manual)"), "{s}");
+}
+
 /// An overload answer: the last request it answers and how many, in byte 2 where a
 /// rejection has its reason (the DBC multiplexes byte 2 on the answer).
 #[test]
@@ -533,6 +568,36 @@ proptest! {
             prop_assert!((v - asked).abs() <= 0.0005 + 1e-12);
         }
         prop_assert!((dbc.get("duration").unwrap() - duration.unwrap_or(0.0)).abs() < 1e-9);
+    }
+}
+
+proptest! {
+    /// Any well-formed operator frame (RPDO3, 0x410): the DBC reads back the counter, each
+    /// flag and each demand as the fraction of the manual speed the controller takes.
+    #[test]
+    fn operator_frames_agree_with_the_dbc(counter in any::<u8>(), flags in 0u8..8, demand in prop::array::uniform3(-FULL_SCALE..=FULL_SCALE)) {
+        let data = {
+            let f = OperatorFrame { counter, flags: Flags::default(), demand };
+            let mut d = f.bytes();
+            d[1] = flags;
+            d
+        };
+        let operator = decode_operator(&data).unwrap();
+        let f = operator_frame(CONTROLLER_NODE, &operator);
+        prop_assert_eq!(f.id(), OPERATOR_ID);
+        prop_assert_eq!(f.data(), data);
+        let dbc = decode(&f);
+        prop_assert_eq!(dbc.message.as_str(), "Operator_Controller");
+        prop_assert_eq!(dbc.get("alive_counter"), Some(f64::from(counter)));
+        prop_assert_eq!(dbc.get("enable"), Some(f64::from(flags & 1)));
+        prop_assert_eq!(dbc.get("manual_request"), Some(f64::from((flags >> 1) & 1)));
+        prop_assert_eq!(dbc.get("micro_speed"), Some(f64::from((flags >> 2) & 1)));
+        // Without micro-speed the fraction is the DBC's scaled value.
+        let plain = OperatorFrame { flags: Flags { micro: false, ..operator.flags }, ..operator };
+        let (h, z) = plain.stick::<2>().unwrap();
+        for (name, v) in ["demand_x", "demand_y", "demand_z"].into_iter().zip([h[0], h[1], z]) {
+            prop_assert!((dbc.get(name).unwrap() - v).abs() < 1e-12, "{}", name);
+        }
     }
 }
 

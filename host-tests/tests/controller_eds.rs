@@ -13,6 +13,7 @@ use controller::canopen::sdo::{abort, Object, ObjectDictionary};
 use controller::canopen::NmtState;
 use controller::commands::{Answer, Status, COMMAND_ID, MOVE3D_ID, STATUS_ID};
 use controller::node::{Dictionary, Node, Role, Snapshot, StagedRequest};
+use controller::operator::OPERATOR_ID;
 use host_tests::dbc::Dbc;
 
 const EDS: &str = include_str!("../../can/crane-controller.eds");
@@ -55,7 +56,8 @@ fn variables() -> Vec<(Object, usize, String, u64)> {
         };
         let size = match keys["DataType"].as_str() {
             "0x0005" => 1,
-            "0x0006" => 2,
+            // UNSIGNED16 and INTEGER16.
+            "0x0006" | "0x0003" => 2,
             // UNSIGNED32 and INTEGER32.
             "0x0007" | "0x0004" => 4,
             other => panic!("{name}: data type {other} not used here"),
@@ -178,6 +180,7 @@ fn node() -> Node {
         supervisor: 0,
         cycle_us: 10_000,
         request: StagedRequest::default(),
+        operator: Default::default(),
         drives_consumer_ms: 300,
         listed: [1, 2, 0, 0],
     }
@@ -258,6 +261,7 @@ fn the_pdo_descriptions_are_the_dbc_frames() {
     for (comm, map, id) in [
         ("1400", "1600", COMMAND_ID),
         ("1401", "1601", MOVE3D_ID),
+        ("1402", "1602", OPERATOR_ID),
         ("1800", "1A00", STATUS_ID),
     ] {
         assert_eq!(

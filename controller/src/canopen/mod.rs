@@ -11,6 +11,7 @@
 //! | TPDO1, TPDO2 of node n | 0x180 + n, 0x280 + n | its device profile's |
 //! | RPDO1 to node n | 0x200 + n | its device profile's |
 //! | RPDO2 to node n | 0x300 + n | the controller's: the 3D move frame |
+//! | RPDO3 to node n | 0x400 + n | the controller's: the operator's speed demand |
 //! | SDO response of node n / request to node n | 0x580 + n / 0x600 + n | 8 bytes ([`sdo`]) |
 //! | heartbeat of node n | 0x700 + n | NMT state |
 //!
@@ -41,6 +42,8 @@ pub mod cob {
     pub const RPDO1: u16 = 0x200;
     /// Second receive PDO, + node id.
     pub const RPDO2: u16 = 0x300;
+    /// Third receive PDO, + node id.
+    pub const RPDO3: u16 = 0x400;
     /// Heartbeat (NMT error control), + node id.
     pub const HEARTBEAT: u16 = 0x700;
     /// SDO response (server → client), + node id.
@@ -151,6 +154,13 @@ pub enum Incoming {
         /// The frame as received (its length is the receiver's to check).
         frame: CanFrame,
     },
+    /// An RPDO3 for `node` (the operator's speed demand, if it is the controller's).
+    Rpdo3 {
+        /// Addressee.
+        node: u8,
+        /// The frame as received (its length is the receiver's to check).
+        frame: CanFrame,
+    },
     /// An emergency message.
     Emergency {
         /// Sender.
@@ -231,6 +241,10 @@ pub fn decode(frame: &CanFrame) -> Result<Incoming, DecodeError> {
             frame: *frame,
         }),
         cob::RPDO2 => Ok(Incoming::Rpdo2 {
+            node,
+            frame: *frame,
+        }),
+        cob::RPDO3 => Ok(Incoming::Rpdo3 {
             node,
             frame: *frame,
         }),

@@ -158,10 +158,14 @@ pub const IDENTITY: u16 = 0x1018;
 pub const RPDO1_COMMUNICATION: u16 = 0x1400;
 /// 0x1401 RPDO2's communication parameter.
 pub const RPDO2_COMMUNICATION: u16 = 0x1401;
+/// 0x1402 RPDO3's communication parameter.
+pub const RPDO3_COMMUNICATION: u16 = 0x1402;
 /// 0x1600 RPDO1's mapping parameter.
 pub const RPDO1_MAPPING: u16 = 0x1600;
 /// 0x1601 RPDO2's mapping parameter.
 pub const RPDO2_MAPPING: u16 = 0x1601;
+/// 0x1602 RPDO3's mapping parameter.
+pub const RPDO3_MAPPING: u16 = 0x1602;
 /// 0x1800 TPDO1's communication parameter.
 pub const TPDO1_COMMUNICATION: u16 = 0x1800;
 /// 0x1801 TPDO2's communication parameter.
@@ -282,6 +286,8 @@ pub const COMMISSIONING_FAILURE: u16 = 0x2002;
 pub const NETWORK: u16 = 0x2003;
 /// 0x2004 the rope calibration learnt from the swing.
 pub const ROPE_CALIBRATION: u16 = 0x2004;
+/// 0x2010 the operator's speed demand, written over SDO (writing the counter submits).
+pub const OPERATOR: u16 = 0x2010;
 
 /// 0x2000:1..=7, the request's fields: the command frame's as RPDO1 maps them
 /// (request id, command, x, z, duration in 10 ms), then the 3D move's y and duration in
@@ -294,6 +300,16 @@ pub const REQUEST_FIELDS: [Entry; 7] = [
     Entry::new(REQUEST, 5, U16, Wo, "Duration 10 ms"),
     Entry::new(REQUEST, 6, U16, Wo, "Target y_C mm"),
     Entry::new(REQUEST, 7, U8, Wo, "Duration s"),
+];
+
+/// 0x2010:1..=5, the operator frame's fields as RPDO3 maps them (`crate::operator::frame`):
+/// alive counter, flags, demand x, y, z in 1/32767 of the manual speed.
+pub const OPERATOR_FIELDS: [Entry; 5] = [
+    Entry::new(OPERATOR, 1, U8, Wo, "Alive counter"),
+    Entry::new(OPERATOR, 2, U8, Wo, "Flags"),
+    Entry::new(OPERATOR, 3, I16, Wo, "Demand x"),
+    Entry::new(OPERATOR, 4, I16, Wo, "Demand y"),
+    Entry::new(OPERATOR, 5, I16, Wo, "Demand z"),
 ];
 
 /// 0x2001:1..=8, the status frame's fields, as TPDO1 maps them (docs/COMMANDS.md).
@@ -323,7 +339,7 @@ pub const STATUS_FIELDS: [Entry; 8] = [
 /// Every object the controller's SDO server answers, in index order, as
 /// `can/crane-controller.eds` describes it. A record's sub-index 0 (its highest
 /// sub-index) is the largest sub-index the table holds for it.
-pub const CONTROLLER: [Entry; 75] = [
+pub const CONTROLLER: [Entry; 90] = [
     Entry::new(DEVICE_TYPE, 0, U32, Ro, "Device type"),
     Entry::new(ERROR_REGISTER, 0, U8, Ro, "Error register"),
     Entry::new(COB_ID_SYNC, 0, U32, Ro, "COB-ID SYNC"),
@@ -360,6 +376,15 @@ pub const CONTROLLER: [Entry; 75] = [
     ),
     Entry::new(RPDO2_COMMUNICATION, 1, U32, Ro, "COB-ID used by RPDO"),
     Entry::new(RPDO2_COMMUNICATION, 2, U8, Ro, "Transmission type"),
+    Entry::new(
+        RPDO3_COMMUNICATION,
+        0,
+        U8,
+        Const,
+        "Highest sub-index supported",
+    ),
+    Entry::new(RPDO3_COMMUNICATION, 1, U32, Ro, "COB-ID used by RPDO"),
+    Entry::new(RPDO3_COMMUNICATION, 2, U8, Ro, "Transmission type"),
     Entry::new(RPDO1_MAPPING, 0, U8, Const, "Highest sub-index supported"),
     Entry::new(RPDO1_MAPPING, 1, U32, Ro, "Mapped object 1"),
     Entry::new(RPDO1_MAPPING, 2, U32, Ro, "Mapped object 2"),
@@ -372,6 +397,12 @@ pub const CONTROLLER: [Entry; 75] = [
     Entry::new(RPDO2_MAPPING, 3, U32, Ro, "Mapped object 3"),
     Entry::new(RPDO2_MAPPING, 4, U32, Ro, "Mapped object 4"),
     Entry::new(RPDO2_MAPPING, 5, U32, Ro, "Mapped object 5"),
+    Entry::new(RPDO3_MAPPING, 0, U8, Const, "Highest sub-index supported"),
+    Entry::new(RPDO3_MAPPING, 1, U32, Ro, "Mapped object 1"),
+    Entry::new(RPDO3_MAPPING, 2, U32, Ro, "Mapped object 2"),
+    Entry::new(RPDO3_MAPPING, 3, U32, Ro, "Mapped object 3"),
+    Entry::new(RPDO3_MAPPING, 4, U32, Ro, "Mapped object 4"),
+    Entry::new(RPDO3_MAPPING, 5, U32, Ro, "Mapped object 5"),
     Entry::new(
         TPDO1_COMMUNICATION,
         0,
@@ -441,6 +472,12 @@ pub const CONTROLLER: [Entry; 75] = [
         Ro,
         "Angle delay beyond commissioned, us",
     ),
+    Entry::new(OPERATOR, 0, U8, Const, "Highest sub-index supported"),
+    OPERATOR_FIELDS[0],
+    OPERATOR_FIELDS[1],
+    OPERATOR_FIELDS[2],
+    OPERATOR_FIELDS[3],
+    OPERATOR_FIELDS[4],
 ];
 
 /// The controller's entry `object`, or the CiA 301 abort code why there is none: no

@@ -6,6 +6,7 @@ use solver_core::models::crane::CraneParams;
 use solver_core::models::crane_ext::CraneExt;
 use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
+use solver_core::operator::PlanarGenerator;
 use solver_core::plan::Plan;
 use solver_core::reference::flat_crane;
 use solver_core::trajectory::Trajectory;
@@ -15,6 +16,7 @@ use super::{AxisReasons, Crane, Flat};
 use crate::drive::{self, Drive};
 use crate::feedback::Reference;
 use crate::feedforward::CraneReference;
+use crate::operator::path::Steered;
 use crate::setpoint::{AxisLimits, DriveLimits};
 
 impl Crane<2> for CraneParams {
@@ -62,7 +64,7 @@ impl Crane<2> for CraneParams {
 /// The reference from *subs*' first unknowns `y = [x, l, ẋ, l̇, …]` and the load's
 /// desired `path`: the angle and its rate from the desired load position and velocity
 /// (Eqs. 27–28).
-fn from_subs_unknowns(y: &[f64], path: &Plan<f64, 2>, t: f64) -> Reference {
+fn from_subs_unknowns<Z: Trajectory<f64, 2>>(y: &[f64], path: &Z, t: f64) -> Reference {
     let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
     let [p, v] = path.derivatives::<2>(t);
     Reference::from_subs([at(0), at(1), at(2), at(3)], p.into(), v.into())
@@ -70,6 +72,15 @@ fn from_subs_unknowns(y: &[f64], path: &Plan<f64, 2>, t: f64) -> Reference {
 
 /// *subs*: `y = [x, l, ẋ, l̇, λ, u1, u2]`.
 impl<T: Real> CraneReference for CraneSubs<T, Plan<f64, 2>> {
+    type Reference = Reference;
+    fn reference(&self, y: &[f64], t: f64) -> Reference {
+        from_subs_unknowns(y, self.trajectory(), t)
+    }
+}
+
+/// *subs* driven by the plan or, in manual mode, the operator's generator
+/// ([`Steered`]): the same reference from the path it follows.
+impl<T: Real> CraneReference for CraneSubs<T, Steered<PlanarGenerator, 2>> {
     type Reference = Reference;
     fn reference(&self, y: &[f64], t: f64) -> Reference {
         from_subs_unknowns(y, self.trajectory(), t)

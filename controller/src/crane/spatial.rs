@@ -3,6 +3,7 @@
 //! reference state of each of its inverse models (*subs*, *ext*).
 
 use solver_core::models::crane3d::{Crane3dExt, Crane3dParams, Crane3dSubs};
+use solver_core::operator::Generator3d;
 use solver_core::plan::Plan;
 use solver_core::reference::flat_crane3d;
 use solver_core::trajectory::Trajectory;
@@ -12,6 +13,7 @@ use super::{AxisReasons, Crane, Flat};
 use crate::drive::{self, Drive};
 use crate::feedback::Reference;
 use crate::feedforward::CraneReference;
+use crate::operator::path::Steered;
 use crate::setpoint::{AxisLimits, DriveLimits};
 
 impl Crane<3> for Crane3dParams {
@@ -65,7 +67,7 @@ impl Crane<3> for Crane3dParams {
 /// `y = [x, y, l, ẋ, ẏ, l̇, …]` and the load's desired path: the drive's position, the
 /// rope, the rope's slope in the plane (what a two-axis inclinometer reports,
 /// `solver_core::reference::flat_crane3d::FlatState3d::slope`) and the rates.
-fn planes(y: &[f64], path: &Plan<f64, 3>, t: f64) -> [Reference; 2] {
+fn planes<Z: Trajectory<f64, 3>>(y: &[f64], path: &Z, t: f64) -> [Reference; 2] {
     let at = |i: usize| y.get(i).copied().unwrap_or(0.0);
     let [p, v] = path.derivatives::<2>(t);
     let [xc, yc, zc]: [f64; 3] = p.into();
@@ -79,6 +81,15 @@ fn planes(y: &[f64], path: &Plan<f64, 3>, t: f64) -> [Reference; 2] {
 
 /// *subs*, `y = [x, y, l, ẋ, ẏ, l̇, λ, u1, u2, u3]`.
 impl<T: Real> CraneReference for Crane3dSubs<T, Plan<f64, 3>> {
+    type Reference = [Reference; 2];
+    fn reference(&self, y: &[f64], t: f64) -> [Reference; 2] {
+        planes(y, self.trajectory(), t)
+    }
+}
+
+/// *subs* driven by the plan or, in manual mode, the operator's generator
+/// ([`Steered`]): the same reference from the path it follows.
+impl<T: Real> CraneReference for Crane3dSubs<T, Steered<Generator3d, 3>> {
     type Reference = [Reference; 2];
     fn reference(&self, y: &[f64], t: f64) -> [Reference; 2] {
         planes(y, self.trajectory(), t)

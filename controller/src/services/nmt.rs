@@ -86,6 +86,7 @@ mod tests {
             supervisor: 0,
             cycle_us: 10_000,
             request: StagedRequest::default(),
+            operator: Default::default(),
             drives_consumer_ms: 0,
             listed: [0; crate::commissioning::MAX_NODES],
         })

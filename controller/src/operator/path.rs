@@ -1,0 +1,267 @@
+//! The inverse model's desired output in a controller with manual mode: the plan of the
+//! automatic moves, or — while manual mode runs — the operator's generator
+//! (`solver_core::operator`), which turns the stick into a smooth load path.
+//!
+//! One trajectory type for both, so that the one inverse model (and its scheme's history)
+//! carries on across the hand-over: manual mode is entered only at rest, where the
+//! plan's output is the constant rest position with every derivative zero, and the
+//! generator starts at rest at that very position; it is left only at rest, where the
+//! generator's output is again constant with every derivative exactly 0.0, and the plan
+//! takes over at rest there. The model sees no step in any derivative either way.
+
+use nalgebra::SVector;
+use solver_core::operator::{Cycle, Demand, Generator3d, PlanarGenerator, Settings};
+use solver_core::plan::Plan;
+use solver_core::trajectory::Trajectory;
+use solver_core::{Error, Real};
+
+/// What the controller asks of an operator generator for a crane whose model has `A`
+/// outputs (planar `[x_C, z_C]`, 3D `[x_C, y_C, z_C]`), whatever its number of
+/// horizontal axes.
+pub trait Source<const A: usize>: Trajectory<f64, A> + Sized {
+    /// Its settings (each axis's manual speed and acceleration, its windows).
+    type Settings: Copy;
+    /// The generator at rest with the load at `position` at time `t`.
+    fn at_rest(settings: Self::Settings, t: f64, position: [f64; A]) -> Result<Self, Error>;
+    /// One cycle of the stick: `horizontal` (x, and y for the 3D crane; a planar crane
+    /// takes x only) and `hoist`, each a fraction of full stick.
+    fn advance(&mut self, horizontal: [f64; 2], hoist: f64) -> Cycle;
+    /// Latches the sway-free stop: every demand is taken as zero from the next cycle on.
+    fn stop(&mut self);
+    /// Lifts a latched stop.
+    fn resume(&mut self);
+    /// Whether the path rests this cycle (every derivative exactly 0.0).
+    fn is_at_rest(&self) -> bool;
+    /// Whether a stop is latched.
+    fn is_stopping(&self) -> bool;
+    /// The generator's time (the end of the last cycle built), s.
+    fn time(&self) -> f64;
+}
+
+impl Source<2> for PlanarGenerator {
+    type Settings = Settings<1>;
+    fn at_rest(settings: Settings<1>, t: f64, [x, z]: [f64; 2]) -> Result<Self, Error> {
+        PlanarGenerator::at_rest(settings, t, [x], z)
+    }
+    fn advance(&mut self, [x, _]: [f64; 2], hoist: f64) -> Cycle {
+        PlanarGenerator::advance(
+            self,
+            &Demand {
+                horizontal: [x],
+                hoist,
+            },
+        )
+    }
+    fn stop(&mut self) {
+        PlanarGenerator::stop(self);
+    }
+    fn resume(&mut self) {
+        PlanarGenerator::resume(self);
+    }
+    fn is_at_rest(&self) -> bool {
+        PlanarGenerator::is_at_rest(self)
+    }
+    fn is_stopping(&self) -> bool {
+        PlanarGenerator::is_stopping(self)
+    }
+    fn time(&self) -> f64 {
+        PlanarGenerator::time(self)
+    }
+}
+
+impl Source<3> for Generator3d {
+    type Settings = Settings<2>;
+    fn at_rest(settings: Settings<2>, t: f64, [x, y, z]: [f64; 3]) -> Result<Self, Error> {
+        Generator3d::at_rest(settings, t, [x, y], z)
+    }
+    fn advance(&mut self, horizontal: [f64; 2], hoist: f64) -> Cycle {
+        Generator3d::advance(self, &Demand { horizontal, hoist })
+    }
+    fn stop(&mut self) {
+        Generator3d::stop(self);
+    }
+    fn resume(&mut self) {
+        Generator3d::resume(self);
+    }
+    fn is_at_rest(&self) -> bool {
+        Generator3d::is_at_rest(self)
+    }
+    fn is_stopping(&self) -> bool {
+        Generator3d::is_stopping(self)
+    }
+    fn time(&self) -> f64 {
+        Generator3d::time(self)
+    }
+}
+
+/// Why manual mode could not be entered or left.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ManualError {
+    /// This controller's inverse model follows plans only.
+    Unsupported,
+    /// Not at rest: the plan still moves (entry), the generator still moves (leaving).
+    Moving,
+    /// The generator refused its settings or the start (its error).
+    Generator(Error),
+}
+
+/// What the inverse model's desired output is: a plan (automatic moves), or a plan and
+/// an operator generator (manual mode as well). The controller changes it through
+/// [`crate::Replan`].
+pub trait Planned<const A: usize> {
+    /// The plan.
+    fn plan(&self) -> &Plan<f64, A>;
+    /// The plan, to change what has not been stepped yet.
+    fn plan_mut(&mut self) -> &mut Plan<f64, A>;
+    /// Everything at rest at `position`: the plan at rest there (smoothness `n`), manual
+    /// mode left.
+    fn rest_at(&mut self, position: [f64; A], n: usize) -> Result<(), Error> {
+        *self.plan_mut() = Plan::at_rest(position.into(), n)?;
+        Ok(())
+    }
+    /// Manual mode: the generator takes over at rest at time `t`, where the plan rests.
+    fn enter_manual(&mut self, _t: f64) -> Result<(), ManualError> {
+        Err(ManualError::Unsupported)
+    }
+    /// Manual mode left at rest: the plan takes over where the generator rests.
+    fn leave_manual(&mut self) -> Result<(), ManualError> {
+        Err(ManualError::Unsupported)
+    }
+    /// The generator, while manual mode runs.
+    fn manual_mut(&mut self) -> Option<&mut dyn ManualPath> {
+        None
+    }
+    /// Whether manual mode runs (the generator drives the model).
+    fn in_manual(&self) -> bool {
+        false
+    }
+}
+
+/// The generator as the controller drives it each cycle (object safe: the controller
+/// does not name the generator's type).
+pub trait ManualPath {
+    /// One cycle of the stick (see [`Source::advance`]).
+    fn advance(&mut self, horizontal: [f64; 2], hoist: f64) -> Cycle;
+    /// Latches the sway-free stop.
+    fn stop(&mut self);
+    /// Lifts a latched stop.
+    fn resume(&mut self);
+    /// Whether the path rests this cycle.
+    fn is_at_rest(&self) -> bool;
+    /// Whether a stop is latched.
+    fn is_stopping(&self) -> bool;
+}
+
+impl<G: Source<A>, const A: usize> ManualPath for (G, [(); A]) {
+    fn advance(&mut self, horizontal: [f64; 2], hoist: f64) -> Cycle {
+        self.0.advance(horizontal, hoist)
+    }
+    fn stop(&mut self) {
+        self.0.stop();
+    }
+    fn resume(&mut self) {
+        self.0.resume();
+    }
+    fn is_at_rest(&self) -> bool {
+        self.0.is_at_rest()
+    }
+    fn is_stopping(&self) -> bool {
+        self.0.is_stopping()
+    }
+}
+
+impl<const A: usize> Planned<A> for Plan<f64, A> {
+    fn plan(&self) -> &Plan<f64, A> {
+        self
+    }
+    fn plan_mut(&mut self) -> &mut Plan<f64, A> {
+        self
+    }
+}
+
+/// The plan, and the operator's generator `G` while manual mode runs.
+#[derive(Debug, Clone)]
+pub struct Steered<G: Source<A>, const A: usize> {
+    plan: Plan<f64, A>,
+    settings: G::Settings,
+    /// The generator (and a marker of the outputs' count), while manual mode runs.
+    manual: Option<(G, [(); A])>,
+}
+
+impl<G: Source<A>, const A: usize> Steered<G, A> {
+    /// Follows `plan`; manual mode, when entered, with the generator's `settings`.
+    pub fn new(plan: Plan<f64, A>, settings: G::Settings) -> Self {
+        Self {
+            plan,
+            settings,
+            manual: None,
+        }
+    }
+}
+
+impl<G: Source<A>, const A: usize> Planned<A> for Steered<G, A> {
+    fn plan(&self) -> &Plan<f64, A> {
+        &self.plan
+    }
+    fn plan_mut(&mut self) -> &mut Plan<f64, A> {
+        &mut self.plan
+    }
+    fn rest_at(&mut self, position: [f64; A], n: usize) -> Result<(), Error> {
+        self.plan = Plan::at_rest(position.into(), n)?;
+        self.manual = None;
+        Ok(())
+    }
+    fn enter_manual(&mut self, t: f64) -> Result<(), ManualError> {
+        if self.plan.is_moving(t) || self.plan.active().is_some() {
+            return Err(ManualError::Moving);
+        }
+        let position = self.plan.final_position().into();
+        let g = G::at_rest(self.settings, t, position).map_err(ManualError::Generator)?;
+        self.manual = Some((g, [(); A]));
+        Ok(())
+    }
+    fn leave_manual(&mut self) -> Result<(), ManualError> {
+        let Some((g, _)) = &self.manual else {
+            return Ok(());
+        };
+        if !g.is_at_rest() {
+            return Err(ManualError::Moving);
+        }
+        let [position]: [SVector<f64, A>; 1] = g.derivatives(g.time());
+        let n = self.plan.planned_smoothness();
+        self.plan = Plan::at_rest(position, n).map_err(ManualError::Generator)?;
+        self.manual = None;
+        Ok(())
+    }
+    fn manual_mut(&mut self) -> Option<&mut dyn ManualPath> {
+        self.manual.as_mut().map(|m| m as &mut dyn ManualPath)
+    }
+    fn in_manual(&self) -> bool {
+        self.manual.is_some()
+    }
+}
+
+impl<T: Real, G: Source<A>, const A: usize> Trajectory<T, A> for Steered<G, A>
+where
+    G: Trajectory<T, A>,
+    Plan<f64, A>: Trajectory<T, A>,
+{
+    fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, A>; D] {
+        match &self.manual {
+            Some((g, _)) => g.derivatives(t),
+            None => self.plan.derivatives(t),
+        }
+    }
+    fn active_span(&self) -> (T, T) {
+        match &self.manual {
+            Some((g, _)) => g.active_span(),
+            None => self.plan.active_span(),
+        }
+    }
+    fn smoothness(&self) -> usize {
+        match &self.manual {
+            Some((g, _)) => Trajectory::<T, A>::smoothness(g),
+            None => Trajectory::<T, A>::smoothness(&self.plan),
+        }
+    }
+}

@@ -1,0 +1,450 @@
+//! Manual mode's command interface on the virtual bus (issue 28): the operator's
+//! speed-demand frame (RPDO3, 0x410) — malformed ones ignored and counted, never acted
+//! upon, whatever their number.
+
+mod common;
+
+use common::*;
+use controller::canopen::{NmtCommand, CONTROLLER_NODE};
+use controller::operator::{operator_frame, Flags, OperatorFrame, FULL_SCALE};
+use controller::{CanFrame, Mode};
+use sim::HEALTHY;
+
+const HELD: Flags = Flags {
+    enable: true,
+    manual: true,
+    micro: false,
+};
+
+fn stick(counter: u8, demand: [i16; 3]) -> CanFrame {
+    operator_frame(
+        CONTROLLER_NODE,
+        &OperatorFrame {
+            counter,
+            flags: HELD,
+            demand,
+        },
+    )
+}
+
+/// A flood of malformed operator frames, ten every cycle for four seconds: each one is
+/// counted in *frames ignored* (status byte 5), none changes a set point or the mode.
+#[test]
+fn a_flood_of_malformed_operator_frames_is_counted_and_changes_nothing() {
+    let mut flood = vec![
+        CanFrame::new(0x410, &[1, 1, 0, 0]).unwrap(), // short
+        CanFrame::new(0x410, &[]).unwrap(),           // empty
+        CanFrame::new(0x410, &[2, 0x09, 0, 0, 0, 0, 0, 0]).unwrap(), // reserved flag bit 3
+        CanFrame::new(0x410, &[3, 0x81, 0, 0, 0, 0, 0, 0]).unwrap(), // reserved flag bit 7
+        CanFrame::new(0x410, &[4, 1, 0x00, 0x80, 0, 0, 0, 0]).unwrap(), // x = -32768
+        CanFrame::new(0x410, &[5, 1, 0, 0, 0, 0, 0x00, 0x80]).unwrap(), // z = -32768
+        stick(6, [0, FULL_SCALE, 0]),                 // along y: the planar crane has no y
+    ];
+    flood.extend((0..3).map(|k| stick(7 + k, [0, -1, 0])));
+    assert_eq!(flood.len(), 10);
+    let (mut clean, mut noisy) = (Rig::new(HEALTHY, true), Rig::new(HEALTHY, true));
+    for i in 0..400 {
+        for f in &flood {
+            noisy.c.on_frame(f, noisy.now.into());
+        }
+        let (a, b) = (clean.cycle(), noisy.cycle());
+        assert_eq!(a.setpoints, b.setpoints, "cycle {i}");
+        assert_eq!(a.mode, b.mode, "cycle {i}");
+    }
+    assert_eq!(noisy.c.counters().frames_ignored, 400 * 10);
+    assert_eq!(clean.c.counters().frames_ignored, 0);
+    assert_eq!(noisy.c.counters().requests, 0, "none of them was answered");
+    // The status frame's byte 5 is the count modulo 256.
+    assert_eq!(noisy.c.status().bytes()[5], (4000 % 256) as u8);
+}
+
+/// A well-formed frame is received, not ignored; another node's RPDO3 is not the
+/// controller's (a PLC's to its own devices); in pre-operational no PDO is taken, so a
+/// well-formed operator frame is ignored and counted, as a command frame is.
+#[test]
+fn well_formed_frames_are_received_and_other_nodes_rpdo3_is_not_ours() {
+    let mut rig = Rig::new(HEALTHY, false);
+    rig.ready();
+    let cases = [
+        // (frame, received, ignored)
+        (stick(1, [FULL_SCALE, 0, -FULL_SCALE]), 1, 0),
+        (CanFrame::new(0x420, &[0; 3]).unwrap(), 1, 0),
+        (
+            CanFrame::new(0x411, &[1, 2, 3, 4, 5, 6, 7, 8]).unwrap(),
+            1,
+            0,
+        ),
+    ];
+    for (frame, received, ignored) in cases {
+        let before = rig.c.counters();
+        rig.c.on_frame(&frame, rig.now.into());
+        let after = rig.c.counters();
+        assert_eq!(
+            (
+                after.frames_received - before.frames_received,
+                after.frames_ignored - before.frames_ignored
+            ),
+            (received, ignored),
+            "{frame:?}"
+        );
+    }
+    assert_eq!(rig.c.mode(), Mode::Ready);
+    rig.c.on_frame(
+        &controller::canopen::nmt::command(NmtCommand::PreOperational, CONTROLLER_NODE),
+        rig.now.into(),
+    );
+    let before = rig.c.counters().frames_ignored;
+    rig.c.on_frame(&stick(2, [0; 3]), rig.now.into());
+    assert_eq!(rig.c.counters().frames_ignored, before + 1);
+}
+
+// ---------------------------------------------------------------------------------------
+// Manual mode: the operator's generator drives the planar crane's inverse model.
+
+use controller::operator::path::Steered;
+use controller::operator::MANUAL_MODE_CODE;
+use controller::setpoint::Setpoint;
+use controller::{Config, Controller, Cycle, Injectable, InverseModel, Replan};
+use sim::{run_cycle, VirtualBus};
+use solver_core::models::crane::CraneParams;
+use solver_core::models::crane_subs::{self, CraneSubs};
+use solver_core::operator::{PlanarGenerator, Settings};
+
+type Path = Steered<PlanarGenerator, 2>;
+type ManualFf = Injectable<
+    InverseModel<CraneSubs<f64, Path>, crane_subs::Bdf<f64, Path>, f64, { crane_subs::N }>,
+>;
+
+/// The controller with manual mode on the paper's crane at rest at [`HOME`], the bus,
+/// the clock, and the operator's next alive counter.
+struct Manual {
+    c: Controller<ManualFf>,
+    bus: VirtualBus,
+    now: u32,
+    counter: u8,
+}
+
+impl Manual {
+    fn new() -> Self {
+        let plan = controller::crane::command_plan::<CraneParams, 2>(HOME, 4).unwrap();
+        let path = Steered::new(plan, Settings::lab(&CraneParams::PAPER));
+        let model = CraneSubs::new(CraneParams::PAPER, path).unwrap();
+        let integrator = crane_subs::Bdf::new(&model, &settings(), 4, 0.0).unwrap();
+        let ff = Injectable::new(InverseModel::new(model, integrator));
+        let mut rig = Self {
+            c: Controller::new(ff, planner(), Config::DEFAULT),
+            bus: VirtualBus::new(HEALTHY, HOME),
+            now: 0,
+            counter: 0,
+        };
+        for _ in 0..120 {
+            if rig.cycle().mode == Mode::Ready {
+                return rig;
+            }
+        }
+        panic!("not ready");
+    }
+
+    fn cycle(&mut self) -> Cycle {
+        let out = run_cycle(&mut self.c, &mut self.bus, self.now).unwrap();
+        self.now += 10;
+        out
+    }
+
+    /// The operator's frame now: the next counter, `flags`, `demand`.
+    fn send(&mut self, flags: Flags, demand: [i16; 3]) {
+        self.counter = self.counter.wrapping_add(1);
+        let f = operator_frame(
+            CONTROLLER_NODE,
+            &OperatorFrame {
+                counter: self.counter,
+                flags,
+                demand,
+            },
+        );
+        self.c.on_frame(&f, self.now.into());
+    }
+
+    /// `cycles` cycles with a frame every third (30 ms) carrying `flags` and `demand`.
+    fn hold(&mut self, cycles: usize, flags: Flags, demand: [i16; 3]) -> Vec<Cycle> {
+        (0..cycles)
+            .map(|n| {
+                if n % 3 == 0 {
+                    self.send(flags, demand);
+                }
+                self.cycle()
+            })
+            .collect()
+    }
+
+    fn mode_byte(&self) -> u8 {
+        self.c.status().bytes()[3]
+    }
+
+    /// The load's position in the model, m.
+    fn load(&self) -> [f64; 2] {
+        let x = self.c.feedforward().inner.integrator.state();
+        [x[0], x[1]]
+    }
+}
+
+/// Full stick for 4 s, then the stick released: manual mode is entered at rest (status
+/// mode 5), the load travels, the stick's release brings it to rest (the generator's
+/// sway-free stop), every set point on the way within the drives' limits, and after the
+/// stop every set point is exactly zero; with the manual request withdrawn the
+/// controller leaves manual mode at rest (status mode 1).
+#[test]
+fn a_full_stick_step_and_release_ends_at_rest_within_limits() {
+    let mut rig = Manual::new();
+    assert_eq!(rig.mode_byte(), 1);
+    let mut cycles = rig.hold(9, HELD, [0; 3]);
+    assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE, "entered at rest");
+    assert!(rig.c.feedforward().in_manual());
+    let start = rig.load();
+    cycles.extend(rig.hold(400, HELD, [FULL_SCALE, 0, 0]));
+    let moved = rig.load()[0] - start[0];
+    assert!(moved > 1.0, "the load travelled {moved} m");
+    let mut rest = None;
+    for n in 0..1000 {
+        cycles.extend(rig.hold(3, HELD, [0; 3]));
+        let last = cycles
+            .iter()
+            .rev()
+            .take(30)
+            .all(|c| c.setpoints == [Setpoint::ZERO; 2]);
+        if last && n > 10 {
+            rest = Some(rig.load());
+            break;
+        }
+    }
+    let rest = rest.expect("at rest after the release");
+    let tail = rig.hold(300, HELD, [0; 3]);
+    assert!(
+        tail.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
+        "exactly zero after the stop"
+    );
+    assert_eq!(rig.load(), rest, "no creep");
+    cycles.extend(tail);
+    let mut last = [0; 2];
+    assert_within_limits(&cycles, &mut last);
+    assert!(cycles.iter().all(|c| c.mode == Mode::Ready), "no fault");
+    let off = Flags {
+        manual: false,
+        ..HELD
+    };
+    rig.hold(6, off, [0; 3]);
+    assert_eq!(rig.mode_byte(), 1, "left at rest");
+    assert!(!rig.c.feedforward().in_manual());
+    println!(
+        "travelled {moved:.3} m at full stick; rest at x = {:.4} m",
+        rest[0]
+    );
+}
+
+/// Enters manual mode and lifts the interlock (the stick centred), then holds full
+/// stick for `cycles`: the load is moving at the end.
+fn moving(cycles: usize) -> Manual {
+    let mut rig = Manual::new();
+    rig.hold(9, HELD, [0; 3]);
+    assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE);
+    rig.hold(cycles, HELD, [FULL_SCALE, 0, 0]);
+    rig
+}
+
+/// Cycles until every set point was zero for 30 cycles in a row (at most `max`); all
+/// outputs, and whether it got there.
+fn until_rest(
+    rig: &mut Manual,
+    max: usize,
+    mut each: impl FnMut(&mut Manual, usize),
+) -> (Vec<Cycle>, bool) {
+    let mut out: Vec<Cycle> = Vec::new();
+    for n in 0..max {
+        each(rig, n);
+        out.push(rig.cycle());
+        if out.len() > 30
+            && out
+                .iter()
+                .rev()
+                .take(30)
+                .all(|c| c.setpoints == [Setpoint::ZERO; 2])
+        {
+            return (out, true);
+        }
+    }
+    (out, false)
+}
+
+/// The operator's frames stop mid-travel (a cut cable): after the deadline the
+/// generator's stop brings the load to rest within the limits, and manual mode is left
+/// at rest; the held stick, when the frames come back, moves nothing (interlocked).
+#[test]
+fn a_dead_man_drop_stops_and_leaves_manual_mode_at_rest() {
+    let mut rig = moving(300);
+    let (cycles, rested) = until_rest(&mut rig, 2000, |_, _| {});
+    assert!(
+        cycles[0].setpoints[0].units() > 100_000,
+        "travelling when the frames stop"
+    );
+    assert!(rested, "at rest after the frames stopped");
+    let mut last = [
+        cycles[0].setpoints[0].units(),
+        cycles[0].setpoints[1].units(),
+    ];
+    assert_within_limits(&cycles[1..], &mut last);
+    assert!(cycles.iter().all(|c| c.mode == Mode::Ready), "no fault");
+    assert_eq!(rig.mode_byte(), 1, "manual mode left at rest");
+    // The operator is back with the stick still deflected: nothing moves.
+    let back = rig.hold(60, HELD, [FULL_SCALE, 0, 0]);
+    assert!(back.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]));
+}
+
+/// The manual request withdrawn while travelling (the stick still held) is the same
+/// stop: at rest, manual mode is left.
+#[test]
+fn withdrawing_the_manual_request_stops_and_leaves_manual_mode() {
+    let off = Flags {
+        manual: false,
+        ..HELD
+    };
+    let mut rig = moving(300);
+    let (cycles, rested) = until_rest(&mut rig, 2000, |r, n| {
+        if n % 3 == 0 {
+            r.send(off, [FULL_SCALE, 0, 0]);
+        }
+    });
+    assert!(
+        cycles[0].setpoints[0].units() > 100_000,
+        "travelling when withdrawn"
+    );
+    assert!(rested, "at rest with the stick held");
+    assert_eq!(rig.mode_byte(), 1, "manual mode left");
+}
+
+/// A released dead-man switch (enable = 0) and a frozen counter are the same stop.
+#[test]
+fn a_released_switch_or_a_frozen_counter_stops() {
+    let released = Flags {
+        enable: false,
+        ..HELD
+    };
+    let mut rig = moving(300);
+    let (_, rested) = until_rest(&mut rig, 2000, |r, n| {
+        if n % 3 == 0 {
+            r.send(released, [FULL_SCALE, 0, 0]);
+        }
+    });
+    assert!(rested, "released: at rest");
+    assert_eq!(rig.mode_byte(), 1, "released: manual mode left");
+    let mut rig = moving(300);
+    let (_, rested) = until_rest(&mut rig, 2000, |r, n| {
+        if n % 3 == 0 {
+            // The same counter again and again: a stale sender.
+            let f = operator_frame(
+                CONTROLLER_NODE,
+                &OperatorFrame {
+                    counter: r.counter,
+                    flags: HELD,
+                    demand: [FULL_SCALE, 0, 0],
+                },
+            );
+            r.c.on_frame(&f, r.now.into());
+        }
+    });
+    assert!(rested, "frozen: at rest");
+    assert_eq!(rig.mode_byte(), 1, "frozen: manual mode left");
+}
+
+/// The zero-position interlock: a stick held deflected when manual mode is entered
+/// moves nothing until it was centred for two frames; one centred frame is not enough.
+#[test]
+fn the_interlock_refuses_motion_until_the_stick_was_centred_two_frames() {
+    let mut rig = Manual::new();
+    let held = rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
+    assert_eq!(
+        rig.mode_byte(),
+        MANUAL_MODE_CODE,
+        "entered: the crane rests"
+    );
+    assert!(
+        held.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
+        "interlocked"
+    );
+    // One centred frame, then the stick again: still interlocked.
+    rig.send(HELD, [0; 3]);
+    rig.cycle();
+    let again = rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
+    assert!(
+        again.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
+        "one frame is not enough"
+    );
+    // Two centred frames: the stick moves the crane.
+    rig.hold(6, HELD, [0; 3]);
+    let live = rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
+    assert!(live.iter().any(|c| c.setpoints[0].units() > 0), "live");
+}
+
+/// A stop request (0x210) in manual mode is obeyed as in automatic: the load comes to
+/// rest although the stick is held, and only a centred stick moves it again.
+#[test]
+fn a_stop_request_is_obeyed_in_manual_mode() {
+    let mut rig = moving(300);
+    send_request(&mut rig, controller::commands::Request::Stop { id: 5 });
+    let (cycles, rested) = until_rest(&mut rig, 2000, |r, n| {
+        if n % 3 == 0 {
+            r.send(HELD, [FULL_SCALE, 0, 0]);
+        }
+    });
+    assert!(
+        cycles[0].setpoints[0].units() > 100_000,
+        "travelling when stopped"
+    );
+    assert!(rested, "at rest with the stick held");
+    let mut last = [
+        cycles[0].setpoints[0].units(),
+        cycles[0].setpoints[1].units(),
+    ];
+    assert_within_limits(&cycles[1..], &mut last);
+    assert_eq!(rig.c.last_answer().0, 5);
+    assert_eq!(
+        rig.mode_byte(),
+        MANUAL_MODE_CODE,
+        "still manual: the operator is there"
+    );
+    rig.hold(6, HELD, [0; 3]);
+    let live = rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
+    assert!(
+        live.iter().any(|c| c.setpoints[0].units() > 0),
+        "centred, then live"
+    );
+}
+
+/// A move request in manual mode is refused (not ready): the stick has the crane.
+#[test]
+fn a_move_request_in_manual_mode_is_refused() {
+    let mut rig = moving(30);
+    send_request(
+        &mut rig,
+        controller::commands::Request::Move {
+            id: 6,
+            target: [20.0, 4.0],
+            duration: None,
+        },
+    );
+    rig.hold(3, HELD, [FULL_SCALE, 0, 0]);
+    assert_eq!(
+        rig.c.last_answer(),
+        (
+            6,
+            controller::commands::Answer::Rejected,
+            Some(controller::commands::Reject::NotReady)
+        )
+    );
+}
+
+fn send_request(rig: &mut Manual, request: controller::commands::Request) {
+    rig.c.on_frame(
+        &controller::commands::request_frame(&request),
+        rig.now.into(),
+    );
+}
