@@ -251,7 +251,25 @@ def test_a_stop_mid_move_rests_on_the_path_short_of_the_target_never_past_it(rig
     rig.move3d(1, *target, duration)
     assert rig.answer(1) == (ACCEPTED, 0)
     t_accept = next(t for (t, s) in rig.statuses() if s[:2] == [1, ACCEPTED])
-    time.sleep(max(0.0, t_accept + stop_after - time.time()))
+    rest, log = stop_mid_move(rig, t_accept + stop_after, duration)
+    t_accept = next(t for (t, k) in answers(log) if k == (1, ACCEPTED, 0))
+    t_end = last_motion(log, t_accept, nodes=NODES)
+    assert cycles_between(log, t_accept, t_end) <= duration * 100, "never later than the move"
+    fractions = stopped_short(log, rest, START, target, t_accept, t_end)
+    # On the move's straight path (the load hangs still under the trolley at rest): the
+    # same fraction of the way in every axis, and well short of the target.
+    assert max(fractions) - min(fractions) < 0.01, f"off the straight path: {fractions}"
+    print(f"at rest {fractions[0]:.4f} of the way, {cycles_between(log, t_accept, t_end)} cycles after the answer")
+    assert 0.2 < fractions[0] < 0.9, f"stopped {fractions[0]:.3f} of the way"
+    assert_setpoints_within_limits(log, LIMITS)
+
+
+def stop_mid_move(rig, at, duration):
+    """Stop request 2 (0x210) sent at `at` (the supervisor's clock), off the SYNC's beat:
+    accepted, the drives at rest within `duration` s (`wait_rest`), no fault and no EMCY,
+    every frame decoded, the stop answered exactly once. Returns the rest (as `wait_rest`
+    read it) and the closed rig's log."""
+    time.sleep(max(0.0, at - time.time()))
     off_beat(rig, delay=0.02)
     rig.command(2, STOP)
     assert rig.answer(2) == (ACCEPTED, 0)
@@ -263,16 +281,7 @@ def test_a_stop_mid_move_rests_on_the_path_short_of_the_target_never_past_it(rig
     assert not log.sent(0x090)
     stop = bytes([2, STOP, 0, 0, 0, 0, 0, 0])
     assert_answered_once(log, 2, arrival(log, 0x210, stop), (ACCEPTED, 0))
-    t_accept = next(t for (t, k) in answers(log) if k == (1, ACCEPTED, 0))
-    t_end = last_motion(log, t_accept, nodes=NODES)
-    assert cycles_between(log, t_accept, t_end) <= duration * 100, "never later than the move"
-    fractions = stopped_short(log, rest, START, target, t_accept, t_end)
-    # On the move's straight path (the load hangs still under the trolley at rest): the
-    # same fraction of the way in every axis, and well short of the target.
-    assert max(fractions) - min(fractions) < 0.01, f"off the straight path: {fractions}"
-    print(f"at rest {fractions[0]:.4f} of the way, {cycles_between(log, t_accept, t_end)} cycles after the answer")
-    assert 0.2 < fractions[0] < 0.9, f"stopped {fractions[0]:.3f} of the way"
-    assert_setpoints_within_limits(log, LIMITS)
+    return rest, log
 
 
 def stopped_short(log, rest, start, target, t_accept, t_end, nodes=NODES):

@@ -42,7 +42,7 @@ against can/crane.dbc, and no EMCY is sent.
 import struct
 import time
 
-from rig import ACCEPTED, MODE, REJECTED, STOP, dbc, drives_at_rest
+from rig import ACCEPTED, MODE, REJECTED, dbc, drives_at_rest
 from test_black_box import (
     answered_at,
     answers,
@@ -53,7 +53,7 @@ from test_black_box import (
     off_beat,
     wait_rest,
 )
-from test_crane3d import assert_answered_once, stopped_short
+from test_crane3d import assert_answered_once, stop_mid_move, stopped_short
 from test_interop import (
     TROLLEY,
     WINCH,
@@ -164,18 +164,7 @@ def test_a_stop_mid_move_is_obeyed_at_once_and_never_carries_the_load_past_its_t
     rig.wait_mode("ready")
     rig.move(1, *target, duration)
     assert rig.answer(1) == (ACCEPTED, 0)
-    t_answer = answered_at(rig, 1, ACCEPTED)
-    time.sleep(max(0.0, t_answer + stop_after - time.time()))
-    off_beat(rig, delay=0.02)
-    rig.command(2, STOP)
-    assert rig.answer(2) == (ACCEPTED, 0)
-    rest = wait_rest(rig, duration)
-    status = rig.status()
-    log = rig.close()
-    log.assert_decodes()
-    assert status[3:6] == [MODE["ready"], 0, 0], "a stop is no fault"
-    assert not log.sent(0x090)
-    assert_answered_once(log, 2, arrival(log, command_bytes(2, STOP)), (ACCEPTED, 0))
+    rest, log = stop_mid_move(rig, answered_at(rig, 1, ACCEPTED) + stop_after, duration)
     t_accept = next(t for (t, k) in answers(log) if k == (1, ACCEPTED, 0))
     t_end = last_motion(log, t_accept)
     cycles = cycles_between(log, t_accept, t_end)

@@ -84,6 +84,17 @@ impl Rig {
         }
     }
 
+    /// `frame` received now: how it was counted, `(received, ignored)` (each 0 or 1).
+    pub fn counted(&mut self, frame: &controller::CanFrame) -> (u32, u32) {
+        let before = self.c.counters();
+        self.c.on_frame(frame, self.now.into());
+        let after = self.c.counters();
+        (
+            after.frames_received - before.frames_received,
+            after.frames_ignored - before.frames_ignored,
+        )
+    }
+
     /// One cycle.
     pub fn cycle(&mut self) -> Cycle {
         self.try_cycle().expect("only the hang scenario hangs")
