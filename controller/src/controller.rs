@@ -650,6 +650,10 @@ where
             if asked && self.may_move() && !self.moving() {
                 let t = self.feedforward.time();
                 if self.feedforward.enter_manual(t).is_ok() {
+                    // Centred frames counted before the entry (in automatic, or while
+                    // halted) do not lift the interlock: the stick has to be centred
+                    // twice in manual mode before it moves the crane.
+                    self.deadman.interlock();
                     self.close_loop(true);
                 }
             }
@@ -1586,6 +1590,10 @@ where
         }
         self.correction.restart();
         self.feedback_announced = None;
+        // The model restarted (a reset, or the positions read again): centred frames
+        // received while halted do not count, the stick has to be centred again before
+        // it moves the crane (the zero-position interlock).
+        self.deadman.interlock();
         Ok(())
     }
 

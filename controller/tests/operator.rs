@@ -448,3 +448,61 @@ fn send_request(rig: &mut Manual, request: controller::commands::Request) {
         rig.now.into(),
     );
 }
+
+/// The zero-position interlock after a fault and a reset (review finding 1): a fault in
+/// manual mode halts; the operator centres the stick while halted and then holds it
+/// deflected; the supervisor's reset brings the controller back to ready — and the held
+/// stick moves nothing until it was centred for two frames *after* the reset.
+#[test]
+fn after_a_fault_and_a_reset_a_held_stick_moves_nothing_until_centred_twice() {
+    let mut rig = moving(100);
+    rig.c.feedforward_mut().fail_next_step();
+    let mut halted = false;
+    for _ in 0..2000 {
+        rig.send(HELD, [0; 3]);
+        if matches!(rig.cycle().mode, Mode::Halted(_)) {
+            halted = true;
+            break;
+        }
+    }
+    assert!(halted, "the fault halts");
+    // Centred twice while halted, then held deflected.
+    rig.hold(6, HELD, [0; 3]);
+    rig.hold(6, HELD, [FULL_SCALE, 0, 0]);
+    send_request(&mut rig, controller::commands::Request::Reset { id: 7 });
+    let after = rig.hold(300, HELD, [FULL_SCALE, 0, 0]);
+    assert!(after.iter().any(|c| c.mode == Mode::Ready), "reset: ready");
+    assert!(
+        after.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
+        "the stick held through the reset moves nothing"
+    );
+    rig.hold(6, HELD, [0; 3]);
+    let live = rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
+    assert!(
+        live.iter().any(|c| c.setpoints[0].units() > 0),
+        "centred twice after the reset: live"
+    );
+}
+
+/// The interlock lifted in automatic (manual = 0, the stick centred), then manual mode
+/// asked for with the stick deflected (review finding 1): entering manual mode
+/// interlocks the stick, so nothing moves until it was centred twice.
+#[test]
+fn entering_manual_mode_with_a_deflected_stick_moves_nothing_until_centred_twice() {
+    let auto = Flags {
+        manual: false,
+        ..HELD
+    };
+    let mut rig = Manual::new();
+    rig.hold(9, auto, [0; 3]);
+    assert_eq!(rig.mode_byte(), 1, "automatic");
+    let held = rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
+    assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE, "entered at rest");
+    assert!(
+        held.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
+        "interlocked on entry"
+    );
+    rig.hold(6, HELD, [0; 3]);
+    let live = rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
+    assert!(live.iter().any(|c| c.setpoints[0].units() > 0), "live");
+}
