@@ -635,41 +635,52 @@ where
     }
 
     /// Manual mode, once a cycle before the model's step (docs/COMMANDS.md, "Manual
-    /// mode"): entered at rest when a live operator asks for it; the stick's demand
-    /// (zero while interlocked) advances the generator; a dead-man loss or the request
+    /// mode"): entered at rest when a live operator asks for it, the stick interlocked;
+    /// the stick's demand (zero while interlocked) advances the generator on every cycle
+    /// the model steps in manual mode, the entry cycle included, so that the model
+    /// evaluates each of the generator's pieces on its own cycle; a dead-man loss or the request
     /// withdrawn latches its sway-free stop and interlocks the stick; manual mode is
     /// left at rest once the operator is lost or no longer asks for it. A crane whose model follows plans only never enters it.
     // Kept out of line: inlined into the cycle it changed the firmware's inlining
     // (QEMU: the RADAU5 scene's control-task stack grew by 1,200 bytes).
     #[inline(never)]
     fn steer_manual(&mut self) {
-        let state = self.deadman.state(self.now_ms);
         let frame = self.deadman.frame();
-        let asked = !matches!(state, Stick::Lost(_)) && frame.is_some_and(|f| f.flags.manual);
+        let lost = matches!(self.deadman.state(self.now_ms), Stick::Lost(_));
+        let asked = !lost && frame.is_some_and(|f| f.flags.manual);
         if !self.feedforward.in_manual() {
-            if asked && self.may_move() && !self.moving() {
-                let t = self.feedforward.time();
-                if self.feedforward.enter_manual(t).is_ok() {
-                    // Centred frames counted before the entry (in automatic, or while
-                    // halted) do not lift the interlock: the stick has to be centred
-                    // twice in manual mode before it moves the crane.
-                    self.deadman.interlock();
-                    self.close_loop(true);
-                }
+            if !(asked && self.may_move() && !self.moving()) {
+                return;
             }
+            let t = self.feedforward.time();
+            if self.feedforward.enter_manual(t).is_err() {
+                return;
+            }
+            // Centred frames counted before the entry (in automatic, or while
+            // halted) do not lift the interlock: the stick has to be centred
+            // twice in manual mode before it moves the crane.
+            self.deadman.interlock();
+            self.close_loop(true);
+            // On to advance the generator in this very cycle: the model steps over
+            // [t, t + h] right after, and the generator's piece is for that cycle.
+        } else if self.mode != Mode::Ready {
+            return;
+        } else if !asked
+            && self
+                .feedforward
+                .manual_mut()
+                .is_some_and(|path| path.is_at_rest())
+            && self.feedforward.leave_manual().is_ok()
+        {
+            // (Refused only while it moves, or if the plan cannot rest there: then the
+            // generator goes on resting, advanced below.)
             return;
         }
-        if self.mode != Mode::Ready {
-            return;
-        }
+        // The state again: an entry just now interlocked the stick.
+        let state = self.deadman.state(self.now_ms);
         let Some(path) = self.feedforward.manual_mut() else {
             return;
         };
-        if !asked && path.is_at_rest() {
-            // (Refused only while it moves: checked just now.)
-            let _ = self.feedforward.leave_manual();
-            return;
-        }
         let stick = match (state, frame) {
             (Stick::Live, Some(f)) if asked => f.stick::<2>().ok(),
             _ => None,

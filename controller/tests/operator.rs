@@ -506,3 +506,38 @@ fn entering_manual_mode_with_a_deflected_stick_moves_nothing_until_centred_twice
     let live = rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
     assert!(live.iter().any(|c| c.setpoints[0].units() > 0), "live");
 }
+
+/// The generator and the inverse model in step (review finding 2): the generator is
+/// advanced on every cycle the model steps, the entry cycle included, so that after
+/// each cycle the generator's time (the start of the piece it built) is one cycle
+/// (10 ms) before the model's time: the model evaluates each piece within [0, 1] of its own cycle, never
+/// extrapolates it. (An equivalent of comparing with host-tests' `inverse_model_run`,
+/// which advances before every step: controller tests do not depend on host-tests.)
+#[test]
+fn the_generator_is_advanced_on_every_cycle_the_model_steps() {
+    use controller::{Feedforward, Replan};
+    let mut rig = Manual::new();
+    let mut checked = 0;
+    let stick = |n: usize| match n {
+        0..=8 => [0; 3],
+        9..=308 => [FULL_SCALE, 0, FULL_SCALE / 2],
+        _ => [0; 3],
+    };
+    for n in 0..700 {
+        if n % 3 == 0 {
+            rig.send(HELD, stick(n));
+        }
+        rig.cycle();
+        let ff = rig.c.feedforward_mut();
+        let model = ff.time();
+        if let Some(path) = ff.manual_mut() {
+            let generator = path.time();
+            assert!(
+                (model - generator - 0.01).abs() < 1e-9,
+                "cycle {n}: the generator's piece starts at {generator} s, the model is at {model} s"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 600, "{checked} cycles in manual mode");
+}

@@ -34,7 +34,7 @@ pub trait Source<const A: usize>: Trajectory<f64, A> + Sized {
     fn is_at_rest(&self) -> bool;
     /// Whether a stop is latched.
     fn is_stopping(&self) -> bool;
-    /// The generator's time (the end of the last cycle built), s.
+    /// The generator's time (the start of the last cycle built), s.
     fn time(&self) -> f64;
 }
 
@@ -150,6 +150,10 @@ pub trait ManualPath {
     fn is_at_rest(&self) -> bool;
     /// Whether a stop is latched.
     fn is_stopping(&self) -> bool;
+    /// The generator's time (the start of the last cycle built), s: after each of the
+    /// model's steps, one cycle before the model's time, as the generator is advanced on
+    /// every cycle the model steps.
+    fn time(&self) -> f64;
 }
 
 impl<G: Source<A>, const A: usize> ManualPath for (G, [(); A]) {
@@ -167,6 +171,9 @@ impl<G: Source<A>, const A: usize> ManualPath for (G, [(); A]) {
     }
     fn is_stopping(&self) -> bool {
         self.0.is_stopping()
+    }
+    fn time(&self) -> f64 {
+        self.0.time()
     }
 }
 
