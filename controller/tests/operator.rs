@@ -541,3 +541,33 @@ fn the_generator_is_advanced_on_every_cycle_the_model_steps() {
     }
     assert!(checked > 600, "{checked} cycles in manual mode");
 }
+
+/// The dead-man's deadline in the controller's cycles (review finding 4): the last
+/// frame read in the cycle at T, none after it — the sway-free stop is latched in the
+/// cycle at T + 90 ms (the documented deadline), not before and not a cycle later.
+#[test]
+fn the_dead_man_stop_is_latched_in_the_cycle_ninety_ms_after_the_last_frame() {
+    use controller::Replan;
+    let mut rig = moving(300);
+    rig.send(HELD, [FULL_SCALE, 0, 0]);
+    let last = rig.now;
+    rig.cycle();
+    let mut latched = None;
+    while rig.now <= last + 120 {
+        let at = rig.now;
+        rig.cycle();
+        let stopping = rig
+            .c
+            .feedforward_mut()
+            .manual_mut()
+            .is_some_and(|p| p.is_stopping());
+        if stopping && latched.is_none() {
+            latched = Some(at - last);
+        }
+    }
+    assert_eq!(
+        latched,
+        Some(controller::operator::DEADLINE_MS),
+        "ms after the last frame"
+    );
+}

@@ -11,7 +11,10 @@ pub mod deadman;
 pub mod frame;
 pub mod path;
 
-/// The dead-man's deadline, ms: three frames of a master switch sending every 30 ms.
+/// The dead-man's deadline, ms: three frames of a master switch sending every 30 ms. The
+/// loss is latched in the controller's cycle 90 ms after the one that read the last
+/// frame, so less than 100 ms after that frame arrived (it is read at the start of the
+/// next cycle): the bound.
 pub const DEADLINE_MS: u32 = 90;
 
 /// The stick's deadband the zero-position interlock checks, a share of full stick: the
