@@ -243,6 +243,7 @@ where
         // Without the feedback the inclinometer is not linked (`C::ENABLED` is a
         // constant: none of its code is).
         let links = Links::new(&config, K::DRIVES, C::ENABLED);
+        let deadband = feedforward.stick_deadband().unwrap_or(0.0);
         Self {
             feedforward,
             correction,
@@ -295,7 +296,9 @@ where
             last_supervisor_heartbeat_ms: None,
             now_ms: 0,
             syncing: false,
-            deadman: Deadman::new(operator::DEADLINE_MS, operator::DEADBAND),
+            // The generator's deadband, the one the interlock checks; a model that
+            // follows plans only never enters manual mode: a centred stick is 0 there.
+            deadman: Deadman::new(operator::DEADLINE_MS, deadband),
         }
     }
 
@@ -682,7 +685,7 @@ where
             return;
         };
         let stick = match (state, frame) {
-            (Stick::Live, Some(f)) if asked => f.stick::<2>().ok(),
+            (Stick::Live, Some(f)) if asked => f.demand::<2>(self.deadman.deadband()).ok(),
             _ => None,
         };
         if !asked {

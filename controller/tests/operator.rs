@@ -571,3 +571,32 @@ fn the_dead_man_stop_is_latched_in_the_cycle_ninety_ms_after_the_last_frame() {
         "ms after the last frame"
     );
 }
+
+/// Micro-speed (review finding 3): the deadband applies to the stick's position and the
+/// micro factor after it, so full stick with micro-speed drives the trolley at a tenth of
+/// full stick's speed (not (0.1 − 0.05)/0.95 = 5.3 %), and a micro stick at 30 % moves
+/// the crane (scaled before the deadband it did nothing below half stick).
+#[test]
+fn micro_speed_is_a_tenth_of_the_manual_speed_past_the_deadband() {
+    let micro = Flags {
+        micro: true,
+        ..HELD
+    };
+    let speed = |flags: Flags, x: i16| {
+        let mut rig = Manual::new();
+        rig.hold(9, HELD, [0; 3]);
+        let out = rig.hold(800, flags, [x, 0, 0]);
+        out.last().unwrap().setpoints[0].units()
+    };
+    let full = speed(HELD, FULL_SCALE);
+    let tenth = speed(micro, FULL_SCALE);
+    let ratio = f64::from(tenth) / f64::from(full);
+    println!("full stick {full}, micro {tenth}: {ratio:.4}");
+    assert!(full > 100_000, "{full}");
+    assert!(
+        (ratio - 0.1).abs() < 0.002,
+        "micro-speed {ratio} of full stick"
+    );
+    let third = speed(micro, FULL_SCALE / 10 * 3);
+    assert!(third > 0, "a micro stick at 30 % moves the crane: {third}");
+}

@@ -98,6 +98,12 @@ impl Deadman {
         self.deadline_ms
     }
 
+    /// The stick's deadband, a share of full stick.
+    #[must_use]
+    pub fn deadband(&self) -> f64 {
+        self.deadband
+    }
+
     /// The last frame with a new counter (whatever its flags), if any.
     #[must_use]
     pub fn frame(&self) -> Option<OperatorFrame> {

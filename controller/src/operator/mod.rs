@@ -17,10 +17,6 @@ pub mod path;
 /// next cycle): the bound.
 pub const DEADLINE_MS: u32 = 90;
 
-/// The stick's deadband the zero-position interlock checks, a share of full stick: the
-/// generator's (`solver_core::operator::Settings::deadband` of the lab settings).
-pub const DEADBAND: f64 = 0.05;
-
 /// The status frame's mode byte while manual mode runs (the controller is *ready*,
 /// the operator's generator drives the model): additive to 0–4.
 pub const MANUAL_MODE_CODE: u8 = 5;

@@ -36,6 +36,8 @@ pub trait Source<const A: usize>: Trajectory<f64, A> + Sized {
     fn is_stopping(&self) -> bool;
     /// The generator's time (the start of the last cycle built), s.
     fn time(&self) -> f64;
+    /// The stick's deadband of `settings`, a share of full stick.
+    fn deadband(settings: &Self::Settings) -> f64;
 }
 
 impl Source<2> for PlanarGenerator {
@@ -67,6 +69,9 @@ impl Source<2> for PlanarGenerator {
     fn time(&self) -> f64 {
         PlanarGenerator::time(self)
     }
+    fn deadband(settings: &Settings<1>) -> f64 {
+        settings.deadband
+    }
 }
 
 impl Source<3> for Generator3d {
@@ -91,6 +96,9 @@ impl Source<3> for Generator3d {
     }
     fn time(&self) -> f64 {
         Generator3d::time(self)
+    }
+    fn deadband(settings: &Settings<2>) -> f64 {
+        settings.deadband
     }
 }
 
@@ -134,6 +142,11 @@ pub trait Planned<const A: usize> {
     /// Whether manual mode runs (the generator drives the model).
     fn in_manual(&self) -> bool {
         false
+    }
+    /// The generator's stick deadband (`Settings::deadband`), a share of full stick;
+    /// `None` for a model that follows plans only.
+    fn stick_deadband(&self) -> Option<f64> {
+        None
     }
 }
 
@@ -245,6 +258,9 @@ impl<G: Source<A>, const A: usize> Planned<A> for Steered<G, A> {
     }
     fn in_manual(&self) -> bool {
         self.manual.is_some()
+    }
+    fn stick_deadband(&self) -> Option<f64> {
+        Some(G::deadband(&self.settings))
     }
 }
 
