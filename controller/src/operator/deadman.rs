@@ -15,7 +15,8 @@
 //! and manual mode is left at rest (the controller's business).
 //!
 //! * **Zero-position interlock.** After any stop — a dead-man loss, or one from elsewhere
-//!   ([`Deadman::interlock`]: a stop request, a limit, a fault, a reset) — and at power-up,
+//!   ([`Deadman::interlock`]: a stop request, a fault, a reset, an entry into manual
+//!   mode) — and at power-up,
 //!   a held stick does not move the crane: motion resumes only after every demand was
 //!   inside the deadband for [`CENTRED_FRAMES`] consecutive live frames. A stick that was
 //!   deflected when the crane stopped would otherwise start it again unasked.
@@ -145,7 +146,8 @@ impl Deadman {
         }
     }
 
-    /// A stop from elsewhere (a stop request, a limit, a fault, a reset): the stick has
+    /// A stop from elsewhere (a stop request, a fault, a reset, an entry into manual
+    /// mode): the stick has
     /// to be centred again before it moves the crane.
     pub fn interlock(&mut self) {
         self.interlocked = true;
