@@ -666,7 +666,8 @@ where
             self.close_loop(true);
             // On to advance the generator in this very cycle: the model steps over
             // [t, t + h] right after, and the generator's piece is for that cycle.
-        } else if self.mode != Mode::Ready {
+        } else if !matches!(self.mode, Mode::Enabling | Mode::Ready) {
+            // The model does not step (a stop's ramp, halted): nor does the generator.
             return;
         } else if !asked
             && self
@@ -684,13 +685,17 @@ where
         let Some(path) = self.feedforward.manual_mut() else {
             return;
         };
+        // Enabling (a drive came back after leaving operational at rest): the model
+        // steps, so the generator is advanced, its stop latched: the drives are not
+        // ready for the stick.
+        let ready = self.mode == Mode::Ready;
         let stick = match (state, frame) {
-            (Stick::Live, Some(f)) if asked => f.demand::<2>(self.deadman.deadband()).ok(),
+            (Stick::Live, Some(f)) if asked && ready => f.demand::<2>(self.deadman.deadband()).ok(),
             _ => None,
         };
-        if !asked {
-            // A dead-man loss, or the request withdrawn: the sway-free stop, and the
-            // stick centred before it moves the crane again.
+        if !asked || !ready {
+            // A dead-man loss, the request withdrawn, or the drives not ready: the
+            // sway-free stop, and the stick centred before it moves the crane again.
             path.stop();
             self.deadman.interlock();
         } else if state == Stick::Live && path.is_stopping() {
@@ -833,7 +838,7 @@ where
             // Requests are process data: none taken in operational is acted on outside
             // it — each waiting one is refused (answered when the status may go out).
             self.refuse_waiting(true);
-            if self.moving() {
+            if self.moving_for_supervision() {
                 self.fault(Fault::NotOperational);
             }
         }
@@ -890,7 +895,7 @@ where
     /// unless the controller itself is not operational (the network is being stopped or
     /// configured by its master: nothing to warn of).
     fn drive_left_operational(&mut self, drive: Drive, state: NmtState) {
-        if self.moving() {
+        if self.moving_for_supervision() {
             self.fault(Fault::DriveLeftOperational(drive, state));
             return;
         }
@@ -1029,6 +1034,18 @@ where
     fn moving(&self) -> bool {
         (self.mode == Mode::Ready
             && (self.feedforward.plan().is_moving(self.now_s()) || self.feedforward.in_manual()))
+            || !self.gate.at_standstill()
+    }
+
+    /// Whether the load is being moved, for supervision (an NMT state change, a drive
+    /// leaving *operational*, a lost supervisor): as [`Self::moving`], except that manual
+    /// mode parked at rest (the generator resting, the stick centred) is not motion. A
+    /// fault there would halt a crane that stands still; the stick cannot move it without
+    /// a live operator, operational PDOs, and the supervision that then counts it moving.
+    fn moving_for_supervision(&self) -> bool {
+        (self.mode == Mode::Ready
+            && (self.feedforward.plan().is_moving(self.now_s())
+                || self.feedforward.manual_moving()))
             || !self.gate.at_standstill()
     }
 
@@ -1719,7 +1736,7 @@ where
                 self.last_supervisor_heartbeat_ms,
                 self.nmt.node.supervisor & 0xFFFF,
             )
-            && self.moving()
+            && self.moving_for_supervision()
         {
             self.fault(Fault::SupervisorLost);
         }

@@ -79,6 +79,10 @@ pub trait Replan<const A: usize = 2> {
     fn stick_deadband(&self) -> Option<f64> {
         None
     }
+    /// Whether manual mode runs and its generator does not rest this cycle.
+    fn manual_moving(&self) -> bool {
+        false
+    }
 }
 
 /// A model together with the integrator that advances it, in the integrator's scalar
@@ -167,6 +171,9 @@ where
     fn stick_deadband(&self) -> Option<f64> {
         self.model.trajectory().stick_deadband()
     }
+    fn manual_moving(&self) -> bool {
+        self.model.trajectory().manual_moving()
+    }
 }
 
 /// What a wrapper does around each step of the feedforward it wraps ([`Wrapped`]): the
@@ -228,6 +235,9 @@ impl<F: Replan<A>, W, const A: usize> Replan<A> for Wrapped<F, W> {
     }
     fn stick_deadband(&self) -> Option<f64> {
         self.inner.stick_deadband()
+    }
+    fn manual_moving(&self) -> bool {
+        self.inner.manual_moving()
     }
 }
 

@@ -600,3 +600,77 @@ fn micro_speed_is_a_tenth_of_the_manual_speed_past_the_deadband() {
     let third = speed(micro, FULL_SCALE / 10 * 3);
     assert!(third > 0, "a micro stick at 30 % moves the crane: {third}");
 }
+
+/// Manual mode parked at rest is not motion for supervision (review finding 5): an NMT
+/// *enter pre-operational* with the stick centred and the crane at rest in manual mode
+/// is no fault (manual mode is then left, its frames no longer taken); the same command
+/// while the stick moves the load is the fault NotOperational, as in automatic.
+#[test]
+fn an_nmt_change_in_manual_mode_at_rest_is_no_fault_while_travelling_it_is() {
+    let pre_op = controller::canopen::nmt::command(NmtCommand::PreOperational, CONTROLLER_NODE);
+    let mut rig = Manual::new();
+    rig.hold(30, HELD, [0; 3]);
+    assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE, "parked in manual mode");
+    rig.c.on_frame(&pre_op, rig.now.into());
+    let after = rig.hold(60, HELD, [0; 3]);
+    assert!(
+        after.iter().all(|c| c.mode == Mode::Ready),
+        "no fault at rest: {:?}",
+        after.iter().map(|c| c.mode).find(|m| *m != Mode::Ready)
+    );
+    assert!(
+        after.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
+        "nothing moves"
+    );
+    assert!(!rig.c.feedforward().in_manual(), "manual mode left");
+    let mut rig = moving(300);
+    rig.c.on_frame(&pre_op, rig.now.into());
+    let out = rig.cycle();
+    assert!(
+        matches!(out.mode, Mode::Stopping(controller::Fault::NotOperational)),
+        "{:?}",
+        out.mode
+    );
+}
+
+/// A drive that reboots (its boot-up message) while manual mode is parked at rest (review finding
+/// 5): no fault; the controller enables it again (the model steps meanwhile and the
+/// generator with it, its stop latched), manual mode goes on, and the stick moves the
+/// crane once the drives are ready and it was centred twice.
+#[test]
+fn a_drive_leaving_operational_in_manual_mode_at_rest_is_no_fault() {
+    use controller::{Feedforward, Replan};
+    let mut rig = Manual::new();
+    rig.hold(30, HELD, [0; 3]);
+    assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE, "parked in manual mode");
+    // The winch's boot-up message (a reboot, as the controller hears it).
+    let boot_up = CanFrame::new(0x702, &[0x00]).unwrap();
+    rig.c.on_frame(&boot_up, rig.now.into());
+    let mut enabling = false;
+    let mut back = false;
+    for n in 0..600 {
+        if n % 3 == 0 {
+            rig.send(HELD, [0; 3]);
+        }
+        let out = rig.cycle();
+        assert!(
+            matches!(out.mode, Mode::Ready | Mode::Enabling),
+            "cycle {n}: {:?}",
+            out.mode
+        );
+        assert_eq!(out.setpoints, [Setpoint::ZERO; 2], "cycle {n}");
+        enabling |= out.mode == Mode::Enabling;
+        let ff = rig.c.feedforward_mut();
+        let model = ff.time();
+        let path = ff.manual_mut().expect("manual mode goes on");
+        assert!((model - path.time() - 0.01).abs() < 1e-9, "cycle {n}");
+        if enabling && out.mode == Mode::Ready {
+            back = true;
+            break;
+        }
+    }
+    assert!(enabling && back, "enabling, then ready again");
+    rig.hold(6, HELD, [0; 3]);
+    let live = rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
+    assert!(live.iter().any(|c| c.setpoints[0].units() > 0), "live");
+}

@@ -148,6 +148,10 @@ pub trait Planned<const A: usize> {
     fn stick_deadband(&self) -> Option<f64> {
         None
     }
+    /// Whether manual mode runs and its generator does not rest this cycle.
+    fn manual_moving(&self) -> bool {
+        false
+    }
 }
 
 /// The generator as the controller drives it each cycle (object safe: the controller
@@ -261,6 +265,9 @@ impl<G: Source<A>, const A: usize> Planned<A> for Steered<G, A> {
     }
     fn stick_deadband(&self) -> Option<f64> {
         Some(G::deadband(&self.settings))
+    }
+    fn manual_moving(&self) -> bool {
+        self.manual.as_ref().is_some_and(|(g, _)| !g.is_at_rest())
     }
 }
 
