@@ -29,7 +29,7 @@ use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
 use crate::frame::CanFrame;
 use crate::links::{self, DriveLink, Heartbeat, Link, Links, Silent};
 use crate::motion::{Breach, Deviations, Lag};
-use crate::node::{Dictionary, Node, Role, Snapshot, StagedRequest};
+use crate::node::{Dictionary, Node, Role, Snapshot, StagedOperator, StagedRequest};
 use crate::operator::{self, Deadman, OperatorFrame, State as Stick};
 use crate::planner::{Crane, MoveSearch, Planner, SAMPLES_PER_CYCLE};
 use crate::requests::{PendingMove, Requests};
@@ -263,7 +263,11 @@ where
                 supervisor: 0,
                 cycle_us: config.period_ms.saturating_mul(1000),
                 request: StagedRequest::default(),
-                operator: Default::default(),
+                // The planar crane (two outputs: x, z) has no y to demand.
+                operator: StagedOperator {
+                    planar: A < 3,
+                    ..StagedOperator::default()
+                },
                 drives_consumer_ms: config
                     .nodes
                     .iter()

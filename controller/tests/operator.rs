@@ -674,3 +674,50 @@ fn a_drive_leaving_operational_in_manual_mode_at_rest_is_no_fault() {
     let live = rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
     assert!(live.iter().any(|c| c.setpoints[0].units() > 0), "live");
 }
+
+/// An SDO download of `value` (1–4 bytes) into `index:sub` of the controller; its
+/// answer's abort code (0: confirmed).
+fn sdo_write(rig: &mut Rig, index: u16, sub: u8, value: &[u8]) -> u32 {
+    let [i0, i1] = index.to_le_bytes();
+    let mut data = [
+        0x23 | ((4 - value.len() as u8) << 2),
+        i0,
+        i1,
+        sub,
+        0,
+        0,
+        0,
+        0,
+    ];
+    data[4..4 + value.len()].copy_from_slice(value);
+    rig.c
+        .on_frame(&CanFrame::new(0x610, &data).unwrap(), rig.now.into());
+    let out = rig.cycle();
+    let answer: [u8; 8] = out
+        .frames
+        .iter()
+        .find(|f| f.id() == 0x590)
+        .map(|f| f.data().try_into().unwrap())
+        .expect("an answer");
+    if answer[0] == 0x80 {
+        u32::from_le_bytes(answer[4..8].try_into().unwrap())
+    } else {
+        0
+    }
+}
+
+/// A demand along y written over SDO (0x2010) to the planar crane is aborted when the
+/// counter submits it, 0x06090030 (review finding 8): the PLC hears that the crane
+/// cannot follow it, and nothing is counted as ignored; without y it is confirmed.
+#[test]
+fn the_planar_crane_aborts_a_y_demand_written_over_sdo() {
+    let mut rig = Rig::new(HEALTHY, false);
+    rig.ready();
+    assert_eq!(sdo_write(&mut rig, 0x2010, 2, &[0b011]), 0);
+    assert_eq!(sdo_write(&mut rig, 0x2010, 4, &1000i16.to_le_bytes()), 0);
+    let ignored = rig.c.counters().frames_ignored;
+    assert_eq!(sdo_write(&mut rig, 0x2010, 1, &[1]), 0x0609_0030);
+    assert_eq!(rig.c.counters().frames_ignored, ignored, "not taken");
+    assert_eq!(sdo_write(&mut rig, 0x2010, 4, &0i16.to_le_bytes()), 0);
+    assert_eq!(sdo_write(&mut rig, 0x2010, 1, &[2]), 0, "without y");
+}
