@@ -678,18 +678,7 @@ fn a_drive_leaving_operational_in_manual_mode_at_rest_is_no_fault() {
 /// An SDO download of `value` (1–4 bytes) into `index:sub` of the controller; its
 /// answer's abort code (0: confirmed).
 fn sdo_write(rig: &mut Rig, index: u16, sub: u8, value: &[u8]) -> u32 {
-    let [i0, i1] = index.to_le_bytes();
-    let mut data = [
-        0x23 | ((4 - value.len() as u8) << 2),
-        i0,
-        i1,
-        sub,
-        0,
-        0,
-        0,
-        0,
-    ];
-    data[4..4 + value.len()].copy_from_slice(value);
+    let data = download(index, sub, value);
     rig.c
         .on_frame(&CanFrame::new(0x610, &data).unwrap(), rig.now.into());
     let out = rig.cycle();
