@@ -29,7 +29,7 @@ use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
 use crate::frame::CanFrame;
 use crate::links::{self, DriveLink, Heartbeat, Link, Links, Silent};
 use crate::motion::{Breach, Deviations, Lag};
-use crate::node::{Dictionary, Node, Role, Snapshot, StagedRequest};
+use crate::node::{Dictionary, Node, Role, Snapshot, StagedOperator, StagedRequest};
 use crate::operator::{self, Deadman, OperatorFrame, State as Stick};
 use crate::planner::{Crane, MoveSearch, Planner, SAMPLES_PER_CYCLE};
 use crate::requests::{PendingMove, Requests};
@@ -243,6 +243,7 @@ where
         // Without the feedback the inclinometer is not linked (`C::ENABLED` is a
         // constant: none of its code is).
         let links = Links::new(&config, K::DRIVES, C::ENABLED);
+        let deadband = feedforward.stick_deadband().unwrap_or(0.0);
         Self {
             feedforward,
             correction,
@@ -262,7 +263,11 @@ where
                 supervisor: 0,
                 cycle_us: config.period_ms.saturating_mul(1000),
                 request: StagedRequest::default(),
-                operator: Default::default(),
+                // The planar crane (two outputs: x, z) has no y to demand.
+                operator: StagedOperator {
+                    planar: A < 3,
+                    ..StagedOperator::default()
+                },
                 drives_consumer_ms: config
                     .nodes
                     .iter()
@@ -295,7 +300,9 @@ where
             last_supervisor_heartbeat_ms: None,
             now_ms: 0,
             syncing: false,
-            deadman: Deadman::new(operator::DEADLINE_MS, operator::DEADBAND),
+            // The generator's deadband, the one the interlock checks; a model that
+            // follows plans only never enters manual mode: a centred stick is 0 there.
+            deadman: Deadman::new(operator::DEADLINE_MS, deadband),
         }
     }
 
@@ -635,44 +642,64 @@ where
     }
 
     /// Manual mode, once a cycle before the model's step (docs/COMMANDS.md, "Manual
-    /// mode"): entered at rest when a live operator asks for it; the stick's demand
-    /// (zero while interlocked) advances the generator; a dead-man loss or the request
+    /// mode"): entered at rest when a live operator asks for it, the stick interlocked;
+    /// the stick's demand (zero while interlocked) advances the generator on every cycle
+    /// the model steps in manual mode, the entry cycle included, so that the model
+    /// evaluates each of the generator's pieces on its own cycle; a dead-man loss or the request
     /// withdrawn latches its sway-free stop and interlocks the stick; manual mode is
     /// left at rest once the operator is lost or no longer asks for it. A crane whose model follows plans only never enters it.
     // Kept out of line: inlined into the cycle it changed the firmware's inlining
     // (QEMU: the RADAU5 scene's control-task stack grew by 1,200 bytes).
     #[inline(never)]
     fn steer_manual(&mut self) {
-        let state = self.deadman.state(self.now_ms);
         let frame = self.deadman.frame();
-        let asked = !matches!(state, Stick::Lost(_)) && frame.is_some_and(|f| f.flags.manual);
+        let lost = matches!(self.deadman.state(self.now_ms), Stick::Lost(_));
+        let asked = !lost && frame.is_some_and(|f| f.flags.manual);
         if !self.feedforward.in_manual() {
-            if asked && self.may_move() && !self.moving() {
-                let t = self.feedforward.time();
-                if self.feedforward.enter_manual(t).is_ok() {
-                    self.close_loop(true);
-                }
+            if !(asked && self.may_move() && !self.moving()) {
+                return;
             }
+            let t = self.feedforward.time();
+            if self.feedforward.enter_manual(t).is_err() {
+                return;
+            }
+            // Centred frames counted before the entry (in automatic, or while
+            // halted) do not lift the interlock: the stick has to be centred
+            // twice in manual mode before it moves the crane.
+            self.deadman.interlock();
+            self.close_loop(true);
+            // On to advance the generator in this very cycle: the model steps over
+            // [t, t + h] right after, and the generator's piece is for that cycle.
+        } else if !matches!(self.mode, Mode::Enabling | Mode::Ready) {
+            // The model does not step (a stop's ramp, halted): nor does the generator.
+            return;
+        } else if !asked
+            && self
+                .feedforward
+                .manual_mut()
+                .is_some_and(|path| path.is_at_rest())
+            && self.feedforward.leave_manual().is_ok()
+        {
+            // (Refused only while it moves, or if the plan cannot rest there: then the
+            // generator goes on resting, advanced below.)
             return;
         }
-        if self.mode != Mode::Ready {
-            return;
-        }
+        // The state again: an entry just now interlocked the stick.
+        let state = self.deadman.state(self.now_ms);
         let Some(path) = self.feedforward.manual_mut() else {
             return;
         };
-        if !asked && path.is_at_rest() {
-            // (Refused only while it moves: checked just now.)
-            let _ = self.feedforward.leave_manual();
-            return;
-        }
+        // Enabling (a drive came back after leaving operational at rest): the model
+        // steps, so the generator is advanced, its stop latched: the drives are not
+        // ready for the stick.
+        let ready = self.mode == Mode::Ready;
         let stick = match (state, frame) {
-            (Stick::Live, Some(f)) if asked => f.stick::<2>().ok(),
+            (Stick::Live, Some(f)) if asked && ready => f.demand::<2>(self.deadman.deadband()).ok(),
             _ => None,
         };
-        if !asked {
-            // A dead-man loss, or the request withdrawn: the sway-free stop, and the
-            // stick centred before it moves the crane again.
+        if !asked || !ready {
+            // A dead-man loss, the request withdrawn, or the drives not ready: the
+            // sway-free stop, and the stick centred before it moves the crane again.
             path.stop();
             self.deadman.interlock();
         } else if state == Stick::Live && path.is_stopping() {
@@ -815,7 +842,7 @@ where
             // Requests are process data: none taken in operational is acted on outside
             // it — each waiting one is refused (answered when the status may go out).
             self.refuse_waiting(true);
-            if self.moving() {
+            if self.moving_for_supervision() {
                 self.fault(Fault::NotOperational);
             }
         }
@@ -872,7 +899,7 @@ where
     /// unless the controller itself is not operational (the network is being stopped or
     /// configured by its master: nothing to warn of).
     fn drive_left_operational(&mut self, drive: Drive, state: NmtState) {
-        if self.moving() {
+        if self.moving_for_supervision() {
             self.fault(Fault::DriveLeftOperational(drive, state));
             return;
         }
@@ -1011,6 +1038,18 @@ where
     fn moving(&self) -> bool {
         (self.mode == Mode::Ready
             && (self.feedforward.plan().is_moving(self.now_s()) || self.feedforward.in_manual()))
+            || !self.gate.at_standstill()
+    }
+
+    /// Whether the load is being moved, for supervision (an NMT state change, a drive
+    /// leaving *operational*, a lost supervisor): as [`Self::moving`], except that manual
+    /// mode parked at rest (the generator resting, the stick centred) is not motion. A
+    /// fault there would halt a crane that stands still; the stick cannot move it without
+    /// a live operator, operational PDOs, and the supervision that then counts it moving.
+    fn moving_for_supervision(&self) -> bool {
+        (self.mode == Mode::Ready
+            && (self.feedforward.plan().is_moving(self.now_s())
+                || self.feedforward.manual_moving()))
             || !self.gate.at_standstill()
     }
 
@@ -1586,6 +1625,10 @@ where
         }
         self.correction.restart();
         self.feedback_announced = None;
+        // The model restarted (a reset, or the positions read again): centred frames
+        // received while halted do not count, the stick has to be centred again before
+        // it moves the crane (the zero-position interlock).
+        self.deadman.interlock();
         Ok(())
     }
 
@@ -1697,7 +1740,7 @@ where
                 self.last_supervisor_heartbeat_ms,
                 self.nmt.node.supervisor & 0xFFFF,
             )
-            && self.moving()
+            && self.moving_for_supervision()
         {
             self.fault(Fault::SupervisorLost);
         }

@@ -73,6 +73,16 @@ pub trait Replan<const A: usize = 2> {
     fn in_manual(&self) -> bool {
         false
     }
+    /// The operator generator's stick deadband, a share of full stick (the one the
+    /// zero-position interlock checks and micro-speed scales after); `None` for a model
+    /// that follows plans only.
+    fn stick_deadband(&self) -> Option<f64> {
+        None
+    }
+    /// Whether manual mode runs and its generator does not rest this cycle.
+    fn manual_moving(&self) -> bool {
+        false
+    }
 }
 
 /// A model together with the integrator that advances it, in the integrator's scalar
@@ -158,6 +168,12 @@ where
     fn in_manual(&self) -> bool {
         self.model.trajectory().in_manual()
     }
+    fn stick_deadband(&self) -> Option<f64> {
+        self.model.trajectory().stick_deadband()
+    }
+    fn manual_moving(&self) -> bool {
+        self.model.trajectory().manual_moving()
+    }
 }
 
 /// What a wrapper does around each step of the feedforward it wraps ([`Wrapped`]): the
@@ -216,6 +232,12 @@ impl<F: Replan<A>, W, const A: usize> Replan<A> for Wrapped<F, W> {
     }
     fn in_manual(&self) -> bool {
         self.inner.in_manual()
+    }
+    fn stick_deadband(&self) -> Option<f64> {
+        self.inner.stick_deadband()
+    }
+    fn manual_moving(&self) -> bool {
+        self.inner.manual_moving()
     }
 }
 

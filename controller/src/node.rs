@@ -167,6 +167,10 @@ pub struct StagedOperator {
     pub bytes: [u8; 8],
     /// The counter (sub 1) was written: the controller takes the bytes as a frame.
     pub submitted: bool,
+    /// The crane has no y direction (the planar crane): a frame with a y demand is
+    /// refused when submitted. Set by the controller from its crane; kept by an NMT
+    /// reset (a property of the crane, not a field written).
+    pub planar: bool,
 }
 
 impl StagedOperator {
@@ -194,7 +198,10 @@ impl Node {
                 // reset restores the dictionary): a 3D move submitted after it carries
                 // only what was written since.
                 self.request = StagedRequest::default();
-                self.operator = StagedOperator::default();
+                self.operator = StagedOperator {
+                    planar: self.operator.planar,
+                    ..StagedOperator::default()
+                };
                 (NmtState::PreOperational, true)
             }
         };
@@ -467,7 +474,13 @@ impl ObjectDictionary for Dictionary<'_> {
                     if self.node.state != NmtState::Operational {
                         return Err(abort::DEVICE_STATE);
                     }
-                    if decode_operator(&bytes).is_err() {
+                    // Malformed, or a demand along y to the planar crane (one it cannot
+                    // follow: refused here, where the PLC hears of it).
+                    let horizontal = if self.node.operator.planar { 1 } else { 2 };
+                    if decode_operator(&bytes)
+                        .and_then(|f| f.fits(horizontal))
+                        .is_err()
+                    {
                         return Err(abort::INVALID_VALUE);
                     }
                     self.node.operator.submitted = true;
@@ -584,6 +597,37 @@ mod tests {
             StagedOperator::default(),
             "0x2010 is cleared"
         );
+    }
+
+    /// A demand along y written to the planar crane's 0x2010 is refused when the counter
+    /// submits it (0x06090030), not taken; the 3D crane takes it. The crane's kind
+    /// survives an NMT reset.
+    #[test]
+    fn the_planar_crane_refuses_a_y_demand_over_sdo() {
+        let mut n = node();
+        n.operator.planar = true;
+        let mut od = Dictionary {
+            node: &mut n,
+            snapshot: snapshot(),
+        };
+        let o = |sub| Object::new(0x2010, sub);
+        assert_eq!(od.write(o(2), &[0b011]), Ok(()));
+        assert_eq!(od.write(o(4), &1000i16.to_le_bytes()), Ok(()));
+        assert_eq!(od.write(o(1), &[1]), Err(abort::INVALID_VALUE));
+        assert!(!od.node.operator.submitted, "not taken");
+        assert_eq!(od.write(o(4), &0i16.to_le_bytes()), Ok(()));
+        assert_eq!(od.write(o(1), &[2]), Ok(()), "without y it is taken");
+        assert!(od.node.operator.submitted);
+        assert!(od.node.on_nmt(NmtCommand::ResetCommunication, 100));
+        assert!(od.node.operator.planar, "still the planar crane");
+        let mut n = node();
+        let mut od = Dictionary {
+            node: &mut n,
+            snapshot: snapshot(),
+        };
+        assert_eq!(od.write(o(2), &[0b011]), Ok(()));
+        assert_eq!(od.write(o(4), &1000i16.to_le_bytes()), Ok(()));
+        assert_eq!(od.write(o(1), &[1]), Ok(()), "the 3D crane has a y");
     }
 
     fn snapshot() -> Snapshot {

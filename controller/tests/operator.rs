@@ -438,3 +438,265 @@ fn send_request(rig: &mut Manual, request: controller::commands::Request) {
         rig.now.into(),
     );
 }
+
+/// The zero-position interlock after a fault and a reset (review finding 1): a fault in
+/// manual mode halts; the operator centres the stick while halted and then holds it
+/// deflected; the supervisor's reset brings the controller back to ready — and the held
+/// stick moves nothing until it was centred for two frames *after* the reset.
+#[test]
+fn after_a_fault_and_a_reset_a_held_stick_moves_nothing_until_centred_twice() {
+    let mut rig = moving(100);
+    rig.c.feedforward_mut().fail_next_step();
+    let mut halted = false;
+    for _ in 0..2000 {
+        rig.send(HELD, [0; 3]);
+        if matches!(rig.cycle().mode, Mode::Halted(_)) {
+            halted = true;
+            break;
+        }
+    }
+    assert!(halted, "the fault halts");
+    // Centred twice while halted, then held deflected.
+    rig.hold(6, HELD, [0; 3]);
+    rig.hold(6, HELD, [FULL_SCALE, 0, 0]);
+    send_request(&mut rig, controller::commands::Request::Reset { id: 7 });
+    let after = rig.hold(300, HELD, [FULL_SCALE, 0, 0]);
+    assert!(after.iter().any(|c| c.mode == Mode::Ready), "reset: ready");
+    assert!(
+        after.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
+        "the stick held through the reset moves nothing"
+    );
+    rig.hold(6, HELD, [0; 3]);
+    let live = rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
+    assert!(
+        live.iter().any(|c| c.setpoints[0].units() > 0),
+        "centred twice after the reset: live"
+    );
+}
+
+/// The interlock lifted in automatic (manual = 0, the stick centred), then manual mode
+/// asked for with the stick deflected (review finding 1): entering manual mode
+/// interlocks the stick, so nothing moves until it was centred twice.
+#[test]
+fn entering_manual_mode_with_a_deflected_stick_moves_nothing_until_centred_twice() {
+    let auto = Flags {
+        manual: false,
+        ..HELD
+    };
+    let mut rig = Manual::new();
+    rig.hold(9, auto, [0; 3]);
+    assert_eq!(rig.mode_byte(), 1, "automatic");
+    let held = rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
+    assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE, "entered at rest");
+    assert!(
+        held.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
+        "interlocked on entry"
+    );
+    rig.hold(6, HELD, [0; 3]);
+    let live = rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
+    assert!(live.iter().any(|c| c.setpoints[0].units() > 0), "live");
+}
+
+/// The generator and the inverse model in step (review finding 2): the generator is
+/// advanced on every cycle the model steps, the entry cycle included, so that after
+/// each cycle the generator's time (the start of the piece it built) is one cycle
+/// (10 ms) before the model's time: the model evaluates each piece within [0, 1] of its own cycle, never
+/// extrapolates it. (An equivalent of comparing with host-tests' `inverse_model_run`,
+/// which advances before every step: controller tests do not depend on host-tests.)
+#[test]
+fn the_generator_is_advanced_on_every_cycle_the_model_steps() {
+    use controller::{Feedforward, Replan};
+    let mut rig = Manual::new();
+    let mut checked = 0;
+    let stick = |n: usize| match n {
+        0..=8 => [0; 3],
+        9..=308 => [FULL_SCALE, 0, FULL_SCALE / 2],
+        _ => [0; 3],
+    };
+    for n in 0..700 {
+        if n % 3 == 0 {
+            rig.send(HELD, stick(n));
+        }
+        rig.cycle();
+        let ff = rig.c.feedforward_mut();
+        let model = ff.time();
+        if let Some(path) = ff.manual_mut() {
+            let generator = path.time();
+            assert!(
+                (model - generator - 0.01).abs() < 1e-9,
+                "cycle {n}: the generator's piece starts at {generator} s, the model is at {model} s"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 600, "{checked} cycles in manual mode");
+}
+
+/// The dead-man's deadline in the controller's cycles (review finding 4): the last
+/// frame read in the cycle at T, none after it — the sway-free stop is latched in the
+/// cycle at T + 90 ms (the documented deadline), not before and not a cycle later.
+#[test]
+fn the_dead_man_stop_is_latched_in_the_cycle_ninety_ms_after_the_last_frame() {
+    use controller::Replan;
+    let mut rig = moving(300);
+    rig.send(HELD, [FULL_SCALE, 0, 0]);
+    let last = rig.now;
+    rig.cycle();
+    let mut latched = None;
+    while rig.now <= last + 120 {
+        let at = rig.now;
+        rig.cycle();
+        let stopping = rig
+            .c
+            .feedforward_mut()
+            .manual_mut()
+            .is_some_and(|p| p.is_stopping());
+        if stopping && latched.is_none() {
+            latched = Some(at - last);
+        }
+    }
+    assert_eq!(
+        latched,
+        Some(controller::operator::DEADLINE_MS),
+        "ms after the last frame"
+    );
+}
+
+/// Micro-speed (review finding 3): the deadband applies to the stick's position and the
+/// micro factor after it, so full stick with micro-speed drives the trolley at a tenth of
+/// full stick's speed (not (0.1 − 0.05)/0.95 = 5.3 %), and a micro stick at 30 % moves
+/// the crane (scaled before the deadband it did nothing below half stick).
+#[test]
+fn micro_speed_is_a_tenth_of_the_manual_speed_past_the_deadband() {
+    let micro = Flags {
+        micro: true,
+        ..HELD
+    };
+    let speed = |flags: Flags, x: i16| {
+        let mut rig = Manual::new();
+        rig.hold(9, HELD, [0; 3]);
+        let out = rig.hold(800, flags, [x, 0, 0]);
+        out.last().unwrap().setpoints[0].units()
+    };
+    let full = speed(HELD, FULL_SCALE);
+    let tenth = speed(micro, FULL_SCALE);
+    let ratio = f64::from(tenth) / f64::from(full);
+    println!("full stick {full}, micro {tenth}: {ratio:.4}");
+    assert!(full > 100_000, "{full}");
+    assert!(
+        (ratio - 0.1).abs() < 0.002,
+        "micro-speed {ratio} of full stick"
+    );
+    let third = speed(micro, FULL_SCALE / 10 * 3);
+    assert!(third > 0, "a micro stick at 30 % moves the crane: {third}");
+}
+
+/// Manual mode parked at rest is not motion for supervision (review finding 5): an NMT
+/// *enter pre-operational* with the stick centred and the crane at rest in manual mode
+/// is no fault (manual mode is then left, its frames no longer taken); the same command
+/// while the stick moves the load is the fault NotOperational, as in automatic.
+#[test]
+fn an_nmt_change_in_manual_mode_at_rest_is_no_fault_while_travelling_it_is() {
+    let pre_op = controller::canopen::nmt::command(NmtCommand::PreOperational, CONTROLLER_NODE);
+    let mut rig = Manual::new();
+    rig.hold(30, HELD, [0; 3]);
+    assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE, "parked in manual mode");
+    rig.c.on_frame(&pre_op, rig.now.into());
+    let after = rig.hold(60, HELD, [0; 3]);
+    assert!(
+        after.iter().all(|c| c.mode == Mode::Ready),
+        "no fault at rest: {:?}",
+        after.iter().map(|c| c.mode).find(|m| *m != Mode::Ready)
+    );
+    assert!(
+        after.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
+        "nothing moves"
+    );
+    assert!(!rig.c.feedforward().in_manual(), "manual mode left");
+    let mut rig = moving(300);
+    rig.c.on_frame(&pre_op, rig.now.into());
+    let out = rig.cycle();
+    assert!(
+        matches!(out.mode, Mode::Stopping(controller::Fault::NotOperational)),
+        "{:?}",
+        out.mode
+    );
+}
+
+/// A drive that reboots (its boot-up message) while manual mode is parked at rest (review finding
+/// 5): no fault; the controller enables it again (the model steps meanwhile and the
+/// generator with it, its stop latched), manual mode goes on, and the stick moves the
+/// crane once the drives are ready and it was centred twice.
+#[test]
+fn a_drive_leaving_operational_in_manual_mode_at_rest_is_no_fault() {
+    use controller::{Feedforward, Replan};
+    let mut rig = Manual::new();
+    rig.hold(30, HELD, [0; 3]);
+    assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE, "parked in manual mode");
+    // The winch's boot-up message (a reboot, as the controller hears it).
+    let boot_up = CanFrame::new(0x702, &[0x00]).unwrap();
+    rig.c.on_frame(&boot_up, rig.now.into());
+    let mut enabling = false;
+    let mut back = false;
+    for n in 0..600 {
+        if n % 3 == 0 {
+            rig.send(HELD, [0; 3]);
+        }
+        let out = rig.cycle();
+        assert!(
+            matches!(out.mode, Mode::Ready | Mode::Enabling),
+            "cycle {n}: {:?}",
+            out.mode
+        );
+        assert_eq!(out.setpoints, [Setpoint::ZERO; 2], "cycle {n}");
+        enabling |= out.mode == Mode::Enabling;
+        let ff = rig.c.feedforward_mut();
+        let model = ff.time();
+        let path = ff.manual_mut().expect("manual mode goes on");
+        assert!((model - path.time() - 0.01).abs() < 1e-9, "cycle {n}");
+        if enabling && out.mode == Mode::Ready {
+            back = true;
+            break;
+        }
+    }
+    assert!(enabling && back, "enabling, then ready again");
+    rig.hold(6, HELD, [0; 3]);
+    let live = rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
+    assert!(live.iter().any(|c| c.setpoints[0].units() > 0), "live");
+}
+
+/// An SDO download of `value` (1–4 bytes) into `index:sub` of the controller; its
+/// answer's abort code (0: confirmed).
+fn sdo_write(rig: &mut Rig, index: u16, sub: u8, value: &[u8]) -> u32 {
+    let data = download(index, sub, value);
+    rig.c
+        .on_frame(&CanFrame::new(0x610, &data).unwrap(), rig.now.into());
+    let out = rig.cycle();
+    let answer: [u8; 8] = out
+        .frames
+        .iter()
+        .find(|f| f.id() == 0x590)
+        .map(|f| f.data().try_into().unwrap())
+        .expect("an answer");
+    if answer[0] == 0x80 {
+        u32::from_le_bytes(answer[4..8].try_into().unwrap())
+    } else {
+        0
+    }
+}
+
+/// A demand along y written over SDO (0x2010) to the planar crane is aborted when the
+/// counter submits it, 0x06090030 (review finding 8): the PLC hears that the crane
+/// cannot follow it, and nothing is counted as ignored; without y it is confirmed.
+#[test]
+fn the_planar_crane_aborts_a_y_demand_written_over_sdo() {
+    let mut rig = Rig::new(HEALTHY, false);
+    rig.ready();
+    assert_eq!(sdo_write(&mut rig, 0x2010, 2, &[0b011]), 0);
+    assert_eq!(sdo_write(&mut rig, 0x2010, 4, &1000i16.to_le_bytes()), 0);
+    let ignored = rig.c.counters().frames_ignored;
+    assert_eq!(sdo_write(&mut rig, 0x2010, 1, &[1]), 0x0609_0030);
+    assert_eq!(rig.c.counters().frames_ignored, ignored, "not taken");
+    assert_eq!(sdo_write(&mut rig, 0x2010, 4, &0i16.to_le_bytes()), 0);
+    assert_eq!(sdo_write(&mut rig, 0x2010, 1, &[2]), 0, "without y");
+}

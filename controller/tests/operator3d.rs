@@ -152,3 +152,32 @@ fn a_diagonal_full_stick_step_and_release_ends_at_rest_within_limits() {
     assert!(!rig.c.feedforward().in_manual());
     println!("3D: travelled {moved:?} m (bridge, trolley) on a diagonal full stick");
 }
+
+/// The generator and the 3D crane's inverse model in step (review finding 2): after
+/// every cycle in manual mode, the entry cycle included, the generator's current piece
+/// starts one cycle (10 ms) before the model's time.
+#[test]
+fn the_3d_generator_is_advanced_on_every_cycle_the_model_steps() {
+    use controller::{Feedforward, Replan};
+    let mut rig = Manual::new();
+    let mut checked = 0;
+    for n in 0..600 {
+        let demand = if (9..300).contains(&n) {
+            [FULL_SCALE, FULL_SCALE / 2, 0]
+        } else {
+            [0; 3]
+        };
+        rig.hold(1, HELD, demand);
+        let ff = rig.c.feedforward_mut();
+        let model = ff.time();
+        if let Some(path) = ff.manual_mut() {
+            let generator = path.time();
+            assert!(
+                (model - generator - 0.01).abs() < 1e-9,
+                "cycle {n}: {generator} s, model {model} s"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 500, "{checked} cycles in manual mode");
+}

@@ -20,23 +20,6 @@ fn request(rig: &mut Rig, data: [u8; 8]) {
         .on_frame(&CanFrame::new(0x610, &data).unwrap(), u64::from(rig.now));
 }
 
-/// An expedited download's request: `value` (1–4 bytes) into `index:sub`.
-fn download(index: u16, sub: u8, value: &[u8]) -> [u8; 8] {
-    let [i0, i1] = index.to_le_bytes();
-    let mut data = [
-        0x23 | ((4 - value.len() as u8) << 2),
-        i0,
-        i1,
-        sub,
-        0,
-        0,
-        0,
-        0,
-    ];
-    data[4..4 + value.len()].copy_from_slice(value);
-    data
-}
-
 /// An expedited upload's request of `index:sub`.
 fn upload(index: u16, sub: u8) -> [u8; 8] {
     let [i0, i1] = index.to_le_bytes();

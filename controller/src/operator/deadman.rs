@@ -1,7 +1,9 @@
 //! The dead-man: whether the operator's stick may move the crane (docs/COMMANDS.md).
 //!
 //! * **Deadline.** A frame must arrive within [`Deadman::deadline_ms`] of the last one
-//!   (three frame periods, at most [`MAX_DEADLINE_MS`]): a stick whose frames stop is an
+//!   (three frame periods, at most [`MAX_DEADLINE_MS`]; measured between the times the
+//!   frames were taken, which the controller stamps with the start of the cycle that
+//!   reads them, see [`Deadman::state`]): a stick whose frames stop is an
 //!   operator who may have let go, a cut cable or a dead PLC.
 //! * **Alive counter.** Each frame's counter must differ from the last one's: a frozen
 //!   counter is a sender that repeats a stale frame (a hung PLC task, a gateway's
@@ -13,7 +15,8 @@
 //! and manual mode is left at rest (the controller's business).
 //!
 //! * **Zero-position interlock.** After any stop — a dead-man loss, or one from elsewhere
-//!   ([`Deadman::interlock`]: a stop request, a limit, a fault, a reset) — and at power-up,
+//!   ([`Deadman::interlock`]: a stop request, a fault, a reset, an entry into manual
+//!   mode) — and at power-up,
 //!   a held stick does not move the crane: motion resumes only after every demand was
 //!   inside the deadband for [`CENTRED_FRAMES`] consecutive live frames. A stick that was
 //!   deflected when the crane stopped would otherwise start it again unasked.
@@ -96,6 +99,12 @@ impl Deadman {
         self.deadline_ms
     }
 
+    /// The stick's deadband, a share of full stick.
+    #[must_use]
+    pub fn deadband(&self) -> f64 {
+        self.deadband
+    }
+
     /// The last frame with a new counter (whatever its flags), if any.
     #[must_use]
     pub fn frame(&self) -> Option<OperatorFrame> {
@@ -137,20 +146,25 @@ impl Deadman {
         }
     }
 
-    /// A stop from elsewhere (a stop request, a limit, a fault, a reset): the stick has
+    /// A stop from elsewhere (a stop request, a fault, a reset, an entry into manual
+    /// mode): the stick has
     /// to be centred again before it moves the crane.
     pub fn interlock(&mut self) {
         self.interlocked = true;
         self.centred = 0;
     }
 
-    /// The state at `now_ms`, the deadline applied: a frame older than the deadline is
-    /// a loss.
+    /// The state at `now_ms`, the deadline applied: no new frame for the deadline is a
+    /// loss at that very instant. The controller stamps a frame with the start of the
+    /// cycle that reads it (up to one cycle after it arrived) and asks on its cycle grid:
+    /// with `>=` the loss is latched in the cycle a deadline after the one that read the
+    /// last frame (90 ms: the ninth cycle of 10 ms), less than a deadline plus one cycle
+    /// after the frame arrived; a strict `>` would wait one cycle more.
     pub fn state(&mut self, now_ms: u64) -> State {
         if self.loss.is_none()
             && self
                 .last
-                .is_some_and(|(_, at)| now_ms.saturating_sub(at) > u64::from(self.deadline_ms))
+                .is_some_and(|(_, at)| now_ms.saturating_sub(at) >= u64::from(self.deadline_ms))
         {
             self.lose(Loss::Deadline);
         }
@@ -242,8 +256,12 @@ mod tests {
     #[test]
     fn a_late_frame_is_a_loss_on_time_not_before() {
         let mut d = live();
-        assert_eq!(d.state(30 + 90), State::Live, "exactly the deadline");
-        assert_eq!(d.state(30 + 91), State::Lost(Loss::Deadline));
+        assert_eq!(d.state(30 + 89), State::Live, "within the deadline");
+        assert_eq!(
+            d.state(30 + 90),
+            State::Lost(Loss::Deadline),
+            "exactly the deadline"
+        );
         // The operator is back: interlocked until centred twice again.
         d.on_frame(&frame(3, HELD, FULL_SCALE), 200);
         assert_eq!(d.state(200), State::Interlocked);

@@ -137,22 +137,49 @@ impl OperatorFrame {
         Ok(())
     }
 
-    /// The stick for a crane with `NH` horizontal directions (planar 1: x; 3D 2: x, y)
-    /// as fractions of each axis's manual speed in `[−1, 1]`: the horizontal demands and
-    /// the hoist's, scaled by [`MICRO_SPEED`] when its flag is set. A demand along y to
-    /// the planar crane is refused ([`OperatorError::NoSuchAxis`]): the operator pushes
-    /// a stick the crane cannot follow, which is a wiring or configuration error, not a
-    /// demand to drop silently.
+    /// The stick's position for a crane with `NH` horizontal directions (planar 1: x;
+    /// 3D 2: x, y) as fractions of full stick in `[−1, 1]`: the horizontal demands and
+    /// the hoist's, micro-speed not applied (see [`OperatorFrame::demand`]). A demand
+    /// along y to the planar crane is refused ([`OperatorError::NoSuchAxis`]): the
+    /// operator pushes a stick the crane cannot follow, which is a wiring or
+    /// configuration error, not a demand to drop silently.
     pub fn stick<const NH: usize>(&self) -> Result<([f64; NH], f64), OperatorError> {
         self.fits(NH)?;
         let [x, y, z] = self.demand;
-        let scale = if self.flags.micro { MICRO_SPEED } else { 1.0 };
-        let fraction = |d: i16| f64::from(d) / f64::from(FULL_SCALE) * scale;
+        let fraction = |d: i16| f64::from(d) / f64::from(FULL_SCALE);
         let mut horizontal = [0.0; NH];
         for (slot, d) in horizontal.iter_mut().zip([x, y]) {
             *slot = fraction(d);
         }
         Ok((horizontal, fraction(z)))
+    }
+
+    /// The stick as the generator takes it, whose own `deadband` (a share of full
+    /// stick) zeroes a demand inside it and maps `deadband..1` onto `0..1` of the manual
+    /// speed. With the micro-speed flag the speed past the deadband is
+    /// [`MICRO_SPEED`] of the manual one: the deadband applies to the stick's position
+    /// (a micro stick moves past the same deadband as a plain one), and a position `p`
+    /// past it is handed over as `deadband + MICRO_SPEED (p − deadband)` (with `p`'s
+    /// sign), which the generator's deadband maps to `MICRO_SPEED` times what `p` asks
+    /// for. Scaling before the deadband would give `(0.1 − 0.05)/0.95` = 5.3 % at full
+    /// stick and nothing below half stick.
+    pub fn demand<const NH: usize>(
+        &self,
+        deadband: f64,
+    ) -> Result<([f64; NH], f64), OperatorError> {
+        let (horizontal, hoist) = self.stick::<NH>()?;
+        if !self.flags.micro {
+            return Ok((horizontal, hoist));
+        }
+        let micro = |p: f64| {
+            let a = p.abs();
+            if a <= deadband {
+                p
+            } else {
+                (deadband + MICRO_SPEED * (a - deadband)).copysign(p)
+            }
+        };
+        Ok((horizontal.map(micro), micro(hoist)))
     }
 }
 
@@ -234,11 +261,24 @@ mod tests {
             micro: true,
             ..HELD
         };
-        let (h, z) = frame(0, micro, [-FULL_SCALE, FULL_SCALE, FULL_SCALE])
-            .stick::<2>()
-            .unwrap();
-        assert_eq!(h, [-MICRO_SPEED, MICRO_SPEED]);
-        assert_eq!(z, MICRO_SPEED);
+        let f = frame(0, micro, [-FULL_SCALE, FULL_SCALE, FULL_SCALE / 2]);
+        let (h, z) = f.stick::<2>().unwrap();
+        assert_eq!(h, [-1.0, 1.0], "the stick's position");
+        assert!((z - 0.5).abs() < 1e-4, "{z}");
+        // Past the deadband (5 %), micro-speed is a tenth of what the position asks:
+        // the generator maps (d - 0.05)/0.95 to the manual speed.
+        let (h, z) = f.demand::<2>(0.05).unwrap();
+        let speed = |d: f64| (d.abs() - 0.05) / 0.95 * d.signum();
+        assert!((speed(h[0]) + 0.1).abs() < 1e-12, "{h:?}");
+        assert!((speed(h[1]) - 0.1).abs() < 1e-12, "{h:?}");
+        assert!((speed(z) - 0.1 * speed(0.5)).abs() < 1e-4, "{z}");
+        // Inside the deadband nothing moves, micro or not; a plain frame is the stick.
+        let (h, _) = frame(0, micro, [1000, 0, 0]).demand::<1>(0.05).unwrap();
+        assert!(h[0].abs() <= 0.05);
+        assert_eq!(
+            frame(0, HELD, [FULL_SCALE, 0, 0]).demand::<1>(0.05),
+            frame(0, HELD, [FULL_SCALE, 0, 0]).stick::<1>()
+        );
     }
 
     #[test]

@@ -11,12 +11,11 @@ pub mod deadman;
 pub mod frame;
 pub mod path;
 
-/// The dead-man's deadline, ms: three frames of a master switch sending every 30 ms.
+/// The dead-man's deadline, ms: three frames of a master switch sending every 30 ms. The
+/// loss is latched in the controller's cycle 90 ms after the one that read the last
+/// frame, so less than 100 ms after that frame arrived (it is read at the start of the
+/// next cycle): the bound.
 pub const DEADLINE_MS: u32 = 90;
-
-/// The stick's deadband the zero-position interlock checks, a share of full stick: the
-/// generator's (`solver_core::operator::Settings::deadband` of the lab settings).
-pub const DEADBAND: f64 = 0.05;
 
 /// The status frame's mode byte while manual mode runs (the controller is *ready*,
 /// the operator's generator drives the model): additive to 0–4.

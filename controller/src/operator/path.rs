@@ -34,8 +34,10 @@ pub trait Source<const A: usize>: Trajectory<f64, A> + Sized {
     fn is_at_rest(&self) -> bool;
     /// Whether a stop is latched.
     fn is_stopping(&self) -> bool;
-    /// The generator's time (the end of the last cycle built), s.
+    /// The generator's time (the start of the last cycle built), s.
     fn time(&self) -> f64;
+    /// The stick's deadband of `settings`, a share of full stick.
+    fn deadband(settings: &Self::Settings) -> f64;
 }
 
 impl Source<2> for PlanarGenerator {
@@ -67,6 +69,9 @@ impl Source<2> for PlanarGenerator {
     fn time(&self) -> f64 {
         PlanarGenerator::time(self)
     }
+    fn deadband(settings: &Settings<1>) -> f64 {
+        settings.deadband
+    }
 }
 
 impl Source<3> for Generator3d {
@@ -91,6 +96,9 @@ impl Source<3> for Generator3d {
     }
     fn time(&self) -> f64 {
         Generator3d::time(self)
+    }
+    fn deadband(settings: &Settings<2>) -> f64 {
+        settings.deadband
     }
 }
 
@@ -135,6 +143,15 @@ pub trait Planned<const A: usize> {
     fn in_manual(&self) -> bool {
         false
     }
+    /// The generator's stick deadband (`Settings::deadband`), a share of full stick;
+    /// `None` for a model that follows plans only.
+    fn stick_deadband(&self) -> Option<f64> {
+        None
+    }
+    /// Whether manual mode runs and its generator does not rest this cycle.
+    fn manual_moving(&self) -> bool {
+        false
+    }
 }
 
 /// The generator as the controller drives it each cycle (object safe: the controller
@@ -150,6 +167,10 @@ pub trait ManualPath {
     fn is_at_rest(&self) -> bool;
     /// Whether a stop is latched.
     fn is_stopping(&self) -> bool;
+    /// The generator's time (the start of the last cycle built), s: after each of the
+    /// model's steps, one cycle before the model's time, as the generator is advanced on
+    /// every cycle the model steps.
+    fn time(&self) -> f64;
 }
 
 impl<G: Source<A>, const A: usize> ManualPath for (G, [(); A]) {
@@ -167,6 +188,9 @@ impl<G: Source<A>, const A: usize> ManualPath for (G, [(); A]) {
     }
     fn is_stopping(&self) -> bool {
         self.0.is_stopping()
+    }
+    fn time(&self) -> f64 {
+        self.0.time()
     }
 }
 
@@ -238,6 +262,12 @@ impl<G: Source<A>, const A: usize> Planned<A> for Steered<G, A> {
     }
     fn in_manual(&self) -> bool {
         self.manual.is_some()
+    }
+    fn stick_deadband(&self) -> Option<f64> {
+        Some(G::deadband(&self.settings))
+    }
+    fn manual_moving(&self) -> bool {
+        self.manual.as_ref().is_some_and(|(g, _)| !g.is_at_rest())
     }
 }
 

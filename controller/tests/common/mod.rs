@@ -293,3 +293,20 @@ pub fn simulate_sent(
     )
     .map_err(|e| e.to_string())
 }
+
+/// An expedited SDO download's request: `value` (1–4 bytes) into `index:sub`.
+pub fn download(index: u16, sub: u8, value: &[u8]) -> [u8; 8] {
+    let [i0, i1] = index.to_le_bytes();
+    let mut data = [
+        0x23 | ((4 - value.len() as u8) << 2),
+        i0,
+        i1,
+        sub,
+        0,
+        0,
+        0,
+        0,
+    ];
+    data[4..4 + value.len()].copy_from_slice(value);
+    data
+}
