@@ -243,7 +243,7 @@ where
         // Without the feedback the inclinometer is not linked (`C::ENABLED` is a
         // constant: none of its code is).
         let links = Links::new(&config, K::DRIVES, C::ENABLED);
-        let deadband = feedforward.stick_deadband().unwrap_or(0.0);
+        let deadband = feedforward.path().stick_deadband().unwrap_or(0.0);
         Self {
             feedforward,
             correction,
@@ -655,12 +655,12 @@ where
         let frame = self.deadman.frame();
         let lost = matches!(self.deadman.state(self.now_ms), Stick::Lost(_));
         let asked = !lost && frame.is_some_and(|f| f.flags.manual);
-        if !self.feedforward.in_manual() {
+        if !self.feedforward.path().in_manual() {
             if !(asked && self.may_move() && !self.moving()) {
                 return;
             }
             let t = self.feedforward.time();
-            if self.feedforward.enter_manual(t).is_err() {
+            if self.feedforward.path_mut().enter_manual(t).is_err() {
                 return;
             }
             // Centred frames counted before the entry (in automatic, or while
@@ -676,9 +676,10 @@ where
         } else if !asked
             && self
                 .feedforward
+                .path_mut()
                 .manual_mut()
                 .is_some_and(|path| path.is_at_rest())
-            && self.feedforward.leave_manual().is_ok()
+            && self.feedforward.path_mut().leave_manual().is_ok()
         {
             // (Refused only while it moves, or if the plan cannot rest there: then the
             // generator goes on resting, advanced below.)
@@ -686,7 +687,7 @@ where
         }
         // The state again: an entry just now interlocked the stick.
         let state = self.deadman.state(self.now_ms);
-        let Some(path) = self.feedforward.manual_mut() else {
+        let Some(path) = self.feedforward.path_mut().manual_mut() else {
             return;
         };
         // Enabling (a drive came back after leaving operational at rest): the model
@@ -712,7 +713,7 @@ where
     /// The status frame's mode byte: the supervisor state's, or
     /// [`operator::MANUAL_MODE_CODE`] while manual mode runs.
     fn mode_code(&self) -> u8 {
-        if self.mode == Mode::Ready && self.feedforward.in_manual() {
+        if self.mode == Mode::Ready && self.feedforward.path().in_manual() {
             operator::MANUAL_MODE_CODE
         } else {
             self.mode.code()
@@ -1037,7 +1038,8 @@ where
     /// at any cycle, so nothing that needs rest (a reset, a move) is taken meanwhile.
     fn moving(&self) -> bool {
         (self.mode == Mode::Ready
-            && (self.feedforward.plan().is_moving(self.now_s()) || self.feedforward.in_manual()))
+            && (self.feedforward.plan().is_moving(self.now_s())
+                || self.feedforward.path().in_manual()))
             || !self.gate.at_standstill()
     }
 
@@ -1049,7 +1051,7 @@ where
     fn moving_for_supervision(&self) -> bool {
         (self.mode == Mode::Ready
             && (self.feedforward.plan().is_moving(self.now_s())
-                || self.feedforward.manual_moving()))
+                || self.feedforward.path().manual_moving()))
             || !self.gate.at_standstill()
     }
 
@@ -1479,7 +1481,7 @@ where
         // before it moves the crane again (the zero-position interlock).
         self.deadman.interlock();
         if self.mode == Mode::Ready {
-            if let Some(path) = self.feedforward.manual_mut() {
+            if let Some(path) = self.feedforward.path_mut().manual_mut() {
                 path.stop();
                 return;
             }
@@ -1500,7 +1502,7 @@ where
         self.mode == Mode::Ready
             && self.drives_ready()
             && self.nmt.node.state == NmtState::Operational
-            && !self.feedforward.in_manual()
+            && !self.feedforward.path().in_manual()
     }
 
     /// Advances the move being planned by this cycle's share of samples; places it in

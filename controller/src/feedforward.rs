@@ -8,7 +8,7 @@ use solver_core::{DaeModel, Driven, Error, Integrator, NewtonStats, Real};
 
 use core::marker::PhantomData;
 
-use crate::operator::path::{ManualError, ManualPath, Planned};
+use crate::operator::path::Planned;
 
 /// One step of the inverse model with `A` driven axes.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -47,42 +47,24 @@ pub trait CraneReference {
 }
 
 /// An inverse model with `A` driven axes driven by a [`Plan`] that the controller may
-/// change.
+/// change — and, in a controller with manual mode, by the operator's generator
+/// ([`Planned`]: what the model follows, asked and changed through [`Replan::path`]).
 pub trait Replan<const A: usize = 2> {
+    /// What the model follows: the plan, and the generator while manual mode runs.
+    fn path(&self) -> &dyn Planned<A>;
+    /// The same, to change what has not been stepped yet.
+    fn path_mut(&mut self) -> &mut dyn Planned<A>;
     /// The plan the model follows.
-    fn plan(&self) -> &Plan<f64, A>;
+    fn plan(&self) -> &Plan<f64, A> {
+        self.path().plan()
+    }
     /// The plan, to change what has not been stepped yet (checked by the planner first).
-    fn plan_mut(&mut self) -> &mut Plan<f64, A>;
+    fn plan_mut(&mut self) -> &mut Plan<f64, A> {
+        self.path_mut().plan_mut()
+    }
     /// Starts again at rest with the load at `position` at time `t` (after a halt);
     /// manual mode, if it ran, is left.
     fn restart_at_rest(&mut self, position: [f64; A], t: f64) -> Result<(), Error>;
-    /// Manual mode: the operator's generator takes over the model at rest at time `t`
-    /// (`crate::operator::path`). A model that follows plans only refuses.
-    fn enter_manual(&mut self, _t: f64) -> Result<(), ManualError> {
-        Err(ManualError::Unsupported)
-    }
-    /// Manual mode left at rest: the plan takes over where the generator rests.
-    fn leave_manual(&mut self) -> Result<(), ManualError> {
-        Err(ManualError::Unsupported)
-    }
-    /// The generator, while manual mode runs.
-    fn manual_mut(&mut self) -> Option<&mut dyn ManualPath> {
-        None
-    }
-    /// Whether manual mode runs.
-    fn in_manual(&self) -> bool {
-        false
-    }
-    /// The operator generator's stick deadband, a share of full stick (the one the
-    /// zero-position interlock checks and micro-speed scales after); `None` for a model
-    /// that follows plans only.
-    fn stick_deadband(&self) -> Option<f64> {
-        None
-    }
-    /// Whether manual mode runs and its generator does not rest this cycle.
-    fn manual_moving(&self) -> bool {
-        false
-    }
 }
 
 /// A model together with the integrator that advances it, in the integrator's scalar
@@ -145,34 +127,16 @@ impl<
 where
     M::Trajectory: Planned<A>,
 {
-    fn plan(&self) -> &Plan<f64, A> {
-        self.model.trajectory().plan()
+    fn path(&self) -> &dyn Planned<A> {
+        self.model.trajectory()
     }
-    fn plan_mut(&mut self) -> &mut Plan<f64, A> {
-        self.model.trajectory_mut().plan_mut()
+    fn path_mut(&mut self) -> &mut dyn Planned<A> {
+        self.model.trajectory_mut()
     }
     fn restart_at_rest(&mut self, position: [f64; A], t: f64) -> Result<(), Error> {
         let n = self.plan().planned_smoothness();
         self.model.trajectory_mut().rest_at(position, n)?;
         self.integrator.restart(&self.model, c(t))
-    }
-    fn enter_manual(&mut self, t: f64) -> Result<(), ManualError> {
-        self.model.trajectory_mut().enter_manual(t)
-    }
-    fn leave_manual(&mut self) -> Result<(), ManualError> {
-        self.model.trajectory_mut().leave_manual()
-    }
-    fn manual_mut(&mut self) -> Option<&mut dyn ManualPath> {
-        self.model.trajectory_mut().manual_mut()
-    }
-    fn in_manual(&self) -> bool {
-        self.model.trajectory().in_manual()
-    }
-    fn stick_deadband(&self) -> Option<f64> {
-        self.model.trajectory().stick_deadband()
-    }
-    fn manual_moving(&self) -> bool {
-        self.model.trajectory().manual_moving()
     }
 }
 
@@ -212,32 +176,14 @@ impl<F: Feedforward<A>, W: AroundStep, const A: usize> Feedforward<A> for Wrappe
 }
 
 impl<F: Replan<A>, W, const A: usize> Replan<A> for Wrapped<F, W> {
-    fn plan(&self) -> &Plan<f64, A> {
-        self.inner.plan()
+    fn path(&self) -> &dyn Planned<A> {
+        self.inner.path()
     }
-    fn plan_mut(&mut self) -> &mut Plan<f64, A> {
-        self.inner.plan_mut()
+    fn path_mut(&mut self) -> &mut dyn Planned<A> {
+        self.inner.path_mut()
     }
     fn restart_at_rest(&mut self, position: [f64; A], t: f64) -> Result<(), Error> {
         self.inner.restart_at_rest(position, t)
-    }
-    fn enter_manual(&mut self, t: f64) -> Result<(), ManualError> {
-        self.inner.enter_manual(t)
-    }
-    fn leave_manual(&mut self) -> Result<(), ManualError> {
-        self.inner.leave_manual()
-    }
-    fn manual_mut(&mut self) -> Option<&mut dyn ManualPath> {
-        self.inner.manual_mut()
-    }
-    fn in_manual(&self) -> bool {
-        self.inner.in_manual()
-    }
-    fn stick_deadband(&self) -> Option<f64> {
-        self.inner.stick_deadband()
-    }
-    fn manual_moving(&self) -> bool {
-        self.inner.manual_moving()
     }
 }
 

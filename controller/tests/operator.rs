@@ -4,17 +4,13 @@
 
 mod common;
 
+use common::manual::{moving, send_request, until_rest, Manual, HELD};
 use common::*;
 use controller::canopen::{NmtCommand, CONTROLLER_NODE};
-use controller::operator::{operator_frame, Flags, OperatorFrame, FULL_SCALE};
-use controller::{CanFrame, Mode};
+use controller::operator::{operator_frame, Flags, OperatorFrame, FULL_SCALE, MANUAL_MODE_CODE};
+use controller::setpoint::Setpoint;
+use controller::{CanFrame, Mode, Replan};
 use sim::HEALTHY;
-
-const HELD: Flags = Flags {
-    enable: true,
-    manual: true,
-    micro: false,
-};
 
 fn stick(counter: u8, demand: [i16; 3]) -> CanFrame {
     operator_frame(
@@ -89,94 +85,8 @@ fn well_formed_frames_are_received_and_other_nodes_rpdo3_is_not_ours() {
 }
 
 // ---------------------------------------------------------------------------------------
-// Manual mode: the operator's generator drives the planar crane's inverse model.
-
-use controller::operator::path::Steered;
-use controller::operator::MANUAL_MODE_CODE;
-use controller::setpoint::Setpoint;
-use controller::{Config, Controller, Cycle, Injectable, InverseModel, Replan};
-use sim::{run_cycle, VirtualBus};
-use solver_core::models::crane::CraneParams;
-use solver_core::models::crane_subs::{self, CraneSubs};
-use solver_core::operator::{PlanarGenerator, Settings};
-
-type Path = Steered<PlanarGenerator, 2>;
-type ManualFf = Injectable<
-    InverseModel<CraneSubs<f64, Path>, crane_subs::Bdf<f64, Path>, f64, { crane_subs::N }>,
->;
-
-/// The controller with manual mode on the paper's crane at rest at [`HOME`], the bus,
-/// the clock, and the operator's next alive counter.
-struct Manual {
-    c: Controller<ManualFf>,
-    bus: VirtualBus,
-    now: u32,
-    counter: u8,
-}
-
-impl Manual {
-    fn new() -> Self {
-        let plan = controller::crane::command_plan::<CraneParams, 2>(HOME, 4).unwrap();
-        let path = Steered::new(plan, Settings::lab(&CraneParams::PAPER));
-        let model = CraneSubs::new(CraneParams::PAPER, path).unwrap();
-        let integrator = crane_subs::Bdf::new(&model, &settings(), 4, 0.0).unwrap();
-        let ff = Injectable::new(InverseModel::new(model, integrator));
-        let mut rig = Self {
-            c: Controller::new(ff, planner(), Config::DEFAULT),
-            bus: VirtualBus::new(HEALTHY, HOME),
-            now: 0,
-            counter: 0,
-        };
-        for _ in 0..120 {
-            if rig.cycle().mode == Mode::Ready {
-                return rig;
-            }
-        }
-        panic!("not ready");
-    }
-
-    fn cycle(&mut self) -> Cycle {
-        let out = run_cycle(&mut self.c, &mut self.bus, self.now).unwrap();
-        self.now += 10;
-        out
-    }
-
-    /// The operator's frame now: the next counter, `flags`, `demand`.
-    fn send(&mut self, flags: Flags, demand: [i16; 3]) {
-        self.counter = self.counter.wrapping_add(1);
-        let f = operator_frame(
-            CONTROLLER_NODE,
-            &OperatorFrame {
-                counter: self.counter,
-                flags,
-                demand,
-            },
-        );
-        self.c.on_frame(&f, self.now.into());
-    }
-
-    /// `cycles` cycles with a frame every third (30 ms) carrying `flags` and `demand`.
-    fn hold(&mut self, cycles: usize, flags: Flags, demand: [i16; 3]) -> Vec<Cycle> {
-        (0..cycles)
-            .map(|n| {
-                if n % 3 == 0 {
-                    self.send(flags, demand);
-                }
-                self.cycle()
-            })
-            .collect()
-    }
-
-    fn mode_byte(&self) -> u8 {
-        self.c.status().bytes()[3]
-    }
-
-    /// The load's position in the model, m.
-    fn load(&self) -> [f64; 2] {
-        let x = self.c.feedforward().inner.integrator.state();
-        [x[0], x[1]]
-    }
-}
+// Manual mode: the operator's generator drives the planar crane's inverse model
+// (`common::manual::Manual`).
 
 /// Full stick for 4 s, then the stick released: manual mode is entered at rest (status
 /// mode 5), the load travels, the stick's release brings it to rest (the generator's
@@ -189,7 +99,7 @@ fn a_full_stick_step_and_release_ends_at_rest_within_limits() {
     assert_eq!(rig.mode_byte(), 1);
     let mut cycles = rig.hold(9, HELD, [0; 3]);
     assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE, "entered at rest");
-    assert!(rig.c.feedforward().in_manual());
+    assert!(rig.c.feedforward().path().in_manual());
     let start = rig.load();
     cycles.extend(rig.hold(400, HELD, [FULL_SCALE, 0, 0]));
     let moved = rig.load()[0] - start[0];
@@ -224,45 +134,11 @@ fn a_full_stick_step_and_release_ends_at_rest_within_limits() {
     };
     rig.hold(6, off, [0; 3]);
     assert_eq!(rig.mode_byte(), 1, "left at rest");
-    assert!(!rig.c.feedforward().in_manual());
+    assert!(!rig.c.feedforward().path().in_manual());
     println!(
         "travelled {moved:.3} m at full stick; rest at x = {:.4} m",
         rest[0]
     );
-}
-
-/// Enters manual mode and lifts the interlock (the stick centred), then holds full
-/// stick for `cycles`: the load is moving at the end.
-fn moving(cycles: usize) -> Manual {
-    let mut rig = Manual::new();
-    rig.hold(9, HELD, [0; 3]);
-    assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE);
-    rig.hold(cycles, HELD, [FULL_SCALE, 0, 0]);
-    rig
-}
-
-/// Cycles until every set point was zero for 30 cycles in a row (at most `max`); all
-/// outputs, and whether it got there.
-fn until_rest(
-    rig: &mut Manual,
-    max: usize,
-    mut each: impl FnMut(&mut Manual, usize),
-) -> (Vec<Cycle>, bool) {
-    let mut out: Vec<Cycle> = Vec::new();
-    for n in 0..max {
-        each(rig, n);
-        out.push(rig.cycle());
-        if out.len() > 30
-            && out
-                .iter()
-                .rev()
-                .take(30)
-                .all(|c| c.setpoints == [Setpoint::ZERO; 2])
-        {
-            return (out, true);
-        }
-    }
-    (out, false)
 }
 
 /// The operator's frames stop mid-travel (a cut cable): after the deadline the
@@ -432,13 +308,6 @@ fn a_move_request_in_manual_mode_is_refused() {
     );
 }
 
-fn send_request(rig: &mut Manual, request: controller::commands::Request) {
-    rig.c.on_frame(
-        &controller::commands::request_frame(&request),
-        rig.now.into(),
-    );
-}
-
 /// The zero-position interlock after a fault and a reset (review finding 1): a fault in
 /// manual mode halts; the operator centres the stick while halted and then holds it
 /// deflected; the supervisor's reset brings the controller back to ready — and the held
@@ -520,7 +389,7 @@ fn the_generator_is_advanced_on_every_cycle_the_model_steps() {
         rig.cycle();
         let ff = rig.c.feedforward_mut();
         let model = ff.time();
-        if let Some(path) = ff.manual_mut() {
+        if let Some(path) = ff.path_mut().manual_mut() {
             let generator = path.time();
             assert!(
                 (model - generator - 0.01).abs() < 1e-9,
@@ -549,6 +418,7 @@ fn the_dead_man_stop_is_latched_in_the_cycle_ninety_ms_after_the_last_frame() {
         let stopping = rig
             .c
             .feedforward_mut()
+            .path_mut()
             .manual_mut()
             .is_some_and(|p| p.is_stopping());
         if stopping && latched.is_none() {
@@ -612,7 +482,7 @@ fn an_nmt_change_in_manual_mode_at_rest_is_no_fault_while_travelling_it_is() {
         after.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
         "nothing moves"
     );
-    assert!(!rig.c.feedforward().in_manual(), "manual mode left");
+    assert!(!rig.c.feedforward().path().in_manual(), "manual mode left");
     let mut rig = moving(300);
     rig.c.on_frame(&pre_op, rig.now.into());
     let out = rig.cycle();
@@ -652,7 +522,7 @@ fn a_drive_leaving_operational_in_manual_mode_at_rest_is_no_fault() {
         enabling |= out.mode == Mode::Enabling;
         let ff = rig.c.feedforward_mut();
         let model = ff.time();
-        let path = ff.manual_mut().expect("manual mode goes on");
+        let path = ff.path_mut().manual_mut().expect("manual mode goes on");
         assert!((model - path.time() - 0.01).abs() < 1e-9, "cycle {n}");
         if enabling && out.mode == Mode::Ready {
             back = true;

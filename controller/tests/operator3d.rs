@@ -149,7 +149,7 @@ fn a_diagonal_full_stick_step_and_release_ends_at_rest_within_limits() {
     };
     rig.hold(6, off, [0; 3]);
     assert_eq!(rig.c.status().bytes()[3], 1, "left at rest");
-    assert!(!rig.c.feedforward().in_manual());
+    assert!(!rig.c.feedforward().path().in_manual());
     println!("3D: travelled {moved:?} m (bridge, trolley) on a diagonal full stick");
 }
 
@@ -170,7 +170,7 @@ fn the_3d_generator_is_advanced_on_every_cycle_the_model_steps() {
         rig.hold(1, HELD, demand);
         let ff = rig.c.feedforward_mut();
         let model = ff.time();
-        if let Some(path) = ff.manual_mut() {
+        if let Some(path) = ff.path_mut().manual_mut() {
             let generator = path.time();
             assert!(
                 (model - generator - 0.01).abs() < 1e-9,

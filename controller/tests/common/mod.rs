@@ -3,6 +3,8 @@
 //! by a plan, behind the controller, on the virtual bus with its simulated drives.
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
+pub mod manual;
+
 use controller::drive::{Drive, PLANAR};
 use controller::planner::Planner;
 use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
