@@ -30,7 +30,7 @@ use crate::frame::CanFrame;
 use crate::links::{self, DriveLink, Heartbeat, Link, Links, Silent};
 use crate::motion::{Breach, Deviations, Lag};
 use crate::node::{Dictionary, Node, Role, Snapshot, StagedOperator, StagedRequest};
-use crate::operator::{self, Deadman, OperatorFrame, State as Stick};
+use crate::operator::{self, Deadman, OperatorFrame, Refusal, State as Stick};
 use crate::planner::{Crane, MoveSearch, Planner, SAMPLES_PER_CYCLE};
 use crate::requests::{PendingMove, Requests};
 use crate::services;
@@ -38,6 +38,7 @@ use crate::services::nmt::NmtSlave;
 use crate::services::status::StatusProducer;
 use crate::setpoint::{Setpoint, SetpointGate, UNITS_PER_M_PER_S};
 use solver_core::models::crane::CraneParams;
+use solver_core::plan::Segment;
 
 /// The supervisor state.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -214,6 +215,15 @@ pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
     syncing: bool,
     /// The operator's dead-man: whether the stick may move the crane (manual mode).
     deadman: Deadman,
+    /// The refusal of the operator's request for manual mode last announced (EMCY
+    /// 0xFF21), until the request is withdrawn or granted.
+    manual_refused: Option<Refusal>,
+    /// A stop request (0x210) latched the generator's stop: it holds until the load
+    /// rests, whatever the stick does meanwhile.
+    manual_stop_held: bool,
+    /// The stick deflected during an automatic move: the move stops on its path, and
+    /// manual mode is entered at its rest with the stick live.
+    handing_over: bool,
 }
 
 impl<F: Feedforward<Reference = Reference> + Replan> Controller<F> {
@@ -303,6 +313,9 @@ where
             // The generator's deadband, the one the interlock checks; a model that
             // follows plans only never enters manual mode: a centred stick is 0 there.
             deadman: Deadman::new(operator::DEADLINE_MS, deadband),
+            manual_refused: None,
+            manual_stop_held: false,
+            handing_over: false,
         }
     }
 
@@ -642,12 +655,15 @@ where
     }
 
     /// Manual mode, once a cycle before the model's step (docs/COMMANDS.md, "Manual
-    /// mode"): entered at rest when a live operator asks for it, the stick interlocked;
-    /// the stick's demand (zero while interlocked) advances the generator on every cycle
-    /// the model steps in manual mode, the entry cycle included, so that the model
-    /// evaluates each of the generator's pieces on its own cycle; a dead-man loss or the request
-    /// withdrawn latches its sway-free stop and interlocks the stick; manual mode is
-    /// left at rest once the operator is lost or no longer asks for it. A crane whose model follows plans only never enters it.
+    /// mode"): entered when a live operator asks for it — at rest, the stick interlocked,
+    /// or during an automatic move when the stick is deflected (the hand-over); a request
+    /// the controller cannot grant is announced once (EMCY 0xFF21). The stick's demand
+    /// (zero while interlocked) advances the generator on every cycle the model steps in
+    /// manual mode, the entry cycle included, so that the model evaluates each of the
+    /// generator's pieces on its own cycle; a dead-man loss or the request withdrawn
+    /// latches its sway-free stop and interlocks the stick; a stop request's stop holds
+    /// until the load rests; manual mode is left at rest once the operator is lost or no
+    /// longer asks for it.
     // Kept out of line: inlined into the cycle it changed the firmware's inlining
     // (QEMU: the RADAU5 scene's control-task stack grew by 1,200 bytes).
     #[inline(never)]
@@ -656,20 +672,24 @@ where
         let lost = matches!(self.deadman.state(self.now_ms), Stick::Lost(_));
         let asked = !lost && frame.is_some_and(|f| f.flags.manual);
         if !self.feedforward.path().in_manual() {
-            if !(asked && self.may_move() && !self.moving()) {
+            self.manual_stop_held = false;
+            if !asked {
+                // (A hand-over's stop goes on to rest: the move was ended by the stick.)
+                self.manual_refused = None;
+                self.handing_over = false;
                 return;
             }
-            let t = self.feedforward.time();
-            if self.feedforward.path_mut().enter_manual(t).is_err() {
-                return;
+            match self.enter_manual(frame) {
+                // An automatic move runs: manual mode waits for its rest, or the stick.
+                None => return,
+                Some(Err(refusal)) => {
+                    self.refuse_manual(refusal);
+                    return;
+                }
+                // On to advance the generator in this very cycle: the model steps over
+                // [t, t + h] right after, and the generator's piece is for that cycle.
+                Some(Ok(())) => self.manual_refused = None,
             }
-            // Centred frames counted before the entry (in automatic, or while
-            // halted) do not lift the interlock: the stick has to be centred
-            // twice in manual mode before it moves the crane.
-            self.deadman.interlock();
-            self.close_loop(true);
-            // On to advance the generator in this very cycle: the model steps over
-            // [t, t + h] right after, and the generator's piece is for that cycle.
         } else if !matches!(self.mode, Mode::Enabling | Mode::Ready) {
             // The model does not step (a stop's ramp, halted): nor does the generator.
             return;
@@ -685,11 +705,17 @@ where
             // generator goes on resting, advanced below.)
             return;
         }
-        // The state again: an entry just now interlocked the stick.
-        let state = self.deadman.state(self.now_ms);
         let Some(path) = self.feedforward.path_mut().manual_mut() else {
             return;
         };
+        if self.manual_stop_held && path.is_at_rest() {
+            // The stop request's stop is over: the stick moves the load again once it
+            // is centred after it (centring during the stop does not count).
+            self.manual_stop_held = false;
+            self.deadman.interlock();
+        }
+        // The state again: an entry or the end of a stop just now interlocked the stick.
+        let state = self.deadman.state(self.now_ms);
         // Enabling (a drive came back after leaving operational at rest): the model
         // steps, so the generator is advanced, its stop latched: the drives are not
         // ready for the stick.
@@ -703,11 +729,71 @@ where
             // sway-free stop, and the stick centred before it moves the crane again.
             path.stop();
             self.deadman.interlock();
-        } else if state == Stick::Live && path.is_stopping() {
+        } else if state == Stick::Live && path.is_stopping() && !self.manual_stop_held {
             path.resume();
         }
         let ([x, y], z) = stick.unwrap_or(([0.0; 2], 0.0));
         let _ = path.advance([x, y], z);
+    }
+
+    /// Manual mode entered for a live operator who asks for it, if it can be now: at
+    /// rest, the stick interlocked (centred frames counted before do not lift it). During
+    /// an automatic move a deflected stick — live, centred since the request — takes the
+    /// crane over: the move ends at once with its on-path stop (what waited for it is
+    /// refused), and at the stop's rest manual mode is entered with the stick live.
+    /// `None`: not now, manual mode waits (the move, or the hand-over's stop, runs).
+    ///
+    /// (`Generator::take_over` continues a moving load's state, but tried here in motion
+    /// its blend put the trolley's set points past their acceleration limit — by up to
+    /// 3 % at 10 % into a 6 s move — so the generator starts from the stop's rest.)
+    fn enter_manual(&mut self, frame: Option<OperatorFrame>) -> Option<Result<(), Refusal>> {
+        if !self.may_move() {
+            self.handing_over = false;
+            return Some(Err(Refusal::NotReady));
+        }
+        if !self.moving() {
+            let t = self.feedforward.time();
+            let entered = self.feedforward.path_mut().enter_manual(t);
+            if entered.is_ok() {
+                // A hand-over's stick is live: the operator deflected it to take over.
+                if !core::mem::take(&mut self.handing_over) {
+                    self.deadman.interlock();
+                }
+                self.close_loop(true);
+            }
+            return Some(entered.map_err(Refusal::of));
+        }
+        let deflected = frame.is_some_and(|f| !self.deadman.centred(&f));
+        let on_its_way = matches!(self.feedforward.plan().active(), Some(Segment::Move(_)));
+        if self.handing_over
+            || !(deflected && on_its_way && self.deadman.state(self.now_ms) == Stick::Live)
+        {
+            return None;
+        }
+        // The stick takes the crane over: what waited for the move is refused (reason
+        // 2), as after a stop, and the move ends on its path.
+        let (now, now_ms) = (self.now_s(), self.now_ms);
+        let lost =
+            self.requests.cancel_planned(now, now_ms) + self.requests.refuse_waiting(false, now_ms);
+        self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(lost);
+        self.stop_on_path(now);
+        self.handing_over = true;
+        None
+    }
+
+    /// Announces a refused request for manual mode (EMCY 0xFF21, a warning), once per
+    /// request and reason.
+    fn refuse_manual(&mut self, refusal: Refusal) {
+        if self.manual_refused == Some(refusal) {
+            return;
+        }
+        self.manual_refused = Some(refusal);
+        self.send_emcy(canopen::emcy(
+            self.nmt.node.id,
+            emcy::MANUAL_REFUSED,
+            REGISTER_MANUFACTURER,
+            [emcy::MANUAL_REFUSED_BYTE, 0, refusal.code(), 0, 0],
+        ));
     }
 
     /// The status frame's mode byte: the supervisor state's, or
@@ -1478,21 +1564,31 @@ where
     fn obey_stop(&mut self) {
         let now = self.now_s();
         // Manual mode: the generator's sway-free stop, and the stick has to be centred
-        // before it moves the crane again (the zero-position interlock).
+        // before it moves the crane again (the zero-position interlock); a hand-over
+        // from an automatic move is called off (its move stops as any).
         self.deadman.interlock();
+        self.handing_over = false;
         if self.mode == Mode::Ready {
             if let Some(path) = self.feedforward.path_mut().manual_mut() {
                 path.stop();
+                self.manual_stop_held = true;
                 return;
             }
         }
         if self.mode == Mode::Ready && self.feedforward.plan().is_moving(now) {
-            let stop = self.planner.plan_stop(self.feedforward.plan(), now);
-            let plan = self.feedforward.plan_mut();
-            plan.cancel_from(now);
-            if let Some(stop) = stop {
-                plan.apply_stop(stop);
-            }
+            self.stop_on_path(now);
+        }
+    }
+
+    /// The plan re-timed at `now` to rest on its own path at or before its target if
+    /// that is quicker within the limits, else the queued move and a move that has not
+    /// begun are dropped (the running one then ends as planned).
+    fn stop_on_path(&mut self, now: f64) {
+        let stop = self.planner.plan_stop(self.feedforward.plan(), now);
+        let plan = self.feedforward.plan_mut();
+        plan.cancel_from(now);
+        if let Some(stop) = stop {
+            plan.apply_stop(stop);
         }
     }
 

@@ -291,6 +291,31 @@ fn every_fault_code_is_in_the_dbc_fault_range() {
     }
 }
 
+/// A refused request for manual mode (EMCY 0xFF21, a warning) decodes with the DBC as
+/// what it is: error code "ManualRefused", the first manufacturer byte 22 outside every
+/// fault's code, its reason in `detail` (the same place as a fault's), never an abort code.
+#[test]
+fn a_refused_manual_mode_decodes_with_its_reason() {
+    use controller::operator::Refusal;
+    assert!(emcy::MANUAL_REFUSED_BYTE > Fault::MAX_CODE);
+    for refusal in [Refusal::Unsupported, Refusal::NotReady, Refusal::Generator] {
+        let frame = canopen::emcy(
+            CONTROLLER_NODE,
+            emcy::MANUAL_REFUSED,
+            emcy::REGISTER_MANUFACTURER,
+            [emcy::MANUAL_REFUSED_BYTE, 0, refusal.code(), 0, 0],
+        );
+        assert_eq!(label(&frame, "error_code").as_deref(), Some("ManualRefused"));
+        assert_eq!(label(&frame, "fault").as_deref(), Some("ManualRefused"));
+        let e = decode(&frame);
+        assert_eq!(
+            (e.get("detail"), e.get("abort_code")),
+            (Some(f64::from(refusal.code())), None),
+            "{refusal:?}"
+        );
+    }
+}
+
 /// Every EMCY error code the controller sends is named in the DBC's value table, so that
 /// a CAN tool shows it by the name CiA 301 and CiA 402 give it (0x8150 CAN-ID collision,
 /// 0x8500 position controller, 0x8611 following error, …).
@@ -307,6 +332,7 @@ fn every_emcy_error_code_is_named_in_the_dbc() {
         emcy::NO_ERROR,
         emcy::COMMISSIONING_ABORT,
         emcy::FEEDBACK_OFF,
+        emcy::MANUAL_REFUSED,
     ]);
     for code in sent {
         assert!(label(code).is_some(), "0x{code:04X} has no name in the DBC");

@@ -45,7 +45,8 @@ pub const COMMISSIONING: u16 = 0xFF10;
 /// type: the reason is in 0x2002:5).
 ///
 /// Fault codes never take the values of the manufacturer bytes' other meanings: 15 (the
-/// feedback warning, [`FEEDBACK_OFF`]) and 16 ([`ABORT_CODE_FOLLOWS`]).
+/// feedback warning, [`FEEDBACK_OFF`]), 16 ([`ABORT_CODE_FOLLOWS`]) and 22 (a refused
+/// manual mode, [`MANUAL_REFUSED_BYTE`]).
 pub const COMMISSIONING_ABORT: u16 = 0xFF12;
 /// The first manufacturer byte of [`COMMISSIONING_ABORT`] (where other EMCYs of the
 /// controller have their fault code): 16, not a fault of its own.
@@ -56,6 +57,13 @@ pub const DRIVE_MODE: u16 = 0xFF11;
 /// Device specific: the state feedback fell back to feedforward only — a warning
 /// (manufacturer bytes: 15, inclinometer node, reason; docs/COMMANDS.md).
 pub const FEEDBACK_OFF: u16 = 0xFF20;
+/// Device specific: an operator's request for manual mode was refused — a warning
+/// (manufacturer bytes: [`MANUAL_REFUSED_BYTE`], 0, the reason,
+/// `controller::operator::Refusal`; docs/COMMANDS.md, "Manual mode").
+pub const MANUAL_REFUSED: u16 = 0xFF21;
+/// The first manufacturer byte of [`MANUAL_REFUSED`] (where a fault has its code): 22,
+/// after the faults' 1–21, no fault of its own.
+pub const MANUAL_REFUSED_BYTE: u8 = 22;
 
 /// Error register (0x1001) bit 0: generic error. CiA 301 requires it whenever any error
 /// is present, so an EMCY without it is a warning (see [`is_fault`]).

@@ -18,7 +18,8 @@
 //!   ([`Deadman::interlock`]: a stop request, a fault, a reset, an entry into manual
 //!   mode) — and at power-up,
 //!   a held stick does not move the crane: motion resumes only after every demand was
-//!   inside the deadband for [`CENTRED_FRAMES`] consecutive live frames. A stick that was
+//!   inside the deadband for [`CENTRED_FRAMES`] consecutive live frames asking for manual
+//!   mode (flags bit 1). A stick that was
 //!   deflected when the crane stopped would otherwise start it again unasked.
 //!
 //! A pure state machine: frames and time in, a state out; it moves nothing itself.
@@ -136,7 +137,10 @@ impl Deadman {
             return;
         }
         self.loss = None;
-        self.centred = if self.centred(frame) {
+        // Only frames that ask for manual mode count: the interlock is lifted by an
+        // operator centring the stick *in* manual mode, or while asking for it during
+        // an automatic move (then a deflection hands the move over to the stick).
+        self.centred = if frame.flags.manual && self.centred(frame) {
             self.centred.saturating_add(1)
         } else {
             0

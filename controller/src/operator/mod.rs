@@ -21,6 +21,43 @@ pub const DEADLINE_MS: u32 = 90;
 /// the operator's generator drives the model): additive to 0–4.
 pub const MANUAL_MODE_CODE: u8 = 5;
 
+/// Why an operator's request for manual mode was refused: announced once per request
+/// (and again if the reason changes) by the warning EMCY 0xFF21, its detail byte the
+/// code (docs/COMMANDS.md, "Manual mode"). A request during an automatic move is no
+/// refusal: it waits for the move's rest, or for the stick (the hand-over).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum Refusal {
+    /// The scene's inverse model follows plans only: no `[operator]` section.
+    Unsupported = 1,
+    /// Not ready: a drive not enabled, the controller stopping, halted or not
+    /// operational.
+    NotReady = 2,
+    /// The generator refused its settings or the load's state (a position outside its
+    /// ranges).
+    Generator = 3,
+}
+
+impl Refusal {
+    /// The EMCY's detail byte.
+    #[must_use]
+    pub const fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// The refusal of a failed entry.
+    #[must_use]
+    pub const fn of(e: path::ManualError) -> Self {
+        match e {
+            path::ManualError::Unsupported => Self::Unsupported,
+            // An entry is tried at rest only: "moving" is the plan that cannot rest.
+            path::ManualError::Moving => Self::NotReady,
+            path::ManualError::Generator(_) => Self::Generator,
+        }
+    }
+}
+
 pub use deadman::{Deadman, Loss, State, CENTRED_FRAMES, MAX_DEADLINE_MS};
 pub use frame::{
     decode_operator, operator_frame, operator_id, Flags, OperatorError, OperatorFrame, FULL_SCALE,

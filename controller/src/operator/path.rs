@@ -3,8 +3,9 @@
 //! (`solver_core::operator`), which turns the stick into a smooth load path.
 //!
 //! One trajectory type for both, so that the one inverse model (and its scheme's history)
-//! carries on across the hand-over: manual mode is entered only at rest, where the
-//! plan's output is the constant rest position with every derivative zero, and the
+//! carries on across the hand-over: manual mode is entered only at rest (a stick
+//! deflected during an automatic move ends the move with its on-path stop first), where
+//! the plan's output is the constant rest position with every derivative zero, and the
 //! generator starts at rest at that very position; it is left only at rest, where the
 //! generator's output is again constant with every derivative exactly 0.0, and the plan
 //! takes over at rest there. The model sees no step in any derivative either way.

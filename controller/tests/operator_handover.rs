@@ -1,0 +1,311 @@
+//! Manual mode against automatic moves and the supervisor (issue 28): the stick taking a
+//! running move over (the move stopped on its path, the stick live at its rest), a request for manual mode that waits or is refused (and said so),
+//! and a supervisor's stop that holds until the load rests whatever the stick does.
+
+mod common;
+
+use common::manual::{moving, send_request, until_rest, Manual, HELD};
+use common::*;
+use controller::canopen::emcy;
+use controller::commands::{Answer, Reject, Request};
+use controller::operator::{Flags, Refusal, FULL_SCALE, MANUAL_MODE_CODE};
+use controller::setpoint::Setpoint;
+use controller::{Cycle, Mode, Replan};
+use sim::HEALTHY;
+use solver_core::plan::Segment;
+
+/// The automatic move of these tests: 6 m of travel and 2 m of hoisting in 6 s, from
+/// [`HOME`].
+const TARGET: [f64; 2] = [18.0, 6.0];
+const DURATION: f64 = 6.0;
+
+/// The manual-mode refusals (EMCY 0xFF21) among `cycles`' frames: their detail bytes.
+fn refusals(cycles: &[Cycle]) -> Vec<u8> {
+    cycles
+        .iter()
+        .flat_map(|c| c.frames.iter())
+        .filter(|f| f.id() == 0x090 && f.data()[..2] == emcy::MANUAL_REFUSED.to_le_bytes())
+        .map(|f| {
+            let d = f.data();
+            assert_eq!(d[2] & 0x01, 0, "a warning: no generic error bit");
+            assert_eq!(d[3], emcy::MANUAL_REFUSED_BYTE);
+            d[5]
+        })
+        .collect()
+}
+
+/// The automatic move sent to `rig` and accepted, the operator asking for manual mode
+/// with the stick centred meanwhile (the interlock lifted, as a deflection needs):
+/// the move is not taken over by a centred stick.
+fn automatic_move(rig: &mut Manual) -> Vec<Cycle> {
+    send_request(
+        rig,
+        Request::Move {
+            id: 1,
+            target: TARGET,
+            duration: Some(DURATION),
+        },
+    );
+    let cycles = rig.hold(9, HELD, [0; 3]);
+    assert_eq!(rig.c.last_answer().1, Answer::Accepted);
+    assert_eq!(rig.mode_byte(), 1, "a centred stick takes nothing over");
+    assert!(!rig.c.feedforward().path().in_manual());
+    cycles
+}
+
+/// The hand-over (issue 28, "Safety and hand-over"): a stick deflected during an
+/// automatic move, at 10, 50 and 90 % of it and either way, ends the move in the cycle
+/// that reads the frame with its on-path stop (the load rests on the move's path, short
+/// of its target, or at it when the stop is no quicker than the move's own end), refuses the move queued behind it (reason 2), and at the stop's rest
+/// manual mode is entered with the stick live — no re-centring — so the load then moves
+/// the way the stick points; every set point within the drives' speed and acceleration
+/// limits throughout, no fault, and after the release every set point exactly zero.
+#[test]
+fn a_stick_deflected_during_an_automatic_move_ends_it_and_takes_over_at_its_rest() {
+    for share in [0.1, 0.5, 0.9] {
+        for stick in [FULL_SCALE, -FULL_SCALE / 2] {
+            let case = format!("{share} of the move, stick {stick}");
+            let mut rig = Manual::new();
+            let mut cycles = automatic_move(&mut rig);
+            send_request(
+                &mut rig,
+                Request::Move {
+                    id: 2,
+                    target: HOME,
+                    duration: None,
+                },
+            );
+            let span = rig
+                .c
+                .feedforward()
+                .plan()
+                .active()
+                .map(|a| a.span())
+                .unwrap();
+            let at = span.0 + share * (span.1 - span.0);
+            while f64::from(rig.now) / 1000.0 < at {
+                cycles.extend(rig.hold(3, HELD, [0; 3]));
+            }
+            assert_eq!(rig.c.last_answer().1, Answer::Queued, "{case}: id 2 queued");
+            rig.send(HELD, [stick, 0, 0]);
+            cycles.push(rig.cycle());
+            assert!(
+                matches!(rig.c.feedforward().plan().active(), Some(Segment::Stop(_))),
+                "{case}: the move ends with its on-path stop"
+            );
+            assert_eq!(
+                rig.c.last_answer(),
+                (2, Answer::Rejected, Some(Reject::NotReady)),
+                "{case}: the queued move refused"
+            );
+            let mut entered = None;
+            for _ in 0..200 {
+                cycles.extend(rig.hold(3, HELD, [stick, 0, 0]));
+                if rig.c.feedforward().path().in_manual() {
+                    entered = Some(rig.load());
+                    break;
+                }
+            }
+            let entered = entered.unwrap_or_else(|| panic!("{case}: entered at the rest"));
+            // (At 90 % the stop is no quicker than the move's own end: it ends there.)
+            let short = if share < 0.9 { 1e-3 } else { -1e-9 };
+            assert!(
+                entered[0] <= TARGET[0] - short,
+                "{case}: rested at {} m, not past the target {}",
+                entered[0],
+                TARGET[0]
+            );
+            assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE, "{case}");
+            cycles.extend(rig.hold(150, HELD, [stick, 0, 0]));
+            let moved = rig.load()[0] - entered[0];
+            assert!(
+                moved * f64::from(stick) > 0.0,
+                "{case}: the stick drives at once (moved {moved} m)"
+            );
+            let (rest, rested) = until_rest(&mut rig, 3000, |r, n| {
+                if n % 3 == 0 {
+                    r.send(HELD, [0; 3]);
+                }
+            });
+            assert!(rested, "{case}: at rest after the release");
+            cycles.extend(rest);
+            let mut last = [0; 2];
+            assert_within_limits(&cycles, &mut last);
+            assert_eq!(
+                cycles.iter().map(|c| c.mode).find(|m| *m != Mode::Ready),
+                None,
+                "{case}: no fault"
+            );
+            let tail = rig.hold(100, HELD, [0; 3]);
+            assert!(tail.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]));
+            assert!(refusals(&cycles).is_empty(), "{case}: nothing refused");
+        }
+    }
+}
+
+/// A request for manual mode during an automatic move with the stick centred waits: the
+/// move ends at its target as planned, and manual mode is entered at its rest, the stick
+/// interlocked (a deflection then moves nothing until it is centred twice).
+#[test]
+fn a_request_for_manual_mode_during_a_move_waits_for_its_rest() {
+    let mut rig = Manual::new();
+    automatic_move(&mut rig);
+    let (_, end) = rig.c.feedforward().plan().active().unwrap().span();
+    let mut entered_at = None;
+    for _ in 0..300 {
+        rig.hold(3, HELD, [0; 3]);
+        if rig.c.feedforward().path().in_manual() {
+            entered_at = Some(rig.now);
+            break;
+        }
+    }
+    let entered_at = entered_at.expect("entered at rest");
+    assert!(f64::from(entered_at) / 1000.0 >= end, "after the move");
+    let [x, z] = rig.load();
+    assert!((x - TARGET[0]).abs() < 1e-6 && (z - TARGET[1]).abs() < 1e-6);
+    let held = rig.hold(60, HELD, [FULL_SCALE, 0, 0]);
+    assert!(
+        held.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
+        "interlocked on entry"
+    );
+}
+
+/// A stick already deflected when the request for manual mode comes (never centred with
+/// it) takes nothing over (the zero-position interlock): the move ends at its target.
+#[test]
+fn a_stick_deflected_with_the_request_takes_no_move_over() {
+    let mut rig = Manual::new();
+    let off = Flags {
+        manual: false,
+        ..HELD
+    };
+    rig.hold(9, off, [0; 3]);
+    send_request(
+        &mut rig,
+        Request::Move {
+            id: 1,
+            target: TARGET,
+            duration: Some(DURATION),
+        },
+    );
+    rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
+    assert!(!rig.c.feedforward().path().in_manual(), "the move goes on");
+    for _ in 0..300 {
+        rig.hold(3, HELD, [FULL_SCALE, 0, 0]);
+        if rig.c.feedforward().path().in_manual() {
+            break;
+        }
+    }
+    let [x, z] = rig.load();
+    assert!((x - TARGET[0]).abs() < 1e-6 && (z - TARGET[1]).abs() < 1e-6);
+}
+
+/// A request for manual mode that cannot be granted is said so once (review finding 6):
+/// a controller whose model follows plans only announces EMCY 0xFF21, detail 1
+/// (unsupported), once however long the request stands, and again when it is asked
+/// anew; a halted controller with manual mode answers detail 2 (not ready).
+#[test]
+fn a_refused_request_for_manual_mode_is_announced_once() {
+    let mut rig = Rig::new(HEALTHY, false);
+    rig.ready();
+    let mut counter = 0u8;
+    let mut ask = |rig: &mut Rig, flags: Flags, cycles: usize| -> Vec<Cycle> {
+        (0..cycles)
+            .map(|n| {
+                if n % 3 == 0 {
+                    counter = counter.wrapping_add(1);
+                    let f = controller::operator::operator_frame(
+                        controller::canopen::CONTROLLER_NODE,
+                        &controller::operator::OperatorFrame {
+                            counter,
+                            flags,
+                            demand: [0; 3],
+                        },
+                    );
+                    rig.c.on_frame(&f, rig.now.into());
+                }
+                rig.cycle()
+            })
+            .collect()
+    };
+    let off = Flags {
+        manual: false,
+        ..HELD
+    };
+    let first = ask(&mut rig, HELD, 300);
+    assert_eq!(refusals(&first), [Refusal::Unsupported.code()]);
+    ask(&mut rig, off, 9);
+    let again = ask(&mut rig, HELD, 30);
+    assert_eq!(
+        refusals(&again),
+        [Refusal::Unsupported.code()],
+        "asked anew"
+    );
+    assert!(first.iter().chain(&again).all(|c| c.mode == Mode::Ready));
+
+    let mut rig = Manual::new();
+    rig.c.feedforward_mut().fail_next_step();
+    let mut halted = Vec::new();
+    for _ in 0..300 {
+        let out = rig.hold(
+            1,
+            Flags {
+                manual: false,
+                ..HELD
+            },
+            [0; 3],
+        );
+        let done = matches!(out[0].mode, Mode::Halted(_));
+        halted.extend(out);
+        if done {
+            break;
+        }
+    }
+    assert!(matches!(halted.last().unwrap().mode, Mode::Halted(_)));
+    let refused = rig.hold(60, HELD, [0; 3]);
+    assert_eq!(refusals(&refused), [Refusal::NotReady.code()]);
+}
+
+/// A supervisor's stop request in manual mode holds until the load rests (review
+/// finding 7): the operator centring the stick for two frames mid-stop and pushing it
+/// again changes nothing — the set points are those of the same stop with the stick held
+/// throughout, to the unit — and once at rest a stick centred twice moves the load again.
+#[test]
+fn a_stop_request_holds_until_rest_whatever_the_stick_does() {
+    let stop = |recentre: bool| {
+        let mut rig = moving(300);
+        send_request(&mut rig, Request::Stop { id: 5 });
+        let first = rig.cycle();
+        assert!(
+            first.setpoints[0].units() > 100_000,
+            "travelling when stopped"
+        );
+        let stick = if recentre { [0; 3] } else { [FULL_SCALE, 0, 0] };
+        let mut stopping = vec![first];
+        stopping.extend(rig.hold(6, HELD, stick));
+        let (rest, rested) = until_rest(&mut rig, 2000, |r, n| {
+            if n % 3 == 0 {
+                r.send(HELD, [FULL_SCALE, 0, 0]);
+            }
+        });
+        assert!(rested, "at rest (re-centred mid-stop: {recentre})");
+        stopping.extend(rest);
+        (rig, stopping)
+    };
+    let (_, held) = stop(false);
+    let (mut rig, recentred) = stop(true);
+    let units = |c: &[Cycle]| -> Vec<[i32; 2]> {
+        c.iter()
+            .map(|c| [c.setpoints[0].units(), c.setpoints[1].units()])
+            .collect()
+    };
+    assert_eq!(units(&recentred), units(&held));
+    let mut last = units(&recentred[..1])[0];
+    assert_within_limits(&recentred[1..], &mut last);
+    rig.hold(6, HELD, [0; 3]);
+    let live = rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
+    assert!(
+        live.iter().any(|c| c.setpoints[0].units() > 0),
+        "at rest, centred twice: live"
+    );
+}
