@@ -8,6 +8,7 @@
 //! * [`crane`] — what the view needs of the planar and the 3D crane (their generator,
 //!   their inverse model on the operator's path, what their plant shows);
 //! * [`switch`] — the master switch with notched levers the keys move;
+//! * [`tui`] — the keys' meaning and the drawing (ratatui).
 //!
 //! Its own crate rather than a module of `host-tests`: the terminal crates (ratatui,
 //! crossterm, and the pseudo-terminal its test drives) are then built only for it, not
@@ -16,3 +17,4 @@
 pub mod crane;
 pub mod engine;
 pub mod switch;
+pub mod tui;
