@@ -437,4 +437,10 @@ mod tests {
     fn the_3d_crane_driven_by_keys_ends_at_rest_without_swing() {
         keys_then_rest("crane3d/crane3d.toml", Axis::Y);
     }
+
+    #[test]
+    fn the_feedback_scenes_driven_by_keys_end_at_rest_without_swing() {
+        keys_then_rest("paper-crane-feedback.toml", Axis::X);
+        keys_then_rest("crane3d/crane3d-feedback.toml", Axis::X);
+    }
 }
