@@ -196,28 +196,23 @@ fn controller_panel<'a>(
 fn load_panel<'a>(snapshot: &Snapshot, info: &CraneInfo) -> Paragraph<'a> {
     let [x, y, z] = snapshot.plant.load;
     let [sx, sy] = snapshot.swing_deg();
-    let lines = match info.kind {
-        CraneKind::Planar => vec![
-            TextLine::from(format!("load x {x:.3} m")),
-            TextLine::from(format!("depth {z:.3} m")),
-            TextLine::from(format!(
-                "speed {:.3} m/s, vertical {:+.3}",
-                snapshot.horizontal_speed(),
-                snapshot.load_velocity[2]
-            )),
-            TextLine::from(format!("swing {sx:+.3} deg")),
-        ],
-        CraneKind::Spatial => vec![
-            TextLine::from(format!("load x {x:.3} y {y:.3} m")),
-            TextLine::from(format!("depth {z:.3} m")),
-            TextLine::from(format!(
-                "speed {:.3} m/s, vertical {:+.3}",
-                snapshot.horizontal_speed(),
-                snapshot.load_velocity[2]
-            )),
-            TextLine::from(format!("swing x-z {sx:+.3}  y-z {sy:+.3} deg")),
-        ],
+    let (position, swing) = match info.kind {
+        CraneKind::Planar => (format!("load x {x:.3} m"), format!("swing {sx:+.3} deg")),
+        CraneKind::Spatial => (
+            format!("load x {x:.3} y {y:.3} m"),
+            format!("swing x-z {sx:+.3}  y-z {sy:+.3} deg"),
+        ),
     };
+    let lines = vec![
+        TextLine::from(position),
+        TextLine::from(format!("depth {z:.3} m")),
+        TextLine::from(format!(
+            "speed {:.3} m/s, vertical {:+.3}",
+            snapshot.horizontal_speed(),
+            snapshot.load_velocity[2]
+        )),
+        TextLine::from(swing),
+    ];
     Paragraph::new(lines).block(Block::bordered().title("Load (the plant)"))
 }
 
@@ -255,23 +250,51 @@ fn padded((lo, hi): (f64, f64), pad: f64) -> [f64; 2] {
     [lo - pad, hi + pad]
 }
 
+/// What each picture of the crane is made of, in its own coordinates: the rail (or the
+/// beam) the carriage runs on, the carriage, the rope, the load.
+struct Picture {
+    rail: Line,
+    carriage: Rectangle,
+    rope: Line,
+    load: Rectangle,
+}
+
+/// Draws `picture` in `area` under `title`, with the canvas's bounds.
+fn render(frame: &mut Frame, area: Rect, title: &str, bounds: [[f64; 2]; 2], p: Picture) {
+    let [x, y] = bounds;
+    let canvas = Canvas::default()
+        .block(Block::bordered().title(title))
+        .marker(Marker::Braille)
+        .x_bounds(x)
+        .y_bounds(y)
+        .paint(move |ctx| {
+            ctx.draw(&p.rail);
+            ctx.draw(&p.carriage);
+            ctx.draw(&p.rope);
+            ctx.draw(&p.load);
+        });
+    frame.render_widget(canvas, area);
+}
+
 /// The planar crane from the side: the rail, the trolley, the rope to the load.
 fn side_view(frame: &mut Frame, area: Rect, snapshot: &Snapshot, info: &CraneInfo) {
     let [xr, _, lr] = info.ranges;
     let [xd, _, _] = snapshot.plant.drives;
     let [xc, _, zc] = snapshot.plant.load;
-    let canvas = Canvas::default()
-        .block(Block::bordered().title("Side view (x right, depth down)"))
-        .marker(Marker::Braille)
-        .x_bounds(padded(xr, 1.0))
-        .y_bounds([-(lr.1 + 1.5), 1.0])
-        .paint(move |ctx| {
-            ctx.draw(&Line::new(xr.0, 0.0, xr.1, 0.0, Color::Gray));
-            ctx.draw(&Rectangle::new(xd - 0.6, 0.0, 1.2, 0.6, Color::Yellow));
-            ctx.draw(&Line::new(xd, 0.0, xc, -zc, Color::White));
-            ctx.draw(&Rectangle::new(xc - 0.4, -zc - 0.6, 0.8, 0.6, Color::Cyan));
-        });
-    frame.render_widget(canvas, area);
+    let picture = Picture {
+        rail: Line::new(xr.0, 0.0, xr.1, 0.0, Color::Gray),
+        carriage: Rectangle::new(xd - 0.6, 0.0, 1.2, 0.6, Color::Yellow),
+        rope: Line::new(xd, 0.0, xc, -zc, Color::White),
+        load: Rectangle::new(xc - 0.4, -zc - 0.6, 0.8, 0.6, Color::Cyan),
+    };
+    let bounds = [padded(xr, 1.0), [-(lr.1 + 1.5), 1.0]];
+    render(
+        frame,
+        area,
+        "Side view (x right, depth down)",
+        bounds,
+        picture,
+    );
 }
 
 /// The 3D crane from above: the bridge across the hall, the trolley on it, the load.
@@ -279,35 +302,34 @@ fn top_view(frame: &mut Frame, area: Rect, snapshot: &Snapshot, info: &CraneInfo
     let [xr, yr, _] = info.ranges;
     let [xd, yd, _] = snapshot.plant.drives;
     let [xc, yc, _] = snapshot.plant.load;
-    let canvas = Canvas::default()
-        .block(Block::bordered().title("Top view (x bridge right, y trolley up)"))
-        .marker(Marker::Braille)
-        .x_bounds(padded(xr, 1.0))
-        .y_bounds(padded(yr, 1.0))
-        .paint(move |ctx| {
-            ctx.draw(&Line::new(xd, yr.0, xd, yr.1, Color::Gray));
-            ctx.draw(&Rectangle::new(xd - 0.4, yd - 0.4, 0.8, 0.8, Color::Yellow));
-            ctx.draw(&Line::new(xd, yd, xc, yc, Color::White));
-            ctx.draw(&Rectangle::new(xc - 0.2, yc - 0.2, 0.4, 0.4, Color::Cyan));
-        });
-    frame.render_widget(canvas, area);
+    let picture = Picture {
+        rail: Line::new(xd, yr.0, xd, yr.1, Color::Gray),
+        carriage: Rectangle::new(xd - 0.4, yd - 0.4, 0.8, 0.8, Color::Yellow),
+        rope: Line::new(xd, yd, xc, yc, Color::White),
+        load: Rectangle::new(xc - 0.2, yc - 0.2, 0.4, 0.4, Color::Cyan),
+    };
+    let bounds = [padded(xr, 1.0), padded(yr, 1.0)];
+    let title = "Top view (x bridge right, y trolley up)";
+    render(frame, area, title, bounds, picture);
 }
 
 /// The 3D crane's hoist: the load's depth below the trolley.
 fn hoist_bar(frame: &mut Frame, area: Rect, snapshot: &Snapshot, info: &CraneInfo) {
     let [_, _, lr] = info.ranges;
     let [_, _, zc] = snapshot.plant.load;
-    let canvas = Canvas::default()
-        .block(Block::bordered().title("Hoist"))
-        .marker(Marker::Braille)
-        .x_bounds([0.0, 1.0])
-        .y_bounds([-(lr.1 + 1.0), 0.5])
-        .paint(move |ctx| {
-            ctx.draw(&Line::new(0.1, 0.0, 0.9, 0.0, Color::Gray));
-            ctx.draw(&Line::new(0.5, 0.0, 0.5, -zc, Color::White));
-            ctx.draw(&Rectangle::new(0.3, -zc - 0.5, 0.4, 0.5, Color::Cyan));
-        });
-    frame.render_widget(canvas, area);
+    let picture = Picture {
+        rail: Line::new(0.1, 0.0, 0.9, 0.0, Color::Gray),
+        carriage: Rectangle::new(0.4, 0.0, 0.2, 0.3, Color::Yellow),
+        rope: Line::new(0.5, 0.0, 0.5, -zc, Color::White),
+        load: Rectangle::new(0.3, -zc - 0.5, 0.4, 0.5, Color::Cyan),
+    };
+    render(
+        frame,
+        area,
+        "Hoist",
+        [[0.0, 1.0], [-(lr.1 + 1.0), 0.5]],
+        picture,
+    );
 }
 
 #[cfg(test)]
