@@ -443,4 +443,57 @@ mod tests {
         keys_then_rest("paper-crane-feedback.toml", Axis::X);
         keys_then_rest("crane3d/crane3d-feedback.toml", Axis::X);
     }
+
+    /// Manual mode entered and the x lever pushed `notches` for `seconds`.
+    fn travelling(notches: i8, seconds: f64) -> (Engine, MasterSwitch) {
+        let mut e = Engine::for_scene(&scene("paper-crane.toml")).unwrap();
+        let mut s = MasterSwitch::new(e.has_y());
+        run(&mut e, &mut s, 3.0);
+        s.apply(Action::ToggleManual);
+        run(&mut e, &mut s, 0.3);
+        for _ in 0..notches {
+            s.apply(Action::Notch(Axis::X, 1));
+        }
+        run(&mut e, &mut s, seconds);
+        (e, s)
+    }
+
+    /// Whether the last `seconds` of `snaps` sent exactly zero to every drive.
+    fn rests(snaps: &[Snapshot], seconds: usize) -> bool {
+        snaps[snaps.len() - seconds * 100..]
+            .iter()
+            .all(|c| c.setpoints == [0.0; 3])
+    }
+
+    /// `s`, the supervisor's stop request, with the lever still held: the load comes to
+    /// rest in manual mode; it moves again only after the lever was centred.
+    #[test]
+    fn a_stop_request_stops_the_load_with_the_lever_held() {
+        let (mut e, mut s) = travelling(4, 3.0);
+        e.request_stop();
+        let stopped = run(&mut e, &mut s, 20.0);
+        assert!(rests(&stopped, 3), "at rest with the lever held");
+        assert!(stopped.last().unwrap().manual());
+        s.apply(Action::Centre);
+        run(&mut e, &mut s, 0.2);
+        s.apply(Action::Notch(Axis::X, 1));
+        let again = run(&mut e, &mut s, 2.0);
+        assert!(
+            again.last().unwrap().setpoints[0] > 0.0,
+            "moves again once centred"
+        );
+    }
+
+    /// `d`, the dead-man let go while travelling: the sway-free stop, then manual mode
+    /// left at rest (status mode 1).
+    #[test]
+    fn letting_go_of_the_dead_man_stops_and_leaves_manual_mode() {
+        let (mut e, mut s) = travelling(4, 3.0);
+        s.apply(Action::ToggleEnable);
+        let stopped = run(&mut e, &mut s, 20.0);
+        assert!(rests(&stopped, 3), "at rest");
+        let last = stopped.last().unwrap();
+        assert_eq!(last.status.unwrap()[3], 1, "manual mode left");
+        assert_eq!(last.mode, Mode::Ready);
+    }
 }

@@ -384,4 +384,41 @@ mod tests {
             "bridge  +3/4 ....|..#."
         );
     }
+
+    #[test]
+    fn why_manual_mode_does_not_run_is_read_from_the_status_frame_and_the_switch() {
+        use crate::crane::PlantState;
+        use controller::Mode;
+        let snap = |status: Option<[u8; 8]>| Snapshot {
+            t: 0.0,
+            mode: Mode::Ready,
+            status,
+            setpoints: [0.0; 3],
+            plant: PlantState {
+                drives: [0.0; 3],
+                load: [0.0; 3],
+                swing: [0.0; 2],
+            },
+            load_velocity: [0.0; 3],
+        };
+        let mut switch = MasterSwitch::new(false);
+        let ready = Some([0, 0, 0, 1, 0, 0, 0, 0]);
+        assert_eq!(why_not_manual(&snap(ready), &switch), None, "not asked");
+        switch.apply(Action::ToggleManual);
+        let manual = Some([0, 0, 0, 5, 0, 0, 0, 0]);
+        assert_eq!(why_not_manual(&snap(manual), &switch), None, "runs");
+        let why = |status, switch: &MasterSwitch| why_not_manual(&snap(status), switch).unwrap();
+        assert_eq!(why(None, &switch), "no status frame yet");
+        assert_eq!(
+            why(Some([0; 8]), &switch),
+            "the drives are still being enabled"
+        );
+        assert_eq!(
+            why(Some([0, 0, 0, 4, 7, 0, 0, 0]), &switch),
+            "the controller is not ready: Halted (fault 7)"
+        );
+        assert!(why(ready, &switch).starts_with("entered only at rest"));
+        switch.apply(Action::ToggleEnable);
+        assert_eq!(why(ready, &switch), "the dead-man is not held (d)");
+    }
 }
