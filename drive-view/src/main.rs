@@ -50,6 +50,8 @@ fn main() -> ExitCode {
     let mut terminal = match ratatui::try_init() {
         Ok(t) => t,
         Err(e) => {
+            // Raw mode may be on already if the alternate screen was refused.
+            ratatui::restore();
             eprintln!("drive: cannot set up the terminal: {e}");
             return ExitCode::FAILURE;
         }
