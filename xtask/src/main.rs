@@ -24,6 +24,9 @@
 //! * `ecu [--port N] [--role manager|slave] [--seconds S] …` — the controller in real
 //!   time, its CAN bus as SLCAN over TCP (docs/COMMISSIONING.md).
 //! * `interop` — python-canopen drives and a supervisor against the virtual ECU.
+//! * `drive [SCENE]` — manual mode from the keyboard: the real controller on the virtual
+//!   bus with a plant that is not the model, in real time, in a terminal view
+//!   (`drive-view/`, docs/OPERATOR.md "Try it from the keyboard").
 //! * `report LOG [--scene SCENE] [--out DIR] [--eds NODE=FILE …]` — a recorded bus
 //!   (candump `-L` or Vector ASC) in, the crane's report out: one HTML page with its
 //!   figures, the figures as SVG, `summary.json` (docs/REPORT.md).
@@ -145,6 +148,14 @@ enum Cmd {
     },
     /// python-canopen drives and supervisor against the virtual ECU (in `test`).
     Interop,
+    /// Manual mode from the keyboard: the real controller on the virtual bus with a
+    /// plant that is not the model, in real time, in a terminal view.
+    Drive {
+        /// The crane's scene (planar or 3D, subs formulation); its commissioning file
+        /// beside it.
+        #[arg(default_value = DRIVE_SCENE)]
+        scene: PathBuf,
+    },
     /// A recorded bus in, the crane's report out: candump -L or Vector ASC (docs/REPORT.md).
     Report {
         /// The log (candump -L, `.log`; Vector ASC, `.asc`).
@@ -256,6 +267,7 @@ fn main() -> ExitCode {
             Cmd::Flash => flash(),
             Cmd::Ecu { args } => ecu::ecu(&args),
             Cmd::Interop => interop::interop(),
+            Cmd::Drive { scene } => drive(&scene),
             Cmd::Report {
                 log,
                 scene,
@@ -311,6 +323,22 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// The scene `cargo xtask drive` drives when none is named.
+const DRIVE_SCENE: &str = "scenes/paper-crane.toml";
+
+/// `cargo xtask drive [SCENE]`: builds the keyboard view (the host's dev profile,
+/// optimised) and runs it in this terminal.
+fn drive(scene: &std::path::Path) -> Result<(), String> {
+    run(cargo().args(["build", "--quiet", "-p", "drive-view", "--bin", "drive"]))?;
+    // As given (from where xtask was called), else from the repository's root.
+    let path = if scene.exists() {
+        scene.to_path_buf()
+    } else {
+        firmware::root().join(scene)
+    };
+    run(Command::new(ecu::target_dir().join("debug").join("drive")).arg(path))
 }
 
 /// Runs a command, inheriting stdio; an error names it when it fails.
@@ -571,6 +599,8 @@ mod tests {
             &["ecu"],
             &["ecu", "--port", "0", "--role", "slave", "--seconds", "5"],
             &["interop"],
+            &["drive"],
+            &["drive", "scenes/crane3d/crane3d.toml"],
             &["report", "a.log"],
             &[
                 "report",

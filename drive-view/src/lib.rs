@@ -1,0 +1,20 @@
+//! `cargo xtask drive [SCENE]`: manual mode (issue 28) felt from the keyboard. The real
+//! controller runs on the virtual bus with a crane that is not the model, in real time;
+//! the keyboard is the operator's master switch; a terminal view draws the crane, the
+//! load's swing, the levers, the controller's mode and the drives' set points.
+//!
+//! * [`engine`] — the controller, the virtual bus and the plant stepped one cycle at a
+//!   time, fed the switch, giving a snapshot to draw (no terminal: unit-tested);
+//! * [`crane`] — what the view needs of the planar and the 3D crane (their generator,
+//!   their inverse model on the operator's path, what their plant shows);
+//! * [`switch`] — the master switch with notched levers the keys move;
+//! * [`tui`] — the keys' meaning and the drawing (ratatui).
+//!
+//! Its own crate rather than a module of `host-tests`: the terminal crates (ratatui,
+//! crossterm, and the pseudo-terminal its test drives) are then built only for it, not
+//! for every host test and for xtask, which depend on `host-tests`.
+
+pub mod crane;
+pub mod engine;
+pub mod switch;
+pub mod tui;
