@@ -9,6 +9,11 @@ use std::path::Path;
 
 use controller::canopen::CONTROLLER_NODE;
 use controller::commands::{request_frame, Request, STATUS_ID};
+
+/// The controller's EMCY (0x080 + its node).
+const EMCY_ID: u16 = controller::canopen::cob::EMCY + CONTROLLER_NODE as u16;
+/// A refused request for manual mode's error code, as the EMCY's first two bytes.
+const MANUAL_REFUSED: [u8; 2] = controller::canopen::emcy::MANUAL_REFUSED.to_le_bytes();
 use controller::crane::command_plan;
 use controller::operator::operator_frame;
 use controller::operator::path::Steered;
@@ -82,6 +87,10 @@ pub struct Snapshot {
     /// The last status frame (0x190) the controller sent: byte 3 is the mode (5 =
     /// manual), byte 4 the fault, byte 5 the frames ignored (docs/COMMANDS.md).
     pub status: Option<[u8; 8]>,
+    /// Why the controller refused the operator's request for manual mode (EMCY 0xFF21's
+    /// reason: 1 the scene follows plans only, 2 not ready, 3 the generator refused),
+    /// until manual mode runs or is no longer asked for.
+    pub refused: Option<u8>,
     /// The drives' velocity set points, m/s, in the slots `[x, y, hoist]` (the planar
     /// crane's y: 0).
     pub setpoints: [f64; 3],
@@ -123,6 +132,8 @@ trait Running {
 struct Cycled {
     mode: Mode,
     status: Option<[u8; 8]>,
+    /// The reason of a refused request for manual mode (EMCY 0xFF21) sent this cycle.
+    refused: Option<u8>,
     setpoints: [f64; 3],
     plant: PlantState,
 }
@@ -151,6 +162,11 @@ where
             .rev()
             .find(|f| f.id() == STATUS_ID)
             .and_then(|f| f.data().try_into().ok());
+        let refused = out
+            .frames
+            .iter()
+            .filter(|f| f.id() == EMCY_ID && f.data().get(..2) == Some(&MANUAL_REFUSED[..]))
+            .find_map(|f| f.data().get(5).copied());
         let plant = self
             .bus
             .plant()
@@ -159,6 +175,7 @@ where
         Ok(Cycled {
             mode: out.mode,
             status,
+            refused,
             setpoints: slots(out.setpoints.map(metres_per_second)),
             plant,
         })
@@ -248,6 +265,8 @@ pub struct Engine {
     pending: Vec<CanFrame>,
     stop_id: u8,
     status: Option<[u8; 8]>,
+    /// The controller's last refusal of manual mode, until it runs or is no longer asked.
+    refused: Option<u8>,
     last_load: Option<[f64; 3]>,
 }
 
@@ -288,6 +307,7 @@ impl Engine {
             pending: Vec::new(),
             stop_id: 0,
             status: None,
+            refused: None,
             last_load: None,
         })
     }
@@ -334,6 +354,15 @@ impl Engine {
         if out.status.is_some() {
             self.status = out.status;
         }
+        let manual = self
+            .status
+            .is_some_and(|s| s[3] == controller::operator::MANUAL_MODE_CODE);
+        if manual || !switch.manual {
+            self.refused = None;
+        }
+        if out.refused.is_some() {
+            self.refused = out.refused;
+        }
         let h = f64::from(self.period_ms) / 1000.0;
         let load = out.plant.load;
         let load_velocity = match self.last_load.replace(load) {
@@ -344,6 +373,7 @@ impl Engine {
             t: f64::from(now) / 1000.0,
             mode: out.mode,
             status: self.status,
+            refused: self.refused,
             setpoints: out.setpoints,
             plant: out.plant,
             load_velocity,

@@ -57,9 +57,9 @@ pub fn mode_name(code: u8) -> &'static str {
     }
 }
 
-/// Why manual mode does not run although the switch asks for it, as far as the status
-/// frame and the switch tell (the controller reports no reason code for a refused entry
-/// yet: issue 28 lists it); `None` when it runs or is not asked for.
+/// Why manual mode does not run although the switch asks for it: the controller's own
+/// reason when it refused (EMCY 0xFF21), else what the status frame and the switch tell;
+/// `None` when it runs or is not asked for.
 #[must_use]
 pub fn why_not_manual(snapshot: &Snapshot, switch: &MasterSwitch) -> Option<String> {
     if !switch.manual || snapshot.manual() {
@@ -69,6 +69,14 @@ pub fn why_not_manual(snapshot: &Snapshot, switch: &MasterSwitch) -> Option<Stri
         return Some("no status frame yet".into());
     };
     let [_, _, _, mode, fault, ..] = status;
+    if let Some(reason) = snapshot.refused {
+        return Some(match reason {
+            1 => "refused: this scene follows plans only".into(),
+            2 => format!("refused: not ready ({}, fault {fault})", mode_name(mode)),
+            3 => "refused: the generator cannot take the load from here".into(),
+            r => format!("refused (reason {r})"),
+        });
+    }
     Some(match mode {
         0 => "the drives are still being enabled".into(),
         2..=4 => format!(
@@ -76,7 +84,7 @@ pub fn why_not_manual(snapshot: &Snapshot, switch: &MasterSwitch) -> Option<Stri
             mode_name(mode)
         ),
         _ if !switch.enable => "the dead-man is not held (d)".into(),
-        _ => "entered only at rest with a live operator: wait".into(),
+        _ => "waits for the automatic move's rest (a lever deflected takes it over)".into(),
     })
 }
 
@@ -386,13 +394,14 @@ mod tests {
     }
 
     #[test]
-    fn why_manual_mode_does_not_run_is_read_from_the_status_frame_and_the_switch() {
+    fn why_manual_mode_does_not_run_is_read_from_the_emcy_the_status_frame_and_the_switch() {
         use crate::crane::PlantState;
         use controller::Mode;
         let snap = |status: Option<[u8; 8]>| Snapshot {
             t: 0.0,
             mode: Mode::Ready,
             status,
+            refused: None,
             setpoints: [0.0; 3],
             plant: PlantState {
                 drives: [0.0; 3],
@@ -417,7 +426,15 @@ mod tests {
             why(Some([0, 0, 0, 4, 7, 0, 0, 0]), &switch),
             "the controller is not ready: Halted (fault 7)"
         );
-        assert!(why(ready, &switch).starts_with("entered only at rest"));
+        assert!(why(ready, &switch).starts_with("waits for the automatic move's rest"));
+        let refused = Snapshot {
+            refused: Some(1),
+            ..snap(ready)
+        };
+        assert_eq!(
+            why_not_manual(&refused, &switch).unwrap(),
+            "refused: this scene follows plans only"
+        );
         switch.apply(Action::ToggleEnable);
         assert_eq!(why(ready, &switch), "the dead-man is not held (d)");
     }

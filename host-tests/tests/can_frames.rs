@@ -305,7 +305,10 @@ fn a_refused_manual_mode_decodes_with_its_reason() {
             emcy::REGISTER_MANUFACTURER,
             [emcy::MANUAL_REFUSED_BYTE, 0, refusal.code(), 0, 0],
         );
-        assert_eq!(label(&frame, "error_code").as_deref(), Some("ManualRefused"));
+        assert_eq!(
+            label(&frame, "error_code").as_deref(),
+            Some("ManualRefused")
+        );
         assert_eq!(label(&frame, "fault").as_deref(), Some("ManualRefused"));
         let e = decode(&frame);
         assert_eq!(
