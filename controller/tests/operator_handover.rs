@@ -309,3 +309,73 @@ fn a_stop_request_holds_until_rest_whatever_the_stick_does() {
         "at rest, centred twice: live"
     );
 }
+
+/// A watched supervisor (0x1016:1: node 0x20, 300 ms) that falls silent in manual mode
+/// (stop 41's note: this path had no test of its own): while the stick moves the load it
+/// is the fault it is in automatic, a controlled stop announced as fault 14 (0x8130), the
+/// set points within the drives' limits down to rest; with manual mode parked at rest it
+/// is no fault, as manual mode counts as motion only while its generator moves.
+#[test]
+fn a_silent_supervisor_stops_manual_travel_and_leaves_a_parked_crane_alone() {
+    use controller::canopen::{self, NmtState};
+    use controller::Fault;
+    let watch = |rig: &mut Manual| {
+        // 0x1016:1 = 300 ms for node 0x20, by an SDO expedited download.
+        let write =
+            controller::CanFrame::new(0x610, &[0x23, 0x16, 0x10, 1, 0x2C, 0x01, 0x20, 0]).unwrap();
+        rig.c.on_frame(&write, rig.now.into());
+    };
+    let beat = |rig: &mut Manual| {
+        let frame = canopen::heartbeat(0x20, NmtState::Operational);
+        rig.c.on_frame(&frame, rig.now.into());
+    };
+    for travelling in [true, false] {
+        let mut rig = Manual::new();
+        watch(&mut rig);
+        let mut cycles = Vec::new();
+        for n in 0..300 {
+            if n % 10 == 0 {
+                beat(&mut rig);
+            }
+            let push = if travelling && n >= 30 { FULL_SCALE } else { 0 };
+            cycles.extend(rig.hold(1, HELD, [push, 0, 0]));
+        }
+        assert!(cycles.iter().all(|c| c.mode == Mode::Ready));
+        assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE);
+        let mut last = [
+            cycles.last().unwrap().setpoints[0].units(),
+            cycles.last().unwrap().setpoints[1].units(),
+        ];
+        let push = if travelling { FULL_SCALE } else { 0 };
+        let silent = rig.hold(100, HELD, [push, 0, 0]);
+        let fault = silent.iter().map(|c| c.mode).find(|m| *m != Mode::Ready);
+        if travelling {
+            assert_eq!(fault, Some(Mode::Stopping(Fault::SupervisorLost)));
+            let emcy: Vec<_> = silent
+                .iter()
+                .flat_map(|c| c.frames.iter())
+                .filter(|f| f.id() == 0x090)
+                .collect();
+            assert_eq!(emcy.len(), 1);
+            assert_eq!(
+                emcy[0].data()[..4],
+                [0x30, 0x81, 0x11, 14],
+                "0x8130, fault 14"
+            );
+            let mut halt = silent.clone();
+            for _ in 0..300 {
+                let out = rig.cycle();
+                let halted = matches!(out.mode, Mode::Halted(_));
+                halt.push(out);
+                if halted {
+                    break;
+                }
+            }
+            assert!(matches!(halt.last().unwrap().mode, Mode::Halted(_)));
+            assert_within_limits(&halt, &mut last);
+        } else {
+            assert_eq!(fault, None, "parked: no fault");
+            assert!(silent.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]));
+        }
+    }
+}
