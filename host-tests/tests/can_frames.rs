@@ -297,7 +297,7 @@ fn every_fault_code_is_in_the_dbc_fault_range() {
 #[test]
 fn a_refused_manual_mode_decodes_with_its_reason() {
     use controller::operator::Refusal;
-    assert!(emcy::MANUAL_REFUSED_BYTE > Fault::MAX_CODE);
+    const { assert!(emcy::MANUAL_REFUSED_BYTE > Fault::MAX_CODE) };
     for refusal in [Refusal::Unsupported, Refusal::NotReady, Refusal::Generator] {
         let frame = canopen::emcy(
             CONTROLLER_NODE,
