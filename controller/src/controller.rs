@@ -733,7 +733,13 @@ where
             path.resume();
         }
         let ([x, y], z) = stick.unwrap_or(([0.0; 2], 0.0));
-        let _ = path.advance([x, y], z);
+        // The state feedback no longer reads the angle (EMCY 0xFF20 said so): manual
+        // mode goes on on feedforward, the travel speed capped.
+        let cap = match self.feedback_announced.and_then(|m| m.degraded()) {
+            Some(_) if C::ENABLED => operator::UNOBSERVED_SPEED_SHARE,
+            _ => 1.0,
+        };
+        let _ = path.advance([x * cap, y * cap], z);
     }
 
     /// Manual mode entered for a live operator who asks for it, if it can be now: at

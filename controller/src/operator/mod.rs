@@ -17,6 +17,13 @@ pub mod path;
 /// next cycle): the bound.
 pub const DEADLINE_MS: u32 = 90;
 
+/// The share of the stick's travel speed left while the state feedback does not read the
+/// swing (a lost, frozen or implausible inclinometer: EMCY 0xFF20): the load's residual
+/// swing on a crane that is not its model grows with its speed, and nothing corrects it
+/// any more, so manual mode goes on at half the speed. The hoist is not capped (it makes
+/// no swing).
+pub const UNOBSERVED_SPEED_SHARE: f64 = 0.5;
+
 /// The status frame's mode byte while manual mode runs (the controller is *ready*,
 /// the operator's generator drives the model): additive to 0–4.
 pub const MANUAL_MODE_CODE: u8 = 5;
