@@ -11,6 +11,7 @@ use controller::operator::{operator_frame, Flags, OperatorFrame, FULL_SCALE, MAN
 use controller::setpoint::Setpoint;
 use controller::{CanFrame, Mode, Replan};
 use sim::HEALTHY;
+use solver_core::models::crane::CraneParams;
 
 fn stick(counter: u8, demand: [i16; 3]) -> CanFrame {
     operator_frame(
@@ -569,4 +570,60 @@ fn the_planar_crane_aborts_a_y_demand_written_over_sdo() {
     assert_eq!(rig.c.counters().frames_ignored, ignored, "not taken");
     assert_eq!(sdo_write(&mut rig, 0x2010, 4, &0i16.to_le_bytes()), 0);
     assert_eq!(sdo_write(&mut rig, 0x2010, 1, &[2]), 0, "without y");
+}
+
+/// A stick held into the workspace's end (issue 28, "Limits"): full stick towards the
+/// trolley's end x = 23 m brings the load to a sway-free rest short of it, every set point
+/// within the drives' limits and no fault (the gate never refuses one), exactly zero once
+/// at rest although the stick is still held; the stick pulled the other way moves the
+/// load away at once (no interlock: nothing stopped it but the limit).
+#[test]
+fn a_stick_held_into_a_limit_rests_at_it_and_drives_away() {
+    let mut rig = Manual::new();
+    rig.hold(9, HELD, [0; 3]);
+    let mut cycles = Vec::new();
+    let mut rested = None;
+    for _ in 0..800 {
+        cycles.extend(rig.hold(3, HELD, [FULL_SCALE, 0, 0]));
+        let quiet = cycles.len() > 300
+            && cycles
+                .iter()
+                .rev()
+                .take(100)
+                .all(|c| c.setpoints == [Setpoint::ZERO; 2]);
+        if quiet {
+            rested = Some(rig.load());
+            break;
+        }
+    }
+    let [x, _] = rested.expect("at rest at the end with the stick held");
+    let x_max = CraneParams::PAPER.workspace.x_max;
+    println!("rested at x = {x:.4} m, the end at {x_max} m");
+    assert!(x <= x_max, "inside the workspace");
+    assert!(x_max - x < 0.5, "at the end, not short of it: {x}");
+    let mut last = [0; 2];
+    assert_within_limits(&cycles, &mut last);
+    assert!(cycles.iter().all(|c| c.mode == Mode::Ready), "no fault");
+    let away = rig.hold(60, HELD, [-FULL_SCALE, 0, 0]);
+    assert!(
+        away.iter().any(|c| c.setpoints[0].units() < 0),
+        "the stick drives away"
+    );
+}
+
+/// The changed set point in the next cycle after the frame (issue 28, "Proof"): from
+/// rest in manual mode, the cycle that reads the first deflected frame already sends a
+/// trolley set point other than zero.
+#[test]
+fn a_deflection_changes_the_set_point_in_the_next_cycle() {
+    let mut rig = Manual::new();
+    let centred = rig.hold(30, HELD, [0; 3]);
+    assert!(centred.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]));
+    rig.send(HELD, [FULL_SCALE, 0, 0]);
+    let next = rig.cycle();
+    assert!(
+        next.setpoints[0].units() > 0,
+        "{:?}",
+        next.setpoints[0].units()
+    );
 }
