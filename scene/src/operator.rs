@@ -161,6 +161,22 @@ impl OperatorSpec {
     }
 }
 
+/// The refusal of `[operator]` for a formulation of `crane` other than its *subs*
+/// (`kind`): only *subs* has the controller's reference on the generator's path.
+pub(crate) fn only_subs(crane: &str, kind: &str, model: impl core::fmt::Debug) -> SceneError {
+    refuse(
+        "operator",
+        format!("manual mode runs on the {crane}'s *subs* (kind = \"{kind}\"); this scene's model is {model:?}"),
+    )
+}
+
+/// What building a manual-mode model of a formulation without it gives
+/// (`FirmwareCrane::steered_inverse_model`; the scene check refuses it first).
+pub(crate) const NOT_STEERED: Error = Error::InvalidSetting {
+    name: "operator (manual mode on a formulation without it)",
+    value: f64::NAN,
+};
+
 /// The key of `[operator]` (or the scene's field) a generator's settings error comes
 /// from (`Settings::validate`'s names).
 fn field_of(e: Error) -> SceneError {

@@ -10,7 +10,8 @@ use solver_core::{Error, SolverSettings};
 
 use super::{crane_models, integrators, visit, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
 use crate::feedback::FeedbackSpec;
-use crate::{refuse, ModelSpec, OperatorSpec, SceneError};
+use crate::operator::{only_subs, NOT_STEERED};
+use crate::{ModelSpec, OperatorSpec, SceneError};
 
 crane_models! {
     /// The planar crane's formulations the firmware can drive.
@@ -71,12 +72,7 @@ impl FirmwareCrane<2> for CraneParams {
         h: f64,
     ) -> Result<Settings<1>, SceneError> {
         if model != PlanarModel::Subs {
-            return Err(refuse(
-                "operator",
-                format!(
-                    "manual mode runs on the planar crane's *subs* (kind = \"crane-subs\"); this scene's model is {model:?}"
-                ),
-            ));
+            return Err(only_subs("planar crane", "crane-subs", model));
         }
         let w = crane.workspace;
         spec.settings(
@@ -100,10 +96,7 @@ impl FirmwareCrane<2> for CraneParams {
     ) -> Result<V::Output, Error> {
         type P = Steered<PlanarGenerator, 2>;
         if model != PlanarModel::Subs {
-            return Err(Error::InvalidSetting {
-                name: "operator (manual mode on a formulation without it)",
-                value: f64::NAN,
-            });
+            return Err(NOT_STEERED);
         }
         Ok(integrators!(
             Structured,

@@ -13,7 +13,8 @@ use solver_core::{Error, SolverSettings};
 
 use super::{crane_models, integrators, visit, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
 use crate::feedback::FeedbackSpec;
-use crate::{refuse, ModelSpec, OperatorSpec, SceneError};
+use crate::operator::{only_subs, NOT_STEERED};
+use crate::{ModelSpec, OperatorSpec, SceneError};
 
 crane_models! {
     /// The 3D crane's formulations the firmware can drive.
@@ -88,12 +89,7 @@ impl FirmwareCrane<3> for Crane3dParams {
         h: f64,
     ) -> Result<Settings<2>, SceneError> {
         if model != SpatialModel::Subs {
-            return Err(refuse(
-                "operator",
-                format!(
-                    "manual mode runs on the 3D crane's *subs* (kind = \"crane3d-subs\"); this scene's model is {model:?}"
-                ),
-            ));
+            return Err(only_subs("3D crane", "crane3d-subs", model));
         }
         let w = crane.workspace;
         spec.settings(
@@ -117,10 +113,7 @@ impl FirmwareCrane<3> for Crane3dParams {
     ) -> Result<V::Output, Error> {
         type P = Steered<Generator3d, 3>;
         if model != SpatialModel::Subs {
-            return Err(Error::InvalidSetting {
-                name: "operator (manual mode on a formulation without it)",
-                value: f64::NAN,
-            });
+            return Err(NOT_STEERED);
         }
         Ok(integrators!(
             Structured,
