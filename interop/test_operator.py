@@ -132,6 +132,13 @@ def wait_manual(rig, mode, timeout=3.0):
     )
 
 
+def centred():
+    """The stick held centred for 0.2 s after the entry (several frames): the
+    zero-position interlock lifts after two centred frames in manual mode, and a stick
+    deflected before that is held (docs/COMMANDS.md) — as a PLC must do it."""
+    time.sleep(0.2)
+
+
 def rest_without_swing(rig, swing_keys=("amplitude_deg",), timeout=15.0):
     """The drives at standstill, then the load as load.py / load3d.py has it: swinging
     less than 0.1° (every key of `swing_keys`)."""
@@ -222,6 +229,7 @@ def test_the_planar_crane_follows_the_stick_over_rpdo3_and_rests_sway_free(rigs)
     start = rig.load()
     op = Operator(rig)
     wait_manual(rig, MANUAL)
+    centred()
     op.set(demand_x=1.0)
     time.sleep(3.0)
     op.set(demand_x=0.0)
@@ -260,6 +268,7 @@ def test_the_sdo_path_drives_the_planar_crane_as_the_frame_does(rigs):
     start = rig.load()
     op = SdoOperator(rig)
     wait_manual(rig, MANUAL)
+    centred()
     op.set(3, struct.pack("<h", FULL_SCALE // 2))
     time.sleep(3.0)
     op.set(3, struct.pack("<h", 0))
@@ -286,6 +295,7 @@ def test_the_3d_crane_follows_a_diagonal_stick_straight_and_a_dead_man_drop_stop
     start = rig.load()
     op = Operator(rig)
     wait_manual(rig, MANUAL)
+    centred()
     op.set(demand_x=1.0, demand_y=1.0)
     path = []
     end_time = time.time() + 2.5
