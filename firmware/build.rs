@@ -104,7 +104,7 @@ fn crane_module<K: FirmwareCrane<A>, const A: usize>(
     // The model, the scheme and the Newton strategy are types, so the firmware links
     // only the ones its scene names (`scene::dispatch::FirmwareScheme`, which the host's
     // run of the firmware builds too).
-    let types = setup.scheme.rust();
+    let types = setup.rust();
     let s = &scene.solver;
     let transformed = s.newton == scene::NewtonSpec::Transformed;
     let jacobian_label = match (s.jacobian, s.reinit_every) {
@@ -200,6 +200,16 @@ fn crane_module<K: FirmwareCrane<A>, const A: usize>(
         c,
         "/// The planner of moves on command: this crane, its drives' set-point limits (the\n/// commissioning file's; the set-point gate enforces them too).\npub const PLANNER: controller::planner::Planner<Crane, AXES> = controller::planner::Planner::with_axes(PARAMS, [{limits}]);"
     );
+    // Manual mode's generator is linked only when the scene has `[operator]`.
+    if let Some(operator) = &setup.operator {
+        let _ = writeln!(
+            c,
+            "/// Manual mode (the scene's `[operator]`): the path the model follows, the plan or\n/// the operator's generator.\npub type Steered = {};\n/// The generator's settings.\npub const OPERATOR: {} = {};",
+            K::STEERED_TYPE,
+            K::OPERATOR_TYPE,
+            K::operator_source(operator)
+        );
+    }
     let _ = writeln!(
         c,
         "/// Solver settings.\npub const SETTINGS: solver_core::SolverSettings = {};",
@@ -229,7 +239,12 @@ fn crane_module<K: FirmwareCrane<A>, const A: usize>(
         if stub {
             "Ok(Stub { plan, t: 0.0 })".to_string()
         } else {
-            format!("let model = Model::new(PARAMS, plan)?;\n    let integrator = {}?;\n    Ok(controller::InverseModel::new(model, integrator))", types.new)
+            let path = if setup.operator.is_some() {
+                "Steered::new(plan, OPERATOR)"
+            } else {
+                "plan"
+            };
+            format!("let model = Model::new(PARAMS, {path})?;\n    let integrator = {}?;\n    Ok(controller::InverseModel::new(model, integrator))", types.new)
         }
     );
     Ok(c)

@@ -79,6 +79,7 @@ impl Scene {
                 "longer than the whole run (trajectory.t_end)",
             ));
         }
-        dispatch::model::<f64, _>(self, Built)
+        dispatch::model::<f64, _>(self, Built)?;
+        crate::operator::check(self)
     }
 }

@@ -307,9 +307,16 @@ impl FirmwareScheme {
     /// firmware's build script writes.
     #[must_use]
     pub fn rust(self) -> FirmwareTypes {
+        self.rust_on(&format!("solver_core::plan::Plan<f64, {}>", self.crane().1))
+    }
+
+    /// [`FirmwareScheme::rust`] with the model following `plan`, a path type's Rust (the
+    /// firmware's `Plan`, or with manual mode the crane's `Steered`,
+    /// `FirmwareCrane::STEERED_TYPE`).
+    #[must_use]
+    pub fn rust_on(self, plan: &str) -> FirmwareTypes {
         let (module, model) = self.model.path();
         let (alias, k) = self.integrator.alias();
-        let plan = format!("solver_core::plan::Plan<f64, {}>", self.crane().1);
         let path = format!("solver_core::models::{module}");
         FirmwareTypes {
             model: format!("{path}::{model}<f64, {plan}>"),
@@ -379,6 +386,9 @@ pub struct FirmwareScene<K: FirmwareCrane<A>, const A: usize> {
     pub feedback: Option<controller::feedback::Config>,
     /// The integrator the firmware links.
     pub scheme: FirmwareScheme,
+    /// Manual mode's generator settings, if the scene has `[operator]`: the model then
+    /// follows the plan or the generator (`FirmwareCrane::STEERED_TYPE`).
+    pub operator: Option<K::Operator>,
 }
 
 impl<K: FirmwareCrane<A>, const A: usize> FirmwareScene<K, A> {
@@ -400,8 +410,33 @@ impl<K: FirmwareCrane<A>, const A: usize> FirmwareScene<K, A> {
         settings: &SolverSettings,
         visitor: V,
     ) -> Result<V::Output, Error> {
-        self.params
-            .inverse_model(self.model, self.scheme.integrator, plan, settings, visitor)
+        match self.operator {
+            Some(operator) => self.params.steered_inverse_model(
+                self.model,
+                self.scheme.integrator,
+                plan,
+                operator,
+                settings,
+                visitor,
+            ),
+            None => self.params.inverse_model(
+                self.model,
+                self.scheme.integrator,
+                plan,
+                settings,
+                visitor,
+            ),
+        }
+    }
+
+    /// The Rust the firmware's build script writes for the scene's model and
+    /// integrator: on the plan, or with manual mode on the crane's `Steered`.
+    #[must_use]
+    pub fn rust(&self) -> FirmwareTypes {
+        match self.operator {
+            Some(_) => self.scheme.rust_on(K::STEERED_TYPE),
+            None => self.scheme.rust(),
+        }
     }
 }
 
@@ -475,6 +510,12 @@ pub fn firmware_scene<K: FirmwareCrane<A>, const A: usize>(
     } else {
         config
     };
+    let operator = scene
+        .operator
+        .as_ref()
+        .map(|o| K::operator_settings(o, &params, model, scene.solver.h))
+        .transpose()
+        .map_err(|e| e.to_string())?;
     let ready = commissioning_time(&config);
     if scene.trajectory.t_start < ready {
         return Err(format!(
@@ -492,6 +533,7 @@ pub fn firmware_scene<K: FirmwareCrane<A>, const A: usize>(
         cycles: scene.steps() as u32,
         feedback,
         scheme,
+        operator,
     })
 }
 

@@ -40,6 +40,7 @@ pub mod cranes;
 pub mod dispatch;
 pub mod feedback;
 pub mod firmware;
+pub mod operator;
 
 use std::fmt;
 
@@ -101,6 +102,29 @@ pub struct Scene {
     /// loop (checked and designed in `feedback.rs`).
     #[serde(default)]
     pub feedback: Option<FeedbackSpec>,
+    /// Manual mode (issue 28): with the section the scene's model follows the plan or
+    /// the operator's generator (`controller::operator::path::Steered`) and a PLC's
+    /// 0x410 frames drive the crane; without it, plans only (checked and turned into
+    /// the generator's settings in `operator.rs`).
+    #[serde(default)]
+    pub operator: Option<OperatorSpec>,
+}
+
+/// `[operator]` as read: every key optional, its default the crane's lab setting
+/// (`solver_core::operator::Settings::lab` / `lab_3d`); the keys, units and checks are
+/// described in the `operator` module.
+#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+#[allow(missing_docs)]
+pub struct OperatorSpec {
+    pub speed: Option<Vec<f64>>,
+    pub acceleration: Option<Vec<f64>>,
+    pub boxes: Option<[f64; 2]>,
+    pub hoist_boxes: Option<[f64; 4]>,
+    pub robust: Option<bool>,
+    pub deadband: Option<f64>,
+    pub lowering_allowance: Option<f64>,
+    pub entry_blend: Option<f64>,
 }
 
 /// `[feedback]` as read: its fields, units and defaults are described in the

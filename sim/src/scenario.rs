@@ -8,6 +8,7 @@ use controller::commands::Request;
 use controller::controller::Mode;
 use controller::drive::Drive;
 use controller::frame::CanFrame;
+use controller::operator::{Flags, FULL_SCALE};
 
 use crate::plant::{Gust, Mismatch};
 
@@ -79,7 +80,27 @@ pub enum Action {
     /// controller's (a second master's RPDO moves a drive, a second SYNC producer's SYNC
     /// makes them apply their set points and answer), and the controller receives it.
     Foreign(RawFrame),
+    /// The operator's master switch (a PLC) sends this from now on: an operator frame
+    /// (RPDO3 0x410) every [`STICK_PERIOD_MS`], its alive counter changing every frame.
+    /// A switch that was silent sends at once; one that sends keeps its period.
+    Stick(Stick),
+    /// The master switch falls silent (a cut cable, a PLC stopped): the dead-man's case.
+    StickSilent,
 }
+
+/// What the operator's master switch sends: the flags and the demands along x, y and z
+/// (`controller::operator::OperatorFrame`; the alive counter is the bus's).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Stick {
+    /// Enable (the dead-man switch held), manual mode requested, micro-speed.
+    pub flags: Flags,
+    /// x, y, z in 1/[`FULL_SCALE`] of each axis's manual speed; z > 0 lowers the load.
+    pub demand: [i16; 3],
+}
+
+/// The master switch's frame period, ms: a PLC's cyclic 30 ms task, a third of the
+/// dead-man's 90 ms deadline (`controller::operator::DEADLINE_MS`).
+pub const STICK_PERIOD_MS: u32 = 30;
 
 /// What can go wrong with it (the inclinometer) in a scenario.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -372,6 +393,99 @@ pub const CREEP: Scenario = Scenario {
     plant: None,
 };
 
+/// The master switch held in manual mode with `demand`.
+const fn stick(demand: [i16; 3]) -> Action {
+    Action::Stick(Stick {
+        flags: Flags {
+            enable: true,
+            manual: true,
+            micro: false,
+        },
+        demand,
+    })
+}
+
+/// The master switch held, manual mode no longer requested, the stick centred.
+const AUTOMATIC: Action = Action::Stick(Stick {
+    flags: Flags {
+        enable: true,
+        manual: false,
+        micro: false,
+    },
+    demand: [0; 3],
+});
+
+/// Full stick, and half of it.
+const FULL: i16 = FULL_SCALE;
+const HALF: i16 = FULL_SCALE / 2;
+
+/// Manual mode on the planar crane after the scene's move (at rest at (20, 4) from 9 s):
+/// manual mode requested with the stick centred (entered at rest), full stick back along
+/// x for 3 s, released (the load rests within 5.5 s: the rate limiter's 2 s stop and
+/// the filters' window, 2.7 s at 4 m); again for 2 s, then reversed to full stick
+/// forward while the hoist lowers at half stick, released; the request withdrawn at
+/// rest (manual mode left), the switch held until the end.
+pub const MANUAL_PROFILE: Scenario = Scenario {
+    name: "manual-profile",
+    expect:
+        "ready (mode 1), manual mode left at rest; every set point 0.0 after each release's stop",
+    events: &[
+        at(10_000, stick([0, 0, 0])),
+        at(10_500, stick([-FULL, 0, 0])),
+        at(13_500, stick([0, 0, 0])),
+        at(19_000, stick([-FULL, 0, 0])),
+        at(21_000, stick([FULL, 0, HALF])),
+        at(24_000, stick([0, 0, 0])),
+        at(31_000, AUTOMATIC),
+    ],
+    cycles: 3_300,
+    random: None,
+    ends: Ending::Ready,
+    plant: None,
+};
+
+/// [`MANUAL_PROFILE`] on the 3D crane: the first full stick diagonal (bridge and trolley
+/// back, a straight load path), the reversal along the bridge with the hoist lowering.
+pub const MANUAL_PROFILE_3D: Scenario = Scenario {
+    name: "manual-profile-3d",
+    events: &[
+        at(10_000, stick([0, 0, 0])),
+        at(10_500, stick([-FULL, -FULL, 0])),
+        at(13_500, stick([0, 0, 0])),
+        at(19_000, stick([-FULL, 0, 0])),
+        at(21_000, stick([FULL, 0, HALF])),
+        at(24_000, stick([0, 0, 0])),
+        at(31_000, AUTOMATIC),
+    ],
+    ..MANUAL_PROFILE
+};
+
+/// The master switch falls silent mid-travel (full stick back along x for 2 s): the
+/// dead-man's loss 90 ms after the last frame, the sway-free stop, manual mode left at
+/// rest.
+pub const MANUAL_DEADMAN: Scenario = Scenario {
+    name: "manual-deadman",
+    expect:
+        "ready (mode 1): the dead-man's loss at 12.5 s, a sway-free stop, manual mode left at rest",
+    events: &[
+        at(10_000, stick([0, 0, 0])),
+        at(10_500, stick([-FULL, 0, 0])),
+        at(12_500, Action::StickSilent),
+    ],
+    cycles: 2_000,
+    random: None,
+    ends: Ending::Ready,
+    plant: None,
+};
+
+/// The scenarios of the planar crane's scene with manual mode
+/// (`scenes/paper-crane-manual.toml`).
+pub const MANUAL_SCENARIOS: [Scenario; 2] = [MANUAL_PROFILE, MANUAL_DEADMAN];
+
+/// The scenarios of the 3D crane's scene with manual mode
+/// (`scenes/crane3d/crane3d-manual.toml`).
+pub const MANUAL_3D_SCENARIOS: [Scenario; 2] = [MANUAL_PROFILE_3D, MANUAL_DEADMAN];
+
 /// Every scenario, by name.
 pub const SCENARIOS: [Scenario; 11] = [
     HEALTHY,
@@ -493,6 +607,8 @@ pub fn scenario(name: &str) -> Option<Scenario> {
         .into_iter()
         .chain(FEEDBACK_SCENARIOS)
         .chain(CRANE3D_SCENARIOS)
+        .chain(MANUAL_SCENARIOS)
+        .chain([MANUAL_PROFILE_3D])
         .chain([SOAK])
         .find(|s| s.name == name)
 }

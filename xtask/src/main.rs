@@ -94,6 +94,10 @@ enum Cmd {
         /// Rewrite the golden logs and baselines instead of comparing with them.
         #[arg(long)]
         overwrite_expected: bool,
+        /// Only the runs whose golden log's name (`<scene>` or `<scene>--<scenario>`)
+        /// contains this (while developing; CI runs them all).
+        #[arg(long)]
+        only: Option<String>,
     },
     /// Instructions per step, flash, RAM and stack against the targets.
     QemuBench,
@@ -255,7 +259,10 @@ fn main() -> ExitCode {
         refuse_scene(&cli.command, std::env::var("SCENE").ok()).and_then(|()| match cli.command {
             Cmd::Run => main_job(),
             Cmd::Test => test(),
-            Cmd::Qemu { overwrite_expected } => qemu_checks(overwrite_expected),
+            Cmd::Qemu {
+                overwrite_expected,
+                only,
+            } => qemu_checks(overwrite_expected, only.as_deref()),
             Cmd::QemuBench => qemu_bench(),
             Cmd::Cycles { scenes } => cycles_of(scenes),
             Cmd::Fig8 { out_dir } => fig8::fig8(&firmware::root().join(out_dir)),
@@ -418,21 +425,39 @@ fn decode_log(elf: &std::path::Path, log: &std::path::Path) -> Result<(), String
 /// Every scene on the healthy bus, then the default scene through every scenario of the
 /// virtual bus (docs/COMMANDS.md), the feedback scene through its scenarios on the plant,
 /// and the 3D crane's scene through its own.
-fn qemu_checks(overwrite: bool) -> Result<(), String> {
-    let scenes = qemu::SCENES.iter().map(|scene| qemu::measure(scene));
-    let scenarios = sim::SCENARIOS
-        .into_iter()
-        .filter(|s| s.name != sim::HEALTHY.name)
-        .map(|s| (qemu::SCENARIO_SCENE, s))
+fn qemu_checks(overwrite: bool, only: Option<&str>) -> Result<(), String> {
+    let runs = qemu::SCENES
+        .iter()
+        .map(|scene| (*scene, sim::HEALTHY))
+        .chain(
+            sim::SCENARIOS
+                .into_iter()
+                .filter(|s| s.name != sim::HEALTHY.name)
+                .map(|s| (qemu::SCENARIO_SCENE, s)),
+        )
         .chain(sim::FEEDBACK_SCENARIOS.map(|s| (qemu::FEEDBACK_SCENE, s)))
         .chain(sim::CRANE3D_SCENARIOS.map(|s| (qemu::CRANE3D_SCENE, s)))
         .chain(sim::CRANE3D_FEEDBACK_SCENARIOS.map(|s| (qemu::CRANE3D_FEEDBACK_SCENE, s)))
+        .chain(sim::MANUAL_SCENARIOS.map(|s| (qemu::MANUAL_SCENE, s)))
+        .chain(sim::MANUAL_3D_SCENARIOS.map(|s| (qemu::CRANE3D_MANUAL_SCENE, s)))
+        .filter(|(scene, scenario)| {
+            only.is_none_or(|o| qemu::stem(std::path::Path::new(scene), scenario).contains(o))
+        })
+        .collect::<Vec<_>>();
+    if runs.is_empty() {
+        return Err(format!(
+            "no QEMU run's name contains {:?}",
+            only.unwrap_or("")
+        ));
+    }
+    let measured = runs
+        .into_iter()
         .map(|(scene, scenario)| qemu::measure_scenario(scene, scenario));
     // Every run is checked, and every failed check reported: one differing golden log
     // does not hide what the others would say. A run that cannot be made (a build, QEMU)
     // ends the checks: the next would fail the same way.
     let mut failures = Vec::new();
-    for measured in scenes.chain(scenarios) {
+    for measured in measured {
         if let Err(e) = qemu::check(&measured?, overwrite) {
             failures.push(e);
         }
@@ -468,6 +493,9 @@ fn qemu_bench() -> Result<(), String> {
         .chain([
             qemu::measure_with_solver_flash(qemu::FEEDBACK_SCENE, sim::CLOSED_LOOP),
             qemu::measure_with_solver_flash(qemu::CRANE3D_FEEDBACK_SCENE, sim::CLOSED_LOOP),
+            // Manual mode's cost: its scenes with the operator's profile on the bus.
+            qemu::measure_with_solver_flash(qemu::MANUAL_SCENE, sim::MANUAL_PROFILE),
+            qemu::measure_with_solver_flash(qemu::CRANE3D_MANUAL_SCENE, sim::MANUAL_PROFILE_3D),
         ])
         .collect::<Result<Vec<_>, _>>()?;
     print!("{}", qemu::table(&runs));
@@ -533,7 +561,7 @@ fn test() -> Result<(), String> {
         &firmware::root().join(qemu::CRANE3D_SCENE),
     )?;
     firmware::links_only(&spatial, "crane3d", &["crane_subs", "crane_proj"])?;
-    qemu_checks(false)?;
+    qemu_checks(false, None)?;
     // The Cortex-M7 estimate on the default scene: its trace windows must match the
     // firmware's own instruction counts step by step.
     cycles::cycles(&[qemu::SCENES[0].to_string()])?;

@@ -63,6 +63,30 @@ pub fn feedforward_scenes() -> impl Iterator<Item = &'static str> {
 /// model and an inclinometer), measured by `qemu-bench` on the first of them.
 pub const FEEDBACK_SCENE: &str = "scenes/paper-crane-feedback.toml";
 
+/// The planar crane's scene with manual mode (`[operator]`): checked on its scenarios
+/// (`sim::MANUAL_SCENARIOS`, the virtual bus playing the operator's master switch),
+/// measured by `qemu-bench` on the first.
+pub const MANUAL_SCENE: &str = "scenes/paper-crane-manual.toml";
+
+/// The 3D crane's scene with manual mode: checked on `sim::MANUAL_3D_SCENARIOS`,
+/// measured by `qemu-bench` on the first.
+pub const CRANE3D_MANUAL_SCENE: &str = "scenes/crane3d/crane3d-manual.toml";
+
+/// `<scene>` for the healthy bus, `<scene>--<scenario>` otherwise: the name of a run's
+/// golden log and baseline (`--only` selects runs by it).
+#[must_use]
+pub fn stem(scene: &Path, scenario: &Scenario) -> String {
+    let scene = scene
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("scene");
+    if scenario.name == HEALTHY.name {
+        scene.to_string()
+    } else {
+        format!("{scene}--{}", scenario.name)
+    }
+}
+
 /// Wall-clock limit for one QEMU run: 10 minutes, and a minute more per 100,000 cycles.
 fn qemu_limit(scenario: &Scenario) -> Duration {
     Duration::from_secs(600 + u64::from(scenario.cycles) / 100_000 * 60)
@@ -182,16 +206,7 @@ impl Measured {
     /// `<scene>` for the healthy bus, `<scene>--<scenario>` otherwise: the name of the
     /// golden log and the baseline.
     pub fn stem(&self) -> String {
-        let scene = self
-            .path
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("scene");
-        if self.scenario.name == HEALTHY.name {
-            scene.to_string()
-        } else {
-            format!("{scene}--{}", self.scenario.name)
-        }
+        stem(&self.path, &self.scenario)
     }
 
     /// Cycles the run must log: the scenario's, or the scene's; a scenario that hangs

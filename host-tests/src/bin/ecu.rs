@@ -171,7 +171,7 @@ impl FirmwareCraneVisitor for Ecu<'_> {
         };
         println!("listening on 127.0.0.1:{port}");
         eprintln!(
-            "ecu: scene {} ({}), role {:?}, drives {}, {}, {}, for {} s",
+            "ecu: scene {} ({}), role {:?}, drives {}, {}{}, {}, for {} s",
             scene.name,
             cli.scene.display(),
             cli.role,
@@ -183,6 +183,11 @@ impl FirmwareCraneVisitor for Ecu<'_> {
                     format!("state feedback with the inclinometer at node {}", i.node)
                 }
                 _ => "feedforward only".into(),
+            },
+            if f.operator.is_some() {
+                ", manual mode (the operator's frames on 0x410, 0x2010)"
+            } else {
+                ""
             },
             if cli.demo {
                 "with the scene's move"

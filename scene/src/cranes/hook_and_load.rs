@@ -8,9 +8,12 @@
 use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback};
 use solver_core::models::double_pendulum_crane::DoublePendulumParams;
 
-use super::{crane_models, FirmwareCrane};
+use solver_core::plan::Plan;
+use solver_core::{Error, SolverSettings};
+
+use super::{crane_models, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
 use crate::feedback::FeedbackSpec;
-use crate::{refuse, ModelSpec, SceneError};
+use crate::{refuse, ModelSpec, OperatorSpec, SceneError};
 
 crane_models! {
     /// The hook-and-load crane's formulations the firmware can drive.
@@ -60,5 +63,40 @@ impl FirmwareCrane<2> for DoublePendulumParams {
     }
     fn feedback(&self, _config: FeedbackConfig) -> Result<NoFeedback, DesignError> {
         Ok(NoFeedback)
+    }
+    type Operator = ();
+    const OPERATOR_TYPE: &'static str = "()";
+    const STEERED_TYPE: &'static str = "";
+    /// No generator for it yet: its load path would need the sling's swing in the
+    /// generator's pendulum, and its model has no `CraneReference` on such a path.
+    fn operator_settings(
+        _spec: &OperatorSpec,
+        _crane: &Self,
+        model: HookAndLoadModel,
+        _h: f64,
+    ) -> Result<(), SceneError> {
+        Err(refuse(
+            "operator",
+            format!(
+                "the hook-and-load crane ({model:?}) has no manual mode yet; remove [operator]"
+            ),
+        ))
+    }
+    fn operator_source(_operator: &()) -> String {
+        String::new()
+    }
+    fn steered_inverse_model<V: FirmwareVisitor<Self, 2>>(
+        self,
+        _model: HookAndLoadModel,
+        _integrator: FirmwareIntegrator,
+        _plan: Plan<f64, 2>,
+        _operator: (),
+        _settings: &SolverSettings,
+        _visitor: V,
+    ) -> Result<V::Output, Error> {
+        Err(Error::InvalidSetting {
+            name: "operator (the hook-and-load crane has no manual mode)",
+            value: f64::NAN,
+        })
     }
 }

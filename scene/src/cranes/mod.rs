@@ -17,6 +17,7 @@ use core::fmt;
 use controller::correction::AxesCorrection;
 use controller::feedback::{Config as FeedbackConfig, DesignError};
 use controller::feedforward::{CraneReference, Feedforward, InverseModel, Replan};
+use controller::operator::path::Planned;
 use controller::planner::Crane;
 use sim::simulated::Simulated;
 use solver_core::plan::Plan;
@@ -24,7 +25,7 @@ use solver_core::trajectory::Trajectory;
 use solver_core::{DaeModel, Driven, Error, Integrator, SolverSettings};
 
 use crate::feedback::FeedbackSpec;
-use crate::{ModelSpec, SceneError};
+use crate::{ModelSpec, OperatorSpec, SceneError};
 
 pub mod hook_and_load;
 pub mod planar;
@@ -217,6 +218,40 @@ pub trait FirmwareCrane<const A: usize>: Crane<A> + Simulated<A> + Copy + fmt::D
     /// The state feedback of this crane for `config` ([`FirmwareCrane::feedback_config`]'s),
     /// or why its gains cannot be designed.
     fn feedback(&self, config: FeedbackConfig) -> Result<Self::Feedback, DesignError>;
+    /// Manual mode's generator settings for this crane
+    /// (`solver_core::operator::Settings` of its horizontal axes; `()` for a crane
+    /// without manual mode).
+    type Operator: Copy + fmt::Debug + PartialEq;
+    /// [`FirmwareCrane::Operator`]'s type, as the build script writes it.
+    const OPERATOR_TYPE: &'static str;
+    /// The path a model in manual mode follows, as the build script writes it: the plan
+    /// or the crane's generator (`controller::operator::path::Steered`).
+    const STEERED_TYPE: &'static str;
+    /// The scene's `[operator]` as the generator's settings for this crane's formulation
+    /// `model` at the cycle `h`; or why it cannot run manual mode (a formulation without
+    /// `CraneReference` on the generator's path, a key out of range).
+    fn operator_settings(
+        spec: &OperatorSpec,
+        crane: &Self,
+        model: Self::Model,
+        h: f64,
+    ) -> Result<Self::Operator, SceneError>;
+    /// [`FirmwareCrane::Operator`] as a Rust constant expression, as the build script
+    /// writes it.
+    fn operator_source(operator: &Self::Operator) -> String;
+    /// The firmware's inverse model with manual mode: formulation `model` on `plan` or,
+    /// in manual mode, the generator with `operator` ([`FirmwareCrane::STEERED_TYPE`]),
+    /// advanced by `integrator`, at rest at t = 0, handed to `visitor`. A formulation
+    /// [`FirmwareCrane::operator_settings`] refuses is refused here too.
+    fn steered_inverse_model<V: FirmwareVisitor<Self, A>>(
+        self,
+        model: Self::Model,
+        integrator: FirmwareIntegrator,
+        plan: Plan<f64, A>,
+        operator: Self::Operator,
+        settings: &SolverSettings,
+        visitor: V,
+    ) -> Result<V::Output, Error>;
     /// The firmware's inverse model: formulation `model` on `plan` advanced by
     /// `integrator`, at rest at t = 0, handed to `visitor` — the types
     /// `FirmwareScheme::rust` names.
@@ -507,9 +542,8 @@ pub(crate) fn visit<K, V, M, I, const N: usize, const A: usize>(
 where
     K: Crane<A>,
     V: FirmwareVisitor<K, A>,
-    M: CraneReference<Reference = K::Reference>
-        + DaeModel<f64, N, A>
-        + Driven<Trajectory = Plan<f64, A>>,
+    M: CraneReference<Reference = K::Reference> + DaeModel<f64, N, A> + Driven,
+    M::Trajectory: Planned<A>,
     I: Integrator<f64, M, N, A>,
 {
     visitor.visit(InverseModel::<M, I, f64, N>::new(model, integrator))

@@ -2,11 +2,16 @@
 //! drives it: its formulations and its [`FirmwareCrane`] registration.
 
 use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback, StateFeedback};
+use controller::operator::path::Steered;
 use solver_core::models::crane::CraneParams;
+use solver_core::operator::{PlanarGenerator, Settings};
+use solver_core::plan::Plan;
+use solver_core::{Error, SolverSettings};
 
-use super::{crane_models, FirmwareCrane};
+use super::{crane_models, integrators, visit, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
 use crate::feedback::FeedbackSpec;
-use crate::{ModelSpec, SceneError};
+use crate::operator::{only_subs, NOT_STEERED};
+use crate::{ModelSpec, OperatorSpec, SceneError};
 
 crane_models! {
     /// The planar crane's formulations the firmware can drive.
@@ -52,5 +57,56 @@ impl FirmwareCrane<2> for CraneParams {
     }
     fn feedback(&self, config: FeedbackConfig) -> Result<StateFeedback, DesignError> {
         StateFeedback::new(config)
+    }
+    type Operator = Settings<1>;
+    const OPERATOR_TYPE: &'static str = "solver_core::operator::Settings<1>";
+    const STEERED_TYPE: &'static str =
+        "controller::operator::path::Steered<solver_core::operator::PlanarGenerator, 2>";
+    /// Only *subs* has the controller's reference on the generator's path
+    /// (`controller::crane::planar`); the trolley's range is the workspace's, the hoist's
+    /// the depths the rope's range allows.
+    fn operator_settings(
+        spec: &OperatorSpec,
+        crane: &Self,
+        model: PlanarModel,
+        h: f64,
+    ) -> Result<Settings<1>, SceneError> {
+        if model != PlanarModel::Subs {
+            return Err(only_subs("planar crane", "crane-subs", model));
+        }
+        let w = crane.workspace;
+        spec.settings(
+            Settings::lab(crane),
+            h,
+            (w.l_min, w.l_max),
+            &["trolley", "hoist"],
+        )
+    }
+    fn operator_source(operator: &Settings<1>) -> String {
+        crate::operator::source(operator)
+    }
+    fn steered_inverse_model<V: FirmwareVisitor<Self, 2>>(
+        self,
+        model: PlanarModel,
+        integrator: FirmwareIntegrator,
+        plan: Plan<f64, 2>,
+        operator: Settings<1>,
+        settings: &SolverSettings,
+        visitor: V,
+    ) -> Result<V::Output, Error> {
+        type P = Steered<PlanarGenerator, 2>;
+        if model != PlanarModel::Subs {
+            return Err(NOT_STEERED);
+        }
+        Ok(integrators!(
+            Structured,
+            visit,
+            solver_core::models::crane_subs,
+            integrator,
+            solver_core::models::crane_subs::CraneSubs::new(self, P::new(plan, operator))?,
+            settings,
+            visitor,
+            P
+        ))
     }
 }

@@ -4,12 +4,17 @@
 
 use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback};
 use controller::feedback3d::SpatialFeedback;
+use controller::operator::path::Steered;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::Crane3dParams;
+use solver_core::operator::{Generator3d, Settings};
+use solver_core::plan::Plan;
+use solver_core::{Error, SolverSettings};
 
-use super::{crane_models, FirmwareCrane};
+use super::{crane_models, integrators, visit, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
 use crate::feedback::FeedbackSpec;
-use crate::{ModelSpec, SceneError};
+use crate::operator::{only_subs, NOT_STEERED};
+use crate::{ModelSpec, OperatorSpec, SceneError};
 
 crane_models! {
     /// The 3D crane's formulations the firmware can drive.
@@ -69,5 +74,56 @@ impl FirmwareCrane<3> for Crane3dParams {
     }
     fn feedback(&self, config: FeedbackConfig) -> Result<SpatialFeedback, DesignError> {
         SpatialFeedback::new(config, self.tau2)
+    }
+    type Operator = Settings<2>;
+    const OPERATOR_TYPE: &'static str = "solver_core::operator::Settings<2>";
+    const STEERED_TYPE: &'static str =
+        "controller::operator::path::Steered<solver_core::operator::Generator3d, 3>";
+    /// Only *subs* has the controller's reference on the generator's path
+    /// (`controller::crane::spatial`); bridge and trolley range over the workspace box,
+    /// the hoist over the depths the rope's range allows.
+    fn operator_settings(
+        spec: &OperatorSpec,
+        crane: &Self,
+        model: SpatialModel,
+        h: f64,
+    ) -> Result<Settings<2>, SceneError> {
+        if model != SpatialModel::Subs {
+            return Err(only_subs("3D crane", "crane3d-subs", model));
+        }
+        let w = crane.workspace;
+        spec.settings(
+            Settings::lab_3d(crane),
+            h,
+            (w.l_min, w.l_max),
+            &["bridge", "trolley", "hoist"],
+        )
+    }
+    fn operator_source(operator: &Settings<2>) -> String {
+        crate::operator::source(operator)
+    }
+    fn steered_inverse_model<V: FirmwareVisitor<Self, 3>>(
+        self,
+        model: SpatialModel,
+        integrator: FirmwareIntegrator,
+        plan: Plan<f64, 3>,
+        operator: Settings<2>,
+        settings: &SolverSettings,
+        visitor: V,
+    ) -> Result<V::Output, Error> {
+        type P = Steered<Generator3d, 3>;
+        if model != SpatialModel::Subs {
+            return Err(NOT_STEERED);
+        }
+        Ok(integrators!(
+            Structured,
+            visit,
+            solver_core::models::crane3d::subs,
+            integrator,
+            solver_core::models::crane3d::Crane3dSubs::new(self, P::new(plan, operator))?,
+            settings,
+            visitor,
+            P
+        ))
     }
 }

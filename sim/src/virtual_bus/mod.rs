@@ -16,7 +16,7 @@ pub use inclinometer::InclinometerSim;
 
 use heapless::{Deque, LinearMap};
 
-use crate::scenario::{Action, Quirk, Scenario};
+use crate::scenario::{Action, Quirk, Scenario, Stick, STICK_PERIOD_MS};
 #[cfg(feature = "plant")]
 use crate::simulated::CranePlant;
 use crate::simulated::Simulated;
@@ -24,7 +24,7 @@ use crate::traffic::Traffic;
 use controller::board::{self, CanPort};
 use controller::canopen::od::{self, device, Entry};
 use controller::canopen::sdo::{self, abort, Object, ObjectDictionary, Value};
-use controller::canopen::{self, cob, NmtCommand, NmtState};
+use controller::canopen::{self, cob, NmtCommand, NmtState, CONTROLLER_NODE};
 use controller::cia402::{controlword, pdo, DriveState};
 use controller::commands::request_frame;
 use controller::commissioning::OperationMode;
@@ -33,6 +33,7 @@ use controller::correction::AxesCorrection;
 use controller::drive::{self, Drive};
 use controller::feedforward::{Feedforward, Injectable, Replan};
 use controller::frame::CanFrame;
+use controller::operator::{operator_frame, OperatorFrame};
 use core::marker::PhantomData;
 use solver_core::models::crane::CraneParams;
 
@@ -483,6 +484,12 @@ pub struct VirtualBus<K: Simulated<A> = CraneParams, const A: usize = 2> {
     hangs: bool,
     bus_off_cycles: u8,
     noise: u32,
+    /// The operator's master switch: what it sends, while it sends.
+    stick: Option<Stick>,
+    /// Its last alive counter.
+    stick_counter: u8,
+    /// When it sends next, ms.
+    next_stick_ms: u32,
 }
 
 /// A frame the virtual bus refused (bus-off).
@@ -545,6 +552,9 @@ impl<K: Simulated<A>, const A: usize> VirtualBus<K, A> {
             hangs: true,
             bus_off_cycles: 0,
             noise: 0x9E37_79B9,
+            stick: None,
+            stick_counter: 0,
+            next_stick_ms: 0,
         }
     }
 
@@ -759,6 +769,19 @@ impl<K: Simulated<A>, const A: usize> VirtualBus<K, A> {
         while let Some(f) = self.injected.pop_front() {
             let _ = fresh.push_back(f);
         }
+        // The master switch's frame every `STICK_PERIOD_MS`, its alive counter changing.
+        if let Some(stick) = self.stick {
+            if up_to_ms >= self.next_stick_ms {
+                self.stick_counter = self.stick_counter.wrapping_add(1);
+                let frame = OperatorFrame {
+                    counter: self.stick_counter,
+                    flags: stick.flags,
+                    demand: stick.demand,
+                };
+                let _ = fresh.push_back(operator_frame(CONTROLLER_NODE, &frame));
+                self.next_stick_ms = up_to_ms.saturating_add(STICK_PERIOD_MS);
+            }
+        }
         if let Some(mut traffic) = self.traffic.take() {
             traffic.cycle(up_to_ms, |a| self.apply(a, &mut fresh));
             self.traffic = Some(traffic);
@@ -852,6 +875,15 @@ impl<K: Simulated<A>, const A: usize> VirtualBus<K, A> {
             }
             #[cfg(not(feature = "plant"))]
             Action::Sensor(_) => {}
+            Action::Stick(stick) => {
+                // A master switch that was silent sends at once; one that sends keeps
+                // its period.
+                if self.stick.is_none() {
+                    self.next_stick_ms = 0;
+                }
+                self.stick = Some(stick);
+            }
+            Action::StickSilent => self.stick = None,
             Action::Foreign(raw) => {
                 let frame = raw.frame();
                 self.on_bus(&frame);
