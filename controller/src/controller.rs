@@ -750,19 +750,26 @@ where
     /// `None`: not now, manual mode waits (the move, or the hand-over's stop, runs).
     ///
     /// (`Generator::take_over` continues a moving load's state, but tried here in motion
-    /// its blend put the trolley's set points past their acceleration limit — by up to
-    /// 3 % at 10 % into a 6 s move — so the generator starts from the stop's rest.)
+    /// its blend put the drives past their limits — up to 2.6 times the trolley's
+    /// acceleration limit at 20 % into a 6 s move (`cargo run --release -p host-tests
+    /// --example takeover_limits`) — so the generator starts from the stop's rest.)
     fn enter_manual(&mut self, frame: Option<OperatorFrame>) -> Option<Result<(), Refusal>> {
+        // A model that follows plans only: the stick neither enters nor takes anything
+        // over (its frames cannot stop a move).
+        if self.feedforward.path().stick_deadband().is_none() {
+            return Some(Err(Refusal::Unsupported));
+        }
         if !self.may_move() {
             self.handing_over = false;
             return Some(Err(Refusal::NotReady));
         }
         if !self.moving() {
             let t = self.feedforward.time();
+            // A hand-over's stick is live: the operator deflected it to take over.
+            let handed_over = core::mem::take(&mut self.handing_over);
             let entered = self.feedforward.path_mut().enter_manual(t);
             if entered.is_ok() {
-                // A hand-over's stick is live: the operator deflected it to take over.
-                if !core::mem::take(&mut self.handing_over) {
+                if !handed_over {
                     self.deadman.interlock();
                 }
                 self.close_loop(true);
@@ -777,13 +784,21 @@ where
             return None;
         }
         // The stick takes the crane over: what waited for the move is refused (reason
-        // 2), as after a stop, and the move ends on its path.
+        // 2), as after a stop, a move sent again is a new request, the move ends on its
+        // path, and the supervisor hears that it will not reach its target.
         let (now, now_ms) = (self.now_s(), self.now_ms);
+        self.requests.forget_answered();
         let lost =
             self.requests.cancel_planned(now, now_ms) + self.requests.refuse_waiting(false, now_ms);
         self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(lost);
         self.stop_on_path(now);
         self.handing_over = true;
+        self.send_emcy(canopen::emcy(
+            self.nmt.node.id,
+            emcy::MOVE_TAKEN_OVER,
+            REGISTER_MANUFACTURER,
+            [emcy::MOVE_TAKEN_OVER_BYTE, 0, 0, 0, 0],
+        ));
         None
     }
 
@@ -1491,7 +1506,8 @@ where
                 // not depend on when it was sent.
                 match K::target(x, y, z, plan.final_position().into()) {
                     None => Err(Reject::Invalid),
-                    Some(_) if !self.may_move() => Err(Reject::NotReady),
+                    // (Nor while the operator's stick takes the crane over.)
+                    Some(_) if !self.may_move() || self.handing_over => Err(Reject::NotReady),
                     Some(_) if !self.in_place() => Err(Reject::NotInPlace),
                     Some(_) if plan.has_queued() => Err(Reject::Busy),
                     Some(target) => match MoveSearch::new(plan, target, duration) {

@@ -263,6 +263,12 @@ impl<const A: usize> Requests<A> {
         lost
     }
 
+    /// Forgets the answers given, so that a request sent again is a new one: after the
+    /// operator's stick ended the running move, as after a stop ([`Requests::after_stop`]).
+    pub fn forget_answered(&mut self) {
+        self.answered.clear();
+    }
+
     /// The next move or reset to handle, while no move is being planned.
     pub fn next(&mut self) -> Option<Request> {
         if self.pending.is_some() {

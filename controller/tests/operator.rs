@@ -600,7 +600,14 @@ fn a_stick_held_into_a_limit_rests_at_it_and_drives_away() {
     let x_max = CraneParams::PAPER.workspace.x_max;
     println!("rested at x = {x:.4} m, the end at {x_max} m");
     assert!(x <= x_max, "inside the workspace");
-    assert!(x_max - x < 0.5, "at the end, not short of it: {x}");
+    assert!(x_max - x < 1e-3, "at the end, not short of it: {x}");
+    let trolley = rig
+        .bus
+        .drive(controller::drive::Drive::Trolley)
+        .unwrap()
+        .position();
+    println!("the trolley's drive at {trolley:.4} m");
+    assert!(trolley <= x_max + 1e-3, "the drive inside too: {trolley}");
     let mut last = [0; 2];
     assert_within_limits(&cycles, &mut last);
     assert!(cycles.iter().all(|c| c.mode == Mode::Ready), "no fault");

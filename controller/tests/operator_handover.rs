@@ -19,6 +19,16 @@ use solver_core::plan::Segment;
 const TARGET: [f64; 2] = [18.0, 6.0];
 const DURATION: f64 = 6.0;
 
+/// The controller's EMCYs with `code` among `cycles`' frames.
+fn emcys(cycles: &[Cycle], code: u16) -> Vec<[u8; 8]> {
+    cycles
+        .iter()
+        .flat_map(|c| c.frames.iter())
+        .filter(|f| f.id() == 0x090 && f.data()[..2] == code.to_le_bytes())
+        .map(|f| f.data().try_into().unwrap())
+        .collect()
+}
+
 /// The manual-mode refusals (EMCY 0xFF21) among `cycles`' frames: their detail bytes.
 fn refusals(cycles: &[Cycle]) -> Vec<u8> {
     cycles
@@ -88,7 +98,13 @@ fn a_stick_deflected_during_an_automatic_move_ends_it_and_takes_over_at_its_rest
             }
             assert_eq!(rig.c.last_answer().1, Answer::Queued, "{case}: id 2 queued");
             rig.send(HELD, [stick, 0, 0]);
-            cycles.push(rig.cycle());
+            let ended = rig.cycle();
+            assert_eq!(
+                emcys(std::slice::from_ref(&ended), emcy::MOVE_TAKEN_OVER).len(),
+                1,
+                "{case}: the supervisor hears its move was taken over"
+            );
+            cycles.push(ended);
             assert!(
                 matches!(rig.c.feedforward().plan().active(), Some(Segment::Stop(_))),
                 "{case}: the move ends with its on-path stop"
@@ -149,17 +165,18 @@ fn a_stick_deflected_during_an_automatic_move_ends_it_and_takes_over_at_its_rest
 #[test]
 fn a_request_for_manual_mode_during_a_move_waits_for_its_rest() {
     let mut rig = Manual::new();
-    automatic_move(&mut rig);
+    let mut waited = automatic_move(&mut rig);
     let (_, end) = rig.c.feedforward().plan().active().unwrap().span();
     let mut entered_at = None;
     for _ in 0..300 {
-        rig.hold(3, HELD, [0; 3]);
+        waited.extend(rig.hold(3, HELD, [0; 3]));
         if rig.c.feedforward().path().in_manual() {
             entered_at = Some(rig.now);
             break;
         }
     }
     let entered_at = entered_at.expect("entered at rest");
+    assert!(refusals(&waited).is_empty(), "waiting is no refusal");
     assert!(f64::from(entered_at) / 1000.0 >= end, "after the move");
     let [x, z] = rig.load();
     assert!((x - TARGET[0]).abs() < 1e-6 && (z - TARGET[1]).abs() < 1e-6);
@@ -378,4 +395,137 @@ fn a_silent_supervisor_stops_manual_travel_and_leaves_a_parked_crane_alone() {
             assert!(silent.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]));
         }
     }
+}
+
+const OFF: Flags = Flags {
+    manual: false,
+    ..HELD
+};
+
+/// A stick centred in manual mode, manual mode then left (bit 1 cleared), and a request
+/// made again later with the stick already deflected (review s10, finding 1): a frame
+/// without the request interlocks the stick, so nothing is taken over — the move ends at
+/// its target — and only a stick centred with the request moves the load after it.
+#[test]
+fn a_stick_centred_before_the_request_takes_no_move_over() {
+    let mut rig = Manual::new();
+    rig.hold(9, HELD, [0; 3]);
+    assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE);
+    rig.hold(30, OFF, [0; 3]);
+    assert_eq!(rig.mode_byte(), 1, "left at rest");
+    send_request(
+        &mut rig,
+        Request::Move {
+            id: 1,
+            target: TARGET,
+            duration: Some(DURATION),
+        },
+    );
+    rig.hold(60, OFF, [0; 3]);
+    let mut cycles = Vec::new();
+    for _ in 0..300 {
+        cycles.extend(rig.hold(3, HELD, [FULL_SCALE, 0, 0]));
+        if rig.c.feedforward().path().in_manual() {
+            break;
+        }
+    }
+    assert!(
+        emcys(&cycles, emcy::MOVE_TAKEN_OVER).is_empty(),
+        "nothing taken over"
+    );
+    let [x, z] = rig.load();
+    assert!((x - TARGET[0]).abs() < 1e-6 && (z - TARGET[1]).abs() < 1e-6);
+    let held = rig.hold(60, HELD, [FULL_SCALE, 0, 0]);
+    assert!(held.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]));
+}
+
+/// While the stick takes an automatic move over (its on-path stop), a move sent is
+/// refused (reason 2), not queued behind the stop (review s10, finding 2); a move sent
+/// again with the id of the one the stick ended is a new request, answered and acted on
+/// as one once the operator gives the crane back (finding 4).
+#[test]
+fn while_the_stick_takes_over_nothing_is_accepted_and_a_resent_move_is_new() {
+    let mut rig = Manual::new();
+    automatic_move(&mut rig);
+    rig.hold(30, HELD, [0; 3]);
+    rig.send(HELD, [FULL_SCALE, 0, 0]);
+    rig.cycle();
+    assert!(matches!(
+        rig.c.feedforward().plan().active(),
+        Some(Segment::Stop(_))
+    ));
+    send_request(
+        &mut rig,
+        Request::Move {
+            id: 3,
+            target: [14.0, 8.0],
+            duration: Some(DURATION),
+        },
+    );
+    rig.hold(3, HELD, [FULL_SCALE, 0, 0]);
+    assert_eq!(
+        rig.c.last_answer(),
+        (3, Answer::Rejected, Some(Reject::NotReady))
+    );
+    // The operator lets go of the request during the stop; the PLC sends move 1 again.
+    rig.hold(3, OFF, [0; 3]);
+    send_request(
+        &mut rig,
+        Request::Move {
+            id: 1,
+            target: TARGET,
+            duration: Some(DURATION),
+        },
+    );
+    let mut reached = false;
+    for _ in 0..1500 {
+        rig.hold(3, OFF, [0; 3]);
+        let [x, z] = rig.load();
+        if (x - TARGET[0]).abs() < 1e-6 && (z - TARGET[1]).abs() < 1e-6 {
+            reached = true;
+            break;
+        }
+    }
+    assert!(reached, "the move sent again runs to its target");
+}
+
+/// A crane whose model follows plans only (no `[operator]` section): operator frames
+/// asking for manual mode, centred and then deflected, neither stop its automatic move
+/// nor take it over (review s10, finding 3); the request is refused once, at once.
+#[test]
+fn a_crane_without_manual_mode_lets_no_stick_stop_its_move() {
+    let mut rig = Rig::new(HEALTHY, false);
+    rig.ready();
+    send(
+        &mut rig,
+        Request::Move {
+            id: 1,
+            target: TARGET,
+            duration: Some(DURATION),
+        },
+    );
+    let mut cycles = rig.run(30);
+    let mut counter = 0u8;
+    for n in 0..300 {
+        if n % 3 == 0 {
+            counter = counter.wrapping_add(1);
+            let demand = if n < 9 { 0 } else { FULL_SCALE };
+            let f = controller::operator::operator_frame(
+                controller::canopen::CONTROLLER_NODE,
+                &controller::operator::OperatorFrame {
+                    counter,
+                    flags: HELD,
+                    demand: [demand, 0, 0],
+                },
+            );
+            rig.c.on_frame(&f, rig.now.into());
+        }
+        cycles.push(rig.cycle());
+        assert!(
+            !matches!(rig.c.feedforward().plan().active(), Some(Segment::Stop(_))),
+            "cycle {n}: the move goes on"
+        );
+    }
+    assert_eq!(refusals(&cycles), [Refusal::Unsupported.code()]);
+    assert!(emcys(&cycles, emcy::MOVE_TAKEN_OVER).is_empty());
 }

@@ -357,7 +357,7 @@ impl Engine {
         let manual = self
             .status
             .is_some_and(|s| s[3] == controller::operator::MANUAL_MODE_CODE);
-        if manual || !switch.manual {
+        if manual || !switch.manual || !switch.enable {
             self.refused = None;
         }
         if out.refused.is_some() {

@@ -293,9 +293,11 @@ fn every_fault_code_is_in_the_dbc_fault_range() {
 
 /// A refused request for manual mode (EMCY 0xFF21, a warning) decodes with the DBC as
 /// what it is: error code "ManualRefused", the first manufacturer byte 22 outside every
-/// fault's code, its reason in `detail` (the same place as a fault's), never an abort code.
+/// fault's code, its reason in `detail` (the same place as a fault's), never an abort code;
+/// a move the operator's stick ended (EMCY 0xFF22) as "MoveTakenOver"; the status frame's
+/// fault byte names neither (it carries faults only).
 #[test]
-fn a_refused_manual_mode_decodes_with_its_reason() {
+fn a_refused_manual_mode_and_a_move_taken_over_decode_as_warnings() {
     use controller::operator::Refusal;
     const { assert!(emcy::MANUAL_REFUSED_BYTE > Fault::MAX_CODE) };
     for refusal in [Refusal::Unsupported, Refusal::NotReady, Refusal::Generator] {
@@ -317,6 +319,36 @@ fn a_refused_manual_mode_decodes_with_its_reason() {
             "{refusal:?}"
         );
     }
+    let taken_over = canopen::emcy(
+        CONTROLLER_NODE,
+        emcy::MOVE_TAKEN_OVER,
+        emcy::REGISTER_MANUFACTURER,
+        [emcy::MOVE_TAKEN_OVER_BYTE, 0, 0, 0, 0],
+    );
+    assert_eq!(
+        label(&taken_over, "error_code").as_deref(),
+        Some("MoveTakenOver")
+    );
+    assert_eq!(
+        label(&taken_over, "fault").as_deref(),
+        Some("MoveTakenOver")
+    );
+    // The status frame's fault byte carries faults only: neither warning is named there.
+    let status = controller::commands::status_frame(
+        CONTROLLER_NODE,
+        &controller::commands::Status {
+            last_id: 0,
+            answer: controller::commands::Answer::None,
+            reason: None,
+            overload: 0,
+            mode: 1,
+            fault: emcy::MANUAL_REFUSED_BYTE,
+            ignored: 0,
+            deadline_misses: 0,
+            tx_failures: 0,
+        },
+    );
+    assert_eq!(label(&status, "fault"), None);
 }
 
 /// Every EMCY error code the controller sends is named in the DBC's value table, so that
@@ -336,6 +368,7 @@ fn every_emcy_error_code_is_named_in_the_dbc() {
         emcy::COMMISSIONING_ABORT,
         emcy::FEEDBACK_OFF,
         emcy::MANUAL_REFUSED,
+        emcy::MOVE_TAKEN_OVER,
     ]);
     for code in sent {
         assert!(label(code).is_some(), "0x{code:04X} has no name in the DBC");

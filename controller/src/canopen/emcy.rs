@@ -45,8 +45,9 @@ pub const COMMISSIONING: u16 = 0xFF10;
 /// type: the reason is in 0x2002:5).
 ///
 /// Fault codes never take the values of the manufacturer bytes' other meanings: 15 (the
-/// feedback warning, [`FEEDBACK_OFF`]), 16 ([`ABORT_CODE_FOLLOWS`]) and 22 (a refused
-/// manual mode, [`MANUAL_REFUSED_BYTE`]).
+/// feedback warning, [`FEEDBACK_OFF`]), 16 ([`ABORT_CODE_FOLLOWS`]), 22 (a refused
+/// manual mode, [`MANUAL_REFUSED_BYTE`]) and 23 (a move the stick ended,
+/// [`MOVE_TAKEN_OVER_BYTE`]).
 pub const COMMISSIONING_ABORT: u16 = 0xFF12;
 /// The first manufacturer byte of [`COMMISSIONING_ABORT`] (where other EMCYs of the
 /// controller have their fault code): 16, not a fault of its own.
@@ -64,6 +65,12 @@ pub const MANUAL_REFUSED: u16 = 0xFF21;
 /// The first manufacturer byte of [`MANUAL_REFUSED`] (where a fault has its code): 22,
 /// after the faults' 1–21, no fault of its own.
 pub const MANUAL_REFUSED_BYTE: u8 = 22;
+/// Device specific: the operator's stick ended the running automatic move — a warning, so
+/// that the supervisor hears its move will not reach its target (manufacturer bytes:
+/// [`MOVE_TAKEN_OVER_BYTE`], then zeros; docs/COMMANDS.md, "Manual mode").
+pub const MOVE_TAKEN_OVER: u16 = 0xFF22;
+/// The first manufacturer byte of [`MOVE_TAKEN_OVER`]: 23, no fault of its own.
+pub const MOVE_TAKEN_OVER_BYTE: u8 = 23;
 
 /// Error register (0x1001) bit 0: generic error. CiA 301 requires it whenever any error
 /// is present, so an EMCY without it is a warning (see [`is_fault`]).

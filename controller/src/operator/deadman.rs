@@ -137,10 +137,16 @@ impl Deadman {
             return;
         }
         self.loss = None;
-        // Only frames that ask for manual mode count: the interlock is lifted by an
-        // operator centring the stick *in* manual mode, or while asking for it during
-        // an automatic move (then a deflection hands the move over to the stick).
-        self.centred = if frame.flags.manual && self.centred(frame) {
+        // Only frames that ask for manual mode count, and one that does not interlocks
+        // the stick: the interlock is lifted by an operator centring the stick *in*
+        // manual mode, or while asking for it during an automatic move (then a
+        // deflection hands the move over to the stick) — never by centring it before
+        // the request, however long ago (review s10, finding 1).
+        if !frame.flags.manual {
+            self.interlock();
+            return;
+        }
+        self.centred = if self.centred(frame) {
             self.centred.saturating_add(1)
         } else {
             0
