@@ -1,5 +1,6 @@
-//! `cargo xtask trade [--quick] [--out-dir DIR]`: the speed/accuracy trade as a user
-//! makes it (issue 30) — for the planar and the 3D crane, every scheme × formulation ×
+//! `cargo xtask trade [--quick] [--out-dir DIR] [--crane NAME …]`: the speed/accuracy
+//! trade as a user makes it (issue 30) — for the planar crane, the 3D crane and the
+//! hook-and-load crane (a double pendulum), every scheme × formulation ×
 //! Jacobian mode × h from 0.5 ms to 50 ms (`host_tests::trade::configurations`), its
 //! e_max (global and interior) against host instructions per step and against estimated
 //! Cortex-M7 µs per step, with the Pareto front; and the Newton matrix's condition
@@ -15,23 +16,34 @@
 //! Writes `DIR/<crane>.csv`, `<crane>.svg`, `condition.csv`, `condition.svg` and
 //! `trade.md` (docs/figures/trade by default). `--quick`: the 10 ms column only, BDF4
 //! and RADAU5 (for tests); it writes into `target/trade-quick` unless told otherwise.
+//!
+//! `--crane NAME` (repeatable) measures those cranes only; the others' CSV files are
+//! left as they are and their tables in `trade.md` written from them. A grid resumes:
+//! the rows already in `DIR/<crane>.csv` are kept, not measured again, and the CSV is
+//! rewritten after every row measured, so a stopped grid loses one row at most (a
+//! grid of a full crane takes from 40 minutes to hours on two shared cores).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::time::Instant;
 
 use host_tests::trade::{
-    configurations, csv, markdown, panels, titles, write_conditions, Config, Crane, Measured, Row,
-    CRANES, STEP_SIZES,
+    configurations, csv, markdown, panels, read_csv, titles, write_conditions, Config, Crane,
+    Measured, Row, CRANES, STEP_SIZES,
 };
 
 use crate::firmware::root;
 use crate::instructions::count;
 use crate::{cargo, run, setup};
 
-/// Builds `steps`, runs the grid of every crane, and writes the CSV files, figures and
-/// tables.
-pub fn trade(out: &Path, quick: bool) -> Result<(), String> {
+/// Builds `steps`, runs the grid of each crane `selected` (every crane if none), resuming
+/// from the rows already in its CSV, and writes the CSV files, figures and tables (the
+/// tables of the cranes not selected from their CSV files, if they have one).
+pub fn trade(out: &Path, quick: bool, selected: &[String]) -> Result<(), String> {
+    for name in selected {
+        host_tests::trade::crane(name)?;
+    }
     setup::ensure_valgrind()?;
     run(cargo().current_dir(root()).args([
         "build",
@@ -51,15 +63,27 @@ pub fn trade(out: &Path, quick: bool) -> Result<(), String> {
          step's kind, measured on the firmware scenes, at 480 MHz). Every row, with its failure if it has one: `<crane>.csv`.\n\n",
     );
     for crane in &CRANES {
-        let rows = grid(&program, crane, quick)?;
         let path = out.join(format!("{}.csv", crane.name));
-        std::fs::write(&path, csv(crane, &rows)).map_err(|e| format!("{}: {e}", path.display()))?;
-        let titles = titles(crane);
-        let figure = out.join(format!("{}.svg", crane.name));
-        host_tests::plot::scatter_figure(&figure, &panels(crane, &rows, &titles), 2)?;
+        let earlier = match std::fs::read_to_string(&path) {
+            Ok(text) => read_csv(crane, &text)?,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
+            Err(e) => return Err(format!("{}: {e}", path.display())),
+        };
+        let rows = if selected.is_empty() || selected.iter().any(|s| s == crane.name) {
+            let rows = grid(&program, crane, quick, earlier, &path)?;
+            let titles = titles(crane);
+            let figure = out.join(format!("{}.svg", crane.name));
+            host_tests::plot::scatter_figure(&figure, &panels(crane, &rows, &titles), 2)?;
+            eprintln!("wrote {} and {}", path.display(), figure.display());
+            rows
+        } else if earlier.is_empty() {
+            eprintln!("{}: not measured, no {}", crane.name, path.display());
+            continue;
+        } else {
+            earlier
+        };
         summary += &markdown(crane, &rows);
         summary.push('\n');
-        eprintln!("wrote {} and {}", path.display(), figure.display());
     }
     let conditions = write_conditions(out)?;
     summary += "## The Newton matrix's condition number\n\nκ₁ = ‖A‖₁ ‖A⁻¹‖₁ of BDF4's Newton matrix `S·(∂F/∂x + α₀/h ∂F/∂ẋ)` at the middle of the move, on the exact solution, ρ = 1/h² (`condition.csv`, `condition.svg`):\n\n| formulation |";
@@ -86,8 +110,20 @@ pub fn trade(out: &Path, quick: bool) -> Result<(), String> {
     Ok(())
 }
 
-/// Every configuration of `crane` at every step size (`quick`: BDF4 and RADAU5 at 10 ms).
-fn grid(program: &Path, crane: &Crane, quick: bool) -> Result<Vec<Row>, String> {
+/// Every configuration of `crane` at every step size (`quick`: BDF4 and RADAU5 at 10 ms),
+/// in the grid's order. A row in `earlier` with its count (or its failure) is kept as
+/// it is. The others are measured in two passes, `path` (the crane's CSV) rewritten
+/// after each row: first each natively for its e_max (seconds each), then each that
+/// completed under callgrind for its count, the fastest native run first — so that a
+/// grid stopped for time has every e_max, and its uncounted rows are the costliest
+/// (dense Radau on the extended formulations at the smallest h), each saying so.
+fn grid(
+    program: &Path,
+    crane: &Crane,
+    quick: bool,
+    mut earlier: Vec<Row>,
+    path: &Path,
+) -> Result<Vec<Row>, String> {
     let configs: Vec<Config> = configurations(crane)
         .into_iter()
         .filter(|c| {
@@ -100,32 +136,83 @@ fn grid(program: &Path, crane: &Crane, quick: bool) -> Result<Vec<Row>, String> 
     let mut rows = Vec::new();
     for config in &configs {
         for h in steps {
-            let outcome = measure(program, crane.scene, config, h)?;
-            rows.push(Row {
+            let h_value: f64 = h.parse().map_err(|_| format!("h = {h}"))?;
+            let kept = earlier
+                .iter()
+                .position(|r| r.config == *config && r.h == h_value)
+                .map(|i| earlier.swap_remove(i));
+            rows.push(kept.unwrap_or_else(|| Row {
                 config: config.clone(),
-                h: h.parse().map_err(|_| format!("h = {h}"))?,
-                outcome,
-            });
+                h: h_value,
+                outcome: Ok(Measured::uncounted(0, 0.0, f64::NAN, f64::NAN)),
+            }));
         }
     }
+    let save = |rows: &[Row]| {
+        std::fs::write(path, csv(crane, rows)).map_err(|e| format!("{}: {e}", path.display()))
+    };
+    let pending: Vec<usize> = (0..rows.len())
+        .filter(|&i| rows[i].outcome.as_ref().is_ok_and(|m| !m.counted()))
+        .collect();
+    let mut native = Vec::new();
+    for &i in &pending {
+        let row = &rows[i];
+        let started = Instant::now();
+        let outcome = accuracy_run(program, crane.scene, &row.config, row.h)?;
+        let seconds = started.elapsed().as_secs_f64();
+        if outcome.is_ok() {
+            native.push((seconds, i));
+        }
+        rows[i].outcome = outcome;
+        save(&rows)?;
+    }
+    native.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for (seconds, i) in native {
+        let row = &rows[i];
+        let Ok(accurate) = &row.outcome else { continue };
+        let settings = row.config.settings();
+        let refs: Vec<&str> = settings.iter().map(String::as_str).collect();
+        let counted = count(&PathBuf::from(program), crane.scene, &refs, &h_text(row.h))?;
+        eprintln!(
+            "  {} h = {}: {:.0} instructions per step (native run {seconds:.2} s)",
+            row.config.label(),
+            row.h,
+            counted.per_step()
+        );
+        rows[i].outcome = Ok(Measured {
+            steps: counted.steps,
+            iterations_per_step: counted.iterations as f64 / counted.steps.max(1) as f64,
+            e_global: accurate.e_global,
+            e_interior: accurate.e_interior,
+            instructions: counted.per_step(),
+        });
+        save(&rows)?;
+    }
+    save(&rows)?;
     Ok(rows)
 }
 
-/// One configuration at one step size: `Ok(Err(why))` for a run that failed (no
-/// measurement), `Err` only when the measuring itself failed (callgrind refused).
-fn measure(
+/// A step size as `sweep --vary h=…` writes it (`0.0005`, not `5e-4`).
+fn h_text(h: f64) -> String {
+    STEP_SIZES
+        .iter()
+        .find(|s| s.parse::<f64>().is_ok_and(|v| v == h))
+        .map_or_else(|| h.to_string(), |s| (*s).to_string())
+}
+
+/// One configuration at one step size, natively with `emax=yes`: its e_max, steps and
+/// Newton iterations (not yet counted), or why the run failed (`Ok(Err(why))`).
+fn accuracy_run(
     program: &Path,
     scene: &str,
     config: &Config,
-    h: &str,
+    h: f64,
 ) -> Result<Result<Measured, String>, String> {
-    let settings = config.settings();
-    let h_setting = format!("h={h}");
     let output = Command::new(program)
         .current_dir(root())
         .arg(scene)
-        .args(&settings)
-        .arg(&h_setting)
+        .args(config.settings())
+        .arg(format!("h={}", h_text(h)))
         .arg("emax=yes")
         .output()
         .map_err(|e| format!("cannot start {}: {e}", program.display()))?;
@@ -139,20 +226,27 @@ fn measure(
     if !(e_global.is_finite() && e_interior.is_finite()) {
         return Ok(Err(format!("e_max not a number: {}", stdout.trim())));
     }
-    let refs: Vec<&str> = settings.iter().map(String::as_str).collect();
-    let counted = count(&PathBuf::from(program), scene, &refs, h)?;
+    let number = |key: &str| -> Option<u64> {
+        stdout
+            .split(key)
+            .nth(1)?
+            .split(|c: char| !c.is_ascii_digit())
+            .next()?
+            .parse()
+            .ok()
+    };
+    let steps = number("steps ").ok_or_else(|| format!("no steps in: {stdout}"))?;
+    let iterations = number("Newton iterations ").unwrap_or(0);
     eprintln!(
-        "  {} h = {h}: e_max {e_global:.1e} ({e_interior:.1e} interior), {:.0} instructions per step",
-        config.label(),
-        counted.per_step()
+        "  {} h = {h}: e_max {e_global:.1e} ({e_interior:.1e} interior)",
+        config.label()
     );
-    Ok(Ok(Measured {
-        steps: counted.steps,
-        iterations: counted.iterations,
+    Ok(Ok(Measured::uncounted(
+        steps,
+        iterations as f64 / steps.max(1) as f64,
         e_global,
         e_interior,
-        instructions: counted.per_step(),
-    }))
+    )))
 }
 
 /// The e_max `steps emax=yes` printed: `…, e_max G, interior I`.
