@@ -62,6 +62,7 @@ pub fn trade(out: &Path, quick: bool, selected: &[String]) -> Result<(), String>
          `--toggle-collect=*measured_step*`), and the Cortex-M7 µs per step are estimated from them (cycles per host instruction of the\n\
          step's kind, measured on the firmware scenes, at 480 MHz). Every row, with its failure if it has one: `<crane>.csv`.\n\n",
     );
+    let mut grids = Vec::new();
     for crane in &CRANES {
         let path = out.join(format!("{}.csv", crane.name));
         let earlier = match std::fs::read_to_string(&path) {
@@ -69,20 +70,35 @@ pub fn trade(out: &Path, quick: bool, selected: &[String]) -> Result<(), String>
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
             Err(e) => return Err(format!("{}: {e}", path.display())),
         };
-        let rows = if selected.is_empty() || selected.iter().any(|s| s == crane.name) {
-            let rows = grid(&program, crane, quick, earlier, &path)?;
-            let titles = titles(crane);
-            let figure = out.join(format!("{}.svg", crane.name));
-            host_tests::plot::scatter_figure(&figure, &panels(crane, &rows, &titles), 2)?;
-            eprintln!("wrote {} and {}", path.display(), figure.display());
-            rows
+        let measured = selected.is_empty() || selected.iter().any(|s| s == crane.name);
+        if measured {
+            let rows = layout(crane, quick, earlier);
+            grids.push(Grid {
+                crane,
+                path,
+                rows,
+                measured,
+            });
         } else if earlier.is_empty() {
             eprintln!("{}: not measured, no {}", crane.name, path.display());
-            continue;
         } else {
-            earlier
-        };
-        summary += &markdown(crane, &rows);
+            grids.push(Grid {
+                crane,
+                path,
+                rows: earlier,
+                measured,
+            });
+        }
+    }
+    measure(&program, &mut grids)?;
+    for grid in &grids {
+        if grid.measured {
+            let titles = titles(grid.crane);
+            let figure = out.join(format!("{}.svg", grid.crane.name));
+            host_tests::plot::scatter_figure(&figure, &panels(grid.crane, &grid.rows, &titles), 2)?;
+            eprintln!("wrote {} and {}", grid.path.display(), figure.display());
+        }
+        summary += &markdown(grid.crane, &grid.rows);
         summary.push('\n');
     }
     let conditions = write_conditions(out)?;
@@ -110,20 +126,25 @@ pub fn trade(out: &Path, quick: bool, selected: &[String]) -> Result<(), String>
     Ok(())
 }
 
+/// A crane's rows and its CSV.
+struct Grid {
+    crane: &'static Crane,
+    path: PathBuf,
+    rows: Vec<Row>,
+    /// Whether its rows are measured in this run (selected), or only tabulated.
+    measured: bool,
+}
+
+impl Grid {
+    fn save(&self) -> Result<(), String> {
+        std::fs::write(&self.path, csv(self.crane, &self.rows))
+            .map_err(|e| format!("{}: {e}", self.path.display()))
+    }
+}
+
 /// Every configuration of `crane` at every step size (`quick`: BDF4 and RADAU5 at 10 ms),
-/// in the grid's order. A row in `earlier` with its count (or its failure) is kept as
-/// it is. The others are measured in two passes, `path` (the crane's CSV) rewritten
-/// after each row: first each natively for its e_max (seconds each), then each that
-/// completed under callgrind for its count, the fastest native run first — so that a
-/// grid stopped for time has every e_max, and its uncounted rows are the costliest
-/// (dense Radau on the extended formulations at the smallest h), each saying so.
-fn grid(
-    program: &Path,
-    crane: &Crane,
-    quick: bool,
-    mut earlier: Vec<Row>,
-    path: &Path,
-) -> Result<Vec<Row>, String> {
+/// in the grid's order: a row of `earlier` as it is, the others not yet measured.
+fn layout(crane: &Crane, quick: bool, mut earlier: Vec<Row>) -> Vec<Row> {
     let configs: Vec<Config> = configurations(crane)
         .into_iter()
         .filter(|c| {
@@ -136,60 +157,85 @@ fn grid(
     let mut rows = Vec::new();
     for config in &configs {
         for h in steps {
-            let h_value: f64 = h.parse().map_err(|_| format!("h = {h}"))?;
+            let h: f64 = h.parse().unwrap_or(f64::NAN);
             let kept = earlier
                 .iter()
-                .position(|r| r.config == *config && r.h == h_value)
+                .position(|r| r.config == *config && r.h == h)
                 .map(|i| earlier.swap_remove(i));
             rows.push(kept.unwrap_or_else(|| Row {
                 config: config.clone(),
-                h: h_value,
+                h,
                 outcome: Ok(Measured::uncounted(0, 0.0, f64::NAN, f64::NAN)),
             }));
         }
     }
-    let save = |rows: &[Row]| {
-        std::fs::write(path, csv(crane, rows)).map_err(|e| format!("{}: {e}", path.display()))
-    };
-    let pending: Vec<usize> = (0..rows.len())
-        .filter(|&i| rows[i].outcome.as_ref().is_ok_and(|m| !m.counted()))
-        .collect();
+    rows
+}
+
+/// Measures the rows of the selected grids not yet counted (a row with its count, or
+/// its failure, is kept as it is), in two passes, each grid's CSV rewritten after each
+/// row: first each natively for its e_max (seconds each), then each that completed
+/// under callgrind for its count, the fastest native run of all the grids first — so
+/// that a grid stopped for time has every e_max, and its uncounted rows are the
+/// costliest (dense Radau on the extended formulations at the smallest h), each saying
+/// so ([`host_tests::trade::UNCOUNTED`]).
+fn measure(program: &Path, grids: &mut [Grid]) -> Result<(), String> {
     let mut native = Vec::new();
-    for &i in &pending {
-        let row = &rows[i];
-        let started = Instant::now();
-        let outcome = accuracy_run(program, crane.scene, &row.config, row.h)?;
-        let seconds = started.elapsed().as_secs_f64();
-        if outcome.is_ok() {
-            native.push((seconds, i));
+    for g in 0..grids.len() {
+        if !grids[g].measured {
+            continue;
         }
-        rows[i].outcome = outcome;
-        save(&rows)?;
+        for i in 0..grids[g].rows.len() {
+            let grid = &grids[g];
+            let row = &grid.rows[i];
+            if !row.outcome.as_ref().is_ok_and(|m| !m.counted()) {
+                continue;
+            }
+            let started = Instant::now();
+            let outcome = accuracy_run(program, grid.crane.scene, &row.config, row.h)?;
+            let seconds = started.elapsed().as_secs_f64();
+            if outcome.is_ok() {
+                native.push((seconds, g, i));
+            }
+            grids[g].rows[i].outcome = outcome;
+            grids[g].save()?;
+        }
     }
     native.sort_by(|a, b| a.0.total_cmp(&b.0));
-    for (seconds, i) in native {
-        let row = &rows[i];
+    for (seconds, g, i) in native {
+        let grid = &grids[g];
+        let row = &grid.rows[i];
         let Ok(accurate) = &row.outcome else { continue };
         let settings = row.config.settings();
         let refs: Vec<&str> = settings.iter().map(String::as_str).collect();
-        let counted = count(&PathBuf::from(program), crane.scene, &refs, &h_text(row.h))?;
+        let counted = count(
+            &PathBuf::from(program),
+            grid.crane.scene,
+            &refs,
+            &h_text(row.h),
+        )?;
         eprintln!(
-            "  {} h = {}: {:.0} instructions per step (native run {seconds:.2} s)",
+            "  {} {} h = {}: {:.0} instructions per step (native run {seconds:.2} s)",
+            grid.crane.name,
             row.config.label(),
             row.h,
             counted.per_step()
         );
-        rows[i].outcome = Ok(Measured {
+        let counted = Measured {
             steps: counted.steps,
             iterations_per_step: counted.iterations as f64 / counted.steps.max(1) as f64,
             e_global: accurate.e_global,
             e_interior: accurate.e_interior,
-            instructions: counted.per_step(),
-        });
-        save(&rows)?;
+            // As the CSV writes it, so that a grid resumed from it computes the same.
+            instructions: counted.per_step().round(),
+        };
+        grids[g].rows[i].outcome = Ok(counted);
+        grids[g].save()?;
     }
-    save(&rows)?;
-    Ok(rows)
+    for grid in grids.iter().filter(|g| g.measured) {
+        grid.save()?;
+    }
+    Ok(())
 }
 
 /// A step size as `sweep --vary h=…` writes it (`0.0005`, not `5e-4`).
