@@ -181,12 +181,12 @@ fn layout(crane: &Crane, quick: bool, mut earlier: Vec<Row>) -> Vec<Row> {
 /// so ([`host_tests::trade::UNCOUNTED`]).
 fn measure(program: &Path, grids: &mut [Grid]) -> Result<(), String> {
     let mut native = Vec::new();
-    for g in 0..grids.len() {
-        if !grids[g].measured {
-            continue;
-        }
-        for i in 0..grids[g].rows.len() {
-            let grid = &grids[g];
+    for (g, grid) in grids
+        .iter_mut()
+        .enumerate()
+        .filter(|(_, grid)| grid.measured)
+    {
+        for i in 0..grid.rows.len() {
             let row = &grid.rows[i];
             if !row.outcome.as_ref().is_ok_and(|m| !m.counted()) {
                 continue;
@@ -197,8 +197,8 @@ fn measure(program: &Path, grids: &mut [Grid]) -> Result<(), String> {
             if outcome.is_ok() {
                 native.push((seconds, g, i));
             }
-            grids[g].rows[i].outcome = outcome;
-            grids[g].save()?;
+            grid.rows[i].outcome = outcome;
+            grid.save()?;
         }
     }
     native.sort_by(|a, b| a.0.total_cmp(&b.0));
