@@ -18,8 +18,11 @@ use solver_core::models::crane3d::{Crane3dExt, Crane3dParams, Crane3dSubs};
 use solver_core::models::crane_ext::CraneExt;
 use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
-use solver_core::reference::{flat_crane, flat_crane3d};
-use solver_core::trajectory::PointToPoint;
+use solver_core::models::double_pendulum::DoublePendulumSubs;
+use solver_core::models::double_pendulum_crane::DoublePendulumParams;
+use solver_core::models::double_pendulum_ext::DoublePendulumExt;
+use solver_core::reference::{double_pendulum, flat_crane, flat_crane3d};
+use solver_core::trajectory::{PointToPoint, Trajectory};
 use solver_core::DaeModel;
 
 use crate::plot::{Chart, Legend, Scale, Series};
@@ -646,9 +649,9 @@ pub fn bdf4_condition<M: DaeModel<f64, N, NU>, const N: usize, const NU: usize>(
     condition(&a)
 }
 
-/// κ₁ of BDF4's Newton matrix at the middle of each crane's move, on the exact
-/// solution, with the scenes' ρ = 1/h², per formulation and step size: `(name, [κ₁ per
-/// h of STEP_SIZES])`.
+/// κ₁ of BDF4's Newton matrix at the middle of each crane's move (the planar, the 3D and
+/// the hook-and-load crane), on the exact solution, with the scenes' ρ = 1/h², per
+/// formulation and step size: `(name, [κ₁ per h of STEP_SIZES])`.
 pub fn conditions() -> Result<Vec<(&'static str, Vec<f64>)>, String> {
     let e = |e: solver_core::Error| e.to_string();
     let steps: Vec<f64> = STEP_SIZES.iter().filter_map(|h| h.parse().ok()).collect();
@@ -684,6 +687,23 @@ pub fn conditions() -> Result<Vec<(&'static str, Vec<f64>)>, String> {
     let x_ext = flat_crane::extended_state(&p, &z, t);
     let x3 = flat_crane3d::flat_inverse(&p3, &z3, t3).subs();
     let x_ext3 = flat_crane3d::extended_state(&p3, &z3, t3);
+    // The hook-and-load crane on the paper's move (its scene's smoothness, 7).
+    let pd = DoublePendulumParams::EXAMPLE;
+    let zd = PointToPoint::new(
+        SVector::from([12.0, 8.0]),
+        SVector::from([20.0, 4.0]),
+        1.0,
+        8.0,
+        7,
+    )
+    .map_err(e)?;
+    let (subs_d, ext_d) = (
+        DoublePendulumSubs::new(pd, zd).map_err(e)?,
+        DoublePendulumExt::new(pd, zd).map_err(e)?,
+    );
+    let dd = zd.derivatives::<8>(t);
+    let x_d = double_pendulum::flat_state(&pd, &dd, t).map_err(e)?.subs();
+    let x_ext_d = double_pendulum::extended_state(&pd, &dd, t).map_err(e)?;
     let row = |f: &dyn Fn(f64) -> f64| steps.iter().map(|h| f(*h)).collect::<Vec<f64>>();
     Ok(vec![
         (
@@ -700,6 +720,14 @@ pub fn conditions() -> Result<Vec<(&'static str, Vec<f64>)>, String> {
         ),
         ("3D subs", row(&|h| bdf4_condition(&subs3, &x3, t3, h, 2))),
         ("3D ext", row(&|h| bdf4_condition(&ext3, &x_ext3, t3, h, 2))),
+        (
+            "double pendulum subs",
+            row(&|h| bdf4_condition(&subs_d, &x_d, t, h, 2)),
+        ),
+        (
+            "double pendulum ext",
+            row(&|h| bdf4_condition(&ext_d, &x_ext_d, t, h, 2)),
+        ),
     ])
 }
 

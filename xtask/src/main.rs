@@ -35,7 +35,7 @@
 //! * `bench` — criterion benchmarks of one step and whole runs on the host.
 //! * `instructions` — host instructions per step under callgrind (deterministic),
 //!   BDF4 and Radau on the paper's crane move at h = 10 ms and 1 ms.
-//! * `trade [--quick] [--out-dir DIR] [--crane NAME …]` — the speed/accuracy trade per crane: every
+//! * `trade [--quick] [--out-dir DIR] [--crane NAME …] [--tables-only]` — the speed/accuracy trade per crane: every
 //!   scheme × formulation × Jacobian mode × h, e_max against host instructions and
 //!   estimated Cortex-M7 µs per step, the Pareto front, and the Newton matrix's
 //!   condition number against h.
@@ -192,6 +192,10 @@ enum Cmd {
         /// others' CSV files are kept and their tables written from them.
         #[arg(long = "crane")]
         cranes: Vec<String>,
+        /// Measure nothing: the selected cranes' figures and every table from the CSV
+        /// files as they are.
+        #[arg(long)]
+        tables_only: bool,
     },
     /// Criterion benchmarks of one step and whole runs on the host.
     #[command(disable_help_flag = true)]
@@ -299,6 +303,7 @@ fn main() -> ExitCode {
                 out_dir,
                 quick,
                 cranes,
+                tables_only,
             } => {
                 let default = if quick {
                     "target/trade-quick"
@@ -306,7 +311,7 @@ fn main() -> ExitCode {
                     "docs/figures/trade"
                 };
                 let out = out_dir.unwrap_or_else(|| PathBuf::from(default));
-                trade::trade(&firmware::root().join(out), quick, &cranes)
+                trade::trade(&firmware::root().join(out), quick, &cranes, tables_only)
             }
             Cmd::Bench { args } => run(cargo()
                 .args(["bench", "-p", "host-tests", "--bench", "step"])

@@ -22,6 +22,8 @@
 //! the rows already in `DIR/<crane>.csv` are kept, not measured again, and the CSV is
 //! rewritten after every row measured, so a stopped grid loses one row at most (a
 //! grid of a full crane takes from 40 minutes to hours on two shared cores).
+//! `--tables-only` measures nothing: it writes the selected cranes' figures and all the
+//! tables from the CSV files as they are.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -40,20 +42,30 @@ use crate::{cargo, run, setup};
 /// Builds `steps`, runs the grid of each crane `selected` (every crane if none), resuming
 /// from the rows already in its CSV, and writes the CSV files, figures and tables (the
 /// tables of the cranes not selected from their CSV files, if they have one).
-pub fn trade(out: &Path, quick: bool, selected: &[String]) -> Result<(), String> {
+///
+/// `tables_only`: nothing measured; the selected cranes' figures and every table written
+/// from the CSV files as they are (a grid stopped for time keeps its uncounted rows).
+pub fn trade(
+    out: &Path,
+    quick: bool,
+    selected: &[String],
+    tables_only: bool,
+) -> Result<(), String> {
     for name in selected {
         host_tests::trade::crane(name)?;
     }
-    setup::ensure_valgrind()?;
-    run(cargo().current_dir(root()).args([
-        "build",
-        "--release",
-        "--quiet",
-        "-p",
-        "host-tests",
-        "--bin",
-        "steps",
-    ]))?;
+    if !tables_only {
+        setup::ensure_valgrind()?;
+        run(cargo().current_dir(root()).args([
+            "build",
+            "--release",
+            "--quiet",
+            "-p",
+            "host-tests",
+            "--bin",
+            "steps",
+        ]))?;
+    }
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let program = root().join("target/release/steps");
     let mut summary = String::from(
@@ -90,7 +102,9 @@ pub fn trade(out: &Path, quick: bool, selected: &[String]) -> Result<(), String>
             });
         }
     }
-    measure(&program, &mut grids)?;
+    if !tables_only {
+        measure(&program, &mut grids)?;
+    }
     for grid in &grids {
         if grid.measured {
             let titles = titles(grid.crane);
