@@ -101,7 +101,11 @@ pub fn trade(
             let titles = titles(grid.crane);
             let figure = out.join(format!("{}.svg", grid.crane.name));
             host_tests::plot::scatter_figure(&figure, &panels(grid.crane, &grid.rows, &titles), 2)?;
-            eprintln!("wrote {} and {}", grid.path.display(), figure.display());
+            if tables_only {
+                eprintln!("wrote {} (from {})", figure.display(), grid.path.display());
+            } else {
+                eprintln!("wrote {} and {}", grid.path.display(), figure.display());
+            }
         }
         summary += &markdown(grid.crane, &grid.rows);
         summary.push('\n');
