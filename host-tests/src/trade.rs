@@ -18,8 +18,11 @@ use solver_core::models::crane3d::{Crane3dExt, Crane3dParams, Crane3dSubs};
 use solver_core::models::crane_ext::CraneExt;
 use solver_core::models::crane_proj::CraneProj;
 use solver_core::models::crane_subs::CraneSubs;
-use solver_core::reference::{flat_crane, flat_crane3d};
-use solver_core::trajectory::PointToPoint;
+use solver_core::models::double_pendulum::DoublePendulumSubs;
+use solver_core::models::double_pendulum_crane::DoublePendulumParams;
+use solver_core::models::double_pendulum_ext::DoublePendulumExt;
+use solver_core::reference::{double_pendulum, flat_crane, flat_crane3d};
+use solver_core::trajectory::{PointToPoint, Trajectory};
 use solver_core::DaeModel;
 
 use crate::plot::{Chart, Legend, Scale, Series};
@@ -43,8 +46,9 @@ pub struct Crane {
     pub structured: &'static [&'static str],
 }
 
-/// The planar crane on the paper's move and the 3D crane on its diagonal move.
-pub const CRANES: [Crane; 2] = [
+/// The planar crane on the paper's move, the 3D crane on its diagonal move, and the
+/// hook-and-load crane (a double pendulum) on the paper's move.
+pub const CRANES: [Crane; 3] = [
     Crane {
         name: "planar",
         title: "the paper's crane (planar)",
@@ -59,7 +63,25 @@ pub const CRANES: [Crane; 2] = [
         formulations: &["subs", "ext"],
         structured: &["subs", "ext"],
     },
+    Crane {
+        name: "double-pendulum",
+        title: "the hook-and-load crane (double pendulum)",
+        scene: "scenes/hook-and-load.toml",
+        formulations: &["subs", "ext"],
+        structured: &["subs", "ext"],
+    },
 ];
+
+/// The crane of the trade called `name`.
+pub fn crane(name: &str) -> Result<&'static Crane, String> {
+    CRANES.iter().find(|c| c.name == name).ok_or_else(|| {
+        let names: Vec<&str> = CRANES.iter().map(|c| c.name).collect();
+        format!(
+            "no crane `{name}` in the trade (one of {})",
+            names.join(", ")
+        )
+    })
+}
 
 /// The paper's Jacobian modes and the exact one (`--vary jacobian=` values).
 pub const MODES: [&str; 5] = ["j", "jt", "jt10", "jt50", "exact"];
@@ -205,17 +227,43 @@ pub const CLOCK_MHZ: f64 = 480.0;
 pub struct Measured {
     /// Steps of the run.
     pub steps: u64,
-    /// Newton iterations over the run.
-    pub iterations: u64,
+    /// Newton iterations per step (as the CSV writes them, to 3 decimals: a row read
+    /// back from the CSV writes the same line).
+    pub iterations_per_step: f64,
     /// Eq. 29 over the whole run.
     pub e_global: f64,
     /// Eq. 29 over the move's interior.
     pub e_interior: f64,
-    /// Host instructions per step (callgrind).
+    /// Host instructions per step (callgrind); NaN while the row is not yet counted
+    /// ([`UNCOUNTED`]).
     pub instructions: f64,
 }
 
+/// The outcome of a row whose e_max was measured but whose callgrind count was not
+/// made: `cargo xtask trade` counts the rows fastest first, so a grid stopped for time
+/// leaves its costliest rows so.
+pub const UNCOUNTED: &str =
+    "e_max only: its callgrind count not made (the grid counts its fastest runs first)";
+
 impl Measured {
+    /// A run's accuracy before its callgrind count.
+    #[must_use]
+    pub fn uncounted(steps: u64, iterations_per_step: f64, e_global: f64, e_interior: f64) -> Self {
+        Self {
+            steps,
+            iterations_per_step,
+            e_global,
+            e_interior,
+            instructions: f64::NAN,
+        }
+    }
+
+    /// Whether its host instructions were counted.
+    #[must_use]
+    pub fn counted(&self) -> bool {
+        self.instructions.is_finite()
+    }
+
     /// Estimated Cortex-M7 µs per step at [`CLOCK_MHZ`].
     #[must_use]
     pub fn microseconds(&self, family: Family) -> f64 {
@@ -248,11 +296,18 @@ pub fn csv(crane: &Crane, rows: &[Row]) -> String {
         let c = &r.config;
         let k = c.family().cycles_per_host_instruction();
         let (fields, outcome) = match &r.outcome {
+            Ok(m) if !m.counted() => (
+                format!(
+                    "{},{:.3},{:.4e},{:.4e},,{k},",
+                    m.steps, m.iterations_per_step, m.e_global, m.e_interior
+                ),
+                UNCOUNTED.to_string(),
+            ),
             Ok(m) => (
                 format!(
                     "{},{:.3},{:.4e},{:.4e},{:.0},{k},{:.3}",
                     m.steps,
-                    m.iterations as f64 / m.steps.max(1) as f64,
+                    m.iterations_per_step,
                     m.e_global,
                     m.e_interior,
                     m.instructions,
@@ -275,6 +330,67 @@ pub fn csv(crane: &Crane, rows: &[Row]) -> String {
         );
     }
     out
+}
+
+/// The rows of a crane's CSV as [`csv`] wrote them, so that a grid can be resumed (the
+/// rows already measured kept, `cargo xtask trade`) and the tables written from a grid
+/// measured earlier. Every row must be one of the crane's [`configurations`]; the
+/// Pareto column is not read ([`csv`] marks the front anew). A row written by [`csv`]
+/// and read back writes the same line: the values are read as written.
+pub fn read_csv(crane: &Crane, text: &str) -> Result<Vec<Row>, String> {
+    let configs = configurations(crane);
+    let mut lines = text.lines();
+    if lines.next() != Some(CSV_HEADER) {
+        return Err(format!("{}: not a trade CSV (header)", crane.name));
+    }
+    lines
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, line)| {
+            let at = |what: &str| format!("{}.csv line {}: {what}: {line}", crane.name, i + 2);
+            let f: Vec<&str> = line.splitn(15, ',').collect();
+            let [name, formulation, scheme, jacobian, structured, h, steps, ips, e_global, e_interior, instructions, _, _, _, outcome] =
+                f.as_slice()
+            else {
+                return Err(at("expected 15 fields"));
+            };
+            if *name != crane.name {
+                return Err(at("another crane's row"));
+            }
+            let config = configs
+                .iter()
+                .find(|c| {
+                    c.formulation == *formulation
+                        && c.scheme == *scheme
+                        && c.jacobian == *jacobian
+                        && c.structured.to_string() == *structured
+                })
+                .ok_or_else(|| at("not a configuration of the crane"))?
+                .clone();
+            let number = |v: &str| v.parse::<f64>().map_err(|_| at(&format!("`{v}`")));
+            let outcome = outcome.trim_matches('"');
+            let outcome = if outcome == "ok" || outcome == UNCOUNTED {
+                Ok(Measured {
+                    steps: steps.parse().map_err(|_| at("steps"))?,
+                    iterations_per_step: number(ips)?,
+                    e_global: number(e_global)?,
+                    e_interior: number(e_interior)?,
+                    instructions: if outcome == "ok" {
+                        number(instructions)?
+                    } else {
+                        f64::NAN
+                    },
+                })
+            } else {
+                Err(outcome.to_string())
+            };
+            Ok(Row {
+                config,
+                h: number(h)?,
+                outcome,
+            })
+        })
+        .collect()
 }
 
 /// Which e_max.
@@ -409,7 +525,11 @@ pub const LEVELS: [f64; 6] = [1e-3, 1e-5, 1e-7, 1e-9, 1e-11, 1e-13];
 pub fn cheapest(rows: &[Row], h: f64, level: f64) -> Option<&Row> {
     rows.iter()
         .filter(|r| r.h == h)
-        .filter(|r| r.outcome.as_ref().is_ok_and(|m| m.e_global <= level))
+        .filter(|r| {
+            r.outcome
+                .as_ref()
+                .is_ok_and(|m| m.counted() && m.e_global <= level)
+        })
         .min_by(|a, b| {
             let cost = |r: &Row| r.outcome.as_ref().map_or(f64::INFINITY, |m| m.instructions);
             cost(a).total_cmp(&cost(b))
@@ -422,7 +542,14 @@ pub fn cheapest(rows: &[Row], h: f64, level: f64) -> Option<&Row> {
 #[must_use]
 pub fn markdown(crane: &Crane, rows: &[Row]) -> String {
     let mut out = format!("## {}\n\n", crane.title);
-    let measured = rows.iter().filter(|r| r.outcome.is_ok()).count();
+    let measured = rows
+        .iter()
+        .filter(|r| r.outcome.as_ref().is_ok_and(Measured::counted))
+        .count();
+    let uncounted = rows
+        .iter()
+        .filter(|r| r.outcome.as_ref().is_ok_and(|m| !m.counted()))
+        .count();
     let mut configs: Vec<&Config> = rows.iter().map(|r| &r.config).collect();
     configs.dedup();
     let mut steps: Vec<f64> = rows.iter().map(|r| r.h).collect();
@@ -430,10 +557,11 @@ pub fn markdown(crane: &Crane, rows: &[Row]) -> String {
     steps.dedup();
     let _ = writeln!(
         out,
-        "{} configurations × {} step sizes: {measured} of {} runs completed (the others' failures are in the CSV).\n",
+        "{} configurations × {} step sizes: {measured} of {} runs completed and counted, {uncounted} completed with e_max only (their callgrind count not made), {} failed (their failures are in the CSV).\n",
         configs.len(),
         steps.len(),
-        rows.len()
+        rows.len(),
+        rows.len() - measured - uncounted
     );
     for (error, cost, what) in [
         (
@@ -521,9 +649,9 @@ pub fn bdf4_condition<M: DaeModel<f64, N, NU>, const N: usize, const NU: usize>(
     condition(&a)
 }
 
-/// κ₁ of BDF4's Newton matrix at the middle of each crane's move, on the exact
-/// solution, with the scenes' ρ = 1/h², per formulation and step size: `(name, [κ₁ per
-/// h of STEP_SIZES])`.
+/// κ₁ of BDF4's Newton matrix at the middle of each crane's move (the planar, the 3D and
+/// the hook-and-load crane), on the exact solution, with the scenes' ρ = 1/h², per
+/// formulation and step size: `(name, [κ₁ per h of STEP_SIZES])`.
 pub fn conditions() -> Result<Vec<(&'static str, Vec<f64>)>, String> {
     let e = |e: solver_core::Error| e.to_string();
     let steps: Vec<f64> = STEP_SIZES.iter().filter_map(|h| h.parse().ok()).collect();
@@ -559,6 +687,23 @@ pub fn conditions() -> Result<Vec<(&'static str, Vec<f64>)>, String> {
     let x_ext = flat_crane::extended_state(&p, &z, t);
     let x3 = flat_crane3d::flat_inverse(&p3, &z3, t3).subs();
     let x_ext3 = flat_crane3d::extended_state(&p3, &z3, t3);
+    // The hook-and-load crane on the paper's move (its scene's smoothness, 7).
+    let pd = DoublePendulumParams::EXAMPLE;
+    let zd = PointToPoint::new(
+        SVector::from([12.0, 8.0]),
+        SVector::from([20.0, 4.0]),
+        1.0,
+        8.0,
+        7,
+    )
+    .map_err(e)?;
+    let (subs_d, ext_d) = (
+        DoublePendulumSubs::new(pd, zd).map_err(e)?,
+        DoublePendulumExt::new(pd, zd).map_err(e)?,
+    );
+    let dd = zd.derivatives::<8>(t);
+    let x_d = double_pendulum::flat_state(&pd, &dd, t).map_err(e)?.subs();
+    let x_ext_d = double_pendulum::extended_state(&pd, &dd, t).map_err(e)?;
     let row = |f: &dyn Fn(f64) -> f64| steps.iter().map(|h| f(*h)).collect::<Vec<f64>>();
     Ok(vec![
         (
@@ -575,6 +720,14 @@ pub fn conditions() -> Result<Vec<(&'static str, Vec<f64>)>, String> {
         ),
         ("3D subs", row(&|h| bdf4_condition(&subs3, &x3, t3, h, 2))),
         ("3D ext", row(&|h| bdf4_condition(&ext3, &x_ext3, t3, h, 2))),
+        (
+            "double pendulum subs",
+            row(&|h| bdf4_condition(&subs_d, &x_d, t, h, 2)),
+        ),
+        (
+            "double pendulum ext",
+            row(&|h| bdf4_condition(&ext_d, &x_ext_d, t, h, 2)),
+        ),
     ])
 }
 
@@ -625,7 +778,7 @@ mod tests {
             h: 0.01,
             outcome: Ok(Measured {
                 steps: 1000,
-                iterations: 2000,
+                iterations_per_step: 2.0,
                 e_global: e,
                 e_interior: e / 10.0,
                 instructions,
@@ -666,6 +819,79 @@ mod tests {
         assert!(cheapest(&rows, 0.01, 1e-17).is_none());
     }
 
+    /// A CSV read back writes the same values: the committed planar grid (so tables
+    /// written from it say what it measured) — every field as committed, but the µs and
+    /// the Pareto marks, which the committed grid computed from the unrounded counts
+    /// (within half an instruction's worth; a mark differs only at a tie of rounded
+    /// counts); a CSV written from rows read back is the same text; and
+    /// a CSV that is not the crane's or names no configuration of it is refused.
+    #[test]
+    fn a_trade_csv_read_back_writes_the_same_values() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../docs/figures/trade/planar.csv"
+        );
+        let committed = std::fs::read_to_string(path).unwrap();
+        let rows = read_csv(&CRANES[0], &committed).unwrap();
+        assert_eq!(rows.len(), 854);
+        let written = csv(&CRANES[0], &rows);
+        assert_eq!(written.lines().count(), committed.lines().count());
+        for (w, c) in written.lines().zip(committed.lines()).skip(1) {
+            let (w, c): (Vec<&str>, Vec<&str>) = (w.split(',').collect(), c.split(',').collect());
+            for (i, (a, b)) in w.iter().zip(&c).enumerate() {
+                if i == 13 && a != b {
+                    // The committed marks came from the unrounded counts: a mark differs
+                    // only where the row's rounded count ties with another row's.
+                    let ties = committed
+                        .lines()
+                        .filter(|l| l.split(',').nth(10) == Some(c[10]))
+                        .count();
+                    assert!(ties > 1, "{w:?} {c:?}");
+                } else if i == 12 && a != b {
+                    // Half an instruction's worth, and the third decimal's rounding.
+                    let (a, b): (f64, f64) = (a.parse().unwrap(), b.parse().unwrap());
+                    let k: f64 = c[11].parse().unwrap();
+                    assert!((a - b).abs() <= 0.5 * k / CLOCK_MHZ + 1e-3, "{w:?} {c:?}");
+                } else {
+                    assert_eq!(a, b, "{w:?} {c:?}");
+                }
+            }
+        }
+        assert_eq!(
+            csv(&CRANES[0], &read_csv(&CRANES[0], &written).unwrap()),
+            written
+        );
+        assert!(read_csv(&CRANES[1], &committed).is_err());
+        let broken = committed.replacen(
+            "planar,subs,bdf1,j,false,0.05,200",
+            "planar,subs,bdf7,j,false,0.05,200",
+            1,
+        );
+        assert!(read_csv(&CRANES[0], &broken).is_err());
+    }
+
+    /// A row measured for its e_max but not counted writes and reads back as such, is on
+    /// no front and is nobody's cheapest.
+    #[test]
+    fn an_uncounted_row_is_kept_but_not_costed() {
+        let mut rows = vec![row("ext", 500.0, 1e-15)];
+        rows.push(Row {
+            outcome: Ok(Measured::uncounted(1000, 1.5, 1e-16, 1e-16)),
+            ..row("subs", 0.0, 0.0)
+        });
+        let text = csv(&CRANES[0], &rows);
+        assert!(text.contains(UNCOUNTED));
+        assert_eq!(
+            read_csv(&CRANES[0], &text).map(|r| csv(&CRANES[0], &r)),
+            Ok(text)
+        );
+        assert_eq!(pareto(&rows, Error::Global, Cost::Instructions), [0]);
+        assert_eq!(
+            cheapest(&rows, 0.01, 1e-15).map(|r| r.config.formulation),
+            Some("ext")
+        );
+    }
+
     /// The grid: each formulation × (BDF 1–6 × 5 modes + Radau × 6), and the structured
     /// formulations × (BDF 1–6 + RADAU5).
     #[test]
@@ -673,6 +899,12 @@ mod tests {
         let planar = configurations(&CRANES[0]);
         assert_eq!(planar.len(), 3 * (6 * 5 + 6) + 2 * 7);
         assert_eq!(configurations(&CRANES[1]).len(), 2 * (6 * 5 + 6) + 2 * 7);
+        assert_eq!(configurations(&CRANES[2]).len(), 2 * (6 * 5 + 6) + 2 * 7);
+        assert_eq!(
+            crane("double-pendulum").map(|c| c.scene),
+            Ok("scenes/hook-and-load.toml")
+        );
+        assert!(crane("dp").is_err());
         assert!(planar
             .iter()
             .any(|c| c.label() == "ext Radau transformed, structured"));

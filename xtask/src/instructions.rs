@@ -140,8 +140,9 @@ impl Count {
     }
 }
 
-/// Builds `steps`, counts every configuration at every step size and prints the table.
-pub fn instructions() -> Result<(), String> {
+/// Checks for valgrind and builds `steps` (release): the program callgrind counts, for
+/// this command and `cargo xtask trade`. Its path.
+pub(crate) fn build_steps() -> Result<PathBuf, String> {
     setup::ensure_valgrind()?;
     run(cargo().current_dir(root()).args([
         "build",
@@ -152,7 +153,12 @@ pub fn instructions() -> Result<(), String> {
         "--bin",
         "steps",
     ]))?;
-    let program = root().join("target/release/steps");
+    Ok(root().join("target/release/steps"))
+}
+
+/// Builds `steps`, counts every configuration at every step size and prints the table.
+pub fn instructions() -> Result<(), String> {
+    let program = build_steps()?;
     let mut rows = Vec::new();
     for (label, scene, settings) in CONFIGURATIONS {
         let counts = STEP_SIZES

@@ -38,7 +38,7 @@
 //! * `bench` — criterion benchmarks of one step and whole runs on the host.
 //! * `instructions` — host instructions per step under callgrind (deterministic),
 //!   BDF4 and Radau on the paper's crane move at h = 10 ms and 1 ms.
-//! * `trade [--quick] [--out-dir DIR]` — the speed/accuracy trade per crane: every
+//! * `trade [--quick] [--out-dir DIR] [--crane NAME …] [--tables-only]` — the speed/accuracy trade per crane: every
 //!   scheme × formulation × Jacobian mode × h, e_max against host instructions and
 //!   estimated Cortex-M7 µs per step, the Pareto front, and the Newton matrix's
 //!   condition number against h.
@@ -203,6 +203,14 @@ enum Cmd {
         /// BDF4 and RADAU5 at 10 ms only (for tests).
         #[arg(long)]
         quick: bool,
+        /// Measure this crane only (planar, 3d, double-pendulum; repeatable): the
+        /// others' CSV files are kept and their tables written from them.
+        #[arg(long = "crane")]
+        cranes: Vec<String>,
+        /// Measure nothing: the selected cranes' figures and every table from the CSV
+        /// files as they are.
+        #[arg(long)]
+        tables_only: bool,
     },
     /// Criterion benchmarks of one step and whole runs on the host.
     #[command(disable_help_flag = true)]
@@ -310,14 +318,19 @@ fn main() -> ExitCode {
                 ])
                 .args(args)),
             Cmd::Instructions => instructions::instructions(),
-            Cmd::Trade { out_dir, quick } => {
+            Cmd::Trade {
+                out_dir,
+                quick,
+                cranes,
+                tables_only,
+            } => {
                 let default = if quick {
                     "target/trade-quick"
                 } else {
                     "docs/figures/trade"
                 };
                 let out = out_dir.unwrap_or_else(|| PathBuf::from(default));
-                trade::trade(&firmware::root().join(out), quick)
+                trade::trade(&firmware::root().join(out), quick, &cranes, tables_only)
             }
             Cmd::Bench { args } => run(cargo()
                 .args(["bench", "-p", "host-tests", "--bench", "step"])
