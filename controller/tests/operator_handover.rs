@@ -44,18 +44,23 @@ fn refusals(cycles: &[Cycle]) -> Vec<u8> {
         .collect()
 }
 
-/// The automatic move sent to `rig` and accepted, the operator asking for manual mode
-/// with the stick centred meanwhile (the interlock lifted, as a deflection needs):
-/// the move is not taken over by a centred stick.
-fn automatic_move(rig: &mut Manual) -> Vec<Cycle> {
+/// The automatic move of these tests sent to `rig` with `id`.
+fn send_move(rig: &mut Manual, id: u8) {
     send_request(
         rig,
         Request::Move {
-            id: 1,
+            id,
             target: TARGET,
             duration: Some(DURATION),
         },
     );
+}
+
+/// The automatic move sent to `rig` and accepted, the operator asking for manual mode
+/// with the stick centred meanwhile (the interlock lifted, as a deflection needs):
+/// the move is not taken over by a centred stick.
+fn automatic_move(rig: &mut Manual) -> Vec<Cycle> {
+    send_move(rig, 1);
     let cycles = rig.hold(9, HELD, [0; 3]);
     assert_eq!(rig.c.last_answer().1, Answer::Accepted);
     assert_eq!(rig.mode_byte(), 1, "a centred stick takes nothing over");
@@ -197,14 +202,7 @@ fn a_stick_deflected_with_the_request_takes_no_move_over() {
         ..HELD
     };
     rig.hold(9, off, [0; 3]);
-    send_request(
-        &mut rig,
-        Request::Move {
-            id: 1,
-            target: TARGET,
-            duration: Some(DURATION),
-        },
-    );
+    send_move(&mut rig, 1);
     rig.hold(150, HELD, [FULL_SCALE, 0, 0]);
     assert!(!rig.c.feedforward().path().in_manual(), "the move goes on");
     for _ in 0..300 {
@@ -413,14 +411,7 @@ fn a_stick_centred_before_the_request_takes_no_move_over() {
     assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE);
     rig.hold(30, OFF, [0; 3]);
     assert_eq!(rig.mode_byte(), 1, "left at rest");
-    send_request(
-        &mut rig,
-        Request::Move {
-            id: 1,
-            target: TARGET,
-            duration: Some(DURATION),
-        },
-    );
+    send_move(&mut rig, 1);
     rig.hold(60, OFF, [0; 3]);
     let mut cycles = Vec::new();
     for _ in 0..300 {
@@ -469,14 +460,7 @@ fn while_the_stick_takes_over_nothing_is_accepted_and_a_resent_move_is_new() {
     );
     // The operator lets go of the request during the stop; the PLC sends move 1 again.
     rig.hold(3, OFF, [0; 3]);
-    send_request(
-        &mut rig,
-        Request::Move {
-            id: 1,
-            target: TARGET,
-            duration: Some(DURATION),
-        },
-    );
+    send_move(&mut rig, 1);
     let mut reached = false;
     for _ in 0..1500 {
         rig.hold(3, OFF, [0; 3]);
