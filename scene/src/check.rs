@@ -5,8 +5,12 @@
 
 use std::path::Path;
 
+use crate::cranes::{visit_crane, CraneVisitor, FirmwareCrane, FirmwareModel};
 use crate::dispatch::{self, Built};
-use crate::{key_at, refuse, JacobianSpec, NewtonSpec, Scene, SceneError, SchemeSpec};
+use crate::{
+    key_at, refuse, JacobianSpec, NewtonSpec, OperatorSpec, ScalarSpec, Scene, SceneError,
+    SchemeSpec,
+};
 
 impl Scene {
     /// Reads and checks a scene file.
@@ -80,6 +84,42 @@ impl Scene {
             ));
         }
         dispatch::model::<f64, _>(self, Built)?;
-        crate::operator::check(self)
+        check_operator(self)
     }
+}
+
+/// Checks the scene's `[operator]`, if it has one: a crane the firmware drives, in f64,
+/// whose formulation runs manual mode, and keys the generator can work with
+/// (`FirmwareCrane::operator_settings`).
+fn check_operator(scene: &Scene) -> Result<(), SceneError> {
+    /// The crane's own check, as its type.
+    struct Check<'a>(&'a Scene, &'a OperatorSpec);
+    impl CraneVisitor for Check<'_> {
+        type Output = Result<(), SceneError>;
+        fn visit<K: FirmwareCrane<A>, const A: usize>(self, model: K::Model) -> Self::Output {
+            let Check(scene, spec) = self;
+            let (crane, _) = K::of(&scene.model)
+                .ok_or_else(|| refuse("operator", "the scene's model is not its crane's"))?;
+            K::operator_settings(spec, &crane, model, scene.solver.h).map(|_| ())
+        }
+    }
+    let Some(spec) = &scene.operator else {
+        return Ok(());
+    };
+    let model = FirmwareModel::of(&scene.model).map_err(|_| {
+        refuse(
+            "operator",
+            format!(
+                "manual mode drives a crane the firmware drives; this scene is the {}",
+                scene.model.label()
+            ),
+        )
+    })?;
+    if scene.solver.scalar != ScalarSpec::F64 {
+        return Err(refuse(
+            "operator",
+            "manual mode runs in the firmware's f64; this scene computes in f32",
+        ));
+    }
+    visit_crane(model, Check(scene, spec))
 }

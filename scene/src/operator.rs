@@ -24,50 +24,14 @@
 //! (`Settings::validate`) and must fit the firmware's generator, whose rings hold
 //! [`LAB_RING`] and [`LAB_HOIST_RING`] cycles; only the formulations whose reference
 //! the controller computes from the generator's path (*subs*, planar and 3D) run manual
-//! mode, and each crane's file says which (`FirmwareCrane::operator_settings`).
+//! mode, and each crane's file says which (`FirmwareCrane::operator_settings`); the
+//! scene's check asks it (`Scene::check`).
 
 use solver_core::operator::{Settings, LAB_HOIST_RING, LAB_RING};
 use solver_core::Error;
 
-use crate::cranes::{visit_crane, CraneVisitor, FirmwareCrane, FirmwareModel};
 pub use crate::OperatorSpec;
-use crate::{refuse, ScalarSpec, Scene, SceneError};
-
-/// Checks the scene's `[operator]`, if it has one: a crane the firmware drives, in f64,
-/// whose formulation runs manual mode, and keys the generator can work with
-/// (`FirmwareCrane::operator_settings`).
-pub fn check(scene: &Scene) -> Result<(), SceneError> {
-    /// The crane's own check, as its type.
-    struct Check<'a>(&'a Scene, &'a OperatorSpec);
-    impl CraneVisitor for Check<'_> {
-        type Output = Result<(), SceneError>;
-        fn visit<K: FirmwareCrane<A>, const A: usize>(self, model: K::Model) -> Self::Output {
-            let Check(scene, spec) = self;
-            let (crane, _) = K::of(&scene.model)
-                .ok_or_else(|| refuse("operator", "the scene's model is not its crane's"))?;
-            K::operator_settings(spec, &crane, model, scene.solver.h).map(|_| ())
-        }
-    }
-    let Some(spec) = &scene.operator else {
-        return Ok(());
-    };
-    let model = FirmwareModel::of(&scene.model).map_err(|_| {
-        refuse(
-            "operator",
-            format!(
-                "manual mode drives a crane the firmware drives; this scene is the {}",
-                scene.model.label()
-            ),
-        )
-    })?;
-    if scene.solver.scalar != ScalarSpec::F64 {
-        return Err(refuse(
-            "operator",
-            "manual mode runs in the firmware's f64; this scene computes in f32",
-        ));
-    }
-    visit_crane(model, Check(scene, spec))
-}
+use crate::{refuse, SceneError};
 
 impl OperatorSpec {
     /// The generator's settings: `lab` (the crane's lab setting, its ranges from the
