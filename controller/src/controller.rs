@@ -32,6 +32,7 @@ use crate::motion::{Breach, Deviations, Lag};
 use crate::node::{Dictionary, Node, Role, Snapshot, StagedOperator, StagedRequest};
 use crate::operator::{self, Deadman, OperatorFrame, Refusal, State as Stick};
 use crate::planner::{Crane, MoveSearch, Planner, SAMPLES_PER_CYCLE};
+use crate::range;
 use crate::requests::{PendingMove, Requests};
 use crate::services;
 use crate::services::nmt::NmtSlave;
@@ -1232,7 +1233,10 @@ where
         } else {
             None
         };
-        let wanted = step.as_ref().map(|s| self.corrected(s));
+        let wanted = step.as_ref().map(|s| {
+            let u = self.corrected(s);
+            self.within_ranges(u, s.u)
+        });
         // An angle counts for the cycle after it arrived only, whether the loop used it
         // or not: one that waited through enabling or a halt is stale.
         if let Some(sensor) = self.links.sensor_mut() {
@@ -1359,13 +1363,42 @@ where
         let mut position = [0.0; A];
         for (drive, slot) in K::DRIVES.into_iter().zip(position.iter_mut()) {
             let link = self.link(drive)?;
+        let position = self.positions()?;
+        Some(Measured { position, swing })
+    }
+
+    /// Every drive's position actual (0x6064) from the last SYNC, m; `None` unless every
+    /// drive's is fresh (at most a cycle old).
+    fn positions(&self) -> Option<[f64; A]> {
             let fresh = link
                 .last_position_ms
-                .is_some_and(|t| now_ms.saturating_sub(t) <= u64::from(self.config.period_ms));
+                .is_some_and(|t| self.now_ms.saturating_sub(t) <= u64::from(self.config.period_ms));
             let setup = link.commissioning.setup();
             *slot = setup.metres(link.position.filter(|_| fresh)?);
         }
-        Some(Measured { position, swing })
+        Some(position)
+    }
+
+    /// `u` with each drive kept inside its range by its measured position
+    /// ([`crate::range`]): the last word before the gate on what the feedback adds to the
+    /// model's `u_d`. Without fresh positions, `u` as it is.
+    fn within_ranges(&self, u: [f64; A], u_d: [f64; A]) -> [f64; A] {
+        let Some(position) = self.positions() else {
+            return u;
+        };
+        let (ranges, limits, lags) = (
+            self.planner.ranges(),
+            self.planner.limits(),
+            self.planner.lags(),
+        );
+        let (last, h) = (self.gate.last_velocities(), self.config.period_s());
+        let mut guarded = u;
+        let drives = ranges.iter().zip(&limits).zip(lags.iter().zip(&last));
+        let asked = guarded.iter_mut().zip(u_d).zip(position);
+        for (((u, u_d), p), ((range, limits), (lag, last))) in asked.zip(drives) {
+            *u = range::guard(*u, u_d, *last, p, *range, *limits, *lag, h);
+        }
+        guarded
     }
 
     /// This cycle's set points before the gate: the inverse model's `u_d`, corrected by

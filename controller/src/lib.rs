@@ -56,6 +56,7 @@ pub mod motion;
 pub mod node;
 pub mod operator;
 pub mod planner;
+pub mod range;
 pub mod reference;
 mod requests;
 pub mod rope;
