@@ -44,11 +44,11 @@ impl controller::Feedforward<AXES> for Stub {
 
 #[cfg(feature = "stub-inverse-model")]
 impl controller::Replan<AXES> for Stub {
-    fn plan(&self) -> &solver_core::plan::Plan<f64, AXES> {
+    fn path(&self) -> &dyn controller::operator::path::Planned<AXES> {
         &self.plan
     }
 
-    fn plan_mut(&mut self) -> &mut solver_core::plan::Plan<f64, AXES> {
+    fn path_mut(&mut self) -> &mut dyn controller::operator::path::Planned<AXES> {
         &mut self.plan
     }
 
