@@ -3,10 +3,10 @@
 //! the keyboard is the operator's master switch; a terminal view draws the crane, the
 //! load's swing, the levers, the controller's mode and the drives' set points.
 //!
-//! * [`engine`] — the controller, the virtual bus and the plant stepped one cycle at a
-//!   time, fed the switch, giving a snapshot to draw (no terminal: unit-tested);
-//! * [`crane`] — what the view needs of the planar and the 3D crane (their generator,
-//!   their inverse model on the operator's path, what their plant shows);
+//! * [`engine`] — the firmware's controller of a scene with `[operator]` (built as the
+//!   host's run of the firmware builds it), the virtual bus and the plant stepped one
+//!   cycle at a time, fed the switch, giving a snapshot to draw (no terminal:
+//!   unit-tested);
 //! * [`switch`] — the master switch with notched levers the keys move;
 //! * [`tui`] — the keys' meaning and the drawing (ratatui).
 //!
@@ -14,7 +14,6 @@
 //! crossterm, and the pseudo-terminal its test drives) are then built only for it, not
 //! for every host test and for xtask, which depend on `host-tests`.
 
-pub mod crane;
 pub mod engine;
 pub mod switch;
 pub mod tui;

@@ -1,6 +1,7 @@
 //! `drive [SCENE]` (run by `cargo xtask drive [SCENE]`): the keyboard view of manual
-//! mode in the terminal, in real time. SCENE defaults to `scenes/paper-crane.toml`; the
-//! 3D crane is `scenes/crane3d/crane3d.toml`.
+//! mode in the terminal, in real time. SCENE defaults to `scenes/paper-crane-manual-feedback.toml`; the
+//! 3D crane is `scenes/crane3d/crane3d-manual-feedback.toml`; a scene without
+//! `[operator]` is refused (its firmware has no manual mode).
 //!
 //! The terminal is put back as it was (raw mode off, the main screen, the cursor shown)
 //! whichever way the view ends: quit, an error, or a panic.
@@ -18,7 +19,7 @@ use drive_view::switch::{Action, MasterSwitch};
 use drive_view::tui;
 
 /// The scene when none is named.
-const DEFAULT_SCENE: &str = "scenes/paper-crane.toml";
+const DEFAULT_SCENE: &str = "scenes/paper-crane-manual-feedback.toml";
 
 /// The picture is redrawn every this many controller cycles (every 50 ms at 100 Hz).
 const DRAW_EVERY: u64 = 5;

@@ -395,15 +395,15 @@ mod tests {
 
     #[test]
     fn why_manual_mode_does_not_run_is_read_from_the_emcy_the_status_frame_and_the_switch() {
-        use crate::crane::PlantState;
         use controller::Mode;
+        use sim::simulated::TrueState;
         let snap = |status: Option<[u8; 8]>| Snapshot {
             t: 0.0,
             mode: Mode::Ready,
             status,
             refused: None,
             setpoints: [0.0; 3],
-            plant: PlantState {
+            plant: TrueState {
                 drives: [0.0; 3],
                 load: [0.0; 3],
                 swing: [0.0; 2],

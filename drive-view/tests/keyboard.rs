@@ -121,7 +121,7 @@ fn number_after(screen: &str, label: &str) -> Option<f64> {
 #[test]
 fn the_keyboard_drives_the_planar_crane_in_manual_mode_and_quits_cleanly() {
     let started = Instant::now();
-    let mut pty = Pty::start("scenes/paper-crane.toml");
+    let mut pty = Pty::start("scenes/paper-crane-manual-feedback.toml");
     pty.wait_for("mode 1 Ready", |s| s.contains("mode 1 Ready"));
     pty.keys(b"m");
     let screen = pty.wait_for("mode 5 Manual", |s| s.contains("mode 5 Manual"));

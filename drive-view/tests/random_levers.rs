@@ -168,10 +168,10 @@ fn levers_on(crane: &str, file: &str, seed: u64) {
 
 #[test]
 fn random_levers_on_the_planar_crane_never_meet_the_gate_nor_leave_the_workspace() {
-    levers_on("planar", "paper-crane.toml", 0x5EED_0001);
+    levers_on("planar", "paper-crane-manual-feedback.toml", 0x5EED_0001);
 }
 
 #[test]
 fn random_levers_on_the_3d_crane_never_meet_the_gate_nor_leave_the_workspace() {
-    levers_on("3D", "crane3d/crane3d.toml", 0x5EED_0003);
+    levers_on("3D", "crane3d/crane3d-manual-feedback.toml", 0x5EED_0003);
 }

@@ -101,8 +101,8 @@ pub trait WithController {
         f: &FirmwareScene<K, A>,
     ) -> Self::Output
     where
-        F: Feedforward<A, Reference = K::Reference> + Replan<A>,
-        C: AxesCorrection<A, K::Reference>,
+        F: Feedforward<A, Reference = K::Reference> + Replan<A> + 'static,
+        C: AxesCorrection<A, K::Reference> + 'static,
         K: FirmwareCrane<A>;
 }
 
@@ -138,7 +138,7 @@ impl<K: FirmwareCrane<A>, V: WithController, const A: usize> FirmwareVisitor<K, 
 
     /// The firmware's controller around `feedforward`: with the crane's state feedback
     /// if the scene closes the loop.
-    fn visit<F: Feedforward<A, Reference = K::Reference> + Replan<A>>(
+    fn visit<F: Feedforward<A, Reference = K::Reference> + Replan<A> + 'static>(
         self,
         feedforward: F,
     ) -> Self::Output {

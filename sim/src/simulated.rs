@@ -24,6 +24,21 @@ pub struct Sensed<const A: usize> {
     pub slope_deg: [f64; 2],
 }
 
+/// A plant's true state, without its sensors' noise, filter or delay: what a view draws
+/// and a test judges the crane by. Each in the slots `[x, y, z]` of the operator frame
+/// (a planar crane's y is 0).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrueState {
+    /// Where the drives stand: bridge (planar: trolley) x, trolley y, the drum's rope
+    /// length, m.
+    pub drives: [f64; 3],
+    /// The load `[x_C, y_C, z_C]`, m, `z_C` its depth below the rope's exit.
+    pub load: [f64; 3],
+    /// The rope's slopes in the x–z and y–z planes, rad (the swing; the hook-and-load
+    /// crane's: the hoist rope's, where its inclinometer sits).
+    pub swing: [f64; 2],
+}
+
 /// A simulated crane that the drives move.
 pub trait CranePlant<const A: usize> {
     /// Advances `dt` with each drive's velocity command `u` (m/s), the drives in
@@ -31,6 +46,8 @@ pub trait CranePlant<const A: usize> {
     fn advance_braked(&mut self, u: [f64; A], dt: f64, braked: [bool; A]);
     /// What its sensors read now, with their noise, filter and delay.
     fn sense(&mut self) -> Sensed<A>;
+    /// Its true state now.
+    fn true_state(&self) -> TrueState;
 }
 
 /// A crane the virtual bus simulates in scenarios with a plant.
@@ -54,6 +71,15 @@ impl CranePlant<2> for Plant {
             slope_deg: [phi.to_degrees(), 0.0],
         }
     }
+    fn true_state(&self) -> TrueState {
+        let [x, l, phi, ..] = self.y;
+        let [x_c, z_c] = self.load();
+        TrueState {
+            drives: [x, 0.0, l],
+            load: [x_c, 0.0, z_c],
+            swing: [phi, 0.0],
+        }
+    }
 }
 
 /// The planar crane: its plant with the one-axis inclinometer.
@@ -74,6 +100,14 @@ impl CranePlant<3> for Plant3d {
         Sensed {
             motion: [(x, vx), (y, vy), (l, vl)],
             slope_deg: [long.to_degrees(), lateral.to_degrees()],
+        }
+    }
+    fn true_state(&self) -> TrueState {
+        let [x, y, l, ..] = self.q;
+        TrueState {
+            drives: [x, y, l],
+            load: self.load(),
+            swing: self.slopes(),
         }
     }
 }
@@ -114,6 +148,15 @@ impl CranePlant<2> for PlantDp {
         Sensed {
             motion: [(x, vx), (l, vl)],
             slope_deg: [phi1.to_degrees(), 0.0],
+        }
+    }
+    fn true_state(&self) -> TrueState {
+        let [x, l, phi1, ..] = self.y;
+        let [x_c, z_c] = self.load();
+        TrueState {
+            drives: [x, 0.0, l],
+            load: [x_c, 0.0, z_c],
+            swing: [phi1, 0.0],
         }
     }
 }

@@ -155,8 +155,7 @@ enum Cmd {
     /// Manual mode from the keyboard: the real controller on the virtual bus with a
     /// plant that is not the model, in real time, in a terminal view.
     Drive {
-        /// The crane's scene (planar or 3D, subs formulation); its commissioning file
-        /// beside it.
+        /// A scene with `[operator]` (manual mode); its commissioning file beside it.
         #[arg(default_value = DRIVE_SCENE)]
         scene: PathBuf,
     },
@@ -345,8 +344,9 @@ fn main() -> ExitCode {
     }
 }
 
-/// The scene `cargo xtask drive` drives when none is named.
-const DRIVE_SCENE: &str = "scenes/paper-crane.toml";
+/// The scene `cargo xtask drive` drives when none is named: manual mode with the state
+/// feedback, as a commissioned crane runs it.
+const DRIVE_SCENE: &str = "scenes/paper-crane-manual-feedback.toml";
 
 /// `cargo xtask drive [SCENE]`: builds the keyboard view (the host's dev profile,
 /// optimised) and runs it in this terminal.
@@ -645,7 +645,7 @@ mod tests {
             &["ecu", "--port", "0", "--role", "slave", "--seconds", "5"],
             &["interop"],
             &["drive"],
-            &["drive", "scenes/crane3d/crane3d.toml"],
+            &["drive", "scenes/crane3d/crane3d-manual-feedback.toml"],
             &["report", "a.log"],
             &[
                 "report",

@@ -38,7 +38,7 @@ pub trait FirmwareVisitor<K: Crane<A>, const A: usize> {
     type Output;
     /// Does it with `feedforward`: the scene's model on the firmware's plan, advanced by
     /// the integrator the firmware links.
-    fn visit<F: Feedforward<A, Reference = K::Reference> + Replan<A>>(
+    fn visit<F: Feedforward<A, Reference = K::Reference> + Replan<A> + 'static>(
         self,
         feedforward: F,
     ) -> Self::Output;
@@ -189,13 +189,18 @@ impl From<FirmwareError> for String {
 /// A crane the firmware drives, registered once: how a scene names it, the lab drives'
 /// limits, its parameters as the build script writes them, its formulations and its
 /// state feedback.
-pub trait FirmwareCrane<const A: usize>: Crane<A> + Simulated<A> + Copy + fmt::Debug {
+///
+/// Everything a scene builds owns its data (`'static`), so a host program may keep the
+/// controller it builds (the keyboard view steps it between key presses).
+pub trait FirmwareCrane<const A: usize>:
+    Crane<A> + Simulated<A> + Copy + fmt::Debug + 'static
+{
     /// The parameters' type, as the build script writes it.
     const TYPE: &'static str;
     /// Its formulations (`crane_models!`).
     type Model: Formulation<Self, A>;
     /// The correction a scene's `[feedback]` links.
-    type Feedback: AxesCorrection<A, Self::Reference>;
+    type Feedback: AxesCorrection<A, Self::Reference> + 'static;
     /// [`FirmwareCrane::Feedback`]'s type, as the build script writes it.
     const FEEDBACK_TYPE: &'static str;
     /// The expression that builds it from `FEEDBACK` (and `PARAMS`), as the build script
@@ -203,7 +208,7 @@ pub trait FirmwareCrane<const A: usize>: Crane<A> + Simulated<A> + Copy + fmt::D
     const FEEDBACK_NEW: &'static str;
     /// The correction of a scene without `[feedback]`: none (`NoFeedback`, which is
     /// each crane's `AxesCorrection` on its own).
-    type FeedforwardOnly: AxesCorrection<A, Self::Reference> + Default;
+    type FeedforwardOnly: AxesCorrection<A, Self::Reference> + Default + 'static;
     /// This crane's parameters and formulation, if `model` is one of its models.
     fn of(model: &ModelSpec) -> Option<(Self, Self::Model)>;
     /// The parameters as a Rust constant expression.
@@ -542,9 +547,9 @@ pub(crate) fn visit<K, V, M, I, const N: usize, const A: usize>(
 where
     K: Crane<A>,
     V: FirmwareVisitor<K, A>,
-    M: CraneReference<Reference = K::Reference> + DaeModel<f64, N, A> + Driven,
+    M: CraneReference<Reference = K::Reference> + DaeModel<f64, N, A> + Driven + 'static,
     M::Trajectory: Planned<A>,
-    I: Integrator<f64, M, N, A>,
+    I: Integrator<f64, M, N, A> + 'static,
 {
     visitor.visit(InverseModel::<M, I, f64, N>::new(model, integrator))
 }
