@@ -700,10 +700,13 @@ where
                 .path_mut()
                 .manual_mut()
                 .is_some_and(|path| path.is_at_rest())
+            && self.gate.at_standstill()
             && self.feedforward.path_mut().leave_manual().is_ok()
         {
-            // (Refused only while it moves, or if the plan cannot rest there: then the
-            // generator goes on resting, advanced below.)
+            // Left at rest: the path resting and every set point sent exactly 0.0 (the
+            // model's set points reach it a few cycles after the path rests: BDF's
+            // history). (Refused only while it moves, or if the plan cannot rest there:
+            // then the generator goes on resting, advanced below.)
             return;
         }
         let Some(path) = self.feedforward.path_mut().manual_mut() else {
@@ -1360,9 +1363,6 @@ where
             let healthy = sensor.healthy(now_ms, self.config.heartbeat_timeout_ms);
             sensor.swing.filter(|_| fresh && healthy)
         });
-        let mut position = [0.0; A];
-        for (drive, slot) in K::DRIVES.into_iter().zip(position.iter_mut()) {
-            let link = self.link(drive)?;
         let position = self.positions()?;
         Some(Measured { position, swing })
     }
@@ -1370,6 +1370,9 @@ where
     /// Every drive's position actual (0x6064) from the last SYNC, m; `None` unless every
     /// drive's is fresh (at most a cycle old).
     fn positions(&self) -> Option<[f64; A]> {
+        let mut position = [0.0; A];
+        for (drive, slot) in K::DRIVES.into_iter().zip(position.iter_mut()) {
+            let link = self.link(drive)?;
             let fresh = link
                 .last_position_ms
                 .is_some_and(|t| self.now_ms.saturating_sub(t) <= u64::from(self.config.period_ms));

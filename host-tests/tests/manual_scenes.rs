@@ -147,9 +147,9 @@ fn deadman(scene: &str) {
         .find(|(t, m)| *t > 12_500 && *m != MANUAL_MODE_CODE)
         .unwrap_or_else(|| panic!("{scene}: manual mode never left: {modes:?}"));
     assert_eq!(left.1, 1, "{scene}: {left:?}");
-    // Left when the generator rests; the set points reach exactly 0.0 within the next
-    // status period (BDF4's history of the motion passes through the model's steps
-    // after the path rests).
+    // Left at rest: not before every set point is exactly 0.0 (the model's reach it a
+    // few cycles after the generator's path rests, BDF4's history), within the status
+    // frame's period after.
     assert!(
         left.0 + 100 >= rest,
         "{scene}: left at {} ms, at rest from {rest} ms",
