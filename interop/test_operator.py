@@ -18,8 +18,9 @@ requested at rest, the load travelling with the stick, after the release the dri
 standstill with the load swinging less than 0.1° and every set point exactly 0.0, and
 the status frame back to 1 (*ready*) when the request is withdrawn; the master switch
 falling silent mid-travel (a dead-man drop) stops the crane the same way and leaves
-manual mode with no frame more. The scenes without `[operator]` refuse manual mode
-(the host tests prove it: `host-tests/tests/manual_scenes.rs`). About 45 s.
+manual mode with no frame more. A scene without `[operator]` refuses manual mode and
+says why (EMCY 0xFF21, decoded by cantools from the DBC); a running move taken over by
+the stick is announced by EMCY 0xFF22. About 75 s.
 """
 
 import math
@@ -29,7 +30,7 @@ import time
 
 import canopen
 
-from rig import CONTROLLER_EDS, STATUS, dbc
+from rig import ACCEPTED, CONTROLLER_EDS, STATUS, dbc
 from test_black_box import wait_rest
 from test_interop import rigs  # noqa: F401
 
@@ -330,3 +331,65 @@ def test_the_3d_crane_follows_a_diagonal_stick_straight_and_a_dead_man_drop_stop
     assert changes[-1][0] > dropped, (changes, dropped)
     last = max(t for (t, _) in log.sent(0x080))
     assert zero_from(log, last - 1.0, last, (4, 1, 2)) >= 3 * 90
+
+
+def controller_emcys(log, code):
+    """The controller's EMCYs (0x090) with `code`, as cantools decoded them from the DBC
+    (`EMCY_Controller`): [(time, signals), …]."""
+    return [(t, m) for (t, m) in log.decoded(0x090) if m is not None and m["error_code"] == code]
+
+
+def test_the_stick_takes_over_a_running_move_and_the_emcy_says_so(rigs):
+    """A PLC's move (0x210) runs; the operator asks for manual mode with the stick
+    centred, then pushes it: the move ends at once with its on-path stop, the controller
+    says so by EMCY 0xFF22 *MoveTakenOver* (fault byte 23, decoded by cantools from the
+    DBC), manual mode (status 5) follows at the stop's rest with the stick live — the
+    load goes on the pushed way without a second centring — and after the release it
+    rests sway-free; the request withdrawn, ready (status 1)."""
+    rig = rigs(scene=PLANAR, seconds=60)
+    rig.wait_mode("ready", timeout=15)
+    start = rig.load()
+    rig.move(1, start["load_x_m"] + 6.0, 8.0, 8.0)
+    assert rig.answer(1) == (ACCEPTED, 0)
+    time.sleep(2.0)
+    op = Operator(rig)
+    time.sleep(0.3)
+    op.set(demand_x=0.5)
+    wait_manual(rig, MANUAL, timeout=10.0)
+    taken = rig.load()
+    time.sleep(2.0)
+    op.set(demand_x=0.0)
+    end = rest_without_swing(rig)
+    assert end["load_x_m"] > taken["load_x_m"] + 0.3, (taken, end)
+    op.set(manual_request=0)
+    wait_manual(rig, READY)
+    op.silence()
+    log = rig.close()
+    log.assert_decodes()
+    emcys = controller_emcys(log, 0xFF22)
+    assert len(emcys) == 1, emcys
+    t_taken, signals = emcys[0]
+    assert signals["fault"] == 23, signals
+    changes = mode_changes(log)
+    t_manual = next(t for (t, m) in changes if m == MANUAL)
+    assert t_taken < t_manual, (t_taken, changes)
+
+
+def test_a_scene_without_operator_refuses_manual_mode_and_says_why(rigs):
+    """The scene without `[operator]` (scenes/paper-crane.toml): the PLC's request for
+    manual mode is refused once, by EMCY 0xFF21 *ManualRefused* with fault byte 22 and
+    reason 1 (the controller follows plans only) in its detail byte, decoded by cantools
+    from the DBC; the status frame never says manual."""
+    rig = rigs(scene="scenes/paper-crane.toml", seconds=30)
+    rig.wait_mode("ready", timeout=15)
+    op = Operator(rig)
+    time.sleep(1.0)
+    op.silence()
+    time.sleep(0.3)
+    log = rig.close()
+    log.assert_decodes()
+    emcys = controller_emcys(log, 0xFF21)
+    assert len(emcys) == 1, emcys
+    _, signals = emcys[0]
+    assert (signals["fault"], signals["detail"]) == (22, 1), signals
+    assert all(m != MANUAL for (_, m) in mode_changes(log))

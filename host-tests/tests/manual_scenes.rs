@@ -1,19 +1,21 @@
 //! Manual mode as a property of the scene (issue 28): the host's run of the firmware's
 //! loop on the scenes with `[operator]` (the QEMU runs are compared with it frame by
 //! frame), the master switch played by the virtual bus (`sim::MANUAL_PROFILE`,
-//! `sim::MANUAL_DEADMAN`): manual mode entered at rest, the load moved by the stick,
+//! `sim::MANUAL_DEADMAN`, `sim::MANUAL_TAKEOVER`): manual mode entered at rest or by
+//! taking over the scene's move, the load moved by the stick,
 //! every set point exactly 0.0 after a release's stop, manual mode left at rest. The
 //! same scenario on a scene without `[operator]` never enters manual mode.
 
 use std::path::{Path, PathBuf};
 
+use controller::canopen::{cob, emcy, CONTROLLER_NODE};
 use controller::commands::STATUS_ID;
 use controller::operator::MANUAL_MODE_CODE;
 use controller::Mode;
 use host_tests::firmware::{controller_reference, ReferenceCycle};
 use scene::commissioning::CommissioningFile;
 use scene::Scene;
-use sim::{Scenario, MANUAL_DEADMAN, MANUAL_PROFILE, MANUAL_PROFILE_3D};
+use sim::{Scenario, MANUAL_DEADMAN, MANUAL_PROFILE, MANUAL_PROFILE_3D, MANUAL_TAKEOVER};
 
 fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -151,7 +153,7 @@ fn deadman(scene: &str) {
     // few cycles after the generator's path rests, BDF4's history), within the status
     // frame's period after.
     assert!(
-        left.0 + 100 >= rest,
+        (rest..rest + 100).contains(&left.0),
         "{scene}: left at {} ms, at rest from {rest} ms",
         left.0
     );
@@ -189,4 +191,54 @@ fn the_profile_lowers_the_hoist_while_travelling() {
         .filter(|c| c.setpoints[0].units() != 0 && c.setpoints[1].units() > 10_000)
         .count();
     assert!(both > 100, "{both} cycles travelling and lowering");
+}
+
+/// The operator takes over the scene's automatic move at 4 s (`sim::MANUAL_TAKEOVER`):
+/// EMCY 0xFF22 *move taken over* once, the move's on-path stop, manual mode at its rest
+/// with the stick live (the load goes on forward at half stick without a second
+/// centring), at rest after the release, manual mode left at rest, ready.
+#[test]
+fn the_operator_takes_over_the_scene_s_move() {
+    let scene = "paper-crane-manual.toml";
+    let run = run(scene, &MANUAL_TAKEOVER);
+    assert_eq!(run.len(), MANUAL_TAKEOVER.cycles as usize, "ran to the end");
+    let emcy = cob::EMCY + u16::from(CONTROLLER_NODE);
+    let taken: Vec<u32> = run
+        .iter()
+        .flat_map(|c| {
+            c.frames
+                .iter()
+                .filter(|f| f.id() == emcy && f.data()[..2] == emcy::MOVE_TAKEN_OVER.to_le_bytes())
+                .map(move |_| c.now_ms)
+        })
+        .collect();
+    assert_eq!(taken.len(), 1, "EMCY 0xFF22 once: {taken:?}");
+    assert!(
+        (4_000..4_100).contains(&taken[0]),
+        "taken over at {} ms",
+        taken[0]
+    );
+    let modes = modes(&run);
+    let manual = modes
+        .iter()
+        .find(|(_, m)| *m == MANUAL_MODE_CODE)
+        .map(|(t, _)| *t)
+        .expect("manual mode entered");
+    assert!(
+        manual > taken[0],
+        "manual mode after the take-over ({manual} ms)"
+    );
+    // The on-path stop, then the stick's half speed forward: the trolley's set point
+    // positive again after manual mode began, without the stick centred again.
+    assert!(
+        run.iter()
+            .filter(|c| (manual..9_000).contains(&c.now_ms))
+            .any(|c| c.setpoints[0].units() > 0),
+        "the stick moved nothing in manual mode"
+    );
+    let rest = rests_from(&run, 9_000, 15_000).expect("at rest before the withdrawal");
+    assert!(rest < 15_000, "at rest from {rest} ms");
+    let last = modes.last().unwrap();
+    assert_eq!(last.1, 1, "manual mode left at rest ({last:?})");
+    assert_eq!(run.last().unwrap().mode, Mode::Ready);
 }

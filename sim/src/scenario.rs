@@ -478,9 +478,31 @@ pub const MANUAL_DEADMAN: Scenario = Scenario {
     plant: None,
 };
 
+/// The operator takes over the scene's automatic move (1–9 s) at 4 s: manual mode
+/// requested with the stick centred at 3 s (two centred frames with the request arm the
+/// take-over), half stick forward at 4 s — the move ends at once with its on-path stop
+/// (EMCY 0xFF22, *move taken over*), manual mode is entered at the stop's rest with the
+/// stick live and the load goes on forward at half speed; released at 9 s (the sway-free
+/// stop), the request withdrawn at rest at 15 s (manual mode left).
+pub const MANUAL_TAKEOVER: Scenario = Scenario {
+    name: "manual-takeover",
+    expect: "ready (mode 1): the move taken over at 4 s (EMCY 0xFF22), its on-path stop, \
+             manual mode at its rest with the stick live, released, left at rest",
+    events: &[
+        at(3_000, stick([0, 0, 0])),
+        at(4_000, stick([HALF, 0, 0])),
+        at(9_000, stick([0, 0, 0])),
+        at(15_000, AUTOMATIC),
+    ],
+    cycles: 1_800,
+    random: None,
+    ends: Ending::Ready,
+    plant: None,
+};
+
 /// The scenarios of the planar crane's scene with manual mode
 /// (`scenes/paper-crane-manual.toml`).
-pub const MANUAL_SCENARIOS: [Scenario; 2] = [MANUAL_PROFILE, MANUAL_DEADMAN];
+pub const MANUAL_SCENARIOS: [Scenario; 3] = [MANUAL_PROFILE, MANUAL_DEADMAN, MANUAL_TAKEOVER];
 
 /// The scenarios of the 3D crane's scene with manual mode
 /// (`scenes/crane3d/crane3d-manual.toml`).
