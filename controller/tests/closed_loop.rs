@@ -112,12 +112,7 @@ impl Run {
     }
 
     fn emcys(&self, code: u16) -> Vec<[u8; 8]> {
-        self.cycles
-            .iter()
-            .flat_map(|c| c.frames.iter())
-            .filter(|f| f.id() == 0x090 && f.data()[..2] == code.to_le_bytes())
-            .map(|f| f.data().try_into().unwrap())
-            .collect()
+        common::emcy_frames(&self.cycles, Some(code))
     }
 }
 

@@ -7,6 +7,7 @@
 //! with feedforward only and with the feedback.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing)]
 
+mod common;
 mod common3d;
 
 use common3d::{feedforward, Ff, HOME};
@@ -108,12 +109,7 @@ impl Run {
 
     /// The controller's EMCYs with this code.
     fn emcys(&self, code: u16) -> Vec<[u8; 8]> {
-        self.cycles
-            .iter()
-            .flat_map(|c| c.frames.iter())
-            .filter(|f| f.id() == 0x090 && f.data()[..2] == code.to_le_bytes())
-            .map(|f| f.data().try_into().unwrap())
-            .collect()
+        common::emcy_frames(&self.cycles, Some(code))
     }
 }
 

@@ -21,22 +21,14 @@ const DURATION: f64 = 6.0;
 
 /// The controller's EMCYs with `code` among `cycles`' frames.
 fn emcys(cycles: &[Cycle], code: u16) -> Vec<[u8; 8]> {
-    cycles
-        .iter()
-        .flat_map(|c| c.frames.iter())
-        .filter(|f| f.id() == 0x090 && f.data()[..2] == code.to_le_bytes())
-        .map(|f| f.data().try_into().unwrap())
-        .collect()
+    common::emcy_frames(cycles, Some(code))
 }
 
 /// The manual-mode refusals (EMCY 0xFF21) among `cycles`' frames: their detail bytes.
 fn refusals(cycles: &[Cycle]) -> Vec<u8> {
-    cycles
-        .iter()
-        .flat_map(|c| c.frames.iter())
-        .filter(|f| f.id() == 0x090 && f.data()[..2] == emcy::MANUAL_REFUSED.to_le_bytes())
-        .map(|f| {
-            let d = f.data();
+    common::emcy_frames(cycles, Some(emcy::MANUAL_REFUSED))
+        .into_iter()
+        .map(|d| {
             assert_eq!(d[2] & 0x01, 0, "a warning: no generic error bit");
             assert_eq!(d[3], emcy::MANUAL_REFUSED_BYTE);
             d[5]

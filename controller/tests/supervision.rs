@@ -16,15 +16,10 @@ use controller::{Fault, Mode};
 use sim::{Action, Quirk, RawFrame, VirtualBus, HEALTHY};
 
 /// The controller's EMCYs in the cycles: (code, register, fault, node, detail).
-fn emcys_of(cycles: &[controller::Cycle]) -> Vec<(u16, u8, u8, u8, u8)> {
-    cycles
-        .iter()
-        .flat_map(|c| c.frames.iter())
-        .filter(|f| f.id() == 0x090)
-        .map(|f| {
-            let d = f.data();
-            (u16::from_le_bytes([d[0], d[1]]), d[2], d[3], d[4], d[5])
-        })
+fn emcys_of<const A: usize>(cycles: &[controller::Cycle<A>]) -> Vec<(u16, u8, u8, u8, u8)> {
+    common::emcy_frames(cycles, None)
+        .into_iter()
+        .map(|d| (u16::from_le_bytes([d[0], d[1]]), d[2], d[3], d[4], d[5]))
         .collect()
 }
 
@@ -334,18 +329,6 @@ mod crane3d {
         rig
     }
 
-    fn emcys(cycles: &[controller::Cycle<3>]) -> Vec<(u16, u8, u8, u8, u8)> {
-        cycles
-            .iter()
-            .flat_map(|c| c.frames.iter())
-            .filter(|f| f.id() == 0x090)
-            .map(|f| {
-                let d = f.data();
-                (u16::from_le_bytes([d[0], d[1]]), d[2], d[3], d[4], d[5])
-            })
-            .collect()
-    }
-
     fn until_fault(rig: &mut Rig, max: usize) -> Vec<controller::Cycle<3>> {
         let mut out = Vec::new();
         for _ in 0..max {
@@ -369,7 +352,7 @@ mod crane3d {
             out.last().unwrap().mode,
             Mode::Halted(Fault::Standstill(Drive::Bridge))
         );
-        assert_eq!(emcys(&out), [(0x8500, 0x81, 20, 4, 0)]);
+        assert_eq!(emcys_of(&out), [(0x8500, 0x81, 20, 4, 0)]);
     }
 
     #[test]
@@ -381,7 +364,7 @@ mod crane3d {
             out.last().unwrap().mode.fault(),
             Some(Fault::ForeignProducer(Foreign::Rpdo(Drive::Bridge)))
         );
-        assert_eq!(emcys(&out), [(0x8150, 0x11, 19, 4, 2)]);
+        assert_eq!(emcys_of(&out), [(0x8150, 0x11, 19, 4, 2)]);
     }
 
     #[test]
@@ -399,7 +382,7 @@ mod crane3d {
             out.last().unwrap().mode.fault(),
             Some(Fault::FollowingError(Drive::Winch, _))
         ));
-        assert_eq!(emcys(&out)[0].3, 2, "the hoist's node");
+        assert_eq!(emcys_of(&out)[0].3, 2, "the hoist's node");
     }
 
     #[test]

@@ -233,6 +233,18 @@ pub fn emcys(cycles: &[Cycle]) -> Vec<(u32, (u16, u8, u8, u8))> {
         .collect()
 }
 
+/// The controller's EMCYs (0x090) among `cycles`' frames, in order, each as its 8
+/// bytes; with `code`, only those with that error code.
+pub fn emcy_frames<const A: usize>(cycles: &[Cycle<A>], code: Option<u16>) -> Vec<[u8; 8]> {
+    cycles
+        .iter()
+        .flat_map(|c| c.frames.iter())
+        .filter(|f| f.id() == 0x090)
+        .filter(|f| code.is_none_or(|code| f.data()[..2] == code.to_le_bytes()))
+        .map(|f| f.data().try_into().unwrap())
+        .collect()
+}
+
 /// Sends `request` to the controller (received before the next cycle).
 pub fn send(rig: &mut Rig, request: controller::commands::Request) {
     rig.c.on_frame(
