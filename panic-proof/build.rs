@@ -1,8 +1,10 @@
 //! The proof binary's memory map (its own `memory.x`: the STM32H743's with a larger
 //! flash, since it links every integrator at once), and the proof's list of integrators:
 //! every one the firmware can link, from the one registration of the firmware's models
-//! and schemes (`scene::dispatch::FirmwareScheme::every`), so that a model or scheme added
-//! there is proven without touching this crate.
+//! and schemes (`scene::dispatch::FirmwareScheme::every`), each model on the plan and —
+//! where it runs manual mode (`FirmwareScheme::steered`) — on its crane's `Steered` path
+//! with the operator's generator, so that a model or scheme added there is proven without
+//! touching this crate.
 use std::fmt::Write as _;
 use std::{env, fs, path::PathBuf};
 
@@ -15,25 +17,30 @@ fn main() {
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
     println!("cargo:rerun-if-changed=memory.x");
 
+    // Every scheme on the plan, then every one that runs manual mode on its `Steered`
+    // path: `(macro, crane, axes, types)`.
     let every = FirmwareScheme::every();
+    let planned = every.iter().map(|s| ("prove", s.crane(), s.rust()));
+    let steered = every
+        .iter()
+        .filter_map(|s| Some(("prove_steered", s.crane(), s.steered()?)));
+    let proofs: Vec<_> = planned.chain(steered).collect();
     let mut arms = String::new();
-    for (i, scheme) in every.iter().enumerate() {
-        let types = scheme.rust();
-        let (crane, axes) = scheme.crane();
+    for (i, (proof, (crane, axes), types)) in proofs.iter().enumerate() {
         // BDF's k stays opaque (`k`), as the step, the settings and every input do.
         let new = if types.multistep {
             "Integrator::new(&model, &settings, k, t0)"
         } else {
             "Integrator::new(&model, &settings, t0)"
         };
-        let pattern = if i + 1 == every.len() {
+        let pattern = if i + 1 == proofs.len() {
             "_".to_string()
         } else {
             i.to_string()
         };
         let _ = writeln!(
             arms,
-            "        {pattern} => prove!({crane}, {axes}, {}, {}, |model| {new}),",
+            "        {pattern} => {proof}!({crane}, {axes}, {}, {}, |model| {new}),",
             types.model, types.integrator
         );
     }

@@ -6,7 +6,9 @@
 //! `demonstration_commanded`, `on_frame`, `tick`, `record_cost`, `transmit_failed` — for
 //! every model and scheme a scene can choose — the list comes from the firmware's one
 //! registration of them (`scene::dispatch::FirmwareScheme::every`, through the build
-//! script): the planar crane *subs* and *proj* and the 3D crane, BDF with the run-time
+//! script): the planar crane *subs* and *proj*, the 3D crane and the hook-and-load crane,
+//! each *subs* also on its `Steered` path with the operator's generator (manual mode),
+//! BDF with the run-time
 //! modes and the structured exact Newton, Radau IIA, every Jacobian mode through the
 //! settings — with and without the state feedback (its gain design included; the 3D
 //! crane's per vertical plane with the two-axis inclinometer), with every input
@@ -26,6 +28,7 @@ use controller::crane::command_plan;
 use controller::drive::Drive;
 use controller::feedback::{self, NoFeedback, StateFeedback};
 use controller::feedback3d::SpatialFeedback;
+use controller::operator::path::{Source, Steered};
 use controller::planner::{Crane, Planner};
 use controller::setpoint::DriveLimits;
 use controller::{CanFrame, Config, Controller, Feedforward, InverseModel, Replan};
@@ -46,6 +49,7 @@ fn panic(_: &core::panic::PanicInfo) -> ! {
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::Crane3dParams;
 use solver_core::models::double_pendulum_crane::DoublePendulumParams;
+use solver_core::operator::{Generator3d, PlanarGenerator, Settings};
 use solver_core::plan::Plan;
 use solver_core::trajectory::PointToPoint;
 use solver_core::{Error, JacobianMode, SolverSettings};
@@ -180,6 +184,28 @@ impl Proven<2> for DoublePendulumParams {
     }
 }
 
+/// A crane whose firmware may have manual mode: the operator generator's settings, opaque.
+trait ProvenManual<const A: usize>: Proven<A> {
+    /// The generator.
+    type Generator: Source<A>;
+    /// Its settings: the lab's, opaque.
+    fn operator() -> <Self::Generator as Source<A>>::Settings;
+}
+
+impl ProvenManual<2> for CraneParams {
+    type Generator = PlanarGenerator;
+    fn operator() -> Settings<1> {
+        black_box(Settings::lab(&Self::params()))
+    }
+}
+
+impl ProvenManual<3> for Crane3dParams {
+    type Generator = Generator3d;
+    fn operator() -> Settings<2> {
+        black_box(Settings::lab_3d(&Self::params()))
+    }
+}
+
 /// Runs the controller's entry points on opaque inputs, forever.
 fn drive<F, C, K, const A: usize>(mut controller: Controller<F, C, K, A>) -> !
 where
@@ -228,6 +254,23 @@ macro_rules! prove {
             halt()
         };
         let Ok($m) = <$model>::new(<$crane as Proven<$axes>>::params(), plan) else {
+            halt()
+        };
+        let Ok(integrator) = ($new) else { halt() };
+        <$crane as Proven<$axes>>::run(InverseModel::new($m, integrator))
+    }};
+}
+
+/// [`prove!`] with the model on the crane's `Steered` path: the plan, or in manual mode
+/// (entered by an operator frame, opaque as every frame) the operator's generator.
+macro_rules! prove_steered {
+    ($crane:ty, $axes:literal, $model:ty, $integrator:ty, |$m:ident| $new:expr) => {{
+        type Integrator = $integrator;
+        let Ok(plan) = <$crane as Proven<$axes>>::plan() else {
+            halt()
+        };
+        let path = Steered::new(plan, <$crane as ProvenManual<$axes>>::operator());
+        let Ok($m) = <$model>::new(<$crane as Proven<$axes>>::params(), path) else {
             halt()
         };
         let Ok(integrator) = ($new) else { halt() };

@@ -310,6 +310,13 @@ impl FirmwareScheme {
         self.rust_on(&format!("solver_core::plan::Plan<f64, {}>", self.crane().1))
     }
 
+    /// [`FirmwareScheme::rust`] with the model on the crane's `Steered` path (manual
+    /// mode), if the model runs manual mode ([`FirmwareModel::steered_type`]).
+    #[must_use]
+    pub fn steered(self) -> Option<FirmwareTypes> {
+        self.model.steered_type().map(|path| self.rust_on(path))
+    }
+
     /// [`FirmwareScheme::rust`] with the model following `plan`, a path type's Rust (the
     /// firmware's `Plan`, or with manual mode the crane's `Steered`,
     /// `FirmwareCrane::STEERED_TYPE`).

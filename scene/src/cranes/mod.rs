@@ -232,6 +232,12 @@ pub trait FirmwareCrane<const A: usize>:
     /// The path a model in manual mode follows, as the build script writes it: the plan
     /// or the crane's generator (`controller::operator::path::Steered`).
     const STEERED_TYPE: &'static str;
+    /// Whether formulation `model` runs manual mode (the generator's path has what its
+    /// reference needs): what [`FirmwareCrane::operator_settings`] accepts, and what the
+    /// panic proof links with the crane's `Steered` path.
+    fn manual_mode(_model: Self::Model) -> bool {
+        false
+    }
     /// The scene's `[operator]` as the generator's settings for this crane's formulation
     /// `model` at the cycle `h`; or why it cannot run manual mode (a formulation without
     /// `CraneReference` on the generator's path, a key out of range).
@@ -498,6 +504,16 @@ macro_rules! registry {
             #[must_use]
             pub fn structure(self) -> Structure {
                 match self { $( Self::$variant(m) => m.structure(), )+ }
+            }
+
+            /// Whether it runs manual mode ([`FirmwareCrane::manual_mode`]): its path then
+            /// the crane's [`FirmwareCrane::STEERED_TYPE`].
+            #[must_use]
+            pub fn steered_type(self) -> Option<&'static str> {
+                match self {
+                    $( Self::$variant(m) => <$crane as FirmwareCrane<$axes>>::manual_mode(m)
+                        .then_some(<$crane as FirmwareCrane<$axes>>::STEERED_TYPE), )+
+                }
             }
 
             /// Its crane's parameter type ([`FirmwareCrane::TYPE`]) and driven axes.

@@ -65,13 +65,17 @@ impl FirmwareCrane<2> for CraneParams {
     /// Only *subs* has the controller's reference on the generator's path
     /// (`controller::crane::planar`); the trolley's range is the workspace's, the hoist's
     /// the depths the rope's range allows.
+    /// *subs* only: only it has the controller's reference on the generator's path.
+    fn manual_mode(model: PlanarModel) -> bool {
+        model == PlanarModel::Subs
+    }
     fn operator_settings(
         spec: &OperatorSpec,
         crane: &Self,
         model: PlanarModel,
         h: f64,
     ) -> Result<Settings<1>, SceneError> {
-        if model != PlanarModel::Subs {
+        if !Self::manual_mode(model) {
             return Err(only_subs("planar crane", "crane-subs", model));
         }
         let w = crane.workspace;

@@ -82,13 +82,17 @@ impl FirmwareCrane<3> for Crane3dParams {
     /// Only *subs* has the controller's reference on the generator's path
     /// (`controller::crane::spatial`); bridge and trolley range over the workspace box,
     /// the hoist over the depths the rope's range allows.
+    /// *subs* only: only it has the controller's reference on the generator's path.
+    fn manual_mode(model: SpatialModel) -> bool {
+        model == SpatialModel::Subs
+    }
     fn operator_settings(
         spec: &OperatorSpec,
         crane: &Self,
         model: SpatialModel,
         h: f64,
     ) -> Result<Settings<2>, SceneError> {
-        if model != SpatialModel::Subs {
+        if !Self::manual_mode(model) {
             return Err(only_subs("3D crane", "crane3d-subs", model));
         }
         let w = crane.workspace;
