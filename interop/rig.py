@@ -29,7 +29,7 @@ ROOT = os.path.dirname(HERE)
 DBC = os.path.join(ROOT, "can", "crane.dbc")
 CONTROLLER_EDS = os.path.join(ROOT, "can", "crane-controller.eds")
 ECU = os.environ.get("ECU_BIN", os.path.join(ROOT, "target", "debug", "ecu"))
-DEFAULT_SCENE = "scenes/paper-crane.toml"  # the ECU's without --scene
+DEFAULT_SCENE = "scenes/paper-crane-ext.toml"  # the ECU's without --scene (host_tests::DEFAULT_SCENE)
 
 CONTROLLER = 0x10
 STATUS, EMCY_CONTROLLER, COMMAND, MOVE3D = 0x190, 0x090, 0x210, 0x310

@@ -247,7 +247,7 @@ def test_a_load_swinging_5_degrees_when_the_move_is_commanded_ends_on_target(rig
 def test_the_same_swinging_start_with_feedforward_alone_ends_swinging(rigs):
     """The paper's controller on the same plant: the swing it was not told about stays
     (several degrees, the load far beyond ±50 mm) — what the test above must tell apart."""
-    rig = rigs()  # scenes/paper-crane.toml: no feedback, no inclinometer on the bus
+    rig = rigs()  # the default scene (rig.DEFAULT_SCENE): no feedback, no inclinometer on the bus
     rig.wait_mode("ready")
     end = swinging_start(rig)
     log = rig.close()

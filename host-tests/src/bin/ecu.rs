@@ -52,8 +52,8 @@ use scene::Scene;
 #[derive(Parser, Debug)]
 #[command(about = "The crane controller in real time, its CAN bus as SLCAN over TCP")]
 struct Cli {
-    /// The scene (the firmware's default scene unless given).
-    #[arg(long, default_value = "scenes/paper-crane.toml")]
+    /// The scene (the default scene, `host_tests::DEFAULT_SCENE`, unless given).
+    #[arg(long, default_value = host_tests::DEFAULT_SCENE)]
     scene: PathBuf,
     /// TCP port on 127.0.0.1; 0 lets the system choose (printed on the first line).
     #[arg(long, default_value_t = 28_800)]

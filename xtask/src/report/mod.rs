@@ -41,8 +41,8 @@ use bus::{Cob, Crane, Role};
 use logs::{Format, Frame, ReadStats};
 use series::Capped;
 
-/// The default scene: the virtual ECU's and the firmware's.
-pub const DEFAULT_SCENE: &str = "scenes/paper-crane.toml";
+/// The default scene: the virtual ECU's and the firmware's (one constant for all).
+pub use host_tests::DEFAULT_SCENE;
 
 /// What `cargo xtask report` is asked.
 #[derive(Debug, Clone)]
