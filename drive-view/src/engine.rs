@@ -368,6 +368,29 @@ impl Engine {
             load_velocity,
         })
     }
+
+    /// [`Engine::cycle`], judged: a controller fault or a set point that is not finite
+    /// is an error (what the tests and the studies hold every cycle to).
+    pub fn checked_cycle(&mut self, switch: &mut MasterSwitch) -> Result<Snapshot, String> {
+        let snap = self.cycle(switch)?;
+        if let Some(fault) = snap.mode.fault() {
+            return Err(format!("t = {}: {fault:?}", snap.t));
+        }
+        if !snap.setpoints.iter().all(|v| v.is_finite()) {
+            return Err(format!("t = {}: set points {:?}", snap.t, snap.setpoints));
+        }
+        Ok(snap)
+    }
+
+    /// `seconds` of [`Engine::checked_cycle`]s with the switch as it is.
+    pub fn run_for(
+        &mut self,
+        switch: &mut MasterSwitch,
+        seconds: f64,
+    ) -> Result<Vec<Snapshot>, String> {
+        let n = (seconds * 1000.0 / f64::from(self.period_ms)).round() as usize;
+        (0..n).map(|_| self.checked_cycle(switch)).collect()
+    }
 }
 
 #[cfg(test)]
@@ -386,20 +409,7 @@ mod tests {
 
     /// Runs `seconds` of cycles, each snapshot checked: every value finite, no fault.
     fn run(e: &mut Engine, s: &mut MasterSwitch, seconds: f64) -> Vec<Snapshot> {
-        let n = (seconds * 1000.0 / f64::from(e.period_ms())).round() as usize;
-        (0..n)
-            .map(|_| {
-                let snap = e.cycle(s).unwrap();
-                assert!(
-                    snap.mode.fault().is_none(),
-                    "t = {}: {:?}",
-                    snap.t,
-                    snap.mode
-                );
-                assert!(snap.setpoints.iter().all(|v| v.is_finite()));
-                snap
-            })
-            .collect()
+        e.run_for(s, seconds).unwrap()
     }
 
     /// The pty test's key sequence without a terminal: `m`, three `→` once manual mode
