@@ -178,6 +178,7 @@ pub struct Ring<const W: usize, const R: usize> {
 impl<const W: usize, const R: usize> Ring<W, R> {
     /// All zero: a history at rest.
     #[must_use]
+    #[inline(always)]
     pub fn new() -> Self {
         Self {
             cells: [[0; W]; R],

@@ -40,34 +40,53 @@ pub struct Group<const W: usize, const R: usize> {
 }
 
 impl<const W: usize, const R: usize> Group<W, R> {
-    /// At rest at `origin` with these acceleration limits (cycle `h`), bounds and filter.
+    /// A group that never moved and has no filter yet (every setting zero): the storage a
+    /// generator is parked in until [`Group::reset`] starts it. Its cycles keep it at
+    /// rest at 0. Always inlined, so that it is written straight into its destination
+    /// (a call would build it in its own frame first).
     #[must_use]
-    pub fn at_rest(
+    #[inline(always)]
+    pub fn parked() -> Self {
+        Self {
+            axes: [Axis::REST; W],
+            origin: [0.0; W],
+            accelerations: [0.0; W],
+            h: 0.0,
+            bounds: [(0, 0); W],
+            ring: Ring::new(),
+            sums: Sums::REST,
+            taps: Taps::new(&[]),
+            scale: [0.0; W],
+            pieces: [Piece::rest(0.0); W],
+            quiet: usize::MAX,
+            window: 0,
+            omega_h: None,
+            at_rest: true,
+        }
+    }
+
+    /// At rest at `origin` with these acceleration limits (cycle `h`), bounds and filter,
+    /// in place: every field written, the ring forgotten rather than rebuilt, so that no
+    /// second group (its ring is most of a generator's size) is ever on the stack.
+    pub fn reset(
+        &mut self,
         origin: [f64; W],
         accelerations: [f64; W],
         h: f64,
         bounds: [(i64, i64); W],
         taps: Taps,
         omega_h: Option<f64>,
-    ) -> Self {
-        let mut g = Self {
-            axes: [Axis::REST; W],
-            origin,
-            accelerations,
-            h,
-            bounds,
-            ring: Ring::new(),
-            sums: Sums::REST,
-            taps,
-            scale: [0.0; W],
-            pieces: origin.map(Piece::rest),
-            quiet: usize::MAX,
-            window: 0,
-            omega_h,
-            at_rest: true,
-        };
-        g.set_filter(taps, omega_h);
-        g
+    ) {
+        self.axes = [Axis::REST; W];
+        self.origin = origin;
+        self.accelerations = accelerations;
+        self.h = h;
+        self.bounds = bounds;
+        self.pieces = origin.map(Piece::rest);
+        self.quiet = usize::MAX;
+        self.at_rest = true;
+        // Forgets the ring and clears the sums.
+        self.set_filter(taps, omega_h);
     }
 
     /// A new filter (only at rest: the history is then all zero); forgets the ring, whose
