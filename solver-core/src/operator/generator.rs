@@ -480,7 +480,10 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
 
     /// One cycle: moves on past the current piece (if any) and builds the next one,
     /// `[t, t + h]`, from the stick's `demand`. Call it once per cycle before the inverse
-    /// model steps over that interval.
+    /// model steps over that interval. Never inlined: `cargo xtask cycles` measures the
+    /// generator's cost per cycle from a call of this (and of [`Generator::evaluate`]) to
+    /// its return.
+    #[inline(never)]
     pub fn advance(&mut self, demand: &Demand<NH>) -> Cycle {
         if self.built {
             self.cycles += 1;
@@ -591,7 +594,9 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
 
     /// The path and its first `D − 1` derivatives at `t` (inside the current cycle; beyond
     /// it the cycle's polynomial is continued): per horizontal axis, and the hoist's.
+    /// Never inlined, as [`Generator::advance`].
     #[must_use]
+    #[inline(never)]
     pub fn evaluate<const D: usize>(&self, t: f64) -> ([[f64; D]; NH], [f64; D]) {
         let theta = (t - self.time()) * self.inv_h;
         let mut out = [[0.0; D]; NH];

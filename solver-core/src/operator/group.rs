@@ -2,7 +2,7 @@
 //! vector, one ring, the virtual pendulum) or the hoist (its own limiter and windows).
 //! Each cycle: the limiter's steps, the discrete filter, one piece per axis.
 
-use crate::operator::filter::{Ring, Sums, Taps};
+use crate::operator::filter::{i64_to_f64, Ring, Sums, Taps};
 use crate::operator::limiter::{self, Axis};
 use crate::operator::piece::{spline, Inputs, Piece};
 use crate::operator::settings::Quanta;
@@ -136,7 +136,7 @@ impl<const W: usize, const R: usize> Group<W, R> {
     pub fn speeds(&self) -> [f64; W] {
         let mut out = [0.0; W];
         for (o, (a, q)) in out.iter_mut().zip(self.axes.iter().zip(self.quanta())) {
-            *o = a.n_v as f64 * q.velocity;
+            *o = i64_to_f64(a.n_v) * q.velocity;
         }
         out
     }
@@ -155,7 +155,7 @@ impl<const W: usize, const R: usize> Group<W, R> {
                 .zip(self.origin)
                 .zip(self.axes.iter().zip(self.accelerations))
             {
-                piece.settle(o + a.n_p as f64 * Quanta::new(q, self.h).position);
+                piece.settle(o + i64_to_f64(a.n_p) * Quanta::new(q, self.h).position);
             }
             return;
         }
@@ -167,8 +167,8 @@ impl<const W: usize, const R: usize> Group<W, R> {
             .zip(v0.iter_mut())
             .zip(self.axes.iter().zip(quanta))
         {
-            *p += a.n_p as f64 * q.position;
-            *v = a.n_v as f64 * q.velocity;
+            *p += i64_to_f64(a.n_p) * q.position;
+            *v = i64_to_f64(a.n_v) * q.velocity;
         }
         let resting = self.axes.iter().all(|a| a.n_v == 0);
         let k = limiter::step(&mut self.axes, targets, bounds);
