@@ -58,6 +58,10 @@ pub const CLOCK_MHZ: f64 = 480.0;
 /// set when the windows were cut at the counter's entry).
 pub const WINDOW_SLACK: i64 = 16;
 
+/// The deepest call chain kept for the generator's tail calls (deeper: the oldest
+/// forgotten).
+const MAX_CALL_DEPTH: usize = 64;
+
 const SETTINGS: [Setting; 3] = [Setting::Lower, Setting::Point, Setting::Upper];
 
 /// One step as the trace saw it.
@@ -138,8 +142,11 @@ struct Reader {
     share: Share,
     /// The last instruction executed.
     last: Option<Insn>,
-    /// Where the last call executed (`bl`, `blx`) returns to: a tail call's return.
-    last_return: Option<u32>,
+    /// Where the calls executed (`bl`, `blx`) and not yet returned from return to,
+    /// innermost last (kept only with a generator to probe): a call or tail call of the
+    /// generator returns to the innermost. An interrupt's calls return before it does,
+    /// so they leave it as it was; a return seen deeper in it drops what lies above.
+    returns: Vec<u32>,
     /// Instructions and point cycles by function inside the generator's windows.
     profile: HashMap<Rc<str>, (u64, u64)>,
     /// The address of its timer read, once its disassembly was seen.
@@ -166,7 +173,7 @@ impl Reader {
             generator_open: None,
             share: Share::default(),
             last: None,
-            last_return: None,
+            returns: Vec::new(),
             profile: HashMap::new(),
             read: None,
             by_host: HashMap::new(),
@@ -283,6 +290,13 @@ impl Reader {
         if let Some(last) = self.previous.as_ref().and_then(|b| b.last()) {
             self.branch(*last, pc);
         }
+        let probing = !self.probe.entries.is_empty();
+        if probing {
+            // Returns land at a block's start.
+            if let Some(i) = self.returns.iter().rposition(|r| *r == pc) {
+                self.returns.truncate(i);
+            }
+        }
         for insn in block.iter() {
             if let Some((ret, start)) = self.generator_open {
                 if insn.address == ret {
@@ -306,7 +320,7 @@ impl Reader {
                 // called last: it returns where that call does).
                 let ret = match self.last {
                     Some(call) if call.links => Some(call.address + call.size),
-                    Some(jump) if jump.target == Some(insn.address) => self.last_return,
+                    Some(jump) if jump.target == Some(insn.address) => self.returns.last().copied(),
                     _ => None,
                 };
                 match ret {
@@ -331,8 +345,11 @@ impl Reader {
             }
             self.out.instructions += 1;
             self.last = Some(*insn);
-            if insn.links {
-                self.last_return = Some(insn.address + insn.size);
+            if probing && insn.links {
+                if self.returns.len() >= MAX_CALL_DEPTH {
+                    self.returns.remove(0);
+                }
+                self.returns.push(insn.address + insn.size);
             }
         }
         self.previous = Some(block);
