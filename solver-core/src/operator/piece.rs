@@ -310,29 +310,21 @@ impl Piece {
 
     /// The path and its first `D − 1` time derivatives at `θ`, `inv_h = 1/h`.
     #[must_use]
-    ///
-    /// One Horner sum per derivative, `acc_j = acc_j θ + c_k F_jk` for `k` from the top
-    /// down to `j`, the `D` sums interleaved coefficient by coefficient: each sum's
-    /// operations and their order are its own (the same values as summing them one after
-    /// the other), but neighbouring operations are independent, so the Cortex-M7 issues
-    /// them back to back instead of waiting out each multiply-add's latency (this ran
-    /// once per axis and evaluation, 27 % of the 3D generator's estimated cycles,
-    /// `cargo xtask cycles scenes/crane3d/crane3d-manual.toml`).
     pub fn eval<const D: usize>(&self, theta: f64, inv_h: f64) -> [f64; D] {
-        let mut acc = [0.0; D];
-        for (k, c) in self.coeffs.iter().enumerate().rev() {
-            for (j, (a, factors)) in acc.iter_mut().zip(FALLING.iter()).enumerate() {
-                if let (true, Some(f)) = (j <= k, factors.get(k)) {
-                    *a = *a * theta + c * f;
-                }
-            }
-        }
+        // One Horner sum per derivative. (Interleaving the sums coefficient by coefficient
+        // saved ~160 estimated M7 cycles per 3D evaluation, but the unrolled code took
+        // 760–1,290 B more flash and put the planar STM32H743 manual build over 128 KiB.)
+        let mut out = [0.0; D];
         let mut scale = 1.0;
-        for a in acc.iter_mut() {
-            *a *= scale;
+        for (j, (slot, factors)) in out.iter_mut().zip(FALLING.iter()).enumerate() {
+            let mut acc = 0.0;
+            for (c, f) in self.coeffs.iter().zip(factors.iter()).skip(j).rev() {
+                acc = acc * theta + c * f;
+            }
+            *slot = acc * scale;
             scale *= inv_h;
         }
-        acc
+        out
     }
 }
 
@@ -340,34 +332,6 @@ impl Piece {
 mod tests {
     #![allow(clippy::indexing_slicing, clippy::unwrap_used)]
     use super::*;
-
-    /// The interleaved evaluation is the derivatives' Horner sums one after the other,
-    /// bit for bit, on random pieces and arguments.
-    #[test]
-    fn interleaved_evaluation_is_the_sums_one_by_one() {
-        let mut seed = 3_u64;
-        let mut next = || {
-            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
-            ((seed >> 11) as f64 / (1_u64 << 53) as f64 - 0.5) * 10.0
-        };
-        for _ in 0..2_000 {
-            let mut p = Piece::rest(0.0);
-            for c in p.coeffs.iter_mut() {
-                *c = next();
-            }
-            let (theta, inv_h) = (next() * 0.2, 100.0 + next());
-            let got = p.eval::<7>(theta, inv_h);
-            let mut scale = 1.0;
-            for (j, factors) in FALLING.iter().enumerate().take(7) {
-                let mut acc = 0.0;
-                for (c, f) in p.coeffs.iter().zip(factors.iter()).skip(j).rev() {
-                    acc = acc * theta + c * f;
-                }
-                assert_eq!(got[j].to_bits(), (acc * scale).to_bits(), "derivative {j}");
-                scale *= inv_h;
-            }
-        }
-    }
 
     /// Cox–de Boor's recursion at a point, for the tables' check.
     fn cox_de_boor(q: usize, x: f64) -> f64 {
