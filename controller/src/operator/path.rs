@@ -22,8 +22,11 @@ use solver_core::{Error, Real};
 pub trait Source<const A: usize>: Trajectory<f64, A> + Sized {
     /// Its settings (each axis's manual speed and acceleration, its windows).
     type Settings: Copy;
-    /// The generator at rest with the load at `position` at time `t`.
-    fn at_rest(settings: Self::Settings, t: f64, position: [f64; A]) -> Result<Self, Error>;
+    /// Storage for a generator not started yet (at rest, deaf to the stick).
+    fn parked(settings: Self::Settings) -> Self;
+    /// The generator at rest with the load at `position` at time `t`, written in place
+    /// (no generator is built on the stack); on an error `self` is unchanged.
+    fn reset(&mut self, settings: Self::Settings, t: f64, position: [f64; A]) -> Result<(), Error>;
     /// One cycle of the stick: `horizontal` (x, and y for the 3D crane; a planar crane
     /// takes x only) and `hoist`, each a fraction of full stick.
     fn advance(&mut self, horizontal: [f64; 2], hoist: f64) -> Cycle;
@@ -43,8 +46,12 @@ pub trait Source<const A: usize>: Trajectory<f64, A> + Sized {
 
 impl Source<2> for PlanarGenerator {
     type Settings = Settings<1>;
-    fn at_rest(settings: Settings<1>, t: f64, [x, z]: [f64; 2]) -> Result<Self, Error> {
-        PlanarGenerator::at_rest(settings, t, [x], z)
+    #[inline(always)]
+    fn parked(settings: Settings<1>) -> Self {
+        PlanarGenerator::parked(settings)
+    }
+    fn reset(&mut self, settings: Settings<1>, t: f64, [x, z]: [f64; 2]) -> Result<(), Error> {
+        PlanarGenerator::reset(self, settings, t, [x], z)
     }
     fn advance(&mut self, [x, _]: [f64; 2], hoist: f64) -> Cycle {
         PlanarGenerator::advance(
@@ -77,8 +84,12 @@ impl Source<2> for PlanarGenerator {
 
 impl Source<3> for Generator3d {
     type Settings = Settings<2>;
-    fn at_rest(settings: Settings<2>, t: f64, [x, y, z]: [f64; 3]) -> Result<Self, Error> {
-        Generator3d::at_rest(settings, t, [x, y], z)
+    #[inline(always)]
+    fn parked(settings: Settings<2>) -> Self {
+        Generator3d::parked(settings)
+    }
+    fn reset(&mut self, settings: Settings<2>, t: f64, [x, y, z]: [f64; 3]) -> Result<(), Error> {
+        Generator3d::reset(self, settings, t, [x, y], z)
     }
     fn advance(&mut self, horizontal: [f64; 2], hoist: f64) -> Cycle {
         Generator3d::advance(self, &Demand { horizontal, hoist })
@@ -209,8 +220,13 @@ impl<const A: usize> Planned<A> for Plan<f64, A> {
 pub struct Steered<G: Source<A>, const A: usize> {
     plan: Plan<f64, A>,
     settings: G::Settings,
-    /// The generator (and a marker of the outputs' count), while manual mode runs.
-    manual: Option<(G, [(); A])>,
+    /// The generator (and a marker of the outputs' count): parked until manual mode is
+    /// first entered, then reset in place on each entry. Always here rather than an
+    /// `Option` built on entry: a generator built by value and moved into place is one
+    /// or two copies of it (3D: ~3 KB each) on the control task's stack.
+    generator: (G, [(); A]),
+    /// Whether manual mode runs (the generator drives the model).
+    manual: bool,
 }
 
 impl<G: Source<A>, const A: usize> Steered<G, A> {
@@ -219,7 +235,8 @@ impl<G: Source<A>, const A: usize> Steered<G, A> {
         Self {
             plan,
             settings,
-            manual: None,
+            generator: (G::parked(settings), [(); A]),
+            manual: false,
         }
     }
 }
@@ -233,7 +250,7 @@ impl<G: Source<A>, const A: usize> Planned<A> for Steered<G, A> {
     }
     fn rest_at(&mut self, position: [f64; A], n: usize) -> Result<(), Error> {
         self.plan = Plan::at_rest(position.into(), n)?;
-        self.manual = None;
+        self.manual = false;
         Ok(())
     }
     fn enter_manual(&mut self, t: f64) -> Result<(), ManualError> {
@@ -241,34 +258,42 @@ impl<G: Source<A>, const A: usize> Planned<A> for Steered<G, A> {
             return Err(ManualError::Moving);
         }
         let position = self.plan.final_position().into();
-        let g = G::at_rest(self.settings, t, position).map_err(ManualError::Generator)?;
-        self.manual = Some((g, [(); A]));
+        self.generator
+            .0
+            .reset(self.settings, t, position)
+            .map_err(ManualError::Generator)?;
+        self.manual = true;
         Ok(())
     }
     fn leave_manual(&mut self) -> Result<(), ManualError> {
-        let Some((g, _)) = &self.manual else {
+        if !self.manual {
             return Ok(());
-        };
+        }
+        let g = &self.generator.0;
         if !g.is_at_rest() {
             return Err(ManualError::Moving);
         }
         let [position]: [SVector<f64, A>; 1] = g.derivatives(g.time());
         let n = self.plan.planned_smoothness();
         self.plan = Plan::at_rest(position, n).map_err(ManualError::Generator)?;
-        self.manual = None;
+        self.manual = false;
         Ok(())
     }
     fn manual_mut(&mut self) -> Option<&mut dyn ManualPath> {
-        self.manual.as_mut().map(|m| m as &mut dyn ManualPath)
+        if self.manual {
+            Some(&mut self.generator as &mut dyn ManualPath)
+        } else {
+            None
+        }
     }
     fn in_manual(&self) -> bool {
-        self.manual.is_some()
+        self.manual
     }
     fn stick_deadband(&self) -> Option<f64> {
         Some(G::deadband(&self.settings))
     }
     fn manual_moving(&self) -> bool {
-        self.manual.as_ref().is_some_and(|(g, _)| !g.is_at_rest())
+        self.manual && !self.generator.0.is_at_rest()
     }
 }
 
@@ -278,21 +303,24 @@ where
     Plan<f64, A>: Trajectory<T, A>,
 {
     fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, A>; D] {
-        match &self.manual {
-            Some((g, _)) => g.derivatives(t),
-            None => self.plan.derivatives(t),
+        if self.manual {
+            self.generator.0.derivatives(t)
+        } else {
+            self.plan.derivatives(t)
         }
     }
     fn active_span(&self) -> (T, T) {
-        match &self.manual {
-            Some((g, _)) => g.active_span(),
-            None => self.plan.active_span(),
+        if self.manual {
+            self.generator.0.active_span()
+        } else {
+            self.plan.active_span()
         }
     }
     fn smoothness(&self) -> usize {
-        match &self.manual {
-            Some((g, _)) => Trajectory::<T, A>::smoothness(g),
-            None => Trajectory::<T, A>::smoothness(&self.plan),
+        if self.manual {
+            Trajectory::<T, A>::smoothness(&self.generator.0)
+        } else {
+            Trajectory::<T, A>::smoothness(&self.plan)
         }
     }
 }

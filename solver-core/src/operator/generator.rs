@@ -153,6 +153,57 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         horizontal: [f64; NH],
         depth: f64,
     ) -> Result<Self> {
+        let mut g = Self::parked(settings);
+        g.reset(settings, t0, horizontal, depth)?;
+        Ok(g)
+    }
+
+    /// Storage for a generator that has not started: at rest at the origin at time 0,
+    /// deaf to the stick (every demand scales to zero speed), until [`Generator::reset`]
+    /// starts it. What a controller keeps its manual mode's generator in while it runs
+    /// automatic moves, so that entering manual mode writes the generator in place
+    /// instead of building one on the control task's stack (`Generator3d` is ~3 KB,
+    /// and a value built and then moved is two of them on the stack). Always inlined, so
+    /// that the controller's construction writes it in place too.
+    #[must_use]
+    #[inline(always)]
+    pub fn parked(settings: Settings<NH>) -> Self {
+        Self {
+            settings,
+            inv_h: 0.0,
+            t0: 0.0,
+            cycles: 0,
+            built: false,
+            stopping: false,
+            horizontal: Group::parked(),
+            hoist: Group::parked(),
+            tuning: Tuning {
+                pendulum: 0.0,
+                half_period: 0,
+                robust_half_period: None,
+                lag: 0.0,
+                hoist_lag: 0.0,
+                depth_cap: 0.0,
+                cap_units: 0,
+            },
+            reach: 0,
+            boxes: [0; 2],
+            blend: None,
+            full_stick: [0.0; NH],
+            full_hoist: 0.0,
+        }
+    }
+
+    /// [`Generator::at_rest`] in place: the same generator, written field by field into
+    /// `self` (the rings forgotten, not rebuilt), whatever `self` held — parked, moving
+    /// or at rest. Every check comes first: on an error `self` is unchanged.
+    pub fn reset(
+        &mut self,
+        settings: Settings<NH>,
+        t0: f64,
+        horizontal: [f64; NH],
+        depth: f64,
+    ) -> Result<()> {
         settings.validate()?;
         let (need_h, need_v) = settings.ring_lengths()?;
         if need_h > RH || need_v > RV {
@@ -201,7 +252,8 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             cycles("box", settings.boxes[0], h)?,
             cycles("box", settings.boxes[1], h)?,
         ];
-        let hoist = Group::at_rest(
+        // Checked: from here on every field is written.
+        self.hoist.reset(
             [depth],
             [settings.hoist.acceleration],
             h,
@@ -209,42 +261,38 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             Taps::new(&hoist_windows),
             None,
         );
-        let placeholder = Taps::new(&[Factor::Window(boxes[0]), Factor::Window(boxes[1])]);
-        let mut g = Self {
-            settings,
-            inv_h: 1.0 / h,
-            t0,
-            cycles: 0,
-            built: false,
-            stopping: false,
-            horizontal: Group::at_rest(
-                horizontal,
-                settings.horizontal.map(|a| a.acceleration),
-                h,
-                bounds,
-                placeholder,
-                None,
-            ),
-            hoist,
-            tuning: Tuning {
-                pendulum: 0.0,
-                half_period: 0,
-                robust_half_period: None,
-                lag: 0.0,
-                hoist_lag: hoist_cycles as f64 * h * 0.5,
-                depth_cap: depth,
-                cap_units: 0,
-            },
-            reach: 0,
-            boxes,
-            blend: None,
-            full_stick: settings.horizontal.map(|a| {
-                a.speed / Quanta::new(a.acceleration, h).velocity / (1.0 - settings.deadband)
-            }),
-            full_hoist: settings.hoist.speed / zq.velocity / (1.0 - settings.deadband),
+        self.horizontal.reset(
+            horizontal,
+            settings.horizontal.map(|a| a.acceleration),
+            h,
+            bounds,
+            Taps::new(&[Factor::Window(boxes[0]), Factor::Window(boxes[1])]),
+            None,
+        );
+        self.settings = settings;
+        self.inv_h = 1.0 / h;
+        self.t0 = t0;
+        self.cycles = 0;
+        self.built = false;
+        self.stopping = false;
+        self.tuning = Tuning {
+            pendulum: 0.0,
+            half_period: 0,
+            robust_half_period: None,
+            lag: 0.0,
+            hoist_lag: hoist_cycles as f64 * h * 0.5,
+            depth_cap: depth,
+            cap_units: 0,
         };
-        g.retune();
-        Ok(g)
+        self.reach = 0;
+        self.boxes = boxes;
+        self.blend = None;
+        self.full_stick = settings
+            .horizontal
+            .map(|a| a.speed / Quanta::new(a.acceleration, h).velocity / (1.0 - settings.deadband));
+        self.full_hoist = settings.hoist.speed / zq.velocity / (1.0 - settings.deadband);
+        self.retune();
+        Ok(())
     }
 
     /// Takes over a moving load at time `t` (a hand-over from a running move): the path
@@ -432,7 +480,10 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
 
     /// One cycle: moves on past the current piece (if any) and builds the next one,
     /// `[t, t + h]`, from the stick's `demand`. Call it once per cycle before the inverse
-    /// model steps over that interval.
+    /// model steps over that interval. Never inlined: `cargo xtask cycles` measures the
+    /// generator's cost per cycle from a call of this (and of [`Generator::evaluate`]) to
+    /// its return.
+    #[inline(never)]
     pub fn advance(&mut self, demand: &Demand<NH>) -> Cycle {
         if self.built {
             self.cycles += 1;
@@ -543,7 +594,9 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
 
     /// The path and its first `D − 1` derivatives at `t` (inside the current cycle; beyond
     /// it the cycle's polynomial is continued): per horizontal axis, and the hoist's.
+    /// Never inlined, as [`Generator::advance`].
     #[must_use]
+    #[inline(never)]
     pub fn evaluate<const D: usize>(&self, t: f64) -> ([[f64; D]; NH], [f64; D]) {
         let theta = (t - self.time()) * self.inv_h;
         let mut out = [[0.0; D]; NH];

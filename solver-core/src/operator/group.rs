@@ -2,7 +2,7 @@
 //! vector, one ring, the virtual pendulum) or the hoist (its own limiter and windows).
 //! Each cycle: the limiter's steps, the discrete filter, one piece per axis.
 
-use crate::operator::filter::{Ring, Sums, Taps};
+use crate::operator::filter::{i64_to_f64, Ring, Sums, Taps};
 use crate::operator::limiter::{self, Axis};
 use crate::operator::piece::{spline, Inputs, Piece};
 use crate::operator::settings::Quanta;
@@ -40,34 +40,55 @@ pub struct Group<const W: usize, const R: usize> {
 }
 
 impl<const W: usize, const R: usize> Group<W, R> {
-    /// At rest at `origin` with these acceleration limits (cycle `h`), bounds and filter.
+    /// A group that never moved and has no filter yet (every setting zero): the storage a
+    /// generator is parked in until [`Group::reset`] starts it. Its cycles keep it at
+    /// rest at 0. Always inlined, so that it is written straight into its destination
+    /// (a call would build it in its own frame first).
     #[must_use]
-    pub fn at_rest(
+    #[inline(always)]
+    pub fn parked() -> Self {
+        Self {
+            axes: [Axis::REST; W],
+            origin: [0.0; W],
+            accelerations: [0.0; W],
+            h: 0.0,
+            bounds: [(0, 0); W],
+            ring: Ring::new(),
+            sums: Sums::REST,
+            taps: Taps::new(&[]),
+            scale: [0.0; W],
+            pieces: [Piece::rest(0.0); W],
+            quiet: usize::MAX,
+            window: 0,
+            omega_h: None,
+            at_rest: true,
+        }
+    }
+
+    /// At rest at `origin` with these acceleration limits (cycle `h`), bounds and filter,
+    /// in place: every field written, the ring forgotten rather than rebuilt, so that no
+    /// second group (its ring is most of a generator's size) is ever on the stack. Inlined
+    /// into its one caller, `Generator::reset` (flash: one function less per group).
+    #[inline(always)]
+    pub fn reset(
+        &mut self,
         origin: [f64; W],
         accelerations: [f64; W],
         h: f64,
         bounds: [(i64, i64); W],
         taps: Taps,
         omega_h: Option<f64>,
-    ) -> Self {
-        let mut g = Self {
-            axes: [Axis::REST; W],
-            origin,
-            accelerations,
-            h,
-            bounds,
-            ring: Ring::new(),
-            sums: Sums::REST,
-            taps,
-            scale: [0.0; W],
-            pieces: origin.map(Piece::rest),
-            quiet: usize::MAX,
-            window: 0,
-            omega_h,
-            at_rest: true,
-        };
-        g.set_filter(taps, omega_h);
-        g
+    ) {
+        self.axes = [Axis::REST; W];
+        self.origin = origin;
+        self.accelerations = accelerations;
+        self.h = h;
+        self.bounds = bounds;
+        self.pieces = origin.map(Piece::rest);
+        self.quiet = usize::MAX;
+        self.at_rest = true;
+        // Forgets the ring and clears the sums.
+        self.set_filter(taps, omega_h);
     }
 
     /// A new filter (only at rest: the history is then all zero); forgets the ring, whose
@@ -117,7 +138,7 @@ impl<const W: usize, const R: usize> Group<W, R> {
     pub fn speeds(&self) -> [f64; W] {
         let mut out = [0.0; W];
         for (o, (a, q)) in out.iter_mut().zip(self.axes.iter().zip(self.quanta())) {
-            *o = a.n_v as f64 * q.velocity;
+            *o = i64_to_f64(a.n_v) * q.velocity;
         }
         out
     }
@@ -136,7 +157,7 @@ impl<const W: usize, const R: usize> Group<W, R> {
                 .zip(self.origin)
                 .zip(self.axes.iter().zip(self.accelerations))
             {
-                piece.settle(o + a.n_p as f64 * Quanta::new(q, self.h).position);
+                piece.settle(o + i64_to_f64(a.n_p) * Quanta::new(q, self.h).position);
             }
             return;
         }
@@ -148,8 +169,8 @@ impl<const W: usize, const R: usize> Group<W, R> {
             .zip(v0.iter_mut())
             .zip(self.axes.iter().zip(quanta))
         {
-            *p += a.n_p as f64 * q.position;
-            *v = a.n_v as f64 * q.velocity;
+            *p += i64_to_f64(a.n_p) * q.position;
+            *v = i64_to_f64(a.n_v) * q.velocity;
         }
         let resting = self.axes.iter().all(|a| a.n_v == 0);
         let k = limiter::step(&mut self.axes, targets, bounds);

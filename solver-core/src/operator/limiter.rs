@@ -26,6 +26,8 @@
 //! B(n − 127)`), so by induction the path never leaves the range, a demand held into a
 //! limit ends there at rest, and a demand away from it is always granted.
 
+use crate::operator::filter::i64_to_f64;
+
 /// Largest acceleration step: `|k| ≤ 127`, so that a cycle's `k` is one `i8`.
 pub const MAX_STEP: i32 = 127;
 
@@ -168,7 +170,7 @@ pub fn step<const W: usize>(
     let mut largest = 0.0_f64;
     let mut delta = [0.0; W];
     for ((d, a), t) in delta.iter_mut().zip(axes.iter()).zip(targets) {
-        *d = t - (a.n_v as f64 + a.carry);
+        *d = t - (i64_to_f64(a.n_v) + a.carry);
         largest = largest.max(libm::fabs(*d));
     }
     let scale = if largest > step { step / largest } else { 1.0 };
@@ -183,12 +185,13 @@ pub fn step<const W: usize>(
         let ideal = if scale >= 1.0 {
             t
         } else {
-            a.n_v as f64 + a.carry + scale * d
+            i64_to_f64(a.n_v) + a.carry + scale * d
         };
-        let wanted = round_i(ideal - a.n_v as f64).clamp(-i64::from(MAX_STEP), i64::from(MAX_STEP));
+        let wanted =
+            round_i(ideal - i64_to_f64(a.n_v)).clamp(-i64::from(MAX_STEP), i64::from(MAX_STEP));
         let k = a.braked(wanted, b);
         a.carry = if k == wanted {
-            ideal - (a.n_v + k) as f64
+            ideal - i64_to_f64(a.n_v + k)
         } else {
             0.0
         };

@@ -115,4 +115,62 @@ mod tests {
         assert!(core::mem::size_of::<PlanarGenerator>() <= 3 * 1024);
         assert!(core::mem::size_of::<Generator3d>() <= 3 * 1024);
     }
+
+    /// A generator reset in place after a motion (its rings full of an old history, its
+    /// filter tuned for it) is the generator built at rest there: the same path, bit for
+    /// bit, over a motion with a start, hoisting, a reversal and a release, and the same
+    /// refusal — with `self` left as it was — of a position outside the ranges.
+    #[test]
+    fn a_generator_reset_in_place_is_the_one_built_at_rest() {
+        #![allow(clippy::unwrap_used)]
+        let settings = Settings::lab_3d(&crate::models::crane3d::Crane3dParams::EXAMPLE);
+        let (lo, hi) = (settings.horizontal[0].range, settings.hoist.range);
+        let start = (
+            [
+                lo.0 + 0.3 * (lo.1 - lo.0),
+                settings.horizontal[1].range.0 + 0.5,
+            ],
+            hi.0 + 0.4 * (hi.1 - hi.0),
+        );
+        let stick = |n: usize| Demand {
+            horizontal: match n {
+                0..=149 => [1.0, 0.4],
+                150..=249 => [-0.7, 0.0],
+                _ => [0.0, 0.0],
+            },
+            hoist: if (20..120).contains(&n) { 0.8 } else { 0.0 },
+        };
+        let mut used = Generator3d::parked(settings);
+        used.reset(settings, 0.0, start.0, start.1).unwrap();
+        for n in 0..200 {
+            let _ = used.advance(&stick(n));
+        }
+        assert!(!used.is_at_rest(), "reset while moving");
+        let before = used;
+        let outside = [lo.1 + 1.0, start.0[1]];
+        let refused = used.reset(settings, 2.0, outside, start.1);
+        assert!(refused.is_err());
+        assert_eq!(used, before, "a refused reset changes nothing");
+        assert_eq!(
+            Generator3d::at_rest(settings, 2.0, outside, start.1).err(),
+            refused.err()
+        );
+        used.reset(settings, 2.0, start.0, start.1).unwrap();
+        let mut fresh = Generator3d::at_rest(settings, 2.0, start.0, start.1).unwrap();
+        assert_eq!(used.tuning(), fresh.tuning());
+        let mut moved = false;
+        for n in 0..700 {
+            let (a, b) = (used.advance(&stick(n)), fresh.advance(&stick(n)));
+            assert_eq!(a, b, "cycle {n}");
+            moved |= !a.at_rest;
+            for theta in [0.0, 0.5, 1.0] {
+                let t = used.time() + theta * settings.h;
+                assert_eq!(used.evaluate::<6>(t), fresh.evaluate::<6>(t), "cycle {n}");
+            }
+        }
+        assert!(
+            moved && used.is_at_rest(),
+            "the motion ran and came to rest"
+        );
+    }
 }

@@ -20,6 +20,8 @@
 //! place of those at its start (only the piece's coefficients are evaluated): they are
 //! the next cycle's start.
 
+use crate::operator::filter::i64_to_f64;
+
 /// The piece's highest power of θ.
 pub const DEGREE: usize = 11;
 
@@ -174,11 +176,13 @@ const DIFFERENCES4: [[f64; 5]; 5] = spline_of_differences(4);
 #[must_use]
 pub fn spline(nabla: &[i64; 5], q: usize, scale: f64) -> [f64; 5] {
     let table = if q == 2 { &DIFFERENCES2 } else { &DIFFERENCES4 };
+    // Each difference converted once (the same values as converting it in the loop).
+    let nabla = nabla.map(i64_to_f64);
     let mut rho = [0.0; 5];
     for (r, row) in rho.iter_mut().zip(table.iter()).take(q + 1) {
         let mut acc = 0.0;
         for (n, m) in nabla.iter().zip(row.iter()).take(q + 1) {
-            acc += *n as f64 * m;
+            acc += n * m;
         }
         *r = acc * scale;
     }
@@ -307,6 +311,9 @@ impl Piece {
     /// The path and its first `D − 1` time derivatives at `θ`, `inv_h = 1/h`.
     #[must_use]
     pub fn eval<const D: usize>(&self, theta: f64, inv_h: f64) -> [f64; D] {
+        // One Horner sum per derivative. (Interleaving the sums coefficient by coefficient
+        // saved ~160 estimated M7 cycles per 3D evaluation, but the unrolled code took
+        // 760–1,290 B more flash and put the planar STM32H743 manual build over 128 KiB.)
         let mut out = [0.0; D];
         let mut scale = 1.0;
         for (j, (slot, factors)) in out.iter_mut().zip(FALLING.iter()).enumerate() {

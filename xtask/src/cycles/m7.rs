@@ -93,6 +93,8 @@ pub struct Insn {
     pub writes: u64,
     /// A direct branch's target.
     pub target: Option<u32>,
+    /// A branch with link (`bl`, `blx`): a call, returning to the next instruction.
+    pub links: bool,
 }
 
 fn register(name: &str) -> Option<usize> {
@@ -219,6 +221,7 @@ fn classify(address: u32, size: u32, mnemonic: &str, operands: &str) -> Insn {
         address_reads,
         writes: writes | written_base,
         target,
+        links: m == "bl" || strip_condition(m, &["blx"]).is_some(),
     };
     let branch = |conditional, indirect| Class::Branch {
         conditional,

@@ -21,6 +21,15 @@
 //! disassembly of the counter's code (the symbol's address and size). The two counts
 //! are compared step by step and must agree within [`WINDOW_SLACK`] instructions — the
 //! check that the trace and the windows are read right.
+//!
+//! **The operator's generator** (issue 28; a scene with `[operator]`, run on its manual
+//! profile): its share of each step is the code that runs between a call of
+//! `Generator::advance` or `Generator::evaluate` (solver-core, never inlined for this) and
+//! the return to the instruction after the call (after the call of the function that
+//! tail-calls it, for a `b` straight to its entry) — the cycle's advance and every
+//! evaluation the scheme makes at its stage times, with everything they call. A
+//! generator window must open and close inside one step's window (checked); the steps
+//! in which it ran are the manual-mode cycles the estimate is given for.
 
 pub mod m7;
 
@@ -49,6 +58,10 @@ pub const CLOCK_MHZ: f64 = 480.0;
 /// set when the windows were cut at the counter's entry).
 pub const WINDOW_SLACK: i64 = 16;
 
+/// The deepest call chain kept for the generator's tail calls (deeper: the oldest
+/// forgotten).
+const MAX_CALL_DEPTH: usize = 64;
+
 const SETTINGS: [Setting; 3] = [Setting::Lower, Setting::Point, Setting::Upper];
 
 /// One step as the trace saw it.
@@ -60,11 +73,29 @@ pub struct Step {
     pub cycles: [u64; 3],
 }
 
+/// The generator's share of one step: its windows' sum.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Share {
+    /// QEMU instructions and estimated cycles in the generator's windows.
+    pub cost: Step,
+    /// How many windows (calls of the generator's functions) the step had.
+    pub calls: u32,
+}
+
 /// Everything the trace of one run gave.
 #[derive(Debug, Default)]
 pub struct Traced {
     /// Each step's window.
     pub steps: Vec<Step>,
+    /// Each step's share spent in the generator (all zero without one).
+    pub generator: Vec<Share>,
+    /// Instructions and point-estimate cycles inside the generator's windows, by the
+    /// function (symbol) the instruction belongs to.
+    pub generator_profile: HashMap<String, (u64, u64)>,
+    /// Entries of a generator function neither straight after a call instruction nor by
+    /// a tail call's direct branch (an interrupt taken between the call and the entry):
+    /// windows not counted.
+    pub unlinked_entries: u64,
     /// Instructions executed in the whole run.
     pub instructions: u64,
     /// Blocks executed that no disassembly was found for (their instructions are
@@ -77,12 +108,47 @@ pub struct Traced {
     /// The address of `Board::counter`'s timer read (`None`: no disassembly of the
     /// counter's code showed one).
     pub read: Option<u32>,
+    /// Generator windows still open when a step's window was cut (must be 0: a window
+    /// that never found its return; dropped).
+    pub generator_across_cuts: u64,
+}
+
+/// The functions whose windows are the generator's: their entry addresses, and every
+/// function symbol of the ELF (sorted by address) to profile them by.
+#[derive(Debug, Default, Clone)]
+pub struct Probe {
+    /// Entry addresses of `Generator::advance` and `Generator::evaluate`.
+    pub entries: Vec<u32>,
+    /// `(start, end, name)` of every function, sorted by start.
+    pub functions: Vec<(u32, u32, Rc<str>)>,
+}
+
+impl Probe {
+    fn function(&self, address: u32) -> Option<&Rc<str>> {
+        let i = self.functions.partition_point(|(s, _, _)| *s <= address);
+        let (start, end, name) = self.functions.get(i.checked_sub(1)?)?;
+        (*start <= address && address < *end).then_some(name)
+    }
 }
 
 /// The state carried through the trace.
 struct Reader {
     /// The code of `Board::counter`.
     counter: Range<u32>,
+    probe: Probe,
+    /// The open generator window: where it returns to, the state at its start.
+    generator_open: Option<(u32, Step)>,
+    /// The current step's generator share so far.
+    share: Share,
+    /// The last instruction executed.
+    last: Option<Insn>,
+    /// Where the calls executed (`bl`, `blx`) and not yet returned from return to,
+    /// innermost last (kept only with a generator to probe): a call or tail call of the
+    /// generator returns to the innermost. An interrupt's calls return before it does,
+    /// so they leave it as it was; a return seen deeper in it drops what lies above.
+    returns: Vec<u32>,
+    /// Instructions and point cycles by function inside the generator's windows.
+    profile: HashMap<Rc<str>, (u64, u64)>,
     /// The address of its timer read, once its disassembly was seen.
     read: Option<u32>,
     by_host: HashMap<u64, Rc<[Insn]>>,
@@ -100,9 +166,15 @@ struct Reader {
 }
 
 impl Reader {
-    fn new(counter: Range<u32>) -> Self {
+    fn new(counter: Range<u32>, probe: Probe) -> Self {
         Self {
             counter,
+            probe,
+            generator_open: None,
+            share: Share::default(),
+            last: None,
+            returns: Vec::new(),
+            profile: HashMap::new(),
             read: None,
             by_host: HashMap::new(),
             by_pc: HashMap::new(),
@@ -218,28 +290,88 @@ impl Reader {
         if let Some(last) = self.previous.as_ref().and_then(|b| b.last()) {
             self.branch(*last, pc);
         }
+        let probing = !self.probe.entries.is_empty();
+        if probing {
+            // Returns land at a block's start.
+            if let Some(i) = self.returns.iter().rposition(|r| *r == pc) {
+                self.returns.truncate(i);
+            }
+        }
         for insn in block.iter() {
+            if let Some((ret, start)) = self.generator_open {
+                if insn.address == ret {
+                    self.generator_open = None;
+                    let end = self.now();
+                    let s = &mut self.share;
+                    s.calls += 1;
+                    s.cost.instructions += end.instructions - start.instructions;
+                    for (c, (e, b)) in s
+                        .cost
+                        .cycles
+                        .iter_mut()
+                        .zip(end.cycles.iter().zip(start.cycles))
+                    {
+                        *c += e - b;
+                    }
+                }
+            }
+            if self.generator_open.is_none() && self.probe.entries.contains(&insn.address) {
+                // Called, or tail-called (`b` straight to it from a function that was
+                // called last: it returns where that call does).
+                let ret = match self.last {
+                    Some(call) if call.links => Some(call.address + call.size),
+                    Some(jump) if jump.target == Some(insn.address) => self.returns.last().copied(),
+                    _ => None,
+                };
+                match ret {
+                    Some(ret) => self.generator_open = Some((ret, self.now())),
+                    None => self.out.unlinked_entries += 1,
+                }
+            }
             if Some(insn.address) == self.read {
                 self.cut();
             }
+            let before = self.pipelines[1].cycles();
             for p in &mut self.pipelines {
                 p.issue(insn);
             }
+            if self.generator_open.is_some() {
+                if let Some(name) = self.probe.function(insn.address) {
+                    let spent = self.pipelines[1].cycles() - before;
+                    let e = self.profile.entry(Rc::clone(name)).or_default();
+                    e.0 += 1;
+                    e.1 += spent;
+                }
+            }
             self.out.instructions += 1;
+            self.last = Some(*insn);
+            if probing && insn.links {
+                if self.returns.len() >= MAX_CALL_DEPTH {
+                    self.returns.remove(0);
+                }
+                self.returns.push(insn.address + insn.size);
+            }
         }
         self.previous = Some(block);
     }
 
     /// The timer read is about to run: a window closes, or one opens.
     fn cut(&mut self) {
+        if self.generator_open.take().is_some() {
+            self.out.generator_across_cuts += 1;
+        }
         match self.open.take() {
-            None => self.open = Some(self.now()),
+            None => {
+                self.open = Some(self.now());
+                self.share = Share::default();
+            }
             Some(start) => {
                 let end = self.now();
                 self.out.steps.push(Step {
                     instructions: end.instructions - start.instructions,
                     cycles: [0, 1, 2].map(|i| end.cycles[i] - start.cycles[i]),
                 });
+                self.out.generator.push(core::mem::take(&mut self.share));
             }
         }
     }
@@ -288,15 +420,30 @@ fn reads_memory(insn: &Insn) -> bool {
 }
 
 /// Reads a trace; `counter` is the code of `Board::counter`, whose timer read cuts the
-/// windows.
+/// windows (no generator probed: the tests' reading).
+#[cfg(test)]
 pub fn read_trace(input: impl BufRead, counter: Range<u32>) -> Result<Traced, String> {
-    let mut reader = Reader::new(counter);
+    read_trace_probed(input, counter, Probe::default())
+}
+
+/// [`read_trace`], and the generator's share of each step by `probe`.
+pub fn read_trace_probed(
+    input: impl BufRead,
+    counter: Range<u32>,
+    probe: Probe,
+) -> Result<Traced, String> {
+    let mut reader = Reader::new(counter, probe);
     for line in input.split(b'\n') {
         let line = line.map_err(|e| format!("reading the trace: {e}"))?;
         reader.line(String::from_utf8_lossy(&line).trim_end());
     }
     reader.finish();
     reader.out.read = reader.read;
+    reader.out.generator_profile = reader
+        .profile
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect();
     Ok(reader.out)
 }
 
@@ -326,6 +473,35 @@ fn counter_code(elf: &Path) -> Result<Range<u32>, String> {
     }
 }
 
+/// The generator's functions in `elf` ([`Probe`]): the entries of every
+/// `solver_core::operator::generator::Generator<…>::advance` and `::evaluate`
+/// instance, and all function symbols. No entry: the scene has no manual mode.
+fn generator_probe(elf: &Path) -> Result<Probe, String> {
+    let bytes = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let file = object::File::parse(&*bytes).map_err(|e| e.to_string())?;
+    let mut probe = Probe::default();
+    for s in file.symbols() {
+        if s.kind() != object::SymbolKind::Text || s.size() == 0 {
+            continue;
+        }
+        let Ok(raw) = s.name() else { continue };
+        let name = format!("{:#}", rustc_demangle::demangle(raw));
+        let start = (s.address() & !1) as u32;
+        if name.contains("operator::generator::Generator<")
+            && (name.ends_with("::advance") || name.contains("::evaluate"))
+        {
+            probe.entries.push(start);
+        }
+        probe
+            .functions
+            .push((start, start + s.size() as u32, name.into()));
+    }
+    probe.functions.sort_by_key(|(s, _, _)| *s);
+    probe.entries.sort_unstable();
+    probe.entries.dedup();
+    Ok(probe)
+}
+
 /// The estimate for one scene, checked against the firmware's own instruction counts.
 pub struct Estimate {
     /// The scene file, relative to the repository.
@@ -335,11 +511,19 @@ pub struct Estimate {
     /// The largest difference between a step's instructions in the trace and in the
     /// firmware's cost line.
     pub worst_mismatch: i64,
+    /// Each step's share spent in the operator's generator (a scene with manual mode).
+    pub generator: Vec<Share>,
+    /// Instructions and point cycles in the generator's windows by function.
+    pub generator_profile: HashMap<String, (u64, u64)>,
+    /// Generator entries not straight after a call (not counted).
+    pub unlinked_entries: u64,
 }
 
 /// Runs `scene`'s QEMU firmware with the execution trace and estimates every step's
 /// cycles: on the healthy bus, the feedback scenes (planar and 3D) on the plant they
-/// close the loop around, with their inclinometer (as `qemu-bench` measures them).
+/// close the loop around, with their inclinometer (as `qemu-bench` measures them), the
+/// manual scenes on their operator's profile (the master switch on the bus; the
+/// generator's share of each step too).
 pub fn estimate(scene: &str) -> Result<Estimate, String> {
     let feedback = [
         crate::qemu::FEEDBACK_SCENE,
@@ -347,6 +531,10 @@ pub fn estimate(scene: &str) -> Result<Estimate, String> {
     ];
     let scenario = if feedback.contains(&scene) {
         sim::CLOSED_LOOP
+    } else if scene == crate::qemu::MANUAL_SCENE {
+        sim::MANUAL_PROFILE
+    } else if scene == crate::qemu::CRANE3D_MANUAL_SCENE {
+        sim::MANUAL_PROFILE_3D
     } else {
         HEALTHY
     };
@@ -354,6 +542,7 @@ pub fn estimate(scene: &str) -> Result<Estimate, String> {
     let path = root().join(scene);
     let elf = firmware::build(Board::Qemu, &path)?;
     let counter = counter_code(&elf)?;
+    let probe = generator_probe(&elf)?;
     let dir = elf.with_extension("cycles");
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let fifo = dir.join("trace.fifo");
@@ -375,8 +564,9 @@ pub fn estimate(scene: &str) -> Result<Estimate, String> {
         .spawn()
         .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
     let input = File::open(&fifo).map_err(|e| format!("{}: {e}", fifo.display()));
-    let traced =
-        input.and_then(|f| read_trace(BufReader::with_capacity(1 << 20, f), counter.clone()));
+    let traced = input.and_then(|f| {
+        read_trace_probed(BufReader::with_capacity(1 << 20, f), counter.clone(), probe)
+    });
     let status = child.wait().map_err(|e| e.to_string())?;
     let _ = std::fs::remove_file(&fifo);
     let traced = traced?;
@@ -386,6 +576,12 @@ pub fn estimate(scene: &str) -> Result<Estimate, String> {
     if traced.read.is_none() {
         return Err(format!(
             "{scene}: no timer read in the trace's disassembly of Board::counter ({counter:#x?})"
+        ));
+    }
+    if traced.generator_across_cuts != 0 {
+        return Err(format!(
+            "{scene}: {} generator windows still open at a step's end (their return not found)",
+            traced.generator_across_cuts
         ));
     }
     if traced.unknown_blocks != 0 {
@@ -406,6 +602,9 @@ pub fn estimate(scene: &str) -> Result<Estimate, String> {
         scene: scene.to_string(),
         steps: traced.steps,
         worst_mismatch,
+        generator: traced.generator,
+        generator_profile: traced.generator_profile,
+        unlinked_entries: traced.unlinked_entries,
     })
 }
 
@@ -455,16 +654,64 @@ fn row(e: &Estimate) -> String {
     )
 }
 
+/// The generator's row of one estimate, over the steps it ran in (`None`: it never ran).
+fn generator_row(e: &Estimate) -> Option<String> {
+    let ran: Vec<Step> = e
+        .generator
+        .iter()
+        .filter(|s| s.calls > 0)
+        .map(|s| s.cost)
+        .collect();
+    if ran.is_empty() {
+        return None;
+    }
+    let calls = e.generator.iter().map(|s| u64::from(s.calls)).sum::<u64>() as f64;
+    let (imean, imax) = mean_max(&ran, |s| s.instructions);
+    let c = |k: usize| mean_max(&ran, move |s| s.cycles[k]);
+    let ((lm, lx), (pm, px), (um, ux)) = (c(0), c(1), c(2));
+    Some(format!(
+        "| {} | {} | {:.1} | {imean:.0} / {imax} | {lm:.0} / {pm:.0} / {um:.0} | {lx} / {px} / {ux} | {} |",
+        e.scene,
+        ran.len(),
+        calls / ran.len() as f64,
+        e.unlinked_entries,
+    ))
+}
+
+/// The functions the generator's point-estimate cycles went to, most first.
+fn generator_profile(e: &Estimate, count: usize) -> String {
+    let total: u64 = e.generator_profile.values().map(|(_, c)| c).sum();
+    let mut by: Vec<(&String, &(u64, u64))> = e.generator_profile.iter().collect();
+    by.sort_by_key(|(n, (_, c))| (std::cmp::Reverse(*c), (*n).clone()));
+    let mut out = format!(
+        "\n{}: the generator's point-estimate cycles by function\n",
+        e.scene
+    );
+    for (name, (i, c)) in by.into_iter().take(count) {
+        out += &format!(
+            "  {:>5.1} %  {c:>11} cycles  {i:>11} instructions  {name}\n",
+            100.0 * *c as f64 / total.max(1) as f64
+        );
+    }
+    out
+}
+
 /// `cargo xtask cycles`: the estimate for each scene, a table, and per-step CSVs in
 /// `target/cycles/`.
 pub fn cycles(scenes: &[String]) -> Result<(), String> {
     let out_dir = root().join("target/cycles");
     std::fs::create_dir_all(&out_dir).map_err(|e| e.to_string())?;
     let mut rows = Vec::new();
+    let mut generator_rows = Vec::new();
+    let mut profiles = String::new();
     for scene in scenes {
         let e = estimate(scene)?;
+        if let Some(r) = generator_row(&e) {
+            generator_rows.push(r);
+            profiles += &generator_profile(&e, 15);
+        }
         let csv = out_dir.join(csv_name(scene));
-        write_csv(&csv, &e.steps)?;
+        write_csv(&csv, &e.steps, &e.generator)?;
         eprintln!(
             "{scene}: {} steps, trace and firmware counts within {} instructions; {}",
             e.steps.len(),
@@ -485,6 +732,21 @@ pub fn cycles(scenes: &[String]) -> Result<(), String> {
     for r in rows {
         println!("{r}");
     }
+    if !generator_rows.is_empty() {
+        println!(
+            "\nThe operator's generator per manual-mode step (issue 28's target: ≤ 3,000 cycles): \
+             `Generator::advance` and every `Generator::evaluate`, from the call to the return, \
+             summed per step, over the steps it ran in:\n"
+        );
+        println!(
+            "| scene | steps | calls per step | QEMU instructions mean / max | cycles mean: lower / point / upper | cycles max: lower / point / upper | entries not counted |"
+        );
+        println!("|---|---:|---:|---:|---:|---:|---:|");
+        for r in generator_rows {
+            println!("{r}");
+        }
+        print!("{profiles}");
+    }
     Ok(())
 }
 
@@ -495,14 +757,29 @@ fn csv_name(scene: &str) -> PathBuf {
     PathBuf::from(format!("{stem}.csv"))
 }
 
-fn write_csv(path: &Path, steps: &[Step]) -> Result<(), String> {
+/// Each step's row; with the generator's share (`generator_*`, zero where it did not
+/// run) when the scene has one.
+fn write_csv(path: &Path, steps: &[Step], generator: &[Share]) -> Result<(), String> {
     let mut f = File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut text = String::from("step,instructions,cycles_lower,cycles_point,cycles_upper\n");
+    let probed = generator.iter().any(|g| g.calls > 0);
+    let mut text = String::from("step,instructions,cycles_lower,cycles_point,cycles_upper");
+    if probed {
+        text.push_str(",generator_calls,generator_instructions,generator_cycles_lower,generator_cycles_point,generator_cycles_upper");
+    }
+    text.push('\n');
     for (i, s) in steps.iter().enumerate() {
         text.push_str(&format!(
-            "{i},{},{},{},{}\n",
+            "{i},{},{},{},{}",
             s.instructions, s.cycles[0], s.cycles[1], s.cycles[2]
         ));
+        if let (true, Some(g)) = (probed, generator.get(i)) {
+            let c = g.cost.cycles;
+            text.push_str(&format!(
+                ",{},{},{},{},{}",
+                g.calls, g.cost.instructions, c[0], c[1], c[2]
+            ));
+        }
+        text.push('\n');
     }
     f.write_all(text.as_bytes())
         .map_err(|e| format!("{}: {e}", path.display()))
@@ -677,6 +954,82 @@ Trace 0: 0x7f0000000700 [00800408/00000104/00000110/ff020200] counter
         let t = read_trace(io.as_bytes(), COUNTER).unwrap();
         assert_eq!((t.stopped_blocks, t.steps.len()), (2, 1));
         assert_eq!(t.steps[0].instructions, WINDOW);
+    }
+
+    /// A step in which a caller calls the generator's function (at 0x200) with `bl`,
+    /// then a wrapper (0x400) that tail-calls it with `b`, then reaches it by an indirect
+    /// branch that is no call.
+    const CALLED: &str = "\
+----------------
+IN: counter
+0x00000100:  f241 0004  movw     r0, #0x1004
+0x00000104:  6800       ldr      r0, [r0]
+0x00000106:  4770       bx       lr
+
+Trace 0: 0x7f0000000100 [00800408/00000100/00000110/ff020200] counter
+----------------
+IN: caller
+0x00000300:  2001       movs     r0, #1
+0x00000302:  f000 f800  bl       #0x200
+
+Trace 0: 0x7f0000000300 [00800408/00000300/00000110/ff020200] caller
+----------------
+IN: gen
+0x00000200:  ee20 0b01  vmul.f64 d0, d0, d1
+0x00000204:  ee20 0b01  vmul.f64 d0, d0, d1
+0x00000208:  4770       bx       lr
+
+Trace 0: 0x7f0000000200 [00800408/00000200/00000110/ff020200] gen
+----------------
+IN: back
+0x00000306:  f000 f800  bl       #0x400
+
+Trace 0: 0x7f0000000306 [00800408/00000306/00000110/ff020200] back
+----------------
+IN: wrapper
+0x00000400:  e7fe       b        #0x200
+
+Trace 0: 0x7f0000000400 [00800408/00000400/00000110/ff020200] wrapper
+Trace 0: 0x7f0000000200 [00800408/00000200/00000110/ff020200] gen
+----------------
+IN: back2
+0x0000030a:  4718       bx       r3
+
+Trace 0: 0x7f000000030a [00800408/0000030a/00000110/ff020200] back2
+Trace 0: 0x7f0000000200 [00800408/00000200/00000110/ff020200] gen
+Trace 0: 0x7f0000000100 [00800408/00000100/00000110/ff020200] counter
+";
+
+    #[test]
+    fn the_generator_window_runs_from_its_call_to_the_return() {
+        let probe = Probe {
+            entries: vec![0x200],
+            functions: vec![
+                (0x200, 0x20a, "gen".into()),
+                (0x300, 0x30c, "caller".into()),
+                (0x400, 0x402, "wrapper".into()),
+            ],
+        };
+        let t = read_trace_probed(CALLED.as_bytes(), COUNTER, probe).unwrap();
+        assert_eq!((t.unknown_blocks, t.generator_across_cuts), (0, 0));
+        assert_eq!(t.steps.len(), 1);
+        assert_eq!(t.generator.len(), 1);
+        // The called and the tail-called windows: the two multiplies and the return,
+        // twice; the entry by an indirect branch is no call (no return address to close
+        // it): counted apart, not measured.
+        let share = t.generator[0];
+        assert_eq!((share.calls, share.cost.instructions), (2, 6));
+        assert_eq!(t.unlinked_entries, 1);
+        let [lower, point, upper] = share.cost.cycles;
+        assert!(
+            lower <= point && point <= upper && point >= 14,
+            "{:?}",
+            share.cost.cycles
+        );
+        assert_eq!(t.generator_profile.get("gen").map(|p| p.0), Some(6));
+        assert_eq!(t.generator_profile.get("caller"), None);
+        assert_eq!(t.generator_profile.get("wrapper"), None);
+        assert!(share.cost.instructions < t.steps[0].instructions);
     }
 
     #[test]
