@@ -42,25 +42,38 @@
 
 use crate::setpoint::AxisLimits;
 
+/// The law's time constant `T = 4(τ + h)`, s ([module docs](self)).
+fn time_constant(lag: f64, h: f64) -> f64 {
+    4.0 * (lag + h)
+}
+
+/// The largest speed towards an end `d` m away: `v_max(d)`, 0 at the end and beyond.
+fn v_max(d: f64, a: f64, t: f64) -> f64 {
+    if d > 0.0 && a > 0.0 {
+        a * (libm::sqrt(t * t + 2.0 * d / a) - t)
+    } else {
+        0.0
+    }
+}
+
 /// The velocities, m/s, `(lowest, highest)`, that leave a drive at `position` room to
 /// stop inside `(lo, hi)` ([module docs](self)): `lag` the drive's τ, `h` the cycle.
 #[must_use]
 pub fn room(position: f64, (lo, hi): (f64, f64), a: f64, lag: f64, h: f64) -> (f64, f64) {
-    let t = 4.0 * (lag + h);
-    let v_max = |d: f64| {
-        if d > 0.0 && a > 0.0 {
-            a * (libm::sqrt(t * t + 2.0 * d / a) - t)
-        } else {
-            0.0
-        }
-    };
-    (-v_max(position - lo), v_max(hi - position))
+    let t = time_constant(lag, h);
+    (-v_max(position - lo, a, t), v_max(hi - position, a, t))
 }
 
 /// The set point `u` (m/s) of a drive at `position`, the model's being `u_d`, kept
 /// within its [`room`] or `u_d`: `u` itself when inside (or not finite: the gate refuses
 /// that as before); otherwise the bound, reached from the last set point `last` no
 /// faster than `limits`' acceleration over the cycle `h` allows.
+///
+/// Every cycle of every drive passes here, so the common case is cheap (the MCU has no
+/// double-precision square root in hardware): a set point away from the end, or the
+/// model's own inside the range, passes at once; one towards an end passes when its own
+/// stopping distance `u²/(2a) + uT` fits in the room, the same test as `u ≤ v_max(d)`
+/// without the root; only a set point that does not is bounded.
 #[must_use]
 #[allow(clippy::too_many_arguments)]
 pub fn guard(
@@ -68,23 +81,35 @@ pub fn guard(
     u_d: f64,
     last: f64,
     position: f64,
-    range: (f64, f64),
+    (lo, hi): (f64, f64),
     limits: AxisLimits,
     lag: f64,
     h: f64,
 ) -> f64 {
-    let (v_min, v_max) = room(position, range, limits.max_acceleration, lag, h);
-    // The model's own set point passes while the drive is inside the range; at an end
-    // or beyond it, nothing moves the drive further out.
-    let (lo, hi) = range;
-    let highest = if position < hi { v_max.max(u_d) } else { 0.0 };
-    let lowest = if position > lo { v_min.min(u_d) } else { 0.0 };
-    if !u.is_finite() || (lowest..=highest).contains(&u) {
+    let a = limits.max_acceleration;
+    let t = time_constant(lag, h);
+    // Towards the end ahead (`sign` +1: hi, −1: lo), `room` m away.
+    let (sign, room) = if u > 0.0 {
+        (1.0, hi - position)
+    } else {
+        (-1.0, position - lo)
+    };
+    let speed = u * sign;
+    if !u.is_finite() || u == 0.0 {
         return u;
     }
+    let bound = if room <= 0.0 {
+        // At an end or beyond it nothing moves the drive further out.
+        0.0
+    } else if speed <= u_d * sign || (a > 0.0 && speed * speed / (2.0 * a) + speed * t <= room) {
+        // The model's own set point inside the range, or room enough.
+        return u;
+    } else {
+        // The model's own set point passes while the drive is inside the range.
+        sign * v_max(room, a, t).max(u_d * sign)
+    };
     // Two drive units under the gate's step, for its rounding (as the feedback's clamp).
-    let step = (limits.max_acceleration * h - 2e-6).max(0.0);
-    let bound = if u > highest { highest } else { lowest };
+    let step = (a * h - 2e-6).max(0.0);
     // Not `f64::clamp`, which panics when its bounds cross.
     bound.max(last - step).min(last + step)
 }
