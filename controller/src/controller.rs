@@ -138,6 +138,11 @@ pub const SDO_PER_CYCLE: usize = 2;
 /// set points round to zero, m: the drives' position resolution (1 µm).
 pub const REST_TRAVEL_M: f64 = 1e-6;
 
+/// Cycles in a row the model's own set points must be zero before manual mode is left:
+/// BDF's history (up to six past steps) and the step itself, so that a set point that
+/// crosses zero on the way to rest does not count as rest.
+pub const MODEL_REST_CYCLES: u8 = 7;
+
 /// EMCYs waiting to be sent at most. A commissioning failure takes two (0xFF10 and
 /// 0xFF12), so every node of the list can fail in one cycle with room to spare.
 pub const EMCY_QUEUE: usize = 10;
@@ -225,6 +230,12 @@ pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
     /// The stick deflected during an automatic move: the move stops on its path, and
     /// manual mode is entered at its rest with the stick live.
     handing_over: bool,
+    /// Each drive's set point held back by its range's guard (`crate::range`) and not
+    /// yet back to what is asked.
+    range_held: [bool; A],
+    /// Cycles in a row the model's own set points were zero in drive units: manual mode
+    /// is left only when the model rests, its history too.
+    model_still: u8,
 }
 
 impl<F: Feedforward<Reference = Reference> + Replan> Controller<F> {
@@ -316,6 +327,8 @@ where
             deadman: Deadman::new(operator::DEADLINE_MS, deadband),
             manual_refused: None,
             manual_stop_held: false,
+            range_held: [false; A],
+            model_still: 0,
             handing_over: false,
         }
     }
@@ -700,13 +713,15 @@ where
                 .path_mut()
                 .manual_mut()
                 .is_some_and(|path| path.is_at_rest())
-            && self.gate.at_standstill()
+            && self.model_still >= MODEL_REST_CYCLES
             && self.feedforward.path_mut().leave_manual().is_ok()
         {
-            // Left at rest: the path resting and every set point sent exactly 0.0 (the
-            // model's set points reach it a few cycles after the path rests: BDF's
-            // history). (Refused only while it moves, or if the plan cannot rest there:
-            // then the generator goes on resting, advanced below.)
+            // Left at rest: the path resting and the model's set points zero for
+            // `MODEL_REST_CYCLES` (they reach it a few cycles after the path rests, and
+            // may cross zero on the way: BDF's history). The feedback's corrections do
+            // not count: they go on in either mode. (Refused only while it moves, or if
+            // the plan cannot rest there: then the generator goes on resting, advanced
+            // below.)
             return;
         }
         let Some(path) = self.feedforward.path_mut().manual_mut() else {
@@ -1385,10 +1400,8 @@ where
     /// `u` with each drive kept inside its range by its measured position
     /// ([`crate::range`]): the last word before the gate on what the feedback adds to the
     /// model's `u_d`. Without fresh positions, `u` as it is.
-    fn within_ranges(&self, u: [f64; A], u_d: [f64; A]) -> [f64; A] {
-        let Some(position) = self.positions() else {
-            return u;
-        };
+    fn within_ranges(&mut self, u: [f64; A], u_d: [f64; A]) -> [f64; A] {
+        let position = self.positions();
         let (ranges, limits, lags) = (
             self.planner.ranges(),
             self.planner.limits(),
@@ -1397,9 +1410,21 @@ where
         let (last, h) = (self.gate.last_velocities(), self.config.period_s());
         let mut guarded = u;
         let drives = ranges.iter().zip(&limits).zip(lags.iter().zip(&last));
-        let asked = guarded.iter_mut().zip(u_d).zip(position);
-        for (((u, u_d), p), ((range, limits), (lag, last))) in asked.zip(drives) {
-            *u = range::guard(*u, u_d, *last, p, *range, *limits, *lag, h);
+        let asked = guarded.iter_mut().zip(u).zip(u_d).zip(&mut self.range_held);
+        for ((((out, u), u_d), held), (((range, limits), (lag, last)), i)) in
+            asked.zip(drives.zip(0..))
+        {
+            let a = limits.max_acceleration;
+            if let Some(p) = position.as_ref().and_then(|p| p.get(i)) {
+                *out = range::guard(u, u_d, *last, *p, *range, *limits, *lag, h);
+            }
+            // Held back (now or before): back to what is asked at the gate's step only,
+            // whether the drive is inside again or its position is late.
+            *held |= *out != u && out.is_finite();
+            if *held {
+                *out = range::toward(*out, *last, a, h);
+                *held = *out != u;
+            }
         }
         guarded
     }
@@ -1611,6 +1636,11 @@ where
                 step.u = [0.0; A];
             }
         }
+        self.model_still = if zero || step.u == [0.0; A] {
+            self.model_still.saturating_add(1)
+        } else {
+            0
+        };
         step
     }
 

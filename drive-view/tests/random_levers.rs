@@ -137,9 +137,10 @@ fn drive(name: &str, sequences: usize, seed: u64) -> Worst {
 /// How far the plant's drives may pass a range's end, m. The generator brings the
 /// *model's* drives to rest at the end at the latest (its own property test, on the exact
 /// inverse: never beyond); the plant here is not the model (its drives lag otherwise, its
-/// pendulum is 10 % longer), and the state feedback is not in this scene, so the plant's
-/// drive may run on past the model's by a little: measured up to 1.0 mm (planar) and
-/// 2.7 mm (3D) over 10,000 sequences each (docs/OPERATOR.md). A real crane's limit
+/// pendulum is 10 % longer) and the state feedback corrects it, which the drives' range
+/// guard (`controller::range`) limits to the room left: the plant's drive may still run
+/// on a little, measured up to 1.8 mm (planar and 3D) over 10,000 sequences each
+/// (docs/OPERATOR.md; 25 and 32 mm over 300 without the guard). A real crane's limit
 /// switches sit beyond the software limits by more.
 const BEYOND_TOLERANCE: f64 = 0.005;
 

@@ -150,10 +150,10 @@ fn deadman(scene: &str) {
         .unwrap_or_else(|| panic!("{scene}: manual mode never left: {modes:?}"));
     assert_eq!(left.1, 1, "{scene}: {left:?}");
     // Left at rest: not before every set point is exactly 0.0 (the model's reach it a
-    // few cycles after the generator's path rests, BDF4's history), within the status
-    // frame's period after.
+    // few cycles after the generator's path rests, BDF4's history), then
+    // `MODEL_REST_CYCLES` of them and the status frame's period (the status frames say it).
     assert!(
-        (rest..rest + 100).contains(&left.0),
+        (rest + 70..rest + 200).contains(&left.0),
         "{scene}: left at {} ms, at rest from {rest} ms",
         left.0
     );
@@ -229,11 +229,11 @@ fn the_operator_takes_over_the_scene_s_move() {
         "manual mode after the take-over ({manual} ms)"
     );
     // The on-path stop, then the stick's half speed forward: the trolley's set point
-    // positive again after manual mode began, without the stick centred again.
+    // above 0.1 m/s again half a second into manual mode, the stick not centred again.
     assert!(
         run.iter()
-            .filter(|c| (manual..9_000).contains(&c.now_ms))
-            .any(|c| c.setpoints[0].units() > 0),
+            .filter(|c| (manual + 500..9_000).contains(&c.now_ms))
+            .any(|c| c.setpoints[0].units() > 100_000),
         "the stick moved nothing in manual mode"
     );
     let rest = rests_from(&run, 9_000, 15_000).expect("at rest before the withdrawal");
