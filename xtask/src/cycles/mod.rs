@@ -426,7 +426,8 @@ pub fn read_trace(input: impl BufRead, counter: Range<u32>) -> Result<Traced, St
     read_trace_probed(input, counter, Probe::default())
 }
 
-/// [`read_trace`], and the generator's share of each step by `probe`.
+/// Reads a trace as the tests' `read_trace` does, and the generator's share of each step by
+/// `probe`.
 pub fn read_trace_probed(
     input: impl BufRead,
     counter: Range<u32>,
