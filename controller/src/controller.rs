@@ -172,6 +172,15 @@ pub use crate::requests::{
     ANSWER_QUEUE, OVERLOAD_ANSWERS, REPEAT_WINDOW_MS, STATUS_PER_CYCLE, STOP_ANSWERS,
 };
 
+/// A drive's last position actual (0x6064) as the range guard and the feedback read it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Position {
+    /// Through the drive's commissioned scaling, m.
+    metres: f64,
+    /// How much older than a cycle it is, s (0: from the last SYNC, fresh).
+    late_s: f64,
+}
+
 /// The crane controller: a CANopen node, manager (or slave) of the drives of crane `K`
 /// (its `A` driven axes, [`Crane::DRIVES`]: the planar crane's trolley and winch by
 /// default), with the inverse model `F` as feedforward and `C` between it and the
@@ -233,6 +242,9 @@ pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
     /// Each drive's set point held back by its range's guard (`crate::range`) and not
     /// yet back to what is asked.
     range_held: [bool; A],
+    /// Each drive found ahead of the model's drive near an end: the model's set point no
+    /// longer passes the guard until it stops heading for that end (`crate::range`).
+    range_ahead: [bool; A],
     /// Cycles in a row the model's own set points were zero in drive units: manual mode
     /// is left only when the model rests, its history too.
     model_still: u8,
@@ -328,6 +340,7 @@ where
             manual_refused: None,
             manual_stop_held: false,
             range_held: [false; A],
+            range_ahead: [false; A],
             model_still: 0,
             handing_over: false,
         }
@@ -1251,9 +1264,16 @@ where
         } else {
             None
         };
+        // Each drive's position actual, read once for the feedback and the range guard.
+        let positions = self.positions();
         let wanted = step.as_ref().map(|s| {
-            let u = self.corrected(s);
-            self.within_ranges(u, s.u)
+            let (u, corrected) = self.corrected(s, &positions);
+            let guarded = self.within_ranges(u, s.u, &positions);
+            if corrected && guarded != u {
+                // The observer learns what the drives were sent (anti-windup).
+                self.correction.sent(s.u, guarded);
+            }
+            guarded
         });
         // An angle counts for the cycle after it arrived only, whether the loop used it
         // or not: one that waited through enabling or a halt is stale.
@@ -1368,61 +1388,88 @@ where
 
     /// What the drives and the inclinometer measured at the last SYNC (their TPDOs
     /// arrive between cycles): each drive's position (planar: trolley position and rope
-    /// length) from position actual (0x6064) through the commissioned scaling, the angle
-    /// if a fresh one came from a healthy inclinometer. `None` when a position is not
-    /// fresh.
-    fn measurement(&mut self) -> Option<Measured<A>> {
+    /// length) from `positions`, the angle if a fresh one came from a healthy
+    /// inclinometer. `None` when a position is not fresh.
+    fn measurement(&mut self, positions: &[Option<Position>; A]) -> Option<Measured<A>> {
         let now_ms = self.now_ms;
         let swing = self.links.sensor_mut().and_then(|sensor| {
             let fresh = core::mem::take(&mut sensor.fresh);
             let healthy = sensor.healthy(now_ms, self.config.heartbeat_timeout_ms);
             sensor.swing.filter(|_| fresh && healthy)
         });
-        let position = self.positions()?;
+        let mut position = [0.0; A];
+        for (slot, p) in position.iter_mut().zip(positions) {
+            *slot = p.filter(|p| p.late_s <= 0.0)?.metres;
+        }
         Some(Measured { position, swing })
     }
 
-    /// Every drive's position actual (0x6064) from the last SYNC, m; `None` unless every
-    /// drive's is fresh (at most a cycle old).
-    fn positions(&self) -> Option<[f64; A]> {
-        let mut position = [0.0; A];
-        for (drive, slot) in K::DRIVES.into_iter().zip(position.iter_mut()) {
+    /// Every drive's last position actual (0x6064), through its commissioned scaling,
+    /// and how late it is; `None` for a drive that has sent none since it was linked.
+    fn positions(&self) -> [Option<Position>; A] {
+        let period_ms = u64::from(self.config.period_ms);
+        K::DRIVES.map(|drive| {
             let link = self.link(drive)?;
-            let fresh = link
-                .last_position_ms
-                .is_some_and(|t| self.now_ms.saturating_sub(t) <= u64::from(self.config.period_ms));
-            let setup = link.commissioning.setup();
-            *slot = setup.metres(link.position.filter(|_| fresh)?);
-        }
-        Some(position)
+            let age_ms = self.now_ms.saturating_sub(link.last_position_ms?);
+            Some(Position {
+                metres: link.commissioning.setup().metres(link.position?),
+                late_s: age_ms.saturating_sub(period_ms) as f64 * 1e-3,
+            })
+        })
     }
 
-    /// `u` with each drive kept inside its range by its measured position
+    /// `u` with each drive kept inside its range by its position actual
     /// ([`crate::range`]): the last word before the gate on what the feedback adds to the
-    /// model's `u_d`. Without fresh positions, `u` as it is.
-    fn within_ranges(&mut self, u: [f64; A], u_d: [f64; A]) -> [f64; A] {
-        let position = self.positions();
+    /// model's `u_d`, and on `u_d` itself for a drive ahead of the model's. A late
+    /// position counts as far on as the drive can have gone since; a drive without any,
+    /// `u` as it is.
+    fn within_ranges(
+        &mut self,
+        u: [f64; A],
+        u_d: [f64; A],
+        positions: &[Option<Position>; A],
+    ) -> [f64; A] {
         let (ranges, limits, lags) = (
             self.planner.ranges(),
             self.planner.limits(),
             self.planner.lags(),
         );
         let (last, h) = (self.gate.last_velocities(), self.config.period_s());
+        // The model's drives, asked for once and only near an end.
+        let mut model: Option<[(f64, f64); A]> = None;
         let mut guarded = u;
-        let drives = ranges.iter().zip(&limits).zip(lags.iter().zip(&last));
-        let asked = guarded.iter_mut().zip(u).zip(u_d).zip(&mut self.range_held);
-        for ((((out, u), u_d), held), (((range, limits), (lag, last)), i)) in
-            asked.zip(drives.zip(0..))
-        {
-            let a = limits.max_acceleration;
-            if let Some(p) = position.as_ref().and_then(|p| p.get(i)) {
-                *out = range::guard(u, u_d, *last, *p, *range, *limits, *lag, h);
+        for (i, out) in guarded.iter_mut().enumerate() {
+            let (Some(&u), Some(&u_d), Some(&last), Some(range), Some(limits), Some(&lag)) = (
+                u.get(i),
+                u_d.get(i),
+                last.get(i),
+                ranges.get(i),
+                limits.get(i),
+                lags.get(i),
+            ) else {
+                continue;
+            };
+            if let Some(Some(p)) = positions.get(i) {
+                let at = range::late_position(p.metres, u, p.late_s, limits.max_velocity);
+                let feedforward = &self.feedforward;
+                let model_at = || {
+                    let drives =
+                        *model.get_or_insert_with(|| K::drive_states(&feedforward.reference()));
+                    drives.get(i).copied().unwrap_or((f64::NAN, f64::NAN))
+                };
+                let ahead = self.range_ahead.get_mut(i);
+                let mut spare = false;
+                let ahead = ahead.unwrap_or(&mut spare);
+                *out = range::guard(u, u_d, last, at, *range, *limits, lag, h, model_at, ahead);
             }
             // Held back (now or before): back to what is asked at the gate's step only,
             // whether the drive is inside again or its position is late.
+            let Some(held) = self.range_held.get_mut(i) else {
+                continue;
+            };
             *held |= *out != u && out.is_finite();
             if *held {
-                *out = range::toward(*out, *last, a, h);
+                *out = range::toward(*out, last, limits.max_acceleration, h);
                 *held = *out != u;
             }
         }
@@ -1433,13 +1480,18 @@ where
     /// the feedback while the loop is closed (Fig. 1). A change of the feedback's mode
     /// is announced: the angle no longer used (the swing estimated from the positions,
     /// or feedforward only) by EMCY 0xFF20 with the reason (a warning: the move goes
-    /// on), back to closed loop by nothing.
-    fn corrected(&mut self, step: &FeedforwardStep<A>) -> [f64; A] {
+    /// on), back to closed loop by nothing. Also whether the feedback ran (it is then
+    /// told what the drives were sent after the range guard).
+    fn corrected(
+        &mut self,
+        step: &FeedforwardStep<A>,
+        positions: &[Option<Position>; A],
+    ) -> ([f64; A], bool) {
         if !C::ENABLED || !self.closed_loop || self.mode != Mode::Ready {
-            return step.u;
+            return (step.u, false);
         }
         let reference = self.feedforward.reference();
-        let measured = self.measurement();
+        let measured = self.measurement(positions);
         let last = self.gate.last_velocities();
         let (u, mode) =
             self.correction
@@ -1459,7 +1511,7 @@ where
             }
             self.feedback_announced = Some(mode);
         }
-        u
+        (u, true)
     }
 
     /// What a commissioning step asks: the frame to send, if any, and the end of the

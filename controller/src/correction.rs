@@ -43,6 +43,12 @@ pub trait AxesCorrection<const A: usize, R> {
         last: [f64; A],
         limits: &[AxisLimits; A],
     ) -> ([f64; A], Mode);
+    /// What the drives were sent after [`Self::correct`] when something after it (the
+    /// range guard, [`crate::range`]) changed its set points: the observer learns the
+    /// correction `u − u_d` the drives got, not the one it asked for (anti-windup).
+    fn sent(&mut self, u_d: [f64; A], u: [f64; A]) {
+        let _ = (u_d, u);
+    }
     /// Back to closed loop, the observer to start from the next good measurement.
     fn restart(&mut self);
     /// What it is doing (`None`: there is no feedback).
@@ -79,6 +85,9 @@ impl<C: Correction> AxesCorrection<2, Reference> for C {
             &DriveLimits::from_axes(*limits),
         );
         (out.u, out.mode)
+    }
+    fn sent(&mut self, [ud1, ud2]: [f64; 2], [u1, u2]: [f64; 2]) {
+        Correction::sent(self, [u1 - ud1, u2 - ud2]);
     }
     fn restart(&mut self) {
         Correction::restart(self);

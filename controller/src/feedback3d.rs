@@ -135,7 +135,7 @@ impl SpatialFeedback {
         );
         let [u_x, u_l] = xz.u;
         let [u_y, _] = yz.u;
-        self.yz.winch_sent(xz.correction[1]);
+        self.yz.sent([yz.correction[0], xz.correction[1]]);
         ([u_x, u_y, u_l], [xz, yz])
     }
 }
@@ -168,6 +168,11 @@ impl AxesCorrection<3, [Reference; 2]> for SpatialFeedback {
     ) -> ([f64; 3], Mode) {
         let (u, [xz, yz]) = self.cycle(reference, u_d, measured, last, limits);
         (u, worse(xz.mode, yz.mode))
+    }
+    /// Each plane learns its horizontal drive's correction and the hoist's.
+    fn sent(&mut self, [ud_x, ud_y, ud_l]: [f64; 3], [u_x, u_y, u_l]: [f64; 3]) {
+        self.xz.sent([u_x - ud_x, u_l - ud_l]);
+        self.yz.sent([u_y - ud_y, u_l - ud_l]);
     }
     fn restart(&mut self) {
         Correction::restart(&mut self.xz);

@@ -28,21 +28,35 @@
 //! What is limited is what is *added* to the model's set point `u_d`: the model's own
 //! drive stays inside the ranges by construction (the planner's targets, the generator's
 //! braking curve), and a move to a range's end must arrive there exactly, so `u_d`
-//! passes while the drive is inside its range; a correction towards an end only as far
-//! as the room allows. At an end or beyond it nothing moves the drive further out, the
-//! model's set point neither: a drive that runs ahead of the model is held at the end.
-//! A set point within the bounds is left exactly as it is (nothing changes for moves
-//! that keep clear of the ends); one beyond them is brought there no faster than the
-//! gate's acceleration limit allows, so the gate never has to refuse it; away from an
-//! end the drive may always move.
+//! passes while the drive is inside its range *and not ahead of the model's drive*; a
+//! correction towards an end only as far as the room allows. A drive ahead of the
+//! model's — its scaling or droop differs, or the feedback's corrections moved it on —
+//! would reach the end at the model's speed and pass it by its lead, so then the
+//! model's set point too is held to the room, until the model no longer heads for that
+//! end (a reviewer's finding 4 of stop 43: 50 mm ahead, about 19 mm past the end).
+//! "Ahead" allows [`AHEAD`] plus the lead of a drive faster than the model's, `τ |v_m|`
+//! with `v_m` the model's drive velocity: a drive with less lag leads the model's by up
+//! to that while it moves, yet ends where the model's does (the lag keeps the integral,
+//! `∫v = ∫u − τ Δv`), so that lead is no overshoot. The model's drive is asked for only
+//! near an end, where the cheap tests do not decide. At an end or beyond it nothing
+//! moves the drive further out, the model's set point neither. A set point within the
+//! bounds is left exactly as it is (nothing changes for moves that keep clear of the
+//! ends); one beyond them is brought there no faster than the gate's acceleration limit
+//! allows, so the gate never has to refuse it; away from an end the drive may always
+//! move.
 //!
 //! Once the guard has held a drive back, its set point returns to the asked one no faster
 //! than the gate allows ([`toward`], the controller's `within_ranges`), also when the
 //! drive comes back inside by a hair or its position is late.
 //!
-//! Not yet: the feedback is not told. Its observer learns the correction it asked for,
-//! not the one sent, for as long as the guard bites, and its drive-offset state may take
-//! up the difference (an independent review's finding; stop 43's note).
+//! Each drive is guarded by its own position: one whose position actual is late is
+//! guarded by the last one it sent, moved towards the end by the farthest the drive can
+//! have gone since at its velocity limit ([`late_position`]); a late position of one
+//! drive never unguards another (finding 11).
+//!
+//! The feedback is told what was sent after the guard (the controller's
+//! `within_ranges`, `AxesCorrection::sent`): its observer learns the correction the
+//! drive got, not the one it asked for (finding 3).
 
 use crate::setpoint::AxisLimits;
 
@@ -68,16 +82,25 @@ pub fn room(position: f64, (lo, hi): (f64, f64), a: f64, lag: f64, h: f64) -> (f
     (-v_max(position - lo, a, t), v_max(hi - position, a, t))
 }
 
+/// How far a drive may be ahead of the model's drive, towards an end, and still get the
+/// model's own set point near it, m: above the measurement's resolution and the cycle's
+/// delay at the creeping speeds near an end, well below any lead that matters.
+pub const AHEAD: f64 = 1e-3;
+
 /// The set point `u` (m/s) of a drive at `position`, the model's being `u_d`, kept
 /// within its [`room`] or `u_d`: `u` itself when inside (or not finite: the gate refuses
 /// that as before); otherwise the bound, reached from the last set point `last` no
-/// faster than `limits`' acceleration over the cycle `h` allows.
+/// faster than `limits`' acceleration over the cycle `h` allows. `model` gives where the
+/// model's drive is and its velocity `(m, m/s)`; it is asked only near an end, where
+/// `u_d` would pass. `ahead` is the drive's latch: once found ahead of the model's, the
+/// model's set point no longer passes until it stops heading for that end (else the
+/// lead allowance, shrinking as the model brakes, would let it pass again and again).
 ///
 /// Every cycle of every drive passes here, so the common case is cheap (the MCU has no
-/// double-precision square root in hardware): a set point away from the end, or the
-/// model's own inside the range, passes at once; one towards an end passes when its own
-/// stopping distance `u²/(2a) + uT` fits in the room, the same test as `u ≤ v_max(d)`
-/// without the root; only a set point that does not is bounded.
+/// double-precision square root in hardware): a set point away from the end passes at
+/// once; one towards an end passes when its own stopping distance `u²/(2a) + uT` fits
+/// in the room, the same test as `u ≤ v_max(d)` without the root; only near an end is
+/// the model's drive asked for and the root taken.
 #[must_use]
 #[allow(clippy::too_many_arguments)]
 pub fn guard(
@@ -89,9 +112,18 @@ pub fn guard(
     limits: AxisLimits,
     lag: f64,
     h: f64,
+    model: impl FnOnce() -> (f64, f64),
+    ahead: &mut bool,
 ) -> f64 {
     let a = limits.max_acceleration;
     let t = time_constant(lag, h);
+    if u_d * u <= 0.0 || !(u_d * u).is_finite() {
+        // The model's set point no longer heads for the end `u` heads for.
+        *ahead = false;
+    }
+    if !u.is_finite() || u == 0.0 {
+        return u;
+    }
     // Towards the end ahead (`sign` +1: hi, −1: lo), `room` m away.
     let (sign, room) = if u > 0.0 {
         (1.0, hi - position)
@@ -99,20 +131,38 @@ pub fn guard(
         (-1.0, position - lo)
     };
     let speed = u * sign;
-    if !u.is_finite() || u == 0.0 {
+    if room <= 0.0 {
+        // At an end or beyond it nothing moves the drive further out.
+        return toward(0.0, last, a, h);
+    }
+    if a > 0.0 && speed * speed / (2.0 * a) + speed * t <= room {
+        // Room enough.
         return u;
     }
-    let bound = if room <= 0.0 {
-        // At an end or beyond it nothing moves the drive further out.
-        0.0
-    } else if speed <= u_d * sign || (a > 0.0 && speed * speed / (2.0 * a) + speed * t <= room) {
-        // The model's own set point inside the range, or room enough.
+    // The model's own set point passes while the drive is not ahead of the model's.
+    let own = u_d * sign;
+    if own > 0.0 && !*ahead {
+        let (at, v) = model();
+        *ahead = (position - at) * sign > AHEAD + lag * v.abs();
+    }
+    let own = if *ahead { 0.0 } else { own.max(0.0) };
+    if speed <= own {
         return u;
+    }
+    toward(sign * v_max(room, a, t).max(own), last, a, h)
+}
+
+/// Where a drive whose last position actual `position` (m) is `late_s` seconds older
+/// than a cycle may be by now, towards the end its set point `u` heads for: moved on at
+/// its velocity limit `v_max` (m/s). The guard's room shrinks by what the drive may have
+/// gone unseen; a fresh position (`late_s` ≤ 0) as it is.
+#[must_use]
+pub fn late_position(position: f64, u: f64, late_s: f64, v_max: f64) -> f64 {
+    if late_s > 0.0 {
+        position + (v_max * late_s).copysign(u)
     } else {
-        // The model's own set point passes while the drive is inside the range.
-        sign * v_max(room, a, t).max(u_d * sign)
-    };
-    toward(bound, last, a, h)
+        position
+    }
 }
 
 /// `u` reached from the last set point `last` no faster than the acceleration `a` over
@@ -173,27 +223,97 @@ mod tests {
     /// always, to arrive exactly where a move to an end ends.
     #[test]
     fn a_set_point_inside_the_room_is_left_alone() {
-        assert_eq!(guard(0.4, 0.4, 0.4, 10.0, (0.0, 20.0), LIMITS, LAG, H), 0.4);
         assert_eq!(
-            guard(-0.4, -0.4, -0.4, 10.0, (0.0, 20.0), LIMITS, LAG, H),
+            guard(
+                0.4,
+                0.4,
+                0.4,
+                10.0,
+                (0.0, 20.0),
+                LIMITS,
+                LAG,
+                H,
+                || (10.0, 0.0),
+                &mut false
+            ),
+            0.4
+        );
+        assert_eq!(
+            guard(
+                -0.4,
+                -0.4,
+                -0.4,
+                10.0,
+                (0.0, 20.0),
+                LIMITS,
+                LAG,
+                H,
+                || (10.0, 0.0),
+                &mut false
+            ),
             -0.4
         );
-        assert!(guard(f64::NAN, 0.0, 0.0, 19.99, (0.0, 20.0), LIMITS, LAG, H).is_nan());
+        assert!(guard(
+            f64::NAN,
+            0.0,
+            0.0,
+            19.99,
+            (0.0, 20.0),
+            LIMITS,
+            LAG,
+            H,
+            || (19.99, 0.0),
+            &mut false
+        )
+        .is_nan());
         // At the end, away from it: allowed.
         assert_eq!(
-            guard(-0.2, 0.0, 0.0, 20.0, (0.0, 20.0), LIMITS, LAG, H),
+            guard(
+                -0.2,
+                0.0,
+                0.0,
+                20.0,
+                (0.0, 20.0),
+                LIMITS,
+                LAG,
+                H,
+                || (20.0, 0.0),
+                &mut false
+            ),
             -0.2
         );
         // The model's own set point 0.1 mm before the end, where the room is less.
         let (_, room_left) = room(19.9999, (0.0, 20.0), 3.0, LAG, H);
         assert!(room_left < 0.01);
         assert_eq!(
-            guard(0.01, 0.01, 0.01, 19.9999, (0.0, 20.0), LIMITS, LAG, H),
+            guard(
+                0.01,
+                0.01,
+                0.01,
+                19.9999,
+                (0.0, 20.0),
+                LIMITS,
+                LAG,
+                H,
+                || (19.9999, 0.0),
+                &mut false
+            ),
             0.01
         );
         // A correction on top of it towards the end: only the model's.
         assert_eq!(
-            guard(0.02, 0.01, 0.01, 19.9999, (0.0, 20.0), LIMITS, LAG, H),
+            guard(
+                0.02,
+                0.01,
+                0.01,
+                19.9999,
+                (0.0, 20.0),
+                LIMITS,
+                LAG,
+                H,
+                || (19.9999, 0.0),
+                &mut false
+            ),
             0.01
         );
     }
@@ -209,7 +329,18 @@ mod tests {
         // Inside the range by a hair, the model's set point passes the guard whole: the
         // controller ramps it (`within_ranges`).
         assert_eq!(
-            guard(0.3, 0.3, 0.0, 19.999_999, (0.0, 20.0), LIMITS, LAG, H),
+            guard(
+                0.3,
+                0.3,
+                0.0,
+                19.999_999,
+                (0.0, 20.0),
+                LIMITS,
+                LAG,
+                H,
+                || (19.999_999, 0.0),
+                &mut false
+            ),
             0.3
         );
     }
@@ -220,41 +351,180 @@ mod tests {
     #[test]
     fn at_an_end_nothing_moves_the_drive_further_out() {
         assert_eq!(
-            guard(0.01, 0.01, 0.01, 20.0, (0.0, 20.0), LIMITS, LAG, H),
+            guard(
+                0.01,
+                0.01,
+                0.01,
+                20.0,
+                (0.0, 20.0),
+                LIMITS,
+                LAG,
+                H,
+                || (20.0, 0.0),
+                &mut false
+            ),
             0.0
         );
         assert_eq!(
-            guard(-0.01, -0.01, -0.01, 0.0, (0.0, 20.0), LIMITS, LAG, H),
+            guard(
+                -0.01,
+                -0.01,
+                -0.01,
+                0.0,
+                (0.0, 20.0),
+                LIMITS,
+                LAG,
+                H,
+                || (0.0, 0.0),
+                &mut false
+            ),
             0.0
         );
         let step = LIMITS.max_acceleration * H - 2e-6;
-        let u = guard(0.5, 0.5, 0.5, 20.001, (0.0, 20.0), LIMITS, LAG, H);
+        let u = guard(
+            0.5,
+            0.5,
+            0.5,
+            20.001,
+            (0.0, 20.0),
+            LIMITS,
+            LAG,
+            H,
+            || (20.001, 0.0),
+            &mut false,
+        );
         assert!((u - (0.5 - step)).abs() < 1e-12, "ramped down: {u}");
     }
 
+    /// The drive as the tests step it: a first-order lag `τ v̇ + v = u` over one cycle,
+    /// in fine Euler steps.
+    fn lagged(x: &mut f64, v: &mut f64, u: f64) {
+        for _ in 0..100 {
+            *v += (u - *v) / LAG * H / 100.0;
+            *x += *v * H / 100.0;
+        }
+    }
+
     /// Towards an end with too little room: the set point falls to the room's bound, at
-    /// most the gate's step per cycle; a drive stepped with the guard on a lagged drive
+    /// most the gate's step per cycle; a drive stepped with the guard on a lagged drive,
+    /// its position seen a cycle late as the controller sees it (the last SYNC's),
     /// stops inside the range.
     #[test]
     fn a_drive_pushed_at_an_end_stops_inside_its_range() {
         let (mut x, mut v, mut u) = (19.0, 1.0, 1.0);
+        let mut seen = x;
         let mut peak = x;
         for _ in 0..500 {
             // A correction that asks for 1 m/s on, the model resting.
-            let next = guard(1.0, 0.0, u, x, (0.0, 20.0), LIMITS, LAG, H);
+            let next = guard(
+                1.0,
+                0.0,
+                u,
+                seen,
+                (0.0, 20.0),
+                LIMITS,
+                LAG,
+                H,
+                || (19.0, 0.0),
+                &mut false,
+            );
             assert!(
                 (next - u).abs() <= LIMITS.max_acceleration * H,
                 "the gate's step"
             );
             u = next;
-            // The drive's lag over the cycle (fine Euler steps).
-            for _ in 0..100 {
-                v += (u - v) / LAG * H / 100.0;
-                x += v * H / 100.0;
-            }
+            seen = x;
+            lagged(&mut x, &mut v, u);
             peak = peak.max(x);
         }
         assert!(peak <= 20.0, "passed the end: {peak}");
         assert!(peak > 19.98, "stopped short: {peak}");
+    }
+
+    /// A move of the model's drive to the range's end (a quintic over 2 s, the drive's
+    /// set point `u_d = v + τ a` through its lag). A drive that follows it exactly, and
+    /// one without lag that leads it by `τ v` yet ends where it does, get the model's set
+    /// points inside the range and arrive; one that runs 50 mm ahead of it is held to the room
+    /// and stops inside the range (11.4 mm short: it creeps on the room's law until the
+    /// model rests), where the model's set points alone carry it 50 mm past the end
+    /// (finding 4).
+    #[test]
+    fn a_drive_ahead_of_the_model_stops_at_the_end_the_model_reaches() {
+        let (from, to, duration) = (19.0, 20.0, 2.0);
+        // The model's drive: position, velocity and set point at `t`.
+        let model = |t: f64| {
+            let s = (t / duration).clamp(0.0, 1.0);
+            let d = to - from;
+            let x = from + d * s * s * s * (10.0 - 15.0 * s + 6.0 * s * s);
+            let v = d / duration * 30.0 * s * s * (1.0 - s) * (1.0 - s);
+            let a = d / (duration * duration) * 60.0 * s * (1.0 - s) * (1.0 - 2.0 * s);
+            (x, v, v + LAG * a)
+        };
+        // (lead, drive's lag, guarded)
+        for (lead, lag, guarded) in [
+            (0.0, LAG, true),
+            (0.0, 0.0, true),
+            (0.05, LAG, true),
+            (0.05, LAG, false),
+        ] {
+            let (mut x, mut v, mut u) = (from + lead, 0.0, 0.0);
+            let mut seen = x;
+            let (mut peak, mut own_only, mut ahead) = (x, true, false);
+            for k in 0..400 {
+                let t = f64::from(k) * H;
+                // The model's drive where it was a cycle ago: as old as `seen`.
+                let (at, v_at, _) = model(t - H);
+                let u_d = model(t).2;
+                let next = if guarded {
+                    guard(
+                        u_d,
+                        u_d,
+                        u,
+                        seen,
+                        (0.0, 20.0),
+                        LIMITS,
+                        LAG,
+                        H,
+                        || (at, v_at),
+                        &mut ahead,
+                    )
+                } else {
+                    u_d
+                };
+                // Inside the range (a drive without lag passes the end by 0.46 mm
+                // where `u_d` turns negative for the lagged drive's sake).
+                own_only &= next == u_d || seen >= to;
+                u = next;
+                seen = x;
+                if lag > 0.0 {
+                    lagged(&mut x, &mut v, u);
+                } else {
+                    x += u * H;
+                }
+                peak = peak.max(x);
+            }
+            match (lead > 0.0, guarded) {
+                (false, _) => {
+                    assert!(own_only, "lag {lag}: the model's own set points throughout");
+                    assert!((peak - to).abs() < 1e-3, "lag {lag}: arrives: {peak}");
+                }
+                (true, true) => {
+                    assert!(peak <= to, "passed the end: {peak}");
+                    // Held to the room until the model rests, then where it is.
+                    assert!(peak > to - 0.02, "stopped short: {peak}");
+                }
+                (true, false) => assert!(peak > to + 0.045, "unguarded: {peak}"),
+            }
+        }
+    }
+
+    /// A late position is moved towards the end the set point heads for by what the
+    /// drive may have gone unseen at its velocity limit; a fresh one is used as it is.
+    #[test]
+    fn a_late_position_is_taken_as_far_on_as_the_drive_can_be() {
+        assert_eq!(late_position(10.0, 0.5, 0.0, 3.0), 10.0);
+        assert_eq!(late_position(10.0, 0.5, -0.01, 3.0), 10.0);
+        assert!((late_position(10.0, 0.5, 0.02, 3.0) - 10.06).abs() < 1e-12);
+        assert!((late_position(10.0, -0.5, 0.02, 3.0) - 9.94).abs() < 1e-12);
     }
 }

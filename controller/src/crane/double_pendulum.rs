@@ -83,6 +83,9 @@ impl Crane<2> for DoublePendulumParams {
     /// -- --nocapture`; three: 0.948).
     const STOP_SMOOTHNESS_ABOVE_MOVES: usize = 2;
     type Reference = HookReference;
+    fn drive_states(r: &HookReference) -> [(f64, f64); 2] {
+        [(r.x, r.vx), (r.l, r.vl)]
+    }
     fn g(&self) -> f64 {
         self.crane.g
     }

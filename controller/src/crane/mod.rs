@@ -108,6 +108,11 @@ pub trait Crane<const A: usize> {
     /// The reference state its feedback compares the measurements with, from a solution
     /// of its inverse model ([`crate::feedforward::CraneReference`]).
     type Reference: Copy + Default + PartialEq + core::fmt::Debug;
+    /// Where the model's drives stand in `reference` and how fast they move, in the
+    /// model's input order (trolley or bridge position, rope length), `(m, m/s)`: what
+    /// the range guard compares a drive's position actual with near an end
+    /// ([`crate::range`]).
+    fn drive_states(reference: &Self::Reference) -> [(f64, f64); A];
     /// Gravity, m/s².
     fn g(&self) -> f64;
     /// Each drive position's range `(min, max)`, m.

@@ -32,6 +32,9 @@ impl Crane<2> for CraneParams {
     /// within 0.5 % of the exact ones (`cargo test -p controller --test smoothness`).
     const MIN_COMMAND_SMOOTHNESS: usize = 5;
     type Reference = Reference;
+    fn drive_states(r: &Reference) -> [(f64, f64); 2] {
+        [(r.x, r.vx), (r.l, r.vl)]
+    }
     fn g(&self) -> f64 {
         self.g
     }

@@ -33,6 +33,11 @@ impl Crane<3> for Crane3dParams {
     /// The reference of each vertical plane, x–z then y–z, as the planar crane's in
     /// that plane.
     type Reference = [Reference; 2];
+    /// The bridge from the x–z plane, the trolley from the y–z plane (each plane's `x` is
+    /// its horizontal drive), the rope from either (the x–z plane's).
+    fn drive_states([xz, yz]: &[Reference; 2]) -> [(f64, f64); 3] {
+        [(xz.x, xz.vx), (yz.x, yz.vx), (xz.l, xz.vl)]
+    }
     fn g(&self) -> f64 {
         self.g
     }

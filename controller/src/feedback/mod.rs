@@ -637,13 +637,14 @@ impl StateFeedback {
         self.sensor_model.reading(&self.sensor)
     }
 
-    /// The hoist's correction actually sent, when another feedback drives the hoist (the
-    /// 3D crane's y–z plane, [`crate::feedback3d`]): the rope-error observer learns it
-    /// in place of this feedback's own, which was never sent (anti-windup's rule, the
+    /// The corrections actually sent, `[trolley, winch]`, when they differ from this
+    /// feedback's own: the range guard cut them ([`crate::range`]), or another feedback
+    /// drives the hoist (the 3D crane's y–z plane, [`crate::feedback3d`]). The observer
+    /// learns them in place of its own, which were never sent (anti-windup's rule, the
     /// observer learns what was sent). Call after [`Self::cycle`].
-    pub(crate) fn winch_sent(&mut self, correction: f64) {
+    pub(crate) fn sent(&mut self, correction: [f64; 2]) {
         if !matches!(self.mode, Mode::FeedforwardOnly(_)) {
-            self.applied[1] = correction;
+            self.applied = correction;
         }
     }
 
@@ -1094,6 +1095,11 @@ pub trait Correction {
         last: [f64; 2],
         limits: &DriveLimits,
     ) -> Output;
+    /// The correction `u − u_d` the drives were sent after [`Self::correct`], when the
+    /// range guard ([`crate::range`]) changed it: the observer learns it.
+    fn sent(&mut self, correction: [f64; 2]) {
+        let _ = correction;
+    }
     /// Back to closed loop, the observer to start from the next good measurement (the
     /// crane at rest).
     fn restart(&mut self);
@@ -1149,6 +1155,9 @@ impl Correction for StateFeedback {
         limits: &DriveLimits,
     ) -> Output {
         self.cycle(reference, u_d, measured, last, limits)
+    }
+    fn sent(&mut self, correction: [f64; 2]) {
+        StateFeedback::sent(self, correction);
     }
     fn restart(&mut self) {
         self.reset();
