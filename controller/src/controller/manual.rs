@@ -1,0 +1,203 @@
+//! Manual mode (docs/COMMANDS.md, "Manual mode"): the operator's frames, entering
+//! and leaving the mode, the hand-over from an automatic move, the refusal's EMCY and
+//! the status frame's mode byte.
+
+use super::*;
+
+impl<F, C, K, const A: usize> Controller<F, C, K, A>
+where
+    F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+    C: AxesCorrection<A, K::Reference>,
+    K: Crane<A>,
+{
+    /// An operator frame (RPDO3, or 0x2010 written over SDO), well-formed. One the crane
+    /// cannot follow is ignored and counted, as a malformed one.
+    pub(super) fn on_operator(&mut self, frame: OperatorFrame, now_ms: u64) {
+        if frame.fits(A.saturating_sub(1)).is_err() {
+            self.ignore();
+            return;
+        }
+        self.deadman.on_frame(&frame, now_ms);
+    }
+
+    /// Manual mode, once a cycle before the model's step (docs/COMMANDS.md, "Manual
+    /// mode"): entered when a live operator asks for it — at rest, the stick interlocked,
+    /// or during an automatic move when the stick is deflected (the hand-over); a request
+    /// the controller cannot grant is announced once (EMCY 0xFF21). The stick's demand
+    /// (zero while interlocked) advances the generator on every cycle the model steps in
+    /// manual mode, the entry cycle included, so that the model evaluates each of the
+    /// generator's pieces on its own cycle; a dead-man loss or the request withdrawn
+    /// latches its sway-free stop and interlocks the stick; a stop request's stop holds
+    /// until the load rests; manual mode is left at rest once the operator is lost or no
+    /// longer asks for it.
+    // Kept out of line: inlined into the cycle it changed the firmware's inlining
+    // (QEMU: the RADAU5 scene's control-task stack grew by 1,200 bytes).
+    #[inline(never)]
+    pub(super) fn steer_manual(&mut self) {
+        let frame = self.deadman.frame();
+        let lost = matches!(self.deadman.state(self.now_ms), Stick::Lost(_));
+        let asked = !lost && frame.is_some_and(|f| f.flags.manual);
+        if !self.feedforward.path().in_manual() {
+            self.manual_stop_held = false;
+            if !asked {
+                // (A hand-over's stop goes on to rest: the move was ended by the stick.)
+                self.manual_refused = None;
+                self.handing_over = false;
+                return;
+            }
+            match self.enter_manual(frame) {
+                // An automatic move runs: manual mode waits for its rest, or the stick.
+                None => return,
+                Some(Err(refusal)) => {
+                    self.refuse_manual(refusal);
+                    return;
+                }
+                // On to advance the generator in this very cycle: the model steps over
+                // [t, t + h] right after, and the generator's piece is for that cycle.
+                Some(Ok(())) => self.manual_refused = None,
+            }
+        } else if !matches!(self.mode, Mode::Enabling | Mode::Ready) {
+            // The model does not step (a stop's ramp, halted): nor does the generator.
+            return;
+        } else if !asked
+            && self
+                .feedforward
+                .path_mut()
+                .manual_mut()
+                .is_some_and(|path| path.is_at_rest())
+            && self.model_still >= MODEL_REST_CYCLES
+            && self.feedforward.path_mut().leave_manual().is_ok()
+        {
+            // Left at rest: the path resting and the model's set points zero for
+            // `MODEL_REST_CYCLES` (they reach it a few cycles after the path rests, and
+            // may cross zero on the way: BDF's history). The feedback's corrections do
+            // not count: they go on in either mode. (Refused only while it moves, or if
+            // the plan cannot rest there: then the generator goes on resting, advanced
+            // below.)
+            return;
+        }
+        let Some(path) = self.feedforward.path_mut().manual_mut() else {
+            return;
+        };
+        if self.manual_stop_held && path.is_at_rest() {
+            // The stop request's stop is over: the stick moves the load again once it
+            // is centred after it (centring during the stop does not count).
+            self.manual_stop_held = false;
+            self.deadman.interlock();
+        }
+        // The state again: an entry or the end of a stop just now interlocked the stick.
+        let state = self.deadman.state(self.now_ms);
+        // Enabling (a drive came back after leaving operational at rest): the model
+        // steps, so the generator is advanced, its stop latched: the drives are not
+        // ready for the stick.
+        let ready = self.mode == Mode::Ready;
+        let stick = match (state, frame) {
+            (Stick::Live, Some(f)) if asked && ready => f.demand::<2>(self.deadman.deadband()).ok(),
+            _ => None,
+        };
+        if !asked || !ready {
+            // A dead-man loss, the request withdrawn, or the drives not ready: the
+            // sway-free stop, and the stick centred before it moves the crane again.
+            path.stop();
+            self.deadman.interlock();
+        } else if state == Stick::Live && path.is_stopping() && !self.manual_stop_held {
+            path.resume();
+        }
+        let ([x, y], z) = stick.unwrap_or(([0.0; 2], 0.0));
+        // The state feedback no longer reads the angle (EMCY 0xFF20 said so): manual
+        // mode goes on on feedforward, the travel speed capped.
+        let cap = match self.feedback_announced.and_then(|m| m.degraded()) {
+            Some(_) if C::ENABLED => operator::UNOBSERVED_SPEED_SHARE,
+            _ => 1.0,
+        };
+        let _ = path.advance([x * cap, y * cap], z);
+    }
+
+    /// Manual mode entered for a live operator who asks for it, if it can be now: at
+    /// rest, the stick interlocked (centred frames counted before do not lift it). During
+    /// an automatic move a deflected stick — live, centred since the request — takes the
+    /// crane over: the move ends at once with its on-path stop (what waited for it is
+    /// refused), and at the stop's rest manual mode is entered with the stick live.
+    /// `None`: not now, manual mode waits (the move, or the hand-over's stop, runs).
+    ///
+    /// (`Generator::take_over` continues a moving load's state, but tried here in motion
+    /// its blend put the drives past their limits — up to 2.6 times the trolley's
+    /// acceleration limit at 20 % into a 6 s move (`cargo run --release -p host-tests
+    /// --example takeover_limits`) — so the generator starts from the stop's rest.)
+    pub(super) fn enter_manual(
+        &mut self,
+        frame: Option<OperatorFrame>,
+    ) -> Option<Result<(), Refusal>> {
+        // A model that follows plans only: the stick neither enters nor takes anything
+        // over (its frames cannot stop a move).
+        if self.feedforward.path().stick_deadband().is_none() {
+            return Some(Err(Refusal::Unsupported));
+        }
+        if !self.may_move() {
+            self.handing_over = false;
+            return Some(Err(Refusal::NotReady));
+        }
+        if !self.moving() {
+            let t = self.feedforward.time();
+            // A hand-over's stick is live: the operator deflected it to take over.
+            let handed_over = core::mem::take(&mut self.handing_over);
+            let entered = self.feedforward.path_mut().enter_manual(t);
+            if entered.is_ok() {
+                if !handed_over {
+                    self.deadman.interlock();
+                }
+                self.close_loop(true);
+            }
+            return Some(entered.map_err(Refusal::of));
+        }
+        let deflected = frame.is_some_and(|f| !self.deadman.centred(&f));
+        let on_its_way = matches!(self.feedforward.plan().active(), Some(Segment::Move(_)));
+        if self.handing_over
+            || !(deflected && on_its_way && self.deadman.state(self.now_ms) == Stick::Live)
+        {
+            return None;
+        }
+        // The stick takes the crane over: what waited for the move is refused (reason
+        // 2), as after a stop, a move sent again is a new request, the move ends on its
+        // path, and the supervisor hears that it will not reach its target.
+        let (now, now_ms) = (self.now_s(), self.now_ms);
+        self.requests.forget_answered();
+        let lost =
+            self.requests.cancel_planned(now, now_ms) + self.requests.refuse_waiting(false, now_ms);
+        self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(lost);
+        self.stop_on_path(now);
+        self.handing_over = true;
+        self.send_emcy(canopen::emcy(
+            self.nmt.node.id,
+            emcy::MOVE_TAKEN_OVER,
+            REGISTER_MANUFACTURER,
+            [emcy::MOVE_TAKEN_OVER_BYTE, 0, 0, 0, 0],
+        ));
+        None
+    }
+
+    /// Announces a refused request for manual mode (EMCY 0xFF21, a warning), once per
+    /// request and reason.
+    pub(super) fn refuse_manual(&mut self, refusal: Refusal) {
+        if self.manual_refused == Some(refusal) {
+            return;
+        }
+        self.manual_refused = Some(refusal);
+        self.send_emcy(canopen::emcy(
+            self.nmt.node.id,
+            emcy::MANUAL_REFUSED,
+            REGISTER_MANUFACTURER,
+            [emcy::MANUAL_REFUSED_BYTE, 0, refusal.code(), 0, 0],
+        ));
+    }
+
+    /// The status frame's mode byte: the supervisor state's, or
+    /// [`operator::MANUAL_MODE_CODE`] while manual mode runs.
+    pub(super) fn mode_code(&self) -> u8 {
+        if self.mode == Mode::Ready && self.feedforward.path().in_manual() {
+            operator::MANUAL_MODE_CODE
+        } else {
+            self.mode.code()
+        }
+    }
+}

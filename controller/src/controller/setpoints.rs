@@ -1,0 +1,149 @@
+//! Each drive's set point before the gate: the inverse model's `u_d`, the state
+//! feedback's correction (Fig. 1) and the range guard ([`crate::range`]), from the
+//! drives' positions actual read once per cycle.
+
+use super::*;
+
+/// A drive's last position actual (0x6064) as the range guard and the feedback read it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Position {
+    /// Through the drive's commissioned scaling, m.
+    pub(super) metres: f64,
+    /// How much older than a cycle it is, s (0: from the last SYNC, fresh).
+    pub(super) late_s: f64,
+}
+
+impl<F, C, K, const A: usize> Controller<F, C, K, A>
+where
+    F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+    C: AxesCorrection<A, K::Reference>,
+    K: Crane<A>,
+{
+    /// What the drives and the inclinometer measured at the last SYNC (their TPDOs
+    /// arrive between cycles): each drive's position (planar: trolley position and rope
+    /// length) from `positions`, the angle if a fresh one came from a healthy
+    /// inclinometer. `None` when a position is not fresh.
+    pub(super) fn measurement(&mut self, positions: &[Option<Position>; A]) -> Option<Measured<A>> {
+        let now_ms = self.now_ms;
+        let swing = self.links.sensor_mut().and_then(|sensor| {
+            let fresh = core::mem::take(&mut sensor.fresh);
+            let healthy = sensor.healthy(now_ms, self.config.heartbeat_timeout_ms);
+            sensor.swing.filter(|_| fresh && healthy)
+        });
+        let mut position = [0.0; A];
+        for (slot, p) in position.iter_mut().zip(positions) {
+            *slot = p.filter(|p| p.late_s <= 0.0)?.metres;
+        }
+        Some(Measured { position, swing })
+    }
+
+    /// Every drive's last position actual (0x6064), through its commissioned scaling,
+    /// and how late it is; `None` for a drive that has sent none since it was linked.
+    pub(super) fn positions(&self) -> [Option<Position>; A] {
+        let period_ms = u64::from(self.config.period_ms);
+        K::DRIVES.map(|drive| {
+            let link = self.link(drive)?;
+            let age_ms = self.now_ms.saturating_sub(link.last_position_ms?);
+            Some(Position {
+                metres: link.commissioning.setup().metres(link.position?),
+                late_s: age_ms.saturating_sub(period_ms) as f64 * 1e-3,
+            })
+        })
+    }
+
+    /// `u` with each drive kept inside its range by its position actual
+    /// ([`crate::range`]): the last word before the gate on what the feedback adds to the
+    /// model's `u_d`, and on `u_d` itself for a drive ahead of the model's. A late
+    /// position counts as far on as the drive can have gone since; a drive without any,
+    /// `u` as it is.
+    pub(super) fn within_ranges(
+        &mut self,
+        u: [f64; A],
+        u_d: [f64; A],
+        positions: &[Option<Position>; A],
+    ) -> [f64; A] {
+        let (ranges, limits, lags) = (
+            self.planner.ranges(),
+            self.planner.limits(),
+            self.planner.lags(),
+        );
+        let (last, h) = (self.gate.last_velocities(), self.config.period_s());
+        // The model's drives, asked for once and only near an end.
+        let mut model: Option<[(f64, f64); A]> = None;
+        let mut guarded = u;
+        for (i, out) in guarded.iter_mut().enumerate() {
+            let (Some(&u), Some(&u_d), Some(&last), Some(range), Some(limits), Some(&lag)) = (
+                u.get(i),
+                u_d.get(i),
+                last.get(i),
+                ranges.get(i),
+                limits.get(i),
+                lags.get(i),
+            ) else {
+                continue;
+            };
+            if let Some(Some(p)) = positions.get(i) {
+                let at = range::late_position(p.metres, u, p.late_s, limits.max_velocity);
+                let feedforward = &self.feedforward;
+                let model_at = || {
+                    let drives =
+                        *model.get_or_insert_with(|| K::drive_states(&feedforward.reference()));
+                    drives.get(i).copied().unwrap_or((f64::NAN, f64::NAN))
+                };
+                let ahead = self.range_ahead.get_mut(i);
+                let mut spare = false;
+                let ahead = ahead.unwrap_or(&mut spare);
+                *out = range::guard(u, u_d, last, at, *range, *limits, lag, h, model_at, ahead);
+            }
+            // Held back (now or before): back to what is asked at the gate's step only,
+            // whether the drive is inside again or its position is late.
+            let Some(held) = self.range_held.get_mut(i) else {
+                continue;
+            };
+            *held |= *out != u && out.is_finite();
+            if *held {
+                *out = range::toward(*out, last, limits.max_acceleration, h);
+                *held = *out != u;
+            }
+        }
+        guarded
+    }
+
+    /// This cycle's set points before the gate: the inverse model's `u_d`, corrected by
+    /// the feedback while the loop is closed (Fig. 1). A change of the feedback's mode
+    /// is announced: the angle no longer used (the swing estimated from the positions,
+    /// or feedforward only) by EMCY 0xFF20 with the reason (a warning: the move goes
+    /// on), back to closed loop by nothing. Also whether the feedback ran (it is then
+    /// told what the drives were sent after the range guard).
+    pub(super) fn corrected(
+        &mut self,
+        step: &FeedforwardStep<A>,
+        positions: &[Option<Position>; A],
+    ) -> ([f64; A], bool) {
+        if !C::ENABLED || !self.closed_loop || self.mode != Mode::Ready {
+            return (step.u, false);
+        }
+        let reference = self.feedforward.reference();
+        let measured = self.measurement(positions);
+        let last = self.gate.last_velocities();
+        let (u, mode) =
+            self.correction
+                .correct(&reference, step.u, measured, last, &self.planner.limits());
+        if self.feedback_announced != Some(mode) {
+            if let Some(reason) = mode.degraded() {
+                let node = self
+                    .links
+                    .sensor()
+                    .map_or(0, |s| s.commissioning.setup().node);
+                self.send_emcy(canopen::emcy(
+                    self.nmt.node.id,
+                    emcy::FEEDBACK_OFF,
+                    REGISTER_MANUFACTURER,
+                    [15, node, reason.code(), 0, 0],
+                ));
+            }
+            self.feedback_announced = Some(mode);
+        }
+        (u, true)
+    }
+}
