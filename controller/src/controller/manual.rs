@@ -4,6 +4,40 @@
 
 use super::*;
 
+/// Manual mode's state beside the generator (which the model's path owns): what the
+/// controller keeps between cycles to enter, steer and leave the mode.
+#[derive(Debug, Clone)]
+pub(super) struct Manual {
+    /// The operator's dead-man: whether the stick may move the crane.
+    pub(super) deadman: Deadman,
+    /// The refusal of the operator's request for manual mode last announced (EMCY
+    /// 0xFF21), until the request is withdrawn or granted.
+    pub(super) refused: Option<Refusal>,
+    /// A stop request (0x210) latched the generator's stop: it holds until the load
+    /// rests, whatever the stick does meanwhile.
+    pub(super) stop_held: bool,
+    /// The stick deflected during an automatic move: the move stops on its path, and
+    /// manual mode is entered at its rest with the stick live.
+    pub(super) handing_over: bool,
+    /// Cycles in a row the model's own set points were zero in drive units: manual mode
+    /// is left only when the model rests, its history too.
+    pub(super) model_still: u8,
+}
+
+impl Manual {
+    /// Nothing asked yet; the stick's `deadband` (the generator's) is the one the
+    /// interlock checks.
+    pub(super) fn new(deadband: f64) -> Self {
+        Self {
+            deadman: Deadman::new(operator::DEADLINE_MS, deadband),
+            refused: None,
+            stop_held: false,
+            handing_over: false,
+            model_still: 0,
+        }
+    }
+}
+
 impl<F, C, K, const A: usize> Controller<F, C, K, A>
 where
     F: Feedforward<A, Reference = K::Reference> + Replan<A>,
@@ -17,7 +51,7 @@ where
             self.ignore();
             return;
         }
-        self.deadman.on_frame(&frame, now_ms);
+        self.manual.deadman.on_frame(&frame, now_ms);
     }
 
     /// Manual mode, once a cycle before the model's step (docs/COMMANDS.md, "Manual
@@ -34,15 +68,15 @@ where
     // (QEMU: the RADAU5 scene's control-task stack grew by 1,200 bytes).
     #[inline(never)]
     pub(super) fn steer_manual(&mut self) {
-        let frame = self.deadman.frame();
-        let lost = matches!(self.deadman.state(self.now_ms), Stick::Lost(_));
+        let frame = self.manual.deadman.frame();
+        let lost = matches!(self.manual.deadman.state(self.now_ms), Stick::Lost(_));
         let asked = !lost && frame.is_some_and(|f| f.flags.manual);
         if !self.feedforward.path().in_manual() {
-            self.manual_stop_held = false;
+            self.manual.stop_held = false;
             if !asked {
                 // (A hand-over's stop goes on to rest: the move was ended by the stick.)
-                self.manual_refused = None;
-                self.handing_over = false;
+                self.manual.refused = None;
+                self.manual.handing_over = false;
                 return;
             }
             match self.enter_manual(frame) {
@@ -54,7 +88,7 @@ where
                 }
                 // On to advance the generator in this very cycle: the model steps over
                 // [t, t + h] right after, and the generator's piece is for that cycle.
-                Some(Ok(())) => self.manual_refused = None,
+                Some(Ok(())) => self.manual.refused = None,
             }
         } else if !matches!(self.mode, Mode::Enabling | Mode::Ready) {
             // The model does not step (a stop's ramp, halted): nor does the generator.
@@ -65,7 +99,7 @@ where
                 .path_mut()
                 .manual_mut()
                 .is_some_and(|path| path.is_at_rest())
-            && self.model_still >= MODEL_REST_CYCLES
+            && self.manual.model_still >= MODEL_REST_CYCLES
             && self.feedforward.path_mut().leave_manual().is_ok()
         {
             // Left at rest: the path resting and the model's set points zero for
@@ -79,28 +113,30 @@ where
         let Some(path) = self.feedforward.path_mut().manual_mut() else {
             return;
         };
-        if self.manual_stop_held && path.is_at_rest() {
+        if self.manual.stop_held && path.is_at_rest() {
             // The stop request's stop is over: the stick moves the load again once it
             // is centred after it (centring during the stop does not count).
-            self.manual_stop_held = false;
-            self.deadman.interlock();
+            self.manual.stop_held = false;
+            self.manual.deadman.interlock();
         }
         // The state again: an entry or the end of a stop just now interlocked the stick.
-        let state = self.deadman.state(self.now_ms);
+        let state = self.manual.deadman.state(self.now_ms);
         // Enabling (a drive came back after leaving operational at rest): the model
         // steps, so the generator is advanced, its stop latched: the drives are not
         // ready for the stick.
         let ready = self.mode == Mode::Ready;
         let stick = match (state, frame) {
-            (Stick::Live, Some(f)) if asked && ready => f.demand::<2>(self.deadman.deadband()).ok(),
+            (Stick::Live, Some(f)) if asked && ready => {
+                f.demand::<2>(self.manual.deadman.deadband()).ok()
+            }
             _ => None,
         };
         if !asked || !ready {
             // A dead-man loss, the request withdrawn, or the drives not ready: the
             // sway-free stop, and the stick centred before it moves the crane again.
             path.stop();
-            self.deadman.interlock();
-        } else if state == Stick::Live && path.is_stopping() && !self.manual_stop_held {
+            self.manual.deadman.interlock();
+        } else if state == Stick::Live && path.is_stopping() && !self.manual.stop_held {
             path.resume();
         }
         let ([x, y], z) = stick.unwrap_or(([0.0; 2], 0.0));
@@ -134,26 +170,26 @@ where
             return Some(Err(Refusal::Unsupported));
         }
         if !self.may_move() {
-            self.handing_over = false;
+            self.manual.handing_over = false;
             return Some(Err(Refusal::NotReady));
         }
         if !self.moving() {
             let t = self.feedforward.time();
             // A hand-over's stick is live: the operator deflected it to take over.
-            let handed_over = core::mem::take(&mut self.handing_over);
+            let handed_over = core::mem::take(&mut self.manual.handing_over);
             let entered = self.feedforward.path_mut().enter_manual(t);
             if entered.is_ok() {
                 if !handed_over {
-                    self.deadman.interlock();
+                    self.manual.deadman.interlock();
                 }
                 self.close_loop(true);
             }
             return Some(entered.map_err(Refusal::of));
         }
-        let deflected = frame.is_some_and(|f| !self.deadman.centred(&f));
+        let deflected = frame.is_some_and(|f| !self.manual.deadman.centred(&f));
         let on_its_way = matches!(self.feedforward.plan().active(), Some(Segment::Move(_)));
-        if self.handing_over
-            || !(deflected && on_its_way && self.deadman.state(self.now_ms) == Stick::Live)
+        if self.manual.handing_over
+            || !(deflected && on_its_way && self.manual.deadman.state(self.now_ms) == Stick::Live)
         {
             return None;
         }
@@ -166,7 +202,7 @@ where
             self.requests.cancel_planned(now, now_ms) + self.requests.refuse_waiting(false, now_ms);
         self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(lost);
         self.stop_on_path(now);
-        self.handing_over = true;
+        self.manual.handing_over = true;
         self.send_emcy(canopen::emcy(
             self.nmt.node.id,
             emcy::MOVE_TAKEN_OVER,
@@ -179,10 +215,10 @@ where
     /// Announces a refused request for manual mode (EMCY 0xFF21, a warning), once per
     /// request and reason.
     pub(super) fn refuse_manual(&mut self, refusal: Refusal) {
-        if self.manual_refused == Some(refusal) {
+        if self.manual.refused == Some(refusal) {
             return;
         }
-        self.manual_refused = Some(refusal);
+        self.manual.refused = Some(refusal);
         self.send_emcy(canopen::emcy(
             self.nmt.node.id,
             emcy::MANUAL_REFUSED,

@@ -9,6 +9,7 @@
 //! transmit what comes out, and report each cycle's cost and each failed transmission.
 
 mod manual;
+use manual::Manual;
 mod moves;
 mod receive;
 mod setpoints;
@@ -225,26 +226,15 @@ pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
     now_ms: u64,
     /// SYNC was sent in the last cycle (the drives' TPDOs are due).
     syncing: bool,
-    /// The operator's dead-man: whether the stick may move the crane (manual mode).
-    deadman: Deadman,
-    /// The refusal of the operator's request for manual mode last announced (EMCY
-    /// 0xFF21), until the request is withdrawn or granted.
-    manual_refused: Option<Refusal>,
-    /// A stop request (0x210) latched the generator's stop: it holds until the load
-    /// rests, whatever the stick does meanwhile.
-    manual_stop_held: bool,
-    /// The stick deflected during an automatic move: the move stops on its path, and
-    /// manual mode is entered at its rest with the stick live.
-    handing_over: bool,
+    /// Manual mode's state: the operator's dead-man, the refusal announced, a stop
+    /// request's hold, a hand-over under way, how long the model has rested.
+    manual: Manual,
     /// Each drive's set point held back by its range's guard (`crate::range`) and not
     /// yet back to what is asked.
     range_held: [bool; A],
     /// Each drive found ahead of the model's drive near an end: the model's set point no
     /// longer passes the guard until it stops heading for that end (`crate::range`).
     range_ahead: [bool; A],
-    /// Cycles in a row the model's own set points were zero in drive units: manual mode
-    /// is left only when the model rests, its history too.
-    model_still: u8,
 }
 
 impl<F: Feedforward<Reference = Reference> + Replan> Controller<F> {
@@ -333,13 +323,9 @@ where
             syncing: false,
             // The generator's deadband, the one the interlock checks; a model that
             // follows plans only never enters manual mode: a centred stick is 0 there.
-            deadman: Deadman::new(operator::DEADLINE_MS, deadband),
-            manual_refused: None,
-            manual_stop_held: false,
+            manual: Manual::new(deadband),
             range_held: [false; A],
             range_ahead: [false; A],
-            model_still: 0,
-            handing_over: false,
         }
     }
 

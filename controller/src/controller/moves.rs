@@ -34,7 +34,9 @@ where
                 match K::target(x, y, z, plan.final_position().into()) {
                     None => Err(Reject::Invalid),
                     // (Nor while the operator's stick takes the crane over.)
-                    Some(_) if !self.may_move() || self.handing_over => Err(Reject::NotReady),
+                    Some(_) if !self.may_move() || self.manual.handing_over => {
+                        Err(Reject::NotReady)
+                    }
                     Some(_) if !self.in_place() => Err(Reject::NotInPlace),
                     Some(_) if plan.has_queued() => Err(Reject::Busy),
                     Some(target) => match MoveSearch::new(plan, target, duration) {
@@ -102,8 +104,8 @@ where
                 step.u = [0.0; A];
             }
         }
-        self.model_still = if zero || step.u == [0.0; A] {
-            self.model_still.saturating_add(1)
+        self.manual.model_still = if zero || step.u == [0.0; A] {
+            self.manual.model_still.saturating_add(1)
         } else {
             0
         };
@@ -120,12 +122,12 @@ where
         // Manual mode: the generator's sway-free stop, and the stick has to be centred
         // before it moves the crane again (the zero-position interlock); a hand-over
         // from an automatic move is called off (its move stops as any).
-        self.deadman.interlock();
-        self.handing_over = false;
+        self.manual.deadman.interlock();
+        self.manual.handing_over = false;
         if self.mode == Mode::Ready {
             if let Some(path) = self.feedforward.path_mut().manual_mut() {
                 path.stop();
-                self.manual_stop_held = true;
+                self.manual.stop_held = true;
                 return;
             }
         }
@@ -280,7 +282,7 @@ where
         // The model restarted (a reset, or the positions read again): centred frames
         // received while halted do not count, the stick has to be centred again before
         // it moves the crane (the zero-position interlock).
-        self.deadman.interlock();
+        self.manual.deadman.interlock();
         Ok(())
     }
 

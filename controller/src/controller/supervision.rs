@@ -204,7 +204,7 @@ where
         }
         self.closed_loop = false;
         // After the fault the stick has to be centred before it moves the crane again.
-        self.deadman.interlock();
+        self.manual.deadman.interlock();
         // The plan is given up: an accepted move that has not begun will not run.
         let lost = self.requests.cancel_planned(self.now_s(), self.now_ms);
         self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(lost);
