@@ -24,6 +24,10 @@ pub struct ReferenceCycle {
     pub setpoints: Vec<Setpoint>,
     /// Supervisor state after the cycle.
     pub mode: Mode,
+    /// The status frame's mode byte after the cycle (manual mode's
+    /// `controller::operator::MANUAL_MODE_CODE` included), whether a status frame was
+    /// sent in it or not: what a test judges a mode's change by, to the cycle.
+    pub status_mode: u8,
 }
 
 /// Runs the firmware's loop for a crane scene on the virtual bus with `scenario`. A
@@ -225,6 +229,7 @@ impl WithController for Boot {
                 frames: c.frames.to_vec(),
                 setpoints: c.setpoints.to_vec(),
                 mode: c.mode,
+                status_mode: controller.status().mode,
             });
         }
         Ok(out)

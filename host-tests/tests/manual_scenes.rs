@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 
 use controller::canopen::{cob, emcy, CONTROLLER_NODE};
 use controller::commands::STATUS_ID;
+use controller::controller::MODEL_REST_CYCLES;
 use controller::operator::MANUAL_MODE_CODE;
 use controller::Mode;
 use host_tests::firmware::{controller_reference, ReferenceCycle};
@@ -143,19 +144,31 @@ fn deadman(scene: &str) {
     );
     let rest = rests_from(&run, 12_500, 20_000).expect("at rest before the end");
     assert!(rest < 12_500 + 6_000, "{scene}: at rest from {rest} ms");
-    let modes = modes(&run);
-    let left = modes
+    // Left at rest, judged cycle by cycle (the status frames come every 100 ms): not
+    // before every set point has been exactly 0.0 for `MODEL_REST_CYCLES` cycles (the
+    // model's reach it a few cycles after the generator's path rests, BDF4's history),
+    // and in the cycle they have.
+    let left = run
         .iter()
-        .find(|(t, m)| *t > 12_500 && *m != MANUAL_MODE_CODE)
-        .unwrap_or_else(|| panic!("{scene}: manual mode never left: {modes:?}"));
-    assert_eq!(left.1, 1, "{scene}: {left:?}");
-    // Left at rest: not before every set point is exactly 0.0 (the model's reach it a
-    // few cycles after the generator's path rests, BDF4's history), then
-    // `MODEL_REST_CYCLES` of them and the status frame's period (the status frames say it).
+        .find(|c| c.now_ms > 12_500 && c.status_mode != MANUAL_MODE_CODE)
+        .unwrap_or_else(|| panic!("{scene}: manual mode never left"));
+    assert_eq!(left.status_mode, 1, "{scene}: left to {}", left.status_mode);
+    let rest_cycles = u32::from(MODEL_REST_CYCLES);
     assert!(
-        (rest + 70..rest + 200).contains(&left.0),
+        (rest + 10 * (rest_cycles - 1)..=rest + 10 * rest_cycles).contains(&left.now_ms),
         "{scene}: left at {} ms, at rest from {rest} ms",
-        left.0
+        left.now_ms
+    );
+    // The status frames say it at their next period.
+    let said = modes(&run)
+        .into_iter()
+        .find(|(t, m)| *t > 12_500 && *m != MANUAL_MODE_CODE)
+        .unwrap_or_else(|| panic!("{scene}: no status frame says manual mode left"));
+    assert!(
+        (left.now_ms..left.now_ms + 100).contains(&said.0),
+        "{scene}: said at {} ms, left at {} ms",
+        said.0,
+        left.now_ms
     );
     assert_eq!(run.last().unwrap().mode, Mode::Ready);
 }
