@@ -46,9 +46,9 @@ pub trait AxesCorrection<const A: usize, R> {
     /// What the drives were sent after [`Self::correct`] when something after it (the
     /// range guard, [`crate::range`]) changed its set points: the observer learns the
     /// correction `u − u_d` the drives got, not the one it asked for (anti-windup).
-    fn sent(&mut self, u_d: [f64; A], u: [f64; A]) {
-        let _ = (u_d, u);
-    }
+    /// Required, not defaulted: a wrapper that forgot to forward it would leave its
+    /// observer learning what was never sent.
+    fn sent(&mut self, u_d: [f64; A], u: [f64; A]);
     /// Back to closed loop, the observer to start from the next good measurement.
     fn restart(&mut self);
     /// What it is doing (`None`: there is no feedback).
@@ -120,6 +120,7 @@ macro_rules! feedforward_only {
                 let degraded = $crate::feedback::Degraded::AngleLost;
                 (u_d, $crate::feedback::Mode::FeedforwardOnly(degraded))
             }
+            fn sent(&mut self, _u_d: [f64; $axes], _u: [f64; $axes]) {}
             fn restart(&mut self) {}
             fn mode(&self) -> Option<$crate::feedback::Mode> {
                 None

@@ -32,7 +32,8 @@ pub trait Feedforward<const A: usize = 2> {
     /// Model time of the newest solution, s.
     fn time(&self) -> f64;
     /// The reference state of the newest solution (positions, rope, angles and their
-    /// rates) for the state feedback; asked only by a controller that corrects.
+    /// rates): for the state feedback every cycle, and for the range guard near a
+    /// range's end ([`crate::range`]), in every controller.
     fn reference(&self) -> Self::Reference;
 }
 

@@ -37,8 +37,20 @@
 //! "Ahead" allows [`AHEAD`] plus the lead of a drive faster than the model's, `τ |v_m|`
 //! with `v_m` the model's drive velocity: a drive with less lag leads the model's by up
 //! to that while it moves, yet ends where the model's does (the lag keeps the integral,
-//! `∫v = ∫u − τ Δv`), so that lead is no overshoot. The model's drive is asked for only
-//! near an end, where the cheap tests do not decide. At an end or beyond it nothing
+//! `∫v = ∫u − τ Δv`), so that lead is no overshoot (under 1 mm in the unit test, where
+//! `u_d` turns negative near the end for the lagged drive's sake). The model's drive is
+//! asked for only near an end, where the cheap tests do not decide.
+//!
+//! **What this does not prevent** (this stop's review, finding 1): the position alone
+//! cannot tell a drive with less lag from one with an offset, so a lead below `τ |v_m|`
+//! is found only once the model has slowed below `lead/τ`, when the room left may be
+//! too short to take it up. A drive ahead never passes the end by more than the model's
+//! set points alone carry it, and by a 50 mm lead on a 1 m, 2 s move it stops 14.2 mm
+//! short; but a 5–20 mm lead still passes by 1.6–5.7 mm on that move, and on a brisk one
+//! (1.45 s, the acceleration near the planner's limit) a 50 mm lead by 36.9 mm
+//! (`cargo test -p controller --lib range -- --nocapture`). Telling the two apart needs
+//! the drive's measured velocity or an offset learnt while it cruises. At an end or
+//! beyond it nothing
 //! moves the drive further out, the model's set point neither. A set point within the
 //! bounds is left exactly as it is (nothing changes for moves that keep clear of the
 //! ends); one beyond them is brought there no faster than the gate's acceleration limit
@@ -92,9 +104,10 @@ pub const AHEAD: f64 = 1e-3;
 /// that as before); otherwise the bound, reached from the last set point `last` no
 /// faster than `limits`' acceleration over the cycle `h` allows. `model` gives where the
 /// model's drive is and its velocity `(m, m/s)`; it is asked only near an end, where
-/// `u_d` would pass. `ahead` is the drive's latch: once found ahead of the model's, the
-/// model's set point no longer passes until it stops heading for that end (else the
-/// lead allowance, shrinking as the model brakes, would let it pass again and again).
+/// `u_d` would pass. `ahead` is the drive's latch, the end (+1 the high, −1 the low, 0
+/// none) it was found ahead of the model's towards: the model's set point no longer
+/// passes towards that end until it stops heading for it (else the lead allowance,
+/// shrinking as the model brakes, would let it pass again and again).
 ///
 /// Every cycle of every drive passes here, so the common case is cheap (the MCU has no
 /// double-precision square root in hardware): a set point away from the end passes at
@@ -113,13 +126,13 @@ pub fn guard(
     lag: f64,
     h: f64,
     model: impl FnOnce() -> (f64, f64),
-    ahead: &mut bool,
+    ahead: &mut f64,
 ) -> f64 {
     let a = limits.max_acceleration;
     let t = time_constant(lag, h);
-    if u_d * u <= 0.0 || !(u_d * u).is_finite() {
-        // The model's set point no longer heads for the end `u` heads for.
-        *ahead = false;
+    if u_d * *ahead <= 0.0 || !u_d.is_finite() {
+        // The model's set point no longer heads for the end the latch is for.
+        *ahead = 0.0;
     }
     if !u.is_finite() || u == 0.0 {
         return u;
@@ -141,11 +154,13 @@ pub fn guard(
     }
     // The model's own set point passes while the drive is not ahead of the model's.
     let own = u_d * sign;
-    if own > 0.0 && !*ahead {
+    if own > 0.0 && *ahead != sign {
         let (at, v) = model();
-        *ahead = (position - at) * sign > AHEAD + lag * v.abs();
+        if (position - at) * sign > AHEAD + lag * v.abs() {
+            *ahead = sign;
+        }
     }
-    let own = if *ahead { 0.0 } else { own.max(0.0) };
+    let own = if *ahead == sign { 0.0 } else { own.max(0.0) };
     if speed <= own {
         return u;
     }
@@ -234,7 +249,7 @@ mod tests {
                 LAG,
                 H,
                 || (10.0, 0.0),
-                &mut false
+                &mut 0.0
             ),
             0.4
         );
@@ -249,7 +264,7 @@ mod tests {
                 LAG,
                 H,
                 || (10.0, 0.0),
-                &mut false
+                &mut 0.0
             ),
             -0.4
         );
@@ -263,7 +278,7 @@ mod tests {
             LAG,
             H,
             || (19.99, 0.0),
-            &mut false
+            &mut 0.0
         )
         .is_nan());
         // At the end, away from it: allowed.
@@ -278,7 +293,7 @@ mod tests {
                 LAG,
                 H,
                 || (20.0, 0.0),
-                &mut false
+                &mut 0.0
             ),
             -0.2
         );
@@ -296,7 +311,7 @@ mod tests {
                 LAG,
                 H,
                 || (19.9999, 0.0),
-                &mut false
+                &mut 0.0
             ),
             0.01
         );
@@ -312,7 +327,7 @@ mod tests {
                 LAG,
                 H,
                 || (19.9999, 0.0),
-                &mut false
+                &mut 0.0
             ),
             0.01
         );
@@ -339,7 +354,7 @@ mod tests {
                 LAG,
                 H,
                 || (19.999_999, 0.0),
-                &mut false
+                &mut 0.0
             ),
             0.3
         );
@@ -361,7 +376,7 @@ mod tests {
                 LAG,
                 H,
                 || (20.0, 0.0),
-                &mut false
+                &mut 0.0
             ),
             0.0
         );
@@ -376,7 +391,7 @@ mod tests {
                 LAG,
                 H,
                 || (0.0, 0.0),
-                &mut false
+                &mut 0.0
             ),
             0.0
         );
@@ -391,7 +406,7 @@ mod tests {
             LAG,
             H,
             || (20.001, 0.0),
-            &mut false,
+            &mut 0.0,
         );
         assert!((u - (0.5 - step)).abs() < 1e-12, "ramped down: {u}");
     }
@@ -426,7 +441,7 @@ mod tests {
                 LAG,
                 H,
                 || (19.0, 0.0),
-                &mut false,
+                &mut 0.0,
             );
             assert!(
                 (next - u).abs() <= LIMITS.max_acceleration * H,
@@ -441,17 +456,13 @@ mod tests {
         assert!(peak > 19.98, "stopped short: {peak}");
     }
 
-    /// A move of the model's drive to the range's end (a quintic over 2 s, the drive's
-    /// set point `u_d = v + τ a` through its lag). A drive that follows it exactly, and
-    /// one without lag that leads it by `τ v` yet ends where it does, get the model's set
-    /// points inside the range and arrive; one that runs 50 mm ahead of it is held to the room
-    /// and stops inside the range (11.4 mm short: it creeps on the room's law until the
-    /// model rests), where the model's set points alone carry it 50 mm past the end
-    /// (finding 4).
-    #[test]
-    fn a_drive_ahead_of_the_model_stops_at_the_end_the_model_reaches() {
-        let (from, to, duration) = (19.0, 20.0, 2.0);
-        // The model's drive: position, velocity and set point at `t`.
+    /// The peak position of a drive stepped through a move of the model's drive to the
+    /// range's end at 20 m (a quintic from 19 m over `duration`, the drive's set point
+    /// `u_d = v + τ a` through the model's lag), the drive `lead` ahead of the model's and
+    /// with lag `lag` (0: none, it follows its set point at once); `guarded`: through
+    /// [`guard`], else the model's set points as they are. Also whether it got the model's own set points while inside the range.
+    fn move_to_the_end(lead: f64, lag: f64, duration: f64, guarded: bool) -> (f64, bool) {
+        let (from, to) = (19.0, 20.0);
         let model = |t: f64| {
             let s = (t / duration).clamp(0.0, 1.0);
             let d = to - from;
@@ -460,62 +471,79 @@ mod tests {
             let a = d / (duration * duration) * 60.0 * s * (1.0 - s) * (1.0 - 2.0 * s);
             (x, v, v + LAG * a)
         };
-        // (lead, drive's lag, guarded)
-        for (lead, lag, guarded) in [
-            (0.0, LAG, true),
-            (0.0, 0.0, true),
-            (0.05, LAG, true),
-            (0.05, LAG, false),
-        ] {
-            let (mut x, mut v, mut u) = (from + lead, 0.0, 0.0);
-            let mut seen = x;
-            let (mut peak, mut own_only, mut ahead) = (x, true, false);
-            for k in 0..400 {
-                let t = f64::from(k) * H;
-                // The model's drive where it was a cycle ago: as old as `seen`.
-                let (at, v_at, _) = model(t - H);
-                let u_d = model(t).2;
-                let next = if guarded {
-                    guard(
-                        u_d,
-                        u_d,
-                        u,
-                        seen,
-                        (0.0, 20.0),
-                        LIMITS,
-                        LAG,
-                        H,
-                        || (at, v_at),
-                        &mut ahead,
-                    )
-                } else {
-                    u_d
-                };
-                // Inside the range (a drive without lag passes the end by 0.46 mm
-                // where `u_d` turns negative for the lagged drive's sake).
-                own_only &= next == u_d || seen >= to;
-                u = next;
-                seen = x;
-                if lag > 0.0 {
-                    lagged(&mut x, &mut v, u);
-                } else {
-                    x += u * H;
-                }
-                peak = peak.max(x);
+        let (mut x, mut v, mut u) = (from + lead, 0.0, 0.0);
+        let (mut peak, mut own_only, mut ahead) = (x, true, 0.0);
+        for k in 0..400 {
+            let t = f64::from(k) * H;
+            // As the controller pairs them: the drive where every set point sent so far
+            // has moved it, the model's drive at this cycle's solution.
+            let (at, v_at, u_d) = model(t);
+            let seen = x;
+            let next = if guarded {
+                guard(
+                    u_d,
+                    u_d,
+                    u,
+                    seen,
+                    (0.0, to),
+                    LIMITS,
+                    LAG,
+                    H,
+                    || (at, v_at),
+                    &mut ahead,
+                )
+            } else {
+                u_d
+            };
+            own_only &= next == u_d || seen >= to;
+            u = next;
+            if lag > 0.0 {
+                lagged(&mut x, &mut v, u);
+            } else {
+                x += u * H;
             }
-            match (lead > 0.0, guarded) {
-                (false, _) => {
-                    assert!(own_only, "lag {lag}: the model's own set points throughout");
-                    assert!((peak - to).abs() < 1e-3, "lag {lag}: arrives: {peak}");
-                }
-                (true, true) => {
-                    assert!(peak <= to, "passed the end: {peak}");
-                    // Held to the room until the model rests, then where it is.
-                    assert!(peak > to - 0.02, "stopped short: {peak}");
-                }
-                (true, false) => assert!(peak > to + 0.045, "unguarded: {peak}"),
+            peak = peak.max(x);
+        }
+        (peak - to, own_only)
+    }
+
+    /// A drive that follows the model's exactly, and one without lag that leads it by
+    /// `τ v` yet ends where it does, get the model's set points inside the range and
+    /// arrive (the lag-free one passes the end by less than 1 mm, where `u_d` turns
+    /// negative for the lagged drive's sake). A drive ahead of the model's is held to the
+    /// room once found ahead and never passes the end by more than the model's set
+    /// points alone would carry it; by a 50 mm lead it stops inside the range. Not
+    /// prevented (finding 1 of this stop's review): a lead of a few mm, or any lead on a
+    /// brisk move, is found only when the model has slowed below `lead/τ`, too late for
+    /// the room left: the position alone cannot tell a drive with less lag from one with
+    /// an offset (`--nocapture` prints the table).
+    #[test]
+    fn a_drive_ahead_of_the_model_is_held_to_the_room() {
+        for lag in [LAG, 0.0] {
+            let (past, own) = move_to_the_end(0.0, lag, 2.0, true);
+            assert!(
+                own,
+                "lag {lag}: the model's own set points inside the range"
+            );
+            assert!(past.abs() < 1e-3, "lag {lag}: arrives, {past} m past");
+        }
+        println!("lead mm, move s: past the end guarded / unguarded, mm");
+        for duration in [2.0, 1.45] {
+            for lead in [0.005, 0.01, 0.02, 0.05] {
+                let (guarded, _) = move_to_the_end(lead, LAG, duration, true);
+                let (unguarded, _) = move_to_the_end(lead, LAG, duration, false);
+                println!(
+                    "{:>4.0} {duration:>5}: {:>7.2} / {:>6.2}",
+                    lead * 1e3,
+                    guarded * 1e3,
+                    unguarded * 1e3
+                );
+                assert!(unguarded > lead - 1e-3, "unguarded: {unguarded}");
+                assert!(guarded < unguarded, "{lead} m ahead: {guarded} m past");
             }
         }
+        let (past, _) = move_to_the_end(0.05, LAG, 2.0, true);
+        assert!(past < 0.0, "50 mm ahead of a 2 s move: {past} m past");
     }
 
     /// A late position is moved towards the end the set point heads for by what the

@@ -72,6 +72,9 @@ impl Correction for Logged {
         });
         out
     }
+    fn sent(&mut self, correction: [f64; 2]) {
+        Correction::sent(&mut self.0, correction);
+    }
     fn restart(&mut self) {
         self.0.reset();
     }

@@ -145,17 +145,17 @@ fn deadman(scene: &str) {
     let rest = rests_from(&run, 12_500, 20_000).expect("at rest before the end");
     assert!(rest < 12_500 + 6_000, "{scene}: at rest from {rest} ms");
     // Left at rest, judged cycle by cycle (the status frames come every 100 ms): not
-    // before every set point has been exactly 0.0 for `MODEL_REST_CYCLES` cycles (the
-    // model's reach it a few cycles after the generator's path rests, BDF4's history),
-    // and in the cycle they have.
+    // before every set point has been zero in drive units for `MODEL_REST_CYCLES` cycles
+    // (the model's reach it a few cycles after the generator's path rests, BDF4's
+    // history), and in the cycle they have.
     let left = run
         .iter()
         .find(|c| c.now_ms > 12_500 && c.status_mode != MANUAL_MODE_CODE)
         .unwrap_or_else(|| panic!("{scene}: manual mode never left"));
     assert_eq!(left.status_mode, 1, "{scene}: left to {}", left.status_mode);
-    let rest_cycles = u32::from(MODEL_REST_CYCLES);
+    let (rest_cycles, period) = (u32::from(MODEL_REST_CYCLES), run[1].now_ms - run[0].now_ms);
     assert!(
-        (rest + 10 * (rest_cycles - 1)..=rest + 10 * rest_cycles).contains(&left.now_ms),
+        (rest + period * (rest_cycles - 1)..=rest + period * rest_cycles).contains(&left.now_ms),
         "{scene}: left at {} ms, at rest from {rest} ms",
         left.now_ms
     );

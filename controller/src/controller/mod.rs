@@ -232,9 +232,10 @@ pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
     /// Each drive's set point held back by its range's guard (`crate::range`) and not
     /// yet back to what is asked.
     range_held: [bool; A],
-    /// Each drive found ahead of the model's drive near an end: the model's set point no
-    /// longer passes the guard until it stops heading for that end (`crate::range`).
-    range_ahead: [bool; A],
+    /// Each drive found ahead of the model's drive near an end, the end's sign (0: not
+    /// ahead): the model's set point no longer passes the guard towards it until it
+    /// stops heading for it (`crate::range`).
+    range_ahead: [f64; A],
 }
 
 impl<F: Feedforward<Reference = Reference> + Replan> Controller<F> {
@@ -325,7 +326,7 @@ where
             // follows plans only never enters manual mode: a centred stick is 0 there.
             manual: Manual::new(deadband),
             range_held: [false; A],
-            range_ahead: [false; A],
+            range_ahead: [0.0; A],
         }
     }
 

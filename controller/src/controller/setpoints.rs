@@ -85,14 +85,16 @@ where
             if let Some(Some(p)) = positions.get(i) {
                 let at = range::late_position(p.metres, u, p.late_s, limits.max_velocity);
                 let feedforward = &self.feedforward;
+                // The model's drive in this cycle's newest solution: as new as the
+                // position from the last SYNC, which every set point sent so far has moved
+                // (the drive applies one over the cycle before the SYNC).
                 let model_at = || {
                     let drives =
                         *model.get_or_insert_with(|| K::drive_states(&feedforward.reference()));
                     drives.get(i).copied().unwrap_or((f64::NAN, f64::NAN))
                 };
-                let ahead = self.range_ahead.get_mut(i);
-                let mut spare = false;
-                let ahead = ahead.unwrap_or(&mut spare);
+                let mut spare = 0.0;
+                let ahead = self.range_ahead.get_mut(i).unwrap_or(&mut spare);
                 *out = range::guard(u, u_d, last, at, *range, *limits, lag, h, model_at, ahead);
             }
             // Held back (now or before): back to what is asked at the gate's step only,

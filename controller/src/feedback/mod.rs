@@ -1097,9 +1097,9 @@ pub trait Correction {
     ) -> Output;
     /// The correction `u − u_d` the drives were sent after [`Self::correct`], when the
     /// range guard ([`crate::range`]) changed it: the observer learns it.
-    fn sent(&mut self, correction: [f64; 2]) {
-        let _ = correction;
-    }
+    /// Required, not defaulted: a wrapper that forgot to forward it would leave its
+    /// observer learning what was never sent.
+    fn sent(&mut self, correction: [f64; 2]);
     /// Back to closed loop, the observer to start from the next good measurement (the
     /// crane at rest).
     fn restart(&mut self);
@@ -1135,6 +1135,7 @@ impl Correction for NoFeedback {
             trusted: false,
         }
     }
+    fn sent(&mut self, _correction: [f64; 2]) {}
     fn restart(&mut self) {}
     fn mode(&self) -> Option<Mode> {
         None
