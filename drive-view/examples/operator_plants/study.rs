@@ -26,14 +26,13 @@
 //! * **correction travel**: per drive, the largest `|∫ (u − u_d) dt|` over the run, `u`
 //!   the set point the controller sent: how far the feedback has moved the drive's
 //!   command away from the model's drive at any instant: the feedback's doing alone,
-//!   what it asks of the drive beyond the model's plan. The worst drive is reported,
-//!   and held to the 50 mm. Printed beside it, not held to the target: the largest
-//!   distance of the plant's drive from the model's drive (`drive off the model's`:
-//!   the correction together with the plant drive's own response — a PI loop catches
-//!   up the lag `τ u` the model's drive keeps, a P loop with friction droops — so it
-//!   is not the feedback's alone), and `∫ |u − u_d| dt`, which also counts every
-//!   to-and-fro of the correction against the sensors' noise and so grows with the
-//!   run's length rather than with the distance the drive was put off its path.
+//!   what it asks of the drive beyond the model's plan (where the plant's drive itself
+//!   went also holds its own response: a PI loop catching up the lag the model's drive
+//!   keeps, a P loop with friction drooping). The worst drive is reported, and held to
+//!   the 50 mm. Printed beside it, not held to the target: `∫ |u − u_d| dt`, which also
+//!   counts every to-and-fro of the correction against the sensors' noise and so grows
+//!   with the run's length rather than with the distance the drive was put off its
+//!   path.
 
 use std::path::PathBuf;
 
@@ -346,8 +345,6 @@ struct Run {
     correction_peak: [f64; 3],
     /// `∫ |u − u_d| dt` per drive, m.
     correction_total: [f64; 3],
-    /// The largest distance of each plant drive from the model's drive so far, m.
-    drive_off: [f64; 3],
 }
 
 impl Run {
@@ -377,7 +374,6 @@ impl Run {
             correction: [0.0; 3],
             correction_peak: [0.0; 3],
             correction_total: [0.0; 3],
-            drive_off: [0.0; 3],
         })
     }
 
@@ -417,7 +413,6 @@ impl Run {
             self.correction[i] += (u - u_d) * h;
             self.correction_peak[i] = self.correction_peak[i].max(self.correction[i].abs());
             self.correction_total[i] += (u - u_d).abs() * h;
-            self.drive_off[i] = self.drive_off[i].max((out.plant.drives[i] - *at).abs());
         }
         Ok(Sample {
             t,
@@ -483,9 +478,6 @@ pub struct Measured {
     pub correction: f64,
     /// The worst drive's `∫ |u − u_d| dt`, m.
     pub correction_total: f64,
-    /// The largest distance of a plant drive from the model's drive over the run, m:
-    /// the correction and the plant's own drive response together.
-    pub drive_off: f64,
     /// Seconds from the release to rest.
     pub rest_after: f64,
 }
@@ -593,7 +585,6 @@ fn measure(
         swing,
         correction: worst(r.correction_peak),
         correction_total: worst(r.correction_total),
-        drive_off: worst(r.drive_off),
         rest_after: rest - released,
     })
 }
@@ -656,7 +647,7 @@ fn median_worst(m: &[Measured], f: impl Fn(&Measured) -> f64, scale: f64, digits
 }
 
 /// The table's header.
-pub const HEADER: &str = "| crane | {key} | runs | faults | targets met | load error, mm, median / worst | swing, °, median / worst | correction travel, mm, median / worst | drive off the model's, mm, median / worst | ∫\\|u − u_d\\| dt, mm, median / worst |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|";
+pub const HEADER: &str = "| crane | {key} | runs | faults | targets met | load error, mm, median / worst | swing, °, median / worst | correction travel, mm, median / worst | ∫\\|u − u_d\\| dt, mm, median / worst |\n|---|---|---:|---:|---:|---:|---:|---:|---:|";
 
 /// One row over `outcomes`.
 fn row(crane: &str, key: &str, outcomes: &[&Outcome]) -> String {
@@ -667,12 +658,11 @@ fn row(crane: &str, key: &str, outcomes: &[&Outcome]) -> String {
     let faults = outcomes.len() - measured.len();
     let met = measured.iter().filter(|m| m.meets_targets()).count();
     format!(
-        "| {crane} | {key} | {} | {faults} | {met} | {} | {} | {} | {} | {} |",
+        "| {crane} | {key} | {} | {faults} | {met} | {} | {} | {} | {} |",
         outcomes.len(),
         median_worst(&measured, |m| m.load_error, 1000.0, 1),
         median_worst(&measured, |m| m.swing, 1.0, 3),
         median_worst(&measured, |m| m.correction, 1000.0, 1),
-        median_worst(&measured, |m| m.drive_off, 1000.0, 1),
         median_worst(&measured, |m| m.correction_total, 1000.0, 1),
     )
 }
@@ -715,14 +705,14 @@ pub fn table_by_plant(outcomes: &[Outcome]) -> String {
 #[must_use]
 pub fn case_lines(outcomes: &[Outcome]) -> String {
     let mut out = String::from(
-        "| crane | plant | rope, m | hoist | rope at rest, m | pendulum, m | rest after release, s | load error, mm | swing, ° | correction travel, mm | drive off the model's, mm | ∫\\|u − u_d\\| dt, mm |\n|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| crane | plant | rope, m | hoist | rope at rest, m | pendulum, m | rest after release, s | load error, mm | swing, ° | correction travel, mm | ∫\\|u − u_d\\| dt, mm |\n|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for o in outcomes {
         let hoist = if o.lowering { "lowering" } else { "still" };
         match &o.result {
             Ok(m) => {
                 out += &format!(
-                    "| {} | {} | {} | {hoist} | {:.2} | {:.2} | {:.2} | {:.1} | {:.3} | {:.1} | {:.1} | {:.1} |\n",
+                    "| {} | {} | {} | {hoist} | {:.2} | {:.2} | {:.2} | {:.1} | {:.3} | {:.1} | {:.1} |\n",
                     o.crane,
                     o.plant,
                     o.rope,
@@ -732,13 +722,12 @@ pub fn case_lines(outcomes: &[Outcome]) -> String {
                     m.load_error * 1000.0,
                     m.swing,
                     m.correction * 1000.0,
-                    m.drive_off * 1000.0,
                     m.correction_total * 1000.0
                 );
             }
             Err(e) => {
                 out += &format!(
-                    "| {} | {} | {} | {hoist} | {e} | | | | | | | |\n",
+                    "| {} | {} | {} | {hoist} | {e} | | | | | | |\n",
                     o.crane, o.plant, o.rope
                 );
             }
