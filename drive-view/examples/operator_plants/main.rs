@@ -2,12 +2,13 @@
 //! combined (issue 28): `cargo run -p drive-view --example operator_plants -- [--threads N]
 //! [--ropes 3.5,8] [--cases]`. Prints the table per rope length and per plant (median and
 //! worst of the load's error, the swing one swing period after rest and the feedback's
-//! correction travel; `study.rs` says what each is), and with `--cases` every case.
+//! correction travel; `study.rs` says what each is), per stick profile, and with
+//! `--cases` every case.
 //! docs/OPERATOR.md, "Closed loop in manual mode", has its output.
 
 mod study;
 
-use study::{all_cases, case_lines, table_by_plant, table_by_rope, ROPES};
+use study::{all_cases, case_lines, table_by_plant, table_by_profile, table_by_rope, ROPES};
 
 fn main() -> Result<(), String> {
     let mut threads = 1;
@@ -35,10 +36,12 @@ fn main() -> Result<(), String> {
         }
     }
     let outcomes = all_cases(&ropes, threads);
-    println!("## Per rope length (every plant, the hoist still and lowering)\n");
+    println!("## Per rope length (every plant and profile, the hoist still and lowering)\n");
     println!("{}", table_by_rope(&outcomes, &ropes));
-    println!("## Per plant (every rope length, the hoist still and lowering)\n");
+    println!("## Per plant (every profile and rope length, the hoist still and lowering)\n");
     println!("{}", table_by_plant(&outcomes));
+    println!("## Per profile (every plant and rope length, the hoist still and lowering)\n");
+    println!("{}", table_by_profile(&outcomes));
     if cases {
         println!("## Every case\n");
         println!("{}", case_lines(&outcomes));

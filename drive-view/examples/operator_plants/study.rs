@@ -7,8 +7,8 @@
 //! its own: the firmware of a scene with `[operator]` and `[feedback]`, built by
 //! [`with_controller`] as the host's run of the firmware builds it, on the virtual bus
 //! with the plant [`PLANTS`] names; the master switch's frame every 30 ms. Manual mode
-//! entered, the hoist brought to the rope length with its lever and let rest, then full
-//! stick for [`HOLD_S`] (the 3D crane: bridge and trolley at once, a diagonal) with the
+//! entered, the hoist brought to the rope length with its lever and let rest, then a
+//! stick [`Profile`] (the 3D crane: bridge and trolley at once, a diagonal) with the
 //! hoist still or lowering at half stick, released. Measured:
 //!
 //! * **rest**: the first cycle from which the inverse model's own set points `u_d` are
@@ -53,8 +53,32 @@ use sim::{run_cycle, Scenario, HEALTHY, MISMATCHED};
 
 const G: f64 = 9.81;
 
-/// Seconds of full stick before the release.
-pub const HOLD_S: f64 = 4.0;
+/// What the travel levers do before the release.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Profile {
+    /// Full stick held this many seconds.
+    Step(f64),
+    /// Full stick one way for 2 s, then the other way for 2 s.
+    Reversal,
+}
+
+impl Profile {
+    /// For the tables.
+    #[must_use]
+    pub fn name(&self) -> String {
+        match self {
+            Self::Step(s) => format!("full stick {s} s"),
+            Self::Reversal => "reversal 2 + 2 s".into(),
+        }
+    }
+}
+
+/// Full stick for 4 s: the travel `tests/closed_loop.rs` measures.
+pub const FULL_STEP: Profile = Profile::Step(4.0);
+
+/// The profiles: the 4 s step, a 1 s step released before the speed is reached, a
+/// reversal.
+pub const PROFILES: [Profile; 3] = [FULL_STEP, Profile::Step(1.0), Profile::Reversal];
 
 /// The rope lengths the hoist is brought to before the travel, m (lowering during the
 /// travel adds up to about a metre): the manual scenes' range.
@@ -454,6 +478,8 @@ pub struct Outcome {
     pub crane: &'static str,
     /// The plant's name.
     pub plant: &'static str,
+    /// The stick's profile.
+    pub profile: Profile,
     /// The rope length asked for before the travel, m.
     pub rope: f64,
     /// Whether the hoist lowered during the travel.
@@ -490,22 +516,30 @@ impl Measured {
     }
 }
 
-/// The case: `crane` on `plant`, the hoist brought to `rope` m, full stick for
-/// [`HOLD_S`] (the hoist lowering at half stick if `lowering`), released.
+/// The case: `crane` on `plant`, the hoist brought to `rope` m, the travel levers as
+/// `profile` has them (the hoist lowering at half stick if `lowering`), released.
 #[must_use]
-pub fn case(crane: &CraneCase, plant: &PlantCase, rope: f64, lowering: bool) -> Outcome {
+pub fn case(
+    crane: &CraneCase,
+    plant: &PlantCase,
+    profile: Profile,
+    rope: f64,
+    lowering: bool,
+) -> Outcome {
     Outcome {
         crane: crane.name,
         plant: plant.name,
+        profile,
         rope,
         lowering,
-        result: measure(crane, plant.mismatch, rope, lowering),
+        result: measure(crane, plant.mismatch, profile, rope, lowering),
     }
 }
 
 fn measure(
     crane: &CraneCase,
     plant: Mismatch,
+    profile: Profile,
     rope: f64,
     lowering: bool,
 ) -> Result<Measured, String> {
@@ -545,7 +579,18 @@ fn measure(
             r.switch.apply(Action::Notch(Axis::Z, 1));
         }
     }
-    r.run_for(HOLD_S)?;
+    match profile {
+        Profile::Step(seconds) => {
+            r.run_for(seconds)?;
+        }
+        Profile::Reversal => {
+            r.run_for(2.0)?;
+            for axis in crane.axes {
+                r.switch.apply(Action::Notch(*axis, -2 * NOTCHES));
+            }
+            r.run_for(2.0)?;
+        }
+    }
     r.switch.apply(Action::Centre);
     let released = f64::from(r.now_ms) / 1000.0;
     let mut after = r.until_rest(30.0)?;
@@ -589,16 +634,18 @@ fn measure(
     })
 }
 
-/// Every case of the study: each crane, plant, rope length, the hoist still and
-/// lowering; on `threads` threads.
+/// Every case of the study: each crane, plant, profile, rope length, the hoist still
+/// and lowering; on `threads` threads.
 #[must_use]
 pub fn all_cases(ropes: &[f64], threads: usize) -> Vec<Outcome> {
     let mut jobs = Vec::new();
     for crane in &CRANES {
         for plant in &PLANTS {
-            for &rope in ropes {
-                for lowering in [false, true] {
-                    jobs.push((crane, plant, rope, lowering));
+            for profile in PROFILES {
+                for &rope in ropes {
+                    for lowering in [false, true] {
+                        jobs.push((crane, plant, profile, rope, lowering));
+                    }
                 }
             }
         }
@@ -611,10 +658,10 @@ pub fn all_cases(ropes: &[f64], threads: usize) -> Vec<Outcome> {
                     let mut done = Vec::new();
                     loop {
                         let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        let Some(&(crane, plant, rope, lowering)) = jobs.get(i) else {
+                        let Some(&(crane, plant, profile, rope, lowering)) = jobs.get(i) else {
                             return done;
                         };
-                        done.push((i, case(crane, plant, rope, lowering)));
+                        done.push((i, case(crane, plant, profile, rope, lowering)));
                     }
                 })
             })
@@ -667,7 +714,8 @@ fn row(crane: &str, key: &str, outcomes: &[&Outcome]) -> String {
     )
 }
 
-/// The table per rope length (each row: every plant, the hoist still and lowering).
+/// The table per rope length (each row: every plant and profile, the hoist still and
+/// lowering).
 #[must_use]
 pub fn table_by_rope(outcomes: &[Outcome], ropes: &[f64]) -> String {
     let mut out = HEADER.replace("{key}", "rope before the travel, m") + "\n";
@@ -684,7 +732,8 @@ pub fn table_by_rope(outcomes: &[Outcome], ropes: &[f64]) -> String {
     out
 }
 
-/// The table per plant (each row: every rope length, the hoist still and lowering).
+/// The table per plant (each row: every profile and rope length, the hoist still and
+/// lowering).
 #[must_use]
 pub fn table_by_plant(outcomes: &[Outcome]) -> String {
     let mut out = HEADER.replace("{key}", "plant") + "\n";
@@ -701,20 +750,39 @@ pub fn table_by_plant(outcomes: &[Outcome]) -> String {
     out
 }
 
+/// The table per profile (each row: every plant and rope length, the hoist still and
+/// lowering).
+#[must_use]
+pub fn table_by_profile(outcomes: &[Outcome]) -> String {
+    let mut out = HEADER.replace("{key}", "profile") + "\n";
+    for crane in &CRANES {
+        for profile in PROFILES {
+            let of: Vec<&Outcome> = outcomes
+                .iter()
+                .filter(|o| o.crane == crane.name && o.profile == profile)
+                .collect();
+            out += &row(crane.name, &profile.name(), &of);
+            out += "\n";
+        }
+    }
+    out
+}
+
 /// Every case as a line, for the record (and the faults' messages).
 #[must_use]
 pub fn case_lines(outcomes: &[Outcome]) -> String {
     let mut out = String::from(
-        "| crane | plant | rope, m | hoist | rope at rest, m | pendulum, m | rest after release, s | load error, mm | swing, ° | correction travel, mm | ∫\\|u − u_d\\| dt, mm |\n|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| crane | plant | profile | rope, m | hoist | rope at rest, m | pendulum, m | rest after release, s | load error, mm | swing, ° | correction travel, mm | ∫\\|u − u_d\\| dt, mm |\n|---|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for o in outcomes {
         let hoist = if o.lowering { "lowering" } else { "still" };
         match &o.result {
             Ok(m) => {
                 out += &format!(
-                    "| {} | {} | {} | {hoist} | {:.2} | {:.2} | {:.2} | {:.1} | {:.3} | {:.1} | {:.1} |\n",
+                    "| {} | {} | {} | {} | {hoist} | {:.2} | {:.2} | {:.2} | {:.1} | {:.3} | {:.1} | {:.1} |\n",
                     o.crane,
                     o.plant,
+                    o.profile.name(),
                     o.rope,
                     m.rope_at_rest,
                     m.pendulum,
@@ -727,8 +795,11 @@ pub fn case_lines(outcomes: &[Outcome]) -> String {
             }
             Err(e) => {
                 out += &format!(
-                    "| {} | {} | {} | {hoist} | {e} | | | | | | |\n",
-                    o.crane, o.plant, o.rope
+                    "| {} | {} | {} | {} | {hoist} | {e} | | | | | | |\n",
+                    o.crane,
+                    o.plant,
+                    o.profile.name(),
+                    o.rope
                 );
             }
         }
