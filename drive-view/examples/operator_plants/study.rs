@@ -24,11 +24,11 @@
 //!   whatever the feedback does (docs/OPERATOR.md, the rope calibration);
 //! * **swing**: the largest rope slope in either vertical plane over the same period;
 //! * **correction travel**: per drive, the largest `|∫ (u − u_d) dt|` over the run, `u`
-//!   the set point the controller sent: how far the feedback has moved the drive's
-//!   command away from the model's drive at any instant: the feedback's doing alone,
-//!   what it asks of the drive beyond the model's plan (where the plant's drive itself
-//!   went also holds its own response: a PI loop catching up the lag the model's drive
-//!   keeps, a P loop with friction drooping). The worst drive is reported, and held to
+//!   the set point the controller sent: how far the feedback has put the travel it
+//!   commands, `∫ u dt`, off the model's, `∫ u_d dt`, at any instant: the feedback's doing
+//!   alone, what it asks of the drive beyond the model's plan (where the plant's drive
+//!   itself went also holds its own response: a PI loop catching up the lag the model's
+//!   drive keeps, a P loop with friction drooping). The worst drive is reported, and held to
 //!   the 50 mm. Printed beside it, not held to the target: `∫ |u − u_d| dt`, which also
 //!   counts every to-and-fro of the correction against the sensors' noise and so grows
 //!   with the run's length rather than with the distance the drive was put off its
