@@ -536,6 +536,8 @@ fn a_late_filtered_angle_as_commissioned_leaves_the_load_on_target() {
         swing0: -0.08418366794544549,
         load_mass: -0.3592812131412573,
         inclinometer: lag,
+        proportional_only: [false; 2],
+        loops_for_model_load: false,
     };
     let run = |told| simulate_told(&params, &reference, &case, &gains, told, &DriveLimits::LAB);
     let told = run(InclinometerLag {

@@ -18,8 +18,21 @@
 //!   (rope diameter, layering) and it is longer by an offset of up to ±2 % of the initial
 //!   length (hook block, rope stretch): the pendulum has length `(1 + s) l + Δl`;
 //! * a wind gust: a horizontal force `F(t)` on the load (a sin² pulse);
-//! * a load heavier or lighter than the model's (the drives' loops are tuned to the
-//!   model's, and the load's share of each axis' inertia changes with it);
+//! * a load heavier or lighter than the model's ([`Mismatch::load_mass`]). The inverse
+//!   model has no mass in it (its drives are the lags of Eq. 22, its load a pendulum);
+//!   the plant's drives feel it. It enters through the hoist's inertia (the
+//!   load hangs rigidly along the rope: `m k²` reflected to the drum) and the weight the
+//!   hoist holds, and through the rope's pull on the trolley (`m g φ`, and the load's
+//!   inertia while the swing changes). By default the loops are tuned for the plant's
+//!   own load, so each axis keeps the model's τ; with [`Mismatch::loops_for_model_load`]
+//!   they keep the gains commissioned for the model's load, as a real drive does when
+//!   a heavier load is picked up: the hoist then answers slower by `(M_W + m' k²) /
+//!   (M_W + m k²)`;
+//! * velocity loops without integral action ([`Mismatch::proportional_only`], per axis):
+//!   a P loop droops by the force it must deliver over its gain — friction, the rope's
+//!   pull — and a hoist's holds only the weight it was commissioned for (its integral
+//!   frozen at that hold, the torque feedforward such a drive has), so a heavier load
+//!   sinks at `Δm g k / k_p`;
 //! * measurements sampled every cycle with noise and quantisation, delivered one
 //!   cycle (10 ms) late; the inclinometer's angle through its own first-order filter and
 //!   a delay of its own beyond that ([`crate::angle_sensor`]), as a real one reports it.
@@ -130,6 +143,13 @@ pub struct Mismatch {
     pub load_mass: f64,
     /// The inclinometer's filter and its delay beyond the positions'.
     pub inclinometer: SensorLag,
+    /// The velocity loops of these axes (trolley, winch) have no integral action: P
+    /// only, their integral frozen at its start (zero for the trolley, the commissioned
+    /// load's weight for the winch).
+    pub proportional_only: [bool; 2],
+    /// The loops' gains (and a P-only winch's hold) are tuned for the model's load mass,
+    /// as commissioned, not for the plant's (module documentation).
+    pub loops_for_model_load: bool,
 }
 
 impl Mismatch {
@@ -148,6 +168,8 @@ impl Mismatch {
         swing0: 0.0,
         load_mass: 0.0,
         inclinometer: SensorLag::NONE,
+        proportional_only: [false; 2],
+        loops_for_model_load: false,
     };
 
     /// The sensors of the study: positions 0.2 mm noise, 0.1 mm quantum; the inclinometer
@@ -181,6 +203,8 @@ impl Mismatch {
             drum_scale: rng.uniform(-0.02, 0.02),
             load_mass: 0.0,
             inclinometer: SensorLag::NONE,
+            proportional_only: [false; 2],
+            loops_for_model_load: false,
         }
     }
 
@@ -243,13 +267,20 @@ impl Plant {
         let [tau1, tau2] = tau;
         let (t1, t2) = (tau1 * (1.0 + mm.tau1), tau2 * (1.0 + mm.tau2));
         let k = 1.0 + mm.drum_scale;
+        let model_m = m;
         let m = m * (1.0 + mm.load_mass);
-        let kp = [(TROLLEY_MASS + m) / t1, (WINCH_MASS + m * k * k) / t2];
+        let tuned = if mm.loops_for_model_load { model_m } else { m };
+        let kp = [
+            (TROLLEY_MASS + tuned) / t1,
+            (WINCH_MASS + tuned * k * k) / t2,
+        ];
         let ki = [kp[0] / (INTEGRAL_TIME * t1), kp[1] / (INTEGRAL_TIME * t2)];
         let phi = mm.swing0;
         // The winch's integral holds the load's weight from the start (the trolley's the
-        // rope's pull at the initial swing: none at its turning point, the load at rest).
-        let hold = -m * g * k * libm::cos(phi) / ki[1];
+        // rope's pull at the initial swing: none at its turning point, the load at rest);
+        // a P-only winch's holds the commissioned load's, for good.
+        let held = if mm.proportional_only[1] { tuned } else { m };
+        let hold = -held * g * k * libm::cos(phi) / ki[1];
         Self {
             y: [x, l, phi, 0.0, 0.0, 0.0],
             integral: [0.0, hold],
@@ -308,8 +339,9 @@ impl Plant {
             (f2 - m12 * ax) / m22
         };
         let aphi = (f3 - m13 * ax) / m33;
-        let di1 = if trolley_braked { 0.0 } else { u1 - vx };
-        let di2 = if winch_braked { 0.0 } else { u2 - vl };
+        let [p1, p2] = mm.proportional_only;
+        let di1 = if trolley_braked || p1 { 0.0 } else { u1 - vx };
+        let di2 = if winch_braked || p2 { 0.0 } else { u2 - vl };
         [vx, vl, vphi, ax, al, aphi, di1, di2]
     }
 
@@ -470,6 +502,117 @@ mod tests {
         assert!(
             (period / expected - 1.0).abs() < 0.01,
             "period {period:.4} s, pendulum {expected:.4} s"
+        );
+    }
+
+    /// The mean speed of the trolley over one swing period of the 6 m rope under `u`,
+    /// after 5 s to settle: the swinging load pulls the trolley to and fro.
+    fn mean_trolley_speed(p: &mut Plant, u: f64) -> f64 {
+        for _ in 0..5000 {
+            p.advance([u, 0.0], PLANT_STEP);
+        }
+        let period = 2.0 * core::f64::consts::PI * libm::sqrt(6.0 / G);
+        let n = libm::round(period / PLANT_STEP) as usize;
+        let x0 = p.y[0];
+        for _ in 0..n {
+            p.advance([u, 0.0], PLANT_STEP);
+        }
+        (p.y[0] - x0) / (n as f64 * PLANT_STEP)
+    }
+
+    #[test]
+    fn a_trolley_without_integral_action_droops_by_its_friction() {
+        // P only: the loop's force kp (u − v) meets the friction kp (c + b v), so the
+        // trolley runs at (u − c)/(1 + b): 0.4757 m/s for 0.5 with 10 mm/s and 3 %. The
+        // PI loop of the same trolley removes the droop.
+        let rough = Mismatch {
+            coulomb: [0.01, 0.0],
+            viscous: [0.03, 0.0],
+            ..Mismatch::NONE
+        };
+        let mut p = plant(Mismatch {
+            proportional_only: [true, false],
+            ..rough
+        });
+        let mean = mean_trolley_speed(&mut p, 0.5);
+        let droop = (0.5 - 0.01) / 1.03;
+        assert!((mean - droop).abs() < 1e-3, "P only: {mean} m/s");
+        let mut p = plant(rough);
+        let mean = mean_trolley_speed(&mut p, 0.5);
+        assert!((mean - 0.5).abs() < 1e-3, "PI: {mean} m/s");
+    }
+
+    #[test]
+    fn a_winch_without_integral_action_holds_only_the_load_it_was_tuned_for() {
+        // The loops tuned for the model's 18.9 kg; the plant's load 20 % heavier. P only,
+        // the winch holds the 18.9 kg's weight and the extra 3.78 kg sinks the load at
+        // Δm g k / kp = 37.1 N / (28.9 kg / 20 ms) = 25.7 mm/s.
+        let heavier = Mismatch {
+            load_mass: 0.2,
+            loops_for_model_load: true,
+            proportional_only: [false, true],
+            ..Mismatch::NONE
+        };
+        let mut p = plant(heavier);
+        for _ in 0..200 {
+            p.advance([0.0; 2], 0.01);
+        }
+        let sink = 0.2 * M * G / ((WINCH_MASS + M) / 0.02);
+        assert!((p.y[4] / sink - 1.0).abs() < 1e-3, "{} m/s", p.y[4]);
+        // With the load it was tuned for, or with its integral, it holds.
+        for mm in [
+            Mismatch {
+                load_mass: 0.0,
+                ..heavier
+            },
+            Mismatch {
+                proportional_only: [false; 2],
+                ..heavier
+            },
+        ] {
+            let mut p = plant(mm);
+            for _ in 0..200 {
+                p.advance([0.0; 2], 0.01);
+            }
+            assert!((p.y[1] - 6.0).abs() < 1e-9, "{mm:?}: l = {}", p.y[1]);
+        }
+    }
+
+    /// When the winch reaches 63 % of a 0.3 m/s step, s.
+    fn winch_t63(mm: Mismatch) -> f64 {
+        let mut p = plant(mm);
+        for k in 1..=1000 {
+            p.advance([0.0, 0.3], PLANT_STEP);
+            if p.y[4] >= 0.63 * 0.3 {
+                return k as f64 * PLANT_STEP;
+            }
+        }
+        f64::INFINITY
+    }
+
+    #[test]
+    fn a_heavier_load_slows_a_winch_tuned_for_the_model_s_load() {
+        // The load hangs rigidly along the rope: the winch moves W + m k². Tuned for the
+        // model's load, a 20 % heavier one makes it (10 + 22.7)/(10 + 18.9) = 1.13 times
+        // slower; tuned for the plant's own load it keeps its τ.
+        let base = winch_t63(Mismatch::NONE);
+        let heavier = Mismatch {
+            load_mass: 0.2,
+            ..Mismatch::NONE
+        };
+        let untuned = winch_t63(Mismatch {
+            loops_for_model_load: true,
+            ..heavier
+        });
+        let retuned = winch_t63(heavier);
+        let ratio = (WINCH_MASS + 1.2 * M) / (WINCH_MASS + M);
+        assert!(
+            (untuned / base / ratio - 1.0).abs() < 0.05,
+            "tuned for the model's load: {untuned} s against {base} s"
+        );
+        assert!(
+            (retuned / base - 1.0).abs() < 0.05,
+            "tuned for its own: {retuned} s against {base} s"
         );
     }
 }

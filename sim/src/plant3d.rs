@@ -4,8 +4,9 @@
 //! The bridge (carrying the trolley), the trolley, the hoist drum and the load are one
 //! mechanical system, so the rope's force acts back on all three drives and the bridge
 //! moves the trolley's mass as well. What the inverse model leaves out is what the
-//! planar plant adds, per axis: a PI velocity loop tuned to the model's time constant
-//! off by up to ±30 %, Coulomb and viscous friction, brakes on an axis whose drive is
+//! planar plant adds, per axis: a PI velocity loop (or a P loop without integral
+//! action) tuned to the model's time constant off by up to ±30 %, for the plant's load or
+//! the model's, Coulomb and viscous friction, brakes on an axis whose drive is
 //! not enabled; the rope's scaling error and offset; a load mass off by up to ±20 %; a
 //! wind gust from any horizontal direction; noisy, quantised sensors read one cycle
 //! late. Integrated with classical RK4 at 1 ms ([`PLANT_STEP`]) under the
@@ -159,6 +160,12 @@ pub struct Mismatch3d {
     pub swing0: [f64; 2],
     /// The inclinometer's filter and its delay beyond the positions' (both slopes).
     pub inclinometer: SensorLag,
+    /// The velocity loops of these axes (bridge, trolley, hoist) have no integral
+    /// action, as [`Mismatch::proportional_only`] has it for the planar plant.
+    pub proportional_only: [bool; 3],
+    /// The loops tuned for the model's load mass, as
+    /// [`Mismatch::loops_for_model_load`] has it.
+    pub loops_for_model_load: bool,
 }
 
 impl Mismatch3d {
@@ -177,6 +184,8 @@ impl Mismatch3d {
         noise_seed: 0,
         swing0: [0.0; 2],
         inclinometer: SensorLag::NONE,
+        proportional_only: [false; 3],
+        loops_for_model_load: false,
     };
 
     /// A random case with the planar study's ranges: τ within ±30 %, load mass within
@@ -238,6 +247,8 @@ impl Mismatch3d {
             noise_seed,
             swing0,
             inclinometer: SensorLag::NONE,
+            proportional_only: [false; 3],
+            loops_for_model_load: false,
         }
     }
 
@@ -247,6 +258,7 @@ impl Mismatch3d {
     pub fn from_planar(planar: &Mismatch) -> Self {
         let [c1, c2] = planar.coulomb;
         let [b1, b2] = planar.viscous;
+        let [p1, p2] = planar.proportional_only;
         Self {
             tau: [planar.tau1, 0.0, planar.tau2],
             load_mass: planar.load_mass,
@@ -261,6 +273,8 @@ impl Mismatch3d {
             noise_seed: planar.noise_seed,
             swing0: [planar.swing0, 0.0],
             inclinometer: planar.inclinometer,
+            proportional_only: [p1, false, p2],
+            loops_for_model_load: planar.loops_for_model_load,
         }
     }
 
@@ -418,6 +432,8 @@ pub struct Plant3d {
     g: f64,
     /// The plant's load mass, kg (the model's with the mismatch).
     m: f64,
+    /// The model's load mass, kg (what [`Mismatch3d::loops_for_model_load`] tunes for).
+    model_m: f64,
     masses: Masses3d,
     mismatch: Mismatch3d,
     noise: Rng,
@@ -454,6 +470,7 @@ impl Plant3d {
             tau: [t1 * (1.0 + d1), t2 * (1.0 + d2), t3 * (1.0 + d3)],
             g,
             m: m * (1.0 + mismatch.load_mass),
+            model_m: m,
             masses: Masses3d::EXAMPLE,
             mismatch,
             noise: Rng::new(mismatch.noise_seed),
@@ -476,18 +493,25 @@ impl Plant3d {
 
     /// Tunes the loops as the planar plant does — proportional gain for the plant's time
     /// constant on the axis' mass with the load's share (the whole load for the
-    /// horizontal axes, `m (1 + s)²` reflected to the drum), integral time 10 τ — and
-    /// sets the hoist's integral to hold the load's weight from the start. The bridge's
-    /// and the trolley's start at zero, as the planar trolley's: the rope's mean
-    /// horizontal pull over a swing is none.
+    /// horizontal axes, `m (1 + s)²` reflected to the drum; the plant's load, or the
+    /// model's with [`Mismatch3d::loops_for_model_load`]), integral time 10 τ — and
+    /// sets the hoist's integral to hold the load's weight from the start (a P-only
+    /// hoist's: the load's it is tuned for, for good). The bridge's and the trolley's
+    /// start at zero, as the planar trolley's: the rope's mean horizontal pull over a
+    /// swing is none.
     fn tune(&mut self) {
         let k = 1.0 + self.mismatch.drum_scale;
         let [mx, my, ml] = self.masses.driven();
         let [t1, t2, t3] = self.tau;
+        let tuned = if self.mismatch.loops_for_model_load {
+            self.model_m
+        } else {
+            self.m
+        };
         let kp = [
-            (mx + self.m) / t1,
-            (my + self.m) / t2,
-            (ml + self.m * k * k) / t3,
+            (mx + tuned) / t1,
+            (my + tuned) / t2,
+            (ml + tuned * k * k) / t3,
         ];
         let [kp1, kp2, kp3] = kp;
         self.kp = kp;
@@ -501,7 +525,9 @@ impl Plant3d {
         let [_, _, _, a, b, ..] = self.q;
         let (u, v) = (libm::tan(a), libm::tan(b));
         let ez = 1.0 / libm::sqrt(1.0 + u * u + v * v);
-        self.integral = [0.0, 0.0, -self.m * self.g * k * ez / ki3];
+        let [_, _, p3] = self.mismatch.proportional_only;
+        let held = if p3 { tuned } else { self.m };
+        self.integral = [0.0, 0.0, -held * self.g * k * ez / ki3];
     }
 
     /// The kinematics at the full state `s`.
@@ -572,8 +598,9 @@ impl Plant3d {
             }
         });
         let [ax, ay, al, aa, ab] = solve(mass, rhs);
+        let proportional = |i: usize| mm.proportional_only.get(i).copied().unwrap_or(false);
         let di: [f64; 3] = core::array::from_fn(|i| {
-            if is_braked(i) {
+            if is_braked(i) || proportional(i) {
                 0.0
             } else {
                 u.get(i).copied().unwrap_or(0.0) - v.get(i).copied().unwrap_or(0.0)
@@ -1206,5 +1233,51 @@ mod tests {
                 "axis {axis}: 63 % after {t63} s, τ {tau} s"
             );
         }
+    }
+
+    #[test]
+    fn p_only_loops_droop_and_a_hoist_tuned_for_the_model_s_load_lets_a_heavier_one_sink() {
+        // The planar plant's options, per axis: the bridge and the trolley P only with
+        // 10 mm/s and 3 % friction run at (u − c)/(1 + b) on average over a swing period;
+        // the P-only hoist tuned for the model's load sinks under a 20 % heavier one at
+        // Δm g k / kp. From the planar mismatch the bridge and the hoist take them.
+        let mm = Mismatch3d {
+            coulomb: [0.01, 0.01, 0.0],
+            viscous: [0.03, 0.03, 0.0],
+            proportional_only: [true; 3],
+            load_mass: 0.2,
+            loops_for_model_load: true,
+            ..Mismatch3d::NONE
+        };
+        let mut p = plant(mm);
+        let u = [0.5, 0.3, 0.0];
+        for _ in 0..5000 {
+            p.advance(u, PLANT_STEP);
+        }
+        let period = 2.0 * PI * (6.0 / G).sqrt();
+        let n = (period / PLANT_STEP).round() as usize;
+        let (x0, y0) = (p.q[0], p.q[1]);
+        for _ in 0..n {
+            p.advance(u, PLANT_STEP);
+        }
+        let t = n as f64 * PLANT_STEP;
+        let mean = [(p.q[0] - x0) / t, (p.q[1] - y0) / t];
+        for (m, u) in mean.iter().zip(u) {
+            assert!((m - (u - 0.01) / 1.03).abs() < 1e-3, "{mean:?}");
+        }
+        // The sink with the load hanging still (the travel's swing adds its centripetal
+        // pull to the rope's tension).
+        let mut p = plant(mm);
+        p.advance([0.0; 3], 2.0);
+        let sink = 0.2 * M * G / ((WINCH_MASS + M) / TAU[2]);
+        assert!((p.q[7] / sink - 1.0).abs() < 1e-3, "{} m/s", p.q[7]);
+        let planar = Mismatch {
+            proportional_only: [true, true],
+            loops_for_model_load: true,
+            ..Mismatch::NONE
+        };
+        let from = Mismatch3d::from_planar(&planar);
+        assert_eq!(from.proportional_only, [true, false, true]);
+        assert!(from.loops_for_model_load);
     }
 }

@@ -8,7 +8,8 @@
 //! Of [`Mismatch`] it honours the drives' lag errors (`tau1`, `tau2`), the load's mass
 //! (`load_mass`: the hook's ratio to it), the initial swing (`swing0`, both angles), the
 //! sensors (`position_noise`, `angle_noise`, `noise_seed`, `inclinometer`). The planar
-//! plant's rope offset, drum scaling, friction and gust are not modelled here (its
+//! plant's rope offset, drum scaling, friction, gust, P-only loops and loop tuning
+//! (`proportional_only`, `loops_for_model_load`) are not modelled here (its
 //! drives are the first-order lags of Eq. 24, not force-driven velocity loops): a
 //! scenario that needs them runs on the planar crane.
 
