@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 use scene::commissioning::CommissioningFile;
 use scene::dispatch::{firmware, FirmwareCrane, FirmwareCraneVisitor};
 use scene::firmware::FirmwareScene;
+use scene::rust_source::ToRust;
 use scene::{JacobianSpec, Scene};
 
 fn main() {
@@ -170,7 +171,7 @@ fn crane_module<K: FirmwareCrane<A>, const A: usize>(
                 c,
                 "/// Between the inverse model and the drives: the state feedback (Fig. 1).\npub type Correction = {};\n/// Its configuration: the scene's `[feedback]`.\npub const FEEDBACK: controller::feedback::Config = {};\n/// The feedback, its gains designed from the scene's weights.\npub fn correction() -> Result<Correction, controller::feedback::DesignError> {{\n    {}\n}}",
                 K::FEEDBACK_TYPE,
-                scene::feedback::FeedbackSpec::source(config),
+                config.to_rust(),
                 K::FEEDBACK_NEW
             );
         }
@@ -184,21 +185,12 @@ fn crane_module<K: FirmwareCrane<A>, const A: usize>(
     let _ = writeln!(
         c,
         "/// Crane parameters.\npub const PARAMS: Crane = {};",
-        setup.params.source()
+        setup.params.to_rust()
     );
-    let limits = setup
-        .planner
-        .limits()
-        .map(|l| {
-            format!(
-                "controller::setpoint::AxisLimits {{ max_velocity: {:?}, max_acceleration: {:?} }}",
-                l.max_velocity, l.max_acceleration
-            )
-        })
-        .join(", ");
+    let limits = setup.planner.limits().to_rust();
     let _ = writeln!(
         c,
-        "/// The planner of moves on command: this crane, its drives' set-point limits (the\n/// commissioning file's; the set-point gate enforces them too).\npub const PLANNER: controller::planner::Planner<Crane, AXES> = controller::planner::Planner::with_axes(PARAMS, [{limits}]);"
+        "/// The planner of moves on command: this crane, its drives' set-point limits (the\n/// commissioning file's; the set-point gate enforces them too).\npub const PLANNER: controller::planner::Planner<Crane, AXES> = controller::planner::Planner::with_axes(PARAMS, {limits});"
     );
     // Manual mode's generator is linked only when the scene has `[operator]`.
     if let Some(operator) = &setup.operator {
@@ -207,13 +199,13 @@ fn crane_module<K: FirmwareCrane<A>, const A: usize>(
             "/// Manual mode (the scene's `[operator]`): the path the model follows, the plan or\n/// the operator's generator.\npub type Steered = {};\n/// The generator's settings.\npub const OPERATOR: {} = {};",
             K::STEERED_TYPE,
             K::OPERATOR_TYPE,
-            K::operator_source(operator)
+            operator.to_rust()
         );
     }
     let _ = writeln!(
         c,
         "/// Solver settings.\npub const SETTINGS: solver_core::SolverSettings = {};",
-        scene::firmware::settings_source(scene)
+        scene.settings().to_rust()
     );
     let v = |x: [f64; A]| {
         let items = x.map(|a| format!("{a:?}_f64")).join(", ");

@@ -199,50 +199,6 @@ impl FeedbackSpec {
         })?;
         Ok(config)
     }
-
-    /// The Rust of `config` (the firmware's build emits it).
-    #[must_use]
-    pub fn source(config: &Config) -> String {
-        let w = &config.weights;
-        format!(
-            "controller::feedback::Config {{ weights: controller::feedback::Weights {{ load_position: {:?}, trolley_position: {:?}, swing_velocity: {:?}, trolley_correction: {:?}, rope_position: {:?}, winch_correction: {:?}, drive_disturbance: {:?}, swing_disturbance: {:?}, drive_offset: {:?}, position_noise: {:?}, angle_noise: {:?}, rest_load_position: {:?}, rest_trolley_position: {:?}, rest_swing_velocity: {:?}, rest_load_velocity: {:?}, rest_angle_noise: {:?} }}, g: {:?}, tau1: {:?}, tau2: {:?}, h: {:?}, max_angle: {:?}, max_innovation: {:?}, max_bad_angle_cycles: {}, max_frozen_cycles: {}, frozen_motion: {:?}, held_allowance: {:?}, rest_position: {:?}, rest_swing: {:?}, rest_hysteresis: {:?}, offset_dead_band: {:?}, offset_step: {:?}, max_offset: {:?}, offset_cycles: {}, inclinometer: controller::rope::InclinometerLag {{ delay: {}, filter: {:?} }} }}",
-            w.load_position,
-            w.trolley_position,
-            w.swing_velocity,
-            w.trolley_correction,
-            w.rope_position,
-            w.winch_correction,
-            w.drive_disturbance,
-            w.swing_disturbance,
-            w.drive_offset,
-            w.position_noise,
-            w.angle_noise,
-            w.rest_load_position,
-            w.rest_trolley_position,
-            w.rest_swing_velocity,
-            w.rest_load_velocity,
-            w.rest_angle_noise,
-            config.g,
-            config.tau1,
-            config.tau2,
-            config.h,
-            config.max_angle,
-            config.max_innovation,
-            config.max_bad_angle_cycles,
-            config.max_frozen_cycles,
-            config.frozen_motion,
-            config.held_allowance,
-            config.rest_position,
-            config.rest_swing,
-            config.rest_hysteresis,
-            config.offset_dead_band,
-            config.offset_step,
-            config.max_offset,
-            config.offset_cycles,
-            config.inclinometer.delay,
-            config.inclinometer.filter
-        )
-    }
 }
 
 #[cfg(test)]

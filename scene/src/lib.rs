@@ -41,6 +41,7 @@ pub mod dispatch;
 pub mod feedback;
 pub mod firmware;
 pub mod operator;
+pub mod rust_source;
 
 use std::fmt;
 

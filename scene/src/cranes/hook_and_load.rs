@@ -41,14 +41,6 @@ impl FirmwareCrane<2> for DoublePendulumParams {
             _ => None,
         }
     }
-    fn source(&self) -> String {
-        format!(
-            "solver_core::models::double_pendulum_crane::DoublePendulumParams {{ crane: {}, hook_mass: {:?}, sling: {:?} }}",
-            <solver_core::models::crane::CraneParams as FirmwareCrane<2>>::source(&self.crane),
-            self.hook_mass,
-            self.sling
-        )
-    }
     /// No loop for it yet: which angle it would measure (the rope's at the hook block,
     /// the sling's, or both) is open.
     fn feedback_config(
@@ -81,9 +73,6 @@ impl FirmwareCrane<2> for DoublePendulumParams {
                 "the hook-and-load crane ({model:?}) has no manual mode yet; remove [operator]"
             ),
         ))
-    }
-    fn operator_source(_operator: &()) -> String {
-        String::new()
     }
     fn steered_inverse_model<V: FirmwareVisitor<Self, 2>>(
         self,

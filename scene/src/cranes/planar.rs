@@ -41,13 +41,6 @@ impl FirmwareCrane<2> for CraneParams {
             _ => None,
         }
     }
-    fn source(&self) -> String {
-        let w = self.workspace;
-        format!(
-            "solver_core::models::crane::CraneParams {{ m: {:?}, g: {:?}, tau1: {:?}, tau2: {:?}, workspace: solver_core::models::crane::Workspace {{ x_min: {:?}, x_max: {:?}, l_min: {:?}, l_max: {:?} }}, min_tension_fraction: {:?} }}",
-            self.m, self.g, self.tau1, self.tau2, w.x_min, w.x_max, w.l_min, w.l_max, self.min_tension_fraction
-        )
-    }
     fn feedback_config(
         spec: &FeedbackSpec,
         crane: &Self,
@@ -85,9 +78,6 @@ impl FirmwareCrane<2> for CraneParams {
             (w.l_min, w.l_max),
             &["trolley", "hoist"],
         )
-    }
-    fn operator_source(operator: &Settings<1>) -> String {
-        crate::operator::source(operator)
     }
     fn steered_inverse_model<V: FirmwareVisitor<Self, 2>>(
         self,
