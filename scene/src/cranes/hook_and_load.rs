@@ -12,7 +12,6 @@ use solver_core::plan::Plan;
 use solver_core::{Error, SolverSettings};
 
 use super::{crane_models, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
-use crate::feedback::FeedbackSpec;
 use crate::{refuse, ModelSpec, OperatorSpec, SceneError};
 
 crane_models! {
@@ -44,7 +43,7 @@ impl FirmwareCrane<2> for DoublePendulumParams {
     /// No loop for it yet: which angle it would measure (the rope's at the hook block,
     /// the sling's, or both) is open.
     fn feedback_config(
-        _spec: &FeedbackSpec,
+        _spec: &FeedbackConfig,
         _crane: &Self,
         _h: f64,
     ) -> Result<FeedbackConfig, SceneError> {

@@ -24,7 +24,6 @@ use solver_core::plan::Plan;
 use solver_core::trajectory::Trajectory;
 use solver_core::{DaeModel, Driven, Error, Integrator, SolverSettings};
 
-use crate::feedback::FeedbackSpec;
 use crate::rust_source::ToRust;
 use crate::{ModelSpec, OperatorSpec, SceneError};
 
@@ -215,7 +214,7 @@ pub trait FirmwareCrane<const A: usize>:
     /// The scene's `[feedback]` as the controller's, for this crane and step `h`; or why
     /// this crane cannot honour it.
     fn feedback_config(
-        spec: &FeedbackSpec,
+        spec: &FeedbackConfig,
         crane: &Self,
         h: f64,
     ) -> Result<FeedbackConfig, SceneError>;

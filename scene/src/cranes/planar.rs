@@ -9,7 +9,6 @@ use solver_core::plan::Plan;
 use solver_core::{Error, SolverSettings};
 
 use super::{crane_models, integrators, visit, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
-use crate::feedback::FeedbackSpec;
 use crate::operator::{only_subs, NOT_STEERED};
 use crate::{ModelSpec, OperatorSpec, SceneError};
 
@@ -42,11 +41,11 @@ impl FirmwareCrane<2> for CraneParams {
         }
     }
     fn feedback_config(
-        spec: &FeedbackSpec,
+        spec: &FeedbackConfig,
         crane: &Self,
         h: f64,
     ) -> Result<FeedbackConfig, SceneError> {
-        spec.config(crane, h)
+        crate::feedback::config(spec, crane, h)
     }
     fn feedback(&self, config: FeedbackConfig) -> Result<StateFeedback, DesignError> {
         StateFeedback::new(config)

@@ -12,7 +12,6 @@ use solver_core::plan::Plan;
 use solver_core::{Error, SolverSettings};
 
 use super::{crane_models, integrators, visit, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
-use crate::feedback::FeedbackSpec;
 use crate::operator::{only_subs, NOT_STEERED};
 use crate::{ModelSpec, OperatorSpec, SceneError};
 
@@ -45,7 +44,7 @@ impl FirmwareCrane<3> for Crane3dParams {
     /// `[feedback]`; the y–z plane's is the same with the trolley's τ2
     /// ([`SpatialFeedback::new`]).
     fn feedback_config(
-        spec: &FeedbackSpec,
+        spec: &FeedbackConfig,
         crane: &Self,
         h: f64,
     ) -> Result<FeedbackConfig, SceneError> {
@@ -63,7 +62,7 @@ impl FirmwareCrane<3> for Crane3dParams {
             },
             min_tension_fraction: crane.min_tension_fraction,
         };
-        spec.config(&plane, h)
+        crate::feedback::config(spec, &plane, h)
     }
     fn feedback(&self, config: FeedbackConfig) -> Result<SpatialFeedback, DesignError> {
         SpatialFeedback::new(config, self.tau2)
