@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use scene::commissioning::CommissioningFile;
 use scene::dispatch::{firmware, FirmwareCrane, FirmwareCraneVisitor};
 use scene::firmware::FirmwareScene;
-use scene::rust_source::ToRust;
+use scene::rust_source::{ToRust, TypedF64};
 use scene::{JacobianSpec, Scene};
 
 fn main() {
@@ -207,10 +207,7 @@ fn crane_module<K: FirmwareCrane<A>, const A: usize>(
         "/// Solver settings.\npub const SETTINGS: solver_core::SolverSettings = {};",
         scene.settings().to_rust()
     );
-    let v = |x: [f64; A]| {
-        let items = x.map(|a| format!("{a:?}_f64")).join(", ");
-        format!("[{items}]")
-    };
+    let v = |x: [f64; A]| x.map(TypedF64).to_rust();
     let (start, end): ([f64; A], [f64; A]) = (
         setup.first_move.start().into(),
         setup.first_move.end().into(),
@@ -222,11 +219,11 @@ fn crane_module<K: FirmwareCrane<A>, const A: usize>(
     );
     let _ = writeln!(
         c,
-        "/// Builds the scene's inverse model at rest at t = 0, its move planned if\n/// `first_move` (checked against the planner's rules when the firmware was built).\npub fn inverse_model(first_move: bool) -> Result<Feedforward, solver_core::Error> {{\n    let mut plan = controller::crane::command_plan::<Crane, AXES>(START, {})?;\n    if first_move {{\n        plan.push(solver_core::trajectory::PointToPoint::new(START.into(), {}.into(), {:?}_f64, {:?}_f64, {})?)?;\n    }}\n    {}\n}}",
+        "/// Builds the scene's inverse model at rest at t = 0, its move planned if\n/// `first_move` (checked against the planner's rules when the firmware was built).\npub fn inverse_model(first_move: bool) -> Result<Feedforward, solver_core::Error> {{\n    let mut plan = controller::crane::command_plan::<Crane, AXES>(START, {})?;\n    if first_move {{\n        plan.push(solver_core::trajectory::PointToPoint::new(START.into(), {}.into(), {}, {}, {})?)?;\n    }}\n    {}\n}}",
         tr.smoothness,
         v(end),
-        tr.t_start,
-        tr.duration,
+        TypedF64(tr.t_start).to_rust(),
+        TypedF64(tr.duration).to_rust(),
         tr.smoothness,
         if stub {
             "Ok(Stub { plan, t: 0.0 })".to_string()

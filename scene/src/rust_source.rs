@@ -51,6 +51,18 @@ impl ToRust for f64 {
     }
 }
 
+/// An `f64` written with its type suffix (`12.0_f64`), for an expression whose type the
+/// generated code does not otherwise pin (`[START].into()`, a generic constructor's
+/// arguments). Finite values only (a scene's trajectory is checked finite).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TypedF64(pub f64);
+
+impl ToRust for TypedF64 {
+    fn to_rust(&self) -> String {
+        format!("{}_f64", self.0.to_rust())
+    }
+}
+
 /// Integers and `bool` as their literal.
 macro_rules! display_to_rust {
     ($($t:ty),+) => {
@@ -299,6 +311,10 @@ mod tests {
         assert_eq!(None::<u32>.to_rust(), "None");
         assert_eq!([1.0, 2.5].to_rust(), "[1.0, 2.5]");
         assert_eq!((0.5, 9.0).to_rust(), "(0.5, 9.0)");
+        assert_eq!(
+            [TypedF64(12.0), TypedF64(0.1)].to_rust(),
+            "[12.0_f64, 0.1_f64]"
+        );
         assert_eq!(
             JacobianMode::Broyden {
                 reinit_every: Some(10)
