@@ -144,7 +144,7 @@ fn field_names<'de, T: Deserialize<'de>>() -> &'static [&'static str] {
 }
 
 /// The feedback's configuration for the crane `params` cycling every `h` s from the
-/// scene's `[feedback]` (`spec`, as [`section`] read it), or the first field that cannot
+/// scene's `[feedback]` (`spec`, as `Scene::parse` read it), or the first field that cannot
 /// work, named with the reason.
 pub fn config(spec: &Config, params: &CraneParams, h: f64) -> Result<Config, SceneError> {
     let w = &spec.weights;
