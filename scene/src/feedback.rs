@@ -51,20 +51,16 @@
 
 use controller::feedback::{Config, Gains, Weights};
 use controller::rope::InclinometerLag;
-use serde::de::{self, Deserialize, Visitor};
 use solver_core::models::crane::CraneParams;
-use toml::de::{DeTable, DeValue, ValueDeserializer};
+use toml::de::DeValue;
 use toml::Spanned;
 
-use crate::{key_at, refuse, SceneError};
+use crate::{key_at, refuse, side_by_side, SceneError};
 
 /// The `[feedback]` table (`section`, spans into the scene's `text`) read into the
 /// controller's own [`Config`]: its keys are [`Weights`]' and [`Config`]'s side by side
-/// (Config's g, τ1, τ2, h and the inclinometer's lag are not the file's), so each key goes
-/// to the type that names it and each type reads its own keys with their places in the
-/// file — a bad value is refused at its key, as when the whole scene is one type. (serde's
-/// `flatten` would buffer the weights without their places and drop the list of the
-/// keys a typo could have meant.)
+/// (Config's g, τ1, τ2, h and the inclinometer's lag are not the file's), each read by
+/// its own type ([`crate::side_by_side`]).
 pub(crate) fn section<'i>(text: &str, section: Spanned<DeValue<'i>>) -> Result<Config, SceneError> {
     let span = section.span();
     let table = match section.into_inner() {
@@ -76,71 +72,10 @@ pub(crate) fn section<'i>(text: &str, section: Spanned<DeValue<'i>>) -> Result<C
             ))
         }
     };
-    let (weight_keys, config_keys) = (field_names::<Weights>(), field_names::<Config>());
-    let (mut weights, mut config) = (DeTable::new(), DeTable::new());
-    for (key, value) in table {
-        if weight_keys.contains(&key.get_ref().as_ref()) {
-            weights.insert(key, value);
-        } else if config_keys.contains(&key.get_ref().as_ref()) {
-            config.insert(key, value);
-        } else {
-            // serde's message for an unknown field, listing both types' keys.
-            let expected: Vec<String> = weight_keys
-                .iter()
-                .chain(config_keys)
-                .map(|k| format!("`{k}`"))
-                .collect();
-            return Err(refuse(
-                &key_at(text, key.span().start),
-                format!(
-                    "unknown field `{}`, expected one of {}",
-                    key.get_ref(),
-                    expected.join(", ")
-                ),
-            ));
-        }
-    }
-    let read = |table: DeTable<'i>| -> ValueDeserializer<'i> {
-        ValueDeserializer::from(Spanned::new(span.clone(), DeValue::Table(table)))
-    };
-    let toml_error = |e: toml::de::Error| {
-        let field = e.span().map(|s| key_at(text, s.start)).unwrap_or_default();
-        refuse(&field, e.message())
-    };
-    let weights = Weights::deserialize(read(weights)).map_err(toml_error)?;
-    let config = Config::deserialize(read(config)).map_err(toml_error)?;
+    let (weights, config) = side_by_side::split::<Weights, Config>(text, table)?;
+    let weights: Weights = side_by_side::read(text, span.clone(), weights)?;
+    let config: Config = side_by_side::read(text, span, config)?;
     Ok(Config { weights, ..config })
-}
-
-/// The keys serde's derive reads for `T` (the `fields` it hands the deserializer), in
-/// their order in `T`.
-fn field_names<'de, T: Deserialize<'de>>() -> &'static [&'static str] {
-    /// A deserializer that only notes the fields it is asked for.
-    struct Fields<'a>(&'a mut &'static [&'static str]);
-    impl<'de> de::Deserializer<'de> for Fields<'_> {
-        type Error = de::value::Error;
-        fn deserialize_any<V: Visitor<'de>>(self, _visitor: V) -> Result<V::Value, Self::Error> {
-            Err(de::Error::custom("not a struct"))
-        }
-        fn deserialize_struct<V: Visitor<'de>>(
-            self,
-            _name: &'static str,
-            fields: &'static [&'static str],
-            _visitor: V,
-        ) -> Result<V::Value, Self::Error> {
-            *self.0 = fields;
-            Err(de::Error::custom("fields noted"))
-        }
-        serde::forward_to_deserialize_any! {
-            bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string bytes
-            byte_buf option unit unit_struct newtype_struct seq tuple tuple_struct map enum
-            identifier ignored_any
-        }
-    }
-    let mut fields: &'static [&'static str] = &[];
-    // It always fails: it only notes the fields.
-    let _ = T::deserialize(Fields(&mut fields));
-    fields
 }
 
 /// The feedback's configuration for the crane `params` cycling every `h` s from the

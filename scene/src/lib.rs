@@ -42,6 +42,7 @@ pub mod feedback;
 pub mod firmware;
 pub mod operator;
 pub mod rust_source;
+mod side_by_side;
 
 use std::fmt;
 
