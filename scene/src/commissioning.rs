@@ -198,16 +198,6 @@ impl AxisSpec {
     }
 }
 
-/// Mode of operation.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum ModeSpec {
-    /// Cyclic synchronous velocity (9).
-    Csv,
-    /// Profile velocity (3).
-    Pv,
-}
-
 /// One drive's row.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -216,7 +206,7 @@ pub struct DriveSpec {
     pub axis: AxisSpec,
     pub node: u8,
     #[serde(default = "csv")]
-    pub mode: ModeSpec,
+    pub mode: OperationMode,
     #[serde(default = "hundred")]
     pub heartbeat_ms: u16,
     #[serde(default = "three_hundred")]
@@ -251,8 +241,8 @@ fn stock_windows() -> MotionWindows {
     MotionWindows::STOCK
 }
 
-fn csv() -> ModeSpec {
-    ModeSpec::Csv
+fn csv() -> OperationMode {
+    OperationMode::CyclicSynchronousVelocity
 }
 fn hundred() -> u16 {
     100
@@ -279,7 +269,7 @@ fn stock_drives() -> Vec<DriveSpec> {
         .map(|(axis, node)| DriveSpec {
             axis,
             node,
-            mode: ModeSpec::Csv,
+            mode: OperationMode::CyclicSynchronousVelocity,
             heartbeat_ms: 100,
             controller_timeout_ms: 300,
             quick_stop_option: 6,
@@ -705,14 +695,16 @@ impl CommissioningFile {
                 }
             };
             let (mode, profile_ramp) = match (d.mode, d.profile_acceleration) {
-                (ModeSpec::Csv, None) => (OperationMode::CyclicSynchronousVelocity, None),
-                (ModeSpec::Csv, Some(_)) => {
+                (OperationMode::CyclicSynchronousVelocity, None) => {
+                    (OperationMode::CyclicSynchronousVelocity, None)
+                }
+                (OperationMode::CyclicSynchronousVelocity, Some(_)) => {
                     return Err(refuse(field("profile_acceleration"), "only for mode = \"pv\""))
                 }
-                (ModeSpec::Pv, Some(a)) if a >= limit.max_acceleration * 10.0 => {
+                (OperationMode::ProfileVelocity, Some(a)) if a >= limit.max_acceleration * 10.0 => {
                     (OperationMode::ProfileVelocity, Some(units(a) as u32))
                 }
-                (ModeSpec::Pv, _) => {
+                (OperationMode::ProfileVelocity, _) => {
                     return Err(refuse(
                         field("profile_acceleration"),
                         format!(
