@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 use scene::commissioning::CommissioningFile;
 use scene::dispatch::{firmware, FirmwareCrane, FirmwareCraneVisitor};
 use scene::firmware::FirmwareScene;
+use scene::rust_source::{ToRust, TypedF64};
 use scene::{JacobianSpec, Scene};
 
 fn main() {
@@ -170,7 +171,7 @@ fn crane_module<K: FirmwareCrane<A>, const A: usize>(
                 c,
                 "/// Between the inverse model and the drives: the state feedback (Fig. 1).\npub type Correction = {};\n/// Its configuration: the scene's `[feedback]`.\npub const FEEDBACK: controller::feedback::Config = {};\n/// The feedback, its gains designed from the scene's weights.\npub fn correction() -> Result<Correction, controller::feedback::DesignError> {{\n    {}\n}}",
                 K::FEEDBACK_TYPE,
-                scene::feedback::FeedbackSpec::source(config),
+                config.to_rust(),
                 K::FEEDBACK_NEW
             );
         }
@@ -184,21 +185,12 @@ fn crane_module<K: FirmwareCrane<A>, const A: usize>(
     let _ = writeln!(
         c,
         "/// Crane parameters.\npub const PARAMS: Crane = {};",
-        setup.params.source()
+        setup.params.to_rust()
     );
-    let limits = setup
-        .planner
-        .limits()
-        .map(|l| {
-            format!(
-                "controller::setpoint::AxisLimits {{ max_velocity: {:?}, max_acceleration: {:?} }}",
-                l.max_velocity, l.max_acceleration
-            )
-        })
-        .join(", ");
+    let limits = setup.planner.limits().to_rust();
     let _ = writeln!(
         c,
-        "/// The planner of moves on command: this crane, its drives' set-point limits (the\n/// commissioning file's; the set-point gate enforces them too).\npub const PLANNER: controller::planner::Planner<Crane, AXES> = controller::planner::Planner::with_axes(PARAMS, [{limits}]);"
+        "/// The planner of moves on command: this crane, its drives' set-point limits (the\n/// commissioning file's; the set-point gate enforces them too).\npub const PLANNER: controller::planner::Planner<Crane, AXES> = controller::planner::Planner::with_axes(PARAMS, {limits});"
     );
     // Manual mode's generator is linked only when the scene has `[operator]`.
     if let Some(operator) = &setup.operator {
@@ -207,18 +199,15 @@ fn crane_module<K: FirmwareCrane<A>, const A: usize>(
             "/// Manual mode (the scene's `[operator]`): the path the model follows, the plan or\n/// the operator's generator.\npub type Steered = {};\n/// The generator's settings.\npub const OPERATOR: {} = {};",
             K::STEERED_TYPE,
             K::OPERATOR_TYPE,
-            K::operator_source(operator)
+            operator.to_rust()
         );
     }
     let _ = writeln!(
         c,
         "/// Solver settings.\npub const SETTINGS: solver_core::SolverSettings = {};",
-        scene::firmware::settings_source(scene)
+        scene.settings().to_rust()
     );
-    let v = |x: [f64; A]| {
-        let items = x.map(|a| format!("{a:?}_f64")).join(", ");
-        format!("[{items}]")
-    };
+    let v = |x: [f64; A]| x.map(TypedF64).to_rust();
     let (start, end): ([f64; A], [f64; A]) = (
         setup.first_move.start().into(),
         setup.first_move.end().into(),
@@ -230,11 +219,11 @@ fn crane_module<K: FirmwareCrane<A>, const A: usize>(
     );
     let _ = writeln!(
         c,
-        "/// Builds the scene's inverse model at rest at t = 0, its move planned if\n/// `first_move` (checked against the planner's rules when the firmware was built).\npub fn inverse_model(first_move: bool) -> Result<Feedforward, solver_core::Error> {{\n    let mut plan = controller::crane::command_plan::<Crane, AXES>(START, {})?;\n    if first_move {{\n        plan.push(solver_core::trajectory::PointToPoint::new(START.into(), {}.into(), {:?}_f64, {:?}_f64, {})?)?;\n    }}\n    {}\n}}",
+        "/// Builds the scene's inverse model at rest at t = 0, its move planned if\n/// `first_move` (checked against the planner's rules when the firmware was built).\npub fn inverse_model(first_move: bool) -> Result<Feedforward, solver_core::Error> {{\n    let mut plan = controller::crane::command_plan::<Crane, AXES>(START, {})?;\n    if first_move {{\n        plan.push(solver_core::trajectory::PointToPoint::new(START.into(), {}.into(), {}, {}, {})?)?;\n    }}\n    {}\n}}",
         tr.smoothness,
         v(end),
-        tr.t_start,
-        tr.duration,
+        TypedF64(tr.t_start).to_rust(),
+        TypedF64(tr.duration).to_rust(),
         tr.smoothness,
         if stub {
             "Ok(Stub { plan, t: 0.0 })".to_string()

@@ -8,7 +8,8 @@ use std::{env, fs, path::PathBuf};
 
 use scene::commissioning::CommissioningFile;
 use scene::dispatch::{firmware, FirmwareCrane, FirmwareCraneVisitor};
-use scene::firmware::{settings_source, FirmwareScene};
+use scene::firmware::FirmwareScene;
+use scene::rust_source::ToRust;
 use scene::Scene;
 
 /// Writes the default scene's types.
@@ -45,12 +46,12 @@ impl FirmwareCraneVisitor for Generate<'_> {
             "/// Its number of unknowns.\npub const N: usize = {};",
             types.unknowns
         );
-        let _ = writeln!(c, "/// The scene's solver settings.\npub const SETTINGS: solver_core::SolverSettings = {};", settings_source(self.0));
+        let _ = writeln!(c, "/// The scene's solver settings.\npub const SETTINGS: solver_core::SolverSettings = {};", self.0.settings().to_rust());
         let _ = writeln!(
             c,
             "/// The scene's crane.\npub const PARAMS: {} = {};",
             K::TYPE,
-            f.params.source()
+            f.params.to_rust()
         );
         let _ = writeln!(
             c,

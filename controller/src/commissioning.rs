@@ -31,17 +31,21 @@ use crate::drive::Drive;
 use crate::frame::CanFrame;
 use crate::motion::MotionWindows;
 
-/// CiA 402 mode of operation (0x6060) the drive runs in.
+/// CiA 402 mode of operation (0x6060) the drive runs in. With feature `serde`, a
+/// commissioning file's `mode = "csv"` or `"pv"`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Deserialize))]
 #[repr(i8)]
 pub enum OperationMode {
     /// Cyclic synchronous velocity (9): the drive follows 0x60FF every SYNC without
     /// ramps of its own — the mode for set points the master computes every cycle.
+    #[cfg_attr(feature = "serde", serde(rename = "csv"))]
     CyclicSynchronousVelocity = 9,
     /// Profile velocity (3), only for drives without CSV: every target passes the
     /// drive's own ramp 0x6083/0x6084, which must then be steeper than anything the
     /// inverse model asks (docs/COMMISSIONING.md).
+    #[cfg_attr(feature = "serde", serde(rename = "pv"))]
     ProfileVelocity = 3,
 }
 

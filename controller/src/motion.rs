@@ -25,28 +25,40 @@
 //! The windows are the drive's row of the commissioning file; the lag τ is the model's.
 
 /// A drive's motion supervision windows (its row of the commissioning file).
+///
+/// With feature `serde`, the row's keys (a window's name ends in `_window` there; a key
+/// left out: [`MotionWindows::STOCK`]'s value).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize),
+    serde(deny_unknown_fields, default = "stock_windows")
+)]
 pub struct MotionWindows {
     /// At rest, how far position actual may move from where the drive came to rest, m.
+    #[cfg_attr(feature = "serde", serde(rename = "standstill_window"))]
     pub standstill: f64,
     /// Set points exactly zero this long before the drive counts as at rest and its
     /// position is kept (the drive's lag and its velocity loop settle meanwhile), ms.
     pub standstill_delay_ms: u16,
     /// While moving, how far position actual may be from where the set points sent put
     /// the drive through the model's lag, m …
+    #[cfg_attr(feature = "serde", serde(rename = "following_window"))]
     pub following: f64,
     /// … plus this share of the distance commanded since it last rested (a velocity
     /// loop's droop, the drive's scaling error: relative, dimensionless).
     pub following_drift: f64,
     /// While moving, how far velocity actual may be from the lag's velocity, m/s (plus
     /// `following_drift` of it) …
+    #[cfg_attr(feature = "serde", serde(rename = "velocity_window"))]
     pub velocity: f64,
     /// … for at most this long, ms.
     pub following_time_ms: u16,
     /// Before a move is accepted at rest, how far position actual may be from where the
     /// controller's model holds the crane, m: further, the move is refused (reason 15),
     /// and a reset takes the drives' positions as the model's.
+    #[cfg_attr(feature = "serde", serde(rename = "in_place_window"))]
     pub in_place: f64,
 }
 
@@ -63,6 +75,12 @@ impl MotionWindows {
         following_time_ms: 50,
         in_place: 0.05,
     };
+}
+
+/// Serde's value of a window a commissioning file leaves out: the stock one.
+#[cfg(feature = "serde")]
+fn stock_windows() -> MotionWindows {
+    MotionWindows::STOCK
 }
 
 /// Which window a drive left.

@@ -5,6 +5,8 @@
 
 use std::path::Path;
 
+use serde::Deserialize;
+
 use crate::cranes::{visit_crane, CraneVisitor, FirmwareCrane, FirmwareModel};
 use crate::dispatch::{self, Built};
 use crate::{
@@ -22,12 +24,21 @@ impl Scene {
 
     /// Parses and checks a scene from TOML text.
     pub fn parse(text: &str) -> Result<Self, SceneError> {
-        let scene: Scene = toml::from_str(text).map_err(|e| {
-            // toml names the key path in its message; keep its first line as the reason.
+        // toml names the key path in its message; keep its first line as the reason.
+        let toml_error = |e: toml::de::Error| {
             let message = e.message().to_string();
             let field = e.span().map(|s| key_at(text, s.start)).unwrap_or_default();
             refuse(&field, message)
-        })?;
+        };
+        let mut file = toml::de::DeTable::parse(text).map_err(toml_error)?;
+        // `[feedback]` is the controller's own configuration, read on its own
+        // (`feedback::section`); the rest is the scene's types'.
+        let feedback = file.get_mut().remove("feedback");
+        let mut scene =
+            Scene::deserialize(toml::de::Deserializer::from(file)).map_err(toml_error)?;
+        scene.feedback = feedback
+            .map(|section| crate::feedback::section(text, section))
+            .transpose()?;
         scene.validate()?;
         Ok(scene)
     }

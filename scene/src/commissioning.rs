@@ -62,8 +62,9 @@ use controller::rope::{InclinometerLag, MAX_DELAY_CYCLES};
 use controller::setpoint::{AxisLimits, DriveLimits, MAX_VELOCITY_LIMIT, UNITS_PER_M_PER_S};
 use controller::Config;
 use serde::Deserialize;
+use toml::de::{DeTable, DeValue};
 
-use crate::SceneError;
+use crate::{side_by_side, SceneError};
 
 /// The file's name, in the scene's folder.
 pub const FILE_NAME: &str = "commissioning.toml";
@@ -197,16 +198,6 @@ impl AxisSpec {
     }
 }
 
-/// Mode of operation.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum ModeSpec {
-    /// Cyclic synchronous velocity (9).
-    Csv,
-    /// Profile velocity (3).
-    Pv,
-}
-
 /// One drive's row.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -215,7 +206,7 @@ pub struct DriveSpec {
     pub axis: AxisSpec,
     pub node: u8,
     #[serde(default = "csv")]
-    pub mode: ModeSpec,
+    pub mode: OperationMode,
     #[serde(default = "hundred")]
     pub heartbeat_ms: u16,
     #[serde(default = "three_hundred")]
@@ -238,54 +229,20 @@ pub struct DriveSpec {
     pub velocity_limit: Option<f64>,
     /// The set points' acceleration limit, m/s²; the crane's lab drive's when absent.
     pub acceleration_limit: Option<f64>,
-    /// Motion supervision (`controller::motion`): at rest, how far position actual may
-    /// move, m.
-    #[serde(default = "stock_standstill_window")]
-    pub standstill_window: f64,
-    /// Set points exactly zero this long before the drive counts as at rest, ms.
-    #[serde(default = "stock_standstill_delay_ms")]
-    pub standstill_delay_ms: u16,
-    /// Moving: position actual against where the set points sent put the drive, m …
-    #[serde(default = "stock_following_window")]
-    pub following_window: f64,
-    /// … plus this share of the distance commanded since it rested.
-    #[serde(default = "stock_following_drift")]
-    pub following_drift: f64,
-    /// Moving: velocity actual against the set points' (plus the drift), m/s …
-    #[serde(default = "stock_velocity_window")]
-    pub velocity_window: f64,
-    /// … for at most this long, ms.
-    #[serde(default = "stock_following_time_ms")]
-    pub following_time_ms: u16,
-    /// Before a move at rest: position actual against where the model holds the crane, m.
-    #[serde(default = "stock_in_place_window")]
-    pub in_place_window: f64,
+    /// Motion supervision (`controller::motion`): the row's `*_window`, `following_drift`
+    /// and `*_ms` keys, read into the controller's own windows beside the row
+    /// ([`CommissioningFile::parse`]; stock for a key left out), checked in
+    /// `motion_windows`.
+    #[serde(skip, default = "stock_windows")]
+    pub motion: MotionWindows,
 }
 
-fn stock_standstill_window() -> f64 {
-    MotionWindows::STOCK.standstill
-}
-fn stock_standstill_delay_ms() -> u16 {
-    MotionWindows::STOCK.standstill_delay_ms
-}
-fn stock_following_window() -> f64 {
-    MotionWindows::STOCK.following
-}
-fn stock_following_drift() -> f64 {
-    MotionWindows::STOCK.following_drift
-}
-fn stock_velocity_window() -> f64 {
-    MotionWindows::STOCK.velocity
-}
-fn stock_following_time_ms() -> u16 {
-    MotionWindows::STOCK.following_time_ms
-}
-fn stock_in_place_window() -> f64 {
-    MotionWindows::STOCK.in_place
+fn stock_windows() -> MotionWindows {
+    MotionWindows::STOCK
 }
 
-fn csv() -> ModeSpec {
-    ModeSpec::Csv
+fn csv() -> OperationMode {
+    OperationMode::CyclicSynchronousVelocity
 }
 fn hundred() -> u16 {
     100
@@ -312,7 +269,7 @@ fn stock_drives() -> Vec<DriveSpec> {
         .map(|(axis, node)| DriveSpec {
             axis,
             node,
-            mode: ModeSpec::Csv,
+            mode: OperationMode::CyclicSynchronousVelocity,
             heartbeat_ms: 100,
             controller_timeout_ms: 300,
             quick_stop_option: 6,
@@ -325,13 +282,7 @@ fn stock_drives() -> Vec<DriveSpec> {
             position_offset: 0.0,
             velocity_limit: None,
             acceleration_limit: None,
-            standstill_window: stock_standstill_window(),
-            standstill_delay_ms: stock_standstill_delay_ms(),
-            following_window: stock_following_window(),
-            following_drift: stock_following_drift(),
-            velocity_window: stock_velocity_window(),
-            following_time_ms: stock_following_time_ms(),
-            in_place_window: stock_in_place_window(),
+            motion: MotionWindows::STOCK,
         })
         .collect()
 }
@@ -348,7 +299,7 @@ fn motion_windows(d: &DriveSpec, period_ms: u32) -> Result<MotionWindows, (&'sta
             Err((name, format!("a positive number, {unit}")))
         }
     };
-    let standstill = positive("standstill_window", d.standstill_window, "m")?;
+    let standstill = positive("standstill_window", d.motion.standstill, "m")?;
     if standstill < 10.0 * d.position_scale.abs() {
         return Err((
             "standstill_window",
@@ -358,10 +309,10 @@ fn motion_windows(d: &DriveSpec, period_ms: u32) -> Result<MotionWindows, (&'sta
             ),
         ));
     }
-    let following = positive("following_window", d.following_window, "m")?;
-    let velocity = positive("velocity_window", d.velocity_window, "m/s")?;
-    let in_place = positive("in_place_window", d.in_place_window, "m")?;
-    if !(0.0..1.0).contains(&d.following_drift) {
+    let following = positive("following_window", d.motion.following, "m")?;
+    let velocity = positive("velocity_window", d.motion.velocity, "m/s")?;
+    let in_place = positive("in_place_window", d.motion.in_place, "m")?;
+    if !(0.0..1.0).contains(&d.motion.following_drift) {
         return Err((
             "following_drift",
             "a share of the distance commanded, 0 to below 1".into(),
@@ -379,11 +330,11 @@ fn motion_windows(d: &DriveSpec, period_ms: u32) -> Result<MotionWindows, (&'sta
     };
     Ok(MotionWindows {
         standstill,
-        standstill_delay_ms: cycle("standstill_delay_ms", d.standstill_delay_ms)?,
+        standstill_delay_ms: cycle("standstill_delay_ms", d.motion.standstill_delay_ms)?,
         following,
-        following_drift: d.following_drift,
+        following_drift: d.motion.following_drift,
         velocity,
-        following_time_ms: cycle("following_time_ms", d.following_time_ms)?,
+        following_time_ms: cycle("following_time_ms", d.motion.following_time_ms)?,
         in_place,
     })
 }
@@ -417,13 +368,37 @@ impl CommissioningFile {
 
     /// Parses the file's text (not yet checked against a scene: see [`Self::config`]).
     pub fn parse(text: &str) -> Result<Self, SceneError> {
-        toml::from_str(text).map_err(|e| {
+        let toml_error = |e: toml::de::Error| {
             let field = e
                 .span()
                 .map(|s| crate::key_at(text, s.start))
                 .unwrap_or_default();
             refuse(field, e.message().to_string())
-        })
+        };
+        let mut file = DeTable::parse(text).map_err(toml_error)?;
+        // Each `[[drive]]` row holds its own keys and its motion windows' side by side
+        // (`side_by_side`): the windows' are taken out and read as the controller's
+        // `MotionWindows`, the rest as the row.
+        let mut windows = Vec::new();
+        if let Some(DeValue::Array(rows)) = file.get_mut().get_mut("drive").map(|d| d.get_mut()) {
+            for row in rows.iter_mut() {
+                let span = row.span();
+                if let DeValue::Table(table) = row.get_mut() {
+                    let (own, motion) = side_by_side::split::<DriveSpec, MotionWindows>(
+                        text,
+                        std::mem::take(table),
+                    )?;
+                    *table = own;
+                    windows.push(side_by_side::read::<MotionWindows>(text, span, motion)?);
+                }
+            }
+        }
+        let mut file = Self::deserialize(toml::de::Deserializer::from(file)).map_err(toml_error)?;
+        // The rows deserialized, so each was a table: one windows per row.
+        for (drive, motion) in file.drives.iter_mut().zip(windows) {
+            drive.motion = motion;
+        }
+        Ok(file)
     }
 
     /// `config` with the inclinometer of this file (for a scene with a state feedback),
@@ -720,14 +695,16 @@ impl CommissioningFile {
                 }
             };
             let (mode, profile_ramp) = match (d.mode, d.profile_acceleration) {
-                (ModeSpec::Csv, None) => (OperationMode::CyclicSynchronousVelocity, None),
-                (ModeSpec::Csv, Some(_)) => {
+                (OperationMode::CyclicSynchronousVelocity, None) => {
+                    (OperationMode::CyclicSynchronousVelocity, None)
+                }
+                (OperationMode::CyclicSynchronousVelocity, Some(_)) => {
                     return Err(refuse(field("profile_acceleration"), "only for mode = \"pv\""))
                 }
-                (ModeSpec::Pv, Some(a)) if a >= limit.max_acceleration * 10.0 => {
+                (OperationMode::ProfileVelocity, Some(a)) if a >= limit.max_acceleration * 10.0 => {
                     (OperationMode::ProfileVelocity, Some(units(a) as u32))
                 }
-                (ModeSpec::Pv, _) => {
+                (OperationMode::ProfileVelocity, _) => {
                     return Err(refuse(
                         field("profile_acceleration"),
                         format!(
@@ -963,6 +940,40 @@ mod tests {
         ] {
             let e = config(&row(field)).unwrap_err();
             assert_eq!(e.field, format!("drive[0].{name}"), "{field}: {e}");
+        }
+        // Every window's key reaches the controller's field of that meaning (the
+        // windows are read into `MotionWindows` beside the row), in the second row too.
+        let c = config("[[drive]]\naxis = \"trolley\"\nnode = 1\n[[drive]]\naxis = \"winch\"\nnode = 2\nstandstill_window = 0.011\nstandstill_delay_ms = 400\nfollowing_window = 0.21\nfollowing_drift = 0.06\nvelocity_window = 0.31\nfollowing_time_ms = 60\nin_place_window = 0.051\n").unwrap();
+        assert_eq!(
+            c.drive(Drive::Winch).unwrap().motion,
+            MotionWindows {
+                standstill: 0.011,
+                standstill_delay_ms: 400,
+                following: 0.21,
+                following_drift: 0.06,
+                velocity: 0.31,
+                following_time_ms: 60,
+                in_place: 0.051,
+            }
+        );
+        assert_eq!(
+            c.drive(Drive::Trolley).unwrap().motion,
+            MotionWindows::STOCK
+        );
+        // A typo or the controller's own name is refused at its key, with the row's keys
+        // and the windows' listed; a bad value at its key.
+        for (field, key, reason) in [
+            ("standstil_window = 0.02", "standstil_window", "unknown field `standstil_window`, expected one of `axis`, `node`, `mode`, `heartbeat_ms`, `controller_timeout_ms`, `quick_stop_option`, `abort_connection_option`, `quick_stop_deceleration`, `max_velocity`, `velocity_unit`, `profile_acceleration`, `position_scale`, `position_offset`, `velocity_limit`, `acceleration_limit`, `standstill_window`, `standstill_delay_ms`, `following_window`, `following_drift`, `velocity_window`, `following_time_ms`, `in_place_window`"),
+            ("in_place = 0.02", "in_place", "unknown field `in_place`, expected one of `axis`, `node`, `mode`, `heartbeat_ms`, `controller_timeout_ms`, `quick_stop_option`, `abort_connection_option`, `quick_stop_deceleration`, `max_velocity`, `velocity_unit`, `profile_acceleration`, `position_scale`, `position_offset`, `velocity_limit`, `acceleration_limit`, `standstill_window`, `standstill_delay_ms`, `following_window`, `following_drift`, `velocity_window`, `following_time_ms`, `in_place_window`"),
+            ("following_window = \"x\"", "following_window", "invalid type: string \"x\", expected f64"),
+            ("following_time_ms = 1.5", "following_time_ms", "invalid type: floating point `1.5`, expected u16"),
+        ] {
+            let e = CommissioningFile::parse(&row(field)).unwrap_err();
+            assert_eq!(
+                (e.field.as_str(), e.reason.as_str()),
+                (format!("[drive].{key}").as_str(), reason),
+                "{field}"
+            );
         }
     }
 

@@ -52,197 +52,143 @@
 use controller::feedback::{Config, Gains, Weights};
 use controller::rope::InclinometerLag;
 use solver_core::models::crane::CraneParams;
+use toml::de::DeValue;
+use toml::Spanned;
 
-/// `[feedback]` as read lives with the scene's other sections (`lib.rs`, so that the
-/// scene's types import nothing above them); this module checks it and designs from it.
-pub use crate::FeedbackSpec;
-use crate::{refuse, SceneError};
+use crate::{key_at, refuse, side_by_side, SceneError};
 
-impl FeedbackSpec {
-    /// The feedback's configuration for the crane `params` cycling every `h` s, or the
-    /// first field that cannot work, named with the reason.
-    pub fn config(&self, params: &CraneParams, h: f64) -> Result<Config, SceneError> {
-        let positive = [
-            ("load_position", self.load_position),
-            ("trolley_position", self.trolley_position),
-            ("swing_velocity", self.swing_velocity),
-            ("trolley_correction", self.trolley_correction),
-            ("rope_position", self.rope_position),
-            ("winch_correction", self.winch_correction),
-            ("drive_disturbance", self.drive_disturbance),
-            ("swing_disturbance", self.swing_disturbance),
-            ("drive_offset", self.drive_offset),
-            ("position_noise", self.position_noise),
-            ("angle_noise", self.angle_noise),
-            ("rest_load_position", self.rest_load_position),
-            ("rest_trolley_position", self.rest_trolley_position),
-            ("rest_swing_velocity", self.rest_swing_velocity),
-            ("rest_load_velocity", self.rest_load_velocity),
-            ("rest_angle_noise", self.rest_angle_noise),
-            ("max_angle", self.max_angle),
-            ("max_innovation", self.max_innovation),
-            ("frozen_motion", self.frozen_motion),
-            ("held_allowance", self.held_allowance),
-            ("rest_position", self.rest_position),
-            ("rest_swing", self.rest_swing),
-            ("rest_hysteresis", self.rest_hysteresis),
-            ("offset_dead_band", self.offset_dead_band),
-            ("offset_step", self.offset_step),
-            ("max_offset", self.max_offset),
-        ];
-        for (name, v) in positive {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(refuse(
-                    &format!("feedback.{name}"),
-                    format!("must be finite and > 0 (got {v})"),
-                ));
-            }
-        }
-        if self.max_angle >= std::f64::consts::FRAC_PI_2 {
+/// The `[feedback]` table (`section`, spans into the scene's `text`) read into the
+/// controller's own [`Config`]: its keys are [`Weights`]' and [`Config`]'s side by side
+/// (Config's g, τ1, τ2, h and the inclinometer's lag are not the file's), each read by
+/// its own type ([`crate::side_by_side`]).
+pub(crate) fn section<'i>(text: &str, section: Spanned<DeValue<'i>>) -> Result<Config, SceneError> {
+    let span = section.span();
+    let table = match section.into_inner() {
+        DeValue::Table(table) => table,
+        other => {
             return Err(refuse(
-                "feedback.max_angle",
-                "below π/2: the load hangs below the trolley",
+                &key_at(text, span.start),
+                format!("invalid type: {}, expected a table", other.type_str()),
+            ))
+        }
+    };
+    let (weights, config) = side_by_side::split::<Weights, Config>(text, table)?;
+    let weights: Weights = side_by_side::read(text, span.clone(), weights)?;
+    let config: Config = side_by_side::read(text, span, config)?;
+    Ok(Config { weights, ..config })
+}
+
+/// The feedback's configuration for the crane `params` cycling every `h` s from the
+/// scene's `[feedback]` (`spec`, as `Scene::parse` read it), or the first field that cannot
+/// work, named with the reason.
+pub fn config(spec: &Config, params: &CraneParams, h: f64) -> Result<Config, SceneError> {
+    let w = &spec.weights;
+    let positive = [
+        ("load_position", w.load_position),
+        ("trolley_position", w.trolley_position),
+        ("swing_velocity", w.swing_velocity),
+        ("trolley_correction", w.trolley_correction),
+        ("rope_position", w.rope_position),
+        ("winch_correction", w.winch_correction),
+        ("drive_disturbance", w.drive_disturbance),
+        ("swing_disturbance", w.swing_disturbance),
+        ("drive_offset", w.drive_offset),
+        ("position_noise", w.position_noise),
+        ("angle_noise", w.angle_noise),
+        ("rest_load_position", w.rest_load_position),
+        ("rest_trolley_position", w.rest_trolley_position),
+        ("rest_swing_velocity", w.rest_swing_velocity),
+        ("rest_load_velocity", w.rest_load_velocity),
+        ("rest_angle_noise", w.rest_angle_noise),
+        ("max_angle", spec.max_angle),
+        ("max_innovation", spec.max_innovation),
+        ("frozen_motion", spec.frozen_motion),
+        ("held_allowance", spec.held_allowance),
+        ("rest_position", spec.rest_position),
+        ("rest_swing", spec.rest_swing),
+        ("rest_hysteresis", spec.rest_hysteresis),
+        ("offset_dead_band", spec.offset_dead_band),
+        ("offset_step", spec.offset_step),
+        ("max_offset", spec.max_offset),
+    ];
+    for (name, v) in positive {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(refuse(
+                &format!("feedback.{name}"),
+                format!("must be finite and > 0 (got {v})"),
             ));
         }
-        if self.bridged_cycles > 10 {
-            return Err(refuse(
-                "feedback.bridged_cycles",
-                "at most 10 (0.1 s at 100 Hz): longer, the observer runs blind",
-            ));
-        }
-        if self.frozen_cycles < 2 {
-            return Err(refuse(
-                "feedback.frozen_cycles",
-                "at least 2: one repeated value is not a stuck sensor",
-            ));
-        }
-        if self.rest_hysteresis < 1.0 {
-            return Err(refuse(
-                "feedback.rest_hysteresis",
-                "at least 1: below, a crane let go would be held again at once (it chatters)",
-            ));
-        }
-        if self.rest_swing * self.rest_hysteresis >= self.max_innovation {
-            return Err(refuse(
-                "feedback.rest_swing",
-                "rest_swing × rest_hysteresis must be below max_innovation: a swing the feedback lets go must be one it can still read",
-            ));
-        }
-        if self.offset_step >= self.max_innovation {
-            return Err(refuse(
-                "feedback.offset_step",
-                "must be below max_innovation: a larger miss is implausible, never a step of the zero",
-            ));
-        }
-        if self.offset_dead_band >= self.max_offset {
-            return Err(refuse(
-                "feedback.offset_dead_band",
-                "must be below max_offset: an offset left in the reading cannot be one that is announced",
-            ));
-        }
-        if self.max_offset >= self.max_angle {
-            return Err(refuse(
-                "feedback.max_offset",
-                "must be below max_angle: the offset is judged on plausible angles",
-            ));
-        }
-        if self.offset_cycles == 0 {
-            return Err(refuse(
-                "feedback.offset_cycles",
-                "at least 1 (longer than the site's gusts: a gust's push is no offset)",
-            ));
-        }
-        let config = Config {
-            weights: Weights {
-                load_position: self.load_position,
-                trolley_position: self.trolley_position,
-                swing_velocity: self.swing_velocity,
-                trolley_correction: self.trolley_correction,
-                rope_position: self.rope_position,
-                winch_correction: self.winch_correction,
-                drive_disturbance: self.drive_disturbance,
-                swing_disturbance: self.swing_disturbance,
-                drive_offset: self.drive_offset,
-                position_noise: self.position_noise,
-                angle_noise: self.angle_noise,
-                rest_load_position: self.rest_load_position,
-                rest_trolley_position: self.rest_trolley_position,
-                rest_swing_velocity: self.rest_swing_velocity,
-                rest_load_velocity: self.rest_load_velocity,
-                rest_angle_noise: self.rest_angle_noise,
-            },
-            g: params.g,
-            tau1: params.tau1,
-            tau2: params.tau2,
-            h,
-            max_angle: self.max_angle,
-            max_innovation: self.max_innovation,
-            max_bad_angle_cycles: self.bridged_cycles,
-            max_frozen_cycles: self.frozen_cycles,
-            frozen_motion: self.frozen_motion,
-            held_allowance: self.held_allowance,
-            rest_position: self.rest_position,
-            rest_swing: self.rest_swing,
-            rest_hysteresis: self.rest_hysteresis,
-            offset_dead_band: self.offset_dead_band,
-            offset_step: self.offset_step,
-            max_offset: self.max_offset,
-            offset_cycles: self.offset_cycles,
-            // The sensor's, from the commissioning file (`CommissioningFile::lag`).
-            inclinometer: InclinometerLag::NONE,
-        };
-        Gains::design(&config).map_err(|e| {
-            refuse(
-                "feedback",
-                format!("no gains can be designed from these weights: {e:?}"),
-            )
-        })?;
-        Ok(config)
     }
-
-    /// The Rust of `config` (the firmware's build emits it).
-    #[must_use]
-    pub fn source(config: &Config) -> String {
-        let w = &config.weights;
-        format!(
-            "controller::feedback::Config {{ weights: controller::feedback::Weights {{ load_position: {:?}, trolley_position: {:?}, swing_velocity: {:?}, trolley_correction: {:?}, rope_position: {:?}, winch_correction: {:?}, drive_disturbance: {:?}, swing_disturbance: {:?}, drive_offset: {:?}, position_noise: {:?}, angle_noise: {:?}, rest_load_position: {:?}, rest_trolley_position: {:?}, rest_swing_velocity: {:?}, rest_load_velocity: {:?}, rest_angle_noise: {:?} }}, g: {:?}, tau1: {:?}, tau2: {:?}, h: {:?}, max_angle: {:?}, max_innovation: {:?}, max_bad_angle_cycles: {}, max_frozen_cycles: {}, frozen_motion: {:?}, held_allowance: {:?}, rest_position: {:?}, rest_swing: {:?}, rest_hysteresis: {:?}, offset_dead_band: {:?}, offset_step: {:?}, max_offset: {:?}, offset_cycles: {}, inclinometer: controller::rope::InclinometerLag {{ delay: {}, filter: {:?} }} }}",
-            w.load_position,
-            w.trolley_position,
-            w.swing_velocity,
-            w.trolley_correction,
-            w.rope_position,
-            w.winch_correction,
-            w.drive_disturbance,
-            w.swing_disturbance,
-            w.drive_offset,
-            w.position_noise,
-            w.angle_noise,
-            w.rest_load_position,
-            w.rest_trolley_position,
-            w.rest_swing_velocity,
-            w.rest_load_velocity,
-            w.rest_angle_noise,
-            config.g,
-            config.tau1,
-            config.tau2,
-            config.h,
-            config.max_angle,
-            config.max_innovation,
-            config.max_bad_angle_cycles,
-            config.max_frozen_cycles,
-            config.frozen_motion,
-            config.held_allowance,
-            config.rest_position,
-            config.rest_swing,
-            config.rest_hysteresis,
-            config.offset_dead_band,
-            config.offset_step,
-            config.max_offset,
-            config.offset_cycles,
-            config.inclinometer.delay,
-            config.inclinometer.filter
+    if spec.max_angle >= std::f64::consts::FRAC_PI_2 {
+        return Err(refuse(
+            "feedback.max_angle",
+            "below π/2: the load hangs below the trolley",
+        ));
+    }
+    if spec.max_bad_angle_cycles > 10 {
+        return Err(refuse(
+            "feedback.bridged_cycles",
+            "at most 10 (0.1 s at 100 Hz): longer, the observer runs blind",
+        ));
+    }
+    if spec.max_frozen_cycles < 2 {
+        return Err(refuse(
+            "feedback.frozen_cycles",
+            "at least 2: one repeated value is not a stuck sensor",
+        ));
+    }
+    if spec.rest_hysteresis < 1.0 {
+        return Err(refuse(
+            "feedback.rest_hysteresis",
+            "at least 1: below, a crane let go would be held again at once (it chatters)",
+        ));
+    }
+    if spec.rest_swing * spec.rest_hysteresis >= spec.max_innovation {
+        return Err(refuse(
+            "feedback.rest_swing",
+            "rest_swing × rest_hysteresis must be below max_innovation: a swing the feedback lets go must be one it can still read",
+        ));
+    }
+    if spec.offset_step >= spec.max_innovation {
+        return Err(refuse(
+            "feedback.offset_step",
+            "must be below max_innovation: a larger miss is implausible, never a step of the zero",
+        ));
+    }
+    if spec.offset_dead_band >= spec.max_offset {
+        return Err(refuse(
+            "feedback.offset_dead_band",
+            "must be below max_offset: an offset left in the reading cannot be one that is announced",
+        ));
+    }
+    if spec.max_offset >= spec.max_angle {
+        return Err(refuse(
+            "feedback.max_offset",
+            "must be below max_angle: the offset is judged on plausible angles",
+        ));
+    }
+    if spec.offset_cycles == 0 {
+        return Err(refuse(
+            "feedback.offset_cycles",
+            "at least 1 (longer than the site's gusts: a gust's push is no offset)",
+        ));
+    }
+    let config = Config {
+        g: params.g,
+        tau1: params.tau1,
+        tau2: params.tau2,
+        h,
+        // The sensor's, from the commissioning file (`CommissioningFile::lag`).
+        inclinometer: InclinometerLag::NONE,
+        ..*spec
+    };
+    Gains::design(&config).map_err(|e| {
+        refuse(
+            "feedback",
+            format!("no gains can be designed from these weights: {e:?}"),
         )
-    }
+    })?;
+    Ok(config)
 }
 
 #[cfg(test)]
@@ -279,7 +225,7 @@ mod tests {
     fn a_bad_field_is_named() {
         let check = |text: &str| {
             let s = scene(text)?;
-            s.feedback.unwrap().config(&CraneParams::PAPER, 0.01)
+            config(&s.feedback.unwrap(), &CraneParams::PAPER, 0.01)
         };
         for (text, field) in [
             ("load_position = -1.0", "feedback.load_position"),
@@ -311,5 +257,138 @@ mod tests {
         }
         let e = scene("load_positon = 0.02").unwrap_err();
         assert!(e.to_string().contains("load_positon"), "{e}");
+    }
+
+    /// A typo, a key the file cannot set (the crane's g, the cycle h, the controller's own
+    /// names) and a value of the wrong type are refused at their key, the typo with every
+    /// key the section has, as serde says it for one struct.
+    #[test]
+    fn a_bad_key_or_type_is_refused_at_its_key() {
+        let keys = "`load_position`, `trolley_position`, `swing_velocity`, `trolley_correction`, \
+            `rope_position`, `winch_correction`, `drive_disturbance`, `swing_disturbance`, \
+            `drive_offset`, `position_noise`, `angle_noise`, `rest_load_position`, \
+            `rest_trolley_position`, `rest_swing_velocity`, `rest_load_velocity`, \
+            `rest_angle_noise`, `max_angle`, `max_innovation`, `bridged_cycles`, \
+            `frozen_cycles`, `frozen_motion`, `held_allowance`, `rest_position`, \
+            `rest_swing`, `rest_hysteresis`, `offset_dead_band`, `offset_step`, \
+            `max_offset`, `offset_cycles`";
+        for key in ["load_positon", "g", "h", "weights", "max_bad_angle_cycles"] {
+            let e = scene(&format!("{key} = 1")).unwrap_err();
+            assert_eq!(e.field, format!("feedback.{key}"));
+            assert_eq!(
+                e.reason,
+                format!("unknown field `{key}`, expected one of {keys}")
+            );
+        }
+        for (text, field, reason) in [
+            (
+                "load_position = \"a\"",
+                "feedback.load_position",
+                "invalid type: string \"a\", expected f64",
+            ),
+            (
+                "max_angle = true",
+                "feedback.max_angle",
+                "invalid type: boolean `true`, expected f64",
+            ),
+            (
+                "bridged_cycles = 1.5",
+                "feedback.bridged_cycles",
+                "invalid type: floating point `1.5`, expected u32",
+            ),
+            (
+                "offset_cycles = -1",
+                "feedback.offset_cycles",
+                "invalid value: integer `-1`, expected u32",
+            ),
+        ] {
+            let e = scene(text).unwrap_err();
+            assert_eq!(
+                (e.field.as_str(), e.reason.as_str()),
+                (field, reason),
+                "{text}"
+            );
+        }
+    }
+
+    /// Each key of `[feedback]` lands in the controller's field of that meaning (the
+    /// weights' by name, `bridged_cycles` and `frozen_cycles` in the renamed ones), and a
+    /// key left out keeps the study's value.
+    #[test]
+    fn every_key_reaches_its_field() {
+        let s = scene(
+            "load_position = 0.021\ntrolley_position = 0.51\nswing_velocity = 0.051\n\
+             trolley_correction = 0.151\nrope_position = 0.0051\nwinch_correction = 0.052\n\
+             drive_disturbance = 0.52\nswing_disturbance = 0.11\ndrive_offset = 0.31\n\
+             position_noise = 5.1e-4\nangle_noise = 5.2e-4\nrest_load_position = 0.031\n\
+             rest_trolley_position = 0.11\nrest_swing_velocity = 0.12\nrest_load_velocity = 0.032\n\
+             rest_angle_noise = 3.1e-3\nmax_angle = 0.34\nmax_innovation = 0.036\n\
+             bridged_cycles = 4\nfrozen_cycles = 5\nfrozen_motion = 0.0018\n\
+             held_allowance = 0.021\nrest_position = 0.022\nrest_swing = 0.0011\n\
+             rest_hysteresis = 1.7\noffset_dead_band = 0.0018\noffset_step = 0.0045\n\
+             max_offset = 0.0088\noffset_cycles = 501",
+        )
+        .unwrap();
+        let c = s.feedback.unwrap();
+        let w = c.weights;
+        assert_eq!(
+            [
+                w.load_position,
+                w.trolley_position,
+                w.swing_velocity,
+                w.trolley_correction,
+                w.rope_position,
+                w.winch_correction,
+                w.drive_disturbance,
+                w.swing_disturbance,
+                w.drive_offset,
+                w.position_noise,
+                w.angle_noise,
+                w.rest_load_position,
+                w.rest_trolley_position,
+                w.rest_swing_velocity,
+                w.rest_load_velocity,
+                w.rest_angle_noise,
+            ],
+            [
+                0.021, 0.51, 0.051, 0.151, 0.0051, 0.052, 0.52, 0.11, 0.31, 5.1e-4, 5.2e-4, 0.031,
+                0.11, 0.12, 0.032, 3.1e-3
+            ]
+        );
+        assert_eq!(
+            [
+                c.max_angle,
+                c.max_innovation,
+                c.frozen_motion,
+                c.held_allowance,
+                c.rest_position,
+                c.rest_swing,
+                c.rest_hysteresis,
+                c.offset_dead_band,
+                c.offset_step,
+                c.max_offset,
+            ],
+            [0.34, 0.036, 0.0018, 0.021, 0.022, 0.0011, 1.7, 0.0018, 0.0045, 0.0088]
+        );
+        assert_eq!(
+            (c.max_bad_angle_cycles, c.max_frozen_cycles, c.offset_cycles),
+            (4, 5, 501)
+        );
+        // What a scene cannot set is the paper's until the crane's and the cycle's are
+        // filled in (`config`).
+        let p = Config::PAPER;
+        assert_eq!(
+            (c.g, c.tau1, c.tau2, c.h, c.inclinometer),
+            (p.g, p.tau1, p.tau2, p.h, p.inclinometer)
+        );
+        // One key: the rest are the study's.
+        let one = scene("max_angle = 0.3").unwrap().feedback.unwrap();
+        assert_eq!(
+            one,
+            Config {
+                max_angle: 0.3,
+                ..Config::PAPER
+            }
+        );
     }
 }

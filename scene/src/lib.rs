@@ -41,10 +41,12 @@ pub mod dispatch;
 pub mod feedback;
 pub mod firmware;
 pub mod operator;
+pub mod rust_source;
+mod side_by_side;
 
 use std::fmt;
 
-use controller::feedback::{Config, Weights};
+use controller::feedback::Config;
 use nalgebra::SVector;
 use serde::Deserialize;
 use solver_core::models::crane::{CraneParams, Workspace};
@@ -99,9 +101,13 @@ pub struct Scene {
     /// How to solve.
     pub solver: SolverSpec,
     /// The state feedback around the inverse model (Fig. 1), if the scene closes the
-    /// loop (checked and designed in `feedback.rs`).
-    #[serde(default)]
-    pub feedback: Option<FeedbackSpec>,
+    /// loop: the `[feedback]` section read into the controller's own configuration (its
+    /// weights and thresholds; the crane's and the cycle's fields are
+    /// [`Config::PAPER`]'s until `feedback::config` sets them). [`Scene::parse`] reads
+    /// the section (`feedback::section`: its keys are two types' side by side), so serde
+    /// skips it here.
+    #[serde(skip)]
+    pub feedback: Option<Config>,
     /// Manual mode (issue 28): with the section the scene's model follows the plan or
     /// the operator's generator (`controller::operator::path::Steered`) and a PLC's
     /// 0x410 frames drive the crane; without it, plans only (checked and turned into
@@ -125,81 +131,6 @@ pub struct OperatorSpec {
     pub deadband: Option<f64>,
     pub lowering_allowance: Option<f64>,
     pub entry_blend: Option<f64>,
-}
-
-/// `[feedback]` as read: its fields, units and defaults are described in the
-/// `feedback` module, which checks them and designs the gains from them.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-#[allow(missing_docs)]
-pub struct FeedbackSpec {
-    pub load_position: f64,
-    pub trolley_position: f64,
-    pub swing_velocity: f64,
-    pub trolley_correction: f64,
-    pub rope_position: f64,
-    pub winch_correction: f64,
-    pub drive_disturbance: f64,
-    pub swing_disturbance: f64,
-    pub drive_offset: f64,
-    pub position_noise: f64,
-    pub angle_noise: f64,
-    pub rest_load_position: f64,
-    pub rest_trolley_position: f64,
-    pub rest_swing_velocity: f64,
-    pub rest_load_velocity: f64,
-    pub rest_angle_noise: f64,
-    pub max_angle: f64,
-    pub max_innovation: f64,
-    pub bridged_cycles: u32,
-    pub frozen_cycles: u32,
-    pub frozen_motion: f64,
-    pub held_allowance: f64,
-    pub rest_position: f64,
-    pub rest_swing: f64,
-    pub rest_hysteresis: f64,
-    pub offset_dead_band: f64,
-    pub offset_step: f64,
-    pub max_offset: f64,
-    pub offset_cycles: u32,
-}
-
-impl Default for FeedbackSpec {
-    fn default() -> Self {
-        let w = Weights::DEFAULT;
-        let c = Config::PAPER;
-        Self {
-            load_position: w.load_position,
-            trolley_position: w.trolley_position,
-            swing_velocity: w.swing_velocity,
-            trolley_correction: w.trolley_correction,
-            rope_position: w.rope_position,
-            winch_correction: w.winch_correction,
-            drive_disturbance: w.drive_disturbance,
-            swing_disturbance: w.swing_disturbance,
-            drive_offset: w.drive_offset,
-            position_noise: w.position_noise,
-            angle_noise: w.angle_noise,
-            rest_load_position: w.rest_load_position,
-            rest_trolley_position: w.rest_trolley_position,
-            rest_swing_velocity: w.rest_swing_velocity,
-            rest_load_velocity: w.rest_load_velocity,
-            rest_angle_noise: w.rest_angle_noise,
-            max_angle: c.max_angle,
-            max_innovation: c.max_innovation,
-            bridged_cycles: c.max_bad_angle_cycles,
-            frozen_cycles: c.max_frozen_cycles,
-            frozen_motion: c.frozen_motion,
-            held_allowance: c.held_allowance,
-            rest_position: c.rest_position,
-            rest_swing: c.rest_swing,
-            rest_hysteresis: c.rest_hysteresis,
-            offset_dead_band: c.offset_dead_band,
-            offset_step: c.offset_step,
-            max_offset: c.max_offset,
-            offset_cycles: c.offset_cycles,
-        }
-    }
 }
 
 /// The models a scene names, listed once by the parameters they take: makes

@@ -168,39 +168,3 @@ fn field_of(e: Error) -> SceneError {
     };
     refuse(field, e.to_string())
 }
-
-/// The generator's settings as a Rust constant expression (what the firmware's build
-/// script writes: `settings` spelled out).
-#[must_use]
-pub fn source<const NH: usize>(settings: &Settings<NH>) -> String {
-    let axis = |a: &solver_core::operator::AxisSettings| {
-        format!(
-            "solver_core::operator::AxisSettings {{ speed: {:?}, acceleration: {:?}, range: ({:?}, {:?}) }}",
-            a.speed, a.acceleration, a.range.0, a.range.1
-        )
-    };
-    let horizontal = settings
-        .horizontal
-        .iter()
-        .map(axis)
-        .collect::<Vec<_>>()
-        .join(", ");
-    let list = |v: &[f64]| {
-        v.iter()
-            .map(|x| format!("{x:?}"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    format!(
-        "solver_core::operator::Settings {{ h: {:?}, g: {:?}, horizontal: [{horizontal}], hoist: {}, boxes: [{}], hoist_boxes: [{}], lowering_allowance: {:?}, robust: {}, deadband: {:?}, entry_blend: {:?} }}",
-        settings.h,
-        settings.g,
-        axis(&settings.hoist),
-        list(&settings.boxes),
-        list(&settings.hoist_boxes),
-        settings.lowering_allowance,
-        settings.robust,
-        settings.deadband,
-        settings.entry_blend,
-    )
-}

@@ -19,8 +19,16 @@ pub const GRID_POINTS: usize = 7;
 pub const GRID: [f64; GRID_POINTS] = [3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0];
 
 /// The LQR and Kalman weights (Bryson's rule: `1/(acceptable value)²`).
+///
+/// With feature `serde`, a scene's `[feedback]` keys of the same names (a key left out:
+/// [`Weights::DEFAULT`]'s value; an unknown key refused by name).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize),
+    serde(deny_unknown_fields, default = "default_weights")
+)]
 pub struct Weights {
     /// Acceptable horizontal load-position error `x + l φ`, m.
     pub load_position: f64,
@@ -90,28 +98,48 @@ impl Weights {
 }
 
 /// Everything the feedback needs besides the gains.
+///
+/// With feature `serde`, a scene's `[feedback]` keys of the same names (a key left out:
+/// [`Config::PAPER`]'s value; an unknown key refused by name). What a scene does not set
+/// here is skipped: the crane's g, τ1, τ2 and the cycle h are the scene's model's and
+/// solver's, the inclinometer's lag its commissioning file's, and the weights — keys of
+/// the same table in the file — are read as [`Weights`] beside it (serde's `flatten`
+/// would lose the key a bad value stands at).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize),
+    serde(deny_unknown_fields, default = "paper_config")
+)]
 pub struct Config {
     /// The weights the gains are designed from.
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub weights: Weights,
     /// Gravity, m/s² (Tab. 3).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub g: f64,
     /// Trolley actuator time constant τ1 of the model, s (Tab. 3).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub tau1: f64,
     /// Winch actuator time constant τ2 of the model, s (Tab. 3).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub tau2: f64,
     /// Cycle period h, s.
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub h: f64,
     /// A measured angle beyond this is implausible, rad.
     pub max_angle: f64,
     /// A measured angle further than this from the observer's prediction is implausible, rad.
     pub max_innovation: f64,
     /// Consecutive cycles with a missing or implausible angle tolerated before the
-    /// angle is no longer read ([`super::Mode::SwingEstimated`]).
+    /// angle is no longer read ([`super::Mode::SwingEstimated`]). A scene's
+    /// `bridged_cycles`.
+    #[cfg_attr(feature = "serde", serde(rename = "bridged_cycles"))]
     pub max_bad_angle_cycles: u32,
     /// A stuck sensor: the angle has not changed by a single quantum for this many
-    /// cycles …
+    /// cycles … (a scene's `frozen_cycles`)
+    #[cfg_attr(feature = "serde", serde(rename = "frozen_cycles"))]
     pub max_frozen_cycles: u32,
     /// … while what the crane's own motion makes the angle do (the observer run on the
     /// drives' positions alone, from the moment the reading stopped changing) moved it
@@ -151,7 +179,20 @@ pub struct Config {
     /// rope calibration makes the positions as late before it pairs them with the
     /// angle ([`crate::rope`]); the observer has the filter and the delay line as states
     /// ([`super::SensorStates`]).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub inclinometer: InclinometerLag,
+}
+
+/// Serde's value of a `[feedback]` weight a scene leaves out: the study's.
+#[cfg(feature = "serde")]
+fn default_weights() -> Weights {
+    Weights::DEFAULT
+}
+
+/// Serde's value of a [`Config`] field a scene leaves out (or cannot set): the paper's.
+#[cfg(feature = "serde")]
+fn paper_config() -> Config {
+    Config::PAPER
 }
 
 impl Config {

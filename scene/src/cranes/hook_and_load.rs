@@ -12,7 +12,6 @@ use solver_core::plan::Plan;
 use solver_core::{Error, SolverSettings};
 
 use super::{crane_models, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
-use crate::feedback::FeedbackSpec;
 use crate::{refuse, ModelSpec, OperatorSpec, SceneError};
 
 crane_models! {
@@ -41,18 +40,10 @@ impl FirmwareCrane<2> for DoublePendulumParams {
             _ => None,
         }
     }
-    fn source(&self) -> String {
-        format!(
-            "solver_core::models::double_pendulum_crane::DoublePendulumParams {{ crane: {}, hook_mass: {:?}, sling: {:?} }}",
-            <solver_core::models::crane::CraneParams as FirmwareCrane<2>>::source(&self.crane),
-            self.hook_mass,
-            self.sling
-        )
-    }
     /// No loop for it yet: which angle it would measure (the rope's at the hook block,
     /// the sling's, or both) is open.
     fn feedback_config(
-        _spec: &FeedbackSpec,
+        _spec: &FeedbackConfig,
         _crane: &Self,
         _h: f64,
     ) -> Result<FeedbackConfig, SceneError> {
@@ -81,9 +72,6 @@ impl FirmwareCrane<2> for DoublePendulumParams {
                 "the hook-and-load crane ({model:?}) has no manual mode yet; remove [operator]"
             ),
         ))
-    }
-    fn operator_source(_operator: &()) -> String {
-        String::new()
     }
     fn steered_inverse_model<V: FirmwareVisitor<Self, 2>>(
         self,

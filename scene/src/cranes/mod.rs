@@ -24,7 +24,7 @@ use solver_core::plan::Plan;
 use solver_core::trajectory::Trajectory;
 use solver_core::{DaeModel, Driven, Error, Integrator, SolverSettings};
 
-use crate::feedback::FeedbackSpec;
+use crate::rust_source::ToRust;
 use crate::{ModelSpec, OperatorSpec, SceneError};
 
 pub mod hook_and_load;
@@ -193,7 +193,7 @@ impl From<FirmwareError> for String {
 /// Everything a scene builds owns its data (`'static`), so a host program may keep the
 /// controller it builds (the keyboard view steps it between key presses).
 pub trait FirmwareCrane<const A: usize>:
-    Crane<A> + Simulated<A> + Copy + fmt::Debug + 'static
+    Crane<A> + Simulated<A> + ToRust + Copy + fmt::Debug + 'static
 {
     /// The parameters' type, as the build script writes it.
     const TYPE: &'static str;
@@ -211,12 +211,10 @@ pub trait FirmwareCrane<const A: usize>:
     type FeedforwardOnly: AxesCorrection<A, Self::Reference> + Default + 'static;
     /// This crane's parameters and formulation, if `model` is one of its models.
     fn of(model: &ModelSpec) -> Option<(Self, Self::Model)>;
-    /// The parameters as a Rust constant expression.
-    fn source(&self) -> String;
     /// The scene's `[feedback]` as the controller's, for this crane and step `h`; or why
     /// this crane cannot honour it.
     fn feedback_config(
-        spec: &FeedbackSpec,
+        spec: &FeedbackConfig,
         crane: &Self,
         h: f64,
     ) -> Result<FeedbackConfig, SceneError>;
@@ -226,7 +224,7 @@ pub trait FirmwareCrane<const A: usize>:
     /// Manual mode's generator settings for this crane
     /// (`solver_core::operator::Settings` of its horizontal axes; `()` for a crane
     /// without manual mode).
-    type Operator: Copy + fmt::Debug + PartialEq;
+    type Operator: Copy + fmt::Debug + PartialEq + ToRust;
     /// [`FirmwareCrane::Operator`]'s type, as the build script writes it.
     const OPERATOR_TYPE: &'static str;
     /// The path a model in manual mode follows, as the build script writes it: the plan
@@ -247,9 +245,6 @@ pub trait FirmwareCrane<const A: usize>:
         model: Self::Model,
         h: f64,
     ) -> Result<Self::Operator, SceneError>;
-    /// [`FirmwareCrane::Operator`] as a Rust constant expression, as the build script
-    /// writes it.
-    fn operator_source(operator: &Self::Operator) -> String;
     /// The firmware's inverse model with manual mode: formulation `model` on `plan` or,
     /// in manual mode, the generator with `operator` ([`FirmwareCrane::STEERED_TYPE`]),
     /// advanced by `integrator`, at rest at t = 0, handed to `visitor`. A formulation

@@ -9,7 +9,6 @@ use solver_core::plan::Plan;
 use solver_core::{Error, SolverSettings};
 
 use super::{crane_models, integrators, visit, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
-use crate::feedback::FeedbackSpec;
 use crate::operator::{only_subs, NOT_STEERED};
 use crate::{ModelSpec, OperatorSpec, SceneError};
 
@@ -41,19 +40,12 @@ impl FirmwareCrane<2> for CraneParams {
             _ => None,
         }
     }
-    fn source(&self) -> String {
-        let w = self.workspace;
-        format!(
-            "solver_core::models::crane::CraneParams {{ m: {:?}, g: {:?}, tau1: {:?}, tau2: {:?}, workspace: solver_core::models::crane::Workspace {{ x_min: {:?}, x_max: {:?}, l_min: {:?}, l_max: {:?} }}, min_tension_fraction: {:?} }}",
-            self.m, self.g, self.tau1, self.tau2, w.x_min, w.x_max, w.l_min, w.l_max, self.min_tension_fraction
-        )
-    }
     fn feedback_config(
-        spec: &FeedbackSpec,
+        spec: &FeedbackConfig,
         crane: &Self,
         h: f64,
     ) -> Result<FeedbackConfig, SceneError> {
-        spec.config(crane, h)
+        crate::feedback::config(spec, crane, h)
     }
     fn feedback(&self, config: FeedbackConfig) -> Result<StateFeedback, DesignError> {
         StateFeedback::new(config)
@@ -85,9 +77,6 @@ impl FirmwareCrane<2> for CraneParams {
             (w.l_min, w.l_max),
             &["trolley", "hoist"],
         )
-    }
-    fn operator_source(operator: &Settings<1>) -> String {
-        crate::operator::source(operator)
     }
     fn steered_inverse_model<V: FirmwareVisitor<Self, 2>>(
         self,

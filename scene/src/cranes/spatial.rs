@@ -12,7 +12,6 @@ use solver_core::plan::Plan;
 use solver_core::{Error, SolverSettings};
 
 use super::{crane_models, integrators, visit, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
-use crate::feedback::FeedbackSpec;
 use crate::operator::{only_subs, NOT_STEERED};
 use crate::{ModelSpec, OperatorSpec, SceneError};
 
@@ -41,18 +40,11 @@ impl FirmwareCrane<3> for Crane3dParams {
             _ => None,
         }
     }
-    fn source(&self) -> String {
-        let w = self.workspace;
-        format!(
-            "solver_core::models::crane3d::Crane3dParams {{ m: {:?}, g: {:?}, tau1: {:?}, tau2: {:?}, tau3: {:?}, workspace: solver_core::models::crane3d::Workspace3d {{ x_min: {:?}, x_max: {:?}, y_min: {:?}, y_max: {:?}, l_min: {:?}, l_max: {:?} }}, min_tension_fraction: {:?} }}",
-            self.m, self.g, self.tau1, self.tau2, self.tau3, w.x_min, w.x_max, w.y_min, w.y_max, w.l_min, w.l_max, self.min_tension_fraction
-        )
-    }
     /// The x–z plane's configuration (bridge and hoist: τ1, τ3) from the scene's
     /// `[feedback]`; the y–z plane's is the same with the trolley's τ2
     /// ([`SpatialFeedback::new`]).
     fn feedback_config(
-        spec: &FeedbackSpec,
+        spec: &FeedbackConfig,
         crane: &Self,
         h: f64,
     ) -> Result<FeedbackConfig, SceneError> {
@@ -70,7 +62,7 @@ impl FirmwareCrane<3> for Crane3dParams {
             },
             min_tension_fraction: crane.min_tension_fraction,
         };
-        spec.config(&plane, h)
+        crate::feedback::config(spec, &plane, h)
     }
     fn feedback(&self, config: FeedbackConfig) -> Result<SpatialFeedback, DesignError> {
         SpatialFeedback::new(config, self.tau2)
@@ -102,9 +94,6 @@ impl FirmwareCrane<3> for Crane3dParams {
             (w.l_min, w.l_max),
             &["bridge", "trolley", "hoist"],
         )
-    }
-    fn operator_source(operator: &Settings<2>) -> String {
-        crate::operator::source(operator)
     }
     fn steered_inverse_model<V: FirmwareVisitor<Self, 3>>(
         self,
