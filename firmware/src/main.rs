@@ -116,6 +116,9 @@ mod app {
         let demonstration = !restarted;
         #[cfg(feature = "stm32h743")]
         let demonstration = false;
+        // The board into its static before the model is built: its by-value result
+        // (4 KB) no longer shares `init`'s frame with the model's and the controller's.
+        let board = cx.local.board_slot.write(board);
         let model = match scene::inverse_model(demonstration) {
             Ok(f) => f,
             Err(e) => {
@@ -159,7 +162,7 @@ mod app {
             Local {
                 can_rx,
                 controller,
-                board: cx.local.board_slot.write(board),
+                board,
                 cycles,
                 ending,
             },
