@@ -9,6 +9,7 @@
 #![no_main]
 
 mod board;
+mod placed;
 mod scene;
 mod timed;
 
@@ -25,9 +26,14 @@ type Feedforward = timed::Timed<controller::Injectable<scene::Feedforward>>;
 #[cfg(feature = "stm32h743")]
 type Feedforward = timed::Timed<scene::Feedforward>;
 
-/// The controller of the scene's crane (its `AXES` drives), with the scene's correction.
-type SceneController =
-    controller::Controller<Feedforward, scene::Correction, scene::Crane, { scene::AXES }>;
+/// The controller of the scene's crane (its `AXES` drives), with the scene's correction;
+/// its feedforward in a static of its own (`placed`).
+type SceneController = controller::Controller<
+    placed::Placed<Feedforward>,
+    scene::Correction,
+    scene::Crane,
+    { scene::AXES },
+>;
 
 #[cfg_attr(feature = "qemu", rtic::app(device = crate::board::pac, dispatchers = [UARTRX0]))]
 #[cfg_attr(feature = "stm32h743", rtic::app(device = crate::board::pac, dispatchers = [SPI1]))]
@@ -61,6 +67,7 @@ mod app {
     }
 
     #[init(local = [
+        feedforward_slot: MaybeUninit<crate::Feedforward> = MaybeUninit::uninit(),
         controller_slot: MaybeUninit<SceneController> = MaybeUninit::uninit(),
         board_slot: MaybeUninit<Board> = MaybeUninit::uninit(),
     ])]
@@ -109,6 +116,9 @@ mod app {
         let demonstration = !restarted;
         #[cfg(feature = "stm32h743")]
         let demonstration = false;
+        // The board into its static before the model is built: its by-value result
+        // (4 KB) no longer shares `init`'s frame with the model's and the controller's.
+        let board = cx.local.board_slot.write(board);
         let model = match scene::inverse_model(demonstration) {
             Ok(f) => f,
             Err(e) => {
@@ -117,9 +127,12 @@ mod app {
             }
         };
         #[cfg(feature = "qemu")]
-        let feedforward = crate::timed::timed(controller::Injectable::new(model));
+        let feedforward = cx
+            .local
+            .feedforward_slot
+            .write(crate::timed::timed(controller::Injectable::new(model)));
         #[cfg(feature = "stm32h743")]
-        let feedforward = crate::timed::timed(model);
+        let feedforward = cx.local.feedforward_slot.write(crate::timed::timed(model));
         let config = scene::CONFIG;
         if control::spawn().is_err() {
             defmt::error!("control task already running");
@@ -133,7 +146,7 @@ mod app {
             }
         };
         let controller = cx.local.controller_slot.write(Controller::with_correction(
-            feedforward,
+            crate::placed::Placed(feedforward),
             correction,
             scene::PLANNER,
             config,
@@ -149,7 +162,7 @@ mod app {
             Local {
                 can_rx,
                 controller,
-                board: cx.local.board_slot.write(board),
+                board,
                 cycles,
                 ending,
             },

@@ -8,10 +8,10 @@ use crate::operator::entry::{
     blend_cycles, check_axis, check_inside, hoist_moments, horizontal_moments, new_blend, within,
     Blend, Handover, Steady, ORDERS,
 };
-use crate::operator::filter::{Factor, Taps};
+use crate::operator::filter::{i64_to_f64, Factor, Taps};
 use crate::operator::group::Group;
 use crate::operator::limiter::{brake, Axis};
-use crate::operator::piece::Piece;
+use crate::operator::piece::{Piece, HOIST_COEFFS};
 use crate::operator::settings::{cycles, zv_cycles, Quanta, Rounding, Settings};
 use crate::scalar::{c, to_f64, Real};
 use crate::trajectory::Trajectory;
@@ -110,6 +110,9 @@ pub struct Generator<const NH: usize, const RH: usize, const RV: usize> {
     boxes: [usize; 2],
     /// A hand-over's blend, while it lasts.
     blend: Option<Blend<NH>>,
+    /// Whether the current cycle's hoist piece has a blend's share added (degree 11);
+    /// without one its degree is 6 and [`Generator::evaluate`] skips the zero top.
+    hoist_blended: bool,
     /// A stick's share beyond the deadband to velocity quanta per horizontal axis,
     /// `V_i/(δv_i (1 − deadband))`.
     full_stick: [f64; NH],
@@ -189,6 +192,7 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             reach: 0,
             boxes: [0; 2],
             blend: None,
+            hoist_blended: false,
             full_stick: [0.0; NH],
             full_hoist: 0.0,
         }
@@ -287,6 +291,7 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         self.reach = 0;
         self.boxes = boxes;
         self.blend = None;
+        self.hoist_blended = false;
         self.full_stick = settings
             .horizontal
             .map(|a| a.speed / Quanta::new(a.acceleration, h).velocity / (1.0 - settings.deadband));
@@ -530,6 +535,7 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         };
         let bounds = self.horizontal.bounds;
         self.horizontal.cycle(targets, bounds, s.h, self.inv_h);
+        self.hoist_blended = self.blend.is_some();
         if let Some(b) = self.blend.as_mut() {
             let [hoist] = &mut self.hoist.pieces;
             if !b.add(&mut self.horizontal.pieces, hoist) {
@@ -570,7 +576,9 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
     /// Start of the current cycle, s.
     #[must_use]
     pub fn time(&self) -> f64 {
-        self.t0 + self.cycles as f64 * self.settings.h
+        // `cycles` as f64 through the split conversion (the same value): `as f64` on a
+        // u64 is the soft `__aeabi_ul2d` on the Cortex-M7, and every evaluation asks.
+        self.t0 + i64_to_f64(self.cycles as i64) * self.settings.h
     }
 
     /// The settings.
@@ -603,7 +611,13 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         for (o, p) in out.iter_mut().zip(self.horizontal.pieces.iter()) {
             *o = p.eval(theta, self.inv_h);
         }
-        (out, self.hoist.pieces[0].eval(theta, self.inv_h))
+        let [hoist] = &self.hoist.pieces;
+        let hoist = if self.hoist_blended {
+            hoist.eval(theta, self.inv_h)
+        } else {
+            hoist.eval_below::<D, HOIST_COEFFS>(theta, self.inv_h)
+        };
+        (out, hoist)
     }
 
     /// `(t_n, t_n + h)` while the path moves, `(t_n, t_n)` at rest: the trajectory is

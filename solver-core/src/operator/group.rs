@@ -14,10 +14,10 @@ pub struct Group<const W: usize, const R: usize> {
     pub axes: [Axis; W],
     /// Where each axis's position units count from, m.
     pub origin: [f64; W],
-    /// Each axis's acceleration limit, m/s²: its quanta with `h` ([`Group::quanta`]).
-    accelerations: [f64; W],
-    /// The cycle, s.
-    h: f64,
+    /// Each axis's quanta (its acceleration limit with the cycle `h`), computed once at
+    /// [`Group::reset`]: each is a double divide, about 30 Cortex-M7 cycles with the FPU
+    /// blocked, which every cycle used to repeat.
+    quanta: [Quanta; W],
     /// Each axis's range in position units from its origin.
     pub bounds: [(i64, i64); W],
     /// The last `R` cycles' steps.
@@ -50,8 +50,11 @@ impl<const W: usize, const R: usize> Group<W, R> {
         Self {
             axes: [Axis::REST; W],
             origin: [0.0; W],
-            accelerations: [0.0; W],
-            h: 0.0,
+            quanta: [Quanta {
+                acceleration: 0.0,
+                velocity: 0.0,
+                position: 0.0,
+            }; W],
             bounds: [(0, 0); W],
             ring: Ring::new(),
             sums: Sums::REST,
@@ -81,8 +84,7 @@ impl<const W: usize, const R: usize> Group<W, R> {
     ) {
         self.axes = [Axis::REST; W];
         self.origin = origin;
-        self.accelerations = accelerations;
-        self.h = h;
+        self.quanta = accelerations.map(|a| Quanta::new(a, h));
         self.bounds = bounds;
         self.pieces = origin.map(Piece::rest);
         self.quiet = usize::MAX;
@@ -118,7 +120,7 @@ impl<const W: usize, const R: usize> Group<W, R> {
     /// Each axis's quanta.
     #[must_use]
     pub fn quanta(&self) -> [Quanta; W] {
-        self.accelerations.map(|a| Quanta::new(a, self.h))
+        self.quanta
     }
 
     /// The filter's numerator.
@@ -155,9 +157,9 @@ impl<const W: usize, const R: usize> Group<W, R> {
                 .pieces
                 .iter_mut()
                 .zip(self.origin)
-                .zip(self.axes.iter().zip(self.accelerations))
+                .zip(self.axes.iter().zip(self.quanta))
             {
-                piece.settle(o + i64_to_f64(a.n_p) * Quanta::new(q, self.h).position);
+                piece.settle(o + i64_to_f64(a.n_p) * q.position);
             }
             return;
         }

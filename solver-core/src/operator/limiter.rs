@@ -148,10 +148,14 @@ fn search(good_end: i64, bad: i64, ok: impl Fn(i64) -> bool) -> Option<i64> {
 /// to 0, so no value panics.
 #[must_use]
 pub fn round_i(x: f64) -> i64 {
-    if x >= 0.0 {
-        (x + 0.5) as i64
+    let y = if x >= 0.0 { x + 0.5 } else { x - 0.5 };
+    // Within ±2³¹ (every step of the rate limiter) `as i32` truncates as `as i64` does,
+    // in one hardware conversion where `as i64` is the soft `__aeabi_d2lz` on the
+    // Cortex-M7.
+    if libm::fabs(y) < 2_147_483_648.0 {
+        i64::from(y as i32)
     } else {
-        (x - 0.5) as i64
+        y as i64
     }
 }
 
@@ -297,6 +301,35 @@ mod tests {
             ];
             let k = step(&mut axes, t, [far; 3]);
             assert!(k.iter().all(|k| i32::from(*k).abs() <= MAX_STEP));
+        }
+    }
+
+    /// The 32-bit path of the rounding is the 64-bit conversion's: around ±2³¹, halves,
+    /// and random values of every size.
+    #[test]
+    fn rounding_in_32_bits_is_the_64_bit_rounding() {
+        let reference = |x: f64| {
+            if x >= 0.0 {
+                (x + 0.5) as i64
+            } else {
+                (x - 0.5) as i64
+            }
+        };
+        let edge = 2_147_483_648.0_f64;
+        for x in [0.0, -0.0, 0.5, -0.5, 1.5, -1.5, 126.5, -127.49] {
+            assert_eq!(round_i(x), reference(x), "{x}");
+        }
+        for d in [-1.5, -1.0, -0.5, -0.25, 0.0, 0.25, 0.5, 1.0] {
+            for x in [edge + d, -edge + d, edge - 0.5 + d, -edge + 0.5 + d] {
+                assert_eq!(round_i(x), reference(x), "{x}");
+            }
+        }
+        let mut seed = 5_u64;
+        for _ in 0..100_000 {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let scale = 2.0_f64.powi((seed % 70) as i32 - 5);
+            let x = ((seed >> 11) as f64 / (1_u64 << 53) as f64 - 0.5) * scale;
+            assert_eq!(round_i(x), reference(x), "{x}");
         }
     }
 

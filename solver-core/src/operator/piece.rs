@@ -28,6 +28,10 @@ pub const DEGREE: usize = 11;
 /// The piece's number of coefficients.
 pub const COEFFS: usize = DEGREE + 1;
 
+/// The hoist piece's number of coefficients (degree 6: `p₀` quadratic, `d` the quartic
+/// spline integrated twice; no pendulum), outside a hand-over's blend.
+pub const HOIST_COEFFS: usize = 7;
+
 /// `C(n, k)` as f64, in const context (the B-spline's and the Hermite basis' tables).
 pub(crate) const fn binomial(n: usize, k: usize) -> f64 {
     let mut r = 1.0;
@@ -175,13 +179,26 @@ const DIFFERENCES4: [[f64; 5]; 5] = spline_of_differences(4);
 /// that makes them m/s²: `Σ_i c[n−i] N_q(θ + i)` with `c = scale · S`.
 #[must_use]
 pub fn spline(nabla: &[i64; 5], q: usize, scale: f64) -> [f64; 5] {
-    let table = if q == 2 { &DIFFERENCES2 } else { &DIFFERENCES4 };
+    // One unrolled product per degree (a group's degree never changes: the horizontal
+    // filter's 2, the hoist's 4), rather than loops on `q` at run time.
+    if q == 2 {
+        spline_of::<3>(nabla, &DIFFERENCES2, scale)
+    } else {
+        spline_of::<5>(nabla, &DIFFERENCES4, scale)
+    }
+}
+
+/// [`spline`] of degree `N − 1`: the first `N` differences through `table`.
+fn spline_of<const N: usize>(nabla: &[i64; 5], table: &[[f64; 5]; 5], scale: f64) -> [f64; 5] {
     // Each difference converted once (the same values as converting it in the loop).
-    let nabla = nabla.map(i64_to_f64);
+    let mut values = [0.0; N];
+    for (v, n) in values.iter_mut().zip(nabla) {
+        *v = i64_to_f64(*n);
+    }
     let mut rho = [0.0; 5];
-    for (r, row) in rho.iter_mut().zip(table.iter()).take(q + 1) {
+    for (r, row) in rho.iter_mut().zip(table.iter()).take(N) {
         let mut acc = 0.0;
-        for (n, m) in nabla.iter().zip(row.iter()).take(q + 1) {
+        for (n, m) in values.iter().zip(row.iter()) {
             acc += n * m;
         }
         *r = acc * scale;
@@ -311,14 +328,29 @@ impl Piece {
     /// The path and its first `D − 1` time derivatives at `θ`, `inv_h = 1/h`.
     #[must_use]
     pub fn eval<const D: usize>(&self, theta: f64, inv_h: f64) -> [f64; D] {
-        // One Horner sum per derivative. (Interleaving the sums coefficient by coefficient
-        // saved ~160 estimated M7 cycles per 3D evaluation, but the unrolled code took
-        // 760–1,290 B more flash and put the planar STM32H743 manual build over 128 KiB.)
+        self.eval_below::<D, COEFFS>(theta, inv_h)
+    }
+
+    /// [`Piece::eval`] of a piece whose coefficients from `θ^N` on are zero (the hoist's
+    /// outside a hand-over's blend: degree 6, no pendulum), `N ≤ COEFFS`: the same
+    /// values bit for bit — the Horner steps over the zero coefficients leave each sum
+    /// at zero — without those steps.
+    #[must_use]
+    pub fn eval_below<const D: usize, const N: usize>(&self, theta: f64, inv_h: f64) -> [f64; D] {
         let mut out = [0.0; D];
+        if D <= 3 {
+            // What the inverse models ask (position, speed, acceleration).
+            let [x, v, a] = self.three_below::<N>(theta);
+            for (o, value) in out.iter_mut().zip([x, v * inv_h, a * (inv_h * inv_h)]) {
+                *o = value;
+            }
+            return out;
+        }
+        // One Horner sum per derivative.
         let mut scale = 1.0;
         for (j, (slot, factors)) in out.iter_mut().zip(FALLING.iter()).enumerate() {
             let mut acc = 0.0;
-            for (c, f) in self.coeffs.iter().zip(factors.iter()).skip(j).rev() {
+            for (c, f) in self.coeffs.iter().zip(factors.iter()).take(N).skip(j).rev() {
                 acc = acc * theta + c * f;
             }
             *slot = acc * scale;
@@ -326,7 +358,53 @@ impl Piece {
         }
         out
     }
+
+    /// The path and its first two θ-derivatives at `θ` from the coefficients below `θ^N`:
+    /// three Horner sums `acc = acc·θ + c_k k!/(k−j)!` from the top, written out step by
+    /// step with constant indices (the compiler kept a loop over `k` rolled, with its
+    /// branches, however it was written). Each step of one sum waits for its last (a
+    /// multiply-accumulate: 11 Cortex-M7 cycles in `cargo xtask cycles`' model); the
+    /// three independent sums side by side fill those cycles. The operations of each
+    /// sum are those of summing it alone, in the same order (`c·1 = c`): the values of
+    /// the loop in [`Piece::eval_below`] bit for bit.
+    #[allow(clippy::indexing_slicing)] // constant indices below COEFFS: checked when compiled
+    fn three_below<const N: usize>(&self, theta: f64) -> [f64; 3] {
+        let c = &self.coeffs;
+        let (mut x, mut v, mut a) = (0.0, 0.0, 0.0);
+        macro_rules! step {
+            ($k:literal) => {
+                if $k < N {
+                    x = x * theta + c[$k];
+                    if $k >= 1 {
+                        v = v * theta + c[$k] * FIRST[$k];
+                    }
+                    if $k >= 2 {
+                        a = a * theta + c[$k] * SECOND[$k];
+                    }
+                }
+            };
+        }
+        step!(11);
+        step!(10);
+        step!(9);
+        step!(8);
+        step!(7);
+        step!(6);
+        step!(5);
+        step!(4);
+        step!(3);
+        step!(2);
+        step!(1);
+        step!(0);
+        [x, v, a]
+    }
 }
+
+/// The factors of the first derivative, `k` (row 1 of [`FALLING`]).
+const FIRST: [f64; COEFFS] = FALLING[1];
+
+/// The factors of the second derivative, `k (k − 1)` (row 2 of [`FALLING`]).
+const SECOND: [f64; COEFFS] = FALLING[2];
 
 #[cfg(test)]
 mod tests {
@@ -432,6 +510,51 @@ mod tests {
         let p0_end = x.p0 + x.v0 * h + 0.5 * x.a0 * h * h;
         let [v, _]: [f64; 2] = p.eval(1.0, 1.0 / h);
         assert!((v - (p0_end + y[0] + y[2])).abs() < 1e-14);
+    }
+
+    /// The unrolled evaluation of three derivatives is the loop's bit for bit (the loop
+    /// runs for more than three), and a piece with a zero top evaluated below it is the
+    /// whole piece evaluated, bit for bit: random pieces, θ inside and beyond the cycle.
+    #[test]
+    fn the_unrolled_evaluations_are_the_loops_bit_for_bit() {
+        let mut seed = 3_u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            ((seed >> 11) as f64 / (1_u64 << 53) as f64 - 0.5) * 4.0
+        };
+        for n in 0..2_000 {
+            let mut p = Piece::rest(0.0);
+            for c in &mut p.coeffs {
+                *c = next() * 10.0_f64.powi((n % 7) - 3);
+            }
+            let theta = if n % 5 == 0 { 1.0 } else { next() * 0.6 + 0.5 };
+            let inv_h = 100.0 + next();
+            let three: [f64; 3] = p.eval(theta, inv_h);
+            let loop7: [f64; 7] = p.eval(theta, inv_h);
+            assert_eq!(
+                three.map(f64::to_bits),
+                [0, 1, 2].map(|j| loop7[j].to_bits())
+            );
+            let two: [f64; 2] = p.eval(theta, inv_h);
+            assert_eq!(two.map(f64::to_bits), [0, 1].map(|j| loop7[j].to_bits()));
+            for c in p.coeffs.iter_mut().skip(HOIST_COEFFS) {
+                *c = 0.0;
+            }
+            let whole: [f64; 3] = p.eval(theta, inv_h);
+            let below = p.eval_below::<3, HOIST_COEFFS>(theta, inv_h);
+            assert_eq!(
+                whole.map(f64::to_bits),
+                below.map(f64::to_bits),
+                "piece {n}"
+            );
+            let whole7: [f64; 7] = p.eval(theta, inv_h);
+            let below7 = p.eval_below::<7, HOIST_COEFFS>(theta, inv_h);
+            assert_eq!(
+                whole7.map(f64::to_bits),
+                below7.map(f64::to_bits),
+                "piece {n}"
+            );
+        }
     }
 
     #[test]
