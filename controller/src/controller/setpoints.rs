@@ -9,8 +9,10 @@ use super::*;
 pub(super) struct Position {
     /// Through the drive's commissioned scaling, m.
     pub(super) metres: f64,
-    /// How much older than a cycle it is, s (0: from the last SYNC, fresh).
-    pub(super) late_s: f64,
+    /// How much older than a cycle it is, ms (0: from the last SYNC, fresh). An integer:
+    /// the MCU converts a 64-bit integer to f64 in software, and only a late position
+    /// needs it as seconds.
+    pub(super) late_ms: u32,
 }
 
 impl<F, C, K, const A: usize> Controller<F, C, K, A>
@@ -32,7 +34,7 @@ where
         });
         let mut position = [0.0; A];
         for (slot, p) in position.iter_mut().zip(positions) {
-            *slot = p.filter(|p| p.late_s <= 0.0)?.metres;
+            *slot = p.filter(|p| p.late_ms == 0)?.metres;
         }
         Some(Measured { position, swing })
     }
@@ -46,7 +48,7 @@ where
             let age_ms = self.now_ms.saturating_sub(link.last_position_ms?);
             Some(Position {
                 metres: link.commissioning.setup().metres(link.position?),
-                late_s: age_ms.saturating_sub(period_ms) as f64 * 1e-3,
+                late_ms: u32::try_from(age_ms.saturating_sub(period_ms)).unwrap_or(u32::MAX),
             })
         })
     }
@@ -83,14 +85,14 @@ where
                 continue;
             };
             if let Some(Some(p)) = positions.get(i) {
-                let at = range::late_position(p.metres, u, p.late_s, limits.max_velocity);
-                let feedforward = &self.feedforward;
+                let late_s = f64::from(p.late_ms) * 1e-3;
+                let at = range::late_position(p.metres, u, late_s, limits.max_velocity);
                 // The model's drive in this cycle's newest solution: as new as the
                 // position from the last SYNC, which every set point sent so far has moved
                 // (the drive applies one over the cycle before the SYNC).
+                let feedforward = &self.feedforward;
                 let model_at = || {
-                    let drives =
-                        *model.get_or_insert_with(|| K::drive_states(&feedforward.reference()));
+                    let drives = *model.get_or_insert_with(|| model_drives::<F, K, A>(feedforward));
                     drives.get(i).copied().unwrap_or((f64::NAN, f64::NAN))
                 };
                 let mut spare = 0.0;
@@ -148,4 +150,16 @@ where
         }
         (u, true)
     }
+}
+
+/// Where the model's drives stand and how fast they move in its newest solution
+/// ([`Crane::drive_states`]). Out of line: the range guard asks it only near an end, and
+/// inlined its frame sat on the control task's stack in every cycle.
+#[inline(never)]
+fn model_drives<F, K, const A: usize>(feedforward: &F) -> [(f64, f64); A]
+where
+    F: Feedforward<A, Reference = K::Reference>,
+    K: Crane<A>,
+{
+    K::drive_states(&feedforward.reference())
 }
