@@ -44,7 +44,8 @@ pub const PLANT: Mismatch = Mismatch {
     ..MISMATCHED
 };
 
-/// The virtual bus's scenario: healthy drives, nothing injected, the plant [`PLANT`].
+/// The virtual bus's scenario: healthy drives, nothing injected, the plant [`PLANT`]
+/// (or a study's).
 const SCENARIO: Scenario = Scenario {
     name: "drive",
     expect: "the operator's stick moves the load; no fault",
@@ -92,6 +93,10 @@ pub struct Snapshot {
     /// The drives' velocity set points, m/s, in the slots `[x, y, hoist]` (the planar
     /// crane's y: 0).
     pub setpoints: [f64; 3],
+    /// The inverse model's own set points `u_d` of the cycle, m/s, in the same slots (0.0
+    /// without a step): the set points less the feedback's correction and the range
+    /// guard's cut.
+    pub feedforward: [f64; 3],
     /// The plant.
     pub plant: TrueState,
     /// The load's velocity, m/s, from its positions one cycle apart.
@@ -133,6 +138,7 @@ struct Cycled {
     /// The reason of a refused request for manual mode (EMCY 0xFF21) sent this cycle.
     refused: Option<u8>,
     setpoints: [f64; 3],
+    feedforward: [f64; 3],
     plant: TrueState,
 }
 
@@ -175,6 +181,7 @@ where
             status,
             refused,
             setpoints: slots(out.setpoints.map(metres_per_second), 0.0),
+            feedforward: slots(out.step.map_or([0.0; A], |s| s.u), 0.0),
             plant,
         })
     }
@@ -200,11 +207,12 @@ fn slots<T: Copy, const A: usize>(v: [T; A], none: T) -> [T; 3] {
 /// ([`with_controller`]: the scene's crane, model, scheme and Newton strategy, its
 /// drives from the commissioning file beside it, the planner and its limits, its
 /// `[feedback]`, its `[operator]`), the model resting where the scene's move starts, on
-/// the virtual bus with [`PLANT`]. A scene without `[operator]` is refused: its firmware
+/// the virtual bus with `plant`. A scene without `[operator]` is refused: its firmware
 /// has no manual mode.
 struct View<'a> {
     scene: &'a Scene,
     path: &'a Path,
+    plant: Mismatch,
 }
 
 impl FirmwareCraneVisitor for View<'_> {
@@ -231,13 +239,13 @@ impl FirmwareCraneVisitor for View<'_> {
         };
         let plan = command_plan::<K, A>(f.start(), self.scene.trajectory.smoothness)
             .map_err(|e| e.to_string())?;
-        let rig = with_controller(self.scene, &f, plan, f.config, Build)??;
+        let rig = with_controller(self.scene, &f, plan, f.config, Build(self.plant))??;
         Ok((info, f.config.period_ms, rig))
     }
 }
 
-/// The controller built; the virtual bus with [`PLANT`] and the rig around it.
-struct Build;
+/// The controller built; the virtual bus with its plant and the rig around it.
+struct Build(Mismatch);
 
 impl WithController for Build {
     type Output = Result<Box<dyn Running>, String>;
@@ -252,7 +260,11 @@ impl WithController for Build {
         C: controller::correction::AxesCorrection<A, K::Reference> + 'static,
         K: FirmwareCrane<A>,
     {
-        let bus = virtual_bus(f, SCENARIO)?;
+        let scenario = Scenario {
+            plant: Some(self.0),
+            ..SCENARIO
+        };
+        let bus = virtual_bus(f, scenario)?;
         Ok(Box::new(Rig { controller, bus }))
     }
 }
@@ -275,8 +287,14 @@ pub struct Engine {
 
 impl Engine {
     /// The engine for the scene file at `path` (its commissioning file beside it): the
-    /// firmware of a scene with `[operator]` (manual mode), whatever its crane.
+    /// firmware of a scene with `[operator]` (manual mode), whatever its crane, on the
+    /// view's plant [`PLANT`].
     pub fn for_scene(path: &Path) -> Result<Self, String> {
+        Self::for_scene_with(path, PLANT)
+    }
+
+    /// [`Engine::for_scene`] on another plant that is not the model (the studies').
+    pub fn for_scene_with(path: &Path, plant: Mismatch) -> Result<Self, String> {
         let scene = Scene::load(path).map_err(|e| format!("{}: {e}", path.display()))?;
         let commissioning = CommissioningFile::for_scene(path).map_err(|e| e.to_string())?;
         let (info, period_ms, rig) = firmware(
@@ -285,6 +303,7 @@ impl Engine {
             View {
                 scene: &scene,
                 path,
+                plant,
             },
         )??;
         Ok(Self {
@@ -364,6 +383,7 @@ impl Engine {
             status: self.status,
             refused: self.refused,
             setpoints: out.setpoints,
+            feedforward: out.feedforward,
             plant: out.plant,
             load_velocity,
         })

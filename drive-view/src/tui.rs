@@ -403,6 +403,7 @@ mod tests {
             status,
             refused: None,
             setpoints: [0.0; 3],
+            feedforward: [0.0; 3],
             plant: TrueState {
                 drives: [0.0; 3],
                 load: [0.0; 3],

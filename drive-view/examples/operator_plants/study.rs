@@ -36,20 +36,11 @@
 
 use std::path::PathBuf;
 
-use controller::crane::command_plan;
-use controller::operator::{operator_frame, MANUAL_MODE_CODE};
-use controller::setpoint::{Setpoint, UNITS_PER_M_PER_S};
-use controller::{CanFrame, Controller, Injectable, Mode};
-use drive_view::engine::FRAME_PERIOD_MS;
+use drive_view::engine::Engine;
 use drive_view::switch::{Action, Axis, MasterSwitch, NOTCHES};
-use host_tests::firmware::{virtual_bus, with_controller, WithController};
-use scene::commissioning::CommissioningFile;
-use scene::dispatch::{firmware, FirmwareCrane, FirmwareCraneVisitor};
-use scene::firmware::FirmwareScene;
-use scene::Scene;
 use sim::plant::Mismatch;
-use sim::simulated::{CranePlant, TrueState};
-use sim::{run_cycle, Scenario, HEALTHY, MISMATCHED};
+use sim::simulated::TrueState;
+use sim::MISMATCHED;
 
 const G: f64 = 9.81;
 
@@ -226,122 +217,6 @@ pub const CRANES: [CraneCase; 2] = [
     },
 ];
 
-/// One cycle's outcome in the slots `[x, y, z]`.
-struct Cycled {
-    mode: Mode,
-    status: Option<[u8; 8]>,
-    /// The set points sent, m/s.
-    setpoints: [f64; 3],
-    /// The inverse model's own set points `u_d` of the cycle, m/s (0.0 without a step).
-    feedforward: [f64; 3],
-    plant: TrueState,
-}
-
-/// One crane's controller and bus, whatever their types.
-trait Running {
-    fn cycle(&mut self, now_ms: u32, frames: &[CanFrame]) -> Result<Cycled, String>;
-}
-
-struct Rig<F, C, K: FirmwareCrane<A>, const A: usize> {
-    controller: Controller<Injectable<F>, C, K, A>,
-    bus: sim::VirtualBus<K, A>,
-}
-
-impl<F, C, K, const A: usize> Running for Rig<F, C, K, A>
-where
-    F: controller::Feedforward<A, Reference = K::Reference> + controller::Replan<A>,
-    C: controller::correction::AxesCorrection<A, K::Reference>,
-    K: FirmwareCrane<A>,
-{
-    fn cycle(&mut self, now_ms: u32, frames: &[CanFrame]) -> Result<Cycled, String> {
-        for f in frames {
-            self.controller.on_frame(f, u64::from(now_ms));
-        }
-        let out = run_cycle(&mut self.controller, &mut self.bus, now_ms)
-            .ok_or("the controller hung (the virtual bus injected no hang: a bug)")?;
-        let status = out
-            .frames
-            .iter()
-            .rev()
-            .find(|f| f.id() == controller::commands::STATUS_ID)
-            .and_then(|f| f.data().try_into().ok());
-        let plant = self
-            .bus
-            .plant()
-            .map(CranePlant::true_state)
-            .ok_or("the virtual bus has no plant")?;
-        let feedforward = out.step.map_or([0.0; A], |s| s.u);
-        Ok(Cycled {
-            mode: out.mode,
-            status,
-            setpoints: slots(out.setpoints.map(metres_per_second)),
-            feedforward: slots(feedforward),
-            plant,
-        })
-    }
-}
-
-fn metres_per_second(s: Setpoint) -> f64 {
-    f64::from(s.units()) / UNITS_PER_M_PER_S
-}
-
-/// The model's input order in the operator frame's slots `[x, y, z]` (as
-/// `drive_view::engine` has it).
-fn slots<const A: usize>(v: [f64; A]) -> [f64; 3] {
-    let at = |i: usize| v.get(i).copied().unwrap_or(0.0);
-    if A == 2 {
-        [at(0), 0.0, at(1)]
-    } else {
-        [at(0), at(1), at(2)]
-    }
-}
-
-/// The scene's firmware on the virtual bus with `plant`.
-struct View<'a> {
-    scene: &'a Scene,
-    plant: Mismatch,
-}
-
-impl FirmwareCraneVisitor for View<'_> {
-    type Output = Result<(u32, Box<dyn Running>), String>;
-
-    fn visit<K: FirmwareCrane<A>, const A: usize>(self, f: FirmwareScene<K, A>) -> Self::Output {
-        if f.operator.is_none() || f.feedback.is_none() {
-            return Err("the study needs a scene with [operator] and [feedback]".into());
-        }
-        let plan = command_plan::<K, A>(f.start(), self.scene.trajectory.smoothness)
-            .map_err(|e| e.to_string())?;
-        let rig = with_controller(self.scene, &f, plan, f.config, Build(self.plant))??;
-        Ok((f.config.period_ms, rig))
-    }
-}
-
-struct Build(Mismatch);
-
-impl WithController for Build {
-    type Output = Result<Box<dyn Running>, String>;
-
-    fn with<F, C, K, const A: usize>(
-        self,
-        controller: Controller<Injectable<F>, C, K, A>,
-        f: &FirmwareScene<K, A>,
-    ) -> Self::Output
-    where
-        F: controller::Feedforward<A, Reference = K::Reference> + controller::Replan<A> + 'static,
-        C: controller::correction::AxesCorrection<A, K::Reference> + 'static,
-        K: FirmwareCrane<A>,
-    {
-        let scenario = Scenario {
-            name: "operator-plants",
-            expect: "the operator's stick moves the load; no fault",
-            plant: Some(self.0),
-            ..HEALTHY
-        };
-        let bus = virtual_bus(f, scenario)?;
-        Ok(Box::new(Rig { controller, bus }))
-    }
-}
-
 /// One recorded cycle.
 #[derive(Debug, Clone, Copy)]
 struct Sample {
@@ -353,15 +228,15 @@ struct Sample {
     model: [f64; 3],
 }
 
-/// The controller, its bus and the master switch, cycle by cycle, with the feedback's
-/// correction integrated.
+/// The keyboard view's engine on the case's plant and its master switch, cycle by cycle,
+/// with the feedback's correction integrated.
 struct Run {
-    rig: Box<dyn Running>,
+    engine: Engine,
     switch: MasterSwitch,
-    period_ms: u32,
+    /// Whether the last status frame says manual mode runs.
+    manual: bool,
+    /// The next cycle's time, ms.
     now_ms: u32,
-    next_frame_ms: u32,
-    status: Option<[u8; 8]>,
     model: Option<[f64; 3]>,
     /// `∫ (u − u_d) dt` per drive, m.
     correction: [f64; 3],
@@ -376,24 +251,16 @@ impl Run {
         let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
             .join("../scenes")
             .join(scene);
-        let loaded = Scene::load(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let commissioning = CommissioningFile::for_scene(&path).map_err(|e| e.to_string())?;
-        let (period_ms, rig) = firmware(
-            &loaded,
-            &commissioning,
-            View {
-                scene: &loaded,
-                plant,
-            },
-        )??;
-        let has_y = scene.starts_with("crane3d");
+        let engine = Engine::for_scene_with(&path, plant)?;
+        if !engine.info().feedback {
+            return Err("the study needs a scene with [operator] and [feedback]".into());
+        }
+        let switch = MasterSwitch::new(engine.has_y());
         Ok(Self {
-            rig,
-            switch: MasterSwitch::new(has_y),
-            period_ms,
+            engine,
+            switch,
+            manual: false,
             now_ms: 0,
-            next_frame_ms: 0,
-            status: None,
             model: None,
             correction: [0.0; 3],
             correction_peak: [0.0; 3],
@@ -402,33 +269,15 @@ impl Run {
     }
 
     fn h(&self) -> f64 {
-        f64::from(self.period_ms) / 1000.0
+        f64::from(self.engine.period_ms()) / 1000.0
     }
 
-    /// One cycle: the switch's frame if due, the controller, the plant; a fault or a set
-    /// point that is not finite is an error.
+    /// One cycle of the engine (the switch's frame if due, the controller, the plant); a
+    /// fault is an error.
     fn cycle(&mut self) -> Result<Sample, String> {
-        let now = self.now_ms;
-        let mut frames = Vec::new();
-        if now >= self.next_frame_ms {
-            frames.push(operator_frame(
-                controller::canopen::CONTROLLER_NODE,
-                &self.switch.next_frame(),
-            ));
-            self.next_frame_ms += FRAME_PERIOD_MS;
-        }
-        let out = self.rig.cycle(now, &frames)?;
-        self.now_ms += self.period_ms;
-        let t = f64::from(now) / 1000.0;
-        if let Some(fault) = out.mode.fault() {
-            return Err(format!("t = {t} s: {fault:?}"));
-        }
-        if !out.setpoints.iter().all(|v| v.is_finite()) {
-            return Err(format!("t = {t} s: set points {:?}", out.setpoints));
-        }
-        if out.status.is_some() {
-            self.status = out.status;
-        }
+        let out = self.engine.checked_cycle(&mut self.switch)?;
+        self.manual = out.manual();
+        self.now_ms += self.engine.period_ms();
         let h = self.h();
         let model = self.model.get_or_insert(out.plant.drives);
         for (i, at) in model.iter_mut().enumerate() {
@@ -439,7 +288,7 @@ impl Run {
             self.correction_total[i] += (u - u_d).abs() * h;
         }
         Ok(Sample {
-            t,
+            t: out.t,
             setpoints: out.setpoints,
             feedforward: out.feedforward,
             plant: out.plant,
@@ -467,7 +316,7 @@ impl Run {
     }
 
     fn manual(&self) -> bool {
-        self.status.is_some_and(|s| s[3] == MANUAL_MODE_CODE)
+        self.manual
     }
 }
 
