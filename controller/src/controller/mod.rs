@@ -604,12 +604,13 @@ where
         } else {
             None
         };
-        // Each drive's position actual, read once for the feedback and the range guard.
-        let positions = self.positions();
         let wanted = step.as_ref().map(|s| {
-            let (u, corrected) = self.corrected(s, &positions);
-            let guarded = self.within_ranges(u, s.u, &positions);
-            if corrected && guarded != u {
+            // Each drive's position actual and the model's reference, each read once for
+            // the feedback and the range guard.
+            let positions = self.positions();
+            let (u, reference) = self.corrected(s, &positions);
+            let guarded = self.within_ranges(u, s.u, &positions, reference.as_ref());
+            if reference.is_some() && guarded != u {
                 // The observer learns what the drives were sent (anti-windup).
                 self.correction.sent(s.u, guarded);
             }

@@ -57,12 +57,14 @@ where
     /// ([`crate::range`]): the last word before the gate on what the feedback adds to the
     /// model's `u_d`, and on `u_d` itself for a drive ahead of the model's. A late
     /// position counts as far on as the drive can have gone since; a drive without any,
-    /// `u` as it is.
+    /// `u` as it is. `reference`: the model's, if the feedback already asked for it this
+    /// cycle.
     pub(super) fn within_ranges(
         &mut self,
         u: [f64; A],
         u_d: [f64; A],
         positions: &[Option<Position>; A],
+        reference: Option<&K::Reference>,
     ) -> [f64; A] {
         let (ranges, limits, lags) = (
             self.planner.ranges(),
@@ -92,7 +94,10 @@ where
                 // (the drive applies one over the cycle before the SYNC).
                 let feedforward = &self.feedforward;
                 let model_at = || {
-                    let drives = *model.get_or_insert_with(|| model_drives::<F, K, A>(feedforward));
+                    let drives = *model.get_or_insert_with(|| match reference {
+                        Some(r) => K::drive_states(r),
+                        None => model_drives::<F, K, A>(feedforward),
+                    });
                     drives.get(i).copied().unwrap_or((f64::NAN, f64::NAN))
                 };
                 let mut spare = 0.0;
@@ -117,15 +122,16 @@ where
     /// the feedback while the loop is closed (Fig. 1). A change of the feedback's mode
     /// is announced: the angle no longer used (the swing estimated from the positions,
     /// or feedforward only) by EMCY 0xFF20 with the reason (a warning: the move goes
-    /// on), back to closed loop by nothing. Also whether the feedback ran (it is then
-    /// told what the drives were sent after the range guard).
+    /// on), back to closed loop by nothing. Also the model's reference when the feedback
+    /// ran (`None`: it did not; when it did, it is told what the drives were sent after
+    /// the range guard, and the guard reads the model's drives from this reference).
     pub(super) fn corrected(
         &mut self,
         step: &FeedforwardStep<A>,
         positions: &[Option<Position>; A],
-    ) -> ([f64; A], bool) {
+    ) -> ([f64; A], Option<K::Reference>) {
         if !C::ENABLED || !self.closed_loop || self.mode != Mode::Ready {
-            return (step.u, false);
+            return (step.u, None);
         }
         let reference = self.feedforward.reference();
         let measured = self.measurement(positions);
@@ -148,7 +154,7 @@ where
             }
             self.feedback_announced = Some(mode);
         }
-        (u, true)
+        (u, Some(reference))
     }
 }
 
