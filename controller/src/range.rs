@@ -59,8 +59,8 @@
 //! move.
 //!
 //! Once the guard has held a drive back, its set point returns to the asked one no faster
-//! than the gate allows ([`toward`], the controller's `within_ranges`), also when the
-//! drive comes back inside by a hair or its position is late.
+//! than the gate allows ([`toward`]), also when the drive comes back inside by a hair or
+//! its position is late: the drive's [`Latches`] remember it between cycles.
 //!
 //! Each drive is guarded by its own position: one whose position actual is late is
 //! guarded by the last one it sent, moved towards the end by the farthest the drive can
@@ -166,6 +166,64 @@ pub fn guard(
         return u;
     }
     toward(sign * v_max(room, a, t).max(own), last, a, h)
+}
+
+/// One drive's guard between cycles: what [`guard`] decided before that still holds.
+/// The controller keeps one per drive and forgets them when its model restarts (the
+/// latches are the old model's).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Latches {
+    /// The set point was held back and is not yet back to what is asked: it returns
+    /// at the gate's step ([`toward`]), also when the drive comes back inside by a hair
+    /// or its position is late.
+    held: bool,
+    /// The end (+1 the high, −1 the low, 0 none) the drive was found ahead of the
+    /// model's towards ([`guard`]'s `ahead`).
+    ahead: f64,
+}
+
+impl Latches {
+    /// `u`, the set point asked of the drive (the model's `u_d` plus the feedback's
+    /// correction), as the guard lets it go this cycle: through [`guard`] when the
+    /// drive's position (`position`, already moved on by [`late_position`] if late) is
+    /// known, then, once held back, back to `u` no faster than the gate's step from the
+    /// last set point `last`. The other arguments as [`guard`]'s.
+    #[must_use]
+    #[allow(clippy::too_many_arguments)]
+    pub fn apply(
+        &mut self,
+        u: f64,
+        u_d: f64,
+        last: f64,
+        position: Option<f64>,
+        range: (f64, f64),
+        limits: AxisLimits,
+        lag: f64,
+        h: f64,
+        model: impl FnOnce() -> (f64, f64),
+    ) -> f64 {
+        let mut out = match position {
+            Some(at) => guard(
+                u,
+                u_d,
+                last,
+                at,
+                range,
+                limits,
+                lag,
+                h,
+                model,
+                &mut self.ahead,
+            ),
+            None => u,
+        };
+        self.held |= out != u && out.is_finite();
+        if self.held {
+            out = toward(out, last, limits.max_acceleration, h);
+            self.held = out != u;
+        }
+        out
+    }
 }
 
 /// Where a drive whose last position actual `position` (m) is `late_s` seconds older
@@ -278,7 +336,7 @@ mod tests {
         assert_eq!(toward(0.01, 0.0, 3.0, H), 0.01);
         assert!(toward(f64::NAN, 0.0, 3.0, H).is_nan());
         // Inside the range by a hair, the model's set point passes the guard whole: the
-        // controller ramps it (`within_ranges`).
+        // latches ramp it ([`Latches::apply`]).
         assert_eq!(guarded(0.3, 0.3, 0.0, 19.999_999, (19.999_999, 0.0)), 0.3);
     }
 

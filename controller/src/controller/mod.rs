@@ -229,13 +229,9 @@ pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
     /// Manual mode's state: the operator's dead-man, the refusal announced, a stop
     /// request's hold, a hand-over under way, how long the model has rested.
     manual: Manual,
-    /// Each drive's set point held back by its range's guard (`crate::range`) and not
-    /// yet back to what is asked.
-    range_held: [bool; A],
-    /// Each drive found ahead of the model's drive near an end, the end's sign (0: not
-    /// ahead): the model's set point no longer passes the guard towards it until it
-    /// stops heading for it (`crate::range`).
-    range_ahead: [f64; A],
+    /// Each drive's range guard's latches ([`range::Latches`]): a set point held back
+    /// and not yet back to what is asked, the drive found ahead of the model's.
+    range_latches: [range::Latches; A],
 }
 
 impl<F: Feedforward<Reference = Reference> + Replan> Controller<F> {
@@ -325,8 +321,7 @@ where
             // The generator's deadband, the one the interlock checks; a model that
             // follows plans only never enters manual mode: a centred stick is 0 there.
             manual: Manual::new(deadband),
-            range_held: [false; A],
-            range_ahead: [0.0; A],
+            range_latches: [range::Latches::default(); A],
         }
     }
 

@@ -280,8 +280,7 @@ where
         self.correction.restart();
         self.feedback_announced = None;
         // The range guard's latches are the old model's.
-        self.range_held = [false; A];
-        self.range_ahead = [0.0; A];
+        self.range_latches = [range::Latches::default(); A];
         // The model restarted (a reset, or the positions read again): centred frames
         // received while halted do not count, the stick has to be centred again before
         // it moves the crane (the zero-position interlock).

@@ -86,34 +86,25 @@ where
             ) else {
                 continue;
             };
-            if let Some(Some(p)) = positions.get(i) {
-                let late_s = f64::from(p.late_ms) * 1e-3;
-                let at = range::late_position(p.metres, u, late_s, limits.max_velocity);
-                // The model's drive in this cycle's newest solution: as new as the
-                // position from the last SYNC, which every set point sent so far has moved
-                // (the drive applies one over the cycle before the SYNC).
-                let feedforward = &self.feedforward;
-                let model_at = || {
-                    let drives = *model.get_or_insert_with(|| match reference {
-                        Some(r) => K::drive_states(r),
-                        None => model_drives::<F, K, A>(feedforward),
-                    });
-                    drives.get(i).copied().unwrap_or((f64::NAN, f64::NAN))
-                };
-                let mut spare = 0.0;
-                let ahead = self.range_ahead.get_mut(i).unwrap_or(&mut spare);
-                *out = range::guard(u, u_d, last, at, *range, *limits, lag, h, model_at, ahead);
-            }
-            // Held back (now or before): back to what is asked at the gate's step only,
-            // whether the drive is inside again or its position is late.
-            let Some(held) = self.range_held.get_mut(i) else {
+            let Some(latches) = self.range_latches.get_mut(i) else {
                 continue;
             };
-            *held |= *out != u && out.is_finite();
-            if *held {
-                *out = range::toward(*out, last, limits.max_acceleration, h);
-                *held = *out != u;
-            }
+            let at = positions.get(i).copied().flatten().map(|p| {
+                let late_s = f64::from(p.late_ms) * 1e-3;
+                range::late_position(p.metres, u, late_s, limits.max_velocity)
+            });
+            // The model's drive in this cycle's newest solution: as new as the position
+            // from the last SYNC, which every set point sent so far has moved (the drive
+            // applies one over the cycle before the SYNC).
+            let feedforward = &self.feedforward;
+            let model_at = || {
+                let drives = *model.get_or_insert_with(|| match reference {
+                    Some(r) => K::drive_states(r),
+                    None => model_drives::<F, K, A>(feedforward),
+                });
+                drives.get(i).copied().unwrap_or((f64::NAN, f64::NAN))
+            };
+            *out = latches.apply(u, u_d, last, at, *range, *limits, lag, h, model_at);
         }
         guarded
     }
