@@ -476,6 +476,66 @@ mod tests {
         assert!(past < 0.0, "50 mm ahead of a 2 s move: {past} m past");
     }
 
+    /// The ahead latch: a drive found ahead of the model's near the high end keeps the
+    /// model's set point held to the room even once the model has caught up, until the
+    /// model's set point stops heading for that end; then it clears, and the model's own
+    /// set point passes again.
+    #[test]
+    fn the_ahead_latch_holds_until_the_model_turns_away_from_that_end() {
+        let (range, near) = ((0.0, 20.0), 19.99);
+        let mut ahead = 0.0;
+        let at = |u: f64, last: f64, model: (f64, f64), ahead: &mut f64| {
+            guard(u, u, last, near, range, LIMITS, LAG, H, || model, ahead)
+        };
+        // 50 mm ahead of the model's drive, 10 mm from the end: held to the room.
+        let first = at(0.1, 0.1, (near - 0.05, 0.1), &mut ahead);
+        assert_eq!(ahead, 1.0, "found ahead towards the high end");
+        assert!(first < 0.1, "held: {first}");
+        // The model's drive caught up: without the latch its set point would pass.
+        assert_eq!(guarded(0.1, 0.1, first, near, (near, 0.1)), 0.1);
+        let second = at(0.1, first, (near, 0.1), &mut ahead);
+        assert!(second < first, "still held by the latch: {second}");
+        // Towards the low end the latch does not hold anything.
+        assert_eq!(at(-0.01, second, (near, 0.0), &mut ahead), -0.01);
+        assert_eq!(ahead, 0.0, "the model turned away from that end: cleared");
+        assert_eq!(at(0.1, 0.1, (near, 0.1), &mut ahead), 0.1, "passes again");
+        // A model at rest clears it too.
+        ahead = 1.0;
+        assert_eq!(at(0.0, 0.0, (near, 0.0), &mut ahead), 0.0);
+        assert_eq!(ahead, 0.0);
+    }
+
+    /// Held back at an end, a drive's set point returns to the asked one at the gate's
+    /// step, also while its position is unknown, and lets go once it is there: the next
+    /// set point passes whole.
+    #[test]
+    fn the_held_latch_ramps_back_to_the_asked_set_point_and_lets_go() {
+        let step = LIMITS.max_acceleration * H - 2e-6;
+        let mut latches = Latches::default();
+        let apply = |latches: &mut Latches, u: f64, last: f64, at: Option<f64>| {
+            latches.apply(u, u, last, at, (0.0, 20.0), LIMITS, LAG, H, || (20.0, 0.0))
+        };
+        // At the end: the asked 0.5 m/s is ramped down from the last 0.5.
+        let mut last = apply(&mut latches, 0.5, 0.5, Some(20.0));
+        assert!((last - (0.5 - step)).abs() < 1e-12, "held: {last}");
+        // Inside again, then the position unknown, 0.6 m/s asked: back up at the gate's
+        // step.
+        for (k, at) in [Some(19.0), None].into_iter().cycle().take(3).enumerate() {
+            let next = apply(&mut latches, 0.6, last, at);
+            assert!((next - last - step).abs() < 1e-12, "cycle {k}: {next}");
+            last = next;
+        }
+        let mut cycles = 0;
+        while last != 0.6 && cycles < 100 {
+            last = apply(&mut latches, 0.6, last, None);
+            cycles += 1;
+        }
+        assert_eq!(last, 0.6, "back to what is asked");
+        assert_eq!(latches, Latches::default(), "and let go");
+        // Let go, a set point far from the last one passes whole (the gate judges it).
+        assert_eq!(apply(&mut latches, -0.2, 0.5, None), -0.2);
+    }
+
     /// A late position is moved towards the end the set point heads for by what the
     /// drive may have gone unseen at its velocity limit; a fresh one is used as it is.
     #[test]
