@@ -194,13 +194,19 @@ fn metres_per_second(s: Setpoint) -> f64 {
 /// The model's input order (planar `[trolley, winch]`, 3D `[bridge, trolley, winch]`)
 /// in the operator frame's slots `[x, y, z]` (its own layout, docs/COMMANDS.md: one
 /// demand per horizontal direction, the hoist last), `none` in a slot the crane lacks.
+/// Every crane orders its drives as the frame does, the horizontal directions first
+/// and the hoist last (`Crane::DRIVES`; the controller reads a frame so, for `A − 1`
+/// horizontal directions): the last input goes to the hoist's slot whatever the count.
 fn slots<T: Copy, const A: usize>(v: [T; A], none: T) -> [T; 3] {
-    let at = |i: usize| v.get(i).copied().unwrap_or(none);
-    if A == 2 {
-        [at(0), none, at(1)]
-    } else {
-        [at(0), at(1), at(2)]
+    let mut out = [none; 3];
+    let hoist = A.saturating_sub(1);
+    for (i, value) in v.into_iter().enumerate() {
+        let slot = if i == hoist { 2 } else { i };
+        if let Some(o) = out.get_mut(slot) {
+            *o = value;
+        }
     }
+    out
 }
 
 /// The view of a scene: the firmware's own construction of its controller
@@ -424,6 +430,19 @@ mod tests {
         PathBuf::from(env!("CARGO_MANIFEST_DIR"))
             .join("../scenes")
             .join(name)
+    }
+
+    /// The drives in the frame's slots: the hoist last whatever the crane's count, a
+    /// slot the crane lacks empty.
+    #[test]
+    fn each_crane_s_drives_take_the_frame_s_slots() {
+        assert_eq!(slots([1, 3], 0), [1, 0, 3], "planar: trolley x, winch z");
+        assert_eq!(
+            slots([1, 2, 3], 0),
+            [1, 2, 3],
+            "3D: bridge x, trolley y, winch z"
+        );
+        assert_eq!(slots([3], 0), [0, 0, 3], "a hoist alone");
     }
 
     /// Runs `seconds` of cycles, each snapshot checked: every value finite, no fault.
