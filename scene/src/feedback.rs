@@ -330,26 +330,8 @@ mod tests {
         )
         .unwrap();
         let c = s.feedback.unwrap();
-        let w = c.weights;
         assert_eq!(
-            [
-                w.load_position,
-                w.trolley_position,
-                w.swing_velocity,
-                w.trolley_correction,
-                w.rope_position,
-                w.winch_correction,
-                w.drive_disturbance,
-                w.swing_disturbance,
-                w.drive_offset,
-                w.position_noise,
-                w.angle_noise,
-                w.rest_load_position,
-                w.rest_trolley_position,
-                w.rest_swing_velocity,
-                w.rest_load_velocity,
-                w.rest_angle_noise,
-            ],
+            c.weights.all(),
             [
                 0.021, 0.51, 0.051, 0.151, 0.0051, 0.052, 0.52, 0.11, 0.31, 5.1e-4, 5.2e-4, 0.031,
                 0.11, 0.12, 0.032, 3.1e-3

@@ -76,6 +76,30 @@ pub struct Weights {
 }
 
 impl Weights {
+    /// Every weight, in the order the struct declares them: what the gain design
+    /// checks (each must be positive), and what a scene's test reads back.
+    #[must_use]
+    pub const fn all(&self) -> [f64; 16] {
+        [
+            self.load_position,
+            self.trolley_position,
+            self.swing_velocity,
+            self.trolley_correction,
+            self.rope_position,
+            self.winch_correction,
+            self.drive_disturbance,
+            self.swing_disturbance,
+            self.drive_offset,
+            self.position_noise,
+            self.angle_noise,
+            self.rest_load_position,
+            self.rest_trolley_position,
+            self.rest_swing_velocity,
+            self.rest_load_velocity,
+            self.rest_angle_noise,
+        ]
+    }
+
     /// The weights used in the study (`host-tests/src/feedback_study.rs`).
     pub const DEFAULT: Self = Self {
         load_position: 0.02,
@@ -476,30 +500,8 @@ impl Gains {
     /// Designs LQR and Kalman gains at every rope length of [`GRID`] for the crane of
     /// Eqs. 21–22 (with τ1, τ2) linearised at rest, discretised with period `h`.
     pub fn design(cfg: &Config) -> Result<Self, DesignError> {
-        let w = &cfg.weights;
-        let all = [
-            w.load_position,
-            w.trolley_position,
-            w.swing_velocity,
-            w.trolley_correction,
-            w.rope_position,
-            w.winch_correction,
-            w.drive_disturbance,
-            w.swing_disturbance,
-            w.drive_offset,
-            w.position_noise,
-            w.angle_noise,
-            w.rest_load_position,
-            w.rest_trolley_position,
-            w.rest_swing_velocity,
-            w.rest_load_velocity,
-            w.rest_angle_noise,
-            cfg.g,
-            cfg.tau1,
-            cfg.tau2,
-            cfg.h,
-        ];
-        if !all.iter().all(|v| positive(*v)) {
+        let crane = [cfg.g, cfg.tau1, cfg.tau2, cfg.h];
+        if !cfg.weights.all().iter().chain(&crane).all(|v| positive(*v)) {
             return Err(DesignError::BadParameter);
         }
         let mut points = [GainPoint {
