@@ -1,6 +1,6 @@
 //! Picks the board's memory map and turns the scene chosen at build time into Rust.
 //!
-//! `SCENE=path/to/scene.toml` (default: `scenes/paper-crane.toml`) names one model,
+//! `SCENE=path/to/scene.toml` (default: `scene::firmware::DEFAULT_SCENE`) names one model,
 //! its parameters, the trajectory and the solver settings. The generated `scene.rs`
 //! declares exactly that model and integrator type, so the firmware links only the
 //! model its scene needs. A scene the firmware cannot run (not a crane, invalid) stops
@@ -50,7 +50,7 @@ fn main() {
     println!("cargo:rerun-if-env-changed=SCENE");
     let scene_path = env::var("SCENE")
         .map(PathBuf::from)
-        .unwrap_or_else(|_| root.join("scenes/paper-crane.toml"));
+        .unwrap_or_else(|_| root.join(scene::firmware::DEFAULT_SCENE));
     let scene_path = if scene_path.is_absolute() {
         scene_path
     } else {

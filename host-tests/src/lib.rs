@@ -1,14 +1,9 @@
 //! The std side: runs of solver-core over whole trajectories and the measures the
 //! paper uses on them (Eq. 29's `e_max`), shared by the tests and the study CLI.
 
-/// The default scene: what the firmware, the virtual ECU (`ecu` without `--scene`), the
-/// interop rig, `cargo xtask run`, the QEMU scenarios, the soak and the panic proof run
-/// when none is named. The planar crane on the minimally extended formulation (*ext*,
-/// index 1) with structured BDF4 at 10 ms, the configuration docs/RESULTS.md picks for it
-/// ("Which configuration to pick"): the flat inverse to rounding where *subs* (index 3)
-/// has a rounding floor. The paper's own scene (`scenes/paper-crane.toml`, *subs*) stays
-/// what the paper's reproductions, the accuracy tests and the studies run.
-pub const DEFAULT_SCENE: &str = "scenes/paper-crane-ext.toml";
+/// The default scene ([`scene::firmware::DEFAULT_SCENE`]: the firmware's build script
+/// reads it from there).
+pub use scene::firmware::DEFAULT_SCENE;
 
 pub mod crane3d_study;
 pub mod dbc;
