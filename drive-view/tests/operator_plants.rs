@@ -19,7 +19,7 @@
 #[path = "../examples/operator_plants/study.rs"]
 mod study;
 
-use study::{case, Measured, Outcome, CRANES, FULL_STEP, PLANTS, TARGET_DEG, TARGET_M};
+use study::{case, Hoist, Measured, Outcome, CRANES, FULL_STEP, PLANTS, TARGET_DEG, TARGET_M};
 
 /// The plants with one error each (the study's first seven).
 const ALONE: usize = 7;
@@ -28,24 +28,20 @@ fn measured(o: &Outcome) -> Measured {
     match &o.result {
         Ok(m) => *m,
         Err(e) => panic!(
-            "{} on {}, rope {} m, lowering {}: {e}",
-            o.crane, o.plant, o.rope, o.lowering
+            "{} on {}, rope {} m, hoist {:?}: {e}",
+            o.crane, o.plant, o.rope, o.hoist
         ),
     }
 }
 
 fn label(o: &Outcome) -> String {
     format!(
-        "{} on {}, {}, rope {} m, {}",
+        "{} on {}, {}, rope {} m, hoist {}",
         o.crane,
         o.plant,
         o.profile.name(),
         o.rope,
-        if o.lowering {
-            "lowering"
-        } else {
-            "hoist still"
-        }
+        o.hoist.name()
     )
 }
 
@@ -53,8 +49,8 @@ fn label(o: &Outcome) -> String {
 fn each_error_alone_on_the_planar_crane_meets_every_target() {
     for plant in &PLANTS[..ALONE] {
         for rope in [3.5, 8.0] {
-            for lowering in [false, true] {
-                let o = case(&CRANES[0], plant, FULL_STEP, rope, lowering);
+            for hoist in [Hoist::Still, Hoist::Lowering] {
+                let o = case(&CRANES[0], plant, FULL_STEP, rope, hoist);
                 let m = measured(&o);
                 println!("{}: {m:?}", label(&o));
                 assert!(m.meets_targets(), "{}: {m:?}", label(&o));
@@ -67,8 +63,8 @@ fn each_error_alone_on_the_planar_crane_meets_every_target() {
 fn every_plant_on_both_cranes_keeps_the_load_and_the_swing_within_the_targets() {
     for crane in &CRANES {
         for plant in &PLANTS {
-            for lowering in [false, true] {
-                let o = case(crane, plant, FULL_STEP, 8.0, lowering);
+            for hoist in [Hoist::Still, Hoist::Lowering] {
+                let o = case(crane, plant, FULL_STEP, 8.0, hoist);
                 let m = measured(&o);
                 println!("{}: {m:?}", label(&o));
                 assert!(m.load_error <= TARGET_M, "{}: {m:?}", label(&o));
@@ -86,8 +82,8 @@ fn the_correction_travel_target_on_every_plant() {
     let mut missed = Vec::new();
     for crane in &CRANES {
         for plant in &PLANTS {
-            for lowering in [false, true] {
-                let o = case(crane, plant, FULL_STEP, 8.0, lowering);
+            for hoist in [Hoist::Still, Hoist::Lowering] {
+                let o = case(crane, plant, FULL_STEP, 8.0, hoist);
                 let m = measured(&o);
                 if m.correction > TARGET_M {
                     missed.push(format!("{}: {:.1} mm", label(&o), m.correction * 1000.0));
