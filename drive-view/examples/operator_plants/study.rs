@@ -517,6 +517,9 @@ pub struct Measured {
     pub load_error: f64,
     /// The largest swing over the same period, degrees.
     pub swing: f64,
+    /// The largest swing over the first swing period after rest, degrees: what the
+    /// feedback had left to damp when the model came to rest (not held to a target).
+    pub swing_first: f64,
     /// The feedback's correction travel, the worst drive's largest `|∫ (u − u_d) dt|`, m.
     pub correction: f64,
     /// The worst drive's `∫ |u − u_d| dt`, m.
@@ -615,14 +618,18 @@ fn measure(
     if window.is_empty() {
         return Err("no cycle in the second period after rest".into());
     }
+    let largest_swing = |samples: &mut dyn Iterator<Item = &Sample>| {
+        samples
+            .flat_map(|s| s.plant.swing)
+            .fold(0.0_f64, |m, a| m.max(a.to_degrees().abs()))
+    };
+    let swing_first =
+        largest_swing(&mut after.iter().filter(|s| s.t >= rest && s.t < rest + period));
     let load_error = window
         .iter()
         .map(|s| (s.plant.load[0] - s.model[0]).hypot(s.plant.load[1] - s.model[1]))
         .fold(0.0, f64::max);
-    let swing = window
-        .iter()
-        .flat_map(|s| s.plant.swing)
-        .fold(0.0_f64, |m, a| m.max(a.to_degrees().abs()));
+    let swing = largest_swing(&mut window.iter().copied());
     if !r.manual() {
         return Err("manual mode left".into());
     }
@@ -632,6 +639,7 @@ fn measure(
         pendulum,
         load_error,
         swing,
+        swing_first,
         correction: worst(r.correction_peak),
         correction_total: worst(r.correction_total),
         rest_after: rest - released,

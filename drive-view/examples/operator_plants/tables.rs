@@ -94,14 +94,14 @@ pub fn by_hoist(outcomes: &[Outcome]) -> String {
 #[must_use]
 pub fn case_lines(outcomes: &[Outcome]) -> String {
     let mut out = String::from(
-        "| crane | plant | profile | rope, m | hoist | rope at rest, m | pendulum, m | rest after release, s | load error, mm | swing, ° | correction travel, mm | ∫\\|u − u_d\\| dt, mm |\n|---|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| crane | plant | profile | rope, m | hoist | rope at rest, m | pendulum, m | rest after release, s | load error, mm | swing, ° | correction travel, mm | ∫\\|u − u_d\\| dt, mm | swing in the first period after rest, ° |\n|---|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for o in outcomes {
         let hoist = o.hoist.name();
         match &o.result {
             Ok(m) => {
                 out += &format!(
-                    "| {} | {} | {} | {} | {hoist} | {:.2} | {:.2} | {:.2} | {:.1} | {:.3} | {:.1} | {:.1} |\n",
+                    "| {} | {} | {} | {} | {hoist} | {:.2} | {:.2} | {:.2} | {:.1} | {:.3} | {:.1} | {:.1} | {:.3} |\n",
                     o.crane,
                     o.plant,
                     o.profile.name(),
@@ -112,12 +112,13 @@ pub fn case_lines(outcomes: &[Outcome]) -> String {
                     m.load_error * 1000.0,
                     m.swing,
                     m.correction * 1000.0,
-                    m.correction_total * 1000.0
+                    m.correction_total * 1000.0,
+                    m.swing_first
                 );
             }
             Err(e) => {
                 out += &format!(
-                    "| {} | {} | {} | {} | {hoist} | {e} | | | | | | |\n",
+                    "| {} | {} | {} | {} | {hoist} | {e} | | | | | | | |\n",
                     o.crane,
                     o.plant,
                     o.profile.name(),
