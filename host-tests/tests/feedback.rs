@@ -538,6 +538,7 @@ fn a_late_filtered_angle_as_commissioned_leaves_the_load_on_target() {
         inclinometer: lag,
         proportional_only: [false; 2],
         loops_for_model_load: false,
+        ..Mismatch::NONE
     };
     let run = |told| simulate_told(&params, &reference, &case, &gains, told, &DriveLimits::LAB);
     let told = run(InclinometerLag {

@@ -150,6 +150,37 @@ pub struct Mismatch {
     /// The loops' gains (and a P-only winch's hold) are tuned for the model's load mass,
     /// as commissioned, not for the plant's (module documentation).
     pub loops_for_model_load: bool,
+    /// Which of the 3D crane's travel drives take the trolley's errors above when the
+    /// virtual bus builds the 3D plant from this mismatch
+    /// ([`crate::plant3d::Mismatch3d::from_planar`]); the planar crane has one travel
+    /// drive and ignores it.
+    pub travel_3d: Travel3d,
+}
+
+/// The 3D crane's travel drives that take the planar trolley's errors — its lag
+/// ([`Mismatch::tau1`]), friction ([`Mismatch::coulomb`], [`Mismatch::viscous`]) and a
+/// loop without integral action ([`Mismatch::proportional_only`]) — so that a study can
+/// put them on the 3D crane's trolley as well as on its bridge. The others are exact.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Travel3d {
+    /// The bridge (x) alone: the planar crane's trolley becomes the bridge, the 3D
+    /// trolley is exact (the planar special case the 3D studies compare).
+    Bridge,
+    /// The trolley (y) alone.
+    Trolley,
+    /// Bridge and trolley alike.
+    Both,
+}
+
+impl Travel3d {
+    /// Whether the bridge and the trolley take the errors.
+    pub const fn drives(self) -> [bool; 2] {
+        match self {
+            Self::Bridge => [true, false],
+            Self::Trolley => [false, true],
+            Self::Both => [true, true],
+        }
+    }
 }
 
 impl Mismatch {
@@ -170,6 +201,7 @@ impl Mismatch {
         inclinometer: SensorLag::NONE,
         proportional_only: [false; 2],
         loops_for_model_load: false,
+        travel_3d: Travel3d::Bridge,
     };
 
     /// The sensors of the study: positions 0.2 mm noise, 0.1 mm quantum; the inclinometer
@@ -205,6 +237,7 @@ impl Mismatch {
             inclinometer: SensorLag::NONE,
             proportional_only: [false; 2],
             loops_for_model_load: false,
+            travel_3d: Travel3d::Bridge,
         }
     }
 

@@ -252,20 +252,27 @@ impl Mismatch3d {
         }
     }
 
-    /// The planar case `planar` on the 3D crane: its trolley becomes the bridge, its
-    /// winch the hoist, the trolley is exact and frictionless, the gust blows along x
-    /// and the load swings in the x–z plane (what the planar special case compares).
+    /// The planar case `planar` on the 3D crane: its winch becomes the hoist, its
+    /// trolley's errors go to the travel drives [`Mismatch::travel_3d`] names (by default
+    /// the bridge, the trolley exact and frictionless), the gust blows along x and the
+    /// load swings in the x–z plane (what the planar special case compares).
     pub fn from_planar(planar: &Mismatch) -> Self {
         let [c1, c2] = planar.coulomb;
         let [b1, b2] = planar.viscous;
         let [p1, p2] = planar.proportional_only;
+        let [bridge, trolley] = planar.travel_3d.drives();
+        let travel = |on: bool, v: f64| if on { v } else { 0.0 };
         Self {
-            tau: [planar.tau1, 0.0, planar.tau2],
+            tau: [
+                travel(bridge, planar.tau1),
+                travel(trolley, planar.tau1),
+                planar.tau2,
+            ],
             load_mass: planar.load_mass,
             rope_offset: planar.rope_offset,
             drum_scale: planar.drum_scale,
-            coulomb: [c1, 0.0, c2],
-            viscous: [b1, 0.0, b2],
+            coulomb: [travel(bridge, c1), travel(trolley, c1), c2],
+            viscous: [travel(bridge, b1), travel(trolley, b1), b2],
             gust: planar.gust,
             gust_direction: 0.0,
             position_noise: planar.position_noise,
@@ -273,7 +280,7 @@ impl Mismatch3d {
             noise_seed: planar.noise_seed,
             swing0: [planar.swing0, 0.0],
             inclinometer: planar.inclinometer,
-            proportional_only: [p1, false, p2],
+            proportional_only: [p1 && bridge, p1 && trolley, p2],
             loops_for_model_load: planar.loops_for_model_load,
         }
     }
@@ -752,7 +759,7 @@ impl Plant3d {
 mod tests {
     #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
     use super::*;
-    use crate::plant::Plant;
+    use crate::plant::{Plant, Travel3d};
     use solver_core::models::crane3d::Crane3dParams;
     use solver_core::reference::flat_crane3d;
     use solver_core::trajectory::{PointToPoint, Trajectory};
@@ -1279,5 +1286,49 @@ mod tests {
         let from = Mismatch3d::from_planar(&planar);
         assert_eq!(from.proportional_only, [true, false, true]);
         assert!(from.loops_for_model_load);
+    }
+
+    #[test]
+    fn the_planar_trolley_s_errors_go_to_the_3d_travel_drives_the_mismatch_names() {
+        // A P-only travel drive with 10 mm/s and 3 % friction and 1.5 times the model's
+        // lag, taken by the bridge, the trolley or both: a drive that takes it runs at
+        // (u − c)/(1 + b) on average over a swing period, one that does not at u.
+        let planar = Mismatch {
+            tau1: 0.5,
+            coulomb: [0.01, 0.0],
+            viscous: [0.03, 0.0],
+            proportional_only: [true, false],
+            ..Mismatch::NONE
+        };
+        let u = [0.5, 0.3, 0.0];
+        for (travel, taken) in [
+            (Travel3d::Bridge, [true, false]),
+            (Travel3d::Trolley, [false, true]),
+            (Travel3d::Both, [true, true]),
+        ] {
+            let mm = Mismatch3d::from_planar(&Mismatch {
+                travel_3d: travel,
+                ..planar
+            });
+            let lag = |on: bool| if on { 0.5 } else { 0.0 };
+            assert_eq!(mm.tau, [lag(taken[0]), lag(taken[1]), 0.0], "{travel:?}");
+            assert_eq!(mm.proportional_only, [taken[0], taken[1], false]);
+            let mut p = plant(mm);
+            for _ in 0..5000 {
+                p.advance(u, PLANT_STEP);
+            }
+            let period = 2.0 * PI * (6.0 / G).sqrt();
+            let n = (period / PLANT_STEP).round() as usize;
+            let (x0, y0) = (p.q[0], p.q[1]);
+            for _ in 0..n {
+                p.advance(u, PLANT_STEP);
+            }
+            let t = n as f64 * PLANT_STEP;
+            let mean = [(p.q[0] - x0) / t, (p.q[1] - y0) / t];
+            for ((m, u), on) in mean.iter().zip(u).zip(taken) {
+                let expected = if on { (u - 0.01) / 1.03 } else { u };
+                assert!((m - expected).abs() < 1e-3, "{travel:?}: {mean:?}");
+            }
+        }
     }
 }

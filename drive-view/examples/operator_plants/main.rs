@@ -1,19 +1,23 @@
 //! The closed loop in manual mode on plants that are not the model, each error alone and
 //! combined (issue 28): `cargo run -p drive-view --example operator_plants -- [--threads N]
-//! [--ropes 3.5,8] [--cases]`. Prints the table per rope length and per plant (median and
-//! worst of the load's error, the swing one swing period after rest and the feedback's
-//! correction travel; `study.rs` says what each is), per stick profile, and with
-//! `--cases` every case.
+//! [--ropes 3.5,8] [--more] [--cases]`. Prints the table per rope length and per plant
+//! (median and worst of the load's error, the swing one swing period after rest and the
+//! feedback's correction travel; `study.rs` says what each is), per stick profile and per
+//! hoist lever, and with `--cases` every case. Without `--more` the first study's cases
+//! (`study::Study::First`), with it the cases it left out (`study::Study::More`: pulsing,
+//! pendant levels, the hoist raising, a P-only hoist, the 3D crane's trolley).
 //! docs/OPERATOR.md, "Closed loop in manual mode", has its output.
 
 mod study;
+mod tables;
 
-use study::{all_cases, case_lines, table_by_plant, table_by_profile, table_by_rope, ROPES};
+use study::{all_cases, Study, ROPES};
 
 fn main() -> Result<(), String> {
     let mut threads = 1;
     let mut ropes = ROPES.to_vec();
     let mut cases = false;
+    let mut study = Study::First;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -31,20 +35,23 @@ fn main() -> Result<(), String> {
                     .map(|l| l.parse::<f64>().map_err(|e| format!("--ropes: {e}")))
                     .collect::<Result<_, _>>()?;
             }
+            "--more" => study = Study::More,
             "--cases" => cases = true,
             other => return Err(format!("unknown argument {other}")),
         }
     }
-    let outcomes = all_cases(&ropes, threads);
-    println!("## Per rope length (every plant and profile, the hoist still and lowering)\n");
-    println!("{}", table_by_rope(&outcomes, &ropes));
-    println!("## Per plant (every profile and rope length, the hoist still and lowering)\n");
-    println!("{}", table_by_plant(&outcomes));
-    println!("## Per profile (every plant and rope length, the hoist still and lowering)\n");
-    println!("{}", table_by_profile(&outcomes));
+    let outcomes = all_cases(study, &ropes, threads);
+    println!("## Per rope length ({study:?}: every plant, profile and hoist lever)\n");
+    println!("{}", tables::by_rope(&outcomes));
+    println!("## Per plant (every profile, rope length and hoist lever)\n");
+    println!("{}", tables::by_plant(&outcomes));
+    println!("## Per profile (every plant, rope length and hoist lever)\n");
+    println!("{}", tables::by_profile(&outcomes));
+    println!("## Per hoist lever (every plant, profile and rope length)\n");
+    println!("{}", tables::by_hoist(&outcomes));
     if cases {
         println!("## Every case\n");
-        println!("{}", case_lines(&outcomes));
+        println!("{}", tables::case_lines(&outcomes));
     }
     Ok(())
 }

@@ -9,7 +9,10 @@
 //! with the plant [`PLANTS`] names; the master switch's frame every 30 ms. Manual mode
 //! entered, the hoist brought to the rope length with its lever and let rest, then a
 //! stick [`Profile`] (the 3D crane: bridge and trolley at once, a diagonal) with the
-//! hoist still or lowering at half stick, released. Measured:
+//! hoist still, lowering or raising at half stick ([`Hoist`]), released. Two sets of
+//! cases: [`Study::First`], the study docs/OPERATOR.md reported first, and
+//! [`Study::More`], what it left unmeasured (pulsing, pendant levels, the hoist raising,
+//! a P-only hoist, the travel errors on the 3D crane's trolley). Measured:
 //!
 //! * **rest**: the first cycle from which the inverse model's own set points `u_d` are
 //!   exactly 0.0 on every drive for the rest of the run — the generator's rest, as the
@@ -38,7 +41,8 @@ use std::path::PathBuf;
 
 use drive_view::engine::Engine;
 use drive_view::switch::{Action, Axis, MasterSwitch, NOTCHES};
-use sim::plant::Mismatch;
+use host_tests::operator_study::Shape;
+use sim::plant::{Mismatch, Rng, Travel3d};
 use sim::simulated::TrueState;
 use sim::MISMATCHED;
 
@@ -51,7 +55,16 @@ pub enum Profile {
     Step(f64),
     /// Full stick one way for 2 s, then the other way for 2 s.
     Reversal,
+    /// The open-loop study's pulsing ([`Shape::Pulse`]): full stick on and off at this
+    /// frequency, Hz, for 6 s.
+    Pulse(f64),
+    /// The open-loop study's pendant levels ([`Shape::Pendant`]): a quarter, half,
+    /// three quarters and full stick, 1.5 s each — the master switch's notches.
+    Pendant,
 }
+
+/// The open-loop study's cycle, ms: its shapes are given per 10 ms cycle.
+const SHAPE_CYCLE_MS: u32 = 10;
 
 impl Profile {
     /// For the tables.
@@ -60,6 +73,51 @@ impl Profile {
         match self {
             Self::Step(s) => format!("full stick {s} s"),
             Self::Reversal => "reversal 2 + 2 s".into(),
+            Self::Pulse(hz) => format!("pulsing at {hz} Hz"),
+            Self::Pendant => "pendant levels".into(),
+        }
+    }
+
+    /// The open-loop study's shape this profile takes, if it is one of them.
+    fn shape(&self) -> Option<Shape> {
+        match *self {
+            Self::Pulse(hz) => Some(Shape::Pulse { hz }),
+            Self::Pendant => Some(Shape::Pendant),
+            Self::Step(_) | Self::Reversal => None,
+        }
+    }
+
+    /// How long the levers are held before the release, ms.
+    fn held_ms(&self) -> u32 {
+        match self {
+            Self::Step(s) => (s * 1000.0).round() as u32,
+            Self::Reversal => 4000,
+            Self::Pulse(_) | Self::Pendant => self.shape().map_or(0, |shape| {
+                u32::try_from(shape.release())
+                    .unwrap_or(u32::MAX)
+                    .saturating_mul(SHAPE_CYCLE_MS)
+            }),
+        }
+    }
+
+    /// The travel levers' notch `ms` after the travel began (before [`Profile::held_ms`]):
+    /// the shape's share of full stick in the switch's notches, which give the pendant's
+    /// quarters and the pulses' full stick and zero exactly.
+    fn notch(&self, ms: u32) -> i8 {
+        match self {
+            Self::Step(_) => NOTCHES,
+            Self::Reversal => {
+                if ms < 2000 {
+                    NOTCHES
+                } else {
+                    -NOTCHES
+                }
+            }
+            Self::Pulse(_) | Self::Pendant => self.shape().map_or(0, |shape| {
+                // Neither shape draws from the generator (only the noise does).
+                let [x, _] = shape.at((ms / SHAPE_CYCLE_MS) as usize, &mut Rng::new(0));
+                (x * f64::from(NOTCHES)).round() as i8
+            }),
         }
     }
 }
@@ -67,9 +125,52 @@ impl Profile {
 /// Full stick for 4 s: the travel `tests/closed_loop.rs` measures.
 pub const FULL_STEP: Profile = Profile::Step(4.0);
 
-/// The profiles: the 4 s step, a 1 s step released before the speed is reached, a
-/// reversal.
+/// The first study's profiles: the 4 s step, a 1 s step released before the speed is
+/// reached, a reversal.
 pub const PROFILES: [Profile; 3] = [FULL_STEP, Profile::Step(1.0), Profile::Reversal];
+
+/// The profiles added: pulsing at 0.5, 1 and 2 Hz, the pendant's levels.
+pub const MORE_PROFILES: [Profile; 4] = [
+    Profile::Pulse(0.5),
+    Profile::Pulse(1.0),
+    Profile::Pulse(2.0),
+    Profile::Pendant,
+];
+
+/// What the hoist's lever does during the travel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Hoist {
+    /// Centred.
+    Still,
+    /// Half stick down.
+    Lowering,
+    /// Half stick up.
+    Raising,
+}
+
+impl Hoist {
+    /// All three.
+    pub const ALL: [Hoist; 3] = [Self::Still, Self::Lowering, Self::Raising];
+
+    /// For the tables.
+    #[must_use]
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Still => "still",
+            Self::Lowering => "lowering",
+            Self::Raising => "raising",
+        }
+    }
+
+    /// The hoist lever's notch (positive lowers).
+    fn notch(self) -> i8 {
+        match self {
+            Self::Still => 0,
+            Self::Lowering => NOTCHES / 2,
+            Self::Raising => -NOTCHES / 2,
+        }
+    }
+}
 
 /// The rope lengths the hoist is brought to before the travel, m (lowering during the
 /// travel adds up to about a metre): the manual scenes' range.
@@ -117,9 +218,13 @@ const fn combined(drum_scale: f64, load_mass: f64) -> Mismatch {
 pub struct PlantCase {
     /// For the tables.
     pub name: &'static str,
-    /// The mismatch (the 3D crane takes it on bridge and hoist, its trolley exact:
+    /// The mismatch (the 3D crane takes the travel drive's errors on the drives its
+    /// `travel_3d` names, by default the bridge, and the winch's on the hoist:
     /// `sim::plant3d::Mismatch3d::from_planar`).
     pub mismatch: Mismatch,
+    /// Studied on the 3D crane only (an error on its trolley, which the planar crane
+    /// does not have).
+    pub only_3d: bool,
 }
 
 /// The plants: each error alone (on the study's sensors), both combinations, and the
@@ -132,6 +237,7 @@ pub const PLANTS: [PlantCase; 10] = [
             drum_scale: 0.10,
             ..SENSED
         },
+        only_3d: false,
     },
     PlantCase {
         name: "rope -10 %",
@@ -139,6 +245,7 @@ pub const PLANTS: [PlantCase; 10] = [
             drum_scale: -0.10,
             ..SENSED
         },
+        only_3d: false,
     },
     PlantCase {
         name: "load +20 %",
@@ -147,6 +254,7 @@ pub const PLANTS: [PlantCase; 10] = [
             loops_for_model_load: true,
             ..SENSED
         },
+        only_3d: false,
     },
     PlantCase {
         name: "load -20 %",
@@ -155,6 +263,7 @@ pub const PLANTS: [PlantCase; 10] = [
             loops_for_model_load: true,
             ..SENSED
         },
+        only_3d: false,
     },
     PlantCase {
         name: "lags x1.5",
@@ -163,6 +272,7 @@ pub const PLANTS: [PlantCase; 10] = [
             tau2: 0.5,
             ..SENSED
         },
+        only_3d: false,
     },
     PlantCase {
         name: "P only (travel)",
@@ -170,18 +280,22 @@ pub const PLANTS: [PlantCase; 10] = [
             proportional_only: [true, false],
             ..SENSED
         },
+        only_3d: false,
     },
     PlantCase {
         name: "friction",
         mismatch: ROUGH,
+        only_3d: false,
     },
     PlantCase {
         name: "all: rope +10 %, load +20 %",
         mismatch: combined(0.10, 0.2),
+        only_3d: false,
     },
     PlantCase {
         name: "all: rope -10 %, load -20 %",
         mismatch: combined(-0.10, -0.2),
+        only_3d: false,
     },
     PlantCase {
         name: "view's plant",
@@ -189,6 +303,60 @@ pub const PLANTS: [PlantCase; 10] = [
             drum_scale: 0.09,
             ..MISMATCHED
         },
+        only_3d: false,
+    },
+];
+
+/// The plants added: the hoist's loop without integral action (holding the model's
+/// load; and a load 20 % heavier, which it lets sink, `sim::plant`'s
+/// `a_winch_without_integral_action_holds_only_the_load_it_was_tuned_for`), and on the
+/// 3D crane the lags, the P-only loop and the friction on its trolley as well as its
+/// bridge.
+pub const MORE_PLANTS: [PlantCase; 5] = [
+    PlantCase {
+        name: "P only (hoist)",
+        mismatch: Mismatch {
+            proportional_only: [false, true],
+            ..SENSED
+        },
+        only_3d: false,
+    },
+    PlantCase {
+        name: "P only (hoist), load +20 %",
+        mismatch: Mismatch {
+            proportional_only: [false, true],
+            load_mass: 0.2,
+            loops_for_model_load: true,
+            ..SENSED
+        },
+        only_3d: false,
+    },
+    PlantCase {
+        name: "lags x1.5, trolley too",
+        mismatch: Mismatch {
+            tau1: 0.5,
+            tau2: 0.5,
+            travel_3d: Travel3d::Both,
+            ..SENSED
+        },
+        only_3d: true,
+    },
+    PlantCase {
+        name: "P only (bridge and trolley)",
+        mismatch: Mismatch {
+            proportional_only: [true, false],
+            travel_3d: Travel3d::Both,
+            ..SENSED
+        },
+        only_3d: true,
+    },
+    PlantCase {
+        name: "friction, trolley too",
+        mismatch: Mismatch {
+            travel_3d: Travel3d::Both,
+            ..ROUGH
+        },
+        only_3d: true,
     },
 ];
 
@@ -331,8 +499,8 @@ pub struct Outcome {
     pub profile: Profile,
     /// The rope length asked for before the travel, m.
     pub rope: f64,
-    /// Whether the hoist lowered during the travel.
-    pub lowering: bool,
+    /// What the hoist did during the travel.
+    pub hoist: Hoist,
     /// What came of it: the measurements, or the fault or failure that ended the run.
     pub result: Result<Measured, String>,
 }
@@ -349,6 +517,9 @@ pub struct Measured {
     pub load_error: f64,
     /// The largest swing over the same period, degrees.
     pub swing: f64,
+    /// The largest swing over the first swing period after rest, degrees: what the
+    /// feedback had left to damp when the model came to rest (not held to a target).
+    pub swing_first: f64,
     /// The feedback's correction travel, the worst drive's largest `|∫ (u − u_d) dt|`, m.
     pub correction: f64,
     /// The worst drive's `∫ |u − u_d| dt`, m.
@@ -366,22 +537,22 @@ impl Measured {
 }
 
 /// The case: `crane` on `plant`, the hoist brought to `rope` m, the travel levers as
-/// `profile` has them (the hoist lowering at half stick if `lowering`), released.
+/// `profile` has them and the hoist's as `hoist` has it, released.
 #[must_use]
 pub fn case(
     crane: &CraneCase,
     plant: &PlantCase,
     profile: Profile,
     rope: f64,
-    lowering: bool,
+    hoist: Hoist,
 ) -> Outcome {
     Outcome {
         crane: crane.name,
         plant: plant.name,
         profile,
         rope,
-        lowering,
-        result: measure(crane, plant.mismatch, profile, rope, lowering),
+        hoist,
+        result: measure(crane, plant.mismatch, profile, rope, hoist),
     }
 }
 
@@ -390,7 +561,7 @@ fn measure(
     plant: Mismatch,
     profile: Profile,
     rope: f64,
-    lowering: bool,
+    hoist: Hoist,
 ) -> Result<Measured, String> {
     let mut r = Run::new(crane.scene, plant)?;
     r.run_for(3.0)?;
@@ -417,28 +588,15 @@ fn measure(
     r.switch.apply(Action::Centre);
     r.until_rest(20.0)?;
     r.run_for(2.0)?;
-    // The travel and the release.
-    for axis in crane.axes {
-        for _ in 0..NOTCHES {
-            r.switch.apply(Action::Notch(*axis, 1));
+    // The travel, the levers set every cycle as the profile has them, and the release.
+    r.switch.levers[Axis::Z.slot()] = hoist.notch();
+    let mut ms = 0;
+    while ms < profile.held_ms() {
+        for axis in crane.axes {
+            r.switch.levers[axis.slot()] = profile.notch(ms);
         }
-    }
-    if lowering {
-        for _ in 0..NOTCHES / 2 {
-            r.switch.apply(Action::Notch(Axis::Z, 1));
-        }
-    }
-    match profile {
-        Profile::Step(seconds) => {
-            r.run_for(seconds)?;
-        }
-        Profile::Reversal => {
-            r.run_for(2.0)?;
-            for axis in crane.axes {
-                r.switch.apply(Action::Notch(*axis, -2 * NOTCHES));
-            }
-            r.run_for(2.0)?;
-        }
+        r.cycle()?;
+        ms += r.engine.period_ms();
     }
     r.switch.apply(Action::Centre);
     let released = f64::from(r.now_ms) / 1000.0;
@@ -460,14 +618,18 @@ fn measure(
     if window.is_empty() {
         return Err("no cycle in the second period after rest".into());
     }
+    let largest_swing = |samples: &mut dyn Iterator<Item = &Sample>| {
+        samples
+            .flat_map(|s| s.plant.swing)
+            .fold(0.0_f64, |m, a| m.max(a.to_degrees().abs()))
+    };
+    let swing_first =
+        largest_swing(&mut after.iter().filter(|s| s.t >= rest && s.t < rest + period));
     let load_error = window
         .iter()
         .map(|s| (s.plant.load[0] - s.model[0]).hypot(s.plant.load[1] - s.model[1]))
         .fold(0.0, f64::max);
-    let swing = window
-        .iter()
-        .flat_map(|s| s.plant.swing)
-        .fold(0.0_f64, |m, a| m.max(a.to_degrees().abs()));
+    let swing = largest_swing(&mut window.iter().copied());
     if !r.manual() {
         return Err("manual mode left".into());
     }
@@ -477,28 +639,64 @@ fn measure(
         pendulum,
         load_error,
         swing,
+        swing_first,
         correction: worst(r.correction_peak),
         correction_total: worst(r.correction_total),
         rest_after: rest - released,
     })
 }
 
-/// Every case of the study: each crane, plant, profile, rope length, the hoist still
-/// and lowering; on `threads` threads.
+/// Which set of cases to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Study {
+    /// The first study: each crane, plant of [`PLANTS`], profile of [`PROFILES`], rope
+    /// length, the hoist still and lowering.
+    First,
+    /// What the first left out: the profiles of [`MORE_PROFILES`] on every plant of
+    /// [`PLANTS`] with the hoist still, lowering and raising; the first profiles with the
+    /// hoist raising; the plants of [`MORE_PLANTS`] with every profile and hoist.
+    More,
+}
+
+/// One case to run.
+type Job = (&'static CraneCase, &'static PlantCase, Profile, f64, Hoist);
+
+/// The cases of `study` at the rope lengths `ropes`, in the tables' order.
 #[must_use]
-pub fn all_cases(ropes: &[f64], threads: usize) -> Vec<Outcome> {
+fn jobs(study: Study, ropes: &[f64]) -> Vec<Job> {
     let mut jobs = Vec::new();
-    for crane in &CRANES {
-        for plant in &PLANTS {
-            for profile in PROFILES {
-                for &rope in ropes {
-                    for lowering in [false, true] {
-                        jobs.push((crane, plant, profile, rope, lowering));
+    let mut add = |plants: &'static [PlantCase], profiles: &[Profile], hoists: &[Hoist]| {
+        for crane in &CRANES {
+            for plant in plants {
+                if plant.only_3d && crane.axes.len() < 2 {
+                    continue;
+                }
+                for &profile in profiles {
+                    for &rope in ropes {
+                        for &hoist in hoists {
+                            jobs.push((crane, plant, profile, rope, hoist));
+                        }
                     }
                 }
             }
         }
+    };
+    match study {
+        Study::First => add(&PLANTS, &PROFILES, &[Hoist::Still, Hoist::Lowering]),
+        Study::More => {
+            add(&PLANTS, &MORE_PROFILES, &Hoist::ALL);
+            add(&PLANTS, &PROFILES, &[Hoist::Raising]);
+            let every: Vec<Profile> = PROFILES.iter().chain(&MORE_PROFILES).copied().collect();
+            add(&MORE_PLANTS, &every, &Hoist::ALL);
+        }
     }
+    jobs
+}
+
+/// Every case of `study` at the rope lengths `ropes`, on `threads` threads.
+#[must_use]
+pub fn all_cases(study: Study, ropes: &[f64], threads: usize) -> Vec<Outcome> {
+    let jobs = jobs(study, ropes);
     let next = std::sync::atomic::AtomicUsize::new(0);
     let mut out: Vec<(usize, Outcome)> = std::thread::scope(|s| {
         let workers: Vec<_> = (0..threads.max(1))
@@ -507,10 +705,10 @@ pub fn all_cases(ropes: &[f64], threads: usize) -> Vec<Outcome> {
                     let mut done = Vec::new();
                     loop {
                         let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        let Some(&(crane, plant, profile, rope, lowering)) = jobs.get(i) else {
+                        let Some(&(crane, plant, profile, rope, hoist)) = jobs.get(i) else {
                             return done;
                         };
-                        done.push((i, case(crane, plant, profile, rope, lowering)));
+                        done.push((i, case(crane, plant, profile, rope, hoist)));
                     }
                 })
             })
@@ -522,136 +720,4 @@ pub fn all_cases(ropes: &[f64], threads: usize) -> Vec<Outcome> {
     });
     out.sort_by_key(|(i, _)| *i);
     out.into_iter().map(|(_, o)| o).collect()
-}
-
-/// The median of `v` (sorted in place); NaN for none.
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => v[n / 2],
-        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
-}
-
-/// "median / worst" of what `f` takes from the measured outcomes, scaled.
-fn median_worst(m: &[Measured], f: impl Fn(&Measured) -> f64, scale: f64, digits: usize) -> String {
-    let mut v: Vec<f64> = m.iter().map(|m| f(m) * scale).collect();
-    let worst = v.iter().copied().fold(f64::NAN, f64::max);
-    let med = median(&mut v);
-    format!("{med:.digits$} / {worst:.digits$}")
-}
-
-/// The table's header.
-pub const HEADER: &str = "| crane | {key} | runs | faults | targets met | load error, mm, median / worst | swing, °, median / worst | correction travel, mm, median / worst | ∫\\|u − u_d\\| dt, mm, median / worst |\n|---|---|---:|---:|---:|---:|---:|---:|---:|";
-
-/// One row over `outcomes`.
-fn row(crane: &str, key: &str, outcomes: &[&Outcome]) -> String {
-    let measured: Vec<Measured> = outcomes
-        .iter()
-        .filter_map(|o| o.result.as_ref().ok().copied())
-        .collect();
-    let faults = outcomes.len() - measured.len();
-    let met = measured.iter().filter(|m| m.meets_targets()).count();
-    format!(
-        "| {crane} | {key} | {} | {faults} | {met} | {} | {} | {} | {} |",
-        outcomes.len(),
-        median_worst(&measured, |m| m.load_error, 1000.0, 1),
-        median_worst(&measured, |m| m.swing, 1.0, 3),
-        median_worst(&measured, |m| m.correction, 1000.0, 1),
-        median_worst(&measured, |m| m.correction_total, 1000.0, 1),
-    )
-}
-
-/// The table per rope length (each row: every plant and profile, the hoist still and
-/// lowering).
-#[must_use]
-pub fn table_by_rope(outcomes: &[Outcome], ropes: &[f64]) -> String {
-    let mut out = HEADER.replace("{key}", "rope before the travel, m") + "\n";
-    for crane in &CRANES {
-        for &rope in ropes {
-            let of: Vec<&Outcome> = outcomes
-                .iter()
-                .filter(|o| o.crane == crane.name && o.rope == rope)
-                .collect();
-            out += &row(crane.name, &format!("{rope}"), &of);
-            out += "\n";
-        }
-    }
-    out
-}
-
-/// The table per plant (each row: every profile and rope length, the hoist still and
-/// lowering).
-#[must_use]
-pub fn table_by_plant(outcomes: &[Outcome]) -> String {
-    let mut out = HEADER.replace("{key}", "plant") + "\n";
-    for crane in &CRANES {
-        for plant in &PLANTS {
-            let of: Vec<&Outcome> = outcomes
-                .iter()
-                .filter(|o| o.crane == crane.name && o.plant == plant.name)
-                .collect();
-            out += &row(crane.name, plant.name, &of);
-            out += "\n";
-        }
-    }
-    out
-}
-
-/// The table per profile (each row: every plant and rope length, the hoist still and
-/// lowering).
-#[must_use]
-pub fn table_by_profile(outcomes: &[Outcome]) -> String {
-    let mut out = HEADER.replace("{key}", "profile") + "\n";
-    for crane in &CRANES {
-        for profile in PROFILES {
-            let of: Vec<&Outcome> = outcomes
-                .iter()
-                .filter(|o| o.crane == crane.name && o.profile == profile)
-                .collect();
-            out += &row(crane.name, &profile.name(), &of);
-            out += "\n";
-        }
-    }
-    out
-}
-
-/// Every case as a line, for the record (and the faults' messages).
-#[must_use]
-pub fn case_lines(outcomes: &[Outcome]) -> String {
-    let mut out = String::from(
-        "| crane | plant | profile | rope, m | hoist | rope at rest, m | pendulum, m | rest after release, s | load error, mm | swing, ° | correction travel, mm | ∫\\|u − u_d\\| dt, mm |\n|---|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|\n",
-    );
-    for o in outcomes {
-        let hoist = if o.lowering { "lowering" } else { "still" };
-        match &o.result {
-            Ok(m) => {
-                out += &format!(
-                    "| {} | {} | {} | {} | {hoist} | {:.2} | {:.2} | {:.2} | {:.1} | {:.3} | {:.1} | {:.1} |\n",
-                    o.crane,
-                    o.plant,
-                    o.profile.name(),
-                    o.rope,
-                    m.rope_at_rest,
-                    m.pendulum,
-                    m.rest_after,
-                    m.load_error * 1000.0,
-                    m.swing,
-                    m.correction * 1000.0,
-                    m.correction_total * 1000.0
-                );
-            }
-            Err(e) => {
-                out += &format!(
-                    "| {} | {} | {} | {} | {hoist} | {e} | | | | | | |\n",
-                    o.crane,
-                    o.plant,
-                    o.profile.name(),
-                    o.rope
-                );
-            }
-        }
-    }
-    out
 }
