@@ -138,6 +138,13 @@ pub struct Scene {
 /// `[operator]` as read: every key optional, its default the crane's lab setting
 /// (`solver_core::operator::Settings::lab` / `lab_3d`); the keys, units and checks are
 /// described in the `operator` module.
+///
+/// A partial setting, not `Settings` itself: its default depends on the crane (`lab` or
+/// `lab_3d`, each from the crane's parameters, the hoist's range from the rope's), which a
+/// type's default cannot know, and its shape is not the file's — `speed` and
+/// `acceleration` are one list over every axis where `Settings` keeps the horizontal axes
+/// apart from the hoist, and `h`, `g` and the ranges are the scene's, not keys of the
+/// section. [`OperatorSpec::settings`] lays the keys given over the crane's lab setting.
 #[derive(Debug, Clone, PartialEq, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
 #[allow(missing_docs)]
