@@ -35,8 +35,15 @@ use crate::commissioning::MAX_NODES;
 use crate::operator::{decode_operator, operator_id, OperatorError, OperatorFrame};
 
 /// Who starts the drives.
+///
+/// With feature `serde`, a commissioning file's `role = "manager"` or `"slave"`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize),
+    serde(rename_all = "kebab-case")
+)]
 pub enum Role {
     /// Standalone: the controller is NMT manager, commissions and starts the drives
     /// (addressed NMT) and starts itself.

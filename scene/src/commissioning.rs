@@ -137,13 +137,16 @@ impl Default for InclinometerSpec {
     }
 }
 
-/// The controller's CANopen settings.
+/// The controller's CANopen settings. Its role is the controller's own type
+/// (`controller::node::Role`, with feature `serde`). The section stays a type of its own
+/// while `cargo xtask report` reads its `heartbeat_ms` (xtask/src/report/bus.rs):
+/// `controller::Config` names it `heartbeat_period_ms`.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 #[allow(missing_docs)]
 pub struct ControllerSpec {
     pub node: u8,
-    pub role: RoleSpec,
+    pub role: Role,
     pub heartbeat_ms: u16,
     pub heartbeat_timeout_ms: u32,
     pub tpdo_timeout_ms: u32,
@@ -155,7 +158,7 @@ impl Default for ControllerSpec {
         let c = Config::DEFAULT;
         Self {
             node: c.node,
-            role: RoleSpec::Manager,
+            role: c.role,
             heartbeat_ms: c.heartbeat_period_ms,
             heartbeat_timeout_ms: c.heartbeat_timeout_ms,
             tpdo_timeout_ms: c.tpdo_timeout_ms,
@@ -164,17 +167,8 @@ impl Default for ControllerSpec {
     }
 }
 
-/// NMT role.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum RoleSpec {
-    /// The controller starts the drives.
-    Manager,
-    /// A PLC is NMT master.
-    Slave,
-}
-
-/// Which axis a drive moves.
+/// Which axis a drive moves. Not `controller::drive::Drive` itself while `cargo xtask
+/// report` asks a row for its drive by [`AxisSpec::drive`] (xtask/src/report/bus.rs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum AxisSpec {
@@ -757,10 +751,7 @@ impl CommissioningFile {
         Ok(Config {
             period_ms,
             node: c.node,
-            role: match c.role {
-                RoleSpec::Manager => Role::Manager,
-                RoleSpec::Slave => Role::Slave,
-            },
+            role: c.role,
             heartbeat_period_ms: c.heartbeat_ms,
             heartbeat_timeout_ms: c.heartbeat_timeout_ms,
             tpdo_timeout_ms: c.tpdo_timeout_ms,
@@ -905,6 +896,38 @@ mod tests {
         let trolley = c.drive(Drive::Trolley).unwrap();
         assert_eq!(trolley.mode, OperationMode::ProfileVelocity);
         assert_eq!(trolley.profile_ramp, Some(30_000_000));
+    }
+
+    /// Each `[controller]` key reaches its field of the controller's configuration (the
+    /// role read as the controller's own `Role`), the cycle, the nodes and the thresholds
+    /// stay the controller's, and a key the file cannot set (the controller's own names
+    /// among them) is refused by name.
+    #[test]
+    fn each_controller_key_reaches_the_config() {
+        let c = config("[controller]\nnode = 20\nrole = \"slave\"\nheartbeat_ms = 50\nheartbeat_timeout_ms = 400\ntpdo_timeout_ms = 60\nsdo_timeout_ms = 120\n").unwrap();
+        assert_eq!(
+            c,
+            Config {
+                node: 20,
+                role: Role::Slave,
+                heartbeat_period_ms: 50,
+                heartbeat_timeout_ms: 400,
+                tpdo_timeout_ms: 60,
+                sdo_timeout_ms: 120,
+                ..Config::DEFAULT
+            }
+        );
+        for key in ["period_ms = 20", "heartbeat_period_ms = 100", "nodes = 2"] {
+            let e = CommissioningFile::parse(&format!("[controller]\n{key}\n")).unwrap_err();
+            let name = key.split(' ').next().unwrap();
+            assert_eq!(
+                (e.field.as_str(), e.reason.as_str()),
+                (
+                    format!("controller.{name}").as_str(),
+                    format!("unknown field `{name}`, expected one of `node`, `role`, `heartbeat_ms`, `heartbeat_timeout_ms`, `tpdo_timeout_ms`, `sdo_timeout_ms`").as_str()
+                )
+            );
+        }
     }
 
     /// The motion supervision windows are a drive row's (`controller::motion`): read as

@@ -8,7 +8,10 @@
 //! [model]
 //! kind = "crane-subs"        # crane-subs | crane-proj | crane-ext | mass-on-car |
 //!                            # mass-on-car-ext | crane3d-subs | crane3d-ext
-//! tau1 = 0.03                # optional parameters; the paper's values by default
+//! tau1 = 0.03                # optional parameters (below); the model's defaults
+//!
+//! [model.workspace]          # optional: where the crane may go (the 3D crane's too)
+//! l_max = 9.0
 //!
 //! [trajectory]
 //! start = [12.0, 8.0]        # one value per output axis: [x_C, z_C] m, [x_C, y_C, z_C] m, or [z] m
@@ -31,6 +34,19 @@
 //! scalar = "f64"             # f64 | f32
 //! ```
 //!
+//! The model's parameters are solver-core's own types, read by their derives (its feature
+//! `serde`); a key left out keeps the model's default, at every depth ([`Params`]):
+//! - the planar crane, `crane-*` (`CraneParams::PAPER`: Tab. 3): `m`, `g`, `tau1`, `tau2`,
+//!   `min_tension_fraction`; in `[model.workspace]` `x_min`, `x_max`, `l_min`, `l_max`;
+//! - the 3D crane, `crane3d-*` (`Crane3dParams::EXAMPLE`): `m`, `g`, `tau1`, `tau2`, `tau3`,
+//!   `min_tension_fraction`; in `[model.workspace]` `x_min`, `x_max`, `y_min`, `y_max`,
+//!   `l_min`, `l_max`;
+//! - the hook-and-load crane, `double-pendulum-*` (`DoublePendulumParams::EXAMPLE`):
+//!   `hook_mass`, `sling`; the planar crane's keys in `[model.crane]`, its workspace in
+//!   `[model.crane.workspace]`;
+//! - the mass-on-car, `mass-on-car*` (`MassOnCarParams::PAPER`: Tab. 4, α = 15°): `m1`,
+//!   `m2`, `k`, `d`, `alpha_deg` (degrees).
+//!
 //! A malformed or physically impossible scene is refused with a [`SceneError`]
 //! that names the field and the reason (the checks of a whole scene: `check.rs`).
 
@@ -41,6 +57,7 @@ pub mod dispatch;
 pub mod feedback;
 pub mod firmware;
 pub mod operator;
+mod params;
 pub mod rust_source;
 mod side_by_side;
 
@@ -49,13 +66,15 @@ use std::fmt;
 use controller::feedback::Config;
 use nalgebra::SVector;
 use serde::Deserialize;
-use solver_core::models::crane::{CraneParams, Workspace};
-use solver_core::models::crane3d::{Crane3dParams, Workspace3d};
+use solver_core::models::crane::CraneParams;
+use solver_core::models::crane3d::Crane3dParams;
 use solver_core::models::double_pendulum_crane::DoublePendulumParams;
 use solver_core::models::mass_on_car::MassOnCarParams;
 use solver_core::scalar::c;
 use solver_core::trajectory::PointToPoint;
 use solver_core::{Error, JacobianMode, NewtonSettings, Real, SolverSettings};
+
+pub use params::Params;
 
 /// Why a scene was refused: the field (dotted path) and the reason.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -119,6 +138,13 @@ pub struct Scene {
 /// `[operator]` as read: every key optional, its default the crane's lab setting
 /// (`solver_core::operator::Settings::lab` / `lab_3d`); the keys, units and checks are
 /// described in the `operator` module.
+///
+/// A partial setting, not `Settings` itself: its default depends on the crane (`lab` or
+/// `lab_3d`, each from the crane's parameters, the hoist's range from the rope's), which a
+/// type's default cannot know, and its shape is not the file's — `speed` and
+/// `acceleration` are one list over every axis where `Settings` keeps the horizontal axes
+/// apart from the hoist, and `h`, `g` and the ranges are the scene's, not keys of the
+/// section. [`OperatorSpec::settings`] lays the keys given over the crane's lab setting.
 #[derive(Debug, Clone, PartialEq, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
 #[allow(missing_docs)]
@@ -147,7 +173,7 @@ macro_rules! model_specs {
             }
         )+
     ) => {
-        /// Which model, with optional parameters (the paper's values by default).
+        /// Which model, with optional parameters (the model's defaults: the crate's doc).
         #[derive(Debug, Clone, PartialEq, Deserialize)]
         #[serde(tag = "kind", rename_all = "kebab-case")]
         pub enum ModelSpec {
@@ -180,7 +206,7 @@ macro_rules! model_specs {
 
 model_specs! {
     /// The planar crane's parameters, whatever the formulation (`None` for another model).
-    crane(CraneSpec) {
+    crane(Params<CraneParams>) {
         /// Crane, redundant coordinates with the servo-constraints substituted.
         CraneSubs => "subs",
         /// Crane, minimal coordinates projected after Blajer.
@@ -189,14 +215,14 @@ model_specs! {
         CraneExt => "ext",
     }
     /// The mass-on-car's scene parameters, whatever the formulation.
-    mass_on_car_spec(MassOnCarSpec) {
+    mass_on_car_spec(Params<MassOnCarParams>) {
         /// Mass-on-car with internal dynamics.
         MassOnCar => "mass-on-car",
         /// Mass-on-car, minimally extended to index 1.
         MassOnCarExt => "mass-on-car-ext",
     }
     /// The 3D crane's parameters, whatever the formulation (`None` for another model).
-    crane3d(Crane3dSpec) {
+    crane3d(Params<Crane3dParams>) {
         /// The crane in three dimensions (bridge, trolley, hoist), redundant coordinates
         /// with the servo-constraints substituted.
         Crane3dSubs => "3d-subs",
@@ -205,7 +231,7 @@ model_specs! {
     }
     /// The hook-and-load crane's parameters, whatever the formulation (`None` for another
     /// model).
-    double_pendulum(DoublePendulumSpec) {
+    double_pendulum(Params<DoublePendulumParams>) {
         /// The hook-and-load crane (a double pendulum), redundant coordinates with the
         /// servo-constraints substituted.
         DoublePendulumSubs => "dp-subs",
@@ -219,223 +245,6 @@ impl ModelSpec {
     #[must_use]
     pub fn mass_on_car(&self) -> Option<MassOnCarParams> {
         self.mass_on_car_spec().map(|m| m.params())
-    }
-}
-
-/// The 3D crane's parameters: the load, the three drives' lags and the workspace box
-/// (`Crane3dParams::EXAMPLE`, an assumed EOT crane, by default).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-#[allow(missing_docs)]
-pub struct Crane3dSpec {
-    pub m: f64,
-    pub g: f64,
-    pub tau1: f64,
-    pub tau2: f64,
-    pub tau3: f64,
-    pub x_min: f64,
-    pub x_max: f64,
-    pub y_min: f64,
-    pub y_max: f64,
-    pub l_min: f64,
-    pub l_max: f64,
-    pub min_tension_fraction: f64,
-}
-
-impl Default for Crane3dSpec {
-    fn default() -> Self {
-        let p = Crane3dParams::EXAMPLE;
-        let w = p.workspace;
-        Self {
-            m: p.m,
-            g: p.g,
-            tau1: p.tau1,
-            tau2: p.tau2,
-            tau3: p.tau3,
-            x_min: w.x_min,
-            x_max: w.x_max,
-            y_min: w.y_min,
-            y_max: w.y_max,
-            l_min: w.l_min,
-            l_max: w.l_max,
-            min_tension_fraction: p.min_tension_fraction,
-        }
-    }
-}
-
-impl Crane3dSpec {
-    /// The solver-core parameters.
-    pub fn params(&self) -> Crane3dParams {
-        Crane3dParams {
-            m: self.m,
-            g: self.g,
-            tau1: self.tau1,
-            tau2: self.tau2,
-            tau3: self.tau3,
-            workspace: Workspace3d {
-                x_min: self.x_min,
-                x_max: self.x_max,
-                y_min: self.y_min,
-                y_max: self.y_max,
-                l_min: self.l_min,
-                l_max: self.l_max,
-            },
-            min_tension_fraction: self.min_tension_fraction,
-        }
-    }
-}
-
-/// Crane parameters (Tab. 3) and workspace (Sec. 3.1.5).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-#[allow(missing_docs)]
-pub struct CraneSpec {
-    pub m: f64,
-    pub g: f64,
-    pub tau1: f64,
-    pub tau2: f64,
-    pub x_min: f64,
-    pub x_max: f64,
-    pub l_min: f64,
-    pub l_max: f64,
-    pub min_tension_fraction: f64,
-}
-
-impl Default for CraneSpec {
-    fn default() -> Self {
-        let p = CraneParams::PAPER;
-        let w = p.workspace;
-        Self {
-            m: p.m,
-            g: p.g,
-            tau1: p.tau1,
-            tau2: p.tau2,
-            x_min: w.x_min,
-            x_max: w.x_max,
-            l_min: w.l_min,
-            l_max: w.l_max,
-            min_tension_fraction: p.min_tension_fraction,
-        }
-    }
-}
-
-impl CraneSpec {
-    /// The solver-core parameters.
-    pub fn params(&self) -> CraneParams {
-        CraneParams {
-            m: self.m,
-            g: self.g,
-            tau1: self.tau1,
-            tau2: self.tau2,
-            workspace: Workspace {
-                x_min: self.x_min,
-                x_max: self.x_max,
-                l_min: self.l_min,
-                l_max: self.l_max,
-            },
-            min_tension_fraction: self.min_tension_fraction,
-        }
-    }
-}
-
-/// The hook-and-load crane's parameters: the planar crane's (`CraneSpec`'s fields; the
-/// rope limits bound the rope to the hook block) and the hook block's mass and the
-/// sling's length (`DoublePendulumParams::EXAMPLE` by default: Tab. 3's crane, a hook of
-/// 30 % of the load's mass on a 1 m sling, the rope's shortest length 1.5 m).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-#[allow(missing_docs)]
-pub struct DoublePendulumSpec {
-    pub m: f64,
-    pub g: f64,
-    pub tau1: f64,
-    pub tau2: f64,
-    pub x_min: f64,
-    pub x_max: f64,
-    pub l_min: f64,
-    pub l_max: f64,
-    pub min_tension_fraction: f64,
-    pub hook_mass: f64,
-    pub sling: f64,
-}
-
-impl Default for DoublePendulumSpec {
-    fn default() -> Self {
-        let p = DoublePendulumParams::EXAMPLE;
-        let (c, w) = (p.crane, p.crane.workspace);
-        Self {
-            m: c.m,
-            g: c.g,
-            tau1: c.tau1,
-            tau2: c.tau2,
-            x_min: w.x_min,
-            x_max: w.x_max,
-            l_min: w.l_min,
-            l_max: w.l_max,
-            min_tension_fraction: c.min_tension_fraction,
-            hook_mass: p.hook_mass,
-            sling: p.sling,
-        }
-    }
-}
-
-impl DoublePendulumSpec {
-    /// The solver-core parameters.
-    pub fn params(&self) -> DoublePendulumParams {
-        let crane = CraneSpec {
-            m: self.m,
-            g: self.g,
-            tau1: self.tau1,
-            tau2: self.tau2,
-            x_min: self.x_min,
-            x_max: self.x_max,
-            l_min: self.l_min,
-            l_max: self.l_max,
-            min_tension_fraction: self.min_tension_fraction,
-        };
-        DoublePendulumParams {
-            crane: crane.params(),
-            hook_mass: self.hook_mass,
-            sling: self.sling,
-        }
-    }
-}
-
-/// Mass-on-car parameters (Tab. 4) with the angle in degrees.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-#[allow(missing_docs)]
-pub struct MassOnCarSpec {
-    pub m1: f64,
-    pub m2: f64,
-    pub k: f64,
-    pub d: f64,
-    pub alpha_deg: f64,
-}
-
-impl Default for MassOnCarSpec {
-    fn default() -> Self {
-        let p = MassOnCarParams::PAPER;
-        Self {
-            m1: p.m1,
-            m2: p.m2,
-            k: p.k,
-            d: p.d,
-            alpha_deg: p.alpha.to_degrees(),
-        }
-    }
-}
-
-impl MassOnCarSpec {
-    /// The solver-core parameters.
-    pub fn params(&self) -> MassOnCarParams {
-        MassOnCarParams {
-            m1: self.m1,
-            m2: self.m2,
-            k: self.k,
-            d: self.d,
-            alpha: self.alpha_deg.to_radians(),
-        }
     }
 }
 
@@ -623,7 +432,7 @@ impl Scene {
                     "trajectory end" => "trajectory.end".to_string(),
                     "trajectory t_start" => "trajectory.t_start".to_string(),
                     "trajectory duration" => "trajectory.duration".to_string(),
-                    other => format!("model.{other}"),
+                    other => self.model_key(other),
                 }
             }
             Error::TrajectoryTooRough { .. } => "trajectory.smoothness".to_string(),
@@ -631,6 +440,28 @@ impl Scene {
             _ => String::new(),
         };
         refuse(&field, e.to_string())
+    }
+
+    /// The dotted key of the model's parameter `name` (a solver-core error's name): the
+    /// workspace's in `[model.workspace]`, the hook-and-load crane's crane keys in
+    /// `[model.crane]`.
+    fn model_key(&self, name: &str) -> String {
+        let workspace = matches!(
+            name,
+            "x_min" | "x_max" | "y_min" | "y_max" | "l_min" | "l_max"
+        );
+        let crane =
+            workspace || matches!(name, "m" | "g" | "tau1" | "tau2" | "min_tension_fraction");
+        let key = if workspace {
+            format!("workspace.{name}")
+        } else {
+            name.to_string()
+        };
+        if crane && self.model.double_pendulum().is_some() {
+            format!("model.crane.{key}")
+        } else {
+            format!("model.{key}")
+        }
     }
 }
 

@@ -162,7 +162,7 @@ fn field_of(e: Error) -> SceneError {
         "entry_blend" => "operator.entry_blend",
         // The shortest generator pendulum, for the shallowest load: too short for the
         // cycle.
-        "omega_g h" => "model.l_min",
+        "omega_g h" => "model.workspace.l_min",
         "range min" | "range max" | "hoist range min" => "model",
         _ => "operator",
     };

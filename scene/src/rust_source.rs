@@ -263,6 +263,98 @@ impl ToRust for JacobianMode {
     }
 }
 
+/// A string as its Rust literal (`{:?}`: quoted, escaped as Rust reads it back).
+impl ToRust for &str {
+    fn to_rust(&self) -> String {
+        format!("{self:?}")
+    }
+}
+
+/// Rust source already written, used as it is: an expression or a type the crane's
+/// registry or another writer spells (`FirmwareCrane::FEEDBACK_NEW`,
+/// `firmware::config_source`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Code<'a>(pub &'a str);
+
+impl ToRust for Code<'_> {
+    fn to_rust(&self) -> String {
+        self.0.to_string()
+    }
+}
+
+/// One item of a generated module — a constant, a type alias or a function — with its
+/// doc comment (a `///` line per line of `doc`) and its attributes: the build scripts'
+/// modules are lists of these ([`Item::source`]), not format strings that spell the
+/// item's syntax each time.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Item<'a> {
+    doc: &'a str,
+    attributes: Vec<&'a str>,
+    declaration: String,
+}
+
+impl<'a> Item<'a> {
+    /// `pub const NAME: TY = value;`
+    #[must_use]
+    pub fn constant(doc: &'a str, name: &str, ty: &str, value: &dyn ToRust) -> Self {
+        Self::new(
+            doc,
+            format!("pub const {name}: {ty} = {};", value.to_rust()),
+        )
+    }
+
+    /// `pub type NAME = TY;`
+    #[must_use]
+    pub fn type_alias(doc: &'a str, name: &str, ty: &str) -> Self {
+        Self::new(doc, format!("pub type {name} = {ty};"))
+    }
+
+    /// `pub fn SIGNATURE { body }`, each line of `body` indented by four spaces.
+    #[must_use]
+    pub fn function(doc: &'a str, signature: &str, body: &str) -> Self {
+        let body: Vec<String> = body.lines().map(|l| format!("    {l}")).collect();
+        Self::new(
+            doc,
+            format!("pub fn {signature} {{\n{}\n}}", body.join("\n")),
+        )
+    }
+
+    /// The item with the attribute `#[attribute]` (after those it has).
+    #[must_use]
+    pub fn with_attribute(mut self, attribute: &'a str) -> Self {
+        self.attributes.push(attribute);
+        self
+    }
+
+    fn new(doc: &'a str, declaration: String) -> Self {
+        Self {
+            doc,
+            attributes: Vec::new(),
+            declaration,
+        }
+    }
+
+    /// The item's source: its doc comment, its attributes and its declaration, each on
+    /// its own line, the last line ended.
+    #[must_use]
+    pub fn source(&self) -> String {
+        let mut lines: Vec<String> = self.doc.lines().map(|l| format!("/// {l}")).collect();
+        lines.extend(self.attributes.iter().map(|a| format!("#[{a}]")));
+        lines.push(self.declaration.clone());
+        lines.join("\n") + "\n"
+    }
+}
+
+/// The source of a module of `items`, after its `header` line (a `//` comment).
+#[must_use]
+pub fn module(header: &str, items: &[Item<'_>]) -> String {
+    let mut source = format!("// {header}\n");
+    for item in items {
+        source.push_str(&item.source());
+    }
+    source
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
@@ -351,6 +443,29 @@ mod tests {
                 InclinometerSetup::STOCK.sign,
                 InclinometerSetup::STOCK.offset_deg
             )
+        );
+    }
+
+    /// A module is its header and its items, each with its doc lines and attributes; a
+    /// function's body is indented, a string written as its literal.
+    #[test]
+    fn a_module_is_its_items() {
+        let items = [
+            Item::constant("Its name.", "NAME", "&str", &"a \"b\""),
+            Item::constant("Two lines\nof doc.", "X", "[f64; 2]", &[1.0, 0.5])
+                .with_attribute("allow(dead_code)"),
+            Item::type_alias("The model.", "Model", "a::B<C>"),
+            Item::function("Builds it.", "f() -> u8", "let x = 1;\nx + 1"),
+            Item::constant("Verbatim.", "Y", "u8", &Code("X as u8")),
+        ];
+        assert_eq!(
+            module("Generated. Do not edit.", &items),
+            "// Generated. Do not edit.\n\
+             /// Its name.\npub const NAME: &str = \"a \\\"b\\\"\";\n\
+             /// Two lines\n/// of doc.\n#[allow(dead_code)]\npub const X: [f64; 2] = [1.0, 0.5];\n\
+             /// The model.\npub type Model = a::B<C>;\n\
+             /// Builds it.\npub fn f() -> u8 {\n    let x = 1;\n    x + 1\n}\n\
+             /// Verbatim.\npub const Y: u8 = X as u8;\n"
         );
     }
 

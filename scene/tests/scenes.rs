@@ -119,6 +119,51 @@ fn broken_scenes_name_the_field() {
             "trajectory.t_end",
             "finite",
         ),
+        // The workspace is a table of its own: a bad bound is named there, a bound
+        // written beside the crane's keys is an unknown key of `[model]`.
+        (
+            with(
+                "kind = \"crane-subs\"",
+                "kind = \"crane-subs\"\n\n[model.workspace]\nl_min = 0.0",
+            ),
+            "model.workspace.l_min",
+            "outside",
+        ),
+        (
+            with(
+                "kind = \"crane-subs\"",
+                "kind = \"crane-subs\"\nl_min = 2.0",
+            ),
+            "model",
+            "unknown field `l_min`",
+        ),
+        (
+            with(
+                "kind = \"crane-subs\"",
+                "kind = \"crane-subs\"\n\n[model.workspace]\nl_mx = 10.0",
+            ),
+            "model",
+            "unknown field `l_mx`, expected one of `x_min`, `x_max`, `l_min`, `l_max`",
+        ),
+        // The hook-and-load crane's crane keys are in `[model.crane]`.
+        (
+            with(
+                "kind = \"crane-subs\"",
+                "kind = \"double-pendulum-subs\"\n\n[model.crane]\ntau1 = -0.1",
+            )
+            .replace("smoothness = 4", "smoothness = 7"),
+            "model.crane.tau1",
+            "outside",
+        ),
+        (
+            with(
+                "kind = \"crane-subs\"",
+                "kind = \"double-pendulum-subs\"\n\n[model.crane.workspace]\nx_min = 30.0",
+            )
+            .replace("smoothness = 4", "smoothness = 7"),
+            "model.crane.workspace.x_min",
+            "outside",
+        ),
     ];
     for (text, field, reason) in cases {
         let (f, r) = refused(&text);

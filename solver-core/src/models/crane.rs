@@ -12,7 +12,15 @@ use crate::scalar::{c, to_f64, Real};
 use crate::trajectory::Trajectory;
 
 /// The crane's workspace (Sec. 3.1.5: `x ∈ [10, 23] m`, `l ∈ [3, 9] m`).
+///
+/// With feature `serde`, a scene's `[model.workspace]` (a key left out: the paper's,
+/// [`Workspace::PAPER`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(deny_unknown_fields, default)
+)]
 pub struct Workspace {
     /// Smallest trolley position, m.
     pub x_min: f64,
@@ -34,8 +42,23 @@ impl Workspace {
     };
 }
 
+/// The paper's: what a scene that names no workspace gets.
+impl Default for Workspace {
+    fn default() -> Self {
+        Self::PAPER
+    }
+}
+
 /// Crane parameters (Tab. 3) and the limits within which the inverse model is regular.
+///
+/// With feature `serde`, a scene's `[model]` for the planar crane, the workspace a table
+/// of its own (a key left out: [`CraneParams::PAPER`]'s value).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(deny_unknown_fields, default)
+)]
 pub struct CraneParams {
     /// Load mass m, kg (scales the rope force only; the inverse model is per unit mass).
     pub m: f64,
@@ -51,6 +74,13 @@ pub struct CraneParams {
     /// desired downward acceleration must stay below `(1 − fraction)·g`. At zero the
     /// rope goes slack and the inverse model is singular.
     pub min_tension_fraction: f64,
+}
+
+/// Tab. 3's: what a scene that sets no parameter gets.
+impl Default for CraneParams {
+    fn default() -> Self {
+        Self::PAPER
+    }
 }
 
 impl CraneParams {

@@ -45,7 +45,17 @@ pub const HOOK_MASS_RATIO: (f64, f64) = (0.1, 1.0);
 pub const SLING_LENGTH: (f64, f64) = (0.5, 2.0);
 
 /// The double pendulum's parameters: the planar crane's and the hook and sling.
+///
+/// With feature `serde`, a hook-and-load scene's `[model]`: `hook_mass`, `sling`, the crane
+/// in `[model.crane]` and its workspace in `[model.crane.workspace]` (a key left out:
+/// [`DoublePendulumParams::EXAMPLE`]'s value — the scene lays its keys over it, since the
+/// nested types' own defaults are the paper crane's, whose rope is longer).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(deny_unknown_fields, default)
+)]
 pub struct DoublePendulumParams {
     /// The crane: load mass, gravity, drive lags, workspace (its rope limits bound `l`,
     /// the rope to the hook), and the tension margin both ropes must keep.
@@ -54,6 +64,13 @@ pub struct DoublePendulumParams {
     pub hook_mass: f64,
     /// The sling's length l_s, m.
     pub sling: f64,
+}
+
+/// The example: what a hook-and-load scene that sets no parameter gets.
+impl Default for DoublePendulumParams {
+    fn default() -> Self {
+        Self::EXAMPLE
+    }
 }
 
 impl DoublePendulumParams {

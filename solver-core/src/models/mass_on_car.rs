@@ -30,7 +30,15 @@ pub const NU: usize = 1;
 schemes_of!(MassOnCar);
 
 /// Parameters of Tab. 4 plus the inclination α.
+///
+/// With feature `serde`, a mass-on-car scene's `[model]`, α in degrees as `alpha_deg` (a
+/// key left out: [`MassOnCarParams::PAPER`]'s value).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(deny_unknown_fields, default)
+)]
 pub struct MassOnCarParams {
     /// Car mass m1, kg.
     pub m1: f64,
@@ -41,7 +49,29 @@ pub struct MassOnCarParams {
     /// Damping d, Ns/m (Tab. 4: 0 or 1).
     pub d: f64,
     /// Inclination α of the plane, rad; must lie in (0°, 90°) for a non-flat output.
+    #[cfg_attr(feature = "serde", serde(rename = "alpha_deg", with = "degrees"))]
     pub alpha: f64,
+}
+
+/// Tab. 4's: what a mass-on-car scene that sets no parameter gets.
+impl Default for MassOnCarParams {
+    fn default() -> Self {
+        Self::PAPER
+    }
+}
+
+/// A scene gives α in degrees (`alpha_deg`), the model takes radians.
+#[cfg(feature = "serde")]
+mod degrees {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub(super) fn serialize<S: Serializer>(alpha: &f64, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_f64(alpha.to_degrees())
+    }
+
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        f64::deserialize(d).map(f64::to_radians)
+    }
 }
 
 impl MassOnCarParams {

@@ -58,7 +58,15 @@ pub use ext::{Crane3dExt, Ext3dFactors};
 pub use subs::{Crane3dSubs, Subs3dFactors, N, NU};
 
 /// Where bridge, trolley and rope may go.
+///
+/// With feature `serde`, a 3D scene's `[model.workspace]` (a key left out:
+/// [`Workspace3d::EXAMPLE`]'s value).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(deny_unknown_fields, default)
+)]
 pub struct Workspace3d {
     /// Smallest bridge position, m.
     pub x_min: f64,
@@ -72,6 +80,13 @@ pub struct Workspace3d {
     pub l_min: f64,
     /// Longest rope, m.
     pub l_max: f64,
+}
+
+/// The assumed hall: what a 3D scene that names no workspace gets.
+impl Default for Workspace3d {
+    fn default() -> Self {
+        Self::EXAMPLE
+    }
 }
 
 impl Workspace3d {
@@ -96,7 +111,15 @@ impl Workspace3d {
 }
 
 /// The 3D crane's parameters and the limits within which the inverse model is regular.
+///
+/// With feature `serde`, a 3D scene's `[model]`, the workspace a table of its own (a key
+/// left out: [`Crane3dParams::EXAMPLE`]'s value).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(deny_unknown_fields, default)
+)]
 pub struct Crane3dParams {
     /// Load mass m, kg (scales the rope force only; the inverse model is per unit mass).
     pub m: f64,
@@ -114,6 +137,13 @@ pub struct Crane3dParams {
     /// desired downward acceleration must stay below `(1 − fraction)·g`. At zero the
     /// rope goes slack and the inverse model is singular.
     pub min_tension_fraction: f64,
+}
+
+/// The assumed EOT crane: what a 3D scene that sets no parameter gets.
+impl Default for Crane3dParams {
+    fn default() -> Self {
+        Self::EXAMPLE
+    }
 }
 
 impl Crane3dParams {
