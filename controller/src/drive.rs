@@ -5,9 +5,15 @@
 //! 3D crane `[Bridge, Trolley, Winch]`. Everything the controller keeps per drive is an
 //! array in that order, looked up through [`position`].
 
-/// A driven axis.
+/// A driven axis. With feature `serde`, a commissioning file's `axis = "trolley"`,
+/// `"winch"` or `"bridge"`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize),
+    serde(rename_all = "kebab-case")
+)]
 pub enum Drive {
     /// Trolley drive: the planar crane's x (input u1), the 3D crane's y (u2).
     Trolley,

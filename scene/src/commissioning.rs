@@ -167,37 +167,12 @@ impl Default for ControllerSpec {
     }
 }
 
-/// Which axis a drive moves. Not `controller::drive::Drive` itself while `cargo xtask
-/// report` asks a row for its drive by [`AxisSpec::drive`] (xtask/src/report/bus.rs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum AxisSpec {
-    /// Trolley (the planar crane's x, the 3D crane's y).
-    Trolley,
-    /// Winch (the rope length).
-    Winch,
-    /// Bridge (the 3D crane's x).
-    Bridge,
-}
-
-impl AxisSpec {
-    /// The controller's drive.
-    #[must_use]
-    pub fn drive(self) -> Drive {
-        match self {
-            AxisSpec::Trolley => Drive::Trolley,
-            AxisSpec::Winch => Drive::Winch,
-            AxisSpec::Bridge => Drive::Bridge,
-        }
-    }
-}
-
 /// One drive's row.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 #[allow(missing_docs)]
 pub struct DriveSpec {
-    pub axis: AxisSpec,
+    pub axis: Drive,
     pub node: u8,
     #[serde(default = "csv")]
     pub mode: OperationMode,
@@ -258,7 +233,7 @@ fn micro() -> f64 {
 }
 
 fn stock_drives() -> Vec<DriveSpec> {
-    [(AxisSpec::Trolley, 1), (AxisSpec::Winch, 2)]
+    [(Drive::Trolley, 1), (Drive::Winch, 2)]
         .into_iter()
         .map(|(axis, node)| DriveSpec {
             axis,
@@ -502,10 +477,7 @@ impl CommissioningFile {
     }
 
     fn drive(&self, axis: Drive) -> Option<(usize, &DriveSpec)> {
-        self.drives
-            .iter()
-            .enumerate()
-            .find(|(_, d)| d.axis.drive() == axis)
+        self.drives.iter().enumerate().find(|(_, d)| d.axis == axis)
     }
 
     /// The set-point limits of a crane with `drives` (the model's input order): each
@@ -604,13 +576,7 @@ impl CommissioningFile {
                 return Err(refuse("drive".into(), format!("no drive moves the {name}")));
             };
             let field = |f: &str| format!("drive[{i}].{f}");
-            if self
-                .drives
-                .iter()
-                .filter(|d| d.axis.drive() == axis)
-                .count()
-                > 1
-            {
+            if self.drives.iter().filter(|d| d.axis == axis).count() > 1 {
                 return Err(refuse(field("axis"), format!("the {name} has two drives")));
             }
             if !(1..=127).contains(&d.node) || !nodes.insert(d.node) {
@@ -731,13 +697,13 @@ impl CommissioningFile {
             .drives
             .iter()
             .enumerate()
-            .find(|(_, d)| !drives.contains(&d.axis.drive()))
+            .find(|(_, d)| !drives.contains(&d.axis))
         {
             return Err(refuse(
                 format!("drive[{i}].axis"),
                 format!(
                     "this crane has no {}: its drives are {}",
-                    extra.axis.drive().name(),
+                    extra.axis.name(),
                     names()
                 ),
             ));
@@ -745,7 +711,7 @@ impl CommissioningFile {
         // The nodes in the file's order (the stock file: trolley, then winch).
         let mut list = [None; MAX_NODES];
         for (slot, d) in list.iter_mut().zip(&self.drives) {
-            let axis = d.axis.drive();
+            let axis = d.axis;
             *slot = drive::of(&drives, axis, &setups).map(|s| NodeSetup::Drive(axis, *s));
         }
         Ok(Config {

@@ -203,7 +203,7 @@ impl Crane {
             .into_iter()
             .zip(limits)
             .map(|(axis, limit)| {
-                let row = file.drives.iter().find(|d| d.axis.drive() == axis);
+                let row = file.drives.iter().find(|d| d.axis == axis);
                 let stock = axis.node();
                 DriveInfo {
                     name: axis.name(),
