@@ -1,5 +1,7 @@
-//! The fuzzer's inverse model is the firmware's for the default scene
-//! (`scenes/paper-crane.toml`): its model, integrator and solver settings come from the
+//! The fuzzer's inverse model is the firmware's for the paper's scene
+//! (`scenes/paper-crane.toml`, *subs*; the default scene, `scene::firmware::DEFAULT_SCENE`,
+//! is its *ext* formulation of the same crane and move): its model, integrator and solver
+//! settings come from the
 //! firmware's one registration of models and schemes (`scene::dispatch`), as the
 //! firmware's build script takes them, so the fuzzed controller steps the integrator the
 //! firmware links and cannot drift from it.

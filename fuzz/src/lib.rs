@@ -1,5 +1,6 @@
-//! What the fuzz targets share: the firmware's default scene (the paper's crane, BDF4
-//! with the exact Jacobian at h = 10 ms) behind the controller, and checks of what the
+//! What the fuzz targets share: the firmware of the paper's scene (`scenes/paper-crane.toml`:
+//! the paper's crane on *subs*, BDF4 with the exact Jacobian at h = 10 ms; the default
+//! scene is its *ext* formulation) behind the controller, and checks of what the
 //! controller sends.
 
 use controller::canopen::cob;

@@ -18,7 +18,7 @@ use sim::{Scenario, HEALTHY};
 use crate::firmware::{self, parse_cost, parse_tx, readable_log, root, Board, StepCost};
 
 /// The scenes the firmware is checked on: first the default scene
-/// ([`host_tests::DEFAULT_SCENE`]: the planar crane on the minimally extended
+/// ([`host_tests::DEFAULT_SCENE`], `scene::firmware::DEFAULT_SCENE` re-exported: the planar crane on the minimally extended
 /// formulation, *ext*, index 1, BDF4 — the flat inverse to rounding, the configuration
 /// docs/RESULTS.md picks), on which the scenarios run; then the paper's scene (*subs*,
 /// index 3, BDF4) and the firmware's Radau, RADAU5's transformed Newton — under QEMU it

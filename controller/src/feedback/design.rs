@@ -80,23 +80,42 @@ impl Weights {
     /// checks (each must be positive), and what a scene's test reads back.
     #[must_use]
     pub const fn all(&self) -> [f64; 16] {
+        // Destructured, so that a weight added to the struct and not here does not compile.
+        let Self {
+            load_position,
+            trolley_position,
+            swing_velocity,
+            trolley_correction,
+            rope_position,
+            winch_correction,
+            drive_disturbance,
+            swing_disturbance,
+            drive_offset,
+            position_noise,
+            angle_noise,
+            rest_load_position,
+            rest_trolley_position,
+            rest_swing_velocity,
+            rest_load_velocity,
+            rest_angle_noise,
+        } = *self;
         [
-            self.load_position,
-            self.trolley_position,
-            self.swing_velocity,
-            self.trolley_correction,
-            self.rope_position,
-            self.winch_correction,
-            self.drive_disturbance,
-            self.swing_disturbance,
-            self.drive_offset,
-            self.position_noise,
-            self.angle_noise,
-            self.rest_load_position,
-            self.rest_trolley_position,
-            self.rest_swing_velocity,
-            self.rest_load_velocity,
-            self.rest_angle_noise,
+            load_position,
+            trolley_position,
+            swing_velocity,
+            trolley_correction,
+            rope_position,
+            winch_correction,
+            drive_disturbance,
+            swing_disturbance,
+            drive_offset,
+            position_noise,
+            angle_noise,
+            rest_load_position,
+            rest_trolley_position,
+            rest_swing_velocity,
+            rest_load_velocity,
+            rest_angle_noise,
         ]
     }
 
