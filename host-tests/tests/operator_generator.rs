@@ -1,9 +1,9 @@
 //! Operator mode's generator (`solver_core::operator`, issue 28) on both lab cranes: the
 //! inverse models driven by it, its smoothness, the drives' limits and the workspace
 //! after the exact flat inverse over 10,000 random stick sequences per crane, the
-//! stopping bound, the exact rest, limits, stops, bad demands, the hand-over from a
-//! running move, and the load in nonlinear plants (the model's and one whose pendulum
-//! is 10 % longer or shorter).
+//! stopping bound, the exact rest, limits, stops, bad demands, and the load in nonlinear
+//! plants (the model's and one whose pendulum is 10 % longer or shorter). The hand-over
+//! from a running move: `tests/operator_takeover.rs`.
 //!
 //! `cargo test -p host-tests --release --test operator_generator -- --nocapture` prints
 //! the numbers it checks.
@@ -13,17 +13,15 @@ use host_tests::operator::{
     RandomStick, RandomSummary, Record,
 };
 use host_tests::operator_study::study_depth;
-use nalgebra::SVector;
 use sim::plant::Rng;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::{subs, Crane3dParams, Crane3dSubs};
 use solver_core::models::crane_subs::{self, CraneSubs};
 use solver_core::operator::{
-    brake, stopping_bound, Demand, Generator, Generator3d, Handover, PlanarGenerator, Settings,
+    brake, stopping_bound, Demand, Generator, Generator3d, PlanarGenerator, Settings,
     LAB_HOIST_RING, LAB_RING, SMOOTHNESS,
 };
 use solver_core::reference::{flat_crane, flat_crane3d};
-use solver_core::trajectory::{PointToPoint, Trajectory};
 use solver_core::{DaeModel, Driven, Error, JacobianMode, SolverSettings};
 
 const H: f64 = 0.01;
@@ -653,102 +651,6 @@ fn a_diagonal_stick_gives_a_straight_load_path() {
         (dy / dx - want).abs() < 1e-4,
         "along the stick's direction: {} against {want}",
         dy / dx
-    );
-}
-
-/// The hand-over from a running automatic move (the planner's paper move, 8 s and 16 s,
-/// and a 3D diagonal one, interrupted at 10 / 50 / 90 %), the stick then pushed either
-/// way or not at all: the path continues the move's derivatives 0..=5 exactly, every
-/// drive stays within 95 % of its limits and inside the workspace; where the move is too
-/// fast to continue inside the workspace, the entry is refused by name.
-#[test]
-fn hand_over_from_a_running_move() {
-    let p = CraneParams::PAPER;
-    let p3 = Crane3dParams::EXAMPLE;
-    let mut accepted = 0;
-    let mut refused = 0;
-    for (crane, duration) in [
-        (Crane::PLANAR, 8.0),
-        (Crane::PLANAR, 16.0),
-        (Crane::SPATIAL, 10.0),
-    ] {
-        for frac in [0.1, 0.5, 0.9] {
-            for stick in [-1.0, 0.0, 1.0] {
-                let t = (frac * duration / H).round() * H;
-                let result = match crane {
-                    Crane::Planar(_) => {
-                        let mv = PointToPoint::new(
-                            SVector::from([12.0, 8.0]),
-                            SVector::from([20.0, 4.0]),
-                            0.0,
-                            duration,
-                            5,
-                        )
-                        .unwrap();
-                        let before: [SVector<f64, 2>; 6] = mv.derivatives(t);
-                        PlanarGenerator::take_over(Settings::lab(&p), t, &Handover::<1>::of(&mv, t))
-                            .map(|g| {
-                                let after: [SVector<f64, 2>; 6] = g.derivatives(t);
-                                let jump = (0..6)
-                                    .map(|j| (before[j] - after[j]).norm())
-                                    .fold(0.0, f64::max);
-                                (Gen::Planar(g), jump)
-                            })
-                    }
-                    Crane::Spatial(_) => {
-                        let mv = PointToPoint::new(
-                            SVector::from([12.0, 3.0, 8.0]),
-                            SVector::from([20.0, 6.0, 4.0]),
-                            0.0,
-                            duration,
-                            5,
-                        )
-                        .unwrap();
-                        let before: [SVector<f64, 3>; 6] = mv.derivatives(t);
-                        Generator3d::take_over(Settings::lab_3d(&p3), t, &Handover::<2>::of(&mv, t))
-                            .map(|g| {
-                                let after: [SVector<f64, 3>; 6] = g.derivatives(t);
-                                let jump = (0..6)
-                                    .map(|j| (before[j] - after[j]).norm())
-                                    .fold(0.0, f64::max);
-                                (Gen::Spatial(g), jump)
-                            })
-                    }
-                };
-                match result {
-                    Ok((mut g, jump)) => {
-                        accepted += 1;
-                        assert!(jump < 1e-12, "the path continues the move: {jump}");
-                        let mut e = Extremes::default();
-                        drive(
-                            &crane,
-                            &mut g,
-                            2500,
-                            |n| {
-                                if n < 300 {
-                                    [stick, 0.5 * stick, 0.0]
-                                } else {
-                                    [0.0; 3]
-                                }
-                            },
-                            |r| e.add(&crane, r),
-                        );
-                        println!("{} {duration} s move taken over at {frac}, stick {stick}: largest share of a drive limit {:.3}", crane.name(), e.share(&crane));
-                        assert!(e.share(&crane) <= 0.95 && e.outside <= 1e-9);
-                        assert!(g.is_at_rest());
-                    }
-                    Err(e) => {
-                        refused += 1;
-                        println!("{} {duration} s move at {frac}: refused: {e}", crane.name());
-                        assert!(matches!(e, Error::OutsideWorkspace { .. }));
-                    }
-                }
-            }
-        }
-    }
-    assert!(
-        accepted >= 18 && refused >= 3,
-        "{accepted} accepted, {refused} refused"
     );
 }
 

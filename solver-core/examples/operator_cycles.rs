@@ -20,11 +20,32 @@
 
 use nalgebra::SVector;
 use solver_core::models::crane3d::Crane3dParams;
-use solver_core::operator::{Demand, Generator3d, Handover, Settings};
+use solver_core::operator::{Demand, Generator3d, Handover, Headroom, Room, Settings};
 use solver_core::trajectory::{PointToPoint, Trajectory};
 
 /// The cycles counted.
 const CYCLES: usize = 20_000;
+
+/// The room the 3D lab crane's drives (`controller::setpoint::DriveLimits::LAB_3D`: 3, 2
+/// and 2 m/s, 3, 2 and 3 m/s²) leave a hand-over's stop beside the operator: 95 % of
+/// each limit less the manual speed and 1.5 times the manual acceleration (the table of
+/// `cargo run --release -p host-tests --example takeover_limits`).
+const ROOM: Headroom<2> = Headroom {
+    horizontal: [
+        Room {
+            speed: 1.85,
+            acceleration: 2.1,
+        },
+        Room {
+            speed: 1.1,
+            acceleration: 1.15,
+        },
+    ],
+    hoist: Room {
+        speed: 1.4,
+        acceleration: 2.1,
+    },
+};
 
 /// One cycle: the generator's advance and the evaluations at `stages` fractions of it.
 #[inline(never)]
@@ -83,7 +104,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             for n in 0..CYCLES {
                 if n % blend == 0 {
                     let t = 1.0 + 0.01 * (n / blend % 5) as f64;
-                    g = Generator3d::take_over(s, t, &Handover::<2>::of(&mv, t))?;
+                    g = Generator3d::take_over(s, t, &Handover::<2>::of(&mv, t), &ROOM)?;
                 }
                 sum += measured_cycle(std::hint::black_box(&mut g), &busy(n), stages);
             }

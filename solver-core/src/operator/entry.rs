@@ -1,73 +1,134 @@
 //! Starting from a moving load: the hand-over from a running automatic move.
 //!
-//! The generator's path is `K ∗ p₀`; a state it can continue exactly is one it could
-//! have reached. The entry takes the one of *steady acceleration*: the rate limiter as
-//! if it had accelerated at a constant `ā` (the move's acceleration, within the axis's
-//! limit) for longer than the filters remember. Its ring is then full of that
-//! acceleration's step, its running sums and B-spline coefficients hold their steady
-//! values, and with `τ̄`, `μ₂` the mean and second moment of the kernel from `p₀` to the
-//! virtual trolley `r` (the pendulum adds no lag: `ω²/(ω² + s²) = 1 − s²/ω² + …`):
+//! **Why not continue the move's steady state.** The first design let the generator
+//! start in the steady state of the move's acceleration (its rate limiter as if it had
+//! accelerated at the move's acceleration, within the axis's limit, for longer than the
+//! filters remember) and blended what that state cannot represent — the acceleration
+//! beyond the limit and the move's third to fifth derivatives — away over a fixed 4 s
+//! with the Hermite basis below. Measured with the exact flat inverse
+//! (`cargo run --release -p host-tests --example takeover_limits`, before this change):
+//! up to 2.58 times the trolley's acceleration limit (3 m/s²) 20 % into a 6 s move,
+//! 1.03 times at 10 %, where the move's acceleration is only 0.12 m/s². The drive past
+//! its limit is the trolley, its rate `u̇ ≈ ẍ` (the drive lag is 30 ms), 0.4–0.6 s after
+//! the take-over (−5.6 and −7.0 m/s² there), then a swing of the set point with a period
+//! of about 2 s over the whole blend. The cause is the blend's fourth derivative: the
+//! trolley is at `x = x_L + ẍ_L z_C/(g − z̈_C)`, so its acceleration carries
+//! `x_L⁗ z_C/g` (0.8 s² on an 8 m rope), and the blend's share of `x_L⁗` is
+//! `Σ_j e_j T^{j−4} H_j⁗(τ)` — for the move's jerk and snap (`e₃` = 1.77 m/s³,
+//! `e₄` = 0.47 m/s⁴, `e₅` = −6.8 m/s⁵ at 20 % of the 6 s move) over `T` = 4 s several
+//! m/s⁴. No fixed length fixes it: the terms above the second derivative grow with
+//! `T^{j−2}`, those below shrink (1 s: 20 times the limit at 20 %; 16 s: 230 times at
+//! 5 %, from `e₅ T⁵`), and the steady state itself keeps the move's speed, whose
+//! continuation leaves the workspace (refused at 50 %).
 //!
-//! ```text
-//! p₀(t − s) = p₀ − v₀ s + ā s²/2,   d = r − p₀ = −v₀ τ̄ + ā μ₂/2,   ḋ = −ā τ̄,
-//! e = x_L − r = −ā/ω_g²,   ė = 0,    so   x_L = p₀ + d + e,  ẋ_L = v₀ − ā τ̄,  ẍ_L = ā.
-//! ```
+//! **The hand-over now: the move's stop and the stick, added.** The move ends with a stop
+//! of its own — a path from the move's state (derivatives 0..=5 at the hand-over) to rest
+//! on the move's path, at or before its target — and the generator starts *at rest at
+//! that stop's end*, the stick live from the first cycle. The load path is the sum: the
+//! generator's own path plus the stop's remainder `E(t) = S(t) − S_end`, which starts with
+//! exactly the move's state minus the rest (so the set points continue with all their
+//! derivatives) and ends with every derivative zero after the stop's duration `T`. On
+//! `[0, T]`, `τ = t/T`, it is the two-point Hermite interpolant of degree 11,
+//! `E(t) = Σ_j e_j T^j H_j(τ)`, `H_j(τ) = τ^j/j! · (1 − τ)⁶ · Σ_{k=0}^{5−j} C(5+k, k) τ^k`
+//! (`H_j^{(i)}(0) = δ_ij`, `H_j^{(i)}(1) = 0`, `i ≤ 5`); for a straight point-to-point move
+//! of degree 11 (the planner's) every `e_j` points along the move, so the stop stays on
+//! its path, and `T` = the time the move has left with the end at the target *is* the
+//! move.
 //!
-//! (The hoist the same without `e`.) Given the move's load position, speed and
-//! acceleration this fixes `v₀ = ẋ + ā τ̄` and the origin of `p₀`. What the steady
-//! state cannot represent — the move's third to fifth derivatives, the acceleration
-//! beyond the limit, the quanta's rounding — is added as a blend `E(t)` that starts with
-//! exactly those differences in derivatives 0..=5 and ends with all of them zero after
-//! [`Settings::entry_blend`]: the two-point Hermite basis of degree 11,
-//! `H_j(τ) = τ^j/j! · (1 − τ)⁶ · Σ_{k=0}^{5−j} C(5+k, k) τ^k` (`H_j^{(i)}(0) = δ_ij`,
-//! `H_j^{(i)}(1) = 0`, `i ≤ 5`). So the set points stay continuous with their
-//! accelerations at the hand-over, and the path is the generator's own once the blend
-//! has passed.
+//! The stop's duration and end are chosen from the state: the shortest `T` (from 0.25 s
+//! up by a fifth each time, and the move's own remaining time; at most
+//! [`Settings::entry_blend`](crate::operator::Settings::entry_blend)) and then the end —
+//! first the trolley's smoothest (least `∫ ẍ² dt`), then shares of the way left to the
+//! target in eighths from the nearest — whose stop never turns back and keeps the drives' motion it adds within the caller's [`Headroom`] — the trolley's
+//! speed and acceleration from the flat inverse with the rope held, `ẋ = Ė + c E⃛`,
+//! `ẍ = Ë + c E⁗`, `c = l_g/g` (the generator pendulum for the deeper of the load's depth
+//! and the move's target), the hoist's `Ė_z`, `Ë_z` — at 17 points of the stop. The
+//! headroom is what the drives have left beside the operator's own motion, so that the
+//! sum stays within the limits (the caller's choice: the tests take 95 % of each limit
+//! less the manual speed and 1.5 times the manual acceleration). While the stop lasts,
+//! the generator's ranges are narrowed by the stop's excursion (the load's and the
+//! trolley's), and its pendulum is tuned for the stop's deepest load, braked downwards.
 //!
-//! Refused (the controller then lets the move stop on its path and hands over at rest):
-//! a state whose steady past or whose full-deceleration stop leaves an axis's range, or
-//! whose rope is longer than the virtual pendulum would be.
+//! Refused ([`Error::ParameterOutOfRange`] "hand-over stop" when no stop keeps within the
+//! headroom, [`Error::OutsideWorkspace`] when the stop leaves a range or the rope is
+//! longer than the virtual pendulum may be): the controller then lets the move stop on
+//! its path and hands over at rest.
 
 use crate::error::{Error, Result};
-use crate::operator::limiter::{brake, round_i, MAX_STEP};
 use crate::operator::piece::{binomial, factorial, Piece, COEFFS};
-use crate::operator::settings::Quanta;
 use crate::trajectory::Trajectory;
 
 /// The derivatives that are continued: position to fifth.
 pub const ORDERS: usize = 6;
 
-/// A moving load's state: per output its position and first five derivatives.
+/// A moving load's state: per output its position and first five derivatives, and where
+/// and when the move would have come to rest.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Handover<const NH: usize> {
     /// The horizontal outputs, `[z, ż, z̈, z⃛, z⁗, z⁽⁵⁾]` each.
     pub horizontal: [[f64; ORDERS]; NH],
     /// The load's depth and its derivatives.
     pub hoist: [f64; ORDERS],
+    /// The move's target, horizontal outputs: the stop ends at or before it.
+    pub target: [f64; NH],
+    /// The move's target depth.
+    pub hoist_target: f64,
+    /// The time the move has left until it rests at its target, s (one of the stop
+    /// durations tried: with the end at the target, that stop is the move itself).
+    pub rest_in: f64,
 }
 
 impl Handover<1> {
-    /// The planar path `[x_C, z_C]` at `t`.
+    /// The planar path `[x_C, z_C]` at `t`, its target where its active span ends.
     #[must_use]
     pub fn of<Z: Trajectory<f64, 2>>(path: &Z, t: f64) -> Self {
         let d = path.derivatives::<ORDERS>(t).map(<[f64; 2]>::from);
+        let end = path.active_span().1;
+        let [[x, z]] = path.derivatives::<1>(end).map(<[f64; 2]>::from);
         Self {
             horizontal: [d.map(|[x, _]| x)],
             hoist: d.map(|[_, z]| z),
+            target: [x],
+            hoist_target: z,
+            rest_in: end - t,
         }
     }
 }
 
 impl Handover<2> {
-    /// The 3D path `[x_C, y_C, z_C]` at `t`.
+    /// The 3D path `[x_C, y_C, z_C]` at `t`, its target where its active span ends.
     #[must_use]
     pub fn of<Z: Trajectory<f64, 3>>(path: &Z, t: f64) -> Self {
         let d = path.derivatives::<ORDERS>(t).map(<[f64; 3]>::from);
+        let end = path.active_span().1;
+        let [[x, y, z]] = path.derivatives::<1>(end).map(<[f64; 3]>::from);
         Self {
             horizontal: [d.map(|[x, _, _]| x), d.map(|[_, y, _]| y)],
             hoist: d.map(|[_, _, z]| z),
+            target: [x, y],
+            hoist_target: z,
+            rest_in: end - t,
         }
     }
+}
+
+/// What a hand-over's stop may add to one drive's motion, beside the operator's own.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Room {
+    /// Speed, m/s.
+    pub speed: f64,
+    /// Acceleration, m/s².
+    pub acceleration: f64,
+}
+
+/// What a hand-over's stop may add to each drive's motion: the drives' limits less what
+/// the operator's generator may use of them at the same time (the caller knows both).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Headroom<const NH: usize> {
+    /// The drives carrying the horizontal outputs (planar: trolley; 3D: bridge, trolley).
+    pub horizontal: [Room; NH],
+    /// The hoist.
+    pub hoist: Room,
 }
 
 /// The blend `E(t)` on the current cycle: per axis its coefficients in
@@ -79,6 +140,9 @@ pub struct Blend<const NH: usize> {
     hoist: [f64; COEFFS],
     /// Cycles left, this one included.
     left: u64,
+    /// The hoist's share: its largest depth and downward acceleration, m and m/s² (≥ 0),
+    /// for the virtual pendulum's length while it lasts.
+    pub(crate) hoist_extent: [f64; 2],
 }
 
 /// The monomial coefficients of the Hermite basis `H_j(τ)`, `j = 0..=5` (module
@@ -164,171 +228,277 @@ impl<const NH: usize> Blend<NH> {
     }
 }
 
-/// The moments of a filter's kernel: mean and variance, s and s².
+/// `∫₀¹ H₀^{(a)} H_j^{(b)} dτ` for `j = 0..=5`: the Gram row the least-squares end of a
+/// stop is built from (evaluated at compile time).
+#[allow(clippy::indexing_slicing)] // evaluated at compile time: an index out of range fails the build
+const fn gram_row(a: usize, b: usize) -> [f64; ORDERS] {
+    let mut out = [0.0; ORDERS];
+    let mut j = 0;
+    while j < ORDERS {
+        let mut p = a;
+        while p < COEFFS {
+            let mut q = b;
+            while q < COEFFS {
+                let dp = HERMITE[0][p] * falling(p, a);
+                let dq = HERMITE[j][q] * falling(q, b);
+                out[j] += dp * dq / ((p - a + q - b + 1) as f64);
+                q += 1;
+            }
+            p += 1;
+        }
+        j += 1;
+    }
+    out
+}
+
+/// `p!/(p − k)!`.
+const fn falling(p: usize, k: usize) -> f64 {
+    factorial(p) / factorial(p - k)
+}
+
+/// The Gram rows of `Ë` with itself, with `E⁗` (both orders), and of `E⁗` with itself.
+const GRAM_22: [f64; ORDERS] = gram_row(2, 2);
+const GRAM_24: [f64; ORDERS] = gram_row(2, 4);
+const GRAM_42: [f64; ORDERS] = gram_row(4, 2);
+const GRAM_44: [f64; ORDERS] = gram_row(4, 4);
+
+/// Points `τ = i/SAMPLES` at which a stop's drive motion is checked.
+const SAMPLES: usize = 16;
+
+/// The shortest stop tried, s; each next one a fifth longer.
+const SHORTEST_STOP: f64 = 0.25;
+
+/// The ends tried, as a share of the way left to the target: the nearest first.
+const SHARES: [f64; 9] = [0.0, 0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0];
+
+/// One axis's stop: its blend's time derivatives at the start (`e₀` = where it is less
+/// where it ends), and what it adds, relative to its end: the least and largest of the
+/// load's and the trolley's position, m, and the load's largest downward acceleration.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Moments {
-    /// Mean lag τ̄.
-    pub mean: f64,
-    /// Variance.
-    pub variance: f64,
+pub(crate) struct AxisStop {
+    /// `[e₀, …, e₅]`.
+    pub e: [f64; ORDERS],
+    /// Least excursion, m (≤ 0).
+    pub low: f64,
+    /// Largest excursion, m (≥ 0).
+    pub high: f64,
+    /// Largest `Ë` (positive: downwards for the hoist), m/s².
+    pub down: f64,
 }
 
-impl Moments {
-    /// Of a moving average over `t` seconds.
-    #[must_use]
-    pub fn window(t: f64) -> Self {
-        Self {
-            mean: t * 0.5,
-            variance: t * t / 12.0,
-        }
-    }
-
-    /// Of a zero-vibration pair with delay `t`.
-    #[must_use]
-    pub fn pair(t: f64) -> Self {
-        Self {
-            mean: t * 0.5,
-            variance: t * t * 0.25,
-        }
-    }
-
-    /// Of a convolution: means and variances add.
-    #[must_use]
-    pub fn then(self, o: Self) -> Self {
-        Self {
-            mean: self.mean + o.mean,
-            variance: self.variance + o.variance,
-        }
-    }
-
-    /// The second moment about zero.
-    #[must_use]
-    pub fn second(&self) -> f64 {
-        self.variance + self.mean * self.mean
-    }
-}
-
-/// One axis's steady state: the rate limiter's step and speed, and `d`, `ḋ` (and, for a
-/// pendulum, `e`) — from the path's position, speed and the steady acceleration.
+/// A hand-over's stop on every axis.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Steady {
-    /// The acceleration step.
-    pub k: i8,
-    /// The speed in quanta, and the ideal speed's remainder.
-    pub n_v: i64,
-    /// The ideal speed's offset from `n_v`, quanta.
-    pub carry: f64,
-    /// `[d, ḋ]`.
-    pub lag: [f64; 2],
-    /// `[e, ė]`.
-    pub swing: [f64; 2],
-    /// `p₀`'s origin: the path's position minus `d + e`.
-    pub origin: f64,
-    /// The steady path's derivatives 0..=2 at the hand-over (3..=5 are zero).
-    pub path: [f64; 3],
+pub(crate) struct Stop<const NH: usize> {
+    /// Its duration in cycles.
+    pub cycles: u64,
+    /// The horizontal axes.
+    pub horizontal: [AxisStop; NH],
+    /// The hoist.
+    pub hoist: AxisStop,
 }
 
-impl Steady {
-    /// The steady state through a kernel of moments `m` (and a pendulum `ω_g`) at
-    /// position `x`, speed `v`, acceleration `a` (already within the limit).
-    #[must_use]
-    pub fn new(x: f64, v: f64, a: f64, q: &Quanta, m: Moments, omega: Option<f64>) -> Self {
-        let step = i64::from(MAX_STEP);
-        let k = round_i(a / q.acceleration).clamp(-step, step);
-        let a_q = k as f64 * q.acceleration;
-        let v0 = v + a_q * m.mean;
-        let ideal = v0 / q.velocity;
-        let n_v = round_i(ideal);
-        let v0_q = n_v as f64 * q.velocity;
-        let lag = [-v0_q * m.mean + a_q * m.second() * 0.5, -a_q * m.mean];
-        let swing = [omega.map_or(0.0, |w| -a_q / (w * w)), 0.0];
-        let origin = x - lag[0] - swing[0];
-        Self {
-            k: k as i8,
-            n_v,
-            carry: ideal - n_v as f64,
-            lag,
-            swing,
-            origin,
-            path: [x, v0_q + lag[1], a_q],
-        }
+/// The coefficients of `P^{(k)}` from those of `P`.
+fn derivative(p: &[f64; COEFFS]) -> [f64; COEFFS] {
+    let mut out = [0.0; COEFFS];
+    for (i, (o, c)) in out.iter_mut().zip(p.iter().skip(1)).enumerate() {
+        *o = c * (i + 1) as f64;
     }
+    out
+}
 
-    /// The steady past of `p₀` over `window` seconds, relative to the origin: its least and
-    /// largest value, m.
-    #[must_use]
-    pub fn past_range(&self, q: &Quanta, window: f64) -> (f64, f64) {
-        let (v, a) = (
-            self.n_v as f64 * q.velocity,
-            f64::from(self.k) * q.acceleration,
-        );
-        // p₀(−s) − p₀(0) = −v s + a s²/2 for s ∈ [0, window]: ends and vertex s = v/a.
-        let at = |s: f64| -v * s + a * s * s * 0.5;
-        let mut lo = 0.0_f64.min(at(window));
-        let mut hi = 0.0_f64.max(at(window));
-        if a != 0.0 {
-            let s = v / a;
-            if s > 0.0 && s < window {
-                lo = lo.min(at(s));
-                hi = hi.max(at(s));
+/// Horner's sum of `p` at `x`.
+fn horner(p: &[f64; COEFFS], x: f64) -> f64 {
+    p.iter().rev().fold(0.0, |acc, c| acc * x + c)
+}
+
+/// The stop of one axis in state `d` over `duration` s to `distance` from where it is,
+/// if it keeps within `room` (trolley: `ẋ = Ė + c E⃛`, `ẍ = Ë + c E⁗`; `c = 0` for the
+/// hoist) and never moves against `forward` (the way to the target's sign, 0: either).
+fn axis_stop(
+    d: &[f64; ORDERS],
+    distance: f64,
+    duration: f64,
+    c: f64,
+    room: &Room,
+    forward: f64,
+) -> Option<AxisStop> {
+    let mut tau = *d;
+    let mut scale = 1.0;
+    for t in tau.iter_mut() {
+        *t *= scale;
+        scale *= duration;
+    }
+    if let Some(e0) = tau.first_mut() {
+        *e0 = -distance;
+    }
+    let p = blend_axis(&tau);
+    let p1 = derivative(&p);
+    let p2 = derivative(&p1);
+    let p3 = derivative(&p2);
+    let p4 = derivative(&p3);
+    let (inv, inv2) = (1.0 / duration, 1.0 / (duration * duration));
+    let mut stop = AxisStop {
+        e: *d,
+        low: 0.0,
+        high: 0.0,
+        down: f64::NEG_INFINITY,
+    };
+    if let Some(e0) = stop.e.first_mut() {
+        *e0 = -distance;
+    }
+    for i in 0..=SAMPLES {
+        let x = i as f64 / SAMPLES as f64;
+        let (pos, v, a) = (horner(&p, x), horner(&p1, x) * inv, horner(&p2, x) * inv2);
+        let trolley_v = v + c * horner(&p3, x) * inv * inv2;
+        let trolley_a = a + c * horner(&p4, x) * inv2 * inv2;
+        if libm::fabs(trolley_v) > room.speed
+            || libm::fabs(trolley_a) > room.acceleration
+            || v * forward < -1e-9
+        {
+            return None;
+        }
+        let trolley = pos + c * a;
+        stop.low = stop.low.min(pos).min(trolley);
+        stop.high = stop.high.max(pos).max(trolley);
+        stop.down = stop.down.max(a);
+    }
+    Some(stop)
+}
+
+/// The end of least `∫ (Ë + c E⁗)² dt` over a stop of `duration` (the smoothest for the
+/// trolley), as a share of `remaining` (the way left to the target): what the Gram rows
+/// give for `e₀`.
+fn smoothest_share(d: &[f64; ORDERS], remaining: f64, duration: f64, c: f64) -> Option<f64> {
+    let gamma = c / (duration * duration);
+    let row = |j: usize| {
+        let g = |r: &[f64; ORDERS]| r.get(j).copied().unwrap_or(0.0);
+        g(&GRAM_22) + gamma * (g(&GRAM_24) + g(&GRAM_42)) + gamma * gamma * g(&GRAM_44)
+    };
+    let mut scale = duration;
+    let mut rest = 0.0;
+    for (j, dj) in d.iter().enumerate().skip(1) {
+        rest += dj * scale * row(j);
+        scale *= duration;
+    }
+    let share = rest / row(0) / remaining;
+    (remaining != 0.0 && share.is_finite()).then_some(share.clamp(0.0, 1.0))
+}
+
+/// The stop of a hand-over (module documentation): the shortest duration, then the
+/// nearest end, that keeps within `room`; `c = l_g/g`, `h` the cycle, `longest` the
+/// longest duration, s. `None`: no stop does.
+pub(crate) fn plan_stop<const NH: usize>(
+    state: &Handover<NH>,
+    room: &Headroom<NH>,
+    c: f64,
+    h: f64,
+    longest: f64,
+) -> Option<Stop<NH>> {
+    let last = libm::round(longest / h).max(1.0) as u64;
+    let own = libm::round(state.rest_in / h);
+    let own = (own >= 1.0 && own <= last as f64).then_some(own as u64);
+    let mut cycles = (libm::round(SHORTEST_STOP / h) as u64).clamp(1, last);
+    loop {
+        // The move's own remaining time, where it falls before the next duration.
+        let next = ((cycles as f64 * 1.2) as u64).max(cycles + 1);
+        for n in [
+            Some(cycles),
+            own.filter(|o| *o > cycles && *o < next.min(last + 1)),
+        ]
+        .into_iter()
+        .flatten()
+        {
+            if let Some(stop) = stop_over(state, room, c, n, h) {
+                return Some(stop);
             }
         }
-        (lo, hi)
-    }
-}
-
-/// The hoist's kernel moments: its four windows.
-pub(crate) fn hoist_moments(windows: &[f64; 4]) -> Moments {
-    windows.iter().fold(
-        Moments {
-            mean: 0.0,
-            variance: 0.0,
-        },
-        |m, t| m.then(Moments::window(*t)),
-    )
-}
-
-/// The horizontal kernel's moments from `p₀` to the virtual trolley: the two windows,
-/// the generator pendulum's pair (`m_g h`) and the robust pair.
-pub(crate) fn horizontal_moments(boxes: &[f64; 2], pair: f64, robust: Option<f64>) -> Moments {
-    let mut m = Moments::window(boxes[0])
-        .then(Moments::window(boxes[1]))
-        .then(Moments::pair(pair));
-    if let Some(r) = robust {
-        m = m.then(Moments::pair(r));
-    }
-    m
-}
-
-/// The acceleration within the limits, keeping its direction: `a · min(1, A_i/|a_i|)`.
-pub(crate) fn within<const W: usize>(a: [f64; W], limits: [f64; W]) -> [f64; W] {
-    let scale = a.iter().zip(limits).fold(1.0_f64, |s, (ai, l)| {
-        if libm::fabs(*ai) > l {
-            s.min(l / libm::fabs(*ai))
-        } else {
-            s
+        if cycles >= last {
+            return None;
         }
-    });
-    a.map(|ai| ai * scale)
+        cycles = next.min(last);
+    }
 }
 
-/// Refuses an axis whose steady past or full stop leaves `[lo, hi]` (m, absolute).
-pub(crate) fn check_axis(
-    coordinate: &'static str,
-    steady: &Steady,
-    q: &Quanta,
-    window: f64,
-    (lo, hi): (f64, f64),
-    t: f64,
-) -> Result<()> {
-    let (past_lo, past_hi) = steady.past_range(q, window);
-    let p0 = steady.origin;
-    let stop = brake(steady.n_v) as f64 * q.position;
-    let back = brake(-steady.n_v) as f64 * q.position;
-    for value in [p0 + past_lo, p0 + past_hi, p0 + stop, p0 - back] {
-        check_inside(coordinate, value, (lo, hi), t)?;
+/// The nearest stop over `cycles` cycles that keeps within `room`, if any: first the
+/// trolley's smoothest end (where it is on the way), then the shares from the nearest.
+fn stop_over<const NH: usize>(
+    state: &Handover<NH>,
+    room: &Headroom<NH>,
+    c: f64,
+    cycles: u64,
+    h: f64,
+) -> Option<Stop<NH>> {
+    let duration = cycles as f64 * h;
+    // The way left per axis, and the horizontal axis that has the most of it.
+    let mut remaining = [0.0; NH];
+    for ((r, d), target) in remaining
+        .iter_mut()
+        .zip(&state.horizontal)
+        .zip(state.target)
+    {
+        *r = target - d[0];
     }
-    Ok(())
+    let hoist_remaining = state.hoist_target - state.hoist[0];
+    let widest = remaining
+        .iter()
+        .zip(&state.horizontal)
+        .fold((0.0_f64, None), |(w, best), (r, d)| {
+            if libm::fabs(*r) > w {
+                (libm::fabs(*r), Some((d, *r)))
+            } else {
+                (w, best)
+            }
+        })
+        .1;
+    let smoothest = widest.and_then(|(d, r)| smoothest_share(d, r, duration, c));
+    for share in smoothest.into_iter().chain(SHARES) {
+        let mut horizontal = [AxisStop {
+            e: [0.0; ORDERS],
+            low: 0.0,
+            high: 0.0,
+            down: 0.0,
+        }; NH];
+        let mut all = true;
+        for (((out, d), r), axis_room) in horizontal
+            .iter_mut()
+            .zip(&state.horizontal)
+            .zip(remaining)
+            .zip(&room.horizontal)
+        {
+            match axis_stop(d, share * r, duration, c, axis_room, sign(r)) {
+                Some(s) => *out = s,
+                None => {
+                    all = false;
+                    break;
+                }
+            }
+        }
+        if !all {
+            continue;
+        }
+        let forward = sign(hoist_remaining);
+        let distance = share * hoist_remaining;
+        if let Some(hoist) = axis_stop(&state.hoist, distance, duration, 0.0, &room.hoist, forward)
+        {
+            return Some(Stop {
+                cycles,
+                horizontal,
+                hoist,
+            });
+        }
+    }
+    None
+}
+
+/// `1`, `−1` or `0` (for 0).
+fn sign(x: f64) -> f64 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
 }
 
 /// Refuses a position that is not a number or outside `[lo, hi]`, naming the coordinate.
@@ -348,11 +518,6 @@ pub(crate) fn check_inside(
         });
     }
     Ok(())
-}
-
-/// The blend's length in cycles of `h`.
-pub(crate) fn blend_cycles(settings_blend: f64, h: f64) -> u64 {
-    libm::round(settings_blend / h).max(1.0) as u64
 }
 
 /// A blend over `cycles` cycles of `h` from the next cycle on, with the differences
@@ -379,6 +544,7 @@ pub(crate) fn new_blend<const NH: usize>(
         horizontal: horizontal.map(|e| in_theta(&e)),
         hoist: in_theta(hoist),
         left: cycles,
+        hoist_extent: [0.0; 2],
     }
 }
 
@@ -442,24 +608,5 @@ mod tests {
                 largest[j]
             );
         }
-    }
-
-    #[test]
-    fn moments_of_the_steady_state_reproduce_the_path() {
-        // A window of 0.2 s: the mean of p₀(t − s) = p₀ − v s + a s²/2 over it.
-        let m = Moments::window(0.2);
-        let q = Quanta::new(0.5, 0.01);
-        let st = Steady::new(5.0, 0.8, 0.3, &q, m, None);
-        let (v, a) = (st.n_v as f64 * q.velocity, f64::from(st.k) * q.acceleration);
-        let p0 = st.origin;
-        let n = 2000;
-        let mean: f64 = (0..n)
-            .map(|i| {
-                let s = 0.2 * (i as f64 + 0.5) / n as f64;
-                p0 - v * s + 0.5 * a * s * s
-            })
-            .sum::<f64>()
-            / n as f64;
-        assert!((mean - 5.0).abs() < 1e-9, "{mean}");
     }
 }

@@ -237,12 +237,6 @@ impl<const W: usize, const R: usize> Ring<W, R> {
     pub fn forget(&mut self) {
         self.valid = 0;
     }
-
-    /// Fills `R` cycles with `k` (a history of constant acceleration).
-    pub fn fill(&mut self, k: [i8; W]) {
-        self.cells = [k; R];
-        self.valid = R;
-    }
 }
 
 impl<const W: usize, const R: usize> Default for Ring<W, R> {
@@ -340,19 +334,6 @@ impl<const W: usize> Sums<W> {
         }
         out
     }
-
-    /// The state of a history of constant step `k` per axis: the last sum holds
-    /// `k · norm`, the others zero (a window's numerator vanishes on a constant).
-    #[must_use]
-    pub fn steady(k: [i8; W], taps: &Taps) -> Self {
-        let mut out = Self::REST;
-        for (s, ki) in out.sums.iter_mut().zip(k) {
-            if let Some(last) = taps.windows().checked_sub(1).and_then(|i| s.get_mut(i)) {
-                *last = i64::from(ki).wrapping_mul(taps.norm() as i64);
-            }
-        }
-        out
-    }
 }
 
 #[cfg(test)]
@@ -444,24 +425,6 @@ mod tests {
         }
         assert_eq!(taps.terms().count(), 5);
         assert_eq!(terms, [(0, 1), (10, -4), (20, 6), (30, -4), (40, 1)]);
-    }
-
-    #[test]
-    fn steady_state_continues_a_constant_history() {
-        let taps = Taps::new(&[Factor::Window(4), Factor::Window(9)]).with_pairs(&[6]);
-        let mut ring = Ring::<2, 32>::new();
-        ring.fill([5, -3]);
-        let mut sums = Sums::steady([5, -3], &taps);
-        for _ in 0..100 {
-            ring.push([5, -3]);
-            let [x, y] = sums
-                .advance(&ring, &taps)
-                .map(|n| values(&n, taps.windows()));
-            let norm = taps.norm() as i64;
-            for (a, b) in x.iter().zip(y).take(taps.windows() + 1) {
-                assert_eq!([*a, b], [5 * norm, -3 * norm]);
-            }
-        }
     }
 
     #[test]

@@ -5,12 +5,11 @@ use nalgebra::SVector;
 
 use crate::error::{Error, Result};
 use crate::operator::entry::{
-    blend_cycles, check_axis, check_inside, hoist_moments, horizontal_moments, new_blend, within,
-    Blend, Handover, Steady, ORDERS,
+    check_inside, new_blend, plan_stop, AxisStop, Blend, Handover, Headroom, Stop, ORDERS,
 };
 use crate::operator::filter::{i64_to_f64, Factor, Taps};
 use crate::operator::group::Group;
-use crate::operator::limiter::{brake, Axis};
+use crate::operator::limiter::brake;
 use crate::operator::piece::{Piece, HOIST_COEFFS};
 use crate::operator::settings::{cycles, zv_cycles, Quanta, Rounding, Settings};
 use crate::scalar::{c, to_f64, Real};
@@ -300,30 +299,76 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         Ok(())
     }
 
-    /// Takes over a moving load at time `t` (a hand-over from a running move): the path
-    /// continues `state` with its derivatives 0..=5 and becomes the stick's after
-    /// [`Settings::entry_blend`] ([`crate::operator`]'s `entry`: the generator starts in
-    /// the steady state of the move's acceleration, the rest is blended). Refuses invalid
-    /// settings and a state the generator cannot continue inside the workspace — one
-    /// whose steady past or full-deceleration stop leaves a range, or whose rope is
-    /// longer than the virtual pendulum may be — with
-    /// [`Error::OutsideWorkspace`] naming the coordinate.
-    pub fn take_over(settings: Settings<NH>, t: f64, state: &Handover<NH>) -> Result<Self> {
+    /// Takes over a moving load at time `t` (a hand-over from a running move): the move
+    /// ends with a stop of its own on its path, at or before its target, and the
+    /// generator starts at rest at that stop's end with the stick live; the load path is
+    /// the two added ([`crate::operator`]'s `entry`). The path continues `state` with its
+    /// derivatives 0..=5 exactly.
+    ///
+    /// Why not the move's steady state, blended over a fixed time (the first design):
+    /// its blend's fourth derivative reaches the trolley through the pendulum
+    /// (`ẍ ∋ x_L⁗ z_C/g`) and put it at up to 2.58 times its acceleration limit 0.4–0.6 s
+    /// after a take-over 20 % into a 6 s move (`cargo run --release -p host-tests
+    /// --example takeover_limits`, before this change; `entry`'s documentation has the
+    /// numbers). The stop here is the shortest (then the nearest) whose added drive
+    /// motion stays within `room`, at most [`Settings::entry_blend`] long.
+    ///
+    /// Refuses invalid settings, a state or room that is not finite, a state for which no
+    /// stop keeps within `room` ([`Error::ParameterOutOfRange`] "hand-over stop"), and one
+    /// whose stop leaves a range, or whose rope is longer than the virtual pendulum may
+    /// be ([`Error::OutsideWorkspace`] naming the coordinate).
+    pub fn take_over(
+        settings: Settings<NH>,
+        t: f64,
+        state: &Handover<NH>,
+        room: &Headroom<NH>,
+    ) -> Result<Self> {
         let all = state.horizontal.iter().flatten().chain(state.hoist.iter());
-        if let Some(bad) = all.copied().find(|v| !v.is_finite()) {
+        let ends = state
+            .target
+            .iter()
+            .chain([&state.hoist_target, &state.rest_in]);
+        let rooms = room
+            .horizontal
+            .iter()
+            .chain([&room.hoist])
+            .flat_map(|r| [r.speed, r.acceleration]);
+        if let Some(bad) = all
+            .chain(ends)
+            .copied()
+            .chain(rooms)
+            .find(|v| !v.is_finite())
+        {
             return Err(Error::NonFiniteParameter {
                 name: "hand-over state",
                 value: bad,
             });
         }
-        let positions = state.horizontal.map(|d| d[0]);
-        let mut g = Self::at_rest(settings, t, positions, state.hoist[0])?;
-        g.enter(state)?;
+        settings.validate()?;
+        let deepest = state.hoist[0].max(state.hoist_target);
+        let c = settings.pendulum_for(deepest) / settings.g;
+        let stop = plan_stop(state, room, c, settings.h, settings.entry_blend).ok_or(
+            Error::ParameterOutOfRange {
+                name: "hand-over stop",
+                value: settings.entry_blend,
+                min: 0.0,
+                max: settings.entry_blend,
+            },
+        )?;
+        let mut ends = [0.0; NH];
+        for ((end, d), axis) in ends.iter_mut().zip(&state.horizontal).zip(&stop.horizontal) {
+            *end = d[0] - axis.e[0];
+        }
+        let depth = state.hoist[0] - stop.hoist.e[0];
+        let mut g = Self::at_rest(settings, t, ends, depth)?;
+        g.enter(state, &stop)?;
         Ok(g)
     }
 
-    /// The steady states of a hand-over (see [`Generator::take_over`]).
-    fn enter(&mut self, state: &Handover<NH>) -> Result<()> {
+    /// The stop of a hand-over added to the generator at rest at its end (see
+    /// [`Generator::take_over`]): the ranges narrowed by the stop's excursion while it
+    /// lasts, the pendulum tuned for its deepest load, the blend.
+    fn enter(&mut self, state: &Handover<NH>, stop: &Stop<NH>) -> Result<()> {
         let s = self.settings;
         let (h, t) = (s.h, self.t0);
         // The path before the first cycle: the state itself.
@@ -337,31 +382,49 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             }
             p
         };
-        // The hoist: steady at its acceleration within the limit.
+        let narrowed = |name: &'static str, end: f64, axis: &AxisStop, (lo, hi): (f64, f64)| {
+            check_inside(name, end + axis.low, (lo, hi), t)?;
+            check_inside(name, end + axis.high, (lo, hi), t)?;
+            Ok((lo - axis.low, hi - axis.high))
+        };
         let zq = self.hoist.quanta()[0];
-        let [z, zv, za, ..] = state.hoist;
-        let [za_limited] = within([za], [s.hoist.acceleration]);
-        let hz = Steady::new(z, zv, za_limited, &zq, hoist_moments(&s.hoist_boxes), None);
-        let hoist_window = (self.hoist.taps().longest() + 1) as f64 * h;
-        check_axis("z_C", &hz, &zq, hoist_window, s.hoist.range, t)?;
-        self.hoist.origin = [hz.origin];
-        self.hoist.bounds = [unit_bounds(s.hoist.range, hz.origin, &zq)];
-        self.hoist.axes = [Axis {
-            n_v: hz.n_v,
-            n_p: 0,
-            carry: hz.carry,
-        }];
-        self.hoist.set_steady([hz.k]);
-        let mut piece = taylor(&state.hoist);
-        piece.lag = hz.lag;
-        self.hoist.pieces = [piece];
-        // The hoist's deepest point of its steady past: no load depth lies below it.
-        let (_, past_hi) = hz.past_range(&zq, hoist_window);
-        self.reach = (libm::ceil(past_hi / zq.position) as i64).max(0);
-        // The horizontal filter for the deepest load the hoist may reach.
+        let z_end = self.hoist.origin[0];
+        let z_range = narrowed("z_C", z_end, &stop.hoist, s.hoist.range)?;
+        for (i, ((axis, a), name)) in stop
+            .horizontal
+            .iter()
+            .zip(s.horizontal.iter())
+            .zip(HORIZONTAL)
+            .enumerate()
+        {
+            let (Some(q), Some(end)) = (
+                self.horizontal.quanta().get(i).copied(),
+                self.horizontal.origin.get(i).copied(),
+            ) else {
+                continue;
+            };
+            let range = narrowed(name, end, axis, a.range)?;
+            if let Some(b) = self.horizontal.bounds.get_mut(i) {
+                *b = unit_bounds(range, end, &q);
+            }
+        }
+        self.hoist.bounds = [unit_bounds(z_range, z_end, &zq)];
+        for (p, d) in self.horizontal.pieces.iter_mut().zip(&state.horizontal) {
+            *p = taylor(d);
+        }
+        self.hoist.pieces = [taylor(&state.hoist)];
+        let mut blend = new_blend(stop.cycles, h, &stop.horizontal.map(|a| a.e), &stop.hoist.e);
+        blend.hoist_extent = [stop.hoist.high, stop.hoist.down.max(0.0)];
+        self.blend = Some(blend);
+        // The horizontal filter for the stop's deepest load, braked downwards (`retune`).
         self.retune();
-        let need = s.pendulum_for(z) * (s.g - s.hoist.acceleration) / (s.g - za.max(0.0));
-        if need > self.tuning.pendulum {
+        let rest = s.g - s.hoist.acceleration - stop.hoist.down.max(0.0);
+        let need = if rest > 0.0 {
+            (z_end + stop.hoist.high) * s.g / rest
+        } else {
+            f64::INFINITY
+        };
+        if need.is_nan() || need > self.tuning.pendulum {
             return Err(Error::OutsideWorkspace {
                 t,
                 coordinate: "l",
@@ -370,77 +433,25 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
                 max: self.tuning.pendulum,
             });
         }
-        let tuning = self.tuning;
-        let moments = horizontal_moments(
-            &s.boxes,
-            tuning.half_period as f64 * h,
-            tuning.robust_half_period.map(|m| m as f64 * h),
-        );
-        let omega = core::f64::consts::PI / (tuning.half_period as f64 * h);
-        let window = (self.horizontal.taps().longest() + 1) as f64 * h;
-        let acc = within(
-            state.horizontal.map(|d| d[2]),
-            s.horizontal.map(|a| a.acceleration),
-        );
-        let mut ks = [0_i8; NH];
-        let mut steady_paths = [[0.0; 3]; NH];
-        for (i, ((d, a), name)) in state.horizontal.iter().zip(acc).zip(HORIZONTAL).enumerate() {
-            let (Some(q), Some(axis_settings)) = (
-                self.horizontal.quanta().get(i).copied(),
-                s.horizontal.get(i),
-            ) else {
-                continue;
-            };
-            let st = Steady::new(d[0], d[1], a, &q, moments, Some(omega));
-            check_axis(name, &st, &q, window, axis_settings.range, t)?;
-            if let (Some(o), Some(b), Some(ax), Some(k), Some(p), Some(path)) = (
-                self.horizontal.origin.get_mut(i),
-                self.horizontal.bounds.get_mut(i),
-                self.horizontal.axes.get_mut(i),
-                ks.get_mut(i),
-                self.horizontal.pieces.get_mut(i),
-                steady_paths.get_mut(i),
-            ) {
-                *o = st.origin;
-                *b = unit_bounds(axis_settings.range, st.origin, &q);
-                *ax = Axis {
-                    n_v: st.n_v,
-                    n_p: 0,
-                    carry: st.carry,
-                };
-                *k = st.k;
-                let mut piece = taylor(d);
-                piece.lag = st.lag;
-                piece.swing = st.swing;
-                *p = piece;
-                *path = st.path;
-            }
-        }
-        self.horizontal.set_steady(ks);
-        // What the steady states leave out, blended.
-        let difference = |d: &[f64; ORDERS], path: &[f64; 3]| {
-            let mut e = *d;
-            for (ej, pj) in e.iter_mut().zip(path) {
-                *ej -= pj;
-            }
-            e
-        };
-        let mut horizontal = [[0.0; ORDERS]; NH];
-        for ((e, d), path) in horizontal
-            .iter_mut()
-            .zip(&state.horizontal)
-            .zip(&steady_paths)
-        {
-            *e = difference(d, path);
-        }
-        let hoist = difference(&state.hoist, &hz.path);
-        self.blend = Some(new_blend(
-            blend_cycles(s.entry_blend, h),
-            h,
-            &horizontal,
-            &hoist,
-        ));
         Ok(())
+    }
+
+    /// The ranges back to the settings' once a hand-over's stop has passed.
+    fn widen(&mut self) {
+        let s = self.settings;
+        let quanta = self.horizontal.quanta();
+        for (((b, a), q), o) in self
+            .horizontal
+            .bounds
+            .iter_mut()
+            .zip(s.horizontal.iter())
+            .zip(quanta)
+            .zip(self.horizontal.origin)
+        {
+            *b = unit_bounds(a.range, o, &q);
+        }
+        let zq = self.hoist.quanta()[0];
+        self.hoist.bounds = [unit_bounds(s.hoist.range, self.hoist.origin[0], &zq)];
     }
 
     /// Chooses the horizontal filter for a motion starting now (the horizontal axes at
@@ -457,7 +468,20 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         let allowance = libm::floor(s.lowering_allowance / zq.position) as i64;
         let cap_units = reach.saturating_add(allowance).min(self.hoist.bounds[0].1);
         let depth_cap = self.hoist.origin[0] + cap_units as f64 * zq.position;
-        let m_g = zv_cycles(s.pendulum_for(depth_cap), s.g, h, Rounding::Up);
+        // While a hand-over's stop lasts, its load may be deeper by its excursion and
+        // braked downwards: the pendulum is never shorter than that load's effective one
+        // (`z g/(g − z̈)`), nor longer than the ring holds.
+        let mut pendulum = s.pendulum_for(depth_cap);
+        if let Some([high, down]) = self.blend.as_ref().map(|b| b.hoist_extent) {
+            let rest = s.g - s.hoist.acceleration - down;
+            let braked = if rest > 0.0 {
+                (depth_cap + high) * s.g / rest
+            } else {
+                f64::INFINITY
+            };
+            pendulum = pendulum.max(braked).min(s.pendulum_for(s.hoist.range.1));
+        }
+        let m_g = zv_cycles(pendulum, s.g, h, Rounding::Up);
         let omega_g = core::f64::consts::PI / (m_g as f64 * h);
         // The rope now: the load's depth at this cycle's start (it hangs straight at
         // horizontal rest), within the range the ring is sized for.
@@ -528,7 +552,8 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         self.hoist
             .cycle([hoist_target], hoist_bounds, s.h, self.inv_h);
         let n_p = self.hoist.axes[0].n_p;
-        self.reach = if self.hoist.is_at_rest() {
+        // A hand-over's stop keeps its deepest load in `reach` while it lasts.
+        self.reach = if self.hoist.is_at_rest() && self.blend.is_none() {
             n_p
         } else {
             self.reach.max(n_p)
@@ -540,6 +565,7 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             let [hoist] = &mut self.hoist.pieces;
             if !b.add(&mut self.horizontal.pieces, hoist) {
                 self.blend = None;
+                self.widen();
             }
         }
         Cycle {

@@ -108,25 +108,10 @@ impl<const W: usize, const R: usize> Group<W, R> {
         self.sums = Sums::REST;
     }
 
-    /// A history of constant acceleration step `k` on every axis (a hand-over); the
-    /// pieces' filter states are the caller's.
-    pub fn set_steady(&mut self, k: [i8; W]) {
-        self.ring.fill(k);
-        self.sums = Sums::steady(k, &self.taps);
-        self.quiet = 0;
-        self.at_rest = false;
-    }
-
     /// Each axis's quanta.
     #[must_use]
     pub fn quanta(&self) -> [Quanta; W] {
         self.quanta
-    }
-
-    /// The filter's numerator.
-    #[must_use]
-    pub fn taps(&self) -> &Taps {
-        &self.taps
     }
 
     /// Whether the current cycle's path is constant (exactly: every derivative 0.0).

@@ -85,7 +85,7 @@ mod limiter;
 mod piece;
 mod settings;
 
-pub use entry::Handover;
+pub use entry::{Handover, Headroom, Room};
 pub use generator::{stopping_bound, Cycle, Demand, Generator, Tuning, SMOOTHNESS};
 pub use limiter::{brake, MAX_STEP};
 pub use settings::{AxisSettings, Quanta, Settings, MAX_HOIST_ACCELERATION, MAX_OMEGA_H};

@@ -47,8 +47,9 @@ pub struct Settings<const NH: usize> {
     /// The stick's deadband, as a share of full stick: demands within it are zero, the
     /// rest is scaled so that full stick stays full speed.
     pub deadband: f64,
-    /// How long a hand-over from a running move blends what the generator cannot
-    /// represent of that move's state into its own path, s (a multiple of h).
+    /// The longest a hand-over's stop of the running move may last, s (a multiple of h):
+    /// the generator takes the shortest that keeps within the drives' headroom
+    /// (`Generator::take_over`), and refuses the hand-over if none this long does.
     pub entry_blend: f64,
 }
 
