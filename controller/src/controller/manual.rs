@@ -156,10 +156,13 @@ where
     /// refused), and at the stop's rest manual mode is entered with the stick live.
     /// `None`: not now, manual mode waits (the move, or the hand-over's stop, runs).
     ///
-    /// (`Generator::take_over` continues a moving load's state, but tried here in motion
-    /// its blend put the drives past their limits — up to 2.6 times the trolley's
-    /// acceleration limit at 20 % into a 6 s move (`cargo run --release -p host-tests
-    /// --example takeover_limits`) — so the generator starts from the stop's rest.)
+    /// (`Generator::take_over` continues a moving load's state: its first design put the
+    /// drives past their limits, up to 2.6 times the trolley's acceleration limit at
+    /// 20 % into a 6 s move; since this stop it ends the move with a stop of its own
+    /// within the headroom the caller gives, at most 0.894 of a drive limit over 99
+    /// hand-overs (`cargo test --release -p host-tests --test operator_takeover`). Not
+    /// used here yet: the controller's headroom and the QEMU hand-over scenario are
+    /// still to be done, so the generator starts from the on-path stop's rest.)
     pub(super) fn enter_manual(
         &mut self,
         frame: Option<OperatorFrame>,

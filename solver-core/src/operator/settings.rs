@@ -215,8 +215,8 @@ impl Quanta {
 }
 
 /// The manual-mode settings the lab cranes are studied with (`docs/OPERATOR.md`): 100 Hz,
-/// windows of 0.2 s, a lowering allowance of 1 m, a 5 % deadband, hand-overs blended
-/// over 4 s; the rope's range from the crane's workspace.
+/// windows of 0.2 s, a lowering allowance of 1 m, a 5 % deadband, hand-over stops
+/// of at most 4 s; the rope's range from the crane's workspace.
 const LAB_BOXES: [f64; 2] = [0.2, 0.2];
 const LAB_HOIST_BOXES: [f64; 4] = [0.2; 4];
 
