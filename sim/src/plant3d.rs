@@ -1242,6 +1242,22 @@ mod tests {
         }
     }
 
+    /// The bridge's and the trolley's mean velocity over a swing period (a 6 m rope) of
+    /// `p` driven by `u`, after 5 s at it.
+    fn mean_travel_velocity(mut p: Plant3d, u: [f64; 3]) -> [f64; 2] {
+        for _ in 0..5000 {
+            p.advance(u, PLANT_STEP);
+        }
+        let period = 2.0 * PI * (6.0 / G).sqrt();
+        let n = (period / PLANT_STEP).round() as usize;
+        let (x0, y0) = (p.q[0], p.q[1]);
+        for _ in 0..n {
+            p.advance(u, PLANT_STEP);
+        }
+        let t = n as f64 * PLANT_STEP;
+        [(p.q[0] - x0) / t, (p.q[1] - y0) / t]
+    }
+
     #[test]
     fn p_only_loops_droop_and_a_hoist_tuned_for_the_model_s_load_lets_a_heavier_one_sink() {
         // The planar plant's options, per axis: the bridge and the trolley P only with
@@ -1256,19 +1272,8 @@ mod tests {
             loops_for_model_load: true,
             ..Mismatch3d::NONE
         };
-        let mut p = plant(mm);
         let u = [0.5, 0.3, 0.0];
-        for _ in 0..5000 {
-            p.advance(u, PLANT_STEP);
-        }
-        let period = 2.0 * PI * (6.0 / G).sqrt();
-        let n = (period / PLANT_STEP).round() as usize;
-        let (x0, y0) = (p.q[0], p.q[1]);
-        for _ in 0..n {
-            p.advance(u, PLANT_STEP);
-        }
-        let t = n as f64 * PLANT_STEP;
-        let mean = [(p.q[0] - x0) / t, (p.q[1] - y0) / t];
+        let mean = mean_travel_velocity(plant(mm), u);
         for (m, u) in mean.iter().zip(u) {
             assert!((m - (u - 0.01) / 1.03).abs() < 1e-3, "{mean:?}");
         }
@@ -1313,18 +1318,7 @@ mod tests {
             let lag = |on: bool| if on { 0.5 } else { 0.0 };
             assert_eq!(mm.tau, [lag(taken[0]), lag(taken[1]), 0.0], "{travel:?}");
             assert_eq!(mm.proportional_only, [taken[0], taken[1], false]);
-            let mut p = plant(mm);
-            for _ in 0..5000 {
-                p.advance(u, PLANT_STEP);
-            }
-            let period = 2.0 * PI * (6.0 / G).sqrt();
-            let n = (period / PLANT_STEP).round() as usize;
-            let (x0, y0) = (p.q[0], p.q[1]);
-            for _ in 0..n {
-                p.advance(u, PLANT_STEP);
-            }
-            let t = n as f64 * PLANT_STEP;
-            let mean = [(p.q[0] - x0) / t, (p.q[1] - y0) / t];
+            let mean = mean_travel_velocity(plant(mm), u);
             for ((m, u), on) in mean.iter().zip(u).zip(taken) {
                 let expected = if on { (u - 0.01) / 1.03 } else { u };
                 assert!((m - expected).abs() < 1e-3, "{travel:?}: {mean:?}");
