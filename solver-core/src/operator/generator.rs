@@ -323,6 +323,24 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         state: &Handover<NH>,
         room: &Headroom<NH>,
     ) -> Result<Self> {
+        let mut g = Self::parked(settings);
+        g.reset_taking_over(settings, t, state, room)?;
+        Ok(g)
+    }
+
+    /// [`Generator::take_over`] in place, as [`Generator::reset`] is [`Generator::at_rest`]
+    /// in place: what a controller calls on the generator it keeps, so that a hand-over
+    /// builds no ~3 KB generator on the control task's stack. Every check of the state,
+    /// the room and the settings comes first; if the hand-over is refused after the
+    /// generator was reset (its stop leaves a range, [`Error::OutsideWorkspace`]),
+    /// `self` is a generator at rest at the stop's end, which the caller does not use.
+    pub fn reset_taking_over(
+        &mut self,
+        settings: Settings<NH>,
+        t: f64,
+        state: &Handover<NH>,
+        room: &Headroom<NH>,
+    ) -> Result<()> {
         let all = state.horizontal.iter().flatten().chain(state.hoist.iter());
         let ends = state
             .target
@@ -360,9 +378,8 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             *end = d[0] - axis.e[0];
         }
         let depth = state.hoist[0] - stop.hoist.e[0];
-        let mut g = Self::at_rest(settings, t, ends, depth)?;
-        g.enter(state, &stop)?;
-        Ok(g)
+        self.reset(settings, t, ends, depth)?;
+        self.enter(state, &stop)
     }
 
     /// The stop of a hand-over added to the generator at rest at its end (see
