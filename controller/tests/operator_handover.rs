@@ -1,5 +1,6 @@
 //! Manual mode against automatic moves and the supervisor (issue 28): the stick taking a
-//! running move over (the move stopped on its path, the stick live at its rest), a request for manual mode that waits or is refused (and said so),
+//! running move over (in the same cycle, or — without headroom — at its on-path stop's
+//! rest), a request for manual mode that waits or is refused (and said so),
 //! and a supervisor's stop that holds until the load rests whatever the stick does.
 
 mod common;
@@ -12,6 +13,8 @@ use controller::operator::{Flags, Refusal, FULL_SCALE, MANUAL_MODE_CODE};
 use controller::setpoint::Setpoint;
 use controller::{Cycle, Mode, Replan};
 use sim::HEALTHY;
+use solver_core::models::crane::CraneParams;
+use solver_core::operator::Settings;
 use solver_core::plan::Segment;
 
 /// The automatic move of these tests: 6 m of travel and 2 m of hoisting in 6 s, from
@@ -60,99 +63,190 @@ fn automatic_move(rig: &mut Manual) -> Vec<Cycle> {
     cycles
 }
 
+/// The automatic move of [`automatic_move`] with a move queued behind it, run to `share`
+/// of its span with the stick centred; then the stick deflected to `stick` and the cycle
+/// that reads that frame. All cycles, the last that one.
+fn deflect_at(rig: &mut Manual, share: f64, stick: i16) -> Vec<Cycle> {
+    let mut cycles = automatic_move(rig);
+    send_request(
+        rig,
+        Request::Move {
+            id: 2,
+            target: HOME,
+            duration: None,
+        },
+    );
+    let span = rig
+        .c
+        .feedforward()
+        .plan()
+        .active()
+        .map(|a| a.span())
+        .unwrap();
+    let at = span.0 + share * (span.1 - span.0);
+    while f64::from(rig.now) / 1000.0 < at {
+        cycles.extend(rig.hold(3, HELD, [0; 3]));
+    }
+    assert_eq!(rig.c.last_answer().1, Answer::Queued, "id 2 queued");
+    rig.send(HELD, [stick, 0, 0]);
+    cycles.push(rig.cycle());
+    cycles
+}
+
+/// The move-taken-over EMCY (0xFF22) of `cycle`, exactly one: its detail byte.
+fn taken_over(cycle: &Cycle) -> u8 {
+    let emcy = emcys(std::slice::from_ref(cycle), emcy::MOVE_TAKEN_OVER);
+    assert_eq!(
+        emcy.len(),
+        1,
+        "the supervisor hears its move was taken over"
+    );
+    assert_eq!(emcy[0][3], emcy::MOVE_TAKEN_OVER_BYTE);
+    emcy[0][5]
+}
+
+/// After a hand-over: the stick held at `stick` for 9 s (longer than any hand-over's
+/// stop, the lab's `Settings::entry_blend` of 8 s, whose own motion adds to the
+/// operator's while it lasts), the load then moving the way it points at its share of
+/// the manual speed of the generator's `settings` beyond its deadband (the sticks of these tests keep the load clear of the
+/// workspace's ends, whose braking curve would slow it); released, at rest, every set point within the drives'
+/// limits throughout, no fault, nothing refused, and then every set point exactly zero.
+fn drives_then_rests(
+    rig: &mut Manual,
+    mut cycles: Vec<Cycle>,
+    stick: i16,
+    settings: &Settings<1>,
+    case: &str,
+) {
+    cycles.extend(rig.hold(900, HELD, [stick, 0, 0]));
+    let before = rig.load()[0];
+    cycles.extend(rig.hold(50, HELD, [stick, 0, 0]));
+    let v = (rig.load()[0] - before) / 0.5;
+    // The demand beyond the deadband, scaled so that full stick is full speed.
+    let (share, band) = (f64::from(stick) / f64::from(FULL_SCALE), settings.deadband);
+    let speed = settings.horizontal[0].speed;
+    let want = speed * share.signum() * (share.abs() - band) / (1.0 - band);
+    assert!(
+        (v - want).abs() < 0.01 * speed,
+        "{case}: the stick drives the load at {v} m/s, not {want}"
+    );
+    let (rest, rested) = until_rest(rig, 3000, |r, n| {
+        if n % 3 == 0 {
+            r.send(HELD, [0; 3]);
+        }
+    });
+    assert!(rested, "{case}: at rest after the release");
+    cycles.extend(rest);
+    let mut last = [0; 2];
+    assert_within_limits(&cycles, &mut last);
+    assert_eq!(
+        cycles.iter().map(|c| c.mode).find(|m| *m != Mode::Ready),
+        None,
+        "{case}: no fault"
+    );
+    let tail = rig.hold(100, HELD, [0; 3]);
+    assert!(tail.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]));
+    assert!(refusals(&cycles).is_empty(), "{case}: nothing refused");
+}
+
 /// The hand-over (issue 28, "Safety and hand-over"): a stick deflected during an
-/// automatic move, at 10, 50 and 90 % of it and either way, ends the move in the cycle
-/// that reads the frame with its on-path stop (the load rests on the move's path, short
-/// of its target, or at it when the stop is no quicker than the move's own end), refuses the move queued behind it (reason 2), and at the stop's rest
-/// manual mode is entered with the stick live — no re-centring — so the load then moves
-/// the way the stick points; every set point within the drives' speed and acceleration
-/// limits throughout, no fault, and after the release every set point exactly zero.
+/// automatic move, at 10, 50 and 90 % of it and either way, takes the crane over in the
+/// cycle that reads the frame — manual mode from that cycle (the status's mode byte),
+/// EMCY 0xFF22 with detail 0 (at once), the move queued behind refused (reason 2) — and
+/// the stick drives the load at its share of the manual speed; every set point within
+/// the drives' speed and acceleration limits throughout (the set points go on smoothly
+/// from the move's), no fault, and after the release every set point exactly zero.
 #[test]
-fn a_stick_deflected_during_an_automatic_move_ends_it_and_takes_over_at_its_rest() {
+fn a_stick_deflected_during_an_automatic_move_takes_it_over_in_the_same_cycle() {
+    let settings = Settings::lab(&CraneParams::PAPER);
     for share in [0.1, 0.5, 0.9] {
-        for stick in [FULL_SCALE, -FULL_SCALE / 2] {
+        for stick in [FULL_SCALE / 4, -FULL_SCALE / 4] {
             let case = format!("{share} of the move, stick {stick}");
             let mut rig = Manual::new();
-            let mut cycles = automatic_move(&mut rig);
-            send_request(
-                &mut rig,
-                Request::Move {
-                    id: 2,
-                    target: HOME,
-                    duration: None,
-                },
-            );
-            let span = rig
-                .c
-                .feedforward()
-                .plan()
-                .active()
-                .map(|a| a.span())
-                .unwrap();
-            let at = span.0 + share * (span.1 - span.0);
-            while f64::from(rig.now) / 1000.0 < at {
-                cycles.extend(rig.hold(3, HELD, [0; 3]));
-            }
-            assert_eq!(rig.c.last_answer().1, Answer::Queued, "{case}: id 2 queued");
-            rig.send(HELD, [stick, 0, 0]);
-            let ended = rig.cycle();
-            assert_eq!(
-                emcys(std::slice::from_ref(&ended), emcy::MOVE_TAKEN_OVER).len(),
-                1,
-                "{case}: the supervisor hears its move was taken over"
-            );
-            cycles.push(ended);
-            assert!(
-                matches!(rig.c.feedforward().plan().active(), Some(Segment::Stop(_))),
-                "{case}: the move ends with its on-path stop"
-            );
+            let cycles = deflect_at(&mut rig, share, stick);
+            let ended = cycles.last().unwrap();
+            assert_eq!(taken_over(ended), emcy::TAKEN_OVER_AT_ONCE, "{case}");
+            assert!(rig.c.feedforward().path().in_manual(), "{case}: at once");
+            assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE, "{case}");
             assert_eq!(
                 rig.c.last_answer(),
                 (2, Answer::Rejected, Some(Reject::NotReady)),
                 "{case}: the queued move refused"
             );
-            let mut entered = None;
-            for _ in 0..200 {
-                cycles.extend(rig.hold(3, HELD, [stick, 0, 0]));
-                if rig.c.feedforward().path().in_manual() {
-                    entered = Some(rig.load());
-                    break;
-                }
-            }
-            let entered = entered.unwrap_or_else(|| panic!("{case}: entered at the rest"));
-            // (At 90 % the stop is no quicker than the move's own end: it ends there.)
-            let short = if share < 0.9 { 1e-3 } else { -1e-9 };
-            assert!(
-                entered[0] <= TARGET[0] - short,
-                "{case}: rested at {} m, not past the target {}",
-                entered[0],
-                TARGET[0]
-            );
-            assert_eq!(rig.mode_byte(), MANUAL_MODE_CODE, "{case}");
-            cycles.extend(rig.hold(150, HELD, [stick, 0, 0]));
-            let moved = rig.load()[0] - entered[0];
-            assert!(
-                moved * f64::from(stick) > 0.0,
-                "{case}: the stick drives at once (moved {moved} m)"
-            );
-            let (rest, rested) = until_rest(&mut rig, 3000, |r, n| {
-                if n % 3 == 0 {
-                    r.send(HELD, [0; 3]);
-                }
-            });
-            assert!(rested, "{case}: at rest after the release");
-            cycles.extend(rest);
-            let mut last = [0; 2];
-            assert_within_limits(&cycles, &mut last);
-            assert_eq!(
-                cycles.iter().map(|c| c.mode).find(|m| *m != Mode::Ready),
-                None,
-                "{case}: no fault"
-            );
-            let tail = rig.hold(100, HELD, [0; 3]);
-            assert!(tail.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]));
-            assert!(refusals(&cycles).is_empty(), "{case}: nothing refused");
+            drives_then_rests(&mut rig, cycles, stick, &settings, &case);
         }
+    }
+}
+
+/// A hand-over with the stick centred again at once (one frame deflected back, against
+/// the move, so that the operator's own motion cannot carry the load forward): the
+/// move's own stop, which the generator ends it with, brings the load to rest at or
+/// before the move's target — never past it — at 10, 50 and 90 % of the move.
+#[test]
+fn a_taken_over_move_rests_at_or_before_its_target() {
+    for share in [0.1, 0.5, 0.9] {
+        let mut rig = Manual::new();
+        let cycles = deflect_at(&mut rig, share, -FULL_SCALE);
+        assert_eq!(taken_over(cycles.last().unwrap()), emcy::TAKEN_OVER_AT_ONCE);
+        let mut farthest = f64::NEG_INFINITY;
+        let (_, rested) = until_rest(&mut rig, 3000, |r, n| {
+            if n % 3 == 0 {
+                r.send(HELD, [0; 3]);
+            }
+            farthest = farthest.max(r.load()[0]);
+        });
+        assert!(rested, "{share}: at rest");
+        assert!(
+            farthest <= TARGET[0] + 1e-9,
+            "{share}: the load reached {farthest} m, past the target {}",
+            TARGET[0]
+        );
+        assert!(
+            rig.c.feedforward().path().in_manual(),
+            "{share}: still manual"
+        );
+    }
+}
+
+/// When no stop of the generator's fits what the drives leave beside the operator
+/// (here a manual acceleration of 1.95 m/s² leaves the trolley's 3 m/s² no room:
+/// 0.95 · 3 − 1.5 · 1.95 < 0, [`controller::operator::path::room`]), the move ends
+/// with its on-path stop instead (EMCY 0xFF22, detail 1): the load rests on the move's
+/// path short of its target, manual mode is entered at that rest with the stick live —
+/// no re-centring — and the stick then drives the load.
+#[test]
+fn a_hand_over_without_headroom_ends_the_move_on_its_path_and_takes_over_at_its_rest() {
+    let mut settings = Settings::lab(&CraneParams::PAPER);
+    settings.horizontal[0].acceleration = 1.95;
+    for stick in [FULL_SCALE / 4, -FULL_SCALE / 4] {
+        let case = format!("stick {stick}");
+        let mut rig = Manual::with(settings);
+        let mut cycles = deflect_at(&mut rig, 0.5, stick);
+        assert_eq!(
+            taken_over(cycles.last().unwrap()),
+            emcy::TAKEN_OVER_AT_REST,
+            "{case}"
+        );
+        assert!(
+            matches!(rig.c.feedforward().plan().active(), Some(Segment::Stop(_))),
+            "{case}: the move ends with its on-path stop"
+        );
+        let mut entered = None;
+        for _ in 0..200 {
+            cycles.extend(rig.hold(3, HELD, [stick, 0, 0]));
+            if rig.c.feedforward().path().in_manual() {
+                entered = Some(rig.load());
+                break;
+            }
+        }
+        let entered = entered.unwrap_or_else(|| panic!("{case}: entered at the rest"));
+        assert!(
+            entered[0] <= TARGET[0] - 1e-3,
+            "{case}: rested at {} m, short of the target {}",
+            entered[0],
+            TARGET[0]
+        );
+        drives_then_rests(&mut rig, cycles, stick, &settings, &case);
     }
 }
 
@@ -422,10 +516,10 @@ fn a_stick_centred_before_the_request_takes_no_move_over() {
     assert!(held.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]));
 }
 
-/// While the stick takes an automatic move over (its on-path stop), a move sent is
-/// refused (reason 2), not queued behind the stop (review s10, finding 2); a move sent
-/// again with the id of the one the stick ended is a new request, answered and acted on
-/// as one once the operator gives the crane back (finding 4).
+/// While the stick has taken an automatic move over (manual mode, the move's stop still
+/// running), a move sent is refused (reason 2), not queued (review s10, finding 2); a
+/// move sent again with the id of the one the stick ended is a new request, answered and
+/// acted on as one once the operator gives the crane back at rest (finding 4).
 #[test]
 fn while_the_stick_takes_over_nothing_is_accepted_and_a_resent_move_is_new() {
     let mut rig = Manual::new();
@@ -433,10 +527,7 @@ fn while_the_stick_takes_over_nothing_is_accepted_and_a_resent_move_is_new() {
     rig.hold(30, HELD, [0; 3]);
     rig.send(HELD, [FULL_SCALE, 0, 0]);
     rig.cycle();
-    assert!(matches!(
-        rig.c.feedforward().plan().active(),
-        Some(Segment::Stop(_))
-    ));
+    assert!(rig.c.feedforward().path().in_manual());
     send_request(
         &mut rig,
         Request::Move {
@@ -450,8 +541,17 @@ fn while_the_stick_takes_over_nothing_is_accepted_and_a_resent_move_is_new() {
         rig.c.last_answer(),
         (3, Answer::Rejected, Some(Reject::NotReady))
     );
-    // The operator lets go of the request during the stop; the PLC sends move 1 again.
-    rig.hold(3, OFF, [0; 3]);
+    // The operator lets go of the request during the stop; manual mode is left at rest,
+    // and the PLC sends move 1 again.
+    let mut left = false;
+    for _ in 0..1500 {
+        rig.hold(3, OFF, [0; 3]);
+        if !rig.c.feedforward().path().in_manual() {
+            left = true;
+            break;
+        }
+    }
+    assert!(left, "manual mode left at rest");
     send_move(&mut rig, 1);
     let mut reached = false;
     for _ in 0..1500 {

@@ -207,8 +207,8 @@ fn the_profile_lowers_the_hoist_while_travelling() {
 }
 
 /// The operator takes over the scene's automatic move at 4 s (`sim::MANUAL_TAKEOVER`):
-/// EMCY 0xFF22 *move taken over* once, the move's on-path stop, manual mode at its rest
-/// with the stick live (the load goes on forward at half stick without a second
+/// EMCY 0xFF22 *move taken over* once, detail 0 (at once), manual mode in the next
+/// status frame, the stick live (the load goes on forward at half stick without a second
 /// centring), at rest after the release, manual mode left at rest, ready.
 #[test]
 fn the_operator_takes_over_the_scene_s_move() {
@@ -216,33 +216,33 @@ fn the_operator_takes_over_the_scene_s_move() {
     let run = run(scene, &MANUAL_TAKEOVER);
     assert_eq!(run.len(), MANUAL_TAKEOVER.cycles as usize, "ran to the end");
     let emcy = cob::EMCY + u16::from(CONTROLLER_NODE);
-    let taken: Vec<u32> = run
+    let taken: Vec<(u32, u8)> = run
         .iter()
         .flat_map(|c| {
             c.frames
                 .iter()
                 .filter(|f| f.id() == emcy && f.data()[..2] == emcy::MOVE_TAKEN_OVER.to_le_bytes())
-                .map(move |_| c.now_ms)
+                .map(move |f| (c.now_ms, f.data()[5]))
         })
         .collect();
     assert_eq!(taken.len(), 1, "EMCY 0xFF22 once: {taken:?}");
-    assert!(
-        (4_000..4_100).contains(&taken[0]),
-        "taken over at {} ms",
-        taken[0]
-    );
+    let (taken, how) = taken[0];
+    assert!((4_000..4_100).contains(&taken), "taken over at {taken} ms");
+    assert_eq!(how, emcy::TAKEN_OVER_AT_ONCE, "at once");
     let modes = modes(&run);
     let manual = modes
         .iter()
         .find(|(_, m)| *m == MANUAL_MODE_CODE)
         .map(|(t, _)| *t)
         .expect("manual mode entered");
+    // Manual mode from the take-over's cycle: the next status frame (every 100 ms) says
+    // so, the EMCY's detail at once.
     assert!(
-        manual > taken[0],
-        "manual mode after the take-over ({manual} ms)"
+        (taken..=taken + 100).contains(&manual),
+        "manual mode in the status frame after the take-over ({manual} ms)"
     );
-    // The on-path stop, then the stick's half speed forward: the trolley's set point
-    // above 0.1 m/s again half a second into manual mode, the stick not centred again.
+    // The move's stop and the stick's half speed forward added: the trolley's set point
+    // above 0.1 m/s half a second into manual mode and on, the stick not centred again.
     assert!(
         run.iter()
             .filter(|c| (manual + 500..9_000).contains(&c.now_ms))

@@ -15,7 +15,7 @@
 //! robust = false              # one more zero-vibration pair against a ±10 % rope error
 //! deadband = 0.05             # share of full stick read as zero
 //! lowering_allowance = 1.0    # m the hoist may lower below its stop while travelling
-//! entry_blend = 4.0           # s, the longest stop a hand-over from a running move may take
+//! entry_blend = 8.0           # s, the longest stop a hand-over from a running move may take
 //! ```
 //!
 //! The cycle `h` is the scene's `solver.h`, gravity the model's `g`; each axis's range is

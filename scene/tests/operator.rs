@@ -149,7 +149,7 @@ fn a_bad_key_is_refused_by_name() {
             "lowering_allowance",
         ),
         (
-            with("entry_blend = 4.0", "entry_blend = 4.005"),
+            with("entry_blend = 8.0", "entry_blend = 8.005"),
             "operator.entry_blend",
             "entry_blend",
         ),

@@ -480,14 +480,15 @@ pub const MANUAL_DEADMAN: Scenario = Scenario {
 
 /// The operator takes over the scene's automatic move (1–9 s) at 4 s: manual mode
 /// requested with the stick centred at 3 s (two centred frames with the request arm the
-/// take-over), half stick forward at 4 s — the move ends at once with its on-path stop
-/// (EMCY 0xFF22, *move taken over*), manual mode is entered at the stop's rest with the
-/// stick live and the load goes on forward at half speed; released at 9 s (the sway-free
-/// stop), the request withdrawn at rest at 15 s (manual mode left).
+/// take-over), half stick forward at 4 s — in the cycle that reads the frame manual mode
+/// is entered (EMCY 0xFF22, *move taken over*, detail 0), the move ends with the
+/// generator's own stop and the stick's half speed forward adds to it at once; released
+/// at 9 s (the sway-free stop), the request withdrawn at rest at 15 s (manual mode
+/// left).
 pub const MANUAL_TAKEOVER: Scenario = Scenario {
     name: "manual-takeover",
-    expect: "ready (mode 1): the move taken over at 4 s (EMCY 0xFF22), its on-path stop, \
-             manual mode at its rest with the stick live, released, left at rest",
+    expect: "ready (mode 1): the move taken over at 4 s (EMCY 0xFF22), manual mode in the \
+             same cycle with the stick live, released, left at rest",
     events: &[
         at(3_000, stick([0, 0, 0])),
         at(4_000, stick([HALF, 0, 0])),

@@ -67,10 +67,17 @@ pub const MANUAL_REFUSED: u16 = 0xFF21;
 pub const MANUAL_REFUSED_BYTE: u8 = 22;
 /// Device specific: the operator's stick ended the running automatic move — a warning, so
 /// that the supervisor hears its move will not reach its target (manufacturer bytes:
-/// [`MOVE_TAKEN_OVER_BYTE`], then zeros; docs/COMMANDS.md, "Manual mode").
+/// [`MOVE_TAKEN_OVER_BYTE`], 0, how — [`TAKEN_OVER_AT_ONCE`] or [`TAKEN_OVER_AT_REST`] —
+/// and zeros; docs/COMMANDS.md, "Manual mode").
 pub const MOVE_TAKEN_OVER: u16 = 0xFF22;
 /// The first manufacturer byte of [`MOVE_TAKEN_OVER`]: 23, no fault of its own.
 pub const MOVE_TAKEN_OVER_BYTE: u8 = 23;
+/// [`MOVE_TAKEN_OVER`]'s detail: the stick drives from this cycle on (the operator's
+/// generator ended the move with a stop of its own).
+pub const TAKEN_OVER_AT_ONCE: u8 = 0;
+/// [`MOVE_TAKEN_OVER`]'s detail: no stop of the generator's fitted the drives' headroom;
+/// the move ends with its on-path stop and the stick drives from its rest.
+pub const TAKEN_OVER_AT_REST: u8 = 1;
 
 /// Error register (0x1001) bit 0: generic error. CiA 301 requires it whenever any error
 /// is present, so an EMCY without it is a warning (see [`is_fault`]).

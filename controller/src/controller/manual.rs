@@ -152,17 +152,13 @@ where
     /// Manual mode entered for a live operator who asks for it, if it can be now: at
     /// rest, the stick interlocked (centred frames counted before do not lift it). During
     /// an automatic move a deflected stick — live, centred since the request — takes the
-    /// crane over: the move ends at once with its on-path stop (what waited for it is
-    /// refused), and at the stop's rest manual mode is entered with the stick live.
-    /// `None`: not now, manual mode waits (the move, or the hand-over's stop, runs).
-    ///
-    /// (`Generator::take_over` continues a moving load's state: its first design put the
-    /// drives past their limits, up to 2.6 times the trolley's acceleration limit at
-    /// 20 % into a 6 s move; since this stop it ends the move with a stop of its own
-    /// within the headroom the caller gives, at most 0.894 of a drive limit over 99
-    /// hand-overs (`cargo test --release -p host-tests --test operator_takeover`). Not
-    /// used here yet: the controller's headroom and the QEMU hand-over scenario are
-    /// still to be done, so the generator starts from the on-path stop's rest.)
+    /// crane over in the same cycle: what waited for the move is refused, the generator
+    /// takes the move over at the model's time (`Generator::reset_taking_over`: the move
+    /// ends with a stop of its own, within what the drives' limits leave beside the
+    /// operator's motion, [`operator::path::room`]) and the stick is live at once. When
+    /// no such stop fits, the move ends with its on-path stop instead and manual mode is
+    /// entered at its rest, the stick live. The supervisor hears which (EMCY 0xFF22).
+    /// `None`: not now, manual mode waits (the move, or the on-path stop, runs).
     pub(super) fn enter_manual(
         &mut self,
         frame: Option<OperatorFrame>,
@@ -197,22 +193,30 @@ where
             return None;
         }
         // The stick takes the crane over: what waited for the move is refused (reason
-        // 2), as after a stop, a move sent again is a new request, the move ends on its
-        // path, and the supervisor hears that it will not reach its target.
+        // 2), as after a stop, a move sent again is a new request, and the supervisor
+        // hears that its move will not reach its target.
         let (now, now_ms) = (self.now_s(), self.now_ms);
         self.requests.forget_answered();
         let lost =
             self.requests.cancel_planned(now, now_ms) + self.requests.refuse_waiting(false, now_ms);
         self.counters.frames_ignored = self.counters.frames_ignored.saturating_add(lost);
-        self.stop_on_path(now);
-        self.manual.handing_over = true;
+        let limits = self.planner.limits();
+        let t = self.feedforward.time();
+        let at_once = self.feedforward.path_mut().take_over(t, &limits).is_ok();
+        let how = if at_once {
+            emcy::TAKEN_OVER_AT_ONCE
+        } else {
+            self.stop_on_path(now);
+            self.manual.handing_over = true;
+            emcy::TAKEN_OVER_AT_REST
+        };
         self.send_emcy(canopen::emcy(
             self.nmt.node.id,
             emcy::MOVE_TAKEN_OVER,
             REGISTER_MANUFACTURER,
-            [emcy::MOVE_TAKEN_OVER_BYTE, 0, 0, 0, 0],
+            [emcy::MOVE_TAKEN_OVER_BYTE, 0, how, 0, 0],
         ));
-        None
+        at_once.then_some(Ok(()))
     }
 
     /// Announces a refused request for manual mode (EMCY 0xFF21, a warning), once per

@@ -3,18 +3,42 @@
 //! (`solver_core::operator`), which turns the stick into a smooth load path.
 //!
 //! One trajectory type for both, so that the one inverse model (and its scheme's history)
-//! carries on across the hand-over: manual mode is entered only at rest (a stick
-//! deflected during an automatic move ends the move with its on-path stop first), where
-//! the plan's output is the constant rest position with every derivative zero, and the
-//! generator starts at rest at that very position; it is left only at rest, where the
-//! generator's output is again constant with every derivative exactly 0.0, and the plan
-//! takes over at rest there. The model sees no step in any derivative either way.
+//! carries on across the hand-over: manual mode is entered at rest, where the plan's
+//! output is the constant rest position with every derivative zero and the generator
+//! starts at rest at that very position, or from a running move, whose position and
+//! first five derivatives the generator continues exactly ([`Source::take_over`]); it is
+//! left only at rest, where the generator's output is again constant with every
+//! derivative exactly 0.0, and the plan takes over at rest there. The model sees no step
+//! in any derivative up to the fifth either way.
 
 use nalgebra::SVector;
-use solver_core::operator::{Cycle, Demand, Generator3d, PlanarGenerator, Settings};
-use solver_core::plan::Plan;
-use solver_core::trajectory::Trajectory;
+use solver_core::operator::{
+    AxisSettings, Cycle, Demand, Generator3d, Handover, Headroom, PlanarGenerator, Room, Settings,
+};
+use solver_core::plan::{Plan, Segment};
+use solver_core::trajectory::{PointToPoint, Trajectory};
 use solver_core::{Error, Real};
+
+use crate::setpoint::AxisLimits;
+
+/// Share of a drive's limit a hand-over may use at all: what is left beside the
+/// operator's own motion is its stop's ([`room`]).
+pub const HANDOVER_LIMIT_SHARE: f64 = 0.95;
+
+/// What a drive with `limit` leaves a hand-over's stop beside the operator's generator on
+/// its `axis`: [`HANDOVER_LIMIT_SHARE`] of the limit less the manual speed, and less 1.5
+/// times the manual acceleration (the drive's rate adds its lag times the load's jerk
+/// to the load's acceleration). With these rooms no drive went past 0.894 of a limit over
+/// 99 hand-overs (`cargo test --release -p host-tests --test operator_takeover`, which
+/// takes the same rule); a room that is not positive refuses every stop, and the
+/// controller then ends the move on its path instead.
+#[must_use]
+pub fn room(limit: &AxisLimits, axis: &AxisSettings) -> Room {
+    Room {
+        speed: HANDOVER_LIMIT_SHARE * limit.max_velocity - axis.speed,
+        acceleration: HANDOVER_LIMIT_SHARE * limit.max_acceleration - 1.5 * axis.acceleration,
+    }
+}
 
 /// What the controller asks of an operator generator for a crane whose model has `A`
 /// outputs (planar `[x_C, z_C]`, 3D `[x_C, y_C, z_C]`), whatever its number of
@@ -30,6 +54,17 @@ pub trait Source<const A: usize>: Trajectory<f64, A> + Sized {
     /// One cycle of the stick: `horizontal` (x, and y for the 3D crane; a planar crane
     /// takes x only) and `hoist`, each a fraction of full stick.
     fn advance(&mut self, horizontal: [f64; 2], hoist: f64) -> Cycle;
+    /// Takes over the running automatic `move_` at `t` in place (the drives' `limits` in
+    /// the model's output order): the move ends with a stop of its own within the
+    /// headroom the operator leaves, and the generator rests at its end with the stick
+    /// live (`Generator::reset_taking_over`). On an error the generator is not used.
+    fn take_over(
+        &mut self,
+        settings: Self::Settings,
+        t: f64,
+        move_: &PointToPoint<f64, A>,
+        limits: &[AxisLimits; A],
+    ) -> Result<(), Error>;
     /// Latches the sway-free stop: every demand is taken as zero from the next cycle on.
     fn stop(&mut self);
     /// Lifts a latched stop.
@@ -61,6 +96,20 @@ impl Source<2> for PlanarGenerator {
                 hoist,
             },
         )
+    }
+    fn take_over(
+        &mut self,
+        settings: Settings<1>,
+        t: f64,
+        move_: &PointToPoint<f64, 2>,
+        [x, z]: &[AxisLimits; 2],
+    ) -> Result<(), Error> {
+        let [horizontal] = settings.horizontal;
+        let room = Headroom {
+            horizontal: [room(x, &horizontal)],
+            hoist: room(z, &settings.hoist),
+        };
+        self.reset_taking_over(settings, t, &Handover::<1>::of(move_, t), &room)
     }
     fn stop(&mut self) {
         PlanarGenerator::stop(self);
@@ -94,6 +143,20 @@ impl Source<3> for Generator3d {
     fn advance(&mut self, horizontal: [f64; 2], hoist: f64) -> Cycle {
         Generator3d::advance(self, &Demand { horizontal, hoist })
     }
+    fn take_over(
+        &mut self,
+        settings: Settings<2>,
+        t: f64,
+        move_: &PointToPoint<f64, 3>,
+        [x, y, z]: &[AxisLimits; 3],
+    ) -> Result<(), Error> {
+        let [bridge, trolley] = settings.horizontal;
+        let room = Headroom {
+            horizontal: [room(x, &bridge), room(y, &trolley)],
+            hoist: room(z, &settings.hoist),
+        };
+        self.reset_taking_over(settings, t, &Handover::<2>::of(move_, t), &room)
+    }
     fn stop(&mut self) {
         Generator3d::stop(self);
     }
@@ -119,7 +182,8 @@ impl Source<3> for Generator3d {
 pub enum ManualError {
     /// This controller's inverse model follows plans only.
     Unsupported,
-    /// Not at rest: the plan still moves (entry), the generator still moves (leaving).
+    /// Not at rest: the plan still moves (entry), the generator still moves (leaving);
+    /// or no move runs that could be taken over (a stop does).
     Moving,
     /// The generator refused its settings or the start (its error).
     Generator(Error),
@@ -141,6 +205,14 @@ pub trait Planned<const A: usize> {
     }
     /// Manual mode: the generator takes over at rest at time `t`, where the plan rests.
     fn enter_manual(&mut self, _t: f64) -> Result<(), ManualError> {
+        Err(ManualError::Unsupported)
+    }
+    /// Manual mode entered at the model's time `t` from the running automatic move: the
+    /// generator takes the move over in place ([`Source::take_over`], the drives'
+    /// `limits`), the plan rests where the load is at `t` (it is not followed while
+    /// manual mode runs). Only a move (not a stop) is taken over; its own end is the
+    /// stop's bound, whatever is queued behind it.
+    fn take_over(&mut self, _t: f64, _limits: &[AxisLimits; A]) -> Result<(), ManualError> {
         Err(ManualError::Unsupported)
     }
     /// Manual mode left at rest: the plan takes over where the generator rests.
@@ -262,6 +334,20 @@ impl<G: Source<A>, const A: usize> Planned<A> for Steered<G, A> {
             .0
             .reset(self.settings, t, position)
             .map_err(ManualError::Generator)?;
+        self.manual = true;
+        Ok(())
+    }
+    fn take_over(&mut self, t: f64, limits: &[AxisLimits; A]) -> Result<(), ManualError> {
+        let Some(Segment::Move(move_)) = self.plan.active().copied() else {
+            return Err(ManualError::Moving);
+        };
+        self.generator
+            .0
+            .take_over(self.settings, t, &move_, limits)
+            .map_err(ManualError::Generator)?;
+        let [here]: [SVector<f64, A>; 1] = move_.derivatives(t);
+        let n = self.plan.planned_smoothness();
+        self.plan = Plan::at_rest(here, n).map_err(ManualError::Generator)?;
         self.manual = true;
         Ok(())
     }

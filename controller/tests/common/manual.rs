@@ -38,10 +38,15 @@ pub struct Manual {
 }
 
 impl Manual {
-    /// Ready at rest at [`HOME`].
+    /// Ready at rest at [`HOME`], manual mode with the lab's settings.
     pub fn new() -> Self {
+        Self::with(Settings::lab(&CraneParams::PAPER))
+    }
+
+    /// Ready at rest at [`HOME`], manual mode with the `generator`'s settings.
+    pub fn with(generator: Settings<1>) -> Self {
         let plan = controller::crane::command_plan::<CraneParams, 2>(HOME, 4).unwrap();
-        let path = Steered::new(plan, Settings::lab(&CraneParams::PAPER));
+        let path = Steered::new(plan, generator);
         let model = CraneSubs::new(CraneParams::PAPER, path).unwrap();
         let integrator = crane_subs::Bdf::new(&model, &settings(), 4, 0.0).unwrap();
         let ff = Injectable::new(InverseModel::new(model, integrator));

@@ -244,7 +244,7 @@ impl Settings<1> {
             lowering_allowance: 1.0,
             robust: false,
             deadband: 0.05,
-            entry_blend: 4.0,
+            entry_blend: 8.0,
         };
         s.hoist.range = s.depth_range((w.l_min, w.l_max));
         s
@@ -283,7 +283,7 @@ impl Settings<2> {
             lowering_allowance: 1.0,
             robust: false,
             deadband: 0.05,
-            entry_blend: 4.0,
+            entry_blend: 8.0,
         };
         s.hoist.range = s.depth_range((w.l_min, w.l_max));
         s
