@@ -397,7 +397,9 @@ pub(crate) fn plan_stop<const NH: usize>(
     let last = libm::round(longest / h).max(1.0) as u64;
     let own = libm::round(state.rest_in / h);
     let own = (own >= 1.0 && own <= last as f64).then_some(own as u64);
-    let mut cycles = (libm::round(SHORTEST_STOP / h) as u64).clamp(1, last);
+    // `max` and `min`, not `clamp`: the compiler cannot see that `last ≥ 1` (a float
+    // cast), and `clamp`'s check of its bounds is a panicking branch (the panic proof).
+    let mut cycles = (libm::round(SHORTEST_STOP / h) as u64).max(1).min(last);
     loop {
         // The move's own remaining time, where it falls before the next duration.
         let next = ((cycles as f64 * 1.2) as u64).max(cycles + 1);
