@@ -12,11 +12,15 @@ use controller::canopen::{cob, emcy, CONTROLLER_NODE};
 use controller::commands::STATUS_ID;
 use controller::controller::MODEL_REST_CYCLES;
 use controller::operator::MANUAL_MODE_CODE;
+use controller::setpoint::UNITS_PER_M_PER_S;
 use controller::Mode;
 use host_tests::firmware::{controller_reference, ReferenceCycle};
 use scene::commissioning::CommissioningFile;
 use scene::Scene;
-use sim::{Scenario, MANUAL_DEADMAN, MANUAL_PROFILE, MANUAL_PROFILE_3D, MANUAL_TAKEOVER};
+use sim::scenario::Event;
+use sim::{
+    Scenario, MANUAL_DEADMAN, MANUAL_PROFILE, MANUAL_PROFILE_3D, MANUAL_TAKEOVER, STICK_PERIOD_MS,
+};
 
 fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -206,10 +210,21 @@ fn the_profile_lowers_the_hoist_while_travelling() {
     assert!(both > 100, "{both} cycles travelling and lowering");
 }
 
+/// The trolley's travel over `run` from its set points, m (what a drive that follows
+/// them travels).
+fn trolley_travel(run: &[ReferenceCycle]) -> f64 {
+    run.iter()
+        .map(|c| f64::from(c.setpoints[0].units()) / UNITS_PER_M_PER_S * 0.01)
+        .sum()
+}
+
 /// The operator takes over the scene's automatic move at 4 s (`sim::MANUAL_TAKEOVER`):
-/// EMCY 0xFF22 *move taken over* once, detail 0 (at once), manual mode in the next
-/// status frame, the stick live (the load goes on forward at half stick without a second
-/// centring), at rest after the release, manual mode left at rest, ready.
+/// EMCY 0xFF22 *move taken over* once, detail 0 (at once), manual mode from that very
+/// cycle (the status's mode byte as the cycle leaves it), the stick live (the load goes
+/// on forward at half stick without a second centring), at rest after the release,
+/// manual mode left at rest, ready. That the stick drives is judged against the same
+/// take-over with the stick centred again 30 ms after it (the move's own stop alone):
+/// the half stick's 5 s carry the trolley more than a metre farther.
 #[test]
 fn the_operator_takes_over_the_scene_s_move() {
     let scene = "paper-crane-manual.toml";
@@ -229,28 +244,40 @@ fn the_operator_takes_over_the_scene_s_move() {
     let (taken, how) = taken[0];
     assert!((4_000..4_100).contains(&taken), "taken over at {taken} ms");
     assert_eq!(how, emcy::TAKEN_OVER_AT_ONCE, "at once");
-    let modes = modes(&run);
-    let manual = modes
+    let manual = run
         .iter()
-        .find(|(_, m)| *m == MANUAL_MODE_CODE)
-        .map(|(t, _)| *t)
+        .find(|c| c.status_mode == MANUAL_MODE_CODE)
+        .map(|c| c.now_ms)
         .expect("manual mode entered");
-    // Manual mode from the take-over's cycle: the next status frame (every 100 ms) says
-    // so, the EMCY's detail at once.
-    assert!(
-        (taken..=taken + 100).contains(&manual),
-        "manual mode in the status frame after the take-over ({manual} ms)"
+    assert_eq!(manual, taken, "manual mode in the take-over's cycle");
+    // The same take-over, the stick centred again at the next frame.
+    let pulse: &'static [Event] = Box::leak(Box::new([
+        MANUAL_TAKEOVER.events[0],
+        MANUAL_TAKEOVER.events[1],
+        Event {
+            at_ms: MANUAL_TAKEOVER.events[1].at_ms + STICK_PERIOD_MS,
+            action: MANUAL_TAKEOVER.events[2].action,
+        },
+        MANUAL_TAKEOVER.events[3],
+    ]));
+    let pulsed = self::run(
+        scene,
+        &Scenario {
+            events: pulse,
+            ..MANUAL_TAKEOVER
+        },
     );
-    // The move's stop and the stick's half speed forward added: the trolley's set point
-    // above 0.1 m/s half a second into manual mode and on, the stick not centred again.
+    let (held, stopped) = (trolley_travel(&run), trolley_travel(&pulsed));
     assert!(
-        run.iter()
-            .filter(|c| (manual + 500..9_000).contains(&c.now_ms))
-            .any(|c| c.setpoints[0].units() > 100_000),
-        "the stick moved nothing in manual mode"
+        held - stopped > 1.0,
+        "the stick carried the trolley {held:.3} m, its stop alone {stopped:.3} m"
+    );
+    println!(
+        "take-over: the trolley {held:.3} m with the stick, {stopped:.3} m with its stop alone"
     );
     let rest = rests_from(&run, 9_000, 15_000).expect("at rest before the withdrawal");
     assert!(rest < 15_000, "at rest from {rest} ms");
+    let modes = modes(&run);
     let last = modes.last().unwrap();
     assert_eq!(last.1, 1, "manual mode left at rest ({last:?})");
     assert_eq!(run.last().unwrap().mode, Mode::Ready);

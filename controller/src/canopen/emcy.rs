@@ -75,8 +75,9 @@ pub const MOVE_TAKEN_OVER_BYTE: u8 = 23;
 /// [`MOVE_TAKEN_OVER`]'s detail: the stick drives from this cycle on (the operator's
 /// generator ended the move with a stop of its own).
 pub const TAKEN_OVER_AT_ONCE: u8 = 0;
-/// [`MOVE_TAKEN_OVER`]'s detail: no stop of the generator's fitted the drives' headroom;
-/// the move ends with its on-path stop and the stick drives from its rest.
+/// [`MOVE_TAKEN_OVER`]'s detail: the generator refused the hand-over (no stop of its own
+/// fitted the drives' headroom, or it would leave the workspace or need a longer virtual
+/// pendulum); the move ends with its on-path stop and the stick drives from its rest.
 pub const TAKEN_OVER_AT_REST: u8 = 1;
 
 /// Error register (0x1001) bit 0: generic error. CiA 301 requires it whenever any error
