@@ -39,12 +39,27 @@ impl<'de, P: Default + Serialize + DeserializeOwned> Deserialize<'de> for Params
         let mut table = toml::Table::try_from(P::default()).map_err(de::Error::custom)?;
         lay_over(&mut table, keys);
         // `P`'s derive refuses an unknown key (`deny_unknown_fields`) and a wrong type,
-        // with serde's message.
-        P::deserialize(toml::Value::Table(table))
+        // with serde's message, which names the key but not the tables it is in: the
+        // path is tracked on the way down and put in front.
+        serde_path_to_error::deserialize(toml::Value::Table(table))
             .map(Params)
-            .map_err(|e| de::Error::custom(e.message()))
+            .map_err(|e| {
+                let key = match e.path().to_string() {
+                    // The table itself (no key below it).
+                    path if path == "." => SECTION.to_string(),
+                    path => format!("{SECTION}.{path}"),
+                };
+                de::Error::custom(format!("`{key}`: {}", e.inner().message()))
+            })
     }
 }
+
+/// The scene's table the parameters are read from: a refusal names a key by its whole
+/// path from the file's top, e.g. `model.workspace.l_mx`, in its reason. The refusal's
+/// field stays `model`: the parser places an error by its position in the text, and
+/// `[model]` is read whole before its `kind` picks the parameters' type, so the keys
+/// reach this type without their positions.
+const SECTION: &str = "model";
 
 /// `keys` written into `base`: a table into the table of the same name, key by key; any
 /// other value in place of what `base` has.
@@ -95,18 +110,28 @@ mod tests {
     }
 
     /// An unknown key, also in a nested table, and a wrong type are refused with serde's
-    /// message; the mass-on-car's angle is read in degrees.
+    /// message after the key's whole path; the mass-on-car's angle is read in degrees.
     #[test]
-    fn a_bad_key_or_value_is_refused_and_the_angle_is_in_degrees() {
+    fn a_bad_key_or_value_is_refused_by_its_path_and_the_angle_is_in_degrees() {
         let e = read::<CraneParams>("[workspace]\nl_mx = 10.0").unwrap_err();
         assert!(
-            e.starts_with("unknown field `l_mx`, expected one of `x_min`"),
+            e.starts_with("`model.workspace.l_mx`: unknown field `l_mx`, expected one of `x_min`"),
+            "{e}"
+        );
+        let e = read::<DoublePendulumParams>("[crane.workspace]\nx_mni = 1.0").unwrap_err();
+        assert!(
+            e.starts_with("`model.crane.workspace.x_mni`: unknown field `x_mni`"),
             "{e}"
         );
         let e = read::<CraneParams>("x_min = 5.0").unwrap_err();
-        assert!(e.starts_with("unknown field `x_min`"), "{e}");
+        assert!(e.starts_with("`model.x_min`: unknown field `x_min`"), "{e}");
         let e = read::<CraneParams>("m = \"x\"").unwrap_err();
-        assert_eq!(e, "invalid type: string \"x\", expected f64");
+        assert_eq!(e, "`model.m`: invalid type: string \"x\", expected f64");
+        let e = read::<DoublePendulumParams>("[crane]\ntau1 = true").unwrap_err();
+        assert_eq!(
+            e,
+            "`model.crane.tau1`: invalid type: boolean `true`, expected f64"
+        );
         let p = read::<MassOnCarParams>("alpha_deg = 30.0").unwrap();
         assert_eq!(p.alpha, 30f64.to_radians());
     }

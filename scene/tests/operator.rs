@@ -154,6 +154,16 @@ fn a_bad_key_is_refused_by_name() {
             "entry_blend",
         ),
         (
+            // A rope so short that the generator's pendulum swings more than a tenth of
+            // a radian per cycle at the shallowest load: named by its key.
+            with(
+                "kind = \"crane-subs\"",
+                "kind = \"crane-subs\"\n\n[model.workspace]\nl_min = 0.05",
+            ),
+            "model.workspace.l_min",
+            "omega_g h",
+        ),
+        (
             with("robust = false", "robust = \"yes\""),
             "operator.robust",
             "invalid type",

@@ -112,7 +112,7 @@ fn broken_scenes_name_the_field() {
         (
             with("kind = \"crane-subs\"", "kind = \"crane-subs\"\nmass = 3.0"),
             "model",
-            "unknown field",
+            "`model.mass`: unknown field",
         ),
         (
             with("t_end = 10.0", "t_end = nan"),
@@ -120,7 +120,10 @@ fn broken_scenes_name_the_field() {
             "finite",
         ),
         // The workspace is a table of its own: a bad bound is named there, a bound
-        // written beside the crane's keys is an unknown key of `[model]`.
+        // written beside the crane's keys is an unknown key of `[model]`. A key the
+        // model's type does not know is refused in `model` (the parser reads the model's
+        // keys after its kind, away from their place in the text), its reason naming the
+        // key's whole path.
         (
             with(
                 "kind = \"crane-subs\"",
@@ -135,7 +138,7 @@ fn broken_scenes_name_the_field() {
                 "kind = \"crane-subs\"\nl_min = 2.0",
             ),
             "model",
-            "unknown field `l_min`",
+            "`model.l_min`: unknown field `l_min`",
         ),
         (
             with(
@@ -143,7 +146,15 @@ fn broken_scenes_name_the_field() {
                 "kind = \"crane-subs\"\n\n[model.workspace]\nl_mx = 10.0",
             ),
             "model",
-            "unknown field `l_mx`, expected one of `x_min`, `x_max`, `l_min`, `l_max`",
+            "`model.workspace.l_mx`: unknown field `l_mx`, expected one of `x_min`, `x_max`, `l_min`, `l_max`",
+        ),
+        (
+            with(
+                "kind = \"crane-subs\"",
+                "kind = \"double-pendulum-subs\"\n\n[model.crane.workspace]\nx_mni = 1.0",
+            ),
+            "model",
+            "`model.crane.workspace.x_mni`: unknown field `x_mni`",
         ),
         // The hook-and-load crane's crane keys are in `[model.crane]`.
         (

@@ -29,7 +29,7 @@ pub const HANDOVER_LIMIT_SHARE: f64 = 0.95;
 /// its `axis`: [`HANDOVER_LIMIT_SHARE`] of the limit less the manual speed, and less 1.5
 /// times the manual acceleration (the drive's rate adds its lag times the load's jerk
 /// to the load's acceleration). With these rooms no drive went past 0.894 of a limit over
-/// 99 hand-overs (`cargo test --release -p host-tests --test operator_takeover`, which
+/// 165 hand-overs (`cargo test --release -p host-tests --test operator_takeover`, which
 /// takes the same rule); a room that is not positive refuses every stop, and the
 /// controller then ends the move on its path instead.
 #[must_use]

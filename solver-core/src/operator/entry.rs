@@ -314,6 +314,10 @@ fn horner(p: &[f64; COEFFS], x: f64) -> f64 {
 /// The stop of one axis in state `d` over `duration` s to `distance` from where it is,
 /// if it keeps within `room` (trolley: `ẋ = Ė + c E⃛`, `ẍ = Ë + c E⁗`; `c = 0` for the
 /// hoist) and never moves against `forward` (the way to the target's sign, 0: either).
+///
+/// Every check fails closed: a comparison with NaN is false, so each is written as the
+/// negation of what may pass (`!(|v| ≤ room)`), and a stop from values that are not
+/// finite, or over no time, is refused before it is sampled.
 fn axis_stop(
     d: &[f64; ORDERS],
     distance: f64,
@@ -322,6 +326,10 @@ fn axis_stop(
     room: &Room,
     forward: f64,
 ) -> Option<AxisStop> {
+    let inputs = d.iter().chain([&distance, &duration, &c, &forward]);
+    if !(inputs.into_iter().all(|v| v.is_finite()) && duration > 0.0) {
+        return None;
+    }
     let mut tau = *d;
     let mut scale = 1.0;
     for t in tau.iter_mut() {
@@ -332,6 +340,9 @@ fn axis_stop(
         *e0 = -distance;
     }
     let p = blend_axis(&tau);
+    if !p.iter().all(|coefficient| coefficient.is_finite()) {
+        return None;
+    }
     let p1 = derivative(&p);
     let p2 = derivative(&p1);
     let p3 = derivative(&p2);
@@ -351,9 +362,10 @@ fn axis_stop(
         let (pos, v, a) = (horner(&p, x), horner(&p1, x) * inv, horner(&p2, x) * inv2);
         let trolley_v = v + c * horner(&p3, x) * inv * inv2;
         let trolley_a = a + c * horner(&p4, x) * inv2 * inv2;
-        if libm::fabs(trolley_v) > room.speed
-            || libm::fabs(trolley_a) > room.acceleration
-            || v * forward < -1e-9
+        if !(libm::fabs(trolley_v) <= room.speed
+            && libm::fabs(trolley_a) <= room.acceleration
+            && v * forward >= -1e-9
+            && pos.is_finite())
         {
             return None;
         }
@@ -492,14 +504,17 @@ fn stop_over<const NH: usize>(
     None
 }
 
-/// `1`, `−1` or `0` (for 0).
+/// `1`, `−1` or `0` (for 0); NaN for NaN, which [`axis_stop`] refuses (0 would let the
+/// stop move either way).
 fn sign(x: f64) -> f64 {
     if x > 0.0 {
         1.0
     } else if x < 0.0 {
         -1.0
-    } else {
+    } else if x == 0.0 {
         0.0
+    } else {
+        f64::NAN
     }
 }
 
@@ -560,6 +575,72 @@ mod tests {
             let falling = ((k - j + 1)..=k).fold(1.0, |a, i| a * i as f64);
             acc + p[k] * falling * tau.powi((k - j) as i32)
         })
+    }
+
+    /// A stop whose drive motion is not a number at a sample is refused, not let through:
+    /// a comparison with NaN is false, so a limit check written `|v| > room` passed it.
+    /// Reaches the check itself (`take_over` refuses a non-finite state before planning),
+    /// with a NaN or infinite derivative of the state, distance, duration, pendulum or room.
+    #[test]
+    fn a_stop_that_is_not_a_number_is_refused() {
+        let room = Room {
+            speed: 1.0,
+            acceleration: 1.0,
+        };
+        let moving = [0.0, 0.2, 0.0, 0.0, 0.0, 0.0];
+        // The finite stop passes: the refusals below are the non-finite value's.
+        assert!(axis_stop(&moving, 0.2, 2.0, 0.5, &room, 1.0).is_some());
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            for j in 0..ORDERS {
+                let mut d = moving;
+                d[j] = bad;
+                assert_eq!(
+                    axis_stop(&d, 0.2, 2.0, 0.5, &room, 1.0),
+                    None,
+                    "d[{j}] = {bad}"
+                );
+            }
+            assert_eq!(
+                axis_stop(&moving, bad, 2.0, 0.5, &room, 1.0),
+                None,
+                "distance {bad}"
+            );
+            assert_eq!(
+                axis_stop(&moving, 0.2, bad, 0.5, &room, 1.0),
+                None,
+                "duration {bad}"
+            );
+            assert_eq!(
+                axis_stop(&moving, 0.2, 2.0, bad, &room, 1.0),
+                None,
+                "c {bad}"
+            );
+            assert_eq!(
+                axis_stop(&moving, 0.2, 2.0, 0.5, &room, bad),
+                None,
+                "forward {bad}"
+            );
+        }
+        for nan_room in [
+            Room {
+                speed: f64::NAN,
+                ..room
+            },
+            Room {
+                acceleration: f64::NAN,
+                ..room
+            },
+        ] {
+            assert_eq!(
+                axis_stop(&moving, 0.2, 2.0, 0.5, &nan_room, 1.0),
+                None,
+                "{nan_room:?}"
+            );
+        }
+        // A duration of zero divides by zero.
+        assert_eq!(axis_stop(&moving, 0.2, 0.0, 0.5, &room, 1.0), None);
+        // The way to the target that is not a number has no direction (0 would allow both).
+        assert!(sign(f64::NAN).is_nan());
     }
 
     #[test]
