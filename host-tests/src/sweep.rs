@@ -101,10 +101,10 @@ pub fn apply(scene: &Scene, key: &str, value: &str) -> Result<Scene, String> {
             s.solver.newton = newton;
         }
         "formulation" => {
-            // The same model's formulation by its name on this axis or its label
-            // (`ModelSpec::with_formulation`: the planar crane's subs, proj and ext, the
-            // 3D and the hook-and-load crane's subs and ext, the mass-on-car's direct
-            // one, Eqs. 31–34, and ext).
+            // The same model's formulation by its name on this axis or its label, as
+            // the scene's list of models registers them (the planar crane's subs, proj
+            // and ext, the 3D and the hook-and-load crane's subs and ext, the
+            // mass-on-car's direct one, Eqs. 31–34, and ext).
             s.model = s
                 .model
                 .with_formulation(value)
