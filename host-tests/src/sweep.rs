@@ -1,7 +1,7 @@
 //! Sweeps: a scene varied along axes (`--vary h=0.02|0.01,rho=2|3,scalar=f32|f64`),
 //! the cross product run, one CSV row per configuration.
 
-use scene::{JacobianSpec, ModelSpec, NewtonSpec, ScalarSpec, Scene, SchemeSpec};
+use scene::{JacobianSpec, NewtonSpec, ScalarSpec, Scene, SchemeSpec};
 
 use crate::study::{jacobian_label, scheme_label, RunResult};
 
@@ -101,37 +101,14 @@ pub fn apply(scene: &Scene, key: &str, value: &str) -> Result<Scene, String> {
             s.solver.newton = newton;
         }
         "formulation" => {
-            // Each model's formulations: the planar crane's subs, proj and ext, the 3D
-            // and the hook-and-load crane's subs and ext, the mass-on-car's direct one
-            // (Eqs. 31–34) and ext.
-            s.model = if let Some(crane) = s.model.crane() {
-                match value {
-                    "subs" => ModelSpec::CraneSubs(crane),
-                    "proj" => ModelSpec::CraneProj(crane),
-                    "ext" => ModelSpec::CraneExt(crane),
-                    _ => return Err(bad("the planar crane's are subs, proj and ext")),
-                }
-            } else if let Some(crane) = s.model.crane3d() {
-                match value {
-                    "subs" | "3d-subs" => ModelSpec::Crane3dSubs(crane),
-                    "ext" | "3d-ext" => ModelSpec::Crane3dExt(crane),
-                    _ => return Err(bad("the 3D crane's are subs and ext")),
-                }
-            } else if let Some(crane) = s.model.double_pendulum() {
-                match value {
-                    "subs" | "dp-subs" => ModelSpec::DoublePendulumSubs(crane),
-                    "ext" | "dp-ext" => ModelSpec::DoublePendulumExt(crane),
-                    _ => return Err(bad("the hook-and-load crane's are subs and ext")),
-                }
-            } else if let Some(car) = s.model.mass_on_car_spec() {
-                match value {
-                    "direct" | "mass-on-car" => ModelSpec::MassOnCar(car),
-                    "ext" | "mass-on-car-ext" => ModelSpec::MassOnCarExt(car),
-                    _ => return Err(bad("the mass-on-car's are direct and ext")),
-                }
-            } else {
-                return Err(bad("this model has no other formulation"));
-            };
+            // The same model's formulation by its name on this axis or its label, as
+            // the scene's list of models registers them (the planar crane's subs, proj
+            // and ext, the 3D and the hook-and-load crane's subs and ext, the
+            // mass-on-car's direct one, Eqs. 31–34, and ext).
+            s.model = s
+                .model
+                .with_formulation(value)
+                .map_err(|e| bad(&e.to_string()))?;
         }
         "scalar" => {
             s.solver.scalar = match value {

@@ -14,28 +14,17 @@
 //!   ([`FirmwareScene::inverse_model`]);
 //! - the panic proof's build script, through [`FirmwareScheme::every`].
 //!
-//! A new model is one arm in [`model`] and [`Exact::new`], and if the firmware drives it
-//! one line in its crane's list of formulations (`crane_models!` in its file under
-//! `scene/src/cranes/`; docs/MODELS.md).
+//! No model is named here: [`model`], [`Exact`] and [`accuracy_threshold`] follow from
+//! the scene's list of models (`model_specs!` in `lib.rs`) and each model's
+//! `family::ModelFamily`, and the firmware's side from its crane's list of formulations
+//! (`crane_models!` in its file under `scene/src/cranes/`; docs/MODELS.md).
 
 use controller::commissioning::NodeSetup;
 use controller::crane::command_plan;
 use controller::feedback::Config as FeedbackConfig;
 use controller::planner::Planner;
 use controller::Config;
-use solver_core::models::crane::CraneParams;
-use solver_core::models::crane3d::{Crane3dExt, Crane3dParams, Crane3dSubs};
-use solver_core::models::crane_ext::{self, CraneExt};
-use solver_core::models::crane_proj::{self, CraneProj};
-use solver_core::models::crane_subs::{self, CraneSubs};
-use solver_core::models::double_pendulum_crane::DoublePendulumParams;
-use solver_core::models::mass_on_car::MassOnCar;
-use solver_core::models::mass_on_car_ext::MassOnCarExt;
 use solver_core::plan::Plan;
-use solver_core::reference::dopri5::Dopri5Settings;
-use solver_core::reference::flat_crane::flat_inverse;
-use solver_core::reference::mass_on_car::MassOnCarReference;
-use solver_core::reference::{double_pendulum, flat_crane3d};
 use solver_core::schemes::bdf::CORRECT_BELOW_H;
 use solver_core::trajectory::{PointToPoint, Trajectory};
 use solver_core::{DaeModel, Error, Real, Scheme, SolverSettings};
@@ -45,95 +34,30 @@ pub use crate::cranes::{
     visit_crane, CraneModel, CraneVisitor, FirmwareCrane, FirmwareError, FirmwareIntegrator,
     FirmwareModel, FirmwareVisitor, StepsVisitor, Structure,
 };
+use crate::family::ExactInputs;
 use crate::{
     trajectory, JacobianSpec, ModelSpec, NewtonSpec, ScalarSpec, Scene, SceneError, SchemeSpec,
 };
 
-/// What is done with a scene's model, whatever model it is (the studies).
-pub trait ModelVisitor<T: Real> {
-    /// What it gives.
-    type Output;
-    /// Does it with `model` (`N` unknowns, `NU` inputs, `S = 3N` for Radau's stage
-    /// system), driven by the scene's move in `T`.
-    fn visit<M: DaeModel<T, N, NU>, const N: usize, const NU: usize, const S: usize>(
-        self,
-        model: M,
-    ) -> Self::Output;
-}
+pub use crate::family::ModelVisitor;
 
 /// Builds the scene's model on its move in `T` and hands it to `visitor`; a model its
 /// parameters or move make impossible (rope slack, workspace, smoothness) is refused.
+/// Each model's type and sizes are its row in the scene's list of models
+/// (`model_specs!` in `lib.rs`).
 pub fn model<T: Real, V: ModelVisitor<T>>(
     scene: &Scene,
     visitor: V,
 ) -> Result<V::Output, SceneError> {
-    let err = |e: Error| scene.field_of(e);
-    Ok(match &scene.model {
-        ModelSpec::CraneSubs(c) => visitor
-            .visit::<_, { crane_subs::N }, { crane_subs::NU }, { crane_subs::S }>(
-                CraneSubs::new(c.params(), trajectory::<T, 2>(scene)?).map_err(err)?,
-            ),
-        ModelSpec::CraneProj(c) => visitor
-            .visit::<_, { crane_proj::N }, { crane_proj::NU }, { crane_proj::S }>(
-                CraneProj::new(c.params(), trajectory::<T, 2>(scene)?).map_err(err)?,
-            ),
-        ModelSpec::MassOnCar(m) => {
-            use solver_core::models::mass_on_car::{N, NU, S};
-            visitor.visit::<_, N, NU, S>(
-                MassOnCar::new(m.params(), trajectory::<T, 1>(scene)?).map_err(err)?,
-            )
-        }
-        ModelSpec::Crane3dSubs(c) => {
-            use solver_core::models::crane3d::subs::{N, NU, S};
-            visitor.visit::<_, N, NU, S>(
-                Crane3dSubs::new(c.params(), trajectory::<T, 3>(scene)?).map_err(err)?,
-            )
-        }
-        ModelSpec::CraneExt(c) => visitor
-            .visit::<_, { crane_ext::N }, { crane_ext::NU }, { crane_ext::S }>(
-                CraneExt::new(c.params(), trajectory::<T, 2>(scene)?).map_err(err)?,
-            ),
-        ModelSpec::MassOnCarExt(m) => {
-            use solver_core::models::mass_on_car_ext::{N, NU, S};
-            visitor.visit::<_, N, NU, S>(
-                MassOnCarExt::new(m.params(), trajectory::<T, 1>(scene)?).map_err(err)?,
-            )
-        }
-        ModelSpec::Crane3dExt(c) => {
-            use solver_core::models::crane3d::ext::{N, NU, S};
-            visitor.visit::<_, N, NU, S>(
-                Crane3dExt::new(c.params(), trajectory::<T, 3>(scene)?).map_err(err)?,
-            )
-        }
-        ModelSpec::DoublePendulumSubs(c) => {
-            use solver_core::models::double_pendulum::{DoublePendulumSubs, N, NU, S};
-            visitor.visit::<_, N, NU, S>(
-                DoublePendulumSubs::new(c.params(), trajectory::<T, 2>(scene)?).map_err(err)?,
-            )
-        }
-        ModelSpec::DoublePendulumExt(c) => {
-            use solver_core::models::double_pendulum_ext::{DoublePendulumExt, N, NU, S};
-            visitor.visit::<_, N, NU, S>(
-                DoublePendulumExt::new(c.params(), trajectory::<T, 2>(scene)?).map_err(err)?,
-            )
-        }
-    })
+    scene.build_model(visitor)
 }
 
 /// The e_max above which a run of `model` counts as inaccurate: 1 mm/s for the cranes'
-/// velocity set points, 0.01 N for the mass-on-car's force.
+/// velocity set points, 0.01 N for the mass-on-car's force (each model's
+/// `ModelFamily::ACCURACY_THRESHOLD`).
 #[must_use]
 pub fn accuracy_threshold(model: &ModelSpec) -> f64 {
-    match model {
-        ModelSpec::MassOnCar(_) | ModelSpec::MassOnCarExt(_) => 1e-2,
-        ModelSpec::CraneSubs(_)
-        | ModelSpec::CraneProj(_)
-        | ModelSpec::CraneExt(_)
-        | ModelSpec::Crane3dSubs(_)
-        | ModelSpec::Crane3dExt(_)
-        | ModelSpec::DoublePendulumSubs(_)
-        | ModelSpec::DoublePendulumExt(_) => 1e-3,
-    }
+    model.accuracy_threshold()
 }
 
 /// The visitor that only builds the model: what [`Scene::validate`] asks of it.
@@ -155,54 +79,21 @@ pub fn scheme(scene: &Scene) -> Scheme {
 }
 
 /// The exact inputs of a scene's move, sample by sample, in f64: what Eq. 29 measures
-/// a run against.
-#[derive(Debug, Clone)]
-pub enum Exact {
-    /// The crane's flat inverse (any formulation).
-    Crane(CraneParams, PointToPoint<f64, 2>),
-    /// The mass-on-car's internal dynamics integrated along (Eqs. 37–38).
-    MassOnCar(MassOnCarReference<PointToPoint<f64, 1>>),
-    /// The 3D crane's flat inverse.
-    Crane3d(Crane3dParams, PointToPoint<f64, 3>),
-    /// The hook-and-load crane's flat inverse.
-    DoublePendulum(DoublePendulumParams, PointToPoint<f64, 2>),
-}
+/// a run against — its model's `ModelFamily::exact` (the cranes' flat inverse, whatever
+/// the formulation; the mass-on-car's internal dynamics integrated along, Eqs. 37–38).
+#[derive(Debug)]
+pub struct Exact(Box<dyn ExactInputs>);
 
 impl Exact {
     /// The reference of `scene`'s model and move.
     pub fn new(scene: &Scene) -> Result<Self, SceneError> {
-        Ok(match &scene.model {
-            ModelSpec::CraneSubs(c) | ModelSpec::CraneProj(c) | ModelSpec::CraneExt(c) => {
-                Exact::Crane(c.params(), trajectory::<f64, 2>(scene)?)
-            }
-            ModelSpec::MassOnCar(m) | ModelSpec::MassOnCarExt(m) => Exact::MassOnCar(
-                MassOnCarReference::new(
-                    m.params(),
-                    trajectory::<f64, 1>(scene)?,
-                    0.0,
-                    Dopri5Settings::default(),
-                )
-                .map_err(|e| scene.field_of(e))?,
-            ),
-            ModelSpec::Crane3dSubs(c) | ModelSpec::Crane3dExt(c) => {
-                Exact::Crane3d(c.params(), trajectory::<f64, 3>(scene)?)
-            }
-            ModelSpec::DoublePendulumSubs(c) | ModelSpec::DoublePendulumExt(c) => {
-                Exact::DoublePendulum(c.params(), trajectory::<f64, 2>(scene)?)
-            }
-        })
+        scene.exact_inputs().map(Exact)
     }
 
     /// The exact inputs at `t` into `out` (`t` never decreases between calls).
     pub fn at(&mut self, t: f64, out: &mut Vec<f64>) -> Result<(), Error> {
         out.clear();
-        match self {
-            Exact::Crane(p, z) => out.extend(flat_inverse(p, z, t).u),
-            Exact::MassOnCar(r) => out.push(r.advance_to(t)?.f),
-            Exact::Crane3d(p, z) => out.extend(flat_crane3d::flat_inverse(p, z, t).u),
-            Exact::DoublePendulum(p, z) => out.extend(double_pendulum::flat_inverse(p, z, t)?.u),
-        }
-        Ok(())
+        self.0.at(t, out)
     }
 }
 
@@ -671,6 +562,7 @@ mod tests {
     use super::*;
     use controller::feedforward::{Feedforward, Replan};
     use controller::planner::Crane;
+    use solver_core::models::crane::CraneParams;
 
     /// The study's visitor that only names the model's type.
     struct Name;
@@ -691,17 +583,15 @@ mod tests {
         } else {
             "jacobian = \"exact\"\n"
         };
-        let (start, end) = match model {
-            "mass-on-car" | "mass-on-car-ext" => ("[0.0]", "[1.0]"),
-            "crane3d-subs" | "crane3d-ext" => ("[12.0, 3.0, 8.0]", "[20.0, 6.0, 4.0]"),
+        let spec: ModelSpec = toml::from_str(&format!("kind = \"{model}\"")).unwrap();
+        let (start, end) = match spec.outputs() {
+            1 => ("[0.0]", "[1.0]"),
+            3 => ("[12.0, 3.0, 8.0]", "[20.0, 6.0, 4.0]"),
             _ => ("[12.0, 8.0]", "[20.0, 4.0]"),
         };
-        // The hook-and-load crane's inputs contain the path's sixth derivative.
-        let n = if model.starts_with("double-pendulum") {
-            7
-        } else {
-            4
-        };
+        // Smooth enough for every model: the hook-and-load crane's inputs contain the
+        // path's sixth derivative.
+        let n = 7;
         Scene::parse(&format!(
             "name = \"t\"\n[model]\nkind = \"{model}\"\n[trajectory]\nstart = {start}\nend = {end}\nt_start = 1.0\nduration = 7.0\nsmoothness = {n}\nt_end = 10.0\n[solver]\n{solver}\n{jacobian}h = 0.01\n"
         ))
@@ -725,6 +615,16 @@ mod tests {
             assert!(ty.contains(name), "{ty}");
             assert_eq!(unknowns, n, "{kind}");
         }
+    }
+
+    /// Every kind the firmware drives (a registered crane's formulation), from the
+    /// registration: a model added there is checked here without a line more.
+    fn firmware_kinds() -> Vec<&'static str> {
+        ModelSpec::KINDS
+            .iter()
+            .copied()
+            .filter(|kind| FirmwareModel::of(&scene(kind, "scheme = \"bdf\"").model).is_ok())
+            .collect()
     }
 
     /// The label of the model `kind` names.
@@ -882,15 +782,8 @@ mod tests {
     fn every_firmware_integrator_is_proven() {
         let every = FirmwareScheme::every();
         let mut seen = 0;
-        for kind in [
-            "crane-subs",
-            "crane-proj",
-            "crane3d-subs",
-            "crane-ext",
-            "crane3d-ext",
-            "double-pendulum-subs",
-            "double-pendulum-ext",
-        ] {
+        let kinds = firmware_kinds();
+        for kind in &kinds {
             for solver in [
                 "scheme = \"bdf\"\njacobian = \"exact\"",
                 "scheme = \"bdf\"\njacobian = \"fd\"",
@@ -904,7 +797,12 @@ mod tests {
                     s.solver.h = h;
                     let Ok(mut f) = FirmwareScheme::of(&s) else {
                         // The extended cranes refuse what is not their structured Newton.
-                        assert!(kind.ends_with("ext"), "{kind} {solver} h = {h}");
+                        let model = FirmwareModel::of(&s.model).unwrap();
+                        assert_eq!(
+                            model.structure(),
+                            Structure::StructuredOnly,
+                            "{kind} {solver} h = {h}"
+                        );
                         continue;
                     };
                     f.integrator = match f.integrator {
@@ -922,7 +820,8 @@ mod tests {
                 }
             }
         }
-        assert_eq!(seen, 60);
+        // Every kind's BDF with the exact Jacobian at both h, at least.
+        assert!(seen >= 2 * kinds.len(), "{seen} of {kinds:?}");
         // And each is built for its own crane.
         for f in every {
             let (crane, axes) = f.crane();
@@ -972,15 +871,7 @@ mod tests {
             }
         }
         let mut built = 0;
-        for kind in [
-            "crane-subs",
-            "crane-proj",
-            "crane-ext",
-            "crane3d-subs",
-            "crane3d-ext",
-            "double-pendulum-subs",
-            "double-pendulum-ext",
-        ] {
+        for kind in firmware_kinds() {
             let s = scene(kind, "scheme = \"bdf\"");
             let model = FirmwareModel::of(&s.model).unwrap();
             for f in FirmwareScheme::every()

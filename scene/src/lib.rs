@@ -54,8 +54,10 @@ mod check;
 pub mod commissioning;
 pub mod cranes;
 pub mod dispatch;
+pub mod family;
 pub mod feedback;
 pub mod firmware;
+mod mass_on_car;
 pub mod operator;
 mod params;
 pub mod rust_source;
@@ -159,32 +161,53 @@ pub struct OperatorSpec {
     pub entry_blend: Option<f64>,
 }
 
-/// The models a scene names, listed once by the parameters they take: makes
-/// [`ModelSpec`] (its `kind`s are the variants' names in kebab case), one accessor per
-/// parameter type (the parameters whatever the formulation, `None` for another model) and
-/// [`ModelSpec::label`]. A new model is one line here and its file elsewhere; a new crane,
-/// one group.
+/// The models a scene names, listed once: the one registration of a model. A group is
+/// one parameter type `P` (the model's [`family::ModelFamily`], its `NZ` outputs), a
+/// row one formulation of it: its scene `kind`, its `label` in results, its
+/// `formulation` on the sweep's axis (`subs`, `ext`, `direct`), and its type under
+/// `solver_core::models` (`module`, `model`: built by `model::new(P, move)`, its sizes
+/// the module's `N`, `NU`, `S`). Makes [`ModelSpec`] (one variant a row),
+/// [`ModelSpec::KINDS`], one accessor per parameter type (the parameters whatever the
+/// formulation, `None` for another model), [`ModelSpec::label`],
+/// [`ModelSpec::outputs`], [`ModelSpec::accuracy_threshold`],
+/// [`ModelSpec::with_formulation`], and the scene's model built on its move for the
+/// studies and its exact reference (`Scene::build_model`, `Scene::exact_inputs`, which
+/// `dispatch` hands on). A row missing a part, or a parameter type without its
+/// `ModelFamily`, does not compile. A new model is one row here and its files elsewhere;
+/// a new crane, one group (docs/MODELS.md).
 macro_rules! model_specs {
     (
         $(
             $(#[$group_doc:meta])*
-            $accessor:ident($spec:ty) {
-                $( $(#[$doc:meta])* $variant:ident => $label:literal, )+
+            $accessor:ident($params:ty, $outputs:literal) {
+                $(
+                    $(#[$doc:meta])*
+                    $variant:ident {
+                        kind: $kind:literal,
+                        label: $label:literal,
+                        formulation: $formulation:literal,
+                        module: $module:ident $(:: $sub:ident)*,
+                        model: $model:ident $(,)?
+                    }
+                )+
             }
         )+
     ) => {
         /// Which model, with optional parameters (the model's defaults: the crate's doc).
         #[derive(Debug, Clone, PartialEq, Deserialize)]
-        #[serde(tag = "kind", rename_all = "kebab-case")]
+        #[serde(tag = "kind")]
         pub enum ModelSpec {
-            $( $( $(#[$doc])* $variant($spec), )+ )+
+            $( $( $(#[$doc])* #[serde(rename = $kind)] $variant(Params<$params>), )+ )+
         }
 
         impl ModelSpec {
+            /// Every `kind` a scene can name, in the order registered.
+            pub const KINDS: &'static [&'static str] = &[$( $( $kind, )+ )+];
+
             $(
                 $(#[$group_doc])*
                 #[must_use]
-                pub fn $accessor(&self) -> Option<$spec> {
+                pub fn $accessor(&self) -> Option<Params<$params>> {
                     match self {
                         $( ModelSpec::$variant(p) )|+ => Some(*p),
                         #[allow(unreachable_patterns)]
@@ -200,43 +223,159 @@ macro_rules! model_specs {
                     $( $( ModelSpec::$variant(_) => $label, )+ )+
                 }
             }
+
+            /// Number of output axes the model needs (the move's).
+            #[must_use]
+            pub fn outputs(&self) -> usize {
+                match self {
+                    $( $( ModelSpec::$variant(_) )|+ => $outputs, )+
+                }
+            }
+
+            /// The e_max above which a run of the model counts as inaccurate (its
+            /// family's [`family::ModelFamily::ACCURACY_THRESHOLD`]).
+            #[must_use]
+            pub fn accuracy_threshold(&self) -> f64 {
+                match self {
+                    $( $( ModelSpec::$variant(_) )|+ =>
+                        <$params as family::ModelFamily<$outputs>>::ACCURACY_THRESHOLD, )+
+                }
+            }
+
+            /// The table a scene writes the model's crane keys in
+            /// ([`family::ModelFamily::CRANE_KEYS_UNDER`]).
+            fn crane_keys_under(&self) -> &'static str {
+                match self {
+                    $( $( ModelSpec::$variant(_) )|+ =>
+                        <$params as family::ModelFamily<$outputs>>::CRANE_KEYS_UNDER, )+
+                }
+            }
+
+            /// The same model's formulation `name` (its `formulation` or its `label`)
+            /// with the same parameters: the sweep's formulation axis.
+            pub fn with_formulation(&self, name: &str) -> Result<ModelSpec, FormulationError> {
+                match self {
+                    $(
+                        $( ModelSpec::$variant(p) )|+ => {
+                            let p = *p;
+                            $(
+                                if name == $formulation || name == $label {
+                                    return Ok(ModelSpec::$variant(p));
+                                }
+                            )+
+                            Err(FormulationError {
+                                model: <$params as family::ModelFamily<$outputs>>::NAME,
+                                formulations: &[$( $formulation ),+],
+                            })
+                        }
+                    )+
+                }
+            }
+        }
+
+        impl Scene {
+            /// The scene's model built on its move in `T`, handed to `visitor`; a model
+            /// its parameters or move make impossible (rope slack, workspace,
+            /// smoothness) is refused (`dispatch::model`).
+            pub(crate) fn build_model<T: Real, V: family::ModelVisitor<T>>(
+                &self,
+                visitor: V,
+            ) -> Result<V::Output, SceneError> {
+                let err = |e: Error| self.field_of(e);
+                Ok(match &self.model {
+                    $( $(
+                        ModelSpec::$variant(p) => {
+                            use solver_core::models::$module $(:: $sub)* as m;
+                            visitor.visit::<_, { m::N }, { m::NU }, { m::S }>(
+                                m::$model::new(p.params(), trajectory::<T, $outputs>(self)?)
+                                    .map_err(err)?,
+                            )
+                        }
+                    )+ )+
+                })
+            }
+
+            /// The exact inputs of the scene's model along its move
+            /// ([`family::ModelFamily::exact`]: `dispatch::Exact`).
+            pub(crate) fn exact_inputs(
+                &self,
+            ) -> Result<Box<dyn family::ExactInputs>, SceneError> {
+                match &self.model {
+                    $(
+                        $( ModelSpec::$variant(p) )|+ => {
+                            let z = trajectory::<f64, $outputs>(self)?;
+                            let exact =
+                                <$params as family::ModelFamily<$outputs>>::exact(p.params(), z)
+                                    .map_err(|e| self.field_of(e))?;
+                            Ok(Box::new(exact))
+                        }
+                    )+
+                }
+            }
         }
     };
 }
 
 model_specs! {
     /// The planar crane's parameters, whatever the formulation (`None` for another model).
-    crane(Params<CraneParams>) {
+    crane(CraneParams, 2) {
         /// Crane, redundant coordinates with the servo-constraints substituted.
-        CraneSubs => "subs",
+        CraneSubs {
+            kind: "crane-subs", label: "subs", formulation: "subs",
+            module: crane_subs, model: CraneSubs,
+        }
         /// Crane, minimal coordinates projected after Blajer.
-        CraneProj => "proj",
+        CraneProj {
+            kind: "crane-proj", label: "proj", formulation: "proj",
+            module: crane_proj, model: CraneProj,
+        }
         /// Crane, *subs* minimally extended to index 1 (the hidden constraints appended).
-        CraneExt => "ext",
+        CraneExt {
+            kind: "crane-ext", label: "ext", formulation: "ext",
+            module: crane_ext, model: CraneExt,
+        }
     }
     /// The mass-on-car's scene parameters, whatever the formulation.
-    mass_on_car_spec(Params<MassOnCarParams>) {
+    mass_on_car_spec(MassOnCarParams, 1) {
         /// Mass-on-car with internal dynamics.
-        MassOnCar => "mass-on-car",
+        MassOnCar {
+            kind: "mass-on-car", label: "mass-on-car", formulation: "direct",
+            module: mass_on_car, model: MassOnCar,
+        }
         /// Mass-on-car, minimally extended to index 1.
-        MassOnCarExt => "mass-on-car-ext",
+        MassOnCarExt {
+            kind: "mass-on-car-ext", label: "mass-on-car-ext", formulation: "ext",
+            module: mass_on_car_ext, model: MassOnCarExt,
+        }
     }
     /// The 3D crane's parameters, whatever the formulation (`None` for another model).
-    crane3d(Params<Crane3dParams>) {
+    crane3d(Crane3dParams, 3) {
         /// The crane in three dimensions (bridge, trolley, hoist), redundant coordinates
         /// with the servo-constraints substituted.
-        Crane3dSubs => "3d-subs",
+        Crane3dSubs {
+            kind: "crane3d-subs", label: "3d-subs", formulation: "subs",
+            module: crane3d::subs, model: Crane3dSubs,
+        }
         /// The crane in three dimensions, *subs* minimally extended to index 1.
-        Crane3dExt => "3d-ext",
+        Crane3dExt {
+            kind: "crane3d-ext", label: "3d-ext", formulation: "ext",
+            module: crane3d::ext, model: Crane3dExt,
+        }
     }
     /// The hook-and-load crane's parameters, whatever the formulation (`None` for another
     /// model).
-    double_pendulum(Params<DoublePendulumParams>) {
+    double_pendulum(DoublePendulumParams, 2) {
         /// The hook-and-load crane (a double pendulum), redundant coordinates with the
         /// servo-constraints substituted.
-        DoublePendulumSubs => "dp-subs",
+        DoublePendulumSubs {
+            kind: "double-pendulum-subs", label: "dp-subs", formulation: "subs",
+            module: double_pendulum, model: DoublePendulumSubs,
+        }
         /// The hook-and-load crane, *subs* minimally extended to index 1.
-        DoublePendulumExt => "dp-ext",
+        DoublePendulumExt {
+            kind: "double-pendulum-ext", label: "dp-ext", formulation: "ext",
+            module: double_pendulum_ext, model: DoublePendulumExt,
+        }
     }
 }
 
@@ -247,6 +386,34 @@ impl ModelSpec {
         self.mass_on_car_spec().map(|m| m.params())
     }
 }
+
+/// A formulation the scene's model does not have (the sweep's formulation axis): the
+/// model and the formulations it has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FormulationError {
+    /// The model ([`family::ModelFamily::NAME`]).
+    pub model: &'static str,
+    /// Its formulations' names, in the order registered.
+    pub formulations: &'static [&'static str],
+}
+
+impl fmt::Display for FormulationError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}'s are ", self.model)?;
+        let last = self.formulations.len().saturating_sub(1);
+        for (i, name) in self.formulations.iter().enumerate() {
+            let sep = match i {
+                0 => "",
+                i if i == last => " and ",
+                _ => ", ",
+            };
+            write!(f, "{sep}{name}")?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for FormulationError {}
 
 /// A point-to-point move.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -343,15 +510,7 @@ fn default_scalar() -> ScalarSpec {
 impl Scene {
     /// Number of output axes the model needs.
     pub fn outputs(&self) -> usize {
-        match self.model {
-            ModelSpec::CraneSubs(_)
-            | ModelSpec::CraneProj(_)
-            | ModelSpec::CraneExt(_)
-            | ModelSpec::DoublePendulumSubs(_)
-            | ModelSpec::DoublePendulumExt(_) => 2,
-            ModelSpec::MassOnCar(_) | ModelSpec::MassOnCarExt(_) => 1,
-            ModelSpec::Crane3dSubs(_) | ModelSpec::Crane3dExt(_) => 3,
-        }
+        self.model.outputs()
     }
 
     /// The interior of the move, `[t_start + T/8, t_start + 7T/8]`: away from its
@@ -457,8 +616,8 @@ impl Scene {
         } else {
             name.to_string()
         };
-        if crane && self.model.double_pendulum().is_some() {
-            format!("model.crane.{key}")
+        if crane {
+            format!("{}.{key}", self.model.crane_keys_under())
         } else {
             format!("model.{key}")
         }

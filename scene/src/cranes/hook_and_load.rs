@@ -7,11 +7,13 @@
 
 use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback};
 use solver_core::models::double_pendulum_crane::DoublePendulumParams;
-
 use solver_core::plan::Plan;
+use solver_core::reference::double_pendulum::flat_inverse;
+use solver_core::trajectory::PointToPoint;
 use solver_core::{Error, SolverSettings};
 
 use super::{crane_models, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
+use crate::family::{ExactInputs, Flat, ModelFamily};
 use crate::{refuse, ModelSpec, OperatorSpec, SceneError};
 
 crane_models! {
@@ -22,6 +24,26 @@ crane_models! {
         /// *ext*: *subs* minimally extended to index 1 (30 unknowns: its structured
         /// Newton only).
         Ext => double_pendulum_ext, DoublePendulumExt, StructuredOnly;
+    }
+}
+
+impl ModelFamily<2> for DoublePendulumParams {
+    const NAME: &'static str = "the hook-and-load crane";
+    /// 1 mm/s: its inputs are the drives' velocity set points.
+    const ACCURACY_THRESHOLD: f64 = 1e-3;
+    /// A scene nests the planar crane's keys in `[model.crane]`.
+    const CRANE_KEYS_UNDER: &'static str = "model.crane";
+    type Exact = Flat<Self, 2>;
+    /// Its flat inverse (the load's path is a flat output), whatever the formulation.
+    fn exact(self, z: PointToPoint<f64, 2>) -> Result<Flat<Self, 2>, Error> {
+        Ok(Flat { params: self, z })
+    }
+}
+
+impl ExactInputs for Flat<DoublePendulumParams, 2> {
+    fn at(&mut self, t: f64, out: &mut Vec<f64>) -> Result<(), Error> {
+        out.extend(flat_inverse(&self.params, &self.z, t)?.u);
+        Ok(())
     }
 }
 

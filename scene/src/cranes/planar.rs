@@ -6,9 +6,12 @@ use controller::operator::path::Steered;
 use solver_core::models::crane::CraneParams;
 use solver_core::operator::{PlanarGenerator, Settings};
 use solver_core::plan::Plan;
+use solver_core::reference::flat_crane::flat_inverse;
+use solver_core::trajectory::PointToPoint;
 use solver_core::{Error, SolverSettings};
 
 use super::{crane_models, integrators, visit, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
+use crate::family::{ExactInputs, Flat, ModelFamily};
 use crate::operator::{only_subs, NOT_STEERED};
 use crate::{ModelSpec, OperatorSpec, SceneError};
 
@@ -21,6 +24,24 @@ crane_models! {
         Proj => crane_proj, CraneProj, Dense;
         /// *ext*: *subs* minimally extended to index 1.
         Ext => crane_ext, CraneExt, StructuredOnly;
+    }
+}
+
+impl ModelFamily<2> for CraneParams {
+    const NAME: &'static str = "the planar crane";
+    /// 1 mm/s: its inputs are the drives' velocity set points.
+    const ACCURACY_THRESHOLD: f64 = 1e-3;
+    type Exact = Flat<Self, 2>;
+    /// Its flat inverse, whatever the formulation.
+    fn exact(self, z: PointToPoint<f64, 2>) -> Result<Flat<Self, 2>, Error> {
+        Ok(Flat { params: self, z })
+    }
+}
+
+impl ExactInputs for Flat<CraneParams, 2> {
+    fn at(&mut self, t: f64, out: &mut Vec<f64>) -> Result<(), Error> {
+        out.extend(flat_inverse(&self.params, &self.z, t).u);
+        Ok(())
     }
 }
 

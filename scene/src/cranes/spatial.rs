@@ -9,9 +9,12 @@ use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::Crane3dParams;
 use solver_core::operator::{Generator3d, Settings};
 use solver_core::plan::Plan;
+use solver_core::reference::flat_crane3d::flat_inverse;
+use solver_core::trajectory::PointToPoint;
 use solver_core::{Error, SolverSettings};
 
 use super::{crane_models, integrators, visit, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
+use crate::family::{ExactInputs, Flat, ModelFamily};
 use crate::operator::{only_subs, NOT_STEERED};
 use crate::{ModelSpec, OperatorSpec, SceneError};
 
@@ -22,6 +25,24 @@ crane_models! {
         Subs => crane3d::subs, Crane3dSubs, Structured;
         /// *ext*: *subs* minimally extended to index 1.
         Ext => crane3d::ext, Crane3dExt, StructuredOnly;
+    }
+}
+
+impl ModelFamily<3> for Crane3dParams {
+    const NAME: &'static str = "the 3D crane";
+    /// 1 mm/s: its inputs are the drives' velocity set points.
+    const ACCURACY_THRESHOLD: f64 = 1e-3;
+    type Exact = Flat<Self, 3>;
+    /// Its flat inverse, whatever the formulation.
+    fn exact(self, z: PointToPoint<f64, 3>) -> Result<Flat<Self, 3>, Error> {
+        Ok(Flat { params: self, z })
+    }
+}
+
+impl ExactInputs for Flat<Crane3dParams, 3> {
+    fn at(&mut self, t: f64, out: &mut Vec<f64>) -> Result<(), Error> {
+        out.extend(flat_inverse(&self.params, &self.z, t).u);
+        Ok(())
     }
 }
 
