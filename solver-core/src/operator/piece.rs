@@ -142,9 +142,6 @@ const fn inv_pair() -> [f64; COEFFS] {
     out
 }
 
-/// `j` as f64, `j = 0..COEFFS`: the factors of the first derivative.
-const INDEX: [f64; COEFFS] = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0];
-
 /// `Σ_i N_q(θ + i) (−1)^j C(i, j)`: row `j` of the map from the filter output's
 /// backward differences `∇^j S[n]` to the coefficients of θ^m of the B-spline on this
 /// cycle, `Σ_i S[n−i] N_q(θ + i)` — the B-spline's pieces and the differences'
@@ -199,7 +196,13 @@ fn spline_of<const N: usize>(nabla: &[i64; 5], table: &[[f64; 5]; 5], scale: f64
     for (r, row) in rho.iter_mut().zip(table.iter()).take(N) {
         let mut acc = 0.0;
         for (n, m) in values.iter().zip(row.iter()) {
-            acc += n * m;
+            // The table's zeros skipped (a third of the quadratic's): `acc` starts at +0.0
+            // and a sum is −0.0 only of two −0.0, so adding a product `n·0 = ±0` (n an
+            // integer's value, finite) never changes it. The same bits, fewer dependent
+            // multiply-adds.
+            if *m != 0.0 {
+                acc += n * m;
+            }
         }
         *r = acc * scale;
     }
@@ -255,68 +258,84 @@ impl Piece {
 
     /// Builds the cycle from the states at its start (`self.lag`, `self.swing`), which
     /// it replaces by those at its end.
+    ///
+    /// Written out term by term with constant indices, each coefficient stored where it
+    /// is made (no array of them kept and copied: the registers hold the recursion), and
+    /// every sum of several terms added as a tree: on the Cortex-M7 a dependent double
+    /// add waits 4 cycles and a multiply-add 11 (`cargo xtask cycles`' model), so the
+    /// depth of the dependences, not the count of operations, is this function's cost.
+    #[allow(clippy::indexing_slicing)] // constant indices below COEFFS: checked when compiled
     pub fn build(&mut self, x: &Inputs) {
-        // Written out term by term (constant indices): this runs for every axis every
-        // cycle, and the iterator chains cost three times as many instructions.
         let (h, h2) = (x.h, x.h * x.h);
         let [d, d_dot] = self.lag;
         let [e, e_dot] = self.swing;
         let [r0, r1, r2, r3, r4] = x.rho;
         // r̈ integrated twice in θ: h² ρ_j θ^(j+2)/((j+1)(j+2)).
-        let f = [
-            h2 * r0 * INV_PAIR[0],
-            h2 * r1 * INV_PAIR[1],
-            h2 * r2 * INV_PAIR[2],
-            h2 * r3 * INV_PAIR[3],
-            h2 * r4 * INV_PAIR[4],
-        ];
+        let f0 = h2 * r0 * INV_PAIR[0];
+        let f1 = h2 * r1 * INV_PAIR[1];
+        let f2 = h2 * r2 * INV_PAIR[2];
+        let f3 = h2 * r3 * INV_PAIR[3];
+        let f4 = h2 * r4 * INV_PAIR[4];
         // d̈ = r̈ − a₀: d at the cycle's end and its rate (times h).
         let lag_curvature = -h2 * x.a0 * 0.5;
-        let next_d = d + d_dot * h + lag_curvature + f[0] + f[1] + f[2] + f[3] + f[4];
-        let next_d_rate = d_dot * h
-            + 2.0 * lag_curvature
-            + 2.0 * f[0]
-            + 3.0 * f[1]
-            + 4.0 * f[2]
-            + 5.0 * f[3]
-            + 6.0 * f[4];
-        // The pendulum's Taylor coefficients: (j+1)(j+2) ε_{j+2} = −(ω_g h)² ε_j − h² ρ_j.
-        let mut eps = [0.0; COEFFS];
-        let next_swing = if let Some(omega_h) = x.omega_h {
-            let w = -omega_h * omega_h;
-            eps[0] = e;
-            eps[1] = e_dot * h;
-            eps[2] = (w * eps[0] - h2 * r0) * INV_PAIR[0];
-            eps[3] = (w * eps[1] - h2 * r1) * INV_PAIR[1];
-            eps[4] = (w * eps[2] - h2 * r2) * INV_PAIR[2];
-            eps[5] = (w * eps[3] - h2 * r3) * INV_PAIR[3];
-            eps[6] = (w * eps[4] - h2 * r4) * INV_PAIR[4];
-            eps[7] = w * eps[5] * INV_PAIR[5];
-            eps[8] = w * eps[6] * INV_PAIR[6];
-            eps[9] = w * eps[7] * INV_PAIR[7];
-            eps[10] = w * eps[8] * INV_PAIR[8];
-            eps[11] = w * eps[9] * INV_PAIR[9];
-            let (mut sum, mut rate) = (0.0, 0.0);
-            for (v, j) in eps.iter().zip(INDEX) {
-                sum += v;
-                rate += j * v;
-            }
-            [sum, rate * x.inv_h]
-        } else {
-            [0.0; 2]
-        };
+        let d_step = d_dot * h;
+        let next_d = ((d + d_step) + (lag_curvature + f0)) + ((f1 + f2) + (f3 + f4));
+        let next_d_rate = ((d_step + 2.0 * lag_curvature) + (2.0 * f0 + 3.0 * f1))
+            + ((4.0 * f2 + 5.0 * f3) + 6.0 * f4);
+        let c = &mut self.coeffs;
         // x = p₀ + d + e: from θ² on, p₀ + d is the filtered part alone.
-        let mut coeffs = eps;
-        coeffs[0] = x.p0 + d + e;
-        coeffs[1] = (x.v0 + d_dot + e_dot) * h;
-        coeffs[2] += f[0];
-        coeffs[3] += f[1];
-        coeffs[4] += f[2];
-        coeffs[5] += f[3];
-        coeffs[6] += f[4];
-        self.coeffs = coeffs;
+        c[0] = x.p0 + d + e;
+        c[1] = (x.v0 + d_dot + e_dot) * h;
         self.lag = [next_d, next_d_rate * x.inv_h];
-        self.swing = next_swing;
+        let Some(omega_h) = x.omega_h else {
+            // The hoist: no pendulum, the path's top coefficients zero.
+            c[2] = f0;
+            c[3] = f1;
+            c[4] = f2;
+            c[5] = f3;
+            c[6] = f4;
+            for top in c.iter_mut().skip(HOIST_COEFFS) {
+                *top = 0.0;
+            }
+            self.swing = [0.0; 2];
+            return;
+        };
+        // The pendulum's Taylor coefficients ε_j: (j+1)(j+2) ε_{j+2} = −(ω_g h)² ε_j − h² ρ_j,
+        // i.e. ε_{j+2} = k_j ε_j − f_j with k_j = −(ω_g h)²/((j+1)(j+2)), the factors
+        // formed beside the recursion so that each of its steps is one multiply and one
+        // subtract. The path's own coefficient is `k_j ε_j` (the load's acceleration
+        // `ẍ_L = −ω_g² e`: `r`'s `f_j` cancels), free of that subtraction's rounding.
+        let w = -omega_h * omega_h;
+        let k = |j: usize| w * INV_PAIR[j];
+        let e0 = e;
+        let e1 = e_dot * h;
+        let (p2, p3) = (e0 * k(0), e1 * k(1));
+        c[2] = p2;
+        c[3] = p3;
+        let (e2, e3) = (p2 - f0, p3 - f1);
+        let (p4, p5) = (e2 * k(2), e3 * k(3));
+        c[4] = p4;
+        c[5] = p5;
+        let (e4, e5) = (p4 - f2, p5 - f3);
+        let p6 = e4 * k(4);
+        c[6] = p6;
+        let e6 = p6 - f4;
+        let e7 = e5 * k(5);
+        let e8 = e6 * k(6);
+        let e9 = e7 * k(7);
+        let e10 = e8 * k(8);
+        let e11 = e9 * k(9);
+        c[7] = e7;
+        c[8] = e8;
+        c[9] = e9;
+        c[10] = e10;
+        c[11] = e11;
+        // e and ė h at the cycle's end: Σ ε_j and Σ j ε_j, the early terms summed while
+        // the recursion still runs.
+        let sum = (((e0 + e1) + (e2 + e3)) + ((e4 + e5) + (e6 + e7))) + ((e8 + e9) + (e10 + e11));
+        let rate = (((e1 + 2.0 * e2) + (3.0 * e3 + 4.0 * e4)) + ((5.0 * e5 + 6.0 * e6) + 7.0 * e7))
+            + ((8.0 * e8 + 9.0 * e9) + (10.0 * e10 + 11.0 * e11));
+        self.swing = [sum, rate * x.inv_h];
     }
 
     /// At rest from here: the filter states are zero (exactly, once the windows have
