@@ -104,30 +104,6 @@ fn bspline_of(q: usize) -> &'static [[f64; 5]; 5] {
     }
 }
 
-/// `k!/(k−j)!` for `j, k < COEFFS` (0 for `k < j`): the factors of the j-th derivative.
-const FALLING: [[f64; COEFFS]; COEFFS] = falling();
-
-#[allow(clippy::indexing_slicing)] // evaluated at compile time
-const fn falling() -> [[f64; COEFFS]; COEFFS] {
-    let mut out = [[0.0; COEFFS]; COEFFS];
-    let mut j = 0;
-    while j < COEFFS {
-        let mut k = j;
-        while k < COEFFS {
-            let mut v = 1.0;
-            let mut i = 0;
-            while i < j {
-                v *= (k - i) as f64;
-                i += 1;
-            }
-            out[j][k] = v;
-            k += 1;
-        }
-        j += 1;
-    }
-    out
-}
-
 /// `1/((j+1)(j+2))`: what integrating `θ^j` twice divides by.
 const INV_PAIR: [f64; COEFFS] = inv_pair();
 
@@ -352,8 +328,17 @@ impl Piece {
 
     /// [`Piece::eval`] of a piece whose coefficients from `θ^N` on are zero (the hoist's
     /// outside a hand-over's blend: degree 6, no pendulum), `N ≤ COEFFS`: the same
-    /// values bit for bit — the Horner steps over the zero coefficients leave each sum
-    /// at zero — without those steps.
+    /// values bit for bit — the steps over the zero coefficients leave every sum at zero
+    /// — without those steps.
+    ///
+    /// By repeated synthetic division (Horner's scheme for the polynomial and its
+    /// quotients): `b_0 ← b_0 θ + c_k`, `b_j ← b_j θ + b_{j−1}` from the top coefficient
+    /// down leave `b_j = p^(j)(θ)/j!`. One multiply-add per coefficient and derivative
+    /// and no other multiply: the sums of the derivatives' coefficients `c_k k!/(k−j)!`
+    /// had a product of their own in every step, and the compiler fused that product,
+    /// not the one on the sum's chain, into the `vmla` (each step a `vmul` and a `vmla`
+    /// one after the other: 18 Cortex-M7 cycles in `cargo xtask cycles`' model, against
+    /// 11).
     #[must_use]
     pub fn eval_below<const D: usize, const N: usize>(&self, theta: f64, inv_h: f64) -> [f64; D] {
         let mut out = [0.0; D];
@@ -365,27 +350,42 @@ impl Piece {
             }
             return out;
         }
-        // One Horner sum per derivative.
-        let mut scale = 1.0;
-        for (j, (slot, factors)) in out.iter_mut().zip(FALLING.iter()).enumerate() {
-            let mut acc = 0.0;
-            for (c, f) in self.coeffs.iter().zip(factors.iter()).take(N).skip(j).rev() {
-                acc = acc * theta + c * f;
+        // The same steps as `three_below`'s, for any number of derivatives: in step `i`
+        // (from the top) the sums `b_j`, `j ≤ i`, that hold something (the first time,
+        // `0·θ + b_{j−1}` is `b_{j−1}`).
+        let mut b = [0.0; D];
+        for (i, c) in self.coeffs.iter().take(N).rev().enumerate() {
+            for j in (1..D.min(i + 1)).rev() {
+                let Some(&lower) = b.get(j - 1) else {
+                    continue;
+                };
+                if let Some(slot) = b.get_mut(j) {
+                    *slot = if j == i { lower } else { *slot * theta + lower };
+                }
             }
-            *slot = acc * scale;
+            if let Some(b0) = b.first_mut() {
+                *b0 = if i == 0 { *c } else { *b0 * theta + c };
+            }
+        }
+        // p^(j) = j! b_j, per h^j.
+        let (mut scale, mut factorial) = (1.0, 1.0);
+        for (j, (slot, bj)) in out.iter_mut().zip(b).enumerate() {
+            if j > 0 {
+                factorial *= j as f64;
+            }
+            *slot = bj * factorial * scale;
             scale *= inv_h;
         }
         out
     }
 
-    /// The path and its first two θ-derivatives at `θ` from the coefficients below `θ^N`:
-    /// three Horner sums `acc = acc·θ + c_k k!/(k−j)!` from the top, written out step by
-    /// step with constant indices (the compiler kept a loop over `k` rolled, with its
-    /// branches, however it was written). Each step of one sum waits for its last (a
-    /// multiply-accumulate: 11 Cortex-M7 cycles in `cargo xtask cycles`' model); the
-    /// three independent sums side by side fill those cycles. The operations of each
-    /// sum are those of summing it alone, in the same order (`c·1 = c`): the values of
-    /// the loop in [`Piece::eval_below`] bit for bit.
+    /// The path and its first two θ-derivatives at `θ` from the coefficients below `θ^N`
+    /// ([`Piece::eval_below`]'s synthetic division; the second derivative `2 b_2`),
+    /// written out step by step with constant indices (the compiler kept a loop over `k`
+    /// rolled, with its branches, however it was written). Each step of a sum waits for
+    /// its last (a multiply-accumulate: 11 Cortex-M7 cycles in `cargo xtask cycles`'
+    /// model); the three sums side by side fill those cycles. The operations are those of
+    /// the loop in [`Piece::eval_below`], in the same order: its values bit for bit.
     #[allow(clippy::indexing_slicing)] // constant indices below COEFFS: checked when compiled
     fn three_below<const N: usize>(&self, theta: f64) -> [f64; 3] {
         let c = &self.coeffs;
@@ -393,13 +393,19 @@ impl Piece {
         macro_rules! step {
             ($k:literal) => {
                 if $k < N {
-                    x = x * theta + c[$k];
-                    if $k >= 1 {
-                        v = v * theta + c[$k] * FIRST[$k];
+                    // The step's index from the top.
+                    let i = N - 1 - $k;
+                    if i >= 3 {
+                        a = a * theta + v;
+                    } else if i == 2 {
+                        a = v;
                     }
-                    if $k >= 2 {
-                        a = a * theta + c[$k] * SECOND[$k];
+                    if i >= 2 {
+                        v = v * theta + x;
+                    } else if i == 1 {
+                        v = x;
                     }
+                    x = if i >= 1 { x * theta + c[$k] } else { c[$k] };
                 }
             };
         }
@@ -415,15 +421,9 @@ impl Piece {
         step!(2);
         step!(1);
         step!(0);
-        [x, v, a]
+        [x, v, a * 2.0]
     }
 }
-
-/// The factors of the first derivative, `k` (row 1 of [`FALLING`]).
-const FIRST: [f64; COEFFS] = FALLING[1];
-
-/// The factors of the second derivative, `k (k − 1)` (row 2 of [`FALLING`]).
-const SECOND: [f64; COEFFS] = FALLING[2];
 
 #[cfg(test)]
 mod tests {
