@@ -239,7 +239,8 @@ impl Piece {
     /// is made (no array of them kept and copied: the registers hold the recursion), and
     /// every sum of several terms added as a tree: on the Cortex-M7 a dependent double
     /// add waits 4 cycles and a multiply-add 11 (`cargo xtask cycles`' model), so the
-    /// depth of the dependences, not the count of operations, is this function's cost.
+    /// depth of the dependences, more than the count of operations, sets this function's
+    /// cost.
     #[allow(clippy::indexing_slicing)] // constant indices below COEFFS: checked when compiled
     pub fn build(&mut self, x: &Inputs) {
         let (h, h2) = (x.h, x.h * x.h);
