@@ -155,8 +155,17 @@ pub fn round_i(x: f64) -> i64 {
     if libm::fabs(y) < 2_147_483_648.0 {
         i64::from(y as i32)
     } else {
-        y as i64
+        truncate_wide(y)
     }
+}
+
+/// `y as i64` (the soft `__aeabi_d2lz`), in a call of its own: inlined, the compiler
+/// made it unconditional in [`step`] (both conversions, then a choice), and every cycle
+/// paid for the soft one.
+#[cold]
+#[inline(never)]
+fn truncate_wide(y: f64) -> i64 {
+    y as i64
 }
 
 /// One cycle of a group of `W` axes: each towards its target speed `targets[i]` (in its
@@ -170,29 +179,40 @@ pub fn step<const W: usize>(
 ) -> [i8; W] {
     let step = f64::from(MAX_STEP);
     // The remaining change of the ideal speed and the common scale that keeps every
-    // axis within ±127 quanta per cycle.
+    // axis within ±127 quanta per cycle. Each speed converted once.
     let mut largest = 0.0_f64;
+    let mut speed = [0.0; W];
     let mut delta = [0.0; W];
-    for ((d, a), t) in delta.iter_mut().zip(axes.iter()).zip(targets) {
-        *d = t - (i64_to_f64(a.n_v) + a.carry);
+    for (((d, s), a), t) in delta
+        .iter_mut()
+        .zip(speed.iter_mut())
+        .zip(axes.iter())
+        .zip(targets)
+    {
+        *s = i64_to_f64(a.n_v);
+        *d = t - (*s + a.carry);
         largest = largest.max(libm::fabs(*d));
     }
-    let scale = if largest > step { step / largest } else { 1.0 };
+    // The ideal speed after the cycle; exactly the target once it is reached. The scale's
+    // divide only where it is needed: written as a choice of two values, it was computed
+    // every cycle (a double divide holds the Cortex-M7's FPU for about 30 cycles).
+    let mut ideal = targets;
+    if largest > step {
+        let scale = step / largest;
+        if scale < 1.0 {
+            for (((i, s), a), d) in ideal.iter_mut().zip(speed).zip(axes.iter()).zip(delta) {
+                *i = s + a.carry + scale * d;
+            }
+        }
+    }
     let mut ks = [0_i8; W];
-    for (((a, k_out), (d, t)), b) in axes
+    for (((a, k_out), (ideal, s)), b) in axes
         .iter_mut()
         .zip(ks.iter_mut())
-        .zip(delta.into_iter().zip(targets))
+        .zip(ideal.into_iter().zip(speed))
         .zip(bounds)
     {
-        // The ideal speed after the cycle; exactly the target once it is reached.
-        let ideal = if scale >= 1.0 {
-            t
-        } else {
-            i64_to_f64(a.n_v) + a.carry + scale * d
-        };
-        let wanted =
-            round_i(ideal - i64_to_f64(a.n_v)).clamp(-i64::from(MAX_STEP), i64::from(MAX_STEP));
+        let wanted = round_i(ideal - s).clamp(-i64::from(MAX_STEP), i64::from(MAX_STEP));
         let k = a.braked(wanted, b);
         a.carry = if k == wanted {
             ideal - i64_to_f64(a.n_v + k)

@@ -74,8 +74,8 @@
 //!
 //! Per cycle a few taps into a ring of the last seconds' accelerations (one byte per
 //! axis and cycle), a few running sums, one polynomial of degree 11 per axis; an
-//! evaluation is one Horner sum per derivative and axis. Nothing depends on how long the
-//! generator has run.
+//! evaluation is one multiply-add per coefficient, derivative and axis (Horner's scheme
+//! repeated: synthetic division). Nothing depends on how long the generator has run.
 
 mod entry;
 mod filter;

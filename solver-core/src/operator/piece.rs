@@ -104,30 +104,6 @@ fn bspline_of(q: usize) -> &'static [[f64; 5]; 5] {
     }
 }
 
-/// `k!/(k−j)!` for `j, k < COEFFS` (0 for `k < j`): the factors of the j-th derivative.
-const FALLING: [[f64; COEFFS]; COEFFS] = falling();
-
-#[allow(clippy::indexing_slicing)] // evaluated at compile time
-const fn falling() -> [[f64; COEFFS]; COEFFS] {
-    let mut out = [[0.0; COEFFS]; COEFFS];
-    let mut j = 0;
-    while j < COEFFS {
-        let mut k = j;
-        while k < COEFFS {
-            let mut v = 1.0;
-            let mut i = 0;
-            while i < j {
-                v *= (k - i) as f64;
-                i += 1;
-            }
-            out[j][k] = v;
-            k += 1;
-        }
-        j += 1;
-    }
-    out
-}
-
 /// `1/((j+1)(j+2))`: what integrating `θ^j` twice divides by.
 const INV_PAIR: [f64; COEFFS] = inv_pair();
 
@@ -141,9 +117,6 @@ const fn inv_pair() -> [f64; COEFFS] {
     }
     out
 }
-
-/// `j` as f64, `j = 0..COEFFS`: the factors of the first derivative.
-const INDEX: [f64; COEFFS] = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0];
 
 /// `Σ_i N_q(θ + i) (−1)^j C(i, j)`: row `j` of the map from the filter output's
 /// backward differences `∇^j S[n]` to the coefficients of θ^m of the B-spline on this
@@ -199,7 +172,13 @@ fn spline_of<const N: usize>(nabla: &[i64; 5], table: &[[f64; 5]; 5], scale: f64
     for (r, row) in rho.iter_mut().zip(table.iter()).take(N) {
         let mut acc = 0.0;
         for (n, m) in values.iter().zip(row.iter()) {
-            acc += n * m;
+            // The table's zeros skipped (a third of the quadratic's): `acc` starts at +0.0
+            // and a sum is −0.0 only of two −0.0, so adding a product `n·0 = ±0` (n an
+            // integer's value, finite) never changes it. The same bits, fewer dependent
+            // multiply-adds.
+            if *m != 0.0 {
+                acc += n * m;
+            }
         }
         *r = acc * scale;
     }
@@ -255,68 +234,85 @@ impl Piece {
 
     /// Builds the cycle from the states at its start (`self.lag`, `self.swing`), which
     /// it replaces by those at its end.
+    ///
+    /// Written out term by term with constant indices, each coefficient stored where it
+    /// is made (no array of them kept and copied: the registers hold the recursion), and
+    /// every sum of several terms added as a tree: on the Cortex-M7 a dependent double
+    /// add waits 4 cycles and a multiply-add 11 (`cargo xtask cycles`' model), so the
+    /// depth of the dependences, more than the count of operations, sets this function's
+    /// cost.
+    #[allow(clippy::indexing_slicing)] // constant indices below COEFFS: checked when compiled
     pub fn build(&mut self, x: &Inputs) {
-        // Written out term by term (constant indices): this runs for every axis every
-        // cycle, and the iterator chains cost three times as many instructions.
         let (h, h2) = (x.h, x.h * x.h);
         let [d, d_dot] = self.lag;
         let [e, e_dot] = self.swing;
         let [r0, r1, r2, r3, r4] = x.rho;
         // r̈ integrated twice in θ: h² ρ_j θ^(j+2)/((j+1)(j+2)).
-        let f = [
-            h2 * r0 * INV_PAIR[0],
-            h2 * r1 * INV_PAIR[1],
-            h2 * r2 * INV_PAIR[2],
-            h2 * r3 * INV_PAIR[3],
-            h2 * r4 * INV_PAIR[4],
-        ];
+        let f0 = h2 * r0 * INV_PAIR[0];
+        let f1 = h2 * r1 * INV_PAIR[1];
+        let f2 = h2 * r2 * INV_PAIR[2];
+        let f3 = h2 * r3 * INV_PAIR[3];
+        let f4 = h2 * r4 * INV_PAIR[4];
         // d̈ = r̈ − a₀: d at the cycle's end and its rate (times h).
         let lag_curvature = -h2 * x.a0 * 0.5;
-        let next_d = d + d_dot * h + lag_curvature + f[0] + f[1] + f[2] + f[3] + f[4];
-        let next_d_rate = d_dot * h
-            + 2.0 * lag_curvature
-            + 2.0 * f[0]
-            + 3.0 * f[1]
-            + 4.0 * f[2]
-            + 5.0 * f[3]
-            + 6.0 * f[4];
-        // The pendulum's Taylor coefficients: (j+1)(j+2) ε_{j+2} = −(ω_g h)² ε_j − h² ρ_j.
-        let mut eps = [0.0; COEFFS];
-        let next_swing = if let Some(omega_h) = x.omega_h {
-            let w = -omega_h * omega_h;
-            eps[0] = e;
-            eps[1] = e_dot * h;
-            eps[2] = (w * eps[0] - h2 * r0) * INV_PAIR[0];
-            eps[3] = (w * eps[1] - h2 * r1) * INV_PAIR[1];
-            eps[4] = (w * eps[2] - h2 * r2) * INV_PAIR[2];
-            eps[5] = (w * eps[3] - h2 * r3) * INV_PAIR[3];
-            eps[6] = (w * eps[4] - h2 * r4) * INV_PAIR[4];
-            eps[7] = w * eps[5] * INV_PAIR[5];
-            eps[8] = w * eps[6] * INV_PAIR[6];
-            eps[9] = w * eps[7] * INV_PAIR[7];
-            eps[10] = w * eps[8] * INV_PAIR[8];
-            eps[11] = w * eps[9] * INV_PAIR[9];
-            let (mut sum, mut rate) = (0.0, 0.0);
-            for (v, j) in eps.iter().zip(INDEX) {
-                sum += v;
-                rate += j * v;
-            }
-            [sum, rate * x.inv_h]
-        } else {
-            [0.0; 2]
-        };
+        let d_step = d_dot * h;
+        let next_d = ((d + d_step) + (lag_curvature + f0)) + ((f1 + f2) + (f3 + f4));
+        let next_d_rate = ((d_step + 2.0 * lag_curvature) + (2.0 * f0 + 3.0 * f1))
+            + ((4.0 * f2 + 5.0 * f3) + 6.0 * f4);
+        let c = &mut self.coeffs;
         // x = p₀ + d + e: from θ² on, p₀ + d is the filtered part alone.
-        let mut coeffs = eps;
-        coeffs[0] = x.p0 + d + e;
-        coeffs[1] = (x.v0 + d_dot + e_dot) * h;
-        coeffs[2] += f[0];
-        coeffs[3] += f[1];
-        coeffs[4] += f[2];
-        coeffs[5] += f[3];
-        coeffs[6] += f[4];
-        self.coeffs = coeffs;
+        c[0] = x.p0 + d + e;
+        c[1] = (x.v0 + d_dot + e_dot) * h;
         self.lag = [next_d, next_d_rate * x.inv_h];
-        self.swing = next_swing;
+        let Some(omega_h) = x.omega_h else {
+            // The hoist: no pendulum, the path's top coefficients zero.
+            c[2] = f0;
+            c[3] = f1;
+            c[4] = f2;
+            c[5] = f3;
+            c[6] = f4;
+            for top in c.iter_mut().skip(HOIST_COEFFS) {
+                *top = 0.0;
+            }
+            self.swing = [0.0; 2];
+            return;
+        };
+        // The pendulum's Taylor coefficients ε_j: (j+1)(j+2) ε_{j+2} = −(ω_g h)² ε_j − h² ρ_j,
+        // i.e. ε_{j+2} = k_j ε_j − f_j with k_j = −(ω_g h)²/((j+1)(j+2)), the factors
+        // formed beside the recursion so that each of its steps is one multiply and one
+        // subtract. The path's own coefficient is `k_j ε_j` (the load's acceleration
+        // `ẍ_L = −ω_g² e`: `r`'s `f_j` cancels), free of that subtraction's rounding.
+        let w = -omega_h * omega_h;
+        let k = |j: usize| w * INV_PAIR[j];
+        let e0 = e;
+        let e1 = e_dot * h;
+        let (p2, p3) = (e0 * k(0), e1 * k(1));
+        c[2] = p2;
+        c[3] = p3;
+        let (e2, e3) = (p2 - f0, p3 - f1);
+        let (p4, p5) = (e2 * k(2), e3 * k(3));
+        c[4] = p4;
+        c[5] = p5;
+        let (e4, e5) = (p4 - f2, p5 - f3);
+        let p6 = e4 * k(4);
+        c[6] = p6;
+        let e6 = p6 - f4;
+        let e7 = e5 * k(5);
+        let e8 = e6 * k(6);
+        let e9 = e7 * k(7);
+        let e10 = e8 * k(8);
+        let e11 = e9 * k(9);
+        c[7] = e7;
+        c[8] = e8;
+        c[9] = e9;
+        c[10] = e10;
+        c[11] = e11;
+        // e and ė h at the cycle's end: Σ ε_j and Σ j ε_j, the early terms summed while
+        // the recursion still runs.
+        let sum = (((e0 + e1) + (e2 + e3)) + ((e4 + e5) + (e6 + e7))) + ((e8 + e9) + (e10 + e11));
+        let rate = (((e1 + 2.0 * e2) + (3.0 * e3 + 4.0 * e4)) + ((5.0 * e5 + 6.0 * e6) + 7.0 * e7))
+            + ((8.0 * e8 + 9.0 * e9) + (10.0 * e10 + 11.0 * e11));
+        self.swing = [sum, rate * x.inv_h];
     }
 
     /// At rest from here: the filter states are zero (exactly, once the windows have
@@ -333,8 +329,17 @@ impl Piece {
 
     /// [`Piece::eval`] of a piece whose coefficients from `θ^N` on are zero (the hoist's
     /// outside a hand-over's blend: degree 6, no pendulum), `N ≤ COEFFS`: the same
-    /// values bit for bit — the Horner steps over the zero coefficients leave each sum
-    /// at zero — without those steps.
+    /// values bit for bit — the steps over the zero coefficients leave every sum at zero
+    /// — without those steps.
+    ///
+    /// By repeated synthetic division (Horner's scheme for the polynomial and its
+    /// quotients): `b_0 ← b_0 θ + c_k`, `b_j ← b_j θ + b_{j−1}` from the top coefficient
+    /// down leave `b_j = p^(j)(θ)/j!`. One multiply-add per coefficient and derivative
+    /// and no other multiply: the sums of the derivatives' coefficients `c_k k!/(k−j)!`
+    /// had a product of their own in every step, and the compiler fused that product,
+    /// not the one on the sum's chain, into the `vmla` (each step a `vmul` and a `vmla`
+    /// one after the other: 18 Cortex-M7 cycles in `cargo xtask cycles`' model, against
+    /// 11).
     #[must_use]
     pub fn eval_below<const D: usize, const N: usize>(&self, theta: f64, inv_h: f64) -> [f64; D] {
         let mut out = [0.0; D];
@@ -346,27 +351,42 @@ impl Piece {
             }
             return out;
         }
-        // One Horner sum per derivative.
-        let mut scale = 1.0;
-        for (j, (slot, factors)) in out.iter_mut().zip(FALLING.iter()).enumerate() {
-            let mut acc = 0.0;
-            for (c, f) in self.coeffs.iter().zip(factors.iter()).take(N).skip(j).rev() {
-                acc = acc * theta + c * f;
+        // The same steps as `three_below`'s, for any number of derivatives: in step `i`
+        // (from the top) the sums `b_j`, `j ≤ i`, that hold something (the first time,
+        // `0·θ + b_{j−1}` is `b_{j−1}`).
+        let mut b = [0.0; D];
+        for (i, c) in self.coeffs.iter().take(N).rev().enumerate() {
+            for j in (1..D.min(i + 1)).rev() {
+                let Some(&lower) = b.get(j - 1) else {
+                    continue;
+                };
+                if let Some(slot) = b.get_mut(j) {
+                    *slot = if j == i { lower } else { *slot * theta + lower };
+                }
             }
-            *slot = acc * scale;
+            if let Some(b0) = b.first_mut() {
+                *b0 = if i == 0 { *c } else { *b0 * theta + c };
+            }
+        }
+        // p^(j) = j! b_j, per h^j.
+        let (mut scale, mut factorial) = (1.0, 1.0);
+        for (j, (slot, bj)) in out.iter_mut().zip(b).enumerate() {
+            if j > 0 {
+                factorial *= j as f64;
+            }
+            *slot = bj * factorial * scale;
             scale *= inv_h;
         }
         out
     }
 
-    /// The path and its first two θ-derivatives at `θ` from the coefficients below `θ^N`:
-    /// three Horner sums `acc = acc·θ + c_k k!/(k−j)!` from the top, written out step by
-    /// step with constant indices (the compiler kept a loop over `k` rolled, with its
-    /// branches, however it was written). Each step of one sum waits for its last (a
-    /// multiply-accumulate: 11 Cortex-M7 cycles in `cargo xtask cycles`' model); the
-    /// three independent sums side by side fill those cycles. The operations of each
-    /// sum are those of summing it alone, in the same order (`c·1 = c`): the values of
-    /// the loop in [`Piece::eval_below`] bit for bit.
+    /// The path and its first two θ-derivatives at `θ` from the coefficients below `θ^N`
+    /// ([`Piece::eval_below`]'s synthetic division; the second derivative `2 b_2`),
+    /// written out step by step with constant indices (the compiler kept a loop over `k`
+    /// rolled, with its branches, however it was written). Each step of a sum waits for
+    /// its last (a multiply-accumulate: 11 Cortex-M7 cycles in `cargo xtask cycles`'
+    /// model); the three sums side by side fill those cycles. The operations are those of
+    /// the loop in [`Piece::eval_below`], in the same order: its values bit for bit.
     #[allow(clippy::indexing_slicing)] // constant indices below COEFFS: checked when compiled
     fn three_below<const N: usize>(&self, theta: f64) -> [f64; 3] {
         let c = &self.coeffs;
@@ -374,13 +394,19 @@ impl Piece {
         macro_rules! step {
             ($k:literal) => {
                 if $k < N {
-                    x = x * theta + c[$k];
-                    if $k >= 1 {
-                        v = v * theta + c[$k] * FIRST[$k];
+                    // The step's index from the top.
+                    let i = N - 1 - $k;
+                    if i >= 3 {
+                        a = a * theta + v;
+                    } else if i == 2 {
+                        a = v;
                     }
-                    if $k >= 2 {
-                        a = a * theta + c[$k] * SECOND[$k];
+                    if i >= 2 {
+                        v = v * theta + x;
+                    } else if i == 1 {
+                        v = x;
                     }
+                    x = if i >= 1 { x * theta + c[$k] } else { c[$k] };
                 }
             };
         }
@@ -396,15 +422,9 @@ impl Piece {
         step!(2);
         step!(1);
         step!(0);
-        [x, v, a]
+        [x, v, a * 2.0]
     }
 }
-
-/// The factors of the first derivative, `k` (row 1 of [`FALLING`]).
-const FIRST: [f64; COEFFS] = FALLING[1];
-
-/// The factors of the second derivative, `k (k − 1)` (row 2 of [`FALLING`]).
-const SECOND: [f64; COEFFS] = FALLING[2];
 
 #[cfg(test)]
 mod tests {
