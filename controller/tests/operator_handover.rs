@@ -178,6 +178,79 @@ fn a_stick_deflected_during_an_automatic_move_takes_it_over_in_the_same_cycle() 
     }
 }
 
+/// The hand-over at full stick, with the move and against it, at 10, 50 and 90 % of the
+/// move: the move's stop and the operator's full speed added (the hardest case for the
+/// headroom), held for 9 s — into the workspace's ends, where the generator's braking
+/// curve takes over — then released: every set point within the drives' limits, no
+/// fault, at rest, nothing refused.
+#[test]
+fn a_full_stick_hand_over_keeps_every_set_point_within_the_limits() {
+    for share in [0.1, 0.5, 0.9] {
+        for stick in [FULL_SCALE, -FULL_SCALE] {
+            let case = format!("{share} of the move, stick {stick}");
+            let mut rig = Manual::new();
+            let mut cycles = deflect_at(&mut rig, share, stick);
+            assert_eq!(
+                taken_over(cycles.last().unwrap()),
+                emcy::TAKEN_OVER_AT_ONCE,
+                "{case}"
+            );
+            cycles.extend(rig.hold(900, HELD, [stick, 0, 0]));
+            let (rest, rested) = until_rest(&mut rig, 3000, |r, n| {
+                if n % 3 == 0 {
+                    r.send(HELD, [0; 3]);
+                }
+            });
+            assert!(rested, "{case}: at rest after the release");
+            cycles.extend(rest);
+            let mut last = [0; 2];
+            assert_within_limits(&cycles, &mut last);
+            assert_eq!(
+                cycles.iter().map(|c| c.mode).find(|m| *m != Mode::Ready),
+                None,
+                "{case}: no fault"
+            );
+            assert!(refusals(&cycles).is_empty(), "{case}: nothing refused");
+        }
+    }
+}
+
+/// A stop request (0x210) while a hand-over's stop still runs, full stick forward 50 %
+/// into the move: the generator's stop is latched in that very cycle (the stick's share
+/// stops at once, whatever the stick does), the taken-over move's own stop goes on to its
+/// end (docs/COMMANDS.md, "The stopping distance": the bound is the operator's share
+/// only), and the load rests within the drives' limits, no fault, the set points then
+/// exactly zero.
+#[test]
+fn a_stop_request_during_a_hand_over_s_stop_latches_the_operator_s_stop_at_once() {
+    let mut rig = Manual::new();
+    let mut cycles = deflect_at(&mut rig, 0.5, FULL_SCALE);
+    cycles.extend(rig.hold(60, HELD, [FULL_SCALE, 0, 0]));
+    send_request(&mut rig, Request::Stop { id: 5 });
+    cycles.push(rig.cycle());
+    let path = rig.c.feedforward_mut().path_mut().manual_mut().unwrap();
+    assert!(path.is_stopping(), "the operator's stop latched at once");
+    let (rest, rested) = until_rest(&mut rig, 3000, |r, n| {
+        if n % 3 == 0 {
+            r.send(HELD, [FULL_SCALE, 0, 0]);
+        }
+    });
+    assert!(rested, "at rest");
+    cycles.extend(rest);
+    let mut last = [0; 2];
+    assert_within_limits(&cycles, &mut last);
+    assert_eq!(
+        cycles.iter().map(|c| c.mode).find(|m| *m != Mode::Ready),
+        None,
+        "no fault"
+    );
+    let tail = rig.hold(100, HELD, [FULL_SCALE, 0, 0]);
+    assert!(
+        tail.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
+        "held at rest: the stick interlocked after the stop"
+    );
+}
+
 /// A hand-over with the stick centred again at once (one frame deflected back, against
 /// the move, so that the operator's own motion cannot carry the load forward): the
 /// move's own stop, which the generator ends it with, brings the load to rest at or
