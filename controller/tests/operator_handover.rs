@@ -105,6 +105,33 @@ fn taken_over(cycle: &Cycle) -> u8 {
     emcy[0][5]
 }
 
+/// Frames with `stick` every third cycle (centred: the release; deflected: a stop that
+/// holds whatever the stick does) until the load rests; then every set point of
+/// `cycles` and those within the drives' limits, and the controller ready throughout.
+/// All the cycles.
+fn rests_within_limits(
+    rig: &mut Manual,
+    mut cycles: Vec<Cycle>,
+    stick: [i16; 3],
+    case: &str,
+) -> Vec<Cycle> {
+    let (rest, rested) = until_rest(rig, 3000, |r, n| {
+        if n % 3 == 0 {
+            r.send(HELD, stick);
+        }
+    });
+    assert!(rested, "{case}: at rest");
+    cycles.extend(rest);
+    let mut last = [0; 2];
+    assert_within_limits(&cycles, &mut last);
+    assert_eq!(
+        cycles.iter().map(|c| c.mode).find(|m| *m != Mode::Ready),
+        None,
+        "{case}: no fault"
+    );
+    cycles
+}
+
 /// After a hand-over: the stick held at `stick` for 9 s (longer than any hand-over's
 /// stop, the lab's `Settings::entry_blend` of 8 s, whose own motion adds to the
 /// operator's while it lasts), the load then moving the way it points at its share of
@@ -130,20 +157,7 @@ fn drives_then_rests(
         (v - want).abs() < 0.01 * speed,
         "{case}: the stick drives the load at {v} m/s, not {want}"
     );
-    let (rest, rested) = until_rest(rig, 3000, |r, n| {
-        if n % 3 == 0 {
-            r.send(HELD, [0; 3]);
-        }
-    });
-    assert!(rested, "{case}: at rest after the release");
-    cycles.extend(rest);
-    let mut last = [0; 2];
-    assert_within_limits(&cycles, &mut last);
-    assert_eq!(
-        cycles.iter().map(|c| c.mode).find(|m| *m != Mode::Ready),
-        None,
-        "{case}: no fault"
-    );
+    let cycles = rests_within_limits(rig, cycles, [0; 3], case);
     let tail = rig.hold(100, HELD, [0; 3]);
     assert!(tail.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]));
     assert!(refusals(&cycles).is_empty(), "{case}: nothing refused");
@@ -196,20 +210,7 @@ fn a_full_stick_hand_over_keeps_every_set_point_within_the_limits() {
                 "{case}"
             );
             cycles.extend(rig.hold(900, HELD, [stick, 0, 0]));
-            let (rest, rested) = until_rest(&mut rig, 3000, |r, n| {
-                if n % 3 == 0 {
-                    r.send(HELD, [0; 3]);
-                }
-            });
-            assert!(rested, "{case}: at rest after the release");
-            cycles.extend(rest);
-            let mut last = [0; 2];
-            assert_within_limits(&cycles, &mut last);
-            assert_eq!(
-                cycles.iter().map(|c| c.mode).find(|m| *m != Mode::Ready),
-                None,
-                "{case}: no fault"
-            );
+            let cycles = rests_within_limits(&mut rig, cycles, [0; 3], &case);
             assert!(refusals(&cycles).is_empty(), "{case}: nothing refused");
         }
     }
@@ -230,20 +231,7 @@ fn a_stop_request_during_a_hand_over_s_stop_latches_the_operator_s_stop_at_once(
     cycles.push(rig.cycle());
     let path = rig.c.feedforward_mut().path_mut().manual_mut().unwrap();
     assert!(path.is_stopping(), "the operator's stop latched at once");
-    let (rest, rested) = until_rest(&mut rig, 3000, |r, n| {
-        if n % 3 == 0 {
-            r.send(HELD, [FULL_SCALE, 0, 0]);
-        }
-    });
-    assert!(rested, "at rest");
-    cycles.extend(rest);
-    let mut last = [0; 2];
-    assert_within_limits(&cycles, &mut last);
-    assert_eq!(
-        cycles.iter().map(|c| c.mode).find(|m| *m != Mode::Ready),
-        None,
-        "no fault"
-    );
+    rests_within_limits(&mut rig, cycles, [FULL_SCALE, 0, 0], "stopped");
     let tail = rig.hold(100, HELD, [FULL_SCALE, 0, 0]);
     assert!(
         tail.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
