@@ -31,7 +31,7 @@ const TARGET: [f64; 3] = [20.0, 6.0, 4.0];
 const MOVE_END_S: f64 = 10.0;
 
 /// The plant's mismatch: the QEMU scenarios' (`sim::MISMATCHED`) with an 8 N gust for
-/// 1.5 s mid-move, which on the 3D crane blows from 45° (`sim::simulated::Simulated` for `Crane3dParams`).
+/// 1.5 s mid-move, which on the 3D crane blows from 45° (`Simulated` for `Crane3dParams`, in `sim::plant3d`).
 const MISMATCH: Mismatch = Mismatch {
     gust: Gust {
         start: 4.0,

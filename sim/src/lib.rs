@@ -15,7 +15,8 @@
 //!   swinging in both planes, read by a two-axis inclinometer;
 //! * [`plant_dp`] — the hook-and-load crane: a double pendulum under trolley and winch,
 //!   its inclinometer on the hook block;
-//! * [`simulated`] — which plant each crane type runs on, built from its parameters.
+//! * [`simulated`] — what a crane the bus simulates provides (its plant, built from its
+//!   parameters, and what the plant's sensors read); each plant's file implements it.
 
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]

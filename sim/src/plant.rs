@@ -44,6 +44,8 @@
 
 use crate::angle_sensor::AngleSensor;
 pub use crate::angle_sensor::SensorLag;
+use crate::simulated::{CranePlant, Sensed, Simulated, TrueState};
+use solver_core::models::crane::CraneParams;
 
 /// A small deterministic generator (SplitMix64): the study's cases are fixed by a seed.
 #[derive(Debug, Clone)]
@@ -450,6 +452,39 @@ impl Plant {
     /// The load's mass, kg (the model's with [`Mismatch::load_mass`]).
     pub fn load_mass(&self) -> f64 {
         self.m
+    }
+}
+
+// How the virtual bus runs this plant (`crate::simulated`): kept beside the plant, so a
+// new crane's plant and its registration with the bus are one file.
+impl CranePlant<2> for Plant {
+    fn advance_braked(&mut self, u: [f64; 2], dt: f64, braked: [bool; 2]) {
+        Plant::advance_braked(self, u, dt, braked);
+    }
+    fn sense(&mut self) -> Sensed<2> {
+        let [x, l, phi] = Plant::sense(self);
+        let [_, _, _, vx, vl, _] = self.y;
+        Sensed {
+            motion: [(x, vx), (l, vl)],
+            slope_deg: [phi.to_degrees(), 0.0],
+        }
+    }
+    fn true_state(&self) -> TrueState {
+        let [x, l, phi, ..] = self.y;
+        let [x_c, z_c] = self.load();
+        TrueState {
+            drives: [x, 0.0, l],
+            load: [x_c, 0.0, z_c],
+            swing: [phi, 0.0],
+        }
+    }
+}
+
+/// The planar crane: its plant with the one-axis inclinometer.
+impl Simulated<2> for CraneParams {
+    type Plant = Plant;
+    fn plant(&self, mismatch: Mismatch, [x, l]: [f64; 2]) -> Plant {
+        Plant::at_rest(x, l, 0.0, [self.tau1, self.tau2], self.g, self.m, mismatch)
     }
 }
 

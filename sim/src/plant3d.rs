@@ -95,6 +95,8 @@
 
 use crate::angle_sensor::{AngleSensor, SensorLag};
 use crate::plant::{Gust, Mismatch, Rng, PLANT_STEP, TROLLEY_MASS, WINCH_MASS};
+use crate::simulated::{CranePlant, Sensed, Simulated, TrueState};
+use solver_core::models::crane3d::Crane3dParams;
 
 /// The bridge's own mass, kg (assumed: a light EOT girder pair with end carriages, four
 /// times the trolley; the bridge is the heaviest axis).
@@ -752,6 +754,56 @@ impl Plant3d {
     pub fn sense_late(&mut self) -> Option<[f64; 5]> {
         let now = self.sense();
         self.late.replace(now)
+    }
+}
+
+// How the virtual bus runs this plant (`crate::simulated`): kept beside the plant, so a
+// new crane's plant and its registration with the bus are one file.
+impl CranePlant<3> for Plant3d {
+    fn advance_braked(&mut self, u: [f64; 3], dt: f64, braked: [bool; 3]) {
+        Plant3d::advance_braked(self, u, dt, braked);
+    }
+    fn sense(&mut self) -> Sensed<3> {
+        let [x, y, l, long, lateral] = Plant3d::sense(self);
+        let [_, _, _, _, _, vx, vy, vl, _, _] = self.q;
+        Sensed {
+            motion: [(x, vx), (y, vy), (l, vl)],
+            slope_deg: [long.to_degrees(), lateral.to_degrees()],
+        }
+    }
+    fn true_state(&self) -> TrueState {
+        let [x, y, l, ..] = self.q;
+        TrueState {
+            drives: [x, y, l],
+            load: self.load(),
+            swing: self.slopes(),
+        }
+    }
+}
+
+/// The 3D crane with the two-axis inclinometer. The planar scenario's mismatch on bridge
+/// and hoist, its gust and its swinging start at 45°, so that both vertical planes
+/// swing.
+impl Simulated<3> for Crane3dParams {
+    type Plant = Plant3d;
+    fn plant(&self, mismatch: Mismatch, [x, y, l]: [f64; 3]) -> Plant3d {
+        let planar = Mismatch3d::from_planar(&mismatch);
+        let [s, _] = planar.swing0;
+        let diagonal = Mismatch3d {
+            gust_direction: core::f64::consts::FRAC_PI_4,
+            swing0: [s, s].map(|a| libm::atan(libm::tan(a) * core::f64::consts::FRAC_1_SQRT_2)),
+            ..planar
+        };
+        Plant3d::at_rest(
+            x,
+            y,
+            l,
+            0.0,
+            [self.tau1, self.tau2, self.tau3],
+            self.g,
+            self.m,
+            diagonal,
+        )
     }
 }
 

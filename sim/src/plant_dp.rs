@@ -18,6 +18,7 @@ use solver_core::reference::double_pendulum::{plant_output, plant_rhs};
 
 use crate::angle_sensor::AngleSensor;
 use crate::plant::{Mismatch, Rng, PLANT_STEP};
+use crate::simulated::{CranePlant, Sensed, Simulated, TrueState};
 
 /// The hook-and-load crane's true state `[x, l, φ1, φ2, ẋ, l̇, φ̇1, φ̇2]`.
 #[derive(Debug, Clone)]
@@ -126,6 +127,41 @@ impl PlantDp {
         let (x, l) = (q(x, pn, pq), q(l, pn, pq));
         let [phi] = self.sensor.sample(|phi| q(phi, an, aq));
         [x, l, phi]
+    }
+}
+
+// How the virtual bus runs this plant (`crate::simulated`): kept beside the plant, so a
+// new crane's plant and its registration with the bus are one file.
+impl CranePlant<2> for PlantDp {
+    fn advance_braked(&mut self, u: [f64; 2], dt: f64, braked: [bool; 2]) {
+        PlantDp::advance_braked(self, u, dt, braked);
+    }
+    fn sense(&mut self) -> Sensed<2> {
+        let [x, l, phi1] = PlantDp::sense(self);
+        let [_, _, _, _, vx, vl, _, _] = self.y;
+        Sensed {
+            motion: [(x, vx), (l, vl)],
+            slope_deg: [phi1.to_degrees(), 0.0],
+        }
+    }
+    fn true_state(&self) -> TrueState {
+        let [x, l, phi1, ..] = self.y;
+        let [x_c, z_c] = self.load();
+        TrueState {
+            drives: [x, 0.0, l],
+            load: [x_c, 0.0, z_c],
+            swing: [phi1, 0.0],
+        }
+    }
+}
+
+/// The hook-and-load crane: its double pendulum with the one-axis inclinometer on the
+/// hook block. `start` is where the drives stand: at rest the rope is the sling's length
+/// shorter than the load is deep.
+impl Simulated<2> for DoublePendulumParams {
+    type Plant = PlantDp;
+    fn plant(&self, mismatch: Mismatch, start: [f64; 2]) -> PlantDp {
+        PlantDp::at_rest(*self, start, mismatch)
     }
 }
 
