@@ -3,7 +3,9 @@
 //! [`ToRust`], implemented once per type the scripts write; a struct is written field by
 //! field from its own definition (`struct_to_rust!` destructures it without `..`, so a
 //! field added to the controller's or solver-core's type does not compile until it is
-//! written here too), never by a format string that lists the fields by hand.
+//! written here too), never by a format string that lists the fields by hand. A crane's
+//! parameter types are written by a `struct_to_rust!` row in the crane's own file
+//! (`crate::cranes`); the types every crane shares, here.
 //!
 //! An `f64` is written with `{:?}`, Rust's shortest representation that reads back to
 //! the same bits (`1.0`, `1e-300`, `0.1`): the firmware's constants are the host's,
@@ -18,9 +20,6 @@ use controller::motion::MotionWindows;
 use controller::node::Role;
 use controller::rope::InclinometerLag;
 use controller::setpoint::AxisLimits;
-use solver_core::models::crane::{CraneParams, Workspace};
-use solver_core::models::crane3d::{Crane3dParams, Workspace3d};
-use solver_core::models::double_pendulum_crane::DoublePendulumParams;
 use solver_core::operator::{AxisSettings, Settings};
 use solver_core::{JacobianMode, NewtonSettings, SolverSettings};
 
@@ -120,56 +119,131 @@ pub fn struct_literal(path: &str, fields: &[(&str, &dyn ToRust)], rest: Option<&
     format!("{path} {{ {} }}", items.join(", "))
 }
 
-/// `impl ToRust` for a struct by its path in the generated code and all of its fields,
-/// in declaration order (destructured without `..`: a field left out does not compile).
+/// `impl ToRust` for a struct from all of its fields, in declaration order (destructured
+/// without `..`: a field left out does not compile), written as the struct's path in the
+/// generated code (`= path`, any `&str` expression: a crane's file names its
+/// `FirmwareCrane::TYPE`). A crane's parameter types have their row in the crane's own
+/// file (`crate::cranes`), the types every crane shares theirs here.
 macro_rules! struct_to_rust {
-    (impl<const $n:ident: usize> $ty:ty = $path:literal { $($field:ident),+ $(,)? }) => {
-        impl<const $n: usize> ToRust for $ty {
+    (impl<const $n:ident: usize> $ty:ty { $($field:ident),+ $(,)? } = $path:expr) => {
+        impl<const $n: usize> $crate::rust_source::ToRust for $ty {
             fn to_rust(&self) -> String {
                 let Self { $($field),+ } = self;
-                struct_literal($path, &[$((stringify!($field), $field as &dyn ToRust)),+], None)
+                $crate::rust_source::struct_literal(
+                    $path,
+                    &[$((stringify!($field), $field as &dyn $crate::rust_source::ToRust)),+],
+                    None,
+                )
             }
         }
     };
-    ($ty:ty = $path:literal { $($field:ident),+ $(,)? }) => {
-        impl ToRust for $ty {
+    ($ty:ty { $($field:ident),+ $(,)? } = $path:expr) => {
+        impl $crate::rust_source::ToRust for $ty {
             fn to_rust(&self) -> String {
                 let Self { $($field),+ } = self;
-                struct_literal($path, &[$((stringify!($field), $field as &dyn ToRust)),+], None)
+                $crate::rust_source::struct_literal(
+                    $path,
+                    &[$((stringify!($field), $field as &dyn $crate::rust_source::ToRust)),+],
+                    None,
+                )
             }
         }
     };
 }
+pub(crate) use struct_to_rust;
 
 // The state feedback (`controller::feedback`).
-struct_to_rust!(FeedbackConfig = "controller::feedback::Config" {
-    weights, g, tau1, tau2, h, max_angle, max_innovation, max_bad_angle_cycles,
-    max_frozen_cycles, frozen_motion, held_allowance, rest_position, rest_swing,
-    rest_hysteresis, offset_dead_band, offset_step, max_offset, offset_cycles, inclinometer,
-});
-struct_to_rust!(Weights = "controller::feedback::Weights" {
-    load_position, trolley_position, swing_velocity, trolley_correction, rope_position,
-    winch_correction, drive_disturbance, swing_disturbance, drive_offset, position_noise,
-    angle_noise, rest_load_position, rest_trolley_position, rest_swing_velocity,
-    rest_load_velocity, rest_angle_noise,
-});
-struct_to_rust!(InclinometerLag = "controller::rope::InclinometerLag" { delay, filter });
+struct_to_rust!(
+    FeedbackConfig {
+        weights,
+        g,
+        tau1,
+        tau2,
+        h,
+        max_angle,
+        max_innovation,
+        max_bad_angle_cycles,
+        max_frozen_cycles,
+        frozen_motion,
+        held_allowance,
+        rest_position,
+        rest_swing,
+        rest_hysteresis,
+        offset_dead_band,
+        offset_step,
+        max_offset,
+        offset_cycles,
+        inclinometer,
+    } = "controller::feedback::Config"
+);
+struct_to_rust!(
+    Weights {
+        load_position,
+        trolley_position,
+        swing_velocity,
+        trolley_correction,
+        rope_position,
+        winch_correction,
+        drive_disturbance,
+        swing_disturbance,
+        drive_offset,
+        position_noise,
+        angle_noise,
+        rest_load_position,
+        rest_trolley_position,
+        rest_swing_velocity,
+        rest_load_velocity,
+        rest_angle_noise,
+    } = "controller::feedback::Weights"
+);
+struct_to_rust!(InclinometerLag { delay, filter } = "controller::rope::InclinometerLag");
 
 // The commissioning (`controller::commissioning`, `controller::motion`).
-struct_to_rust!(DriveSetup = "controller::commissioning::DriveSetup" {
-    node, mode, heartbeat_ms, controller_timeout_ms, quick_stop_option,
-    abort_connection_option, quick_stop_deceleration, max_velocity, velocity_unit,
-    profile_ramp, position_scale, position_offset, motion,
-});
-struct_to_rust!(MotionWindows = "controller::motion::MotionWindows" {
-    standstill, standstill_delay_ms, following, following_drift, velocity,
-    following_time_ms, in_place,
-});
-struct_to_rust!(AxisLimits = "controller::setpoint::AxisLimits" { max_velocity, max_acceleration });
-struct_to_rust!(InclinometerSetup = "controller::commissioning::InclinometerSetup" {
-    node, resolution, heartbeat_ms, sign, offset_deg, lateral,
-});
-struct_to_rust!(LateralAxis = "controller::commissioning::LateralAxis" { sign, offset_deg });
+struct_to_rust!(
+    DriveSetup {
+        node,
+        mode,
+        heartbeat_ms,
+        controller_timeout_ms,
+        quick_stop_option,
+        abort_connection_option,
+        quick_stop_deceleration,
+        max_velocity,
+        velocity_unit,
+        profile_ramp,
+        position_scale,
+        position_offset,
+        motion,
+    } = "controller::commissioning::DriveSetup"
+);
+struct_to_rust!(
+    MotionWindows {
+        standstill,
+        standstill_delay_ms,
+        following,
+        following_drift,
+        velocity,
+        following_time_ms,
+        in_place,
+    } = "controller::motion::MotionWindows"
+);
+struct_to_rust!(
+    AxisLimits {
+        max_velocity,
+        max_acceleration
+    } = "controller::setpoint::AxisLimits"
+);
+struct_to_rust!(
+    InclinometerSetup {
+        node,
+        resolution,
+        heartbeat_ms,
+        sign,
+        offset_deg,
+        lateral,
+    } = "controller::commissioning::InclinometerSetup"
+);
+struct_to_rust!(LateralAxis { sign, offset_deg } = "controller::commissioning::LateralAxis");
 
 impl ToRust for OperationMode {
     fn to_rust(&self) -> String {
@@ -218,35 +292,39 @@ impl ToRust for NodeSetup {
     }
 }
 
-// The cranes' parameters (solver-core's models).
-struct_to_rust!(CraneParams = "solver_core::models::crane::CraneParams" {
-    m, g, tau1, tau2, workspace, min_tension_fraction,
-});
-struct_to_rust!(Workspace = "solver_core::models::crane::Workspace" { x_min, x_max, l_min, l_max });
-struct_to_rust!(Crane3dParams = "solver_core::models::crane3d::Crane3dParams" {
-    m, g, tau1, tau2, tau3, workspace, min_tension_fraction,
-});
-struct_to_rust!(Workspace3d = "solver_core::models::crane3d::Workspace3d" {
-    x_min, x_max, y_min, y_max, l_min, l_max,
-});
-struct_to_rust!(DoublePendulumParams = "solver_core::models::double_pendulum_crane::DoublePendulumParams" {
-    crane, hook_mass, sling,
-});
-
 // Manual mode's generator (`solver_core::operator`).
-struct_to_rust!(impl<const NH: usize> Settings<NH> = "solver_core::operator::Settings" {
+struct_to_rust!(impl<const NH: usize> Settings<NH> {
     h, g, horizontal, hoist, boxes, hoist_boxes, lowering_allowance, robust, deadband,
     entry_blend,
-});
-struct_to_rust!(AxisSettings = "solver_core::operator::AxisSettings" { speed, acceleration, range });
+} = "solver_core::operator::Settings");
+struct_to_rust!(
+    AxisSettings {
+        speed,
+        acceleration,
+        range
+    } = "solver_core::operator::AxisSettings"
+);
 
 // The solver's settings.
-struct_to_rust!(SolverSettings = "solver_core::SolverSettings" {
-    h, jacobian, scaling_power, newton,
-});
-struct_to_rust!(NewtonSettings = "solver_core::NewtonSettings" {
-    max_iterations, rtol, atol, stall_ratio, stall_limit, accept_unconverged, broyden_refresh,
-});
+struct_to_rust!(
+    SolverSettings {
+        h,
+        jacobian,
+        scaling_power,
+        newton,
+    } = "solver_core::SolverSettings"
+);
+struct_to_rust!(
+    NewtonSettings {
+        max_iterations,
+        rtol,
+        atol,
+        stall_ratio,
+        stall_limit,
+        accept_unconverged,
+        broyden_refresh,
+    } = "solver_core::NewtonSettings"
+);
 
 impl ToRust for JacobianMode {
     fn to_rust(&self) -> String {

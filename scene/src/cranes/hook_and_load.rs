@@ -14,6 +14,7 @@ use solver_core::{Error, SolverSettings};
 
 use super::{crane_models, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
 use crate::family::{ExactInputs, Flat, ModelFamily};
+use crate::rust_source::struct_to_rust;
 use crate::{refuse, ModelSpec, OperatorSpec, SceneError};
 
 crane_models! {
@@ -46,6 +47,15 @@ impl ExactInputs for Flat<DoublePendulumParams, 2> {
         Ok(())
     }
 }
+
+// Its parameters as the build scripts write them (`crate::rust_source`).
+struct_to_rust!(
+    DoublePendulumParams {
+        crane,
+        hook_mass,
+        sling,
+    } = <DoublePendulumParams as FirmwareCrane<2>>::TYPE
+);
 
 impl FirmwareCrane<2> for DoublePendulumParams {
     const TYPE: &'static str = "solver_core::models::double_pendulum_crane::DoublePendulumParams";

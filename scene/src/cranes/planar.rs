@@ -3,7 +3,7 @@
 
 use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback, StateFeedback};
 use controller::operator::path::Steered;
-use solver_core::models::crane::CraneParams;
+use solver_core::models::crane::{CraneParams, Workspace};
 use solver_core::operator::{PlanarGenerator, Settings};
 use solver_core::plan::Plan;
 use solver_core::reference::flat_crane::flat_inverse;
@@ -13,6 +13,7 @@ use solver_core::{Error, SolverSettings};
 use super::{crane_models, integrators, visit, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
 use crate::family::{ExactInputs, Flat, ModelFamily};
 use crate::operator::{only_subs, NOT_STEERED};
+use crate::rust_source::struct_to_rust;
 use crate::{ModelSpec, OperatorSpec, SceneError};
 
 crane_models! {
@@ -44,6 +45,26 @@ impl ExactInputs for Flat<CraneParams, 2> {
         Ok(())
     }
 }
+
+// Its parameters as the build scripts write them (`crate::rust_source`).
+struct_to_rust!(
+    CraneParams {
+        m,
+        g,
+        tau1,
+        tau2,
+        workspace,
+        min_tension_fraction,
+    } = <CraneParams as FirmwareCrane<2>>::TYPE
+);
+struct_to_rust!(
+    Workspace {
+        x_min,
+        x_max,
+        l_min,
+        l_max
+    } = "solver_core::models::crane::Workspace"
+);
 
 impl FirmwareCrane<2> for CraneParams {
     const TYPE: &'static str = "solver_core::models::crane::CraneParams";

@@ -6,7 +6,7 @@ use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback};
 use controller::feedback3d::SpatialFeedback;
 use controller::operator::path::Steered;
 use solver_core::models::crane::CraneParams;
-use solver_core::models::crane3d::Crane3dParams;
+use solver_core::models::crane3d::{Crane3dParams, Workspace3d};
 use solver_core::operator::{Generator3d, Settings};
 use solver_core::plan::Plan;
 use solver_core::reference::flat_crane3d::flat_inverse;
@@ -16,6 +16,7 @@ use solver_core::{Error, SolverSettings};
 use super::{crane_models, integrators, visit, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
 use crate::family::{ExactInputs, Flat, ModelFamily};
 use crate::operator::{only_subs, NOT_STEERED};
+use crate::rust_source::struct_to_rust;
 use crate::{ModelSpec, OperatorSpec, SceneError};
 
 crane_models! {
@@ -45,6 +46,29 @@ impl ExactInputs for Flat<Crane3dParams, 3> {
         Ok(())
     }
 }
+
+// Its parameters as the build scripts write them (`crate::rust_source`).
+struct_to_rust!(
+    Crane3dParams {
+        m,
+        g,
+        tau1,
+        tau2,
+        tau3,
+        workspace,
+        min_tension_fraction,
+    } = <Crane3dParams as FirmwareCrane<3>>::TYPE
+);
+struct_to_rust!(
+    Workspace3d {
+        x_min,
+        x_max,
+        y_min,
+        y_max,
+        l_min,
+        l_max,
+    } = "solver_core::models::crane3d::Workspace3d"
+);
 
 impl FirmwareCrane<3> for Crane3dParams {
     const TYPE: &'static str = "solver_core::models::crane3d::Crane3dParams";
