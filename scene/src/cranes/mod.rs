@@ -191,9 +191,10 @@ impl From<FirmwareError> for String {
 /// state feedback.
 ///
 /// Everything a scene builds owns its data (`'static`), so a host program may keep the
-/// controller it builds (the keyboard view steps it between key presses).
+/// controller it builds (the keyboard view steps it between key presses). Its `Default`
+/// is the parameters a scene that sets none gets (the panic proof's example).
 pub trait FirmwareCrane<const A: usize>:
-    Crane<A> + Simulated<A> + ToRust + Copy + fmt::Debug + 'static
+    Crane<A> + Simulated<A> + ToRust + Copy + Default + fmt::Debug + 'static
 {
     /// The parameters' type, as the build script writes it.
     const TYPE: &'static str;
