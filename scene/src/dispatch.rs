@@ -31,8 +31,8 @@ use solver_core::{DaeModel, Error, Real, Scheme, SolverSettings};
 
 use crate::commissioning::CommissioningFile;
 pub use crate::cranes::{
-    visit_crane, CraneModel, CraneVisitor, FirmwareCrane, FirmwareError, FirmwareIntegrator,
-    FirmwareModel, FirmwareVisitor, StepsVisitor, Structure,
+    qemu_scenes, visit_crane, CraneModel, CraneVisitor, FirmwareCrane, FirmwareError,
+    FirmwareIntegrator, FirmwareModel, FirmwareVisitor, StepsVisitor, Structure,
 };
 use crate::family::ExactInputs;
 use crate::{

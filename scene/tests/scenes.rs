@@ -442,6 +442,59 @@ fn the_hook_and_load_scene_is_its_own_crane() {
     );
 }
 
+/// Every registered crane's QEMU scenes (`FirmwareCrane::QEMU_SCENES`, what `cargo xtask
+/// qemu` runs on the healthy bus) pass the firmware's checks as that crane, the default
+/// scene first (every scenario of the virtual bus runs on it), none listed twice.
+#[test]
+fn every_crane_s_qemu_scenes_are_its_own() {
+    use scene::dispatch::{
+        firmware, qemu_scenes, visit_crane, CraneVisitor, FirmwareCrane, FirmwareCraneVisitor,
+        FirmwareModel,
+    };
+    use scene::firmware::FirmwareScene;
+    struct Type;
+    impl FirmwareCraneVisitor for Type {
+        type Output = &'static str;
+        fn visit<K: FirmwareCrane<A>, const A: usize>(
+            self,
+            _: FirmwareScene<K, A>,
+        ) -> &'static str {
+            K::TYPE
+        }
+    }
+    struct Scenes;
+    impl CraneVisitor for Scenes {
+        type Output = usize;
+        fn visit<K: FirmwareCrane<A>, const A: usize>(self, _: K::Model) -> usize {
+            assert!(!K::QEMU_SCENES.is_empty(), "{}: no QEMU scene", K::TYPE);
+            for file in K::QEMU_SCENES {
+                let path = scenes_dir().parent().unwrap().join(file);
+                let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{file}: {e}"));
+                let commissioning = CommissioningFile::for_scene(&path).unwrap();
+                let ty = firmware(&scene, &commissioning, Type)
+                    .unwrap_or_else(|e| panic!("{file}: {e}"));
+                assert_eq!(ty, K::TYPE, "{file} is another crane's");
+            }
+            K::QEMU_SCENES.len()
+        }
+    }
+    let mut cranes = Vec::new();
+    let mut listed = 0;
+    for model in FirmwareModel::every() {
+        if !cranes.contains(&model.crane()) {
+            cranes.push(model.crane());
+            listed += visit_crane(model, Scenes);
+        }
+    }
+    let all = qemu_scenes();
+    assert_eq!(all.len(), listed);
+    assert_eq!(all.first(), Some(&scene::firmware::DEFAULT_SCENE));
+    let mut unique = all.clone();
+    unique.sort_unstable();
+    unique.dedup();
+    assert_eq!(unique.len(), all.len(), "a scene listed twice: {all:?}");
+}
+
 /// Every model a scene can name (`ModelSpec::KINDS`, the one registration: `model_specs!`
 /// in lib.rs): its `kind` reads back into it, its label in results is its own, and its
 /// parameters come through exactly one accessor, of a type with as many outputs as the

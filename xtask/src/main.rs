@@ -249,7 +249,10 @@ fn refuse_scene(cmd: &Cmd, scene: Option<String>) -> Result<(), String> {
             let what = match cmd {
                 Cmd::Instructions => format!("it measures {}", instructions::SCENE),
                 Cmd::Trade { .. } => "it measures the cranes' own scenes".into(),
-                _ => format!("it builds the firmware for {}", qemu::SCENES.join(" and ")),
+                _ => format!(
+                    "it builds the firmware for {}",
+                    qemu::scenes().join(" and ")
+                ),
             };
             Err(format!(
                 "SCENE={s} is not used by this command: {what} (README.md). \
@@ -392,9 +395,9 @@ pub fn cargo() -> Command {
 
 /// The main job: the default scene's decoded log, then the cost table of both scenes.
 fn main_job() -> Result<(), String> {
-    let runs = qemu::SCENES
-        .iter()
-        .map(|s| qemu::measure(s))
+    let runs = qemu::scenes()
+        .into_iter()
+        .map(qemu::measure)
         .chain([
             qemu::measure_scenario(qemu::FEEDBACK_SCENE, sim::CLOSED_LOOP),
             qemu::measure_scenario(qemu::CRANE3D_FEEDBACK_SCENE, sim::CLOSED_LOOP),
@@ -402,7 +405,10 @@ fn main_job() -> Result<(), String> {
         .collect::<Result<Vec<_>, _>>()?;
     let dbc = host_tests::dbc::Dbc::crane()?;
     if let Some(default) = runs.first() {
-        println!("== {} (QEMU mps2-an500): decoded log", qemu::SCENES[0]);
+        println!(
+            "== {} (QEMU mps2-an500): decoded log",
+            host_tests::DEFAULT_SCENE
+        );
         for line in firmware::readable_log(&default.lines, &dbc) {
             println!("{line}");
         }
@@ -410,7 +416,7 @@ fn main_job() -> Result<(), String> {
     print!("{}", qemu::table(&runs));
     all_succeeded(&runs)?;
     // What the instructions of the default scene cost on a Cortex-M7 (estimated).
-    cycles::cycles(&[qemu::SCENES[0].to_string()])
+    cycles::cycles(&[host_tests::DEFAULT_SCENE.to_string()])
 }
 
 /// Fails naming the first run whose firmware did not end in the mode its scenario
@@ -439,9 +445,9 @@ fn decode_log(elf: &std::path::Path, log: &std::path::Path) -> Result<(), String
 /// virtual bus (docs/COMMANDS.md), the feedback scene through its scenarios on the plant,
 /// and the 3D crane's scene through its own.
 fn qemu_checks(overwrite: bool, only: Option<&str>) -> Result<(), String> {
-    let runs = qemu::SCENES
-        .iter()
-        .map(|scene| (*scene, sim::HEALTHY))
+    let runs = qemu::scenes()
+        .into_iter()
+        .map(|scene| (scene, sim::HEALTHY))
         .chain(
             sim::SCENARIOS
                 .into_iter()
@@ -517,7 +523,10 @@ fn qemu_bench() -> Result<(), String> {
 }
 
 fn flash() -> Result<(), String> {
-    let elf = firmware::build(Board::Stm32h743, &firmware::root().join(qemu::SCENES[0]))?;
+    let elf = firmware::build(
+        Board::Stm32h743,
+        &firmware::root().join(host_tests::DEFAULT_SCENE),
+    )?;
     run(Command::new("probe-rs")
         .args(["run", "--chip", "STM32H743ZITx"])
         .arg(&elf))
@@ -568,7 +577,7 @@ fn test() -> Result<(), String> {
     // The build the main job (`cargo xtask run`, `qemu-bench`) measures the solver's flash
     // with, the inverse model stubbed out: it must build too (it once broke unseen when a
     // trait it implements grew, 56a9a33).
-    firmware::build_without_inverse_model(&firmware::root().join(qemu::SCENES[0]))?;
+    firmware::build_without_inverse_model(&firmware::root().join(host_tests::DEFAULT_SCENE))?;
     // The real drive controller, for the planar and the 3D crane: CI can build it, not
     // run it. Each links its own crane's model and not the other's — the planar one shown
     // on the paper's scene, whose model keeps its name in the symbols (the default scene's
@@ -583,7 +592,7 @@ fn test() -> Result<(), String> {
     qemu_checks(false, None)?;
     // The Cortex-M7 estimate on the default scene: its trace windows must match the
     // firmware's own instruction counts step by step.
-    cycles::cycles(&[qemu::SCENES[0].to_string()])?;
+    cycles::cycles(&[host_tests::DEFAULT_SCENE.to_string()])?;
     // A short soak: one simulated minute of random traffic, every set point checked.
     soak::soak(1)?;
     panics::lint()?;

@@ -57,7 +57,7 @@ pub fn panic_proof() -> Result<(), String> {
     // operator's generator and the model on `Steered`, which the proof above does not
     // name (it proves the firmware's plan-driven integrators).
     for scene in [
-        qemu::SCENES[0],
+        host_tests::DEFAULT_SCENE,
         qemu::MANUAL_SCENE,
         qemu::CRANE3D_MANUAL_SCENE,
     ] {

@@ -17,8 +17,10 @@ use sim::{Scenario, HEALTHY};
 
 use crate::firmware::{self, parse_cost, parse_tx, readable_log, root, Board, StepCost};
 
-/// The scenes the firmware is checked on: first the default scene
-/// ([`host_tests::DEFAULT_SCENE`], `scene::firmware::DEFAULT_SCENE` re-exported: the planar crane on the minimally extended
+/// The scenes the firmware is checked on, on the healthy bus: each registered crane's
+/// `FirmwareCrane::QEMU_SCENES`, listed in its own file under `scene/src/cranes/`, crane
+/// by crane in the order registered (`scene::dispatch::qemu_scenes`). First the default
+/// scene ([`host_tests::DEFAULT_SCENE`]: the planar crane on the minimally extended
 /// formulation, *ext*, index 1, BDF4 — the flat inverse to rounding, the configuration
 /// docs/RESULTS.md picks), on which the scenarios run; then the paper's scene (*subs*,
 /// index 3, BDF4) and the firmware's Radau, RADAU5's transformed Newton — under QEMU it
@@ -26,17 +28,12 @@ use crate::firmware::{self, parse_cost, parse_tx, readable_log, root, Board, Ste
 /// (`cargo xtask qemu-bench`, docs/RESULTS.md); then the crane in three dimensions
 /// (bridge, trolley, hoist; its own folder, with its commissioning file): *subs* BDF4,
 /// RADAU5 and *ext* BDF4; then the hook-and-load crane (a double pendulum): its
-/// structured BDF4 on *subs* (index 5) and on *ext*.
-pub const SCENES: [&str; 8] = [
-    host_tests::DEFAULT_SCENE,
-    PAPER_SCENE,
-    "scenes/paper-crane-radau5.toml",
-    CRANE3D_SCENE,
-    "scenes/crane3d/crane3d-radau5.toml",
-    "scenes/crane3d/crane3d-ext.toml",
-    "scenes/hook-and-load.toml",
-    "scenes/hook-and-load-ext.toml",
-];
+/// structured BDF4 on *subs* (index 5) and on *ext*. `scene/tests/scenes.rs` checks that
+/// each is its crane's and the default scene comes first.
+#[must_use]
+pub fn scenes() -> Vec<&'static str> {
+    scene::dispatch::qemu_scenes()
+}
 
 /// The paper's scene (Tab. 3's move, *subs*, BDF4 with the exact Jacobian at 10 ms): the
 /// planar crane's firmware whose model is visible by name in its symbols (the *ext*
@@ -52,7 +49,7 @@ pub const CRANE3D_SCENE: &str = "scenes/crane3d/crane3d.toml";
 /// inclinometer), measured by `qemu-bench` on the first.
 pub const CRANE3D_FEEDBACK_SCENE: &str = "scenes/crane3d/crane3d-feedback.toml";
 
-/// Scenes `qemu-bench` measures beside [`SCENES`], with no golden log or baseline:
+/// Scenes `qemu-bench` measures beside [`scenes`], with no golden log or baseline:
 /// other solver configurations a user may choose for the MCU, among them the paper's
 /// test-bench Radau (J̃10, Fig. 8e).
 pub const BENCH_ONLY_SCENES: [&str; 2] = [
@@ -61,9 +58,9 @@ pub const BENCH_ONLY_SCENES: [&str; 2] = [
 ];
 
 /// The feedforward scenes `qemu-bench` measures on the healthy bus, in its table's
-/// order: [`SCENES`], then [`BENCH_ONLY_SCENES`].
+/// order: [`scenes`], then [`BENCH_ONLY_SCENES`].
 pub fn feedforward_scenes() -> impl Iterator<Item = &'static str> {
-    SCENES.into_iter().chain(BENCH_ONLY_SCENES)
+    scenes().into_iter().chain(BENCH_ONLY_SCENES)
 }
 
 /// The scene with the state feedback (Fig. 1): checked on the feedback scenarios of the
@@ -101,7 +98,7 @@ fn qemu_limit(scenario: &Scenario) -> Duration {
 }
 
 /// The default scene, on which every scenario of the virtual bus runs.
-pub const SCENARIO_SCENE: &str = SCENES[0];
+pub const SCENARIO_SCENE: &str = host_tests::DEFAULT_SCENE;
 
 /// A finished QEMU run of one scene with everything measured about it.
 pub struct Measured {

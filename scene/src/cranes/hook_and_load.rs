@@ -59,6 +59,8 @@ struct_to_rust!(
 
 impl FirmwareCrane<2> for DoublePendulumParams {
     const TYPE: &'static str = "solver_core::models::double_pendulum_crane::DoublePendulumParams";
+    const QEMU_SCENES: &'static [&'static str] =
+        &["scenes/hook-and-load.toml", "scenes/hook-and-load-ext.toml"];
     type Model = HookAndLoadModel;
     type Feedback = NoFeedback;
     const FEEDBACK_TYPE: &'static str = "controller::feedback::NoFeedback";

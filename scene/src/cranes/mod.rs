@@ -198,6 +198,11 @@ pub trait FirmwareCrane<const A: usize>:
 {
     /// The parameters' type, as the build script writes it.
     const TYPE: &'static str;
+    /// Its shipped scenes (paths from the repository's root) whose firmware `cargo xtask
+    /// qemu` runs on the healthy bus, each checked against its golden log, the host's run
+    /// and its baseline (`firmware/expected/`, `firmware/baselines/`, named by the file's
+    /// stem). Each is one of this crane's (`scene/tests/scenes.rs` checks).
+    const QEMU_SCENES: &'static [&'static str];
     /// Its formulations (`crane_models!`).
     type Model: Formulation<Self, A>;
     /// The correction a scene's `[feedback]` links.
@@ -517,6 +522,13 @@ macro_rules! registry {
             pub fn crane(self) -> (&'static str, usize) {
                 match self { $( Self::$variant(_) => (<$crane as FirmwareCrane<$axes>>::TYPE, $axes), )+ }
             }
+        }
+
+        /// Every registered crane's [`FirmwareCrane::QEMU_SCENES`], crane by crane in the
+        /// order registered: the scenes `cargo xtask qemu` runs on the healthy bus.
+        #[must_use]
+        pub fn qemu_scenes() -> Vec<&'static str> {
+            [$( <$crane as FirmwareCrane<$axes>>::QEMU_SCENES, )+].concat()
         }
 
         /// Hands `model`'s crane, as its type, and its formulation to `visitor`.

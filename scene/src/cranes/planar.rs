@@ -68,6 +68,12 @@ struct_to_rust!(
 
 impl FirmwareCrane<2> for CraneParams {
     const TYPE: &'static str = "solver_core::models::crane::CraneParams";
+    /// The default scene first (every scenario of the virtual bus runs on it).
+    const QEMU_SCENES: &'static [&'static str] = &[
+        crate::firmware::DEFAULT_SCENE,
+        "scenes/paper-crane.toml",
+        "scenes/paper-crane-radau5.toml",
+    ];
     type Model = PlanarModel;
     type Feedback = StateFeedback;
     const FEEDBACK_TYPE: &'static str = "controller::feedback::StateFeedback";

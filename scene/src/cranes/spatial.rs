@@ -72,6 +72,11 @@ struct_to_rust!(
 
 impl FirmwareCrane<3> for Crane3dParams {
     const TYPE: &'static str = "solver_core::models::crane3d::Crane3dParams";
+    const QEMU_SCENES: &'static [&'static str] = &[
+        "scenes/crane3d/crane3d.toml",
+        "scenes/crane3d/crane3d-radau5.toml",
+        "scenes/crane3d/crane3d-ext.toml",
+    ];
     type Model = SpatialModel;
     type Feedback = SpatialFeedback;
     const FEEDBACK_TYPE: &'static str = "controller::feedback3d::SpatialFeedback";
