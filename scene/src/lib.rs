@@ -216,6 +216,20 @@ macro_rules! model_specs {
                 }
             )+
 
+            /// The parameter groups whose accessor gives this model its parameters, each
+            /// as its accessor's name and its number of outputs: exactly one, with the
+            /// model's [`ModelSpec::outputs`] (`scene/tests/scenes.rs` checks every kind).
+            #[must_use]
+            pub fn parameter_groups(&self) -> Vec<(&'static str, usize)> {
+                let mut groups = Vec::new();
+                $(
+                    if self.$accessor().is_some() {
+                        groups.push((stringify!($accessor), $outputs));
+                    }
+                )+
+                groups
+            }
+
             /// The model's short name in results (the table's label for its kind).
             #[must_use]
             pub fn label(&self) -> &'static str {

@@ -511,17 +511,9 @@ fn every_model_kind_has_its_label_and_one_kind_of_parameters() {
             "{kind}: label {} twice",
             model.label()
         );
-        let found = [
-            (model.crane().is_some(), 2),
-            (
-                model.mass_on_car_spec().is_some() && model.mass_on_car().is_some(),
-                1,
-            ),
-            (model.crane3d().is_some(), 3),
-            (model.double_pendulum().is_some(), 2),
-        ];
-        let own: Vec<usize> = found.iter().filter(|f| f.0).map(|f| f.1).collect();
-        assert_eq!(own, [model.outputs()], "{kind}");
+        let groups = model.parameter_groups();
+        assert_eq!(groups.len(), 1, "{kind}: {groups:?}");
+        assert_eq!(groups[0].1, model.outputs(), "{kind}: {groups:?}");
     }
     // The labels the published results carry (docs/figures' CSVs) stay as they are.
     for (kind, label) in [
