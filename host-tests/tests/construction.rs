@@ -80,7 +80,9 @@ fn every_crane_scene_gets_the_firmwares_controller() {
         // commissioning file without the crane's drives) is refused with the reason,
         // never run as something else.
         let Ok(((feedback, model, drives), structured)) =
-            firmware(&scene, &commissioning, Build(&scene)).and_then(|built| built)
+            firmware(&scene, &commissioning, Build(&scene))
+                .map_err(|e| e.to_string())
+                .and_then(|built| built)
         else {
             continue;
         };

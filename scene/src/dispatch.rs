@@ -307,7 +307,7 @@ impl<K: FirmwareCrane<A>, const A: usize> FirmwareScene<K, A> {
         plan: Plan<f64, A>,
         settings: &SolverSettings,
         visitor: V,
-    ) -> Result<V::Output, Error> {
+    ) -> Result<V::Output, FirmwareError> {
         match self.operator {
             Some(operator) => self.params.steered_inverse_model(
                 self.model,
@@ -349,77 +349,73 @@ impl<K: FirmwareCrane<A>, const A: usize> FirmwareScene<K, A> {
 pub fn firmware_scene<K: FirmwareCrane<A>, const A: usize>(
     scene: &Scene,
     commissioning: &CommissioningFile,
-) -> Result<FirmwareScene<K, A>, String> {
+) -> Result<FirmwareScene<K, A>, FirmwareError> {
     let scheme = FirmwareScheme::of(scene)?;
-    let (params, model) = K::of(&scene.model).ok_or("the scene's model is not this crane's")?;
-    let first_move = trajectory::<f64, A>(scene).map_err(|e| e.to_string())?;
-    let mut plan = command_plan::<K, A>(first_move.start().into(), scene.trajectory.smoothness)
-        .map_err(|e| e.to_string())?;
-    plan.push(first_move).map_err(|e| e.to_string())?;
+    let (params, model) = K::of(&scene.model).ok_or(FirmwareError::NotThisCrane {
+        model: scene.model.label(),
+        crane: K::NAME,
+    })?;
+    let first_move = trajectory::<f64, A>(scene).map_err(FirmwareError::Scene)?;
+    let mut plan = command_plan::<K, A>(first_move.start().into(), scene.trajectory.smoothness)?;
+    plan.push(first_move)?;
     // Each drive's set-point limits: its commissioning row's, the crane's lab drive's
     // where the row names none — the planner's and the gate's.
     let limits = commissioning
         .limits_for(K::DRIVES, K::LAB_LIMITS)
-        .map_err(|e| format!("commissioning file: {e}"))?;
+        .map_err(FirmwareError::Commissioning)?;
     let planner = Planner::with_axes(params, limits);
     let (t0, t1) = first_move.active_span();
-    planner.check(&first_move, t0, t1).map_err(|r| {
-        format!("the scene's move breaks the planner's rule {r:?} (docs/COMMANDS.md)")
-    })?;
-    let period_ms = (scene.solver.h * 1000.0).round() as u32;
-    if (f64::from(period_ms) / 1000.0 - scene.solver.h).abs() > 1e-12 {
-        return Err(format!(
-            "the firmware's cycle is a whole number of ms; h = {} s",
-            scene.solver.h
-        ));
+    planner
+        .check(&first_move, t0, t1)
+        .map_err(FirmwareError::PlannerRule)?;
+    let h = scene.solver.h;
+    let period_ms = (h * 1000.0).round() as u32;
+    if (f64::from(period_ms) / 1000.0 - h).abs() > 1e-12 {
+        return Err(FirmwareError::CycleNotWholeMs { h });
     }
     if period_ms >= WATCHDOG_MS {
-        return Err(format!(
-            "h = {} s is not shorter than the watchdog's {WATCHDOG_MS} ms: every cycle would reset the controller",
-            scene.solver.h
-        ));
+        return Err(FirmwareError::CycleNotUnderWatchdog {
+            h,
+            watchdog_ms: WATCHDOG_MS,
+        });
     }
-    let cycles = scene.trajectory.t_end / scene.solver.h;
+    let t_end = scene.trajectory.t_end;
+    let cycles = t_end / h;
     if (cycles - cycles.round()).abs() > 1e-9 * cycles.max(1.0) {
-        return Err(format!(
-            "h = {} s does not divide t_end = {} s: the run would stop short",
-            scene.solver.h, scene.trajectory.t_end
-        ));
+        return Err(FirmwareError::RunNotWholeCycles { h, t_end });
     }
     let config = commissioning
         .config_for(K::DRIVES, limits, period_ms)
-        .map_err(|e| format!("commissioning file: {e}"))?;
+        .map_err(FirmwareError::Commissioning)?;
     let feedback = scene
         .feedback
-        .map(|f| K::feedback_config(&f, &params, scene.solver.h))
+        .map(|f| K::feedback_config(&f, &params, h))
         .transpose()
-        .map_err(|e| e.to_string())?
+        .map_err(FirmwareError::Scene)?
         .map(|f| {
             commissioning
                 .lag()
                 .map(|inclinometer| FeedbackConfig { inclinometer, ..f })
-                .map_err(|e| format!("commissioning file: {e}"))
+                .map_err(FirmwareError::Commissioning)
         })
         .transpose()?;
     let config = if feedback.is_some() {
         commissioning
             .with_inclinometer_of(config, K::SWING_AXES)
-            .map_err(|e| format!("commissioning file: {e}"))?
+            .map_err(FirmwareError::Commissioning)?
     } else {
         config
     };
     let operator = scene
         .operator
         .as_ref()
-        .map(|o| K::operator_settings(o, &params, model, scene.solver.h))
+        .map(|o| K::operator_settings(o, &params, model, h))
         .transpose()
-        .map_err(|e| e.to_string())?;
+        .map_err(FirmwareError::Scene)?;
     let ready = commissioning_time(&config);
-    if scene.trajectory.t_start < ready {
-        return Err(format!(
-            "the move starts at {} s, before the drives can be commissioned and enabled ({ready:.2} s at h = {} s)",
-            scene.trajectory.t_start, scene.solver.h
-        ));
+    let t_start = scene.trajectory.t_start;
+    if t_start < ready {
+        return Err(FirmwareError::StartsBeforeReady { t_start, ready, h });
     }
     Ok(FirmwareScene {
         params,
@@ -450,7 +446,7 @@ pub fn firmware<V: FirmwareCraneVisitor>(
     scene: &Scene,
     commissioning: &CommissioningFile,
     visitor: V,
-) -> Result<V::Output, String> {
+) -> Result<V::Output, FirmwareError> {
     /// The registered crane, as its type.
     struct Setup<'a, V> {
         scene: &'a Scene,
@@ -458,7 +454,7 @@ pub fn firmware<V: FirmwareCraneVisitor>(
         visitor: V,
     }
     impl<V: FirmwareCraneVisitor> CraneVisitor for Setup<'_, V> {
-        type Output = Result<V::Output, String>;
+        type Output = Result<V::Output, FirmwareError>;
         fn visit<K: FirmwareCrane<A>, const A: usize>(self, _: K::Model) -> Self::Output {
             let setup = firmware_scene::<K, A>(self.scene, self.commissioning)?;
             Ok(self.visitor.visit(setup))
@@ -491,7 +487,7 @@ pub fn firmware_steps<V: StepsVisitor>(
     scene: &Scene,
     driven: DrivenBy,
     visitor: V,
-) -> Result<V::Output, String> {
+) -> Result<V::Output, FirmwareError> {
     /// The registered crane, as its type: its formulation on the move, bare or planned.
     struct Steps<'a, V> {
         scene: &'a Scene,
@@ -500,7 +496,7 @@ pub fn firmware_steps<V: StepsVisitor>(
         visitor: V,
     }
     impl<V: StepsVisitor> CraneVisitor for Steps<'_, V> {
-        type Output = Result<V::Output, String>;
+        type Output = Result<V::Output, FirmwareError>;
         fn visit<K: FirmwareCrane<A>, const A: usize>(self, model: K::Model) -> Self::Output {
             let Steps {
                 scene,
@@ -509,23 +505,22 @@ pub fn firmware_steps<V: StepsVisitor>(
                 visitor,
             } = self;
             let settings = &scene.settings();
-            let (crane, _) = K::of(&scene.model).ok_or("the scene's model is not this crane's")?;
-            let z = trajectory::<f64, A>(scene).map_err(|e| e.to_string())?;
-            let done = match driven {
+            let (crane, _) = K::of(&scene.model).ok_or(FirmwareError::NotThisCrane {
+                model: scene.model.label(),
+                crane: K::NAME,
+            })?;
+            let z = trajectory::<f64, A>(scene).map_err(FirmwareError::Scene)?;
+            match driven {
                 DrivenBy::PointToPoint => crane.steps(model, z, integrator, settings, visitor),
                 DrivenBy::Plan => {
                     // The move as the firmware plans it: at rest at its start, the move
                     // pushed.
-                    let plan = |z: PointToPoint<f64, A>| {
-                        let mut plan =
-                            command_plan::<K, A>(z.start().into(), scene.trajectory.smoothness)?;
-                        plan.push(z)?;
-                        Ok::<_, Error>(plan)
-                    };
-                    plan(z).and_then(|p| crane.steps(model, p, integrator, settings, visitor))
+                    let mut plan =
+                        command_plan::<K, A>(z.start().into(), scene.trajectory.smoothness)?;
+                    plan.push(z)?;
+                    crane.steps(model, plan, integrator, settings, visitor)
                 }
-            };
-            done.map_err(|e| e.to_string())
+            }
         }
     }
     let scheme = FirmwareScheme::of(scene)?;
@@ -896,7 +891,30 @@ mod tests {
             FirmwareIntegrator::StructuredRadau5,
         ] {
             let built = CraneParams::PAPER.inverse_model(proj, i, plan, &settings, Steps);
-            assert!(built.is_err(), "{i:?}");
+            let e = built.unwrap_err();
+            assert!(
+                matches!(e, FirmwareError::NotStructured { model } if model.contains("CraneProj")),
+                "{i:?}: {e:?}"
+            );
         }
+        // Manual mode asked of a formulation without it is refused naming both (the
+        // scene check refuses it first), not built on the plan.
+        let dp = solver_core::models::double_pendulum_crane::DoublePendulumParams::EXAMPLE;
+        let subs = crate::cranes::hook_and_load::HookAndLoadModel::Subs;
+        let built = dp.steered_inverse_model(
+            subs,
+            FirmwareIntegrator::StructuredBdfUncorrected(4),
+            plan,
+            (),
+            &settings,
+            Steps,
+        );
+        assert_eq!(
+            built.unwrap_err(),
+            FirmwareError::NoManualMode {
+                crane: "hook-and-load crane",
+                model: "DoublePendulumSubs"
+            }
+        );
     }
 }

@@ -134,13 +134,6 @@ pub(crate) fn only_subs(crane: &str, kind: &str, model: impl core::fmt::Debug) -
     )
 }
 
-/// What building a manual-mode model of a formulation without it gives
-/// (`FirmwareCrane::steered_inverse_model`; the scene check refuses it first).
-pub(crate) const NOT_STEERED: Error = Error::InvalidSetting {
-    name: "operator (manual mode on a formulation without it)",
-    value: f64::NAN,
-};
-
 /// The key of `[operator]` (or the scene's field) a generator's settings error comes
 /// from (`Settings::validate`'s names).
 fn field_of(e: Error) -> SceneError {

@@ -219,18 +219,52 @@ fn the_shipped_commissioning_file_is_the_stock_setup_and_the_firmware_scenes_pas
 #[test]
 fn scenes_the_firmware_cannot_run_are_refused_with_a_message() {
     let c = CommissioningFile::default();
+    use scene::dispatch::FirmwareError;
     let refused = |text: String| {
         firmware_scene::<CraneParams, 2>(&Scene::parse(&text).unwrap(), &c).unwrap_err()
     };
     let e = refused(with("h = 0.01", "h = 0.1"));
-    assert!(e.contains("watchdog"), "{e}");
+    assert!(
+        matches!(e, FirmwareError::CycleNotUnderWatchdog { h: 0.1, .. }),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("watchdog"), "{e}");
     let e = refused(with("t_end = 10.0", "t_end = 10.005"));
-    assert!(e.contains("does not divide"), "{e}");
+    assert!(
+        matches!(e, FirmwareError::RunNotWholeCycles { .. }),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("does not divide"), "{e}");
     let e = refused(with("t_start = 1.0", "t_start = 0.5"));
-    assert!(e.contains("before the drives can be commissioned"), "{e}");
+    assert!(
+        matches!(e, FirmwareError::StartsBeforeReady { t_start: 0.5, .. }),
+        "{e:?}"
+    );
+    assert!(
+        e.to_string()
+            .contains("before the drives can be commissioned"),
+        "{e}"
+    );
     let bad = CommissioningFile::parse("[controller]\nnode = 200\n").unwrap();
     let e = firmware_scene::<CraneParams, 2>(&Scene::parse(PAPER).unwrap(), &bad).unwrap_err();
-    assert!(e.contains("controller.node"), "{e}");
+    assert!(
+        matches!(&e, FirmwareError::Commissioning(c) if c.field == "controller.node"),
+        "{e:?}"
+    );
+    // Another crane's scene, named as such (not a NaN setting).
+    let crane3d = Scene::load(&scenes_dir().join("crane3d/crane3d.toml")).unwrap();
+    let e = firmware_scene::<CraneParams, 2>(&crane3d, &c).unwrap_err();
+    assert_eq!(
+        e,
+        FirmwareError::NotThisCrane {
+            model: crane3d.model.label(),
+            crane: "planar crane"
+        }
+    );
+    assert_eq!(
+        e.to_string(),
+        "the scene's model (3d-subs) is not the planar crane's"
+    );
 }
 
 /// The 3D crane's scene with one line replaced.
@@ -297,7 +331,7 @@ fn the_3d_scenes_pass_with_their_own_commissioning_file() {
         );
         let planar = CommissioningFile::for_scene(&scenes_dir().join("paper-crane.toml")).unwrap();
         let e = firmware(&scene, &planar, Axes3).unwrap_err();
-        assert!(e.contains("bridge"), "{name}: {e}");
+        assert!(e.to_string().contains("bridge"), "{name}: {e}");
     }
 }
 
@@ -333,7 +367,11 @@ fn a_drives_limits_are_its_commissioning_rows() {
     );
     let e = firmware_scene::<Crane3dParams, 3>(&scene, &CommissioningFile::parse(&slow).unwrap())
         .unwrap_err();
-    assert!(e.contains("BridgeVelocity"), "{e}");
+    assert!(
+        matches!(e, scene::dispatch::FirmwareError::PlannerRule(_)),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("BridgeVelocity"), "{e}");
     let bad = own.replacen(
         "axis = \"trolley\"",
         "axis = \"trolley\"\nvelocity_limit = -1.0",
@@ -341,7 +379,7 @@ fn a_drives_limits_are_its_commissioning_rows() {
     );
     let e = firmware_scene::<Crane3dParams, 3>(&scene, &CommissioningFile::parse(&bad).unwrap())
         .unwrap_err();
-    assert!(e.contains("drive[1].velocity_limit"), "{e}");
+    assert!(e.to_string().contains("drive[1].velocity_limit"), "{e}");
     // Beyond what 0x60FF's i32 of µm/s can carry with room to spare: refused.
     let absurd = own.replacen(
         "axis = \"trolley\"",
@@ -351,7 +389,7 @@ fn a_drives_limits_are_its_commissioning_rows() {
     let e = firmware_scene::<Crane3dParams, 3>(&scene, &CommissioningFile::parse(&absurd).unwrap())
         .unwrap_err();
     assert!(
-        e.contains("drive[1].velocity_limit") && e.contains("at most"),
+        e.to_string().contains("drive[1].velocity_limit") && e.to_string().contains("at most"),
         "{e}"
     );
 }
@@ -437,7 +475,8 @@ fn the_hook_and_load_scene_is_its_own_crane() {
     let with_feedback = Scene::parse(&text).unwrap();
     let e = firmware(&with_feedback, &commissioning, Crane).unwrap_err();
     assert!(
-        e.contains("hook-and-load crane has no state feedback"),
+        e.to_string()
+            .contains("hook-and-load crane has no state feedback"),
         "{e}"
     );
 }

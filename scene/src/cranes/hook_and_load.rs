@@ -5,6 +5,7 @@
 //! It has no state feedback (`controller::crane::double_pendulum`): a scene with
 //! `[feedback]` is refused for it, and it runs feedforward only.
 
+use controller::crane::Crane;
 use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback};
 use solver_core::models::double_pendulum_crane::DoublePendulumParams;
 use solver_core::plan::Plan;
@@ -12,7 +13,9 @@ use solver_core::reference::double_pendulum::flat_inverse;
 use solver_core::trajectory::PointToPoint;
 use solver_core::{Error, SolverSettings};
 
-use super::{crane_models, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
+use super::{
+    crane_models, CraneModel, FirmwareCrane, FirmwareError, FirmwareIntegrator, FirmwareVisitor,
+};
 use crate::family::{ExactInputs, Flat, ModelFamily};
 use crate::rust_source::struct_to_rust;
 use crate::{refuse, ModelSpec, OperatorSpec, SceneError};
@@ -109,16 +112,16 @@ impl FirmwareCrane<2> for DoublePendulumParams {
     }
     fn steered_inverse_model<V: FirmwareVisitor<Self, 2>>(
         self,
-        _model: HookAndLoadModel,
+        model: HookAndLoadModel,
         _integrator: FirmwareIntegrator,
         _plan: Plan<f64, 2>,
         _operator: (),
         _settings: &SolverSettings,
         _visitor: V,
-    ) -> Result<V::Output, Error> {
-        Err(Error::InvalidSetting {
-            name: "operator (the hook-and-load crane has no manual mode)",
-            value: f64::NAN,
+    ) -> Result<V::Output, FirmwareError> {
+        Err(FirmwareError::NoManualMode {
+            crane: <Self as Crane<2>>::NAME,
+            model: model.path().1,
         })
     }
 }

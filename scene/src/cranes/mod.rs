@@ -14,6 +14,7 @@
 
 use core::fmt;
 
+use controller::commands::Reject;
 use controller::correction::AxesCorrection;
 use controller::feedback::{Config as FeedbackConfig, DesignError};
 use controller::feedforward::{CraneReference, Feedforward, InverseModel, Replan};
@@ -132,7 +133,7 @@ pub trait Formulation<K: Crane<A>, const A: usize>: CraneModel {
         plan: Plan<f64, A>,
         settings: &SolverSettings,
         visitor: V,
-    ) -> Result<V::Output, Error>;
+    ) -> Result<V::Output, FirmwareError>;
     /// This formulation of `crane` on `z` with `integrator`, handed to `visitor`.
     fn steps<Z: Trajectory<f64, A>, V: StepsVisitor>(
         self,
@@ -141,11 +142,12 @@ pub trait Formulation<K: Crane<A>, const A: usize>: CraneModel {
         integrator: FirmwareIntegrator,
         settings: &SolverSettings,
         visitor: V,
-    ) -> Result<V::Output, Error>;
+    ) -> Result<V::Output, FirmwareError>;
 }
 
-/// Why the firmware cannot run a scene's model.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Why the firmware cannot run a scene: the registry's one error type (the firmware's
+/// build script, the host's run of the firmware and the virtual ECU print it).
+#[derive(Debug, Clone, PartialEq)]
 pub enum FirmwareError {
     /// The scene computes in f32; the firmware plans moves in f64.
     F32Scene,
@@ -154,12 +156,75 @@ pub enum FirmwareError {
         /// The model's label.
         model: &'static str,
     },
+    /// The scene's model belongs to another crane than the one asked for.
+    NotThisCrane {
+        /// The model's label.
+        model: &'static str,
+        /// The crane asked for (`Crane::NAME`).
+        crane: &'static str,
+    },
     /// A formulation the firmware runs with its structured Newton only, with a scheme
     /// that is not.
     StructuredOnly {
         /// The model's label.
         model: &'static str,
     },
+    /// A structured integrator named for a model without a structured elimination
+    /// (`FirmwareScheme::of` never names one; refused rather than built as a dense one).
+    NotStructured {
+        /// The model's type.
+        model: &'static str,
+    },
+    /// Manual mode asked of a formulation that does not run it.
+    NoManualMode {
+        /// The crane (`Crane::NAME`).
+        crane: &'static str,
+        /// The formulation's type.
+        model: &'static str,
+    },
+    /// The scene refused for this crane: its move, its `[feedback]` or its `[operator]`.
+    Scene(SceneError),
+    /// The commissioning file refused for this crane.
+    Commissioning(SceneError),
+    /// The scene's move breaks one of the planner's rules (docs/COMMANDS.md): it must
+    /// pass the checks every commanded move passes.
+    PlannerRule(Reject),
+    /// The cycle is not a whole number of ms (the firmware's timer counts ms).
+    CycleNotWholeMs {
+        /// The scene's step, s.
+        h: f64,
+    },
+    /// The cycle is not shorter than the watchdog's period.
+    CycleNotUnderWatchdog {
+        /// The scene's step, s.
+        h: f64,
+        /// The watchdog's period, ms.
+        watchdog_ms: u32,
+    },
+    /// The step does not divide the run's length.
+    RunNotWholeCycles {
+        /// The scene's step, s.
+        h: f64,
+        /// The run's length, s.
+        t_end: f64,
+    },
+    /// The move starts before the drives can be commissioned and enabled.
+    StartsBeforeReady {
+        /// The move's start, s.
+        t_start: f64,
+        /// When the drives are ready, s.
+        ready: f64,
+        /// The scene's step, s.
+        h: f64,
+    },
+    /// The move, the plan, the model or its integrator could not be built.
+    Solver(Error),
+}
+
+impl From<Error> for FirmwareError {
+    fn from(e: Error) -> Self {
+        Self::Solver(e)
+    }
 }
 
 impl fmt::Display for FirmwareError {
@@ -169,11 +234,43 @@ impl fmt::Display for FirmwareError {
             Self::NotACrane { model } => {
                 write!(f, "the firmware drives a crane; this scene is the {model}")
             }
+            Self::NotThisCrane { model, crane } => {
+                write!(f, "the scene's model ({model}) is not the {crane}'s")
+            }
             Self::StructuredOnly { model } => write!(
                 f,
                 "the firmware runs the extended formulation ({model}) with its structured Newton only: \
                  BDF with jacobian = \"exact\", or Radau with newton = \"transformed\""
             ),
+            Self::NotStructured { model } => write!(
+                f,
+                "a structured integrator for {model}, which has no structured elimination"
+            ),
+            Self::NoManualMode { crane, model } => {
+                write!(f, "the {crane}'s {model} has no manual mode")
+            }
+            Self::Scene(e) => write!(f, "{e}"),
+            Self::Commissioning(e) => write!(f, "commissioning file: {e}"),
+            Self::PlannerRule(r) => write!(
+                f,
+                "the scene's move breaks the planner's rule {r:?} (docs/COMMANDS.md)"
+            ),
+            Self::CycleNotWholeMs { h } => {
+                write!(f, "the firmware's cycle is a whole number of ms; h = {h} s")
+            }
+            Self::CycleNotUnderWatchdog { h, watchdog_ms } => write!(
+                f,
+                "h = {h} s is not shorter than the watchdog's {watchdog_ms} ms: every cycle would reset the controller"
+            ),
+            Self::RunNotWholeCycles { h, t_end } => write!(
+                f,
+                "h = {h} s does not divide t_end = {t_end} s: the run would stop short"
+            ),
+            Self::StartsBeforeReady { t_start, ready, h } => write!(
+                f,
+                "the move starts at {t_start} s, before the drives can be commissioned and enabled ({ready:.2} s at h = {h} s)"
+            ),
+            Self::Solver(e) => write!(f, "{e}"),
         }
     }
 }
@@ -263,7 +360,7 @@ pub trait FirmwareCrane<const A: usize>:
         operator: Self::Operator,
         settings: &SolverSettings,
         visitor: V,
-    ) -> Result<V::Output, Error>;
+    ) -> Result<V::Output, FirmwareError>;
     /// The firmware's inverse model: formulation `model` on `plan` advanced by
     /// `integrator`, at rest at t = 0, handed to `visitor` — the types
     /// `FirmwareScheme::rust` names.
@@ -274,7 +371,7 @@ pub trait FirmwareCrane<const A: usize>:
         plan: Plan<f64, A>,
         settings: &SolverSettings,
         visitor: V,
-    ) -> Result<V::Output, Error> {
+    ) -> Result<V::Output, FirmwareError> {
         model.inverse_model(self, integrator, plan, settings, visitor)
     }
     /// Formulation `model` on `z` with `integrator`, handed to `visitor` (the cost
@@ -286,7 +383,7 @@ pub trait FirmwareCrane<const A: usize>:
         integrator: FirmwareIntegrator,
         settings: &SolverSettings,
         visitor: V,
-    ) -> Result<V::Output, Error> {
+    ) -> Result<V::Output, FirmwareError> {
         model.steps(self, z, integrator, settings, visitor)
     }
 }
@@ -322,9 +419,8 @@ macro_rules! integrators {
             FirmwareIntegrator::StructuredBdf(_)
             | FirmwareIntegrator::StructuredBdfUncorrected(_)
             | FirmwareIntegrator::StructuredRadau5 => {
-                return Err(solver_core::Error::InvalidSetting {
-                    name: "integrator (a structured one for a model without a structured elimination)",
-                    value: f64::NAN,
+                return Err($crate::cranes::FirmwareError::NotStructured {
+                    model: core::any::type_name_of_val(&model),
                 })
             }
             FirmwareIntegrator::RadauFull => {
@@ -414,7 +510,7 @@ macro_rules! crane_models {
             plan: solver_core::plan::Plan<f64, $axes>,
             settings: &solver_core::SolverSettings,
             visitor: V,
-        ) -> Result<V::Output, solver_core::Error> {
+        ) -> Result<V::Output, $crate::cranes::FirmwareError> {
             use $crate::cranes::{visit, FirmwareIntegrator};
             type P = solver_core::plan::Plan<f64, $axes>;
             Ok(match self {
@@ -440,7 +536,7 @@ macro_rules! crane_models {
             integrator: $crate::cranes::FirmwareIntegrator,
             settings: &solver_core::SolverSettings,
             visitor: V,
-        ) -> Result<V::Output, solver_core::Error>
+        ) -> Result<V::Output, $crate::cranes::FirmwareError>
         where
             Z: solver_core::trajectory::Trajectory<f64, $axes>,
             V: $crate::cranes::StepsVisitor,

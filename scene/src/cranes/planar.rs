@@ -1,6 +1,7 @@
 //! The paper's planar crane (trolley and winch; Eqs. 24–28, Tab. 3) as the firmware
 //! drives it: its formulations and its [`FirmwareCrane`] registration.
 
+use controller::crane::Crane;
 use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback, StateFeedback};
 use controller::operator::path::Steered;
 use solver_core::models::crane::{CraneParams, Workspace};
@@ -10,9 +11,12 @@ use solver_core::reference::flat_crane::flat_inverse;
 use solver_core::trajectory::PointToPoint;
 use solver_core::{Error, SolverSettings};
 
-use super::{crane_models, integrators, visit, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
+use super::{
+    crane_models, integrators, visit, CraneModel, FirmwareCrane, FirmwareError, FirmwareIntegrator,
+    FirmwareVisitor,
+};
 use crate::family::{ExactInputs, Flat, ModelFamily};
-use crate::operator::{only_subs, NOT_STEERED};
+use crate::operator::only_subs;
 use crate::rust_source::struct_to_rust;
 use crate::{ModelSpec, OperatorSpec, SceneError};
 
@@ -134,10 +138,13 @@ impl FirmwareCrane<2> for CraneParams {
         operator: Settings<1>,
         settings: &SolverSettings,
         visitor: V,
-    ) -> Result<V::Output, Error> {
+    ) -> Result<V::Output, FirmwareError> {
         type P = Steered<PlanarGenerator, 2>;
         if model != PlanarModel::Subs {
-            return Err(NOT_STEERED);
+            return Err(FirmwareError::NoManualMode {
+                crane: <Self as Crane<2>>::NAME,
+                model: model.path().1,
+            });
         }
         Ok(integrators!(
             Structured,

@@ -2,6 +2,7 @@
 //! its formulations and its [`FirmwareCrane`] registration, with its state feedback per
 //! vertical plane ([`SpatialFeedback`]) on a two-axis inclinometer.
 
+use controller::crane::Crane;
 use controller::feedback::{Config as FeedbackConfig, DesignError, NoFeedback};
 use controller::feedback3d::SpatialFeedback;
 use controller::operator::path::Steered;
@@ -13,9 +14,12 @@ use solver_core::reference::flat_crane3d::flat_inverse;
 use solver_core::trajectory::PointToPoint;
 use solver_core::{Error, SolverSettings};
 
-use super::{crane_models, integrators, visit, FirmwareCrane, FirmwareIntegrator, FirmwareVisitor};
+use super::{
+    crane_models, integrators, visit, CraneModel, FirmwareCrane, FirmwareError, FirmwareIntegrator,
+    FirmwareVisitor,
+};
 use crate::family::{ExactInputs, Flat, ModelFamily};
-use crate::operator::{only_subs, NOT_STEERED};
+use crate::operator::only_subs;
 use crate::rust_source::struct_to_rust;
 use crate::{ModelSpec, OperatorSpec, SceneError};
 
@@ -153,10 +157,13 @@ impl FirmwareCrane<3> for Crane3dParams {
         operator: Settings<2>,
         settings: &SolverSettings,
         visitor: V,
-    ) -> Result<V::Output, Error> {
+    ) -> Result<V::Output, FirmwareError> {
         type P = Steered<Generator3d, 3>;
         if model != SpatialModel::Subs {
-            return Err(NOT_STEERED);
+            return Err(FirmwareError::NoManualMode {
+                crane: <Self as Crane<3>>::NAME,
+                model: model.path().1,
+            });
         }
         Ok(integrators!(
             Structured,
