@@ -1,8 +1,9 @@
-//! One TOML table that holds two types' keys side by side — a scene's `[feedback]` (the
-//! controller's `Weights` and `Config`), a commissioning file's `[[drive]]` row (its own
-//! keys and the drive's `MotionWindows`) — read into both types with every key's place in
-//! the file kept: a bad value is refused at its key, a typo with every key the table
-//! has, as when the table is one type. serde's `flatten` would buffer the inner type's
+//! One TOML table that holds several types' keys side by side — a scene's `[feedback]`
+//! (the controller's `Weights` and `Config`), a commissioning file's `[[drive]]` row (its
+//! own keys, the drive's `DriveSetup` and `MotionWindows`) and `[inclinometer]` (its own
+//! keys, the sensor's `InclinometerSetup` and `LateralAxis`) — read into each type with
+//! every key's place in the file kept: a bad value is refused at its key, a typo with
+//! every key the table has, as when the table is one type. serde's `flatten` would buffer the inner type's
 //! keys without their places and drop the list of keys a typo could have meant.
 
 use std::ops::Range;
