@@ -58,42 +58,107 @@ impl OperationMode {
 }
 
 /// What the controller writes into one drive: a row of the commissioning file.
+///
+/// With feature `serde`, a `[[drive]]` row's keys that are fields of this type in its
+/// own units: `node` (required), `mode`, `heartbeat_ms`, `controller_timeout_ms`,
+/// `quick_stop_option`, `abort_connection_option`, `position_scale`, `position_offset`
+/// ([`DriveSetup::stock`]'s value for a key left out). The row gives the drive's
+/// deceleration, its max velocity and its profile ramp in m/s and m/s², the velocity
+/// unit by name, and checks them against the crane's set-point limits, which a row does
+/// not know (`max_velocity` left out is 1.1 times the crane's limit): those four fields
+/// are skipped here, zero or none until the file's reader sets them; the motion windows
+/// are read beside the row into `motion` ([`MotionWindows`], the stock ones until then).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize),
+    serde(deny_unknown_fields)
+)]
 pub struct DriveSetup {
     /// CANopen node id (1..=127).
     pub node: u8,
     /// Mode of operation.
+    #[cfg_attr(feature = "serde", serde(default = "stock_row::mode"))]
     pub mode: OperationMode,
     /// The drive's heartbeat producer time 0x1017, ms.
+    #[cfg_attr(feature = "serde", serde(default = "stock_row::heartbeat_ms"))]
     pub heartbeat_ms: u16,
     /// The drive's consumer heartbeat time for the controller (0x1016:1), ms: the drive
     /// stops by itself if the controller falls silent this long.
+    #[cfg_attr(feature = "serde", serde(default = "stock_row::controller_timeout_ms"))]
     pub controller_timeout_ms: u16,
     /// Quick-stop option code 0x605A (6: brake on the quick-stop ramp and stay in
     /// *quick stop active*, where the controller holds a halted crane).
+    #[cfg_attr(feature = "serde", serde(default = "stock_row::quick_stop_option"))]
     pub quick_stop_option: i16,
     /// Abort connection option code 0x6007: what the drive does when it loses the
     /// controller (its heartbeat consumer trips, bus-off) or is switched out of
     /// *operational* — 3: quick stop, which the controller's enable sequence leaves again
     /// by itself; a drive's default is often 1 (fault), which a network stop and start at
     /// rest would then turn into a fault needing a reset.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default = "stock_row::abort_connection_option")
+    )]
     pub abort_connection_option: i16,
     /// Quick-stop deceleration 0x6085, drive acceleration units.
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub quick_stop_deceleration: u32,
     /// Max motor speed 0x6080, drive velocity units: the drive's own last limit.
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub max_velocity: u32,
     /// SI unit of velocity 0x60A9, written when given (µm/s is `0xFA01_0300`).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub velocity_unit: Option<u32>,
     /// Profile acceleration and deceleration 0x6083/0x6084 (profile velocity mode only).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub profile_ramp: Option<u32>,
     /// Metres per increment of position actual 0x6064 (the winch: the drum's scaling).
+    #[cfg_attr(feature = "serde", serde(default = "stock_row::position_scale"))]
     pub position_scale: f64,
     /// Metres at position actual 0 (trolley position; rope length for the winch).
+    #[cfg_attr(feature = "serde", serde(default = "stock_row::position_offset"))]
     pub position_offset: f64,
     /// How far the drive may be from what the controller commanded (nothing is written
     /// into the drive: the controller supervises its motion, [`crate::motion`]).
+    #[cfg_attr(feature = "serde", serde(skip, default = "stock_row::motion"))]
     pub motion: MotionWindows,
+}
+
+/// serde's value of a key a commissioning file's `[[drive]]` row leaves out: the stock
+/// drive's ([`DriveSetup::stock`]), so that the defaults are written once.
+#[cfg(feature = "serde")]
+mod stock_row {
+    use super::{DriveSetup, MotionWindows, OperationMode};
+
+    /// The stock drive; its node and max velocity are the row's.
+    const STOCK: DriveSetup = DriveSetup::stock(0, 0);
+
+    pub(super) fn mode() -> OperationMode {
+        STOCK.mode
+    }
+    pub(super) fn heartbeat_ms() -> u16 {
+        STOCK.heartbeat_ms
+    }
+    pub(super) fn controller_timeout_ms() -> u16 {
+        STOCK.controller_timeout_ms
+    }
+    pub(super) fn quick_stop_option() -> i16 {
+        STOCK.quick_stop_option
+    }
+    pub(super) fn abort_connection_option() -> i16 {
+        STOCK.abort_connection_option
+    }
+    pub(super) fn position_scale() -> f64 {
+        STOCK.position_scale
+    }
+    pub(super) fn position_offset() -> f64 {
+        STOCK.position_offset
+    }
+    pub(super) fn motion() -> MotionWindows {
+        STOCK.motion
+    }
 }
 
 impl DriveSetup {
@@ -194,13 +259,24 @@ impl Device for DriveSetup {
 }
 
 /// The inclinometer on the hook block (CiA 410): a row of the commissioning file.
+///
+/// With feature `serde`, the `[inclinometer]` section's keys of its long axis (a key
+/// left out: [`InclinometerSetup::STOCK`]'s value); the section's second axis is read
+/// beside it ([`LateralAxis`]) and kept where the section's `axes = 2`, so `lateral` is
+/// skipped here.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize),
+    serde(deny_unknown_fields, default = "stock_inclinometer")
+)]
 pub struct InclinometerSetup {
     /// CANopen node id (1..=127).
     pub node: u8,
     /// Resolution 0x6000 of *slope long16* (0x6010), 0.001°: 10 is 0.01° (CiA 410's
-    /// usual choice; ±327° fit the 16 bits).
+    /// usual choice; ±327° fit the 16 bits). The file's `resolution_mdeg`, its unit.
+    #[cfg_attr(feature = "serde", serde(rename = "resolution_mdeg"))]
     pub resolution: u16,
     /// Its heartbeat producer time 0x1017, ms.
     pub heartbeat_ms: u16,
@@ -212,18 +288,50 @@ pub struct InclinometerSetup {
     /// The second axis, *slope lateral16* (0x6020), of a two-axis inclinometer: the 3D
     /// crane's swing across the bridge (the rope's slope in the y–z plane). `None`: one
     /// axis (the planar crane's).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub lateral: Option<LateralAxis>,
+}
+
+/// serde's value of a key the `[inclinometer]` section leaves out: the stock one's.
+#[cfg(feature = "serde")]
+fn stock_inclinometer() -> InclinometerSetup {
+    InclinometerSetup::STOCK
 }
 
 /// How *slope lateral16* becomes the swing in the y–z plane: its sign and mounting
 /// offset, as for the long axis.
+///
+/// With feature `serde`, the `[inclinometer]` section's `lateral_sign` and
+/// `lateral_offset_deg` (a key left out: [`InclinometerSetup::STOCK_TWO_AXES`]' value).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize),
+    serde(deny_unknown_fields, default = "stock_lateral")
+)]
 pub struct LateralAxis {
     /// +1° of slope is `sign · 1°` of the swing.
+    #[cfg_attr(feature = "serde", serde(rename = "lateral_sign"))]
     pub sign: f64,
     /// The slope with the load hanging still, degrees.
+    #[cfg_attr(feature = "serde", serde(rename = "lateral_offset_deg"))]
     pub offset_deg: f64,
+}
+
+/// serde's value of a lateral key the `[inclinometer]` section leaves out: the stock
+/// two-axis inclinometer's.
+#[cfg(feature = "serde")]
+fn stock_lateral() -> LateralAxis {
+    LateralAxis::STOCK
+}
+
+impl LateralAxis {
+    /// The stock two-axis inclinometer's lateral axis: its slope is the swing.
+    pub const STOCK: Self = Self {
+        sign: 1.0,
+        offset_deg: 0.0,
+    };
 }
 
 /// The swing angles an inclinometer measured, rad: in the plane of the long axis (the
@@ -256,10 +364,7 @@ impl InclinometerSetup {
     /// (0x183) are each one message of `can/crane.dbc`.
     pub const STOCK_TWO_AXES: Self = Self {
         node: 5,
-        lateral: Some(LateralAxis {
-            sign: 1.0,
-            offset_deg: 0.0,
-        }),
+        lateral: Some(LateralAxis::STOCK),
         ..Self::STOCK
     };
 

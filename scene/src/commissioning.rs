@@ -81,10 +81,10 @@ pub struct CommissioningFile {
     pub controller: ControllerSpec,
     /// One row per drive.
     #[serde(default = "stock_drives", rename = "drive")]
-    pub drives: Vec<DriveSpec>,
+    pub drives: Vec<DriveRow>,
     /// The inclinometer, used by scenes with a state feedback.
     #[serde(default)]
-    pub inclinometer: InclinometerSpec,
+    pub inclinometer: InclinometerRow,
 }
 
 impl Default for CommissioningFile {
@@ -92,26 +92,31 @@ impl Default for CommissioningFile {
         Self {
             controller: ControllerSpec::default(),
             drives: stock_drives(),
-            inclinometer: InclinometerSpec::default(),
+            inclinometer: InclinometerRow::default(),
         }
     }
 }
 
-/// The inclinometer's row (CiA 410).
+/// The `[inclinometer]` section (CiA 410). Its long axis's keys are read into the
+/// controller's [`InclinometerSetup`] (`setup`), its `lateral_*` keys into the
+/// controller's [`LateralAxis`] (`lateral`), both beside this row's own keys
+/// ([`CommissioningFile::parse`]). Its own keys are what the section says that is no
+/// field of those types: `axes`, whether the lateral axis is the setup's
+/// (`InclinometerSetup::lateral` is `Some` only for two), and the sensor's timing, which
+/// the rope calibration takes as `controller::rope::InclinometerLag` (its filter in
+/// seconds, the file's in ms: [`CommissioningFile::lag`]).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
-#[allow(missing_docs)]
-pub struct InclinometerSpec {
-    pub node: u8,
-    pub resolution_mdeg: u16,
-    pub heartbeat_ms: u16,
-    pub sign: f64,
-    pub offset_deg: f64,
+pub struct InclinometerRow {
+    /// The long axis's keys (`lateral` always `None` here: see `axes`).
+    #[serde(skip)]
+    pub setup: InclinometerSetup,
+    /// The lateral axis's keys, kept where `axes` is 2.
+    #[serde(skip)]
+    pub lateral: LateralAxis,
     /// 1: slope long16 only; 2: slope lateral16 too (the 3D crane's swing across the
     /// bridge).
     pub axes: u8,
-    pub lateral_sign: f64,
-    pub lateral_offset_deg: f64,
     /// Whole cycles the sample it sends is older than the drives' positions of the
     /// same SYNC (docs/COMMISSIONING.md, "The inclinometer's timing"): 0–5.
     pub delay_cycles: u8,
@@ -119,18 +124,12 @@ pub struct InclinometerSpec {
     pub filter_ms: f64,
 }
 
-impl Default for InclinometerSpec {
+impl Default for InclinometerRow {
     fn default() -> Self {
-        let s = InclinometerSetup::STOCK;
         Self {
-            node: s.node,
-            resolution_mdeg: s.resolution,
-            heartbeat_ms: s.heartbeat_ms,
-            sign: s.sign,
-            offset_deg: s.offset_deg,
+            setup: InclinometerSetup::STOCK,
+            lateral: LateralAxis::STOCK,
             axes: 1,
-            lateral_sign: 1.0,
-            lateral_offset_deg: 0.0,
             delay_cycles: 0,
             filter_ms: 0.0,
         }
@@ -167,91 +166,62 @@ impl Default for ControllerSpec {
     }
 }
 
-/// One drive's row.
+/// One `[[drive]]` row. The drive's keys in its own units are read into the
+/// controller's [`DriveSetup`] (`setup`), the motion windows into its `motion`, both
+/// beside this row's own keys ([`CommissioningFile::parse`]). Its own keys are what the
+/// row says that is no field of `DriveSetup` as it stands: the axis (the controller's
+/// `NodeSetup::Drive` holds it beside the setup), the values the file gives in m/s,
+/// m/s² or by name, checked against the crane's set-point limits that a row does not
+/// know (`max_velocity` left out is 1.1 times the crane's limit) and refused with the
+/// row's index, and the set points' own limits (`controller::setpoint::AxisLimits`).
+/// [`CommissioningFile::config_for`] writes the checked values into the setup.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
-#[allow(missing_docs)]
-pub struct DriveSpec {
+pub struct DriveRow {
+    /// The axis it drives.
     pub axis: Drive,
-    pub node: u8,
-    #[serde(default = "csv")]
-    pub mode: OperationMode,
-    #[serde(default = "hundred")]
-    pub heartbeat_ms: u16,
-    #[serde(default = "three_hundred")]
-    pub controller_timeout_ms: u16,
-    #[serde(default = "six")]
-    pub quick_stop_option: i16,
-    #[serde(default = "three")]
-    pub abort_connection_option: i16,
-    #[serde(default = "six_f")]
+    /// The drive's own keys. Its deceleration, max velocity, velocity unit and profile
+    /// ramp are not read into it: `config_for` sets them from the row's keys below.
+    #[serde(skip, default = "unset_setup")]
+    pub setup: DriveSetup,
+    /// Quick-stop deceleration, m/s² (0x6085).
+    #[serde(default = "stock_deceleration")]
     pub quick_stop_deceleration: f64,
+    /// Max motor speed, m/s (0x6080); 1.1 times the set points' limit when absent.
     pub max_velocity: Option<f64>,
+    /// The SI unit of velocity 0x60A9 by name (only "um/s").
     pub velocity_unit: Option<String>,
+    /// The profile ramp 0x6083/0x6084, m/s² (pv only).
     pub profile_acceleration: Option<f64>,
-    #[serde(default = "micro")]
-    pub position_scale: f64,
-    #[serde(default)]
-    pub position_offset: f64,
     /// The set points' velocity limit for this drive, m/s (the planner's and the
     /// gate's); the crane's lab drive's when absent.
     pub velocity_limit: Option<f64>,
     /// The set points' acceleration limit, m/s²; the crane's lab drive's when absent.
     pub acceleration_limit: Option<f64>,
-    /// Motion supervision (`controller::motion`): the row's `*_window`, `following_drift`
-    /// and `*_ms` keys, read into the controller's own windows beside the row
-    /// ([`CommissioningFile::parse`]; stock for a key left out), checked in
-    /// `motion_windows`.
-    #[serde(skip, default = "stock_windows")]
-    pub motion: MotionWindows,
 }
 
-fn stock_windows() -> MotionWindows {
-    MotionWindows::STOCK
+/// A row's setup until `parse` reads it beside the row (serde skips it in the row).
+fn unset_setup() -> DriveSetup {
+    DriveSetup::stock(0, 0)
 }
 
-fn csv() -> OperationMode {
-    OperationMode::CyclicSynchronousVelocity
-}
-fn hundred() -> u16 {
-    100
-}
-fn three_hundred() -> u16 {
-    300
-}
-fn six() -> i16 {
-    6
-}
-fn three() -> i16 {
-    3
-}
-fn six_f() -> f64 {
-    6.0
-}
-fn micro() -> f64 {
-    1e-6
+/// The stock drive's quick-stop deceleration in the file's unit, m/s².
+fn stock_deceleration() -> f64 {
+    f64::from(DriveSetup::stock(0, 0).quick_stop_deceleration) / UNITS_PER_M_PER_S
 }
 
-fn stock_drives() -> Vec<DriveSpec> {
+fn stock_drives() -> Vec<DriveRow> {
     [(Drive::Trolley, 1), (Drive::Winch, 2)]
         .into_iter()
-        .map(|(axis, node)| DriveSpec {
+        .map(|(axis, node)| DriveRow {
             axis,
-            node,
-            mode: OperationMode::CyclicSynchronousVelocity,
-            heartbeat_ms: 100,
-            controller_timeout_ms: 300,
-            quick_stop_option: 6,
-            abort_connection_option: 3,
-            quick_stop_deceleration: 6.0,
+            setup: DriveSetup::stock(node, 0),
+            quick_stop_deceleration: stock_deceleration(),
             max_velocity: None,
             velocity_unit: None,
             profile_acceleration: None,
-            position_scale: 1e-6,
-            position_offset: 0.0,
             velocity_limit: None,
             acceleration_limit: None,
-            motion: MotionWindows::STOCK,
         })
         .collect()
 }
@@ -260,7 +230,7 @@ fn stock_drives() -> Vec<DriveSpec> {
 /// window positive (the standstill window at least ten increments of position actual,
 /// or the drive's quantisation trips it), the drift a share below one, the times at least
 /// a cycle (what the controller sees of a drive comes once a cycle).
-fn motion_windows(d: &DriveSpec, period_ms: u32) -> Result<MotionWindows, (&'static str, String)> {
+fn motion_windows(d: &DriveSetup, period_ms: u32) -> Result<MotionWindows, (&'static str, String)> {
     let positive = |name: &'static str, v: f64, unit: &str| {
         if v.is_finite() && v > 0.0 {
             Ok(v)
@@ -345,27 +315,53 @@ impl CommissioningFile {
             refuse(field, e.message().to_string())
         };
         let mut file = DeTable::parse(text).map_err(toml_error)?;
-        // Each `[[drive]]` row holds its own keys and its motion windows' side by side
-        // (`side_by_side`): the windows' are taken out and read as the controller's
-        // `MotionWindows`, the rest as the row.
-        let mut windows = Vec::new();
+        // Each `[[drive]]` row holds its own keys, the drive's and its motion windows'
+        // side by side (`side_by_side`): the drive's are taken out and read as the
+        // controller's `DriveSetup`, the windows' as its `MotionWindows`, the rest as the
+        // row.
+        let mut setups = Vec::new();
         if let Some(DeValue::Array(rows)) = file.get_mut().get_mut("drive").map(|d| d.get_mut()) {
             for row in rows.iter_mut() {
                 let span = row.span();
                 if let DeValue::Table(table) = row.get_mut() {
-                    let (own, motion) = side_by_side::split::<DriveSpec, MotionWindows>(
-                        text,
-                        std::mem::take(table),
-                    )?;
+                    let (own, setup, motion) = side_by_side::split3::<
+                        DriveRow,
+                        DriveSetup,
+                        MotionWindows,
+                    >(text, std::mem::take(table))?;
                     *table = own;
-                    windows.push(side_by_side::read::<MotionWindows>(text, span, motion)?);
+                    let mut setup = side_by_side::read::<DriveSetup>(text, span.clone(), setup)?;
+                    setup.motion = side_by_side::read::<MotionWindows>(text, span, motion)?;
+                    setups.push(setup);
                 }
             }
         }
+        // `[inclinometer]` likewise: the long axis's keys as the controller's
+        // `InclinometerSetup`, the lateral's as its `LateralAxis`, the rest as the row.
+        let mut sensor = None;
+        if let Some(section) = file.get_mut().get_mut("inclinometer") {
+            let span = section.span();
+            if let DeValue::Table(table) = section.get_mut() {
+                let (setup, lateral, own) = side_by_side::split3::<
+                    InclinometerSetup,
+                    LateralAxis,
+                    InclinometerRow,
+                >(text, std::mem::take(table))?;
+                *table = own;
+                sensor = Some((
+                    side_by_side::read::<InclinometerSetup>(text, span.clone(), setup)?,
+                    side_by_side::read::<LateralAxis>(text, span, lateral)?,
+                ));
+            }
+        }
         let mut file = Self::deserialize(toml::de::Deserializer::from(file)).map_err(toml_error)?;
-        // The rows deserialized, so each was a table: one windows per row.
-        for (drive, motion) in file.drives.iter_mut().zip(windows) {
-            drive.motion = motion;
+        // The rows deserialized, so each was a table: one setup per row.
+        for (drive, setup) in file.drives.iter_mut().zip(setups) {
+            drive.setup = setup;
+        }
+        if let Some((setup, lateral)) = sensor {
+            file.inclinometer.setup = setup;
+            file.inclinometer.lateral = lateral;
         }
         Ok(file)
     }
@@ -415,30 +411,31 @@ impl CommissioningFile {
                 format!("this crane's feedback reads the swing in {axes} planes: a two-axis inclinometer, axes = 2"),
             ));
         }
-        if i.lateral_sign != 1.0 && i.lateral_sign != -1.0 {
+        let (s, lateral) = (i.setup, i.lateral);
+        if lateral.sign != 1.0 && lateral.sign != -1.0 {
             return Err(refuse("inclinometer.lateral_sign".into(), "+1 or -1"));
         }
-        if !(i.lateral_offset_deg.is_finite() && i.lateral_offset_deg.abs() < 90.0) {
+        if !(lateral.offset_deg.is_finite() && lateral.offset_deg.abs() < 90.0) {
             return Err(refuse(
                 "inclinometer.lateral_offset_deg".into(),
                 "finite, within ±90°",
             ));
         }
         let taken =
-            config.node == i.node || config.nodes.iter().flatten().any(|n| n.node() == i.node);
-        if !(1..=127).contains(&i.node) || taken {
+            config.node == s.node || config.nodes.iter().flatten().any(|n| n.node() == s.node);
+        if !(1..=127).contains(&s.node) || taken {
             return Err(refuse(
                 "inclinometer.node".into(),
-                format!("{} is not a free node id in 1..=127", i.node),
+                format!("{} is not a free node id in 1..=127", s.node),
             ));
         }
-        if i.resolution_mdeg == 0 || i.resolution_mdeg > 100 {
+        if s.resolution == 0 || s.resolution > 100 {
             return Err(refuse(
                 "inclinometer.resolution_mdeg".into(),
                 "1..=100 (0.001° to 0.1°): coarser hides the swing the feedback damps",
             ));
         }
-        if i.heartbeat_ms == 0 || u32::from(i.heartbeat_ms) * 3 > config.heartbeat_timeout_ms {
+        if s.heartbeat_ms == 0 || u32::from(s.heartbeat_ms) * 3 > config.heartbeat_timeout_ms {
             return Err(refuse(
                 "inclinometer.heartbeat_ms".into(),
                 format!(
@@ -447,10 +444,10 @@ impl CommissioningFile {
                 ),
             ));
         }
-        if i.sign != 1.0 && i.sign != -1.0 {
+        if s.sign != 1.0 && s.sign != -1.0 {
             return Err(refuse("inclinometer.sign".into(), "+1 or -1"));
         }
-        if !(i.offset_deg.is_finite() && i.offset_deg.abs() < 90.0) {
+        if !(s.offset_deg.is_finite() && s.offset_deg.abs() < 90.0) {
             return Err(refuse(
                 "inclinometer.offset_deg".into(),
                 "finite, within ±90°",
@@ -458,15 +455,8 @@ impl CommissioningFile {
         }
         let mut config = config;
         if !config.add_node(NodeSetup::Inclinometer(InclinometerSetup {
-            node: i.node,
-            resolution: i.resolution_mdeg,
-            heartbeat_ms: i.heartbeat_ms,
-            sign: i.sign,
-            offset_deg: i.offset_deg,
-            lateral: (i.axes == 2).then_some(LateralAxis {
-                sign: i.lateral_sign,
-                offset_deg: i.lateral_offset_deg,
-            }),
+            lateral: (i.axes == 2).then_some(lateral),
+            ..s
         })) {
             return Err(refuse(
                 "inclinometer".into(),
@@ -476,7 +466,7 @@ impl CommissioningFile {
         Ok(config)
     }
 
-    fn drive(&self, axis: Drive) -> Option<(usize, &DriveSpec)> {
+    fn drive(&self, axis: Drive) -> Option<(usize, &DriveRow)> {
         self.drives.iter().enumerate().find(|(_, d)| d.axis == axis)
     }
 
@@ -579,10 +569,11 @@ impl CommissioningFile {
             if self.drives.iter().filter(|d| d.axis == axis).count() > 1 {
                 return Err(refuse(field("axis"), format!("the {name} has two drives")));
             }
-            if !(1..=127).contains(&d.node) || !nodes.insert(d.node) {
+            let s = &d.setup;
+            if !(1..=127).contains(&s.node) || !nodes.insert(s.node) {
                 return Err(refuse(
                     field("node"),
-                    format!("{} is not a free node id in 1..=127", d.node),
+                    format!("{} is not a free node id in 1..=127", s.node),
                 ));
             }
             let units = |v: f64| (v * UNITS_PER_M_PER_S).round();
@@ -608,7 +599,7 @@ impl CommissioningFile {
                     "a positive deceleration, m/s²",
                 ));
             }
-            if d.heartbeat_ms == 0 || u32::from(d.heartbeat_ms) * 3 > c.heartbeat_timeout_ms {
+            if s.heartbeat_ms == 0 || u32::from(s.heartbeat_ms) * 3 > c.heartbeat_timeout_ms {
                 return Err(refuse(
                     field("heartbeat_ms"),
                     format!(
@@ -617,7 +608,7 @@ impl CommissioningFile {
                     ),
                 ));
             }
-            if u32::from(d.controller_timeout_ms) < 2 * u32::from(c.heartbeat_ms) {
+            if u32::from(s.controller_timeout_ms) < 2 * u32::from(c.heartbeat_ms) {
                 return Err(refuse(
                     field("controller_timeout_ms"),
                     format!(
@@ -626,21 +617,21 @@ impl CommissioningFile {
                     ),
                 ));
             }
-            if !(d.position_scale.is_finite()
-                && d.position_scale != 0.0
-                && d.position_offset.is_finite())
+            if !(s.position_scale.is_finite()
+                && s.position_scale != 0.0
+                && s.position_offset.is_finite())
             {
                 return Err(refuse(
                     field("position_scale"),
                     "finite and non-zero, m per increment",
                 ));
             }
-            if !(1..=3).contains(&d.abort_connection_option) {
+            if !(1..=3).contains(&s.abort_connection_option) {
                 return Err(refuse(
                     field("abort_connection_option"),
                     format!(
                         "{}: 1 (fault), 2 (disable voltage) or 3 (quick stop) — with 0 a drive that loses the controller keeps its last set point",
-                        d.abort_connection_option
+                        s.abort_connection_option
                     ),
                 ));
             }
@@ -654,15 +645,13 @@ impl CommissioningFile {
                     ))
                 }
             };
-            let (mode, profile_ramp) = match (d.mode, d.profile_acceleration) {
-                (OperationMode::CyclicSynchronousVelocity, None) => {
-                    (OperationMode::CyclicSynchronousVelocity, None)
-                }
+            let profile_ramp = match (s.mode, d.profile_acceleration) {
+                (OperationMode::CyclicSynchronousVelocity, None) => None,
                 (OperationMode::CyclicSynchronousVelocity, Some(_)) => {
                     return Err(refuse(field("profile_acceleration"), "only for mode = \"pv\""))
                 }
                 (OperationMode::ProfileVelocity, Some(a)) if a >= limit.max_acceleration * 10.0 => {
-                    (OperationMode::ProfileVelocity, Some(units(a) as u32))
+                    Some(units(a) as u32)
                 }
                 (OperationMode::ProfileVelocity, _) => {
                     return Err(refuse(
@@ -675,21 +664,14 @@ impl CommissioningFile {
                 }
             };
             let motion =
-                motion_windows(d, period_ms).map_err(|(f, reason)| refuse(field(f), reason))?;
+                motion_windows(s, period_ms).map_err(|(f, reason)| refuse(field(f), reason))?;
             *slot = DriveSetup {
-                node: d.node,
-                mode,
-                heartbeat_ms: d.heartbeat_ms,
-                controller_timeout_ms: d.controller_timeout_ms,
-                quick_stop_option: d.quick_stop_option,
-                abort_connection_option: d.abort_connection_option,
                 quick_stop_deceleration: units(d.quick_stop_deceleration) as u32,
                 max_velocity: units(max_velocity) as u32,
                 velocity_unit,
                 profile_ramp,
-                position_scale: d.position_scale,
-                position_offset: d.position_offset,
                 motion,
+                ..*s
             };
         }
         let names = || drives.map(Drive::name).join(", ");
@@ -803,6 +785,29 @@ mod tests {
         let c = config("").unwrap();
         assert_eq!(c.nodes, Config::DEFAULT.nodes);
         assert_eq!(c, Config::DEFAULT);
+    }
+
+    /// A row that names only its axis and node reads, through the defaults of the
+    /// controller's `DriveSetup` and `MotionWindows`, to the stock drive; an
+    /// `[inclinometer]` without keys to the stock inclinometer, and one with `axes = 2`
+    /// to the stock lateral axis.
+    #[test]
+    fn rows_left_empty_are_the_controllers_stock_setups() {
+        let rows =
+            "[[drive]]\naxis = \"trolley\"\nnode = 1\n[[drive]]\naxis = \"winch\"\nnode = 2\n";
+        assert_eq!(config(rows).unwrap(), Config::DEFAULT);
+        let file = CommissioningFile::parse(&format!("{rows}[inclinometer]\n")).unwrap();
+        let c = file.with_inclinometer(config(rows).unwrap()).unwrap();
+        assert_eq!(c.inclinometer(), Some(&InclinometerSetup::STOCK));
+        let two = CommissioningFile::parse("[inclinometer]\naxes = 2\nnode = 5").unwrap();
+        let c = two.with_inclinometer_of(Config::DEFAULT, 2).unwrap();
+        assert_eq!(c.inclinometer(), Some(&InclinometerSetup::STOCK_TWO_AXES));
+        // A drive's key missing where it has no default is named by serde.
+        let e = CommissioningFile::parse("[[drive]]\naxis = \"trolley\"\n").unwrap_err();
+        assert_eq!(
+            (e.field.as_str(), e.reason.as_str()),
+            ("[drive]", "missing field `node`")
+        );
     }
 
     #[test]
@@ -949,11 +954,11 @@ mod tests {
             c.drive(Drive::Trolley).unwrap().motion,
             MotionWindows::STOCK
         );
-        // A typo or the controller's own name is refused at its key, with the row's keys
-        // and the windows' listed; a bad value at its key.
+        // A typo or the controller's own name is refused at its key, with the row's keys,
+        // the drive's (`DriveSetup`'s) and the windows' listed; a bad value at its key.
         for (field, key, reason) in [
-            ("standstil_window = 0.02", "standstil_window", "unknown field `standstil_window`, expected one of `axis`, `node`, `mode`, `heartbeat_ms`, `controller_timeout_ms`, `quick_stop_option`, `abort_connection_option`, `quick_stop_deceleration`, `max_velocity`, `velocity_unit`, `profile_acceleration`, `position_scale`, `position_offset`, `velocity_limit`, `acceleration_limit`, `standstill_window`, `standstill_delay_ms`, `following_window`, `following_drift`, `velocity_window`, `following_time_ms`, `in_place_window`"),
-            ("in_place = 0.02", "in_place", "unknown field `in_place`, expected one of `axis`, `node`, `mode`, `heartbeat_ms`, `controller_timeout_ms`, `quick_stop_option`, `abort_connection_option`, `quick_stop_deceleration`, `max_velocity`, `velocity_unit`, `profile_acceleration`, `position_scale`, `position_offset`, `velocity_limit`, `acceleration_limit`, `standstill_window`, `standstill_delay_ms`, `following_window`, `following_drift`, `velocity_window`, `following_time_ms`, `in_place_window`"),
+            ("standstil_window = 0.02", "standstil_window", "unknown field `standstil_window`, expected one of `axis`, `quick_stop_deceleration`, `max_velocity`, `velocity_unit`, `profile_acceleration`, `velocity_limit`, `acceleration_limit`, `node`, `mode`, `heartbeat_ms`, `controller_timeout_ms`, `quick_stop_option`, `abort_connection_option`, `position_scale`, `position_offset`, `standstill_window`, `standstill_delay_ms`, `following_window`, `following_drift`, `velocity_window`, `following_time_ms`, `in_place_window`"),
+            ("in_place = 0.02", "in_place", "unknown field `in_place`, expected one of `axis`, `quick_stop_deceleration`, `max_velocity`, `velocity_unit`, `profile_acceleration`, `velocity_limit`, `acceleration_limit`, `node`, `mode`, `heartbeat_ms`, `controller_timeout_ms`, `quick_stop_option`, `abort_connection_option`, `position_scale`, `position_offset`, `standstill_window`, `standstill_delay_ms`, `following_window`, `following_drift`, `velocity_window`, `following_time_ms`, `in_place_window`"),
             ("following_window = \"x\"", "following_window", "invalid type: string \"x\", expected f64"),
             ("following_time_ms = 1.5", "following_time_ms", "invalid type: floating point `1.5`, expected u16"),
         ] {

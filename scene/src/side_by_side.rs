@@ -1,8 +1,9 @@
-//! One TOML table that holds two types' keys side by side — a scene's `[feedback]` (the
-//! controller's `Weights` and `Config`), a commissioning file's `[[drive]]` row (its own
-//! keys and the drive's `MotionWindows`) — read into both types with every key's place in
-//! the file kept: a bad value is refused at its key, a typo with every key the table
-//! has, as when the table is one type. serde's `flatten` would buffer the inner type's
+//! One TOML table that holds several types' keys side by side — a scene's `[feedback]`
+//! (the controller's `Weights` and `Config`), a commissioning file's `[[drive]]` row (its
+//! own keys, the drive's `DriveSetup` and `MotionWindows`) and `[inclinometer]` (its own
+//! keys, the sensor's `InclinometerSetup` and `LateralAxis`) — read into each type with
+//! every key's place in the file kept: a bad value is refused at its key, a typo with
+//! every key the table has, as when the table is one type. serde's `flatten` would buffer the inner type's
 //! keys without their places and drop the list of keys a typo could have meant.
 
 use std::ops::Range;
@@ -20,17 +21,44 @@ pub(crate) fn split<'i, A: Deserialize<'i>, B: Deserialize<'i>>(
     text: &str,
     table: DeTable<'i>,
 ) -> Result<(DeTable<'i>, DeTable<'i>), SceneError> {
-    let (a_keys, b_keys) = (field_names::<A>(), field_names::<B>());
-    let (mut a, mut b) = (DeTable::new(), DeTable::new());
+    let [a, b] = split_among(text, table, [field_names::<A>(), field_names::<B>()])?;
+    Ok((a, b))
+}
+
+/// [`split`] for three types' keys side by side (a commissioning file's `[[drive]]` row:
+/// its own keys, the drive's `DriveSetup` and its `MotionWindows`).
+pub(crate) fn split3<'i, A: Deserialize<'i>, B: Deserialize<'i>, C: Deserialize<'i>>(
+    text: &str,
+    table: DeTable<'i>,
+) -> Result<(DeTable<'i>, DeTable<'i>, DeTable<'i>), SceneError> {
+    let [a, b, c] = split_among(
+        text,
+        table,
+        [field_names::<A>(), field_names::<B>(), field_names::<C>()],
+    )?;
+    Ok((a, b, c))
+}
+
+/// `table`'s keys split by the lists `keys` (one per type, a key to the first list that
+/// names it); a key no list names is refused, listing every list's keys in order.
+fn split_among<'i, const N: usize>(
+    text: &str,
+    table: DeTable<'i>,
+    keys: [&'static [&'static str]; N],
+) -> Result<[DeTable<'i>; N], SceneError> {
+    let mut tables = [(); N].map(|()| DeTable::new());
     for (key, value) in table {
-        if a_keys.contains(&key.get_ref().as_ref()) {
-            a.insert(key, value);
-        } else if b_keys.contains(&key.get_ref().as_ref()) {
-            b.insert(key, value);
+        if let Some(i) = keys
+            .iter()
+            .position(|list| list.contains(&key.get_ref().as_ref()))
+        {
+            if let Some(t) = tables.get_mut(i) {
+                t.insert(key, value);
+            }
         } else {
-            let expected: Vec<String> = a_keys
+            let expected: Vec<String> = keys
                 .iter()
-                .chain(b_keys)
+                .flat_map(|list| list.iter())
                 .map(|k| format!("`{k}`"))
                 .collect();
             return Err(refuse(
@@ -43,7 +71,7 @@ pub(crate) fn split<'i, A: Deserialize<'i>, B: Deserialize<'i>>(
             ));
         }
     }
-    Ok((a, b))
+    Ok(tables)
 }
 
 /// `T` from its keys `table` (of the table at `span` in `text`), an error named at the

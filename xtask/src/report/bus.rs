@@ -207,9 +207,9 @@ impl Crane {
                 let stock = axis.node();
                 DriveInfo {
                     name: axis.name(),
-                    node: row.map_or(stock, |r| r.node),
-                    scale: row.map_or(1e-6, |r| r.position_scale),
-                    offset: row.map_or(0.0, |r| r.position_offset),
+                    node: row.map_or(stock, |r| r.setup.node),
+                    scale: row.map_or(1e-6, |r| r.setup.position_scale),
+                    offset: row.map_or(0.0, |r| r.setup.position_offset),
                     velocity_limit: row
                         .and_then(|r| r.velocity_limit)
                         .unwrap_or(limit.max_velocity),
@@ -229,11 +229,11 @@ impl Crane {
             controller: c.node,
             drives,
             inclinometer: InclinometerInfo {
-                node: i.node,
+                node: i.setup.node,
                 axes: i.axes,
-                resolution_deg: f64::from(i.resolution_mdeg) / 1000.0,
-                sign: [i.sign, i.lateral_sign],
-                offset_deg: [i.offset_deg, i.lateral_offset_deg],
+                resolution_deg: f64::from(i.setup.resolution) / 1000.0,
+                sign: [i.setup.sign, i.lateral.sign],
+                offset_deg: [i.setup.offset_deg, i.lateral.offset_deg],
             },
             feedback: scene.feedback.is_some(),
             period: scene.solver.h,
