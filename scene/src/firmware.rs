@@ -8,6 +8,7 @@
 
 use controller::Config;
 
+use crate::cranes::FirmwareError;
 use crate::rust_source::struct_literal;
 
 // The firmware's setup of a scene lives beside the dispatch that makes its crane a
@@ -32,7 +33,7 @@ pub const DEFAULT_SCENE: &str = "scenes/paper-crane-ext.toml";
 ///
 /// [`CommissioningFile::config_for`]: crate::commissioning::CommissioningFile::config_for
 /// [`Crane::LAB_LIMITS`]: controller::crane::Crane::LAB_LIMITS
-pub fn config_source(config: &Config) -> Result<String, String> {
+pub fn config_source(config: &Config) -> Result<String, FirmwareError> {
     let defaults = Config {
         period_ms: config.period_ms,
         node: config.node,
@@ -45,7 +46,7 @@ pub fn config_source(config: &Config) -> Result<String, String> {
         ..Config::DEFAULT
     };
     if defaults != *config {
-        return Err("the firmware takes its fault thresholds from Config::DEFAULT".into());
+        return Err(FirmwareError::ThresholdsNotDefault);
     }
     let Config {
         period_ms,
@@ -72,4 +73,30 @@ pub fn config_source(config: &Config) -> Result<String, String> {
         ],
         Some("controller::Config::DEFAULT"),
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    /// The default configuration is written on `Config::DEFAULT`; one whose fault
+    /// thresholds differ is refused, typed, never written with the default's.
+    #[test]
+    fn only_the_default_fault_thresholds_are_written() {
+        let source = config_source(&Config::DEFAULT).unwrap();
+        assert!(source.starts_with("controller::Config {"), "{source}");
+        assert!(
+            source.ends_with("..controller::Config::DEFAULT }"),
+            "{source}"
+        );
+        let other = Config {
+            overspeed: Config::DEFAULT.overspeed * 2.0,
+            ..Config::DEFAULT
+        };
+        assert_eq!(
+            config_source(&other).unwrap_err(),
+            FirmwareError::ThresholdsNotDefault
+        );
+    }
 }

@@ -217,6 +217,10 @@ pub enum FirmwareError {
         /// The scene's step, s.
         h: f64,
     },
+    /// A configuration whose fault thresholds are not `Config::DEFAULT`'s: the
+    /// firmware's generated configuration takes them from there
+    /// (`crate::firmware::config_source`).
+    ThresholdsNotDefault,
     /// The move, the plan, the model or its integrator could not be built.
     Solver(Error),
 }
@@ -269,6 +273,10 @@ impl fmt::Display for FirmwareError {
             Self::StartsBeforeReady { t_start, ready, h } => write!(
                 f,
                 "the move starts at {t_start} s, before the drives can be commissioned and enabled ({ready:.2} s at h = {h} s)"
+            ),
+            Self::ThresholdsNotDefault => write!(
+                f,
+                "the firmware takes its fault thresholds from Config::DEFAULT"
             ),
             Self::Solver(e) => write!(f, "{e}"),
         }
