@@ -7,8 +7,9 @@
 //! * [`virtual_bus`] — simulated stock CiA 402 drives (and, with the feature `plant`, a
 //!   CiA 410 inclinometer over a plant) that answer the controller frame by frame;
 //! * [`traffic`] — random traffic for the soak run, deterministic for a seed;
-//! * [`plant`] — a crane that is not the model (lags, friction, rope offset, gusts,
-//!   noisy late sensors) for the closed-loop runs;
+//! * [`mismatch`] — how a plant differs from the model (lags, friction, rope offset,
+//!   gusts, noisy late sensors), shared by every plant;
+//! * [`plant`] — the planar crane that is not the model, for the closed-loop runs;
 //! * [`angle_sensor`] — what a real inclinometer does to the swing it reports: a
 //!   filter and a delay of its own;
 //! * [`plant3d`] — the same for the 3D crane: bridge, trolley, hoist and a load
@@ -29,6 +30,7 @@
 )]
 
 pub mod angle_sensor;
+pub mod mismatch;
 pub mod plant;
 pub mod plant3d;
 pub mod plant_dp;

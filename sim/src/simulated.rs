@@ -10,7 +10,7 @@
 
 use controller::crane::Crane;
 
-use crate::plant::Mismatch;
+use crate::mismatch::Mismatch;
 
 /// What a plant's sensors read at the end of a cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
