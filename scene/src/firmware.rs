@@ -15,15 +15,9 @@ use crate::rust_source::struct_literal;
 // type (`crate::dispatch`); it is named here too, where the code generation is.
 pub use crate::dispatch::{commissioning_time, firmware_scene, FirmwareScene, WATCHDOG_MS};
 
-/// The default scene, relative to the workspace root: what the firmware (its build
-/// script, when `SCENE` is not set), the virtual ECU (`ecu` without `--scene`), the
-/// interop rig, `cargo xtask run`, the QEMU scenarios, the soak and the panic proof run
-/// when none is named. The planar crane on the minimally extended formulation (*ext*,
-/// index 1) with structured BDF4 at 10 ms, the configuration docs/RESULTS.md picks for it
-/// ("Which configuration to pick"): the flat inverse to rounding where *subs* (index 3)
-/// has a rounding floor. The paper's own scene (`scenes/paper-crane.toml`, *subs*) stays
-/// what the paper's reproductions, the accuracy tests and the studies run.
-pub const DEFAULT_SCENE: &str = "scenes/paper-crane-ext.toml";
+/// The default scene: the planar crane's, named in its file (`crate::cranes::planar`),
+/// the first of its `QEMU_SCENES`.
+pub use crate::cranes::planar::DEFAULT_SCENE;
 
 /// `config` as a Rust constant expression, for the firmware's generated scene module:
 /// the same values the host's run of the firmware loop uses, built by the same
