@@ -12,6 +12,7 @@
 //!   `Steered` path with the operator's generator,
 //!
 //! so that a crane, model or scheme added there is proven without touching this crate.
+use std::any::TypeId;
 use std::{env, fs, path::PathBuf};
 
 use controller::feedback::Config as FeedbackConfig;
@@ -25,7 +26,9 @@ use scene::OperatorSpec;
 /// proof is opaque, so only the type of what is written here matters to the proof).
 const H: f64 = 0.01;
 
-/// The correction of a scene without `[feedback]`, every crane's (`FirmwareCrane::FeedforwardOnly`).
+/// The correction of a scene without `[feedback]` (each crane's
+/// `FirmwareCrane::FeedforwardOnly` is this type; spelled here as `firmware/build.rs`
+/// spells it).
 const NO_FEEDBACK: &str = "controller::feedback::NoFeedback";
 
 fn main() {
@@ -116,10 +119,17 @@ impl CraneVisitor for CraneModule {
                 &params,
             ),
         ];
-        // Its state feedback, if it has one: the scene checks' answer to the paper's
-        // `[feedback]` for it.
-        match K::feedback_config(&FeedbackConfig::PAPER, &params, H) {
-            Ok(feedback) => items.extend([
+        // Its state feedback, if it has one (its `Feedback` is not the correction of a
+        // scene without `[feedback]`): the scene checks' configuration of the paper's
+        // `[feedback]` for it, which must pass, or the proof would silently leave the
+        // feedback out.
+        let has_feedback = TypeId::of::<K::Feedback>() != TypeId::of::<K::FeedforwardOnly>();
+        let feedback = has_feedback.then(|| {
+            K::feedback_config(&FeedbackConfig::PAPER, &params, H)
+                .unwrap_or_else(|e| panic!("{}: the paper's [feedback]: {e}", K::TYPE))
+        });
+        match feedback {
+            Some(feedback) => items.extend([
                 Item::type_alias("Its state feedback.", "Correction", K::FEEDBACK_TYPE),
                 Item::constant(
                     "The feedback's configuration: the paper's weights for this crane.",
@@ -141,7 +151,7 @@ impl CraneVisitor for CraneModule {
                 ),
             ]),
             // It has none: feedforward only.
-            Err(_) => items.push(Item::function(
+            None => items.push(Item::function(
                 "Its controller's entry points: it has no state feedback.",
                 &run,
                 &format!("super::run_feedforward::<Crane, F, {NO_FEEDBACK}, AXES>(EXAMPLE, feedforward)"),

@@ -12,7 +12,8 @@
 //!   links for the scene, as the Rust type the build scripts write
 //!   ([`FirmwareScheme::rust`]) and as the same type built on the host
 //!   ([`FirmwareScene::inverse_model`]);
-//! - the panic proof's build script, through [`FirmwareScheme::every`].
+//! - the panic proof's build script, through [`FirmwareScheme::every`] and a module per
+//!   registered crane ([`visit_crane`]).
 //!
 //! No model is named here: [`model`], [`Exact`] and [`accuracy_threshold`] follow from
 //! the scene's list of models (`model_specs!` in `lib.rs`) and each model's
@@ -817,15 +818,22 @@ mod tests {
         }
         // Every kind's BDF with the exact Jacobian at both h, at least.
         assert!(seen >= 2 * kinds.len(), "{seen} of {kinds:?}");
-        // And each is built for its own crane.
+        // And each is built for its own crane: the one whose type its model's visit
+        // hands over.
+        struct Crane;
+        impl CraneVisitor for Crane {
+            type Output = (&'static str, usize, &'static str);
+            fn visit<K: FirmwareCrane<A>, const A: usize>(self, _: K::Model) -> Self::Output {
+                (K::TYPE, A, K::NAME)
+            }
+        }
         for f in every {
             let (crane, axes) = f.crane();
-            let (expected, n) = match f.model {
-                FirmwareModel::Planar(_) => ("::CraneParams", 2),
-                FirmwareModel::Spatial(_) => ("::Crane3dParams", 3),
-                FirmwareModel::HookAndLoad(_) => ("::DoublePendulumParams", 2),
-            };
-            assert!(crane.ends_with(expected) && axes == n, "{f:?}");
+            assert_eq!(
+                visit_crane(f.model, Crane),
+                (crane, axes, f.model.crane_name()),
+                "{f:?}"
+            );
         }
     }
 

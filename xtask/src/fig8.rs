@@ -168,11 +168,16 @@ fn trace<'a>(m: &'a Measured, e: &'a cycles::Estimate) -> Result<Trace<'a>, Stri
     Ok(Trace {
         label: format!(
             "{}{} {}",
-            // The other cranes beside the paper's.
+            // The other cranes beside the paper's (the first registered), by their name
+            // ("3D crane" → "3D ").
             match FirmwareModel::of(&m.scene.model) {
-                Ok(FirmwareModel::Spatial(_)) => "3D ",
-                Ok(FirmwareModel::HookAndLoad(_)) => "hook-and-load ",
-                Ok(FirmwareModel::Planar(_)) | Err(_) => "",
+                Ok(model)
+                    if Some(model.crane())
+                        != FirmwareModel::every().next().map(FirmwareModel::crane) =>
+                {
+                    format!("{} ", model.crane_name().trim_end_matches(" crane"))
+                }
+                _ => String::new(),
             },
             scheme_label(&m.scene),
             jacobian_label(&m.scene)

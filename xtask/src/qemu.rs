@@ -20,16 +20,9 @@ use crate::firmware::{self, parse_cost, parse_tx, readable_log, root, Board, Ste
 /// The scenes the firmware is checked on, on the healthy bus: each registered crane's
 /// `FirmwareCrane::QEMU_SCENES`, listed in its own file under `scene/src/cranes/`, crane
 /// by crane in the order registered (`scene::dispatch::qemu_scenes`). First the default
-/// scene ([`host_tests::DEFAULT_SCENE`]: the planar crane on the minimally extended
-/// formulation, *ext*, index 1, BDF4 — the flat inverse to rounding, the configuration
-/// docs/RESULTS.md picks), on which the scenarios run; then the paper's scene (*subs*,
-/// index 3, BDF4) and the firmware's Radau, RADAU5's transformed Newton — under QEMU it
-/// beats the paper's J̃10 and the exact Jacobian in both the mean and the worst cycle
-/// (`cargo xtask qemu-bench`, docs/RESULTS.md); then the crane in three dimensions
-/// (bridge, trolley, hoist; its own folder, with its commissioning file): *subs* BDF4,
-/// RADAU5 and *ext* BDF4; then the hook-and-load crane (a double pendulum): its
-/// structured BDF4 on *subs* (index 5) and on *ext*. `scene/tests/scenes.rs` checks that
-/// each is its crane's and the default scene comes first.
+/// scene ([`host_tests::DEFAULT_SCENE`], the planar crane's), on which the scenarios run.
+/// `scene/tests/scenes.rs` checks that each is its crane's and the default scene comes
+/// first.
 #[must_use]
 pub fn scenes() -> Vec<&'static str> {
     scene::dispatch::qemu_scenes()

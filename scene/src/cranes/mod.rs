@@ -9,8 +9,9 @@
 //! builds it with the integrator a scheme names, on the host as on the firmware. The
 //! `registry!` below lists the cranes: [`FirmwareModel`] (which crane, which of its
 //! formulations) and the dispatch to a crane's type ([`visit_crane`]) follow from it.
-//! Adding a crane is its file and one line there; a formulation, one line in its crane's
-//! list (docs/MODELS.md).
+//! Adding a crane is its file here and one line there (with its controller file, its
+//! plant and its `model_specs!` group: docs/MODELS.md, section 4); a formulation, one
+//! line in its crane's list.
 
 use core::fmt;
 
@@ -619,6 +620,12 @@ macro_rules! registry {
                     $( Self::$variant(m) => <$crane as FirmwareCrane<$axes>>::manual_mode(m)
                         .then_some(<$crane as FirmwareCrane<$axes>>::STEERED_TYPE), )+
                 }
+            }
+
+            /// Its crane's name (`Crane::NAME`: "planar crane", "3D crane", …).
+            #[must_use]
+            pub fn crane_name(self) -> &'static str {
+                match self { $( Self::$variant(_) => <$crane as Crane<$axes>>::NAME, )+ }
             }
 
             /// Its crane's parameter type ([`FirmwareCrane::TYPE`]) and driven axes.
