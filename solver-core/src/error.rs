@@ -128,10 +128,10 @@ impl fmt::Display for Error {
         match *self {
             Self::InvalidStepSize { h } => write!(f, "step size h = {h} s is not finite and positive"),
             Self::NonFiniteParameter { name, value } => write!(f, "parameter {name} = {value} is not finite"),
-            // `check_positive`'s bounds said as what they mean: `[MIN_POSITIVE, inf]` printed
-            // 300 digits of the smallest normal number.
+            // `check_positive`'s bounds said as what they mean, the open interval: its
+            // `[MIN_POSITIVE, inf]` printed 300 digits of the smallest normal number.
             Self::ParameterOutOfRange { name, value, min, max } if min == f64::MIN_POSITIVE && max == f64::INFINITY => {
-                write!(f, "parameter {name} = {} is not > 0", Short(value))
+                write!(f, "parameter {name} = {} outside (0, inf)", Short(value))
             }
             Self::ParameterOutOfRange { name, value, min, max } => {
                 write!(f, "parameter {name} = {} outside [{}, {}]", Short(value), Short(min), Short(max))
@@ -229,7 +229,7 @@ mod tests {
 
     use super::*;
 
-    /// A refusal's text is short and exact: `check_positive`'s bounds said as "> 0" (they
+    /// A refusal's text is short and exact: `check_positive`'s bounds said as "(0, inf)" (they
     /// printed `f64::MIN_POSITIVE`'s 310 characters), `f64::MAX` and tiny values in
     /// exponent form, and a value just past its bound printed with the digits that tell
     /// it from the bound.
@@ -238,9 +238,12 @@ mod tests {
         let text = |r: Result<()>| r.unwrap_err().to_string();
         assert_eq!(
             text(check_positive("h", -0.01)),
-            "parameter h = -0.01 is not > 0"
+            "parameter h = -0.01 outside (0, inf)"
         );
-        assert_eq!(text(check_positive("h", 0.0)), "parameter h = 0 is not > 0");
+        assert_eq!(
+            text(check_positive("h", 0.0)),
+            "parameter h = 0 outside (0, inf)"
+        );
         assert_eq!(
             text(check_range("lowering_allowance", -1.0, 0.0, f64::MAX)),
             "parameter lowering_allowance = -1 outside [0, 1.7976931348623157e308]"
