@@ -41,11 +41,16 @@ fn refusals(cycles: &[Cycle]) -> Vec<u8> {
 
 /// The automatic move of these tests sent to `rig` with `id`.
 fn send_move(rig: &mut Manual, id: u8) {
+    send_move_to(rig, id, TARGET);
+}
+
+/// A move to `target` in [`DURATION`] sent to `rig` with `id`.
+fn send_move_to(rig: &mut Manual, id: u8, target: [f64; 2]) {
     send_request(
         rig,
         Request::Move {
             id,
-            target: TARGET,
+            target,
             duration: Some(DURATION),
         },
     );
@@ -55,7 +60,12 @@ fn send_move(rig: &mut Manual, id: u8) {
 /// with the stick centred meanwhile (the interlock lifted, as a deflection needs):
 /// the move is not taken over by a centred stick.
 fn automatic_move(rig: &mut Manual) -> Vec<Cycle> {
-    send_move(rig, 1);
+    automatic_move_to(rig, TARGET)
+}
+
+/// [`automatic_move`] to `target`.
+fn automatic_move_to(rig: &mut Manual, target: [f64; 2]) -> Vec<Cycle> {
+    send_move_to(rig, 1, target);
     let cycles = rig.hold(9, HELD, [0; 3]);
     assert_eq!(rig.c.last_answer().1, Answer::Accepted);
     assert_eq!(rig.mode_byte(), 1, "a centred stick takes nothing over");
@@ -67,7 +77,13 @@ fn automatic_move(rig: &mut Manual) -> Vec<Cycle> {
 /// of its span with the stick centred; then the stick deflected to `stick` and the cycle
 /// that reads that frame. All cycles, the last that one.
 fn deflect_at(rig: &mut Manual, share: f64, stick: i16) -> Vec<Cycle> {
-    let mut cycles = automatic_move(rig);
+    deflect(rig, TARGET, share, [stick, 0, 0])
+}
+
+/// [`deflect_at`] with the move to `target` and the stick deflected to `stick`
+/// (`[x, y, hoist]`).
+fn deflect(rig: &mut Manual, target: [f64; 2], share: f64, stick: [i16; 3]) -> Vec<Cycle> {
+    let mut cycles = automatic_move_to(rig, target);
     send_request(
         rig,
         Request::Move {
@@ -88,7 +104,7 @@ fn deflect_at(rig: &mut Manual, share: f64, stick: i16) -> Vec<Cycle> {
         cycles.extend(rig.hold(3, HELD, [0; 3]));
     }
     assert_eq!(rig.c.last_answer().1, Answer::Queued, "id 2 queued");
-    rig.send(HELD, [stick, 0, 0]);
+    rig.send(HELD, stick);
     cycles.push(rig.cycle());
     cycles
 }
@@ -308,6 +324,55 @@ fn a_hand_over_without_headroom_ends_the_move_on_its_path_and_takes_over_at_its_
             TARGET[0]
         );
         drives_then_rests(&mut rig, cycles, stick, &settings, &case);
+    }
+}
+
+/// A hoist whose manual acceleration leaves its drive no room beside the operator
+/// (1.95 m/s² of 3: 0.95 · 3 − 1.5 · 1.95 < 0, [`controller::operator::path::room`]
+/// zero): a move that does not hoist (3 m of travel at the depth it starts from), whose
+/// stop adds nothing to the hoist, is taken over at once (EMCY 0xFF22, detail 0) — by a
+/// horizontal stick and by a hoist stick alike, the hoist then moving by the operator's
+/// motion only — every set point within the drives' limits to rest, no fault; a move
+/// that hoists (2 m in its 6 s) still ends on its path and is taken over at its rest
+/// (detail 1), whichever stick: its stop would add hoist motion the hoist has no room for.
+/// (A negative room refused every take-over: detail 1 for the move that does not hoist.)
+#[test]
+fn a_hoist_without_room_takes_over_a_move_that_does_not_hoist_at_once() {
+    let mut settings = Settings::lab(&CraneParams::PAPER);
+    settings.hoist.acceleration = 1.95;
+    let w = CraneParams::PAPER.workspace;
+    settings.hoist.range = settings.depth_range((w.l_min, w.l_max));
+    // 3 m: halfway through 6 m at this depth the trolley's own stop finds no room, with
+    // the lab's settings too (EMCY detail 1 whatever the hoist).
+    let level = [HOME[0] + 3.0, HOME[1]];
+    let sticks = [[FULL_SCALE / 4, 0, 0], [0, 0, FULL_SCALE / 4]];
+    for stick in sticks {
+        let case = format!("level move, stick {stick:?}");
+        let mut rig = Manual::with(settings);
+        let mut cycles = deflect(&mut rig, level, 0.5, stick);
+        assert_eq!(
+            taken_over(cycles.last().unwrap()),
+            emcy::TAKEN_OVER_AT_ONCE,
+            "{case}"
+        );
+        assert!(rig.c.feedforward().path().in_manual(), "{case}: at once");
+        cycles.extend(rig.hold(300, HELD, stick));
+        let cycles = rests_within_limits(&mut rig, cycles, [0; 3], &case);
+        assert!(refusals(&cycles).is_empty(), "{case}: nothing refused");
+    }
+    for stick in sticks {
+        let case = format!("hoisting move, stick {stick:?}");
+        let mut rig = Manual::with(settings);
+        let cycles = deflect(&mut rig, TARGET, 0.5, stick);
+        assert_eq!(
+            taken_over(cycles.last().unwrap()),
+            emcy::TAKEN_OVER_AT_REST,
+            "{case}"
+        );
+        assert!(
+            matches!(rig.c.feedforward().plan().active(), Some(Segment::Stop(_))),
+            "{case}: the move ends with its on-path stop"
+        );
     }
 }
 

@@ -6,12 +6,12 @@
 //! `cargo test -p host-tests --release --test operator_takeover -- --nocapture` prints
 //! every case (the table of `cargo run --release -p host-tests --example takeover_limits 8`).
 
-use controller::setpoint::AxisLimits;
+use controller::operator::path::room;
 use host_tests::operator::{drive, Crane, Extremes, Gen};
 use nalgebra::SVector;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::Crane3dParams;
-use solver_core::operator::{Generator3d, Handover, Headroom, PlanarGenerator, Room, Settings};
+use solver_core::operator::{Generator3d, Handover, Headroom, PlanarGenerator, Settings};
 use solver_core::trajectory::{PointToPoint, Trajectory};
 use solver_core::Error;
 
@@ -32,16 +32,6 @@ const STICKS: [(f64, f64); 5] = [
     (1.0, 1.0),
     (-1.0, -1.0),
 ];
-
-/// The room a drive with limits `l` leaves a hand-over's stop beside an operator moving
-/// at up to `speed` and `acceleration`: 95 % of the limit less the operator's speed, and
-/// less 1.5 times its acceleration (its drive's rate adds `τ x⃛` to it).
-fn room(l: &AxisLimits, speed: f64, acceleration: f64) -> Room {
-    Room {
-        speed: 0.95 * l.max_velocity - speed,
-        acceleration: 0.95 * l.max_acceleration - 1.5 * acceleration,
-    }
-}
 
 /// What a case showed.
 struct Case {
@@ -134,8 +124,8 @@ fn hand_over_from_a_running_move_stays_within_the_drives_limits() {
         let crane = Crane::PLANAR;
         let [x, _, l] = crane.limits();
         let headroom = Headroom {
-            horizontal: [room(&x, 1.0, 0.5)],
-            hoist: room(&l, 0.5, 0.5),
+            horizontal: [room(&x, &planar.horizontal[0])],
+            hoist: room(&l, &planar.hoist),
         };
         for frac in fractions {
             let t = (frac * duration / H).round() * H;
@@ -161,13 +151,7 @@ fn hand_over_from_a_running_move_stays_within_the_drives_limits() {
                         println!(
                             "planar {duration} s at {frac}, stick {stick}, hoist {hoist}: refused: {e}"
                         );
-                        assert!(matches!(
-                            e,
-                            Error::ParameterOutOfRange {
-                                name: "hand-over stop",
-                                ..
-                            }
-                        ));
+                        assert!(matches!(e, Error::NoHandoverStop { .. }));
                         refused += 1;
                     }
                 }
@@ -184,8 +168,11 @@ fn hand_over_from_a_running_move_stays_within_the_drives_limits() {
         let crane = Crane::SPATIAL;
         let [x, y, l] = crane.limits();
         let headroom = Headroom {
-            horizontal: [room(&x, 1.0, 0.5), room(&y, 0.8, 0.5)],
-            hoist: room(&l, 0.5, 0.5),
+            horizontal: [
+                room(&x, &spatial.horizontal[0]),
+                room(&y, &spatial.horizontal[1]),
+            ],
+            hoist: room(&l, &spatial.hoist),
         };
         for frac in fractions {
             let t = (frac * duration / H).round() * H;
@@ -210,13 +197,7 @@ fn hand_over_from_a_running_move_stays_within_the_drives_limits() {
                         println!(
                             "3D {duration} s at {frac}, stick {stick}, hoist {hoist}: refused: {e}"
                         );
-                        assert!(matches!(
-                            e,
-                            Error::ParameterOutOfRange {
-                                name: "hand-over stop",
-                                ..
-                            }
-                        ));
+                        assert!(matches!(e, Error::NoHandoverStop { .. }));
                         refused += 1;
                     }
                 }

@@ -594,6 +594,42 @@ mod tests {
         .unwrap()
     }
 
+    /// A move refused for starting before the drives are ready says when they are, to the
+    /// ms: with drive heartbeats of 94 ms that time has a third decimal, and a start
+    /// 2 ms before it read as after it with two decimals.
+    #[test]
+    fn a_move_starting_before_the_drives_are_ready_reads_as_before() {
+        let text = include_str!("../../scenes/commissioning.toml")
+            .replacen(
+                "heartbeat_ms = 100              # drive's 0x1017",
+                "heartbeat_ms = 94",
+                1,
+            )
+            .replacen(
+                "heartbeat_ms = 100\ncontroller",
+                "heartbeat_ms = 94\ncontroller",
+                1,
+            );
+        assert_eq!(text.matches("heartbeat_ms = 94").count(), 2, "both drives'");
+        let c = CommissioningFile::parse(&text).unwrap();
+        let limits = c
+            .limits_for(CraneParams::DRIVES, CraneParams::LAB_LIMITS)
+            .unwrap();
+        let ready = commissioning_time(&c.config_for(CraneParams::DRIVES, limits, 10).unwrap());
+        let mut s = Scene::parse(include_str!("../../scenes/paper-crane.toml")).unwrap();
+        s.trajectory.t_start = ready - 0.002;
+        let e = firmware_scene::<CraneParams, 2>(&s, &c)
+            .unwrap_err()
+            .to_string();
+        let printed: f64 = e
+            .split_once("enabled (")
+            .and_then(|(_, rest)| rest.split_once(" s at"))
+            .map(|(number, _)| number.parse().unwrap())
+            .unwrap_or_else(|| panic!("{e}"));
+        assert_eq!(printed, ready, "{e}");
+        assert!(s.trajectory.t_start < printed, "{e}");
+    }
+
     #[test]
     fn each_model_is_built_with_its_own_size() {
         for (kind, name, n) in [
@@ -729,7 +765,7 @@ mod tests {
             (0.002, I::StructuredBdf(4)),
             (0.005, I::StructuredBdfUncorrected(4)),
         ] {
-            let mut s = scene("crane-subs", "scheme = \"bdf\"");
+            let mut s = Scene::parse(include_str!("../../scenes/paper-crane.toml")).unwrap();
             s.solver.h = h;
             assert_eq!(
                 FirmwareScheme::of(&s).unwrap().integrator,

@@ -43,6 +43,13 @@ pub enum Error {
         /// Its value.
         value: f64,
     },
+    /// No stop of a hand-over from a running move keeps the drives' motion it adds within
+    /// the headroom the caller leaves it, up to the longest stop allowed
+    /// (`operator::Generator::take_over`).
+    NoHandoverStop {
+        /// The longest stop tried, s (`operator::Settings::entry_blend`).
+        longest: f64,
+    },
     /// The trajectory is not smooth enough for the model: its inputs would jump.
     TrajectoryTooRough {
         /// The trajectory's smoothness n (derivatives 1..n vanish at the ends).
@@ -121,10 +128,19 @@ impl fmt::Display for Error {
         match *self {
             Self::InvalidStepSize { h } => write!(f, "step size h = {h} s is not finite and positive"),
             Self::NonFiniteParameter { name, value } => write!(f, "parameter {name} = {value} is not finite"),
+            // `check_positive`'s bounds said as what they mean, the open interval: its
+            // `[MIN_POSITIVE, inf]` printed 300 digits of the smallest normal number.
+            Self::ParameterOutOfRange { name, value, min, max } if min == f64::MIN_POSITIVE && max == f64::INFINITY => {
+                write!(f, "parameter {name} = {} outside (0, inf)", Short(value))
+            }
             Self::ParameterOutOfRange { name, value, min, max } => {
-                write!(f, "parameter {name} = {value} outside [{min}, {max}]")
+                write!(f, "parameter {name} = {} outside [{}, {}]", Short(value), Short(min), Short(max))
             }
             Self::InvalidSetting { name, value } => write!(f, "setting {name} = {value} is not supported"),
+            Self::NoHandoverStop { longest } => write!(
+                f,
+                "no hand-over stop of at most {longest} s keeps the drives within the headroom left beside the operator"
+            ),
             Self::TrajectoryTooRough { smoothness, required } => {
                 write!(f, "trajectory smoothness n = {smoothness}, the model needs n >= {required}")
             }
@@ -148,6 +164,22 @@ impl fmt::Display for Error {
             Self::NonFinite { t, iterations } => {
                 write!(f, "t = {t} s: non-finite value at Newton iteration {iterations}")
             }
+        }
+    }
+}
+
+/// A number as short as its exact value allows: Rust's shortest round-trip digits (so a
+/// refused value never prints equal to a bound it differs from), in exponent form where
+/// the positional one is long (`f64::MAX` is 309 digits, `f64::MIN_POSITIVE` 310).
+struct Short(f64);
+
+impl fmt::Display for Short {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let a = libm::fabs(self.0);
+        if a.is_finite() && (a >= 1e16 || (a != 0.0 && a < 1e-5)) {
+            write!(f, "{:e}", self.0)
+        } else {
+            write!(f, "{}", self.0)
         }
     }
 }
@@ -187,4 +219,43 @@ pub(crate) fn check_positive(name: &'static str, value: f64) -> Result<()> {
         });
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    extern crate std;
+    use std::string::ToString;
+
+    use super::*;
+
+    /// A refusal's text is short and exact: `check_positive`'s bounds said as "(0, inf)" (they
+    /// printed `f64::MIN_POSITIVE`'s 310 characters), `f64::MAX` and tiny values in
+    /// exponent form, and a value just past its bound printed with the digits that tell
+    /// it from the bound.
+    #[test]
+    fn a_refusal_reads_short_and_outside_its_bound() {
+        let text = |r: Result<()>| r.unwrap_err().to_string();
+        assert_eq!(
+            text(check_positive("h", -0.01)),
+            "parameter h = -0.01 outside (0, inf)"
+        );
+        assert_eq!(
+            text(check_positive("h", 0.0)),
+            "parameter h = 0 outside (0, inf)"
+        );
+        assert_eq!(
+            text(check_range("lowering_allowance", -1.0, 0.0, f64::MAX)),
+            "parameter lowering_allowance = -1 outside [0, 1.7976931348623157e308]"
+        );
+        assert_eq!(
+            text(check_range("range min", -1e-300, 1e-300, 2.0)),
+            "parameter range min = -1e-300 outside [1e-300, 2]"
+        );
+        let past = 0.5 + f64::EPSILON;
+        assert_eq!(
+            text(check_range("deadband", past, 0.0, 0.5)),
+            "parameter deadband = 0.5000000000000002 outside [0, 0.5]"
+        );
+    }
 }

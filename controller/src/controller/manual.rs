@@ -204,6 +204,12 @@ where
         let t = self.feedforward.time();
         let at_once = self.feedforward.path_mut().take_over(t, &limits).is_ok();
         let how = if at_once {
+            // Manual mode from this cycle: the loop closed as an entry at rest closes it
+            // (the feedback acts in manual mode, also after a move it did not act on: one
+            // planned at boot and never commanded). Not at rest: a feedback that no longer
+            // reads the angle is not restarted here — its observer starts from a crane at
+            // rest (`Correction::restart`) — as for a move accepted while the crane moves.
+            self.close_loop(false);
             emcy::TAKEN_OVER_AT_ONCE
         } else {
             self.stop_on_path(now);

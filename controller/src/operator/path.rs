@@ -30,13 +30,26 @@ pub const HANDOVER_LIMIT_SHARE: f64 = 0.95;
 /// times the manual acceleration (the drive's rate adds its lag times the load's jerk
 /// to the load's acceleration). With these rooms no drive went past 0.894 of a limit over
 /// 165 hand-overs (`cargo test --release -p host-tests --test operator_takeover`, which
-/// takes the same rule); a room that is not positive refuses every stop, and the
-/// controller then ends the move on its path instead.
+/// calls this).
+///
+/// Where the operator alone may use more than that share (the difference below zero),
+/// the room is zero, not negative: the stop may then add nothing to that drive. A stop
+/// that adds nothing needs no room — the move does not move that axis, and the drive
+/// sees the operator's motion only, as in manual mode at rest — while every stop that
+/// moves it is refused, and the controller ends the move on its path instead. (A
+/// negative room refused even the zero a purely horizontal move's stop adds to the
+/// hoist.) The operator's share is kept whatever the stick asks at the take-over: the
+/// stick is live throughout the stop, and may move any axis while it lasts. A limit
+/// that is not a number leaves a room that is not one, which the take-over refuses.
 #[must_use]
 pub fn room(limit: &AxisLimits, axis: &AxisSettings) -> Room {
+    // `<`, not `max`: `f64::max` would turn a NaN into a room of zero.
+    let at_least_none = |left: f64| if left < 0.0 { 0.0 } else { left };
     Room {
-        speed: HANDOVER_LIMIT_SHARE * limit.max_velocity - axis.speed,
-        acceleration: HANDOVER_LIMIT_SHARE * limit.max_acceleration - 1.5 * axis.acceleration,
+        speed: at_least_none(HANDOVER_LIMIT_SHARE * limit.max_velocity - axis.speed),
+        acceleration: at_least_none(
+            HANDOVER_LIMIT_SHARE * limit.max_acceleration - 1.5 * axis.acceleration,
+        ),
     }
 }
 
@@ -408,5 +421,37 @@ where
         } else {
             Trajectory::<T, A>::smoothness(&self.plan)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A drive the operator alone may take past [`HANDOVER_LIMIT_SHARE`] leaves a room of
+    /// zero, not a negative one; a limit that is not a number leaves a room that is not
+    /// one (the take-over refuses it), not zero.
+    #[test]
+    fn a_room_is_zero_at_least_and_not_a_number_stays_so() {
+        let axis = AxisSettings {
+            speed: 0.5,
+            acceleration: 1.95,
+            range: (0.0, 1.0),
+        };
+        let limit = AxisLimits {
+            max_velocity: 2.0,
+            max_acceleration: 3.0,
+        };
+        let r = room(&limit, &axis);
+        assert!((r.speed - 1.4).abs() < 1e-12, "{r:?}");
+        assert_eq!(r.acceleration, 0.0, "0.95 · 3 − 1.5 · 1.95 < 0");
+        let nan = room(
+            &AxisLimits {
+                max_velocity: f64::NAN,
+                ..limit
+            },
+            &axis,
+        );
+        assert!(nan.speed.is_nan(), "{nan:?}");
     }
 }

@@ -271,9 +271,11 @@ impl fmt::Display for FirmwareError {
                 f,
                 "h = {h} s does not divide t_end = {t_end} s: the run would stop short"
             ),
+            // `ready` as it is (whole ms), not to two decimals: 1.234 printed "1.23", and
+            // a move starting at 1.232 s read as refused for starting after it.
             Self::StartsBeforeReady { t_start, ready, h } => write!(
                 f,
-                "the move starts at {t_start} s, before the drives can be commissioned and enabled ({ready:.2} s at h = {h} s)"
+                "the move starts at {t_start} s, before the drives can be commissioned and enabled ({ready} s at h = {h} s)"
             ),
             Self::ThresholdsNotDefault => write!(
                 f,

@@ -49,7 +49,7 @@
 //! the generator's ranges are narrowed by the stop's excursion (the load's and the
 //! trolley's), and its pendulum is tuned for the stop's deepest load, braked downwards.
 //!
-//! Refused ([`Error::ParameterOutOfRange`] "hand-over stop" when no stop keeps within the
+//! Refused ([`Error::NoHandoverStop`] when no stop keeps within the
 //! headroom, [`Error::OutsideWorkspace`] when the stop leaves a range or the rope is
 //! longer than the virtual pendulum may be): the controller then lets the move stop on
 //! its path and hands over at rest.

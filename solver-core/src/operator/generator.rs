@@ -314,7 +314,7 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
     /// motion stays within `room`, at most [`Settings::entry_blend`] long.
     ///
     /// Refuses invalid settings, a state or room that is not finite, a state for which no
-    /// stop keeps within `room` ([`Error::ParameterOutOfRange`] "hand-over stop"), and one
+    /// stop keeps within `room` ([`Error::NoHandoverStop`]), and one
     /// whose stop leaves a range, or whose rope is longer than the virtual pendulum may
     /// be ([`Error::OutsideWorkspace`] naming the coordinate).
     pub fn take_over(
@@ -365,12 +365,11 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         settings.validate()?;
         let deepest = state.hoist[0].max(state.hoist_target);
         let c = settings.pendulum_for(deepest) / settings.g;
+        // Its own error, not "hand-over stop = 8 outside [0, 8]": no duration was refused
+        // for being out of range, none up to the longest kept within the headroom.
         let stop = plan_stop(state, room, c, settings.h, settings.entry_blend).ok_or(
-            Error::ParameterOutOfRange {
-                name: "hand-over stop",
-                value: settings.entry_blend,
-                min: 0.0,
-                max: settings.entry_blend,
+            Error::NoHandoverStop {
+                longest: settings.entry_blend,
             },
         )?;
         let mut ends = [0.0; NH];
@@ -722,5 +721,45 @@ impl<T: Real, const RH: usize, const RV: usize> Trajectory<T, 3> for Generator<2
 
     fn smoothness(&self) -> usize {
         SMOOTHNESS
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    extern crate std;
+    use std::string::ToString;
+
+    use super::*;
+    use crate::models::crane::CraneParams;
+    use crate::operator::{PlanarGenerator, Room};
+
+    /// A hand-over no stop fits (here a moving trolley and no room at all) is refused with
+    /// what was tried, never a duration that reads as inside its range (it printed
+    /// "parameter hand-over stop = 8 outside [0, 8]").
+    #[test]
+    fn a_hand_over_no_stop_fits_says_which_stops_were_tried() {
+        let settings = Settings::lab(&CraneParams::PAPER);
+        let moving = Handover {
+            horizontal: [[12.0, 0.5, 0.0, 0.0, 0.0, 0.0]],
+            hoist: [8.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            target: [18.0],
+            hoist_target: 8.0,
+            rest_in: 6.0,
+        };
+        let none = Room {
+            speed: 0.0,
+            acceleration: 0.0,
+        };
+        let room = Headroom {
+            horizontal: [none],
+            hoist: none,
+        };
+        let e = PlanarGenerator::take_over(settings, 0.0, &moving, &room).unwrap_err();
+        assert_eq!(e, Error::NoHandoverStop { longest: 8.0 });
+        assert_eq!(
+            e.to_string(),
+            "no hand-over stop of at most 8 s keeps the drives within the headroom left beside the operator"
+        );
     }
 }

@@ -63,10 +63,14 @@ pub const MAX_OMEGA_H: f64 = 0.1;
 
 /// A window as a whole number of cycles, refusing one that is not (to 1 µs) or is shorter
 /// than a cycle.
+///
+/// Fails closed: written as the negation of what passes, so that a cycle `h` that is not
+/// a number (`window/h` NaN, every comparison with it false) is refused, not taken as
+/// 0 cycles.
 pub(crate) fn cycles(name: &'static str, window: f64, h: f64) -> Result<usize> {
     check_positive(name, window)?;
     let m = libm::round(window / h);
-    if m < 1.0 || libm::fabs(m * h - window) > 1e-6 || m > f64::from(u16::MAX) {
+    if !((1.0..=f64::from(u16::MAX)).contains(&m) && libm::fabs(m * h - window) <= 1e-6) {
         return Err(Error::InvalidSetting {
             name,
             value: window,
@@ -102,15 +106,7 @@ impl<const NH: usize> Settings<NH> {
         cycles("entry_blend", self.entry_blend, self.h)?;
         // The shortest generator pendulum: for the shallowest load.
         let omega_h = self.h * libm::sqrt(self.g / self.pendulum_for(self.hoist.range.0));
-        if omega_h > MAX_OMEGA_H {
-            return Err(Error::ParameterOutOfRange {
-                name: "omega_g h",
-                value: omega_h,
-                min: 0.0,
-                max: MAX_OMEGA_H,
-            });
-        }
-        Ok(())
+        check_omega_h(omega_h)
     }
 
     /// The shortest generator pendulum `l_g` that is never shorter than the load's
@@ -155,6 +151,20 @@ impl<const NH: usize> Settings<NH> {
         }
         Ok((longest + 1, hoist + 1))
     }
+}
+
+/// Refuses a `ω_g h` outside `[0, MAX_OMEGA_H]` — or not a number: written as the
+/// negation of what passes (`NaN > MAX_OMEGA_H` is false, and let a NaN through).
+fn check_omega_h(omega_h: f64) -> Result<()> {
+    if !(0.0..=MAX_OMEGA_H).contains(&omega_h) {
+        return Err(Error::ParameterOutOfRange {
+            name: "omega_g h",
+            value: omega_h,
+            min: 0.0,
+            max: MAX_OMEGA_H,
+        });
+    }
+    Ok(())
 }
 
 fn check_axis(a: &AxisSettings) -> Result<()> {
@@ -287,5 +297,47 @@ impl Settings<2> {
         };
         s.hoist.range = s.depth_range((w.l_min, w.l_max));
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A window over a cycle that is not a number is refused, not taken as 0 cycles:
+    /// `window/h` is NaN then, and every `<`/`>` with NaN is false.
+    #[test]
+    fn a_window_over_a_cycle_that_is_not_a_number_is_refused() {
+        assert_eq!(cycles("box", 0.2, 0.01), Ok(20));
+        assert_eq!(
+            cycles("box", 0.2, f64::NAN),
+            Err(Error::InvalidSetting {
+                name: "box",
+                value: 0.2
+            })
+        );
+    }
+
+    /// A `ω_g h` that is not a number is refused, as one above the bound is.
+    #[test]
+    fn an_omega_h_that_is_not_a_number_is_refused() {
+        assert_eq!(check_omega_h(MAX_OMEGA_H), Ok(()));
+        for bad in [
+            f64::NAN,
+            MAX_OMEGA_H * (1.0 + f64::EPSILON),
+            f64::INFINITY,
+            -0.01,
+        ] {
+            assert!(
+                matches!(
+                    check_omega_h(bad),
+                    Err(Error::ParameterOutOfRange {
+                        name: "omega_g h",
+                        ..
+                    })
+                ),
+                "{bad}"
+            );
+        }
     }
 }
