@@ -121,6 +121,21 @@ fn taken_over(cycle: &Cycle) -> u8 {
     emcy[0][5]
 }
 
+/// The hand-over refused for want of headroom: the cycle that read the stick (the last
+/// of `cycles`) says the move is taken over at its stop's rest (EMCY 0xFF22, detail 1),
+/// and the move ends with its on-path stop.
+fn ends_on_its_path(rig: &Manual, cycles: &[Cycle], case: &str) {
+    assert_eq!(
+        taken_over(cycles.last().unwrap()),
+        emcy::TAKEN_OVER_AT_REST,
+        "{case}"
+    );
+    assert!(
+        matches!(rig.c.feedforward().plan().active(), Some(Segment::Stop(_))),
+        "{case}: the move ends with its on-path stop"
+    );
+}
+
 /// Frames with `stick` every third cycle (centred: the release; deflected: a stop that
 /// holds whatever the stick does) until the load rests; then every set point of
 /// `cycles` and those within the drives' limits, and the controller ready throughout.
@@ -299,15 +314,7 @@ fn a_hand_over_without_headroom_ends_the_move_on_its_path_and_takes_over_at_its_
         let case = format!("stick {stick}");
         let mut rig = Manual::with(settings);
         let mut cycles = deflect_at(&mut rig, 0.5, stick);
-        assert_eq!(
-            taken_over(cycles.last().unwrap()),
-            emcy::TAKEN_OVER_AT_REST,
-            "{case}"
-        );
-        assert!(
-            matches!(rig.c.feedforward().plan().active(), Some(Segment::Stop(_))),
-            "{case}: the move ends with its on-path stop"
-        );
+        ends_on_its_path(&rig, &cycles, &case);
         let mut entered = None;
         for _ in 0..200 {
             cycles.extend(rig.hold(3, HELD, [stick, 0, 0]));
@@ -364,15 +371,7 @@ fn a_hoist_without_room_takes_over_a_move_that_does_not_hoist_at_once() {
         let case = format!("hoisting move, stick {stick:?}");
         let mut rig = Manual::with(settings);
         let cycles = deflect(&mut rig, TARGET, 0.5, stick);
-        assert_eq!(
-            taken_over(cycles.last().unwrap()),
-            emcy::TAKEN_OVER_AT_REST,
-            "{case}"
-        );
-        assert!(
-            matches!(rig.c.feedforward().plan().active(), Some(Segment::Stop(_))),
-            "{case}: the move ends with its on-path stop"
-        );
+        ends_on_its_path(&rig, &cycles, &case);
     }
 }
 

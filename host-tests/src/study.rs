@@ -413,9 +413,9 @@ where
     samples.get(samples.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
-/// Rewrites numbers of more than 17 digits in a message (solver-core prints the
-/// bounds `f64::MAX` and `f64::MIN_POSITIVE` with `{}`: 300-digit numbers) in the
-/// shortest exponent form, `1.7976931348623157e308`.
+/// Rewrites numbers of more than 17 digits in a message in the shortest exponent form,
+/// `1.7976931348623157e308`. solver-core prints a range's bounds short, but a value
+/// printed with `{}` (a step size, a parameter) can still be hundreds of digits long.
 pub fn readable_numbers(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     let mut rest = text;
