@@ -243,6 +243,8 @@ pub trait Device {
     fn configuration(&self, controller: u8, period_ms: u8) -> Vec<Write, MAX_WRITES>;
     /// The mode of operation 0x6061 must confirm before the device is started (drives).
     fn confirmed_mode(&self) -> Option<i8>;
+    /// Its heartbeat producer time 0x1017, ms.
+    fn heartbeat_ms(&self) -> u16;
 }
 
 impl Device for DriveSetup {
@@ -255,6 +257,9 @@ impl Device for DriveSetup {
     }
     fn confirmed_mode(&self) -> Option<i8> {
         Some(self.mode.code())
+    }
+    fn heartbeat_ms(&self) -> u16 {
+        self.heartbeat_ms
     }
 }
 
@@ -441,6 +446,9 @@ impl Device for InclinometerSetup {
     }
     fn confirmed_mode(&self) -> Option<i8> {
         None
+    }
+    fn heartbeat_ms(&self) -> u16 {
+        self.heartbeat_ms
     }
 }
 
@@ -708,6 +716,8 @@ pub struct Commissioning<D = DriveSetup> {
     heard: bool,
     /// A device not heard of within this is a failure, ms ([`Commissioning::with_boot_time`]).
     boot_time_ms: u32,
+    /// When the controller last sent it NMT *start*, ms ([`Commissioning::start`]).
+    started_ms: Option<u64>,
 }
 
 /// How often an absent drive is looked for, ms.
@@ -737,6 +747,7 @@ impl<D: Device> Commissioning<D> {
             looking_since_ms: None,
             heard: false,
             boot_time_ms: u32::MAX,
+            started_ms: None,
         }
     }
 
@@ -795,6 +806,24 @@ impl<D: Device> Commissioning<D> {
     /// time no longer applies (a stopped node answers no presence check).
     pub fn heard_of(&mut self) {
         self.heard = true;
+    }
+
+    /// NMT *start* for the commissioned device whose heartbeat says it is stopped or
+    /// pre-operational (a manager's duty: a start that was lost, or a node stopped by
+    /// NMT), unless the controller started it less than one of its heartbeat periods
+    /// (0x1017) ago: a heartbeat the device sent before the start reached it says
+    /// nothing of the start, and answering it would start the device twice. A start that
+    /// was lost is sent again on the first heartbeat a period after it.
+    pub fn start(&mut self, now_ms: u64) -> Option<CanFrame> {
+        let period_ms = u64::from(self.setup.heartbeat_ms());
+        if self
+            .started_ms
+            .is_some_and(|t| now_ms.saturating_sub(t) < period_ms)
+        {
+            return None;
+        }
+        self.started_ms = Some(now_ms);
+        Some(nmt::command(NmtCommand::Start, self.setup.node()))
     }
 
     /// Puts a commissioning that is running aside while the controller may not use SDO
@@ -939,6 +968,7 @@ impl<D: Device> Commissioning<D> {
                 // No answer to wait for: the next step follows on the next poll.
                 self.nmt_due = true;
                 let command = if next == Step::Start {
+                    self.started_ms = Some(now_ms);
                     NmtCommand::Start
                 } else {
                     NmtCommand::PreOperational
@@ -1078,8 +1108,15 @@ mod tests {
 
     /// Runs a commissioning against `drive` to its end.
     fn run(drive: &mut Liar) -> Phase {
+        commission(drive).0.phase()
+    }
+
+    /// A manager's commissioning of `drive`, run to its end, and when it sent the
+    /// drive NMT *start*, ms (if it did).
+    fn commission(drive: &mut Liar) -> (Commissioning, Option<u64>) {
         let mut c = Commissioning::new(DriveSetup::TROLLEY, 0x10, 10, true, 100);
         let mut frame = Some(c.begin(0));
+        let mut started = None;
         for now in 1..200u64 {
             let progress = match frame.take() {
                 Some(f) if f.id() == 0x601 => {
@@ -1090,12 +1127,32 @@ mod tests {
                 Some(_) | None => c.poll(now),
             };
             match progress {
-                Some(Progress::Send(f)) => frame = Some(f),
-                Some(Progress::Done | Progress::Failed { .. }) => return c.phase(),
+                Some(Progress::Send(f)) => {
+                    if f.id() == 0 && f.data() == [0x01, 1] {
+                        started = Some(now);
+                    }
+                    frame = Some(f);
+                }
+                Some(Progress::Done | Progress::Failed { .. }) => break,
                 None => {}
             }
         }
-        c.phase()
+        (c, started)
+    }
+
+    #[test]
+    fn a_heartbeat_within_a_period_of_the_start_does_not_start_the_drive_again() {
+        let (mut c, started) = commission(&mut drive(0x0002_0192, None));
+        assert_eq!(c.phase(), Phase::Done);
+        // A manager starts the drive it commissioned.
+        let t = started.unwrap();
+        let period = u64::from(DriveSetup::TROLLEY.heartbeat_ms);
+        // A pre-operational heartbeat sent before the start reached the drive.
+        assert_eq!(c.start(t + period - 1), None);
+        // One a period later: the start was lost, it is sent again, and once only.
+        let again = c.start(t + period);
+        assert_eq!(again.map(|f| f.data().to_vec()), Some(vec![0x01, 1]));
+        assert_eq!(c.start(t + period + 1), None);
     }
 
     fn drive(device_type: u32, wrong: Option<Object>) -> Liar {

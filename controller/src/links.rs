@@ -397,7 +397,8 @@ pub(crate) enum Heartbeat {
     Commission,
     /// Send it NMT *start* (manager): commissioned, but stopped or pre-operational —
     /// a start that was lost, or a node stopped by NMT, which keeps its configuration
-    /// (no SDO reaches a stopped node).
+    /// (no SDO reaches a stopped node). At most once per heartbeat period of the node
+    /// ([`Commissioning::start`]).
     Start,
     /// It is operational again after it was not: its TPDO clocks start now.
     Resumed,

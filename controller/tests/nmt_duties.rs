@@ -324,3 +324,78 @@ fn a_move_being_planned_when_the_controller_leaves_operational_is_refused() {
         );
     }
 }
+
+/// The NMT *start* frames the controller sent to node `node` in `cycles`.
+fn starts_of(cycles: &[Cycle], node: u8) -> usize {
+    cycles
+        .iter()
+        .flat_map(|c| c.frames.iter())
+        .filter(|f| f.id() == 0x000 && f.data() == [0x01, node])
+        .count()
+}
+
+/// The network stopped at rest by another node, then the controller alone started: the
+/// cycles until it sent its first NMT *start* to the trolley (node 1).
+fn started_alone(rig: &mut Rig) -> Vec<Cycle> {
+    rig.ready();
+    rig.run(50);
+    broadcast(rig, NmtCommand::Stop);
+    rig.run(300);
+    rig.c
+        .on_frame(&nmt::command(NmtCommand::Start, 0x10), u64::from(rig.now));
+    rig.until(300, |c| starts_of(std::slice::from_ref(c), 1) > 0)
+}
+
+fn assert_operational_without_fault(rig: &Rig, out: &[Cycle]) {
+    for d in PLANAR {
+        assert_eq!(rig.bus.drive(d).unwrap().nmt(), NmtState::Operational);
+    }
+    let faults: Vec<_> = out.iter().filter_map(|c| c.mode.fault()).collect();
+    assert!(faults.is_empty(), "{:?}", &faults[..faults.len().min(3)]);
+}
+
+#[test]
+fn a_heartbeat_sent_before_the_start_reached_the_drive_does_not_start_it_twice() {
+    let mut rig = Rig::new(HEALTHY, false);
+    let mut out = started_alone(&mut rig);
+    // A heartbeat the trolley sent before the start reached it, delivered after it (an
+    // in-flight frame; on the interop suite's loaded bus this started it twice).
+    let stale = controller::CanFrame::new(0x701, &[0x04]).unwrap();
+    rig.c.on_frame(&stale, u64::from(rig.now));
+    out.extend(rig.until(300, |c| c.mode == Mode::Ready));
+    out.extend(rig.run(100));
+    assert_eq!(
+        starts_of(&out, 1),
+        1,
+        "started once, not for the stale heartbeat"
+    );
+    assert_eq!(starts_of(&out, 2), 1);
+    assert_operational_without_fault(&rig, &out);
+    moves_again(&mut rig, 1);
+}
+
+#[test]
+fn a_start_that_was_lost_is_sent_again_a_heartbeat_period_later() {
+    let mut rig = Rig::new(HEALTHY, false);
+    let mut out = started_alone(&mut rig);
+    // The start is lost: the trolley stays stopped and keeps saying so.
+    rig.bus
+        .transmit(&nmt::command(NmtCommand::Stop, 1))
+        .unwrap();
+    let first = rig.now;
+    out.extend(rig.until(300, |c| starts_of(std::slice::from_ref(c), 1) > 0));
+    assert_eq!(starts_of(&out, 1), 2, "sent again");
+    // Not before one of its heartbeat periods (0x1017, the stock row's 100 ms) after
+    // the heartbeat that asked for the first, to the cycle (10 ms): each start goes out
+    // in the cycle that takes the heartbeat asking for it.
+    assert!(rig.now - first >= 100 - 10, "{} ms", rig.now - first);
+    out.extend(rig.until(300, |c| c.mode == Mode::Ready));
+    out.extend(rig.run(100));
+    assert_eq!(
+        starts_of(&out, 1),
+        2,
+        "and not again once it is operational"
+    );
+    assert_operational_without_fault(&rig, &out);
+    moves_again(&mut rig, 1);
+}

@@ -20,7 +20,7 @@ use nalgebra::SVector;
 
 use crate::canopen::emcy::{self, REGISTER_COMMUNICATION, REGISTER_GENERIC, REGISTER_MANUFACTURER};
 use crate::canopen::sdo;
-use crate::canopen::{self, nmt, Incoming, NmtCommand, NmtState};
+use crate::canopen::{self, Incoming, NmtCommand, NmtState};
 use crate::cia402::pdo::{self, Tpdo};
 use crate::cia402::{controlword, DriveState};
 use crate::cia410;

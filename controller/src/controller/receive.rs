@@ -268,7 +268,9 @@ where
                         sensor.outbox = Some(sensor.commissioning.begin(now_ms));
                     }
                     Heartbeat::Start => {
-                        sensor.outbox = Some(nmt::command(NmtCommand::Start, setup.node));
+                        if let Some(frame) = sensor.commissioning.start(now_ms) {
+                            sensor.outbox = Some(frame);
+                        }
                     }
                     Heartbeat::Resumed => sensor.seen_operational = true,
                     Heartbeat::Nothing => {}
@@ -344,10 +346,9 @@ where
         match action {
             Heartbeat::Commission => self.recommission(drive, now_ms),
             Heartbeat::Start => {
-                link.outbox = Some(nmt::command(
-                    NmtCommand::Start,
-                    link.commissioning.setup().node,
-                ));
+                if let Some(frame) = link.commissioning.start(now_ms) {
+                    link.outbox = Some(frame);
+                }
             }
             // The TPDOs' clocks start when the drive is (again) seen operational.
             Heartbeat::Resumed => link.restart_clocks(now_ms),
