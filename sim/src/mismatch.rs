@@ -204,18 +204,33 @@ impl Mismatch {
 
     /// The pendulum's length when the drum measures `l`, m.
     pub fn rope(&self, l: f64) -> f64 {
-        (1.0 + self.drum_scale) * l + self.rope_offset
+        rope(self.drum_scale, self.rope_offset, l)
     }
 
     /// The same crane with the winch's scaling corrected by the rope calibration
-    /// `(s, o)` ([`controller::rope`]): its reading becomes `(1 + s) l + o`, so the rope is
-    /// `k (reading − o) + offset` with `k = (1 + drum_scale) / (1 + s)`.
-    pub fn calibrated(&self, (s, o): (f64, f64)) -> Self {
-        let k = (1.0 + self.drum_scale) / (1.0 + s);
+    /// `(s, o)` ([`controller::rope`]; [`calibrated`]).
+    pub fn calibrated(&self, calibration: (f64, f64)) -> Self {
+        let (drum_scale, rope_offset) =
+            calibrated((self.drum_scale, self.rope_offset), calibration);
         Self {
-            drum_scale: k - 1.0,
-            rope_offset: self.rope_offset - k * o,
+            drum_scale,
+            rope_offset,
             ..*self
         }
     }
+}
+
+/// The pendulum's length when the drum measures `l`, m, for a drum whose scaling is
+/// `drum_scale` off and a rope `rope_offset` longer than the drum counts (the planar
+/// winch's and the 3D hoist's mismatch alike).
+pub fn rope(drum_scale: f64, rope_offset: f64, l: f64) -> f64 {
+    (1.0 + drum_scale) * l + rope_offset
+}
+
+/// The hoist's `(drum_scale, rope_offset)` once the rope calibration `(s, o)`
+/// ([`controller::rope`]) corrects its reading: the reading becomes `(1 + s) l + o`, so
+/// the rope is `k (reading − o) + rope_offset` with `k = (1 + drum_scale) / (1 + s)`.
+pub fn calibrated((drum_scale, rope_offset): (f64, f64), (s, o): (f64, f64)) -> (f64, f64) {
+    let k = (1.0 + drum_scale) / (1.0 + s);
+    (k - 1.0, rope_offset - k * o)
 }

@@ -94,6 +94,7 @@
 //! [`Plant`]: crate::plant::Plant
 
 use crate::angle_sensor::{AngleSensor, SensorLag};
+use crate::mismatch;
 use crate::plant::{Gust, Mismatch, Rng, PLANT_STEP, TROLLEY_MASS, WINCH_MASS};
 use crate::simulated::{CranePlant, Sensed, Simulated, TrueState};
 use solver_core::models::crane3d::Crane3dParams;
@@ -287,18 +288,20 @@ impl Mismatch3d {
         }
     }
 
-    /// The pendulum's length when the drum measures `l`, m.
+    /// The pendulum's length when the drum measures `l`, m ([`mismatch::rope`]).
     pub fn rope(&self, l: f64) -> f64 {
-        (1.0 + self.drum_scale) * l + self.rope_offset
+        mismatch::rope(self.drum_scale, self.rope_offset, l)
     }
 
     /// The same crane with the hoist's scaling corrected by the rope calibration
-    /// `(s, o)`, as [`Mismatch::calibrated`] does it for the planar winch.
-    pub fn calibrated(&self, (s, o): (f64, f64)) -> Self {
-        let k = (1.0 + self.drum_scale) / (1.0 + s);
+    /// `(s, o)` ([`mismatch::calibrated`]), as [`Mismatch::calibrated`] does it for the
+    /// planar winch.
+    pub fn calibrated(&self, calibration: (f64, f64)) -> Self {
+        let (drum_scale, rope_offset) =
+            mismatch::calibrated((self.drum_scale, self.rope_offset), calibration);
         Self {
-            drum_scale: k - 1.0,
-            rope_offset: self.rope_offset - k * o,
+            drum_scale,
+            rope_offset,
             ..*self
         }
     }
