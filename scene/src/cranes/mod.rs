@@ -173,7 +173,8 @@ pub enum FirmwareError {
     /// A structured integrator named for a model without a structured elimination
     /// (`FirmwareScheme::of` never names one; refused rather than built as a dense one).
     NotStructured {
-        /// The model's type.
+        /// The model's type, its name only ([`type_name`]): as [`Self::NoManualMode`]
+        /// names it.
         model: &'static str,
     },
     /// Manual mode asked of a formulation that does not run it.
@@ -284,6 +285,14 @@ impl fmt::Display for FirmwareError {
             Self::Solver(e) => write!(f, "{e}"),
         }
     }
+}
+
+/// A type's own name from its full path (`core::any::type_name`): the path and the
+/// generic arguments dropped — `CraneProj` of `solver_core::models::crane::CraneProj<f64,
+/// …>` — so that an error names a formulation as a scene's reader knows it.
+pub fn type_name(full: &'static str) -> &'static str {
+    let base = full.split('<').next().unwrap_or(full);
+    base.rsplit("::").next().unwrap_or(base)
 }
 
 impl std::error::Error for FirmwareError {}
@@ -431,7 +440,7 @@ macro_rules! integrators {
             | FirmwareIntegrator::StructuredBdfUncorrected(_)
             | FirmwareIntegrator::StructuredRadau5 => {
                 return Err($crate::cranes::FirmwareError::NotStructured {
-                    model: core::any::type_name_of_val(&model),
+                    model: $crate::cranes::type_name(core::any::type_name_of_val(&model)),
                 })
             }
             FirmwareIntegrator::RadauFull => {
