@@ -1,10 +1,8 @@
-//! The fuzzer's inverse model is the firmware's for the paper's scene
-//! (`scenes/paper-crane.toml`, *subs*; the default scene, `scene::firmware::DEFAULT_SCENE`,
-//! is its *ext* formulation of the same crane and move): its model, integrator and solver
-//! settings come from the
-//! firmware's one registration of models and schemes (`scene::dispatch`), as the
-//! firmware's build script takes them, so the fuzzed controller steps the integrator the
-//! firmware links and cannot drift from it.
+//! The fuzzer's inverse model is the firmware's for the default scene
+//! (`scene::firmware::DEFAULT_SCENE`, the one `cargo xtask run` runs): its model,
+//! integrator and solver settings come from the firmware's one registration of models and
+//! schemes (`scene::dispatch`), as the firmware's build script takes them, so the fuzzed
+//! controller steps the integrator the default firmware links and cannot drift from it.
 use std::{env, fs, path::PathBuf};
 
 use scene::commissioning::CommissioningFile;
@@ -71,7 +69,7 @@ fn main() {
         .parent()
         .expect("fuzz/ lives in the repository")
         .to_path_buf();
-    let path = root.join("scenes/paper-crane.toml");
+    let path = root.join(scene::firmware::DEFAULT_SCENE);
     println!("cargo:rerun-if-changed={}", path.display());
     let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let commissioning =

@@ -1,7 +1,7 @@
-//! What the fuzz targets share: the firmware of the paper's scene (`scenes/paper-crane.toml`:
-//! the paper's crane on *subs*, BDF4 with the exact Jacobian at h = 10 ms; the default
-//! scene is its *ext* formulation) behind the controller, and checks of what the
-//! controller sends.
+//! What the fuzz targets share: the firmware of the default scene
+//! (`scene::firmware::DEFAULT_SCENE`: the paper's crane on its minimally extended
+//! formulation *ext*, BDF4 with the exact Jacobian at h = 10 ms; `fuzz/build.rs` writes its
+//! types from the registry) behind the controller, and checks of what the controller sends.
 
 use controller::canopen::cob;
 use controller::commissioning::{InclinometerSetup, NodeSetup};
