@@ -342,6 +342,26 @@ class Log:
     def by_others(self, can_id):
         return [(t, d) for (t, s, i, d, _) in self.frames if i == can_id and s != "ecu"]
 
+    def nmt_starts(self, after=float("-inf")):
+        """The NMT *start* commands the controller sent after `after`, by node: {node: [time]}.
+        Asserts that no two went to one node within one of its heartbeat periods (0x1017,
+        100 ms; at least 8 SYNCs strictly between them, as a start goes out in the cycle
+        that takes the heartbeat asking for it or the next): a heartbeat the node sent
+        before a start reached it asks for nothing (the controller's `Commissioning::start`);
+        one a period later that still says stopped or pre-operational asks again (the start
+        was lost), as CiA 301/302 let a manager do. How many starts that makes depends on
+        the host's timing, so callers assert the nodes started, not the count."""
+        starts = {}
+        for t, d in self.sent(0x000):
+            if t > after and d[0] == 0x01:
+                starts.setdefault(d[1], []).append(t)
+        syncs = [t for (t, _) in self.sent(0x080)]
+        for node, times in starts.items():
+            for a, b in zip(times, times[1:]):
+                between = sum(1 for t in syncs if a < t < b)
+                assert between >= 8, f"node {node} started twice within {between} SYNCs: {times}"
+        return starts
+
     def decoded(self, can_id):
         return [(t, m) for (t, _, i, _, m) in self.frames if i == can_id]
 

