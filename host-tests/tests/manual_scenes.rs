@@ -17,7 +17,7 @@ use controller::Mode;
 use host_tests::firmware::{controller_reference, ReferenceCycle};
 use scene::commissioning::CommissioningFile;
 use scene::Scene;
-use sim::scenario::Event;
+use sim::scenario::{Action, Event, MANUAL_TAKEOVER_3D};
 use sim::{
     Scenario, MANUAL_DEADMAN, MANUAL_PROFILE, MANUAL_PROFILE_3D, MANUAL_TAKEOVER, STICK_PERIOD_MS,
 };
@@ -210,12 +210,30 @@ fn the_profile_lowers_the_hoist_while_travelling() {
     assert!(both > 100, "{both} cycles travelling and lowering");
 }
 
-/// The trolley's travel over `run` from its set points, m (what a drive that follows
+/// The travel of the drive `axis` (the set points' order: planar trolley, winch; 3D
+/// bridge, trolley, hoist) over `run` from its set points, m (what a drive that follows
 /// them travels).
-fn trolley_travel(run: &[ReferenceCycle]) -> f64 {
+fn travel(run: &[ReferenceCycle], axis: usize) -> f64 {
     run.iter()
-        .map(|c| f64::from(c.setpoints[0].units()) / UNITS_PER_M_PER_S * 0.01)
+        .map(|c| f64::from(c.setpoints[axis].units()) / UNITS_PER_M_PER_S * 0.01)
         .sum()
+}
+
+/// The move-taken-over EMCY (0xFF22) of `run`, exactly once: when, and its detail byte
+/// (0 at once, 1 at the on-path stop's rest).
+fn taken_over(run: &[ReferenceCycle]) -> (u32, u8) {
+    let emcy = cob::EMCY + u16::from(CONTROLLER_NODE);
+    let taken: Vec<(u32, u8)> = run
+        .iter()
+        .flat_map(|c| {
+            c.frames
+                .iter()
+                .filter(|f| f.id() == emcy && f.data()[..2] == emcy::MOVE_TAKEN_OVER.to_le_bytes())
+                .map(move |f| (c.now_ms, f.data()[5]))
+        })
+        .collect();
+    assert_eq!(taken.len(), 1, "EMCY 0xFF22 once: {taken:?}");
+    taken[0]
 }
 
 /// The operator takes over the scene's automatic move at 4 s (`sim::MANUAL_TAKEOVER`):
@@ -230,18 +248,7 @@ fn the_operator_takes_over_the_scene_s_move() {
     let scene = "paper-crane-manual.toml";
     let run = run(scene, &MANUAL_TAKEOVER);
     assert_eq!(run.len(), MANUAL_TAKEOVER.cycles as usize, "ran to the end");
-    let emcy = cob::EMCY + u16::from(CONTROLLER_NODE);
-    let taken: Vec<(u32, u8)> = run
-        .iter()
-        .flat_map(|c| {
-            c.frames
-                .iter()
-                .filter(|f| f.id() == emcy && f.data()[..2] == emcy::MOVE_TAKEN_OVER.to_le_bytes())
-                .map(move |f| (c.now_ms, f.data()[5]))
-        })
-        .collect();
-    assert_eq!(taken.len(), 1, "EMCY 0xFF22 once: {taken:?}");
-    let (taken, how) = taken[0];
+    let (taken, how) = taken_over(&run);
     assert!((4_000..4_100).contains(&taken), "taken over at {taken} ms");
     assert_eq!(how, emcy::TAKEN_OVER_AT_ONCE, "at once");
     let manual = run
@@ -267,7 +274,7 @@ fn the_operator_takes_over_the_scene_s_move() {
             ..MANUAL_TAKEOVER
         },
     );
-    let (held, stopped) = (trolley_travel(&run), trolley_travel(&pulsed));
+    let (held, stopped) = (travel(&run, 0), travel(&pulsed, 0));
     assert!(
         held - stopped > 1.0,
         "the stick carried the trolley {held:.3} m, its stop alone {stopped:.3} m"
@@ -279,6 +286,67 @@ fn the_operator_takes_over_the_scene_s_move() {
     assert!(rest < 15_000, "at rest from {rest} ms");
     let modes = modes(&run);
     let last = modes.last().unwrap();
+    assert_eq!(last.1, 1, "manual mode left at rest ({last:?})");
+    assert_eq!(run.last().unwrap().mode, Mode::Ready);
+}
+
+/// [`MANUAL_TAKEOVER`] with the stick centred again one frame after each deflection: the
+/// take-over with the move's own stop alone.
+fn pulsed(scenario: &Scenario) -> Scenario {
+    let mut events = Vec::new();
+    for (i, e) in scenario.events.iter().enumerate() {
+        events.push(*e);
+        let next = scenario.events.get(i + 1);
+        if matches!(e.action, Action::Stick(s) if s.demand != [0; 3]) {
+            if let Some(n) = next {
+                events.push(Event {
+                    at_ms: e.at_ms + STICK_PERIOD_MS,
+                    action: n.action,
+                });
+            }
+        }
+    }
+    Scenario {
+        events: Box::leak(events.into_boxed_slice()),
+        ..*scenario
+    }
+}
+
+/// The operator takes over the 3D scene's move halfway (`MANUAL_TAKEOVER_3D`): EMCY
+/// 0xFF22 once, at 5 s, detail 0 (at once), manual mode from that very cycle, the
+/// diagonal half stick live at once — against the same take-over with the stick centred
+/// again 30 ms after it (the move's own stop alone), its 4 s carry the bridge more than
+/// a metre farther forward and the trolley more than a metre farther back —, at rest
+/// after the release, manual mode left at rest, ready.
+#[test]
+fn the_operator_takes_over_the_3d_scene_s_move() {
+    let scene = "crane3d/crane3d-manual.toml";
+    let run = run(scene, &MANUAL_TAKEOVER_3D);
+    assert_eq!(
+        run.len(),
+        MANUAL_TAKEOVER_3D.cycles as usize,
+        "ran to the end"
+    );
+    let (taken, how) = taken_over(&run);
+    assert!((5_000..5_100).contains(&taken), "taken over at {taken} ms");
+    assert_eq!(how, emcy::TAKEN_OVER_AT_ONCE, "at once");
+    let manual = run
+        .iter()
+        .find(|c| c.status_mode == MANUAL_MODE_CODE)
+        .map(|c| c.now_ms)
+        .expect("manual mode entered");
+    assert_eq!(manual, taken, "manual mode in the take-over's cycle");
+    let stopped = self::run(scene, &pulsed(&MANUAL_TAKEOVER_3D));
+    let (bridge, trolley) = (
+        travel(&run, 0) - travel(&stopped, 0),
+        travel(&run, 1) - travel(&stopped, 1),
+    );
+    println!("3D take-over: the stick carried the bridge {bridge:.3} m and the trolley {trolley:.3} m beyond the move's stop alone");
+    assert!(bridge > 1.0, "the bridge {bridge:.3} m farther forward");
+    assert!(trolley < -1.0, "the trolley {trolley:.3} m farther back");
+    let rest = rests_from(&run, 9_000, 15_000).expect("at rest before the withdrawal");
+    assert!(rest < 15_000, "at rest from {rest} ms");
+    let last = *modes(&run).last().unwrap();
     assert_eq!(last.1, 1, "manual mode left at rest ({last:?})");
     assert_eq!(run.last().unwrap().mode, Mode::Ready);
 }

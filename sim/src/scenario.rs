@@ -501,13 +501,33 @@ pub const MANUAL_TAKEOVER: Scenario = Scenario {
     plant: None,
 };
 
+/// [`MANUAL_TAKEOVER`] on the 3D crane: its scene's automatic move (1–9 s, bridge,
+/// trolley and hoist together) taken over halfway, at 5 s, by a diagonal half stick —
+/// the bridge on forward, the trolley back against the move — in the cycle that reads
+/// the frame (EMCY 0xFF22, detail 0): the move ends with the generator's own stop and
+/// the stick's vector adds to it at once; released at 9 s, the request withdrawn at rest
+/// at 15 s (manual mode left).
+pub const MANUAL_TAKEOVER_3D: Scenario = Scenario {
+    name: "manual-takeover-3d",
+    expect: "ready (mode 1): the move taken over at 5 s (EMCY 0xFF22, detail 0), manual mode \
+             in the same cycle with the diagonal stick live, released, left at rest",
+    events: &[
+        at(3_000, stick([0, 0, 0])),
+        at(5_000, stick([HALF, -HALF, 0])),
+        at(9_000, stick([0, 0, 0])),
+        at(15_000, AUTOMATIC),
+    ],
+    ..MANUAL_TAKEOVER
+};
+
 /// The scenarios of the planar crane's scene with manual mode
 /// (`scenes/paper-crane-manual.toml`).
 pub const MANUAL_SCENARIOS: [Scenario; 3] = [MANUAL_PROFILE, MANUAL_DEADMAN, MANUAL_TAKEOVER];
 
 /// The scenarios of the 3D crane's scene with manual mode
 /// (`scenes/crane3d/crane3d-manual.toml`).
-pub const MANUAL_3D_SCENARIOS: [Scenario; 2] = [MANUAL_PROFILE_3D, MANUAL_DEADMAN];
+pub const MANUAL_3D_SCENARIOS: [Scenario; 3] =
+    [MANUAL_PROFILE_3D, MANUAL_DEADMAN, MANUAL_TAKEOVER_3D];
 
 /// Every scenario, by name.
 pub const SCENARIOS: [Scenario; 11] = [
@@ -631,7 +651,7 @@ pub fn scenario(name: &str) -> Option<Scenario> {
         .chain(FEEDBACK_SCENARIOS)
         .chain(CRANE3D_SCENARIOS)
         .chain(MANUAL_SCENARIOS)
-        .chain([MANUAL_PROFILE_3D])
+        .chain(MANUAL_3D_SCENARIOS)
         .chain([SOAK])
         .find(|s| s.name == name)
 }
