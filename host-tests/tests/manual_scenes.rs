@@ -9,6 +9,7 @@
 use std::path::{Path, PathBuf};
 
 use controller::canopen::{cob, emcy, CONTROLLER_NODE};
+use controller::commands::Request;
 use controller::commands::STATUS_ID;
 use controller::controller::MODEL_REST_CYCLES;
 use controller::operator::MANUAL_MODE_CODE;
@@ -17,7 +18,7 @@ use controller::Mode;
 use host_tests::firmware::{controller_reference, ReferenceCycle};
 use scene::commissioning::CommissioningFile;
 use scene::Scene;
-use sim::scenario::{Action, Event, MANUAL_TAKEOVER_3D};
+use sim::scenario::{Action, Event, MANUAL_HANDOVER_REFUSED, MANUAL_TAKEOVER_3D};
 use sim::{
     Scenario, MANUAL_DEADMAN, MANUAL_PROFILE, MANUAL_PROFILE_3D, MANUAL_TAKEOVER, STICK_PERIOD_MS,
 };
@@ -346,6 +347,123 @@ fn the_operator_takes_over_the_3d_scene_s_move() {
     assert!(trolley < -1.0, "the trolley {trolley:.3} m farther back");
     let rest = rests_from(&run, 9_000, 15_000).expect("at rest before the withdrawal");
     assert!(rest < 15_000, "at rest from {rest} ms");
+    let last = *modes(&run).last().unwrap();
+    assert_eq!(last.1, 1, "manual mode left at rest ({last:?})");
+    assert_eq!(run.last().unwrap().mode, Mode::Ready);
+}
+
+/// The hand-over refused on the planar scene (`MANUAL_HANDOVER_REFUSED`): the stick
+/// deflected at 10.3 s during a move as fast as the limits allow, whose trolley no stop
+/// of the generator's keeps within the room the operator leaves. EMCY 0xFF22 once, in
+/// the cycle that reads the frame, detail 1; manual mode not entered then (mode 1) but
+/// at the on-path stop's rest; the set points up to that rest exactly those of a stop
+/// request (0x210) in the same cycle instead of the deflection; the load rests on the
+/// move's path (trolley and winch the same share of their way, 5 m back and 1 m down)
+/// short of its target; the stick live from the entry (the trolley goes forward at once,
+/// no re-centring), at rest after the release, manual mode left at rest, ready.
+#[test]
+fn a_refused_hand_over_ends_the_move_with_the_planner_s_stop() {
+    let scene = "paper-crane-manual.toml";
+    let scenario = MANUAL_HANDOVER_REFUSED;
+    let run = run(scene, &scenario);
+    assert_eq!(run.len(), scenario.cycles as usize, "ran to the end");
+    let (taken, how) = taken_over(&run);
+    assert!(
+        (10_300..10_400).contains(&taken),
+        "taken over at {taken} ms"
+    );
+    assert_eq!(how, emcy::TAKEN_OVER_AT_REST, "at the on-path stop's rest");
+    let entered = run
+        .iter()
+        .find(|c| c.status_mode == MANUAL_MODE_CODE)
+        .map(|c| c.now_ms)
+        .expect("manual mode entered");
+    let rest = rests_from(&run, 9_600, entered).expect("the move ran");
+    assert!(
+        entered > taken && entered >= rest,
+        "entered at {entered} ms, the stop at rest from {rest} ms"
+    );
+    // The same run with a stop request in the deflection's stead.
+    let stop_events: Vec<Event> = scenario
+        .events
+        .iter()
+        .map(|e| match e.action {
+            Action::Stick(s) if s.demand != [0; 3] && e.at_ms == 10_300 => Event {
+                at_ms: e.at_ms,
+                action: Action::Request(Request::Stop { id: 3 }),
+            },
+            _ => *e,
+        })
+        .collect();
+    let stopped = self::run(
+        scene,
+        &Scenario {
+            events: Box::leak(stop_events.into_boxed_slice()),
+            ..scenario
+        },
+    );
+    let until = |r: &[ReferenceCycle]| -> Vec<Vec<i32>> {
+        r.iter()
+            .filter(|c| c.now_ms < entered)
+            .map(|c| c.setpoints.iter().map(|s| s.units()).collect())
+            .collect()
+    };
+    assert_eq!(
+        until(&run),
+        until(&stopped),
+        "the planner's stop, to the unit"
+    );
+    let moved = |r: &[ReferenceCycle], axis: usize| {
+        let part: Vec<ReferenceCycle> = r
+            .iter()
+            .filter(|c| (9_000..entered).contains(&c.now_ms))
+            .cloned()
+            .collect();
+        travel(&part, axis)
+    };
+    let (trolley, winch) = (moved(&run, 0), moved(&run, 1));
+    let fastest = run
+        .iter()
+        .filter(|c| c.now_ms < taken)
+        .map(|c| c.setpoints[0].units().unsigned_abs())
+        .max()
+        .unwrap();
+    let before: Vec<i32> = run
+        .iter()
+        .filter(|c| c.now_ms <= taken)
+        .map(|c| c.setpoints[0].units())
+        .collect();
+    let steepest = before
+        .windows(2)
+        .map(|w| (w[1] - w[0]).unsigned_abs())
+        .max()
+        .unwrap();
+    println!(
+        "refused hand-over: the trolley at up to {:.3} m/s and {:.2} m/s² before it; the stop \
+         rested after {trolley:.3} m of the trolley's -5 m and {winch:.3} m of the winch's 1 m; \
+         manual mode from {entered} ms",
+        f64::from(fastest) / UNITS_PER_M_PER_S,
+        f64::from(steepest) / UNITS_PER_M_PER_S / 0.01
+    );
+    assert!(
+        (-4.5..0.0).contains(&trolley),
+        "short of the target: {trolley:.3} m"
+    );
+    assert!(
+        (trolley / -5.0 - winch / 1.0).abs() < 1e-3,
+        "on the path: {trolley:.4} m and {winch:.4} m"
+    );
+    let after = run
+        .iter()
+        .filter(|c| (entered..entered + 500).contains(&c.now_ms))
+        .filter(|c| c.setpoints[0].units() > 0)
+        .count();
+    assert!(
+        after > 10,
+        "the stick drives at once: {after} cycles forward"
+    );
+    let rest = rests_from(&run, 17_000, 23_000).expect("at rest before the withdrawal");
+    assert!(rest < 23_000, "at rest from {rest} ms");
     let last = *modes(&run).last().unwrap();
     assert_eq!(last.1, 1, "manual mode left at rest ({last:?})");
     assert_eq!(run.last().unwrap().mode, Mode::Ready);
