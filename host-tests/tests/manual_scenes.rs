@@ -9,6 +9,7 @@
 use std::path::{Path, PathBuf};
 
 use controller::canopen::{cob, emcy, CONTROLLER_NODE};
+use controller::commands::Request;
 use controller::commands::STATUS_ID;
 use controller::controller::MODEL_REST_CYCLES;
 use controller::operator::MANUAL_MODE_CODE;
@@ -17,7 +18,7 @@ use controller::Mode;
 use host_tests::firmware::{controller_reference, ReferenceCycle};
 use scene::commissioning::CommissioningFile;
 use scene::Scene;
-use sim::scenario::Event;
+use sim::scenario::{Action, Event, MANUAL_HANDOVER_REFUSED, MANUAL_TAKEOVER_3D};
 use sim::{
     Scenario, MANUAL_DEADMAN, MANUAL_PROFILE, MANUAL_PROFILE_3D, MANUAL_TAKEOVER, STICK_PERIOD_MS,
 };
@@ -210,12 +211,30 @@ fn the_profile_lowers_the_hoist_while_travelling() {
     assert!(both > 100, "{both} cycles travelling and lowering");
 }
 
-/// The trolley's travel over `run` from its set points, m (what a drive that follows
+/// The travel of the drive `axis` (the set points' order: planar trolley, winch; 3D
+/// bridge, trolley, hoist) over `run` from its set points, m (what a drive that follows
 /// them travels).
-fn trolley_travel(run: &[ReferenceCycle]) -> f64 {
+fn travel(run: &[ReferenceCycle], axis: usize) -> f64 {
     run.iter()
-        .map(|c| f64::from(c.setpoints[0].units()) / UNITS_PER_M_PER_S * 0.01)
+        .map(|c| f64::from(c.setpoints[axis].units()) / UNITS_PER_M_PER_S * 0.01)
         .sum()
+}
+
+/// The move-taken-over EMCY (0xFF22) of `run`, exactly once: when, and its detail byte
+/// (0 at once, 1 at the on-path stop's rest).
+fn taken_over(run: &[ReferenceCycle]) -> (u32, u8) {
+    let emcy = cob::EMCY + u16::from(CONTROLLER_NODE);
+    let taken: Vec<(u32, u8)> = run
+        .iter()
+        .flat_map(|c| {
+            c.frames
+                .iter()
+                .filter(|f| f.id() == emcy && f.data()[..2] == emcy::MOVE_TAKEN_OVER.to_le_bytes())
+                .map(move |f| (c.now_ms, f.data()[5]))
+        })
+        .collect();
+    assert_eq!(taken.len(), 1, "EMCY 0xFF22 once: {taken:?}");
+    taken[0]
 }
 
 /// The operator takes over the scene's automatic move at 4 s (`sim::MANUAL_TAKEOVER`):
@@ -230,18 +249,7 @@ fn the_operator_takes_over_the_scene_s_move() {
     let scene = "paper-crane-manual.toml";
     let run = run(scene, &MANUAL_TAKEOVER);
     assert_eq!(run.len(), MANUAL_TAKEOVER.cycles as usize, "ran to the end");
-    let emcy = cob::EMCY + u16::from(CONTROLLER_NODE);
-    let taken: Vec<(u32, u8)> = run
-        .iter()
-        .flat_map(|c| {
-            c.frames
-                .iter()
-                .filter(|f| f.id() == emcy && f.data()[..2] == emcy::MOVE_TAKEN_OVER.to_le_bytes())
-                .map(move |f| (c.now_ms, f.data()[5]))
-        })
-        .collect();
-    assert_eq!(taken.len(), 1, "EMCY 0xFF22 once: {taken:?}");
-    let (taken, how) = taken[0];
+    let (taken, how) = taken_over(&run);
     assert!((4_000..4_100).contains(&taken), "taken over at {taken} ms");
     assert_eq!(how, emcy::TAKEN_OVER_AT_ONCE, "at once");
     let manual = run
@@ -267,7 +275,7 @@ fn the_operator_takes_over_the_scene_s_move() {
             ..MANUAL_TAKEOVER
         },
     );
-    let (held, stopped) = (trolley_travel(&run), trolley_travel(&pulsed));
+    let (held, stopped) = (travel(&run, 0), travel(&pulsed, 0));
     assert!(
         held - stopped > 1.0,
         "the stick carried the trolley {held:.3} m, its stop alone {stopped:.3} m"
@@ -279,6 +287,184 @@ fn the_operator_takes_over_the_scene_s_move() {
     assert!(rest < 15_000, "at rest from {rest} ms");
     let modes = modes(&run);
     let last = modes.last().unwrap();
+    assert_eq!(last.1, 1, "manual mode left at rest ({last:?})");
+    assert_eq!(run.last().unwrap().mode, Mode::Ready);
+}
+
+/// [`MANUAL_TAKEOVER`] with the stick centred again one frame after each deflection: the
+/// take-over with the move's own stop alone.
+fn pulsed(scenario: &Scenario) -> Scenario {
+    let mut events = Vec::new();
+    for (i, e) in scenario.events.iter().enumerate() {
+        events.push(*e);
+        let next = scenario.events.get(i + 1);
+        if matches!(e.action, Action::Stick(s) if s.demand != [0; 3]) {
+            if let Some(n) = next {
+                events.push(Event {
+                    at_ms: e.at_ms + STICK_PERIOD_MS,
+                    action: n.action,
+                });
+            }
+        }
+    }
+    Scenario {
+        events: Box::leak(events.into_boxed_slice()),
+        ..*scenario
+    }
+}
+
+/// The operator takes over the 3D scene's move halfway (`MANUAL_TAKEOVER_3D`): EMCY
+/// 0xFF22 once, at 5 s, detail 0 (at once), manual mode from that very cycle, the
+/// diagonal half stick live at once — against the same take-over with the stick centred
+/// again 30 ms after it (the move's own stop alone), its 4 s carry the bridge more than
+/// a metre farther forward and the trolley more than a metre farther back —, at rest
+/// after the release, manual mode left at rest, ready.
+#[test]
+fn the_operator_takes_over_the_3d_scene_s_move() {
+    let scene = "crane3d/crane3d-manual.toml";
+    let run = run(scene, &MANUAL_TAKEOVER_3D);
+    assert_eq!(
+        run.len(),
+        MANUAL_TAKEOVER_3D.cycles as usize,
+        "ran to the end"
+    );
+    let (taken, how) = taken_over(&run);
+    assert!((5_000..5_100).contains(&taken), "taken over at {taken} ms");
+    assert_eq!(how, emcy::TAKEN_OVER_AT_ONCE, "at once");
+    let manual = run
+        .iter()
+        .find(|c| c.status_mode == MANUAL_MODE_CODE)
+        .map(|c| c.now_ms)
+        .expect("manual mode entered");
+    assert_eq!(manual, taken, "manual mode in the take-over's cycle");
+    let stopped = self::run(scene, &pulsed(&MANUAL_TAKEOVER_3D));
+    let (bridge, trolley) = (
+        travel(&run, 0) - travel(&stopped, 0),
+        travel(&run, 1) - travel(&stopped, 1),
+    );
+    println!("3D take-over: the stick carried the bridge {bridge:.3} m and the trolley {trolley:.3} m beyond the move's stop alone");
+    assert!(bridge > 1.0, "the bridge {bridge:.3} m farther forward");
+    assert!(trolley < -1.0, "the trolley {trolley:.3} m farther back");
+    let rest = rests_from(&run, 9_000, 15_000).expect("at rest before the withdrawal");
+    assert!(rest < 15_000, "at rest from {rest} ms");
+    let last = *modes(&run).last().unwrap();
+    assert_eq!(last.1, 1, "manual mode left at rest ({last:?})");
+    assert_eq!(run.last().unwrap().mode, Mode::Ready);
+}
+
+/// The hand-over refused on the planar scene (`MANUAL_HANDOVER_REFUSED`): the stick
+/// deflected at 10.3 s during a move as fast as the limits allow, whose trolley no stop
+/// of the generator's keeps within the room the operator leaves. EMCY 0xFF22 once, in
+/// the cycle that reads the frame, detail 1; manual mode not entered then (mode 1) but
+/// at the on-path stop's rest; the set points up to that rest exactly those of a stop
+/// request (0x210) in the same cycle instead of the deflection; the load rests on the
+/// move's path (trolley and winch the same share of their way, 5 m back and 1 m down)
+/// short of its target; the stick live from the entry (the trolley goes forward at once,
+/// no re-centring), at rest after the release, manual mode left at rest, ready.
+#[test]
+fn a_refused_hand_over_ends_the_move_with_the_planner_s_stop() {
+    let scene = "paper-crane-manual.toml";
+    let scenario = MANUAL_HANDOVER_REFUSED;
+    let run = run(scene, &scenario);
+    assert_eq!(run.len(), scenario.cycles as usize, "ran to the end");
+    let (taken, how) = taken_over(&run);
+    assert!(
+        (10_300..10_400).contains(&taken),
+        "taken over at {taken} ms"
+    );
+    assert_eq!(how, emcy::TAKEN_OVER_AT_REST, "at the on-path stop's rest");
+    let entered = run
+        .iter()
+        .find(|c| c.status_mode == MANUAL_MODE_CODE)
+        .map(|c| c.now_ms)
+        .expect("manual mode entered");
+    let rest = rests_from(&run, 9_600, entered).expect("the move ran");
+    assert!(
+        entered > taken && entered >= rest,
+        "entered at {entered} ms, the stop at rest from {rest} ms"
+    );
+    // The same run with a stop request in the deflection's stead.
+    let stop_events: Vec<Event> = scenario
+        .events
+        .iter()
+        .map(|e| match e.action {
+            Action::Stick(s) if s.demand != [0; 3] && e.at_ms == 10_300 => Event {
+                at_ms: e.at_ms,
+                action: Action::Request(Request::Stop { id: 3 }),
+            },
+            _ => *e,
+        })
+        .collect();
+    let stopped = self::run(
+        scene,
+        &Scenario {
+            events: Box::leak(stop_events.into_boxed_slice()),
+            ..scenario
+        },
+    );
+    let until = |r: &[ReferenceCycle]| -> Vec<Vec<i32>> {
+        r.iter()
+            .filter(|c| c.now_ms < entered)
+            .map(|c| c.setpoints.iter().map(|s| s.units()).collect())
+            .collect()
+    };
+    assert_eq!(
+        until(&run),
+        until(&stopped),
+        "the planner's stop, to the unit"
+    );
+    let moved = |r: &[ReferenceCycle], axis: usize| {
+        let part: Vec<ReferenceCycle> = r
+            .iter()
+            .filter(|c| (9_000..entered).contains(&c.now_ms))
+            .cloned()
+            .collect();
+        travel(&part, axis)
+    };
+    let (trolley, winch) = (moved(&run, 0), moved(&run, 1));
+    let fastest = run
+        .iter()
+        .filter(|c| c.now_ms < taken)
+        .map(|c| c.setpoints[0].units().unsigned_abs())
+        .max()
+        .unwrap();
+    let before: Vec<i32> = run
+        .iter()
+        .filter(|c| c.now_ms <= taken)
+        .map(|c| c.setpoints[0].units())
+        .collect();
+    let steepest = before
+        .windows(2)
+        .map(|w| (w[1] - w[0]).unsigned_abs())
+        .max()
+        .unwrap();
+    println!(
+        "refused hand-over: the trolley at up to {:.3} m/s and {:.2} m/s² before it; the stop \
+         rested after {trolley:.3} m of the trolley's -5 m and {winch:.3} m of the winch's 1 m; \
+         manual mode from {entered} ms",
+        f64::from(fastest) / UNITS_PER_M_PER_S,
+        f64::from(steepest) / UNITS_PER_M_PER_S / 0.01
+    );
+    assert!(
+        (-4.5..0.0).contains(&trolley),
+        "short of the target: {trolley:.3} m"
+    );
+    assert!(
+        (trolley / -5.0 - winch / 1.0).abs() < 1e-3,
+        "on the path: {trolley:.4} m and {winch:.4} m"
+    );
+    let after = run
+        .iter()
+        .filter(|c| (entered..entered + 500).contains(&c.now_ms))
+        .filter(|c| c.setpoints[0].units() > 0)
+        .count();
+    assert!(
+        after > 10,
+        "the stick drives at once: {after} cycles forward"
+    );
+    let rest = rests_from(&run, 17_000, 23_000).expect("at rest before the withdrawal");
+    assert!(rest < 23_000, "at rest from {rest} ms");
+    let last = *modes(&run).last().unwrap();
     assert_eq!(last.1, 1, "manual mode left at rest ({last:?})");
     assert_eq!(run.last().unwrap().mode, Mode::Ready);
 }

@@ -501,13 +501,68 @@ pub const MANUAL_TAKEOVER: Scenario = Scenario {
     plant: None,
 };
 
+/// [`MANUAL_TAKEOVER`] on the 3D crane: its scene's automatic move (1–9 s, bridge,
+/// trolley and hoist together) taken over halfway, at 5 s, by a diagonal half stick —
+/// the bridge on forward, the trolley back against the move — in the cycle that reads
+/// the frame (EMCY 0xFF22, detail 0): the move ends with the generator's own stop and
+/// the stick's vector adds to it at once; released at 9 s, the request withdrawn at rest
+/// at 15 s (manual mode left).
+pub const MANUAL_TAKEOVER_3D: Scenario = Scenario {
+    name: "manual-takeover-3d",
+    expect: "ready (mode 1): the move taken over at 5 s (EMCY 0xFF22, detail 0), manual mode \
+             in the same cycle with the diagonal stick live, released, left at rest",
+    events: &[
+        at(3_000, stick([0, 0, 0])),
+        at(5_000, stick([HALF, -HALF, 0])),
+        at(9_000, stick([0, 0, 0])),
+        at(15_000, AUTOMATIC),
+    ],
+    ..MANUAL_TAKEOVER
+};
+
+/// A hand-over refused: after the scene's move (at rest at (20, 4) from 9 s) a move back
+/// and down to (15, 5) as fast as the limits allow (from 9.55 s; its trolley's set point
+/// rising at up to 2.47 m/s² before 10.3 s, more than the 2.1 m/s² its drive leaves a
+/// hand-over's stop beside the operator's manual acceleration, 0.95 · 3 − 1.5 · 0.5:
+/// `controller::operator::path::room`; `cargo test -p host-tests --test manual_scenes
+/// refused -- --nocapture` prints it); manual mode requested with
+/// the stick centred at 10 s (the take-over armed), half stick forward at 10.3 s — no
+/// stop of the generator's fits, so the move ends with the planner's on-path stop (EMCY
+/// 0xFF22, detail 1: the stop a request on 0x210 would have started in that cycle), the
+/// load rests on the move's path short of its target, and manual mode is entered at that
+/// rest with the stick live (no re-centring): the load goes forward at half stick;
+/// released at 17 s, the request withdrawn at rest at 23 s (manual mode left).
+pub const MANUAL_HANDOVER_REFUSED: Scenario = Scenario {
+    name: "manual-handover-refused",
+    expect: "ready (mode 1): the hand-over refused at 10.3 s (EMCY 0xFF22, detail 1), the move \
+             ended with its on-path stop, manual mode at its rest with the stick live, \
+             released, left at rest",
+    events: &[
+        at(9_500, move_to(2, 15.0, 5.0, 0.0)),
+        at(10_000, stick([0, 0, 0])),
+        at(10_300, stick([HALF, 0, 0])),
+        at(17_000, stick([0, 0, 0])),
+        at(23_000, AUTOMATIC),
+    ],
+    cycles: 2_500,
+    random: None,
+    ends: Ending::Ready,
+    plant: None,
+};
+
 /// The scenarios of the planar crane's scene with manual mode
 /// (`scenes/paper-crane-manual.toml`).
-pub const MANUAL_SCENARIOS: [Scenario; 3] = [MANUAL_PROFILE, MANUAL_DEADMAN, MANUAL_TAKEOVER];
+pub const MANUAL_SCENARIOS: [Scenario; 4] = [
+    MANUAL_PROFILE,
+    MANUAL_DEADMAN,
+    MANUAL_TAKEOVER,
+    MANUAL_HANDOVER_REFUSED,
+];
 
 /// The scenarios of the 3D crane's scene with manual mode
 /// (`scenes/crane3d/crane3d-manual.toml`).
-pub const MANUAL_3D_SCENARIOS: [Scenario; 2] = [MANUAL_PROFILE_3D, MANUAL_DEADMAN];
+pub const MANUAL_3D_SCENARIOS: [Scenario; 3] =
+    [MANUAL_PROFILE_3D, MANUAL_DEADMAN, MANUAL_TAKEOVER_3D];
 
 /// Every scenario, by name.
 pub const SCENARIOS: [Scenario; 11] = [
@@ -631,7 +686,7 @@ pub fn scenario(name: &str) -> Option<Scenario> {
         .chain(FEEDBACK_SCENARIOS)
         .chain(CRANE3D_SCENARIOS)
         .chain(MANUAL_SCENARIOS)
-        .chain([MANUAL_PROFILE_3D])
+        .chain(MANUAL_3D_SCENARIOS)
         .chain([SOAK])
         .find(|s| s.name == name)
 }
