@@ -41,13 +41,23 @@ pub fn brake(n: i64) -> i64 {
     }
     let step = i64::from(MAX_STEP);
     // The quotient in 32 bits where it fits (every speed a crane reaches): one hardware
-    // divide on the Cortex-M7, which has none for 64 bits.
+    // divide on the Cortex-M7, which has none for 64 bits. The wide one out of line: inlined,
+    // the compiler called the soft `__aeabi_uldivmod` on every call and chose between the
+    // two quotients after (`cargo xtask cycles` found `__aeabi_uldivmod` in the 3D
+    // generator's profile, called from `Axis::braked`).
     let j = match i32::try_from(n) {
         Ok(n32) => i64::from(n32 / MAX_STEP),
-        Err(_) => n / step,
+        Err(_) => wide_quotient(n),
     };
     let f = n - j * step;
     2 * j * n - step * j * j + f
+}
+
+/// `n / 127` for an `n` beyond 32 bits, in a call of its own (see [`brake`]).
+#[cold]
+#[inline(never)]
+fn wide_quotient(n: i64) -> i64 {
+    n / i64::from(MAX_STEP)
 }
 
 /// One axis of the rate limiter.
