@@ -511,7 +511,8 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             .robust
             .then(|| zv_cycles(depth_now, s.g, h, Rounding::Nearest));
         let [b1, b2] = self.boxes;
-        let windows = Taps::new(&[Factor::Window(b1), Factor::Window(b2)]);
+        // The windows' taps as `reset` merged them (they never change), not merged anew.
+        let windows = self.horizontal.taps().without_pairs();
         let taps = match robust {
             Some(m_r) => windows.with_pairs(&[m_g, m_r]),
             None => windows.with_pairs(&[m_g]),

@@ -117,6 +117,12 @@ impl<const W: usize, const R: usize> Group<W, R> {
         self.sums = Sums::REST;
     }
 
+    /// The filter's numerator.
+    #[must_use]
+    pub fn taps(&self) -> &Taps {
+        &self.taps
+    }
+
     /// Each axis's quanta.
     #[must_use]
     pub fn quanta(&self) -> [Quanta; W] {
