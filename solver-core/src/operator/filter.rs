@@ -39,6 +39,26 @@ pub fn i64_to_f64(x: i64) -> f64 {
     f64::from(hi) * 4_294_967_296.0 + f64::from(lo)
 }
 
+/// `x as f64`, the same value: in one hardware conversion where it fits 32 bits (every
+/// filter's normalisation here), where `as f64` on a `u64` is the soft `__aeabi_ul2d` on
+/// the Cortex-M7, which a motion's start called.
+#[must_use]
+#[inline]
+pub fn u64_to_f64(x: u64) -> f64 {
+    match u32::try_from(x) {
+        Ok(small) => f64::from(small),
+        Err(_) => wide_u64_to_f64(x),
+    }
+}
+
+/// `x as f64` out of line (see [`u64_to_f64`]): inlined, the soft conversion could be
+/// made unconditional, as `as i64` once was in the rate limiter.
+#[cold]
+#[inline(never)]
+fn wide_u64_to_f64(x: u64) -> f64 {
+    x as f64
+}
+
 /// Most taps of a filter's numerator: four factors, `2⁴` terms before merging.
 pub const MAX_TAPS: usize = 16;
 
@@ -454,6 +474,19 @@ mod tests {
                 assert_eq!(paired.without_pairs(), windows, "{b1}, {b2}: {pairs:?}");
             }
         }
+    }
+
+    /// The 32-bit conversion is `as f64` for every u64 size.
+    #[test]
+    fn the_unsigned_conversion_is_as_f64() {
+        let check = |x: u64| assert_eq!(u64_to_f64(x).to_bits(), (x as f64).to_bits(), "{x}");
+        for b in 0..64 {
+            for d in [0, 1, 2, 3] {
+                check((1_u64 << b).wrapping_add(d));
+                check((1_u64 << b).wrapping_sub(d));
+            }
+        }
+        check(u64::MAX);
     }
 
     #[test]

@@ -9,7 +9,7 @@ use crate::operator::entry::{
 };
 use crate::operator::filter::{i64_to_f64, Factor, Taps};
 use crate::operator::group::Group;
-use crate::operator::limiter::brake;
+use crate::operator::limiter::{brake, truncate};
 use crate::operator::piece::{Piece, HOIST_COEFFS};
 use crate::operator::settings::{cycles, zv_cycles, Quanta, Rounding, Settings};
 use crate::scalar::{c, to_f64, Real};
@@ -486,9 +486,11 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         let axis = self.hoist.axes[0];
         let zq = self.hoist.quanta()[0];
         let reach = self.reach.max(axis.n_p + brake(axis.n_v));
-        let allowance = libm::floor(s.lowering_allowance / zq.position) as i64;
+        // The integers converted in 32 bits where they fit (`truncate`, `i64_to_f64`): the
+        // same values without the soft `__aeabi_d2lz` and `__aeabi_l2d` at every start.
+        let allowance = truncate(libm::floor(s.lowering_allowance / zq.position));
         let cap_units = reach.saturating_add(allowance).min(self.hoist.bounds[0].1);
-        let depth_cap = self.hoist.origin[0] + cap_units as f64 * zq.position;
+        let depth_cap = self.hoist.origin[0] + i64_to_f64(cap_units) * zq.position;
         // While a hand-over's stop lasts, its load may be deeper by its excursion and
         // braked downwards: the pendulum is never shorter than that load's effective one
         // (`z g/(g − z̈)`), nor longer than the ring holds.

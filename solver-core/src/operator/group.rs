@@ -2,7 +2,7 @@
 //! vector, one ring, the virtual pendulum) or the hoist (its own limiter and windows).
 //! Each cycle: the limiter's steps, the discrete filter, one piece per axis.
 
-use crate::operator::filter::{i64_to_f64, Ring, Sums, Taps};
+use crate::operator::filter::{i64_to_f64, u64_to_f64, Ring, Sums, Taps};
 use crate::operator::limiter::{self, Axis};
 use crate::operator::piece::{spline, Inputs, Piece};
 use crate::operator::settings::Quanta;
@@ -108,7 +108,7 @@ impl<const W: usize, const R: usize> Group<W, R> {
         self.taps = taps;
         self.omega_h = omega_h;
         self.window = taps.longest() + 1;
-        let norm = taps.norm() as f64;
+        let norm = u64_to_f64(taps.norm());
         let quanta = self.quanta();
         for (s, q) in self.scale.iter_mut().zip(quanta) {
             *s = q.acceleration / norm;
