@@ -160,15 +160,20 @@ impl Taps {
                 break;
             }
             let shift = u16::try_from(*m).unwrap_or(u16::MAX);
-            let (delay, weight) = (out.delay, out.weight);
-            for ((d, w), (sd, sw)) in delay
-                .iter()
-                .zip(weight)
-                .take(len)
-                .zip(out.delay.iter_mut().zip(out.weight.iter_mut()).skip(len))
-            {
-                *sd = d.saturating_add(shift);
-                *sw = w;
+            // Indexed, in place: term `i` is copied to `len + i` (the terms read are never
+            // the ones written). Written with iterators over copies of both arrays, it was
+            // compiled to those copies and a loop of bounds checks, once per motion's
+            // start.
+            for i in 0..len {
+                let (Some(&d), Some(&w)) = (out.delay.get(i), out.weight.get(i)) else {
+                    break;
+                };
+                if let (Some(sd), Some(sw)) =
+                    (out.delay.get_mut(len + i), out.weight.get_mut(len + i))
+                {
+                    *sd = d.saturating_add(shift);
+                    *sw = w;
+                }
             }
             out.len = (2 * len) as u8;
             out.norm = out.norm.saturating_mul(2);
