@@ -39,6 +39,26 @@ pub fn i64_to_f64(x: i64) -> f64 {
     f64::from(hi) * 4_294_967_296.0 + f64::from(lo)
 }
 
+/// `x as f64`, the same value: in one hardware conversion where it fits 32 bits (every
+/// filter's normalisation here), where `as f64` on a `u64` is the soft `__aeabi_ul2d` on
+/// the Cortex-M7, which a motion's start called.
+#[must_use]
+#[inline]
+pub fn u64_to_f64(x: u64) -> f64 {
+    match u32::try_from(x) {
+        Ok(small) => f64::from(small),
+        Err(_) => wide_u64_to_f64(x),
+    }
+}
+
+/// `x as f64` out of line (see [`u64_to_f64`]): inlined, the soft conversion could be
+/// made unconditional, as `as i64` once was in the rate limiter.
+#[cold]
+#[inline(never)]
+fn wide_u64_to_f64(x: u64) -> f64 {
+    x as f64
+}
+
 /// Most taps of a filter's numerator: four factors, `2⁴` terms before merging.
 pub const MAX_TAPS: usize = 16;
 
@@ -62,6 +82,10 @@ pub struct Taps {
     len: u8,
     /// How many factors are windows: the running sums after the taps.
     windows: u8,
+    /// The terms of the windows alone: the first ones ([`Taps::with_pairs`] appends).
+    unpaired: u8,
+    /// How many pairs [`Taps::with_pairs`] multiplied in (each doubled `norm`).
+    pairs: u8,
     /// `Π m_i · 2^pairs`: the factors' normalisation.
     norm: u64,
 }
@@ -97,8 +121,30 @@ impl Taps {
             weight,
             len: len as u8,
             windows,
+            unpaired: len as u8,
+            pairs: 0,
             norm,
         }
+    }
+
+    /// These taps without the pairs [`Taps::with_pairs`] multiplied in: the windows'
+    /// taps as [`Taps::new`] made them, without merging them again. What a motion's start
+    /// retunes the horizontal filter from (its `Taps::new` was about a quarter of the
+    /// start's retuning, `cargo xtask cycles`' profile). `norm` halved per pair: exact
+    /// while it did not saturate (two windows of at most `u16::MAX` cycles and two pairs
+    /// stay below 2³⁴).
+    #[must_use]
+    pub fn without_pairs(&self) -> Self {
+        let mut out = *self;
+        let len = usize::from(self.unpaired);
+        for (d, w) in out.delay.iter_mut().zip(out.weight.iter_mut()).skip(len) {
+            *d = 0;
+            *w = 0;
+        }
+        out.len = self.unpaired;
+        out.norm = self.norm.checked_shr(u32::from(self.pairs)).unwrap_or(0);
+        out.pairs = 0;
+        out
     }
 
     /// These taps times zero-vibration pairs with the delays `pairs` (as many as fit
@@ -114,18 +160,24 @@ impl Taps {
                 break;
             }
             let shift = u16::try_from(*m).unwrap_or(u16::MAX);
-            let (delay, weight) = (out.delay, out.weight);
-            for ((d, w), (sd, sw)) in delay
-                .iter()
-                .zip(weight)
-                .take(len)
-                .zip(out.delay.iter_mut().zip(out.weight.iter_mut()).skip(len))
-            {
-                *sd = d.saturating_add(shift);
-                *sw = w;
+            // Indexed, in place: term `i` is copied to `len + i` (the terms read are never
+            // the ones written). Written with iterators over copies of both arrays, it was
+            // compiled to those copies and a loop of bounds checks, once per motion's
+            // start.
+            for i in 0..len {
+                let (Some(&d), Some(&w)) = (out.delay.get(i), out.weight.get(i)) else {
+                    break;
+                };
+                if let (Some(sd), Some(sw)) =
+                    (out.delay.get_mut(len + i), out.weight.get_mut(len + i))
+                {
+                    *sd = d.saturating_add(shift);
+                    *sw = w;
+                }
             }
             out.len = (2 * len) as u8;
             out.norm = out.norm.saturating_mul(2);
+            out.pairs = out.pairs.saturating_add(1);
         }
         out
     }
@@ -414,6 +466,32 @@ mod tests {
             let shift = (seed % 64) as u32;
             check((seed as i64) >> shift);
         }
+    }
+
+    /// The windows' taps taken back from a filter with pairs are the windows' own, field
+    /// for field, whatever the pairs.
+    #[test]
+    fn the_windows_come_back_without_their_pairs() {
+        for (b1, b2) in [(20, 20), (7, 3), (1, 65_535)] {
+            let windows = Taps::new(&[Factor::Window(b1), Factor::Window(b2)]);
+            for pairs in [&[][..], &[31], &[31, 17], &[5, 5]] {
+                let paired = windows.with_pairs(pairs);
+                assert_eq!(paired.without_pairs(), windows, "{b1}, {b2}: {pairs:?}");
+            }
+        }
+    }
+
+    /// The 32-bit conversion is `as f64` for every u64 size.
+    #[test]
+    fn the_unsigned_conversion_is_as_f64() {
+        let check = |x: u64| assert_eq!(u64_to_f64(x).to_bits(), (x as f64).to_bits(), "{x}");
+        for b in 0..64 {
+            for d in [0, 1, 2, 3] {
+                check((1_u64 << b).wrapping_add(d));
+                check((1_u64 << b).wrapping_sub(d));
+            }
+        }
+        check(u64::MAX);
     }
 
     #[test]

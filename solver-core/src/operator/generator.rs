@@ -9,7 +9,7 @@ use crate::operator::entry::{
 };
 use crate::operator::filter::{i64_to_f64, Factor, Taps};
 use crate::operator::group::Group;
-use crate::operator::limiter::brake;
+use crate::operator::limiter::{brake, truncate};
 use crate::operator::piece::{Piece, HOIST_COEFFS};
 use crate::operator::settings::{cycles, zv_cycles, Quanta, Rounding, Settings};
 use crate::scalar::{c, to_f64, Real};
@@ -425,10 +425,15 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             }
         }
         self.hoist.bounds = [unit_bounds(z_range, z_end, &zq)];
-        for (p, d) in self.horizontal.pieces.iter_mut().zip(&state.horizontal) {
+        for (p, d) in self
+            .horizontal
+            .pieces_mut()
+            .iter_mut()
+            .zip(&state.horizontal)
+        {
             *p = taylor(d);
         }
-        self.hoist.pieces = [taylor(&state.hoist)];
+        *self.hoist.pieces_mut() = [taylor(&state.hoist)];
         let mut blend = new_blend(stop.cycles, h, &stop.horizontal.map(|a| a.e), &stop.hoist.e);
         blend.hoist_extent = [stop.hoist.high, stop.hoist.down.max(0.0)];
         self.blend = Some(blend);
@@ -481,9 +486,11 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         let axis = self.hoist.axes[0];
         let zq = self.hoist.quanta()[0];
         let reach = self.reach.max(axis.n_p + brake(axis.n_v));
-        let allowance = libm::floor(s.lowering_allowance / zq.position) as i64;
+        // The integers converted in 32 bits where they fit (`truncate`, `i64_to_f64`): the
+        // same values without the soft `__aeabi_d2lz` and `__aeabi_l2d` at every start.
+        let allowance = truncate(libm::floor(s.lowering_allowance / zq.position));
         let cap_units = reach.saturating_add(allowance).min(self.hoist.bounds[0].1);
-        let depth_cap = self.hoist.origin[0] + cap_units as f64 * zq.position;
+        let depth_cap = self.hoist.origin[0] + i64_to_f64(cap_units) * zq.position;
         // While a hand-over's stop lasts, its load may be deeper by its excursion and
         // braked downwards: the pendulum is never shorter than that load's effective one
         // (`z g/(g − z̈)`), nor longer than the ring holds.
@@ -501,12 +508,13 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         let omega_g = core::f64::consts::PI / (m_g as f64 * h);
         // The rope now: the load's depth at this cycle's start (it hangs straight at
         // horizontal rest), within the range the ring is sized for.
-        let depth_now = self.hoist.pieces[0].coeffs[0].min(s.hoist.range.1);
+        let depth_now = self.hoist.pieces()[0].coeffs[0].min(s.hoist.range.1);
         let robust = s
             .robust
             .then(|| zv_cycles(depth_now, s.g, h, Rounding::Nearest));
         let [b1, b2] = self.boxes;
-        let windows = Taps::new(&[Factor::Window(b1), Factor::Window(b2)]);
+        // The windows' taps as `reset` merged them (they never change), not merged anew.
+        let windows = self.horizontal.taps().without_pairs();
         let taps = match robust {
             Some(m_r) => windows.with_pairs(&[m_g, m_r]),
             None => windows.with_pairs(&[m_g]),
@@ -578,8 +586,8 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         self.horizontal.cycle(targets, bounds, s.h, self.inv_h);
         self.hoist_blended = self.blend.is_some();
         if let Some(b) = self.blend.as_mut() {
-            let [hoist] = &mut self.hoist.pieces;
-            if !b.add(&mut self.horizontal.pieces, hoist) {
+            let [hoist] = self.hoist.pieces_mut();
+            if !b.add(self.horizontal.pieces_mut(), hoist) {
                 self.blend = None;
                 self.widen();
             }
@@ -650,11 +658,22 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
     pub fn evaluate<const D: usize>(&self, t: f64) -> ([[f64; D]; NH], [f64; D]) {
         let theta = (t - self.time()) * self.inv_h;
         let mut out = [[0.0; D]; NH];
-        for (o, p) in out.iter_mut().zip(self.horizontal.pieces.iter()) {
-            *o = p.eval(theta, self.inv_h);
+        for (o, (p, constant)) in out.iter_mut().zip(
+            self.horizontal
+                .pieces()
+                .iter()
+                .zip(self.horizontal.constant()),
+        ) {
+            *o = if constant {
+                p.eval_constant(theta)
+            } else {
+                p.eval(theta, self.inv_h)
+            };
         }
-        let [hoist] = &self.hoist.pieces;
-        let hoist = if self.hoist_blended {
+        let [hoist] = self.hoist.pieces();
+        let hoist = if self.hoist.constant()[0] {
+            hoist.eval_constant(theta)
+        } else if self.hoist_blended {
             hoist.eval(theta, self.inv_h)
         } else {
             hoist.eval_below::<D, HOIST_COEFFS>(theta, self.inv_h)

@@ -2,7 +2,7 @@
 //! vector, one ring, the virtual pendulum) or the hoist (its own limiter and windows).
 //! Each cycle: the limiter's steps, the discrete filter, one piece per axis.
 
-use crate::operator::filter::{i64_to_f64, Ring, Sums, Taps};
+use crate::operator::filter::{i64_to_f64, u64_to_f64, Ring, Sums, Taps};
 use crate::operator::limiter::{self, Axis};
 use crate::operator::piece::{spline, Inputs, Piece};
 use crate::operator::settings::Quanta;
@@ -27,7 +27,7 @@ pub struct Group<const W: usize, const R: usize> {
     /// `δa_i / norm`: a running sum's output in m/s².
     scale: [f64; W],
     /// The path on the current cycle.
-    pub pieces: [Piece; W],
+    pieces: [Piece; W],
     /// Cycles in a row with every step zero, this one included.
     quiet: usize,
     /// Quiet cycles after which a group at zero speed is exactly at rest: the numerator's
@@ -37,6 +37,13 @@ pub struct Group<const W: usize, const R: usize> {
     omega_h: Option<f64>,
     /// Whether the current cycle's path is constant.
     at_rest: bool,
+    /// Per axis: its piece is its rest position alone, as [`Piece::settle`] leaves it
+    /// (every coefficient but the first +0.0, the filter states zero), and nothing was
+    /// added to it since ([`Group::pieces_mut`] clears it). Such a piece is neither built
+    /// nor evaluated term by term ([`Piece::eval_constant`]): an axis of a moving group
+    /// that stands still (the 3D crane's trolley while the bridge travels) cost its
+    /// spline, its build and thirty multiply-adds an evaluation, every cycle, for zeros.
+    constant: [bool; W],
 }
 
 impl<const W: usize, const R: usize> Group<W, R> {
@@ -65,6 +72,7 @@ impl<const W: usize, const R: usize> Group<W, R> {
             window: 0,
             omega_h: None,
             at_rest: true,
+            constant: [true; W],
         }
     }
 
@@ -87,6 +95,7 @@ impl<const W: usize, const R: usize> Group<W, R> {
         self.quanta = accelerations.map(|a| Quanta::new(a, h));
         self.bounds = bounds;
         self.pieces = origin.map(Piece::rest);
+        self.constant = [true; W];
         self.quiet = usize::MAX;
         self.at_rest = true;
         // Forgets the ring and clears the sums.
@@ -99,7 +108,7 @@ impl<const W: usize, const R: usize> Group<W, R> {
         self.taps = taps;
         self.omega_h = omega_h;
         self.window = taps.longest() + 1;
-        let norm = taps.norm() as f64;
+        let norm = u64_to_f64(taps.norm());
         let quanta = self.quanta();
         for (s, q) in self.scale.iter_mut().zip(quanta) {
             *s = q.acceleration / norm;
@@ -108,10 +117,35 @@ impl<const W: usize, const R: usize> Group<W, R> {
         self.sums = Sums::REST;
     }
 
+    /// The filter's numerator.
+    #[must_use]
+    pub fn taps(&self) -> &Taps {
+        &self.taps
+    }
+
     /// Each axis's quanta.
     #[must_use]
     pub fn quanta(&self) -> [Quanta; W] {
         self.quanta
+    }
+
+    /// The path on the current cycle, per axis.
+    #[must_use]
+    pub fn pieces(&self) -> &[Piece; W] {
+        &self.pieces
+    }
+
+    /// The pieces to write to (a hand-over's path, its blend): none counts as constant
+    /// until a cycle settles it again.
+    pub fn pieces_mut(&mut self) -> &mut [Piece; W] {
+        self.constant = [false; W];
+        &mut self.pieces
+    }
+
+    /// Per axis, whether its piece is its rest position alone (see the field).
+    #[must_use]
+    pub fn constant(&self) -> [bool; W] {
+        self.constant
     }
 
     /// Whether the current cycle's path is constant (exactly: every derivative 0.0).
@@ -138,13 +172,14 @@ impl<const W: usize, const R: usize> Group<W, R> {
             // and the running sums stay zero; the pieces are the rest positions again (a
             // hand-over's blend may have been added to the last ones).
             self.quiet = self.quiet.saturating_add(1);
-            for ((piece, o), (a, q)) in self
+            for (((piece, constant), o), (a, q)) in self
                 .pieces
                 .iter_mut()
+                .zip(self.constant.iter_mut())
                 .zip(self.origin)
                 .zip(self.axes.iter().zip(self.quanta))
             {
-                piece.settle(o + i64_to_f64(a.n_p) * q.position);
+                settle(piece, constant, o + i64_to_f64(a.n_p) * q.position);
             }
             return;
         }
@@ -171,20 +206,33 @@ impl<const W: usize, const R: usize> Group<W, R> {
         };
         self.at_rest = resting && self.quiet >= self.window;
         let q = self.taps.windows();
-        for (i, piece) in self.pieces.iter_mut().enumerate() {
-            let (Some(p), Some(v), Some(ki), Some(n), Some(qa), Some(scale)) = (
+        for (i, (piece, constant)) in self
+            .pieces
+            .iter_mut()
+            .zip(self.constant.iter_mut())
+            .enumerate()
+        {
+            let (Some(p), Some(v), Some(ki), Some(n), Some(qa), Some(scale), Some(axis)) = (
                 p0.get(i),
                 v0.get(i),
                 k.get(i),
                 nabla.get(i),
                 quanta.get(i),
                 self.scale.get(i),
+                self.axes.get(i),
             ) else {
                 continue;
             };
-            if self.at_rest {
-                piece.settle(*p);
+            // An axis that stood still and still does while the group moves: no step, no
+            // speed, the filter's output and its differences zero, the piece settled (its
+            // states zero). Its build would make the same path (`Piece::build` of zero
+            // inputs: the rest position, the other coefficients and states ±0.0, which the
+            // evaluation's sums turn into +0.0 again).
+            let idle = *constant && *ki == 0 && axis.n_v == 0 && n.iter().all(|n| *n == 0);
+            if self.at_rest || idle {
+                settle(piece, constant, *p);
             } else {
+                *constant = false;
                 piece.build(&Inputs {
                     p0: *p,
                     v0: *v,
@@ -196,5 +244,17 @@ impl<const W: usize, const R: usize> Group<W, R> {
                 });
             }
         }
+    }
+}
+
+/// The piece at rest at `position`, `constant` then: only the position written when it was
+/// constant already (the rest of it is zero), no longer the whole piece cleared every
+/// cycle a group rests (`__aeabi_memclr8`).
+fn settle(piece: &mut Piece, constant: &mut bool, position: f64) {
+    if let (true, Some(c0)) = (*constant, piece.coeffs.first_mut()) {
+        *c0 = position;
+    } else {
+        piece.settle(position);
+        *constant = true;
     }
 }

@@ -41,13 +41,23 @@ pub fn brake(n: i64) -> i64 {
     }
     let step = i64::from(MAX_STEP);
     // The quotient in 32 bits where it fits (every speed a crane reaches): one hardware
-    // divide on the Cortex-M7, which has none for 64 bits.
+    // divide on the Cortex-M7, which has none for 64 bits. The wide one out of line: inlined,
+    // the compiler called the soft `__aeabi_uldivmod` on every call and chose between the
+    // two quotients after (`cargo xtask cycles` found `__aeabi_uldivmod` in the 3D
+    // generator's profile, called from `Axis::braked`).
     let j = match i32::try_from(n) {
         Ok(n32) => i64::from(n32 / MAX_STEP),
-        Err(_) => n / step,
+        Err(_) => wide_quotient(n),
     };
     let f = n - j * step;
     2 * j * n - step * j * j + f
+}
+
+/// `n / 127` for an `n` beyond 32 bits, in a call of its own (see [`brake`]).
+#[cold]
+#[inline(never)]
+fn wide_quotient(n: i64) -> i64 {
+    n / i64::from(MAX_STEP)
 }
 
 /// One axis of the rate limiter.
@@ -148,10 +158,15 @@ fn search(good_end: i64, bad: i64, ok: impl Fn(i64) -> bool) -> Option<i64> {
 /// to 0, so no value panics.
 #[must_use]
 pub fn round_i(x: f64) -> i64 {
-    let y = if x >= 0.0 { x + 0.5 } else { x - 0.5 };
-    // Within ±2³¹ (every step of the rate limiter) `as i32` truncates as `as i64` does,
-    // in one hardware conversion where `as i64` is the soft `__aeabi_d2lz` on the
-    // Cortex-M7.
+    truncate(if x >= 0.0 { x + 0.5 } else { x - 0.5 })
+}
+
+/// `y as i64`: towards zero, saturating, NaN to 0.
+#[must_use]
+pub fn truncate(y: f64) -> i64 {
+    // Within ±2³¹ (every step of the rate limiter, the lowering allowance in position
+    // units) `as i32` truncates as `as i64` does, in one hardware conversion where
+    // `as i64` is the soft `__aeabi_d2lz` on the Cortex-M7.
     if libm::fabs(y) < 2_147_483_648.0 {
         i64::from(y as i32)
     } else {
@@ -350,6 +365,34 @@ mod tests {
             let scale = 2.0_f64.powi((seed % 70) as i32 - 5);
             let x = ((seed >> 11) as f64 / (1_u64 << 53) as f64 - 0.5) * scale;
             assert_eq!(round_i(x), reference(x), "{x}");
+        }
+    }
+
+    /// The 32-bit truncation is `as i64` around ±2³¹, at the edges and for random values.
+    #[test]
+    fn truncating_in_32_bits_is_as_i64() {
+        let check = |x: f64| assert_eq!(truncate(x), x as i64, "{x}");
+        let edge = 2_147_483_648.0_f64;
+        for x in [
+            0.0,
+            -0.0,
+            0.99,
+            -0.99,
+            f64::NAN,
+            f64::INFINITY,
+            -f64::INFINITY,
+        ] {
+            check(x);
+        }
+        for d in [-1.5, -1.0, -0.5, 0.0, 0.5, 1.0] {
+            check(edge + d);
+            check(-edge + d);
+        }
+        let mut seed = 17_u64;
+        for _ in 0..100_000 {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let scale = 2.0_f64.powi((seed % 70) as i32 - 5);
+            check(((seed >> 11) as f64 / (1_u64 << 53) as f64 - 0.5) * scale);
         }
     }
 

@@ -327,6 +327,21 @@ impl Piece {
         self.eval_below::<D, COEFFS>(theta, inv_h)
     }
 
+    /// [`Piece::eval`] of a piece at rest as [`Piece::settle`] leaves it (every coefficient
+    /// but the first +0.0), bit for bit, without its steps: those sums add +0.0 to
+    /// `(+0.0)·θ` at every step and stay +0.0 (NaN for a θ that is not finite), all but
+    /// the path's last, `(+0.0)·θ + c₀`; the derivatives are such sums scaled by
+    /// factorials and powers of `1/h`, which leave them as they are.
+    #[must_use]
+    pub fn eval_constant<const D: usize>(&self, theta: f64) -> [f64; D] {
+        let zero = 0.0 * theta + 0.0;
+        let mut out = [zero; D];
+        if let Some(x) = out.first_mut() {
+            *x = 0.0 * theta + self.coeffs[0];
+        }
+        out
+    }
+
     /// [`Piece::eval`] of a piece whose coefficients from `θ^N` on are zero (the hoist's
     /// outside a hand-over's blend: degree 6, no pendulum), `N ≤ COEFFS`: the same
     /// values bit for bit — the steps over the zero coefficients leave every sum at zero
@@ -574,6 +589,46 @@ mod tests {
                 below7.map(f64::to_bits),
                 "piece {n}"
             );
+        }
+    }
+
+    /// A piece settled, and one built from zero inputs at its position (what an axis
+    /// standing still in a moving group would build), evaluate as the constant shortcut
+    /// does, bit for bit, for θ over the cycle and beyond, three and seven derivatives.
+    #[test]
+    fn a_resting_piece_evaluates_as_its_constant() {
+        let mut seed = 9_u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            ((seed >> 11) as f64 / (1_u64 << 53) as f64 - 0.5) * 40.0
+        };
+        for n in 0..2_000 {
+            let position = if n % 7 == 0 { 0.0 } else { next() };
+            let settled = Piece::rest(position);
+            let mut built = Piece::rest(position);
+            built.build(&Inputs {
+                p0: position,
+                v0: 0.0,
+                a0: 0.0,
+                rho: spline(&[0; 5], 2, 0.25),
+                h: 0.01,
+                inv_h: 100.0,
+                omega_h: Some(0.02 + next().abs() * 1e-3),
+            });
+            assert_eq!(built.lag, [0.0; 2]);
+            assert_eq!(built.swing, [0.0; 2]);
+            let theta = if n % 5 == 0 { 1.0 } else { next().abs() / 20.0 };
+            let inv_h = 100.0 + next();
+            let shortcut3: [f64; 3] = settled.eval_constant(theta);
+            let shortcut7: [f64; 7] = settled.eval_constant(theta);
+            for piece in [settled, built] {
+                let three: [f64; 3] = piece.eval(theta, inv_h);
+                let seven: [f64; 7] = piece.eval(theta, inv_h);
+                assert_eq!(three.map(f64::to_bits), shortcut3.map(f64::to_bits), "{n}");
+                assert_eq!(seven.map(f64::to_bits), shortcut7.map(f64::to_bits), "{n}");
+                let below = piece.eval_below::<3, HOIST_COEFFS>(theta, inv_h);
+                assert_eq!(below.map(f64::to_bits), shortcut3.map(f64::to_bits), "{n}");
+            }
         }
     }
 
