@@ -247,34 +247,9 @@ fn taken_over(run: &[ReferenceCycle]) -> (u32, u8) {
 #[test]
 fn the_operator_takes_over_the_scene_s_move() {
     let scene = "paper-crane-manual.toml";
-    let run = run(scene, &MANUAL_TAKEOVER);
-    assert_eq!(run.len(), MANUAL_TAKEOVER.cycles as usize, "ran to the end");
-    let (taken, how) = taken_over(&run);
-    assert!((4_000..4_100).contains(&taken), "taken over at {taken} ms");
-    assert_eq!(how, emcy::TAKEN_OVER_AT_ONCE, "at once");
-    let manual = run
-        .iter()
-        .find(|c| c.status_mode == MANUAL_MODE_CODE)
-        .map(|c| c.now_ms)
-        .expect("manual mode entered");
-    assert_eq!(manual, taken, "manual mode in the take-over's cycle");
+    let run = taken_over_at_once(scene, &MANUAL_TAKEOVER, 4_000);
     // The same take-over, the stick centred again at the next frame.
-    let pulse: &'static [Event] = Box::leak(Box::new([
-        MANUAL_TAKEOVER.events[0],
-        MANUAL_TAKEOVER.events[1],
-        Event {
-            at_ms: MANUAL_TAKEOVER.events[1].at_ms + STICK_PERIOD_MS,
-            action: MANUAL_TAKEOVER.events[2].action,
-        },
-        MANUAL_TAKEOVER.events[3],
-    ]));
-    let pulsed = self::run(
-        scene,
-        &Scenario {
-            events: pulse,
-            ..MANUAL_TAKEOVER
-        },
-    );
+    let pulsed = self::run(scene, &pulsed(&MANUAL_TAKEOVER));
     let (held, stopped) = (travel(&run, 0), travel(&pulsed, 0));
     assert!(
         held - stopped > 1.0,
@@ -283,15 +258,42 @@ fn the_operator_takes_over_the_scene_s_move() {
     println!(
         "take-over: the trolley {held:.3} m with the stick, {stopped:.3} m with its stop alone"
     );
-    let rest = rests_from(&run, 9_000, 15_000).expect("at rest before the withdrawal");
+    left_at_rest(&run);
+}
+
+/// `scenario` run on `scene`: to its end, the automatic move taken over in the cycle that
+/// reads the deflection at `at_ms` (within the stick's frame period) — EMCY 0xFF22 once,
+/// detail 0 (at once) — and manual mode from that very cycle (the status's mode byte as
+/// the cycle leaves it).
+fn taken_over_at_once(scene: &str, scenario: &Scenario, at_ms: u32) -> Vec<ReferenceCycle> {
+    let run = run(scene, scenario);
+    assert_eq!(run.len(), scenario.cycles as usize, "ran to the end");
+    let (taken, how) = taken_over(&run);
+    assert!(
+        (at_ms..at_ms + 100).contains(&taken),
+        "taken over at {taken} ms"
+    );
+    assert_eq!(how, emcy::TAKEN_OVER_AT_ONCE, "at once");
+    let manual = run
+        .iter()
+        .find(|c| c.status_mode == MANUAL_MODE_CODE)
+        .map(|c| c.now_ms)
+        .expect("manual mode entered");
+    assert_eq!(manual, taken, "manual mode in the take-over's cycle");
+    run
+}
+
+/// After a take-over's release at 9 s: at rest before the request is withdrawn at 15 s,
+/// manual mode left at rest, ready.
+fn left_at_rest(run: &[ReferenceCycle]) {
+    let rest = rests_from(run, 9_000, 15_000).expect("at rest before the withdrawal");
     assert!(rest < 15_000, "at rest from {rest} ms");
-    let modes = modes(&run);
-    let last = modes.last().unwrap();
+    let last = *modes(run).last().unwrap();
     assert_eq!(last.1, 1, "manual mode left at rest ({last:?})");
     assert_eq!(run.last().unwrap().mode, Mode::Ready);
 }
 
-/// [`MANUAL_TAKEOVER`] with the stick centred again one frame after each deflection: the
+/// `scenario` with the stick centred again one frame after each deflection: the
 /// take-over with the move's own stop alone.
 fn pulsed(scenario: &Scenario) -> Scenario {
     let mut events = Vec::new();
@@ -322,21 +324,7 @@ fn pulsed(scenario: &Scenario) -> Scenario {
 #[test]
 fn the_operator_takes_over_the_3d_scene_s_move() {
     let scene = "crane3d/crane3d-manual.toml";
-    let run = run(scene, &MANUAL_TAKEOVER_3D);
-    assert_eq!(
-        run.len(),
-        MANUAL_TAKEOVER_3D.cycles as usize,
-        "ran to the end"
-    );
-    let (taken, how) = taken_over(&run);
-    assert!((5_000..5_100).contains(&taken), "taken over at {taken} ms");
-    assert_eq!(how, emcy::TAKEN_OVER_AT_ONCE, "at once");
-    let manual = run
-        .iter()
-        .find(|c| c.status_mode == MANUAL_MODE_CODE)
-        .map(|c| c.now_ms)
-        .expect("manual mode entered");
-    assert_eq!(manual, taken, "manual mode in the take-over's cycle");
+    let run = taken_over_at_once(scene, &MANUAL_TAKEOVER_3D, 5_000);
     let stopped = self::run(scene, &pulsed(&MANUAL_TAKEOVER_3D));
     let (bridge, trolley) = (
         travel(&run, 0) - travel(&stopped, 0),
@@ -345,11 +333,7 @@ fn the_operator_takes_over_the_3d_scene_s_move() {
     println!("3D take-over: the stick carried the bridge {bridge:.3} m and the trolley {trolley:.3} m beyond the move's stop alone");
     assert!(bridge > 1.0, "the bridge {bridge:.3} m farther forward");
     assert!(trolley < -1.0, "the trolley {trolley:.3} m farther back");
-    let rest = rests_from(&run, 9_000, 15_000).expect("at rest before the withdrawal");
-    assert!(rest < 15_000, "at rest from {rest} ms");
-    let last = *modes(&run).last().unwrap();
-    assert_eq!(last.1, 1, "manual mode left at rest ({last:?})");
-    assert_eq!(run.last().unwrap().mode, Mode::Ready);
+    left_at_rest(&run);
 }
 
 /// The hand-over refused on the planar scene (`MANUAL_HANDOVER_REFUSED`): the stick
