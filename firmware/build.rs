@@ -119,7 +119,7 @@ fn crane_module<K: FirmwareCrane<A>, const A: usize>(
     let config = scene::firmware::config_source(&setup.config)?;
     let stub = env::var_os("CARGO_FEATURE_STUB_INVERSE_MODEL").is_some();
     let inverse_model = format!(
-        "controller::InverseModel<Model, Integrator, f64, {{ {} }}>",
+        "controller::InverseModel<Crane, Model, Integrator, f64, {{ {} }}>",
         types.unknowns
     );
     let mut items = vec![
@@ -244,7 +244,7 @@ fn crane_module<K: FirmwareCrane<A>, const A: usize>(
             "plan"
         };
         format!(
-            "let model = Model::new(PARAMS, {path})?;\n\
+            "let model = Model::new(PARAMS.0, {path})?;\n\
              let integrator = {}?;\n\
              Ok(controller::InverseModel::new(model, integrator))",
             types.new

@@ -53,7 +53,8 @@ impl FirmwareCraneVisitor for Generate<'_> {
                     "solver_core::SolverSettings",
                     &self.0.settings(),
                 ),
-                Item::constant("The scene's crane.", "PARAMS", K::TYPE, &f.params),
+                Item::type_alias("The scene's crane.", "Crane", K::TYPE),
+                Item::constant("The scene's crane.", "PARAMS", "Crane", &f.params),
                 Item::function(
                     "The integrator on `model`, at rest at t = 0.",
                     "integrator(model: &Model) -> Result<Integrator, solver_core::Error>",

@@ -103,6 +103,7 @@ impl<C: Correction> AxesCorrection<2, Reference> for C {
 /// [`crate::feedback::NoFeedback`] as the correction of a crane with `$axes` axes and reference `$reference`
 /// (one the planar blanket impl does not cover): the inverse model's set points as
 /// they are.
+#[macro_export]
 macro_rules! feedforward_only {
     ($axes:literal, $reference:ty) => {
         impl $crate::correction::AxesCorrection<$axes, $reference>
@@ -131,7 +132,6 @@ macro_rules! feedforward_only {
         }
     };
 }
-pub(crate) use feedforward_only;
 
 // The 3D crane without the feedback.
 feedforward_only!(3, [Reference; 2]);

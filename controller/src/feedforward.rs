@@ -8,6 +8,7 @@ use solver_core::{DaeModel, Driven, Error, Integrator, NewtonStats, Real};
 
 use core::marker::PhantomData;
 
+use crate::crane::Crane;
 use crate::operator::path::Planned;
 
 /// One step of the inverse model with `A` driven axes.
@@ -37,14 +38,13 @@ pub trait Feedforward<const A: usize = 2> {
     fn reference(&self) -> Self::Reference;
 }
 
-/// The reference state `y_d, v_d` (Eqs. 7–10) of a crane from a solution of one of its
-/// inverse models: what the state feedback compares the measurements with. Each crane's
-/// file implements it for its models ([`crate::crane`]).
-pub trait CraneReference {
-    /// The crane's reference state ([`crate::crane::Crane::Reference`]).
-    type Reference;
+/// The reference state `y_d, v_d` (Eqs. 7–10) of crane `K` from a solution of one of its
+/// inverse models: what the state feedback compares the measurements with. Keyed on the
+/// crane, so that each crane's own file (`scene::cranes`) implements it for its models
+/// beside everything else that crane is.
+pub trait CraneReference<K: Crane<A>, const A: usize> {
     /// The reference at time `t` from the solution `y` (the scheme's unknowns).
-    fn reference(&self, y: &[f64], t: f64) -> Self::Reference;
+    fn reference(&self, y: &[f64], t: f64) -> K::Reference;
 }
 
 /// An inverse model with `A` driven axes driven by a [`Plan`] that the controller may
@@ -68,38 +68,40 @@ pub trait Replan<const A: usize = 2> {
     fn restart_at_rest(&mut self, position: [f64; A], t: f64) -> Result<(), Error>;
 }
 
-/// A model together with the integrator that advances it, in the integrator's scalar
-/// `T` (f64 in the firmware) on the model's `N` unknowns: the inverse model as the
-/// controller steps it, through solver-core's one scheme interface ([`Integrator`]).
+/// A model of crane `K` together with the integrator that advances it, in the
+/// integrator's scalar `T` (f64 in the firmware) on the model's `N` unknowns: the inverse
+/// model as the controller steps it, through solver-core's one scheme interface
+/// ([`Integrator`]).
 #[derive(Debug, Clone)]
-pub struct InverseModel<M, I, T, const N: usize> {
+pub struct InverseModel<K, M, I, T, const N: usize> {
     /// The DAE.
     pub model: M,
     /// The scheme and its state.
     pub integrator: I,
-    scalar: PhantomData<fn() -> T>,
+    crane_and_scalar: PhantomData<fn() -> (K, T)>,
 }
 
-impl<M, I, T, const N: usize> InverseModel<M, I, T, N> {
+impl<K, M, I, T, const N: usize> InverseModel<K, M, I, T, N> {
     /// `model` advanced by `integrator`.
     pub fn new(model: M, integrator: I) -> Self {
         Self {
             model,
             integrator,
-            scalar: PhantomData,
+            crane_and_scalar: PhantomData,
         }
     }
 }
 
 impl<
+        K: Crane<A>,
         T: Real,
-        M: CraneReference + DaeModel<T, N, A>,
+        M: CraneReference<K, A> + DaeModel<T, N, A>,
         I: Integrator<T, M, N, A>,
         const N: usize,
         const A: usize,
-    > Feedforward<A> for InverseModel<M, I, T, N>
+    > Feedforward<A> for InverseModel<K, M, I, T, N>
 {
-    type Reference = M::Reference;
+    type Reference = K::Reference;
     fn step(&mut self) -> Result<FeedforwardStep<A>, Error> {
         let r = self.integrator.step(&self.model)?;
         let u: [T; A] = r.u.into();
@@ -112,19 +114,20 @@ impl<
     fn time(&self) -> f64 {
         to_f64(self.integrator.time())
     }
-    fn reference(&self) -> M::Reference {
+    fn reference(&self) -> K::Reference {
         let y: [f64; N] = self.integrator.state().map(to_f64).into();
         self.model.reference(&y, self.time())
     }
 }
 
 impl<
+        K,
         T: Real,
         M: Driven + DaeModel<T, N, A>,
         I: Integrator<T, M, N, A>,
         const N: usize,
         const A: usize,
-    > Replan<A> for InverseModel<M, I, T, N>
+    > Replan<A> for InverseModel<K, M, I, T, N>
 where
     M::Trajectory: Planned<A>,
 {

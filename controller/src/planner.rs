@@ -13,7 +13,6 @@
 //! planning never takes a cycle past its deadline.
 
 use nalgebra::SVector;
-use solver_core::models::crane::CraneParams;
 use solver_core::plan::{Plan, Stop, StopStart};
 use solver_core::trajectory::{PointToPoint, Trajectory};
 
@@ -33,7 +32,7 @@ pub const MAX_DOWN_ACCELERATION: f64 = 0.5;
 pub const DURATION_RANGE: (f64, f64) = (0.5, 600.0);
 /// The checks, in the order of precedence of their reasons (a planar crane never
 /// meets the bridge's).
-const ORDER: [Reject; 11] = [
+pub const ORDER: [Reject; 11] = [
     Reject::BridgeWorkspace,
     Reject::TrolleyWorkspace,
     Reject::HookAtRail,
@@ -49,16 +48,20 @@ const ORDER: [Reject; 11] = [
 
 /// Plans and checks moves for one crane `K` and its `A` drives.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Planner<K = CraneParams, const A: usize = 2> {
+pub struct Planner<K, const A: usize> {
     crane: K,
     limits: [AxisLimits; A],
 }
 
-impl Planner {
-    /// A planner for the planar crane with these parameters and drive limits.
+impl<K> Planner<K, 2> {
+    /// A planner for a crane with a trolley and a winch (the planar crane, the
+    /// hook-and-load crane) whose drives have these limits.
     #[must_use]
-    pub const fn new(params: CraneParams, limits: DriveLimits) -> Self {
-        Self::with_axes(params, [limits.trolley, limits.winch])
+    pub const fn new(crane: K, limits: DriveLimits) -> Self {
+        Self {
+            crane,
+            limits: [limits.trolley, limits.winch],
+        }
     }
 }
 
@@ -791,23 +794,106 @@ impl<const A: usize> MoveSearch<A> {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
+    use crate::crane::{AxisReasons, Flat};
+    use crate::drive::{self, Drive};
+    use crate::feedback::Reference;
+    use solver_core::models::crane::CraneParams;
     use solver_core::models::crane3d::Crane3dParams;
+    use solver_core::reference::{flat_crane, flat_crane3d};
 
-    /// Every reason a crane names is one the planner ranks: a reason outside [`ORDER`]
-    /// would have no bit, and its violation would pass unseen.
-    fn ranked<const A: usize, K: Crane<A>>() -> bool {
-        K::REASONS.iter().all(|r| {
-            [r.workspace, r.velocity, r.acceleration]
-                .iter()
-                .all(|reason| ORDER.contains(reason))
-        })
+    /// The planar and the 3D crane as far as the planner asks: their drives' limits,
+    /// ranges and flat inverses. The cranes themselves are the registry's
+    /// (`scene::cranes`), which this crate's own tests cannot name; what the planner
+    /// searches is generic, and these stand in for them in the tests of its internals.
+    #[derive(Debug, Clone, Copy)]
+    struct Lab<P>(P);
+
+    impl Crane<2> for Lab<CraneParams> {
+        const NAME: &'static str = "planar crane (test double)";
+        const DRIVES: [Drive; 2] = drive::PLANAR;
+        const REASONS: [AxisReasons; 2] = [AxisReasons::TROLLEY, AxisReasons::WINCH];
+        const LAB_LIMITS: [AxisLimits; 2] = DriveLimits::LAB.axes();
+        const SWING_AXES: u8 = 1;
+        const MIN_COMMAND_SMOOTHNESS: usize = 5;
+        type Reference = Reference;
+        fn drive_states(r: &Reference) -> [(f64, f64); 2] {
+            [(r.x, r.vx), (r.l, r.vl)]
+        }
+        fn g(&self) -> f64 {
+            self.0.g
+        }
+        fn ranges(&self) -> [(f64, f64); 2] {
+            let w = &self.0.workspace;
+            [(w.x_min, w.x_max), (w.l_min, w.l_max)]
+        }
+        fn target(x: f64, y: Option<f64>, z: f64, _end: [f64; 2]) -> Option<[f64; 2]> {
+            y.is_none().then_some([x, z])
+        }
+        fn flat<Z: Trajectory<f64, 2>>(&self, z: &Z, t: f64) -> Flat<2> {
+            let f = flat_crane::flat_inverse(&self.0, z, t);
+            Flat {
+                position: [f.x, f.l],
+                u: f.u,
+                u_dot: f.u_dot,
+            }
+        }
+        fn drives_at_rest(&self, load: [f64; 2]) -> [f64; 2] {
+            load
+        }
+        fn load_at_rest(&self, drives: [f64; 2]) -> [f64; 2] {
+            drives
+        }
+        fn lags(&self) -> [f64; 2] {
+            [self.0.tau1, self.0.tau2]
+        }
     }
 
-    #[test]
-    fn every_crane_reason_is_ranked() {
-        assert!(ranked::<2, CraneParams>());
-        assert!(ranked::<3, Crane3dParams>());
+    impl Crane<3> for Lab<Crane3dParams> {
+        const NAME: &'static str = "3D crane (test double)";
+        const DRIVES: [Drive; 3] = drive::SPATIAL;
+        const REASONS: [AxisReasons; 3] = [
+            AxisReasons::BRIDGE,
+            AxisReasons::TROLLEY,
+            AxisReasons::WINCH,
+        ];
+        const LAB_LIMITS: [AxisLimits; 3] = DriveLimits::LAB_3D;
+        const SWING_AXES: u8 = 2;
+        const MIN_COMMAND_SMOOTHNESS: usize = 5;
+        type Reference = [Reference; 2];
+        fn drive_states([xz, yz]: &[Reference; 2]) -> [(f64, f64); 3] {
+            [(xz.x, xz.vx), (yz.x, yz.vx), (xz.l, xz.vl)]
+        }
+        fn g(&self) -> f64 {
+            self.0.g
+        }
+        fn ranges(&self) -> [(f64, f64); 3] {
+            let w = &self.0.workspace;
+            [(w.x_min, w.x_max), (w.y_min, w.y_max), (w.l_min, w.l_max)]
+        }
+        fn target(x: f64, y: Option<f64>, z: f64, [_, y_end, _]: [f64; 3]) -> Option<[f64; 3]> {
+            Some([x, y.unwrap_or(y_end), z])
+        }
+        fn flat<Z: Trajectory<f64, 3>>(&self, z: &Z, t: f64) -> Flat<3> {
+            let f = flat_crane3d::flat_inverse(&self.0, z, t);
+            Flat {
+                position: [f.x, f.y, f.l],
+                u: f.u,
+                u_dot: f.u_dot,
+            }
+        }
+        fn drives_at_rest(&self, load: [f64; 3]) -> [f64; 3] {
+            load
+        }
+        fn load_at_rest(&self, drives: [f64; 3]) -> [f64; 3] {
+            drives
+        }
+        fn lags(&self) -> [f64; 3] {
+            [self.0.tau1, self.0.tau2, self.0.tau3]
+        }
     }
+
+    const PLANAR: Lab<CraneParams> = Lab(CraneParams::PAPER);
+    const SPATIAL: Lab<Crane3dParams> = Lab(Crane3dParams::EXAMPLE);
 
     /// A plan at rest at `from` with the quickest move to `to` the planner allows, and
     /// the time that move ends.
@@ -869,11 +955,11 @@ mod tests {
                 (end * 10.0) as usize - 1
             );
         }
-        let crane3d = Planner::with_axes(Crane3dParams::EXAMPLE, DriveLimits::LAB_3D);
+        let crane3d = Planner::with_axes(SPATIAL, DriveLimits::LAB_3D);
         study(&crane3d, [12.0, 3.0, 8.0], [16.0, 5.0, 6.0]);
         study(&crane3d, [12.0, 3.0, 8.0], [20.0, 3.0, 4.0]);
         study(
-            &Planner::new(CraneParams::PAPER, DriveLimits::LAB),
+            &Planner::new(PLANAR, DriveLimits::LAB),
             [12.0, 8.0],
             [20.0, 4.0],
         );
@@ -915,7 +1001,7 @@ mod tests {
             }
             (most, stops)
         }
-        let planar = Planner::new(CraneParams::PAPER, DriveLimits::LAB);
+        let planar = Planner::new(PLANAR, DriveLimits::LAB);
         let planar_moves = [
             ([20.0, 5.0], None),
             ([20.0, 5.0], Some(8.0)),
@@ -925,7 +1011,7 @@ mod tests {
             ([14.0, 7.0], Some(10.0)),
         ];
         let (planar_most, planar_stops) = most_needed(&planar, [12.0, 8.0], &planar_moves);
-        let crane3d = Planner::with_axes(Crane3dParams::EXAMPLE, DriveLimits::LAB_3D);
+        let crane3d = Planner::with_axes(SPATIAL, DriveLimits::LAB_3D);
         let moves_3d = [
             ([14.0, 4.5, 6.5], None),
             ([14.0, 4.5, 6.5], Some(8.0)),
@@ -962,12 +1048,12 @@ mod tests {
             }
         }
         every_stop_long_enough(
-            &Planner::new(CraneParams::PAPER, DriveLimits::LAB),
+            &Planner::new(PLANAR, DriveLimits::LAB),
             [12.0, 8.0],
             [20.0, 4.0],
         );
         every_stop_long_enough(
-            &Planner::with_axes(Crane3dParams::EXAMPLE, DriveLimits::LAB_3D),
+            &Planner::with_axes(SPATIAL, DriveLimits::LAB_3D),
             [12.0, 3.0, 8.0],
             [16.0, 5.0, 6.0],
         );
@@ -1029,10 +1115,10 @@ mod tests {
                 );
             }
         }
-        let planar = Planner::new(CraneParams::PAPER, DriveLimits::LAB);
+        let planar = Planner::new(PLANAR, DriveLimits::LAB);
         let instants = [1.0, 2.0, 3.0, 3.9, 4.0, 4.05, 5.0, 6.0, 7.0];
         study(&planar, [12.0, 8.0], [20.0, 5.0], 8.0, &instants);
-        let crane3d = Planner::with_axes(Crane3dParams::EXAMPLE, DriveLimits::LAB_3D);
+        let crane3d = Planner::with_axes(SPATIAL, DriveLimits::LAB_3D);
         let instants = [1.0, 2.5, 3.9, 5.0, 6.5];
         study(&crane3d, [12.0, 3.0, 8.0], [14.0, 4.5, 6.5], 8.0, &instants);
     }

@@ -18,6 +18,7 @@ use controller::drive::Drive;
 use controller::feedback::{self, Correction, NoFeedback, StateFeedback};
 use controller::setpoint::DriveLimits;
 use controller::{Config, Controller, Cycle, Mode};
+use scene::cranes::planar::Planar;
 use sim::plant::{Gust, Mismatch};
 use sim::{run_cycle, Action, Ending, Event, Scenario, SensorFault, VirtualBus};
 
@@ -82,7 +83,7 @@ struct Run {
     load: Vec<(f64, [f64; 2], f64)>,
     /// The plant's trolley position after each cycle (time s, m).
     trolley: Vec<(f64, f64)>,
-    bus: VirtualBus,
+    bus: VirtualBus<Planar, 2>,
 }
 
 impl Run {
@@ -306,7 +307,8 @@ fn after_a_fault_the_model_restarts_where_the_drives_measure_the_crane() {
     let mut c = Controller::with_correction(ff, feedback(), planner(), config());
     let mut bus = VirtualBus::new(FAULT, HOME);
     let mut now = 0;
-    let mut step = |c: &mut Controller<Ff, StateFeedback>, bus: &mut VirtualBus| {
+    let mut step = |c: &mut Controller<Ff, StateFeedback, Planar, 2>,
+                    bus: &mut VirtualBus<Planar, 2>| {
         let out = run_cycle(c, bus, now).unwrap();
         now += 10;
         out
@@ -884,7 +886,7 @@ const ROUND_TRIPS: [Event; 6] = {
 /// The swing the plant's load keeps if the trolley stops now, rad: `√(φ² + (ψ̇/ω)²)`
 /// with `ψ̇ = φ̇ + ẋ/L` the load's velocity over the rail as an angle rate (what the
 /// controller's rest hold judges), on the true rope `L`.
-fn plant_amplitude(bus: &VirtualBus) -> f64 {
+fn plant_amplitude(bus: &VirtualBus<Planar, 2>) -> f64 {
     let plant = bus.plant().unwrap();
     let [_, l, phi, vx, _, rate] = plant.y;
     let len = LATE_NOISY.rope(l).max(0.1);

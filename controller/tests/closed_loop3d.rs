@@ -11,6 +11,7 @@ mod common;
 mod common3d;
 
 use common3d::{feedforward, Ff, HOME};
+use scene::cranes::spatial::Spatial;
 
 use controller::canopen::NmtState;
 use controller::commands::Request;
@@ -31,7 +32,7 @@ const TARGET: [f64; 3] = [20.0, 6.0, 4.0];
 const MOVE_END_S: f64 = 10.0;
 
 /// The plant's mismatch: the QEMU scenarios' (`sim::MISMATCHED`) with an 8 N gust for
-/// 1.5 s mid-move, which on the 3D crane blows from 45° (`Simulated` for `Crane3dParams`, in `sim::plant3d`).
+/// 1.5 s mid-move, which on the 3D crane blows from 45° (the 3D crane's `Simulated`, in `scene::cranes::spatial`).
 const MISMATCH: Mismatch = Mismatch {
     gust: Gust {
         start: 4.0,
@@ -81,7 +82,7 @@ fn feedback() -> SpatialFeedback {
 struct Run {
     cycles: Vec<Cycle<3>>,
     plant: Vec<(f64, [f64; 3], [f64; 2])>,
-    bus: VirtualBus<Crane3dParams, 3>,
+    bus: VirtualBus<Spatial, 3>,
 }
 
 impl Run {
@@ -118,15 +119,15 @@ fn run<C: AxesCorrection<3, [feedback::Reference; 2]>>(
     scenario: Scenario,
     seconds: u32,
 ) -> Run {
-    let planner = Planner::with_axes(Crane3dParams::EXAMPLE, DriveLimits::LAB_3D);
-    let mut c: Controller<Ff, C, Crane3dParams, 3> =
+    let planner = Planner::with_axes(Spatial::EXAMPLE, DriveLimits::LAB_3D);
+    let mut c: Controller<Ff, C, Spatial, 3> =
         Controller::with_correction(feedforward(), correction, planner, config());
-    let mut bus = VirtualBus::for_crane(scenario, &Crane3dParams::EXAMPLE, HOME);
+    let mut bus = VirtualBus::for_crane(scenario, &Spatial::EXAMPLE, HOME);
     assert!(bus.simulates_scenario());
     let mut out = Run {
         cycles: Vec::new(),
         plant: Vec::new(),
-        bus: VirtualBus::for_crane(scenario, &Crane3dParams::EXAMPLE, HOME),
+        bus: VirtualBus::for_crane(scenario, &Spatial::EXAMPLE, HOME),
     };
     for k in 0..seconds * 100 {
         out.cycles

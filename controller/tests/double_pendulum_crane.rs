@@ -4,20 +4,18 @@
 //! its inverse models give its own reference state.
 
 use controller::commands::Reject;
-use controller::crane::double_pendulum::HookReference;
 use controller::crane::{command_plan, Crane};
 use controller::feedforward::{CraneReference, Feedforward, Replan};
 use controller::planner::Planner;
 use controller::setpoint::AxisLimits;
-use solver_core::models::crane::CraneParams;
+use scene::cranes::hook_and_load::{HookAndLoad, HookReference};
+use scene::cranes::planar::Planar;
 use solver_core::models::double_pendulum::DoublePendulumSubs;
 use solver_core::models::double_pendulum_crane::DoublePendulumParams;
 use solver_core::models::double_pendulum_ext::DoublePendulumExt;
 use solver_core::plan::Plan;
 use solver_core::reference::double_pendulum;
 use solver_core::trajectory::Trajectory;
-
-type HookAndLoad = DoublePendulumParams;
 
 fn planner(p: HookAndLoad) -> Planner<HookAndLoad, 2> {
     Planner::with_axes(p, <HookAndLoad as Crane<2>>::LAB_LIMITS)
@@ -69,7 +67,7 @@ fn on_bus(
     use solver_core::models::double_pendulum as subs;
     use solver_core::{JacobianMode, SolverSettings};
 
-    let model = DoublePendulumSubs::new(p, at_rest(home)).unwrap();
+    let model = DoublePendulumSubs::new(p.0, at_rest(home)).unwrap();
     let settings = SolverSettings {
         h: 0.01,
         ..SolverSettings::paper(JacobianMode::Exact)
@@ -90,11 +88,8 @@ fn on_bus(
 #[test]
 fn a_light_hook_on_a_short_sling_is_the_planar_crane() {
     let sling = 0.5;
-    let dp = HookAndLoad::EXAMPLE.with(1e-6, sling);
-    let planar = CraneParams {
-        workspace: dp.crane.workspace,
-        ..dp.crane
-    };
+    let dp = HookAndLoad(DoublePendulumParams::EXAMPLE.with(1e-6, sling));
+    let planar = Planar(dp.crane);
     let mut plan = at_rest([12.0, 8.0]);
     let step = planner(dp)
         .plan_move(&plan, [20.0, 5.0], None, 0.0)
@@ -194,7 +189,7 @@ fn a_move_that_would_slacken_the_rope_to_the_hook_is_refused_as_such() {
         hook_and_load.plan_move(&from, to, Some(quick), 0.0).err(),
         Some(Reject::SlackRope)
     );
-    let planar = Planner::with_axes(p.crane, unbounded);
+    let planar = Planner::with_axes(Planar(p.crane), unbounded);
     assert!(planar.plan_move(&from, to, Some(quick), 0.0).is_ok());
     // Quicker still, the rope would push (the mean reaches g: the flat inverse refuses
     // it), and where it does the rope is slack too.
@@ -252,9 +247,9 @@ fn its_inverse_models_give_its_own_reference() {
         vl: f.v[1],
         v_hook: f.v_hook,
     };
-    let subs = DoublePendulumSubs::<f64, _>::new(p, plan).unwrap();
+    let subs = DoublePendulumSubs::<f64, _>::new(p.0, plan).unwrap();
     assert_eq!(subs.reference(f.subs().as_slice(), t), expected);
-    let ext = DoublePendulumExt::<f64, _>::new(p, plan).unwrap();
+    let ext = DoublePendulumExt::<f64, _>::new(p.0, plan).unwrap();
     let y = double_pendulum::extended_state(&p, &plan.derivatives::<8>(t), t).unwrap();
     assert_eq!(ext.reference(y.as_slice(), t), expected);
     // The hook block hangs the sling's length above the load.

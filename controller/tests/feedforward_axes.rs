@@ -8,6 +8,8 @@ use controller::feedforward::{Feedforward, InverseModel, Replan};
 use controller::planner::Planner;
 use controller::setpoint::{AxisLimits, DriveLimits};
 use nalgebra::SVector;
+use scene::cranes::planar::Planar;
+use scene::cranes::spatial::Spatial;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::subs as crane3d;
 use solver_core::models::crane3d::{Crane3dParams, Crane3dSubs};
@@ -16,18 +18,19 @@ use solver_core::reference::flat_crane3d;
 use solver_core::{JacobianMode, SolverSettings};
 
 type Model = Crane3dSubs<f64, Plan<f64, 3>>;
-type Model3d = InverseModel<Model, crane3d::StructuredBdf<f64, Plan<f64, 3>>, f64, { crane3d::N }>;
+type Model3d =
+    InverseModel<Spatial, Model, crane3d::StructuredBdf<f64, Plan<f64, 3>>, f64, { crane3d::N }>;
 
 const START: [f64; 3] = [12.0, 3.0, 8.0];
 const TARGET: [f64; 3] = [20.0, 6.0, 4.0];
 
-fn planner() -> Planner<Crane3dParams, 3> {
+fn planner() -> Planner<Spatial, 3> {
     let lab = DriveLimits::LAB;
     let trolley = AxisLimits {
         max_velocity: 2.0,
         max_acceleration: 2.0,
     };
-    Planner::with_axes(Crane3dParams::EXAMPLE, [lab.trolley, trolley, lab.winch])
+    Planner::with_axes(Spatial::EXAMPLE, [lab.trolley, trolley, lab.winch])
 }
 
 /// The 3D crane at rest at `START`, a diagonal move planned (as fast as the limits
@@ -129,7 +132,7 @@ fn the_3d_plan_can_be_changed_and_restarted_at_rest() {
 #[test]
 fn the_planar_crane_keeps_its_two_axes() {
     // The planar feedforward is the default: two set points, the planar reference.
-    let plan = command_plan::<CraneParams, 2>([12.0, 8.0], 4).unwrap();
+    let plan = command_plan::<Planar, 2>([12.0, 8.0], 4).unwrap();
     let model = solver_core::models::crane_subs::CraneSubs::new(CraneParams::PAPER, plan).unwrap();
     let settings = SolverSettings {
         h: 0.01,

@@ -15,6 +15,7 @@ use controller::planner::Planner;
 use controller::setpoint::{Setpoint, UNITS_PER_M_PER_S};
 use controller::{Controller, Cycle, Injectable, InverseModel, Mode, Replan};
 use nalgebra::SVector;
+use scene::cranes::spatial::Spatial;
 use sim::{run_cycle, VirtualBus, HEALTHY};
 use solver_core::models::crane3d::subs as crane3d;
 use solver_core::models::crane3d::{Crane3dParams, Crane3dSubs};
@@ -24,7 +25,13 @@ use solver_core::{JacobianMode, SolverSettings};
 
 type Path = Steered<Generator3d, 3>;
 type Ff = Injectable<
-    InverseModel<Crane3dSubs<f64, Path>, crane3d::StructuredBdf<f64, Path>, f64, { crane3d::N }>,
+    InverseModel<
+        Spatial,
+        Crane3dSubs<f64, Path>,
+        crane3d::StructuredBdf<f64, Path>,
+        f64,
+        { crane3d::N },
+    >,
 >;
 
 const HELD: Flags = Flags {
@@ -34,8 +41,8 @@ const HELD: Flags = Flags {
 };
 
 struct Manual {
-    c: Controller<Ff, NoFeedback, Crane3dParams, 3>,
-    bus: VirtualBus<Crane3dParams, 3>,
+    c: Controller<Ff, NoFeedback, Spatial, 3>,
+    bus: VirtualBus<Spatial, 3>,
     now: u32,
     counter: u8,
 }
@@ -51,10 +58,10 @@ impl Manual {
         };
         let integrator = crane3d::StructuredBdf::new(&model, &settings, 4, 0.0).unwrap();
         let ff = Injectable::new(InverseModel::new(model, integrator));
-        let planner = Planner::with_axes(Crane3dParams::EXAMPLE, limits());
+        let planner = Planner::with_axes(Spatial::EXAMPLE, limits());
         let mut rig = Self {
             c: Controller::with_correction(ff, NoFeedback, planner, config()),
-            bus: VirtualBus::for_crane(HEALTHY, &Crane3dParams::EXAMPLE, HOME),
+            bus: VirtualBus::for_crane(HEALTHY, &Spatial::EXAMPLE, HOME),
             now: 0,
             counter: 0,
         };

@@ -18,6 +18,7 @@ use controller::operator::{
 };
 use controller::setpoint::{Setpoint, UNITS_PER_M_PER_S};
 use controller::{Config, Controller, Cycle, Injectable, InverseModel, Mode};
+use scene::cranes::planar::Planar;
 use sim::plant::Mismatch;
 use sim::{run_cycle, Action, Event, Scenario, SensorFault, VirtualBus, HEALTHY, MISMATCHED};
 use solver_core::models::crane::CraneParams;
@@ -28,8 +29,8 @@ use solver_core::trajectory::PointToPoint;
 
 /// The manual-mode controller with the state feedback, its bus and clock.
 struct Rig {
-    c: Controller<ManualFf, StateFeedback>,
-    bus: VirtualBus,
+    c: Controller<ManualFf, StateFeedback, Planar, 2>,
+    bus: VirtualBus<Planar, 2>,
     now: u32,
     counter: u8,
 }
@@ -42,7 +43,7 @@ impl Rig {
 
     /// Ready at rest with the load at `home` on `plant`; `events` on the bus.
     fn at(home: [f64; 2], plant: Mismatch, events: &'static [Event]) -> Self {
-        let plan = controller::crane::command_plan::<CraneParams, 2>(home, 4).unwrap();
+        let plan = controller::crane::command_plan::<Planar, 2>(home, 4).unwrap();
         let mut rig = Self::on(plan, home, plant, events);
         rig.hold(200, [0; 3]);
         assert_eq!(rig.c.mode(), Mode::Ready);
@@ -243,7 +244,7 @@ fn a_take_over_closes_the_loop_as_an_entry_at_rest_does() {
         at_ms: 8_000,
         action: Action::Sensor(SensorFault::Lost),
     }];
-    let mut plan = controller::crane::command_plan::<CraneParams, 2>(HOME, 4).unwrap();
+    let mut plan = controller::crane::command_plan::<Planar, 2>(HOME, 4).unwrap();
     let boot = PointToPoint::new(HOME.into(), [18.0, 6.0].into(), 3.0, 6.0, 4).unwrap();
     plan.push(boot).unwrap();
     let mut rig = Rig::on(plan, HOME, MISMATCHED, LOST);

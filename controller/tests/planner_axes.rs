@@ -7,21 +7,23 @@ use controller::commands::Reject;
 use controller::planner::Planner;
 use controller::setpoint::{AxisLimits, DriveLimits};
 use nalgebra::SVector;
+use scene::cranes::planar::Planar;
+use scene::cranes::spatial::Spatial;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::Crane3dParams;
 use solver_core::plan::Plan;
 
 const SMOOTHNESS: usize = 5;
 
-fn planar() -> Planner {
-    Planner::new(CraneParams::PAPER, DriveLimits::LAB)
+fn planar() -> Planner<Planar, 2> {
+    Planner::new(Planar::PAPER, DriveLimits::LAB)
 }
 
 /// The planar crane extruded across an 8 m span; the trolley across it gets `trolley`.
-fn extruded(trolley: AxisLimits) -> Planner<Crane3dParams, 3> {
+fn extruded(trolley: AxisLimits) -> Planner<Spatial, 3> {
     let lab = DriveLimits::LAB;
     Planner::with_axes(
-        Crane3dParams::extruded(&CraneParams::PAPER, 0.03, 0.0, 8.0),
+        Spatial(Crane3dParams::extruded(&CraneParams::PAPER, 0.03, 0.0, 8.0)),
         [lab.trolley, trolley, lab.winch],
     )
 }

@@ -319,8 +319,8 @@ fn a_reset_at_rest_takes_the_drives_positions() {
 mod crane3d {
     use super::*;
     use crate::common3d::{Rig, HOME};
+    use scene::cranes::spatial::Spatial;
     use sim::VirtualBus;
-    use solver_core::models::crane3d::Crane3dParams;
 
     fn resting() -> Rig {
         let mut rig = Rig::new();
@@ -390,7 +390,7 @@ mod crane3d {
         let mut rig = Rig::new();
         rig.bus = VirtualBus::for_crane(
             HEALTHY,
-            &Crane3dParams::EXAMPLE,
+            &Spatial::EXAMPLE,
             [HOME[0] + 0.2, HOME[1], HOME[2]],
         );
         rig.ready();
@@ -475,8 +475,8 @@ fn healthy_runs_use_less_than_half_of_every_window() {
         correction: C,
         scenario: Scenario,
     ) -> [Deviations; 3] {
-        use solver_core::models::crane3d::Crane3dParams;
-        let planner = Planner::with_axes(Crane3dParams::EXAMPLE, crate::common3d::limits());
+        use scene::cranes::spatial::Spatial;
+        let planner = Planner::with_axes(Spatial::EXAMPLE, crate::common3d::limits());
         let config = crate::common3d::config()
             .with_node(NodeSetup::Inclinometer(InclinometerSetup::STOCK_TWO_AXES));
         let c = Controller::with_correction(
@@ -487,7 +487,7 @@ fn healthy_runs_use_less_than_half_of_every_window() {
         );
         run(
             c,
-            VirtualBus::for_crane(scenario, &Crane3dParams::EXAMPLE, crate::common3d::HOME),
+            VirtualBus::for_crane(scenario, &Spatial::EXAMPLE, crate::common3d::HOME),
             1_600,
         )
     }

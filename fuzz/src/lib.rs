@@ -13,7 +13,6 @@ use controller::setpoint::DriveLimits;
 use controller::{CanFrame, Config, Controller, Injectable, InverseModel};
 use nalgebra::SVector;
 use sim::{run_cycle, Scenario, VirtualBus, CLOSED_LOOP, HEALTHY};
-use solver_core::models::crane::CraneParams;
 use solver_core::trajectory::PointToPoint;
 
 /// The default scene's model, integrator and settings as the firmware links them
@@ -22,27 +21,28 @@ mod default_scene {
     #![allow(dead_code)]
     include!(concat!(env!("OUT_DIR"), "/default_scene.rs"));
 }
-pub use default_scene::{Integrator, Model, SETTINGS};
+pub use default_scene::{Crane, Integrator, Model, SETTINGS};
 
 /// Model, integrator and the solver-failure injection.
-pub type Feedforward = Injectable<InverseModel<Model, Integrator, f64, { default_scene::N }>>;
+pub type Feedforward =
+    Injectable<InverseModel<Crane, Model, Integrator, f64, { default_scene::N }>>;
 
 /// Where the crane rests at power-up: the paper's start (x_C, z_C), m.
 pub const HOME: [f64; 2] = [12.0, 8.0];
 
 /// The planner with the lab drives' limits.
-pub const PLANNER: Planner = Planner::new(default_scene::PARAMS, DriveLimits::LAB);
+pub const PLANNER: Planner<Crane, 2> = Planner::new(default_scene::PARAMS, DriveLimits::LAB);
 
 /// The paper's move (12, 8) → (20, 4) from 1 s to 9 s, or rest at (12, 8).
 pub fn feedforward(paper_move: bool) -> Feedforward {
     let home = HOME;
-    let mut plan = command_plan::<CraneParams, 2>(home, 4).expect("valid plan");
+    let mut plan = command_plan::<Crane, 2>(home, 4).expect("valid plan");
     if paper_move {
         let m = PointToPoint::new(SVector::from(home), SVector::from([20.0, 4.0]), 1.0, 8.0, 4)
             .expect("the paper's move");
         plan.push(m).expect("fits the plan");
     }
-    let model = Model::new(default_scene::PARAMS, plan).expect("the default scene's crane");
+    let model = Model::new(default_scene::PARAMS.0, plan).expect("the default scene's crane");
     let integrator = default_scene::integrator(&model).expect("the firmware's integrator");
     Injectable::new(InverseModel::new(model, integrator))
 }
@@ -50,9 +50,9 @@ pub fn feedforward(paper_move: bool) -> Feedforward {
 /// The controller and its bus, advanced together as the firmware does.
 pub struct Rig<C = NoFeedback> {
     /// The controller.
-    pub controller: Controller<Feedforward, C>,
+    pub controller: Controller<Feedforward, C, Crane, 2>,
     /// The simulated drives.
-    pub bus: VirtualBus,
+    pub bus: VirtualBus<Crane, 2>,
     /// Cycles run.
     pub cycle: u32,
 }

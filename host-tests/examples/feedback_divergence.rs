@@ -15,6 +15,7 @@ use controller::feedback::{Correction, Measurement, Output, Reference, StateFeed
 use controller::setpoint::DriveLimits;
 use controller::{Controller, Injectable, InverseModel};
 use scene::commissioning::CommissioningFile;
+use scene::cranes::planar::Planar;
 use scene::firmware::firmware_scene;
 use scene::Scene;
 use sim::{run_cycle, Scenario, VirtualBus, FEEDBACK_SCENARIOS};
@@ -90,9 +91,9 @@ fn run(scene: &Scene, scenario: &Scenario, closed_form: bool) -> Vec<Row> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let commissioning =
         CommissioningFile::for_scene(&root.join("scenes/paper-crane-feedback.toml")).unwrap();
-    let f = firmware_scene(scene, &commissioning).unwrap();
+    let f = firmware_scene::<Planar, 2>(scene, &commissioning).unwrap();
     let settings = scene.settings();
-    let model = CraneSubs::new(f.params, f.plan).unwrap();
+    let model = CraneSubs::new(f.params.0, f.plan).unwrap();
     let feedback = Logged(StateFeedback::new(f.feedback.unwrap()).unwrap());
     LOG.with(|l| l.borrow_mut().clear());
     let start: [f64; 2] = f.first_move.start().into();
@@ -104,7 +105,10 @@ fn run(scene: &Scene, scenario: &Scenario, closed_form: bool) -> Vec<Row> {
     };
     macro_rules! go {
         ($integrator:expr) => {{
-            let ff = Injectable::new(InverseModel::<_, _, f64, N>::new(model, $integrator));
+            let ff = Injectable::new(InverseModel::<Planar, _, _, f64, N>::new(
+                model,
+                $integrator,
+            ));
             let mut c = Controller::with_correction(ff, feedback, f.planner, f.config);
             c.demonstration_commanded();
             for cycle in 0..cycles {

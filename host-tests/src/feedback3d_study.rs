@@ -11,6 +11,7 @@ use controller::feedback::{clamp_to_limits, Config, Gains, Mode, Reference};
 use controller::feedback3d::SpatialFeedback;
 use controller::setpoint::{AxisLimits, DriveLimits};
 use controller::InverseModel;
+use scene::cranes::spatial::Spatial;
 use solver_core::models::crane3d::{subs, Crane3dParams, Crane3dSubs};
 use solver_core::trajectory::{PointToPoint, Trajectory};
 use solver_core::{Driven, Error, JacobianMode, SolverSettings};
@@ -51,7 +52,8 @@ pub fn reference_run(
     let model = Crane3dSubs::<f64, _>::new(params, z)?;
     type Move = PointToPoint<f64, 3>;
     let integrator = subs::Bdf::<f64, Move>::new(&model, &settings, 4, t0)?;
-    let mut inv: InverseModel<_, _, f64, { subs::N }> = InverseModel::new(model, integrator);
+    let mut inv: InverseModel<Spatial, _, _, f64, { subs::N }> =
+        InverseModel::new(model, integrator);
     let mut run = ReferenceRun3 {
         t0,
         h: settings.h,

@@ -3,6 +3,7 @@
 //! Monte Carlo over mismatch and disturbance cases, on the paper's move and on random
 //! moves.
 
+use scene::cranes::planar::Planar;
 use std::path::Path;
 
 use controller::feedback::{
@@ -50,10 +51,15 @@ pub fn reference_run(
     let settings = SolverSettings::paper(JacobianMode::Exact);
     let model = CraneSubs::<f64, _>::new(params, z)?;
     let integrator = crane_subs::Bdf::new(&model, &settings, 4, t0)?;
-    let mut inv = InverseModel::new(model, integrator);
+    let mut inv: Inverse = InverseModel::new(model, integrator);
     type Move = PointToPoint<f64, 2>;
-    type Inverse =
-        InverseModel<CraneSubs<f64, Move>, crane_subs::Bdf<f64, Move>, f64, { crane_subs::N }>;
+    type Inverse = InverseModel<
+        Planar,
+        CraneSubs<f64, Move>,
+        crane_subs::Bdf<f64, Move>,
+        f64,
+        { crane_subs::N },
+    >;
     let sample = |inv: &Inverse| {
         let s: [f64; crane_subs::N] = inv.integrator.state().into();
         let t = inv.integrator.time();

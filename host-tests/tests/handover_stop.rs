@@ -30,6 +30,8 @@ use controller::operator::path::Source;
 use controller::planner::Planner;
 use controller::setpoint::{AxisLimits, DriveLimits};
 use nalgebra::SVector;
+use scene::cranes::planar::Planar;
+use scene::cranes::spatial::Spatial;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane3d::Crane3dParams;
 use solver_core::operator::{Generator3d, PlanarGenerator, Settings};
@@ -372,9 +374,9 @@ fn a_hand_over_s_stop_rests_on_the_path_no_farther_than_the_target() {
         longest_planner: 0.0,
     };
     let planar = Settings::lab(&CraneParams::PAPER);
-    crane::<CraneParams, PlanarGenerator, 2>(
+    crane::<Planar, PlanarGenerator, 2>(
         "planar",
-        &Planner::new(CraneParams::PAPER, DriveLimits::LAB),
+        &Planner::new(Planar::PAPER, DriveLimits::LAB),
         planar,
         planar.entry_blend,
         &PLANAR,
@@ -382,9 +384,9 @@ fn a_hand_over_s_stop_rests_on_the_path_no_farther_than_the_target() {
         &mut counts,
     );
     let spatial = Settings::lab_3d(&Crane3dParams::EXAMPLE);
-    crane::<Crane3dParams, Generator3d, 3>(
+    crane::<Spatial, Generator3d, 3>(
         "3D",
-        &Planner::with_axes(Crane3dParams::EXAMPLE, DriveLimits::LAB_3D),
+        &Planner::with_axes(Spatial::EXAMPLE, DriveLimits::LAB_3D),
         spatial,
         spatial.entry_blend,
         &SPATIAL,

@@ -169,7 +169,7 @@ macro_rules! prove {
         let Ok(plan) = first_plan(&params) else {
             halt()
         };
-        let Ok($m) = <$model>::new(params, plan) else {
+        let Ok($m) = <$model>::new(params.0, plan) else {
             halt()
         };
         let Ok(integrator) = ($new) else { halt() };
@@ -188,7 +188,7 @@ macro_rules! prove_steered {
             halt()
         };
         let path = Steered::new(plan, black_box($crane::OPERATOR));
-        let Ok($m) = <$model>::new(params, path) else {
+        let Ok($m) = <$model>::new(params.0, path) else {
             halt()
         };
         let Ok(integrator) = ($new) else { halt() };

@@ -556,9 +556,9 @@ pub struct FirmwareTypes {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cranes::planar::Planar;
     use controller::feedforward::{Feedforward, Replan};
     use controller::planner::Crane;
-    use solver_core::models::crane::CraneParams;
 
     /// The study's visitor that only names the model's type.
     struct Name;
@@ -612,15 +612,11 @@ mod tests {
             );
         assert_eq!(text.matches("heartbeat_ms = 94").count(), 2, "both drives'");
         let c = CommissioningFile::parse(&text).unwrap();
-        let limits = c
-            .limits_for(CraneParams::DRIVES, CraneParams::LAB_LIMITS)
-            .unwrap();
-        let ready = commissioning_time(&c.config_for(CraneParams::DRIVES, limits, 10).unwrap());
+        let limits = c.limits_for(Planar::DRIVES, Planar::LAB_LIMITS).unwrap();
+        let ready = commissioning_time(&c.config_for(Planar::DRIVES, limits, 10).unwrap());
         let mut s = Scene::parse(include_str!("../../scenes/paper-crane.toml")).unwrap();
         s.trajectory.t_start = ready - 0.002;
-        let e = firmware_scene::<CraneParams, 2>(&s, &c)
-            .unwrap_err()
-            .to_string();
+        let e = firmware_scene::<Planar, 2>(&s, &c).unwrap_err().to_string();
         let printed: f64 = e
             .split_once("enabled (")
             .and_then(|(_, rest)| rest.split_once(" s at"))
@@ -934,7 +930,7 @@ mod tests {
             FirmwareIntegrator::StructuredBdfUncorrected(4),
             FirmwareIntegrator::StructuredRadau5,
         ] {
-            let built = CraneParams::PAPER.inverse_model(proj, i, plan, &settings, Steps);
+            let built = Planar::PAPER.inverse_model(proj, i, plan, &settings, Steps);
             let e = built.unwrap_err();
             assert!(
                 matches!(e, FirmwareError::NotStructured { model: "CraneProj" }),
@@ -943,7 +939,7 @@ mod tests {
         }
         // Manual mode asked of a formulation without it is refused naming both (the
         // scene check refuses it first), not built on the plan.
-        let dp = solver_core::models::double_pendulum_crane::DoublePendulumParams::EXAMPLE;
+        let dp = crate::cranes::hook_and_load::HookAndLoad::EXAMPLE;
         let subs = crate::cranes::hook_and_load::HookAndLoadModel::Subs;
         let built = dp.steered_inverse_model(
             subs,

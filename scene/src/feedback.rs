@@ -196,6 +196,7 @@ mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
     use crate::commissioning::CommissioningFile;
+    use crate::cranes::planar::Planar;
     use crate::firmware::firmware_scene;
     use crate::Scene;
 
@@ -210,14 +211,14 @@ mod tests {
     #[test]
     fn the_defaults_are_the_study_s_and_link_the_inclinometer() {
         let s = scene("").unwrap();
-        let f = firmware_scene::<CraneParams, 2>(&s, &CommissioningFile::default()).unwrap();
+        let f = firmware_scene::<Planar, 2>(&s, &CommissioningFile::default()).unwrap();
         assert_eq!(f.feedback, Some(Config::PAPER));
         assert!(f.config.inclinometer().is_some());
         // Without the section: no feedback, no inclinometer.
         let path =
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper-crane.toml");
         let plain = Scene::load(&path).unwrap();
-        let f = firmware_scene::<CraneParams, 2>(&plain, &CommissioningFile::default()).unwrap();
+        let f = firmware_scene::<Planar, 2>(&plain, &CommissioningFile::default()).unwrap();
         assert_eq!((f.feedback, f.config.inclinometer()), (None, None));
     }
 

@@ -2,6 +2,8 @@
 //! lab's generator settings, every key out of range is refused by name, and a model that
 //! cannot run manual mode is refused naming the model.
 
+use scene::cranes::planar::Planar;
+use scene::cranes::spatial::Spatial;
 use std::path::PathBuf;
 
 use scene::commissioning::CommissioningFile;
@@ -37,7 +39,7 @@ fn the_manual_scenes_give_the_lab_settings_and_their_bases_none() {
     let planar = scenes_dir().join("paper-crane-manual.toml");
     let scene = Scene::load(&planar).unwrap();
     let c = CommissioningFile::for_scene(&planar).unwrap();
-    let f = firmware_scene::<CraneParams, 2>(&scene, &c).unwrap();
+    let f = firmware_scene::<Planar, 2>(&scene, &c).unwrap();
     assert_eq!(f.operator, Some(Settings::lab(&CraneParams::PAPER)));
     assert!(f
         .rust()
@@ -47,7 +49,7 @@ fn the_manual_scenes_give_the_lab_settings_and_their_bases_none() {
     let spatial = scenes_dir().join("crane3d/crane3d-manual.toml");
     let scene = Scene::load(&spatial).unwrap();
     let c = CommissioningFile::for_scene(&spatial).unwrap();
-    let f = firmware_scene::<Crane3dParams, 3>(&scene, &c).unwrap();
+    let f = firmware_scene::<Spatial, 3>(&scene, &c).unwrap();
     assert_eq!(f.operator, Some(Settings::lab_3d(&Crane3dParams::EXAMPLE)));
     assert!(f
         .rust()
@@ -58,7 +60,7 @@ fn the_manual_scenes_give_the_lab_settings_and_their_bases_none() {
     let start = MANUAL.find("\n# Manual mode").unwrap();
     let empty = format!("{}\n[operator]\n", &MANUAL[..start]);
     let scene = Scene::parse(&empty).unwrap();
-    let f = firmware_scene::<CraneParams, 2>(&scene, &CommissioningFile::default()).unwrap();
+    let f = firmware_scene::<Planar, 2>(&scene, &CommissioningFile::default()).unwrap();
     assert_eq!(f.operator, Some(Settings::lab(&CraneParams::PAPER)));
 
     for base in ["paper-crane.toml", "crane3d/crane3d.toml"] {
@@ -67,7 +69,7 @@ fn the_manual_scenes_give_the_lab_settings_and_their_bases_none() {
         assert_eq!(scene.operator, None, "{base}");
     }
     let scene = Scene::load(&scenes_dir().join("paper-crane.toml")).unwrap();
-    let f = firmware_scene::<CraneParams, 2>(&scene, &CommissioningFile::default()).unwrap();
+    let f = firmware_scene::<Planar, 2>(&scene, &CommissioningFile::default()).unwrap();
     assert_eq!(f.operator, None);
     assert!(f.rust().model.contains("Plan<f64, 2>"));
 }
@@ -79,7 +81,7 @@ fn the_keys_reach_the_generators_settings() {
         .replacen("robust = false", "robust = true", 1)
         .replacen("deadband = 0.05", "deadband = 0.1", 1);
     let scene = Scene::parse(&text).unwrap();
-    let f = firmware_scene::<CraneParams, 2>(&scene, &CommissioningFile::default()).unwrap();
+    let f = firmware_scene::<Planar, 2>(&scene, &CommissioningFile::default()).unwrap();
     let s = f.operator.unwrap();
     assert_eq!((s.horizontal[0].speed, s.hoist.speed), (0.8, 0.3));
     assert!(s.robust);

@@ -1,12 +1,13 @@
 //! The shipped scenes load; broken ones are refused naming the field and the reason.
 
+use scene::cranes::planar::Planar;
+use scene::cranes::spatial::Spatial;
 use std::path::PathBuf;
 
 use controller::setpoint::DriveLimits;
 use scene::commissioning::{CommissioningFile, FILE_NAME};
 use scene::firmware::firmware_scene;
 use scene::Scene;
-use solver_core::models::crane::CraneParams;
 
 fn scenes_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes")
@@ -211,7 +212,7 @@ fn the_shipped_commissioning_file_is_the_stock_setup_and_the_firmware_scenes_pas
         "paper-crane-radau-exact",
     ] {
         let scene = Scene::load(&scenes_dir().join(format!("{name}.toml"))).unwrap();
-        firmware_scene::<CraneParams, 2>(&scene, &commissioning)
+        firmware_scene::<Planar, 2>(&scene, &commissioning)
             .unwrap_or_else(|e| panic!("{name}: {e}"));
     }
 }
@@ -220,9 +221,8 @@ fn the_shipped_commissioning_file_is_the_stock_setup_and_the_firmware_scenes_pas
 fn scenes_the_firmware_cannot_run_are_refused_with_a_message() {
     let c = CommissioningFile::default();
     use scene::dispatch::FirmwareError;
-    let refused = |text: String| {
-        firmware_scene::<CraneParams, 2>(&Scene::parse(&text).unwrap(), &c).unwrap_err()
-    };
+    let refused =
+        |text: String| firmware_scene::<Planar, 2>(&Scene::parse(&text).unwrap(), &c).unwrap_err();
     let e = refused(with("h = 0.01", "h = 0.1"));
     assert!(
         matches!(e, FirmwareError::CycleNotUnderWatchdog { h: 0.1, .. }),
@@ -246,14 +246,14 @@ fn scenes_the_firmware_cannot_run_are_refused_with_a_message() {
         "{e}"
     );
     let bad = CommissioningFile::parse("[controller]\nnode = 200\n").unwrap();
-    let e = firmware_scene::<CraneParams, 2>(&Scene::parse(PAPER).unwrap(), &bad).unwrap_err();
+    let e = firmware_scene::<Planar, 2>(&Scene::parse(PAPER).unwrap(), &bad).unwrap_err();
     assert!(
         matches!(&e, FirmwareError::Commissioning(c) if c.field == "controller.node"),
         "{e:?}"
     );
     // Another crane's scene, named as such (not a NaN setting).
     let crane3d = Scene::load(&scenes_dir().join("crane3d/crane3d.toml")).unwrap();
-    let e = firmware_scene::<CraneParams, 2>(&crane3d, &c).unwrap_err();
+    let e = firmware_scene::<Planar, 2>(&crane3d, &c).unwrap_err();
     assert_eq!(
         e,
         FirmwareError::NotThisCrane {
@@ -342,7 +342,6 @@ fn the_3d_scenes_pass_with_their_own_commissioning_file() {
 fn a_drives_limits_are_its_commissioning_rows() {
     use controller::setpoint::DriveLimits;
     use scene::firmware::firmware_scene;
-    use solver_core::models::crane3d::Crane3dParams;
     let path = scenes_dir().join("crane3d/crane3d.toml");
     let scene = Scene::load(&path).unwrap();
     let own = std::fs::read_to_string(scenes_dir().join("crane3d/commissioning.toml")).unwrap();
@@ -353,7 +352,7 @@ fn a_drives_limits_are_its_commissioning_rows() {
         1,
     );
     let file = CommissioningFile::parse(&hoist_row).unwrap();
-    let f = firmware_scene::<Crane3dParams, 3>(&scene, &file).unwrap();
+    let f = firmware_scene::<Spatial, 3>(&scene, &file).unwrap();
     let [bridge, trolley, hoist] = f.planner.limits();
     let lab = DriveLimits::LAB_3D;
     assert_eq!((bridge, trolley), (lab[0], lab[1]));
@@ -365,7 +364,7 @@ fn a_drives_limits_are_its_commissioning_rows() {
         "axis = \"bridge\"\nvelocity_limit = 1.5",
         1,
     );
-    let e = firmware_scene::<Crane3dParams, 3>(&scene, &CommissioningFile::parse(&slow).unwrap())
+    let e = firmware_scene::<Spatial, 3>(&scene, &CommissioningFile::parse(&slow).unwrap())
         .unwrap_err();
     assert!(
         matches!(e, scene::dispatch::FirmwareError::PlannerRule(_)),
@@ -377,8 +376,8 @@ fn a_drives_limits_are_its_commissioning_rows() {
         "axis = \"trolley\"\nvelocity_limit = -1.0",
         1,
     );
-    let e = firmware_scene::<Crane3dParams, 3>(&scene, &CommissioningFile::parse(&bad).unwrap())
-        .unwrap_err();
+    let e =
+        firmware_scene::<Spatial, 3>(&scene, &CommissioningFile::parse(&bad).unwrap()).unwrap_err();
     assert!(e.to_string().contains("drive[1].velocity_limit"), "{e}");
     // Beyond what 0x60FF's i32 of µm/s can carry with room to spare: refused.
     let absurd = own.replacen(
@@ -386,7 +385,7 @@ fn a_drives_limits_are_its_commissioning_rows() {
         "axis = \"trolley\"\nvelocity_limit = 2500.0",
         1,
     );
-    let e = firmware_scene::<Crane3dParams, 3>(&scene, &CommissioningFile::parse(&absurd).unwrap())
+    let e = firmware_scene::<Spatial, 3>(&scene, &CommissioningFile::parse(&absurd).unwrap())
         .unwrap_err();
     assert!(
         e.to_string().contains("drive[1].velocity_limit") && e.to_string().contains("at most"),
@@ -436,7 +435,7 @@ fn the_extended_scenes_are_checked_as_the_direct_ones() {
         assert_eq!(refused(&text).0, field);
     }
     // The firmware links the extended cranes as it links subs.
-    let f = firmware_scene::<CraneParams, 2>(
+    let f = firmware_scene::<Planar, 2>(
         &Scene::parse(&planar).unwrap(),
         &CommissioningFile::default(),
     )
@@ -469,7 +468,7 @@ fn the_hook_and_load_scene_is_its_own_crane() {
     let commissioning = CommissioningFile::for_scene(&path).unwrap();
     let (axes, ty, model) = firmware(&scene, &commissioning, Crane).unwrap();
     assert_eq!(axes, 2);
-    assert!(ty.ends_with("::DoublePendulumParams"), "{ty}");
+    assert!(ty.ends_with("::HookAndLoad"), "{ty}");
     assert_eq!(model, "DoublePendulumSubs");
     let text = std::fs::read_to_string(&path).unwrap() + "\n[feedback]\n";
     let with_feedback = Scene::parse(&text).unwrap();

@@ -45,8 +45,7 @@
 use crate::angle_sensor::AngleSensor;
 pub use crate::angle_sensor::SensorLag;
 pub use crate::mismatch::{Gust, Mismatch, Rng, Travel3d};
-use crate::simulated::{CranePlant, Sensed, Simulated, TrueState};
-use solver_core::models::crane::CraneParams;
+use crate::simulated::{CranePlant, Sensed, TrueState};
 
 /// The trolley's mass, kg (assumed: the paper gives the load's only).
 pub const TROLLEY_MASS: f64 = 30.0;
@@ -264,14 +263,6 @@ impl CranePlant<2> for Plant {
             load: [x_c, 0.0, z_c],
             swing: [phi, 0.0],
         }
-    }
-}
-
-/// The planar crane: its plant with the one-axis inclinometer.
-impl Simulated<2> for CraneParams {
-    type Plant = Plant;
-    fn plant(&self, mismatch: Mismatch, [x, l]: [f64; 2]) -> Plant {
-        Plant::at_rest(x, l, 0.0, [self.tau1, self.tau2], self.g, self.m, mismatch)
     }
 }
 

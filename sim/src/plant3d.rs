@@ -96,8 +96,7 @@
 use crate::angle_sensor::{AngleSensor, SensorLag};
 use crate::mismatch;
 use crate::plant::{Gust, Mismatch, Rng, PLANT_STEP, TROLLEY_MASS, WINCH_MASS};
-use crate::simulated::{CranePlant, Sensed, Simulated, TrueState};
-use solver_core::models::crane3d::Crane3dParams;
+use crate::simulated::{CranePlant, Sensed, TrueState};
 
 /// The bridge's own mass, kg (assumed: a light EOT girder pair with end carriages, four
 /// times the trolley; the bridge is the heaviest axis).
@@ -781,32 +780,6 @@ impl CranePlant<3> for Plant3d {
             load: self.load(),
             swing: self.slopes(),
         }
-    }
-}
-
-/// The 3D crane with the two-axis inclinometer. The planar scenario's mismatch on bridge
-/// and hoist, its gust and its swinging start at 45°, so that both vertical planes
-/// swing.
-impl Simulated<3> for Crane3dParams {
-    type Plant = Plant3d;
-    fn plant(&self, mismatch: Mismatch, [x, y, l]: [f64; 3]) -> Plant3d {
-        let planar = Mismatch3d::from_planar(&mismatch);
-        let [s, _] = planar.swing0;
-        let diagonal = Mismatch3d {
-            gust_direction: core::f64::consts::FRAC_PI_4,
-            swing0: [s, s].map(|a| libm::atan(libm::tan(a) * core::f64::consts::FRAC_1_SQRT_2)),
-            ..planar
-        };
-        Plant3d::at_rest(
-            x,
-            y,
-            l,
-            0.0,
-            [self.tau1, self.tau2, self.tau3],
-            self.g,
-            self.m,
-            diagonal,
-        )
     }
 }
 

@@ -18,7 +18,7 @@ use solver_core::reference::double_pendulum::{plant_output, plant_rhs};
 
 use crate::angle_sensor::AngleSensor;
 use crate::plant::{Mismatch, Rng, PLANT_STEP};
-use crate::simulated::{CranePlant, Sensed, Simulated, TrueState};
+use crate::simulated::{CranePlant, Sensed, TrueState};
 
 /// The hook-and-load crane's true state `[x, l, φ1, φ2, ẋ, l̇, φ̇1, φ̇2]`.
 #[derive(Debug, Clone)]
@@ -155,16 +155,6 @@ impl CranePlant<2> for PlantDp {
     }
 }
 
-/// The hook-and-load crane: its double pendulum with the one-axis inclinometer on the
-/// hook block. `start` is where the drives stand: at rest the rope is the sling's length
-/// shorter than the load is deep.
-impl Simulated<2> for DoublePendulumParams {
-    type Plant = PlantDp;
-    fn plant(&self, mismatch: Mismatch, start: [f64; 2]) -> PlantDp {
-        PlantDp::at_rest(*self, start, mismatch)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
@@ -213,16 +203,6 @@ mod tests {
         let f = flat_inverse(&P, &plan, 8.0).unwrap();
         let [_, _, phi1] = plant.sense();
         assert!((phi1 - f.angle[0]).abs() < 1e-3, "{phi1} {:?}", f.angle);
-    }
-
-    /// The virtual bus carries the hook-and-load crane on this plant, with the drives
-    /// where it was told they stand.
-    #[test]
-    fn the_virtual_bus_carries_it_on_its_own_plant() {
-        let bus = crate::VirtualBus::for_crane(crate::CLOSED_LOOP, &P, [12.0, 7.0]);
-        let plant = bus.plant().unwrap();
-        assert_eq!((plant.y[0], plant.y[1]), (12.0, 7.0));
-        assert_eq!(plant.load(), [12.0, 8.0]);
     }
 
     /// A braked trolley stands still whatever it is commanded; the winch moves.

@@ -657,7 +657,7 @@ pub const FEEDBACK_SCENARIOS: [Scenario; 4] =
 /// The scenarios of the 3D crane's scene with the state feedback
 /// (`scenes/crane3d/crane3d-feedback.toml`): the planar ones' plants, their gust and
 /// swinging start blowing at 45° so that both vertical planes swing
-/// (`Simulated` for `Crane3dParams`, in `sim::plant3d`).
+/// (the 3D crane's `Simulated`, in `scene::cranes::spatial`).
 pub const CRANE3D_FEEDBACK_SCENARIOS: [Scenario; 3] = [CLOSED_LOOP, GUST, INCLINOMETER_LOST];
 
 /// The scenarios the 3D crane's scene is checked on besides its own move (healthy): a

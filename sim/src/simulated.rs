@@ -4,9 +4,9 @@
 //! position actual and the inclinometer. The bus never decides by its drive list which
 //! crane it carries.
 //!
-//! The traits live here; each crane's impls live beside its plant (`plant.rs`,
-//! `plant3d.rs`, `plant_dp.rs`), so that a new crane's plant and how the bus runs it are
-//! one file.
+//! The traits live here, and the plants' physics beside them (`plant.rs`, `plant3d.rs`,
+//! `plant_dp.rs`); which plant a crane runs on is its [`Simulated`] impl, in the crane's
+//! own file (`scene::cranes`), with everything else that crane is.
 
 use controller::crane::Crane;
 

@@ -31,7 +31,7 @@ use crate::correction::{AxesCorrection, Measured};
 use crate::drive::{self, Drive};
 use crate::fault::Reaction;
 pub use crate::fault::{Fault, FollowingError, Foreign, Implausibility};
-use crate::feedback::{Mode as FeedbackMode, NoFeedback, Reference};
+use crate::feedback::{Mode as FeedbackMode, NoFeedback};
 use crate::feedforward::{Feedforward, FeedforwardStep, Replan};
 use crate::frame::CanFrame;
 use crate::links::{self, DriveLink, Heartbeat, Link, Links, Silent};
@@ -45,7 +45,6 @@ use crate::services;
 use crate::services::nmt::NmtSlave;
 use crate::services::status::StatusProducer;
 use crate::setpoint::{Setpoint, SetpointGate, UNITS_PER_M_PER_S};
-use solver_core::models::crane::CraneParams;
 use solver_core::plan::Segment;
 
 /// The supervisor state.
@@ -180,11 +179,10 @@ pub use crate::requests::{
 };
 
 /// The crane controller: a CANopen node, manager (or slave) of the drives of crane `K`
-/// (its `A` driven axes, [`Crane::DRIVES`]: the planar crane's trolley and winch by
-/// default), with the inverse model `F` as feedforward and `C` between it and the
+/// (its `A` driven axes, [`Crane::DRIVES`]), with the inverse model `F` as feedforward and `C` between it and the
 /// drives (Fig. 1: [`NoFeedback`], or the state feedback with an inclinometer).
 #[derive(Debug, Clone)]
-pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
+pub struct Controller<F, C, K, const A: usize> {
     feedforward: F,
     correction: C,
     /// The loop is closed: a move was accepted since the last boot or fault. Before,
@@ -234,10 +232,15 @@ pub struct Controller<F, C = NoFeedback, K = CraneParams, const A: usize = 2> {
     range_latches: [range::Latches; A],
 }
 
-impl<F: Feedforward<Reference = Reference> + Replan> Controller<F> {
+impl<F, K, const A: usize> Controller<F, NoFeedback, K, A>
+where
+    F: Feedforward<A, Reference = K::Reference> + Replan<A>,
+    NoFeedback: AxesCorrection<A, K::Reference>,
+    K: Crane<A>,
+{
     /// A controller that follows `feedforward` and checks moves with `planner`; it starts
     /// by commissioning the drives and holds them at standstill until a move is asked.
-    pub fn new(feedforward: F, planner: Planner, config: Config) -> Self {
+    pub fn new(feedforward: F, planner: Planner<K, A>, config: Config) -> Self {
         Self::with_correction(feedforward, NoFeedback, planner, config)
     }
 }
@@ -281,9 +284,10 @@ where
                 supervisor: 0,
                 cycle_us: config.period_ms.saturating_mul(1000),
                 request: StagedRequest::default(),
-                // The planar crane (two outputs: x, z) has no y to demand.
+                // A crane with one horizontal drive (the planar and the hook-and-load
+                // crane: x and the hoist) has no y to demand.
                 operator: StagedOperator {
-                    planar: A < 3,
+                    planar: K::DRIVES.iter().filter(|d| **d != Drive::Winch).count() < 2,
                     ..StagedOperator::default()
                 },
                 drives_consumer_ms: config

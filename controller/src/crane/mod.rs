@@ -5,8 +5,9 @@
 //! so that a second crane with the same axes gets its own reference and its own loop
 //! (or none) instead of the first one's.
 //!
-//! Each crane's impls live in its own file: [`planar`] (the paper's crane, Eq. 24),
-//! [`spatial`] (the 3D crane) and [`double_pendulum`] (the hook-and-load crane).
+//! Each crane is one file of the registry (`scene::cranes`: the paper's planar crane,
+//! Eq. 24; the 3D crane; the hook-and-load crane), which holds its `Crane` impl beside its
+//! plant and its registration.
 
 use solver_core::plan::Plan;
 use solver_core::trajectory::Trajectory;
@@ -15,10 +16,6 @@ use solver_core::Error;
 use crate::commands::Reject;
 use crate::drive::Drive;
 use crate::setpoint::AxisLimits;
-
-pub mod double_pendulum;
-pub mod planar;
-pub mod spatial;
 
 /// The reasons naming one axis's violations.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -172,25 +169,4 @@ pub fn command_plan<K: Crane<A>, const A: usize>(
     n: usize,
 ) -> Result<Plan<f64, A>, Error> {
     Plan::at_rest(position.into(), n.max(K::MIN_COMMAND_SMOOTHNESS))
-}
-
-#[cfg(test)]
-mod tests {
-    use solver_core::models::crane::CraneParams;
-    use solver_core::models::crane3d::Crane3dParams;
-
-    use super::Crane;
-    use crate::commissioning::InclinometerSetup;
-
-    /// The stock inclinometer of each crane reads as many slopes as its swing has: the
-    /// one-axis sensor at node 3 for the planar crane, the two-axis one at node 5 for the
-    /// 3D crane (what the virtual bus simulates for it).
-    #[test]
-    fn each_crane_has_the_stock_inclinometer_of_its_swing() {
-        let axes = |i: InclinometerSetup| 1 + u8::from(i.lateral.is_some());
-        let planar = InclinometerSetup::stock(<CraneParams as Crane<2>>::SWING_AXES);
-        let spatial = InclinometerSetup::stock(<Crane3dParams as Crane<3>>::SWING_AXES);
-        assert_eq!((axes(planar), planar.node), (1, 3));
-        assert_eq!((axes(spatial), spatial.node), (2, 5));
-    }
 }

@@ -3,10 +3,12 @@
 //! mode tests share.
 
 use controller::canopen::CONTROLLER_NODE;
+use controller::feedback::NoFeedback;
 use controller::operator::path::Steered;
 use controller::operator::{operator_frame, Flags, OperatorFrame, FULL_SCALE, MANUAL_MODE_CODE};
 use controller::setpoint::Setpoint;
 use controller::{Config, Controller, Cycle, Injectable, InverseModel, Mode};
+use scene::cranes::planar::Planar;
 use sim::{run_cycle, VirtualBus, HEALTHY};
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane_subs::{self, CraneSubs};
@@ -25,14 +27,14 @@ pub const HELD: Flags = Flags {
 pub type Path = Steered<PlanarGenerator, 2>;
 /// The inverse model with manual mode, as the controller steps it.
 pub type ManualFf = Injectable<
-    InverseModel<CraneSubs<f64, Path>, crane_subs::Bdf<f64, Path>, f64, { crane_subs::N }>,
+    InverseModel<Planar, CraneSubs<f64, Path>, crane_subs::Bdf<f64, Path>, f64, { crane_subs::N }>,
 >;
 
 /// The controller with manual mode on the paper's crane at rest at [`HOME`], the bus,
 /// the clock, and the operator's next alive counter.
 pub struct Manual {
-    pub c: Controller<ManualFf>,
-    pub bus: VirtualBus,
+    pub c: Controller<ManualFf, NoFeedback, Planar, 2>,
+    pub bus: VirtualBus<Planar, 2>,
     pub now: u32,
     pub counter: u8,
 }
@@ -45,7 +47,7 @@ impl Manual {
 
     /// Ready at rest at [`HOME`], manual mode with the `generator`'s settings.
     pub fn with(generator: Settings<1>) -> Self {
-        let plan = controller::crane::command_plan::<CraneParams, 2>(HOME, 4).unwrap();
+        let plan = controller::crane::command_plan::<Planar, 2>(HOME, 4).unwrap();
         let path = Steered::new(plan, generator);
         let model = CraneSubs::new(CraneParams::PAPER, path).unwrap();
         let integrator = crane_subs::Bdf::new(&model, &settings(), 4, 0.0).unwrap();

@@ -6,10 +6,12 @@
 pub mod manual;
 
 use controller::drive::{Drive, PLANAR};
+use controller::feedback::NoFeedback;
 use controller::planner::Planner;
 use controller::setpoint::{DriveLimits, UNITS_PER_M_PER_S};
 use controller::{Config, Controller, Cycle, Injectable, InverseModel, Mode, Replan};
 use nalgebra::SVector;
+use scene::cranes::planar::Planar;
 use sim::{run_cycle, Scenario, VirtualBus};
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane_subs::{self, CraneSubs};
@@ -18,8 +20,9 @@ use solver_core::trajectory::{PointToPoint, Trajectory};
 use solver_core::{JacobianMode, NewtonSettings, SolverSettings};
 
 pub type Model = CraneSubs<f64, Plan<f64, 2>>;
-pub type Ff =
-    Injectable<InverseModel<Model, crane_subs::Bdf<f64, Plan<f64, 2>>, f64, { crane_subs::N }>>;
+pub type Ff = Injectable<
+    InverseModel<Planar, Model, crane_subs::Bdf<f64, Plan<f64, 2>>, f64, { crane_subs::N }>,
+>;
 
 /// Where the crane rests when a test starts: the paper's start (x_C, z_C), m.
 pub const HOME: [f64; 2] = [12.0, 8.0];
@@ -33,13 +36,13 @@ pub fn settings() -> SolverSettings {
     }
 }
 
-pub fn planner() -> Planner {
-    Planner::new(CraneParams::PAPER, DriveLimits::LAB)
+pub fn planner() -> Planner<Planar, 2> {
+    Planner::new(Planar::PAPER, DriveLimits::LAB)
 }
 
 /// The inverse model at rest at `home` from t = 0, with `first` (end, start, duration) planned.
 pub fn feedforward(home: [f64; 2], first: Option<([f64; 2], f64, f64)>) -> Ff {
-    let mut plan = controller::crane::command_plan::<CraneParams, 2>(home, 4).unwrap();
+    let mut plan = controller::crane::command_plan::<Planar, 2>(home, 4).unwrap();
     if let Some((end, t_start, duration)) = first {
         let m = PointToPoint::new(
             SVector::from(home),
@@ -58,8 +61,8 @@ pub fn feedforward(home: [f64; 2], first: Option<([f64; 2], f64, f64)>) -> Ff {
 
 /// The controller, the bus and the clock, advanced together as the firmware does.
 pub struct Rig {
-    pub c: Controller<Ff>,
-    pub bus: VirtualBus,
+    pub c: Controller<Ff, NoFeedback, Planar, 2>,
+    pub bus: VirtualBus<Planar, 2>,
     /// Time of the next cycle, ms.
     pub now: u32,
 }

@@ -12,6 +12,7 @@ use controller::planner::Planner;
 use controller::setpoint::{AxisLimits, DriveLimits};
 use controller::{Config, Controller, Cycle, Injectable, InverseModel, Mode};
 use nalgebra::SVector;
+use scene::cranes::spatial::Spatial;
 use sim::{run_cycle, VirtualBus, HEALTHY};
 use solver_core::models::crane3d::subs as crane3d;
 use solver_core::models::crane3d::{Crane3dParams, Crane3dSubs};
@@ -19,8 +20,9 @@ use solver_core::plan::Plan;
 use solver_core::{JacobianMode, SolverSettings};
 
 pub type Model = Crane3dSubs<f64, Plan<f64, 3>>;
-pub type Ff =
-    Injectable<InverseModel<Model, crane3d::StructuredBdf<f64, Plan<f64, 3>>, f64, { crane3d::N }>>;
+pub type Ff = Injectable<
+    InverseModel<Spatial, Model, crane3d::StructuredBdf<f64, Plan<f64, 3>>, f64, { crane3d::N }>,
+>;
 
 /// Where the load rests at the start: bridge x, trolley y, rope length l, m.
 pub const HOME: [f64; 3] = [12.0, 3.0, 8.0];
@@ -60,7 +62,7 @@ pub fn feedforward() -> Ff {
     Injectable::new(InverseModel::new(model, integrator))
 }
 
-pub type Crane3dController = Controller<Ff, NoFeedback, Crane3dParams, 3>;
+pub type Crane3dController = Controller<Ff, NoFeedback, Spatial, 3>;
 
 /// The 3D crane's lab drives' limits (bridge, trolley, hoist).
 pub fn limits() -> [AxisLimits; 3] {
@@ -70,7 +72,7 @@ pub fn limits() -> [AxisLimits; 3] {
 /// The controller, the bus with the three drives at [`HOME`], and the clock.
 pub struct Rig {
     pub c: Crane3dController,
-    pub bus: VirtualBus<Crane3dParams, 3>,
+    pub bus: VirtualBus<Spatial, 3>,
     /// Time of the next cycle, ms.
     pub now: u32,
 }
@@ -78,10 +80,10 @@ pub struct Rig {
 impl Rig {
     pub fn new() -> Self {
         let ff = feedforward();
-        let planner = Planner::with_axes(Crane3dParams::EXAMPLE, limits());
+        let planner = Planner::with_axes(Spatial::EXAMPLE, limits());
         Self {
             c: Controller::with_correction(ff, NoFeedback, planner, config()),
-            bus: VirtualBus::for_crane(HEALTHY, &Crane3dParams::EXAMPLE, HOME),
+            bus: VirtualBus::for_crane(HEALTHY, &Spatial::EXAMPLE, HOME),
             now: 0,
         }
     }

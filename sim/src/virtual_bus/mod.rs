@@ -35,7 +35,6 @@ use controller::feedforward::{Feedforward, Injectable, Replan};
 use controller::frame::CanFrame;
 use controller::operator::{operator_frame, OperatorFrame};
 use core::marker::PhantomData;
-use solver_core::models::crane::CraneParams;
 
 /// One simulated CiA 402 drive: NMT slave (boot-up message, pre-operational until
 /// started), SDO server of a small object dictionary (the objects commissioning writes,
@@ -458,7 +457,7 @@ impl DriveSim {
 /// what is waiting to be received; in scenarios with a plant (feature `plant`), the
 /// crane's plant ([`Simulated`]) and its inclinometer.
 #[derive(Debug, Clone)]
-pub struct VirtualBus<K: Simulated<A> = CraneParams, const A: usize = 2> {
+pub struct VirtualBus<K: Simulated<A>, const A: usize> {
     /// The crane's drives, in the model's input order: the order of `drives`.
     order: [Drive; A],
     drives: [DriveSim; A],
@@ -497,14 +496,14 @@ pub struct VirtualBus<K: Simulated<A> = CraneParams, const A: usize = 2> {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct BusOff;
 
-impl VirtualBus {
-    /// Two freshly powered drives (nodes 1 and 2, about to send their boot-up messages)
-    /// with the load resting at `start` (`[x_C, z_C]`: trolley position and rope
-    /// length), and the scenario (with its plant, the paper's lab crane
-    /// `CraneParams::PAPER`, and inclinometer, if it has one).
+impl<K: Simulated<A> + Default, const A: usize> VirtualBus<K, A> {
+    /// A freshly powered drive for each of the drives of crane `K` with its default
+    /// parameters (the planar crane's: the paper's lab crane, Tab. 3), the crane resting
+    /// with the drives at `start`, and the scenario (with its plant and inclinometer, if
+    /// it has one): [`VirtualBus::for_crane`].
     #[must_use]
-    pub fn new(scenario: Scenario, start: [f64; 2]) -> Self {
-        VirtualBus::for_crane(scenario, &CraneParams::PAPER, start)
+    pub fn new(scenario: Scenario, start: [f64; A]) -> Self {
+        VirtualBus::for_crane(scenario, &K::default(), start)
     }
 }
 
