@@ -49,6 +49,11 @@
 //!
 //! A malformed or physically impossible scene is refused with a [`SceneError`]
 //! that names the field and the reason (the checks of a whole scene: `check.rs`).
+//!
+//! The crate is also the registry of the cranes ([`cranes`]: one file each, everything a
+//! crane is). Its default feature `host` is everything above; without it the crate is
+//! `#![no_std]` and builds only the crane types and their `no_std` impls, which is what
+//! the firmware, the panic proof and the fuzzer link of it.
 
 #![cfg_attr(not(feature = "host"), no_std)]
 

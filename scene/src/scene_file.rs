@@ -100,7 +100,7 @@ pub struct OperatorSpec {
 }
 
 /// The models a scene names, listed once: the one registration of a model. A group is
-/// one parameter type `P` (the model's [`family::ModelFamily`], its `NZ` outputs), a
+/// one parameter type `P` (the model's [`crate::family::ModelFamily`], its `NZ` outputs), a
 /// row one formulation of it: its scene `kind`, its `label` in results, its
 /// `formulation` on the sweep's axis (`subs`, `ext`, `direct`), and its type under
 /// `solver_core::models` (`module`, `model`: built by `model::new(P, move)`, its sizes
@@ -185,7 +185,7 @@ macro_rules! model_specs {
             }
 
             /// The e_max above which a run of the model counts as inaccurate (its
-            /// family's [`family::ModelFamily::ACCURACY_THRESHOLD`]).
+            /// family's [`crate::family::ModelFamily::ACCURACY_THRESHOLD`]).
             #[must_use]
             pub fn accuracy_threshold(&self) -> f64 {
                 match self {
@@ -195,7 +195,7 @@ macro_rules! model_specs {
             }
 
             /// The table a scene writes the model's crane keys in
-            /// ([`family::ModelFamily::CRANE_KEYS_UNDER`]).
+            /// ([`crate::family::ModelFamily::CRANE_KEYS_UNDER`]).
             fn crane_keys_under(&self) -> &'static str {
                 match self {
                     $( $( ModelSpec::$variant(_) )|+ =>
@@ -248,7 +248,7 @@ macro_rules! model_specs {
             }
 
             /// The exact inputs of the scene's model along its move
-            /// ([`family::ModelFamily::exact`]: `dispatch::Exact`).
+            /// ([`crate::family::ModelFamily::exact`]: `dispatch::Exact`).
             pub(crate) fn exact_inputs(
                 &self,
             ) -> Result<Box<dyn crate::family::ExactInputs>, SceneError> {
@@ -343,7 +343,7 @@ impl ModelSpec {
 /// model and the formulations it has.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FormulationError {
-    /// The model ([`family::ModelFamily::NAME`]).
+    /// The model ([`crate::family::ModelFamily::NAME`]).
     pub model: &'static str,
     /// Its formulations' names, in the order registered.
     pub formulations: &'static [&'static str],

@@ -3,7 +3,7 @@
 //! everything it is in one file: what the controller knows of it ([`Crane`]: drives,
 //! limits, its own reference state [`HookReference`], flat inverse) and the reference of
 //! each of its inverse models (*subs*, *ext*), the plant the virtual bus runs for it
-//! ([`Simulated`]), and — on the host — its formulations and its [`FirmwareCrane`]
+//! ([`Simulated`]), and — on the host — its formulations and its [`FirmwareCrane`](super::FirmwareCrane)
 //! registration.
 //!
 //! It has no state feedback yet: which sensor a loop would read (the rope's angle at

@@ -2,7 +2,7 @@
 //! one file: what the controller knows of it ([`Crane`]: drives, limits, reference,
 //! flat inverse) and the reference of each of its inverse models, the plant the virtual
 //! bus runs for it ([`Simulated`]), and — on the host — its formulations and its
-//! [`FirmwareCrane`] registration.
+//! [`FirmwareCrane`](super::FirmwareCrane) registration.
 
 use controller::crane::{AxisReasons, Crane, Flat};
 use controller::drive::{self, Drive};

@@ -2,7 +2,7 @@
 //! file: what the controller knows of it ([`Crane`]: drives, limits, reference per
 //! vertical plane, flat inverse) and the reference of each of its inverse models, the
 //! plant the virtual bus runs for it ([`Simulated`]), and — on the host — its
-//! formulations and its [`FirmwareCrane`] registration, with its state feedback per
+//! formulations and its [`FirmwareCrane`](super::FirmwareCrane) registration, with its state feedback per
 //! vertical plane (`controller::feedback3d::SpatialFeedback`) on a two-axis inclinometer.
 
 use controller::crane::{AxisReasons, Crane, Flat};
