@@ -31,19 +31,10 @@ use solver_core::Real;
 #[cfg(feature = "host")]
 pub use host::*;
 
-/// The hook-and-load crane with its parameters: the type the controller, the virtual bus
-/// and the registry know it by.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct HookAndLoad(pub DoublePendulumParams);
-
-/// Its parameters, read through the crane: `crane.g` is its model's `g`. The newtype
-/// exists only to carry the impls of other crates' traits (the orphan rule), so it
-/// reads as the parameters it wraps.
-impl core::ops::Deref for HookAndLoad {
-    type Target = DoublePendulumParams;
-    fn deref(&self) -> &DoublePendulumParams {
-        &self.0
-    }
+crane_type! {
+    /// The hook-and-load crane with its parameters: the type the controller, the virtual bus
+    /// and the registry know it by.
+    HookAndLoad(DoublePendulumParams), 2
 }
 
 impl HookAndLoad {
@@ -230,7 +221,7 @@ mod host {
         crane_models, CraneModel, FirmwareCrane, FirmwareError, FirmwareIntegrator, FirmwareVisitor,
     };
     use crate::family::{ExactInputs, Flat, ModelFamily};
-    use crate::rust_source::{struct_to_rust, ToRust};
+    use crate::rust_source::struct_to_rust;
     use crate::{refuse, ModelSpec, OperatorSpec, SceneError};
 
     crane_models! {
@@ -340,16 +331,6 @@ mod host {
                 crane: <Self as Crane<2>>::NAME,
                 model: model.path().1,
             })
-        }
-    }
-
-    impl ToRust for HookAndLoad {
-        fn to_rust(&self) -> String {
-            format!(
-                "{}({})",
-                <HookAndLoad as FirmwareCrane<2>>::TYPE,
-                self.0.to_rust()
-            )
         }
     }
 }

@@ -21,6 +21,37 @@
 //! Without the feature `host` (the firmware, the panic proof) only the crane types and
 //! their `no_std` impls are built: what the firmware links of its crane.
 
+/// A crane's type, `Name(Params)` with `A` driven axes: a newtype over its models'
+/// parameters, which exists only to carry the impls of other crates' traits (the orphan
+/// rule forbids them on solver-core's parameter type), so it derefs to the parameters it
+/// wraps (`crane.g` is its model's `g`). On the host the build scripts write it as
+/// `Name(Params { … })` ([`FirmwareCrane::TYPE`] and the parameters' own `ToRust`).
+macro_rules! crane_type {
+    ($(#[$doc:meta])* $name:ident($params:ty), $axes:literal) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone, Copy, Default, PartialEq)]
+        pub struct $name(pub $params);
+
+        impl core::ops::Deref for $name {
+            type Target = $params;
+            fn deref(&self) -> &$params {
+                &self.0
+            }
+        }
+
+        #[cfg(feature = "host")]
+        impl $crate::rust_source::ToRust for $name {
+            fn to_rust(&self) -> String {
+                format!(
+                    "{}({})",
+                    <$name as $crate::cranes::FirmwareCrane<$axes>>::TYPE,
+                    self.0.to_rust()
+                )
+            }
+        }
+    };
+}
+
 pub mod hook_and_load;
 pub mod planar;
 pub mod spatial;

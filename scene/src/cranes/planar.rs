@@ -26,19 +26,10 @@ use solver_core::{Driven, Real};
 #[cfg(feature = "host")]
 pub use host::*;
 
-/// The planar crane with its parameters: the type the controller, the virtual bus and the
-/// registry know it by.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Planar(pub CraneParams);
-
-/// Its parameters, read through the crane: `crane.g` is its model's `g`. The newtype
-/// exists only to carry the impls of other crates' traits (the orphan rule), so it
-/// reads as the parameters it wraps.
-impl core::ops::Deref for Planar {
-    type Target = CraneParams;
-    fn deref(&self) -> &CraneParams {
-        &self.0
-    }
+crane_type! {
+    /// The planar crane with its parameters: the type the controller, the virtual bus and the
+    /// registry know it by.
+    Planar(CraneParams), 2
 }
 
 impl Planar {
@@ -168,7 +159,7 @@ mod host {
     };
     use crate::family::{ExactInputs, Flat, ModelFamily};
     use crate::operator::only_subs;
-    use crate::rust_source::{struct_to_rust, ToRust};
+    use crate::rust_source::struct_to_rust;
     use crate::{ModelSpec, OperatorSpec, SceneError};
 
     /// The default scene, relative to the workspace root: what the firmware (its build
@@ -317,16 +308,6 @@ mod host {
                 visitor,
                 P
             ))
-        }
-    }
-
-    impl ToRust for Planar {
-        fn to_rust(&self) -> String {
-            format!(
-                "{}({})",
-                <Planar as FirmwareCrane<2>>::TYPE,
-                self.0.to_rust()
-            )
         }
     }
 }

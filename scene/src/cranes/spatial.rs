@@ -25,19 +25,10 @@ use solver_core::{Driven, Real};
 #[cfg(feature = "host")]
 pub use host::*;
 
-/// The 3D crane with its parameters: the type the controller, the virtual bus and the
-/// registry know it by.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Spatial(pub Crane3dParams);
-
-/// Its parameters, read through the crane: `crane.g` is its model's `g`. The newtype
-/// exists only to carry the impls of other crates' traits (the orphan rule), so it
-/// reads as the parameters it wraps.
-impl core::ops::Deref for Spatial {
-    type Target = Crane3dParams;
-    fn deref(&self) -> &Crane3dParams {
-        &self.0
-    }
+crane_type! {
+    /// The 3D crane with its parameters: the type the controller, the virtual bus and the
+    /// registry know it by.
+    Spatial(Crane3dParams), 3
 }
 
 impl Spatial {
@@ -177,7 +168,7 @@ mod host {
     };
     use crate::family::{ExactInputs, Flat, ModelFamily};
     use crate::operator::only_subs;
-    use crate::rust_source::{struct_to_rust, ToRust};
+    use crate::rust_source::struct_to_rust;
     use crate::{ModelSpec, OperatorSpec, SceneError};
 
     crane_models! {
@@ -333,16 +324,6 @@ mod host {
                 visitor,
                 P
             ))
-        }
-    }
-
-    impl ToRust for Spatial {
-        fn to_rust(&self) -> String {
-            format!(
-                "{}({})",
-                <Spatial as FirmwareCrane<3>>::TYPE,
-                self.0.to_rust()
-            )
         }
     }
 }
