@@ -1,7 +1,8 @@
 //! What the controller asks of whatever stands between the inverse model and the drives
 //! (Fig. 1), for a crane with `A` driven axes: nothing ([`crate::feedback::NoFeedback`]:
-//! the planar crane's through the blanket impl below, every other crane's through its
-//! `feedforward_only!` line), or the planar state feedback ([`Correction`], the paper's
+//! the planar crane's through the blanket impl below, every other crane's through a
+//! `feedforward_only!` line for its reference — the 3D crane's below, the hook-and-load
+//! crane's in its crane file), or the planar state feedback ([`Correction`], the paper's
 //! crane).
 //!
 //! The controller speaks in per-drive arrays in the model's input order; a correction

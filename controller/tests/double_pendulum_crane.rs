@@ -89,7 +89,7 @@ fn on_bus(
 fn a_light_hook_on_a_short_sling_is_the_planar_crane() {
     let sling = 0.5;
     let dp = HookAndLoad(DoublePendulumParams::EXAMPLE.with(1e-6, sling));
-    let planar = Planar(dp.crane);
+    let planar = Planar(dp.0.crane);
     let mut plan = at_rest([12.0, 8.0]);
     let step = planner(dp)
         .plan_move(&plan, [20.0, 5.0], None, 0.0)
@@ -158,8 +158,8 @@ fn a_move_that_would_slacken_the_rope_to_the_hook_is_refused_as_such() {
     let p = HookAndLoad::EXAMPLE;
     let from = at_rest([12.0, 4.0]);
     let (to, quick, slow) = ([13.0, 4.0], 1.5, 3.0);
-    let limit = 0.5 * p.crane.g;
-    let mu = p.hook_mass / p.crane.m;
+    let limit = 0.5 * p.0.crane.g;
+    let mu = p.0.hook_mass / p.0.crane.m;
     // The largest load and mean downward accelerations along the move, from solver-core's
     // flat inverse, independently of the planner.
     let peaks = |d: f64| {
@@ -170,7 +170,9 @@ fn a_move_that_would_slacken_the_rope_to_the_hook_is_refused_as_such() {
         (0..=400).fold((f64::MIN, f64::MIN), |(load, mean), i| {
             let t = t0 + (t1 - t0) * f64::from(i) / 400.0;
             let [_, _, a] = plan.derivatives::<3>(t);
-            let hook = double_pendulum::flat_inverse(&p, &plan, t).unwrap().a_hook[1];
+            let hook = double_pendulum::flat_inverse(&p.0, &plan, t)
+                .unwrap()
+                .a_hook[1];
             (load.max(a.y), mean.max((a.y + mu * hook) / (1.0 + mu)))
         })
     };
@@ -189,7 +191,7 @@ fn a_move_that_would_slacken_the_rope_to_the_hook_is_refused_as_such() {
         hook_and_load.plan_move(&from, to, Some(quick), 0.0).err(),
         Some(Reject::SlackRope)
     );
-    let planar = Planner::with_axes(Planar(p.crane), unbounded);
+    let planar = Planner::with_axes(Planar(p.0.crane), unbounded);
     assert!(planar.plan_move(&from, to, Some(quick), 0.0).is_ok());
     // Quicker still, the rope would push (the mean reaches g: the flat inverse refuses
     // it), and where it does the rope is slack too.
@@ -201,7 +203,7 @@ fn a_move_that_would_slacken_the_rope_to_the_hook_is_refused_as_such() {
         .map(|i| t0 + (t1 - t0) * f64::from(i) / 400.0)
         .filter(|t| {
             matches!(
-                double_pendulum::flat_inverse(&p, &plan, *t),
+                double_pendulum::flat_inverse(&p.0, &plan, *t),
                 Err(solver_core::Error::RopeSlack { .. })
             )
         })
@@ -238,7 +240,7 @@ fn its_inverse_models_give_its_own_reference() {
     let step = planner(p).plan_move(&plan, [20.0, 5.0], None, 0.0).unwrap();
     plan.push(step).unwrap();
     let t = step.t_start() + 0.4 * step.duration();
-    let f = double_pendulum::flat_inverse(&p, &plan, t).unwrap();
+    let f = double_pendulum::flat_inverse(&p.0, &plan, t).unwrap();
     let expected = HookReference {
         x: f.x,
         l: f.l,
@@ -250,12 +252,12 @@ fn its_inverse_models_give_its_own_reference() {
     let subs = DoublePendulumSubs::<f64, _>::new(p.0, plan).unwrap();
     assert_eq!(subs.reference(f.subs().as_slice(), t), expected);
     let ext = DoublePendulumExt::<f64, _>::new(p.0, plan).unwrap();
-    let y = double_pendulum::extended_state(&p, &plan.derivatives::<8>(t), t).unwrap();
+    let y = double_pendulum::extended_state(&p.0, &plan.derivatives::<8>(t), t).unwrap();
     assert_eq!(ext.reference(y.as_slice(), t), expected);
     // The hook block hangs the sling's length above the load.
     let load = plan.derivatives::<1>(t)[0];
     let sling = ((load[0] - f.hook[0]).powi(2) + (load[1] - f.hook[1]).powi(2)).sqrt();
-    assert!((sling - p.sling).abs() < 1e-9, "{sling}");
+    assert!((sling - p.0.sling).abs() < 1e-9, "{sling}");
 }
 
 /// The controller drives the hook-and-load crane on the virtual bus (its plant-less
@@ -450,7 +452,8 @@ fn stop_takeover_transient_against_the_exact_inverse() {
                 break;
             }
             let Some(step) = cycle.step else { continue };
-            if let Ok(exact) = double_pendulum::flat_inverse(&p, r.c.feedforward().plan(), step.t) {
+            if let Ok(exact) = double_pendulum::flat_inverse(&p.0, r.c.feedforward().plan(), step.t)
+            {
                 let error = (0..2)
                     .map(|a| (step.u[a] - exact.u[a]).abs())
                     .fold(0.0, f64::max);

@@ -16,7 +16,7 @@ use solver_core::plan::Plan;
 const SMOOTHNESS: usize = 5;
 
 fn planar() -> Planner<Planar, 2> {
-    Planner::new(Planar::PAPER, DriveLimits::LAB)
+    Planner::with_axes(Planar::PAPER, DriveLimits::LAB.axes())
 }
 
 /// The planar crane extruded across an 8 m span; the trolley across it gets `trolley`.

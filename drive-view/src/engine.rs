@@ -235,7 +235,8 @@ impl FirmwareCraneVisitor for View<'_> {
         }
         let info = CraneInfo {
             scene: self.scene.name.clone(),
-            kind: if K::SWING_AXES == 2 {
+            // Drawn from above too where the load moves in two horizontal directions.
+            kind: if K::HORIZONTAL_AXES == 2 {
                 CraneKind::Spatial
             } else {
                 CraneKind::Planar

@@ -31,7 +31,8 @@ pub type Feedforward =
 pub const HOME: [f64; 2] = [12.0, 8.0];
 
 /// The planner with the lab drives' limits.
-pub const PLANNER: Planner<Crane, 2> = Planner::new(default_scene::PARAMS, DriveLimits::LAB);
+pub const PLANNER: Planner<Crane, 2> =
+    Planner::with_axes(default_scene::PARAMS, DriveLimits::LAB.axes());
 
 /// The paper's move (12, 8) → (20, 4) from 1 s to 9 s, or rest at (12, 8).
 pub fn feedforward(paper_move: bool) -> Feedforward {

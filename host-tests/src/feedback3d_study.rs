@@ -68,7 +68,7 @@ pub fn reference_run(
             inv.integrator.step(&inv.model)?;
         }
         // y = [x, y, l, ẋ, ẏ, l̇, λ, u1, u2, u3]; each plane's reference as the planar
-        // crane's in that plane (controller::feedforward::CraneReference<3>).
+        // crane's in that plane (the 3D crane's controller::feedforward::CraneReference).
         let y: [f64; subs::N] = inv.integrator.state().into();
         let t = inv.integrator.time();
         let [p, v] = inv.model.trajectory().derivatives::<2>(t);

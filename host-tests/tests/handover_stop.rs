@@ -376,7 +376,7 @@ fn a_hand_over_s_stop_rests_on_the_path_no_farther_than_the_target() {
     let planar = Settings::lab(&CraneParams::PAPER);
     crane::<Planar, PlanarGenerator, 2>(
         "planar",
-        &Planner::new(Planar::PAPER, DriveLimits::LAB),
+        &Planner::with_axes(Planar::PAPER, DriveLimits::LAB.axes()),
         planar,
         planar.entry_blend,
         &PLANAR,

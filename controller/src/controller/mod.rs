@@ -179,7 +179,8 @@ pub use crate::requests::{
 };
 
 /// The crane controller: a CANopen node, manager (or slave) of the drives of crane `K`
-/// (its `A` driven axes, [`Crane::DRIVES`]), with the inverse model `F` as feedforward and `C` between it and the
+/// (its `A` driven axes, [`Crane::DRIVES`]), with the inverse model `F` as feedforward
+/// and `C` between it and the
 /// drives (Fig. 1: [`NoFeedback`], or the state feedback with an inclinometer).
 #[derive(Debug, Clone)]
 pub struct Controller<F, C, K, const A: usize> {
@@ -287,7 +288,7 @@ where
                 // A crane with one horizontal drive (the planar and the hook-and-load
                 // crane: x and the hoist) has no y to demand.
                 operator: StagedOperator {
-                    planar: K::DRIVES.iter().filter(|d| **d != Drive::Winch).count() < 2,
+                    planar: K::HORIZONTAL_AXES < 2,
                     ..StagedOperator::default()
                 },
                 drives_consumer_ms: config

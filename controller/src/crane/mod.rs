@@ -88,6 +88,11 @@ pub trait Crane<const A: usize> {
     /// 1; the 3D crane's swing in both vertical planes: 2): its inclinometer must have as
     /// many axes ([`crate::commissioning::InclinometerSetup::stock`]).
     const SWING_AXES: u8;
+    /// How many of its drives move the load horizontally (the planar and the
+    /// hook-and-load crane's trolley: 1; the 3D crane's bridge and trolley: 2): the
+    /// horizontal directions its operator's stick demands, so that a y demand to a crane
+    /// with one is refused ([`crate::operator`]).
+    const HORIZONTAL_AXES: u8;
     /// The least smoothness `n` of the moves and stops the controller plans for it
     /// ([`command_plan`]). Its inputs contain the load path's derivatives up to some
     /// order `k`, so the drives' accelerations contain order `k + 1`: a plan of

@@ -37,7 +37,7 @@ pub fn settings() -> SolverSettings {
 }
 
 pub fn planner() -> Planner<Planar, 2> {
-    Planner::new(Planar::PAPER, DriveLimits::LAB)
+    Planner::with_axes(Planar::PAPER, DriveLimits::LAB.axes())
 }
 
 /// The inverse model at rest at `home` from t = 0, with `first` (end, start, duration) planned.

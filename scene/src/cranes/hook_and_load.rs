@@ -3,8 +3,8 @@
 //! everything it is in one file: what the controller knows of it ([`Crane`]: drives,
 //! limits, its own reference state [`HookReference`], flat inverse) and the reference of
 //! each of its inverse models (*subs*, *ext*), the plant the virtual bus runs for it
-//! ([`Simulated`]), and — on the host — its formulations and its [`FirmwareCrane`](super::FirmwareCrane)
-//! registration.
+//! ([`Simulated`]), and — on the host — its formulations and its
+//! [`FirmwareCrane`](super::FirmwareCrane) registration.
 //!
 //! It has no state feedback yet: which sensor a loop would read (the rope's angle at
 //! the hook block, the sling's, or both) is open, so its only correction is
@@ -17,8 +17,11 @@ use controller::crane::{AxisReasons, Crane, Flat};
 use controller::drive::{self, Drive};
 use controller::feedforward::CraneReference;
 use controller::setpoint::{AxisLimits, DriveLimits};
+#[cfg(feature = "sim")]
 use sim::mismatch::Mismatch;
+#[cfg(feature = "sim")]
 use sim::plant_dp::PlantDp;
+#[cfg(feature = "sim")]
 use sim::simulated::Simulated;
 use solver_core::models::double_pendulum::DoublePendulumSubs;
 use solver_core::models::double_pendulum_crane::DoublePendulumParams;
@@ -85,6 +88,7 @@ impl Crane<2> for HookAndLoad {
     /// Provisional: no feedback reads it yet; the stock one-axis inclinometer (on the
     /// hook block it would read the rope's angle; the sling's is not measured).
     const SWING_AXES: u8 = 1;
+    const HORIZONTAL_AXES: u8 = 1;
     /// The inputs contain `z⁽⁶⁾` (the sling's constraints differentiated four times give
     /// `u`, five times `u̇`: index 5, `solver_core::models::double_pendulum`), so the
     /// drives' accelerations `u̇` contain `z⁽⁷⁾`: moves are planned with n ≥ 7, as the
@@ -197,6 +201,7 @@ controller::feedforward_only!(2, HookReference);
 /// The hook-and-load crane: its double pendulum with the one-axis inclinometer on the
 /// hook block. `start` is where the drives stand: at rest the rope is the sling's length
 /// shorter than the load is deep.
+#[cfg(feature = "sim")]
 impl Simulated<2> for HookAndLoad {
     type Plant = PlantDp;
     fn plant(&self, mismatch: Mismatch, start: [f64; 2]) -> PlantDp {
@@ -265,7 +270,7 @@ mod host {
     );
 
     impl FirmwareCrane<2> for HookAndLoad {
-        const TYPE: &'static str = "::scene::cranes::hook_and_load::HookAndLoad";
+        const TYPE: &'static str = HookAndLoad::PATH;
         const QEMU_SCENES: &'static [&'static str] =
             &["scenes/hook-and-load.toml", "scenes/hook-and-load-ext.toml"];
         type Model = HookAndLoadModel;

@@ -23,20 +23,21 @@
 
 /// A crane's type, `Name(Params)` with `A` driven axes: a newtype over its models'
 /// parameters, which exists only to carry the impls of other crates' traits (the orphan
-/// rule forbids them on solver-core's parameter type), so it derefs to the parameters it
-/// wraps (`crane.g` is its model's `g`). On the host the build scripts write it as
-/// `Name(Params { … })` ([`FirmwareCrane::TYPE`] and the parameters' own `ToRust`).
+/// rule forbids them on solver-core's parameter type). Its `.0` is what its models are
+/// built from (`Model::new(crane.0, path)`): the registry's `crane_models!` and the
+/// firmware's, the fuzzer's and the panic proof's generated code rely on it, so every
+/// crane type is made here. `PATH` is the type's path as generated code names it (what
+/// its [`FirmwareCrane::TYPE`] is); on the host the build scripts write a value as
+/// `Name(Params { … })` (the parameters' own `ToRust`).
 macro_rules! crane_type {
     ($(#[$doc:meta])* $name:ident($params:ty), $axes:literal) => {
         $(#[$doc])*
         #[derive(Debug, Clone, Copy, Default, PartialEq)]
         pub struct $name(pub $params);
 
-        impl core::ops::Deref for $name {
-            type Target = $params;
-            fn deref(&self) -> &$params {
-                &self.0
-            }
+        impl $name {
+            /// The type's path from outside the crate, as generated code names it.
+            pub const PATH: &'static str = concat!("::", module_path!(), "::", stringify!($name));
         }
 
         #[cfg(feature = "host")]

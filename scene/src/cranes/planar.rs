@@ -10,8 +10,11 @@ use controller::feedback::Reference;
 use controller::feedforward::CraneReference;
 use controller::operator::path::Steered;
 use controller::setpoint::{AxisLimits, DriveLimits};
+#[cfg(feature = "sim")]
 use sim::mismatch::Mismatch;
+#[cfg(feature = "sim")]
 use sim::plant::Plant;
+#[cfg(feature = "sim")]
 use sim::simulated::Simulated;
 use solver_core::models::crane::CraneParams;
 use solver_core::models::crane_ext::CraneExt;
@@ -43,6 +46,7 @@ impl Crane<2> for Planar {
     const REASONS: [AxisReasons; 2] = [AxisReasons::TROLLEY, AxisReasons::WINCH];
     const LAB_LIMITS: [AxisLimits; 2] = DriveLimits::LAB.axes();
     const SWING_AXES: u8 = 1;
+    const HORIZONTAL_AXES: u8 = 1;
     /// The inputs contain `z⁗` (Eqs. 27–28), so the drives' accelerations `u̇` contain
     /// `z⁽⁵⁾`. With the paper's n = 4 the fifth derivative jumps at a move's ends: BDF4
     /// overshoots the planned peak acceleration by 9.7 %, BDF6 by a factor of up to
@@ -130,6 +134,7 @@ impl<T: Real> CraneReference<Planar, 2> for CraneExt<T, Plan<f64, 2>> {
 }
 
 /// The planar crane: its plant with the one-axis inclinometer.
+#[cfg(feature = "sim")]
 impl Simulated<2> for Planar {
     type Plant = Plant;
     fn plant(&self, mismatch: Mismatch, [x, l]: [f64; 2]) -> Plant {
@@ -223,7 +228,7 @@ mod host {
     );
 
     impl FirmwareCrane<2> for Planar {
-        const TYPE: &'static str = "::scene::cranes::planar::Planar";
+        const TYPE: &'static str = Planar::PATH;
         /// The default scene first (every scenario of the virtual bus runs on it).
         const QEMU_SCENES: &'static [&'static str] = &[
             DEFAULT_SCENE,
@@ -258,13 +263,13 @@ mod host {
         const OPERATOR_TYPE: &'static str = "solver_core::operator::Settings<1>";
         const STEERED_TYPE: &'static str =
             "controller::operator::path::Steered<solver_core::operator::PlanarGenerator, 2>";
-        /// Only *subs* has the controller's reference on the generator's path
-        /// (above); the trolley's range is the workspace's, the hoist's
-        /// the depths the rope's range allows.
-        /// *subs* only: only it has the controller's reference on the generator's path.
+        /// *subs* only: only it has the controller's reference on the generator's path
+        /// (its `CraneReference` on `Steered`, above).
         fn manual_mode(model: PlanarModel) -> bool {
             model == PlanarModel::Subs
         }
+        /// The lab's settings with the scene's keys: the trolley ranges over the
+        /// workspace, the hoist over the depths the rope's range allows.
         fn operator_settings(
             spec: &OperatorSpec,
             crane: &Self,

@@ -2,8 +2,9 @@
 //! file: what the controller knows of it ([`Crane`]: drives, limits, reference per
 //! vertical plane, flat inverse) and the reference of each of its inverse models, the
 //! plant the virtual bus runs for it ([`Simulated`]), and — on the host — its
-//! formulations and its [`FirmwareCrane`](super::FirmwareCrane) registration, with its state feedback per
-//! vertical plane (`controller::feedback3d::SpatialFeedback`) on a two-axis inclinometer.
+//! formulations and its [`FirmwareCrane`](super::FirmwareCrane) registration, with its
+//! state feedback per vertical plane (`controller::feedback3d::SpatialFeedback`) on a
+//! two-axis inclinometer.
 
 use controller::crane::{AxisReasons, Crane, Flat};
 use controller::drive::{self, Drive};
@@ -11,9 +12,13 @@ use controller::feedback::Reference;
 use controller::feedforward::CraneReference;
 use controller::operator::path::Steered;
 use controller::setpoint::{AxisLimits, DriveLimits};
+#[cfg(feature = "sim")]
 use sim::mismatch::Mismatch;
+#[cfg(feature = "sim")]
 use sim::plant3d::Mismatch3d;
+#[cfg(feature = "sim")]
 use sim::plant3d::Plant3d;
+#[cfg(feature = "sim")]
 use sim::simulated::Simulated;
 use solver_core::models::crane3d::{Crane3dExt, Crane3dParams, Crane3dSubs};
 use solver_core::operator::Generator3d;
@@ -46,6 +51,7 @@ impl Crane<3> for Spatial {
     ];
     const LAB_LIMITS: [AxisLimits; 3] = DriveLimits::LAB_3D;
     const SWING_AXES: u8 = 2;
+    const HORIZONTAL_AXES: u8 = 2;
     /// As the planar crane's: its inputs contain the load path's fourth derivatives
     /// (the flat inverse, `solver_core::reference::flat_crane3d`), its accelerations the
     /// fifth.
@@ -130,6 +136,7 @@ impl<T: Real> CraneReference<Spatial, 3> for Crane3dExt<T, Plan<f64, 3>> {
 /// The 3D crane with the two-axis inclinometer. The planar scenario's mismatch on bridge
 /// and hoist, its gust and its swinging start at 45°, so that both vertical planes
 /// swing.
+#[cfg(feature = "sim")]
 impl Simulated<3> for Spatial {
     type Plant = Plant3d;
     fn plant(&self, mismatch: Mismatch, [x, y, l]: [f64; 3]) -> Plant3d {
@@ -223,7 +230,7 @@ mod host {
     );
 
     impl FirmwareCrane<3> for Spatial {
-        const TYPE: &'static str = "::scene::cranes::spatial::Spatial";
+        const TYPE: &'static str = Spatial::PATH;
         const QEMU_SCENES: &'static [&'static str] = &[
             "scenes/crane3d/crane3d.toml",
             "scenes/crane3d/crane3d-radau5.toml",
@@ -274,13 +281,13 @@ mod host {
         const OPERATOR_TYPE: &'static str = "solver_core::operator::Settings<2>";
         const STEERED_TYPE: &'static str =
             "controller::operator::path::Steered<solver_core::operator::Generator3d, 3>";
-        /// Only *subs* has the controller's reference on the generator's path
-        /// (above); bridge and trolley range over the workspace box,
-        /// the hoist over the depths the rope's range allows.
-        /// *subs* only: only it has the controller's reference on the generator's path.
+        /// *subs* only: only it has the controller's reference on the generator's path
+        /// (its `CraneReference` on `Steered`, above).
         fn manual_mode(model: SpatialModel) -> bool {
             model == SpatialModel::Subs
         }
+        /// The lab's settings with the scene's keys: bridge and trolley range over the
+        /// workspace box, the hoist over the depths the rope's range allows.
         fn operator_settings(
             spec: &OperatorSpec,
             crane: &Self,
