@@ -14,9 +14,10 @@
 //! Instructions per cycle = callgrind's `Collected` / the cycles printed. Arguments: the
 //! scheme, `bdf` (default) or `radau`; what is counted: `moving` (default: every cycle of
 //! a run in which all three axes move), `hand-over` (cycles during a hand-over's blend:
-//! a hand-over from a running move every 400 cycles, each blend lasting 4 s) or `start`
-//! (the cycle in which a motion starts from rest: the filter is tuned and its ring
-//! cleared — the generator's most expensive cycle).
+//! a hand-over from a running move every 400 cycles, each blend lasting 4 s), `hoisting`
+//! (the hoist alone moving, reversing every 530 cycles, the horizontal axes at rest: the
+//! filter for their next start staged as the depth cap changes) or `start` (the cycle in
+//! which a motion starts from rest: the filter is tuned and its ring cleared).
 
 use nalgebra::SVector;
 use solver_core::models::crane3d::Crane3dParams;
@@ -109,13 +110,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 sum += measured_cycle(std::hint::black_box(&mut g), &busy(n), stages);
             }
         }
+        Some("hoisting") => {
+            let mut g = at_rest()?;
+            for n in 0..CYCLES {
+                let d = Demand {
+                    horizontal: [0.0; 2],
+                    hoist: busy(n).hoist,
+                };
+                sum += measured_cycle(std::hint::black_box(&mut g), &d, stages);
+            }
+        }
         Some("start") => {
             for n in 0..CYCLES {
                 let mut g = at_rest()?;
                 sum += measured_cycle(std::hint::black_box(&mut g), &busy(n), stages);
             }
         }
-        Some(other) => return Err(format!("`{other}`: expected moving, hand-over or start").into()),
+        Some(other) => {
+            return Err(format!("`{other}`: expected moving, hand-over, hoisting or start").into())
+        }
     }
     println!("{CYCLES} cycles, checksum {sum}");
     Ok(())

@@ -117,6 +117,53 @@ pub struct Generator<const NH: usize, const RH: usize, const RV: usize> {
     full_stick: [f64; NH],
     /// The same for the hoist.
     full_hoist: f64,
+    /// The lowering allowance in the hoist's position units, `⌊allowance/δp_z⌋`: fixed by
+    /// the settings, worked out at [`Generator::reset`] instead of at every start (a
+    /// double divide and a `floor`).
+    allowance: i64,
+    /// The horizontal filter for a start from the hoist's present state, worked out
+    /// while the horizontal axes rest ([`Generator::retune`]).
+    staged: Staged,
+}
+
+/// What a motion's start tunes the horizontal filter to, worked out ahead: at the end of
+/// every cycle in which the horizontal axes rest (and no hand-over's blend lasts), for
+/// the hoist's state at that cycle's end — what the next cycle's start reads — and only
+/// when that state changed the tuning's inputs (the depth cap in units; with the robust
+/// pair also the rope). The filter itself is installed in the horizontal group then (a
+/// resting group's filter is read by nothing until a start, which installs it anyway),
+/// and not again while the half periods stay the same. A start checks the keys, forgets
+/// the ring and writes [`Tuning`]: the same operations on the same operands as a start
+/// that works it all out, bit for bit, without the double divides (seven on the 3D
+/// crane's plain path; the allowance's eighth is [`Generator::reset`]'s now), `sqrt` and
+/// the taps' merging in the start's cycle, the generator's most expensive (`cargo xtask
+/// cycles`, docs/OPERATOR.md "## Cost"). Their cost moves to the resting cycles in which
+/// the depth cap changes: the cycle the horizontal axes come to rest after hoisting, and
+/// each cycle of hoisting while they rest.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Staged {
+    /// The depth cap in the hoist's units the filter was tuned for.
+    cap_units: i64,
+    /// The rope the robust pair was tuned to (its depth `z_C`), m.
+    depth: f64,
+    /// The virtual pendulum `g/ω_g²`, m.
+    pendulum: f64,
+    /// `m_g`; 0: nothing staged (a half period is at least one cycle), also for one
+    /// beyond `u16` (a ring that long is not built; such a start works it all out).
+    half_period: u16,
+    /// `m_r` with the robust setting, else 0.
+    robust_half_period: u16,
+}
+
+impl Staged {
+    /// Nothing staged: the next start works the tuning out.
+    const NONE: Self = Self {
+        cap_units: 0,
+        depth: 0.0,
+        pendulum: 0.0,
+        half_period: 0,
+        robust_half_period: 0,
+    };
 }
 
 /// The stick's demand through the deadband: zero inside it, the rest scaled by `full`
@@ -194,6 +241,8 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             hoist_blended: false,
             full_stick: [0.0; NH],
             full_hoist: 0.0,
+            allowance: 0,
+            staged: Staged::NONE,
         }
     }
 
@@ -295,6 +344,8 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             .horizontal
             .map(|a| a.speed / Quanta::new(a.acceleration, h).velocity / (1.0 - settings.deadband));
         self.full_hoist = settings.hoist.speed / zq.velocity / (1.0 - settings.deadband);
+        self.allowance = truncate(libm::floor(settings.lowering_allowance / zq.position));
+        self.staged = Staged::NONE;
         self.retune();
         Ok(())
     }
@@ -479,18 +530,80 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
     /// rest): the virtual pendulum long enough for the deepest load the hoist may reach
     /// while it lasts — where it would stop now, or its deepest since it last rested,
     /// and the lowering allowance below that, within its range — and the robust pair at
-    /// the rope's current length.
+    /// the rope's current length. Taken from [`Staged`] when it was worked out for this
+    /// state (a start from rest without a blend: always, [`Generator::advance`] stages it
+    /// at the end of every resting cycle), else worked out now.
     fn retune(&mut self) {
+        let cap_units = self.cap_units();
+        let depth_cap = self.depth_at(cap_units);
+        let (pendulum, m_g, robust) = if self.is_staged(cap_units) {
+            // Installed while the group rested; its history since then all zero steps.
+            self.horizontal.forget();
+            let st = &self.staged;
+            let m_r = usize::from(st.robust_half_period);
+            (
+                st.pendulum,
+                usize::from(st.half_period),
+                (m_r != 0).then_some(m_r),
+            )
+        } else {
+            self.stage(cap_units, depth_cap)
+        };
+        let [b1, b2] = self.boxes;
+        self.tuning = Tuning {
+            pendulum,
+            half_period: m_g,
+            robust_half_period: robust,
+            lag: (m_g + robust.unwrap_or(0) + b1 + b2) as f64 * self.settings.h * 0.5,
+            depth_cap,
+            cap_units,
+            ..self.tuning
+        };
+    }
+
+    /// The deepest the load may go while a motion starting now lasts, in the hoist's
+    /// units: where the hoist would stop now, or its deepest since it last rested, and
+    /// the lowering allowance below that, within its range.
+    fn cap_units(&self) -> i64 {
+        let axis = self.hoist.axes[0];
+        let reach = self.reach.max(axis.n_p + brake(axis.n_v));
+        reach
+            .saturating_add(self.allowance)
+            .min(self.hoist.bounds[0].1)
+    }
+
+    /// The depth `cap_units` from the hoist's origin, m.
+    fn depth_at(&self, cap_units: i64) -> f64 {
+        // Converted in 32 bits where it fits (`i64_to_f64`): the same value without the
+        // soft `__aeabi_l2d`.
+        self.hoist.origin[0] + i64_to_f64(cap_units) * self.hoist.quanta()[0].position
+    }
+
+    /// The rope now: the load's depth at this cycle's start (it hangs straight at
+    /// horizontal rest), within the range the ring is sized for.
+    fn rope_now(&self) -> f64 {
+        self.hoist.pieces()[0].coeffs[0].min(self.settings.hoist.range.1)
+    }
+
+    /// Whether [`Staged`] holds the filter for a start with this depth cap: no blend
+    /// (its extent is not in the keys), the same cap, the same rope if the robust pair is
+    /// tuned to it.
+    fn is_staged(&self, cap_units: i64) -> bool {
+        let st = &self.staged;
+        self.blend.is_none()
+            && st.half_period != 0
+            && st.cap_units == cap_units
+            && (!self.settings.robust || st.depth.to_bits() == self.rope_now().to_bits())
+    }
+
+    /// Works the filter out for a start with this depth cap (`cap_units`, `depth_cap` m)
+    /// and the rope now, and installs it in the horizontal group (which forgets its
+    /// ring); kept in [`Staged`] unless a blend lasts (its extent moves the pendulum) or
+    /// a half period is beyond `u16`. Returns the pendulum `g/ω_g²`, `m_g` and the robust
+    /// pair's `m_r`.
+    fn stage(&mut self, cap_units: i64, depth_cap: f64) -> (f64, usize, Option<usize>) {
         let s = &self.settings;
         let h = s.h;
-        let axis = self.hoist.axes[0];
-        let zq = self.hoist.quanta()[0];
-        let reach = self.reach.max(axis.n_p + brake(axis.n_v));
-        // The integers converted in 32 bits where they fit (`truncate`, `i64_to_f64`): the
-        // same values without the soft `__aeabi_d2lz` and `__aeabi_l2d` at every start.
-        let allowance = truncate(libm::floor(s.lowering_allowance / zq.position));
-        let cap_units = reach.saturating_add(allowance).min(self.hoist.bounds[0].1);
-        let depth_cap = self.hoist.origin[0] + i64_to_f64(cap_units) * zq.position;
         // While a hand-over's stop lasts, its load may be deeper by its excursion and
         // braked downwards: the pendulum is never shorter than that load's effective one
         // (`z g/(g − z̈)`), nor longer than the ring holds.
@@ -505,30 +618,60 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             pendulum = pendulum.max(braked).min(s.pendulum_for(s.hoist.range.1));
         }
         let m_g = zv_cycles(pendulum, s.g, h, Rounding::Up);
-        let omega_g = core::f64::consts::PI / (m_g as f64 * h);
-        // The rope now: the load's depth at this cycle's start (it hangs straight at
-        // horizontal rest), within the range the ring is sized for.
-        let depth_now = self.hoist.pieces()[0].coeffs[0].min(s.hoist.range.1);
+        let depth_now = self.rope_now();
         let robust = s
             .robust
             .then(|| zv_cycles(depth_now, s.g, h, Rounding::Nearest));
-        let [b1, b2] = self.boxes;
-        // The windows' taps as `reset` merged them (they never change), not merged anew.
-        let windows = self.horizontal.taps().without_pairs();
-        let taps = match robust {
-            Some(m_r) => windows.with_pairs(&[m_g, m_r]),
-            None => windows.with_pairs(&[m_g]),
+        let st = self.staged;
+        let pendulum = if st.half_period != 0
+            && usize::from(st.half_period) == m_g
+            && usize::from(st.robust_half_period) == robust.unwrap_or(0)
+        {
+            // The filter staged last, installed since (every other filter clears the
+            // stage): taps, `ω_g h` and the pendulum are functions of the half periods
+            // alone. Its history forgotten, as installing it again would.
+            self.horizontal.forget();
+            st.pendulum
+        } else {
+            let omega_g = core::f64::consts::PI / (m_g as f64 * h);
+            // The windows' taps as `reset` merged them (they never change), not merged
+            // anew.
+            let windows = self.horizontal.taps().without_pairs();
+            let taps = match robust {
+                Some(m_r) => windows.with_pairs(&[m_g, m_r]),
+                None => windows.with_pairs(&[m_g]),
+            };
+            self.horizontal.set_filter(taps, Some(omega_g * h));
+            s.g / (omega_g * omega_g)
         };
-        self.horizontal.set_filter(taps, Some(omega_g * h));
-        self.tuning = Tuning {
-            pendulum: s.g / (omega_g * omega_g),
-            half_period: m_g,
-            robust_half_period: robust,
-            lag: (m_g + robust.unwrap_or(0) + b1 + b2) as f64 * h * 0.5,
-            depth_cap,
-            cap_units,
-            ..self.tuning
+        self.staged = match (
+            self.blend.is_none(),
+            u16::try_from(m_g),
+            u16::try_from(robust.unwrap_or(0)),
+        ) {
+            (true, Ok(half_period), Ok(robust_half_period)) => Staged {
+                cap_units,
+                depth: depth_now,
+                pendulum,
+                half_period,
+                robust_half_period,
+            },
+            _ => Staged::NONE,
         };
+        (pendulum, m_g, robust)
+    }
+
+    /// Stages the filter for a start in the next cycle ([`Staged`]), if the horizontal
+    /// axes rest and no blend lasts; nothing if it is staged for this state already (a
+    /// resting hoist: the check is integers, and the rope with the robust pair).
+    fn stage_next_start(&mut self) {
+        if !self.horizontal.is_at_rest() || self.blend.is_some() {
+            return;
+        }
+        let cap_units = self.cap_units();
+        if !self.is_staged(cap_units) {
+            self.stage(cap_units, self.depth_at(cap_units));
+        }
     }
 
     /// One cycle: moves on past the current piece (if any) and builds the next one,
@@ -592,6 +735,8 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
                 self.widen();
             }
         }
+        // Last: what the next cycle's start reads is final now.
+        self.stage_next_start();
         Cycle {
             refused_demand: refused,
             at_rest: self.is_at_rest(),
@@ -745,13 +890,138 @@ impl<T: Real, const RH: usize, const RV: usize> Trajectory<T, 3> for Generator<2
 
 #[cfg(test)]
 mod tests {
-    #![allow(clippy::unwrap_used)]
+    #![allow(clippy::indexing_slicing, clippy::unwrap_used)]
     extern crate std;
     use std::string::ToString;
+    use std::vec;
+    use std::vec::Vec;
 
     use super::*;
     use crate::models::crane::CraneParams;
-    use crate::operator::{PlanarGenerator, Room};
+    use crate::models::crane3d::Crane3dParams;
+    use crate::operator::{Generator3d, PlanarGenerator, Room};
+    use crate::trajectory::PointToPoint;
+
+    /// A stick that hoists alone, starts the horizontal axes while hoisting, after the
+    /// hoist stopped, before and after they came to rest, releases, reverses: piecewise
+    /// constant demands of pseudo-random lengths (an LCG, the same every run), half of
+    /// them the horizontal axes released for 400–1,999 cycles (their stop and the
+    /// filter's window are 300–650), the others 1–300 cycles of any demand; the hoist's
+    /// demand a third of the time zero.
+    fn sticks<const NH: usize>(cycles: usize) -> Vec<Demand<NH>> {
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (seed >> 33) as usize
+        };
+        let mut out = Vec::with_capacity(cycles);
+        while out.len() < cycles {
+            let rest = next() % 2 == 0;
+            let left = if rest {
+                400 + next() % 1_600
+            } else {
+                1 + next() % 300
+            };
+            let mut demand = Demand::ZERO;
+            for d in demand.horizontal.iter_mut() {
+                *d = if rest { 0.0 } else { LEVELS[next() % 6] };
+            }
+            demand.hoist = LEVELS[next() % 6];
+            out.extend(core::iter::repeat_n(demand, left));
+        }
+        out.truncate(cycles);
+        out
+    }
+
+    /// The first cycle of `sticks` with a horizontal demand.
+    const FIRST_MOTION: usize = 1_056;
+
+    /// The stick's levels, zero a third of the time.
+    const LEVELS: [f64; 6] = [0.0, 0.0, 1.0, -1.0, 0.6, -0.3];
+
+    /// Runs `staged` and a twin whose staged tuning is dropped before every cycle (so
+    /// that each of its starts works the tuning out in the start's cycle, as before
+    /// [`Staged`]) on the same stick: the same cycles, tunings, paths, and while the
+    /// horizontal axes move the same generator (the staged tuning aside), bit for bit. Returns how many starts changed
+    /// `m_g` (the tuning worked out anew after hoisting) and how many starts there were.
+    fn twin_run<const NH: usize, const RH: usize, const RV: usize>(
+        mut staged: Generator<NH, RH, RV>,
+        sticks: &[Demand<NH>],
+    ) -> (usize, usize, usize) {
+        let mut fresh = staged;
+        let (mut changed, mut starts, mut blended) = (0, 0, 0);
+        for (n, stick) in sticks.iter().enumerate() {
+            fresh.staged = Staged::NONE;
+            let before = staged.tuning;
+            let resting = staged.horizontal.is_at_rest();
+            let (a, b) = (staged.advance(stick), fresh.advance(stick));
+            assert_eq!(a, b, "cycle {n}");
+            if resting && !staged.horizontal.is_at_rest() {
+                starts += 1;
+                changed += usize::from(staged.tuning.half_period != before.half_period);
+                blended += usize::from(staged.blend.is_some());
+            }
+            for theta in [0.0, 0.3, 1.0] {
+                let t = staged.time() + theta * staged.settings.h;
+                assert_eq!(staged.evaluate::<6>(t), fresh.evaluate::<6>(t), "cycle {n}");
+            }
+            // Moving, from the start on: the whole state (at rest the twin, staging anew
+            // every cycle, has forgotten its ring's old cycles sooner).
+            if !staged.horizontal.is_at_rest() {
+                let mut twin = fresh;
+                twin.staged = staged.staged;
+                assert_eq!(staged, twin, "cycle {n}");
+            }
+        }
+        (changed, starts, blended)
+    }
+
+    /// A start takes the staged tuning, and it is the one the start would work out: planar
+    /// and 3D, plain and robust, from rest and from a hand-over (its blend: no staging).
+    #[test]
+    fn a_staged_tuning_is_the_one_the_start_works_out() {
+        for robust in [false, true] {
+            let mut s = Settings::lab(&CraneParams::PAPER);
+            s.robust = robust;
+            let (lo, hi) = (s.horizontal[0].range, s.hoist.range);
+            let g = PlanarGenerator::at_rest(s, 0.0, [(lo.0 + lo.1) / 2.0], (hi.0 + hi.1) / 2.0)
+                .unwrap();
+            let (changed, starts, _) = twin_run(g, &sticks::<1>(60_000));
+            assert!(changed >= 3 && starts >= 15, "{changed} of {starts} starts");
+
+            let mut s = Settings::lab_3d(&Crane3dParams::EXAMPLE);
+            s.robust = robust;
+            let (x, y, z) = (s.horizontal[0].range, s.horizontal[1].range, s.hoist.range);
+            let middle = |(a, b): (f64, f64)| (a + b) / 2.0;
+            let g = Generator3d::at_rest(s, 0.0, [middle(x), middle(y)], middle(z)).unwrap();
+            let (changed, starts, _) = twin_run(g, &sticks::<2>(60_000));
+            assert!(changed >= 3 && starts >= 15, "{changed} of {starts} starts");
+
+            let mv = PointToPoint::new(
+                nalgebra::SVector::from([12.0, 3.0, 8.0]),
+                nalgebra::SVector::from([20.0, 6.0, 4.0]),
+                0.0,
+                10.0,
+                5,
+            )
+            .unwrap();
+            // The 3D lab drives' room beside the operator (`examples/operator_cycles.rs`).
+            let room = |speed, acceleration| Room {
+                speed,
+                acceleration,
+            };
+            let room = Headroom {
+                horizontal: [room(1.85, 2.1), room(1.1, 1.15)],
+                hoist: room(1.4, 2.1),
+            };
+            let g = Generator3d::take_over(s, 3.0, &Handover::<2>::of(&mv, 3.0), &room).unwrap();
+            // The stick moved 50 cycles in: during the blend.
+            let mut stick = vec![Demand::ZERO; 50];
+            stick.extend(sticks::<2>(16_000).split_off(FIRST_MOTION));
+            let (_, starts, blended) = twin_run(g, &stick);
+            assert!(blended == 1 && starts >= 2, "{blended} of {starts} starts");
+        }
+    }
 
     /// A hand-over no stop fits (here a moving trolley and no room at all) is refused with
     /// what was tried, never a duration that reads as inside its range (it printed

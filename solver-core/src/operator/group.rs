@@ -113,6 +113,13 @@ impl<const W: usize, const R: usize> Group<W, R> {
         for (s, q) in self.scale.iter_mut().zip(quanta) {
             *s = q.acceleration / norm;
         }
+        self.forget();
+    }
+
+    /// Forgets the ring and clears the running sums: the filter's history at rest, as
+    /// [`Group::set_filter`] leaves it (a start with a filter installed while the group
+    /// rested begins from the same state as one that installs it).
+    pub fn forget(&mut self) {
         self.ring.forget();
         self.sums = Sums::REST;
     }
