@@ -303,16 +303,15 @@ impl Engine {
     /// [`Engine::for_scene`] on another plant that is not the model (the studies').
     pub fn for_scene_with(path: &Path, plant: Mismatch) -> Result<Self, String> {
         let scene = Scene::load(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        Self::for_loaded_scene(&scene, path, plant)
+    }
+
+    /// [`Engine::for_scene_with`] on a scene already loaded from `path` and perhaps
+    /// changed since (a study's setting in place of the file's: the robust generator on
+    /// a scene that runs it plain); its commissioning file is the one beside `path`.
+    pub fn for_loaded_scene(scene: &Scene, path: &Path, plant: Mismatch) -> Result<Self, String> {
         let commissioning = CommissioningFile::for_scene(path).map_err(|e| e.to_string())?;
-        let (info, period_ms, rig) = firmware(
-            &scene,
-            &commissioning,
-            View {
-                scene: &scene,
-                path,
-                plant,
-            },
-        )??;
+        let (info, period_ms, rig) = firmware(scene, &commissioning, View { scene, path, plant })??;
         Ok(Self {
             rig,
             info,

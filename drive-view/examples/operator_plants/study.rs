@@ -42,11 +42,23 @@ use std::path::PathBuf;
 use drive_view::engine::Engine;
 use drive_view::switch::{Action, Axis, MasterSwitch, NOTCHES};
 use host_tests::operator_study::Shape;
+use scene::Scene;
 use sim::plant::{Mismatch, Rng, Travel3d};
 use sim::simulated::TrueState;
 use sim::MISMATCHED;
 
 const G: f64 = 9.81;
+
+/// The generator's setting against an error in the pendulum's length
+/// (`[operator] robust`, docs/OPERATOR.md, "The robust setting and what it costs"): the
+/// study's scenes run it plain; `--robust` runs every case with the second pair.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Generator {
+    /// One zero-vibration pair (the scenes' setting).
+    Plain,
+    /// A second pair tuned to the load's depth when the motion starts.
+    Robust,
+}
 
 /// What the travel levers do before the release.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -415,11 +427,19 @@ struct Run {
 }
 
 impl Run {
-    fn new(scene: &str, plant: Mismatch) -> Result<Self, String> {
+    /// The engine of `scene` on `plant`, its generator robust or plain as `generator`
+    /// says.
+    fn new(scene: &str, plant: Mismatch, generator: Generator) -> Result<Self, String> {
         let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
             .join("../scenes")
             .join(scene);
-        let engine = Engine::for_scene_with(&path, plant)?;
+        let mut loaded = Scene::load(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let operator = loaded
+            .operator
+            .as_mut()
+            .ok_or("the study needs a scene with [operator] and [feedback]")?;
+        operator.robust = Some(generator == Generator::Robust);
+        let engine = Engine::for_loaded_scene(&loaded, &path, plant)?;
         if !engine.info().feedback {
             return Err("the study needs a scene with [operator] and [feedback]".into());
         }
@@ -545,6 +565,7 @@ pub fn case(
     profile: Profile,
     rope: f64,
     hoist: Hoist,
+    generator: Generator,
 ) -> Outcome {
     Outcome {
         crane: crane.name,
@@ -552,7 +573,7 @@ pub fn case(
         profile,
         rope,
         hoist,
-        result: measure(crane, plant.mismatch, profile, rope, hoist),
+        result: measure(crane, plant.mismatch, profile, rope, hoist, generator),
     }
 }
 
@@ -562,8 +583,9 @@ fn measure(
     profile: Profile,
     rope: f64,
     hoist: Hoist,
+    generator: Generator,
 ) -> Result<Measured, String> {
-    let mut r = Run::new(crane.scene, plant)?;
+    let mut r = Run::new(crane.scene, plant, generator)?;
     r.run_for(3.0)?;
     r.switch.apply(Action::ToggleManual);
     r.run_for(0.3)?;
@@ -661,13 +683,15 @@ pub enum Study {
 /// One case to run.
 type Job = (&'static CraneCase, &'static PlantCase, Profile, f64, Hoist);
 
-/// The cases of `study` at the rope lengths `ropes`, in the tables' order.
+/// The cases of `study` at the rope lengths `ropes` on the plants whose name `plants`
+/// keeps, in the tables' order.
 #[must_use]
-fn jobs(study: Study, ropes: &[f64]) -> Vec<Job> {
+fn jobs(study: Study, ropes: &[f64], plants: &dyn Fn(&str) -> bool) -> Vec<Job> {
+    let keep = plants;
     let mut jobs = Vec::new();
     let mut add = |plants: &'static [PlantCase], profiles: &[Profile], hoists: &[Hoist]| {
         for crane in &CRANES {
-            for plant in plants {
+            for plant in plants.iter().filter(|p| keep(p.name)) {
                 if plant.only_3d && crane.axes.len() < 2 {
                     continue;
                 }
@@ -693,10 +717,17 @@ fn jobs(study: Study, ropes: &[f64]) -> Vec<Job> {
     jobs
 }
 
-/// Every case of `study` at the rope lengths `ropes`, on `threads` threads.
+/// Every case of `study` at the rope lengths `ropes` on the plants `plants` keeps, the
+/// generator as `generator` says, on `threads` threads.
 #[must_use]
-pub fn all_cases(study: Study, ropes: &[f64], threads: usize) -> Vec<Outcome> {
-    let jobs = jobs(study, ropes);
+pub fn all_cases(
+    study: Study,
+    ropes: &[f64],
+    plants: &(dyn Fn(&str) -> bool + Sync),
+    generator: Generator,
+    threads: usize,
+) -> Vec<Outcome> {
+    let jobs = jobs(study, ropes, plants);
     let next = std::sync::atomic::AtomicUsize::new(0);
     let mut out: Vec<(usize, Outcome)> = std::thread::scope(|s| {
         let workers: Vec<_> = (0..threads.max(1))
@@ -708,7 +739,7 @@ pub fn all_cases(study: Study, ropes: &[f64], threads: usize) -> Vec<Outcome> {
                         let Some(&(crane, plant, profile, rope, hoist)) = jobs.get(i) else {
                             return done;
                         };
-                        done.push((i, case(crane, plant, profile, rope, hoist)));
+                        done.push((i, case(crane, plant, profile, rope, hoist, generator)));
                     }
                 })
             })
