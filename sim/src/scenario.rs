@@ -445,12 +445,17 @@ pub const MANUAL_PROFILE: Scenario = Scenario {
 };
 
 /// [`MANUAL_PROFILE`] on the 3D crane: the first full stick diagonal (bridge and trolley
-/// back, a straight load path), the reversal along the bridge with the hoist lowering.
+/// back, a straight load path) with the hoist lowering at half stick — bridge, trolley
+/// and hoist start from rest in one cycle —, the hoist reversed to raising at half stick
+/// halfway through the diagonal (the hoist moving, both ways, during horizontal travel:
+/// every axis moving at once, the generator's costliest case, issue 28's cost target);
+/// the reversal along the bridge with the hoist lowering.
 pub const MANUAL_PROFILE_3D: Scenario = Scenario {
     name: "manual-profile-3d",
     events: &[
         at(10_000, stick([0, 0, 0])),
-        at(10_500, stick([-FULL, -FULL, 0])),
+        at(10_500, stick([-FULL, -FULL, HALF])),
+        at(12_000, stick([-FULL, -FULL, -HALF])),
         at(13_500, stick([0, 0, 0])),
         at(19_000, stick([-FULL, 0, 0])),
         at(21_000, stick([FULL, 0, HALF])),
