@@ -683,11 +683,10 @@ pub enum Study {
 /// One case to run.
 type Job = (&'static CraneCase, &'static PlantCase, Profile, f64, Hoist);
 
-/// The cases of `study` at the rope lengths `ropes` on the plants whose name `plants`
+/// The cases of `study` at the rope lengths `ropes` on the plants whose name `keep`
 /// keeps, in the tables' order.
 #[must_use]
-fn jobs(study: Study, ropes: &[f64], plants: &dyn Fn(&str) -> bool) -> Vec<Job> {
-    let keep = plants;
+fn jobs(study: Study, ropes: &[f64], keep: &dyn Fn(&str) -> bool) -> Vec<Job> {
     let mut jobs = Vec::new();
     let mut add = |plants: &'static [PlantCase], profiles: &[Profile], hoists: &[Hoist]| {
         for crane in &CRANES {
@@ -717,17 +716,17 @@ fn jobs(study: Study, ropes: &[f64], plants: &dyn Fn(&str) -> bool) -> Vec<Job> 
     jobs
 }
 
-/// Every case of `study` at the rope lengths `ropes` on the plants `plants` keeps, the
-/// generator as `generator` says, on `threads` threads.
+/// Every case of `study` at the rope lengths `ropes` on the plants whose name `keep`
+/// keeps, the generator as `generator` says, on `threads` threads.
 #[must_use]
 pub fn all_cases(
     study: Study,
     ropes: &[f64],
-    plants: &(dyn Fn(&str) -> bool + Sync),
+    keep: &(dyn Fn(&str) -> bool + Sync),
     generator: Generator,
     threads: usize,
 ) -> Vec<Outcome> {
-    let jobs = jobs(study, ropes, plants);
+    let jobs = jobs(study, ropes, keep);
     let next = std::sync::atomic::AtomicUsize::new(0);
     let mut out: Vec<(usize, Outcome)> = std::thread::scope(|s| {
         let workers: Vec<_> = (0..threads.max(1))
