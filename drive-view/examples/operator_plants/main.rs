@@ -1,6 +1,7 @@
 //! The closed loop in manual mode on plants that are not the model, each error alone and
 //! combined (issue 28): `cargo run -p drive-view --example operator_plants -- [--threads N]
-//! [--ropes 3.5,8] [--plants NAME,…] [--robust] [--more] [--cases]`. Prints the table per rope length and per plant
+//! [--ropes 3.5,8] [--plants NAME,…] [--robust] [--more] [--cases]`. Prints the table per
+//! rope length and per plant
 //! (median and worst of the load's error, the swing one swing period after rest and the
 //! feedback's correction travel; `study.rs` says what each is), per stick profile and per
 //! hoist lever, and with `--cases` every case. Without `--more` the first study's cases

@@ -434,11 +434,10 @@ impl Run {
             .join("../scenes")
             .join(scene);
         let mut loaded = Scene::load(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let operator = loaded
-            .operator
-            .as_mut()
-            .ok_or("the study needs a scene with [operator] and [feedback]")?;
-        operator.robust = Some(generator == Generator::Robust);
+        // A scene without [operator] is refused by the engine, naming the section.
+        if let Some(operator) = loaded.operator.as_mut() {
+            operator.robust = Some(generator == Generator::Robust);
+        }
         let engine = Engine::for_loaded_scene(&loaded, &path, plant)?;
         if !engine.info().feedback {
             return Err("the study needs a scene with [operator] and [feedback]".into());
