@@ -55,7 +55,7 @@
 //! its path and hands over at rest.
 
 use crate::error::{Error, Result};
-use crate::operator::piece::{binomial, factorial, Piece, COEFFS};
+use crate::operator::piece::{binomial, factorial, Polynomial, COEFFS};
 use crate::trajectory::Trajectory;
 
 /// The derivatives that are continued: position to fifth.
@@ -132,14 +132,19 @@ pub struct Headroom<const NH: usize> {
 }
 
 /// The blend `E(t)` on the current cycle: per axis its coefficients in
-/// `θ = (t − t_n)/h`, moved on by one cycle after each (a Taylor shift by 1 in θ:
-/// additions only), for the cycles it has left.
+/// `θ = (t − t_n)/h`, moved on by one cycle at each cycle after the first (a Taylor
+/// shift by 1 in θ: additions only), for the cycles it has left. Added to the path
+/// where the path is evaluated ([`Blend::add_to`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Blend<const NH: usize> {
     horizontal: [[f64; COEFFS]; NH],
     hoist: [f64; COEFFS],
-    /// Cycles left, this one included.
+    /// Cycles left with a share, the current one included (0: its last cycle has
+    /// passed — its share still holds on that cycle until the next one begins).
     left: u64,
+    /// Whether a cycle took the share yet (before the first the share is the first
+    /// cycle's: it starts where the generator's first cycle does).
+    started: bool,
     /// The hoist's share: its largest depth and downward acceleration, m and m/s² (≥ 0),
     /// for the virtual pendulum's length while it lasts.
     pub(crate) hoist_extent: [f64; 2],
@@ -207,25 +212,56 @@ fn scaled(mut p: [f64; COEFFS], s: f64) -> [f64; COEFFS] {
 }
 
 impl<const NH: usize> Blend<NH> {
-    /// Adds the blend's share on the current cycle to the pieces and moves it on to the
-    /// next; returns whether it goes on after this cycle.
-    pub fn add(&mut self, horizontal: &mut [Piece; NH], hoist: &mut Piece) -> bool {
+    /// Moves the share on to the cycle that begins (the first cycle keeps the first
+    /// share); returns whether the blend lasts beyond this cycle.
+    pub fn advance(&mut self) -> bool {
         if self.left == 0 {
             return false;
         }
-        for (piece, e) in horizontal.iter_mut().zip(self.horizontal.iter_mut()) {
-            for (c, b) in piece.coeffs.iter_mut().zip(e.iter()) {
-                *c += b;
+        if self.started {
+            for e in &mut self.horizontal {
+                shift_by_one(e);
             }
-            shift_by_one(e);
+            shift_by_one(&mut self.hoist);
         }
-        for (c, b) in hoist.coeffs.iter_mut().zip(self.hoist.iter()) {
-            *c += b;
-        }
-        shift_by_one(&mut self.hoist);
+        self.started = true;
         self.left -= 1;
         self.left > 0
     }
+
+    /// Whether cycles with a share remain after the current one.
+    #[must_use]
+    pub fn lasts(&self) -> bool {
+        self.left > 0
+    }
+
+    /// Adds the share on the current cycle at `θ` (its first `D − 1` derivatives too) to
+    /// the path's values.
+    pub fn add_to<const D: usize>(
+        &self,
+        horizontal: &mut [[f64; D]; NH],
+        hoist: &mut [f64; D],
+        theta: f64,
+        inv_h: f64,
+    ) {
+        for (out, e) in horizontal.iter_mut().zip(self.horizontal.iter()) {
+            for (o, s) in out.iter_mut().zip(share::<D>(e, theta, inv_h)) {
+                *o += s;
+            }
+        }
+        for (o, s) in hoist.iter_mut().zip(share::<D>(&self.hoist, theta, inv_h)) {
+            *o += s;
+        }
+    }
+}
+
+/// One axis's share at `θ`. Never inlined: the polynomial it evaluates is a local of its
+/// own frame, not one per axis in the evaluation's.
+#[inline(never)]
+fn share<const D: usize>(coeffs: &[f64; COEFFS], theta: f64, inv_h: f64) -> [f64; D] {
+    let mut p = Polynomial::rest(0.0);
+    p.coeffs = *coeffs;
+    p.eval::<D>(theta, inv_h)
 }
 
 /// `∫₀¹ H₀^{(a)} H_j^{(b)} dτ` for `j = 0..=5`: the Gram row the least-squares end of a
@@ -561,6 +597,7 @@ pub(crate) fn new_blend<const NH: usize>(
         horizontal: horizontal.map(|e| in_theta(&e)),
         hoist: in_theta(hoist),
         left: cycles,
+        started: false,
         hoist_extent: [0.0; 2],
     }
 }

@@ -4,13 +4,13 @@
 use nalgebra::SVector;
 
 use crate::error::{Error, Result};
+use crate::operator::ends::SwingMap;
 use crate::operator::entry::{
-    check_inside, new_blend, plan_stop, AxisStop, Blend, Handover, Headroom, Stop, ORDERS,
+    check_inside, new_blend, plan_stop, AxisStop, Blend, Handover, Headroom, Stop,
 };
 use crate::operator::filter::{i64_to_f64, Factor, Taps};
 use crate::operator::group::Group;
 use crate::operator::limiter::{brake, truncate};
-use crate::operator::piece::{Piece, HOIST_COEFFS};
 use crate::operator::settings::{cycles, zv_cycles, Quanta, Rounding, Settings};
 use crate::scalar::{c, to_f64, Real};
 use crate::trajectory::Trajectory;
@@ -107,11 +107,12 @@ pub struct Generator<const NH: usize, const RH: usize, const RV: usize> {
     reach: i64,
     /// The horizontal windows in cycles.
     boxes: [usize; 2],
-    /// A hand-over's blend, while it lasts.
+    /// A hand-over's blend, while it lasts (and on its last cycle, [`Blend::lasts`]
+    /// false).
     blend: Option<Blend<NH>>,
-    /// Whether the current cycle's hoist piece has a blend's share added (degree 11);
-    /// without one its degree is 6 and [`Generator::evaluate`] skips the zero top.
-    hoist_blended: bool,
+    /// The horizontal filter's virtual pendulum: the swing's end from its start, worked
+    /// out when the filter is installed.
+    swing: SwingMap,
     /// A stick's share beyond the deadband to velocity quanta per horizontal axis,
     /// `V_i/(δv_i (1 − deadband))`.
     full_stick: [f64; NH],
@@ -238,7 +239,7 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             reach: 0,
             boxes: [0; 2],
             blend: None,
-            hoist_blended: false,
+            swing: SwingMap::NONE,
             full_stick: [0.0; NH],
             full_hoist: 0.0,
             allowance: 0,
@@ -311,7 +312,6 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             h,
             [unit_bounds(settings.hoist.range, depth, &zq)],
             Taps::new(&hoist_windows),
-            None,
         );
         self.horizontal.reset(
             horizontal,
@@ -319,7 +319,6 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             h,
             bounds,
             Taps::new(&[Factor::Window(boxes[0]), Factor::Window(boxes[1])]),
-            None,
         );
         self.settings = settings;
         self.inv_h = 1.0 / h;
@@ -339,7 +338,7 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         self.reach = 0;
         self.boxes = boxes;
         self.blend = None;
-        self.hoist_blended = false;
+        self.swing = SwingMap::NONE;
         self.full_stick = settings
             .horizontal
             .map(|a| a.speed / Quanta::new(a.acceleration, h).velocity / (1.0 - settings.deadband));
@@ -429,26 +428,15 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         }
         let depth = state.hoist[0] - stop.hoist.e[0];
         self.reset(settings, t, ends, depth)?;
-        self.enter(state, &stop)
+        self.enter(&stop)
     }
 
     /// The stop of a hand-over added to the generator at rest at its end (see
     /// [`Generator::take_over`]): the ranges narrowed by the stop's excursion while it
     /// lasts, the pendulum tuned for its deepest load, the blend.
-    fn enter(&mut self, state: &Handover<NH>, stop: &Stop<NH>) -> Result<()> {
+    fn enter(&mut self, stop: &Stop<NH>) -> Result<()> {
         let s = self.settings;
         let (h, t) = (s.h, self.t0);
-        // The path before the first cycle: the state itself.
-        let taylor = |d: &[f64; ORDERS]| {
-            let mut p = Piece::rest(d[0]);
-            let (mut scale, mut factorial) = (1.0, 1.0);
-            for (j, (c, dj)) in p.coeffs.iter_mut().zip(d).enumerate() {
-                *c = dj * scale / factorial;
-                scale *= h;
-                factorial *= (j + 1) as f64;
-            }
-            p
-        };
         let narrowed = |name: &'static str, end: f64, axis: &AxisStop, (lo, hi): (f64, f64)| {
             check_inside(name, end + axis.low, (lo, hi), t)?;
             check_inside(name, end + axis.high, (lo, hi), t)?;
@@ -476,15 +464,8 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             }
         }
         self.hoist.bounds = [unit_bounds(z_range, z_end, &zq)];
-        for (p, d) in self
-            .horizontal
-            .pieces_mut()
-            .iter_mut()
-            .zip(&state.horizontal)
-        {
-            *p = taylor(d);
-        }
-        *self.hoist.pieces_mut() = [taylor(&state.hoist)];
+        // The path before the first cycle is the rest at the stop's end and the blend's
+        // first share, which starts there: at θ = 0 the state itself.
         let mut blend = new_blend(stop.cycles, h, &stop.horizontal.map(|a| a.e), &stop.hoist.e);
         blend.hoist_extent = [stop.hoist.high, stop.hoist.down.max(0.0)];
         self.blend = Some(blend);
@@ -582,7 +563,14 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
     /// The rope now: the load's depth at this cycle's start (it hangs straight at
     /// horizontal rest), within the range the ring is sized for.
     fn rope_now(&self) -> f64 {
-        self.hoist.pieces()[0].coeffs[0].min(self.settings.hoist.range.1)
+        self.hoist
+            .start_position(0, self.settings.h, self.inv_h)
+            .min(self.settings.hoist.range.1)
+    }
+
+    /// Whether a hand-over's blend lasts beyond the current cycle.
+    fn blending(&self) -> bool {
+        self.blend.as_ref().is_some_and(Blend::lasts)
     }
 
     /// Whether [`Staged`] holds the filter for a start with this depth cap: no blend
@@ -590,7 +578,7 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
     /// tuned to it.
     fn is_staged(&self, cap_units: i64) -> bool {
         let st = &self.staged;
-        self.blend.is_none()
+        !self.blending()
             && st.half_period != 0
             && st.cap_units == cap_units
             && (!self.settings.robust || st.depth.to_bits() == self.rope_now().to_bits())
@@ -608,7 +596,12 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         // braked downwards: the pendulum is never shorter than that load's effective one
         // (`z g/(g − z̈)`), nor longer than the ring holds.
         let mut pendulum = s.pendulum_for(depth_cap);
-        if let Some([high, down]) = self.blend.as_ref().map(|b| b.hoist_extent) {
+        if let Some([high, down]) = self
+            .blend
+            .as_ref()
+            .filter(|b| b.lasts())
+            .map(|b| b.hoist_extent)
+        {
             let rest = s.g - s.hoist.acceleration - down;
             let braked = if rest > 0.0 {
                 (depth_cap + high) * s.g / rest
@@ -641,11 +634,12 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
                 Some(m_r) => windows.with_pairs(&[m_g, m_r]),
                 None => windows.with_pairs(&[m_g]),
             };
-            self.horizontal.set_filter(taps, Some(omega_g * h));
+            self.horizontal.set_filter(taps);
+            self.swing = SwingMap::new(omega_g * h, h);
             s.g / (omega_g * omega_g)
         };
         self.staged = match (
-            self.blend.is_none(),
+            !self.blending(),
             u16::try_from(m_g),
             u16::try_from(robust.unwrap_or(0)),
         ) {
@@ -665,7 +659,7 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
     /// axes rest and no blend lasts; nothing if it is staged for this state already (a
     /// resting hoist: the check is integers, and the rope with the robust pair).
     fn stage_next_start(&mut self) {
-        if !self.horizontal.is_at_rest() || self.blend.is_some() {
+        if !self.horizontal.is_at_rest() || self.blending() {
             return;
         }
         let cap_units = self.cap_units();
@@ -685,6 +679,10 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             self.cycles += 1;
         }
         self.built = true;
+        if self.blend.as_ref().is_some_and(|b| !b.lasts()) {
+            // Its last share was on the cycle before.
+            self.blend = None;
+        }
         let s = self.settings;
         let mut refused = false;
         let mut shape = |d: f64, full: f64| {
@@ -717,23 +715,20 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             hoist_bounds[0].1 = hoist_bounds[0].1.min(self.tuning.cap_units);
         }
         self.hoist
-            .cycle([hoist_target], hoist_bounds, s.h, self.inv_h);
+            .cycle([hoist_target], hoist_bounds, s.h, self.inv_h, None);
         let n_p = self.hoist.axes[0].n_p;
         // A hand-over's stop keeps its deepest load in `reach` while it lasts.
-        self.reach = if self.hoist.is_at_rest() && self.blend.is_none() {
+        self.reach = if self.hoist.is_at_rest() && !self.blending() {
             n_p
         } else {
             self.reach.max(n_p)
         };
         let bounds = self.horizontal.bounds;
-        self.horizontal.cycle(targets, bounds, s.h, self.inv_h);
-        self.hoist_blended = self.blend.is_some();
-        if let Some(b) = self.blend.as_mut() {
-            let [hoist] = self.hoist.pieces_mut();
-            if !b.add(self.horizontal.pieces_mut(), hoist) {
-                self.blend = None;
-                self.widen();
-            }
+        self.horizontal
+            .cycle(targets, bounds, s.h, self.inv_h, Some(&self.swing));
+        if self.blend.as_mut().is_some_and(|b| !b.advance()) {
+            // Its last share is on this cycle: the ranges are the settings' from the next.
+            self.widen();
         }
         // Last: what the next cycle's start reads is final now.
         self.stage_next_start();
@@ -765,7 +760,7 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
     /// the position constant, until a demand moves it again.
     #[must_use]
     pub fn is_at_rest(&self) -> bool {
-        self.blend.is_none() && self.horizontal.is_at_rest() && self.hoist.is_at_rest()
+        !self.blending() && self.horizontal.is_at_rest() && self.hoist.is_at_rest()
     }
 
     /// Start of the current cycle, s.
@@ -796,33 +791,23 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
     }
 
     /// The path and its first `D − 1` derivatives at `t` (inside the current cycle; beyond
-    /// it the cycle's polynomial is continued): per horizontal axis, and the hoist's.
-    /// Never inlined, as [`Generator::advance`].
+    /// it the cycle's polynomial is continued): per horizontal axis, and the hoist's. At
+    /// the cycle's end (BDF's `t_{n+1}`) with `D ≤ 3` from the end states, elsewhere
+    /// from the cycle's polynomial ([`crate::operator`]'s `ends`). Never inlined, as
+    /// [`Generator::advance`].
     #[must_use]
     #[inline(never)]
     pub fn evaluate<const D: usize>(&self, t: f64) -> ([[f64; D]; NH], [f64; D]) {
         let theta = (t - self.time()) * self.inv_h;
+        let (h, inv_h) = (self.settings.h, self.inv_h);
         let mut out = [[0.0; D]; NH];
-        for (o, (p, constant)) in out.iter_mut().zip(
-            self.horizontal
-                .pieces()
-                .iter()
-                .zip(self.horizontal.constant()),
-        ) {
-            *o = if constant {
-                p.eval_constant(theta)
-            } else {
-                p.eval(theta, self.inv_h)
-            };
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.horizontal.eval(i, theta, h, inv_h, Some(&self.swing));
         }
-        let [hoist] = self.hoist.pieces();
-        let hoist = if self.hoist.constant()[0] {
-            hoist.eval_constant(theta)
-        } else if self.hoist_blended {
-            hoist.eval(theta, self.inv_h)
-        } else {
-            hoist.eval_below::<D, HOIST_COEFFS>(theta, self.inv_h)
-        };
+        let mut hoist = self.hoist.eval(0, theta, h, inv_h, None);
+        if let Some(b) = &self.blend {
+            b.add_to(&mut out, &mut hoist, theta, inv_h);
+        }
         (out, hoist)
     }
 
@@ -1020,6 +1005,85 @@ mod tests {
             stick.extend(sticks::<2>(16_000).split_off(FIRST_MOTION));
             let (_, starts, blended) = twin_run(g, &stick);
             assert!(blended == 1 && starts >= 2, "{blended} of {starts} starts");
+        }
+    }
+
+    /// At the cycle's end (BDF's `t_{n+1}`, three values) the path comes from the end
+    /// states; asked for four, from the cycle's polynomial: the same values to rounding,
+    /// every cycle of a long random stick — planar and 3D, plain and robust, from rest
+    /// and from a hand-over (its blend added, and before its first cycle the taken-over
+    /// state itself).
+    #[test]
+    fn at_the_cycle_end_the_end_states_are_the_polynomial() {
+        fn compare<const NH: usize, const RH: usize, const RV: usize>(
+            mut g: Generator<NH, RH, RV>,
+            sticks: &[Demand<NH>],
+        ) -> usize {
+            let mut moving = 0;
+            for (n, stick) in sticks.iter().enumerate() {
+                let _ = g.advance(stick);
+                moving += usize::from(!g.is_at_rest());
+                let t = g.time() + g.settings.h;
+                let (fast_h, fast_z) = g.evaluate::<3>(t);
+                let (slow_h, slow_z) = g.evaluate::<4>(t);
+                let close = |a: &[f64; 3], b: &[f64; 4]| {
+                    a.iter()
+                        .zip(b)
+                        .all(|(a, b)| (a - b).abs() <= 1e-12 * (1.0 + b.abs()))
+                };
+                for (a, b) in fast_h.iter().zip(slow_h.iter()) {
+                    assert!(close(a, b), "cycle {n}: {a:?} vs {b:?}");
+                }
+                assert!(
+                    close(&fast_z, &slow_z),
+                    "cycle {n}: {fast_z:?} vs {slow_z:?}"
+                );
+            }
+            moving
+        }
+        for robust in [false, true] {
+            let mut s = Settings::lab(&CraneParams::PAPER);
+            s.robust = robust;
+            let (lo, hi) = (s.horizontal[0].range, s.hoist.range);
+            let g = PlanarGenerator::at_rest(s, 0.0, [(lo.0 + lo.1) / 2.0], (hi.0 + hi.1) / 2.0)
+                .unwrap();
+            assert!(compare(g, &sticks::<1>(20_000)) > 5_000);
+
+            let mut s = Settings::lab_3d(&Crane3dParams::EXAMPLE);
+            s.robust = robust;
+            let (x, y, z) = (s.horizontal[0].range, s.horizontal[1].range, s.hoist.range);
+            let middle = |(a, b): (f64, f64)| (a + b) / 2.0;
+            let g = Generator3d::at_rest(s, 0.0, [middle(x), middle(y)], middle(z)).unwrap();
+            assert!(compare(g, &sticks::<2>(20_000)) > 5_000);
+
+            let mv = PointToPoint::new(
+                nalgebra::SVector::from([12.0, 3.0, 8.0]),
+                nalgebra::SVector::from([20.0, 6.0, 4.0]),
+                0.0,
+                10.0,
+                5,
+            )
+            .unwrap();
+            let room = |speed, acceleration| Room {
+                speed,
+                acceleration,
+            };
+            let room = Headroom {
+                horizontal: [room(1.85, 2.1), room(1.1, 1.15)],
+                hoist: room(1.4, 2.1),
+            };
+            let state = Handover::<2>::of(&mv, 3.0);
+            let g = Generator3d::take_over(s, 3.0, &state, &room).unwrap();
+            // Before its first cycle the path is the taken-over state.
+            let (h0, z0) = g.evaluate::<3>(3.0);
+            for (got, want) in h0.iter().zip(&state.horizontal) {
+                assert!((0..3).all(|j| (got[j] - want[j]).abs() <= 1e-12 * (1.0 + want[j].abs())));
+            }
+            assert!((0..3)
+                .all(|j| (z0[j] - state.hoist[j]).abs() <= 1e-12 * (1.0 + state.hoist[j].abs())));
+            let mut stick = vec![Demand::ZERO; 50];
+            stick.extend(sticks::<2>(6_000).split_off(FIRST_MOTION));
+            assert!(compare(g, &stick) > 500);
         }
     }
 

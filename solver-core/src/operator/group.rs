@@ -2,9 +2,10 @@
 //! vector, one ring, the virtual pendulum) or the hoist (its own limiter and windows).
 //! Each cycle: the limiter's steps, the discrete filter, one piece per axis.
 
+use crate::operator::ends::{EndInputs, Piece, Start, SwingMap, END_WINDOW};
 use crate::operator::filter::{i64_to_f64, u64_to_f64, Ring, Sums, Taps};
 use crate::operator::limiter::{self, Axis};
-use crate::operator::piece::{spline, Inputs, Piece};
+use crate::operator::piece::{differences, Polynomial, HOIST_COEFFS};
 use crate::operator::settings::Quanta;
 
 /// One group of `W` axes with a ring of `R` cycles.
@@ -33,16 +34,13 @@ pub struct Group<const W: usize, const R: usize> {
     /// Quiet cycles after which a group at zero speed is exactly at rest: the numerator's
     /// longest delay and one.
     window: usize,
-    /// `ω_g h` of the virtual pendulum, if the group has one.
-    omega_h: Option<f64>,
     /// Whether the current cycle's path is constant.
     at_rest: bool,
-    /// Per axis: its piece is its rest position alone, as [`Piece::settle`] leaves it
-    /// (every coefficient but the first +0.0, the filter states zero), and nothing was
-    /// added to it since ([`Group::pieces_mut`] clears it). Such a piece is neither built
-    /// nor evaluated term by term ([`Piece::eval_constant`]): an axis of a moving group
-    /// that stands still (the 3D crane's trolley while the bridge travels) cost its
-    /// spline, its build and thirty multiply-adds an evaluation, every cycle, for zeros.
+    /// Per axis: its piece is its rest position alone (the filter states and differences
+    /// zero, [`Piece::REST`]). Such a piece is neither worked out nor evaluated term by
+    /// term ([`Polynomial::eval_constant`]): an axis of a moving group that stands still
+    /// (the 3D crane's trolley while the bridge travels) cost its spline, its build and
+    /// thirty multiply-adds an evaluation, every cycle, for zeros.
     constant: [bool; W],
 }
 
@@ -67,10 +65,9 @@ impl<const W: usize, const R: usize> Group<W, R> {
             sums: Sums::REST,
             taps: Taps::new(&[]),
             scale: [0.0; W],
-            pieces: [Piece::rest(0.0); W],
+            pieces: [Piece::REST; W],
             quiet: usize::MAX,
             window: 0,
-            omega_h: None,
             at_rest: true,
             constant: [true; W],
         }
@@ -88,25 +85,23 @@ impl<const W: usize, const R: usize> Group<W, R> {
         h: f64,
         bounds: [(i64, i64); W],
         taps: Taps,
-        omega_h: Option<f64>,
     ) {
         self.axes = [Axis::REST; W];
         self.origin = origin;
         self.quanta = accelerations.map(|a| Quanta::new(a, h));
         self.bounds = bounds;
-        self.pieces = origin.map(Piece::rest);
+        self.pieces = [Piece::REST; W];
         self.constant = [true; W];
         self.quiet = usize::MAX;
         self.at_rest = true;
         // Forgets the ring and clears the sums.
-        self.set_filter(taps, omega_h);
+        self.set_filter(taps);
     }
 
     /// A new filter (only at rest: the history is then all zero); forgets the ring, whose
     /// older cycles the new taps may reach.
-    pub fn set_filter(&mut self, taps: Taps, omega_h: Option<f64>) {
+    pub fn set_filter(&mut self, taps: Taps) {
         self.taps = taps;
-        self.omega_h = omega_h;
         self.window = taps.longest() + 1;
         let norm = u64_to_f64(taps.norm());
         let quanta = self.quanta();
@@ -136,25 +131,6 @@ impl<const W: usize, const R: usize> Group<W, R> {
         self.quanta
     }
 
-    /// The path on the current cycle, per axis.
-    #[must_use]
-    pub fn pieces(&self) -> &[Piece; W] {
-        &self.pieces
-    }
-
-    /// The pieces to write to (a hand-over's path, its blend): none counts as constant
-    /// until a cycle settles it again.
-    pub fn pieces_mut(&mut self) -> &mut [Piece; W] {
-        self.constant = [false; W];
-        &mut self.pieces
-    }
-
-    /// Per axis, whether its piece is its rest position alone (see the field).
-    #[must_use]
-    pub fn constant(&self) -> [bool; W] {
-        self.constant
-    }
-
     /// Whether the current cycle's path is constant (exactly: every derivative 0.0).
     #[must_use]
     pub fn is_at_rest(&self) -> bool {
@@ -172,37 +148,29 @@ impl<const W: usize, const R: usize> Group<W, R> {
     }
 
     /// One cycle from the states at its start: the limiter towards `targets` (velocity
-    /// quanta) within `bounds`, the filter, the pieces. `h`, `inv_h`: the cycle.
-    pub fn cycle(&mut self, targets: [f64; W], bounds: [(i64, i64); W], h: f64, inv_h: f64) {
+    /// quanta) within `bounds`, the filter, the pieces' ends. `h`, `inv_h`: the cycle;
+    /// `swing`: the virtual pendulum's map, if the group has one.
+    pub fn cycle(
+        &mut self,
+        targets: [f64; W],
+        bounds: [(i64, i64); W],
+        h: f64,
+        inv_h: f64,
+        swing: Option<&SwingMap>,
+    ) {
         if self.at_rest && targets.iter().all(|t| *t == 0.0) {
             // Nothing moves: the steps would be zero, the ring's window is zero already
-            // and the running sums stay zero; the pieces are the rest positions again (a
-            // hand-over's blend may have been added to the last ones).
+            // and the running sums stay zero; the pieces are the rest positions again.
             self.quiet = self.quiet.saturating_add(1);
-            for (((piece, constant), o), (a, q)) in self
-                .pieces
-                .iter_mut()
-                .zip(self.constant.iter_mut())
-                .zip(self.origin)
-                .zip(self.axes.iter().zip(self.quanta))
-            {
-                settle(piece, constant, o + i64_to_f64(a.n_p) * q.position);
+            for (piece, constant) in self.pieces.iter_mut().zip(self.constant.iter_mut()) {
+                settle(piece, constant);
             }
             return;
         }
         let quanta = self.quanta();
-        let mut p0 = self.origin;
-        let mut v0 = [0.0; W];
-        for ((p, v), (a, q)) in p0
-            .iter_mut()
-            .zip(v0.iter_mut())
-            .zip(self.axes.iter().zip(quanta))
-        {
-            *p += i64_to_f64(a.n_p) * q.position;
-            *v = i64_to_f64(a.n_v) * q.velocity;
-        }
         let resting = self.axes.iter().all(|a| a.n_v == 0);
         let k = limiter::step(&mut self.axes, targets, bounds);
+        let still = self.axes.map(|a| a.n_v == 0);
         self.ring.push(k);
         // The filter output's backward differences: the B-spline on this cycle.
         let nabla = self.sums.advance(&self.ring, &self.taps);
@@ -212,56 +180,151 @@ impl<const W: usize, const R: usize> Group<W, R> {
             0
         };
         self.at_rest = resting && self.quiet >= self.window;
-        let q = self.taps.windows();
+        let h2 = h * h;
         for (i, (piece, constant)) in self
             .pieces
             .iter_mut()
             .zip(self.constant.iter_mut())
             .enumerate()
         {
-            let (Some(p), Some(v), Some(ki), Some(n), Some(qa), Some(scale), Some(axis)) = (
-                p0.get(i),
-                v0.get(i),
+            let (Some(ki), Some(n), Some(qa), Some(scale), Some(still)) = (
                 k.get(i),
                 nabla.get(i),
                 quanta.get(i),
                 self.scale.get(i),
-                self.axes.get(i),
+                still.get(i),
             ) else {
                 continue;
             };
             // An axis that stood still and still does while the group moves: no step, no
             // speed, the filter's output and its differences zero, the piece settled (its
-            // states zero). Its build would make the same path (`Piece::build` of zero
-            // inputs: the rest position, the other coefficients and states ±0.0, which the
-            // evaluation's sums turn into +0.0 again).
-            let idle = *constant && *ki == 0 && axis.n_v == 0 && n.iter().all(|n| *n == 0);
+            // states zero). Worked out, its end would be the same zeros.
+            let idle = *constant && *ki == 0 && *still && n.iter().all(|n| *n == 0);
             if self.at_rest || idle {
-                settle(piece, constant, *p);
+                settle(piece, constant);
             } else {
                 *constant = false;
-                piece.build(&Inputs {
-                    p0: *p,
-                    v0: *v,
+                let cycle = EndInputs {
                     a0: f64::from(*ki) * qa.acceleration,
-                    rho: spline(n, q, *scale),
+                    scale_h2: scale * h2,
                     h,
                     inv_h,
-                    omega_h: self.omega_h,
-                });
+                };
+                if swing.is_some() {
+                    piece.advance::<3>(differences(n), &cycle, swing);
+                } else {
+                    piece.advance::<5>(differences(n), &cycle, None);
+                }
             }
+        }
+    }
+
+    /// Axis `i`'s rate-limiter position (m) and speed (m/s) at the current cycle's end.
+    fn limiter_end(&self, i: usize) -> (f64, f64) {
+        match (self.axes.get(i), self.quanta.get(i), self.origin.get(i)) {
+            (Some(a), Some(q), Some(o)) => (
+                o + i64_to_f64(a.n_p) * q.position,
+                i64_to_f64(a.n_v) * q.velocity,
+            ),
+            _ => (0.0, 0.0),
+        }
+    }
+
+    /// Axis `i`'s rate limiter at the current cycle's start: what it stepped from
+    /// (the ring's newest step `k` undone: `n_v − k`, `n_p − 2(n_v − k) − k`).
+    fn limiter_start(&self, i: usize, h: f64, inv_h: f64) -> Start {
+        let k = i64::from(self.ring.get(0).get(i).copied().unwrap_or(0));
+        match (self.axes.get(i), self.quanta.get(i), self.origin.get(i)) {
+            (Some(a), Some(q), Some(o)) => {
+                let n_v = a.n_v - k;
+                let n_p = a.n_p - 2 * n_v - k;
+                Start {
+                    p0: o + i64_to_f64(n_p) * q.position,
+                    v0: i64_to_f64(n_v) * q.velocity,
+                    a0: i64_to_f64(k) * q.acceleration,
+                    scale: self.scale.get(i).copied().unwrap_or(0.0),
+                    h,
+                    inv_h,
+                }
+            }
+            _ => Start {
+                p0: 0.0,
+                v0: 0.0,
+                a0: 0.0,
+                scale: 0.0,
+                h,
+                inv_h,
+            },
+        }
+    }
+
+    /// Axis `i`'s path at the current cycle's start, m (the hoist's: the rope then).
+    #[must_use]
+    pub fn start_position(&self, i: usize, h: f64, inv_h: f64) -> f64 {
+        match (self.pieces.get(i), self.constant.get(i)) {
+            (Some(piece), Some(false)) => {
+                let start = self.limiter_start(i, h, inv_h);
+                (start.p0 + piece.start.lag[0]) + piece.start.swing[0]
+            }
+            _ => self.limiter_end(i).0,
+        }
+    }
+
+    /// Axis `i`'s path and its first `D − 1` derivatives at `θ`: from the end states at
+    /// the cycle's end (`D ≤ 3`, `|θ − 1| ≤` [`END_WINDOW`]), else from the cycle's
+    /// polynomial; the rest position itself for a piece at rest.
+    #[must_use]
+    pub fn eval<const D: usize>(
+        &self,
+        i: usize,
+        theta: f64,
+        h: f64,
+        inv_h: f64,
+        swing: Option<&SwingMap>,
+    ) -> [f64; D] {
+        let (Some(piece), Some(constant)) = (self.pieces.get(i), self.constant.get(i)) else {
+            return [0.0; D];
+        };
+        if *constant {
+            return Polynomial::rest(self.limiter_end(i).0).eval_constant(theta);
+        }
+        let delta = theta - 1.0;
+        if D <= 3 && libm::fabs(delta) <= END_WINDOW {
+            let scale = self.scale.get(i).copied().unwrap_or(0.0);
+            return piece.at_end(self.limiter_end(i), delta * h, scale, inv_h, swing);
+        }
+        self.inside(i, theta, h, inv_h, swing)
+    }
+
+    /// [`Group::eval`] from the cycle's polynomial, built for the call. Never inlined: the
+    /// polynomial and its build's temporaries are its own frame's, not carried by the
+    /// evaluation at the cycle's end (BDF's, every step) for each axis.
+    #[inline(never)]
+    fn inside<const D: usize>(
+        &self,
+        i: usize,
+        theta: f64,
+        h: f64,
+        inv_h: f64,
+        swing: Option<&SwingMap>,
+    ) -> [f64; D] {
+        let Some(piece) = self.pieces.get(i) else {
+            return [0.0; D];
+        };
+        let p = piece.polynomial(self.limiter_start(i, h, inv_h), swing);
+        if swing.is_some() {
+            p.eval(theta, inv_h)
+        } else {
+            p.eval_below::<D, HOIST_COEFFS>(theta, inv_h)
         }
     }
 }
 
-/// The piece at rest at `position`, `constant` then: only the position written when it was
-/// constant already (the rest of it is zero), no longer the whole piece cleared every
-/// cycle a group rests (`__aeabi_memclr8`).
-fn settle(piece: &mut Piece, constant: &mut bool, position: f64) {
-    if let (true, Some(c0)) = (*constant, piece.coeffs.first_mut()) {
-        *c0 = position;
-    } else {
-        piece.settle(position);
+/// The piece at rest, `constant` then: nothing written when it was constant already (no
+/// longer the whole piece cleared every cycle a group rests, `__aeabi_memclr8`).
+fn settle(piece: &mut Piece, constant: &mut bool) {
+    if !*constant {
+        *piece = Piece::REST;
         *constant = true;
     }
 }

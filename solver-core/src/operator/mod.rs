@@ -73,10 +73,14 @@
 //! ## Cost
 //!
 //! Per cycle a few taps into a ring of the last seconds' accelerations (one byte per
-//! axis and cycle), a few running sums, one polynomial of degree 11 per axis; an
-//! evaluation is one multiply-add per coefficient, derivative and axis (Horner's scheme
-//! repeated: synthetic division). Nothing depends on how long the generator has run.
+//! axis and cycle), a few running sums, and per axis the filter states at the cycle's
+//! end from those at its start (a few multiply-adds through maps folded when the filter
+//! is tuned, `ends.rs`). The evaluation at the cycle's end — BDF's one per step — reads
+//! the end states; anywhere else the cycle's polynomial of degree 11 is built for the
+//! call and evaluated by synthetic division (one multiply-add per coefficient,
+//! derivative and axis). Nothing depends on how long the generator has run.
 
+mod ends;
 mod entry;
 mod filter;
 mod generator;

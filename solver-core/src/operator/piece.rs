@@ -1,7 +1,7 @@
 //! The continuous half of the filters: one cycle of the load path as a polynomial in
 //! `θ = (t − t_n)/h ∈ [0, 1]`, built once per cycle and evaluated at any time inside it.
 //!
-//! Per axis the path is `x = p₀ + d + e` ([`Piece::build`]):
+//! Per axis the path is `x = p₀ + d + e` ([`Polynomial::build`]):
 //!
 //! * `p₀` — the rate limiter's path, quadratic on the cycle;
 //! * `d = r − p₀` — what the windows and pairs take off it: `d̈ = r̈ − a₀`, where `r̈`, the
@@ -16,9 +16,9 @@
 //!   leave `(ω_g h)¹²/12! < 10⁻²⁰` of the swing ([`MAX_OMEGA_H`](super::settings::MAX_OMEGA_H)),
 //!   so the piece is exact to rounding without a sine or cosine.
 //!
-//! The states `d, ḋ, e, ė` at the cycle's end are computed with the piece and kept in
-//! place of those at its start (only the piece's coefficients are evaluated): they are
-//! the next cycle's start.
+//! The build also gives the states `d, ḋ, e, ė` at the cycle's end. The generator keeps
+//! a cycle as what builds it (`ends.rs`): it works those end states out without the
+//! polynomial, and builds the polynomial only for an evaluation inside the cycle.
 
 use crate::operator::filter::i64_to_f64;
 
@@ -105,7 +105,7 @@ fn bspline_of(q: usize) -> &'static [[f64; 5]; 5] {
 }
 
 /// `1/((j+1)(j+2))`: what integrating `θ^j` twice divides by.
-const INV_PAIR: [f64; COEFFS] = inv_pair();
+pub(crate) const INV_PAIR: [f64; COEFFS] = inv_pair();
 
 #[allow(clippy::indexing_slicing)] // evaluated at compile time
 const fn inv_pair() -> [f64; COEFFS] {
@@ -144,34 +144,37 @@ const fn spline_of_differences(q: usize) -> [[f64; 5]; 5] {
 }
 
 /// [`spline_of_differences`] of the quadratic and the quartic B-spline.
-const DIFFERENCES2: [[f64; 5]; 5] = spline_of_differences(2);
-const DIFFERENCES4: [[f64; 5]; 5] = spline_of_differences(4);
+pub(crate) const DIFFERENCES2: [[f64; 5]; 5] = spline_of_differences(2);
+pub(crate) const DIFFERENCES4: [[f64; 5]; 5] = spline_of_differences(4);
 
 /// The filtered acceleration on this cycle as a polynomial in θ, from the filter
-/// output's backward differences `∇^j S[n]` (exact integers) and `scale`, the factor
-/// that makes them m/s²: `Σ_i c[n−i] N_q(θ + i)` with `c = scale · S`.
+/// output's backward differences `∇^j S[n]` (exact integers, as f64: [`differences`])
+/// and `scale`, the factor that makes them m/s²: `Σ_i c[n−i] N_q(θ + i)` with
+/// `c = scale · S`.
 #[must_use]
-pub fn spline(nabla: &[i64; 5], q: usize, scale: f64) -> [f64; 5] {
+pub fn spline(values: &[f64; 5], q: usize, scale: f64) -> [f64; 5] {
     // One unrolled product per degree (a group's degree never changes: the horizontal
     // filter's 2, the hoist's 4), rather than loops on `q` at run time.
     if q == 2 {
-        spline_of::<3>(nabla, &DIFFERENCES2, scale)
+        spline_of::<3>(values, &DIFFERENCES2, scale)
     } else {
-        spline_of::<5>(nabla, &DIFFERENCES4, scale)
+        spline_of::<5>(values, &DIFFERENCES4, scale)
     }
 }
 
+/// The backward differences as f64, each converted once (exact: they are far within
+/// 2⁵³).
+#[must_use]
+pub fn differences(nabla: &[i64; 5]) -> [f64; 5] {
+    nabla.map(i64_to_f64)
+}
+
 /// [`spline`] of degree `N − 1`: the first `N` differences through `table`.
-fn spline_of<const N: usize>(nabla: &[i64; 5], table: &[[f64; 5]; 5], scale: f64) -> [f64; 5] {
-    // Each difference converted once (the same values as converting it in the loop).
-    let mut values = [0.0; N];
-    for (v, n) in values.iter_mut().zip(nabla) {
-        *v = i64_to_f64(*n);
-    }
+fn spline_of<const N: usize>(values: &[f64; 5], table: &[[f64; 5]; 5], scale: f64) -> [f64; 5] {
     let mut rho = [0.0; 5];
     for (r, row) in rho.iter_mut().zip(table.iter()).take(N) {
         let mut acc = 0.0;
-        for (n, m) in values.iter().zip(row.iter()) {
+        for (n, m) in values.iter().zip(row.iter()).take(N) {
             // The table's zeros skipped (a third of the quadratic's): `acc` starts at +0.0
             // and a sum is −0.0 only of two −0.0, so adding a product `n·0 = ±0` (n an
             // integer's value, finite) never changes it. The same bits, fewer dependent
@@ -190,7 +193,7 @@ pub type State = [f64; 2];
 
 /// One axis's path on the current cycle, and its filter states.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Piece {
+pub struct Polynomial {
     /// The path's coefficients in θ.
     pub coeffs: [f64; COEFFS],
     /// `d = r − p₀`, `ḋ` at the start of the next cycle to build (once built: at the
@@ -219,7 +222,7 @@ pub struct Inputs {
     pub omega_h: Option<f64>,
 }
 
-impl Piece {
+impl Polynomial {
     /// At rest at `position`.
     #[must_use]
     pub fn rest(position: f64) -> Self {
@@ -315,19 +318,13 @@ impl Piece {
         self.swing = [sum, rate * x.inv_h];
     }
 
-    /// At rest from here: the filter states are zero (exactly, once the windows have
-    /// passed; this drops the rounding they carry) and the path is `position`.
-    pub fn settle(&mut self, position: f64) {
-        *self = Self::rest(position);
-    }
-
     /// The path and its first `D − 1` time derivatives at `θ`, `inv_h = 1/h`.
     #[must_use]
     pub fn eval<const D: usize>(&self, theta: f64, inv_h: f64) -> [f64; D] {
         self.eval_below::<D, COEFFS>(theta, inv_h)
     }
 
-    /// [`Piece::eval`] of a piece at rest as [`Piece::settle`] leaves it (every coefficient
+    /// [`Polynomial::eval`] of a piece at rest as [`Polynomial::settle`] leaves it (every coefficient
     /// but the first +0.0), bit for bit, without its steps: those sums add +0.0 to
     /// `(+0.0)·θ` at every step and stay +0.0 (NaN for a θ that is not finite), all but
     /// the path's last, `(+0.0)·θ + c₀`; the derivatives are such sums scaled by
@@ -342,7 +339,7 @@ impl Piece {
         out
     }
 
-    /// [`Piece::eval`] of a piece whose coefficients from `θ^N` on are zero (the hoist's
+    /// [`Polynomial::eval`] of a piece whose coefficients from `θ^N` on are zero (the hoist's
     /// outside a hand-over's blend: degree 6, no pendulum), `N ≤ COEFFS`: the same
     /// values bit for bit — the steps over the zero coefficients leave every sum at zero
     /// — without those steps.
@@ -396,12 +393,12 @@ impl Piece {
     }
 
     /// The path and its first two θ-derivatives at `θ` from the coefficients below `θ^N`
-    /// ([`Piece::eval_below`]'s synthetic division; the second derivative `2 b_2`),
+    /// ([`Polynomial::eval_below`]'s synthetic division; the second derivative `2 b_2`),
     /// written out step by step with constant indices (the compiler kept a loop over `k`
     /// rolled, with its branches, however it was written). Each step of a sum waits for
     /// its last (a multiply-accumulate: 11 Cortex-M7 cycles in `cargo xtask cycles`'
     /// model); the three sums side by side fill those cycles. The operations are those of
-    /// the loop in [`Piece::eval_below`], in the same order: its values bit for bit.
+    /// the loop in [`Polynomial::eval_below`], in the same order: its values bit for bit.
     #[allow(clippy::indexing_slicing)] // constant indices below COEFFS: checked when compiled
     fn three_below<const N: usize>(&self, theta: f64) -> [f64; 3] {
         let c = &self.coeffs;
@@ -482,7 +479,7 @@ mod tests {
         for q in [2, 4] {
             let nabla = [123_456, -2_345, 678, -90, 12];
             let s = values(&nabla, q);
-            let rho = spline(&nabla, q, 0.25);
+            let rho = spline(&differences(&nabla), q, 0.25);
             let table = bspline_of(q);
             for (m, r) in rho.iter().enumerate().take(q + 1) {
                 let want: f64 = (0..=q).map(|i| s[i] as f64 * 0.25 * table[i][m]).sum();
@@ -510,7 +507,7 @@ mod tests {
             inv_h: 1.0 / h,
             omega_h: Some(omega * h),
         };
-        let mut p = Piece::rest(0.0);
+        let mut p = Polynomial::rest(0.0);
         p.lag = [-0.6, 0.02];
         p.swing = [0.03, -0.01];
         p.build(&x);
@@ -558,7 +555,7 @@ mod tests {
             ((seed >> 11) as f64 / (1_u64 << 53) as f64 - 0.5) * 4.0
         };
         for n in 0..2_000 {
-            let mut p = Piece::rest(0.0);
+            let mut p = Polynomial::rest(0.0);
             for c in &mut p.coeffs {
                 *c = next() * 10.0_f64.powi((n % 7) - 3);
             }
@@ -604,13 +601,13 @@ mod tests {
         };
         for n in 0..2_000 {
             let position = if n % 7 == 0 { 0.0 } else { next() };
-            let settled = Piece::rest(position);
-            let mut built = Piece::rest(position);
+            let settled = Polynomial::rest(position);
+            let mut built = Polynomial::rest(position);
             built.build(&Inputs {
                 p0: position,
                 v0: 0.0,
                 a0: 0.0,
-                rho: spline(&[0; 5], 2, 0.25),
+                rho: spline(&[0.0; 5], 2, 0.25),
                 h: 0.01,
                 inv_h: 100.0,
                 omega_h: Some(0.02 + next().abs() * 1e-3),
@@ -635,7 +632,7 @@ mod tests {
     #[test]
     fn derivatives_match_finite_differences() {
         let h = 0.01;
-        let mut p = Piece::rest(0.0);
+        let mut p = Polynomial::rest(0.0);
         p.lag = [-0.6, 0.02];
         p.swing = [0.03, -0.01];
         p.build(&Inputs {
