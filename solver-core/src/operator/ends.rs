@@ -21,8 +21,9 @@
 //! once (the lag's at compile time, [`SwingMap`] when the filter is tuned), and builds
 //! the polynomial only when something asks inside the cycle (Radau IIA's stage times, a
 //! hand-over at an arbitrary instant) or for more than three derivatives. The end is the
-//! polynomial at θ = 1 to rounding (the same sums in another order); an evaluation within
-//! [`END_WINDOW`] of the end is continued from it to first order.
+//! polynomial at θ = 1 to rounding (the same quantities by other operations: they agree
+//! to about 10⁻¹⁴ relative, `tests`); an evaluation within [`END_WINDOW`] of the end is
+//! continued from it to first order.
 //!
 //! Why: the polynomial's build and its evaluation were most of the generator's cost
 //! (`cargo xtask cycles`: over the 3D manual run's steps in which all three axes move,
@@ -33,9 +34,10 @@ use crate::operator::piece::{Inputs, Polynomial, DIFFERENCES2, DIFFERENCES4, INV
 
 /// How far (in θ) from the cycle's end an evaluation is continued from the end states:
 /// `2⁻²⁰`, about 10⁻⁶. The scheme's `t_{n+1}` differs from the generator's cycle end by
-/// the times' rounding (θ − 1 ~ 10⁻¹¹ after a day of uptime); the first-order
-/// continuation leaves `(δh)²/2 · |x^{(k+2)}|` ≤ 5·10⁻¹⁷ `|x^{(k+2)}|` (h = 10 ms),
-/// below the time argument's own resolution.
+/// the times' rounding: after a day (t ≈ 86,400 s, its last bit 1.5·10⁻¹¹ s) θ − 1 is
+/// about 10⁻⁹ with h = 10 ms, and the window holds for about 2²⁵ s (a year) of time
+/// since the scheme's start. The first-order continuation leaves `(δh)²/2 · |x^{(k+2)}|`
+/// ≤ 5·10⁻¹⁷ `|x^{(k+2)}|` (h = 10 ms), below the time argument's own resolution.
 pub const END_WINDOW: f64 = 1.0 / 1_048_576.0;
 
 /// `d, ḋ` and `e, ė` at an instant (m, m/s).
@@ -156,7 +158,9 @@ impl SwingMap {
     };
 
     /// The map for `ω_g h` with the cycle `h`: worked out when the horizontal filter is
-    /// installed (a few dozen operations; the staging, not the start, pays for them).
+    /// installed (about 150 floating-point operations): while the horizontal axes rest,
+    /// at the staging; in a start's own cycle when the start works the filter out (during
+    /// a hand-over's blend, or with the robust pair after the rope changed).
     #[must_use]
     pub fn new(omega_h: f64, h: f64) -> Self {
         let w = -omega_h * omega_h;
@@ -419,8 +423,8 @@ mod tests {
         }
     }
 
-    /// The map's recursion is the build's: at `ω_g h` = 0 the swing is carried unchanged
-    /// (`e(1) = e + ė h`), and a forced piece from rest equals the polynomial's end.
+    /// Without a pendulum (`ω_g h` = 0) the swing drifts at its rate: `e(1) = e + ė h`,
+    /// `ė(1) = ė`.
     #[test]
     fn without_a_pendulum_the_swing_drifts_at_its_rate() {
         let map = SwingMap::new(0.0, 0.01);

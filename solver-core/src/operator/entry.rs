@@ -139,8 +139,8 @@ pub struct Headroom<const NH: usize> {
 pub struct Blend<const NH: usize> {
     horizontal: [[f64; COEFFS]; NH],
     hoist: [f64; COEFFS],
-    /// Cycles left with a share, the current one included (0: its last cycle has
-    /// passed — its share still holds on that cycle until the next one begins).
+    /// Cycles with a share after the current one (before the first cycle: all of
+    /// them); 0 on its last cycle, whose share holds until the next cycle begins.
     left: u64,
     /// Whether a cycle took the share yet (before the first the share is the first
     /// cycle's: it starts where the generator's first cycle does).
@@ -233,6 +233,12 @@ impl<const NH: usize> Blend<NH> {
     #[must_use]
     pub fn lasts(&self) -> bool {
         self.left > 0
+    }
+
+    /// The hoist's share at the current cycle's start (θ = 0), m.
+    #[must_use]
+    pub fn hoist_at_start(&self) -> f64 {
+        self.hoist[0]
     }
 
     /// Adds the share on the current cycle at `θ` (its first `D − 1` derivatives too) to

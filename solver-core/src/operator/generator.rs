@@ -561,11 +561,16 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
     }
 
     /// The rope now: the load's depth at this cycle's start (it hangs straight at
-    /// horizontal rest), within the range the ring is sized for.
+    /// horizontal rest), a hand-over's share included, within the range the ring is
+    /// sized for.
     fn rope_now(&self) -> f64 {
-        self.hoist
-            .start_position(0, self.settings.h, self.inv_h)
-            .min(self.settings.hoist.range.1)
+        let path = self.hoist.start_position(0, self.settings.h, self.inv_h);
+        // The share on its last cycle too: the path still holds it.
+        let depth = match &self.blend {
+            Some(b) => path + b.hoist_at_start(),
+            None => path,
+        };
+        depth.min(self.settings.hoist.range.1)
     }
 
     /// Whether a hand-over's blend lasts beyond the current cycle.
@@ -884,6 +889,7 @@ mod tests {
     use super::*;
     use crate::models::crane::CraneParams;
     use crate::models::crane3d::Crane3dParams;
+    use crate::operator::entry::plan_stop;
     use crate::operator::{Generator3d, PlanarGenerator, Room};
     use crate::trajectory::PointToPoint;
 
@@ -1085,6 +1091,98 @@ mod tests {
             stick.extend(sticks::<2>(6_000).split_off(FIRST_MOTION));
             assert!(compare(g, &stick) > 500);
         }
+    }
+
+    /// The 3D lab move and room of the hand-over tests: a take-over at `t` of the move
+    /// (12, 3, 8 m deep) → (20, 6, 4 m deep) in 10 s.
+    fn hand_over_at(t: f64) -> (Handover<2>, Headroom<2>) {
+        let mv = PointToPoint::new(
+            nalgebra::SVector::from([12.0, 3.0, 8.0]),
+            nalgebra::SVector::from([20.0, 6.0, 4.0]),
+            0.0,
+            10.0,
+            5,
+        )
+        .unwrap();
+        let room = |speed, acceleration| Room {
+            speed,
+            acceleration,
+        };
+        let room = Headroom {
+            horizontal: [room(1.85, 2.1), room(1.1, 1.15)],
+            hoist: room(1.4, 2.1),
+        };
+        (Handover::<2>::of(&mv, t), room)
+    }
+
+    /// With the robust setting a hand-over tunes the robust pair to the taken-over rope,
+    /// the depth the path has there — not to the depth its stop ends at — when it enters
+    /// and when the stick starts a motion during its blend.
+    #[test]
+    fn a_robust_hand_over_tunes_its_pair_to_the_taken_over_rope() {
+        let mut s = Settings::lab_3d(&Crane3dParams::EXAMPLE);
+        s.robust = true;
+        for t in [3.0, 5.0, 7.5] {
+            let (state, room) = hand_over_at(t);
+            let want = zv_cycles(state.hoist[0], s.g, s.h, Rounding::Nearest);
+            let mut g = Generator3d::take_over(s, t, &state, &room).unwrap();
+            assert_eq!(g.tuning().robust_half_period, Some(want), "entry at {t} s");
+            let stop_end = zv_cycles(g.hoist.origin[0], s.g, s.h, Rounding::Nearest);
+            assert_ne!(want, stop_end, "the case tells the ropes apart");
+            let _ = g.advance(&Demand {
+                horizontal: [1.0, 0.0],
+                hoist: 0.0,
+            });
+            assert!(g.blending() && !g.horizontal.is_at_rest());
+            assert_eq!(g.tuning().robust_half_period, Some(want), "start at {t} s");
+        }
+    }
+
+    /// With the stick at rest the path after a hand-over is the stop's end plus the blend
+    /// `E(τ) = Σ_j e_j T_b^j H_j(τ)` worked out here from the Hermite basis: at every
+    /// cycle end, and before the first cycle (the taken-over state): the blend's shares
+    /// move on one cycle per cycle, none twice, none skipped.
+    #[test]
+    fn after_a_hand_over_the_path_is_the_stop_and_its_blend() {
+        let s = Settings::lab_3d(&Crane3dParams::EXAMPLE);
+        let t0 = 5.0;
+        let (state, room) = hand_over_at(t0);
+        let mut g = Generator3d::take_over(s, t0, &state, &room).unwrap();
+        let deepest = state.hoist[0].max(state.hoist_target);
+        let c = s.pendulum_for(deepest) / s.g;
+        let stop = plan_stop(&state, &room, c, s.h, s.entry_blend).unwrap();
+        let duration = stop.cycles as f64 * s.h;
+        let blend = |e: &[f64; 6], tau: f64| -> f64 {
+            let mut scale = 1.0;
+            let mut sum = 0.0;
+            for (ej, basis) in e.iter().zip(crate::operator::entry::HERMITE.iter()) {
+                let h_j: f64 = basis
+                    .iter()
+                    .enumerate()
+                    .map(|(k, b)| b * tau.powi(k as i32))
+                    .sum();
+                sum += ej * scale * h_j;
+                scale *= duration;
+            }
+            sum
+        };
+        let ends = [g.horizontal.origin[0], g.horizontal.origin[1], g.hoist.origin[0]];
+        let es = [stop.horizontal[0].e, stop.horizontal[1].e, stop.hoist.e];
+        let check = |g: &Generator3d, n: u64| {
+            let tau = n as f64 / stop.cycles as f64;
+            let (horizontal, hoist) = g.evaluate::<3>(t0 + n as f64 * s.h);
+            let got = [horizontal[0][0], horizontal[1][0], hoist[0]];
+            for ((got, end), e) in got.iter().zip(ends).zip(&es) {
+                let want = end + blend(e, tau);
+                assert!((got - want).abs() < 1e-9, "cycle {n}: {got} vs {want}");
+            }
+        };
+        check(&g, 0);
+        for n in 1..=stop.cycles + 20 {
+            let _ = g.advance(&Demand::ZERO);
+            check(&g, n.min(stop.cycles));
+        }
+        assert!(g.is_at_rest() && g.blend.is_none());
     }
 
     /// A hand-over no stop fits (here a moving trolley and no room at all) is refused with

@@ -29,7 +29,7 @@ pub const DEGREE: usize = 11;
 pub const COEFFS: usize = DEGREE + 1;
 
 /// The hoist piece's number of coefficients (degree 6: `p₀` quadratic, `d` the quartic
-/// spline integrated twice; no pendulum), outside a hand-over's blend.
+/// spline integrated twice; no pendulum; a hand-over's blend is evaluated apart).
 pub const HOIST_COEFFS: usize = 7;
 
 /// `C(n, k)` as f64, in const context (the B-spline's and the Hermite basis' tables).
@@ -324,7 +324,7 @@ impl Polynomial {
         self.eval_below::<D, COEFFS>(theta, inv_h)
     }
 
-    /// [`Polynomial::eval`] of a piece at rest as [`Polynomial::settle`] leaves it (every coefficient
+    /// [`Polynomial::eval`] of a piece at rest as [`Polynomial::rest`] makes it (every coefficient
     /// but the first +0.0), bit for bit, without its steps: those sums add +0.0 to
     /// `(+0.0)·θ` at every step and stay +0.0 (NaN for a θ that is not finite), all but
     /// the path's last, `(+0.0)·θ + c₀`; the derivatives are such sums scaled by
@@ -339,8 +339,8 @@ impl Polynomial {
         out
     }
 
-    /// [`Polynomial::eval`] of a piece whose coefficients from `θ^N` on are zero (the hoist's
-    /// outside a hand-over's blend: degree 6, no pendulum), `N ≤ COEFFS`: the same
+    /// [`Polynomial::eval`] of a piece whose coefficients from `θ^N` on are zero (the hoist's:
+    /// degree 6, no pendulum), `N ≤ COEFFS`: the same
     /// values bit for bit — the steps over the zero coefficients leave every sum at zero
     /// — without those steps.
     ///
