@@ -53,7 +53,7 @@ pub fn fig8(out: &Path) -> Result<(), String> {
     }
     let estimates = scenes
         .iter()
-        .map(|s| cycles::estimate(s))
+        .map(|s| cycles::estimate(s, None))
         .collect::<Result<Vec<_>, _>>()?;
     let traces = runs
         .iter()

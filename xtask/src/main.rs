@@ -106,6 +106,10 @@ enum Cmd {
     Cycles {
         /// Scene files (the scenes of `qemu-bench` when none is named).
         scenes: Vec<String>,
+        /// Run each scene through this scenario of its QEMU checks (`cargo xtask qemu`;
+        /// e.g. `manual-takeover-3d`) instead of its default one.
+        #[arg(long)]
+        scenario: Option<String>,
     },
     /// The paper's Fig. 8(d, e): QEMU instructions and estimated Cortex-M7 µs per cycle
     /// over the move, BDF4 and Radau, as SVG and CSV (the runs of `qemu-bench`).
@@ -274,7 +278,7 @@ fn main() -> ExitCode {
                 only,
             } => qemu_checks(overwrite_expected, only.as_deref()),
             Cmd::QemuBench => qemu_bench(),
-            Cmd::Cycles { scenes } => cycles_of(scenes),
+            Cmd::Cycles { scenes, scenario } => cycles_of(scenes, scenario.as_deref()),
             Cmd::Fig8 { out_dir } => fig8::fig8(&firmware::root().join(out_dir)),
             Cmd::Soak { minutes } => soak::soak(minutes),
             Cmd::Fuzz { seconds, targets } => fuzz::fuzz(seconds, &targets),
@@ -416,7 +420,7 @@ fn main_job() -> Result<(), String> {
     print!("{}", qemu::table(&runs));
     all_succeeded(&runs)?;
     // What the instructions of the default scene cost on a Cortex-M7 (estimated).
-    cycles::cycles(&[host_tests::DEFAULT_SCENE.to_string()])
+    cycles::cycles(&[(host_tests::DEFAULT_SCENE.to_string(), None)])
 }
 
 /// Fails naming the first run whose firmware did not end in the mode its scenario
@@ -445,7 +449,18 @@ fn decode_log(elf: &std::path::Path, log: &std::path::Path) -> Result<(), String
 /// virtual bus (docs/COMMANDS.md), the feedback scene through its scenarios on the plant,
 /// and the 3D crane's scene through its own.
 fn qemu_checks(overwrite: bool, only: Option<&str>) -> Result<(), String> {
-    let runs = qemu::scenes()
+    let runs = qemu_runs()
+        .into_iter()
+        .filter(|(scene, scenario)| {
+            only.is_none_or(|o| qemu::stem(std::path::Path::new(scene), scenario).contains(o))
+        })
+        .collect::<Vec<_>>();
+    qemu_checks_of(runs, overwrite, only)
+}
+
+/// Every QEMU check's scene and scenario (see [`qemu_checks`]).
+fn qemu_runs() -> Vec<(&'static str, sim::Scenario)> {
+    qemu::scenes()
         .into_iter()
         .map(|scene| (scene, sim::HEALTHY))
         .chain(
@@ -459,10 +474,15 @@ fn qemu_checks(overwrite: bool, only: Option<&str>) -> Result<(), String> {
         .chain(sim::CRANE3D_FEEDBACK_SCENARIOS.map(|s| (qemu::CRANE3D_FEEDBACK_SCENE, s)))
         .chain(sim::MANUAL_SCENARIOS.map(|s| (qemu::MANUAL_SCENE, s)))
         .chain(sim::MANUAL_3D_SCENARIOS.map(|s| (qemu::CRANE3D_MANUAL_SCENE, s)))
-        .filter(|(scene, scenario)| {
-            only.is_none_or(|o| qemu::stem(std::path::Path::new(scene), scenario).contains(o))
-        })
-        .collect::<Vec<_>>();
+        .collect()
+}
+
+/// [`qemu_checks`] on the chosen runs.
+fn qemu_checks_of(
+    runs: Vec<(&'static str, sim::Scenario)>,
+    overwrite: bool,
+    only: Option<&str>,
+) -> Result<(), String> {
     if runs.is_empty() {
         return Err(format!(
             "no QEMU run's name contains {:?}",
@@ -492,9 +512,10 @@ fn qemu_checks(overwrite: bool, only: Option<&str>) -> Result<(), String> {
     }
 }
 
-/// `cargo xtask cycles`: the named scenes, or those of `qemu-bench`.
-fn cycles_of(scenes: Vec<String>) -> Result<(), String> {
-    let scenes = if scenes.is_empty() {
+/// `cargo xtask cycles`: the named scenes, or those of `qemu-bench`; each on its
+/// default scenario, or on the named one of its QEMU checks.
+fn cycles_of(scenes: Vec<String>, scenario: Option<&str>) -> Result<(), String> {
+    let scenes: Vec<String> = if scenes.is_empty() {
         qemu::feedforward_scenes()
             .chain([qemu::FEEDBACK_SCENE, qemu::CRANE3D_FEEDBACK_SCENE])
             .map(str::to_string)
@@ -502,7 +523,27 @@ fn cycles_of(scenes: Vec<String>) -> Result<(), String> {
     } else {
         scenes
     };
-    cycles::cycles(&scenes)
+    let runs = scenes
+        .into_iter()
+        .map(|scene| {
+            let Some(name) = scenario else {
+                return Ok((scene, None));
+            };
+            let own: Vec<sim::Scenario> = qemu_runs()
+                .into_iter()
+                .filter(|(s, _)| *s == scene)
+                .map(|(_, sc)| sc)
+                .collect();
+            match own.iter().find(|sc| sc.name == name) {
+                Some(sc) => Ok((scene, Some(*sc))),
+                None => Err(format!(
+                    "{scene} has no QEMU scenario {name:?} (its scenarios: {})",
+                    own.iter().map(|sc| sc.name).collect::<Vec<_>>().join(", ")
+                )),
+            }
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    cycles::cycles(&runs)
 }
 
 fn qemu_bench() -> Result<(), String> {
@@ -592,7 +633,7 @@ fn test() -> Result<(), String> {
     qemu_checks(false, None)?;
     // The Cortex-M7 estimate on the default scene: its trace windows must match the
     // firmware's own instruction counts step by step.
-    cycles::cycles(&[host_tests::DEFAULT_SCENE.to_string()])?;
+    cycles::cycles(&[(host_tests::DEFAULT_SCENE.to_string(), None)])?;
     // A short soak: one simulated minute of random traffic, every set point checked.
     soak::soak(1)?;
     panics::lint()?;
@@ -623,6 +664,12 @@ mod tests {
             &["fig8"],
             &["cycles"],
             &["cycles", "scenes/paper-crane.toml"],
+            &[
+                "cycles",
+                "--scenario",
+                "manual-takeover-3d",
+                "scenes/crane3d/crane3d-manual.toml",
+            ],
             &["fig8", "--out-dir", "/tmp/figures"],
             &["soak", "--minutes", "60"],
             &["fuzz"],

@@ -524,13 +524,15 @@ pub struct Estimate {
 /// cycles: on the healthy bus, the feedback scenes (planar and 3D) on the plant they
 /// close the loop around, with their inclinometer (as `qemu-bench` measures them), the
 /// manual scenes on their operator's profile (the master switch on the bus; the
-/// generator's share of each step too).
-pub fn estimate(scene: &str) -> Result<Estimate, String> {
+/// generator's share of each step too) — or on `scenario`, when one is given.
+pub fn estimate(scene: &str, scenario: Option<sim::Scenario>) -> Result<Estimate, String> {
     let feedback = [
         crate::qemu::FEEDBACK_SCENE,
         crate::qemu::CRANE3D_FEEDBACK_SCENE,
     ];
-    let scenario = if feedback.contains(&scene) {
+    let scenario = if let Some(chosen) = scenario {
+        chosen
+    } else if feedback.contains(&scene) {
         sim::CLOSED_LOOP
     } else if scene == crate::qemu::MANUAL_SCENE {
         sim::MANUAL_PROFILE
@@ -697,21 +699,22 @@ fn generator_profile(e: &Estimate, count: usize) -> String {
     out
 }
 
-/// `cargo xtask cycles`: the estimate for each scene, a table, and per-step CSVs in
-/// `target/cycles/`.
-pub fn cycles(scenes: &[String]) -> Result<(), String> {
+/// `cargo xtask cycles`: the estimate for each scene (on its default scenario, or the one
+/// given), a table, and per-step CSVs in `target/cycles/` (`SCENE.csv`, or
+/// `SCENE--SCENARIO.csv` for a scenario given).
+pub fn cycles(runs: &[(String, Option<sim::Scenario>)]) -> Result<(), String> {
     let out_dir = root().join("target/cycles");
     std::fs::create_dir_all(&out_dir).map_err(|e| e.to_string())?;
     let mut rows = Vec::new();
     let mut generator_rows = Vec::new();
     let mut profiles = String::new();
-    for scene in scenes {
-        let e = estimate(scene)?;
+    for (scene, scenario) in runs {
+        let e = estimate(scene, *scenario)?;
         if let Some(r) = generator_row(&e) {
             generator_rows.push(r);
             profiles += &generator_profile(&e, 15);
         }
-        let csv = out_dir.join(csv_name(scene));
+        let csv = out_dir.join(csv_name(scene, scenario.map(|s| s.name)));
         write_csv(&csv, &e.steps, &e.generator)?;
         eprintln!(
             "{scene}: {} steps, trace and firmware counts within {} instructions; {}",
@@ -751,11 +754,14 @@ pub fn cycles(scenes: &[String]) -> Result<(), String> {
     Ok(())
 }
 
-fn csv_name(scene: &str) -> PathBuf {
+fn csv_name(scene: &str, scenario: Option<&str>) -> PathBuf {
     let stem = Path::new(scene)
         .file_stem()
         .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
-    PathBuf::from(format!("{stem}.csv"))
+    match scenario {
+        Some(name) => PathBuf::from(format!("{stem}--{name}.csv")),
+        None => PathBuf::from(format!("{stem}.csv")),
+    }
 }
 
 /// Each step's row; with the generator's share (`generator_*`, zero where it did not
