@@ -55,6 +55,7 @@
 //! its path and hands over at rest.
 
 use crate::error::{Error, Result};
+use crate::operator::ends::END_WINDOW;
 use crate::operator::piece::{binomial, factorial, Polynomial, COEFFS};
 use crate::trajectory::Trajectory;
 
@@ -131,10 +132,12 @@ pub struct Headroom<const NH: usize> {
     pub hoist: Room,
 }
 
-/// The blend `E(t)` on the current cycle: per axis its coefficients in
-/// `θ = (t − t_n)/h`, moved on by one cycle at each cycle after the first (a Taylor
-/// shift by 1 in θ: additions only), for the cycles it has left. Added to the path
-/// where the path is evaluated ([`Blend::add_to`]).
+/// The blend `E(t)`, added to the path where the path is evaluated
+/// ([`Blend::add_to`]): per axis its coefficients in `θ' = θ − 1` on the current cycle
+/// (`θ = (t − t_n)/h`) — the share about the cycle's *end*, so that its value and first
+/// derivatives there, what BDF asks every step, are its lowest coefficients — moved on
+/// by one cycle at each cycle after the first (a Taylor shift by 1: additions only), for
+/// the cycles it has left.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Blend<const NH: usize> {
     horizontal: [[f64; COEFFS]; NH],
@@ -201,6 +204,17 @@ fn shift_by_one(a: &mut [f64; COEFFS]) {
     }
 }
 
+/// [`shift_by_one`] of every horizontal share and the hoist's. (The axes' additions
+/// side by side, three chains at a time, cost more, not less: 3D blend cycles 2,849 point
+/// cycles where one axis after the other gives about 2,420, `cargo xtask cycles
+/// --scenario manual-takeover-3d`.)
+fn shift_each<const NH: usize>(horizontal: &mut [[f64; COEFFS]; NH], hoist: &mut [f64; COEFFS]) {
+    for e in horizontal.iter_mut() {
+        shift_by_one(e);
+    }
+    shift_by_one(hoist);
+}
+
 /// `p(s θ)`: the coefficients of `p(τ)` scaled by `s^j`.
 fn scaled(mut p: [f64; COEFFS], s: f64) -> [f64; COEFFS] {
     let mut s_j = 1.0;
@@ -219,10 +233,7 @@ impl<const NH: usize> Blend<NH> {
             return false;
         }
         if self.started {
-            for e in &mut self.horizontal {
-                shift_by_one(e);
-            }
-            shift_by_one(&mut self.hoist);
+            shift_each(&mut self.horizontal, &mut self.hoist);
         }
         self.started = true;
         self.left -= 1;
@@ -238,11 +249,14 @@ impl<const NH: usize> Blend<NH> {
     /// The hoist's share at the current cycle's start (θ = 0), m.
     #[must_use]
     pub fn hoist_at_start(&self) -> f64 {
-        self.hoist[0]
+        let [x] = share::<1>(&self.hoist, -1.0, 1.0);
+        x
     }
 
     /// Adds the share on the current cycle at `θ` (its first `D − 1` derivatives too) to
-    /// the path's values.
+    /// the path's values: within [`END_WINDOW`] of the cycle's end (`D ≤ 3`) from its
+    /// lowest coefficients, continued to first order as the pieces' ends are; elsewhere by
+    /// synthetic division at `θ − 1`.
     pub fn add_to<const D: usize>(
         &self,
         horizontal: &mut [[f64; D]; NH],
@@ -250,19 +264,44 @@ impl<const NH: usize> Blend<NH> {
         theta: f64,
         inv_h: f64,
     ) {
+        let delta = theta - 1.0;
+        let at_end = D <= 3 && libm::fabs(delta) <= END_WINDOW;
+        let value = |e: &[f64; COEFFS]| {
+            if at_end {
+                share_at_end::<D>(e, delta, inv_h)
+            } else {
+                share::<D>(e, delta, inv_h)
+            }
+        };
         for (out, e) in horizontal.iter_mut().zip(self.horizontal.iter()) {
-            for (o, s) in out.iter_mut().zip(share::<D>(e, theta, inv_h)) {
+            for (o, s) in out.iter_mut().zip(value(e)) {
                 *o += s;
             }
         }
-        for (o, s) in hoist.iter_mut().zip(share::<D>(&self.hoist, theta, inv_h)) {
+        for (o, s) in hoist.iter_mut().zip(value(&self.hoist)) {
             *o += s;
         }
     }
 }
 
-/// One axis's share at `θ`. Never inlined: the polynomial it evaluates is a local of its
-/// own frame, not one per axis in the evaluation's.
+/// One axis's share and its first two derivatives at `θ' = δ` near 0 (the cycle's end):
+/// `c₀ + c₁δ`, `(c₁ + 2c₂δ)/h`, `(2c₂ + 6c₃δ)/h²`.
+#[allow(clippy::indexing_slicing)] // constant indices below COEFFS: checked when compiled
+fn share_at_end<const D: usize>(c: &[f64; COEFFS], delta: f64, inv_h: f64) -> [f64; D] {
+    let values = [
+        c[0] + c[1] * delta,
+        (c[1] + 2.0 * c[2] * delta) * inv_h,
+        (2.0 * c[2] + 6.0 * c[3] * delta) * (inv_h * inv_h),
+    ];
+    let mut out = [0.0; D];
+    for (o, v) in out.iter_mut().zip(values) {
+        *o = v;
+    }
+    out
+}
+
+/// One axis's share at `θ'` (`θ − 1`). Never inlined: the polynomial it evaluates is a
+/// local of its own frame, not one per axis in the evaluation's.
 #[inline(never)]
 fn share<const D: usize>(coeffs: &[f64; COEFFS], theta: f64, inv_h: f64) -> [f64; D] {
     let mut p = Polynomial::rest(0.0);
@@ -599,13 +638,16 @@ pub(crate) fn new_blend<const NH: usize>(
         }
         scaled(blend_axis(&tau), 1.0 / cycles as f64)
     };
-    Blend {
+    let mut blend = Blend {
         horizontal: horizontal.map(|e| in_theta(&e)),
         hoist: in_theta(hoist),
         left: cycles,
         started: false,
         hoist_extent: [0.0; 2],
-    }
+    };
+    // About the first cycle's end.
+    shift_each(&mut blend.horizontal, &mut blend.hoist);
+    blend
 }
 
 #[cfg(test)]

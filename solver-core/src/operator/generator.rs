@@ -10,7 +10,7 @@ use crate::operator::entry::{
 };
 use crate::operator::filter::{i64_to_f64, Factor, Taps};
 use crate::operator::group::Group;
-use crate::operator::limiter::{brake, truncate};
+use crate::operator::limiter::{brake, ceil_i, floor_i, truncate};
 use crate::operator::settings::{cycles, zv_cycles, Quanta, Rounding, Settings};
 use crate::scalar::{c, to_f64, Real};
 use crate::trajectory::Trajectory;
@@ -140,7 +140,9 @@ pub struct Generator<const NH: usize, const RH: usize, const RV: usize> {
 /// the taps' merging in the start's cycle, the generator's most expensive (`cargo xtask
 /// cycles`, docs/OPERATOR.md "## Cost"). Their cost moves to the resting cycles in which
 /// the depth cap changes: the cycle the horizontal axes come to rest after hoisting, and
-/// each cycle of hoisting while they rest.
+/// each cycle of hoisting while they rest. A hand-over's entry stages the filter for its
+/// blend (whose extent lengthens the pendulum, the same for the whole blend): a start
+/// during the blend takes it, as long as the blend lasts and the keys are the same.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Staged {
     /// The depth cap in the hoist's units the filter was tuned for.
@@ -154,6 +156,8 @@ struct Staged {
     half_period: u16,
     /// `m_r` with the robust setting, else 0.
     robust_half_period: u16,
+    /// Whether it was tuned for the hand-over's blend that lasts (its extent).
+    blend: bool,
 }
 
 impl Staged {
@@ -164,6 +168,7 @@ impl Staged {
         pendulum: 0.0,
         half_period: 0,
         robust_half_period: 0,
+        blend: false,
     };
 }
 
@@ -182,11 +187,16 @@ fn shaped(d: f64, deadband: f64, full: f64) -> Option<f64> {
     Some(if d < 0.0 { -s } else { s })
 }
 
-/// `[min, max]` in position units from `origin`, rounded inwards.
+/// `[min, max]` in position units from `origin`, rounded inwards. Rounded and converted by
+/// [`ceil_i`] and [`floor_i`] (`libm::ceil(…) as i64`, in one hardware conversion where
+/// the value fits 32 bits): a hand-over's blend widens the ranges again in its last
+/// cycle, and there `libm`'s `ceil` and `floor` and the soft `__aeabi_d2lz` for `as i64`
+/// made `unit_bounds` 579 point cycles (`cargo xtask cycles --scenario
+/// manual-takeover-3d`).
 fn unit_bounds((lo, hi): (f64, f64), origin: f64, q: &Quanta) -> (i64, i64) {
     (
-        libm::ceil((lo - origin) / q.position) as i64,
-        libm::floor((hi - origin) / q.position) as i64,
+        ceil_i((lo - origin) / q.position),
+        floor_i((hi - origin) / q.position),
     )
 }
 
@@ -578,12 +588,12 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         self.blend.as_ref().is_some_and(Blend::lasts)
     }
 
-    /// Whether [`Staged`] holds the filter for a start with this depth cap: no blend
-    /// (its extent is not in the keys), the same cap, the same rope if the robust pair is
-    /// tuned to it.
+    /// Whether [`Staged`] holds the filter for a start with this depth cap: tuned with
+    /// the blend that lasts or with none as now, the same cap, the same rope if the
+    /// robust pair is tuned to it.
     fn is_staged(&self, cap_units: i64) -> bool {
         let st = &self.staged;
-        !self.blending()
+        st.blend == self.blending()
             && st.half_period != 0
             && st.cap_units == cap_units
             && (!self.settings.robust || st.depth.to_bits() == self.rope_now().to_bits())
@@ -591,8 +601,8 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
 
     /// Works the filter out for a start with this depth cap (`cap_units`, `depth_cap` m)
     /// and the rope now, and installs it in the horizontal group (which forgets its
-    /// ring); kept in [`Staged`] unless a blend lasts (its extent moves the pendulum) or
-    /// a half period is beyond `u16`. Returns the pendulum `g/ω_g²`, `m_g` and the robust
+    /// ring); kept in [`Staged`] (with whether a blend lasts: its extent moves the
+    /// pendulum) unless a half period is beyond `u16`. Returns the pendulum `g/ω_g²`, `m_g` and the robust
     /// pair's `m_r`.
     fn stage(&mut self, cap_units: i64, depth_cap: f64) -> (f64, usize, Option<usize>) {
         let s = &self.settings;
@@ -643,17 +653,14 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
             self.swing = SwingMap::new(omega_g * h, h);
             s.g / (omega_g * omega_g)
         };
-        self.staged = match (
-            !self.blending(),
-            u16::try_from(m_g),
-            u16::try_from(robust.unwrap_or(0)),
-        ) {
-            (true, Ok(half_period), Ok(robust_half_period)) => Staged {
+        self.staged = match (u16::try_from(m_g), u16::try_from(robust.unwrap_or(0))) {
+            (Ok(half_period), Ok(robust_half_period)) => Staged {
                 cap_units,
                 depth: depth_now,
                 pendulum,
                 half_period,
                 robust_half_period,
+                blend: self.blending(),
             },
             _ => Staged::NONE,
         };
@@ -968,7 +975,8 @@ mod tests {
     }
 
     /// A start takes the staged tuning, and it is the one the start would work out: planar
-    /// and 3D, plain and robust, from rest and from a hand-over (its blend: no staging).
+    /// and 3D, plain and robust, from rest and from a hand-over (a start during its blend
+    /// takes the filter the entry staged).
     #[test]
     fn a_staged_tuning_is_the_one_the_start_works_out() {
         for robust in [false, true] {
@@ -1166,7 +1174,11 @@ mod tests {
             }
             sum
         };
-        let ends = [g.horizontal.origin[0], g.horizontal.origin[1], g.hoist.origin[0]];
+        let ends = [
+            g.horizontal.origin[0],
+            g.horizontal.origin[1],
+            g.hoist.origin[0],
+        ];
         let es = [stop.horizontal[0].e, stop.horizontal[1].e, stop.hoist.e];
         let check = |g: &Generator3d, n: u64| {
             let tau = n as f64 / stop.cycles as f64;

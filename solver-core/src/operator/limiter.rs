@@ -174,6 +174,29 @@ pub fn truncate(y: f64) -> i64 {
     }
 }
 
+/// `libm::ceil(y) as i64`, without `ceil`'s bit manipulations: the truncation, plus one
+/// where it lies below `y` (saturating, NaN to 0, as `as` does).
+#[must_use]
+pub fn ceil_i(y: f64) -> i64 {
+    let t = truncate(y);
+    if i64_to_f64(t) < y {
+        t.saturating_add(1)
+    } else {
+        t
+    }
+}
+
+/// `libm::floor(y) as i64`, as [`ceil_i`].
+#[must_use]
+pub fn floor_i(y: f64) -> i64 {
+    let t = truncate(y);
+    if i64_to_f64(t) > y {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
+}
+
 /// `y as i64` (the soft `__aeabi_d2lz`), in a call of its own: inlined, the compiler
 /// made it unconditional in [`step`] (both conversions, then a choice), and every cycle
 /// paid for the soft one.
@@ -245,7 +268,47 @@ pub fn step<const W: usize>(
 #[cfg(test)]
 mod tests {
     #![allow(clippy::indexing_slicing, clippy::unwrap_used)]
+    extern crate std;
+    use std::vec;
+
     use super::*;
+
+    /// `ceil_i` and `floor_i` are `libm::ceil(y) as i64` and `libm::floor(y) as i64`:
+    /// random values over many magnitudes, integers and their neighbours, the ends of
+    /// `i64`, infinities and NaN.
+    #[test]
+    fn integer_ceil_and_floor_are_the_casts() {
+        let mut seed = 5_u64;
+        let mut values = vec![
+            0.0,
+            -0.0,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            9.3e18,
+            -9.3e18,
+            9.223_372_036_854_775e18,
+            -9.223_372_036_854_776e18,
+            2_147_483_647.5,
+            -2_147_483_648.5,
+        ];
+        for _ in 0..100_000 {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let unit = (seed >> 11) as f64 / (1_u64 << 53) as f64 - 0.5;
+            let y = unit * 10f64.powi(((seed >> 3) % 22) as i32 - 3);
+            let whole = libm::round(y);
+            values.extend([
+                y,
+                whole,
+                libm::nextafter(whole, f64::INFINITY),
+                libm::nextafter(whole, f64::NEG_INFINITY),
+            ]);
+        }
+        for y in values {
+            assert_eq!(ceil_i(y), libm::ceil(y) as i64, "ceil {y:e}");
+            assert_eq!(floor_i(y), libm::floor(y) as i64, "floor {y:e}");
+        }
+    }
 
     /// The closed form against the cycles of a full-deceleration stop, summed.
     #[test]
