@@ -104,7 +104,8 @@ enum Cmd {
     /// Estimated Cortex-M7 cycles per step (lower / point / upper) and µs at 480 MHz,
     /// from QEMU's execution trace (xtask/src/cycles/m7.rs states the model).
     Cycles {
-        /// Scene files (the scenes of `qemu-bench` when none is named).
+        /// Scene files (the scenes of `qemu-bench` when none is named; with `--scenario`,
+        /// the QEMU checks' scenes that have that scenario).
         scenes: Vec<String>,
         /// Run each scene through this scenario of its QEMU checks (`cargo xtask qemu`;
         /// e.g. `manual-takeover-3d`) instead of its default one.
@@ -515,34 +516,62 @@ fn qemu_checks_of(
 /// `cargo xtask cycles`: the named scenes, or those of `qemu-bench`; each on its
 /// default scenario, or on the named one of its QEMU checks.
 fn cycles_of(scenes: Vec<String>, scenario: Option<&str>) -> Result<(), String> {
-    let scenes: Vec<String> = if scenes.is_empty() {
-        qemu::feedforward_scenes()
-            .chain([qemu::FEEDBACK_SCENE, qemu::CRANE3D_FEEDBACK_SCENE])
-            .map(str::to_string)
-            .collect()
+    let Some(name) = scenario else {
+        let scenes: Vec<String> = if scenes.is_empty() {
+            qemu::feedforward_scenes()
+                .chain([qemu::FEEDBACK_SCENE, qemu::CRANE3D_FEEDBACK_SCENE])
+                .map(str::to_string)
+                .collect()
+        } else {
+            scenes
+        };
+        let runs: Vec<_> = scenes.into_iter().map(|scene| (scene, None)).collect();
+        return cycles::cycles(&runs);
+    };
+    let checks = qemu_runs();
+    let with_it = |scene: &str| checks.iter().find(|(s, sc)| *s == scene && sc.name == name);
+    let runs = if scenes.is_empty() {
+        // Every QEMU check's scene that has the scenario, once.
+        let mut runs: Vec<(String, Option<sim::Scenario>)> = Vec::new();
+        for (scene, sc) in checks.iter().filter(|(_, sc)| sc.name == name) {
+            if !runs.iter().any(|(s, _)| s == scene) {
+                runs.push((scene.to_string(), Some(*sc)));
+            }
+        }
+        if runs.is_empty() {
+            return Err(format!("no QEMU check has the scenario {name:?}"));
+        }
+        runs
     } else {
         scenes
+            .into_iter()
+            .map(|scene| match with_it(&scene) {
+                Some((_, sc)) => Ok((scene, Some(*sc))),
+                None => {
+                    let own: Vec<&str> = checks
+                        .iter()
+                        .filter(|(s, _)| *s == scene)
+                        .map(|(_, sc)| sc.name)
+                        .collect();
+                    Err(if own.is_empty() {
+                        let mut known: Vec<&str> = checks.iter().map(|(s, _)| *s).collect();
+                        known.sort_unstable();
+                        known.dedup();
+                        format!(
+                            "{scene} is not a QEMU check's scene (written as `cargo xtask qemu` \
+                             names them: {})",
+                            known.join(", ")
+                        )
+                    } else {
+                        format!(
+                            "{scene} has no QEMU scenario {name:?} (its scenarios: {})",
+                            own.join(", ")
+                        )
+                    })
+                }
+            })
+            .collect::<Result<Vec<_>, String>>()?
     };
-    let runs = scenes
-        .into_iter()
-        .map(|scene| {
-            let Some(name) = scenario else {
-                return Ok((scene, None));
-            };
-            let own: Vec<sim::Scenario> = qemu_runs()
-                .into_iter()
-                .filter(|(s, _)| *s == scene)
-                .map(|(_, sc)| sc)
-                .collect();
-            match own.iter().find(|sc| sc.name == name) {
-                Some(sc) => Ok((scene, Some(*sc))),
-                None => Err(format!(
-                    "{scene} has no QEMU scenario {name:?} (its scenarios: {})",
-                    own.iter().map(|sc| sc.name).collect::<Vec<_>>().join(", ")
-                )),
-            }
-        })
-        .collect::<Result<Vec<_>, String>>()?;
     cycles::cycles(&runs)
 }
 

@@ -620,7 +620,7 @@ pub(crate) fn check_inside(
 
 /// A blend over `cycles` cycles of `h` from the next cycle on, with the differences
 /// `e[j]` in the j-th time derivative at its start: `E(τ) = Σ_j e_j T_b^j H_j(τ)`, as
-/// coefficients in θ (`τ = θ/cycles`).
+/// coefficients in `θ' = θ − 1` about the first cycle's end (`τ = θ/cycles`; [`Blend`]).
 pub(crate) fn new_blend<const NH: usize>(
     cycles: u64,
     h: f64,

@@ -976,7 +976,8 @@ mod tests {
 
     /// A start takes the staged tuning, and it is the one the start would work out: planar
     /// and 3D, plain and robust, from rest and from a hand-over (a start during its blend
-    /// takes the filter the entry staged).
+    /// takes the filter the entry staged when it is plain; robust, the rope has moved with
+    /// the blend by then and the start works the filter out).
     #[test]
     fn a_staged_tuning_is_the_one_the_start_works_out() {
         for robust in [false, true] {
@@ -1195,6 +1196,30 @@ mod tests {
             check(&g, n.min(stop.cycles));
         }
         assert!(g.is_at_rest() && g.blend.is_none());
+    }
+
+    /// A start during a hand-over's blend takes the filter its entry staged (plain: the
+    /// keys are the cap and the blend, both unchanged): nothing is worked out in the
+    /// start's cycle, whose tuning is the entry's.
+    #[test]
+    fn a_start_during_a_blend_takes_the_entry_s_filter() {
+        let s = Settings::lab_3d(&Crane3dParams::EXAMPLE);
+        for t in [3.0, 5.0, 7.5] {
+            let (state, room) = hand_over_at(t);
+            let mut g = Generator3d::take_over(s, t, &state, &room).unwrap();
+            let entry = *g.tuning();
+            for _ in 0..50 {
+                let _ = g.advance(&Demand::ZERO);
+            }
+            assert!(g.blending() && g.horizontal.is_at_rest());
+            assert!(g.is_staged(g.cap_units()), "hand-over at {t} s");
+            let _ = g.advance(&Demand {
+                horizontal: [0.6, -0.4],
+                hoist: 0.0,
+            });
+            assert!(!g.horizontal.is_at_rest());
+            assert_eq!(*g.tuning(), entry, "hand-over at {t} s");
+        }
     }
 
     /// A hand-over no stop fits (here a moving trolley and no room at all) is refused with

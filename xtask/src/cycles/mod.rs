@@ -505,7 +505,7 @@ fn generator_probe(elf: &Path) -> Result<Probe, String> {
 
 /// The estimate for one scene, checked against the firmware's own instruction counts.
 pub struct Estimate {
-    /// The scene file, relative to the repository.
+    /// The scene file, relative to the repository (and the scenario, when one was given).
     pub scene: String,
     /// Each step.
     pub steps: Vec<Step>,
@@ -530,6 +530,11 @@ pub fn estimate(scene: &str, scenario: Option<sim::Scenario>) -> Result<Estimate
         crate::qemu::FEEDBACK_SCENE,
         crate::qemu::CRANE3D_FEEDBACK_SCENE,
     ];
+    // A scenario given is named beside the scene in the tables.
+    let label = match scenario {
+        Some(chosen) => format!("{scene} (`{}`)", chosen.name),
+        None => scene.to_string(),
+    };
     let scenario = if let Some(chosen) = scenario {
         chosen
     } else if feedback.contains(&scene) {
@@ -602,7 +607,7 @@ pub fn estimate(scene: &str, scenario: Option<sim::Scenario>) -> Result<Estimate
         .map(|c| c.instructions)
         .collect();
     check_windows(scene, &traced.steps, &costs).map(|worst_mismatch| Estimate {
-        scene: scene.to_string(),
+        scene: label,
         steps: traced.steps,
         worst_mismatch,
         generator: traced.generator,
