@@ -997,24 +997,8 @@ mod tests {
             let (changed, starts, _) = twin_run(g, &sticks::<2>(60_000));
             assert!(changed >= 3 && starts >= 15, "{changed} of {starts} starts");
 
-            let mv = PointToPoint::new(
-                nalgebra::SVector::from([12.0, 3.0, 8.0]),
-                nalgebra::SVector::from([20.0, 6.0, 4.0]),
-                0.0,
-                10.0,
-                5,
-            )
-            .unwrap();
-            // The 3D lab drives' room beside the operator (`examples/operator_cycles.rs`).
-            let room = |speed, acceleration| Room {
-                speed,
-                acceleration,
-            };
-            let room = Headroom {
-                horizontal: [room(1.85, 2.1), room(1.1, 1.15)],
-                hoist: room(1.4, 2.1),
-            };
-            let g = Generator3d::take_over(s, 3.0, &Handover::<2>::of(&mv, 3.0), &room).unwrap();
+            let (state, room) = hand_over_at(3.0);
+            let g = Generator3d::take_over(s, 3.0, &state, &room).unwrap();
             // The stick moved 50 cycles in: during the blend.
             let mut stick = vec![Demand::ZERO; 50];
             stick.extend(sticks::<2>(16_000).split_off(FIRST_MOTION));
@@ -1071,23 +1055,7 @@ mod tests {
             let g = Generator3d::at_rest(s, 0.0, [middle(x), middle(y)], middle(z)).unwrap();
             assert!(compare(g, &sticks::<2>(20_000)) > 5_000);
 
-            let mv = PointToPoint::new(
-                nalgebra::SVector::from([12.0, 3.0, 8.0]),
-                nalgebra::SVector::from([20.0, 6.0, 4.0]),
-                0.0,
-                10.0,
-                5,
-            )
-            .unwrap();
-            let room = |speed, acceleration| Room {
-                speed,
-                acceleration,
-            };
-            let room = Headroom {
-                horizontal: [room(1.85, 2.1), room(1.1, 1.15)],
-                hoist: room(1.4, 2.1),
-            };
-            let state = Handover::<2>::of(&mv, 3.0);
+            let (state, room) = hand_over_at(3.0);
             let g = Generator3d::take_over(s, 3.0, &state, &room).unwrap();
             // Before its first cycle the path is the taken-over state.
             let (h0, z0) = g.evaluate::<3>(3.0);
@@ -1103,7 +1071,8 @@ mod tests {
     }
 
     /// The 3D lab move and room of the hand-over tests: a take-over at `t` of the move
-    /// (12, 3, 8 m deep) → (20, 6, 4 m deep) in 10 s.
+    /// (12, 3, 8 m deep) → (20, 6, 4 m deep) in 10 s, the 3D lab drives' room beside the
+    /// operator (`examples/operator_cycles.rs`).
     fn hand_over_at(t: f64) -> (Handover<2>, Headroom<2>) {
         let mv = PointToPoint::new(
             nalgebra::SVector::from([12.0, 3.0, 8.0]),
