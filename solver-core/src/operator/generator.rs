@@ -981,19 +981,12 @@ mod tests {
     #[test]
     fn a_staged_tuning_is_the_one_the_start_works_out() {
         for robust in [false, true] {
-            let mut s = Settings::lab(&CraneParams::PAPER);
-            s.robust = robust;
-            let (lo, hi) = (s.horizontal[0].range, s.hoist.range);
-            let g = PlanarGenerator::at_rest(s, 0.0, [(lo.0 + lo.1) / 2.0], (hi.0 + hi.1) / 2.0)
-                .unwrap();
+            let (g, _) = lab_generators(robust);
             let (changed, starts, _) = twin_run(g, &sticks::<1>(60_000));
             assert!(changed >= 3 && starts >= 15, "{changed} of {starts} starts");
 
-            let mut s = Settings::lab_3d(&Crane3dParams::EXAMPLE);
-            s.robust = robust;
-            let (x, y, z) = (s.horizontal[0].range, s.horizontal[1].range, s.hoist.range);
-            let middle = |(a, b): (f64, f64)| (a + b) / 2.0;
-            let g = Generator3d::at_rest(s, 0.0, [middle(x), middle(y)], middle(z)).unwrap();
+            let (_, g) = lab_generators(robust);
+            let s = *g.settings();
             let (changed, starts, _) = twin_run(g, &sticks::<2>(60_000));
             assert!(changed >= 3 && starts >= 15, "{changed} of {starts} starts");
 
@@ -1041,18 +1034,11 @@ mod tests {
             moving
         }
         for robust in [false, true] {
-            let mut s = Settings::lab(&CraneParams::PAPER);
-            s.robust = robust;
-            let (lo, hi) = (s.horizontal[0].range, s.hoist.range);
-            let g = PlanarGenerator::at_rest(s, 0.0, [(lo.0 + lo.1) / 2.0], (hi.0 + hi.1) / 2.0)
-                .unwrap();
+            let (g, _) = lab_generators(robust);
             assert!(compare(g, &sticks::<1>(20_000)) > 5_000);
 
-            let mut s = Settings::lab_3d(&Crane3dParams::EXAMPLE);
-            s.robust = robust;
-            let (x, y, z) = (s.horizontal[0].range, s.horizontal[1].range, s.hoist.range);
-            let middle = |(a, b): (f64, f64)| (a + b) / 2.0;
-            let g = Generator3d::at_rest(s, 0.0, [middle(x), middle(y)], middle(z)).unwrap();
+            let (_, g) = lab_generators(robust);
+            let s = *g.settings();
             assert!(compare(g, &sticks::<2>(20_000)) > 5_000);
 
             let (state, room) = hand_over_at(3.0);
@@ -1068,6 +1054,21 @@ mod tests {
             stick.extend(sticks::<2>(6_000).split_off(FIRST_MOTION));
             assert!(compare(g, &stick) > 500);
         }
+    }
+
+    /// The lab generators (planar, 3D) at rest in the middle of their ranges, plain or
+    /// robust.
+    fn lab_generators(robust: bool) -> (PlanarGenerator, Generator3d) {
+        let middle = |(a, b): (f64, f64)| (a + b) / 2.0;
+        let mut s = Settings::lab(&CraneParams::PAPER);
+        s.robust = robust;
+        let (x, z) = (s.horizontal[0].range, s.hoist.range);
+        let planar = PlanarGenerator::at_rest(s, 0.0, [middle(x)], middle(z)).unwrap();
+        let mut s = Settings::lab_3d(&Crane3dParams::EXAMPLE);
+        s.robust = robust;
+        let (x, y, z) = (s.horizontal[0].range, s.horizontal[1].range, s.hoist.range);
+        let spatial = Generator3d::at_rest(s, 0.0, [middle(x), middle(y)], middle(z)).unwrap();
+        (planar, spatial)
     }
 
     /// The 3D lab move and room of the hand-over tests: a take-over at `t` of the move
