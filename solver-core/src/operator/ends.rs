@@ -294,42 +294,16 @@ impl Piece {
     }
 
     /// The polynomial of this cycle (for an evaluation inside it): built from the start
-    /// states as [`Polynomial::build`] builds it, with the rate limiter's position `p0`,
-    /// speed `v0` and acceleration `a0` at the cycle's start.
+    /// states as [`Polynomial::build`] builds it, from the rate limiter at the cycle's
+    /// start and this cycle's spline in `inputs`.
     #[must_use]
-    pub fn polynomial(&self, inputs: Start, swing: Option<&SwingMap>) -> Polynomial {
-        let q = if swing.is_some() { 2 } else { 4 };
+    pub fn polynomial(&self, inputs: &Inputs) -> Polynomial {
         let mut p = Polynomial::rest(0.0);
         p.lag = self.start.lag;
         p.swing = self.start.swing;
-        p.build(&Inputs {
-            p0: inputs.p0,
-            v0: inputs.v0,
-            a0: inputs.a0,
-            rho: crate::operator::piece::spline(&self.nabla, q, inputs.scale),
-            h: inputs.h,
-            inv_h: inputs.inv_h,
-            omega_h: swing.map(|m| m.omega_h),
-        });
+        p.build(inputs);
         p
     }
-}
-
-/// The rate limiter at a cycle's start and the cycle, for [`Piece::polynomial`].
-#[derive(Debug, Clone, Copy)]
-pub struct Start {
-    /// Position, m.
-    pub p0: f64,
-    /// Speed, m/s.
-    pub v0: f64,
-    /// Acceleration on the cycle, m/s².
-    pub a0: f64,
-    /// The differences' m/s².
-    pub scale: f64,
-    /// The cycle, s.
-    pub h: f64,
-    /// `1/h`.
-    pub inv_h: f64,
 }
 
 #[cfg(test)]
@@ -397,17 +371,15 @@ mod tests {
                 piece.advance::<5>(nabla, &inputs, swing);
             }
             assert_eq!(piece.start, start);
-            let polynomial = piece.polynomial(
-                Start {
-                    p0,
-                    v0,
-                    a0,
-                    scale,
-                    h,
-                    inv_h: 1.0 / h,
-                },
-                swing,
-            );
+            let polynomial = piece.polynomial(&Inputs {
+                p0,
+                v0,
+                a0,
+                rho: crate::operator::piece::spline(&nabla, count - 1, scale),
+                h,
+                inv_h: 1.0 / h,
+                omega_h: swing.map(|m| m.omega_h),
+            });
             let ends = [piece.end.lag, piece.end.swing].concat();
             let built = [polynomial.lag, polynomial.swing].concat();
             assert!(close(&ends, &built, 1e-13), "{n}: {ends:?} vs {built:?}");

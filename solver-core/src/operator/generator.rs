@@ -574,7 +574,7 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
     /// horizontal rest), a hand-over's share included, within the range the ring is
     /// sized for.
     fn rope_now(&self) -> f64 {
-        let path = self.hoist.start_position(0, self.settings.h, self.inv_h);
+        let path = self.hoist.start_position(0);
         // The share on its last cycle too: the path still holds it.
         let depth = match &self.blend {
             Some(b) => path + b.hoist_at_start(),

@@ -2,10 +2,10 @@
 //! vector, one ring, the virtual pendulum) or the hoist (its own limiter and windows).
 //! Each cycle: the limiter's steps, the discrete filter, one piece per axis.
 
-use crate::operator::ends::{EndInputs, Piece, Start, SwingMap, END_WINDOW};
+use crate::operator::ends::{EndInputs, Piece, SwingMap, END_WINDOW};
 use crate::operator::filter::{i64_to_f64, u64_to_f64, Ring, Sums, Taps};
 use crate::operator::limiter::{self, Axis};
-use crate::operator::piece::{differences, Polynomial, HOIST_COEFFS};
+use crate::operator::piece::{differences, spline, Inputs, Polynomial, HOIST_COEFFS};
 use crate::operator::settings::Quanta;
 
 /// One group of `W` axes with a ring of `R` cycles.
@@ -230,41 +230,32 @@ impl<const W: usize, const R: usize> Group<W, R> {
         }
     }
 
-    /// Axis `i`'s rate limiter at the current cycle's start: what it stepped from
-    /// (the ring's newest step `k` undone: `n_v − k`, `n_p − 2(n_v − k) − k`).
-    fn limiter_start(&self, i: usize, h: f64, inv_h: f64) -> Start {
+    /// Axis `i`'s rate limiter at the current cycle's start, what it stepped from (the
+    /// ring's newest step `k` undone: `n_v − k`, `n_p − 2(n_v − k) − k`): position (m),
+    /// speed (m/s) and the cycle's acceleration (m/s²).
+    fn limiter_start(&self, i: usize) -> (f64, f64, f64) {
         let k = i64::from(self.ring.get(0).get(i).copied().unwrap_or(0));
         match (self.axes.get(i), self.quanta.get(i), self.origin.get(i)) {
             (Some(a), Some(q), Some(o)) => {
                 let n_v = a.n_v - k;
                 let n_p = a.n_p - 2 * n_v - k;
-                Start {
-                    p0: o + i64_to_f64(n_p) * q.position,
-                    v0: i64_to_f64(n_v) * q.velocity,
-                    a0: i64_to_f64(k) * q.acceleration,
-                    scale: self.scale.get(i).copied().unwrap_or(0.0),
-                    h,
-                    inv_h,
-                }
+                (
+                    o + i64_to_f64(n_p) * q.position,
+                    i64_to_f64(n_v) * q.velocity,
+                    i64_to_f64(k) * q.acceleration,
+                )
             }
-            _ => Start {
-                p0: 0.0,
-                v0: 0.0,
-                a0: 0.0,
-                scale: 0.0,
-                h,
-                inv_h,
-            },
+            _ => (0.0, 0.0, 0.0),
         }
     }
 
     /// Axis `i`'s path at the current cycle's start, m (the hoist's: the rope then).
     #[must_use]
-    pub fn start_position(&self, i: usize, h: f64, inv_h: f64) -> f64 {
+    pub fn start_position(&self, i: usize) -> f64 {
         match (self.pieces.get(i), self.constant.get(i)) {
             (Some(piece), Some(false)) => {
-                let start = self.limiter_start(i, h, inv_h);
-                (start.p0 + piece.start.lag[0]) + piece.start.swing[0]
+                let (p0, _, _) = self.limiter_start(i);
+                (p0 + piece.start.lag[0]) + piece.start.swing[0]
             }
             _ => self.limiter_end(i).0,
         }
@@ -311,7 +302,17 @@ impl<const W: usize, const R: usize> Group<W, R> {
         let Some(piece) = self.pieces.get(i) else {
             return [0.0; D];
         };
-        let p = piece.polynomial(self.limiter_start(i, h, inv_h), swing);
+        let (p0, v0, a0) = self.limiter_start(i);
+        let scale = self.scale.get(i).copied().unwrap_or(0.0);
+        let p = piece.polynomial(&Inputs {
+            p0,
+            v0,
+            a0,
+            rho: spline(&piece.nabla, self.taps.windows(), scale),
+            h,
+            inv_h,
+            omega_h: swing.map(|m| m.omega_h),
+        });
         if swing.is_some() {
             p.eval(theta, inv_h)
         } else {
