@@ -556,16 +556,51 @@ pub enum Hold {
     Zero,
 }
 
+/// How the plant's pendulum differs from the model's rope: it is `scale · rope + offset`
+/// long. An offset is rigging (hook block, sling) the model leaves out: the same length
+/// whatever the rope, so its share of the pendulum grows as the hoist raises. A scale is
+/// the drum's calibration off: the rope pays out `scale` times what the model counts,
+/// so the error is the same share at every rope length.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pendulum {
+    /// The plant's rope per model rope.
+    pub scale: f64,
+    /// Added to the plant's pendulum, m.
+    pub offset: f64,
+}
+
+impl Pendulum {
+    /// The model's own pendulum.
+    pub const MODEL: Self = Self {
+        scale: 1.0,
+        offset: 0.0,
+    };
+
+    /// The pendulum `offset` longer than the rope (rigging).
+    #[must_use]
+    pub const fn longer_by(offset: f64) -> Self {
+        Self { scale: 1.0, offset }
+    }
+
+    /// The pendulum `scale` times the rope (the drum's scaling).
+    #[must_use]
+    pub const fn scaled(scale: f64) -> Self {
+        Self { scale, offset: 0.0 }
+    }
+}
+
 /// Simulates the crane's nonlinear plant, at rest at `start` (load `[x, y, depth]`) with
-/// the pendulum `offset` longer than the model's rope, under the set points `u` (one
-/// per cycle from t = 0, slots `[x, y, z]`).
+/// the pendulum `pendulum` off the model's rope, under the set points `u` (one per cycle
+/// from t = 0, slots `[x, y, z]`; the hoist's set point scaled as the plant's drum pays
+/// out). The load's depth is recorded in the model's measure, `(L cos φ − offset)/scale`.
 pub fn simulate_plant(
     crane: &Crane,
     start: [f64; 3],
-    offset: f64,
+    pendulum: Pendulum,
     u: &[[f64; 3]],
     hold: Hold,
 ) -> Result<Motion, Error> {
+    let Pendulum { scale, offset } = pendulum;
     let h = 0.01;
     let mut motion = Motion {
         load: Vec::with_capacity(u.len()),
@@ -573,14 +608,16 @@ pub fn simulate_plant(
     };
     match crane {
         Crane::Planar(p) => {
-            let samples: Vec<SVector<f64, 2>> =
-                u.iter().map(|v| SVector::from([v[0], v[2]])).collect();
-            let y0 = SVector::from([start[0], start[2] + offset, 0.0, 0.0, 0.0, 0.0]);
+            let samples: Vec<SVector<f64, 2>> = u
+                .iter()
+                .map(|v| SVector::from([v[0], v[2] * scale]))
+                .collect();
+            let y0 = SVector::from([start[0], start[2] * scale + offset, 0.0, 0.0, 0.0, 0.0]);
             let mut record = |y: &SVector<f64, 6>| {
                 let [x, l, phi, ..]: [f64; 6] = (*y).into();
                 motion
                     .load
-                    .push([x + l * phi.sin(), 0.0, l * phi.cos() - offset]);
+                    .push([x + l * phi.sin(), 0.0, (l * phi.cos() - offset) / scale]);
                 motion.swing.push([phi, 0.0]);
             };
             match hold {
@@ -592,15 +629,18 @@ pub fn simulate_plant(
             }
         }
         Crane::Spatial(p) => {
-            let samples: Vec<SVector<f64, 3>> = u.iter().map(|v| SVector::from(*v)).collect();
+            let samples: Vec<SVector<f64, 3>> = u
+                .iter()
+                .map(|v| SVector::from([v[0], v[1], v[2] * scale]))
+                .collect();
             let mut y0 = SVector::<f64, 12>::zeros();
             y0[0] = start[0];
             y0[1] = start[1];
-            y0[2] = start[2];
+            y0[2] = start[2] * scale;
             y0[8] = 1.0;
             let mut record = |y: &SVector<f64, 12>| {
                 let (mut load, swing) = load3d(offset, y);
-                load[2] -= offset;
+                load[2] = (load[2] - offset) / scale;
                 motion.load.push(load);
                 motion.swing.push(swing);
             };

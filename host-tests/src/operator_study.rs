@@ -15,7 +15,7 @@ use solver_core::operator::{stopping_bound, Generator3d, PlanarGenerator};
 use crate::feedback_study::quantile;
 use crate::operator::{
     drive, flat_set_points, inverse_model_run, residual, simulate_plant, Crane, Extremes, Gen,
-    Hold, Record,
+    Hold, Pendulum, Record,
 };
 use crate::plant::Rng;
 use crate::plot::{figure, Chart, Legend, Scale, Series};
@@ -178,8 +178,58 @@ pub struct Outcome {
     /// Model = plant: the load's largest distance from its rest point after the
     /// generator's rest, m, and its largest swing, deg.
     pub exact: (f64, f64),
-    /// ±10 % pendulum length: the largest swing after the rest, deg (plain, robust).
-    pub mismatch: [f64; 2],
+    /// The pendulum's length off the model's: the largest swing after the rest, deg, per
+    /// setting (plain, robust) and per [`PendulumError::ALL`].
+    pub mismatch: [[f64; 3]; 2],
+    /// [`PendulumError::RiggingOfStart`]'s largest share of the pendulum: 0.1 where the
+    /// rope never got shorter than at the start.
+    pub rigging_share: f64,
+}
+
+impl Outcome {
+    /// The largest swing after the rest with the pendulum 10 % off at every instant
+    /// (the drum's scaling, or rigging of 10 % of the shortest rope), deg, for the
+    /// setting (0 plain, 1 robust).
+    #[must_use]
+    pub fn ten_percent(&self, setting: usize) -> f64 {
+        self.mismatch[setting][0].max(self.mismatch[setting][1])
+    }
+}
+
+/// How the study puts the plant's pendulum 10 % off the model's rope, each way
+/// ([`Pendulum`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PendulumError {
+    /// The drum's scaling ±10 %: the pendulum 10 % off at every rope length.
+    Drum,
+    /// Rigging of ±10 % of the shortest rope the run reaches: at most 10 % off at
+    /// every instant, less where the rope is longer.
+    RiggingOfShortest,
+    /// Rigging of ±10 % of the rope at the start (the study's only form before
+    /// 2026-11-30): more than 10 % of the pendulum once the hoist has raised the load.
+    RiggingOfStart,
+}
+
+impl PendulumError {
+    /// Every form, in the order of [`Outcome::mismatch`].
+    pub const ALL: [Self; 3] = [Self::Drum, Self::RiggingOfShortest, Self::RiggingOfStart];
+
+    /// The plant's two pendulums, 10 % shorter and longer, for a run starting at
+    /// `start` m whose rope is never shorter than `shortest` m.
+    #[must_use]
+    pub fn pendulums(self, start: f64, shortest: f64) -> [Pendulum; 2] {
+        match self {
+            Self::Drum => [Pendulum::scaled(0.9), Pendulum::scaled(1.1)],
+            Self::RiggingOfShortest => [
+                Pendulum::longer_by(-0.1 * shortest),
+                Pendulum::longer_by(0.1 * shortest),
+            ],
+            Self::RiggingOfStart => [
+                Pendulum::longer_by(-0.1 * start),
+                Pendulum::longer_by(0.1 * start),
+            ],
+        }
+    }
 }
 
 /// The generator run with the profile's stick: its records.
@@ -262,25 +312,31 @@ pub fn study_profile(
         .map_err(|e| e.to_string())?;
     let rest = rest.ok_or("the inverse model's run did not come to rest")?;
     let rest_point = plain.get(rest).map(|r| r.load[0]).ok_or("no rest record")?;
-    let motion = simulate_plant(crane, at, 0.0, &u, Hold::Cubic).map_err(|e| e.to_string())?;
+    let motion =
+        simulate_plant(crane, at, Pendulum::MODEL, &u, Hold::Cubic).map_err(|e| e.to_string())?;
     let (dist, swing) = residual(&motion, rest + 1, rest_point);
     let exact = (
         dist.iter().fold(0.0_f64, |a, b| a.max(*b)),
         swing[0].max(swing[1]).to_degrees(),
     );
     // ±10 %: the flat inverse's set points into a plant with the pendulum off.
-    let mut mismatch = [0.0_f64; 2];
+    let mut mismatch = [[0.0_f64; 3]; 2];
+    let mut largest_share = 0.0_f64;
     for (m, r) in mismatch.iter_mut().zip([&plain, &robust]) {
         let rest = r
             .iter()
             .position(|x| x.at_rest && x.n >= release)
             .ok_or("no rest")?;
         let u = flat_set_points(r);
-        for offset in [-0.1 * at[2], 0.1 * at[2]] {
-            let motion =
-                simulate_plant(crane, at, offset, &u, Hold::Cubic).map_err(|e| e.to_string())?;
-            let (_, swing) = residual(&motion, rest, r[rest].load[0]);
-            *m = m.max(swing[0].max(swing[1]).to_degrees());
+        let shortest = r.iter().map(|x| x.load[0][2]).fold(f64::INFINITY, f64::min);
+        largest_share = largest_share.max(0.1 * at[2] / shortest);
+        for (form, worst) in PendulumError::ALL.iter().zip(m.iter_mut()) {
+            for pendulum in form.pendulums(at[2], shortest) {
+                let motion = simulate_plant(crane, at, pendulum, &u, Hold::Cubic)
+                    .map_err(|e| e.to_string())?;
+                let (_, swing) = residual(&motion, rest, r[rest].load[0]);
+                *worst = worst.max(swing[0].max(swing[1]).to_degrees());
+            }
         }
     }
     Ok(Outcome {
@@ -289,6 +345,7 @@ pub fn study_profile(
         stop,
         exact,
         mismatch,
+        rigging_share: largest_share,
     })
 }
 
@@ -342,9 +399,9 @@ pub fn profile_row(crane: &Crane, depth: f64, runs: &[(Profile, Outcome)]) -> St
     let share = median_worst(col(None, &|o| o.share));
     let dist = median_worst(col(None, &|o| o.exact.0 * 1e3));
     let swing = median_worst(col(None, &|o| o.exact.1));
-    let plain = median_worst(col(None, &|o| o.mismatch[0]));
-    let robust_idle = median_worst(col(Some(false), &|o| o.mismatch[1]));
-    let robust_hoisting = median_worst(col(Some(true), &|o| o.mismatch[1]));
+    let plain = median_worst(col(None, &|o| o.ten_percent(0)));
+    let robust_idle = median_worst(col(Some(false), &|o| o.ten_percent(1)));
+    let robust_hoisting = median_worst(col(Some(true), &|o| o.ten_percent(1)));
     format!(
         "| {} | {depth} | {} | {:.3} / {:.3} | {:+.4} / {:+.4} | {:.4} / {:.4} | {:.1e} / {:.1e} | {:.3} / {:.3} | {:.4} / {:.4} | {:.4} / {:.4} |",
         crane.name(),
@@ -363,6 +420,41 @@ pub fn profile_row(crane: &Crane, depth: f64, runs: &[(Profile, Outcome)]) -> St
         robust_idle.1,
         robust_hoisting.0,
         robust_hoisting.1,
+    )
+}
+
+/// The markdown header of the table of the robust setting with the hoist moving during
+/// the travel, per form of the pendulum's error.
+pub const HOISTING_HEADER: &str = "| crane | rope, m | runs | drum ±10 %, swing, °, median / worst | rigging ±10 % of the shortest rope | rigging ±10 % of the rope at the start | that rigging's largest share of the pendulum | runs over 0.1°, drum / rigging of the shortest |\n|---|---:|---:|---:|---:|---:|---:|---:|";
+
+/// One row of the table of the robust setting with the hoist moving ([`HOISTING_HEADER`]).
+#[must_use]
+pub fn hoisting_row(crane: &Crane, depth: f64, runs: &[(Profile, Outcome)]) -> String {
+    let hoisting: Vec<&Outcome> = runs
+        .iter()
+        .filter(|(p, _)| p.hoist != 0.0)
+        .map(|(_, o)| o)
+        .collect();
+    let form = |k: usize| median_worst(hoisting.iter().map(|o| o.mismatch[1][k]).collect());
+    let [drum, shortest, start] = [form(0), form(1), form(2)];
+    let share = hoisting
+        .iter()
+        .map(|o| o.rigging_share)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let over = |k: usize| hoisting.iter().filter(|o| o.mismatch[1][k] > 0.1).count();
+    format!(
+        "| {} | {depth} | {} | {:.4} / {:.4} | {:.4} / {:.4} | {:.4} / {:.4} | {:.1} % | {} / {} |",
+        crane.name(),
+        hoisting.len(),
+        drum.0,
+        drum.1,
+        shortest.0,
+        shortest.1,
+        start.0,
+        start.1,
+        share * 100.0,
+        over(0),
+        over(1),
     )
 }
 
