@@ -21,6 +21,7 @@ pub use sim::plant;
 pub use sim::plant3d;
 pub mod plot;
 pub mod root_locus;
+pub mod rope_pair;
 pub mod run;
 pub mod scenes;
 pub mod study;
