@@ -4,7 +4,8 @@
 //! rope length and per plant
 //! (median and worst of the load's error, the swing one swing period after rest and the
 //! feedback's correction travel; `study.rs` says what each is), per stick profile and per
-//! hoist lever, and with `--cases` every case. Without `--more` the first study's cases
+//! hoist lever, per plant the correction travel beside how far the drives themselves went
+//! off a drive like the model's, and with `--cases` every case. Without `--more` the first study's cases
 //! (`study::Study::First`), with it the cases it left out (`study::Study::More`: pulsing,
 //! pendant levels, the hoist raising, a P-only hoist, the 3D crane's trolley).
 //! `--plants` keeps the plants whose name starts with one of the names given (`rope`,
@@ -65,6 +66,8 @@ fn main() -> Result<(), String> {
     println!("{}", tables::by_rope(&outcomes));
     println!("## Per plant (every profile, rope length and hoist lever)\n");
     println!("{}", tables::by_plant(&outcomes));
+    println!("## Per plant, where the drives went (every profile, rope length and hoist lever)\n");
+    println!("{}", tables::drive_paths(&outcomes));
     println!("## Per profile (every plant, rope length and hoist lever)\n");
     println!("{}", tables::by_profile(&outcomes));
     println!("## Per hoist lever (every plant, profile and rope length)\n");

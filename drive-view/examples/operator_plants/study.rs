@@ -35,7 +35,14 @@
 //!   the 50 mm. Printed beside it, not held to the target: `∫ |u − u_d| dt`, which also
 //!   counts every to-and-fro of the correction against the sensors' noise and so grows
 //!   with the run's length rather than with the distance the drive was put off its
-//!   path.
+//!   path;
+//! * **drive off the model's** (not held to a target): per drive, the largest distance
+//!   over the run between the plant's drive and a drive exactly like the model's (its
+//!   lag, Eq. 22) driven by `u_d` from the same start — where the drive itself went
+//!   against the plan, whatever the commands that took it there. A drive that droops
+//!   and is made up by the feedback has a large correction travel and a small one of
+//!   these; a pendulum off the model's, which the feedback damps by moving the drive,
+//!   has both.
 
 use std::path::PathBuf;
 
@@ -424,6 +431,12 @@ struct Run {
     correction_peak: [f64; 3],
     /// `∫ |u − u_d| dt` per drive, m.
     correction_total: [f64; 3],
+    /// The model's drive lags `τ` per slot, s (Eq. 22; 0 for a slot the crane lacks).
+    lags: [f64; 3],
+    /// A drive like the model's under `u_d`: position and speed per slot, m, m/s.
+    model_drive: Option<[(f64, f64); 3]>,
+    /// The largest distance of the plant's drive from it so far, per slot, m.
+    drive_offset: [f64; 3],
 }
 
 impl Run {
@@ -438,6 +451,13 @@ impl Run {
         if let Some(operator) = loaded.operator.as_mut() {
             operator.robust = Some(generator == Generator::Robust);
         }
+        let lags = if let Some(p) = loaded.model.crane3d() {
+            [p.tau1, p.tau2, p.tau3]
+        } else if let Some(p) = loaded.model.crane() {
+            [p.tau1, 0.0, p.tau2]
+        } else {
+            return Err("the study needs the planar or the 3D crane".into());
+        };
         let engine = Engine::for_loaded_scene(&loaded, &path, plant)?;
         if !engine.info().feedback {
             return Err("the study needs a scene with [operator] and [feedback]".into());
@@ -452,6 +472,9 @@ impl Run {
             correction: [0.0; 3],
             correction_peak: [0.0; 3],
             correction_total: [0.0; 3],
+            lags,
+            model_drive: None,
+            drive_offset: [0.0; 3],
         })
     }
 
@@ -473,6 +496,24 @@ impl Run {
             self.correction[i] += (u - u_d) * h;
             self.correction_peak[i] = self.correction_peak[i].max(self.correction[i].abs());
             self.correction_total[i] += (u - u_d).abs() * h;
+        }
+        let drives = out.plant.drives;
+        let model_drive = self.model_drive.get_or_insert(drives.map(|x| (x, 0.0)));
+        for i in 0..3 {
+            // The lag's exact step with `u_d` held over the cycle.
+            let (x, v) = model_drive[i];
+            let u_d = out.feedforward[i];
+            let (x, v) = if self.lags[i] > 0.0 {
+                let decay = (-h / self.lags[i]).exp();
+                (
+                    x + u_d * h + (v - u_d) * self.lags[i] * (1.0 - decay),
+                    u_d + (v - u_d) * decay,
+                )
+            } else {
+                (x + u_d * h, u_d)
+            };
+            model_drive[i] = (x, v);
+            self.drive_offset[i] = self.drive_offset[i].max((drives[i] - x).abs());
         }
         Ok(Sample {
             t: out.t,
@@ -543,6 +584,8 @@ pub struct Measured {
     pub correction: f64,
     /// The worst drive's `∫ |u − u_d| dt`, m.
     pub correction_total: f64,
+    /// The worst drive's largest distance from a drive like the model's under `u_d`, m.
+    pub drive_offset: f64,
     /// Seconds from the release to rest.
     pub rest_after: f64,
 }
@@ -663,6 +706,7 @@ fn measure(
         swing_first,
         correction: worst(r.correction_peak),
         correction_total: worst(r.correction_total),
+        drive_offset: worst(r.drive_offset),
         rest_after: rest - released,
     })
 }

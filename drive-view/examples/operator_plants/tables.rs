@@ -78,6 +78,35 @@ pub fn by_plant(outcomes: &[Outcome]) -> String {
     table(outcomes, "plant", |o| o.plant.to_string())
 }
 
+/// Per plant, the correction travel beside where the drives themselves went: the
+/// largest distance of a plant's drive from a drive like the model's under `u_d`.
+#[must_use]
+pub fn drive_paths(outcomes: &[Outcome]) -> String {
+    let mut rows: Vec<(&str, &str)> = Vec::new();
+    for o in outcomes {
+        if !rows.contains(&(o.crane, o.plant)) {
+            rows.push((o.crane, o.plant));
+        }
+    }
+    let mut out = String::from(
+        "| crane | plant | runs measured | correction travel, mm, median / worst | drive off the model's, mm, median / worst |\n|---|---|---:|---:|---:|\n",
+    );
+    for (crane, plant) in rows {
+        let measured: Vec<Measured> = outcomes
+            .iter()
+            .filter(|o| o.crane == crane && o.plant == plant)
+            .filter_map(|o| o.result.as_ref().ok().copied())
+            .collect();
+        out += &format!(
+            "| {crane} | {plant} | {} | {} | {} |\n",
+            measured.len(),
+            median_worst(&measured, |m| m.correction, 1000.0, 1),
+            median_worst(&measured, |m| m.drive_offset, 1000.0, 1),
+        );
+    }
+    out
+}
+
 /// The table per stick profile.
 #[must_use]
 pub fn by_profile(outcomes: &[Outcome]) -> String {
