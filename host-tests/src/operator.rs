@@ -159,6 +159,32 @@ pub struct Flat {
     pub lambda: f64,
 }
 
+impl Flat {
+    /// The planar crane's exact flat inverse of the path `z` at `t`.
+    #[must_use]
+    pub fn planar(p: &CraneParams, z: &impl Trajectory<f64, 2>, t: f64) -> Self {
+        let f = flat_crane::flat_inverse(p, z, t);
+        Self {
+            drives: [f.x, 0.0, f.l],
+            u: [f.u[0], 0.0, f.u[1]],
+            u_dot: [f.u_dot[0], 0.0, f.u_dot[1]],
+            lambda: f.lambda,
+        }
+    }
+
+    /// The 3D crane's exact flat inverse of the path `z` at `t`.
+    #[must_use]
+    pub fn spatial(p: &Crane3dParams, z: &impl Trajectory<f64, 3>, t: f64) -> Self {
+        let f = flat_crane3d::flat_inverse(p, z, t);
+        Self {
+            drives: [f.x, f.y, f.l],
+            u: f.u,
+            u_dot: f.u_dot,
+            lambda: f.lambda,
+        }
+    }
+}
+
 impl Gen {
     /// One cycle with the stick `[x, y, z]` (the planar crane ignores y).
     pub fn advance(&mut self, stick: [f64; 3]) -> Cycle {
@@ -203,24 +229,8 @@ impl Gen {
     #[must_use]
     pub fn flat(&self, crane: &Crane, t: f64) -> Flat {
         match (self, crane) {
-            (Self::Planar(g), Crane::Planar(p)) => {
-                let f = flat_crane::flat_inverse(p, g, t);
-                Flat {
-                    drives: [f.x, 0.0, f.l],
-                    u: [f.u[0], 0.0, f.u[1]],
-                    u_dot: [f.u_dot[0], 0.0, f.u_dot[1]],
-                    lambda: f.lambda,
-                }
-            }
-            (Self::Spatial(g), Crane::Spatial(p)) => {
-                let f = flat_crane3d::flat_inverse(p, g, t);
-                Flat {
-                    drives: [f.x, f.y, f.l],
-                    u: f.u,
-                    u_dot: f.u_dot,
-                    lambda: f.lambda,
-                }
-            }
+            (Self::Planar(g), Crane::Planar(p)) => Flat::planar(p, g, t),
+            (Self::Spatial(g), Crane::Spatial(p)) => Flat::spatial(p, g, t),
             _ => Flat::default(),
         }
     }

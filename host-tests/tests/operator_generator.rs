@@ -735,22 +735,13 @@ fn the_3d_plant_in_a_plane_is_the_planar_plant() {
         }
     });
     let u = flat_set_points(&r);
-    let a = simulate_plant(
-        &planar,
-        [12.0, 0.0, 6.0],
-        Pendulum::longer_by(0.4),
-        &u,
-        Hold::Zero,
-    )
-    .unwrap();
-    let b = simulate_plant(
-        &spatial,
-        [12.0, 4.0, 6.0],
-        Pendulum::longer_by(0.4),
-        &u,
-        Hold::Zero,
-    )
-    .unwrap();
+    let rigged = |crane: &Crane, at| {
+        simulate_plant(crane, at, Pendulum::longer_by(0.4), &u, Hold::Zero).unwrap()
+    };
+    let (a, b) = (
+        rigged(&planar, [12.0, 0.0, 6.0]),
+        rigged(&spatial, [12.0, 4.0, 6.0]),
+    );
     let mut worst = 0.0_f64;
     for (p, q) in a.load.iter().zip(&b.load) {
         worst = worst

@@ -19,7 +19,6 @@ use host_tests::operator_study::{
 };
 use host_tests::plant::Rng;
 use host_tests::rope_pair::{DelayRule, RopePair};
-use solver_core::reference::{flat_crane, flat_crane3d};
 
 #[derive(Parser)]
 struct Args {
@@ -37,24 +36,8 @@ const H: f64 = 0.01;
 /// The flat inverse of the rope-following path at `t`.
 fn flat(crane: &Crane, pair: &RopePair, t: f64) -> Flat {
     match crane {
-        Crane::Planar(p) => {
-            let f = flat_crane::flat_inverse(p, pair, t);
-            Flat {
-                drives: [f.x, 0.0, f.l],
-                u: [f.u[0], 0.0, f.u[1]],
-                u_dot: [f.u_dot[0], 0.0, f.u_dot[1]],
-                lambda: f.lambda,
-            }
-        }
-        Crane::Spatial(p) => {
-            let f = flat_crane3d::flat_inverse(p, pair, t);
-            Flat {
-                drives: [f.x, f.y, f.l],
-                u: f.u,
-                u_dot: f.u_dot,
-                lambda: f.lambda,
-            }
-        }
+        Crane::Planar(p) => Flat::planar(p, pair, t),
+        Crane::Spatial(p) => Flat::spatial(p, pair, t),
     }
 }
 
