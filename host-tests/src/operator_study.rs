@@ -181,8 +181,8 @@ pub struct Outcome {
     /// The pendulum's length off the model's: the largest swing after the rest, deg, per
     /// setting (plain, robust) and per [`PendulumError::ALL`].
     pub mismatch: [[f64; 3]; 2],
-    /// [`PendulumError::RiggingOfStart`]'s largest share of the pendulum: 0.1 where the
-    /// rope never got shorter than at the start.
+    /// [`PendulumError::RiggingOfStart`]'s largest share of the model's rope: 0.1 where
+    /// the rope never got shorter than at the start.
     pub rigging_share: f64,
 }
 
@@ -425,7 +425,7 @@ pub fn profile_row(crane: &Crane, depth: f64, runs: &[(Profile, Outcome)]) -> St
 
 /// The markdown header of the table of the robust setting with the hoist moving during
 /// the travel, per form of the pendulum's error.
-pub const HOISTING_HEADER: &str = "| crane | rope, m | runs | drum ±10 %, swing, °, median / worst | rigging ±10 % of the shortest rope | rigging ±10 % of the rope at the start | that rigging's largest share of the pendulum | runs over 0.1°, drum / rigging of the shortest |\n|---|---:|---:|---:|---:|---:|---:|---:|";
+pub const HOISTING_HEADER: &str = "| crane | rope, m | runs | drum ±10 %, swing, °, median / worst | rigging ±10 % of the shortest rope | rigging ±10 % of the rope at the start | that rigging's largest share of the rope | runs over 0.1°, drum / rigging of the shortest |\n|---|---:|---:|---:|---:|---:|---:|---:|";
 
 /// One row of the table of the robust setting with the hoist moving ([`HOISTING_HEADER`]).
 #[must_use]

@@ -8,6 +8,8 @@
 //! `cargo test -p host-tests --release --test operator_generator -- --nocapture` prints
 //! the numbers it checks.
 
+use std::f64::consts::PI;
+
 use host_tests::operator::{
     drive, flat_set_points, random_sequences, simulate_plant, Crane, Extremes, Gen, Hold, Pendulum,
     RandomStick, RandomSummary, Record,
@@ -717,6 +719,65 @@ fn every_scripted_profile_at_every_rope_length() {
          ±10 %, robust: hoist idle at most {:.4}°, hoisting at most {:.4}°",
         worst[0], worst[1], worst[2], worst[3], worst[4]
     );
+}
+
+/// The plant's pendulum is `scale · rope + offset` whatever the rope does: a trolley
+/// nudge starts a swing whose period is that of the pendulum, while the hoist keeps the
+/// rope still; the drum's scale 1.21 and the rigging that makes the same pendulum swing
+/// alike, 10 % slower than the model's pendulum (both cranes). With the hoist lowering,
+/// the depth recorded in the model's measure follows the model's rope for either form.
+#[test]
+fn the_plant_s_pendulum_is_scaled_rope_plus_rigging() {
+    let depth = 4.0;
+    // The swing's period from its downward zero crossings (the first plane).
+    let period = |m: &host_tests::operator::Motion| {
+        let crossings: Vec<f64> = m
+            .swing
+            .windows(2)
+            .enumerate()
+            .filter(|(_, w)| w[0][0] > 0.0 && w[1][0] <= 0.0)
+            .map(|(n, w)| (n as f64 + w[0][0] / (w[0][0] - w[1][0])) * 0.01)
+            .collect();
+        let (first, last) = (crossings[0], crossings[crossings.len() - 1]);
+        (last - first) / (crossings.len() - 1) as f64
+    };
+    let nudge: Vec<[f64; 3]> = (0..2000)
+        .map(|n| if n < 50 { [0.2, 0.0, 0.0] } else { [0.0; 3] })
+        .collect();
+    let lowering: Vec<[f64; 3]> = (0..600)
+        .map(|n| if n < 300 { [0.0, 0.0, 0.3] } else { [0.0; 3] })
+        .collect();
+    for (crane, at) in [
+        (Crane::PLANAR, [12.0, 0.0, depth]),
+        (Crane::SPATIAL, [12.0, 4.0, depth]),
+    ] {
+        let model = simulate_plant(&crane, at, Pendulum::MODEL, &nudge, Hold::Zero).unwrap();
+        let scaled =
+            simulate_plant(&crane, at, Pendulum::scaled(1.21), &nudge, Hold::Zero).unwrap();
+        let rigged = simulate_plant(
+            &crane,
+            at,
+            Pendulum::longer_by(0.21 * depth),
+            &nudge,
+            Hold::Zero,
+        )
+        .unwrap();
+        let (t, ts, tr) = (period(&model), period(&scaled), period(&rigged));
+        assert!(
+            (t - 2.0 * PI * (depth / crane.g()).sqrt()).abs() < 0.02,
+            "{t}"
+        );
+        assert!(
+            (ts / t - 1.1).abs() < 2e-3 && (tr / t - 1.1).abs() < 2e-3,
+            "{t} {ts} {tr}"
+        );
+        // The rope pays out 0.3 m/s through the winch's lag for 3 s.
+        for pendulum in [Pendulum::scaled(1.1), Pendulum::longer_by(0.4)] {
+            let m = simulate_plant(&crane, at, pendulum, &lowering, Hold::Zero).unwrap();
+            let end = m.load.last().unwrap()[2];
+            assert!((end - (depth + 0.9)).abs() < 1e-6, "{pendulum:?}: {end}");
+        }
+    }
 }
 
 /// The 3D plant with the load in the x–z plane is the planar plant of Eqs. 21–22 (the
