@@ -204,8 +204,15 @@ impl RopePair {
     /// Whether the path rests at `t`: every derivative of every slot exactly 0.0.
     #[must_use]
     pub fn is_at_rest(&self, t: f64) -> bool {
-        self.path(t)[1..].iter().all(|d| *d == [0.0; 3])
+        rests(&self.path(t))
     }
+}
+
+/// Whether a path's derivatives 0..=5 ([`RopePair::path`]) are those of a rest: every
+/// derivative of every slot exactly 0.0.
+#[must_use]
+pub fn rests(path: &[[f64; 3]; ORDERS]) -> bool {
+    path[1..].iter().all(|d| *d == [0.0; 3])
 }
 
 impl Trajectory<f64, 2> for RopePair {

@@ -48,6 +48,7 @@ use std::path::PathBuf;
 
 use drive_view::engine::Engine;
 use drive_view::switch::{Action, Axis, MasterSwitch, NOTCHES};
+use host_tests::operator::Crane;
 use host_tests::operator_study::Shape;
 use scene::Scene;
 use sim::plant::{Mismatch, Rng, Travel3d};
@@ -452,9 +453,9 @@ impl Run {
             operator.robust = Some(generator == Generator::Robust);
         }
         let lags = if let Some(p) = loaded.model.crane3d() {
-            [p.tau1, p.tau2, p.tau3]
+            Crane::Spatial(p.params()).taus()
         } else if let Some(p) = loaded.model.crane() {
-            [p.tau1, 0.0, p.tau2]
+            Crane::Planar(p.params()).taus()
         } else {
             return Err("the study needs the planar or the 3D crane".into());
         };

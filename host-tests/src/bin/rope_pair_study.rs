@@ -18,7 +18,7 @@ use host_tests::operator_study::{
     start, study_profile, PendulumError, Profile, Shape, DEPTHS, HOISTS,
 };
 use host_tests::plant::Rng;
-use host_tests::rope_pair::{DelayRule, RopePair};
+use host_tests::rope_pair::{rests, DelayRule, RopePair};
 
 #[derive(Parser)]
 struct Args {
@@ -81,7 +81,7 @@ fn run(
             load: [path[0], path[1], path[2]],
             flat: [flat(crane, &pair, t), flat(crane, &pair, t + 0.5 * H)],
             limiter: [0.0; 3],
-            at_rest: pair.is_at_rest(t),
+            at_rest: rests(&path),
             refused: false,
         });
     }
