@@ -7,8 +7,11 @@
 //! study's (`quiet`: exact sensors). Manual mode is asked for after `WAIT_S` seconds (3 by
 //! default); for 0.3 s after it every cycle whose trolley set point is not 0.0 is printed,
 //! then the largest trolley set point and the trolley's largest distance from where it
-//! stood over the second after the request. A lead for the next look (the closing note
-//! of 2026-11-30): with the sensors' noise the feedback moves the trolley at rest.
+//! stood over the second after the request. Up to 785a611 the feedback started at the
+//! entry and, on the sensors' noise, moved the trolley at rest: this printed 0.0947 m/s
+//! and 4.3 mm. It now waits for the stick's first demand, and this prints 0.0000 m/s and
+//! 0.0 mm (asserted by `cargo test --release -p drive-view --test closed_loop
+//! manual_mode_entered`).
 
 use std::path::PathBuf;
 

@@ -22,6 +22,9 @@ pub(super) struct Manual {
     /// Cycles in a row the model's own set points were zero in drive units: manual mode
     /// is left only when the model rests, its history too.
     pub(super) model_still: u8,
+    /// Manual mode was entered at rest and the stick has not yet asked for motion: the
+    /// state feedback waits for its first demand (nothing moves without a command).
+    pub(super) loop_waits_for_stick: bool,
 }
 
 impl Manual {
@@ -34,6 +37,7 @@ impl Manual {
             stop_held: false,
             handing_over: false,
             model_still: 0,
+            loop_waits_for_stick: false,
         }
     }
 }
@@ -139,6 +143,17 @@ where
         } else if state == Stick::Live && path.is_stopping() && !self.manual.stop_held {
             path.resume();
         }
+        let commanded = stick.is_some() && frame.is_some_and(|f| !self.manual.deadman.centred(&f));
+        if self.manual.loop_waits_for_stick && commanded {
+            // The stick's first demand since the entry at rest is the command that
+            // closes the loop (a feedback that stopped reading the swing is re-armed
+            // then, the crane still at rest), in time for this cycle's correction.
+            self.manual.loop_waits_for_stick = false;
+            self.close_loop(true);
+        }
+        let Some(path) = self.feedforward.path_mut().manual_mut() else {
+            return;
+        };
         let ([x, y], z) = stick.unwrap_or(([0.0; 2], 0.0));
         // The state feedback no longer reads the angle (EMCY 0xFF20 said so): manual
         // mode goes on on feedforward, the travel speed capped.
@@ -181,7 +196,12 @@ where
                 if !handed_over {
                     self.manual.deadman.interlock();
                 }
-                self.close_loop(true);
+                // The loop is closed by the stick's first demand, not here: a crane at
+                // rest with the stick centred is not commanded to move, and a feedback
+                // started now moved it on the sensors' noise (up to 95 mm/s, 4.3 mm
+                // within 0.3 s on the noisy plant) before its observer trusted the
+                // angle. As in automatic mode, where a move closes the loop.
+                self.manual.loop_waits_for_stick = true;
             }
             return Some(entered.map_err(Refusal::of));
         }
@@ -204,8 +224,8 @@ where
         let t = self.feedforward.time();
         let at_once = self.feedforward.path_mut().take_over(t, &limits).is_ok();
         let how = if at_once {
-            // Manual mode from this cycle: the loop closed as an entry at rest closes it
-            // (the feedback acts in manual mode, also after a move it did not act on: one
+            // Manual mode from this cycle, the loop closed: the deflected stick is the
+            // command (the feedback acts in manual mode, also after a move it did not act on: one
             // planned at boot and never commanded). Not at rest: a feedback that no longer
             // reads the angle is not restarted here — its observer starts from a crane at
             // rest (`Correction::restart`) — as for a move accepted while the crane moves.
