@@ -10,6 +10,7 @@ mod common;
 use common::manual::{ManualFf, HELD};
 use common::{planner, settings, HOME};
 use controller::canopen::CONTROLLER_NODE;
+use controller::commands::{request_frame, Request};
 use controller::commissioning::{InclinometerSetup, NodeSetup};
 use controller::feedback::{self, StateFeedback};
 use controller::operator::path::Steered;
@@ -177,20 +178,28 @@ fn travel_and_rest(rig: &mut Rig, rope: f64) -> (f64, f64) {
     (dx, swing)
 }
 
-/// Manual mode entered at rest, the stick centred or trembling inside its deadband, on
-/// the plant's noisy, quantised sensors: nothing moves — every set point exactly 0.0 and
-/// the plant's trolley where it stood for 5 s. The feedback waits for the stick's first
-/// demand (started at the entry, it moved the trolley 4.3 mm at up to 95 mm/s on the
-/// sensors' noise before its observer trusted the angle: `cargo run --release -p
-/// drive-view --example manual_entry_at_rest`); that demand moves the crane at once.
+/// Manual mode asked for at rest — the controller ready, the loop open (no move since
+/// boot) — with the stick centred, then trembling inside its deadband, on the plant's
+/// noisy, quantised sensors: from the request on every set point is exactly 0.0 and the
+/// plant's trolley stays where it stood, for 5 s. The feedback observes from the entry
+/// and sends its correction from the stick's first demand (acting from the entry, it
+/// moved the trolley 4.3 mm at up to 95 mm/s on the sensors' noise before its observer
+/// trusted the angle: `cargo run --release -p drive-view --example
+/// manual_entry_at_rest` up to 785a611). That demand moves the crane at once, and its
+/// travel and release end within the closed loop's targets
+/// (`the_feedback_brings_the_plant_to_rest_after_a_manual_travel`'s).
 #[test]
 fn manual_mode_entered_at_rest_moves_nothing_until_the_stick_asks() {
-    let mut rig = Rig::new(&[]);
-    assert_eq!(rig.c.status().bytes()[3], MANUAL_MODE_CODE);
+    let plan = controller::crane::command_plan::<Planar, 2>(HOME, 4).unwrap();
+    let mut rig = Rig::on(plan, HOME, MISMATCHED, &[]);
+    rig.idle(200);
+    assert_eq!(rig.c.mode(), Mode::Ready);
+    assert_ne!(rig.c.status().bytes()[3], MANUAL_MODE_CODE);
     let stood = rig.bus.plant().unwrap().y[0];
     // Inside the 5 % deadband: 4 % of full stick, either way.
     let tremble = (0.04 * f64::from(FULL_SCALE)) as i16;
     let mut cycles = rig.hold(150, [0; 3]);
+    assert_eq!(rig.c.status().bytes()[3], MANUAL_MODE_CODE);
     cycles.extend(rig.hold(150, [tremble, 0, 0]));
     cycles.extend(rig.hold(200, [-tremble, 0, 0]));
     assert!(
@@ -199,9 +208,32 @@ fn manual_mode_entered_at_rest_moves_nothing_until_the_stick_asks() {
     );
     let moved = (rig.bus.plant().unwrap().y[0] - stood).abs();
     assert!(moved == 0.0, "the trolley moved {moved} m");
-    let asked = rig.hold(10, [FULL_SCALE / 4, 0, 0]);
-    assert!(asked.iter().any(|c| c.setpoints[0] != Setpoint::ZERO));
-    assert!(asked.iter().all(|c| c.mode == Mode::Ready));
+    let (dx, swing) = travel_and_rest(&mut rig, HOME[1]);
+    println!(
+        "after the entry at rest: load within {:.1} mm, swing below {swing:.3}°",
+        dx * 1000.0
+    );
+    assert!(dx <= 0.05 && swing <= 0.1, "{dx} m, {swing}°");
+}
+
+/// A reset at rest (the drives' positions taken again) restarts the observer and opens
+/// the loop, as at boot: after a move with the feedback on the noisy plant and its
+/// rest, the reset, and 5 s in which every set point is exactly 0.0 and the trolley
+/// stays where it stood.
+#[test]
+fn a_reset_at_rest_opens_the_loop_until_the_next_command() {
+    let mut rig = Rig::new(&[]);
+    let (_, _) = travel_and_rest(&mut rig, HOME[1]);
+    // Manual mode left: the request withdrawn, the load at rest.
+    rig.idle(300);
+    assert_ne!(rig.c.status().bytes()[3], MANUAL_MODE_CODE);
+    let reset = request_frame(&Request::Reset { id: 9 });
+    rig.c.on_frame(&reset, rig.now.into());
+    let after = rig.idle(500);
+    assert!(
+        after.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
+        "a set point other than 0.0 after the reset"
+    );
 }
 
 /// The inclinometer lost during manual travel: the feedback announces it (EMCY 0xFF20,

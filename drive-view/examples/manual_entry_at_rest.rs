@@ -9,8 +9,8 @@
 //! then the largest trolley set point and the trolley's largest distance from where it
 //! stood over the second after the request. Up to 785a611 the feedback started at the
 //! entry and, on the sensors' noise, moved the trolley at rest: this printed 0.0947 m/s
-//! and 4.3 mm. It now waits for the stick's first demand, and this prints 0.0000 m/s and
-//! 0.0 mm (asserted by `cargo test --release -p drive-view --test closed_loop
+//! and 4.3 mm. It now observes from the entry and holds its correction until the stick's
+//! first demand, and this prints 0.0000 m/s and 0.0 mm (asserted by `cargo test --release -p drive-view --test closed_loop
 //! manual_mode_entered`).
 
 use std::path::PathBuf;

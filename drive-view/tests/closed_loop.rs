@@ -167,9 +167,10 @@ fn the_3d_crane_in_manual_mode_with_feedback_per_plane_rests_within_the_targets(
 
 /// Manual mode asked for at rest with the stick centred, on the plant's noisy, quantised
 /// sensors: for 5 s every set point is exactly 0.0 and no drive of the plant moves — on
-/// both cranes (the feedback waits for the stick's first demand: started at the entry it
-/// moved the trolley 4.3 mm, `cargo run --release -p drive-view --example
-/// manual_entry_at_rest`).
+/// both cranes (the feedback observes from the entry and holds its correction until the
+/// stick's first demand; acting from the entry, up to 785a611, it moved the trolley on
+/// the noise: 4.3 mm on `cargo run --release -p drive-view --example
+/// manual_entry_at_rest`'s plant).
 #[test]
 fn manual_mode_entered_at_rest_moves_nothing_on_either_crane() {
     for scene in [
@@ -186,6 +187,9 @@ fn manual_mode_entered_at_rest_moves_nothing_on_either_crane() {
             after.iter().all(|c| c.setpoints == [0.0; 3]),
             "{scene}: a set point other than 0.0 without a command"
         );
-        assert_eq!(after.last().unwrap().plant.drives, stood, "{scene}: moved");
+        assert!(
+            after.iter().all(|c| c.plant.drives == stood),
+            "{scene}: a drive moved"
+        );
     }
 }

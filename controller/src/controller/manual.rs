@@ -22,9 +22,12 @@ pub(super) struct Manual {
     /// Cycles in a row the model's own set points were zero in drive units: manual mode
     /// is left only when the model rests, its history too.
     pub(super) model_still: u8,
-    /// Manual mode was entered at rest and the stick has not yet asked for motion: the
-    /// state feedback waits for its first demand (nothing moves without a command).
-    pub(super) loop_waits_for_stick: bool,
+    /// Manual mode was entered at rest, starting the state feedback, and nothing was
+    /// commanded since: the feedback observes (its observer runs and learns the angle's
+    /// offset at rest) but its correction is not sent until the stick's first demand
+    /// moves the generator, or another command closes the loop (nothing moves without a
+    /// command; also after manual mode is left unused).
+    pub(super) feedback_held: bool,
 }
 
 impl Manual {
@@ -37,7 +40,7 @@ impl Manual {
             stop_held: false,
             handing_over: false,
             model_still: 0,
-            loop_waits_for_stick: false,
+            feedback_held: false,
         }
     }
 }
@@ -143,17 +146,6 @@ where
         } else if state == Stick::Live && path.is_stopping() && !self.manual.stop_held {
             path.resume();
         }
-        let commanded = stick.is_some() && frame.is_some_and(|f| !self.manual.deadman.centred(&f));
-        if self.manual.loop_waits_for_stick && commanded {
-            // The stick's first demand since the entry at rest is the command that
-            // closes the loop (a feedback that stopped reading the swing is re-armed
-            // then, the crane still at rest), in time for this cycle's correction.
-            self.manual.loop_waits_for_stick = false;
-            self.close_loop(true);
-        }
-        let Some(path) = self.feedforward.path_mut().manual_mut() else {
-            return;
-        };
         let ([x, y], z) = stick.unwrap_or(([0.0; 2], 0.0));
         // The state feedback no longer reads the angle (EMCY 0xFF20 said so): manual
         // mode goes on on feedforward, the travel speed capped.
@@ -161,7 +153,13 @@ where
             Some(_) if C::ENABLED => operator::UNOBSERVED_SPEED_SHARE,
             _ => 1.0,
         };
-        let _ = path.advance([x * cap, y * cap], z);
+        let moved = !path.advance([x * cap, y * cap], z).at_rest;
+        if moved {
+            // The stick's first demand since the entry at rest (past the generator's own
+            // deadband) is the command: the feedback's correction is sent from this
+            // cycle on, its observer started at the entry.
+            self.manual.feedback_held = false;
+        }
     }
 
     /// Manual mode entered for a live operator who asks for it, if it can be now: at
@@ -196,12 +194,14 @@ where
                 if !handed_over {
                     self.manual.deadman.interlock();
                 }
-                // The loop is closed by the stick's first demand, not here: a crane at
+                // The observer starts now, at rest, and learns the angle's offset there;
+                // the correction is held until the stick's first demand: a crane at
                 // rest with the stick centred is not commanded to move, and a feedback
-                // started now moved it on the sensors' noise (up to 95 mm/s, 4.3 mm
-                // within 0.3 s on the noisy plant) before its observer trusted the
-                // angle. As in automatic mode, where a move closes the loop.
-                self.manual.loop_waits_for_stick = true;
+                // acting from the entry moved it on the sensors' noise (up to 95 mm/s,
+                // 4.3 mm within 0.3 s on the noisy plant) before its observer trusted
+                // the angle. (A loop closed before, by a move, goes on as it was: its
+                // correction at rest follows that command.)
+                self.manual.feedback_held = self.close_loop(true);
             }
             return Some(entered.map_err(Refusal::of));
         }

@@ -202,21 +202,26 @@ where
     /// A move was accepted (`at_rest`: the crane was at rest when it was): the feedback
     /// acts from now on. If it had stopped reading the angle and the crane was at rest,
     /// it starts again, its observer from the next good measurement (its degraded rule
-    /// takes it off again if the angle is still bad).
-    pub(super) fn close_loop(&mut self, at_rest: bool) {
+    /// takes it off again if the angle is still bad). Returns whether the observer was
+    /// started.
+    pub(super) fn close_loop(&mut self, at_rest: bool) -> bool {
+        // A command: whatever held the correction back no longer does.
+        self.manual.feedback_held = false;
         if !C::ENABLED {
-            return;
+            return false;
         }
         let degraded = self
             .correction
             .mode()
             .and_then(FeedbackMode::degraded)
             .is_some();
-        if !self.closed_loop || (degraded && at_rest) {
+        let starts = !self.closed_loop || (degraded && at_rest);
+        if starts {
             self.correction.restart();
             self.feedback_announced = None;
         }
         self.closed_loop = true;
+        starts
     }
 
     /// The drives' position actual (0x6064) at standstill, in the model's input order
@@ -279,6 +284,10 @@ where
         }
         self.correction.restart();
         self.feedback_announced = None;
+        // Its observer starts afresh, so the loop waits for a command, as after boot: a
+        // feedback acting at rest from a new observer moved the trolley on the sensors'
+        // noise before it trusted the angle.
+        self.closed_loop = false;
         // The range guard's latches are the old model's.
         self.range_latches = [range::Latches::default(); A];
         // The model restarted (a reset, or the positions read again): centred frames

@@ -110,7 +110,8 @@ where
     }
 
     /// This cycle's set points before the gate: the inverse model's `u_d`, corrected by
-    /// the feedback while the loop is closed (Fig. 1). A change of the feedback's mode
+    /// the feedback while the loop is closed (Fig. 1) and its correction not held
+    /// (`Manual::feedback_held`: it observes, and `u_d` is sent). A change of the feedback's mode
     /// is announced: the angle no longer used (the swing estimated from the positions,
     /// or feedforward only) by EMCY 0xFF20 with the reason (a warning: the move goes
     /// on), back to closed loop by nothing. Also the model's reference when the feedback
@@ -127,9 +128,17 @@ where
         let reference = self.feedforward.reference();
         let measured = self.measurement(positions);
         let last = self.gate.last_velocities();
-        let (u, mode) =
+        let (corrected, mode) =
             self.correction
                 .correct(&reference, step.u, measured, last, &self.planner.limits());
+        let u = if self.manual.feedback_held {
+            // Observing only (manual mode entered at rest, nothing commanded yet): the
+            // observer learns that no correction was sent.
+            self.correction.sent(step.u, step.u);
+            step.u
+        } else {
+            corrected
+        };
         if self.feedback_announced != Some(mode) {
             if let Some(reason) = mode.degraded() {
                 let node = self
