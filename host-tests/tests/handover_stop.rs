@@ -21,7 +21,9 @@
 //! 95 % of each drive's limits and bisects its durations to 5 %, the hand-over's stop
 //! only what the operator leaves of 95 % (`room`), on a grid of durations a fifth apart,
 //! and it takes the trolley's smoothest end before the nearest. The table says how the
-//! two compare.
+//! two compare, and — its last columns — how far the load travels when a stop is
+//! commanded 0.1 s after the take-over (`Source::stop`, which shortens the hand-over's
+//! stop where the room allows): never farther or later than the hand-over's own.
 //!
 //! `cargo test -p host-tests --test handover_stop -- --nocapture` prints the table.
 
@@ -127,7 +129,13 @@ struct Case<const A: usize> {
     handover: Option<Travel<A>>,
     /// The planner's stop; `None`: no stop beats the move, which runs to its target.
     planner: Option<Travel<A>>,
+    /// The hand-over's stop with a stop commanded [`STOP_AFTER`] cycles after the
+    /// take-over (`Source::stop`: shortened within the same room), from the take-over.
+    stopped: Option<(Travel<A>, f64)>,
 }
+
+/// Cycles after the take-over at which [`Case::stopped`]'s stop is commanded (0.1 s).
+const STOP_AFTER: usize = 10;
 
 /// `a − b`.
 fn minus<const A: usize>(a: [f64; A], b: [f64; A]) -> [f64; A] {
@@ -148,7 +156,7 @@ fn dot<const A: usize>(a: [f64; A], b: [f64; A]) -> f64 {
 /// the planner's stop at the same instant. Asserts, cycle by cycle, that the hand-over's
 /// stop keeps to the move's straight path, never turns back, and rests at or before the
 /// target within the settings' `entry_blend`.
-fn measure<K: Crane<A>, G: Source<A>, const A: usize>(
+fn measure<K: Crane<A>, G: Source<A> + Copy, const A: usize>(
     planner: &Planner<K, A>,
     settings: G::Settings,
     entry_blend: f64,
@@ -190,7 +198,11 @@ fn measure<K: Crane<A>, G: Source<A>, const A: usize>(
 
     let mut g = G::parked(settings);
     let limits: [AxisLimits; A] = planner.limits();
-    let handover = match g.take_over(settings, t, &m, &limits) {
+    let taken = g.take_over(settings, t, &m, &limits);
+    let stopped = taken
+        .is_ok()
+        .then(|| stopped_after(g, t, at, &limits, case));
+    let handover = match taken {
         Ok(()) => {
             let start: [SVector<f64, A>; 1] = g.derivatives(t);
             let start: [f64; A] = start[0].into();
@@ -238,7 +250,56 @@ fn measure<K: Crane<A>, G: Source<A>, const A: usize>(
         rest_in: t1 - t,
         handover,
         planner: planner_stop,
+        stopped,
     }
+}
+
+/// The taken-over generator `g` (taken over at `t` where the load was `at`), the stick
+/// centred, a stop commanded [`STOP_AFTER`] cycles later: never turning back on any
+/// axis (the hoist keeps the end its stop had; the travel's shortened), at rest within
+/// 30 s; its travel from the take-over, and the largest step back on any axis, m.
+fn stopped_after<G: Source<A>, const A: usize>(
+    mut g: G,
+    t: f64,
+    at: [f64; A],
+    limits: &[AxisLimits; A],
+    case: &str,
+) -> (Travel<A>, f64) {
+    let mut last = at;
+    let mut direction = [0.0; A];
+    let mut back = 0.0_f64;
+    for n in 0..3000 {
+        if n == STOP_AFTER {
+            g.stop(limits);
+        }
+        let cycle = g.advance([0.0; 2], 0.0);
+        let [p]: [SVector<f64, A>; 1] = g.derivatives(g.time());
+        let p: [f64; A] = p.into();
+        for (k, ((d, p), l)) in direction.iter_mut().zip(p).zip(last).enumerate() {
+            let step = p - l;
+            if *d == 0.0 && step.abs() > 1e-9 {
+                *d = step.signum();
+            }
+            // A few nanometres back near the rest: the nearest end brakes as hard as the
+            // room allows, and the stop is checked for turning back at 17 points.
+            assert!(
+                step * *d >= -1e-6,
+                "{case}: axis {k} turns back at cycle {n}: {step} m, at {p} m"
+            );
+            back = back.max(-step * *d);
+        }
+        last = p;
+        if cycle.at_rest {
+            return (
+                Travel {
+                    distance: minus(p, at),
+                    duration: g.time() - t,
+                },
+                back,
+            );
+        }
+    }
+    panic!("{case}: never at rest after the stop");
 }
 
 /// `[x, y, z]` of a planar (`x, z`) or 3D distance, for the table.
@@ -260,7 +321,7 @@ fn travel_cells<const A: usize>(t: &Travel<A>, note: &str) -> String {
 }
 
 /// The cases of one crane: asserted, each a row of the table.
-fn crane<K: Crane<A>, G: Source<A>, const A: usize>(
+fn crane<K: Crane<A>, G: Source<A> + Copy, const A: usize>(
     name: &str,
     planner: &Planner<K, A>,
     settings: G::Settings,
@@ -312,6 +373,26 @@ fn crane<K: Crane<A>, G: Source<A>, const A: usize>(
                 Some(p) => travel_cells(&p, ""),
                 None => travel_cells(&longest, " (the move)"),
             };
+            if let (Some(h), Some((s, back))) = (c.handover, c.stopped) {
+                counts.stop_back = counts.stop_back.max(back);
+                for (k, (s, h)) in s.distance.iter().zip(h.distance).enumerate() {
+                    assert!(
+                        s.abs() <= h.abs() + 1e-9,
+                        "{label}: axis {k}: with the stop {s} m, the hand-over's own {h} m"
+                    );
+                }
+                assert!(
+                    s.duration <= h.duration + 1e-9,
+                    "{label}: the stop rests later"
+                );
+                if s.length() < h.length() - 1e-3 {
+                    counts.stop_shortened += 1;
+                }
+                counts.stop_least = counts.stop_least.min(s.length() / h.length());
+            }
+            let stopped_cells = c.stopped.map_or(" — | — |".to_string(), |(s, _)| {
+                format!(" {:.3} | {:.2} |", s.length(), s.duration)
+            });
             let (handover_cells, ratio) = match c.handover {
                 Some(h) => {
                     counts.taken += 1;
@@ -333,7 +414,7 @@ fn crane<K: Crane<A>, G: Source<A>, const A: usize>(
                 }
             };
             rows.push(format!(
-                "| {name} | {} s, hoist {} | {:.0} % | {:.2} | {:.3} |{handover_cells}{planner_cells}{ratio}",
+                "| {name} | {} s, hoist {} | {:.0} % | {:.2} | {:.3} |{handover_cells}{planner_cells}{ratio}{stopped_cells}",
                 mv.duration,
                 mv.hoist,
                 share * 100.0,
@@ -355,6 +436,12 @@ struct Counts {
     /// The longest hand-over's stop and the longest planner's, s.
     longest_handover: f64,
     longest_planner: f64,
+    /// Hand-overs whose stop a stop command 0.1 s later shortened by more than 1 mm
+    /// along the path, and the least share of the hand-over's own travel it left.
+    stop_shortened: usize,
+    stop_least: f64,
+    /// The largest step back on any axis after such a stop, m.
+    stop_back: f64,
 }
 
 /// The hand-over's stop on both lab cranes, three moves each, interrupted at 10 to
@@ -372,6 +459,9 @@ fn a_hand_over_s_stop_rests_on_the_path_no_farther_than_the_target() {
         largest: 0.0,
         longest_handover: 0.0,
         longest_planner: 0.0,
+        stop_shortened: 0,
+        stop_least: f64::INFINITY,
+        stop_back: 0.0,
     };
     let planar = Settings::lab(&CraneParams::PAPER);
     crane::<Planar, PlanarGenerator, 2>(
@@ -400,9 +490,9 @@ fn a_hand_over_s_stop_rests_on_the_path_no_farther_than_the_target() {
     );
     println!(
         "| crane | move | at | load speed, m/s | way left, m | hand-over Δx | Δy | Δz | T | \
-         planner Δx | Δy | Δz | T | hand-over / planner |"
+         planner Δx | Δy | Δz | T | hand-over / planner | stopped 0.1 s after: travel | T |"
     );
-    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         println!("{r}");
     }
@@ -418,6 +508,12 @@ fn a_hand_over_s_stop_rests_on_the_path_no_farther_than_the_target() {
         counts.longest_handover,
         planar.entry_blend,
         counts.longest_planner
+    );
+    println!(
+        "A stop commanded 0.1 s after the take-over shortened {} of the {} hand-overs' \
+         stops by more than 1 mm along the path (to {:.2} of their own travel at least), \
+         none longer or later; the largest step back on an axis {:.1e} m",
+        counts.stop_shortened, counts.taken, counts.stop_least, counts.stop_back
     );
     assert_eq!(counts.taken + counts.refused, 30);
     // Refusing is no way to pass: most hand-overs find a stop.

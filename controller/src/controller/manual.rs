@@ -141,7 +141,7 @@ where
         if !asked || !ready {
             // A dead-man loss, the request withdrawn, or the drives not ready: the
             // sway-free stop, and the stick centred before it moves the crane again.
-            path.stop();
+            path.stop(&self.planner.limits());
             self.manual.deadman.interlock();
         } else if state == Stick::Live && path.is_stopping() && !self.manual.stop_held {
             path.resume();

@@ -126,7 +126,7 @@ where
         self.manual.handing_over = false;
         if self.mode == Mode::Ready {
             if let Some(path) = self.feedforward.path_mut().manual_mut() {
-                path.stop();
+                path.stop(&self.planner.limits());
                 self.manual.stop_held = true;
                 return;
             }

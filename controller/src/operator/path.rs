@@ -53,6 +53,29 @@ pub fn room(limit: &AxisLimits, axis: &AxisSettings) -> Room {
     }
 }
 
+/// The planar drives' room beside the operator (trolley `x`, hoist `z`): [`room`] per axis.
+fn planar_room(settings: &Settings<1>, x: &AxisLimits, z: &AxisLimits) -> Headroom<1> {
+    let [trolley] = settings.horizontal;
+    Headroom {
+        horizontal: [room(x, &trolley)],
+        hoist: room(z, &settings.hoist),
+    }
+}
+
+/// The 3D drives' room beside the operator (bridge `x`, trolley `y`, hoist `z`).
+fn spatial_room(
+    settings: &Settings<2>,
+    x: &AxisLimits,
+    y: &AxisLimits,
+    z: &AxisLimits,
+) -> Headroom<2> {
+    let [bridge, trolley] = settings.horizontal;
+    Headroom {
+        horizontal: [room(x, &bridge), room(y, &trolley)],
+        hoist: room(z, &settings.hoist),
+    }
+}
+
 /// What the controller asks of an operator generator for a crane whose model has `A`
 /// outputs (planar `[x_C, z_C]`, 3D `[x_C, y_C, z_C]`), whatever its number of
 /// horizontal axes.
@@ -78,8 +101,11 @@ pub trait Source<const A: usize>: Trajectory<f64, A> + Sized {
         move_: &PointToPoint<f64, A>,
         limits: &[AxisLimits; A],
     ) -> Result<(), Error>;
-    /// Latches the sway-free stop: every demand is taken as zero from the next cycle on.
-    fn stop(&mut self);
+    /// Latches the sway-free stop: every demand is taken as zero from the next cycle on,
+    /// and a hand-over's stop that lasts is shortened within the room the drives'
+    /// `limits` (the model's output order) leave beside the operator, as at the
+    /// take-over (`Generator::stop_within`; limits of another length: latched only).
+    fn stop(&mut self, limits: &[AxisLimits]);
     /// Lifts a latched stop.
     fn resume(&mut self);
     /// Whether the path rests this cycle (every derivative exactly 0.0).
@@ -117,15 +143,17 @@ impl Source<2> for PlanarGenerator {
         move_: &PointToPoint<f64, 2>,
         [x, z]: &[AxisLimits; 2],
     ) -> Result<(), Error> {
-        let [horizontal] = settings.horizontal;
-        let room = Headroom {
-            horizontal: [room(x, &horizontal)],
-            hoist: room(z, &settings.hoist),
-        };
+        let room = planar_room(&settings, x, z);
         self.reset_taking_over(settings, t, &Handover::<1>::of(move_, t), &room)
     }
-    fn stop(&mut self) {
-        PlanarGenerator::stop(self);
+    fn stop(&mut self, limits: &[AxisLimits]) {
+        match limits {
+            [x, z] => {
+                let room = planar_room(self.settings(), x, z);
+                self.stop_within(&room);
+            }
+            _ => PlanarGenerator::stop(self),
+        }
     }
     fn resume(&mut self) {
         PlanarGenerator::resume(self);
@@ -163,15 +191,17 @@ impl Source<3> for Generator3d {
         move_: &PointToPoint<f64, 3>,
         [x, y, z]: &[AxisLimits; 3],
     ) -> Result<(), Error> {
-        let [bridge, trolley] = settings.horizontal;
-        let room = Headroom {
-            horizontal: [room(x, &bridge), room(y, &trolley)],
-            hoist: room(z, &settings.hoist),
-        };
+        let room = spatial_room(&settings, x, y, z);
         self.reset_taking_over(settings, t, &Handover::<2>::of(move_, t), &room)
     }
-    fn stop(&mut self) {
-        Generator3d::stop(self);
+    fn stop(&mut self, limits: &[AxisLimits]) {
+        match limits {
+            [x, y, z] => {
+                let room = spatial_room(self.settings(), x, y, z);
+                self.stop_within(&room);
+            }
+            _ => Generator3d::stop(self),
+        }
     }
     fn resume(&mut self) {
         Generator3d::resume(self);
@@ -256,8 +286,8 @@ pub trait Planned<const A: usize> {
 pub trait ManualPath {
     /// One cycle of the stick (see [`Source::advance`]).
     fn advance(&mut self, horizontal: [f64; 2], hoist: f64) -> Cycle;
-    /// Latches the sway-free stop.
-    fn stop(&mut self);
+    /// Latches the sway-free stop (see [`Source::stop`]).
+    fn stop(&mut self, limits: &[AxisLimits]);
     /// Lifts a latched stop.
     fn resume(&mut self);
     /// Whether the path rests this cycle.
@@ -274,8 +304,8 @@ impl<G: Source<A>, const A: usize> ManualPath for (G, [(); A]) {
     fn advance(&mut self, horizontal: [f64; 2], hoist: f64) -> Cycle {
         self.0.advance(horizontal, hoist)
     }
-    fn stop(&mut self) {
-        self.0.stop();
+    fn stop(&mut self, limits: &[AxisLimits]) {
+        self.0.stop(limits);
     }
     fn resume(&mut self) {
         self.0.resume();

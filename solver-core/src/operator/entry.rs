@@ -56,6 +56,7 @@
 
 use crate::error::{Error, Result};
 use crate::operator::ends::END_WINDOW;
+use crate::operator::filter::u64_to_f64;
 use crate::operator::piece::{binomial, factorial, Polynomial, COEFFS};
 use crate::trajectory::Trajectory;
 
@@ -238,6 +239,31 @@ impl<const NH: usize> Blend<NH> {
         self.started = true;
         self.left -= 1;
         self.left > 0
+    }
+
+    /// The stop's state now — at the start of the cycle that begins next, where a stop
+    /// commanded in between takes over — as a hand-over's state in the blend's own
+    /// coordinates: `E` and its derivatives per axis, every target 0 (the stop's end),
+    /// the rest in the cycles it has left.
+    #[must_use]
+    pub fn now(&self, h: f64) -> Handover<NH> {
+        // Started: the current share's end (θ' = 0); before the first cycle, its start.
+        let at = if self.started { 0.0 } else { -1.0 };
+        let inv_h = 1.0 / h;
+        Handover {
+            horizontal: self.horizontal.map(|e| share::<ORDERS>(&e, at, inv_h)),
+            hoist: share::<ORDERS>(&self.hoist, at, inv_h),
+            target: [0.0; NH],
+            hoist_target: 0.0,
+            rest_in: u64_to_f64(self.left) * h,
+        }
+    }
+
+    /// Cycles with a share from the cycle that begins next (the first included before
+    /// it started).
+    #[must_use]
+    pub fn cycles_left(&self) -> u64 {
+        self.left
     }
 
     /// Whether cycles with a share remain after the current one.
@@ -477,15 +503,29 @@ fn smoothest_share(d: &[f64; ORDERS], remaining: f64, duration: f64, c: f64) -> 
     (remaining != 0.0 && share.is_finite()).then_some(share.clamp(0.0, 1.0))
 }
 
+/// Which end of a stop is tried first at each duration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Ends {
+    /// A hand-over: the trolley's smoothest end first, then the shares from the nearest;
+    /// the hoist takes the same share of its way, so the stop stays on the move's path.
+    Smoothest,
+    /// A stop commanded during a hand-over's stop ([`Generator::stop`]
+    /// (crate::operator::Generator::stop)): the horizontal shares from the nearest; the
+    /// hoist keeps the end it was stopping at (its origin is the generator's, which the
+    /// shortened stop does not move).
+    Nearest,
+}
+
 /// The stop of a hand-over (module documentation): the shortest duration, then the
-/// nearest end, that keeps within `room`; `c = l_g/g`, `h` the cycle, `longest` the
-/// longest duration, s. `None`: no stop does.
+/// nearest end (`ends`), that keeps within `room`; `c = l_g/g`, `h` the cycle, `longest`
+/// the longest duration, s. `None`: no stop does.
 pub(crate) fn plan_stop<const NH: usize>(
     state: &Handover<NH>,
     room: &Headroom<NH>,
     c: f64,
     h: f64,
     longest: f64,
+    ends: Ends,
 ) -> Option<Stop<NH>> {
     let last = libm::round(longest / h).max(1.0) as u64;
     let own = libm::round(state.rest_in / h);
@@ -503,7 +543,7 @@ pub(crate) fn plan_stop<const NH: usize>(
         .into_iter()
         .flatten()
         {
-            if let Some(stop) = stop_over(state, room, c, n, h) {
+            if let Some(stop) = stop_over(state, room, c, n, h, ends) {
                 return Some(stop);
             }
         }
@@ -515,13 +555,15 @@ pub(crate) fn plan_stop<const NH: usize>(
 }
 
 /// The nearest stop over `cycles` cycles that keeps within `room`, if any: first the
-/// trolley's smoothest end (where it is on the way), then the shares from the nearest.
+/// trolley's smoothest end (where it is on the way, [`Ends::Smoothest`]), then the shares
+/// from the nearest.
 fn stop_over<const NH: usize>(
     state: &Handover<NH>,
     room: &Headroom<NH>,
     c: f64,
     cycles: u64,
     h: f64,
+    ends: Ends,
 ) -> Option<Stop<NH>> {
     let duration = cycles as f64 * h;
     // The way left per axis, and the horizontal axis that has the most of it.
@@ -545,7 +587,9 @@ fn stop_over<const NH: usize>(
             }
         })
         .1;
-    let smoothest = widest.and_then(|(d, r)| smoothest_share(d, r, duration, c));
+    let smoothest = widest
+        .filter(|_| ends == Ends::Smoothest)
+        .and_then(|(d, r)| smoothest_share(d, r, duration, c));
     for share in smoothest.into_iter().chain(SHARES) {
         let mut horizontal = [AxisStop {
             e: [0.0; ORDERS],
@@ -572,7 +616,10 @@ fn stop_over<const NH: usize>(
             continue;
         }
         let forward = sign(hoist_remaining);
-        let distance = share * hoist_remaining;
+        let distance = match ends {
+            Ends::Smoothest => share * hoist_remaining,
+            Ends::Nearest => hoist_remaining,
+        };
         if let Some(hoist) = axis_stop(&state.hoist, distance, duration, 0.0, &room.hoist, forward)
         {
             return Some(Stop {

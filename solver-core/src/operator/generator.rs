@@ -6,11 +6,11 @@ use nalgebra::SVector;
 use crate::error::{Error, Result};
 use crate::operator::ends::SwingMap;
 use crate::operator::entry::{
-    check_inside, new_blend, plan_stop, AxisStop, Blend, Handover, Headroom, Stop,
+    check_inside, new_blend, plan_stop, AxisStop, Blend, Ends, Handover, Headroom, Stop,
 };
-use crate::operator::filter::{i64_to_f64, Factor, Taps};
+use crate::operator::filter::{i64_to_f64, u64_to_f64, Factor, Taps};
 use crate::operator::group::Group;
-use crate::operator::limiter::{brake, ceil_i, floor_i, truncate};
+use crate::operator::limiter::{brake, ceil_i, floor_i, truncate, Axis};
 use crate::operator::settings::{cycles, zv_cycles, Quanta, Rounding, Settings};
 use crate::scalar::{c, to_f64, Real};
 use crate::trajectory::Trajectory;
@@ -70,6 +70,10 @@ pub struct Tuning {
     /// The same in the hoist's position units.
     cap_units: i64,
 }
+
+/// The horizontal axes' and the hoist's ranges in position units, narrowed by a
+/// hand-over's stop.
+type Narrowed<const NH: usize> = ([(i64, i64); NH], (i64, i64));
 
 /// The distance a load moving at `speed` needs to stop once the stick is released (or a
 /// stop is commanded), m: the rate limiter's full-deceleration stop, at most
@@ -427,11 +431,17 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         let c = settings.pendulum_for(deepest) / settings.g;
         // Its own error, not "hand-over stop = 8 outside [0, 8]": no duration was refused
         // for being out of range, none up to the longest kept within the headroom.
-        let stop = plan_stop(state, room, c, settings.h, settings.entry_blend).ok_or(
-            Error::NoHandoverStop {
-                longest: settings.entry_blend,
-            },
-        )?;
+        let stop = plan_stop(
+            state,
+            room,
+            c,
+            settings.h,
+            settings.entry_blend,
+            Ends::Smoothest,
+        )
+        .ok_or(Error::NoHandoverStop {
+            longest: settings.entry_blend,
+        })?;
         let mut ends = [0.0; NH];
         for ((end, d), axis) in ends.iter_mut().zip(&state.horizontal).zip(&stop.horizontal) {
             *end = d[0] - axis.e[0];
@@ -446,7 +456,40 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
     /// lasts, the pendulum tuned for its deepest load, the blend.
     fn enter(&mut self, stop: &Stop<NH>) -> Result<()> {
         let s = self.settings;
-        let (h, t) = (s.h, self.t0);
+        let (horizontal, hoist) = self.narrowed(stop, &self.horizontal.origin)?;
+        self.horizontal.bounds = horizontal;
+        self.hoist.bounds = [hoist];
+        // The path before the first cycle is the rest at the stop's end and the blend's
+        // first share, which starts there: at θ = 0 the state itself.
+        let mut blend = new_blend(
+            stop.cycles,
+            s.h,
+            &stop.horizontal.map(|a| a.e),
+            &stop.hoist.e,
+        );
+        blend.hoist_extent = [stop.hoist.high, stop.hoist.down.max(0.0)];
+        self.blend = Some(blend);
+        // The horizontal filter for the stop's deepest load, braked downwards (`retune`).
+        self.retune();
+        let need = self.pendulum_needed(stop);
+        if need.is_nan() || need > self.tuning.pendulum {
+            return Err(Error::OutsideWorkspace {
+                t: self.t0,
+                coordinate: "l",
+                value: need,
+                min: 0.0,
+                max: self.tuning.pendulum,
+            });
+        }
+        Ok(())
+    }
+
+    /// The ranges, in position units from `origin` (horizontal) and the hoist's origin,
+    /// narrowed by `stop`'s excursion about its end there — refused if the stop leaves a
+    /// range ([`Error::OutsideWorkspace`]).
+    fn narrowed(&self, stop: &Stop<NH>, origin: &[f64; NH]) -> Result<Narrowed<NH>> {
+        let s = self.settings;
+        let t = self.t0;
         let narrowed = |name: &'static str, end: f64, axis: &AxisStop, (lo, hi): (f64, f64)| {
             check_inside(name, end + axis.low, (lo, hi), t)?;
             check_inside(name, end + axis.high, (lo, hi), t)?;
@@ -455,6 +498,7 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         let zq = self.hoist.quanta()[0];
         let z_end = self.hoist.origin[0];
         let z_range = narrowed("z_C", z_end, &stop.hoist, s.hoist.range)?;
+        let mut bounds = self.horizontal.bounds;
         for (i, ((axis, a), name)) in stop
             .horizontal
             .iter()
@@ -464,39 +508,98 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         {
             let (Some(q), Some(end)) = (
                 self.horizontal.quanta().get(i).copied(),
-                self.horizontal.origin.get(i).copied(),
+                origin.get(i).copied(),
             ) else {
                 continue;
             };
             let range = narrowed(name, end, axis, a.range)?;
-            if let Some(b) = self.horizontal.bounds.get_mut(i) {
+            if let Some(b) = bounds.get_mut(i) {
                 *b = unit_bounds(range, end, &q);
             }
         }
-        self.hoist.bounds = [unit_bounds(z_range, z_end, &zq)];
-        // The path before the first cycle is the rest at the stop's end and the blend's
-        // first share, which starts there: at θ = 0 the state itself.
-        let mut blend = new_blend(stop.cycles, h, &stop.horizontal.map(|a| a.e), &stop.hoist.e);
-        blend.hoist_extent = [stop.hoist.high, stop.hoist.down.max(0.0)];
-        self.blend = Some(blend);
-        // The horizontal filter for the stop's deepest load, braked downwards (`retune`).
-        self.retune();
+        Ok((bounds, unit_bounds(z_range, z_end, &zq)))
+    }
+
+    /// The virtual pendulum `stop` needs: the deepest load it reaches, braked downwards
+    /// by the hoist's acceleration and the stop's own, m (infinite if no length does).
+    fn pendulum_needed(&self, stop: &Stop<NH>) -> f64 {
+        let s = self.settings;
         let rest = s.g - s.hoist.acceleration - stop.hoist.down.max(0.0);
-        let need = if rest > 0.0 {
-            (z_end + stop.hoist.high) * s.g / rest
+        if rest > 0.0 {
+            (self.hoist.origin[0] + stop.hoist.high) * s.g / rest
         } else {
             f64::INFINITY
-        };
-        if need.is_nan() || need > self.tuning.pendulum {
-            return Err(Error::OutsideWorkspace {
-                t,
-                coordinate: "l",
-                value: need,
-                min: 0.0,
-                max: self.tuning.pendulum,
-            });
         }
-        Ok(())
+    }
+
+    /// A stop commanded while a hand-over's stop lasts: that stop planned again from
+    /// where it is now, within `room` beside the operator's motion (the caller's, as for
+    /// [`Generator::take_over`]), its shortest duration and then its nearest end ([`Ends::Nearest`]: the travel's nearest
+    /// share of the way left, the hoist to the end it was stopping at). The generator's
+    /// own path moves with the new end (its horizontal origin; its units, the
+    /// operator's motion, stay), so that the load path goes on with every derivative.
+    /// Kept as it is when no such stop is shorter, or when the new stop or the
+    /// generator's own braking would leave the narrowed ranges, or the stop would need a
+    /// longer pendulum than the filter was tuned for.
+    fn shorten_handover_stop(&mut self, room: &Headroom<NH>) {
+        let Some(blend) = self.blend.filter(Blend::lasts) else {
+            return;
+        };
+        let s = self.settings;
+        let left = blend.cycles_left();
+        let now = blend.now(s.h);
+        // `c` as the hand-over takes it: the deeper of the load now (the operator's
+        // hoist and the share) and the stop's end (the hoist's origin: the share is 0
+        // there).
+        let c = s.pendulum_for(self.rope_now().max(self.hoist.origin[0])) / s.g;
+        let Some(stop) = plan_stop(&now, room, c, s.h, u64_to_f64(left) * s.h, Ends::Nearest)
+        else {
+            return;
+        };
+        // The new end from the old, per horizontal axis: where the generator's own path
+        // moves (the hoist's stays, [`Ends::Nearest`]).
+        let mut origin = self.horizontal.origin;
+        let mut nearer = false;
+        for ((o, d), axis) in origin.iter_mut().zip(&now.horizontal).zip(&stop.horizontal) {
+            let moved = d[0] - axis.e[0];
+            nearer |= moved != 0.0;
+            *o += moved;
+        }
+        if !(nearer || stop.cycles < left) {
+            return;
+        }
+        let Ok((horizontal, hoist)) = self.narrowed(&stop, &origin) else {
+            return;
+        };
+        let inside = |a: &Axis, (lo, hi): (i64, i64)| {
+            if a.n_v >= 0 {
+                a.n_p >= lo && a.n_p.saturating_add(brake(a.n_v)) <= hi
+            } else {
+                a.n_p <= hi && a.n_p.saturating_sub(brake(a.n_v.saturating_neg())) >= lo
+            }
+        };
+        let fits = self
+            .horizontal
+            .axes
+            .iter()
+            .zip(horizontal)
+            .chain(self.hoist.axes.iter().zip([hoist]))
+            .all(|(a, b)| inside(a, b));
+        let need = self.pendulum_needed(&stop);
+        if !fits || need.is_nan() || need > self.tuning.pendulum {
+            return;
+        }
+        let mut shortened = new_blend(
+            stop.cycles,
+            s.h,
+            &stop.horizontal.map(|a| a.e),
+            &stop.hoist.e,
+        );
+        shortened.hoist_extent = [stop.hoist.high, stop.hoist.down.max(0.0)];
+        self.horizontal.origin = origin;
+        self.horizontal.bounds = horizontal;
+        self.hoist.bounds = [hoist];
+        self.blend = Some(shortened);
     }
 
     /// The ranges back to the settings' once a hand-over's stop has passed.
@@ -753,7 +856,21 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
     /// Latches a stop: from the next cycle on every demand is taken as zero, so the load
     /// comes to a sway-free rest along its current direction, within
     /// [`stopping_bound`]. Kept until [`Generator::resume`].
+    /// A hand-over's stop that lasts goes on to its end: [`Generator::stop_within`]
+    /// shortens it too.
     pub fn stop(&mut self) {
+        self.stopping = true;
+    }
+
+    /// [`Generator::stop`], and while a hand-over's stop lasts, that stop shortened to
+    /// its shortest, then nearest, end that keeps within `room` (the drives' room beside
+    /// the operator, as the hand-over was given): the taken-over move stops as soon as
+    /// it can too, not only the operator's share. Its cost is the hand-over's search
+    /// again, in the cycle the stop is latched.
+    pub fn stop_within(&mut self, room: &Headroom<NH>) {
+        if !self.stopping {
+            self.shorten_handover_stop(room);
+        }
         self.stopping = true;
     }
 
@@ -1094,6 +1211,103 @@ mod tests {
         (Handover::<2>::of(&mv, t), room)
     }
 
+    /// A stop commanded during a hand-over's stop shortens it ([`Generator::stop`]): the
+    /// 3D lab move taken over at 2, 5 and 8 s of its 10, the stick centred, the stop
+    /// commanded `k` cycles later. The path goes on with its derivatives through the
+    /// cycle the shortened stop begins in; along each axis the load never turns back,
+    /// rests no farther than the hand-over's own stop (and at or beyond where it was when
+    /// the stop came) and no later; and some rest nearer.
+    #[test]
+    fn a_stop_during_a_hand_over_s_stop_shortens_it() {
+        let s = Settings::lab_3d(&Crane3dParams::EXAMPLE);
+        let h = s.h;
+        let mut nearer = 0;
+        for t in [2.0, 5.0, 8.0] {
+            for k in [1_usize, 10, 40] {
+                let (state, room) = hand_over_at(t);
+                let mut plain = Generator3d::take_over(s, t, &state, &room).unwrap();
+                let mut stopped = plain;
+                for _ in 0..k {
+                    let _ = plain.advance(&Demand::ZERO);
+                    let _ = stopped.advance(&Demand::ZERO);
+                }
+                // The path at the end of the cycle before the stop, and where the load is.
+                let boundary = stopped.time() + h;
+                let (before_h, before_z) = stopped.evaluate::<4>(boundary);
+                let was = before_h.map(|d| d[0]);
+                stopped.stop_within(&room);
+                let _ = stopped.advance(&Demand::ZERO);
+                let _ = plain.advance(&Demand::ZERO);
+                let (after_h, after_z) = stopped.evaluate::<4>(boundary);
+                for (b, a) in before_h
+                    .iter()
+                    .chain([&before_z])
+                    .zip(after_h.iter().chain([&after_z]))
+                {
+                    for j in 0..4 {
+                        assert!(
+                            (a[j] - b[j]).abs() <= 1e-9 * (1.0 + b[j].abs()),
+                            "{t} s + {k}: derivative {j} {} → {}",
+                            b[j],
+                            a[j]
+                        );
+                    }
+                }
+                let direction: [f64; 2] =
+                    core::array::from_fn(|i| (state.target[i] - state.horizontal[i][0]).signum());
+                let (mut last, mut rest_stopped, mut rest_plain) = (was, None, None);
+                for n in 0..2_000 {
+                    let now = stopped.time();
+                    let (x, _) = stopped.evaluate::<1>(now);
+                    for i in 0..2 {
+                        assert!(
+                            (x[i][0] - last[i]) * direction[i] >= -1e-9,
+                            "{t} s + {k}: axis {i} turns back at cycle {n}"
+                        );
+                        last[i] = x[i][0];
+                    }
+                    if stopped.is_at_rest() && rest_stopped.is_none() {
+                        rest_stopped = Some(n);
+                    }
+                    if plain.is_at_rest() && rest_plain.is_none() {
+                        rest_plain = Some(n);
+                    }
+                    if rest_stopped.is_some() && rest_plain.is_some() {
+                        break;
+                    }
+                    let _ = stopped.advance(&Demand::ZERO);
+                    let _ = plain.advance(&Demand::ZERO);
+                }
+                let (a, b) = (rest_stopped.unwrap(), rest_plain.unwrap());
+                assert!(
+                    a <= b,
+                    "{t} s + {k}: rests at cycle {a}, not later than {b}"
+                );
+                let end_stopped = stopped.evaluate::<1>(stopped.time()).0;
+                let end_plain = plain.evaluate::<1>(plain.time()).0;
+                let mut shorter = false;
+                for i in 0..2 {
+                    let (e1, e2) = (end_stopped[i][0], end_plain[i][0]);
+                    assert!(
+                        (e1 - e2) * direction[i] <= 1e-9,
+                        "{t} s + {k}: axis {i} {e1} past {e2}"
+                    );
+                    assert!(
+                        (e1 - was[i]) * direction[i] >= -1e-9,
+                        "{t} s + {k}: axis {i} behind"
+                    );
+                    shorter |= (e2 - e1) * direction[i] > 1e-3;
+                }
+                nearer += usize::from(shorter);
+            }
+        }
+        // Shortened on the durations' grid (a fifth apart, and the stop's own rest): 10
+        // cycles after the take-overs at 2 and 5 s by 0.16 and 0.40 m (13.272 against
+        // 13.437 m, 19.023 against 19.424 m along x), 40 cycles after at the same end 0.2 s
+        // sooner; the take-over at 8 s has its shortest stop already.
+        assert!(nearer >= 2, "{nearer} of 9 shortened by more than 1 mm");
+    }
+
     /// With the robust setting a hand-over tunes the robust pair to the taken-over rope,
     /// the depth the path has there — not to the depth its stop ends at — when it enters
     /// and when the stick starts a motion during its blend.
@@ -1129,7 +1343,7 @@ mod tests {
         let mut g = Generator3d::take_over(s, t0, &state, &room).unwrap();
         let deepest = state.hoist[0].max(state.hoist_target);
         let c = s.pendulum_for(deepest) / s.g;
-        let stop = plan_stop(&state, &room, c, s.h, s.entry_blend).unwrap();
+        let stop = plan_stop(&state, &room, c, s.h, s.entry_blend, Ends::Smoothest).unwrap();
         let duration = stop.cycles as f64 * s.h;
         let blend = |e: &[f64; 6], tau: f64| -> f64 {
             let mut scale = 1.0;
