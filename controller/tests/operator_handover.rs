@@ -249,10 +249,10 @@ fn a_full_stick_hand_over_keeps_every_set_point_within_the_limits() {
 
 /// A stop request (0x210) while a hand-over's stop still runs, full stick forward 50 %
 /// into the move: the generator's stop is latched in that very cycle (the stick's share
-/// stops at once, whatever the stick does), the taken-over move's own stop goes on to its
-/// end (docs/COMMANDS.md, "The stopping distance": the bound is the operator's share
-/// only), and the load rests within the drives' limits, no fault, the set points then
-/// exactly zero.
+/// stops at once, whatever the stick does), the taken-over move's own stop goes on —
+/// shortened where the drives' room allows (`Generator::stop_within`; how far:
+/// host-tests' `handover_stop`) — and the load rests within the drives' limits, no
+/// fault, the set points then exactly zero.
 #[test]
 fn a_stop_request_during_a_hand_over_s_stop_latches_the_operator_s_stop_at_once() {
     let mut rig = Manual::new();

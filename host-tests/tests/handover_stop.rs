@@ -516,6 +516,12 @@ fn a_hand_over_s_stop_rests_on_the_path_no_farther_than_the_target() {
         counts.stop_shortened, counts.taken, counts.stop_least, counts.stop_back
     );
     assert_eq!(counts.taken + counts.refused, 30);
+    // A stop that never shortens anything would pass the checks above.
+    assert!(
+        counts.stop_shortened >= 5,
+        "{} shortened",
+        counts.stop_shortened
+    );
     // Refusing is no way to pass: most hand-overs find a stop.
     assert!(counts.taken >= 25, "{} refused", counts.refused);
 }

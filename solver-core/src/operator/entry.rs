@@ -49,6 +49,10 @@
 //! the generator's ranges are narrowed by the stop's excursion (the load's and the
 //! trolley's), and its pendulum is tuned for the stop's deepest load, braked downwards.
 //!
+//! A stop commanded while the hand-over's stop lasts plans that stop again from where it
+//! is ([`Ends::Nearest`]): the same search, the shares of the travel's way left from the
+//! nearest, the hoist to the end it had (`Generator::stop_within`).
+//!
 //! Refused ([`Error::NoHandoverStop`] when no stop keeps within the
 //! headroom, [`Error::OutsideWorkspace`] when the stop leaves a range or the rope is
 //! longer than the virtual pendulum may be): the controller then lets the move stop on
@@ -509,10 +513,10 @@ pub(crate) enum Ends {
     /// A hand-over: the trolley's smoothest end first, then the shares from the nearest;
     /// the hoist takes the same share of its way, so the stop stays on the move's path.
     Smoothest,
-    /// A stop commanded during a hand-over's stop ([`Generator::stop`]
-    /// (crate::operator::Generator::stop)): the horizontal shares from the nearest; the
-    /// hoist keeps the end it was stopping at (its origin is the generator's, which the
-    /// shortened stop does not move).
+    /// A stop commanded during a hand-over's stop
+    /// ([`Generator::stop_within`](crate::operator::Generator::stop_within)): the
+    /// horizontal shares from the nearest; the hoist keeps the end it was stopping at (its
+    /// origin is the generator's, which the shortened stop does not move).
     Nearest,
 }
 
@@ -590,6 +594,20 @@ fn stop_over<const NH: usize>(
     let smoothest = widest
         .filter(|_| ends == Ends::Smoothest)
         .and_then(|(d, r)| smoothest_share(d, r, duration, c));
+    let forward = sign(hoist_remaining);
+    // The nearest ends keep the hoist's: its stop over this duration is one for every
+    // share, worked out (or refused) once.
+    let kept_hoist = match ends {
+        Ends::Smoothest => None,
+        Ends::Nearest => Some(axis_stop(
+            &state.hoist,
+            hoist_remaining,
+            duration,
+            0.0,
+            &room.hoist,
+            forward,
+        )?),
+    };
     for share in smoothest.into_iter().chain(SHARES) {
         let mut horizontal = [AxisStop {
             e: [0.0; ORDERS],
@@ -615,13 +633,18 @@ fn stop_over<const NH: usize>(
         if !all {
             continue;
         }
-        let forward = sign(hoist_remaining);
-        let distance = match ends {
-            Ends::Smoothest => share * hoist_remaining,
-            Ends::Nearest => hoist_remaining,
+        let hoist = match kept_hoist {
+            Some(hoist) => Some(hoist),
+            None => axis_stop(
+                &state.hoist,
+                share * hoist_remaining,
+                duration,
+                0.0,
+                &room.hoist,
+                forward,
+            ),
         };
-        if let Some(hoist) = axis_stop(&state.hoist, distance, duration, 0.0, &room.hoist, forward)
-        {
+        if let Some(hoist) = hoist {
             return Some(Stop {
                 cycles,
                 horizontal,
