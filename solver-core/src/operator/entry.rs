@@ -408,6 +408,15 @@ pub(crate) struct Stop<const NH: usize> {
     pub hoist: AxisStop,
 }
 
+impl<const NH: usize> Stop<NH> {
+    /// Its blend (cycle `h`), starting at the stop's start, with the hoist's extent.
+    pub(crate) fn blend(&self, h: f64) -> Blend<NH> {
+        let mut blend = new_blend(self.cycles, h, &self.horizontal.map(|a| a.e), &self.hoist.e);
+        blend.hoist_extent = [self.hoist.high, self.hoist.down.max(0.0)];
+        blend
+    }
+}
+
 /// The coefficients of `P^{(k)}` from those of `P`.
 fn derivative(p: &[f64; COEFFS]) -> [f64; COEFFS] {
     let mut out = [0.0; COEFFS];
@@ -691,7 +700,7 @@ pub(crate) fn check_inside(
 /// A blend over `cycles` cycles of `h` from the next cycle on, with the differences
 /// `e[j]` in the j-th time derivative at its start: `E(τ) = Σ_j e_j T_b^j H_j(τ)`, as
 /// coefficients in `θ' = θ − 1` about the first cycle's end (`τ = θ/cycles`; [`Blend`]).
-pub(crate) fn new_blend<const NH: usize>(
+fn new_blend<const NH: usize>(
     cycles: u64,
     h: f64,
     horizontal: &[[f64; ORDERS]; NH],

@@ -6,7 +6,7 @@ use nalgebra::SVector;
 use crate::error::{Error, Result};
 use crate::operator::ends::SwingMap;
 use crate::operator::entry::{
-    check_inside, new_blend, plan_stop, AxisStop, Blend, Ends, Handover, Headroom, Stop,
+    check_inside, plan_stop, AxisStop, Blend, Ends, Handover, Headroom, Stop,
 };
 use crate::operator::filter::{i64_to_f64, u64_to_f64, Factor, Taps};
 use crate::operator::group::Group;
@@ -461,14 +461,7 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         self.hoist.bounds = [hoist];
         // The path before the first cycle is the rest at the stop's end and the blend's
         // first share, which starts there: at θ = 0 the state itself.
-        let mut blend = new_blend(
-            stop.cycles,
-            s.h,
-            &stop.horizontal.map(|a| a.e),
-            &stop.hoist.e,
-        );
-        blend.hoist_extent = [stop.hoist.high, stop.hoist.down.max(0.0)];
-        self.blend = Some(blend);
+        self.blend = Some(stop.blend(s.h));
         // The horizontal filter for the stop's deepest load, braked downwards (`retune`).
         self.retune();
         let need = self.pendulum_needed(stop);
@@ -599,17 +592,10 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         if !fits || need.is_nan() || need > self.tuning.pendulum {
             return;
         }
-        let mut shortened = new_blend(
-            stop.cycles,
-            s.h,
-            &stop.horizontal.map(|a| a.e),
-            &stop.hoist.e,
-        );
-        shortened.hoist_extent = [stop.hoist.high, stop.hoist.down.max(0.0)];
         self.horizontal.origin = origin;
         self.horizontal.bounds = horizontal;
         self.hoist.bounds = [hoist];
-        self.blend = Some(shortened);
+        self.blend = Some(stop.blend(s.h));
         // A filter staged for the old blend's extent is not this one's.
         self.staged = Staged::NONE;
     }
