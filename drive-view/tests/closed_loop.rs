@@ -193,3 +193,33 @@ fn manual_mode_entered_at_rest_moves_nothing_on_either_crane() {
         );
     }
 }
+
+/// After a jog and its release on the plant's noisy, quantised sensors, once the feedback
+/// lets go (every set point exactly 0.0) nothing moves again without a command: for the
+/// following 60 s every set point stays 0.0 — after jogs of 0.3, 1 and 4 s, both cranes
+/// (it let go 6.4–8.8 s after the release).
+#[test]
+fn once_let_go_after_a_jog_nothing_moves_again_without_a_command() {
+    for scene in [
+        "paper-crane-manual-feedback.toml",
+        "crane3d/crane3d-manual-feedback.toml",
+    ] {
+        for jog in [0.3, 1.0, 4.0] {
+            let (mut e, mut s) = engine(scene);
+            run(&mut e, &mut s, 3.0);
+            s.apply(Action::ToggleManual);
+            run(&mut e, &mut s, 0.3);
+            for _ in 0..NOTCHES {
+                s.apply(Action::Notch(Axis::X, 1));
+            }
+            run(&mut e, &mut s, jog);
+            s.apply(Action::Centre);
+            until_rest(&mut e, &mut s, 15.0);
+            let after = run(&mut e, &mut s, 60.0);
+            assert!(
+                after.iter().all(|c| c.setpoints == [0.0; 3]),
+                "{scene}, jog {jog} s: a set point other than 0.0 after the feedback let go"
+            );
+        }
+    }
+}
