@@ -534,6 +534,10 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
     /// Kept as it is when no such stop is shorter, or when the new stop or the
     /// generator's own braking would leave the narrowed ranges, or the stop would need a
     /// longer pendulum than the filter was tuned for.
+    // Out of line: its search (`plan_stop`, inlined here) is on the control task's stack
+    // only in the cycle that latches the stop during a hand-over's stop, not in
+    // `steer_manual`'s frame every cycle.
+    #[inline(never)]
     fn shorten_handover_stop(&mut self, room: &Headroom<NH>) {
         let Some(blend) = self.blend.filter(Blend::lasts) else {
             return;
