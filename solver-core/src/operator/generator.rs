@@ -576,20 +576,13 @@ impl<const NH: usize, const RH: usize, const RV: usize> Generator<NH, RH, RV> {
         let Ok((horizontal, hoist)) = self.narrowed(&stop, &origin) else {
             return;
         };
-        let inside = |a: &Axis, (lo, hi): (i64, i64)| {
-            if a.n_v >= 0 {
-                a.n_p >= lo && a.n_p.saturating_add(brake(a.n_v)) <= hi
-            } else {
-                a.n_p <= hi && a.n_p.saturating_sub(brake(a.n_v.saturating_neg())) >= lo
-            }
-        };
         let fits = self
             .horizontal
             .axes
             .iter()
             .zip(horizontal)
             .chain(self.hoist.axes.iter().zip([hoist]))
-            .all(|(a, b)| inside(a, b));
+            .all(|(a, b)| Axis::stops_inside(a.n_v, a.n_p, b));
         // The pendulum the filter was tuned with must do for the new stop's deepest load
         // braked downwards, as the hand-over's entry checks it.
         let need = self.pendulum_needed(&stop);

@@ -85,6 +85,21 @@ impl Axis {
         (self.n_v + k, self.n_p + 2 * self.n_v + k)
     }
 
+    /// Whether an axis at speed `n_v` and position `n_p` is inside `[lo, hi]` and can
+    /// stop there at full deceleration. One braking distance: moving up (or resting),
+    /// only the upper bound needs it; the lower one is the position itself, and vice
+    /// versa. The limiter's invariant ([`Axis::braked`]), and what a hand-over's stop
+    /// shortened in place must leave (`Generator::stop_within`).
+    #[inline(always)]
+    #[must_use]
+    pub fn stops_inside(n_v: i64, n_p: i64, (lo, hi): (i64, i64)) -> bool {
+        if n_v >= 0 {
+            n_p >= lo && n_p + brake(n_v) <= hi
+        } else {
+            n_p <= hi && n_p - brake(-n_v) >= lo
+        }
+    }
+
     /// Whether after a cycle with step `k` the axis can still stop at or below `hi`
     /// (position units); monotone: true for every step up to some largest one.
     #[must_use]
@@ -107,15 +122,9 @@ impl Axis {
     #[must_use]
     pub fn braked(&self, k: i64, (lo, hi): (i64, i64)) -> i64 {
         let step = i64::from(MAX_STEP);
-        // The common case first, one braking distance: moving up (or resting), only the
-        // upper bound needs it; the lower one is the position itself, and vice versa.
+        // The common case first: the step asked for keeps the axis inside.
         let (n_v, n_p) = self.after(k);
-        let inside = if n_v >= 0 {
-            n_p >= lo && n_p + brake(n_v) <= hi
-        } else {
-            n_p <= hi && n_p - brake(-n_v) >= lo
-        };
-        if inside {
+        if Self::stops_inside(n_v, n_p, (lo, hi)) {
             return k;
         }
         let below = |k| self.stops_below(k, hi);
