@@ -104,8 +104,8 @@ pub trait Source<const A: usize>: Trajectory<f64, A> + Sized {
     /// Latches the sway-free stop: every demand is taken as zero from the next cycle on,
     /// and a hand-over's stop that lasts is shortened within the room the drives'
     /// `limits` (the model's output order) leave beside the operator, as at the
-    /// take-over (`Generator::stop_within`; limits of another length: latched only).
-    fn stop(&mut self, limits: &[AxisLimits]);
+    /// take-over (`Generator::stop_within`).
+    fn stop(&mut self, limits: &[AxisLimits; A]);
     /// Lifts a latched stop.
     fn resume(&mut self);
     /// Whether the path rests this cycle (every derivative exactly 0.0).
@@ -146,14 +146,9 @@ impl Source<2> for PlanarGenerator {
         let room = planar_room(&settings, x, z);
         self.reset_taking_over(settings, t, &Handover::<1>::of(move_, t), &room)
     }
-    fn stop(&mut self, limits: &[AxisLimits]) {
-        match limits {
-            [x, z] => {
-                let room = planar_room(self.settings(), x, z);
-                self.stop_within(&room);
-            }
-            _ => PlanarGenerator::stop(self),
-        }
+    fn stop(&mut self, [x, z]: &[AxisLimits; 2]) {
+        let room = planar_room(self.settings(), x, z);
+        self.stop_within(&room);
     }
     fn resume(&mut self) {
         PlanarGenerator::resume(self);
@@ -194,14 +189,9 @@ impl Source<3> for Generator3d {
         let room = spatial_room(&settings, x, y, z);
         self.reset_taking_over(settings, t, &Handover::<2>::of(move_, t), &room)
     }
-    fn stop(&mut self, limits: &[AxisLimits]) {
-        match limits {
-            [x, y, z] => {
-                let room = spatial_room(self.settings(), x, y, z);
-                self.stop_within(&room);
-            }
-            _ => Generator3d::stop(self),
-        }
+    fn stop(&mut self, [x, y, z]: &[AxisLimits; 3]) {
+        let room = spatial_room(self.settings(), x, y, z);
+        self.stop_within(&room);
     }
     fn resume(&mut self) {
         Generator3d::resume(self);
@@ -263,7 +253,7 @@ pub trait Planned<const A: usize> {
         Err(ManualError::Unsupported)
     }
     /// The generator, while manual mode runs.
-    fn manual_mut(&mut self) -> Option<&mut dyn ManualPath> {
+    fn manual_mut(&mut self) -> Option<&mut dyn ManualPath<A>> {
         None
     }
     /// Whether manual mode runs (the generator drives the model).
@@ -282,12 +272,12 @@ pub trait Planned<const A: usize> {
 }
 
 /// The generator as the controller drives it each cycle (object safe: the controller
-/// does not name the generator's type).
-pub trait ManualPath {
+/// does not name the generator's type), for a model of `A` outputs.
+pub trait ManualPath<const A: usize> {
     /// One cycle of the stick (see [`Source::advance`]).
     fn advance(&mut self, horizontal: [f64; 2], hoist: f64) -> Cycle;
     /// Latches the sway-free stop (see [`Source::stop`]).
-    fn stop(&mut self, limits: &[AxisLimits]);
+    fn stop(&mut self, limits: &[AxisLimits; A]);
     /// Lifts a latched stop.
     fn resume(&mut self);
     /// Whether the path rests this cycle.
@@ -300,24 +290,24 @@ pub trait ManualPath {
     fn time(&self) -> f64;
 }
 
-impl<G: Source<A>, const A: usize> ManualPath for (G, [(); A]) {
+impl<G: Source<A>, const A: usize> ManualPath<A> for G {
     fn advance(&mut self, horizontal: [f64; 2], hoist: f64) -> Cycle {
-        self.0.advance(horizontal, hoist)
+        Source::advance(self, horizontal, hoist)
     }
-    fn stop(&mut self, limits: &[AxisLimits]) {
-        self.0.stop(limits);
+    fn stop(&mut self, limits: &[AxisLimits; A]) {
+        Source::stop(self, limits);
     }
     fn resume(&mut self) {
-        self.0.resume();
+        Source::resume(self);
     }
     fn is_at_rest(&self) -> bool {
-        self.0.is_at_rest()
+        Source::is_at_rest(self)
     }
     fn is_stopping(&self) -> bool {
-        self.0.is_stopping()
+        Source::is_stopping(self)
     }
     fn time(&self) -> f64 {
-        self.0.time()
+        Source::time(self)
     }
 }
 
@@ -335,11 +325,10 @@ impl<const A: usize> Planned<A> for Plan<f64, A> {
 pub struct Steered<G: Source<A>, const A: usize> {
     plan: Plan<f64, A>,
     settings: G::Settings,
-    /// The generator (and a marker of the outputs' count): parked until manual mode is
-    /// first entered, then reset in place on each entry. Always here rather than an
+    /// The generator: parked until manual mode is first entered, then reset in place on each entry. Always here rather than an
     /// `Option` built on entry: a generator built by value and moved into place is one
     /// or two copies of it (3D: ~3 KB each) on the control task's stack.
-    generator: (G, [(); A]),
+    generator: G,
     /// Whether manual mode runs (the generator drives the model).
     manual: bool,
 }
@@ -350,7 +339,7 @@ impl<G: Source<A>, const A: usize> Steered<G, A> {
         Self {
             plan,
             settings,
-            generator: (G::parked(settings), [(); A]),
+            generator: G::parked(settings),
             manual: false,
         }
     }
@@ -374,7 +363,6 @@ impl<G: Source<A>, const A: usize> Planned<A> for Steered<G, A> {
         }
         let position = self.plan.final_position().into();
         self.generator
-            .0
             .reset(self.settings, t, position)
             .map_err(ManualError::Generator)?;
         self.manual = true;
@@ -385,7 +373,6 @@ impl<G: Source<A>, const A: usize> Planned<A> for Steered<G, A> {
             return Err(ManualError::Moving);
         };
         self.generator
-            .0
             .take_over(self.settings, t, &move_, limits)
             .map_err(ManualError::Generator)?;
         let [here]: [SVector<f64, A>; 1] = move_.derivatives(t);
@@ -398,7 +385,7 @@ impl<G: Source<A>, const A: usize> Planned<A> for Steered<G, A> {
         if !self.manual {
             return Ok(());
         }
-        let g = &self.generator.0;
+        let g = &self.generator;
         if !g.is_at_rest() {
             return Err(ManualError::Moving);
         }
@@ -408,9 +395,9 @@ impl<G: Source<A>, const A: usize> Planned<A> for Steered<G, A> {
         self.manual = false;
         Ok(())
     }
-    fn manual_mut(&mut self) -> Option<&mut dyn ManualPath> {
+    fn manual_mut(&mut self) -> Option<&mut dyn ManualPath<A>> {
         if self.manual {
-            Some(&mut self.generator as &mut dyn ManualPath)
+            Some(&mut self.generator as &mut dyn ManualPath<A>)
         } else {
             None
         }
@@ -422,7 +409,7 @@ impl<G: Source<A>, const A: usize> Planned<A> for Steered<G, A> {
         Some(G::deadband(&self.settings))
     }
     fn manual_moving(&self) -> bool {
-        self.manual && !self.generator.0.is_at_rest()
+        self.manual && !self.generator.is_at_rest()
     }
 }
 
@@ -433,21 +420,21 @@ where
 {
     fn derivatives<const D: usize>(&self, t: T) -> [SVector<T, A>; D] {
         if self.manual {
-            self.generator.0.derivatives(t)
+            self.generator.derivatives(t)
         } else {
             self.plan.derivatives(t)
         }
     }
     fn active_span(&self) -> (T, T) {
         if self.manual {
-            self.generator.0.active_span()
+            self.generator.active_span()
         } else {
             self.plan.active_span()
         }
     }
     fn smoothness(&self) -> usize {
         if self.manual {
-            Trajectory::<T, A>::smoothness(&self.generator.0)
+            Trajectory::<T, A>::smoothness(&self.generator)
         } else {
             Trajectory::<T, A>::smoothness(&self.plan)
         }
