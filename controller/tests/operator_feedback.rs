@@ -216,6 +216,34 @@ fn manual_mode_entered_at_rest_moves_nothing_until_the_stick_asks() {
     assert!(dx <= 0.05 && swing <= 0.1, "{dx} m, {swing}°");
 }
 
+/// Manual mode entered at rest, left unused (the operator's frames stop) and entered
+/// again: the second entry is no command either. The observer has run since the first
+/// entry, the correction stays held: every set point exactly 0.0 until the stick asks.
+#[test]
+fn manual_mode_left_unused_and_entered_again_moves_nothing() {
+    let plan = controller::crane::command_plan::<Planar, 2>(HOME, 4).unwrap();
+    let mut rig = Rig::on(plan, HOME, MISMATCHED, &[]);
+    rig.idle(200);
+    let stood = rig.bus.plant().unwrap().y[0];
+    let tremble = (0.04 * f64::from(FULL_SCALE)) as i16;
+    // Left and entered again within half a second: the observer is young, its
+    // correction would still act on the sensors' noise.
+    let mut cycles = rig.hold(12, [tremble, 0, 0]);
+    assert_eq!(rig.c.status().bytes()[3], MANUAL_MODE_CODE);
+    cycles.extend(rig.idle(25));
+    assert_ne!(rig.c.status().bytes()[3], MANUAL_MODE_CODE, "left at rest");
+    cycles.extend(rig.hold(300, [-tremble, 0, 0]));
+    assert_eq!(rig.c.status().bytes()[3], MANUAL_MODE_CODE, "entered again");
+    assert!(
+        cycles.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
+        "a set point other than 0.0 without a command"
+    );
+    let moved = (rig.bus.plant().unwrap().y[0] - stood).abs();
+    assert!(moved == 0.0, "the trolley moved {moved} m");
+    let (dx, swing) = travel_and_rest(&mut rig, HOME[1]);
+    assert!(dx <= 0.05 && swing <= 0.1, "{dx} m, {swing}°");
+}
+
 /// A reset at rest (the drives' positions taken again) restarts the observer and opens
 /// the loop, as at boot: after a move with the feedback on the noisy plant and its
 /// rest, the reset, and 5 s in which every set point is exactly 0.0 and the trolley

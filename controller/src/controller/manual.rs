@@ -22,12 +22,6 @@ pub(super) struct Manual {
     /// Cycles in a row the model's own set points were zero in drive units: manual mode
     /// is left only when the model rests, its history too.
     pub(super) model_still: u8,
-    /// Manual mode was entered at rest, starting the state feedback, and nothing was
-    /// commanded since: the feedback observes (its observer runs and learns the angle's
-    /// offset at rest) but its correction is not sent until the stick's first demand
-    /// moves the generator, or another command closes the loop (nothing moves without a
-    /// command; also after manual mode is left unused).
-    pub(super) feedback_held: bool,
 }
 
 impl Manual {
@@ -40,7 +34,6 @@ impl Manual {
             stop_held: false,
             handing_over: false,
             model_still: 0,
-            feedback_held: false,
         }
     }
 }
@@ -158,7 +151,7 @@ where
             // The stick's first demand since the entry at rest (past the generator's own
             // deadband) is the command: the feedback's correction is sent from this
             // cycle on, its observer started at the entry.
-            self.manual.feedback_held = false;
+            self.close_observed_loop();
         }
     }
 
@@ -201,7 +194,7 @@ where
                 // 4.3 mm within 0.3 s on the noisy plant) before its observer trusted
                 // the angle. (A loop closed before, by a move, goes on as it was: its
                 // correction at rest follows that command.)
-                self.manual.feedback_held = self.close_loop(true);
+                self.observe_at_rest();
             }
             return Some(entered.map_err(Refusal::of));
         }

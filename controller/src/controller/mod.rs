@@ -178,6 +178,22 @@ pub use crate::requests::{
     ANSWER_QUEUE, OVERLOAD_ANSWERS, REPEAT_WINDOW_MS, STATUS_PER_CYCLE, STOP_ANSWERS,
 };
 
+/// What the state feedback does with the drives' set points: no motion without a command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Loop {
+    /// Since the last boot, fault or reset nothing was commanded: the model's set points
+    /// go out as they are, whatever the load does, and the feedback does not run.
+    Open,
+    /// Manual mode was entered at rest and nothing was commanded since: the observer
+    /// runs (it learns the angle's offset at rest) and is told that the model's set
+    /// points went out, the correction is not sent. The stick's first demand that moves
+    /// the generator, or any other command, closes the loop; it stays so after manual
+    /// mode is left unused.
+    Observing,
+    /// A command was accepted: the corrected set points go out.
+    Closed,
+}
+
 /// The crane controller: a CANopen node, manager (or slave) of the drives of crane `K`
 /// (its `A` driven axes, [`Crane::DRIVES`]), with the inverse model `F` as feedforward
 /// and `C` between it and the
@@ -186,10 +202,9 @@ pub use crate::requests::{
 pub struct Controller<F, C, K, const A: usize> {
     feedforward: F,
     correction: C,
-    /// The loop is closed: a move was accepted since the last boot or fault. Before,
-    /// the controller holds zero set points whatever the load does (no motion without a
-    /// command).
-    closed_loop: bool,
+    /// What the state feedback does with the set points: open until a command, see
+    /// [`Loop`].
+    feedback_loop: Loop,
     /// The feedback mode last announced (EMCY 0xFF20 when it stops reading the angle).
     feedback_announced: Option<FeedbackMode>,
     config: Config,
@@ -269,7 +284,7 @@ where
         Self {
             feedforward,
             correction,
-            closed_loop: false,
+            feedback_loop: Loop::Open,
             feedback_announced: None,
             config,
             nmt: NmtSlave::new(Node {

@@ -200,27 +200,47 @@ where
     }
 
     /// A move was accepted (`at_rest`: the crane was at rest when it was): the feedback
-    /// acts from now on. If it had stopped reading the angle and the crane was at rest,
-    /// it starts again, its observer from the next good measurement (its degraded rule
-    /// takes it off again if the angle is still bad). Returns whether the observer was
-    /// started.
-    pub(super) fn close_loop(&mut self, at_rest: bool) -> bool {
-        // A command: whatever held the correction back no longer does.
-        self.manual.feedback_held = false;
-        if !C::ENABLED {
-            return false;
+    /// acts from now on ([`Loop::Closed`]). If it had stopped reading the angle and the
+    /// crane was at rest, it starts again, its observer from the next good measurement
+    /// (its degraded rule takes it off again if the angle is still bad).
+    pub(super) fn close_loop(&mut self, at_rest: bool) {
+        if C::ENABLED {
+            self.start_observer(at_rest);
+            self.feedback_loop = Loop::Closed;
         }
+    }
+
+    /// Manual mode entered at rest: the observer starts as [`Self::close_loop`] starts
+    /// it, but its correction is held ([`Loop::Observing`]) until a command. A loop
+    /// closed before by a move goes on as it was (its correction at rest follows that
+    /// command), unless its observer starts again.
+    pub(super) fn observe_at_rest(&mut self) {
+        if C::ENABLED && (self.start_observer(true) || self.feedback_loop == Loop::Observing) {
+            self.feedback_loop = Loop::Observing;
+        }
+    }
+
+    /// The stick's first demand since manual mode was entered at rest is the command:
+    /// the correction is sent from this cycle on.
+    pub(super) fn close_observed_loop(&mut self) {
+        if self.feedback_loop == Loop::Observing {
+            self.feedback_loop = Loop::Closed;
+        }
+    }
+
+    /// Starts the observer afresh if the loop is open, or if the feedback stopped
+    /// reading the angle and the crane is at rest. Returns whether it did.
+    fn start_observer(&mut self, at_rest: bool) -> bool {
         let degraded = self
             .correction
             .mode()
             .and_then(FeedbackMode::degraded)
             .is_some();
-        let starts = !self.closed_loop || (degraded && at_rest);
+        let starts = self.feedback_loop == Loop::Open || (degraded && at_rest);
         if starts {
             self.correction.restart();
             self.feedback_announced = None;
         }
-        self.closed_loop = true;
         starts
     }
 
@@ -287,7 +307,7 @@ where
         // Its observer starts afresh, so the loop waits for a command, as after boot: a
         // feedback acting at rest from a new observer moved the trolley on the sensors'
         // noise before it trusted the angle.
-        self.closed_loop = false;
+        self.feedback_loop = Loop::Open;
         // The range guard's latches are the old model's.
         self.range_latches = [range::Latches::default(); A];
         // The model restarted (a reset, or the positions read again): centred frames

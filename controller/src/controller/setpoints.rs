@@ -122,7 +122,7 @@ where
         step: &FeedforwardStep<A>,
         positions: &[Option<Position>; A],
     ) -> ([f64; A], Option<K::Reference>) {
-        if !C::ENABLED || !self.closed_loop || self.mode != Mode::Ready {
+        if !C::ENABLED || self.feedback_loop == Loop::Open || self.mode != Mode::Ready {
             return (step.u, None);
         }
         let reference = self.feedforward.reference();
@@ -131,9 +131,8 @@ where
         let (corrected, mode) =
             self.correction
                 .correct(&reference, step.u, measured, last, &self.planner.limits());
-        let u = if self.manual.feedback_held {
-            // Observing only (manual mode entered at rest, nothing commanded yet): the
-            // observer learns that no correction was sent.
+        let u = if self.feedback_loop == Loop::Observing {
+            // Nothing commanded yet: the observer learns that no correction was sent.
             self.correction.sent(step.u, step.u);
             step.u
         } else {

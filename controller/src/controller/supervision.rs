@@ -202,7 +202,7 @@ where
             }
             return;
         }
-        self.closed_loop = false;
+        self.feedback_loop = Loop::Open;
         // After the fault the stick has to be centred before it moves the crane again.
         self.manual.deadman.interlock();
         // The plan is given up: an accepted move that has not begun will not run.
