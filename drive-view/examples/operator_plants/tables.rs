@@ -3,22 +3,26 @@
 
 use crate::study::{Measured, Outcome};
 
-/// The median of `v` (sorted in place); NaN for none.
-fn median(v: &mut [f64]) -> f64 {
+/// The median and the largest of `v` (sorted in place); `None` for none.
+fn median_max(v: &mut [f64]) -> Option<(f64, f64)> {
     v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => f64::NAN,
+    let n = v.len();
+    let median = match n {
+        0 => return None,
         n if n % 2 == 1 => v[n / 2],
         n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
+    };
+    Some((median, v[n - 1]))
 }
 
-/// "median / worst" of what `f` takes from the measured outcomes, scaled.
+/// "median / worst" of what `f` takes from the measured outcomes, scaled; "—" where no
+/// run was measured (every run faulted): no number where the study produced none.
 fn median_worst(m: &[Measured], f: impl Fn(&Measured) -> f64, scale: f64, digits: usize) -> String {
     let mut v: Vec<f64> = m.iter().map(|m| f(m) * scale).collect();
-    let worst = v.iter().copied().fold(f64::NAN, f64::max);
-    let med = median(&mut v);
-    format!("{med:.digits$} / {worst:.digits$}")
+    match median_max(&mut v) {
+        Some((med, worst)) => format!("{med:.digits$} / {worst:.digits$}"),
+        None => "—".to_string(),
+    }
 }
 
 /// The table's header.
