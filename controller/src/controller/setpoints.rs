@@ -110,13 +110,13 @@ where
     }
 
     /// This cycle's set points before the gate: the inverse model's `u_d`, corrected by
-    /// the feedback while the loop is closed (Fig. 1) and its correction not held
-    /// (`Manual::feedback_held`: it observes, and `u_d` is sent). A change of the feedback's mode
-    /// is announced: the angle no longer used (the swing estimated from the positions,
-    /// or feedforward only) by EMCY 0xFF20 with the reason (a warning: the move goes
-    /// on), back to closed loop by nothing. Also the model's reference when the feedback
-    /// ran (`None`: it did not; when it did, it is told what the drives were sent after
-    /// the range guard, and the guard reads the model's drives from this reference).
+    /// the feedback while the loop is closed (Fig. 1); `u_d` while it only observes
+    /// ([`Loop::Observing`]). A change of the feedback's mode is announced: the angle no
+    /// longer used (the swing estimated from the positions, or feedforward only) by
+    /// EMCY 0xFF20 with the reason (a warning: the move goes on), back to closed loop by
+    /// nothing. Also the model's reference when the feedback ran (`None`: it did not;
+    /// when it did, it is told what the drives were sent after the range guard, and the
+    /// guard reads the model's drives from this reference).
     pub(super) fn corrected(
         &mut self,
         step: &FeedforwardStep<A>,

@@ -325,9 +325,10 @@ impl<const A: usize> Planned<A> for Plan<f64, A> {
 pub struct Steered<G: Source<A>, const A: usize> {
     plan: Plan<f64, A>,
     settings: G::Settings,
-    /// The generator: parked until manual mode is first entered, then reset in place on each entry. Always here rather than an
-    /// `Option` built on entry: a generator built by value and moved into place is one
-    /// or two copies of it (3D: ~3 KB each) on the control task's stack.
+    /// The generator: parked until manual mode is first entered, then reset in place on
+    /// each entry. Always here rather than an `Option` built on entry: a generator built
+    /// by value and moved into place is one or two copies of it (3D: ~3 KB each) on the
+    /// control task's stack.
     generator: G,
     /// Whether manual mode runs (the generator drives the model).
     manual: bool,
