@@ -18,7 +18,9 @@ use controller::Mode;
 use host_tests::firmware::{controller_reference, ReferenceCycle};
 use scene::commissioning::CommissioningFile;
 use scene::Scene;
-use sim::scenario::{Action, Event, MANUAL_HANDOVER_REFUSED, MANUAL_TAKEOVER_3D};
+use sim::scenario::{
+    Action, Event, MANUAL_HANDOVER_REFUSED, MANUAL_TAKEOVER_3D, MANUAL_TAKEOVER_STOP_3D,
+};
 use sim::{
     Scenario, MANUAL_DEADMAN, MANUAL_PROFILE, MANUAL_PROFILE_3D, MANUAL_TAKEOVER, STICK_PERIOD_MS,
 };
@@ -334,6 +336,63 @@ fn the_operator_takes_over_the_3d_scene_s_move() {
     assert!(bridge > 1.0, "the bridge {bridge:.3} m farther forward");
     assert!(trolley < -1.0, "the trolley {trolley:.3} m farther back");
     left_at_rest(&run);
+}
+
+/// A stop request 100 ms after the 3D take-over (`MANUAL_TAKEOVER_STOP_3D`, the QEMU
+/// scenario of that cycle): taken over at once at 5 s; the stop answered once
+/// (accepted) in the cycle that reads it; the hand-over's stop, planned again from
+/// where it is, ends the bridge and the trolley nearer than the same take-over with its
+/// own stop alone (the stick centred again 30 ms after the deflection, no stop
+/// request): by more than 0.1 m each, and sooner; the stick, still deflected after the
+/// stop, moves nothing (every set point 0.0 from the stop's rest to the end); manual
+/// mode left at rest.
+#[test]
+fn a_stop_after_the_3d_take_over_shortens_the_hand_over_s_stop() {
+    let scene = "crane3d/crane3d-manual.toml";
+    let run = taken_over_at_once(scene, &MANUAL_TAKEOVER_STOP_3D, 5_000);
+    let answers: Vec<(u32, [u8; 8])> = run
+        .iter()
+        .flat_map(|c| {
+            c.frames
+                .iter()
+                .filter(|f| f.id() == STATUS_ID && f.data()[0] == 1 && f.data()[1] != 0)
+                .map(move |f| (c.now_ms, f.data().try_into().unwrap()))
+        })
+        .collect();
+    assert!(!answers.is_empty(), "the stop answered");
+    assert!(
+        answers.iter().all(|(_, a)| a[1] == 1),
+        "accepted: {answers:?}"
+    );
+    assert!(
+        (5_100..5_110).contains(&answers[0].0),
+        "answered at {} ms",
+        answers[0].0
+    );
+    let alone = self::run(scene, &pulsed(&MANUAL_TAKEOVER_3D));
+    let (bridge, trolley) = (
+        travel(&alone, 0) - travel(&run, 0),
+        travel(&alone, 1) - travel(&run, 1),
+    );
+    let rest = rests_from(&run, 5_100, 9_000).expect("at rest before the release");
+    let rest_alone = rests_from(&alone, 5_100, 15_000).expect("the stop alone rests");
+    println!(
+        "stop during the hand-over's stop: the bridge {bridge:.3} m and the trolley \
+         {trolley:.3} m nearer, at rest at {rest} ms (its stop alone: {rest_alone} ms)"
+    );
+    assert!(
+        bridge > 0.1 && trolley > 0.1,
+        "{bridge:.3} / {trolley:.3} m"
+    );
+    assert!(
+        rest < rest_alone,
+        "at rest at {rest} ms, alone at {rest_alone} ms"
+    );
+    // The stick held after the stop and released at 9 s: nothing moves again.
+    assert!(!moving(&run, rest, u32::MAX), "moved after the stop's rest");
+    let last = *modes(&run).last().unwrap();
+    assert_eq!(last.1, 1, "manual mode left at rest ({last:?})");
+    assert_eq!(run.last().unwrap().mode, Mode::Ready);
 }
 
 /// The hand-over refused on the planar scene (`MANUAL_HANDOVER_REFUSED`): the stick

@@ -525,6 +525,26 @@ pub const MANUAL_TAKEOVER_3D: Scenario = Scenario {
     ..MANUAL_TAKEOVER
 };
 
+/// [`MANUAL_TAKEOVER_3D`] with a stop request (0x210) 100 ms after the take-over, while
+/// the move's own stop (the hand-over's) still runs: the operator's stop is latched and
+/// the hand-over's stop is planned again from where it is, shorter, within the same room
+/// (`Generator::stop_within`); the stick, still deflected, moves nothing until centred;
+/// released at 9 s, the request withdrawn at rest at 15 s (manual mode left). The
+/// cycle that re-plans the stop is the one QEMU measures here.
+pub const MANUAL_TAKEOVER_STOP_3D: Scenario = Scenario {
+    name: "manual-takeover-stop-3d",
+    expect: "ready (mode 1): the move taken over at 5 s (EMCY 0xFF22, detail 0), stopped at \
+             5.1 s (the hand-over's stop shortened), released, left at rest",
+    events: &[
+        at(3_000, stick([0, 0, 0])),
+        at(5_000, stick([HALF, -HALF, 0])),
+        at(5_100, Action::Request(Request::Stop { id: 1 })),
+        at(9_000, stick([0, 0, 0])),
+        at(15_000, AUTOMATIC),
+    ],
+    ..MANUAL_TAKEOVER
+};
+
 /// A hand-over refused: after the scene's move (at rest at (20, 4) from 9 s) a move back
 /// and down to (15, 5) as fast as the limits allow (from 9.55 s; its trolley's set point
 /// rising at up to 2.47 m/s² before 10.3 s, more than the 2.1 m/s² its drive leaves a
@@ -566,8 +586,12 @@ pub const MANUAL_SCENARIOS: [Scenario; 4] = [
 
 /// The scenarios of the 3D crane's scene with manual mode
 /// (`scenes/crane3d/crane3d-manual.toml`).
-pub const MANUAL_3D_SCENARIOS: [Scenario; 3] =
-    [MANUAL_PROFILE_3D, MANUAL_DEADMAN, MANUAL_TAKEOVER_3D];
+pub const MANUAL_3D_SCENARIOS: [Scenario; 4] = [
+    MANUAL_PROFILE_3D,
+    MANUAL_DEADMAN,
+    MANUAL_TAKEOVER_3D,
+    MANUAL_TAKEOVER_STOP_3D,
+];
 
 /// Every scenario, by name.
 pub const SCENARIOS: [Scenario; 11] = [
