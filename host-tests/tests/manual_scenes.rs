@@ -339,8 +339,8 @@ fn the_operator_takes_over_the_3d_scene_s_move() {
 }
 
 /// A stop request 100 ms after the 3D take-over (`MANUAL_TAKEOVER_STOP_3D`, the QEMU
-/// scenario of that cycle): taken over at once at 5 s; the stop answered once
-/// (accepted) in the cycle that reads it; the hand-over's stop, planned again from
+/// scenario of that cycle): taken over at once at 5 s; the stop answered (accepted) in
+/// the cycle that reads it, and every status after it with that answer; the hand-over's stop, planned again from
 /// where it is, ends the bridge and the trolley nearer than the same take-over with its
 /// own stop alone (the stick centred again 30 ms after the deflection, no stop
 /// request): by more than 0.1 m each, and sooner; the stick, still deflected after the

@@ -529,8 +529,9 @@ pub const MANUAL_TAKEOVER_3D: Scenario = Scenario {
 /// the move's own stop (the hand-over's) still runs: the operator's stop is latched and
 /// the hand-over's stop is planned again from where it is, shorter, within the same room
 /// (`Generator::stop_within`); the stick, still deflected, moves nothing until centred;
-/// released at 9 s, the request withdrawn at rest at 15 s (manual mode left). The
-/// cycle that re-plans the stop is the one QEMU measures here.
+/// released at 9 s, the request withdrawn at rest at 15 s (manual mode left). The only
+/// QEMU run whose cycles include a re-planned hand-over's stop (its cost: `cargo xtask
+/// decode` of the run's log; the baseline holds the run's largest step, the take-over's).
 pub const MANUAL_TAKEOVER_STOP_3D: Scenario = Scenario {
     name: "manual-takeover-stop-3d",
     expect: "ready (mode 1): the move taken over at 5 s (EMCY 0xFF22, detail 0), stopped at \

@@ -187,8 +187,9 @@ enum Loop {
     /// Manual mode was entered at rest and nothing was commanded since: the observer
     /// runs (it learns the angle's offset at rest) and is told that the model's set
     /// points went out, the correction is not sent. The stick's first demand that moves
-    /// the generator, or any other command, closes the loop; it stays so after manual
-    /// mode is left unused.
+    /// the generator, an accepted move or a take-over closes the loop (a stop request
+    /// moves nothing and leaves it so; a fault or a reset opens it); it stays so after
+    /// manual mode is left unused, and a second entry at rest keeps it so.
     Observing,
     /// A command was accepted: the corrected set points go out.
     Closed,
