@@ -202,15 +202,21 @@ fn manual_mode_entered_at_rest_moves_nothing_until_the_stick_asks() {
     assert_eq!(rig.c.status().bytes()[3], MANUAL_MODE_CODE);
     cycles.extend(rig.hold(150, [tremble, 0, 0]));
     cycles.extend(rig.hold(200, [-tremble, 0, 0]));
+    nothing_moved_until_the_stick_asks(&mut rig, &cycles, stood);
+}
+
+/// Every set point of `cycles` exactly 0.0 and the plant's trolley where it `stood`;
+/// then the stick's travel: the feedback acts, the load ends within ±50 mm and 0.1°.
+fn nothing_moved_until_the_stick_asks(rig: &mut Rig, cycles: &[Cycle], stood: f64) {
     assert!(
         cycles.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
         "a set point other than 0.0 without a command"
     );
     let moved = (rig.bus.plant().unwrap().y[0] - stood).abs();
     assert!(moved == 0.0, "the trolley moved {moved} m");
-    let (dx, swing) = travel_and_rest(&mut rig, HOME[1]);
+    let (dx, swing) = travel_and_rest(rig, HOME[1]);
     println!(
-        "after the entry at rest: load within {:.1} mm, swing below {swing:.3}°",
+        "then the stick's travel: load within {:.1} mm, swing below {swing:.3}°",
         dx * 1000.0
     );
     assert!(dx <= 0.05 && swing <= 0.1, "{dx} m, {swing}°");
@@ -234,14 +240,7 @@ fn manual_mode_left_unused_and_entered_again_moves_nothing() {
     assert_ne!(rig.c.status().bytes()[3], MANUAL_MODE_CODE, "left at rest");
     cycles.extend(rig.hold(300, [-tremble, 0, 0]));
     assert_eq!(rig.c.status().bytes()[3], MANUAL_MODE_CODE, "entered again");
-    assert!(
-        cycles.iter().all(|c| c.setpoints == [Setpoint::ZERO; 2]),
-        "a set point other than 0.0 without a command"
-    );
-    let moved = (rig.bus.plant().unwrap().y[0] - stood).abs();
-    assert!(moved == 0.0, "the trolley moved {moved} m");
-    let (dx, swing) = travel_and_rest(&mut rig, HOME[1]);
-    assert!(dx <= 0.05 && swing <= 0.1, "{dx} m, {swing}°");
+    nothing_moved_until_the_stick_asks(&mut rig, &cycles, stood);
 }
 
 /// A reset at rest (the drives' positions taken again) restarts the observer and opens
