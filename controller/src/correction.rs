@@ -52,6 +52,11 @@ pub trait AxesCorrection<const A: usize, R> {
     fn sent(&mut self, u_d: [f64; A], u: [f64; A]);
     /// Back to closed loop, the observer to start from the next good measurement.
     fn restart(&mut self);
+    /// The loop is closed at rest on a command that may move the hoist alone (manual
+    /// mode's first demand after an entry at rest): the travel's correction is let go
+    /// unless the estimate already shows a swing or a displacement beyond the rest's
+    /// hold thresholds ([`crate::feedback::StateFeedback::let_go_at_rest`]).
+    fn let_go_at_rest(&mut self) {}
     /// What it is doing (`None`: there is no feedback).
     fn mode(&self) -> Option<Mode>;
     /// The rope calibration learnt from the swing (`None`: no inclinometer).
@@ -92,6 +97,9 @@ impl<C: Correction> AxesCorrection<2, Reference> for C {
     }
     fn restart(&mut self) {
         Correction::restart(self);
+    }
+    fn let_go_at_rest(&mut self) {
+        Correction::let_go_at_rest(self);
     }
     fn mode(&self) -> Option<Mode> {
         Correction::mode(self)

@@ -178,6 +178,10 @@ impl AxesCorrection<3, [Reference; 2]> for SpatialFeedback {
         Correction::restart(&mut self.xz);
         Correction::restart(&mut self.yz);
     }
+    fn let_go_at_rest(&mut self) {
+        self.xz.let_go_at_rest();
+        self.yz.let_go_at_rest();
+    }
     fn mode(&self) -> Option<Mode> {
         Some(worse(self.xz.mode(), self.yz.mode()))
     }

@@ -45,7 +45,7 @@
 //! observer starts at rest, a move being accepted at rest): a reading cannot yet be
 //! told apart from a swing, and the swing is taken in as the load's acceleration
 //! confirms it — within about 1.5 s ([`CORNER`]). Until the offset is fixed at rest,
-//! the feedback acts on the observer's estimate less its response to the offset shown
+//! the feedback's estimate is the observer's less its response to the offset shown
 //! ([`Zero::shown`]; `crate::feedback`): so a wrong angle at the start cannot push the
 //! trolley — what the feedback may act on is bounded by what the load's own motion
 //! has shown. The estimate's own error (its noise, the filtering of products, the

@@ -3,10 +3,11 @@
 //! the planar crane and the 3D crane with its feedback per vertical plane, at several
 //! rope lengths, travelling with the hoist still and while hoisting. Each case: the hoist
 //! brought to the rope length with its lever, full stick for 4 s (the 3D crane: bridge
-//! and trolley at once, a diagonal), the release; from the cycle every set point is
-//! exactly 0.0 on, over one period of the plant's pendulum, the plant's load's largest
-//! distance from where it rests and its largest swing. The targets: ±50 mm and
-//! 0.1° within one swing period of rest.
+//! and trolley at once, a diagonal) started 2, 2.5 or 3 s after the hoist rests, the
+//! release; from the cycle every set point is exactly 0.0 on, over one period of the
+//! plant's pendulum, the plant's load's largest distance from where it rests and its
+//! largest swing, the worst of the three starts. The targets: ±50 mm and 0.1°
+//! within one swing period of rest.
 //!
 //! The plant is `drive_view::engine::PLANT` (`sim::MISMATCHED`'s drive lags, friction and
 //! noisy quantised sensors, the pendulum about 10 % longer than the model's rope).
@@ -59,10 +60,11 @@ struct Case {
     pendulum: f64,
 }
 
-/// Manual mode entered, the hoist driven to about `rope` m, then full stick along
-/// `axes` for 4 s (with the hoist lowering at half stick if `hoisting`), released, and
-/// the load judged over the plant's pendulum period after the set points rest.
-fn case(scene: &str, rope: f64, axes: &[Axis], hoisting: bool) -> Case {
+/// Manual mode entered, the hoist driven to about `rope` m, `wait` s after its set
+/// points rest full stick along `axes` for 4 s (with the hoist lowering at half stick if
+/// `hoisting`), released, and the load judged over the plant's pendulum period after
+/// the set points rest.
+fn case(scene: &str, rope: f64, axes: &[Axis], hoisting: bool, wait: f64) -> Case {
     let (mut e, mut s) = engine(scene);
     run(&mut e, &mut s, 3.0);
     s.apply(Action::ToggleManual);
@@ -80,7 +82,7 @@ fn case(scene: &str, rope: f64, axes: &[Axis], hoisting: bool) -> Case {
     }
     s.apply(Action::Centre);
     until_rest(&mut e, &mut s, 20.0);
-    run(&mut e, &mut s, 2.0);
+    run(&mut e, &mut s, wait);
     // The travel.
     for axis in axes {
         for _ in 0..NOTCHES {
@@ -122,6 +124,10 @@ fn case(scene: &str, rope: f64, axes: &[Axis], hoisting: bool) -> Case {
     }
 }
 
+/// The rest before the travel, s, after the hoist's set points rest: each row of
+/// [`table`] is the worst over these.
+const START_WAITS: [f64; 3] = [2.0, 2.5, 3.0];
+
 fn table(crane: &str, scene: &str, axes: &[Axis]) {
     let mut worst = (0.0_f64, 0.0_f64);
     let mut rows = String::from(
@@ -130,7 +136,18 @@ fn table(crane: &str, scene: &str, axes: &[Axis]) {
     );
     for rope in [3.5, 5.0, 6.5, 8.0] {
         for hoisting in [false, true] {
-            let c = case(scene, rope, axes, hoisting);
+            // The worst of three start instants: one run's result depends on where in
+            // the sensors' noise and the load's residual motion the travel starts (on
+            // 4a7f83f, starting 0.5 s later moved single rows from 3.8 to 14.1 mm).
+            let c = START_WAITS
+                .iter()
+                .map(|&wait| case(scene, rope, axes, hoisting, wait))
+                .reduce(|a, b| Case {
+                    within: a.within.max(b.within),
+                    swing: a.swing.max(b.swing),
+                    ..a
+                })
+                .unwrap();
             rows += &format!(
                 "| {crane} | {:.2} | {} | {:.2} | {:.1} | {:.3} |\n",
                 c.rope,
@@ -219,6 +236,45 @@ fn once_let_go_after_a_jog_nothing_moves_again_without_a_command() {
             assert!(
                 after.iter().all(|c| c.setpoints == [0.0; 3]),
                 "{scene}, jog {jog} s: a set point other than 0.0 after the feedback let go"
+            );
+        }
+    }
+}
+
+/// Manual mode entered at rest and only the hoist's lever at full for 3 s, lowering and
+/// raising, on the plant's noisy, quantised sensors: bridge and trolley have no path and
+/// are judged at rest — let go when the hoist's lever closes the loop, and the load
+/// within the hold thresholds while the hoist moves —, so
+/// every bridge and trolley set point is exactly 0.0 and those drives of the plant stay
+/// where they stood, until 5 s after the hoist rests, on both cranes. Acting on the
+/// young observer's estimate, the travel's feedback moved the trolley on the angle's
+/// noise (7.0 mm at up to 0.139 m/s on `operator_feedback`'s plant, 4a7f83f).
+#[test]
+fn the_hoist_alone_moves_no_travel_drive_on_either_crane() {
+    for scene in [
+        "paper-crane-manual-feedback.toml",
+        "crane3d/crane3d-manual-feedback.toml",
+    ] {
+        for step in [1, -1] {
+            let (mut e, mut s) = engine(scene);
+            run(&mut e, &mut s, 3.0);
+            s.apply(Action::ToggleManual);
+            let stood = run(&mut e, &mut s, 0.3).last().unwrap().plant.drives;
+            for _ in 0..NOTCHES {
+                s.apply(Action::Notch(Axis::Z, step));
+            }
+            let mut cycles = run(&mut e, &mut s, 3.0);
+            s.apply(Action::Centre);
+            cycles.extend(run(&mut e, &mut s, 5.0));
+            let hoisted = (cycles.last().unwrap().plant.drives[2] - stood[2]).abs();
+            assert!(hoisted > 0.5, "{scene}: the hoist moved {hoisted} m");
+            assert!(
+                cycles.iter().all(|c| c.setpoints[..2] == [0.0; 2]),
+                "{scene}, {step}: a travel set point other than 0.0"
+            );
+            assert!(
+                cycles.iter().all(|c| c.plant.drives[..2] == stood[..2]),
+                "{scene}, {step}: a travel drive moved"
             );
         }
     }

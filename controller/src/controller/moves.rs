@@ -221,10 +221,13 @@ where
     }
 
     /// The stick's first demand since manual mode was entered at rest is the command:
-    /// the correction is sent from this cycle on.
+    /// the correction is sent from this cycle on, the trolley let go while the estimate
+    /// shows nothing to hold it for (the demand may move the hoist alone:
+    /// [`AxesCorrection::let_go_at_rest`]).
     pub(super) fn close_observed_loop(&mut self) {
         if self.feedback_loop == Loop::Observing {
             self.feedback_loop = Loop::Closed;
+            self.correction.let_go_at_rest();
         }
     }
 

@@ -195,9 +195,11 @@ pub struct Config {
     /// last changed, m/s: a reading that does not move cannot make the feedback push
     /// harder, so a stuck angle can do little before it is caught.
     pub held_allowance: f64,
-    /// At rest (the reference still), the feedback lets go — set points exactly the
-    /// inverse model's, zero — once the estimated load is within this of its reference
-    /// horizontally and in rope length, m, …
+    /// At rest (the reference still; the travel's part of it for the trolley, which is
+    /// let go while only the hoist moves too), the feedback lets go — set points exactly
+    /// the inverse model's, zero — once the estimated load is within this of its
+    /// reference horizontally (the trolley) and in rope length (the hoist, standing
+    /// still), m, …
     pub rest_position: f64,
     /// … and the estimated swing amplitude is below this, rad (both for a quarter
     /// period). It takes hold again when either is exceeded [`Config::rest_hysteresis`]
@@ -491,7 +493,7 @@ pub struct GainPoint {
     /// Observer gain of the inclinometer's filter and delay line (measured `x`, `φ`):
     /// designed with [`Self::obs`] as one Kalman filter (issue 33).
     pub obs_sensor: SensorGain,
-    /// At rest (the reference still, the angle trusted), [`Self::obs`] and
+    /// With the travel at rest (the hoist may move) and the angle trusted, [`Self::obs`] and
     /// [`Self::obs_sensor`] designed for the angle's noise at rest
     /// ([`Weights::rest_angle_noise`]): a swing to damp, no path to follow, so the
     /// reading's noise need not be followed as closely.

@@ -68,7 +68,7 @@
 //!   angle read and the angle the load's measured acceleration requires: a DC
 //!   component the pendulum cannot make. The feedback never acts on it. At the start a
 //!   reading cannot yet be told from an offset, so the observer runs on the reading as
-//!   it is and the feedback acts on its estimate less the observer's response to the
+//!   it is and the feedback's estimate is the observer's less its response to the
 //!   offset shown so far (superposition): all of the first reading at first, then
 //!   only what the load's motion has not confirmed as a swing.
 //!   Once the estimate is steady at rest the angle is trusted: the offset is fixed and
@@ -83,7 +83,7 @@
 //!   read; not during a move, which the angle, its offset taken out, finishes better
 //!   than the positions alone (a gust after a fall-back mid-move is left to
 //!   feedforward).
-//! * **At rest.** With the reference still the trolley's gains are the rest's
+//! * **At rest.** With the whole reference still the trolley's gains are the rest's
 //!   ([`GainPoint::k_rest`]): no path is left to follow, only the swing to damp, so
 //!   their weights add the load's velocity over the rail — the swing the load keeps
 //!   when the trolley stops, which the rest hold judges — and the slowest mode of the
@@ -97,6 +97,26 @@
 //!   at rest is designed for a noisier angle ([`Weights::rest_angle_noise`],
 //!   [`GainPoint::obs_rest`]): with the move's, the trolley hunted on a 0.05° noise
 //!   at up to 190 mm/s after the move (issue 33).
+//! * **The travel at rest while the hoist moves.** The trolley's rest is judged on the
+//!   travel's part of the reference ([`Still`]) and on the load's horizontal place:
+//!   while only the hoist moves the trolley has no path, only a swing to damp, as at
+//!   rest — it is let go and held again by the same rule (the gains stay the move's,
+//!   the observer is the rest's once the angle is trusted). The hoist is let go with
+//!   it once it stands still with the rope within [`Config::rest_position`] (a
+//!   hoist-only move's lag is made up first). Judged on the whole crane, a hoist-only
+//!   demand kept the trolley acting on the angle's noise: up to 3.5 mm at 0.076 m/s
+//!   with the angle trusted (`a_hoist_only_demand_leaves_the_trolley_where_it_stands`,
+//!   operator_feedback, on 4a7f83f).
+//! * **Let go before the trust.** Before the angle is trusted the estimate cannot yet
+//!   tell the reading's noise from a swing. When the loop is closed at rest by a
+//!   command that may move the hoist alone (manual mode's first demand,
+//!   [`StateFeedback::let_go_at_rest`]), and when the hoist starts to move alone, the
+//!   trolley is let go unless the estimate already shows a swing or a displacement
+//!   beyond the hold thresholds ([`Config::rest_hysteresis`]), and held again as a
+//!   let-go crane is — a swing there as the load's motion confirms it. Acting from
+//!   the loop's closing on the young estimate, the angle's noise moved the trolley by
+//!   up to 7.0 mm at 0.139 m/s while the operator only hoisted right after entering
+//!   manual mode (the same test, on 4a7f83f).
 //! * **Degraded mode.** [`degraded_rule`]: the angle missing or implausible for more
 //!   than [`Config::max_bad_angle_cycles`] cycles, stuck, or offset →
 //!   [`Mode::SwingEstimated`]: the angle is no longer read, the swing is estimated from the trolley's measured
@@ -352,13 +372,33 @@ pub fn clamp_to_limits(u: f64, last: f64, limits: AxisLimits, h: f64) -> f64 {
     u.max(lo).min(hi)
 }
 
-/// Whether the reference stands still: the inverse model's set points and rates zero.
-fn still(reference: &Reference, u_d: [f64; 2]) -> bool {
-    const STILL: f64 = 1e-6;
-    u_d.iter().all(|u| u.abs() < STILL)
-        && reference.vx.abs() < STILL
-        && reference.vl.abs() < STILL
-        && reference.vphi.abs() < STILL
+/// Below this a reference's speed or set point, m/s or rad/s, is still.
+const STILL: f64 = 1e-6;
+
+/// Which parts of the reference stand still this cycle: set points and rates below
+/// [`STILL`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Still {
+    /// The trolley's part — its set point `u_d1`, its speed and the swing's rate —
+    /// whatever the winch does: while only the hoist moves the trolley has no path to
+    /// follow, only a swing to damp, as at rest.
+    travel: bool,
+    /// The winch's: its set point `u_d2` and the rope's rate.
+    hoist: bool,
+}
+
+impl Still {
+    fn of(reference: &Reference, [ud1, ud2]: [f64; 2]) -> Self {
+        Self {
+            travel: ud1.abs() < STILL && reference.vx.abs() < STILL && reference.vphi.abs() < STILL,
+            hoist: ud2.abs() < STILL && reference.vl.abs() < STILL,
+        }
+    }
+
+    /// The whole reference stands still: the crane is at rest.
+    fn all(self) -> bool {
+        self.travel && self.hoist
+    }
 }
 
 /// The output of one cycle.
@@ -371,7 +411,9 @@ pub struct Output {
     pub correction: [f64; 2],
     /// The mode after this cycle.
     pub mode: Mode,
-    /// The feedback has let go of a crane at rest on its target ([`Config::rest_position`]).
+    /// The feedback has let go of a crane at rest on its target ([`Config::rest_position`]):
+    /// the whole crane, trolley and hoist (the trolley alone may be let go while only
+    /// the hoist moves, [`StateFeedback::settle`]).
     pub resting: bool,
     /// The swing's amplitude as the rest hold judges it, rad (nought while the
     /// reference moves): see [`Config::rest_swing`].
@@ -382,8 +424,9 @@ pub struct Output {
     /// reads the angle less the part of it judged when the angle was trusted.
     pub offset: f64,
     /// The angle is trusted: the zero's estimate has settled and is steady, and the
-    /// offset it showed then is taken out of every reading. Until then the feedback
-    /// acts on the observer's estimate less the offset shown so far.
+    /// offset it showed then is taken out of every reading. Until then the feedback's
+    /// estimate is the observer's less the offset shown so far. Not set by an angle
+    /// that fails before it was trusted.
     pub trusted: bool,
 }
 
@@ -443,9 +486,21 @@ struct Swing {
     within: u32,
     /// Cycles the reference has been still.
     cycles: u32,
+    /// The load's horizontal distance from its reference judged this cycle, m.
+    load: f64,
+    /// Last cycle only the hoist moved (the travel still).
+    hoist_alone: bool,
+    /// Cycles in a row the hoist has stood still with the rope within
+    /// [`Config::rest_position`] of its reference.
+    rope_within: u32,
 }
 
 impl Swing {
+    /// Within the hold thresholds: a let-go crane would not be held again.
+    fn holds_nothing(&self, load: f64, position: f64, swing: f64) -> bool {
+        load <= position && self.amplitude <= swing
+    }
+
     const NEW: Self = Self {
         angle: 0.0,
         rate: 0.0,
@@ -453,6 +508,9 @@ impl Swing {
         energy: 0.0,
         within: 0,
         cycles: 0,
+        load: 0.0,
+        hoist_alone: false,
+        rope_within: 0,
     };
 }
 
@@ -492,8 +550,11 @@ pub struct StateFeedback {
     mode: Mode,
     bad_angle_cycles: u32,
     held: Held,
-    /// Let go at rest (see [`Config::rest_position`]).
+    /// The trolley let go with the travel at rest, the hoist moving or not (see
+    /// [`Config::rest_position`], [`StateFeedback::settle`]).
     resting: bool,
+    /// … and the hoist let go too, the whole crane at rest.
+    hoist_resting: bool,
     /// The swing judged at rest (see [`StateFeedback::settle`]).
     swing: Swing,
     /// The rope's length learnt from the swing, for the commissioning step (kept
@@ -509,6 +570,9 @@ pub struct StateFeedback {
     /// estimate by superposition: as far as it is known yet for the feedback
     /// ([`Self::estimate`]), and for good when it is trusted ([`Self::trust`]).
     unit: Option<Unit>,
+    /// The angle has been trusted since the observer started ([`Self::trust`]); not
+    /// `unit.is_none()`, which an angle failing before the trust sets too.
+    trusted: bool,
 }
 
 impl StateFeedback {
@@ -537,10 +601,12 @@ impl StateFeedback {
             bad_angle_cycles: 0,
             held: Held::NEW,
             resting: false,
+            hoist_resting: false,
             swing: Swing::NEW,
             rope: RopeLength::new(cfg.g, cfg.h, cfg.inclinometer),
             zero: Zero::new(cfg.g, cfg.h, cfg.zero_thresholds()),
             unit: None,
+            trusted: false,
         }
     }
 
@@ -579,10 +645,12 @@ impl StateFeedback {
             bad_angle_cycles,
             held,
             resting,
+            hoist_resting,
             swing,
             rope: _,
             zero,
             unit,
+            trusted,
         } = self;
         *e = Observed::zeros();
         *sensor = SensorStates::zeros();
@@ -595,9 +663,11 @@ impl StateFeedback {
         *bad_angle_cycles = 0;
         *held = Held::NEW;
         *resting = false;
+        *hoist_resting = false;
         *swing = Swing::NEW;
         *zero = Zero::new(cfg.g, cfg.h, cfg.zero_thresholds());
         *unit = None;
+        *trusted = false;
     }
 
     /// The rope as the swing has shown it so far ([`crate::rope`]).
@@ -652,8 +722,8 @@ impl StateFeedback {
     /// observer's (run on the reading as it is) less its response to the offset the
     /// zero's estimate shows now beyond its dead band — all of the first reading, at
     /// the start, then what the load's motion has not confirmed as a swing. So the
-    /// feedback acts from the start on what the pendulum's physics has confirmed, and
-    /// never on an offset; once trusted, the observer's.
+    /// feedback's estimate holds from the start only what the pendulum's physics has
+    /// confirmed, never an offset; once trusted, the observer's.
     fn estimate(&self) -> Observed {
         match self.unit {
             Some(u) => self.e - u.e * self.shown(),
@@ -686,6 +756,7 @@ impl StateFeedback {
             // estimate now read.
             self.held.run = None;
             self.unit = None;
+            self.trusted = true;
         }
     }
 
@@ -743,7 +814,7 @@ impl StateFeedback {
         prev: &Reference,
         ex: f64,
         obs: &ObserverGain,
-        still: bool,
+        still: Still,
     ) -> AngleCheck {
         let phi = m.phi;
         // The prediction of the reading: of the angle, plus the offset believed.
@@ -786,8 +857,8 @@ impl StateFeedback {
         };
         match (check, phi) {
             (AngleCheck::Good, Some(p)) => {
-                self.zero.sample(m.x, p, m.l, prev, still);
-                if self.zero.offset_persists() && still && self.resting {
+                self.zero.sample(m.x, p, m.l, prev, still.all());
+                if self.zero.offset_persists() && still.all() && self.hoist_resting {
                     return AngleCheck::Offset;
                 }
             }
@@ -796,8 +867,35 @@ impl StateFeedback {
         check
     }
 
+    /// The loop is closed at rest on a command that may move the hoist alone (manual
+    /// mode's first demand after an entry at rest): the trolley is let go — its set
+    /// point the model's, exactly — unless the estimate already shows a swing or a
+    /// displacement beyond the hold thresholds, and held again as a let-go crane is
+    /// ([`Self::settle`]); a travel demand holds it as the path starts. Before the trust
+    /// the estimate cannot yet tell the reading's noise from a swing: acting on it from
+    /// the loop's closing, the angle's noise moved the trolley by up to 7.0 mm at
+    /// 0.139 m/s while the operator only hoisted right after entering manual mode
+    /// (`a_hoist_only_demand_leaves_the_trolley_where_it_stands`, operator_feedback, on
+    /// 4a7f83f). The same when the hoist starts to move alone before the trust.
+    pub fn let_go_at_rest(&mut self) {
+        let hold = self.cfg.rest_hysteresis;
+        let (position, swing) = (hold * self.cfg.rest_position, hold * self.cfg.rest_swing);
+        let sw = &mut self.swing;
+        if self.started
+            && !self.resting
+            && sw.cycles > 0
+            && sw.holds_nothing(sw.load, position, swing)
+        {
+            self.resting = true;
+            sw.energy = sw.amplitude * sw.amplitude;
+        }
+    }
+
     /// Whether a crane at rest on its target may be let go, or must be held again
-    /// ([`Config::rest_position`], [`Config::rest_swing`], [`Config::rest_hysteresis`]).
+    /// ([`Config::rest_position`], [`Config::rest_swing`], [`Config::rest_hysteresis`]):
+    /// the trolley's, judged while the travel is still, the hoist moving or not, on the
+    /// load's horizontal place and swing; the hoist's with it, once the hoist stands
+    /// still with the rope within the same position threshold ([`Output::resting`]).
     ///
     /// The swing's amplitude is the pendulum's energy, `√(φ² + (φ̇/ω)²)`, of the
     /// estimated angle and rate, both low-passed at twice the swing frequency `ω`
@@ -809,11 +907,13 @@ impl StateFeedback {
     /// gone, in most of the cases not let go 5 s after the move). The crane is let go
     /// once load and swing have stayed within the thresholds for a quarter period
     /// (so a momentary dip of the estimate does not let go of a swinging load).
-    fn settle(&mut self, reference: &Reference, u_d: [f64; 2]) {
-        let still = still(reference, u_d);
-        let trusted = self.unit.is_none();
-        if !still || !self.started || matches!(self.mode, Mode::FeedforwardOnly(_)) {
+    fn settle(&mut self, reference: &Reference, still: Still) {
+        // The offset is no longer in the estimate: trusted, or the angle no longer read
+        // (not `self.trusted`, which an angle failing before the trust leaves false).
+        let offset_out = self.unit.is_none();
+        if !still.travel || !self.started || matches!(self.mode, Mode::FeedforwardOnly(_)) {
             self.resting = false;
+            self.hoist_resting = false;
             self.swing = Swing::NEW;
             return;
         }
@@ -840,7 +940,10 @@ impl StateFeedback {
         let gain = smoothing / libm::sqrt(1.0 - 2.0 * r * libm::cos(omega * self.cfg.h) + r * r);
         let (a, v) = (sw.angle, sw.rate / omega);
         sw.amplitude = libm::sqrt(a * a + v * v) / gain.max(0.1);
-        let load = (e.x + l * e.z).abs().max(self.ew.x.abs());
+        // The load's horizontal place: the trolley's rest; the rope's is the hoist's.
+        let load = (e.x + l * e.z).abs();
+        sw.load = load;
+        let rope = self.ew.x.abs();
         let (pos, swing) = (self.cfg.rest_position, self.cfg.rest_swing);
         sw.within = if load <= pos && sw.amplitude <= swing {
             sw.within.saturating_add(1)
@@ -850,15 +953,41 @@ impl StateFeedback {
         let hold = self.cfg.rest_hysteresis;
         let period = 2.0 * core::f64::consts::PI / omega;
         let a2 = sw.amplitude * sw.amplitude;
+        // The hoist starts moving alone, the angle not yet trusted.
+        let hoist_starts = !still.hoist && !sw.hoist_alone && !offset_out;
+        sw.hoist_alone = !still.hoist;
         self.resting = if self.resting {
             sw.energy += (a2 - sw.energy) * (1.0 - libm::exp(-2.0 * self.cfg.h / period));
             load <= hold * pos && sw.energy <= hold * hold * swing * swing
+        } else if hoist_starts {
+            // Before the trust the estimate cannot yet tell the reading's noise from a
+            // swing, and the trolley has no path: it is let go unless it would be held
+            // again at once, and held again as a let-go crane is
+            // ([`Self::let_go_at_rest`]).
+            sw.energy = a2;
+            sw.holds_nothing(load, hold * pos, hold * swing)
         } else {
             sw.energy = a2;
             // Not on an estimate the angle's offset check has not confirmed yet (until
             // then all of a swing may still be read as offset): once trusted.
-            trusted && f64::from(sw.within) * self.cfg.h >= DWELL
+            offset_out && f64::from(sw.within) * self.cfg.h >= DWELL
         };
+        // The hoist is let go with the trolley, the hoist still and the rope within
+        // the same position threshold for the same dwell, and held again beyond
+        // `rest_hysteresis` times it (or with the trolley): a hoist-only move's lag is
+        // made up before it is let go.
+        sw.rope_within = if still.hoist && rope <= pos {
+            sw.rope_within.saturating_add(1)
+        } else {
+            0
+        };
+        self.hoist_resting = self.resting
+            && still.hoist
+            && if self.hoist_resting {
+                rope <= hold * pos
+            } else {
+                f64::from(sw.rope_within) * self.cfg.h >= DWELL
+            };
     }
 
     /// One cycle. `reference` and `u_d` are this cycle's inverse-model solution,
@@ -875,14 +1004,16 @@ impl StateFeedback {
         let [ud1, ud2] = u_d;
         let [last1, last2] = last;
         let [app1, app2] = self.applied;
+        let still = Still::of(reference, u_d);
         let mut point = self.gains.at(reference.l);
-        // At rest, once the angle is trusted, the observer designed for the rest
-        // (GainPoint::obs_rest): the reading's noise is not turned into the trolley's
-        // set points. Not before: the offset shown at power-up is taken out by the
-        // observer's response to it (Self::unit), which the zero's estimate is judged
-        // steady on with the move's observer (with the rest's, a 5° offset from
-        // power-up put the trolley 340 mm off, closed_loop.rs).
-        if still(reference, u_d) && self.started && self.unit.is_none() {
+        // With the travel still (at rest, or only the hoist moving), once the angle is
+        // trusted, the observer designed for the rest (GainPoint::obs_rest): the
+        // reading's noise is not turned into the trolley's set points. Not before: the
+        // offset shown at power-up is taken out by the observer's response to it
+        // (Self::unit), which the zero's estimate is judged steady on with the move's
+        // observer (with the rest's, a 5° offset from power-up put the trolley 340 mm
+        // off, closed_loop.rs).
+        if still.travel && self.started && self.unit.is_none() {
             point.obs = point.obs_rest;
             point.obs_sensor = point.obs_sensor_rest;
         }
@@ -895,10 +1026,7 @@ impl StateFeedback {
             let positions_finite = m.x.is_finite() && m.l.is_finite();
             let ex = m.x - prev.x;
             let check = match self.mode {
-                Mode::Closed => {
-                    let still = still(reference, u_d);
-                    self.judge_angle(&m, &prev, ex, &point.obs, still)
-                }
+                Mode::Closed => self.judge_angle(&m, &prev, ex, &point.obs, still),
                 // The angle is no longer read.
                 _ => AngleCheck::Missing,
             };
@@ -968,7 +1096,8 @@ impl StateFeedback {
                         // Start from what is measured: positions, and the swing the load
                         // already has (its rate follows from the next samples) — or the
                         // reading's offset: which, the zero's estimate tells once
-                        // settled, and the trolley waits for it ([`Self::trust`]).
+                        // settled ([`Self::trust`]); until then the estimate holds what
+                        // the load's motion has confirmed ([`Self::estimate`]).
                         self.e = Vector5::new(ex, 0.0, p - prev.phi, 0.0, 0.0);
                         self.ew = Vector2::new(m.l - prev.l, 0.0);
                         // The sensor has long reported this angle.
@@ -1030,19 +1159,21 @@ impl StateFeedback {
         if let Some((run, _)) = self.held.run.as_mut() {
             *run = predict(&point.model, run, app1);
         }
-        self.settle(reference, u_d);
-        let (mut d1, d2) = match self.mode {
-            Mode::Closed | Mode::SwingEstimated(_) if self.started && !self.resting => {
-                // At rest the rest's gains (GainPoint::k_rest): the swing damped
-                // faster, the long ropes' 1.5 times as fast.
-                let k = if still(reference, u_d) {
-                    point.k_rest
-                } else {
-                    point.k
-                };
-                ((-(k * four(&self.estimate()))).x, (-(point.kw * self.ew)).x)
-            }
-            _ => (0.0, 0.0),
+        self.settle(reference, still);
+        let acts = self.started && matches!(self.mode, Mode::Closed | Mode::SwingEstimated(_));
+        let mut d1 = if !acts || self.resting {
+            // Let go: with the travel still, also while the hoist moves.
+            0.0
+        } else {
+            // At rest the rest's gains (GainPoint::k_rest): the swing damped faster,
+            // the long ropes' 1.5 times as fast.
+            let k = if still.all() { point.k_rest } else { point.k };
+            (-(k * four(&self.estimate()))).x
+        };
+        let d2 = if !acts || self.hoist_resting {
+            0.0
+        } else {
+            (-(point.kw * self.ew)).x
         };
         if self.held.run.is_some() {
             // The reading has not changed: it may be stuck, so it may not push harder.
@@ -1069,11 +1200,11 @@ impl StateFeedback {
             u: [u1, u2],
             correction,
             mode: self.mode,
-            resting: self.resting,
+            resting: self.hoist_resting,
             swing: self.swing.amplitude,
             error: [e0, e1, e2, e3, w0, w1],
             offset: self.zero.offset(),
-            trusted: self.started && self.unit.is_none(),
+            trusted: self.trusted,
         }
     }
 }
@@ -1103,6 +1234,8 @@ pub trait Correction {
     /// Back to closed loop, the observer to start from the next good measurement (the
     /// crane at rest).
     fn restart(&mut self);
+    /// See [`crate::correction::AxesCorrection::let_go_at_rest`].
+    fn let_go_at_rest(&mut self) {}
     /// What it is doing (`None`: there is no feedback).
     fn mode(&self) -> Option<Mode>;
     /// The rope calibration learnt from the swing (`None`: there is no feedback, so no
@@ -1162,6 +1295,9 @@ impl Correction for StateFeedback {
     }
     fn restart(&mut self) {
         self.reset();
+    }
+    fn let_go_at_rest(&mut self) {
+        StateFeedback::let_go_at_rest(self);
     }
     fn mode(&self) -> Option<Mode> {
         Some(self.mode)
