@@ -98,7 +98,7 @@
 //!   [`GainPoint::obs_rest`]): with the move's, the trolley hunted on a 0.05° noise
 //!   at up to 190 mm/s after the move (issue 33).
 //! * **The travel at rest while the hoist moves.** The trolley's rest is judged on the
-//!   travel's part of the reference ([`Still`]) and on the load's horizontal place:
+//!   travel's part of the reference (`Still`) and on the load's horizontal place:
 //!   while only the hoist moves the trolley has no path, only a swing to damp, as at
 //!   rest — it is let go and held again by the same rule (the gains stay the move's,
 //!   the observer is the rest's once the angle is trusted). The hoist is let go with
@@ -413,7 +413,7 @@ pub struct Output {
     pub mode: Mode,
     /// The feedback has let go of a crane at rest on its target ([`Config::rest_position`]):
     /// the whole crane, trolley and hoist (the trolley alone may be let go while only
-    /// the hoist moves, [`StateFeedback::settle`]).
+    /// the hoist moves, `StateFeedback::settle`).
     pub resting: bool,
     /// The swing's amplitude as the rest hold judges it, rad (nought while the
     /// reference moves): see [`Config::rest_swing`].
@@ -871,7 +871,7 @@ impl StateFeedback {
     /// mode's first demand after an entry at rest): the trolley is let go — its set
     /// point the model's, exactly — unless the estimate already shows a swing or a
     /// displacement beyond the hold thresholds, and held again as a let-go crane is
-    /// ([`Self::settle`]); a travel demand holds it as the path starts. Before the trust
+    /// (`Self::settle`); a travel demand holds it as the path starts. Before the trust
     /// the estimate cannot yet tell the reading's noise from a swing: acting on it from
     /// the loop's closing, the angle's noise moved the trolley by up to 7.0 mm at
     /// 0.139 m/s while the operator only hoisted right after entering manual mode
