@@ -56,7 +56,9 @@ pub trait AxesCorrection<const A: usize, R> {
     /// mode's first demand after an entry at rest): the travel's correction is let go
     /// unless the estimate already shows a swing or a displacement beyond the rest's
     /// hold thresholds ([`crate::feedback::StateFeedback::let_go_at_rest`]).
-    fn let_go_at_rest(&mut self) {}
+    /// Required, not defaulted: a wrapper that forgot to forward it would keep the
+    /// trolley acting on the young estimate's noise while the operator only hoists.
+    fn let_go_at_rest(&mut self);
     /// What it is doing (`None`: there is no feedback).
     fn mode(&self) -> Option<Mode>;
     /// The rope calibration learnt from the swing (`None`: no inclinometer).
@@ -132,6 +134,7 @@ macro_rules! feedforward_only {
             }
             fn sent(&mut self, _u_d: [f64; $axes], _u: [f64; $axes]) {}
             fn restart(&mut self) {}
+            fn let_go_at_rest(&mut self) {}
             fn mode(&self) -> Option<$crate::feedback::Mode> {
                 None
             }

@@ -97,6 +97,7 @@ impl Correction for Pusher {
         row.sent = Some(correction);
     }
     fn restart(&mut self) {}
+    fn let_go_at_rest(&mut self) {}
     fn mode(&self) -> Option<Mode> {
         Some(Mode::Closed)
     }

@@ -79,6 +79,9 @@ impl Correction for Logged {
     fn restart(&mut self) {
         self.0.reset();
     }
+    fn let_go_at_rest(&mut self) {
+        self.0.let_go_at_rest();
+    }
     fn mode(&self) -> Option<controller::feedback::Mode> {
         Some(self.0.mode())
     }

@@ -113,10 +113,14 @@
 //!   [`StateFeedback::let_go_at_rest`]), and when the hoist starts to move alone, the
 //!   trolley is let go unless the estimate already shows a swing or a displacement
 //!   beyond the hold thresholds ([`Config::rest_hysteresis`]), and held again as a
-//!   let-go crane is — a swing there as the load's motion confirms it. Acting from
-//!   the loop's closing on the young estimate, the angle's noise moved the trolley by
-//!   up to 7.0 mm at 0.139 m/s while the operator only hoisted right after entering
-//!   manual mode (the same test, on 4a7f83f).
+//!   let-go crane is — a swing there as the load's motion confirms it. The hoist
+//!   starts alone only after it stood still with the travel: a combined move's hoist
+//!   going on after the travel stopped leaves the trolley holding the swing the move
+//!   left (a hoist-only move the loop takes over before the trust is judged from the
+//!   hoist's next start, once it stood still). Acting from the loop's closing on the
+//!   young estimate, the angle's noise moved the trolley by up to 7.0 mm at 0.139 m/s
+//!   while the operator only hoisted right after entering manual mode (the same test,
+//!   on 4a7f83f).
 //! * **Degraded mode.** [`degraded_rule`]: the angle missing or implausible for more
 //!   than [`Config::max_bad_angle_cycles`] cycles, stuck, or offset →
 //!   [`Mode::SwingEstimated`]: the angle is no longer read, the swing is estimated from the trolley's measured
@@ -416,7 +420,8 @@ pub struct Output {
     /// the hoist moves, `StateFeedback::settle`).
     pub resting: bool,
     /// The swing's amplitude as the rest hold judges it, rad (nought while the
-    /// reference moves): see [`Config::rest_swing`].
+    /// travel's part of the reference moves, which the hoist's alone does not): see
+    /// [`Config::rest_swing`].
     pub swing: f64,
     /// The estimated error state now, `[x, ẋ, φ, φ̇, l, l̇]` (measured − reference).
     pub error: [f64; 6],
@@ -488,8 +493,10 @@ struct Swing {
     cycles: u32,
     /// The load's horizontal distance from its reference judged this cycle, m.
     load: f64,
-    /// Last cycle only the hoist moved (the travel still).
-    hoist_alone: bool,
+    /// Last cycle the hoist moved, or may have: true from the travel's last motion
+    /// ([`Self::NEW`]) until the hoist has been seen still, so that a combined move's
+    /// hoist going on after the travel stopped is no hoist starting alone.
+    hoist_moving: bool,
     /// Cycles in a row the hoist has stood still with the rope within
     /// [`Config::rest_position`] of its reference.
     rope_within: u32,
@@ -509,7 +516,7 @@ impl Swing {
         within: 0,
         cycles: 0,
         load: 0.0,
-        hoist_alone: false,
+        hoist_moving: true,
         rope_within: 0,
     };
 }
@@ -905,8 +912,9 @@ impl StateFeedback {
     /// (`1/(2ω)`, 0.2–0.5 s), not half a period late as the largest angle over the last
     /// half period did (issue 18: that held the feedback on, 1–3 s after the swing had
     /// gone, in most of the cases not let go 5 s after the move). The crane is let go
-    /// once load and swing have stayed within the thresholds for a quarter period
-    /// (so a momentary dip of the estimate does not let go of a swinging load).
+    /// once load and swing have stayed within the thresholds for [`DWELL`] (so a
+    /// momentary dip of the estimate does not let go of a swinging load), and held
+    /// again on the amplitude's square averaged over about a period.
     fn settle(&mut self, reference: &Reference, still: Still) {
         // The offset is no longer in the estimate: trusted, or the angle no longer read
         // (not `self.trusted`, which an angle failing before the trust leaves false).
@@ -953,9 +961,10 @@ impl StateFeedback {
         let hold = self.cfg.rest_hysteresis;
         let period = 2.0 * core::f64::consts::PI / omega;
         let a2 = sw.amplitude * sw.amplitude;
-        // The hoist starts moving alone, the angle not yet trusted.
-        let hoist_starts = !still.hoist && !sw.hoist_alone && !offset_out;
-        sw.hoist_alone = !still.hoist;
+        // The hoist starts moving alone, the angle not yet trusted: it stood still with
+        // the travel last cycle (not a combined move's hoist going on at its tail).
+        let hoist_starts = !still.hoist && !sw.hoist_moving && !offset_out;
+        sw.hoist_moving = !still.hoist;
         self.resting = if self.resting {
             sw.energy += (a2 - sw.energy) * (1.0 - libm::exp(-2.0 * self.cfg.h / period));
             load <= hold * pos && sw.energy <= hold * hold * swing * swing
@@ -1234,8 +1243,9 @@ pub trait Correction {
     /// Back to closed loop, the observer to start from the next good measurement (the
     /// crane at rest).
     fn restart(&mut self);
-    /// See [`crate::correction::AxesCorrection::let_go_at_rest`].
-    fn let_go_at_rest(&mut self) {}
+    /// See [`crate::correction::AxesCorrection::let_go_at_rest`] (required for the
+    /// same reason as [`Self::sent`]).
+    fn let_go_at_rest(&mut self);
     /// What it is doing (`None`: there is no feedback).
     fn mode(&self) -> Option<Mode>;
     /// The rope calibration learnt from the swing (`None`: there is no feedback, so no
@@ -1270,6 +1280,7 @@ impl Correction for NoFeedback {
     }
     fn sent(&mut self, _correction: [f64; 2]) {}
     fn restart(&mut self) {}
+    fn let_go_at_rest(&mut self) {}
     fn mode(&self) -> Option<Mode> {
         None
     }
@@ -1527,18 +1538,38 @@ mod tests {
         cycles: usize,
         read: impl Fn(usize, f64) -> Option<f64>,
     ) -> Vec<(Vector4<f64>, Output)> {
+        let truth = Vector4::new(x0, 0.0, phi0, 0.0);
+        let still = |_| (at_rest(15.0, l), [0.0; 2]);
+        run_linear_crane(cfg, l, truth, cycles, still, read, |_, _| {})
+    }
+
+    /// The linear trolley–pendulum at rope length `l` from the true state `truth`
+    /// (`[x, ẋ, φ, φ̇]`, the trolley relative to 15 m) under the feedback configured by
+    /// `cfg`: each cycle the reference and the model's set points `plan(k)` (the hoist
+    /// following its reference exactly), the angle read through `read` (cycle, true
+    /// angle), and `before(k, fb)` run ahead of the cycle. Returns per cycle the true
+    /// state and the feedback's output.
+    fn run_linear_crane(
+        cfg: Config,
+        l: f64,
+        mut truth: Vector4<f64>,
+        cycles: usize,
+        plan: impl Fn(usize) -> (Reference, [f64; 2]),
+        read: impl Fn(usize, f64) -> Option<f64>,
+        mut before: impl FnMut(usize, &mut StateFeedback),
+    ) -> Vec<(Vector4<f64>, Output)> {
         let mut fb = StateFeedback::new(cfg).unwrap();
         let model = discretise(cfg.g, cfg.tau1, cfg.tau2, l, cfg.h);
-        let r = at_rest(15.0, l);
-        let mut truth = Vector4::new(x0, 0.0, phi0, 0.0);
         let mut sample: Option<Measurement> = None;
         let mut last = [0.0; 2];
         let mut out = Vec::new();
         for k in 0..cycles {
-            let o = fb.cycle(&r, [0.0; 2], sample, last, &DriveLimits::LAB);
+            let (r, u_d) = plan(k);
+            before(k, &mut fb);
+            let o = fb.cycle(&r, u_d, sample, last, &DriveLimits::LAB);
             sample = Some(Measurement {
                 x: 15.0 + truth.x,
-                l,
+                l: r.l,
                 phi: read(k, truth.z),
             });
             truth = model.a * truth + model.b * o.u[0];
@@ -1985,6 +2016,136 @@ mod tests {
                     assert_eq!(last, [0.0; 2]);
                 }
             }
+        }
+    }
+
+    /// Cycles for a correction acting on the young estimate's noise (a few hundredths
+    /// of a m/s) to be ramped out within the lab trolley's acceleration limit.
+    const RAMP_OUT: usize = 3;
+
+    /// A reading's noise of ±0.02°, deterministic.
+    fn noise(k: usize) -> f64 {
+        let r = (k.wrapping_mul(7919) % 13) as f64 - 6.0;
+        (0.02 * r / 6.0).to_radians()
+    }
+
+    /// [`run_linear_crane`] with the paper's feedback, the trolley `x0` off and the
+    /// load hanging still, the reading the true angle plus [`noise`].
+    fn crane_under_feedback(
+        l: f64,
+        x0: f64,
+        cycles: usize,
+        plan: impl Fn(usize) -> (Reference, [f64; 2]),
+        before: impl FnMut(usize, &mut StateFeedback),
+    ) -> Vec<(Vector4<f64>, Output)> {
+        let truth = Vector4::new(x0, 0.0, 0.0, 0.0);
+        let read = |k, phi| Some(phi + noise(k));
+        run_linear_crane(Config::PAPER, l, truth, cycles, plan, read, before)
+    }
+
+    /// At rest at 15 m and `l`, the hoist raising at 0.2 m/s from cycle `from` on.
+    fn hoist_from(l: f64, from: usize) -> impl Fn(usize) -> (Reference, [f64; 2]) {
+        move |k| {
+            let v = if k >= from { -0.2 } else { 0.0 };
+            let raised = 0.2 * 0.01 * (k.saturating_sub(from) as f64);
+            let r = Reference {
+                x: 15.0,
+                l: l - raised,
+                vl: v,
+                ..Reference::default()
+            };
+            (r, [0.0, v])
+        }
+    }
+
+    #[test]
+    fn before_the_trust_a_hoist_starting_alone_lets_the_trolley_go() {
+        // The loop closed at rest, the angle not yet trusted, the estimate acting on
+        // the reading's noise: when the hoist starts alone, the trolley is let go —
+        // its set point the model's, exactly — and stays so while only the hoist moves.
+        let from = 100;
+        let run = crane_under_feedback(5.0, 0.0, 300, hoist_from(5.0, from), |_, _| {});
+        assert!(!run[from].1.trusted, "the hoist starts before the trust");
+        assert!(
+            run[..from].iter().any(|(_, o)| o.u[0] != 0.0),
+            "before the hoist starts the trolley acts on the young estimate"
+        );
+        for (k, (_, o)) in run.iter().enumerate().skip(from + RAMP_OUT) {
+            assert_eq!(o.u[0], 0.0, "cycle {k}");
+            assert!(o.u[1] < 0.0, "cycle {k}: the hoist raises");
+        }
+    }
+
+    #[test]
+    fn before_the_trust_a_hoist_starting_alone_holds_a_trolley_off_its_place() {
+        // The same, the trolley 100 mm off (beyond the hold threshold, 33 mm): it is
+        // brought in while the hoist moves, not let go.
+        let from = 100;
+        let run = crane_under_feedback(5.0, 0.1, 300, hoist_from(5.0, from), |_, _| {});
+        assert!(!run[from].1.trusted);
+        assert!(run[from + RAMP_OUT..from + 50]
+            .iter()
+            .all(|(_, o)| o.u[0] < 0.0));
+        let (truth, _) = run[299];
+        assert!(truth.x < 0.05, "brought in: {:.3} m off", truth.x);
+    }
+
+    #[test]
+    fn a_hoist_still_moving_as_the_travel_stops_is_no_hoist_starting_alone() {
+        // A combined move's tail: the trolley crept 1 mm in 0.1 s while the hoist
+        // raised, then the travel stopped and the hoist went on. That is no hoist
+        // starting alone: before the trust the young estimate may not yet show the
+        // swing the move left, so the trolley goes on acting, not let go. (Judged as a
+        // start, `hoist_moving` false from the travel's stop, it was let go at once.)
+        const CREEP: f64 = 0.01;
+        let l = 5.0;
+        let hoist = hoist_from(l, 40);
+        let plan = move |k: usize| {
+            let (mut r, mut u_d) = hoist(k);
+            let v = if (50..60).contains(&k) { CREEP } else { 0.0 };
+            r.x += CREEP * 0.01 * (k.clamp(50, 60) - 50) as f64;
+            r.vx = v;
+            u_d[0] = v;
+            (r, u_d)
+        };
+        let run = crane_under_feedback(l, 0.0, 200, plan, |_, _| {});
+        assert!(!run[60].1.trusted);
+        let acting = run[60 + RAMP_OUT..200]
+            .iter()
+            .filter(|(_, o)| o.u[0] != 0.0)
+            .count();
+        assert!(acting > 100, "the trolley acted in {acting} of 137 cycles");
+    }
+
+    #[test]
+    fn a_loop_closed_at_rest_lets_the_trolley_go_unless_the_estimate_holds_it() {
+        // Manual mode's first demand at rest may move the hoist alone: the controller
+        // closes the loop with `let_go_at_rest`. Before the trust, on the reading's
+        // noise alone, the trolley is let go at once; off its place it is held.
+        let at = 50;
+        let still = |_| (at_rest(15.0, 5.0), [0.0; 2]);
+        let closing = |k, fb: &mut StateFeedback| {
+            if k == at {
+                fb.let_go_at_rest();
+            }
+        };
+        let run = crane_under_feedback(5.0, 0.0, 150, still, closing);
+        assert!(!run[at].1.trusted);
+        assert!(run[..at].iter().any(|(_, o)| o.u[0] != 0.0));
+        for (k, (_, o)) in run.iter().enumerate().skip(at + RAMP_OUT) {
+            assert_eq!(o.u[0], 0.0, "cycle {k}");
+        }
+        // Started 100 mm off, the feedback has brought the trolley half way in by the
+        // demand, swinging the load 0.5°: the estimate holds both, and so does the
+        // trolley.
+        let run = crane_under_feedback(5.0, 0.1, 150, still, closing);
+        let (truth, _) = run[at];
+        assert!(
+            truth.x > 0.033 && truth.z > 0.3f64.to_radians(),
+            "{truth:?}"
+        );
+        for (k, (_, o)) in run.iter().enumerate().skip(at) {
+            assert_ne!(o.u[0], 0.0, "cycle {k}");
         }
     }
 
