@@ -201,9 +201,10 @@ pub struct Config {
     /// reference horizontally (the trolley) and in rope length (the hoist, standing
     /// still), m, …
     pub rest_position: f64,
-    /// … and the estimated swing amplitude is below this, rad (both for a quarter
-    /// period). It takes hold again when either is exceeded [`Config::rest_hysteresis`]
-    /// times over (so it does not chatter), or the reference moves.
+    /// … and the estimated swing amplitude is below this, rad (both for 0.1 s, ten
+    /// samples at 100 Hz). It takes hold again when the load's place or the amplitude's square
+    /// averaged over about a period exceeds [`Config::rest_hysteresis`] times either
+    /// (so it does not chatter), or the reference moves.
     pub rest_swing: f64,
     /// How far beyond [`Config::rest_position`] or [`Config::rest_swing`] a crane let go
     /// must be disturbed for the feedback to take hold again (≥ 1).
