@@ -1339,6 +1339,17 @@ mod tests {
     use crate::rope::InclinometerLag;
     use crate::zero;
 
+    /// The thresholds beyond which the estimate holds a crane the feedback let go
+    /// ([`Config::rest_hysteresis`] times [`Config::rest_position`] and
+    /// [`Config::rest_swing`]): 33 mm and 0.099° in [`Config::PAPER`].
+    fn hold_thresholds() -> (f64, f64) {
+        let c = Config::PAPER;
+        (
+            c.rest_hysteresis * c.rest_position,
+            c.rest_hysteresis * c.rest_swing,
+        )
+    }
+
     fn at_rest(x: f64, l: f64) -> Reference {
         Reference {
             x,
@@ -2078,8 +2089,10 @@ mod tests {
 
     #[test]
     fn before_the_trust_a_hoist_starting_alone_holds_a_trolley_off_its_place() {
-        // The same, the trolley 100 mm off (beyond the hold threshold, 33 mm): it is
-        // brought in while the hoist moves, not let go.
+        // The same, the trolley 100 mm off (beyond the hold threshold): it is brought
+        // in while the hoist moves, not let go.
+        let (hold_position, _) = hold_thresholds();
+        assert!(0.1 > 3.0 * hold_position);
         let from = 100;
         let run = crane_under_feedback(5.0, 0.1, 300, hoist_from(5.0, from), |_, _| {});
         assert!(!run[from].1.trusted);
@@ -2140,8 +2153,9 @@ mod tests {
         // trolley.
         let run = crane_under_feedback(5.0, 0.1, 150, still, closing);
         let (truth, _) = run[at];
+        let (hold_position, hold_swing) = hold_thresholds();
         assert!(
-            truth.x > 0.033 && truth.z > 0.3f64.to_radians(),
+            truth.x > hold_position && truth.z > 3.0 * hold_swing,
             "{truth:?}"
         );
         for (k, (_, o)) in run.iter().enumerate().skip(at) {
