@@ -242,6 +242,17 @@ fn paper_config() -> Config {
 }
 
 impl Config {
+    /// How far the load's place and its swing amplitude must be off for the estimate to
+    /// hold a crane the feedback let go, (m, rad): [`Config::rest_hysteresis`] times
+    /// [`Config::rest_position`] and [`Config::rest_swing`].
+    #[must_use]
+    pub fn hold_thresholds(&self) -> (f64, f64) {
+        (
+            self.rest_hysteresis * self.rest_position,
+            self.rest_hysteresis * self.rest_swing,
+        )
+    }
+
     /// The offset check's thresholds.
     #[must_use]
     pub fn zero_thresholds(&self) -> zero::Thresholds {

@@ -885,8 +885,7 @@ impl StateFeedback {
     /// (`a_hoist_only_demand_leaves_the_trolley_where_it_stands`, operator_feedback, on
     /// 4a7f83f). The same when the hoist starts to move alone before the trust.
     pub fn let_go_at_rest(&mut self) {
-        let hold = self.cfg.rest_hysteresis;
-        let (position, swing) = (hold * self.cfg.rest_position, hold * self.cfg.rest_swing);
+        let (position, swing) = self.cfg.hold_thresholds();
         let sw = &mut self.swing;
         if self.started
             && !self.resting
@@ -974,7 +973,8 @@ impl StateFeedback {
             // again at once, and held again as a let-go crane is
             // ([`Self::let_go_at_rest`]).
             sw.energy = a2;
-            sw.holds_nothing(load, hold * pos, hold * swing)
+            let (hold_position, hold_swing) = self.cfg.hold_thresholds();
+            sw.holds_nothing(load, hold_position, hold_swing)
         } else {
             sw.energy = a2;
             // Not on an estimate the angle's offset check has not confirmed yet (until

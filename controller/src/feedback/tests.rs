@@ -3,17 +3,6 @@ use super::*;
 use crate::rope::InclinometerLag;
 use crate::zero;
 
-/// The thresholds beyond which the estimate holds a crane the feedback let go
-/// ([`Config::rest_hysteresis`] times [`Config::rest_position`] and
-/// [`Config::rest_swing`]): 33 mm and 0.099° in [`Config::PAPER`].
-fn hold_thresholds() -> (f64, f64) {
-    let c = Config::PAPER;
-    (
-        c.rest_hysteresis * c.rest_position,
-        c.rest_hysteresis * c.rest_swing,
-    )
-}
-
 fn at_rest(x: f64, l: f64) -> Reference {
     Reference {
         x,
@@ -751,9 +740,9 @@ fn before_the_trust_a_hoist_starting_alone_lets_the_trolley_go() {
 
 #[test]
 fn before_the_trust_a_hoist_starting_alone_holds_a_trolley_off_its_place() {
-    // The same, the trolley 100 mm off (beyond the hold threshold): it is brought
-    // in while the hoist moves, not let go.
-    let (hold_position, _) = hold_thresholds();
+    // The same, the trolley 100 mm off (three times the hold threshold, 33 mm): it is
+    // brought in while the hoist moves, not let go.
+    let (hold_position, _) = Config::PAPER.hold_thresholds();
     assert!(0.1 > 3.0 * hold_position);
     let from = 100;
     let run = crane_under_feedback(5.0, 0.1, 300, hoist_from(5.0, from), |_, _| {});
@@ -815,7 +804,9 @@ fn a_loop_closed_at_rest_lets_the_trolley_go_unless_the_estimate_holds_it() {
     // trolley.
     let run = crane_under_feedback(5.0, 0.1, 150, still, closing);
     let (truth, _) = run[at];
-    let (hold_position, hold_swing) = hold_thresholds();
+    // Beyond the hold thresholds (33 mm and 0.099°), the swing three times beyond,
+    // so the hold is not decided at its edge.
+    let (hold_position, hold_swing) = Config::PAPER.hold_thresholds();
     assert!(
         truth.x > hold_position && truth.z > 3.0 * hold_swing,
         "{truth:?}"
