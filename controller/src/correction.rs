@@ -53,7 +53,8 @@ pub trait AxesCorrection<const A: usize, R> {
     /// Back to closed loop, the observer to start from the next good measurement.
     fn restart(&mut self);
     /// The loop is closed at rest on a command that may move the hoist alone (manual
-    /// mode's first demand after an entry at rest): the travel's correction is let go
+    /// mode's first demand after an entry at rest, the start of an automatic move
+    /// accepted at rest): the travel's correction is let go
     /// unless the estimate already shows a swing or a displacement beyond the rest's
     /// hold thresholds ([`crate::feedback::StateFeedback::let_go_at_rest`]).
     /// Required, not defaulted: a wrapper that forgot to forward it would keep the

@@ -184,14 +184,17 @@ enum Loop {
     /// Since the last boot, fault or reset nothing was commanded: the model's set points
     /// go out as they are, whatever the load does, and the feedback does not run.
     Open,
-    /// Manual mode was entered at rest and nothing was commanded since: the observer
-    /// runs (it learns the angle's offset at rest) and is told that the model's set
-    /// points went out, the correction is not sent. The stick's first demand that moves
-    /// the generator, an accepted move or a take-over closes the loop (a stop request
-    /// moves nothing and leaves it so; a fault or a reset opens it); it stays so after
-    /// manual mode is left unused, and a second entry at rest keeps it so.
+    /// Manual mode was entered at rest and nothing was commanded since, or a move
+    /// accepted at rest has not started yet: the observer runs (it learns the angle's
+    /// offset at rest) and is told that the model's set points went out, the correction
+    /// is not sent. The stick's first demand that moves the generator, an accepted
+    /// move's start or a take-over closes the loop (a stop request moves nothing and
+    /// leaves it so; a fault or a reset opens it); it stays so after manual mode is left
+    /// unused, and a second entry at rest keeps it so.
     Observing,
-    /// A command was accepted: the corrected set points go out.
+    /// A command began to move the crane (an automatic move's start, the stick's first
+    /// demand, a take-over), or a move was accepted on a loop closed before: the
+    /// corrected set points go out.
     Closed,
 }
 
@@ -607,6 +610,7 @@ where
             self.handle(request);
         }
         self.plan_pending();
+        self.close_loop_as_the_move_starts();
         self.steer_manual();
 
         let step = if matches!(self.mode, Mode::Enabling | Mode::Ready) {

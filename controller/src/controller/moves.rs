@@ -200,13 +200,49 @@ where
     }
 
     /// A move was accepted (`at_rest`: the crane was at rest when it was): the feedback
-    /// acts from now on ([`Loop::Closed`]). If it had stopped reading the angle and the
-    /// crane was at rest, it starts again, its observer from the next good measurement
-    /// (its degraded rule takes it off again if the angle is still bad).
+    /// acts on it ([`Loop::Closed`]). If it had stopped reading the angle and the crane
+    /// was at rest, it starts again, its observer from the next good measurement (its
+    /// degraded rule takes it off again if the angle is still bad).
+    ///
+    /// On an observer started now at rest, or one only observing, the loop closes as
+    /// the plan's move starts ([`Self::close_loop_as_the_move_starts`]), as the stick's
+    /// first demand closes it in manual mode — whatever else is accepted meanwhile (a
+    /// move queued behind one that has not started is no start). A move placed to start
+    /// later (the scene's demonstration move) left the travel acting on the young
+    /// estimate's noise until then (0.063 m/s, `operator_feedback`, on 3f6faa8). A
+    /// request's move on a crane at rest starts now: its loop closes in the cycle that
+    /// accepts it.
     pub(super) fn close_loop(&mut self, at_rest: bool) {
         if C::ENABLED {
-            self.start_observer(at_rest);
-            self.feedback_loop = Loop::Closed;
+            let started = self.start_observer(at_rest);
+            let observing = self.feedback_loop == Loop::Observing;
+            self.feedback_loop = if observing || (at_rest && started) {
+                Loop::Observing
+            } else {
+                Loop::Closed
+            };
+        }
+    }
+
+    /// An observing loop closes once the plan's move has started, the travel let go as
+    /// the stick's first demand lets it go ([`Self::close_observed_loop`]). A move
+    /// starting in this cycle counts (its path leaves rest from here); a stop given
+    /// earlier in the cycle has already cancelled one that had not begun
+    /// ([`crate::requests`]), and a stop segment is no move.
+    pub(super) fn close_loop_as_the_move_starts(&mut self) {
+        if self.feedback_loop != Loop::Observing {
+            return;
+        }
+        let now = self.now_s();
+        let started = match self.feedforward.plan().active() {
+            Some(segment @ Segment::Move(_)) => {
+                let (start, end) = segment.span();
+                start <= now && now < end
+            }
+            _ => false,
+        };
+        if started {
+            self.close_observed_loop();
         }
     }
 

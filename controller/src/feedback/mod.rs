@@ -109,14 +109,14 @@
 //!   operator_feedback, on 4a7f83f).
 //! * **Let go before the trust.** Before the angle is trusted the estimate cannot yet
 //!   tell the reading's noise from a swing. When the loop is closed at rest by a
-//!   command that may move the hoist alone (manual mode's first demand,
-//!   [`StateFeedback::let_go_at_rest`]), and when the hoist starts to move alone, the
-//!   trolley is let go unless the estimate already shows a swing or a displacement
-//!   beyond the hold thresholds ([`Config::rest_hysteresis`]), and held again as a
-//!   let-go crane is — a swing there as the load's motion confirms it. The hoist
-//!   starts alone only after it stood still with the travel: a combined move's hoist
-//!   going on after the travel stopped leaves the trolley holding the swing the move
-//!   left (a hoist-only move the loop takes over before the trust is judged from the
+//!   command that may move the hoist alone (manual mode's first demand, an automatic
+//!   move's start: [`StateFeedback::let_go_at_rest`]), and when the hoist starts to
+//!   move alone, the trolley is let go unless the estimate already shows a swing or a
+//!   displacement beyond the hold thresholds ([`Config::hold_thresholds`]), and held
+//!   again as a let-go crane is — a swing there as the load's motion confirms it. The
+//!   hoist starts alone only after it stood still with the travel: a combined move's
+//!   hoist going on after the travel stopped leaves the trolley holding the swing the
+//!   move left (a hoist-only move the loop takes over before the trust is judged from the
 //!   hoist's next start, once it stood still). Acting from the loop's closing on the
 //!   young estimate, the angle's noise moved the trolley by up to 7.0 mm at 0.139 m/s
 //!   while the operator only hoisted right after entering manual mode (the same test,
@@ -875,9 +875,10 @@ impl StateFeedback {
     }
 
     /// The loop is closed at rest on a command that may move the hoist alone (manual
-    /// mode's first demand after an entry at rest): the trolley is let go — its set
-    /// point the model's, exactly — unless the estimate already shows a swing or a
-    /// displacement beyond the hold thresholds, and held again as a let-go crane is
+    /// mode's first demand after an entry at rest, an automatic move's start): the
+    /// trolley is let go — its set point the model's, exactly — unless the estimate
+    /// already shows a swing or a displacement beyond the hold thresholds
+    /// ([`Config::hold_thresholds`]), and held again as a let-go crane is
     /// (`Self::settle`); a travel demand holds it as the path starts. Before the trust
     /// the estimate cannot yet tell the reading's noise from a swing: acting on it from
     /// the loop's closing, the angle's noise moved the trolley by up to 7.0 mm at
