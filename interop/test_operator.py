@@ -5,9 +5,11 @@ through the operator's speed demand, as an independent stack sends it:
 * RPDO3 0x410 built by cantools from can/crane.dbc's `Operator_Controller` every 20 ms
   (the DBC asks for 30 ms or faster; 20 ms leaves a loaded machine two frames of
   margin within the controller's 90 ms dead-man deadline), its alive counter changing
-  every frame, by a thread of the test (`Operator`);
-* the same fields written into 0x2010 *Operator demand* with python-canopen's SDO client
-  (flags and demands once, the alive counter, which submits them, every 30 ms);
+  every frame, by a PLC process of its own (plc.py, `Operator`: a cyclic task with the
+  ECU's priority, not a thread the test's own work could hold up past the deadline);
+* the same fields written into 0x2010 *Operator demand* with python-canopen's SDO
+  client, by the same kind of process (`SdoOperator`: flags and demands once, the alive
+  counter, which submits them, every 30 ms);
 * the EDS's objects 0x1402/0x1602 (RPDO3's communication and mapping) and 0x2010 as
   python-canopen's od import reads them, checked against the DBC's layout of the frame
   and read back from the running controller over SDO.
@@ -23,14 +25,17 @@ says why (EMCY 0xFF21, decoded by cantools from the DBC); a running move taken o
 the stick is announced by EMCY 0xFF22. About 75 s.
 """
 
+import json
 import math
+import os
 import struct
-import threading
+import subprocess
+import sys
 import time
 
 import canopen
 
-from rig import ACCEPTED, CONTROLLER_EDS, STATUS, dbc
+from rig import ACCEPTED, CONTROLLER_EDS, HERE, STATUS, dbc, realtime
 from test_black_box import wait_rest
 from test_interop import rigs  # noqa: F401
 
@@ -42,85 +47,69 @@ OPERATOR_ID = 0x410
 PERIOD = 0.02  # s between the PLC's frames
 
 
-class Operator:
+class Plc:
+    """A PLC on the bus in a process of its own (plc.py, with the ECU's and the drives'
+    priority: a cyclic task that keeps its period whatever the test does); stopped with
+    the rig if the test ends first."""
+
+    def __init__(self, rig, *args):
+        self.proc = subprocess.Popen(
+            [sys.executable, os.path.join(HERE, "plc.py"), "--port", str(rig.port), *args],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+            preexec_fn=realtime,
+        )
+        rig.procs.append(self.proc)
+        ready = self.proc.stdout.readline()
+        assert json.loads(ready or "{}").get("ready"), f"the PLC did not start: {ready!r}"
+
+    def ask(self, **request):
+        self.proc.stdin.write(json.dumps(request) + "\n")
+        self.proc.stdin.flush()
+        answer = json.loads(self.proc.stdout.readline() or "{}")
+        assert answer.get("ok"), answer
+        return answer
+
+    def silence(self):
+        """The switch falls silent: no frame more. Returns what plc.py sent."""
+        answer = self.ask(silence=True)
+        assert self.proc.wait(timeout=5) == 0
+        return answer
+
+
+class Operator(Plc):
     """A PLC's master switch on the bus: `Operator_Controller` encoded by cantools every
     `PERIOD`, its alive counter changing, until `silence` (a dead-man drop)."""
 
     def __init__(self, rig, **fields):
-        self.rig = rig
-        self.message = dbc().get_message_by_name("Operator_Controller")
-        assert self.message.frame_id == OPERATOR_ID
-        self.fields = {
-            "enable": 1,
-            "manual_request": 1,
-            "micro_speed": 0,
-            "demand_x": 0.0,
-            "demand_y": 0.0,
-            "demand_z": 0.0,
-        }
-        self.fields.update(fields)
-        self.counter = 0
-        self.sent = []  # the bytes of every frame sent
-        self.lock = threading.Lock()
-        self.running = True
-        self.thread = threading.Thread(target=self.run, daemon=True)
-        self.thread.start()
+        super().__init__(rig, "--period", str(PERIOD))
+        self.sent = []  # the bytes of every frame sent, once silenced
+        if fields:
+            self.set(**fields)
 
     def set(self, **fields):
-        with self.lock:
-            self.fields.update(fields)
-
-    def run(self):
-        due = time.monotonic()
-        while self.running:
-            with self.lock:
-                self.counter = (self.counter + 1) % 256
-                data = self.message.encode({"alive_counter": self.counter, **self.fields})
-            self.rig.network.send_message(self.message.frame_id, data)
-            self.sent.append(bytes(data))
-            due += PERIOD
-            time.sleep(max(0.0, due - time.monotonic()))
+        self.ask(set=fields)
 
     def silence(self):
-        """The switch falls silent: no frame more."""
-        self.running = False
-        self.thread.join()
+        self.sent = [bytes.fromhex(d) for d in super().silence()["sent"]]
 
 
-class SdoOperator:
+class SdoOperator(Plc):
     """A PLC without PDOs: the flags (enable, manual request) and centred demands
     written into 0x2010 once, then the alive counter (sub 1, which submits the fields as
-    one frame) every 30 ms by a cyclic thread; `set` writes a field between two
-    submissions (python-canopen's SDO client does one transfer at a time: a lock)."""
+    one frame) every 30 ms (plc.py --sdo); `set` writes a field between two
+    submissions."""
 
     def __init__(self, rig):
-        self.sdo = rig.controller.sdo
-        self.lock = threading.Lock()
-        self.counter = 0
-        self.submitted = 0
-        for sub, value in ((2, struct.pack("<B", 0b011)), (3, b"\0\0"), (4, b"\0\0"), (5, b"\0\0")):
-            self.sdo.download(0x2010, sub, value)
-        self.running = True
-        self.thread = threading.Thread(target=self.run, daemon=True)
-        self.thread.start()
+        super().__init__(rig, "--sdo", "--period", "0.03")
+        self.submitted = 0  # submissions, once silenced
 
     def set(self, sub, value):
-        with self.lock:
-            self.sdo.download(0x2010, sub, value)
-
-    def run(self):
-        due = time.monotonic()
-        while self.running:
-            with self.lock:
-                self.counter = (self.counter + 1) % 256
-                self.sdo.download(0x2010, 1, struct.pack("<B", self.counter))
-                self.submitted += 1
-            due += 0.03
-            time.sleep(max(0.0, due - time.monotonic()))
+        self.ask(download=[sub, value.hex()])
 
     def silence(self):
-        self.running = False
-        self.thread.join()
+        self.submitted = super().silence()["submitted"]
 
 
 def wait_manual(rig, mode, timeout=3.0):
@@ -148,6 +137,17 @@ def rest_without_swing(rig, swing_keys=("amplitude_deg",), timeout=15.0):
     for key in swing_keys:
         assert load[key] < 0.1, load
     return load
+
+
+def modes_so_far(rig):
+    """The status frames' mode byte as the supervisor received them so far, each change
+    with its time: [(t, mode), …] — in a failed travel's message, it tells a dead-man
+    drop (5 → 1 mid-stick) from a short travel."""
+    changes = []
+    for t, s in rig.statuses():
+        if not changes or changes[-1][1] != s[3]:
+            changes.append((round(t - rig.t0, 2), s[3]))
+    return changes
 
 
 def mode_changes(log):
@@ -236,7 +236,7 @@ def test_the_planar_crane_follows_the_stick_over_rpdo3_and_rests_sway_free(rigs)
     op.set(demand_x=0.0)
     end = rest_without_swing(rig)
     travelled = end["load_x_m"] - start["load_x_m"]
-    assert travelled > 1.5, (start, end)
+    assert travelled > 1.5, (start, end, modes_so_far(rig))
     assert abs(end["rope_m"] - start["rope_m"]) < 0.001, (start, end)
     time.sleep(1.0)
     assert rig.status()[3] == MANUAL
@@ -275,7 +275,7 @@ def test_the_sdo_path_drives_the_planar_crane_as_the_frame_does(rigs):
     op.set(3, struct.pack("<h", 0))
     end = rest_without_swing(rig)
     travelled = end["load_x_m"] - start["load_x_m"]
-    assert travelled > 0.7, (start, end)
+    assert travelled > 0.7, (start, end, modes_so_far(rig))
     assert rig.status()[3] == MANUAL
     op.set(2, struct.pack("<B", 0b001))  # the request withdrawn, the switch held
     wait_manual(rig, READY)
@@ -307,7 +307,7 @@ def test_the_3d_crane_follows_a_diagonal_stick_straight_and_a_dead_man_drop_stop
     keys = ("xz_amplitude_deg", "yz_amplitude_deg")
     end = rest_without_swing(rig, keys)
     dx, dy = end["load_x_m"] - start["load_x_m"], end["load_y_m"] - start["load_y_m"]
-    assert dx > 1.0 and dy > 0.7, (start, end)
+    assert dx > 1.0 and dy > 0.7, (start, end, modes_so_far(rig))
     length = math.hypot(dx, dy)
     for p in path:
         px, py = p["load_x_m"] - start["load_x_m"], p["load_y_m"] - start["load_y_m"]
@@ -319,7 +319,7 @@ def test_the_3d_crane_follows_a_diagonal_stick_straight_and_a_dead_man_drop_stop
     op.silence()
     wait_manual(rig, READY, timeout=15)
     end = rest_without_swing(rig, keys)
-    assert end["load_x_m"] < before["load_x_m"] - 0.5, (before, end)
+    assert end["load_x_m"] < before["load_x_m"] - 0.5, (before, end, modes_so_far(rig))
     time.sleep(1.0)
     log = rig.close()
     log.assert_decodes()
@@ -366,7 +366,7 @@ def test_the_stick_takes_over_a_running_move_and_the_emcy_says_so(rigs):
     time.sleep(1.0)
     b = rig.load()
     speed = b["load_x_m"] - a["load_x_m"]
-    assert 0.15 < speed < 0.27, (a, b)
+    assert 0.15 < speed < 0.27, (a, b, modes_so_far(rig))
     op.set(demand_x=0.0)
     rest_without_swing(rig)
     op.set(manual_request=0)
