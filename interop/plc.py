@@ -16,17 +16,27 @@ listener, and on a loaded machine a gap of that length stopped the crane in the 
 of a stick the test held (CI, test_the_3d_crane_follows_a_diagonal_stick_straight…:
 0.59 m travelled where 1 m was due).
 
-Commands on stdin, one JSON object a line, each answered with one JSON line on stdout:
+Commands on stdin, one JSON object a line, each answered with one JSON line on stdout
+(`{"ok": false, "error": …}` where it could not be done):
 
-* `{"set": {field: value, …}}` — the DBC's fields from the next frame on;
+* `{"set": {field: value, …}}` — the DBC's fields from the next frame on (refused, and
+  the frame unchanged, if cantools cannot encode them);
 * `{"download": [sub, "hex"]}` (`--sdo`) — one SDO download into 0x2010, between two
   submissions;
 * `{"silence": true}` — no frame more (a dead-man drop); the answer carries every
-  frame sent (`sent`, hex) or the number of submissions (`submitted`), and the process
-  ends.
+  frame sent (`sent`, hex) and the number of SDO submissions (`submitted`), and the
+  process ends.
 
-The first line on stdout (`{"ready": true}`) comes once the first frame is on the bus.
-A failed send ends the process with the reason on stderr and exit status 1.
+`--fields` (JSON) sets fields before the first frame. The first line on stdout
+(`{"ready": true}`) comes once the first frame is on the bus. A failed send stops the
+cyclic task with the reason on stderr; the next command is answered with it and the
+process ends with exit status 1 (stdin's end ends it too).
+
+With `--sdo` the PLC's SDO client shares node 0x10's server with the test's supervisor
+(`rig.Rig.controller`), and every client of the virtual ECU receives every frame: a
+supervisor's SDO transfer while this one runs could take the other's answer for its own
+(python-canopen checks an expedited download's answer by its command byte alone), so a
+test does none while an `SdoOperator` runs.
 """
 
 import argparse
@@ -47,7 +57,7 @@ OPERATOR_DEMAND = 0x2010  # the controller's object the SDO path writes
 class Switch:
     """The cyclic task: one frame (or one SDO submission) every `period`."""
 
-    def __init__(self, network, period, sdo):
+    def __init__(self, network, period, sdo, fields):
         self.network = network
         self.period = period
         self.lock = threading.Lock()
@@ -64,6 +74,8 @@ class Switch:
             "demand_y": 0.0,
             "demand_z": 0.0,
         }
+        self.fields.update(fields)
+        self.message.encode({"alive_counter": 0, **self.fields})  # fails here, not in a tick
         self.sdo = None
         if sdo:
             controller = canopen.RemoteNode(CONTROLLER, CONTROLLER_EDS)
@@ -85,18 +97,28 @@ class Switch:
                 self.sent.append(data)
 
     def run(self):
+        """The ticks after the first (`main` sends it before saying ready)."""
         due = time.monotonic()
-        while self.running:
-            self.tick()
+        while True:
             due += self.period
             time.sleep(max(0.0, due - time.monotonic()))
+            if not self.running:
+                return
+            self.tick()
 
     def command(self, request):
         if "set" in request:
+            unknown = set(request["set"]) - set(self.fields)
+            if unknown:
+                return {"ok": False, "error": f"no such field {sorted(unknown)}"}
             with self.lock:
-                self.fields.update(request["set"])
+                fields = {**self.fields, **request["set"]}
+                self.message.encode({"alive_counter": self.counter, **fields})
+                self.fields = fields
             return {"ok": True}
         if "download" in request:
+            if self.sdo is None:
+                return {"ok": False, "error": "download without --sdo"}
             sub, value = request["download"]
             with self.lock:
                 self.sdo.download(OPERATOR_DEMAND, sub, bytes.fromhex(value))
@@ -112,17 +134,18 @@ def main():
     p.add_argument("--port", type=int, required=True, help="the virtual ECU's SLCAN port")
     p.add_argument("--period", type=float, default=0.02, help="s between frames (submissions)")
     p.add_argument("--sdo", action="store_true", help="0x2010 over SDO instead of RPDO3")
+    p.add_argument("--fields", type=json.loads, default={}, help="JSON: fields of the first frame on")
     args = p.parse_args()
     bus = can.ThreadSafeBus(interface="slcan", channel=f"socket://127.0.0.1:{args.port}", sleep_after_open=0)
     network = canopen.Network(bus)
     network.connect()  # its notifier reads what the ECU sends to every client
-    switch = Switch(network, args.period, args.sdo)
+    switch = Switch(network, args.period, args.sdo, args.fields)
     failure = []
 
     def cyclic():
         try:
             switch.run()
-        except Exception as e:  # the bus gone: said on stderr, the process ends with 1
+        except Exception as e:  # the bus gone: said on stderr and in the next answer
             failure.append(e)
             print(f"plc: the cyclic task failed: {type(e).__name__}: {e}", file=sys.stderr, flush=True)
             switch.running = False
@@ -132,19 +155,24 @@ def main():
     thread = threading.Thread(target=cyclic, daemon=True)
     thread.start()
     for line in sys.stdin:
-        if failure:
-            print(json.dumps({"ok": False, "error": f"the cyclic task failed: {failure[0]}"}), flush=True)
-            break
-        answer = switch.command(json.loads(line))
-        if not switch.running:  # silenced: the answer once the last frame is out
+        try:
+            answer = switch.command(json.loads(line))
+        except Exception as e:  # a bad line, an SDO abort or timeout: the test is told
+            answer = {"ok": False, "error": f"{type(e).__name__}: {e}"}
+        if not switch.running:  # silenced (or failed): the answer once the last frame is out
             thread.join()
             answer.update(sent=[d.hex() for d in switch.sent], submitted=switch.submitted)
+        if failure:
+            answer = {"ok": False, "error": f"the cyclic task failed: {failure[0]}"}
         print(json.dumps(answer), flush=True)
         if not switch.running:
             break
     switch.running = False
     thread.join()
-    network.disconnect()
+    try:
+        network.disconnect()
+    except Exception as e:  # the ECU already gone at the run's end
+        print(f"plc: disconnect: {type(e).__name__}: {e}", file=sys.stderr, flush=True)
     sys.exit(1 if failure else 0)
 
 

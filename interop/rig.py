@@ -39,8 +39,9 @@ ACCEPTED, QUEUED, REJECTED = 1, 2, 3
 
 
 def realtime():
-    """In the child before it runs: the ECU and the drives keep time (the controller drops
-    a drive whose TPDOs are 50 ms late), the test's supervisor need not. Where that is
+    """In the child before it runs: the ECU, the drives and a PLC's cyclic task (plc.py)
+    keep time (the controller drops a drive whose TPDOs are 50 ms late, and takes an
+    operator's frames 90 ms apart for the switch let go), the test's supervisor need not. Where that is
     allowed (root), they get a real-time priority (SCHED_FIFO; both sleep between cycles,
     and the kernel's RT throttling bounds them anyway), else at least nice -10, so that a
     loaded host does not starve them; elsewhere they run as they are."""
@@ -250,8 +251,10 @@ class Rig:
         network = getattr(self, "network", None)
         if network is not None and network.notifier is not None:
             network.notifier.stop()
+        # The ECU and the test's other senders (a PLC, plc.py) first; the drives are
+        # asked to quit.
         for p in self.procs:
-            if p is self.ecu and p.poll() is None:
+            if p is not getattr(self, "drives", None) and p.poll() is None:
                 p.terminate()
         if self.drives_running():
             try:

@@ -33,7 +33,7 @@ def rigs(tmp_path):
 
     yield open_rig
     for rig in opened:
-        if rig.drives_running() or rig.ecu.poll() is None:
+        if any(p.poll() is None for p in rig.procs):
             rig.close(check=False)
 
 

@@ -83,10 +83,8 @@ class Operator(Plc):
     `PERIOD`, its alive counter changing, until `silence` (a dead-man drop)."""
 
     def __init__(self, rig, **fields):
-        super().__init__(rig, "--period", str(PERIOD))
+        super().__init__(rig, "--period", str(PERIOD), "--fields", json.dumps(fields))
         self.sent = []  # the bytes of every frame sent, once silenced
-        if fields:
-            self.set(**fields)
 
     def set(self, **fields):
         self.ask(set=fields)
@@ -99,7 +97,8 @@ class SdoOperator(Plc):
     """A PLC without PDOs: the flags (enable, manual request) and centred demands
     written into 0x2010 once, then the alive counter (sub 1, which submits the fields as
     one frame) every 30 ms (plc.py --sdo); `set` writes a field between two
-    submissions."""
+    submissions. No test reads or writes the controller over the supervisor's SDO
+    client while one runs (two clients of one server: plc.py says why)."""
 
     def __init__(self, rig):
         super().__init__(rig, "--sdo", "--period", "0.03")
