@@ -81,16 +81,13 @@ class Rig:
         self.log_path = os.path.join(self.tmp, "frames.log")
         self.procs = []
         self.ecu_err = open(os.path.join(self.tmp, "ecu.stderr"), "w")
-        self.ecu = subprocess.Popen(
+        self.ecu = self.spawn(
             [ECU, "--port", "0", "--role", role, "--seconds", str(seconds), "--log", self.log_path]
             + (["--scene", scene] if scene else []),
-            cwd=ROOT,
-            stdout=subprocess.PIPE,
+            stdin=False,
             stderr=self.ecu_err,
-            text=True,
-            preexec_fn=realtime,
+            cwd=ROOT,
         )
-        self.procs.append(self.ecu)
         line = self.ecu.stdout.readline()
         if not line.startswith("listening on 127.0.0.1:"):
             self.close(check=False)
@@ -115,20 +112,31 @@ class Rig:
         self.scene = scene or DEFAULT_SCENE
         commissioning = os.path.join(ROOT, os.path.dirname(self.scene), "commissioning.toml")
         start = ",".join(repr(v) for v in drives_at_rest(self.scene))
-        self.drives = subprocess.Popen(
+        self.drives = self.spawn(
             [sys.executable, os.path.join(HERE, "drives.py"), "--port", str(self.port)]
             + ["--commissioning", commissioning, "--start", start, *drive_args],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
             stderr=self.drives_err,
-            text=True,
-            preexec_fn=realtime,
         )
-        self.procs.append(self.drives)
         ready = self.drives.stdout.readline()
         if not ready.strip():
             self.close(check=False)
             raise RuntimeError("the drives did not start (see drives.stderr)")
+
+    def spawn(self, command, stdin=True, stderr=None, cwd=None):
+        """A process of the run (the ECU, the drives, a PLC): its stdout a pipe (and its
+        stdin, unless `stdin` is false), with the real-time priority (`realtime`), stopped
+        by `close`."""
+        p = subprocess.Popen(
+            command,
+            cwd=cwd,
+            stdin=subprocess.PIPE if stdin else None,
+            stdout=subprocess.PIPE,
+            stderr=stderr,
+            text=True,
+            preexec_fn=realtime,
+        )
+        self.procs.append(p)
+        return p
 
     # --- the drives --------------------------------------------------------------------
     def drive(self, command):

@@ -29,13 +29,12 @@ import json
 import math
 import os
 import struct
-import subprocess
 import sys
 import time
 
 import canopen
 
-from rig import ACCEPTED, CONTROLLER_EDS, HERE, STATUS, dbc, realtime
+from rig import ACCEPTED, CONTROLLER_EDS, HERE, STATUS, dbc
 from test_black_box import wait_rest
 from test_interop import rigs  # noqa: F401
 
@@ -53,14 +52,7 @@ class Plc:
     the rig if the test ends first."""
 
     def __init__(self, rig, *args):
-        self.proc = subprocess.Popen(
-            [sys.executable, os.path.join(HERE, "plc.py"), "--port", str(rig.port), *args],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            text=True,
-            preexec_fn=realtime,
-        )
-        rig.procs.append(self.proc)
+        self.proc = rig.spawn([sys.executable, os.path.join(HERE, "plc.py"), "--port", str(rig.port), *args])
         ready = self.proc.stdout.readline()
         assert json.loads(ready or "{}").get("ready"), f"the PLC did not start: {ready!r}"
 

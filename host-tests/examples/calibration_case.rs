@@ -4,8 +4,7 @@
 //! (DELAY: the inclinometer's delay in cycles instead of the drawn one, commissioned as
 //! such: the same case with another sensor).
 use controller::feedback::{Config, Gains};
-use controller::setpoint::DriveLimits;
-use host_tests::feedback_study::{draw_calibration_case, simulate};
+use host_tests::feedback_study::{draw_calibration_case, print_case_trace};
 use host_tests::plant::Rng;
 use solver_core::models::crane::CraneParams;
 
@@ -28,26 +27,5 @@ fn main() {
     if let Some(d) = delay {
         case.inclinometer.delay = u8::try_from(d).unwrap_or(u8::MAX);
     }
-    println!("{case:?}");
-    println!(
-        "move {:?} -> {:?}, span {:?}",
-        reference.z.first(),
-        reference.target,
-        reference.span
-    );
-    let (r, s) = simulate(
-        &params,
-        &reference,
-        &case,
-        Some(&gains),
-        &DriveLimits::LAB,
-        true,
-    );
-    println!("{r:?}");
-    for (i, t) in s.t.iter().enumerate().step_by(every) {
-        println!(
-            "t {t:6.2}  load {:8.3} {:7.3}  phi {:8.3}°  u {:7.3} {:7.3}",
-            s.load[i][0], s.load[i][1], s.phi_deg[i], s.u[i][0], s.u[i][1]
-        );
-    }
+    print_case_trace(&params, &reference, &case, &gains, f64::NEG_INFINITY, every);
 }

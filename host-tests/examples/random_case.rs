@@ -1,10 +1,9 @@
 //! One case of the feedback study's random set (`feedback_study`, seed 410) run with the
-//! feedback on the crane as it is (rope not calibrated), its trace printed from the
-//! move's end: a diagnostic of a case that is not at rest 5 s after its move.
+//! feedback on the crane as it is (rope not calibrated), its trace printed from 1 s
+//! before the move's end: a diagnostic of a case not at rest 5 s after its move.
 //! `cargo run --release -p host-tests --example random_case -- INDEX [EVERY]`
 use controller::feedback::{Config, Gains};
-use controller::setpoint::DriveLimits;
-use host_tests::feedback_study::{random_move, simulate};
+use host_tests::feedback_study::{print_case_trace, random_move};
 use host_tests::plant::{Mismatch, Rng};
 use solver_core::models::crane::CraneParams;
 
@@ -26,29 +25,12 @@ fn main() {
     let Some((reference, case)) = drawn else {
         return;
     };
-    println!("{case:?}");
-    println!(
-        "move {:?} -> {:?}, span {:?}",
-        reference.z.first(),
-        reference.target,
-        reference.span
-    );
-    let (r, s) = simulate(
+    print_case_trace(
         &params,
         &reference,
         &case,
-        Some(&gains),
-        &DriveLimits::LAB,
-        true,
+        &gains,
+        reference.span.1 - 1.0,
+        every,
     );
-    println!("{r:?}");
-    for (i, t) in s.t.iter().enumerate().step_by(every) {
-        if *t < reference.span.1 - 1.0 {
-            continue;
-        }
-        println!(
-            "t {t:6.2}  load {:8.4} {:7.4}  phi {:8.4}°  u {:8.4} {:8.4}",
-            s.load[i][0], s.load[i][1], s.phi_deg[i], s.u[i][0], s.u[i][1]
-        );
-    }
 }

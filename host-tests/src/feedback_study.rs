@@ -153,6 +153,44 @@ pub struct Series6 {
     pub u: Vec<[f64; 2]>,
 }
 
+/// A diagnostic (the examples `calibration_case` and `random_case`): `case` on
+/// `reference` run with the feedback (`gains`) within the lab's limits; printed are the
+/// case, the move, its result and every `every`-th sample of its trace from `from_s` on.
+pub fn print_case_trace(
+    params: &CraneParams,
+    reference: &ReferenceRun,
+    case: &Mismatch,
+    gains: &Gains,
+    from_s: f64,
+    every: usize,
+) {
+    println!("{case:?}");
+    println!(
+        "move {:?} -> {:?}, span {:?}",
+        reference.z.first(),
+        reference.target,
+        reference.span
+    );
+    let (r, s) = simulate(
+        params,
+        reference,
+        case,
+        Some(gains),
+        &DriveLimits::LAB,
+        true,
+    );
+    println!("{r:?}");
+    let samples = s.t.iter().zip(&s.load).zip(&s.phi_deg).zip(&s.u);
+    for (((t, load), phi), u) in samples.step_by(every.max(1)) {
+        if *t >= from_s {
+            println!(
+                "t {t:6.2}  load {:8.4} {:7.4}  phi {phi:8.4}°  u {:8.4} {:8.4}",
+                load[0], load[1], u[0], u[1]
+            );
+        }
+    }
+}
+
 /// Swing period at rope length `l`, s.
 pub fn period(g: f64, l: f64) -> f64 {
     2.0 * std::f64::consts::PI * (l / g).sqrt()
