@@ -20,7 +20,8 @@ Commands on stdin, one JSON object a line, each answered with one JSON line on s
 (`{"ok": false, "error": …}` where it could not be done):
 
 * `{"set": {field: value, …}}` — the DBC's fields from the next frame on (refused, and
-  the frame unchanged, if cantools cannot encode them);
+  the frame unchanged, if cantools cannot encode them, and with `--sdo`, whose frame is
+  what `download` wrote);
 * `{"download": [sub, "hex"]}` (`--sdo`) — one SDO download into 0x2010, between two
   submissions;
 * `{"silence": true}` — no frame more (a dead-man drop); the answer carries every
@@ -108,6 +109,8 @@ class Switch:
 
     def command(self, request):
         if "set" in request:
+            if self.sdo is not None:  # the SDO path sends what `download` wrote, not fields
+                return {"ok": False, "error": "set with --sdo: download the sub instead"}
             unknown = set(request["set"]) - set(self.fields)
             if unknown:
                 return {"ok": False, "error": f"no such field {sorted(unknown)}"}
@@ -136,6 +139,8 @@ def main():
     p.add_argument("--sdo", action="store_true", help="0x2010 over SDO instead of RPDO3")
     p.add_argument("--fields", type=json.loads, default={}, help="JSON: fields of the first frame on")
     args = p.parse_args()
+    if args.sdo and args.fields:
+        p.error("--fields is the RPDO3 frame's: with --sdo the fields are downloaded")
     bus = can.ThreadSafeBus(interface="slcan", channel=f"socket://127.0.0.1:{args.port}", sleep_after_open=0)
     network = canopen.Network(bus)
     network.connect()  # its notifier reads what the ECU sends to every client

@@ -41,10 +41,11 @@ ACCEPTED, QUEUED, REJECTED = 1, 2, 3
 def realtime():
     """In the child before it runs: the ECU, the drives and a PLC's cyclic task (plc.py)
     keep time (the controller drops a drive whose TPDOs are 50 ms late, and takes an
-    operator's frames 90 ms apart for the switch let go), the test's supervisor need not. Where that is
-    allowed (root), they get a real-time priority (SCHED_FIFO; both sleep between cycles,
-    and the kernel's RT throttling bounds them anyway), else at least nice -10, so that a
-    loaded host does not starve them; elsewhere they run as they are."""
+    operator's frames 90 ms apart for the switch let go), the test's supervisor need
+    not. Where that is allowed (root), they get a real-time priority (SCHED_FIFO; each
+    sleeps between cycles, and the kernel's RT throttling bounds them anyway), else at
+    least nice -10, so that a loaded host does not starve them; elsewhere they run as
+    they are."""
     try:
         os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(10))
         return
